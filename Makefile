@@ -1,0 +1,34 @@
+# Quick start: `make demo` (main job) and `make test` (test suite).
+# Both create or reuse the local virtual environment in .venv.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.windnav-installed
+
+.PHONY: venv demo test lint bench clean
+
+$(STAMP): pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+venv: $(STAMP)
+
+demo: $(STAMP)
+	$(VENV)/bin/windnav demo --out out/demo --seed 0
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check src tests benchmarks
+
+test: lint
+	$(PY) -m pytest -q
+
+bench-venv: $(STAMP)
+	$(PY) -m pip install -q -e '.[bench]'
+
+bench: bench-venv
+	$(PY) benchmarks/run_all.py
+
+clean:
+	rm -rf $(VENV) out

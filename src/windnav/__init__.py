@@ -1,0 +1,44 @@
+"""windnav: real-time local wind inference and wind-aware navigation for small multirotors.
+
+Subpackages follow the data flow of ``DESIGN.md``::
+
+    city -> flow -> wind -> vehicle -> control -> sensors -> sim -> estimate -> predict -> plan
+
+They are imported lazily (``import windnav as wn; wn.vehicle.params(...)``) so that
+``import windnav`` stays cheap and torch is only loaded by ``predict`` and ``plan``.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+__version__ = "0.1.0"
+
+_SUBPACKAGES = (
+    "city",
+    "flow",
+    "wind",
+    "vehicle",
+    "control",
+    "sensors",
+    "sim",
+    "estimate",
+    "predict",
+    "plan",
+    "experiments",
+    "viz",
+)
+
+__all__ = list(_SUBPACKAGES) + ["__version__"]
+
+
+def __getattr__(name: str):
+    if name in _SUBPACKAGES:
+        module = importlib.import_module(f"{__name__}.{name}")
+        globals()[name] = module
+        return module
+    raise AttributeError(f"module 'windnav' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(__all__)

@@ -1,0 +1,73 @@
+"""Input validation shared by every public entry point.
+
+Messages follow one form: ``"The 'name' parameter of where must be <rule>. Got <value> instead."``
+so a user always learns which argument was wrong, the rule, and what was received.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+
+def _fail(name: str, where: str, rule: str, got) -> ValueError:
+    return ValueError(f"The {name!r} parameter of {where} must be {rule}. Got {got!r} instead.")
+
+
+def positive_float(value, name: str, where: str, *, allow_zero: bool = False) -> float:
+    """Return ``value`` as a finite float > 0 (or >= 0), else raise a named ValueError."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise _fail(name, where, "a number", value) from None
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise _fail(name, where, "a finite number " + (">= 0" if allow_zero else "> 0"), value)
+    return v
+
+
+def finite_float(value, name: str, where: str) -> float:
+    """Return ``value`` as a finite float, else raise a named ValueError."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise _fail(name, where, "a number", value) from None
+    if not math.isfinite(v):
+        raise _fail(name, where, "finite", value)
+    return v
+
+
+def positive_int(value, name: str, where: str) -> int:
+    """Return ``value`` as an int >= 1, else raise a named ValueError."""
+    if isinstance(value, bool) or int(value) != value or int(value) < 1:
+        raise _fail(name, where, "an integer >= 1", value)
+    return int(value)
+
+
+def batch_array(
+    value,
+    name: str,
+    where: str,
+    trailing: Sequence[int],
+    *,
+    batch: int | None = None,
+    finite: bool = True,
+) -> np.ndarray:
+    """Coerce to float64 of shape ``(B, *trailing)``; a single item gains a batch of one.
+
+    Raises a ValueError naming ``name`` on a wrong shape, a batch size different from
+    ``batch`` (when given), or NaN/inf entries (when ``finite``).
+    """
+    arr = np.asarray(value, dtype=np.float64)
+    trailing = tuple(trailing)
+    if arr.shape == trailing:
+        arr = arr[None]
+    if arr.ndim != len(trailing) + 1 or arr.shape[1:] != trailing:
+        want = "(B, " + ", ".join(str(t) for t in trailing) + ")"
+        raise _fail(name, where, f"an array of shape {want} or {trailing}", f"shape {arr.shape}")
+    if batch is not None and arr.shape[0] != batch:
+        raise _fail(name, where, f"a batch of {batch}", f"a batch of {arr.shape[0]}")
+    if finite and not np.all(np.isfinite(arr)):
+        raise _fail(name, where, "finite (no NaN or inf)", "non-finite entries")
+    return arr

@@ -1,0 +1,1 @@
+"""windnav.commands (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""windnav.control (see DESIGN.md)."""

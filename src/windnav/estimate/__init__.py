@@ -1,0 +1,1 @@
+"""windnav.estimate (see DESIGN.md)."""

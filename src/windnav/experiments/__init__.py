@@ -1,0 +1,1 @@
+"""windnav.experiments (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""windnav.flow (see DESIGN.md)."""

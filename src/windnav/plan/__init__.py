@@ -1,0 +1,1 @@
+"""windnav.plan (see DESIGN.md)."""

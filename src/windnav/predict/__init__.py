@@ -1,0 +1,1 @@
+"""windnav.predict (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""windnav.sensors (see DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""windnav.sim (see DESIGN.md)."""

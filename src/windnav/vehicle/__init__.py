@@ -1,0 +1,23 @@
+"""Multirotor parameters, batched dynamics with aerodynamics and motors, power models."""
+
+from windnav.vehicle.params import (
+    GRAVITY,
+    VEHICLES,
+    MultirotorParams,
+    alternating_directions,
+    params,
+    symmetric_rotor_positions,
+    to_rotorpy_dict,
+)
+from windnav.vehicle.state import VehicleState
+
+__all__ = [
+    "GRAVITY",
+    "VEHICLES",
+    "MultirotorParams",
+    "VehicleState",
+    "alternating_directions",
+    "params",
+    "symmetric_rotor_positions",
+    "to_rotorpy_dict",
+]

@@ -1,0 +1,1 @@
+"""windnav.viz (see DESIGN.md)."""

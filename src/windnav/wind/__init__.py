@@ -1,0 +1,1 @@
+"""windnav.wind (see DESIGN.md)."""
