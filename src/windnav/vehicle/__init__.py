@@ -1,5 +1,7 @@
 """Multirotor parameters, batched dynamics with aerodynamics and motors, power models."""
 
+from windnav.vehicle.dynamics import PackedParams, pack_params
+from windnav.vehicle.multirotor import Multirotor
 from windnav.vehicle.params import (
     GRAVITY,
     VEHICLES,
@@ -14,7 +16,10 @@ from windnav.vehicle.state import VehicleState
 __all__ = [
     "GRAVITY",
     "VEHICLES",
+    "Multirotor",
     "MultirotorParams",
+    "PackedParams",
+    "pack_params",
     "VehicleState",
     "alternating_directions",
     "params",

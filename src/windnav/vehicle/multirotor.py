@@ -1,0 +1,191 @@
+"""``Multirotor``: a thin stateful-free shell over the batched dynamics kernels."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from windnav._validate import batch_array, positive_float, positive_int
+from windnav.vehicle.dynamics import derivative_kernel, pack_params, step_kernel
+from windnav.vehicle.params import MultirotorParams
+from windnav.vehicle.state import VehicleState
+
+MAX_SUBSTEP_S = 0.005
+"""Default upper bound on the RK4 sub-step of the rigid body, s."""
+
+
+class Multirotor:
+    """Batched multirotor dynamics: ``step(state, rotor_speed_cmd, wind_world, dt) -> state``.
+
+    Parameters
+    ----------
+    params : MultirotorParams or sequence of MultirotorParams
+        One vehicle shared by the whole batch, or one per batch row (same rotor count).
+    aero : bool
+        Include rotor drag, translational lift, flapping and parasitic drag.
+    gravity : bool
+        Include gravity (switch off for free-rigid-body checks).
+    substeps : int, optional
+        RK4 sub-steps per call of :meth:`step`. Default: the fewest that keep each sub-step
+        at or below 5 ms.
+    """
+
+    def __init__(
+        self,
+        params: MultirotorParams | Sequence[MultirotorParams],
+        *,
+        aero: bool = True,
+        gravity: bool = True,
+        substeps: int | None = None,
+    ):
+        self.params = params
+        self.packed = pack_params(params, aero=aero, gravity=gravity)
+        self.aero = aero
+        self.gravity = gravity
+        self.substeps = None if substeps is None else positive_int(substeps, "substeps",
+                                                                   "Multirotor")
+        first = params if isinstance(params, MultirotorParams) else params[0]
+        self.n_rotors = first.n_rotors
+
+    # ------------------------------------------------------------------------------------
+    def _substeps(self, dt: float) -> int:
+        if self.substeps is not None:
+            return self.substeps
+        return max(1, math.ceil(dt / MAX_SUBSTEP_S - 1e-9))
+
+    def _check_batch(self, batch: int) -> None:
+        if self.packed.size not in (1, batch):
+            raise ValueError(
+                f"The 'state' parameter of Multirotor has a batch of {batch} but the model holds "
+                f"{self.packed.size} vehicles' parameters."
+            )
+
+    def hover_state(self, position) -> VehicleState:
+        """Level, motionless state at ``position`` (3,) or (B, 3) with rotors at hover speed."""
+        pos = batch_array(position, "position", "Multirotor.hover_state", (3,))
+        B = pos.shape[0]
+        sc = self.packed.scalars
+        hover = np.sqrt(sc[:, 0] * sc[:, 13] / (self.n_rotors * sc[:, 1]))
+        hover = np.broadcast_to(hover[:, None], (B, self.n_rotors)) if sc.shape[0] == 1 else \
+            np.repeat(hover[:, None], self.n_rotors, axis=1)
+        att = np.zeros((B, 4))
+        att[:, 3] = 1.0
+        return VehicleState(pos.copy(), np.zeros((B, 3)), att, np.zeros((B, 3)),
+                            np.array(hover, dtype=np.float64))
+
+    def _winds(self, wind_world, B: int, where: str) -> tuple[np.ndarray, np.ndarray]:
+        w = np.asarray(wind_world, dtype=np.float64)
+        N = self.n_rotors
+        if w.ndim == 3 or (w.ndim == 2 and w.shape == (N, 3) and N != 3 and B != N):
+            hub = batch_array(w, "wind_world", where, (N, 3))
+            if hub.shape[0] == 1 and B > 1:
+                hub = np.broadcast_to(hub, (B, N, 3))
+            if hub.shape[0] != B:
+                raise ValueError(f"The 'wind_world' parameter of {where} must have a batch of {B}."
+                                 f" Got {hub.shape[0]} instead.")
+            com = hub.mean(axis=1)
+            return np.ascontiguousarray(com), np.ascontiguousarray(hub)
+        com = batch_array(w, "wind_world", where, (3,))
+        if com.shape[0] == 1 and B > 1:
+            com = np.broadcast_to(com, (B, 3))
+        if com.shape[0] != B:
+            raise ValueError(f"The 'wind_world' parameter of {where} must have a batch of {B}. "
+                             f"Got {com.shape[0]} instead.")
+        com = np.ascontiguousarray(com)
+        return com, np.ascontiguousarray(np.broadcast_to(com[:, None, :], (B, N, 3)))
+
+    def _packed_state(self, state: VehicleState, where: str) -> np.ndarray:
+        if not isinstance(state, VehicleState):
+            raise ValueError(f"The 'state' parameter of {where} must be a VehicleState. "
+                             f"Got {type(state).__name__} instead.")
+        x = state.to_array()
+        if x.ndim != 2 or x.shape[1] != 13 + self.n_rotors:
+            raise ValueError(f"The 'state' parameter of {where} must hold {self.n_rotors} rotor "
+                             f"speeds. Got packed shape {x.shape} instead.")
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"The 'state' parameter of {where} must be finite. Got NaN/inf.")
+        self._check_batch(x.shape[0])
+        return x
+
+    # ------------------------------------------------------------------------------------
+    def step(self, state: VehicleState, rotor_speed_cmd, wind_world, dt: float) -> VehicleState:
+        """Advance ``state`` by ``dt`` seconds with constant commands and wind (pure).
+
+        Parameters
+        ----------
+        state : VehicleState
+            Batch of B states.
+        rotor_speed_cmd : ndarray of shape (B, N) or (N,)
+            Commanded rotor speeds, rad/s; clipped to ``[rotor_speed_min, rotor_speed_max]``.
+        wind_world : ndarray of shape (B, 3), (3,) or (B, N, 3)
+            Wind velocity in the world frame, m/s: one per vehicle (at the centre of mass) or one
+            per rotor hub.
+        dt : float
+            Time step, s (> 0).
+
+        Returns
+        -------
+        VehicleState
+            The new state (inputs are not modified).
+        """
+        where = "Multirotor.step"
+        dt = positive_float(dt, "dt", where)
+        x = self._packed_state(state, where)
+        B = x.shape[0]
+        cmd = batch_array(rotor_speed_cmd, "rotor_speed_cmd", where, (self.n_rotors,))
+        if cmd.shape[0] == 1 and B > 1:
+            cmd = np.broadcast_to(cmd, (B, self.n_rotors))
+        if cmd.shape[0] != B:
+            raise ValueError(f"The 'rotor_speed_cmd' parameter of {where} must have a batch of "
+                             f"{B}. Got {cmd.shape[0]} instead.")
+        com, hub = self._winds(wind_world, B, where)
+        out = np.empty_like(x)
+        self.step_packed(x, np.ascontiguousarray(cmd), com, hub, dt, out)
+        return VehicleState.from_array(out)
+
+    def step_packed(self, x, cmd, wind_com, wind_hub, dt, out) -> None:
+        """Unchecked fast path of :meth:`step` on packed ``(B, 13 + N)`` arrays (writes ``out``)."""
+        p = self.packed
+        step_kernel(p.scalars, p.inertia, p.inertia_inv, p.rotor_positions, p.rotor_directions,
+                    x, cmd, wind_com, wind_hub, float(dt), self._substeps(dt), out)
+
+    def derivatives(self, state: VehicleState, wind_world) -> dict:
+        """Instantaneous accelerations and body wrench at ``state`` (rotor speeds as in state).
+
+        Returns
+        -------
+        dict with
+            ``acceleration_world`` (B, 3) m/s^2, ``angular_acceleration`` (B, 3) rad/s^2,
+            ``force_body`` (B, 3) N (aerodynamic + rotor forces, no gravity),
+            ``moment_body`` (B, 3) N m, ``specific_force_body`` (B, 3) m/s^2 (what an ideal
+            accelerometer at the centre of mass reads: force_body / mass).
+        """
+        where = "Multirotor.derivatives"
+        x = self._packed_state(state, where)
+        B = x.shape[0]
+        com, hub = self._winds(wind_world, B, where)
+        dy = np.empty((B, 13))
+        force = np.empty((B, 3))
+        moment = np.empty((B, 3))
+        p = self.packed
+        derivative_kernel(p.scalars, p.inertia, p.inertia_inv, p.rotor_positions,
+                          p.rotor_directions, x, com, hub, dy, force, moment)
+        mass = p.scalars[:, 0][:, None]
+        return {
+            "acceleration_world": dy[:, 3:6],
+            "angular_acceleration": dy[:, 10:13],
+            "force_body": force,
+            "moment_body": moment,
+            "specific_force_body": force / mass,
+        }
+
+    def clip_rotor_speeds(self, rotor_speed_cmd) -> tuple[np.ndarray, np.ndarray]:
+        """Clip commands to the rotor limits; return ``(clipped, saturated_mask)``."""
+        sc = self.packed.scalars
+        lo = sc[:, 11:12]
+        hi = sc[:, 12:13]
+        cmd = np.asarray(rotor_speed_cmd, dtype=np.float64)
+        clipped = np.clip(cmd, lo, hi)
+        return clipped, clipped != cmd

@@ -1,0 +1,167 @@
+"""Closed-form and invariant checks of the batched multirotor dynamics."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import windnav as wn
+from windnav.vehicle import Multirotor, VehicleState
+
+
+@pytest.mark.parametrize("vehicle", wn.vehicle.VEHICLES)
+def test_hover_drift_below_1e9_m_in_10_s(vehicle):
+    p = wn.vehicle.params(vehicle)
+    model = Multirotor(p)
+    s = model.hover_state([1.0, 2.0, 3.0])
+    cmd = np.full((1, p.n_rotors), p.hover_rotor_speed)
+    for _ in range(1000):
+        s = model.step(s, cmd, np.zeros(3), 0.01)
+    assert np.max(np.abs(s.position - [1.0, 2.0, 3.0])) <= 1e-9
+    assert abs(np.linalg.norm(s.attitude) - 1.0) <= 1e-12
+
+
+def test_free_spin_conserves_angular_momentum_and_quaternion_norm():
+    p = wn.vehicle.params("hummingbird")
+    # an asymmetric body with products of inertia, spinning near its intermediate axis
+    p = dataclasses.replace(p, inertia=np.array([[3.65e-3, 2e-4, -1e-4],
+                                                 [2e-4, 5.0e-3, 3e-4],
+                                                 [-1e-4, 3e-4, 7.03e-3]]))
+    model = Multirotor(p, aero=False, gravity=False)
+    q0 = Rotation.from_euler("xyz", [0.3, -0.2, 1.0]).as_quat()
+    s = VehicleState(np.zeros((1, 3)), np.zeros((1, 3)), q0[None], np.array([[1.5, 2.0, -1.0]]),
+                     np.zeros((1, 4)))
+
+    def momentum_world(state):
+        R = Rotation.from_quat(state.attitude[0]).as_matrix()
+        return R @ (p.inertia @ state.body_rates[0])
+
+    L0 = momentum_world(s)
+    max_norm_err = 0.0
+    for _ in range(1000):
+        s = model.step(s, np.zeros((1, 4)), np.zeros(3), 0.01)
+        max_norm_err = max(max_norm_err, abs(np.linalg.norm(s.attitude[0]) - 1.0))
+    rel = np.linalg.norm(momentum_world(s) - L0) / np.linalg.norm(L0)
+    assert rel <= 1e-9
+    assert max_norm_err <= 1e-14
+    # the body really tumbled (the rates changed direction in the body frame)
+    assert np.linalg.norm(s.body_rates[0] - [1.5, 2.0, -1.0]) > 0.1
+
+
+def test_batch_equals_one_by_one():
+    p = wn.vehicle.params("hummingbird")
+    model = Multirotor(p)
+    rng = np.random.default_rng(0)
+    B = 5
+    s = VehicleState(rng.normal(size=(B, 3)), rng.normal(size=(B, 3)),
+                     Rotation.random(B, random_state=1).as_quat(), rng.normal(size=(B, 3)),
+                     rng.uniform(300, 700, size=(B, 4)))
+    cmd = rng.uniform(0, 1600, size=(B, 4))
+    wind = rng.normal(scale=3, size=(B, 3))
+    batched = model.step(s, cmd, wind, 0.01).to_array()
+    single = np.vstack([model.step(s[i], cmd[i], wind[i], 0.01).to_array() for i in range(B)])
+    np.testing.assert_array_equal(batched, single)
+
+
+def test_batched_parameters_match_separate_models():
+    p1 = wn.vehicle.params("hummingbird")
+    p2 = dataclasses.replace(p1, mass=0.7, k_d=3e-4)
+    both = Multirotor([p1, p2])
+    s = both.hover_state(np.zeros((2, 3)))
+    cmd = np.array([[500.0, 520, 480, 510], [600, 600, 600, 600]])
+    wind = np.array([[3.0, 1.0, 0.0], [-2.0, 0.5, 0.0]])
+    out = both.step(s, cmd, wind, 0.02).to_array()
+    for i, p in enumerate((p1, p2)):
+        ref = Multirotor(p).step(s[i], cmd[i], wind[i], 0.02).to_array()
+        np.testing.assert_array_equal(out[i], ref[0])
+
+
+@pytest.mark.parametrize("n_rotors", [6, 8])
+def test_hexa_and_octo_hover_and_yaw_balance(n_rotors):
+    base = wn.vehicle.params("hummingbird")
+    p = dataclasses.replace(
+        base, name=f"{n_rotors}-rotor",
+        rotor_positions=wn.vehicle.symmetric_rotor_positions(n_rotors, 0.2),
+        rotor_directions=wn.vehicle.alternating_directions(n_rotors),
+    )
+    model = Multirotor(p)
+    s = model.hover_state([0.0, 0.0, 0.0])
+    cmd = np.full((1, n_rotors), p.hover_rotor_speed)
+    for _ in range(200):
+        s = model.step(s, cmd, np.zeros(3), 0.01)
+    assert np.max(np.abs(s.position)) <= 1e-9
+    assert np.max(np.abs(s.body_rates)) <= 1e-9
+    # speeding up the +1 rotors yaws the vehicle positive (their reaction is dir*k_m*eta^2)
+    cmd2 = cmd * np.where(p.rotor_directions > 0, 1.01, 0.99)
+    s2 = model.step(s, cmd2, np.zeros(3), 0.05)
+    assert s2.body_rates[0, 2] > 0
+
+
+def test_translational_lift_and_rotor_drag_directions():
+    p = wn.vehicle.params("hummingbird")
+    model = Multirotor(p)
+    s = model.hover_state([0.0, 0.0, 0.0])
+    d0 = model.derivatives(s, np.zeros(3))
+    d = model.derivatives(s, [5.0, 0.0, 0.0])  # wind blowing toward +x
+    # rotor drag pushes the vehicle downwind, translational lift adds thrust
+    assert d["force_body"][0, 0] > 0
+    assert d["force_body"][0, 2] > d0["force_body"][0, 2]
+    eta = p.hover_rotor_speed
+    expected_fx = 4 * eta * p.k_d * 5.0 + p.c_dx * 25.0
+    np.testing.assert_allclose(d["force_body"][0, 0], expected_fx, rtol=1e-12)
+    expected_fz = 4 * (p.k_eta * eta**2 + p.k_h * 25.0)
+    np.testing.assert_allclose(d["force_body"][0, 2], expected_fz, rtol=1e-12)
+
+
+def test_hub_wind_equal_to_com_wind_matches():
+    p = wn.vehicle.params("hummingbird")
+    model = Multirotor(p)
+    s = model.hover_state([0.0, 0.0, 0.0])
+    w = np.array([[2.0, -1.0, 0.5]])
+    a = model.step(s, np.full(4, 500.0), w, 0.01).to_array()
+    b = model.step(s, np.full(4, 500.0), np.repeat(w[:, None, :], 4, axis=1), 0.01).to_array()
+    np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
+    # a wind gradient across the rotors produces a rolling moment
+    hub = np.zeros((1, 4, 3))
+    hub[0, :, 0] = 3.0 + 2.0 * p.rotor_positions[:, 1]  # x-wind increasing toward +y
+    m = model.derivatives(s, hub)["moment_body"]
+    assert abs(m[0, 0]) > 0 or abs(m[0, 1]) > 0
+
+
+@pytest.mark.parametrize(
+    "kwargs, name",
+    [
+        (dict(dt=0.0), "dt"),
+        (dict(dt=-0.01), "dt"),
+        (dict(cmd=np.array([np.nan, 1, 1, 1.0])), "rotor_speed_cmd"),
+        (dict(wind=np.array([np.nan, 0, 0])), "wind_world"),
+        (dict(cmd=np.ones(3)), "rotor_speed_cmd"),
+        (dict(wind=np.ones(2)), "wind_world"),
+    ],
+)
+def test_bad_input_names_the_argument(kwargs, name):
+    p = wn.vehicle.params("hummingbird")
+    model = Multirotor(p)
+    s = model.hover_state([0.0, 0.0, 0.0])
+    args = dict(dt=0.01, cmd=np.full(4, 400.0), wind=np.zeros(3))
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=f"'{name}'"):
+        model.step(s, args["cmd"], args["wind"], args["dt"])
+
+
+def test_unknown_vehicle_name():
+    with pytest.raises(ValueError, match="'name'"):
+        wn.vehicle.params("blimp")
+
+
+def test_commands_beyond_limits_are_clipped():
+    p = wn.vehicle.params("hummingbird")
+    model = Multirotor(p)
+    s = model.hover_state([0.0, 0.0, 0.0])
+    a = model.step(s, np.full(4, 5000.0), np.zeros(3), 0.01).to_array()
+    b = model.step(s, np.full(4, p.rotor_speed_max), np.zeros(3), 0.01).to_array()
+    np.testing.assert_array_equal(a, b)
+    clipped, sat = model.clip_rotor_speeds(np.array([[-5.0, 100.0, 2000.0, 1500.0]]))
+    np.testing.assert_array_equal(clipped, [[0.0, 100.0, 1500.0, 1500.0]])
+    np.testing.assert_array_equal(sat, [[True, False, True, False]])
