@@ -3,73 +3,348 @@
 A :class:`City` is a frozen value: bounds ``(x_min, x_max, y_min, y_max)`` in metres (world
 frame, x east, y north) and an ``(M, 4)`` array of building footprints
 ``[x_min, x_max, y_min, y_max]`` with heights ``(M,)`` in metres kept for 3D export.
-Overlapping footprints are allowed and form a union.
+Each footprint is one cuboid block ``[x_min, x_max] x [y_min, y_max] x [base_z, base_z + height]``,
+the primitive of a RotorPy world. Overlapping or touching blocks are allowed and form a union
+(one building, see :meth:`City.building_labels`). Footprints are closed sets: a point on an edge
+is inside the building.
+
+The map bounds are the simulation domain, not walls: only buildings are solid.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import copy
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+
+from windnav._validate import positive_float
+
+# Colour written for blocks that carry none (RotorPy accepts any matplotlib colour).
+DEFAULT_COLOR = (0.5, 0.5, 0.5)
+
+
+def _block_text(i: int, fp, base: float, height: float) -> str:
+    ext = [float(fp[0]), float(fp[1]), float(fp[2]), float(fp[3]), base, base + height]
+    return f"block {i} with extents {ext}"
 
 
 @dataclass(frozen=True, eq=False)
 class City:
-    """A 2D city map.
+    """A city map of cuboid buildings.
 
-    Attributes
+    Parameters
     ----------
-    bounds : tuple of 4 float
+    bounds : sequence of 4 float
         ``(x_min, x_max, y_min, y_max)`` of the map, m.
-    footprints : ndarray of shape (M, 4)
-        Building footprints ``[x_min, x_max, y_min, y_max]``, m.
-    heights : ndarray of shape (M,)
-        Building heights, m.
+    footprints : array_like of shape (M, 4)
+        Building footprints ``[x_min, x_max, y_min, y_max]``, m. Each lies inside ``bounds`` and
+        has positive width and depth.
+    heights : array_like of shape (M,)
+        Building heights above their base, m, > 0.
+    base_z : array_like of shape (M,), optional
+        Height of each block's floor, m. Defaults to 0.
+    z_bounds : (float, float), optional
+        Vertical extent ``(z_min, z_max)`` of the map, m; every block lies inside it. Defaults
+        to ``(min(0, min base_z), max(1, max top))``.
+    block_attrs : sequence of M dict, optional
+        Extra JSON keys of each block (``"color"``, ...), kept for a lossless RotorPy round trip.
+    extras : dict, optional
+        Extra top-level JSON keys (and extra keys of ``"bounds"`` under ``extras["bounds"]``).
+
+    Raises
+    ------
+    ValueError
+        If the bounds are not a finite box, or a block is non-finite, has a non-positive size or
+        lies outside the bounds; the message names the block by index and extents.
     """
 
     bounds: tuple
     footprints: np.ndarray
     heights: np.ndarray
+    base_z: np.ndarray | None = None
+    z_bounds: tuple | None = None
+    block_attrs: tuple | None = field(default=None, repr=False)
+    extras: dict | None = field(default=None, repr=False)
 
     def __post_init__(self):
-        b = tuple(float(v) for v in self.bounds)
-        fp = np.array(self.footprints, dtype=np.float64).reshape(-1, 4)
-        h = np.array(self.heights, dtype=np.float64).reshape(-1)
-        if len(b) != 4 or not (b[0] < b[1] and b[2] < b[3]) or not np.all(np.isfinite(b)):
+        b = tuple(float(v) for v in np.asarray(self.bounds, dtype=np.float64).reshape(-1))
+        if len(b) != 4 or not np.all(np.isfinite(b)) or not (b[0] < b[1] and b[2] < b[3]):
             raise ValueError(
                 "The 'bounds' parameter of City must be finite (x_min, x_max, y_min, y_max) "
                 f"with x_min < x_max and y_min < y_max. Got {self.bounds!r} instead."
             )
-        if h.shape != (fp.shape[0],):
+        fp = np.array(self.footprints, dtype=np.float64)
+        if fp.size == 0:
+            fp = fp.reshape(0, 4)
+        if fp.ndim != 2 or fp.shape[1] != 4:
             raise ValueError(
-                f"The 'heights' parameter of City must have one value per footprint "
-                f"({fp.shape[0]}). Got shape {h.shape} instead."
+                "The 'footprints' parameter of City must have shape (M, 4). "
+                f"Got shape {fp.shape} instead."
             )
-        fp.setflags(write=False)
-        h.setflags(write=False)
+        m = fp.shape[0]
+        h = np.array(self.heights, dtype=np.float64).reshape(-1)
+        if h.shape != (m,):
+            raise ValueError(
+                f"The 'heights' parameter of City must have one value per footprint ({m}). "
+                f"Got shape {h.shape} instead."
+            )
+        base = np.zeros(m) if self.base_z is None else np.array(self.base_z, dtype=np.float64)
+        base = base.reshape(-1)
+        if base.shape != (m,):
+            raise ValueError(
+                f"The 'base_z' parameter of City must have one value per footprint ({m}). "
+                f"Got shape {base.shape} instead."
+            )
+        if self.z_bounds is None:
+            top = float(np.max(base + h)) if m else 1.0
+            zb = (min(0.0, float(np.min(base))) if m else 0.0, max(1.0, top))
+        else:
+            zb = tuple(float(v) for v in self.z_bounds)
+            if len(zb) != 2 or not np.all(np.isfinite(zb)) or not zb[0] < zb[1]:
+                raise ValueError(
+                    "The 'z_bounds' parameter of City must be finite (z_min, z_max) with "
+                    f"z_min < z_max. Got {self.z_bounds!r} instead."
+                )
+        _check_blocks(b, zb, fp, h, base)
+        attrs = self.block_attrs
+        if attrs is not None:
+            attrs = tuple(dict(a) for a in attrs)
+            if len(attrs) != m:
+                raise ValueError(
+                    f"The 'block_attrs' parameter of City must hold one dict per footprint ({m}). "
+                    f"Got {len(attrs)} instead."
+                )
+        for arr in (fp, h, base):
+            arr.setflags(write=False)
         object.__setattr__(self, "bounds", b)
         object.__setattr__(self, "footprints", fp)
         object.__setattr__(self, "heights", h)
+        object.__setattr__(self, "base_z", base)
+        object.__setattr__(self, "z_bounds", zb)
+        object.__setattr__(self, "block_attrs", copy.deepcopy(attrs))
+        object.__setattr__(self, "extras", copy.deepcopy(dict(self.extras or {})))
 
+    # ------------------------------------------------------------------ geometry
     @property
     def n_buildings(self) -> int:
-        """Number of building footprints M."""
+        """Number of blocks M (footprints); overlapping blocks count separately."""
         return int(self.footprints.shape[0])
+
+    @property
+    def size(self) -> tuple[float, float]:
+        """Map extent ``(x_max - x_min, y_max - y_min)``, m."""
+        x0, x1, y0, y1 = self.bounds
+        return (x1 - x0, y1 - y0)
+
+    def building_labels(self) -> np.ndarray:
+        """Label the connected buildings formed by overlapping or touching blocks.
+
+        Returns
+        -------
+        ndarray of int, shape (M,)
+            ``labels[i] == labels[j]`` iff blocks i and j are joined by a chain of blocks whose
+            closed footprints intersect. Labels are ``0 .. n - 1`` in order of first block.
+        """
+        fp = self.footprints
+        m = fp.shape[0]
+        parent = np.arange(m)
+
+        def root(i):
+            while parent[i] != i:
+                parent[i] = parent[parent[i]]
+                i = parent[i]
+            return i
+
+        touch = (
+            (fp[:, None, 0] <= fp[None, :, 1])
+            & (fp[None, :, 0] <= fp[:, None, 1])
+            & (fp[:, None, 2] <= fp[None, :, 3])
+            & (fp[None, :, 2] <= fp[:, None, 3])
+        )
+        for i, j in zip(*np.nonzero(np.triu(touch, 1)), strict=True):
+            ri, rj = root(i), root(j)
+            if ri != rj:
+                parent[max(ri, rj)] = min(ri, rj)
+        roots = np.array([root(i) for i in range(m)], dtype=np.int64)
+        _, labels = np.unique(roots, return_inverse=True)
+        return labels.reshape(-1)
+
+    def contains(self, points_xy) -> np.ndarray:
+        """Whether points lie inside (or on the edge of) any footprint.
+
+        Parameters
+        ----------
+        points_xy : array_like of shape (B, 2) or (2,)
+            Points in the world frame, m.
+
+        Returns
+        -------
+        ndarray of bool, shape (B,)
+        """
+        from windnav._validate import batch_array
+
+        p = batch_array(points_xy, "points_xy", "City.contains", (2,), finite=False)
+        fp = self.footprints
+        x, y = p[:, 0:1], p[:, 1:2]
+        inside = (x >= fp[:, 0]) & (x <= fp[:, 1]) & (y >= fp[:, 2]) & (y <= fp[:, 3])
+        return inside.any(axis=1)
+
+    def grid(self, dx: float) -> tuple[np.ndarray, np.ndarray]:
+        """Cell centres of a uniform grid of spacing ``dx`` covering the bounds.
+
+        The grid starts at ``(x_min, y_min)`` with ``nx = ceil((x_max - x_min) / dx)`` cells
+        (rounded to the nearest integer when the ratio is within 1e-9 of it); when the extent is
+        not a multiple of ``dx`` the last cell reaches past the bound.
+
+        Parameters
+        ----------
+        dx : float
+            Cell size, m, > 0.
+
+        Returns
+        -------
+        x : ndarray of shape (nx,)
+            Cell-centre abscissae ``x_min + (i + 0.5) dx``, m.
+        y : ndarray of shape (ny,)
+            Cell-centre ordinates ``y_min + (j + 0.5) dx``, m.
+        """
+        dx = positive_float(dx, "dx", "City.grid")
+        x0, x1, y0, y1 = self.bounds
+        return (x0 + (np.arange(_n_cells(x1 - x0, dx)) + 0.5) * dx,
+                y0 + (np.arange(_n_cells(y1 - y0, dx)) + 0.5) * dx)
 
     def rasterize(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Solid mask on the grid of cell centres ``x`` (nx,) and ``y`` (ny,).
 
-        A cell is solid when its centre lies inside (or on the edge of) any footprint.
+        A cell is solid when its centre lies inside (or on the edge of) any footprint. For
+        increasing coordinates each footprint fills one index range found by bisection, so the
+        cost is ``O(M log n + solid cells)``; other coordinates fall back to comparisons.
+
+        Parameters
+        ----------
+        x : array_like of shape (nx,)
+            Cell-centre abscissae, m.
+        y : array_like of shape (ny,)
+            Cell-centre ordinates, m.
 
         Returns
         -------
         ndarray of bool, shape (ny, nx)
         """
-        x = np.asarray(x, dtype=np.float64)
-        y = np.asarray(y, dtype=np.float64)
+        x = np.asarray(x, dtype=np.float64).reshape(-1)
+        y = np.asarray(y, dtype=np.float64).reshape(-1)
         mask = np.zeros((y.size, x.size), dtype=bool)
-        for x0, x1, y0, y1 in self.footprints:
+        fp = self.footprints
+        if _increasing(x) and _increasing(y):
+            i0 = np.searchsorted(x, fp[:, 0], side="left")
+            i1 = np.searchsorted(x, fp[:, 1], side="right")
+            j0 = np.searchsorted(y, fp[:, 2], side="left")
+            j1 = np.searchsorted(y, fp[:, 3], side="right")
+            for a, b, c, d in zip(i0, i1, j0, j1, strict=True):
+                mask[c:d, a:b] = True
+            return mask
+        for x0, x1, y0, y1 in fp:
             ix = (x >= x0) & (x <= x1)
             iy = (y >= y0) & (y <= y1)
             mask |= iy[:, None] & ix[None, :]
         return mask
+
+    # ------------------------------------------------------------------ sensing
+    def lidar(
+        self,
+        origins_xy,
+        n_rays: int = 360,
+        max_range: float = 100.0,
+        min_range: float = 0.0,
+        noise_std: float = 0.0,
+        rng=None,
+    ) -> np.ndarray:
+        """Planar LiDAR scans from a batch of origins; see :func:`windnav.city.lidar.lidar_scan`.
+
+        Returns
+        -------
+        ndarray of shape (B, n_rays)
+            Ranges, m; ray k points at angle ``2 pi k / n_rays`` from +x.
+        """
+        from windnav.city.lidar import lidar_scan
+
+        return lidar_scan(self, origins_xy, n_rays=n_rays, max_range=max_range,
+                          min_range=min_range, noise_std=noise_std, rng=rng)
+
+    # ------------------------------------------------------------------ files
+    @classmethod
+    def from_rotorpy_json(cls, path) -> City:
+        """Read a RotorPy world JSON file (``bounds.extents``, ``blocks[].extents``).
+
+        Parameters
+        ----------
+        path : str or path-like
+
+        Returns
+        -------
+        City
+            Every JSON key is kept, so :meth:`to_rotorpy_json` writes the same document.
+
+        Raises
+        ------
+        ValueError
+            Naming the file and what is wrong (invalid JSON, missing keys, a block outside
+            the bounds or without volume, by index and extents).
+
+        See Also
+        --------
+        windnav.city.rotorpy_json.read_rotorpy_json
+        """
+        from windnav.city.rotorpy_json import read_rotorpy_json
+
+        return read_rotorpy_json(path)
+
+    def to_rotorpy_json(self, path) -> Path:
+        """Write this map as RotorPy world JSON.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The file to (over)write.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
+        from windnav.city.rotorpy_json import write_rotorpy_json
+
+        return write_rotorpy_json(self, path)
+
+
+def _check_blocks(b, zb, fp, h, base) -> None:
+    bad = ~np.all(np.isfinite(fp), axis=1) | ~np.isfinite(h) | ~np.isfinite(base)
+    rules = [
+        (bad, "must be finite"),
+        ((fp[:, 1] <= fp[:, 0]) | (fp[:, 3] <= fp[:, 2]) | (h <= 0),
+         "must have positive size (x_min < x_max, y_min < y_max, z_min < z_max)"),
+        ((fp[:, 0] < b[0]) | (fp[:, 1] > b[1]) | (fp[:, 2] < b[2]) | (fp[:, 3] > b[3])
+         | (base < zb[0]) | (base + h > zb[1]),
+         f"must lie inside the map bounds {[*b, *zb]}"),
+    ]
+    for fails, rule in rules:
+        idx = np.flatnonzero(fails)
+        if idx.size:
+            i = int(idx[0])
+            more = f" ({idx.size - 1} more blocks fail too)" if idx.size > 1 else ""
+            raise ValueError(
+                f"City {_block_text(i, fp[i], float(base[i]), float(h[i]))} {rule}{more}."
+            )
+
+
+def _n_cells(length: float, dx: float) -> int:
+    r = length / dx
+    n = round(r)
+    return max(1, int(n if abs(r - n) <= 1e-9 * max(1.0, r) else math.ceil(r)))
+
+
+def _increasing(a: np.ndarray) -> bool:
+    return a.size < 2 or bool(np.all(a[1:] > a[:-1]))
