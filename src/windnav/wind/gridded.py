@@ -1,0 +1,199 @@
+"""Gridded 2D wind: a horizontal flow field sampled on cell centres, steady or unsteady.
+
+The flow solver (``windnav.flow``) returns its velocities on a rectilinear grid of cell centres
+``x`` (nx,), ``y`` (ny,). :class:`GriddedWind` turns them into a :class:`~windnav.wind.WindField`:
+
+- space: bilinear interpolation between the four surrounding cell centres,
+  ``w = (1-a)(1-b) w00 + a(1-b) w10 + (1-a) b w01 + a b w11`` with ``a = (x - x_i)/(x_i+1 - x_i)``,
+  ``b`` likewise in y; positions outside the grid are clamped to its edge;
+- time (unsteady fields, frames at times ``t`` (T,)): linear between the two bracketing frames,
+  clamped to the first/last frame outside ``[t_0, t_{T-1}]``;
+- the vertical component is 0 and ``z`` is ignored (the flow is 2D).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from windnav._validate import batch_array
+from windnav.wind.base import check_query
+
+
+def _axis(values, name: str, where: str) -> np.ndarray:
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.ndim != 1 or arr.size < 2 or not np.all(np.isfinite(arr)):
+        raise ValueError(
+            f"The {name!r} parameter of {where} must be a finite 1-D array of at least 2 "
+            f"values. Got shape {arr.shape} instead."
+        )
+    if np.any(np.diff(arr) <= 0):
+        raise ValueError(f"The {name!r} parameter of {where} must be strictly increasing.")
+    return arr
+
+
+def _bracket(axis: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower index ``i`` (clamped to [0, n-2]) and weight ``a`` in [0, 1] of ``q`` on ``axis``."""
+    q = np.clip(q, axis[0], axis[-1])
+    i = np.clip(np.searchsorted(axis, q, side="right") - 1, 0, axis.size - 2)
+    a = (q - axis[i]) / (axis[i + 1] - axis[i])
+    return i, a
+
+
+class GriddedWind:
+    """Horizontal wind field on a rectilinear grid of cell centres (steady or unsteady).
+
+    Parameters
+    ----------
+    x : array_like of shape (nx,)
+        Cell-centre x coordinates, m, strictly increasing (nx >= 2).
+    y : array_like of shape (ny,)
+        Cell-centre y coordinates, m, strictly increasing (ny >= 2).
+    u, v : array_like of shape (ny, nx) or (T, ny, nx)
+        Wind components along world x and y, m/s: a steady field, or T frames.
+    t : array_like of shape (T,), optional
+        Frame times, s, strictly increasing; required with (T, ny, nx) frames, not allowed with
+        a steady (ny, nx) field.
+    solid : array_like of bool, shape (ny, nx), optional
+        Cells inside buildings. Carried for consumers (see :meth:`is_solid`); it does not
+        change the interpolation (the solver already sets the wind in solid cells).
+
+    Examples
+    --------
+    >>> x = y = np.arange(4.0)
+    >>> u = np.tile(x, (4, 1))          # u = x
+    >>> w = GriddedWind(x, y, u, np.zeros((4, 4)))
+    >>> w.velocity(0.0, [[1.5, 2.0, 10.0]])
+    array([[1.5, 0. , 0. ]])
+    """
+
+    def __init__(self, x, y, u, v, t=None, solid=None):
+        where = "GriddedWind"
+        self.x = _axis(x, "x", where)
+        self.y = _axis(y, "y", where)
+        grid = (self.y.size, self.x.size)
+        comps = []
+        for name, arr in (("u", u), ("v", v)):
+            arr = np.asarray(arr, dtype=np.float64)
+            if arr.shape == grid:
+                arr = arr[None]
+            elif arr.ndim != 3 or arr.shape[1:] != grid:
+                raise ValueError(
+                    f"The {name!r} parameter of {where} must have shape (ny, nx) = {grid} or "
+                    f"(T, ny, nx). Got shape {arr.shape} instead."
+                )
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"The {name!r} parameter of {where} must be finite.")
+            comps.append(arr)
+        if comps[0].shape != comps[1].shape:
+            raise ValueError(
+                f"The 'v' parameter of {where} must have the shape of 'u' {comps[0].shape}. "
+                f"Got shape {comps[1].shape} instead."
+            )
+        if np.ndim(u) != np.ndim(v):
+            raise ValueError(
+                f"The 'v' parameter of {where} must have as many dimensions as 'u' "
+                f"({np.ndim(u)}). Got {np.ndim(v)} instead."
+            )
+        steady = np.ndim(u) == 2
+        if t is None:
+            if not steady:
+                raise ValueError(
+                    f"The 't' parameter of {where} is required with (T, ny, nx) frames."
+                )
+            self.t = None
+        else:
+            if steady:
+                raise ValueError(
+                    f"The 't' parameter of {where} must be None for a steady (ny, nx) field."
+                )
+            t_arr = np.atleast_1d(np.asarray(t, dtype=np.float64))
+            if t_arr.shape != (comps[0].shape[0],) or not np.all(np.isfinite(t_arr)):
+                raise ValueError(
+                    f"The 't' parameter of {where} must be finite of shape "
+                    f"({comps[0].shape[0]},). Got shape {t_arr.shape} instead."
+                )
+            if np.any(np.diff(t_arr) <= 0):
+                raise ValueError(f"The 't' parameter of {where} must be strictly increasing.")
+            self.t = t_arr
+        # (T, ny, nx, 2) so one gather fetches both components
+        self._frames = np.ascontiguousarray(np.stack(comps, axis=-1))
+        if solid is None:
+            self.solid = None
+        else:
+            mask = np.asarray(solid)
+            if mask.shape != grid:
+                raise ValueError(
+                    f"The 'solid' parameter of {where} must have shape {grid}. "
+                    f"Got shape {mask.shape} instead."
+                )
+            self.solid = mask.astype(bool)
+        for arr in (self.x, self.y, self._frames, self.t, self.solid):
+            if arr is not None:
+                arr.setflags(write=False)
+
+    @property
+    def steady(self) -> bool:
+        """True for a single time-independent frame."""
+        return self.t is None
+
+    @property
+    def u(self) -> np.ndarray:
+        """x components, (ny, nx) steady or (T, ny, nx), m/s."""
+        return self._frames[0, ..., 0] if self.steady else self._frames[..., 0]
+
+    @property
+    def v(self) -> np.ndarray:
+        """y components, (ny, nx) steady or (T, ny, nx), m/s."""
+        return self._frames[0, ..., 1] if self.steady else self._frames[..., 1]
+
+    def _frame_weights(self, t: float) -> tuple[int, int, float]:
+        if self.t is None or self.t.size == 1:
+            return 0, 0, 0.0
+        k, a = _bracket(self.t, np.array([t]))
+        return int(k[0]), int(k[0]) + 1, float(a[0])
+
+    def _spatial(self, frame: np.ndarray, i, j, a, b) -> np.ndarray:
+        a = a[:, None]
+        b = b[:, None]
+        return ((1 - b) * ((1 - a) * frame[j, i] + a * frame[j, i + 1])
+                + b * ((1 - a) * frame[j + 1, i] + a * frame[j + 1, i + 1]))
+
+    def velocity(self, t: float, xyz: np.ndarray) -> np.ndarray:
+        """Wind at time ``t`` (s) and positions ``xyz`` (B, 3) m: (B, 3) m/s, world, z = 0."""
+        t, xyz = check_query(t, xyz, "GriddedWind.velocity")
+        i, a = _bracket(self.x, xyz[:, 0])
+        j, b = _bracket(self.y, xyz[:, 1])
+        k0, k1, c = self._frame_weights(t)
+        uv = self._spatial(self._frames[k0], i, j, a, b)
+        if c > 0.0:
+            uv = (1.0 - c) * uv + c * self._spatial(self._frames[k1], i, j, a, b)
+        out = np.zeros((xyz.shape[0], 3))
+        out[:, :2] = uv
+        return out
+
+    def is_solid(self, xyz: np.ndarray) -> np.ndarray:
+        """Whether each position (B, 3) m lies in a solid cell (nearest cell centre), (B,) bool.
+
+        Positions outside the grid are not solid. All False when no ``solid`` mask was given.
+        """
+        xyz = batch_array(xyz, "xyz", "GriddedWind.is_solid", (3,))
+        if self.solid is None:
+            return np.zeros(xyz.shape[0], dtype=bool)
+        out = np.zeros(xyz.shape[0], dtype=bool)
+        half_x = 0.5 * np.diff(self.x)[[0, -1]]
+        half_y = 0.5 * np.diff(self.y)[[0, -1]]
+        inside = ((xyz[:, 0] >= self.x[0] - half_x[0]) & (xyz[:, 0] <= self.x[-1] + half_x[1])
+                  & (xyz[:, 1] >= self.y[0] - half_y[0]) & (xyz[:, 1] <= self.y[-1] + half_y[1]))
+        i = _nearest(self.x, xyz[inside, 0])
+        j = _nearest(self.y, xyz[inside, 1])
+        out[inside] = self.solid[j, i]
+        return out
+
+    def __repr__(self) -> str:
+        frames = "steady" if self.steady else f"{self.t.size} frames"
+        return f"GriddedWind(nx={self.x.size}, ny={self.y.size}, {frames})"
+
+
+def _nearest(axis: np.ndarray, q: np.ndarray) -> np.ndarray:
+    i = np.clip(np.searchsorted(axis, q), 1, axis.size - 1)
+    return np.where(np.abs(q - axis[i - 1]) <= np.abs(axis[i] - q), i - 1, i)
