@@ -1,0 +1,198 @@
+"""``windnav wind``: one urban flow simulation, saved as Zarr and drawn as a PNG.
+
+::
+
+    windnav wind --map city.json --speed 5 --direction-deg 30 --out runs/wind
+    # -> runs/wind/flow.zarr (see windnav.flow.io) and runs/wind/mean_speed.png
+
+The flow is solved by :func:`windnav.flow.simulate`; the picture shows the time-averaged wind
+speed ``|(mean_u, mean_v)|`` with streamlines of the mean wind over the building footprints.
+"""
+
+from __future__ import annotations
+
+import inspect
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from windnav._validate import finite_float, positive_float, positive_int
+
+# Solver settings shared with ``windnav wind-sweep`` (the example of the public contract).
+DEFAULT_SETTINGS = {"dx": 1.0, "dt": 0.25, "spinup_steps": 100, "steps": 200, "record_every": 0}
+
+
+def add_solver_arguments(parser) -> None:
+    """Add ``--dx --dt --spinup-steps --steps --record-every --seed`` to ``parser``."""
+    d = DEFAULT_SETTINGS
+    parser.add_argument("--dx", type=float, default=d["dx"], help="cell size, m (%(default)s)")
+    parser.add_argument("--dt", type=float, default=d["dt"], help="time step, s (%(default)s)")
+    parser.add_argument("--spinup-steps", type=int, default=d["spinup_steps"],
+                        help="steps run before averaging starts (%(default)s)")
+    parser.add_argument("--steps", type=int, default=d["steps"],
+                        help="steps averaged into the mean wind (%(default)s)")
+    parser.add_argument("--record-every", type=int, default=d["record_every"],
+                        help="store a frame every this many averaged steps; 0: none "
+                             "(%(default)s)")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (%(default)s)")
+
+
+def _count(value, name: str, where: str) -> int:
+    if isinstance(value, bool) or int(value) != value or int(value) < 0:
+        raise ValueError(
+            f"The {name!r} parameter of {where} must be an integer >= 0. Got {value!r} instead."
+        )
+    return int(value)
+
+
+def solver_settings(args) -> dict:
+    """Validated solver settings from parsed arguments, as a dict of JSON values."""
+    where = f"windnav {args.command}"
+    return {
+        "dx": positive_float(args.dx, "--dx", where),
+        "dt": positive_float(args.dt, "--dt", where),
+        "spinup_steps": _count(args.spinup_steps, "--spinup-steps", where),
+        "steps": positive_int(args.steps, "--steps", where),
+        "record_every": _count(args.record_every, "--record-every", where),
+    }
+
+
+def load_city(path, name: str = "--map", where: str = "windnav wind"):
+    """Read a RotorPy world JSON map; a missing file is a ValueError naming the argument."""
+    from windnav.city import City
+
+    if not os.path.isfile(path):
+        raise ValueError(f"The {name!r} parameter of {where} must be an existing RotorPy world "
+                         f"JSON file. Got {str(path)!r} instead.")
+    return City.from_rotorpy_json(path)
+
+
+def simulate_case(city, speed: float, direction_deg: float, settings: dict, seed: int,
+                  simulate=None):
+    """Run one flow simulation; the body shared by ``wind`` and every ``wind-sweep`` task.
+
+    Parameters
+    ----------
+    city : City
+    speed : float
+        Inlet speed, m/s.
+    direction_deg : float
+        Inlet direction (blowing toward, counter-clockwise from +x), deg.
+    settings : dict
+        ``dx`` m, ``dt`` s, ``spinup_steps``, ``steps``, ``record_every``.
+    seed : int
+        Passed on when the solver takes a ``seed``.
+    simulate : callable, optional
+        The solver, default :func:`windnav.flow.simulate` (injectable for tests).
+
+    Returns
+    -------
+    solution : FlowSolution
+    seconds : float
+        Wall-clock time of the solve, s.
+    """
+    if simulate is None:
+        from windnav.flow import simulate
+    kwargs = dict(settings)
+    if "seed" in inspect.signature(simulate).parameters:
+        kwargs["seed"] = int(seed)
+    t0 = time.perf_counter()
+    solution = simulate(city, speed=float(speed), direction_deg=float(direction_deg), **kwargs)
+    return solution, time.perf_counter() - t0
+
+
+def plot_mean_speed(solution, city, path, title: str = "") -> Path:
+    """Save a PNG of the mean wind speed with streamlines over the buildings.
+
+    Parameters
+    ----------
+    solution : FlowSolution
+        ``x`` (nx,), ``y`` (ny,) m; ``solid`` (ny, nx); ``mean_u``, ``mean_v`` (ny, nx) m/s.
+    city : City
+        Its footprints are drawn as grey rectangles.
+    path : str or path-like
+        The PNG to write.
+    title : str, optional
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
+
+    x, y = np.asarray(solution.x), np.asarray(solution.y)
+    solid = np.asarray(solution.solid, dtype=bool)
+    u = np.ma.masked_array(solution.mean_u, mask=solid)
+    v = np.ma.masked_array(solution.mean_v, mask=solid)
+    speed = np.ma.sqrt(u * u + v * v)
+    aspect = (np.ptp(y) + 1.0) / (np.ptp(x) + 1.0)
+    fig = Figure(figsize=(7.0, float(np.clip(6.0 * aspect, 2.5, 12.0)) + 0.8))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    mesh = ax.pcolormesh(x, y, speed, shading="nearest", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label="mean wind speed (m/s)")
+    if x.size > 1 and y.size > 1:
+        ax.streamplot(x, y, u.filled(np.nan), v.filled(np.nan), color="w", linewidth=0.6,
+                      density=1.2, arrowsize=0.7)
+    for x0, x1, y0, y1 in city.footprints:
+        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, facecolor="0.45", edgecolor="k",
+                               linewidth=0.4, zorder=3))
+    hx = 0.5 * (x[1] - x[0]) if x.size > 1 else 0.5
+    hy = 0.5 * (y[1] - y[0]) if y.size > 1 else 0.5
+    ax.set_xlim(x[0] - hx, x[-1] + hx)
+    ax.set_ylim(y[0] - hy, y[-1] + hy)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x east (m)")
+    ax.set_ylabel("y north (m)")
+    if title:
+        ax.set_title(title)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=150, bbox_inches="tight")
+    return path
+
+
+def register(subparsers) -> None:
+    """Add the ``wind`` subcommand."""
+    p = subparsers.add_parser(
+        "wind",
+        help="simulate the wind over one map and save it (Zarr + PNG)",
+        description="Simulate the 2D urban wind over one map for one inlet; write "
+                    "OUT/flow.zarr and OUT/mean_speed.png.",
+    )
+    p.add_argument("--map", required=True, help="RotorPy world JSON file")
+    p.add_argument("--speed", type=float, required=True, help="inlet speed, m/s")
+    p.add_argument("--direction-deg", type=float, default=0.0,
+                   help="inlet direction the wind blows toward, deg CCW from +x (%(default)s)")
+    p.add_argument("--out", required=True, help="output directory")
+    add_solver_arguments(p)
+    p.set_defaults(func=run)
+
+
+def run(args, simulate=None) -> int:
+    """Run ``windnav wind``; returns the exit code."""
+    from windnav.flow.io import save_flow
+
+    where = "windnav wind"
+    speed = positive_float(args.speed, "--speed", where)
+    direction_deg = finite_float(args.direction_deg, "--direction-deg", where)
+    settings = solver_settings(args)
+    city = load_city(args.map)
+    out = Path(args.out)
+    solution, seconds = simulate_case(city, speed, direction_deg, settings, args.seed, simulate)
+    config = {
+        "speed": speed,
+        "direction_deg": direction_deg,
+        **settings,
+        "seed": int(args.seed),
+        "map_source": os.path.abspath(args.map),
+        "solve_seconds": seconds,
+    }
+    out.mkdir(parents=True, exist_ok=True)
+    save_flow(solution, out / "flow.zarr", config=config)
+    png = plot_mean_speed(
+        solution, city, out / "mean_speed.png",
+        title=f"{Path(args.map).name}: inlet {speed:g} m/s toward {direction_deg:g} deg",
+    )
+    print(f"solved in {seconds:.1f} s; wrote {out / 'flow.zarr'} and {png}")
+    return 0

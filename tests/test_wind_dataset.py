@@ -1,0 +1,308 @@
+"""Flow solutions and sweep datasets in Zarr: round trips, attributes, resumption, the CLI.
+
+The sweep's bookkeeping is tested with a stand-in solver whose answer is known in closed form
+(``FakeSolver``: a uniform inlet wind, zero in buildings), so every stored chunk can be checked
+exactly and every call counted, also across worker processes (one marker file per call).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+import zarr
+
+from windnav.city import City
+from windnav.commands.wind_sweep import THESIS_SPEEDS, solver_grid, sweep
+from windnav.flow import FlowSolution
+from windnav.flow.io import SweepStore, flow_attrs, load_flow, save_flow
+
+HERE = Path(__file__).resolve().parent
+
+
+def expected_wind(city, speed, direction_deg, dx):
+    """The stand-in's exact answer: the inlet wind everywhere but in buildings."""
+    x, y = solver_grid(city, dx)
+    solid = city.rasterize(x, y)
+    a = np.deg2rad(direction_deg)
+    u = np.where(solid, 0.0, speed * np.cos(a) * (1.0 + 0.01 * x[None, :]))
+    v = np.where(solid, 0.0, speed * np.sin(a) * (1.0 + 0.01 * y[:, None]))
+    return x, y, solid, u, v
+
+
+@dataclass(frozen=True)
+class FakeSolver:
+    """Picklable stand-in for windnav.flow.simulate that logs each call as a file."""
+
+    log_dir: str
+    interrupt_after: int | None = None  # raise KeyboardInterrupt on this call number
+    fail_speed: float | None = None  # raise RuntimeError for this inlet speed
+    sleep: float = 0.0
+
+    def calls(self) -> int:
+        return len(os.listdir(self.log_dir))
+
+    def __call__(self, city, speed, direction_deg, dx, dt, spinup_steps, steps, record_every):
+        n = self.calls()
+        if self.interrupt_after is not None and n >= self.interrupt_after:
+            raise KeyboardInterrupt
+        Path(self.log_dir, f"{speed}_{direction_deg}_{uuid.uuid4().hex}").touch()
+        if speed == self.fail_speed:
+            raise RuntimeError(f"solver diverged at {speed} m/s")
+        time.sleep(self.sleep)
+        return fake_solution(city, speed, direction_deg, dx, dt, steps, record_every)
+
+
+def fake_solution(city, speed, direction_deg, dx, dt=0.1, steps=4, record_every=0):
+    """The stand-in's FlowSolution: ``expected_wind``, and frames that drift linearly."""
+    x, y, solid, u, v = expected_wind(city, speed, direction_deg, dx)
+    frames_u = frames_v = t = None
+    if record_every:
+        k = np.arange(steps // record_every, dtype=float)[:, None, None]
+        frames_u, frames_v = u[None] * (1 + 0.1 * k), v[None] * (1 - 0.1 * k)
+        t = dt * record_every * (k[:, 0, 0] + 1)
+    return FlowSolution(x, y, solid, u, v, frames_u, frames_v, t, speed, direction_deg, dx, dt)
+
+
+def tiny_city(shift=0.0, size=40.0):
+    return City((0.0, size, 0.0, size), [[15.0 + shift, 22.0 + shift, 12.0, 25.0]], [10.0])
+
+
+SETTINGS = {"dx": 2.0, "dt": 0.1, "spinup_steps": 1, "steps": 4, "record_every": 0}
+MAPS = [("a", "a.json", tiny_city()), ("b", "b.json", tiny_city(5.0, size=30.0))]
+
+
+def check_store_matches(store, maps=MAPS, dx=SETTINGS["dx"]):
+    for k, (_, _, city) in enumerate(maps):
+        assert store.done(k).all()
+        for c in range(store.n_cases):
+            case = store.read_case(k, c)
+            x, y, solid, u, v = expected_wind(city, case["speed"], case["direction_deg"], dx)
+            np.testing.assert_array_equal(case["x"], x)
+            np.testing.assert_array_equal(case["solid"], solid)
+            np.testing.assert_array_equal(case["mean_u"], u)
+            np.testing.assert_array_equal(case["mean_v"], v)
+
+
+# ----------------------------------------------------------------- one solution
+
+
+def test_flow_round_trip_gives_back_the_same_arrays_and_attributes(tmp_path):
+    sol = fake_solution(tiny_city(), 5.0, 30.0, 1.0, dt=0.25, steps=6, record_every=2)
+    config = {"speed": 5.0, "direction_deg": 30.0, "dx": 1.0, "dt": 0.25, "steps": 200,
+              "seed": 7, "map_source": "tiny.json"}
+    save_flow(sol, tmp_path / "f.zarr", config=config)
+    back = load_flow(tmp_path / "f.zarr")
+    assert isinstance(back, FlowSolution)
+    for name in ("x", "y", "solid", "mean_u", "mean_v", "frames_u", "frames_v", "t"):
+        got, want = np.asarray(getattr(back, name)), np.asarray(getattr(sol, name))
+        assert got.dtype == want.dtype and got.shape == want.shape, name
+        np.testing.assert_array_equal(got, want)
+    assert (back.speed, back.direction_deg, back.dx, back.dt) == (5.0, 30.0, 1.0, 0.25)
+    attrs = flow_attrs(tmp_path / "f.zarr")
+    assert attrs["config"] == config
+    assert attrs["spacing"] == [1.0, 1.0] and attrs["origin"] == [0.5, 0.5]
+    assert attrs["shape"] == [40, 40]
+    assert attrs["units"]["mean_u"] == "m/s" and attrs["units"]["x"] == "m"
+    assert "x east" in attrs["frame"]
+    # one chunk per frame, so a reader can stream frames
+    assert zarr.open_group(str(tmp_path / "f.zarr"), mode="r")["frames_u"].chunks == (1, 40, 40)
+
+
+def test_flow_without_frames_loads_with_none(tmp_path):
+    sol = fake_solution(tiny_city(), 2.0, 0.0, 2.0)
+    save_flow(sol, tmp_path / "f.zarr")
+    back = load_flow(tmp_path / "f.zarr")
+    assert back.frames_u is None and back.frames_v is None and back.t is None
+    np.testing.assert_array_equal(back.mean_u, sol.mean_u)
+
+
+def test_missing_or_corrupt_flow_store_is_a_value_error_naming_the_path(tmp_path):
+    missing = tmp_path / "nothing.zarr"
+    with pytest.raises(ValueError, match="nothing.zarr"):
+        load_flow(missing)
+    store = tmp_path / "bad.zarr"
+    save_flow(fake_solution(tiny_city(), 2.0, 0.0, 2.0), store)
+    chunk = store / "mean_u" / "c" / "0" / "0"
+    raw = bytearray(chunk.read_bytes())
+    raw[len(raw) // 2] ^= 0xFF  # one flipped byte: caught by the chunk checksum
+    chunk.write_bytes(bytes(raw))
+    with pytest.raises(ValueError, match=r"bad\.zarr.*mean_u"):
+        load_flow(store)
+    (store / "zarr.json").write_text("{not json")
+    with pytest.raises(ValueError, match="bad.zarr"):
+        load_flow(store)
+
+
+def test_save_flow_rejects_mismatched_shapes(tmp_path):
+    sol = fake_solution(tiny_city(), 2.0, 0.0, 2.0)
+    bad = dataclasses.replace(sol, mean_v=sol.mean_v[:-1])
+    with pytest.raises(ValueError, match="mean_v"):
+        save_flow(bad, tmp_path / "f.zarr")
+
+
+# ----------------------------------------------------------------- sweeps
+
+
+def test_sweep_store_layout_one_chunk_per_simulation_and_attributes(tmp_path):
+    solver = FakeSolver(str(tmp_path / "log"))
+    os.mkdir(solver.log_dir)
+    store, results = sweep(MAPS, tmp_path / "s.zarr", speeds=[2.0, 6.0],
+                           directions_deg=[0.0, 90.0, 225.0], settings=SETTINGS,
+                           backend="serial", progress=False, seed=3, simulate=solver)
+    assert all(r.ok for r in results) and len(results) == 2 * 6 == solver.calls()
+    check_store_matches(store)
+    root = zarr.open_group(store.path, mode="r")
+    assert root.attrs["config"]["dx"] == 2.0 and root.attrs["seed"] == 3
+    assert root.attrs["units"]["wind"] == "m/s"
+    np.testing.assert_array_equal(root["cases/speed"][:], [2, 2, 2, 6, 6, 6])
+    np.testing.assert_array_equal(root["cases/direction_deg"][:], [0, 90, 225] * 2)
+    # maps of different sizes live in their own groups, each one chunk per simulation
+    wind_a, wind_b = root["maps/0/wind"], root["maps/1/wind"]
+    assert wind_a.shape == (6, 2, 20, 20) and wind_a.chunks == (1, 2, 20, 20)
+    assert wind_b.shape == (6, 2, 15, 15) and wind_b.chunks == (1, 2, 15, 15)
+    assert root["maps/0/done"].chunks == (1,)
+    assert root.attrs["n_maps"] == 2
+    a = store.map_attrs(1)
+    assert a["spacing"] == [2.0, 2.0] and a["origin"] == [1.0, 1.0] and a["source"] == "b.json"
+    assert np.all(np.isfinite(root["maps/0/seconds"][:]))
+    seeds = np.concatenate([root["maps/0/seed"][:], root["maps/1/seed"][:]])
+    assert len(set(seeds.tolist())) == seeds.size  # every simulation has its own seed
+
+
+def test_sweep_records_frames_when_asked(tmp_path):
+    solver = FakeSolver(str(tmp_path / "log"))
+    os.mkdir(solver.log_dir)
+    settings = {**SETTINGS, "steps": 6, "record_every": 2}
+    store, _ = sweep(MAPS[:1], tmp_path / "s.zarr", speeds=[3.0], directions_deg=[45.0],
+                     settings=settings, backend="serial", progress=False, simulate=solver)
+    case = store.read_case(0, 0)
+    _, _, _, u, v = expected_wind(MAPS[0][2], 3.0, 45.0, 2.0)
+    assert case["frames_u"].shape == (3, 20, 20)
+    np.testing.assert_array_equal(case["frames_v"][2], v * 0.8)
+
+
+def test_interrupted_sweep_resumes_without_recomputing_and_without_corrupt_chunks(tmp_path):
+    out = tmp_path / "s.zarr"
+    kw = dict(speeds=[2.0, 6.0], directions_deg=[0.0, 90.0, 180.0], settings=SETTINGS,
+              backend="serial", progress=False)
+    os.mkdir(tmp_path / "log1")
+    crashing = FakeSolver(str(tmp_path / "log1"), interrupt_after=4)
+    with pytest.raises(KeyboardInterrupt):  # Ctrl-C during the 5th simulation
+        sweep(MAPS, out, simulate=crashing, **kw)
+    store = SweepStore(out)
+    assert store.done(0).sum() == 4 and store.done(1).sum() == 0
+    # A worker killed mid-write leaves a torn chunk that is not marked done:
+    torn = Path(out, "maps", "0", "wind", "c", "5", "0", "0", "0")
+    torn.parent.mkdir(parents=True, exist_ok=True)
+    torn.write_bytes(b"\x28\xb5\x2f\xfd torn")
+    with pytest.raises(ValueError, match="corrupt"):
+        store.read_case(0, 5)
+
+    os.mkdir(tmp_path / "log2")
+    solver = FakeSolver(str(tmp_path / "log2"))
+    store, results = sweep(MAPS, out, simulate=solver, **kw)
+    assert solver.calls() == 12 - 4 == len(results)  # finished chunks were not recomputed
+    assert {(r.task.map_index, r.task.case_index) for r in results}.isdisjoint(
+        {(0, c) for c in range(4)})
+    check_store_matches(store)  # the torn chunk was recomputed and overwritten
+    os.mkdir(tmp_path / "log3")
+    again = FakeSolver(str(tmp_path / "log3"))
+    _, results = sweep(MAPS, out, simulate=again, **kw)
+    assert again.calls() == 0 and results == []
+
+
+def test_failed_simulations_are_reported_and_retried_on_rerun(tmp_path):
+    out = tmp_path / "s.zarr"
+    kw = dict(speeds=[2.0, 6.0], directions_deg=[0.0, 90.0], settings=SETTINGS,
+              progress=False)
+    os.mkdir(tmp_path / "log1")
+    flaky = FakeSolver(str(tmp_path / "log1"), fail_speed=6.0)
+    store, results = sweep(MAPS, out, simulate=flaky, backend="process", workers=2, **kw)
+    failed = [r for r in results if not r.ok]
+    assert len(results) == 8 and len(failed) == 4
+    assert all("solver diverged at 6.0 m/s" in r.error for r in failed)
+    assert store.pending() == [(0, 2), (0, 3), (1, 2), (1, 3)]
+    os.mkdir(tmp_path / "log2")
+    fixed = FakeSolver(str(tmp_path / "log2"))
+    store, results = sweep(MAPS, out, simulate=fixed, backend="serial", **kw)
+    assert fixed.calls() == 4 and all(r.ok for r in results)
+    check_store_matches(store)
+
+
+def test_sweep_killed_with_sigkill_resumes(tmp_path):
+    """A real kill of the whole process group (parent and workers) mid-sweep."""
+    out, log1 = tmp_path / "s.zarr", tmp_path / "log1"
+    log1.mkdir()
+    script = textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {str(HERE)!r})
+        from test_wind_dataset import FakeSolver, MAPS, SETTINGS
+        from windnav.commands.wind_sweep import sweep
+        sweep(MAPS, {str(out)!r}, speeds=[2.0, 6.0], directions_deg=[0.0, 90.0, 180.0],
+              settings=SETTINGS, backend="process", workers=2, progress=False,
+              simulate=FakeSolver({str(log1)!r}, sleep=0.4))
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", script], start_new_session=True)
+    try:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.1)
+            try:
+                if SweepStore(out).done(0).sum() >= 2:
+                    break
+            except ValueError:
+                pass  # store not created yet
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    store = SweepStore(out)
+    n_done = int(store.done(0).sum() + store.done(1).sum())
+    assert 2 <= n_done < 12
+    log2 = tmp_path / "log2"
+    log2.mkdir()
+    solver = FakeSolver(str(log2))
+    store, results = sweep(MAPS, out, speeds=[2.0, 6.0], directions_deg=[0.0, 90.0, 180.0],
+                           settings=SETTINGS, backend="serial", progress=False, simulate=solver)
+    assert solver.calls() == 12 - n_done
+    check_store_matches(store)
+
+
+def test_resuming_with_a_different_sweep_is_refused(tmp_path):
+    os.mkdir(tmp_path / "log")
+    solver = FakeSolver(str(tmp_path / "log"))
+    kw = dict(directions_deg=[0.0], backend="serial", progress=False, simulate=solver)
+    sweep(MAPS[:1], tmp_path / "s.zarr", speeds=[2.0], settings=SETTINGS, **kw)
+    with pytest.raises(ValueError, match="different sweep"):
+        sweep(MAPS[:1], tmp_path / "s.zarr", speeds=[2.0], settings={**SETTINGS, "dx": 1.0},
+              **kw)
+    with pytest.raises(ValueError, match="different sweep"):
+        sweep(MAPS[1:], tmp_path / "s.zarr", speeds=[2.0], settings=SETTINGS, **kw)
+
+
+def test_thesis_grid_is_the_default():
+    from windnav.commands.wind_sweep import directions_from
+
+    np.testing.assert_allclose(THESIS_SPEEDS, np.linspace(0.1, 10.0, 5))
+    np.testing.assert_array_equal(directions_from(), np.arange(0, 360, 45))
+
+
+# ----------------------------------------------------------------- the CLI
+
+
+def write_tiny_map(path):
+    doc = {"bounds": {"extents": [0, 40, 0, 40, 0, 20]},
+           "blocks": [{"extents": [15, 22, 14, 26, 0, 10], "color": [0, 1, 0]}]}
+    path.write_text(json.dumps(doc))
+    return path
