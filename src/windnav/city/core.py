@@ -262,12 +262,33 @@ class City:
         noise_std: float = 0.0,
         rng=None,
     ) -> np.ndarray:
-        """Planar LiDAR scans from a batch of origins; see :func:`windnav.city.lidar.lidar_scan`.
+        """Planar LiDAR scans from a batch of origins (exact slab ray casting, numba).
+
+        Parameters
+        ----------
+        origins_xy : array_like of shape (B, 2) or (2,)
+            Sensor positions in the world frame, m.
+        n_rays : int
+            Rays per scan, >= 1.
+        max_range : float
+            Largest reading, m, > ``min_range``; read where nothing is hit.
+        min_range : float
+            Smallest reading, m, >= 0.
+        noise_std : float
+            Standard deviation of Gaussian noise on returns, m, >= 0.
+        rng : numpy.random.Generator or int, optional
+            Noise source or seed; required when ``noise_std > 0``.
 
         Returns
         -------
         ndarray of shape (B, n_rays)
-            Ranges, m; ray k points at angle ``2 pi k / n_rays`` from +x.
+            Ranges, m, clipped to ``[min_range, max_range]``; ray k points at angle
+            ``2 pi k / n_rays`` from +x. Origins inside or on the edge of a building read
+            ``min_range`` on every ray. The map bounds are not walls.
+
+        See Also
+        --------
+        windnav.city.lidar.lidar_scan : the implementation and its equations.
         """
         from windnav.city.lidar import lidar_scan
 

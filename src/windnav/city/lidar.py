@@ -122,8 +122,10 @@ def lidar_scan(
     _scan(np.ascontiguousarray(origins), np.ascontiguousarray(city.footprints),
           d[:, 0].copy(), d[:, 1].copy(), max_range, ranges, hit, blocked)
     if noise_std > 0.0:
-        noise = rng.normal(0.0, noise_std, size=ranges.shape)
-        ranges = np.where(hit, ranges + noise, ranges)
+        noise = rng.standard_normal(size=ranges.shape)
+        noise *= noise_std
+        noise *= hit  # rays without a return keep max_range exactly
+        ranges += noise
     np.clip(ranges, min_range, max_range, out=ranges)
     ranges[blocked] = min_range
     return ranges
