@@ -420,8 +420,11 @@ class DrydenWind:
             sqrts = np.stack([m[2] for m in mats])
             moving = keys[index] > 0
             # draw noise only for steps that move, in the order velocity() would draw it
-            noise = np.zeros((stop - start, n_real, _N_STATES))
-            noise[moving] = self._rng.standard_normal((int(moving.sum()), n_real, _N_STATES))
+            if moving.all():
+                noise = self._rng.standard_normal((stop - start, n_real, _N_STATES))
+            else:
+                noise = np.zeros((stop - start, n_real, _N_STATES))
+                noise[moving] = self._rng.standard_normal((int(moving.sum()), n_real, _N_STATES))
             _propagate(self._x, phis, sqrts, index.astype(np.int64), noise, self._c,
                        self._mean, out[start:stop])
         if times.size:
