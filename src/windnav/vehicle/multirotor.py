@@ -166,6 +166,12 @@ class Multirotor:
         x = self._packed_state(state, where)
         B = x.shape[0]
         com, hub = self._winds(wind_world, B, where)
+        return self.derivatives_packed(x, com, hub)
+
+    def derivatives_packed(self, x, wind_com, wind_hub) -> dict:
+        """Unchecked fast path of :meth:`derivatives` on packed states and winds."""
+        com, hub = wind_com, wind_hub
+        B = x.shape[0]
         dy = np.empty((B, 13))
         force = np.empty((B, 3))
         moment = np.empty((B, 3))

@@ -1,1 +1,1 @@
-"""windnav.viz (see DESIGN.md)."""
+"""Plots and figures (matplotlib, Agg backend)."""

@@ -1,0 +1,225 @@
+"""SE(3) geometric tracking control (Lee, Leok, McClamroch 2010; RotorPy's ``SE3Control``).
+
+Position mode::
+
+    F_des = m (-K_p (p - p_d) - K_d (v - v_d) + a_d + g e3)
+
+Acceleration-command mode (the planner's interface)::
+
+    F_des = m (a_cmd + g e3)
+
+Then, with c1 = [cos psi_d, sin psi_d, 0]::
+
+    u1 = F_des . R e3,   b3_d = F_des / |F_des|,   b2_d = b3_d x c1 / |b3_d x c1|,  b1_d = b2_d x b3_d
+    e_R = 0.5 vee(R_d^T R - R^T R_d),   e_w = Omega - [0, 0, psi_dot_d]
+    u2 = I (-k_R e_R - k_w e_w) + Omega x I Omega
+
+and the wrench ``[u1, u2]`` is allocated to rotor thrusts with the (pseudo-)inverse of the
+allocation matrix, then to speeds ``eta_i = sqrt(max(T_i, 0) / k_eta)``. Saturation is applied
+by the vehicle; the runner records it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from windnav.vehicle.dynamics import PackedParams, pack_params
+from windnav.vehicle.params import MultirotorParams
+
+
+@dataclass(frozen=True)
+class SE3Gains:
+    """Gains of the SE(3) controller.
+
+    Attributes
+    ----------
+    kp_pos : tuple of 3 float
+        Position gains, 1/s^2.
+    kd_pos : tuple of 3 float
+        Velocity gains, 1/s.
+    kp_att : float
+        Attitude gain (multiplies the inertia), 1/s^2.
+    kd_att : float
+        Body-rate gain (multiplies the inertia), 1/s.
+    """
+
+    kp_pos: tuple = (6.5, 6.5, 15.0)
+    kd_pos: tuple = (4.0, 4.0, 9.0)
+    kp_att: float = 544.0
+    kd_att: float = 46.64
+    extra: dict = field(default_factory=dict)
+
+    def as_array(self) -> np.ndarray:
+        """``[kp_x, kp_y, kp_z, kd_x, kd_y, kd_z, kp_att, kd_att]``."""
+        return np.array([*self.kp_pos, *self.kd_pos, self.kp_att, self.kd_att], dtype=np.float64)
+
+
+_DEFAULT_GAINS = {
+    # RotorPy's SE3Control position gains with each vehicle's attitude gains
+    "hummingbird": SE3Gains(kp_att=544.0, kd_att=46.64),
+    "crazyflie_brushless": SE3Gains(kp_att=3264.54, kd_att=361.58),
+}
+
+
+def default_gains(params: MultirotorParams) -> SE3Gains:
+    """Gains for ``params`` (RotorPy's for the built-in vehicles, Hummingbird's otherwise)."""
+    return _DEFAULT_GAINS.get(params.name, _DEFAULT_GAINS["hummingbird"])
+
+
+@numba.njit(cache=True)
+def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_rate_d,
+               gains, accel_mode, out_cmd, out_wrench):
+    """Batched SE(3) control law; writes rotor-speed commands (B, N) and wrenches (B, 4).
+
+    In ``accel_mode`` ``acc_d`` is the commanded acceleration and positions/velocities are
+    ignored.
+    """
+    B = x.shape[0]
+    P = scalars.shape[0]
+    n_rot = alloc_pinv.shape[1]
+    for b in range(B):
+        p = b if P > 1 else 0
+        m = scalars[p, 0]
+        keta = scalars[p, 1]
+        g = scalars[p, 13]
+        I = inertia[p]
+        q0 = x[b, 6]
+        q1 = x[b, 7]
+        q2 = x[b, 8]
+        q3 = x[b, 9]
+        n = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+        q0 /= n
+        q1 /= n
+        q2 /= n
+        q3 /= n
+        R = np.empty((3, 3))
+        R[0, 0] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
+        R[0, 1] = 2.0 * (q0 * q1 - q2 * q3)
+        R[0, 2] = 2.0 * (q0 * q2 + q1 * q3)
+        R[1, 0] = 2.0 * (q0 * q1 + q2 * q3)
+        R[1, 1] = 1.0 - 2.0 * (q0 * q0 + q2 * q2)
+        R[1, 2] = 2.0 * (q1 * q2 - q0 * q3)
+        R[2, 0] = 2.0 * (q0 * q2 - q1 * q3)
+        R[2, 1] = 2.0 * (q1 * q2 + q0 * q3)
+        R[2, 2] = 1.0 - 2.0 * (q0 * q0 + q1 * q1)
+        F = np.empty(3)
+        for j in range(3):
+            if accel_mode:
+                a = acc_d[b, j]
+            else:
+                a = (-gains[j] * (x[b, j] - pos_d[b, j]) - gains[3 + j] * (x[b, 3 + j] - vel_d[b, j])
+                     + acc_d[b, j])
+            F[j] = m * a
+        F[2] += m * g
+        u1 = F[0] * R[0, 2] + F[1] * R[1, 2] + F[2] * R[2, 2]
+        fn = np.sqrt(F[0] * F[0] + F[1] * F[1] + F[2] * F[2])
+        if fn < 1e-9:  # free fall commanded: keep the current attitude
+            b3x, b3y, b3z = R[0, 2], R[1, 2], R[2, 2]
+        else:
+            b3x, b3y, b3z = F[0] / fn, F[1] / fn, F[2] / fn
+        c1x = np.cos(yaw_d[b])
+        c1y = np.sin(yaw_d[b])
+        # b2 = b3 x c1
+        b2x = -b3z * c1y
+        b2y = b3z * c1x
+        b2z = b3x * c1y - b3y * c1x
+        bn = np.sqrt(b2x * b2x + b2y * b2y + b2z * b2z)
+        b2x /= bn
+        b2y /= bn
+        b2z /= bn
+        # b1 = b2 x b3
+        b1x = b2y * b3z - b2z * b3y
+        b1y = b2z * b3x - b2x * b3z
+        b1z = b2x * b3y - b2y * b3x
+        Rd = np.empty((3, 3))
+        Rd[0, 0], Rd[1, 0], Rd[2, 0] = b1x, b1y, b1z
+        Rd[0, 1], Rd[1, 1], Rd[2, 1] = b2x, b2y, b2z
+        Rd[0, 2], Rd[1, 2], Rd[2, 2] = b3x, b3y, b3z
+        # S = 0.5 (Rd^T R - R^T Rd); only the off-diagonal entries are needed
+        S = np.zeros((3, 3))
+        for i in range(3):
+            for k in range(3):
+                acc = 0.0
+                for j in range(3):
+                    acc += Rd[j, i] * R[j, k] - R[j, i] * Rd[j, k]
+                S[i, k] = 0.5 * acc
+        eR0 = -S[1, 2]
+        eR1 = S[0, 2]
+        eR2 = -S[0, 1]
+        w0 = x[b, 10]
+        w1 = x[b, 11]
+        w2 = x[b, 12]
+        ew2 = w2 - yaw_rate_d[b]
+        t0 = -gains[6] * eR0 - gains[7] * w0
+        t1 = -gains[6] * eR1 - gains[7] * w1
+        t2 = -gains[6] * eR2 - gains[7] * ew2
+        h0 = I[0, 0] * w0 + I[0, 1] * w1 + I[0, 2] * w2
+        h1 = I[1, 0] * w0 + I[1, 1] * w1 + I[1, 2] * w2
+        h2 = I[2, 0] * w0 + I[2, 1] * w1 + I[2, 2] * w2
+        u = np.empty(4)
+        u[0] = u1
+        u[1] = I[0, 0] * t0 + I[0, 1] * t1 + I[0, 2] * t2 + (w1 * h2 - w2 * h1)
+        u[2] = I[1, 0] * t0 + I[1, 1] * t1 + I[1, 2] * t2 + (w2 * h0 - w0 * h2)
+        u[3] = I[2, 0] * t0 + I[2, 1] * t1 + I[2, 2] * t2 + (w0 * h1 - w1 * h0)
+        for j in range(4):
+            out_wrench[b, j] = u[j]
+        A = alloc_pinv[p]
+        for i in range(n_rot):
+            f = A[i, 0] * u[0] + A[i, 1] * u[1] + A[i, 2] * u[2] + A[i, 3] * u[3]
+            out_cmd[b, i] = np.sqrt(f / keta) if f > 0.0 else 0.0
+
+
+class SE3Controller:
+    """Batched SE(3) geometric controller producing rotor-speed commands.
+
+    Parameters
+    ----------
+    params : MultirotorParams or sequence of them
+        The vehicle(s) controlled (the model's own parameters; for robustness studies pass the
+        nominal parameters the controller believes in).
+    gains : SE3Gains, optional
+        Defaults to :func:`default_gains` of the (first) vehicle.
+    """
+
+    def __init__(self, params: MultirotorParams | Sequence[MultirotorParams],
+                 gains: SE3Gains | None = None):
+        plist = [params] if isinstance(params, MultirotorParams) else list(params)
+        self.gains = gains or default_gains(plist[0])
+        self._gains = self.gains.as_array()
+        self.packed: PackedParams = pack_params(plist)
+        self.alloc_pinv = np.ascontiguousarray(
+            np.stack([np.linalg.pinv(p.allocation_matrix) for p in plist]))
+        self.n_rotors = plist[0].n_rotors
+
+    def _run(self, x, pos, vel, acc, yaw, yaw_rate, accel_mode):
+        B = x.shape[0]
+        cmd = np.empty((B, self.n_rotors))
+        wrench = np.empty((B, 4))
+        p = self.packed
+        se3_kernel(p.scalars, p.inertia, self.alloc_pinv, x, pos, vel, acc, yaw, yaw_rate,
+                   self._gains, accel_mode, cmd, wrench)
+        return cmd, wrench
+
+    def track(self, x, position, velocity, acceleration, yaw, yaw_rate):
+        """Rotor-speed commands (B, N) and wrench ``[u1, M]`` (B, 4) to track a flat output.
+
+        ``x`` is the packed state (B, 13 + N) (``VehicleState.to_array()``); targets are world
+        frame arrays of shape (B, 3) (positions m, velocities m/s, accelerations m/s^2) and
+        (B,) yaw (rad) and yaw rate (rad/s).
+        """
+        return self._run(x, position, velocity, acceleration, yaw, yaw_rate, False)
+
+    def accelerate(self, x, acceleration_cmd, yaw, yaw_rate=None):
+        """Acceleration-command mode: rotor speeds that produce ``acceleration_cmd`` (B, 3).
+
+        ``acceleration_cmd`` is the desired world-frame acceleration (gravity compensated by the
+        controller), m/s^2.
+        """
+        B = x.shape[0]
+        yaw_rate = np.zeros(B) if yaw_rate is None else yaw_rate
+        dummy = np.zeros((B, 3))
+        return self._run(x, dummy, dummy, acceleration_cmd, yaw, yaw_rate, True)

@@ -1,0 +1,171 @@
+"""Sensor models: IMU, odometry / motion capture, rotor-speed pseudo-measurements.
+
+Each sensor is a frozen parameter dataclass with its own ``rate_hz`` and a pure, batched
+``measure`` function taking an explicit ``numpy.random.Generator``.
+
+IMU (continuous-time noise densities, as in Kalibr / Furgale et al.)::
+
+    accel = R^T (a_world + g e3) + b_a + n_a,   n_a ~ N(0, sigma_a^2 * rate_hz)
+    gyro  = Omega + b_g + n_g,                  n_g ~ N(0, sigma_g^2 * rate_hz)
+    b_{k+1} = b_k + sigma_bw * sqrt(1 / rate_hz) * N(0, 1)     (bias random walk)
+
+where sigma_a (m/s^2/sqrt(Hz)) and sigma_g (rad/s/sqrt(Hz)) are noise densities, so the
+white-noise standard deviation grows with the square root of the sample rate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from windnav._validate import positive_float
+from windnav.vehicle.rotation import quat_from_rotvec, quat_multiply
+
+
+def _check_rate(rate_hz, where):
+    return positive_float(rate_hz, "rate_hz", where)
+
+
+@dataclass(frozen=True)
+class IMU:
+    """Accelerometer + gyroscope at the centre of mass.
+
+    Attributes
+    ----------
+    rate_hz : float
+        Sample rate, Hz.
+    accel_noise_density : float
+        White-noise density of the accelerometer, m/s^2/sqrt(Hz).
+    gyro_noise_density : float
+        White-noise density of the gyroscope, rad/s/sqrt(Hz).
+    accel_bias_walk : float
+        Accelerometer bias random walk, m/s^3/sqrt(Hz).
+    gyro_bias_walk : float
+        Gyroscope bias random walk, rad/s^2/sqrt(Hz).
+    """
+
+    rate_hz: float = 200.0
+    accel_noise_density: float = 0.0028
+    gyro_noise_density: float = 0.00017
+    accel_bias_walk: float = 1e-4
+    gyro_bias_walk: float = 2e-5
+
+    def __post_init__(self):
+        _check_rate(self.rate_hz, "IMU")
+
+    @property
+    def accel_std(self) -> float:
+        """White-noise standard deviation per sample, m/s^2."""
+        return self.accel_noise_density * np.sqrt(self.rate_hz)
+
+    @property
+    def gyro_std(self) -> float:
+        """White-noise standard deviation per sample, rad/s."""
+        return self.gyro_noise_density * np.sqrt(self.rate_hz)
+
+    def measure(self, specific_force_body, body_rates, rng, bias0=None):
+        """Samples over a sequence; returns ``(accel, gyro, bias)``.
+
+        Parameters
+        ----------
+        specific_force_body : ndarray of shape (K, B, 3)
+            True non-gravitational acceleration in body axes at K consecutive samples, m/s^2.
+        body_rates : ndarray of shape (K, B, 3)
+            True body rates, rad/s.
+        rng : numpy.random.Generator
+        bias0 : ndarray of shape (B, 6), optional
+            Biases (accelerometer then gyroscope) at the first sample; zero by default.
+
+        Returns
+        -------
+        accel (K, B, 3) m/s^2, gyro (K, B, 3) rad/s, bias (K, B, 6) in force at each sample.
+        """
+        K, B = specific_force_body.shape[:2]
+        h = np.sqrt(1.0 / self.rate_hz)
+        walk = np.concatenate([
+            rng.normal(scale=self.accel_bias_walk * h, size=(K, B, 3)),
+            rng.normal(scale=self.gyro_bias_walk * h, size=(K, B, 3)),
+        ], axis=-1)
+        bias = np.cumsum(walk, axis=0) - walk  # the walk starts after the first sample
+        if bias0 is not None:
+            bias = bias + bias0
+        accel = specific_force_body + bias[..., :3] + rng.normal(scale=self.accel_std,
+                                                                 size=(K, B, 3))
+        gyro = body_rates + bias[..., 3:] + rng.normal(scale=self.gyro_std, size=(K, B, 3))
+        return accel, gyro, bias
+
+
+@dataclass(frozen=True)
+class Odometry:
+    """Motion-capture / odometry: position, world velocity and attitude with white noise.
+
+    Attributes
+    ----------
+    rate_hz : float
+        Sample rate, Hz.
+    position_std : float
+        m.
+    velocity_std : float
+        m/s.
+    attitude_std : float
+        Standard deviation of a small random rotation applied to the attitude, rad.
+    """
+
+    rate_hz: float = 100.0
+    position_std: float = 0.005
+    velocity_std: float = 0.02
+    attitude_std: float = 0.005
+
+    def __post_init__(self):
+        _check_rate(self.rate_hz, "Odometry")
+
+    def measure(self, position, velocity, attitude, rng):
+        """Samples of arrays with any leading shape ``(..., 3)`` / ``(..., 4)``.
+
+        Returns ``(position, velocity, attitude xyzw)`` with white noise; the attitude is
+        perturbed by a random rotation vector of standard deviation ``attitude_std`` per axis,
+        applied in the body frame.
+        """
+        pos = position + rng.normal(scale=self.position_std, size=position.shape)
+        vel = velocity + rng.normal(scale=self.velocity_std, size=velocity.shape)
+        dtheta = rng.normal(scale=self.attitude_std, size=position.shape)
+        att = quat_multiply(attitude, quat_from_rotvec(dtheta))
+        return pos, vel, att
+
+
+@dataclass(frozen=True)
+class RotorSpeedSensor:
+    """Commanded rotor speeds used as pseudo-measurements of the rotor speeds.
+
+    Attributes
+    ----------
+    rate_hz : float
+        Sample rate, Hz.
+    noise_std : float
+        rad/s (0: the exact commands).
+    """
+
+    rate_hz: float = 100.0
+    noise_std: float = 0.0
+
+    def __post_init__(self):
+        _check_rate(self.rate_hz, "RotorSpeedSensor")
+
+    def measure(self, rotor_speed_cmd, rng):
+        """Samples of the commanded speeds (any shape), rad/s."""
+        if self.noise_std == 0.0:
+            return np.array(rotor_speed_cmd, dtype=np.float64)
+        return rotor_speed_cmd + rng.normal(scale=self.noise_std, size=rotor_speed_cmd.shape)
+
+
+@dataclass(frozen=True)
+class SensorSuite:
+    """The sensors carried by a vehicle; ``None`` disables one."""
+
+    imu: IMU | None = IMU()
+    odometry: Odometry | None = Odometry()
+    rotor_speeds: RotorSpeedSensor | None = RotorSpeedSensor()
+
+    def items(self):
+        return [(k, v) for k, v in (("imu", self.imu), ("odometry", self.odometry),
+                                    ("rotor_speeds", self.rotor_speeds)) if v is not None]
