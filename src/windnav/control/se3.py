@@ -10,7 +10,8 @@ Acceleration-command mode (the planner's interface)::
 
 Then, with c1 = [cos psi_d, sin psi_d, 0]::
 
-    u1 = F_des . R e3,   b3_d = F_des / |F_des|,   b2_d = b3_d x c1 / |b3_d x c1|,  b1_d = b2_d x b3_d
+    u1 = F_des . R e3,   b3_d = F_des / |F_des|,
+    b2_d = b3_d x c1 / |b3_d x c1|,  b1_d = b2_d x b3_d
     e_R = 0.5 vee(R_d^T R - R^T R_d),   e_w = Omega - [0, 0, psi_dot_d]
     u2 = I (-k_R e_R - k_w e_w) + Omega x I Omega
 
@@ -111,8 +112,8 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
             if accel_mode:
                 a = acc_d[b, j]
             else:
-                a = (-gains[j] * (x[b, j] - pos_d[b, j]) - gains[3 + j] * (x[b, 3 + j] - vel_d[b, j])
-                     + acc_d[b, j])
+                a = (-gains[j] * (x[b, j] - pos_d[b, j])
+                     - gains[3 + j] * (x[b, 3 + j] - vel_d[b, j]) + acc_d[b, j])
             F[j] = m * a
         F[2] += m * g
         u1 = F[0] * R[0, 2] + F[1] * R[1, 2] + F[2] * R[2, 2]

@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
 from windnav._validate import positive_float
 from windnav.vehicle.rotation import quat_from_rotvec, quat_multiply
 
