@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav._validate import positive_float
+from windnav._validate import batch_array, positive_float
 
 # Colour written for blocks that carry none (RotorPy accepts any matplotlib colour).
 DEFAULT_COLOR = (0.5, 0.5, 0.5)
@@ -184,8 +184,6 @@ class City:
         -------
         ndarray of bool, shape (B,)
         """
-        from windnav._validate import batch_array
-
         p = batch_array(points_xy, "points_xy", "City.contains", (2,), finite=False)
         fp = self.footprints
         x, y = p[:, 0:1], p[:, 1:2]
