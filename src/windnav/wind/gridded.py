@@ -13,6 +13,7 @@ The flow solver (``windnav.flow``) returns its velocities on a rectilinear grid 
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from windnav._validate import batch_array
@@ -37,6 +38,48 @@ def _bracket(axis: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     i = np.clip(np.searchsorted(axis, q, side="right") - 1, 0, axis.size - 2)
     a = (q - axis[i]) / (axis[i + 1] - axis[i])
     return i, a
+
+
+@numba.njit(cache=True, inline="always")
+def _locate(axis, q):  # pragma: no cover - numba
+    """Clamped bracket of ``q``: index ``i`` in [0, n-2] and weight in [0, 1] (binary search)."""
+    n = axis.size
+    if q <= axis[0]:
+        return 0, 0.0
+    if q >= axis[n - 1]:
+        return n - 2, 1.0
+    lo, hi = 0, n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if axis[mid] <= q:
+            lo = mid
+        else:
+            hi = mid
+    return lo, (q - axis[lo]) / (axis[lo + 1] - axis[lo])
+
+
+@numba.njit(cache=True)
+def _interpolate(x, y, frames, k0, k1, c, xyz, out):  # pragma: no cover - numba
+    """Bilinear in space on ``frames[k0]`` and ``frames[k1]`` (ny, nx, 2), linear (weight c)
+    between them; writes (u, v, 0) per position into ``out`` (B, 3)."""
+    for p in range(xyz.shape[0]):
+        i, a = _locate(x, xyz[p, 0])
+        j, b = _locate(y, xyz[p, 1])
+        w00 = (1.0 - a) * (1.0 - b)
+        w10 = a * (1.0 - b)
+        w01 = (1.0 - a) * b
+        w11 = a * b
+        for comp in range(2):
+            f = frames[k0]
+            val = (w00 * f[j, i, comp] + w10 * f[j, i + 1, comp]
+                   + w01 * f[j + 1, i, comp] + w11 * f[j + 1, i + 1, comp])
+            if c > 0.0:
+                g = frames[k1]
+                val2 = (w00 * g[j, i, comp] + w10 * g[j, i + 1, comp]
+                        + w01 * g[j + 1, i, comp] + w11 * g[j + 1, i + 1, comp])
+                val = (1.0 - c) * val + c * val2
+            out[p, comp] = val
+        out[p, 2] = 0.0
 
 
 class GriddedWind:
@@ -152,23 +195,12 @@ class GriddedWind:
         k, a = _bracket(self.t, np.array([t]))
         return int(k[0]), int(k[0]) + 1, float(a[0])
 
-    def _spatial(self, frame: np.ndarray, i, j, a, b) -> np.ndarray:
-        a = a[:, None]
-        b = b[:, None]
-        return ((1 - b) * ((1 - a) * frame[j, i] + a * frame[j, i + 1])
-                + b * ((1 - a) * frame[j + 1, i] + a * frame[j + 1, i + 1]))
-
     def velocity(self, t: float, xyz: np.ndarray) -> np.ndarray:
         """Wind at time ``t`` (s) and positions ``xyz`` (B, 3) m: (B, 3) m/s, world, z = 0."""
         t, xyz = check_query(t, xyz, "GriddedWind.velocity")
-        i, a = _bracket(self.x, xyz[:, 0])
-        j, b = _bracket(self.y, xyz[:, 1])
         k0, k1, c = self._frame_weights(t)
-        uv = self._spatial(self._frames[k0], i, j, a, b)
-        if c > 0.0:
-            uv = (1.0 - c) * uv + c * self._spatial(self._frames[k1], i, j, a, b)
-        out = np.zeros((xyz.shape[0], 3))
-        out[:, :2] = uv
+        out = np.empty((xyz.shape[0], 3))
+        _interpolate(self.x, self.y, self._frames, k0, k1, c, xyz, out)
         return out
 
     def is_solid(self, xyz: np.ndarray) -> np.ndarray:
