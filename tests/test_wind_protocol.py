@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from windnav.wind import ConstantWind, DrydenWind, GriddedWind, WindField
 
@@ -98,3 +100,22 @@ def test_bad_positions_raise_naming_xyz(factory, xyz):
 def test_bad_time_raises_naming_t(factory, t):
     with pytest.raises(ValueError, match="'t'"):
         factory().velocity(t, np.zeros((1, 3)))
+
+
+_finite = st.floats(-50.0, 50.0, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(rows=st.lists(st.tuples(_finite, _finite, _finite), min_size=1, max_size=20),
+       t=st.floats(-2.0, 3.0, allow_nan=False))
+def test_stateless_fields_batch_equals_one_by_one(rows, t):
+    xyz = np.array(rows)
+    for field in (FACTORIES["constant"](), GRIDDED_STEADY, GRIDDED_UNSTEADY):
+        batch = field.velocity(t, xyz)
+        single = np.vstack([field.velocity(t, row) for row in xyz])
+        np.testing.assert_array_equal(batch, single)
+        assert np.all(batch[:, 2] == 0) or isinstance(field, ConstantWind)
+
+
+GRIDDED_STEADY = _grid_fields(False)
+GRIDDED_UNSTEADY = _grid_fields(True)
