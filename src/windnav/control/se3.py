@@ -132,9 +132,12 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         b2y = b3z * c1x
         b2z = b3x * c1y - b3y * c1x
         bn = np.sqrt(b2x * b2x + b2y * b2y + b2z * b2z)
-        b2x /= bn
-        b2y /= bn
-        b2z /= bn
+        if bn < 1e-9:  # thrust along the heading: keep the current body y axis
+            b2x, b2y, b2z = R[0, 1], R[1, 1], R[2, 1]
+        else:
+            b2x /= bn
+            b2y /= bn
+            b2z /= bn
         # b1 = b2 x b3
         b1x = b2y * b3z - b2z * b3y
         b1y = b2z * b3x - b2x * b3z

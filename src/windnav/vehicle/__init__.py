@@ -11,6 +11,14 @@ from windnav.vehicle.params import (
     symmetric_rotor_positions,
     to_rotorpy_dict,
 )
+from windnav.vehicle.power import (
+    PowerCurve,
+    RangeOptimum,
+    energy,
+    max_endurance_speed,
+    max_range_speed,
+    rotor_power,
+)
 from windnav.vehicle.state import VehicleState
 
 __all__ = [
@@ -19,9 +27,15 @@ __all__ = [
     "Multirotor",
     "MultirotorParams",
     "PackedParams",
+    "PowerCurve",
+    "RangeOptimum",
     "pack_params",
+    "rotor_power",
     "VehicleState",
     "alternating_directions",
+    "energy",
+    "max_endurance_speed",
+    "max_range_speed",
     "params",
     "symmetric_rotor_positions",
     "to_rotorpy_dict",

@@ -1,0 +1,55 @@
+"""Steady-flight power sweeps in the simulator (power model (a): sum k_m eta^3 / efficiency)."""
+
+import dataclasses
+
+import numpy as np
+
+import windnav as wn
+from windnav.sim.sweeps import power_sweep, simulated_power_curve
+from windnav.vehicle.power import max_endurance_speed
+
+
+def test_hover_point_is_closed_form():
+    p = wn.vehicle.params("hummingbird")
+    s = power_sweep(p, [0.0])
+    np.testing.assert_allclose(s["power"][0], p.n_rotors * p.k_m * p.hover_rotor_speed**3,
+                               rtol=1e-9)
+
+
+def test_translational_lift_matches_closed_form_and_lowers_power():
+    # Without rotor and frame drag there is no tilt: thrust = m g - N k_h V^2, so
+    # P(V) = N k_m ((m g - N k_h V^2) / (N k_eta))^1.5.
+    base = wn.vehicle.params("hummingbird")
+    p = dataclasses.replace(base, k_d=0.0, k_z=0.0, c_dx=0.0, c_dy=0.0, c_dz=0.0)
+    V = np.linspace(0.0, 6.0, 7)
+    s = power_sweep(p, V, duration=12.0, settle_s=10.0)
+    n = p.n_rotors
+    expected = n * p.k_m * ((p.weight - n * p.k_h * V**2) / (n * p.k_eta)) ** 1.5
+    np.testing.assert_allclose(s["power"], expected, rtol=1e-6)
+    assert np.all(np.diff(s["power"]) < 0)
+
+
+def test_lift_plus_parasitic_drag_gives_a_bucket_only_with_lift():
+    # The Hummingbird's translational lift against its parasitic drag (rotor drag switched off):
+    # with k_h > 0 power first falls, then rises (minimum at nonzero airspeed); with k_h = 0
+    # it only rises.
+    base = wn.vehicle.params("hummingbird")
+    p = dataclasses.replace(base, k_d=0.0, k_z=0.0, c_dx=0.1, c_dy=0.1, c_dz=0.1)
+    V = np.linspace(0.0, 8.0, 17)
+    with_lift = power_sweep(p, V)["power"]
+    k = int(np.argmin(with_lift))
+    assert 0 < k < len(V) - 1
+    assert with_lift[k] < with_lift[0] - 0.5
+    no_lift = power_sweep(dataclasses.replace(p, k_h=0.0), V)["power"]
+    assert np.all(np.diff(no_lift) > 0)
+
+
+def test_default_hummingbird_sweep_and_fit():
+    p = wn.vehicle.params("hummingbird")
+    curve, sweep = simulated_power_curve(p, max_speed=10.0, n=11)
+    # RotorPy's Hummingbird: the axial-inflow drag k_z of the forward-tilted rotors outweighs
+    # translational lift, so power rises monotonically with airspeed (no bucket).
+    assert np.all(np.diff(sweep["power"]) > 0)
+    np.testing.assert_allclose(curve(sweep["speeds"]), sweep["power"], rtol=5e-3)
+    # the fitted curve's minimum sits at the flat hover end of the sweep
+    assert max_endurance_speed(curve) < 1.0
