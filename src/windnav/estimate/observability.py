@@ -1,0 +1,191 @@
+"""Local observability of the Wind UKF model by Lie derivatives (Hermann & Krener 1977).
+
+The model of :mod:`windnav.estimate.wind_model` is control-affine in the commanded rotor speeds
+through the motor equation ``eta_i' = (u_i - eta_i) / tau_m``::
+
+    x' = f0(x) + sum_i g_i u_i,     f0 = model with u = 0,     g_i = e_(12+i) / tau_m
+
+with outputs ``h(x)`` = accelerometer specific force (3), gyro (3), odometry world velocity
+``R v_b`` (3) and Euler angles (3). The observability codistribution up to order ``k`` is
+spanned by the gradients of ``h`` and of its repeated Lie derivatives ``L_v h = (dh/dx) v``
+along ``v in {f0, g_1..g_N}``; the system is locally weakly observable at ``x`` when
+
+    O(x) = d/dx [h; L_v h; L_v L_w h; ...]    has rank 12 + N.
+
+The symbolic build (sympy) is cached per (number of rotors, order); vehicle parameters are
+lambdify arguments, so ``rank_at`` works for any parameter values, including zeroed ones.
+
+Findings (hummingbird, order 1; checked in ``tests/test_observability.py``):
+
+- random states: rank 16 = full. Order 1 is the lowest that achieves it: order 0 gives 12
+  (the accelerometer alone cannot separate the wind from the rotor speeds).
+- ``k_d = 0`` and ``c_dx = c_dy = 0``: horizontal wind enters only through translational lift
+  ``k_h (v_a,x^2 + v_a,y^2)`` and ``|v_a|`` in the vertical parasitic drag: rank 15. With
+  ``k_h = 0`` and ``c_dz = 0`` as well, horizontal wind enters no equation: rank 14.
+- steady level hover in still air (zero airspeed, zero acceleration) with ``k_d = 0``: the
+  quadratic parasitic drag and lift have zero gradient there, so horizontal wind is
+  unobservable (rank 14) although it is observable in motion; likewise ``k_z = 0`` leaves the
+  vertical wind unobservable at hover (rank 15). Rotor drag (linear in airspeed) is what makes
+  the wind observable at hover.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+
+from windnav.vehicle.params import GRAVITY, MultirotorParams
+
+__all__ = ["observability_matrix", "rank_at", "symbolic_model"]
+
+_PARAM_NAMES = ("m", "k_eta", "k_d", "k_z", "k_h", "c_dx", "c_dy", "c_dz", "tau_m", "g", "eps")
+
+
+@functools.lru_cache(maxsize=8)
+def symbolic_model(n_rotors: int):
+    """Symbolic Wind UKF model.
+
+    Parameters
+    ----------
+    n_rotors : int
+
+    Returns
+    -------
+    x : list of sympy.Symbol, length 12 + n_rotors
+        State symbols, ordered as in :mod:`windnav.estimate.wind_model`.
+    prm : list of sympy.Symbol
+        ``m, k_eta, k_d, k_z, k_h, c_dx, c_dy, c_dz, tau_m, g, eps`` (``eps`` smooths
+        ``|v_a| = sqrt(v_a . v_a + eps^2)``; 0 reproduces the model exactly).
+    f0 : sympy.Matrix of shape (12 + n_rotors, 1)
+        Drift (``u = 0``).
+    g : list of sympy.Matrix
+        Input vector fields ``e_(12+i) / tau_m``.
+    h : sympy.Matrix of shape (12, 1)
+        Outputs: specific force (3), body rates (3), world velocity (3), Euler angles (3).
+    """
+    import sympy as sp
+
+    ps, th, ph, p, q, r, vx, vy, vz, wx, wy, wz = sp.symbols(
+        "psi theta phi p q r vx vy vz wx wy wz", real=True)
+    eta = list(sp.symbols(f"eta0:{n_rotors}", real=True))
+    x = [ps, th, ph, p, q, r, vx, vy, vz, wx, wy, wz, *eta]
+    prm = list(sp.symbols(" ".join(_PARAM_NAMES), real=True))
+    m, k_eta, k_d, k_z, k_h, c_dx, c_dy, c_dz, tau, g, eps = prm
+    va = sp.Matrix([vx - wx, vy - wy, vz - wz])
+    speed = sp.sqrt(va.dot(va) + eps**2)
+    s_eta = sum(eta)
+    F = sp.Matrix([
+        -s_eta * k_d * va[0] - speed * c_dx * va[0],
+        -s_eta * k_d * va[1] - speed * c_dy * va[1],
+        k_eta * sum(e**2 for e in eta) + n_rotors * k_h * (va[0] ** 2 + va[1] ** 2)
+        - s_eta * k_z * va[2] - speed * c_dz * va[2],
+    ]) / m
+    Rz = sp.Matrix([[sp.cos(ps), -sp.sin(ps), 0], [sp.sin(ps), sp.cos(ps), 0], [0, 0, 1]])
+    Ry = sp.Matrix([[sp.cos(th), 0, sp.sin(th)], [0, 1, 0], [-sp.sin(th), 0, sp.cos(th)]])
+    Rx = sp.Matrix([[1, 0, 0], [0, sp.cos(ph), -sp.sin(ph)], [0, sp.sin(ph), sp.cos(ph)]])
+    R = Rz * Ry * Rx
+    v = sp.Matrix([vx, vy, vz])
+    omega = sp.Matrix([p, q, r])
+    a = q * sp.sin(ph) + r * sp.cos(ph)
+    dv = F - R.T * sp.Matrix([0, 0, g]) - omega.cross(v)
+    f0 = sp.Matrix([a / sp.cos(th), q * sp.cos(ph) - r * sp.sin(ph),
+                    p + a * sp.tan(th), 0, 0, 0, *dv, 0, 0, 0, *[-e / tau for e in eta]])
+    gs = []
+    for i in range(n_rotors):
+        gi = sp.zeros(12 + n_rotors, 1)
+        gi[12 + i] = 1 / tau
+        gs.append(gi)
+    h = sp.Matrix([*F, p, q, r, *(R * v), ps, th, ph])
+    return x, prm, f0, gs, h
+
+
+@functools.lru_cache(maxsize=8)
+def _lambdified(n_rotors: int, order: int):
+    import sympy as sp
+
+    x, prm, f0, gs, h = symbolic_model(n_rotors)
+    X = sp.Matrix(x)
+    level = [h]
+    funcs = [h]
+    for _ in range(order):
+        nxt = []
+        for phi in level:
+            J = phi.jacobian(X)
+            for vf in (f0, *gs):
+                L = J * vf
+                if any(e != 0 for e in L):
+                    nxt.append(L)
+        funcs.extend(nxt)
+        level = nxt
+    Phi = sp.Matrix.vstack(*funcs)
+    O = Phi.jacobian(X)
+    return sp.lambdify([x, prm], O, modules="numpy", cse=True)
+
+
+def _prm_values(params: MultirotorParams, eps: float) -> list[float]:
+    return [params.mass, params.k_eta, params.k_d, params.k_z, params.k_h, params.c_dx,
+            params.c_dy, params.c_dz, params.tau_m, GRAVITY, eps]
+
+
+def observability_matrix(params: MultirotorParams, state, order: int = 1) -> np.ndarray:
+    """Numerical observability matrix at one state.
+
+    Parameters
+    ----------
+    params : MultirotorParams
+    state : array_like of shape (12 + N,)
+        Wind UKF state (angles rad, rates rad/s, velocities m/s, rotor speeds rad/s).
+    order : int
+        Highest Lie-derivative order (0, 1 or 2; 2 builds slowly).
+
+    Returns
+    -------
+    ndarray of shape (rows, 12 + N)
+        Gradients of the outputs and their Lie derivatives, stacked.
+    """
+    if not isinstance(params, MultirotorParams):
+        raise ValueError("The 'params' parameter of observability_matrix must be a "
+                         f"MultirotorParams. Got {type(params).__name__} instead.")
+    if isinstance(order, bool) or order not in (0, 1, 2):
+        raise ValueError(f"The 'order' parameter of observability_matrix must be 0, 1 or 2. "
+                         f"Got {order!r} instead.")
+    n = 12 + params.n_rotors
+    x = np.asarray(state, dtype=np.float64)
+    if x.shape != (n,) or not np.all(np.isfinite(x)):
+        raise ValueError(f"The 'state' parameter of observability_matrix must be a finite ({n},)"
+                         f" array. Got shape {x.shape} instead.")
+    airspeed = float(np.linalg.norm(x[6:9] - x[9:12]))
+    # |v_a| v_a has a zero gradient at v_a = 0 that the symbolic form writes as 0/0; a tiny
+    # smoothing gives the limit without adding a spurious (eps-sized) gradient
+    eps = 1e-12 if airspeed == 0.0 else 0.0
+    fn = _lambdified(params.n_rotors, int(order))
+    O = np.array(fn(list(x), _prm_values(params, eps)), dtype=np.float64)
+    return np.broadcast_to(O, O.shape).reshape(-1, n)
+
+
+def rank_at(params: MultirotorParams, state, order: int = 1, rtol: float = 1e-9) -> int:
+    """Numerical rank of the observability matrix (full rank = 12 + N: locally observable).
+
+    Columns are scaled by the state's typical magnitudes (rotor speeds by the hover speed)
+    before an SVD; singular values below ``rtol`` times the largest count as zero. Rows are not
+    normalised, so that negligible (round-off sized) rows cannot be inflated into information.
+
+    Parameters
+    ----------
+    params : MultirotorParams
+    state : array_like of shape (12 + N,)
+    order : int
+        Lie-derivative order (1 suffices for full rank with rotor drag).
+    rtol : float
+        Relative singular-value threshold.
+
+    Returns
+    -------
+    int
+    """
+    O = observability_matrix(params, state, order)
+    scale = np.ones(O.shape[1])
+    scale[12:] = params.hover_rotor_speed
+    sv = np.linalg.svd(O * scale, compute_uv=False)
+    return int(np.sum(sv > rtol * sv[0]))
