@@ -252,7 +252,7 @@ def test_sweep_killed_with_sigkill_resumes(tmp_path):
         from windnav.commands.wind_sweep import sweep
         sweep(MAPS, {str(out)!r}, speeds=[2.0, 6.0], directions_deg=[0.0, 90.0, 180.0],
               settings=SETTINGS, backend="process", workers=2, progress=False,
-              simulate=FakeSolver({str(log1)!r}, sleep=0.4))
+              simulate=FakeSolver({str(log1)!r}, sleep=1.0))
     """)
     proc = subprocess.Popen([sys.executable, "-c", script], start_new_session=True)
     try:
@@ -292,10 +292,13 @@ def test_resuming_with_a_different_sweep_is_refused(tmp_path):
 
 
 def test_thesis_grid_is_the_default():
+    from windnav.commands.wind import auto_dt
     from windnav.commands.wind_sweep import directions_from
 
     np.testing.assert_allclose(THESIS_SPEEDS, np.linspace(0.1, 10.0, 5))
     np.testing.assert_array_equal(directions_from(), np.arange(0, 360, 45))
+    # without --dt the step keeps the CFL number <= 1 at the fastest inlet (solver allows 2)
+    assert auto_dt(1.0, 10.0) == pytest.approx(0.1) and auto_dt(1.0, 2.0) == 0.25
 
 
 # ----------------------------------------------------------------- the CLI
@@ -306,3 +309,100 @@ def write_tiny_map(path):
            "blocks": [{"extents": [15, 22, 14, 26, 0, 10], "color": [0, 1, 0]}]}
     path.write_text(json.dumps(doc))
     return path
+
+
+def inlet_direction_deg(u, v, solid, x, y, direction_deg):
+    """Direction of the mean wind averaged over the fluid cells in the upstream quarter."""
+    a = np.deg2rad(direction_deg)
+    X, Y = np.meshgrid(x - x.mean(), y - y.mean())
+    along = X * np.cos(a) + Y * np.sin(a)
+    sel = ~solid & (along < np.quantile(along, 0.25))
+    return np.rad2deg(np.arctan2(v[sel].mean(), u[sel].mean())) % 360.0
+
+
+def test_cli_wind_end_to_end(tmp_path, capsys):
+    from matplotlib.image import imread
+
+    from windnav.cli import main
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    rc = main(["wind", "--map", str(tiny), "--speed", "4", "--direction-deg", "30",
+               "--out", str(tmp_path / "run"), "--dx", "1", "--dt", "0.1",
+               "--spinup-steps", "30", "--steps", "20", "--record-every", "1", "--seed", "1"])
+    assert rc == 0
+    sol = load_flow(tmp_path / "run" / "flow.zarr")
+    assert sol.mean_u.shape == (40, 40) and sol.frames_u.shape == (20, 40, 40)
+    # physics: no wind inside buildings, and upstream the mean wind blows the inlet's way
+    assert np.all(sol.mean_u[sol.solid] == 0) and np.all(sol.mean_v[sol.solid] == 0)
+    got = inlet_direction_deg(sol.mean_u, sol.mean_v, sol.solid, sol.x, sol.y, 30.0)
+    assert abs(got - 30.0) < 5.0
+    # every step recorded: the stored frames average exactly to the stored mean
+    np.testing.assert_allclose(sol.frames_u.mean(axis=0), sol.mean_u, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sol.frames_v.mean(axis=0), sol.mean_v, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(sol.t, 0.1 * np.arange(1, 21))
+    cfg = flow_attrs(tmp_path / "run" / "flow.zarr")["config"]
+    assert cfg["speed"] == 4.0 and cfg["direction_deg"] == 30.0 and cfg["steps"] == 20
+    assert cfg["seed"] == 1 and cfg["map_source"] == str(tiny)
+    png = imread(tmp_path / "run" / "mean_speed.png")
+    assert png.ndim == 3 and min(png.shape[:2]) > 200 and png.std() > 0.05  # a real picture
+    assert "flow.zarr" in capsys.readouterr().out
+
+
+def test_cli_wind_sweep_end_to_end_matches_direct_simulation_and_resumes(tmp_path, capsys):
+    from windnav.cli import main
+    from windnav.flow import simulate
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    argv = ["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+            "--speeds", "2", "5", "--directions", "2", "--backend", "serial",
+            "--dx", "2", "--dt", "0.2", "--spinup-steps", "10", "--steps", "10",
+            "--no-progress"]
+    assert main(argv) == 0
+    assert "4/4 simulations done (4 now" in capsys.readouterr().out
+    store = SweepStore(tmp_path / "s.zarr")
+    city = City.from_rotorpy_json(tiny)
+    for c in range(4):
+        case = store.read_case(0, c)
+        direct = simulate(city, speed=case["speed"], direction_deg=case["direction_deg"],
+                          dx=2.0, dt=0.2, spinup_steps=10, steps=10)
+        np.testing.assert_array_equal(case["mean_u"], direct.mean_u)
+        np.testing.assert_array_equal(case["mean_v"], direct.mean_v)
+        np.testing.assert_array_equal(case["solid"], direct.solid)
+        got = inlet_direction_deg(case["mean_u"], case["mean_v"], case["solid"], case["x"],
+                                  case["y"], case["direction_deg"])
+        assert min(abs(got - case["direction_deg"]), 360 - abs(got - case["direction_deg"])) < 5
+    assert main(argv) == 0
+    assert "4/4 simulations done (0 now, 4 already" in capsys.readouterr().out
+
+
+def test_cli_errors_name_the_argument(tmp_path, capsys):
+    from windnav.cli import main
+
+    rc = main(["wind", "--map", str(tmp_path / "missing.json"), "--speed", "3",
+               "--out", str(tmp_path / "o")])
+    assert rc == 2 and "'--map'" in capsys.readouterr().err
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    rc = main(["wind", "--map", str(tiny), "--speed", "3", "--dx", "-1",
+               "--out", str(tmp_path / "o")])
+    assert rc == 2 and "'--dx'" in capsys.readouterr().err
+    rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+               "--directions", "2.5"])
+    assert rc == 2 and "'--directions'" in capsys.readouterr().err
+
+
+def test_cli_wind_sweep_ctrl_c_exits_130_and_says_how_to_resume(tmp_path, capsys):
+    from windnav.cli import build_parser
+    from windnav.commands import wind_sweep
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    argv = ["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+            "--speeds", "2", "--directions", "4", "--backend", "serial", "--dx", "2",
+            "--steps", "2", "--no-progress"]
+    os.mkdir(tmp_path / "log")
+    crashing = FakeSolver(str(tmp_path / "log"), interrupt_after=3)
+    assert wind_sweep.run(build_parser().parse_args(argv), simulate=crashing) == 130
+    assert "3/4 simulations done" in capsys.readouterr().err
+    os.mkdir(tmp_path / "log2")
+    solver = FakeSolver(str(tmp_path / "log2"))
+    assert wind_sweep.run(build_parser().parse_args(argv), simulate=solver) == 0
+    assert solver.calls() == 1

@@ -22,13 +22,23 @@ from windnav._validate import finite_float, positive_float, positive_int
 
 # Solver settings shared with ``windnav wind-sweep`` (the example of the public contract).
 DEFAULT_SETTINGS = {"dx": 1.0, "dt": 0.25, "spinup_steps": 100, "steps": 200, "record_every": 0}
+# When --dt is not given: DEFAULT_SETTINGS["dt"], shortened to keep speed*dt/dx <= AUTO_CFL for
+# the fastest inlet (the solver refuses CFL numbers above 2).
+AUTO_CFL = 1.0
+
+
+def auto_dt(dx: float, max_speed: float) -> float:
+    """Default time step, s: 0.25 s, or less so that ``max_speed * dt / dx <= AUTO_CFL``."""
+    return min(DEFAULT_SETTINGS["dt"], AUTO_CFL * dx / max_speed)
 
 
 def add_solver_arguments(parser) -> None:
     """Add ``--dx --dt --spinup-steps --steps --record-every --seed`` to ``parser``."""
     d = DEFAULT_SETTINGS
     parser.add_argument("--dx", type=float, default=d["dx"], help="cell size, m (%(default)s)")
-    parser.add_argument("--dt", type=float, default=d["dt"], help="time step, s (%(default)s)")
+    parser.add_argument("--dt", type=float, default=None,
+                        help=f"time step, s (default: {d['dt']}, or less to keep the CFL "
+                             f"number speed*dt/dx <= {AUTO_CFL:g} at the fastest inlet)")
     parser.add_argument("--spinup-steps", type=int, default=d["spinup_steps"],
                         help="steps run before averaging starts (%(default)s)")
     parser.add_argument("--steps", type=int, default=d["steps"],
@@ -47,12 +57,16 @@ def _count(value, name: str, where: str) -> int:
     return int(value)
 
 
-def solver_settings(args) -> dict:
-    """Validated solver settings from parsed arguments, as a dict of JSON values."""
+def solver_settings(args, max_speed: float) -> dict:
+    """Validated solver settings from parsed arguments, as a dict of JSON values.
+
+    ``max_speed`` (m/s), the fastest inlet, sets the default time step (:func:`auto_dt`).
+    """
     where = f"windnav {args.command}"
+    dx = positive_float(args.dx, "--dx", where)
     return {
-        "dx": positive_float(args.dx, "--dx", where),
-        "dt": positive_float(args.dt, "--dt", where),
+        "dx": dx,
+        "dt": auto_dt(dx, max_speed) if args.dt is None else positive_float(args.dt, "--dt", where),
         "spinup_steps": _count(args.spinup_steps, "--spinup-steps", where),
         "steps": positive_int(args.steps, "--steps", where),
         "record_every": _count(args.record_every, "--record-every", where),
@@ -176,7 +190,7 @@ def run(args, simulate=None) -> int:
     where = "windnav wind"
     speed = positive_float(args.speed, "--speed", where)
     direction_deg = finite_float(args.direction_deg, "--direction-deg", where)
-    settings = solver_settings(args)
+    settings = solver_settings(args, speed)
     city = load_city(args.map)
     out = Path(args.out)
     solution, seconds = simulate_case(city, speed, direction_deg, settings, args.seed, simulate)

@@ -16,6 +16,7 @@ same command after an interruption computes only the simulations not marked done
 from __future__ import annotations
 
 import os
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -116,7 +117,8 @@ def sweep(
         Inlet directions, deg. Default: 0, 45, ..., 315.
     settings : dict, optional
         Solver settings ``dx`` m, ``dt`` s, ``spinup_steps``, ``steps``, ``record_every``;
-        missing keys take :data:`windnav.commands.wind.DEFAULT_SETTINGS`.
+        missing keys take :data:`windnav.commands.wind.DEFAULT_SETTINGS`, a missing ``dt``
+        :func:`windnav.commands.wind.auto_dt` of the fastest speed.
     backend, workers, progress
         Passed to :func:`windnav.experiments.executor.run_tasks`.
     seed : int
@@ -132,13 +134,16 @@ def sweep(
     results : list of TaskResult
         One per simulation run now (finished ones skipped), in completion order.
     """
-    from windnav.commands.wind import DEFAULT_SETTINGS
+    from windnav.commands.wind import DEFAULT_SETTINGS, auto_dt
     from windnav.experiments.executor import run_tasks
     from windnav.flow.io import SweepMap, SweepStore
 
     where = "windnav wind-sweep"
-    settings = {**DEFAULT_SETTINGS, **(settings or {})}
     speeds = [positive_float(s, "--speeds", where) for s in speeds]
+    given = dict(settings or {})
+    settings = {**DEFAULT_SETTINGS, **given}
+    if given.get("dt") is None:
+        settings["dt"] = auto_dt(settings["dx"], max(speeds))
     directions_deg = directions_from(degrees=directions_deg) if directions_deg is not None \
         else directions_from()
     if not maps:
@@ -261,20 +266,30 @@ def _directions_arg(args):
 
 def run(args, simulate=None) -> int:
     """Run ``windnav wind-sweep``; returns 0 when every simulation is done, 1 otherwise."""
-    settings = solver_settings(args)
-    maps = [(f.stem, os.path.abspath(f), load_city(f, "--maps", "windnav wind-sweep"))
+    where = "windnav wind-sweep"
+    speeds = [positive_float(v, "--speeds", where) for v in args.speeds]
+    settings = solver_settings(args, max(speeds))
+    maps = [(f.stem, os.path.abspath(f), load_city(f, "--maps", where))
             for f in _map_files(args.maps)]
     if args.generate:
-        k = positive_int(args.generate, "--generate", "windnav wind-sweep")
+        k = positive_int(args.generate, "--generate", where)
         maps += _generated_maps(k, args.map_kind, args.seed)
     try:
-        store, results = sweep(maps, args.out, speeds=args.speeds,
+        store, results = sweep(maps, args.out, speeds=speeds,
                                directions_deg=_directions_arg(args), settings=settings,
                                backend=args.backend, workers=args.workers, seed=args.seed,
                                progress=not args.no_progress, verify=args.verify,
                                simulate=simulate)
     except ImportError as exc:  # the ray backend without ray
         raise ValueError(str(exc)) from exc
+    except KeyboardInterrupt:
+        from windnav.flow.io import SweepStore
+
+        store = SweepStore(args.out)
+        total = store.n_maps * store.n_cases
+        print(f"interrupted: {total - len(store.pending())}/{total} simulations done in "
+              f"{store.path}; rerun the same command to resume.", file=sys.stderr)
+        return 130
     failed = [r for r in results if not r.ok]
     total = store.n_maps * store.n_cases
     for r in failed:
