@@ -211,7 +211,6 @@ class WindUKF:
                 p0[sl] = _P0[key] ** 2
             P0 = np.diag(p0)
         self.R = self._measurement_covs(r or {}, N)
-        self._dt_odom_default = self.dt
         prm, nsub = self._prm, self.n_substeps
 
         def fx(X, dt, u):
@@ -237,6 +236,7 @@ class WindUKF:
         self._last_odom: np.ndarray | None = None
         self._steps_since_odom = 0
         self._r_accel_override = "accel" in (r or {})
+        self._accel_dt = 0.0
 
     def _measurement_covs(self, r: Mapping, N: int) -> dict[str, np.ndarray]:
         known = set(DEFAULT_R) | {"odom"}
@@ -294,7 +294,8 @@ class WindUKF:
         a_world = (odom[:3] - last[:3]) / dt
         a_world[2] += GRAVITY
         Rm = wm.euler_to_matrix(odom[3:6])[0]
-        if not self._r_accel_override:
+        if not self._r_accel_override and dt != self._accel_dt:
+            self._accel_dt = dt
             sv = np.sqrt(np.diag(self.R["odom"])[:3])
             self.ukf.add_block("accel", self.ukf.blocks["accel"].hx,
                                np.diag((np.sqrt(2.0) * sv / dt) ** 2))

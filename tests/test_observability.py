@@ -1,0 +1,81 @@
+"""Observability of the Wind UKF model: symbolic model = numeric model; rank and its drops."""
+
+import numpy as np
+import pytest
+
+import windnav as wn
+from windnav.estimate import observability as ob
+from windnav.estimate import wind_model as wm
+
+P_HB = wn.vehicle.params("hummingbird")
+
+
+def random_state(rng, params=P_HB):
+    x = np.zeros(12 + params.n_rotors)
+    x[0:3] = rng.uniform([-np.pi, -0.5, -0.5], [np.pi, 0.5, 0.5])
+    x[3:6] = rng.normal(0, 0.5, 3)
+    x[6:12] = rng.normal(0, 3.0, 6)
+    x[12:] = params.hover_rotor_speed * rng.uniform(0.8, 1.2, params.n_rotors)
+    return x
+
+
+def hover_state(params=P_HB):
+    x = np.zeros(12 + params.n_rotors)
+    x[12:] = params.hover_rotor_speed
+    return x
+
+
+def test_symbolic_model_equals_the_filter_model():
+    import sympy as sp
+
+    x, prm, f0, gs, h = ob.symbolic_model(4)
+    args = [x, prm]
+    f0_fn = sp.lambdify(args, f0, "numpy")
+    g_fn = sp.lambdify(args, sp.Matrix.hstack(*gs), "numpy")
+    h_fn = sp.lambdify(args, h, "numpy")
+    num = wm.model_constants(P_HB)
+    rng = np.random.default_rng(0)
+    for _ in range(10):
+        s = random_state(rng)
+        u = rng.uniform(300, 700, 4)
+        pv = list(num[:10]) + [0.0]
+        sym = np.asarray(f0_fn(s, pv), float).ravel() + np.asarray(g_fn(s, pv), float) @ u
+        np.testing.assert_allclose(sym, wm.state_derivative(s, u, num)[0], rtol=1e-10,
+                                   atol=1e-10)
+        meas = np.r_[wm.specific_force(s[None], num)[0], s[3:6], wm.odometry(s[None])[0]]
+        np.testing.assert_allclose(np.asarray(h_fn(s, pv), float).ravel(), meas, rtol=1e-10,
+                                   atol=1e-10)
+
+
+def test_full_rank_at_random_states_with_first_order_lie_derivatives():
+    rng = np.random.default_rng(1)
+    states = [random_state(rng) for _ in range(20)]
+    assert [ob.rank_at(P_HB, s) for s in states] == [16] * 20
+    # order 0 is not enough: first-order derivatives are the lowest that give full rank
+    assert max(ob.rank_at(P_HB, s, order=0) for s in states[:5]) == 12
+    cf = wn.vehicle.params("crazyflie_brushless")
+    assert ob.rank_at(cf, random_state(rng, cf)) == 16
+
+
+@pytest.mark.parametrize("changes, expected", [
+    (dict(k_d=0.0, c_dx=0.0, c_dy=0.0), 15),                      # lift: one combination left
+    (dict(k_d=0.0, c_dx=0.0, c_dy=0.0, k_h=0.0, c_dz=0.0), 14),   # horizontal wind invisible
+])
+def test_rank_drops_without_horizontal_drag(changes, expected):
+    rng = np.random.default_rng(2)
+    p = P_HB.replace(**changes)
+    assert [ob.rank_at(p, random_state(rng)) for _ in range(5)] == [expected] * 5
+
+
+def test_hover_needs_linear_rotor_drag():
+    assert ob.rank_at(P_HB, hover_state()) == 16
+    # parasitic drag and lift are quadratic in airspeed: no gradient at zero airspeed
+    assert ob.rank_at(P_HB.replace(k_d=0.0), hover_state()) == 14
+    assert ob.rank_at(P_HB.replace(k_z=0.0), hover_state()) == 15
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError, match="'state'"):
+        ob.rank_at(P_HB, np.zeros(12))
+    with pytest.raises(ValueError, match="'order'"):
+        ob.observability_matrix(P_HB, hover_state(), order=5)

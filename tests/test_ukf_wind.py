@@ -1,0 +1,212 @@
+"""The Wind UKF model and shell: physics of the model, FilterPy agreement, convergence."""
+
+import numpy as np
+import pytest
+from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+from scipy.spatial.transform import Rotation
+
+import windnav as wn
+from windnav.estimate import WindUKF, wind_world
+from windnav.estimate import wind_model as wm
+
+P_HB = wn.vehicle.params("hummingbird")
+DT = 0.01
+
+
+def random_states(rng, n, params=P_HB):
+    X = np.zeros((n, 12 + params.n_rotors))
+    X[:, 0:3] = rng.uniform([-np.pi, -0.5, -0.5], [np.pi, 0.5, 0.5], (n, 3))
+    X[:, 3:6] = rng.normal(0, 1.0, (n, 3))
+    X[:, 6:12] = rng.normal(0, 3.0, (n, 6))
+    X[:, 12:] = params.hover_rotor_speed * rng.uniform(0.7, 1.3, (n, params.n_rotors))
+    return X
+
+
+def synthetic_flight(seconds, wind_world_true, wind_frame, rng, params=P_HB, noise=None):
+    """Truth from the filter's own process model; body rates prescribed, wind fixed in the
+    chosen frame. Returns states (K, n), commands (K, N), noisy measurements (list of dict)."""
+    prm = wm.model_constants(params, wind_frame=wind_frame)
+    noise = noise or {"accel": 0.3, "gyro": 0.07, "vel": 0.035, "euler": 0.005}
+    n_rot = params.n_rotors
+    x = np.zeros(12 + n_rot)
+    x[12:] = params.hover_rotor_speed
+    x[9:12] = wind_world_true                          # level, yaw 0: body = world
+    xs, us, zs = [], [], []
+    for k in range(int(round(seconds / DT))):
+        t = k * DT
+        x[3:6] = [0.6 * np.sin(2 * np.pi * 0.5 * t), 0.6 * np.cos(2 * np.pi * 0.4 * t),
+                  0.2 * np.sin(2 * np.pi * 0.2 * t)]
+        u = params.hover_rotor_speed * (1 + 0.05 * np.sin(2 * np.pi * 0.7 * t)) * np.ones(n_rot)
+        x = wm.process(x[None], DT, u, prm)[0]
+        X = x[None]
+        zs.append({
+            "accel": wm.specific_force(X, prm)[0] + rng.normal(0, noise["accel"], 3),
+            "gyro": x[3:6] + rng.normal(0, noise["gyro"], 3),
+            "odom": wm.odometry(X)[0] + np.r_[rng.normal(0, noise["vel"], 3),
+                                              rng.normal(0, noise["euler"], 3)],
+        })
+        xs.append(x.copy())
+        us.append(u)
+    return np.array(xs), np.array(us), zs
+
+
+def test_hover_is_an_equilibrium():
+    x = np.zeros(16)
+    x[12:] = P_HB.hover_rotor_speed
+    prm = wm.model_constants(P_HB)
+    np.testing.assert_allclose(wm.state_derivative(x, x[12:], prm), 0.0, atol=1e-12)
+    np.testing.assert_allclose(wm.specific_force(x[None], prm)[0], [0, 0, 9.81], atol=1e-12)
+    np.testing.assert_allclose(wm.process(x[None], DT, x[12:], prm)[0], x, atol=1e-12)
+
+
+def test_accelerometer_is_the_non_gravitational_part_of_the_velocity_dynamics():
+    rng = np.random.default_rng(0)
+    X = random_states(rng, 50)
+    prm = wm.model_constants(P_HB)
+    dx = wm.state_derivative(X, np.full(4, 500.0), prm)
+    R = wm.euler_to_matrix(X[:, :3])
+    g_body = np.einsum("bji,j->bi", R, [0.0, 0.0, 9.81])
+    a = dx[:, 6:9] + np.cross(X[:, 3:6], X[:, 6:9]) + g_body
+    np.testing.assert_allclose(wm.specific_force(X, prm), a, atol=1e-12)
+
+
+def test_linear_drag_limit_matches_the_appendix_model():
+    """Without lift and parasitic drag, a_x = -(k_d sum(eta) / m) (v_x - w_x)."""
+    p = P_HB.replace(k_h=0.0, c_dx=0.0, c_dy=0.0, c_dz=0.0)
+    X = random_states(np.random.default_rng(1), 20, p)
+    a = wm.specific_force(X, wm.model_constants(p))
+    gain = p.k_d * X[:, 12:].sum(1) / p.mass
+    np.testing.assert_allclose(a[:, 0], -gain * (X[:, 6] - X[:, 9]), rtol=1e-12)
+    np.testing.assert_allclose(a[:, 1], -gain * (X[:, 7] - X[:, 10]), rtol=1e-12)
+
+
+def test_euler_matrix_and_odometry_agree_with_scipy():
+    X = random_states(np.random.default_rng(2), 30)
+    R_ref = Rotation.from_euler("ZYX", X[:, :3]).as_matrix()
+    np.testing.assert_allclose(wm.euler_to_matrix(X[:, :3]), R_ref, atol=1e-12)
+    odom = wm.odometry(X)
+    np.testing.assert_allclose(odom[:, :3], np.einsum("bij,bj->bi", R_ref, X[:, 6:9]), atol=1e-12)
+    np.testing.assert_array_equal(odom[:, 3:], X[:, :3])
+
+
+def test_process_is_rk4_accurate_and_motors_exact():
+    X = random_states(np.random.default_rng(3), 5)
+    prm = wm.model_constants(P_HB)
+    u = np.array([400.0, 450.0, 500.0, 550.0])
+    dt = 0.05
+    ref = wm.process(X, dt, u, prm, n_substeps=256)
+    errs = [np.abs(wm.process(X, dt, u, prm, n_substeps=k)[:, :12] - ref[:, :12]).max()
+            for k in (4, 8)]
+    assert errs[0] / errs[1] > 12.0   # fourth order: halving the step divides the error by 16
+    eta = u + (X[:, 12:] - u) * np.exp(-dt / P_HB.tau_m)
+    np.testing.assert_allclose(wm.process(X, dt, u, prm)[:, 12:], eta, rtol=1e-12)
+
+
+def test_world_frame_wind_option_keeps_world_wind_constant():
+    prm = wm.model_constants(P_HB, wind_frame="world")
+    x = random_states(np.random.default_rng(4), 1)
+    w0 = np.einsum("bij,bj->bi", wm.euler_to_matrix(x[:, :3]), x[:, 9:12])
+    for _ in range(50):
+        x = wm.process(x, DT, x[0, 12:], prm, n_substeps=4)
+    w1 = np.einsum("bij,bj->bi", wm.euler_to_matrix(x[:, :3]), x[:, 9:12])
+    np.testing.assert_allclose(w1, w0, atol=1e-6)
+
+
+def test_wind_ukf_matches_filterpy_over_200_steps():
+    rng = np.random.default_rng(5)
+    xs, us, zs = synthetic_flight(2.0, np.array([2.0, -1.0, 0.3]), "body", rng)
+    ours = WindUKF(P_HB, DT, alpha=0.8, beta=2.0, kappa=0.0)
+    prm = wm.model_constants(P_HB)
+    R = np.zeros((12, 12))
+    R[:3, :3] = ours.R["accel"]
+    R[3:6, 3:6] = ours.R["gyro"]
+    R[6:, 6:] = ours.R["odom"]
+
+    def hx(x):
+        X = x[None]
+        return np.concatenate([wm.specific_force(X, prm)[0], x[3:6], wm.odometry(X)[0]])
+
+    ref = UnscentedKalmanFilter(16, 12, DT, hx=hx, fx=lambda x, dt, u: wm.process(
+        x[None], dt, u, prm)[0], points=MerweScaledSigmaPoints(16, 0.8, 2.0, 0.0))
+    ref.x, ref.P, ref.Q, ref.R = ours.x.copy(), ours.P.copy(), ours.Q, R
+    for u, z in zip(us, zs, strict=True):
+        ours.step(u, z)
+        ref.predict(u=u)
+        ref.update(np.concatenate([z["accel"], z["gyro"], z["odom"]]))
+    np.testing.assert_allclose(ours.x, ref.x, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(ours.P, ref.P, rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("wind_frame", ["body", "world"])
+def test_wind_estimate_converges_on_synthetic_flight(wind_frame):
+    rng = np.random.default_rng(6)
+    w_true = np.array([3.0, -2.0, 0.5])
+    xs, us, zs = synthetic_flight(5.0, w_true, wind_frame, rng)
+    f = WindUKF(P_HB, DT, wind_frame=wind_frame)
+    est, cov = [], []
+    for u, z in zip(us, zs, strict=True):
+        e = f.step(u, z)
+        est.append(e.wind_world)
+        cov.append(e.wind_world_cov)
+    truth = np.einsum("bij,bj->bi", wm.euler_to_matrix(xs[:, :3]), xs[:, 9:12])
+    err = (np.array(est) - truth)[200:]
+    rmse = np.sqrt(np.mean(np.sum(err**2, axis=1)))
+    assert rmse < 0.3
+    # consistency: the reported covariance explains the error (normalised error ~ chi2(3))
+    nees = np.mean([e @ np.linalg.solve(c, e) for e, c in zip(err, np.array(cov)[200:],
+                                                               strict=True)])
+    assert 0.3 < nees < 10.0
+    assert f.repairs == 0
+
+
+def test_accel_from_differenced_odometry_converges():
+    rng = np.random.default_rng(7)
+    w_true = np.array([2.0, 1.0, 0.0])
+    xs, us, zs = synthetic_flight(5.0, w_true, "world", rng)
+    f = WindUKF(P_HB, DT, wind_frame="world", accel_from_odometry=True)
+    est = np.array([f.step(u, {**z, "accel": np.full(3, np.nan)}).wind_world
+                    for u, z in zip(us, zs, strict=True)])
+    truth = np.einsum("bij,bj->bi", wm.euler_to_matrix(xs[:, :3]), xs[:, 9:12])
+    rmse = np.sqrt(np.mean(np.sum((est - truth)[200:] ** 2, axis=1)))
+    assert rmse < 0.6
+    assert f.rejected["accel"] == 0   # the IMU entry is ignored, not fused
+
+
+def test_wind_world_covariance_matches_monte_carlo():
+    rng = np.random.default_rng(8)
+    x = np.zeros(16)
+    x[:3] = [0.7, 0.1, -0.2]
+    x[9:12] = [4.0, -1.0, 0.5]
+    A = rng.normal(size=(16, 16)) * 0.01       # attitude std ~0.05 rad, wind std ~0.3 m/s
+    P = A @ A.T + np.diag(np.r_[[0.03**2] * 3, [0.1] * 9, [1.0] * 4])
+    mean, cov = wind_world(x, P)
+    S = rng.multivariate_normal(x, P, size=200_000)
+    W = np.einsum("bij,bj->bi", wm.euler_to_matrix(S[:, :3]), S[:, 9:12])
+    np.testing.assert_allclose(mean, W.mean(0), atol=0.02)
+    np.testing.assert_allclose(cov, np.cov(W.T), rtol=0.05, atol=0.005)
+    # no attitude uncertainty at zero attitude: the body covariance itself
+    P0 = np.diag(np.r_[[0.0] * 3, [0.1] * 13])
+    P0[:3, :3] = np.eye(3) * 1e-30
+    m0, c0 = wind_world(np.r_[np.zeros(9), [1.0, 2.0, 3.0], np.zeros(4)], P0)
+    np.testing.assert_allclose(m0, [1.0, 2.0, 3.0], atol=1e-12)
+    np.testing.assert_allclose(c0, 0.1 * np.eye(3), atol=1e-12)
+
+
+def test_shell_validates_and_rejects():
+    f = WindUKF(P_HB)
+    with pytest.raises(ValueError, match="'u_cmd'"):
+        f.step(np.zeros(3), {})
+    with pytest.raises(ValueError, match="'r'"):
+        WindUKF(P_HB, r={"gps": 1.0})
+    with pytest.raises(ValueError, match="'q'"):
+        WindUKF(P_HB, q={"attitude": 1.0})
+    with pytest.raises(ValueError, match=r"r\['accel'\]"):
+        WindUKF(P_HB, r={"accel": -1.0})
+    with pytest.raises(ValueError, match="'wind_frame'"):
+        WindUKF(P_HB, wind_frame="earth")
+    e = f.step(np.full(4, P_HB.hover_rotor_speed), {"gyro": [np.nan, 0, 0], "odom": None})
+    assert f.rejected["gyro"] == 1
+    assert np.all(np.isfinite(e.wind_world))
+    custom = WindUKF(P_HB, r={"accel": [0.1, 0.1, 0.2], "odom": np.eye(6) * 1e-4})
+    np.testing.assert_allclose(np.diag(custom.R["accel"]), [0.01, 0.01, 0.04])
+    np.testing.assert_allclose(custom.R["odom"], np.eye(6) * 1e-4)
