@@ -109,13 +109,13 @@ def pack_params(
 
 
 @numba.njit(cache=True, inline="always")
-def _rotation(q, R):
-    """Rotation matrix (body -> world) of the normalised quaternion xyzw."""
-    n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    x = q[0] / n
-    y = q[1] / n
-    z = q[2] / n
-    w = q[3] / n
+def _rotation(s, R):
+    """Rotation matrix (body -> world) of the normalised quaternion xyzw in ``s[6:10]``."""
+    n = np.sqrt(s[6] * s[6] + s[7] * s[7] + s[8] * s[8] + s[9] * s[9])
+    x = s[6] / n
+    y = s[7] / n
+    z = s[8] / n
+    w = s[9] / n
     R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
     R[0, 1] = 2.0 * (x * y - z * w)
     R[0, 2] = 2.0 * (x * z + y * w)
@@ -128,7 +128,7 @@ def _rotation(q, R):
 
 
 @numba.njit(cache=True)
-def _wrench(sc, I, rpos, rdir, R, vel, omega, eta, wind_com, wind_hub, F, M):
+def _wrench(sc, rpos, rdir, R, y, eta, wind_com, wind_hub, F, M):
     """Body-frame force F (3,) and moment M (3,) (aerodynamics included)."""
     n_rot = eta.shape[0]
     keta = sc[_KETA]
@@ -141,9 +141,15 @@ def _wrench(sc, I, rpos, rdir, R, vel, omega, eta, wind_com, wind_hub, F, M):
         F[j] = 0.0
         M[j] = 0.0
     # parasitic drag at the centre of mass
-    d0 = vel[0] - wind_com[0]
-    d1 = vel[1] - wind_com[1]
-    d2 = vel[2] - wind_com[2]
+    v0 = y[3]
+    v1 = y[4]
+    v2 = y[5]
+    o0 = y[10]
+    o1 = y[11]
+    o2 = y[12]
+    d0 = v0 - wind_com[0]
+    d1 = v1 - wind_com[1]
+    d2 = v2 - wind_com[2]
     ax = R[0, 0] * d0 + R[1, 0] * d1 + R[2, 0] * d2
     ay = R[0, 1] * d0 + R[1, 1] * d1 + R[2, 1] * d2
     az = R[0, 2] * d0 + R[1, 2] * d1 + R[2, 2] * d2
@@ -152,16 +158,16 @@ def _wrench(sc, I, rpos, rdir, R, vel, omega, eta, wind_com, wind_hub, F, M):
     F[1] = -speed * sc[_CDY] * ay
     F[2] = -speed * sc[_CDZ] * az
     for i in range(n_rot):
-        e0 = vel[0] - wind_hub[i, 0]
-        e1 = vel[1] - wind_hub[i, 1]
-        e2 = vel[2] - wind_hub[i, 2]
+        e0 = v0 - wind_hub[i, 0]
+        e1 = v1 - wind_hub[i, 1]
+        e2 = v2 - wind_hub[i, 2]
         rx = rpos[i, 0]
         ry = rpos[i, 1]
         rz = rpos[i, 2]
         # hub airspeed, body frame: R^T (v - w_i) + Omega x r_i
-        vx = R[0, 0] * e0 + R[1, 0] * e1 + R[2, 0] * e2 + (omega[1] * rz - omega[2] * ry)
-        vy = R[0, 1] * e0 + R[1, 1] * e1 + R[2, 1] * e2 + (omega[2] * rx - omega[0] * rz)
-        vz = R[0, 2] * e0 + R[1, 2] * e1 + R[2, 2] * e2 + (omega[0] * ry - omega[1] * rx)
+        vx = R[0, 0] * e0 + R[1, 0] * e1 + R[2, 0] * e2 + (o1 * rz - o2 * ry)
+        vy = R[0, 1] * e0 + R[1, 1] * e1 + R[2, 1] * e2 + (o2 * rx - o0 * rz)
+        vz = R[0, 2] * e0 + R[1, 2] * e1 + R[2, 2] * e2 + (o0 * ry - o1 * rx)
         et = eta[i]
         fx = -et * kd * vx
         fy = -et * kd * vy
@@ -177,10 +183,8 @@ def _wrench(sc, I, rpos, rdir, R, vel, omega, eta, wind_com, wind_hub, F, M):
 @numba.njit(cache=True)
 def _rigid_deriv(sc, I, Iinv, rpos, rdir, y, eta, wind_com, wind_hub, dy, R, F, M):
     """dy/dt of the 13-vector rigid-body state."""
-    q = y[6:10]
-    omega = y[10:13]
-    _rotation(q, R)
-    _wrench(sc, I, rpos, rdir, R, y[3:6], omega, eta, wind_com, wind_hub, F, M)
+    _rotation(y, R)
+    _wrench(sc, rpos, rdir, R, y, eta, wind_com, wind_hub, F, M)
     m = sc[_MASS]
     dy[0] = y[3]
     dy[1] = y[4]
@@ -188,8 +192,8 @@ def _rigid_deriv(sc, I, Iinv, rpos, rdir, y, eta, wind_com, wind_hub, dy, R, F, 
     dy[3] = (R[0, 0] * F[0] + R[0, 1] * F[1] + R[0, 2] * F[2]) / m
     dy[4] = (R[1, 0] * F[0] + R[1, 1] * F[1] + R[1, 2] * F[2]) / m
     dy[5] = (R[2, 0] * F[0] + R[2, 1] * F[1] + R[2, 2] * F[2]) / m - sc[_G]
-    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
-    w0, w1, w2 = omega[0], omega[1], omega[2]
+    q0, q1, q2, q3 = y[6], y[7], y[8], y[9]
+    w0, w1, w2 = y[10], y[11], y[12]
     dy[6] = 0.5 * (q3 * w0 - q2 * w1 + q1 * w2)
     dy[7] = 0.5 * (q2 * w0 + q3 * w1 - q0 * w2)
     dy[8] = 0.5 * (-q1 * w0 + q0 * w1 + q3 * w2)
@@ -206,11 +210,11 @@ def _rigid_deriv(sc, I, Iinv, rpos, rdir, y, eta, wind_com, wind_hub, dy, R, F, 
     dy[12] = Iinv[2, 0] * t0 + Iinv[2, 1] * t1 + Iinv[2, 2] * t2
 
 
-@numba.njit(cache=True)
-def _motor(eta0, cmd, tau, t, out):
-    a = np.exp(-t / tau)
+@numba.njit(cache=True, inline="always")
+def _motor(eta0, cmd, decay, out):
+    """Exact first-order response: ``cmd + (eta0 - cmd) * decay`` with decay = exp(-t/tau)."""
     for i in range(eta0.shape[0]):
-        out[i] = cmd[i] + (eta0[i] - cmd[i]) * a
+        out[i] = cmd[i] + (eta0[i] - cmd[i]) * decay
 
 
 @numba.njit(cache=True)
@@ -256,11 +260,14 @@ def step_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, eta_cmd, wind_com,
             y[j] = x[b, j]
         wc = wind_com[b]
         wh = wind_hub[b]
-        for s in range(substeps):
-            t0 = s * h
-            _motor(eta0, cmd, tau, t0, eta_a)
-            _motor(eta0, cmd, tau, t0 + 0.5 * h, eta_b)
-            _motor(eta0, cmd, tau, t0 + h, eta_c)
+        half = np.exp(-0.5 * h / tau)
+        full = half * half
+        decay = 1.0
+        for _ in range(substeps):
+            _motor(eta0, cmd, decay, eta_a)
+            _motor(eta0, cmd, decay * half, eta_b)
+            decay *= full
+            _motor(eta0, cmd, decay, eta_c)
             _rigid_deriv(sc, I, Iinv, rp, rd, y, eta_a, wc, wh, k1, R, F, M)
             for j in range(13):
                 yt[j] = y[j] + 0.5 * h * k1[j]
@@ -276,7 +283,7 @@ def step_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, eta_cmd, wind_com,
             qn = np.sqrt(y[6] * y[6] + y[7] * y[7] + y[8] * y[8] + y[9] * y[9])
             for j in range(6, 10):
                 y[j] /= qn
-        _motor(eta0, cmd, tau, dt, eta_c)
+        _motor(eta0, cmd, np.exp(-dt / tau), eta_c)
         for j in range(13):
             out[b, j] = y[j]
         for i in range(n_rot):
@@ -292,6 +299,6 @@ def derivative_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, wind_com, wi
     R = np.empty((3, 3))
     for b in range(B):
         p = b if P > 1 else 0
-        _rigid_deriv(scalars[p], inertia[p], inertia_inv[p], rpos[p], rdir[p], x[b, :13],
+        _rigid_deriv(scalars[p], inertia[p], inertia_inv[p], rpos[p], rdir[p], x[b],
                      x[b, 13:], wind_com[b], wind_hub[b], out_dy[b], R, out_force[b],
                      out_moment[b])
