@@ -210,3 +210,22 @@ def test_shell_validates_and_rejects():
     custom = WindUKF(P_HB, r={"accel": [0.1, 0.1, 0.2], "odom": np.eye(6) * 1e-4})
     np.testing.assert_allclose(np.diag(custom.R["accel"]), [0.01, 0.01, 0.04])
     np.testing.assert_allclose(custom.R["odom"], np.eye(6) * 1e-4)
+
+
+def test_multirate_odometry_and_rotor_speed_block():
+    rng = np.random.default_rng(9)
+    w_true = np.array([-2.0, 2.5, 0.0])
+    xs, us, zs = synthetic_flight(5.0, w_true, "world", rng)
+    x0 = np.zeros(16)
+    x0[12:] = P_HB.hover_rotor_speed + 80.0          # rotor speeds start badly off
+    f = WindUKF(P_HB, DT, wind_frame="world", x0=x0)
+    est = []
+    for k, (u, z) in enumerate(zip(us, zs, strict=True)):
+        meas = {"accel": z["accel"], "gyro": z["gyro"],
+                "odom": z["odom"] if k % 4 == 0 else None,              # 25 Hz odometry
+                "rotor_speeds": xs[k, 12:] + rng.normal(0, 10.0, 4)}
+        est.append(f.step(u, meas).wind_world)
+    truth = np.einsum("bij,bj->bi", wm.euler_to_matrix(xs[:, :3]), xs[:, 9:12])
+    rmse = np.sqrt(np.mean(np.sum((np.array(est) - truth)[200:] ** 2, axis=1)))
+    assert rmse < 0.3
+    assert np.abs(f.x[12:] - xs[-1, 12:]).max() < 15.0
