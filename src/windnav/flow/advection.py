@@ -15,10 +15,11 @@ which cancels the leading (diffusive) error of ``A`` while the clamp keeps it st
 
 Boundaries and buildings: positions are in cell units (``X = (x - x0) / dx``). A sample
 beyond an inflow side reads the inlet velocity; beyond another side the sample is clamped to
-the domain (zero gradient, free slip). Building faces hold zero normal velocity, so samples
-next to a building see a no-slip-like wall. A departure point that falls inside a building
-cell is pulled back toward its face by halving the trace (3 times, then the face keeps its
-value), so nothing is ever sampled from inside a solid.
+the domain (zero gradient, free slip); both are one ghost layer around each face field, so
+the interpolation is branch-free. Building faces hold zero normal velocity, so samples next
+to a building see a no-slip-like wall. A trace whose end point falls inside a building cell
+is halved, and if still inside, dropped (the face keeps its value), so nothing is ever
+sampled from inside a solid.
 """
 
 from __future__ import annotations
@@ -26,119 +27,153 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from windnav.flow.grid import FACE_FIXED, FlowDomain
+from windnav.flow.grid import FlowDomain
 
 SCHEMES = ("semi_lagrangian", "maccormack")
 
 
-@numba.njit(cache=True, inline="always")
-def _sample(f, ox, oy, X, Y, sides, inflow_val):
-    """Bilinear sample of face field ``f`` (offset ox, oy) at (X, Y); returns (val, lo, hi)."""
+@numba.njit(cache=True)
+def _pad(f, sides, inflow_val, out):
+    """Copy ``f`` into ``out[1:-1, 1:-1]`` and fill one ghost layer implementing the sides."""
     nyf, nxf = f.shape
-    ny = nyf if oy == 0.5 else nyf - 1
-    nx = nxf if ox == 0.5 else nxf - 1
-    if (
-        (X < 0.0 and sides[0] == 0)
-        or (X > nx and sides[1] == 0)
-        or (Y < 0.0 and sides[2] == 0)
-        or (Y > ny and sides[3] == 0)
-    ):
-        return inflow_val, inflow_val, inflow_val
-    fi = min(max(X - ox, 0.0), nxf - 1.0)
-    fj = min(max(Y - oy, 0.0), nyf - 1.0)
-    i0 = min(int(fi), nxf - 2)
-    j0 = min(int(fj), nyf - 2)
-    a = fi - i0
-    b = fj - j0
-    f00 = f[j0, i0]
-    f01 = f[j0, i0 + 1]
-    f10 = f[j0 + 1, i0]
-    f11 = f[j0 + 1, i0 + 1]
-    val = (1.0 - b) * ((1.0 - a) * f00 + a * f01) + b * ((1.0 - a) * f10 + a * f11)
-    lo = min(min(f00, f01), min(f10, f11))
-    hi = max(max(f00, f01), max(f10, f11))
-    return val, lo, hi
-
-
-@numba.njit(cache=True, inline="always")
-def _in_solid(solid, X, Y):
-    ny, nx = solid.shape
-    i = int(np.floor(X))
-    j = int(np.floor(Y))
-    if i < 0 or j < 0 or i >= nx or j >= ny:
-        return False
-    return solid[j, i]
-
-
-@numba.njit(cache=True, inline="always")
-def _safe_trace(solid, X, Y, dX, dY):
-    """Scale the displacement so the end point is not inside a building cell."""
-    for _ in range(4):
-        if not _in_solid(solid, X + dX, Y + dY):
-            return dX, dY
-        dX *= 0.5
-        dY *= 0.5
-    return 0.0, 0.0
-
-
-@numba.njit(cache=True, inline="always")
-def _face_velocity(u, v, j, i, is_u):
-    """Velocity (u, v) at face (j, i) of the u-faces (is_u) or the v-faces."""
-    if is_u:
-        nx = v.shape[1]
-        il = max(i - 1, 0)
-        ir = min(i, nx - 1)
-        return u[j, i], 0.25 * (v[j, il] + v[j, ir] + v[j + 1, il] + v[j + 1, ir])
-    ny = u.shape[0]
-    jl = max(j - 1, 0)
-    jr = min(j, ny - 1)
-    return 0.25 * (u[jl, i] + u[jl, i + 1] + u[jr, i] + u[jr, i + 1]), v[j, i]
+    out[1 : nyf + 1, 1 : nxf + 1] = f
+    for i in range(1, nxf + 1):
+        out[0, i] = inflow_val if sides[2] == 0 else f[0, i - 1]
+        out[nyf + 1, i] = inflow_val if sides[3] == 0 else f[nyf - 1, i - 1]
+    for j in range(nyf + 2):
+        out[j, 0] = inflow_val if sides[0] == 0 else out[j, 1]
+        out[j, nxf + 1] = inflow_val if sides[1] == 0 else out[j, nxf]
 
 
 @numba.njit(cache=True)
-def _advect_component(f, code, u, v, c, solid, sides, inflow_val, is_u, maccormack):
+def _trace(u, v, solid_p, c, is_u, dxs, dys):
+    """Displacement ``-c * velocity`` (cell units) of every face, halved then zeroed when
+    its end point falls in a building cell (``c < 0`` gives the forward, reverse trace)."""
+    nyf, nxf = dxs.shape
+    ny, nx = solid_p.shape[0] - 2, solid_p.shape[1] - 2
     ox = 0.0 if is_u else 0.5
     oy = 0.5 if is_u else 0.0
+    for j in range(nyf):
+        jl = max(j - 1, 0)
+        jr = min(j, ny - 1)
+        for i in range(nxf):
+            if is_u:
+                il = max(i - 1, 0)
+                ir = min(i, nx - 1)
+                uu = u[j, i]
+                vv = 0.25 * (v[j, il] + v[j, ir] + v[j + 1, il] + v[j + 1, ir])
+            else:
+                uu = 0.25 * (u[jl, i] + u[jl, i + 1] + u[jr, i] + u[jr, i + 1])
+                vv = v[j, i]
+            dX = -c * uu
+            dY = -c * vv
+            for scale in (0.5, 0.0):
+                ci = int(min(max(i + ox + dX + 1.0, 0.0), nx + 1.0))
+                cj = int(min(max(j + oy + dY + 1.0, 0.0), ny + 1.0))
+                s = solid_p[cj, ci]
+                dX = scale * dX if s else dX
+                dY = scale * dY if s else dY
+            dxs[j, i] = dX
+            dys[j, i] = dY
+
+
+@numba.njit(cache=True)
+def _sample_all(fp, code, fixed_src, dxs, dys, out, los, his, want_range):
+    """out = bilinear sample of padded ``fp`` at face + displacement; fixed faces copy
+    ``fixed_src``; ``los``/``his`` get the extrema of the 4 values (when ``want_range``)."""
+    nyf, nxf = out.shape
+    for j in range(nyf):
+        for i in range(nxf):
+            # index in the padded field: position - offset + 1 ghost layer
+            fi = min(max(i + dxs[j, i] + 1.0, 0.0), nxf + 1.0)
+            fj = min(max(j + dys[j, i] + 1.0, 0.0), nyf + 1.0)
+            i0 = min(int(fi), nxf)
+            j0 = min(int(fj), nyf)
+            a = fi - i0
+            b = fj - j0
+            f00 = fp[j0, i0]
+            f01 = fp[j0, i0 + 1]
+            f10 = fp[j0 + 1, i0]
+            f11 = fp[j0 + 1, i0 + 1]
+            val = (1.0 - b) * ((1.0 - a) * f00 + a * f01) + b * ((1.0 - a) * f10 + a * f11)
+            fixed = code[j, i] == 0
+            out[j, i] = fixed_src[j, i] if fixed else val
+            if want_range:
+                los[j, i] = min(min(f00, f01), min(f10, f11))
+                his[j, i] = max(max(f00, f01), max(f10, f11))
+
+
+@numba.njit(cache=True)
+def _maccormack_correct(f, fhat, fback, los, his, code, out):
     nyf, nxf = f.shape
-    out = f.copy()
-    if maccormack:
-        dxs = np.zeros(f.shape)
-        dys = np.zeros(f.shape)
-        los = np.empty(f.shape)
-        his = np.empty(f.shape)
     for j in range(nyf):
         for i in range(nxf):
-            if code[j, i] == FACE_FIXED:
-                continue
-            X = i + ox
-            Y = j + oy
-            uu, vv = _face_velocity(u, v, j, i, is_u)
-            dX, dY = _safe_trace(solid, X, Y, -c * uu, -c * vv)
-            val, lo, hi = _sample(f, ox, oy, X + dX, Y + dY, sides, inflow_val)
-            out[j, i] = val
-            if maccormack:
-                dxs[j, i] = dX
-                dys[j, i] = dY
-                los[j, i] = lo
-                his[j, i] = hi
+            val = fhat[j, i] + 0.5 * (f[j, i] - fback[j, i])
+            val = min(max(val, los[j, i]), his[j, i])
+            out[j, i] = f[j, i] if code[j, i] == 0 else val
+
+
+@numba.njit(cache=True)
+def _advect_component(f, code, u, v, c, solid_p, sides, inflow_val, is_u, maccormack, ws, res):
+    """Advect face field ``f`` into ``res``; ``ws`` is a tuple of scratch arrays.
+
+    ``ws``: displacement x, y, forward value, range lo, hi, reverse value (face-shaped) and
+    the field padded with its ghost layer.
+    """
+    dxs, dys, fhat, los, his, back, fp = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6]
+    _trace(u, v, solid_p, c, is_u, dxs, dys)
+    _pad(f, sides, inflow_val, fp)
     if not maccormack:
-        return out
-    res = out.copy()
-    for j in range(nyf):
-        for i in range(nxf):
-            if code[j, i] == FACE_FIXED:
-                continue
-            X = i + ox
-            Y = j + oy
-            bX, bY = _safe_trace(solid, X, Y, -dxs[j, i], -dys[j, i])
-            back, _, _ = _sample(out, ox, oy, X + bX, Y + bY, sides, inflow_val)
-            val = out[j, i] + 0.5 * (f[j, i] - back)
-            res[j, i] = min(max(val, los[j, i]), his[j, i])
-    return res
+        _sample_all(fp, code, f, dxs, dys, res, los, his, False)
+        return
+    _sample_all(fp, code, f, dxs, dys, fhat, los, his, True)
+    _trace(u, v, solid_p, -c, is_u, dxs, dys)
+    _pad(fhat, sides, inflow_val, fp)
+    _sample_all(fp, code, f, dxs, dys, back, los, his, False)
+    _maccormack_correct(f, fhat, back, los, his, code, res)
 
 
-def make_advection(domain: FlowDomain, dt: float, scheme: str = "maccormack"):
-    """Build ``advect(u, v) -> (u_new, v_new)``: self-advection of the face velocity over ``dt``.
+class Advection:
+    """Self-advection over one time step; build it with :func:`make_advection`.
+
+    ``advection(u, v) -> (u_new, v_new)`` is pure (fresh arrays); ``advection.into(u, v,
+    out_u, out_v)`` writes into given arrays and reuses internal scratch memory, which is
+    what the time loop uses (fresh multi-megabyte arrays each step cost page faults).
+    """
+
+    def __init__(self, domain: FlowDomain, dt: float, scheme: str):
+        self.domain = domain
+        self.dt = float(dt)
+        self.scheme = scheme
+        self._c = self.dt / domain.grid.dx
+        self._solid_p = np.pad(domain.solid, 1)
+        self._sides = domain.side_codes
+        self._mac = scheme == "maccormack"
+        self._ws = {}
+
+    def _scratch(self, shape):
+        if shape not in self._ws:
+            bufs = [np.zeros(shape) for _ in range(6)]
+            bufs.append(np.zeros((shape[0] + 2, shape[1] + 2)))
+            self._ws[shape] = tuple(bufs)
+        return self._ws[shape]
+
+    def into(self, u, v, out_u, out_v):
+        """Advect ``(u, v)`` into ``out_u`` (ny, nx + 1) and ``out_v`` (ny + 1, nx)."""
+        d = self.domain
+        ux, uy = d.bc.inflow_velocity
+        args = (self._c, self._solid_p, self._sides)
+        ws_u, ws_v = self._scratch(u.shape), self._scratch(v.shape)
+        _advect_component(u, d.u_code, u, v, *args, ux, True, self._mac, ws_u, out_u)
+        _advect_component(v, d.v_code, u, v, *args, uy, False, self._mac, ws_v, out_v)
+        return out_u, out_v
+
+    def __call__(self, u, v):
+        return self.into(u, v, np.empty_like(u), np.empty_like(v))
+
+
+def make_advection(domain: FlowDomain, dt: float, scheme: str = "maccormack") -> Advection:
+    """Build the self-advection of the face velocity over ``dt``.
 
     Parameters
     ----------
@@ -151,24 +186,13 @@ def make_advection(domain: FlowDomain, dt: float, scheme: str = "maccormack"):
 
     Returns
     -------
-    callable
-        Pure function of the face fields ``u`` (ny, nx + 1) and ``v`` (ny + 1, nx), m/s.
+    Advection
+        ``advect(u, v) -> (u_new, v_new)`` on the face fields ``u`` (ny, nx + 1) and
+        ``v`` (ny + 1, nx), m/s.
     """
     if scheme not in SCHEMES:
         raise ValueError(
             f"The 'scheme' parameter of make_advection must be one of {SCHEMES}. "
             f"Got {scheme!r} instead."
         )
-    c = float(dt) / domain.grid.dx
-    solid = np.ascontiguousarray(domain.solid)
-    sides = domain.side_codes
-    ux, uy = domain.bc.inflow_velocity
-    u_code, v_code = domain.u_code, domain.v_code
-    mac = scheme == "maccormack"
-
-    def advect(u, v):
-        u_new = _advect_component(u, u_code, u, v, c, solid, sides, ux, True, mac)
-        v_new = _advect_component(v, v_code, u, v, c, solid, sides, uy, False, mac)
-        return u_new, v_new
-
-    return advect
+    return Advection(domain, dt, scheme)

@@ -54,8 +54,8 @@ def divergence(domain: FlowDomain, u: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _rhs(u, v, idx, n):
-    b = np.zeros(n)
+def _rhs(u, v, idx, b):
+    """``b = -div(u)`` (raw face differences) on the unknowns numbered by ``idx``."""
     ny, nx = idx.shape
     for j in range(ny):
         for i in range(nx):
@@ -66,11 +66,9 @@ def _rhs(u, v, idx, n):
 
 
 @numba.njit(cache=True)
-def _subtract_gradient(u, v, q, idx, u_code, v_code):
-    """Return ``u - grad q``, ``v - grad q`` on the open faces; ``q`` is indexed by ``idx``."""
+def _subtract_gradient(q, idx, u_code, v_code, u, v):
+    """In place: ``u -= grad q``, ``v -= grad q`` on the open faces; ``q`` indexed by ``idx``."""
     ny, nx = idx.shape
-    u = u.copy()
-    v = v.copy()
     for j in range(ny):
         for i in range(nx + 1):
             c = u_code[j, i]
@@ -91,7 +89,6 @@ def _subtract_gradient(u, v, q, idx, u_code, v_code):
                     v[j, i] -= 2.0 * q[idx[0, i]]
                 else:
                     v[j, i] += 2.0 * q[idx[ny - 1, i]]
-    return u, v
 
 
 def _nested_dissection(ny: int, nx: int, leaf: int = 16) -> np.ndarray:
@@ -227,23 +224,56 @@ def factorize(domain: FlowDomain, ordering: str = "nested_dissection"):
     return _FACTOR_CACHE[key]
 
 
-def make_exact_projection(domain: FlowDomain, ordering: str = "nested_dissection"):
-    """Build ``project(u, v) -> (u, v)`` solving the masked Poisson problem exactly.
+class Projection:
+    """A built projection: ``project(u, v) -> (u, v)`` (pure) and ``project.into(u, v,
+    out_u, out_v)`` (outputs may be the inputs). Build with :func:`make_exact_projection`
+    or :func:`make_jacobi_projection`."""
+
+    def __init__(self, domain: FlowDomain, solve_q, idx: np.ndarray):
+        self.domain = domain
+        self._solve_q = solve_q
+        self._idx = idx
+
+    def solve(self, u, v) -> np.ndarray:
+        """The potential ``q`` (indexed by the cell numbering) that removes div of (u, v)."""
+        return self._solve_q(u, v)
+
+    def into(self, u, v, out_u, out_v):
+        q = self._solve_q(u, v)
+        d = self.domain
+        if out_u is not u:
+            np.copyto(out_u, u)
+        if out_v is not v:
+            np.copyto(out_v, v)
+        _subtract_gradient(q, self._idx, d.u_code, d.v_code, out_u, out_v)
+        return out_u, out_v
+
+    def __call__(self, u, v):
+        return self.into(u, v, np.empty_like(u), np.empty_like(v))
+
+
+def make_exact_projection(domain: FlowDomain, ordering: str = "nested_dissection") -> Projection:
+    """Build the projection solving the masked Poisson problem exactly (sparse direct).
 
     The factorisation happens here, once (and is shared by every projection built for the
     same mask, grid and boundary kinds).
+
+    Parameters
+    ----------
+    domain : FlowDomain
+    ordering : {"nested_dissection", "MMD_AT_PLUS_A", "COLAMD"}
+        Fill-reducing ordering of the unknowns (nested dissection is refined by SuperLU's
+        MMD on A + A^T).
     """
     lu, idx, pinned = factorize(domain, ordering)
-    n = lu.shape[0]
-    u_code, v_code = domain.u_code, domain.v_code
+    b = np.zeros(lu.shape[0])
 
-    def project(u, v):
-        b = _rhs(u, v, idx, n)
+    def solve_q(u, v):
+        _rhs(u, v, idx, b)
         b[pinned] = 0.0
-        q = lu.solve(b)
-        return _subtract_gradient(u, v, q, idx, u_code, v_code)
+        return lu.solve(b)
 
-    return project
+    return Projection(domain, solve_q, idx)
 
 
 @numba.njit(cache=True)
@@ -271,8 +301,8 @@ def _jacobi(b_grid, diag, wE, wW, wN, wS, iterations):
     return q
 
 
-def make_jacobi_projection(domain: FlowDomain, iterations: int = 300):
-    """Build ``project(u, v) -> (u, v)`` with ``iterations`` Jacobi sweeps from ``q = 0``.
+def make_jacobi_projection(domain: FlowDomain, iterations: int = 300) -> Projection:
+    """Build the projection with ``iterations`` Jacobi sweeps from ``q = 0``.
 
     This is the thesis's fixed-cost scheme: the residual divergence is not driven to zero.
     """
@@ -292,10 +322,9 @@ def make_jacobi_projection(domain: FlowDomain, iterations: int = 300):
     wN = np.ascontiguousarray(vc[1:, :] == FACE_INTERIOR)
     wS = np.ascontiguousarray(vc[:-1, :] == FACE_INTERIOR)
 
-    def project(u, v):
+    def solve_q(u, v):
         b = -_divergence_raw(u, v)
         b[domain.solid] = 0.0
-        q = _jacobi(b, diag, wE, wW, wN, wS, iterations)
-        return _subtract_gradient(u, v, q.ravel(), idx, uc, vc)
+        return _jacobi(b, diag, wE, wW, wN, wS, iterations).ravel()
 
-    return project
+    return Projection(domain, solve_q, idx)

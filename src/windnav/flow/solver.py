@@ -39,17 +39,35 @@ class FlowDivergedError(RuntimeError):
     """The solution became non-finite or far faster than the inlet (a numerical blow-up)."""
 
 
-@dataclass(frozen=True)
 class FlowStep:
-    """A built step: ``step(u, v) -> (u, v)`` plus the pieces it was made of."""
+    """A built time step: ``step(u, v) -> (u, v)``, pure.
 
-    domain: FlowDomain
-    dt: float
-    advect: object
-    project: object
+    ``step.advance(u, v, out_u, out_v)`` does the same into given arrays with reused
+    scratch memory (what :func:`simulate` runs). ``advect`` and ``project`` are the injected
+    parts.
+    """
+
+    def __init__(self, domain: FlowDomain, dt: float, advect, project):
+        self.domain = domain
+        self.dt = dt
+        self.advect = advect
+        self.project = project
+        self._mid = None
 
     def __call__(self, u, v):
         return self.project(*self.advect(u, v))
+
+    def advance(self, u, v, out_u, out_v):
+        """One step from ``(u, v)`` into ``out_u``, ``out_v`` (must not alias the inputs)."""
+        if hasattr(self.advect, "into") and hasattr(self.project, "into"):
+            if self._mid is None or self._mid[0].shape != u.shape:
+                self._mid = (np.empty_like(u), np.empty_like(v))
+            mu, mv = self.advect.into(u, v, *self._mid)
+            return self.project.into(mu, mv, out_u, out_v)
+        nu, nv = self(u, v)
+        np.copyto(out_u, nu)
+        np.copyto(out_v, nv)
+        return out_u, out_v
 
 
 def make_flow_step(domain: FlowDomain, dt: float, advect=None, pressure_solve=None) -> FlowStep:
@@ -292,8 +310,10 @@ def simulate(
 
         iterator = tqdm(iterator, desc="flow", unit="step")
     solid = domain.solid
+    u_next, v_next = np.empty_like(u), np.empty_like(v)
     for n in iterator:
-        u, v = step(u, v)
+        step.advance(u, v, u_next, v_next)
+        u, v, u_next, v_next = u_next, v_next, u, v
         check_finite(u, v, limit, n)
         k = n - spinup_steps
         if k <= 0:

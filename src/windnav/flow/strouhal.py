@@ -140,8 +140,10 @@ def square_cylinder_strouhal(case: SquareCylinderCase = SquareCylinderCase(), pr
         from tqdm import tqdm
 
         iterator = tqdm(iterator, desc=f"St D/dx={n}", unit="step")
+    u_next, v_next = np.empty_like(u), np.empty_like(v)
     for k in iterator:
-        u, v = step(u, v)
+        step.advance(u, v, u_next, v_next)
+        u, v, u_next, v_next = u_next, v_next, u, v
         check_finite(u, v, limit, k + 1)
         if k >= n_spin:
             probe[k - n_spin] = 0.5 * (v[jp, ip - 1] + v[jp, ip])
