@@ -221,6 +221,16 @@ def test_interrupted_sweep_resumes_without_recomputing_and_without_corrupt_chunk
     again = FakeSolver(str(tmp_path / "log3"))
     _, results = sweep(MAPS, out, simulate=again, **kw)
     assert again.calls() == 0 and results == []
+    # damage to a finished chunk after the fact is found by verify and recomputed
+    chunk = Path(out, "maps", "1", "wind", "c", "2", "0", "0", "0")
+    raw = bytearray(chunk.read_bytes())
+    raw[len(raw) // 2] ^= 0xFF
+    chunk.write_bytes(bytes(raw))
+    assert SweepStore(out).pending() == [] and SweepStore(out).pending(verify=True) == [(1, 2)]
+    _, results = sweep(MAPS, out, simulate=again, verify=True, **kw)
+    assert again.calls() == 1 and [(r.task.map_index, r.task.case_index) for r in results] == [
+        (1, 2)]
+    check_store_matches(SweepStore(out))
 
 
 def test_failed_simulations_are_reported_and_retried_on_rerun(tmp_path):

@@ -13,7 +13,8 @@ Backends
     :class:`concurrent.futures.ProcessPoolExecutor` on this machine. Workers are started with the
     ``spawn`` method: forking a process that already runs threads (the zarr event loop, numba,
     tqdm's monitor) can deadlock the child. ``fn`` and the tasks must therefore be picklable
-    (a module-level function and plain data).
+    (a module-level function and plain data), and a script that uses this backend needs the
+    usual ``if __name__ == "__main__":`` guard (each worker imports the main module).
 ``"ray"``
     A Ray cluster (optional extra ``windnav[ray]``); ``ray`` is imported only when asked for. If
     Ray is not yet initialised, ``ray.init()`` starts a local instance (or joins the cluster named
