@@ -64,7 +64,7 @@ def rotorpy_single() -> float:
     return time.perf_counter() - t0
 
 
-def windnav_batch(B: int, steps: int) -> float:
+def windnav_batch(B: int, steps: int, substeps: int | None = None) -> float:
     p = wn.vehicle.params("hummingbird")
     rng = np.random.default_rng(0)
     model = wn.vehicle.Multirotor(p)
@@ -72,7 +72,7 @@ def windnav_batch(B: int, steps: int) -> float:
     t0 = time.perf_counter()
     wn.sim.fly(p, wn.sim.Hover((0.0, 0.0, 0.0)), ConstantWind((2.0, 1.0, 0.0)), steps * DT,
                dt=DT, batch=B, initial_state=s0, sensors=SensorSuite(None, None, None),
-               log_every=10)
+               log_every=10, substeps=substeps)
     return time.perf_counter() - t0
 
 
@@ -135,20 +135,24 @@ def main():
     print(rows[-1])
 
     B = args.batch
-    tb = median(lambda: windnav_batch(B, args.batch_steps), args.repeats)
-    ours_rate = B * args.batch_steps / tb
+    rates = {}
+    for sub in (None, 1):
+        tb = median(lambda sub=sub: windnav_batch(B, args.batch_steps, sub), args.repeats)
+        rates[sub] = (B * args.batch_steps / tb, tb / args.batch_steps)
     try:
         tr = median(lambda: rotorpy_batch(B, args.rotorpy_batch_steps), max(1, args.repeats // 2))
         ref_rate = B * args.rotorpy_batch_steps / tr
         ref_cell = f"{ref_rate:,.0f} vehicle-steps/s ({tr / args.rotorpy_batch_steps * 1e3:.1f} " \
                    "ms/step, torch CPU, 1 thread, rk4)"
-        ratio = f"{ours_rate / ref_rate:.1f}x"
     except ImportError as exc:  # torch, torchdiffeq or roma missing: `make bench-venv`
-        ref_cell, ratio = f"not run ({exc.name} missing)", "n/a"
-    rows.append(f"| B = {B} hovering vehicles + SE(3) controller, 100 Hz, one core "
-                f"| {ours_rate:,.0f} vehicle-steps/s ({tb / args.batch_steps * 1e3:.2f} ms/step) "
-                f"| {ref_cell} | {ratio} |")
-    print(rows[-1])
+        ref_cell, ref_rate = f"not run ({exc.name} missing)", None
+    labels = {None: "default 2 RK4 sub-steps", 1: "1 RK4 step per 10 ms, as RotorPy's rk4"}
+    for sub, (rate, per_step) in rates.items():
+        ratio = f"{rate / ref_rate:.1f}x" if ref_rate else "n/a"
+        rows.append(f"| B = {B} hovering vehicles + SE(3) controller, 100 Hz, one core, "
+                    f"{labels[sub]} | {rate:,.0f} vehicle-steps/s ({per_step * 1e3:.2f} ms/step) "
+                    f"| {ref_cell} | {ratio} |")
+        print(rows[-1])
     if not args.no_record:
         from _record import append_record
 

@@ -85,6 +85,11 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
     B = x.shape[0]
     P = scalars.shape[0]
     n_rot = alloc_pinv.shape[1]
+    R = np.empty((3, 3))
+    Rd = np.empty((3, 3))
+    S = np.empty((3, 3))
+    F = np.empty(3)
+    u = np.empty(4)
     for b in range(B):
         p = b if P > 1 else 0
         m = scalars[p, 0]
@@ -100,7 +105,6 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         q1 /= n
         q2 /= n
         q3 /= n
-        R = np.empty((3, 3))
         R[0, 0] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
         R[0, 1] = 2.0 * (q0 * q1 - q2 * q3)
         R[0, 2] = 2.0 * (q0 * q2 + q1 * q3)
@@ -110,7 +114,6 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         R[2, 0] = 2.0 * (q0 * q2 - q1 * q3)
         R[2, 1] = 2.0 * (q1 * q2 + q0 * q3)
         R[2, 2] = 1.0 - 2.0 * (q0 * q0 + q1 * q1)
-        F = np.empty(3)
         for j in range(3):
             if accel_mode:
                 a = acc_d[b, j]
@@ -142,12 +145,10 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         b1x = b2y * b3z - b2z * b3y
         b1y = b2z * b3x - b2x * b3z
         b1z = b2x * b3y - b2y * b3x
-        Rd = np.empty((3, 3))
         Rd[0, 0], Rd[1, 0], Rd[2, 0] = b1x, b1y, b1z
         Rd[0, 1], Rd[1, 1], Rd[2, 1] = b2x, b2y, b2z
         Rd[0, 2], Rd[1, 2], Rd[2, 2] = b3x, b3y, b3z
         # S = 0.5 (Rd^T R - R^T Rd); only the off-diagonal entries are needed
-        S = np.zeros((3, 3))
         for i in range(3):
             for k in range(3):
                 acc = 0.0
@@ -167,7 +168,6 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         h0 = I[0, 0] * w0 + I[0, 1] * w1 + I[0, 2] * w2
         h1 = I[1, 0] * w0 + I[1, 1] * w1 + I[1, 2] * w2
         h2 = I[2, 0] * w0 + I[2, 1] * w1 + I[2, 2] * w2
-        u = np.empty(4)
         u[0] = u1
         u[1] = I[0, 0] * t0 + I[0, 1] * t1 + I[0, 2] * t2 + (w1 * h2 - w2 * h1)
         u[2] = I[1, 0] * t0 + I[1, 1] * t1 + I[1, 2] * t2 + (w2 * h0 - w0 * h2)

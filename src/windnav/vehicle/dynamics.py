@@ -105,116 +105,140 @@ def pack_params(
 
 
 # --------------------------------------------------------------------------------------------
-# Kernels. Rigid-body state y (13,): position(3), velocity(3), quaternion xyzw(4), rates(3).
+# Kernels. Vehicles are processed in blocks of BLOCK in structure-of-arrays layout (component
+# first, vehicle last) so that every inner loop runs over vehicles with unit stride and no
+# branches, which LLVM turns into SIMD code. Rigid-body state rows: position 0-2, velocity 3-5,
+# quaternion xyzw 6-9, body rates 10-12.
 
-
-@numba.njit(cache=True, inline="always")
-def _rotation(s, R):
-    """Rotation matrix (body -> world) of the normalised quaternion xyzw in ``s[6:10]``."""
-    n = np.sqrt(s[6] * s[6] + s[7] * s[7] + s[8] * s[8] + s[9] * s[9])
-    x = s[6] / n
-    y = s[7] / n
-    z = s[8] / n
-    w = s[9] / n
-    R[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    R[0, 1] = 2.0 * (x * y - z * w)
-    R[0, 2] = 2.0 * (x * z + y * w)
-    R[1, 0] = 2.0 * (x * y + z * w)
-    R[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    R[1, 2] = 2.0 * (y * z - x * w)
-    R[2, 0] = 2.0 * (x * z - y * w)
-    R[2, 1] = 2.0 * (y * z + x * w)
-    R[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+BLOCK = 64
 
 
 @numba.njit(cache=True)
-def _wrench(sc, rpos, rdir, R, y, eta, wind_com, wind_hub, F, M):
-    """Body-frame force F (3,) and moment M (3,) (aerodynamics included)."""
-    n_rot = eta.shape[0]
-    keta = sc[_KETA]
-    km = sc[_KM]
-    kd = sc[_KD]
-    kz = sc[_KZ]
-    kh = sc[_KH]
-    kflap = sc[_KFLAP]
-    for j in range(3):
-        F[j] = 0.0
-        M[j] = 0.0
-    # parasitic drag at the centre of mass
-    v0 = y[3]
-    v1 = y[4]
-    v2 = y[5]
-    o0 = y[10]
-    o1 = y[11]
-    o2 = y[12]
-    d0 = v0 - wind_com[0]
-    d1 = v1 - wind_com[1]
-    d2 = v2 - wind_com[2]
-    ax = R[0, 0] * d0 + R[1, 0] * d1 + R[2, 0] * d2
-    ay = R[0, 1] * d0 + R[1, 1] * d1 + R[2, 1] * d2
-    az = R[0, 2] * d0 + R[1, 2] * d1 + R[2, 2] * d2
-    speed = np.sqrt(ax * ax + ay * ay + az * az)
-    F[0] = -speed * sc[_CDX] * ax
-    F[1] = -speed * sc[_CDY] * ay
-    F[2] = -speed * sc[_CDZ] * az
+def _gather_params(scalars, inertia, inertia_inv, rpos, rdir, b0, n, sc, I, Iinv, rp, rd):
+    """Per-vehicle parameters of the block ``b0 : b0 + n`` in SoA layout."""
+    P = scalars.shape[0]
+    n_rot = rpos.shape[1]
+    for j in range(n):
+        p = b0 + j if P > 1 else 0
+        for k in range(N_SCALARS):
+            sc[k, j] = scalars[p, k]
+        for r in range(3):
+            for c in range(3):
+                I[3 * r + c, j] = inertia[p, r, c]
+                Iinv[3 * r + c, j] = inertia_inv[p, r, c]
+        for i in range(n_rot):
+            rd[i, j] = rdir[p, i]
+            for c in range(3):
+                rp[i, c, j] = rpos[p, i, c]
+
+
+@numba.njit(cache=True)
+def _deriv_block(sc, I, Iinv, rp, rd, y, eta, wc, wh, n, dy, R, F, M):
+    """Rigid-body derivative ``dy`` (13, n), body force F (3, n) and moment M (3, n)."""
+    n_rot = rp.shape[0]
+    for j in range(n):
+        qn = np.sqrt(y[6, j] * y[6, j] + y[7, j] * y[7, j] + y[8, j] * y[8, j] + y[9, j] * y[9, j])
+        x = y[6, j] / qn
+        yy = y[7, j] / qn
+        z = y[8, j] / qn
+        w = y[9, j] / qn
+        R[0, j] = 1.0 - 2.0 * (yy * yy + z * z)
+        R[1, j] = 2.0 * (x * yy - z * w)
+        R[2, j] = 2.0 * (x * z + yy * w)
+        R[3, j] = 2.0 * (x * yy + z * w)
+        R[4, j] = 1.0 - 2.0 * (x * x + z * z)
+        R[5, j] = 2.0 * (yy * z - x * w)
+        R[6, j] = 2.0 * (x * z - yy * w)
+        R[7, j] = 2.0 * (yy * z + x * w)
+        R[8, j] = 1.0 - 2.0 * (x * x + yy * yy)
+        # parasitic drag at the centre of mass: D = -|v_a| diag(c) v_a, v_a = R^T (v - w)
+        d0 = y[3, j] - wc[0, j]
+        d1 = y[4, j] - wc[1, j]
+        d2 = y[5, j] - wc[2, j]
+        ax = R[0, j] * d0 + R[3, j] * d1 + R[6, j] * d2
+        ay = R[1, j] * d0 + R[4, j] * d1 + R[7, j] * d2
+        az = R[2, j] * d0 + R[5, j] * d1 + R[8, j] * d2
+        speed = np.sqrt(ax * ax + ay * ay + az * az)
+        F[0, j] = -speed * sc[_CDX, j] * ax
+        F[1, j] = -speed * sc[_CDY, j] * ay
+        F[2, j] = -speed * sc[_CDZ, j] * az
+        M[0, j] = 0.0
+        M[1, j] = 0.0
+        M[2, j] = 0.0
     for i in range(n_rot):
-        e0 = v0 - wind_hub[i, 0]
-        e1 = v1 - wind_hub[i, 1]
-        e2 = v2 - wind_hub[i, 2]
-        rx = rpos[i, 0]
-        ry = rpos[i, 1]
-        rz = rpos[i, 2]
-        # hub airspeed, body frame: R^T (v - w_i) + Omega x r_i
-        vx = R[0, 0] * e0 + R[1, 0] * e1 + R[2, 0] * e2 + (o1 * rz - o2 * ry)
-        vy = R[0, 1] * e0 + R[1, 1] * e1 + R[2, 1] * e2 + (o2 * rx - o0 * rz)
-        vz = R[0, 2] * e0 + R[1, 2] * e1 + R[2, 2] * e2 + (o0 * ry - o1 * rx)
-        et = eta[i]
-        fx = -et * kd * vx
-        fy = -et * kd * vy
-        fz = keta * et * et + kh * (vx * vx + vy * vy) - et * kz * vz
-        F[0] += fx
-        F[1] += fy
-        F[2] += fz
-        M[0] += ry * fz - rz * fy - kflap * et * vy
-        M[1] += rz * fx - rx * fz + kflap * et * vx
-        M[2] += rx * fy - ry * fx + rdir[i] * km * et * et
+        for j in range(n):
+            o0 = y[10, j]
+            o1 = y[11, j]
+            o2 = y[12, j]
+            rx = rp[i, 0, j]
+            ry = rp[i, 1, j]
+            rz = rp[i, 2, j]
+            e0 = y[3, j] - wh[i, 0, j]
+            e1 = y[4, j] - wh[i, 1, j]
+            e2 = y[5, j] - wh[i, 2, j]
+            # hub airspeed, body frame: R^T (v - w_i) + Omega x r_i
+            vx = R[0, j] * e0 + R[3, j] * e1 + R[6, j] * e2 + (o1 * rz - o2 * ry)
+            vy = R[1, j] * e0 + R[4, j] * e1 + R[7, j] * e2 + (o2 * rx - o0 * rz)
+            vz = R[2, j] * e0 + R[5, j] * e1 + R[8, j] * e2 + (o0 * ry - o1 * rx)
+            et = eta[i, j]
+            kd_et = sc[_KD, j] * et
+            fx = -kd_et * vx
+            fy = -kd_et * vy
+            fz = sc[_KETA, j] * et * et + sc[_KH, j] * (vx * vx + vy * vy) - et * sc[_KZ, j] * vz
+            kf_et = sc[_KFLAP, j] * et
+            F[0, j] += fx
+            F[1, j] += fy
+            F[2, j] += fz
+            M[0, j] += ry * fz - rz * fy - kf_et * vy
+            M[1, j] += rz * fx - rx * fz + kf_et * vx
+            M[2, j] += rx * fy - ry * fx + rd[i, j] * sc[_KM, j] * et * et
+    for j in range(n):
+        m = sc[_MASS, j]
+        f0 = F[0, j]
+        f1 = F[1, j]
+        f2 = F[2, j]
+        dy[0, j] = y[3, j]
+        dy[1, j] = y[4, j]
+        dy[2, j] = y[5, j]
+        dy[3, j] = (R[0, j] * f0 + R[1, j] * f1 + R[2, j] * f2) / m
+        dy[4, j] = (R[3, j] * f0 + R[4, j] * f1 + R[5, j] * f2) / m
+        dy[5, j] = (R[6, j] * f0 + R[7, j] * f1 + R[8, j] * f2) / m - sc[_G, j]
+        q0 = y[6, j]
+        q1 = y[7, j]
+        q2 = y[8, j]
+        q3 = y[9, j]
+        w0 = y[10, j]
+        w1 = y[11, j]
+        w2 = y[12, j]
+        dy[6, j] = 0.5 * (q3 * w0 - q2 * w1 + q1 * w2)
+        dy[7, j] = 0.5 * (q2 * w0 + q3 * w1 - q0 * w2)
+        dy[8, j] = 0.5 * (-q1 * w0 + q0 * w1 + q3 * w2)
+        dy[9, j] = 0.5 * (-q0 * w0 - q1 * w1 - q2 * w2)
+        # I dOmega = M - Omega x I Omega
+        h0 = I[0, j] * w0 + I[1, j] * w1 + I[2, j] * w2
+        h1 = I[3, j] * w0 + I[4, j] * w1 + I[5, j] * w2
+        h2 = I[6, j] * w0 + I[7, j] * w1 + I[8, j] * w2
+        t0 = M[0, j] - (w1 * h2 - w2 * h1)
+        t1 = M[1, j] - (w2 * h0 - w0 * h2)
+        t2 = M[2, j] - (w0 * h1 - w1 * h0)
+        dy[10, j] = Iinv[0, j] * t0 + Iinv[1, j] * t1 + Iinv[2, j] * t2
+        dy[11, j] = Iinv[3, j] * t0 + Iinv[4, j] * t1 + Iinv[5, j] * t2
+        dy[12, j] = Iinv[6, j] * t0 + Iinv[7, j] * t1 + Iinv[8, j] * t2
 
 
 @numba.njit(cache=True)
-def _rigid_deriv(sc, I, Iinv, rpos, rdir, y, eta, wind_com, wind_hub, dy, R, F, M):
-    """dy/dt of the 13-vector rigid-body state."""
-    _rotation(y, R)
-    _wrench(sc, rpos, rdir, R, y, eta, wind_com, wind_hub, F, M)
-    m = sc[_MASS]
-    dy[0] = y[3]
-    dy[1] = y[4]
-    dy[2] = y[5]
-    dy[3] = (R[0, 0] * F[0] + R[0, 1] * F[1] + R[0, 2] * F[2]) / m
-    dy[4] = (R[1, 0] * F[0] + R[1, 1] * F[1] + R[1, 2] * F[2]) / m
-    dy[5] = (R[2, 0] * F[0] + R[2, 1] * F[1] + R[2, 2] * F[2]) / m - sc[_G]
-    q0, q1, q2, q3 = y[6], y[7], y[8], y[9]
-    w0, w1, w2 = y[10], y[11], y[12]
-    dy[6] = 0.5 * (q3 * w0 - q2 * w1 + q1 * w2)
-    dy[7] = 0.5 * (q2 * w0 + q3 * w1 - q0 * w2)
-    dy[8] = 0.5 * (-q1 * w0 + q0 * w1 + q3 * w2)
-    dy[9] = 0.5 * (-q0 * w0 - q1 * w1 - q2 * w2)
-    # I dOmega = M - Omega x I Omega
-    h0 = I[0, 0] * w0 + I[0, 1] * w1 + I[0, 2] * w2
-    h1 = I[1, 0] * w0 + I[1, 1] * w1 + I[1, 2] * w2
-    h2 = I[2, 0] * w0 + I[2, 1] * w1 + I[2, 2] * w2
-    t0 = M[0] - (w1 * h2 - w2 * h1)
-    t1 = M[1] - (w2 * h0 - w0 * h2)
-    t2 = M[2] - (w0 * h1 - w1 * h0)
-    dy[10] = Iinv[0, 0] * t0 + Iinv[0, 1] * t1 + Iinv[0, 2] * t2
-    dy[11] = Iinv[1, 0] * t0 + Iinv[1, 1] * t1 + Iinv[1, 2] * t2
-    dy[12] = Iinv[2, 0] * t0 + Iinv[2, 1] * t1 + Iinv[2, 2] * t2
-
-
-@numba.njit(cache=True, inline="always")
-def _motor(eta0, cmd, decay, out):
-    """Exact first-order response: ``cmd + (eta0 - cmd) * decay`` with decay = exp(-t/tau)."""
-    for i in range(eta0.shape[0]):
-        out[i] = cmd[i] + (eta0[i] - cmd[i]) * decay
+def _load_block(x, wind_com, wind_hub, b0, n, y, eta0, wc, wh):
+    n_rot = eta0.shape[0]
+    for j in range(n):
+        b = b0 + j
+        for c in range(13):
+            y[c, j] = x[b, c]
+        for i in range(n_rot):
+            eta0[i, j] = x[b, 13 + i]
+            for c in range(3):
+                wh[i, c, j] = wind_hub[b, i, c]
+        for c in range(3):
+            wc[c, j] = wind_com[b, c]
 
 
 @numba.njit(cache=True)
@@ -227,67 +251,82 @@ def step_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, eta_cmd, wind_com,
     """
     B = x.shape[0]
     n_rot = rpos.shape[1]
-    P = scalars.shape[0]
     h = dt / substeps
-    y = np.empty(13)
-    yt = np.empty(13)
-    k1 = np.empty(13)
-    k2 = np.empty(13)
-    k3 = np.empty(13)
-    k4 = np.empty(13)
-    R = np.empty((3, 3))
-    F = np.empty(3)
-    M = np.empty(3)
-    cmd = np.empty(n_rot)
-    eta0 = np.empty(n_rot)
-    eta_a = np.empty(n_rot)
-    eta_b = np.empty(n_rot)
-    eta_c = np.empty(n_rot)
-    for b in range(B):
-        p = b if P > 1 else 0
-        sc = scalars[p]
-        I = inertia[p]
-        Iinv = inertia_inv[p]
-        rp = rpos[p]
-        rd = rdir[p]
-        tau = sc[_TAU]
+    nb = min(B, BLOCK)
+    sc = np.empty((N_SCALARS, nb))
+    I = np.empty((9, nb))
+    Iinv = np.empty((9, nb))
+    rp = np.empty((n_rot, 3, nb))
+    rd = np.empty((n_rot, nb))
+    y = np.empty((13, nb))
+    yt = np.empty((13, nb))
+    k1 = np.empty((13, nb))
+    k2 = np.empty((13, nb))
+    k3 = np.empty((13, nb))
+    k4 = np.empty((13, nb))
+    R = np.empty((9, nb))
+    F = np.empty((3, nb))
+    M = np.empty((3, nb))
+    wc = np.empty((3, nb))
+    wh = np.empty((n_rot, 3, nb))
+    cmd = np.empty((n_rot, nb))
+    eta0 = np.empty((n_rot, nb))
+    eta_a = np.empty((n_rot, nb))
+    eta_b = np.empty((n_rot, nb))
+    eta_c = np.empty((n_rot, nb))
+    half = np.empty(nb)
+    decay = np.empty(nb)
+    for b0 in range(0, B, nb):
+        n = min(nb, B - b0)
+        _gather_params(scalars, inertia, inertia_inv, rpos, rdir, b0, n, sc, I, Iinv, rp, rd)
+        _load_block(x, wind_com, wind_hub, b0, n, y, eta0, wc, wh)
         for i in range(n_rot):
-            c = eta_cmd[b, i]
-            c = min(max(c, sc[_WMIN]), sc[_WMAX])
-            cmd[i] = c
-            eta0[i] = x[b, 13 + i]
-        for j in range(13):
-            y[j] = x[b, j]
-        wc = wind_com[b]
-        wh = wind_hub[b]
-        half = np.exp(-0.5 * h / tau)
-        full = half * half
-        decay = 1.0
+            for j in range(n):
+                cmd[i, j] = min(max(eta_cmd[b0 + j, i], sc[_WMIN, j]), sc[_WMAX, j])
+        for j in range(n):
+            half[j] = np.exp(-0.5 * h / sc[_TAU, j])
+            decay[j] = 1.0
         for _ in range(substeps):
-            _motor(eta0, cmd, decay, eta_a)
-            _motor(eta0, cmd, decay * half, eta_b)
-            decay *= full
-            _motor(eta0, cmd, decay, eta_c)
-            _rigid_deriv(sc, I, Iinv, rp, rd, y, eta_a, wc, wh, k1, R, F, M)
-            for j in range(13):
-                yt[j] = y[j] + 0.5 * h * k1[j]
-            _rigid_deriv(sc, I, Iinv, rp, rd, yt, eta_b, wc, wh, k2, R, F, M)
-            for j in range(13):
-                yt[j] = y[j] + 0.5 * h * k2[j]
-            _rigid_deriv(sc, I, Iinv, rp, rd, yt, eta_b, wc, wh, k3, R, F, M)
-            for j in range(13):
-                yt[j] = y[j] + h * k3[j]
-            _rigid_deriv(sc, I, Iinv, rp, rd, yt, eta_c, wc, wh, k4, R, F, M)
-            for j in range(13):
-                y[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-            qn = np.sqrt(y[6] * y[6] + y[7] * y[7] + y[8] * y[8] + y[9] * y[9])
-            for j in range(6, 10):
-                y[j] /= qn
-        _motor(eta0, cmd, np.exp(-dt / tau), eta_c)
-        for j in range(13):
-            out[b, j] = y[j]
-        for i in range(n_rot):
-            out[b, 13 + i] = eta_c[i]
+            # exact motor speeds at the start, middle and end of the sub-step
+            for i in range(n_rot):
+                for j in range(n):
+                    c = cmd[i, j]
+                    e = eta0[i, j] - c
+                    eta_a[i, j] = c + e * decay[j]
+                    eta_b[i, j] = c + e * decay[j] * half[j]
+                    eta_c[i, j] = c + e * decay[j] * half[j] * half[j]
+            for j in range(n):
+                decay[j] *= half[j] * half[j]
+            _deriv_block(sc, I, Iinv, rp, rd, y, eta_a, wc, wh, n, k1, R, F, M)
+            for c in range(13):
+                for j in range(n):
+                    yt[c, j] = y[c, j] + 0.5 * h * k1[c, j]
+            _deriv_block(sc, I, Iinv, rp, rd, yt, eta_b, wc, wh, n, k2, R, F, M)
+            for c in range(13):
+                for j in range(n):
+                    yt[c, j] = y[c, j] + 0.5 * h * k2[c, j]
+            _deriv_block(sc, I, Iinv, rp, rd, yt, eta_b, wc, wh, n, k3, R, F, M)
+            for c in range(13):
+                for j in range(n):
+                    yt[c, j] = y[c, j] + h * k3[c, j]
+            _deriv_block(sc, I, Iinv, rp, rd, yt, eta_c, wc, wh, n, k4, R, F, M)
+            for c in range(13):
+                for j in range(n):
+                    y[c, j] += h / 6.0 * (k1[c, j] + 2.0 * k2[c, j] + 2.0 * k3[c, j] + k4[c, j])
+            for j in range(n):
+                qn = np.sqrt(y[6, j] * y[6, j] + y[7, j] * y[7, j] + y[8, j] * y[8, j]
+                             + y[9, j] * y[9, j])
+                y[6, j] /= qn
+                y[7, j] /= qn
+                y[8, j] /= qn
+                y[9, j] /= qn
+        for j in range(n):
+            b = b0 + j
+            for c in range(13):
+                out[b, c] = y[c, j]
+            full = np.exp(-dt / sc[_TAU, j])
+            for i in range(n_rot):
+                out[b, 13 + i] = cmd[i, j] + (eta0[i, j] - cmd[i, j]) * full
 
 
 @numba.njit(cache=True)
@@ -295,10 +334,29 @@ def derivative_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, wind_com, wi
                       out_dy, out_force, out_moment):
     """Rigid-body derivative (B, 13), body force (B, 3) and moment (B, 3) at states ``x``."""
     B = x.shape[0]
-    P = scalars.shape[0]
-    R = np.empty((3, 3))
-    for b in range(B):
-        p = b if P > 1 else 0
-        _rigid_deriv(scalars[p], inertia[p], inertia_inv[p], rpos[p], rdir[p], x[b],
-                     x[b, 13:], wind_com[b], wind_hub[b], out_dy[b], R, out_force[b],
-                     out_moment[b])
+    n_rot = rpos.shape[1]
+    nb = min(B, BLOCK)
+    sc = np.empty((N_SCALARS, nb))
+    I = np.empty((9, nb))
+    Iinv = np.empty((9, nb))
+    rp = np.empty((n_rot, 3, nb))
+    rd = np.empty((n_rot, nb))
+    y = np.empty((13, nb))
+    dy = np.empty((13, nb))
+    R = np.empty((9, nb))
+    F = np.empty((3, nb))
+    M = np.empty((3, nb))
+    wc = np.empty((3, nb))
+    wh = np.empty((n_rot, 3, nb))
+    eta = np.empty((n_rot, nb))
+    for b0 in range(0, B, nb):
+        n = min(nb, B - b0)
+        _gather_params(scalars, inertia, inertia_inv, rpos, rdir, b0, n, sc, I, Iinv, rp, rd)
+        _load_block(x, wind_com, wind_hub, b0, n, y, eta, wc, wh)
+        _deriv_block(sc, I, Iinv, rp, rd, y, eta, wc, wh, n, dy, R, F, M)
+        for j in range(n):
+            for c in range(13):
+                out_dy[b0 + j, c] = dy[c, j]
+            for c in range(3):
+                out_force[b0 + j, c] = F[c, j]
+                out_moment[b0 + j, c] = M[c, j]
