@@ -3,6 +3,7 @@
 import dataclasses
 
 import numpy as np
+import pytest
 
 import windnav as wn
 from windnav.sim.sweeps import power_sweep, simulated_power_curve
@@ -53,3 +54,16 @@ def test_default_hummingbird_sweep_and_fit():
     np.testing.assert_allclose(curve(sweep["speeds"]), sweep["power"], rtol=5e-3)
     # the fitted curve's minimum sits at the flat hover end of the sweep
     assert max_endurance_speed(curve) < 1.0
+
+
+def test_power_curve_command(tmp_path):
+    import json
+
+    from windnav.cli import main
+
+    assert main(["power-curve", "--vehicle", "crazyflie_brushless", "--max-speed", "6",
+                 "--points", "7", "--out", str(tmp_path)]) == 0
+    out = json.loads((tmp_path / "power_curve.json").read_text())
+    assert len(out["power_W"]) == 7
+    assert out["thesis_crazyflie"]["max_range_speed_m_s"] == pytest.approx(7.73, abs=5e-3)
+    assert (tmp_path / "power_curve.png").stat().st_size > 1000
