@@ -294,9 +294,12 @@ def calibrate(
     duration: float = 6.0,
     settle_s: float = 3.0,
     parasitic: bool = True,
+    sensors: SensorSuite | None = None,
     seed: int | np.random.Generator = 0,
 ) -> tuple[DragFit, MultirotorParams]:
     """Fly the calibration flights of ``params_true`` and fit its drag coefficients.
+
+    Arguments are those of :func:`calibration_flights` and :func:`fit_drag`.
 
     Returns
     -------
@@ -305,6 +308,7 @@ def calibrate(
         ``params_true`` with the drag coefficients replaced by the fitted ones: what the
         Wind UKF believes (mass, thrust and lift coefficients known).
     """
-    log = calibration_flights(params_true, speeds, duration=duration, seed=seed)
+    log = calibration_flights(params_true, speeds, duration=duration, sensors=sensors,
+                              seed=seed)
     fit = fit_drag(log, params_true, settle_s=settle_s, parasitic=parasitic)
     return fit, fit.apply(params_true)
