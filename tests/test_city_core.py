@@ -1,6 +1,6 @@
 """City maps: RotorPy world JSON round trip, validation, rasterisation and grids.
 
-Real maps used (see /work/shared/data/README.md):
+Real maps used (copied into tests/data/, see its README.md):
 - ``rotorpy/2d_vortex_shedding.json``: spencerfolk/rotorpy @ 9b760b89,
   ``rotorpy/worlds/2d_vortex_shedding.json`` (MIT) -- a bluff body of 5 touching blocks.
 - ``windinet/example_layout.json``: Weihao-Li-2001/windinet @ 2de913ee,
@@ -17,9 +17,9 @@ import pytest
 
 from windnav.city import City, dense_map, planning_map
 
-DATA = Path("/work/shared/data")
-VORTEX = DATA / "rotorpy" / "2d_vortex_shedding.json"
-LAYOUT = DATA / "windinet" / "example_layout.json"
+DATA = Path(__file__).parent / "data"
+VORTEX = DATA / "2d_vortex_shedding.json"
+LAYOUT = DATA / "example_layout.json"
 REAL_MAPS = [VORTEX, LAYOUT]
 
 
