@@ -1,0 +1,77 @@
+"""Plots of the Wind UKF: estimate against truth along a flight, Monte Carlo RMSE scatter."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["plot_montecarlo", "plot_wind_track"]
+
+
+def _save(fig, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_wind_track(track, path, *, settle_s: float = 2.0) -> Path:
+    """Estimated (with a 2-sigma band) and true wind per world axis against time.
+
+    Parameters
+    ----------
+    track : WindTrack
+        From :func:`windnav.estimate.flight.run_wind_ukf`.
+    path : str or Path
+        PNG file to write.
+    settle_s : float
+        Settling time excluded from the RMSE in the title, s.
+    """
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
+    t = track.t
+    for j, (ax, lab) in enumerate(zip(axes, "xyz", strict=True)):
+        sd = np.sqrt(track.wind_cov[:, j, j])
+        ax.fill_between(t, track.wind_est[:, j] - 2 * sd, track.wind_est[:, j] + 2 * sd,
+                        alpha=0.25, lw=0, label="estimate ± 2σ")
+        ax.plot(t, track.wind_true[:, j], "k", lw=1, label="true")
+        ax.plot(t, track.wind_est[:, j], lw=1, label="estimate")
+        ax.set_ylabel(f"wind {lab} (m/s)")
+    axes[0].legend(ncol=3, fontsize=8)
+    axes[-1].set_xlabel("time (s)")
+    axes[0].set_title(f"Wind UKF: 3D RMSE after {settle_s:g} s = "
+                      f"{track.rmse_after(settle_s):.3f} m/s")
+    return _save(fig, Path(path))
+
+
+def plot_montecarlo(result: dict, path) -> Path:
+    """RMSE of each trial against the mass-to-drag ratio ``tau_drag`` (log axis).
+
+    Parameters
+    ----------
+    result : dict
+        From :func:`windnav.experiments.ukf_montecarlo.run_montecarlo`.
+    path : str or Path
+        PNG file to write.
+    """
+    ok = [t for t in result["trials"] if "error" not in t and np.isfinite(t["rmse"])]
+    tau = np.array([t["tau_drag"] for t in ok])
+    rmse = np.array([t["rmse"] for t in ok])
+    mass = np.array([t["params"]["mass"] for t in ok])
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    sc = ax.scatter(np.clip(tau, 1e-3, 1e4), rmse, c=mass, cmap="viridis", s=25)
+    fig.colorbar(sc, ax=ax, label="mass (kg)")
+    s = result["summary"]
+    if s.get("n"):
+        ax.axhline(s["median"], color="k", ls="--", lw=1, label=f"median {s['median']:.3f} m/s")
+        ax.legend()
+    ax.set_xscale("log")
+    ax.set_xlabel(r"mass-to-drag ratio $\tau_d = m / (k_d N \eta_{hover})$ (s)")
+    ax.set_ylabel("3D wind RMSE (m/s)")
+    ax.set_title(f"Wind UKF Monte Carlo: {len(ok)} trials, {result.get('failed', 0)} failed")
+    return _save(fig, Path(path))
