@@ -1,0 +1,126 @@
+"""Drag calibration: least squares on the force model, recovery from simulated steady flights."""
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import windnav as wn
+from windnav.cli import main
+from windnav.estimate.calibrate import DragFit, calibrate, calibration_flights, fit_drag
+
+P_HB = wn.vehicle.params("hummingbird")
+SHORT = {"x": (-4.0, -2.0, 2.0, 4.0), "y": (-4.0, 2.0, 4.0), "z": (-1.5, -0.5, 1.0, 2.0)}
+
+
+def synthetic_log(p, rng, K=200, B=12):
+    """A log whose accelerometer obeys the force model exactly (no noise)."""
+    t = np.arange(K) * 0.01
+    eta = p.hover_rotor_speed * rng.uniform(0.8, 1.2, (K, B, p.n_rotors))
+    v_world = rng.normal(0.0, 3.0, (K, B, 3))
+    q = Rotation.from_euler("ZYX", rng.uniform([-3, -0.5, -0.5], [3, 0.5, 0.5],
+                                               (K * B, 3))).as_quat()
+    R = Rotation.from_quat(q).as_matrix()
+    # eta(t_k) is measured by the command at t_{k-1}: the force at t_k uses eta[k - 1]
+    eta_used = np.concatenate([eta[:1], eta[:-1]]).reshape(-1, p.n_rotors)
+    va = np.einsum("bji,bj->bi", R, v_world.reshape(-1, 3))
+    s, s2 = eta_used.sum(1), (eta_used**2).sum(1)
+    sp = np.linalg.norm(va, axis=1)
+    f = np.empty_like(va)
+    f[:, 0] = -p.k_d * s * va[:, 0] - p.c_dx * sp * va[:, 0]
+    f[:, 1] = -p.k_d * s * va[:, 1] - p.c_dy * sp * va[:, 1]
+    f[:, 2] = (p.k_eta * s2 + p.n_rotors * p.k_h * (va[:, 0] ** 2 + va[:, 1] ** 2)
+               - p.k_z * s * va[:, 2] - p.c_dz * sp * va[:, 2])
+    f /= p.mass
+    sensors = {"imu": {"t": t, "accel": f.reshape(K, B, 3)},
+               "odometry": {"t": t, "velocity": v_world, "attitude": q.reshape(K, B, 4)},
+               "rotor_speeds": {"t": t, "cmd": eta}}
+    return SimpleNamespace(t=t, sensors=sensors, wind=np.zeros((K, B, 3)),
+                           saturated=np.zeros((K, B, p.n_rotors), bool))
+
+
+def test_least_squares_is_exact_on_noise_free_model_data():
+    p = P_HB.replace(k_d=4e-4, k_z=9e-4, c_dx=6e-4, c_dy=2e-4, c_dz=1.2e-2)
+    fit = fit_drag(synthetic_log(p, np.random.default_rng(0)), p, settle_s=0.0)
+    for k, v in fit.coefficients.items():
+        assert v == pytest.approx(getattr(p, k), rel=1e-8), k
+    assert max(fit.residual_rms) < 1e-9
+    assert fit.r2[0] == pytest.approx(1.0) and fit.r2[1] == pytest.approx(1.0)
+
+
+def test_linear_fit_matches_the_thesis_regression_without_parasitic_drag():
+    """c_d = 0: a_x = -(k_d / m) sum(eta) v_x alone recovers k_d and k_z exactly."""
+    p = P_HB.replace(c_dx=0.0, c_dy=0.0, c_dz=0.0)
+    fit = fit_drag(synthetic_log(p, np.random.default_rng(1)), p, settle_s=0.0, parasitic=False)
+    assert fit.k_d == pytest.approx(p.k_d, rel=1e-8)
+    assert fit.k_z == pytest.approx(p.k_z, rel=1e-8)
+    assert (fit.c_dx, fit.c_dy, fit.c_dz) == (0.0, 0.0, 0.0)
+
+
+@pytest.fixture(scope="module")
+def hummingbird_fit():
+    return calibrate(P_HB, speeds=SHORT, duration=5.0, seed=0)
+
+
+def test_calibration_recovers_the_hummingbird_drag(hummingbird_fit):
+    fit, believed = hummingbird_fit
+    assert fit.rows_dropped == 0
+    assert fit.k_d == pytest.approx(P_HB.k_d, rel=0.01)
+    assert fit.k_z == pytest.approx(P_HB.k_z, rel=0.01)
+    for k in ("c_dx", "c_dy", "c_dz"):
+        assert getattr(fit, k) == pytest.approx(getattr(P_HB, k), rel=0.05), k
+    # residual at the level of the IMU's white noise (0.028 m/s^2 at 100 Hz)
+    assert max(fit.residual_rms) < 0.06
+    assert believed.k_d == fit.k_d and believed.mass == P_HB.mass
+    # standard errors are honest: the fit lies within a few of them of the truth
+    assert abs(fit.k_d - P_HB.k_d) < 5 * fit.stderr["k_d"] + 1e-3 * P_HB.k_d
+
+
+def test_ignoring_parasitic_drag_inflates_the_rotor_drag():
+    """The linear (thesis) model absorbs -|v| c v into k_d: the fit overestimates it."""
+    log = calibration_flights(P_HB, SHORT, duration=5.0, seed=1)
+    lin = fit_drag(log, P_HB, parasitic=False)
+    full = fit_drag(log, P_HB, parasitic=True)
+    assert lin.k_d > 1.03 * P_HB.k_d
+    assert abs(full.k_d - P_HB.k_d) < abs(lin.k_d - P_HB.k_d)
+    assert lin.residual_rms[0] > full.residual_rms[0]
+
+
+def test_calibration_of_a_heavy_high_drag_vehicle():
+    p = P_HB.replace(mass=0.84, k_d=9.0e-4, k_z=1.25e-3, c_dx=4e-4, c_dy=5e-4, c_dz=5.5e-4)
+    fit, _ = calibrate(p, speeds=SHORT, duration=5.0, seed=2)
+    assert fit.k_d == pytest.approx(p.k_d, rel=0.02)
+    assert fit.k_z == pytest.approx(p.k_z, rel=0.02)
+    assert all(getattr(fit, k) >= 0 for k in ("c_dx", "c_dy", "c_dz"))
+
+
+def test_bad_input_is_named():
+    log = calibration_flights(P_HB, {"x": (2.0,)}, duration=1.0)
+    with pytest.raises(ValueError, match="settle_s"):
+        fit_drag(log, P_HB, settle_s=5.0)
+    with pytest.raises(ValueError, match="params"):
+        fit_drag(log, "hummingbird")
+    with pytest.raises(ValueError, match="speeds"):
+        calibration_flights(P_HB, {"w": (1.0,)})
+    no_rotor = SimpleNamespace(**{**vars(log), "sensors": {k: v for k, v in log.sensors.items()
+                                                          if k != "rotor_speeds"}})
+    with pytest.raises(ValueError, match="rotor_speeds"):
+        fit_drag(no_rotor, P_HB, settle_s=0.5)
+
+
+def test_fit_round_trips_to_json():
+    fit = DragFit(k_d=1e-4, k_z=2e-4, stderr={"k_d": 1e-7})
+    back = json.loads(fit.to_json())
+    assert back["k_d"] == 1e-4 and back["stderr"]["k_d"] == 1e-7
+
+
+def test_calibrate_command_writes_the_fit(tmp_path, capsys):
+    assert main(["calibrate", "--vehicle", "hummingbird", "--out", str(tmp_path),
+                 "--duration", "4", "--settle", "2"]) == 0
+    rec = json.loads((tmp_path / "calibration.json").read_text())
+    assert rec["fit"]["k_d"] == pytest.approx(P_HB.k_d, rel=0.01)
+    assert abs(rec["relative_error"]["k_z"]) < 0.01
+    assert (tmp_path / "calibration_log.npz").exists()
+    assert "k_d" in capsys.readouterr().out
