@@ -1,0 +1,101 @@
+"""Wind UKF Monte Carlo: reproducible draws within the thesis ranges, records, failure isolation."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import windnav as wn
+import windnav.experiments.ukf_montecarlo as mc
+from windnav.cli import main
+
+SHORT = dict(duration=(3.0, 4.0))
+
+
+def test_draws_are_reproducible_and_inside_the_thesis_ranges():
+    cfg = mc.MonteCarloConfig(n_trials=40, seed=7)
+    a, b = mc.draw_trials(cfg), mc.draw_trials(cfg)
+    assert [t.drag for t in a] == [t.drag for t in b]
+    assert [t.seed for t in a] == [t.seed for t in b]
+    assert a[0].drag != mc.draw_trials(mc.MonteCarloConfig(n_trials=40, seed=8))[0].drag
+    for name, lo, hi in (("mass", 0.375, 0.9375), ("k_d", 0.0, 1.19e-3), ("k_z", 0.0, 2.32e-3),
+                         ("c_dx", 0.0, 1e-3), ("c_dy", 0.0, 1e-3), ("c_dz", 0.0, 2e-2)):
+        v = np.array([t.drag[name] for t in a])
+        assert np.all((v >= lo) & (v <= hi)), name
+        assert v.max() - v.min() > 0.5 * (hi - lo), name  # spread over the range
+    for t in a:
+        assert 20.0 <= t.duration <= 60.0
+        assert all(-3.0 <= w <= 3.0 for w in t.mean_wind[:2]) and t.mean_wind[2] == 0.0
+        assert 1.0 <= t.sigma[0] == t.sigma[1] <= 2.0
+        assert t.sigma[2] == pytest.approx(t.sigma[0] * mc.MIL_VERTICAL_SIGMA_RATIO)
+        p = t.params()
+        assert p.k_eta == wn.vehicle.params("hummingbird").k_eta  # the rest is Hummingbird
+
+
+def test_mil_vertical_ratio_and_mass_to_drag_ratio():
+    assert mc.MIL_VERTICAL_SIGMA_RATIO == pytest.approx(0.53, abs=0.01)
+    p = wn.vehicle.params("hummingbird")
+    tau = mc.mass_to_drag(p)
+    assert tau == pytest.approx(p.mass / (p.k_d * 4 * p.hover_rotor_speed))
+    # the in-plane drag time constant of the linearised model near hover
+    assert tau == pytest.approx(1.0 / (p.k_d * 4 * p.hover_rotor_speed / p.mass))
+    assert mc.mass_to_drag(p.replace(k_d=0.0)) == math.inf
+
+
+def test_small_study_records_and_summary():
+    cfg = mc.MonteCarloConfig(n_trials=3, seed=1, **SHORT)
+    out = mc.run_montecarlo(cfg, backend="serial", progress=False)
+    assert out["failed"] == 0 and [t["index"] for t in out["trials"]] == [0, 1, 2]
+    rmse = [t["rmse"] for t in out["trials"]]
+    assert all(0.0 < r < 1.0 for r in rmse)
+    s = out["summary"]
+    assert s["median"] == pytest.approx(np.median(rmse)) and s["q1"] <= s["median"] <= s["q3"]
+    for t in out["trials"]:
+        # 3D RMSE is the root of the summed per-axis mean squares
+        assert t["rmse"] == pytest.approx(np.sqrt(np.sum(np.square(t["rmse_axes"]))))
+        assert t["fitted"]["k_d"] == pytest.approx(t["params"]["k_d"], rel=0.05, abs=2e-6)
+    json.dumps(out)  # JSON-ready
+
+
+def test_a_failing_trial_is_recorded_and_does_not_stop_the_others(monkeypatch):
+    real = mc.calibrate
+
+    def flaky(truth, **kw):
+        if truth.mass == target:
+            raise RuntimeError("calibration rig broke")
+        return real(truth, **kw)
+
+    cfg = mc.MonteCarloConfig(n_trials=2, seed=2, **SHORT)
+    target = mc.draw_trials(cfg)[1].drag["mass"]
+    monkeypatch.setattr(mc, "calibrate", flaky)
+    out = mc.run_montecarlo(cfg, backend="serial", progress=False)
+    assert out["failed"] == 1
+    assert "calibration rig broke" in out["trials"][1]["error"]
+    assert math.isnan(out["trials"][1]["rmse"]) and np.isfinite(out["trials"][0]["rmse"])
+    assert out["summary"]["n"] == 1
+
+
+def test_config_validation_names_the_parameter():
+    with pytest.raises(ValueError, match="mass"):
+        mc.MonteCarloConfig(mass=(1.0, 0.5))
+    with pytest.raises(ValueError, match="sensor_noise"):
+        mc.MonteCarloConfig(sensor_noise="perfect")
+    with pytest.raises(ValueError, match="settle_s"):
+        mc.MonteCarloConfig(duration=(1.0, 2.0))
+
+
+def test_command_writes_json_and_plot(tmp_path, monkeypatch, capsys):
+    orig = mc.MonteCarloConfig
+
+    def short_config(**kw):
+        return orig(**{**SHORT, **kw})
+
+    monkeypatch.setattr(mc, "MonteCarloConfig", short_config)
+    js, png = tmp_path / "out.json", tmp_path / "rmse.png"
+    assert main(["ukf-montecarlo", "--trials", "2", "--seed", "0", "--json", str(js),
+                 "--plot", str(png), "--backend", "serial", "--no-progress"]) == 0
+    rec = json.loads(js.read_text())
+    assert len(rec["trials"]) == 2 and rec["summary"]["n"] == 2
+    assert rec["config"]["seed"] == 0 and png.stat().st_size > 0
+    assert "median" in capsys.readouterr().out
