@@ -7,9 +7,13 @@ Public API::
     wind_model                                         its batched process/measurement models
     observability                                      Lie-derivative rank analysis (sympy)
     wind_uncertainty, wind_uncertainty_axes, ...       a-priori wind uncertainty (appendix A)
+    run_wind_ukf, WindTrack, filter_inputs             the Wind UKF over a recorded flight
+    calibrate, fit_drag, calibration_flights, DragFit  drag calibration by least squares
 """
 
 from windnav.estimate import observability, wind_model
+from windnav.estimate.calibrate import DragFit, calibrate, calibration_flights, fit_drag
+from windnav.estimate.flight import WindTrack, filter_inputs, run_wind_ukf
 from windnav.estimate.ukf import (
     UKF,
     PredictResult,
@@ -36,6 +40,13 @@ __all__ = [
     "PredictResult",
     "SigmaWeights",
     "UpdateResult",
+    "DragFit",
+    "WindTrack",
+    "calibrate",
+    "calibration_flights",
+    "filter_inputs",
+    "fit_drag",
+    "run_wind_ukf",
     "WindEstimate",
     "WindUKF",
     "compare_vehicles",
