@@ -87,7 +87,7 @@ def test_orderings_give_the_same_projection():
     u = np.where(domain.u_code > 0, rng.standard_normal(domain.u_code.shape), domain.u_fixed)
     v = np.where(domain.v_code > 0, rng.standard_normal(domain.v_code.shape), domain.v_fixed)
     ref = make_exact_projection(domain, "COLAMD")(u, v)
-    for ordering in ("nested_dissection", "MMD_AT_PLUS_A"):
+    for ordering in ("red_black", "nested_dissection", "MMD_AT_PLUS_A"):
         got = make_exact_projection(domain, ordering)(u, v)
         np.testing.assert_allclose(got[0], ref[0], atol=1e-11)
         np.testing.assert_allclose(got[1], ref[1], atol=1e-11)
