@@ -1,4 +1,4 @@
-"""Self-advection of the staggered velocity: semi-Lagrangian and MacCormack schemes.
+"""Self-advection (semi-Lagrangian or MacCormack) and viscous diffusion of the staggered velocity.
 
 Semi-Lagrangian (Stam 1999; Staniforth & Cote 1991): a face value at ``x`` becomes the
 bilinear interpolation of the old field at the departure point ``x - dt * u(x)``.
@@ -20,6 +20,13 @@ the interpolation is branch-free. Building faces hold zero normal velocity, so s
 to a building see a no-slip-like wall. A trace whose end point falls inside a building cell
 is halved, and if still inside, dropped (the face keeps its value), so nothing is ever
 sampled from inside a solid.
+
+Viscous diffusion (optional, kinematic viscosity ``nu``): explicit Euler substeps of
+``u += nu dt_s / dx^2 (u_E + u_W + u_N + u_S - 4 u)`` on the free faces with
+``nu dt_s / dx^2 <= 0.2`` (stable, 2D limit 0.25). Ghost neighbours: a face inside a building
+mirrors (``-u``: no slip on the wall half a cell away), a fixed face gives its value (0 on a
+building's face, the inlet value on an inlet), beyond an inflow side the inlet value, beyond
+a wall or outflow side the face itself (free slip, zero gradient).
 """
 
 from __future__ import annotations
@@ -133,23 +140,55 @@ def _advect_component(f, code, u, v, c, solid_p, sides, inflow_val, is_u, maccor
     _maccormack_correct(f, fhat, back, los, his, code, res)
 
 
+@numba.njit(cache=True)
+def _diffuse_component(f, code, solid_p, sides, inflow_val, is_u, r, out):
+    """``out = f + r * (sum of the 4 neighbours - 4 f)`` on free faces; fixed faces copy f."""
+    nyf, nxf = f.shape
+    for j in range(nyf):
+        for i in range(nxf):
+            c = f[j, i]
+            if code[j, i] == 0:
+                out[j, i] = c
+                continue
+            acc = -4.0 * c
+            for k in range(4):
+                jj = j + (1 if k == 0 else -1 if k == 1 else 0)
+                ii = i + (1 if k == 2 else -1 if k == 3 else 0)
+                if jj < 0 or jj >= nyf or ii < 0 or ii >= nxf:
+                    side = 2 if jj < 0 else 3 if jj >= nyf else 0 if ii < 0 else 1
+                    acc += inflow_val if sides[side] == 0 else c
+                    continue
+                # the two cells the neighbour face separates (padded solid indices)
+                if is_u:
+                    inside = solid_p[jj + 1, ii] and solid_p[jj + 1, ii + 1]
+                else:
+                    inside = solid_p[jj, ii + 1] and solid_p[jj + 1, ii + 1]
+                acc += -c if inside else f[jj, ii]
+            out[j, i] = c + r * acc
+
+
 class Advection:
-    """Self-advection over one time step; build it with :func:`make_advection`.
+    """Self-advection (and viscous diffusion) over one time step; build it with
+    :func:`make_advection`.
 
     ``advection(u, v) -> (u_new, v_new)`` is pure (fresh arrays); ``advection.into(u, v,
     out_u, out_v)`` writes into given arrays and reuses internal scratch memory, which is
     what the time loop uses (fresh multi-megabyte arrays each step cost page faults).
     """
 
-    def __init__(self, domain: FlowDomain, dt: float, scheme: str):
+    def __init__(self, domain: FlowDomain, dt: float, scheme: str, viscosity: float = 0.0):
         self.domain = domain
         self.dt = float(dt)
         self.scheme = scheme
+        self.viscosity = float(viscosity)
         self._c = self.dt / domain.grid.dx
         self._solid_p = np.pad(domain.solid, 1)
         self._sides = domain.side_codes
         self._mac = scheme == "maccormack"
         self._ws = {}
+        r = self.viscosity * self.dt / domain.grid.dx**2
+        self._substeps = int(np.ceil(r / 0.2)) if r > 0 else 0
+        self._r = r / self._substeps if r > 0 else 0.0
 
     def _scratch(self, shape):
         if shape not in self._ws:
@@ -166,14 +205,23 @@ class Advection:
         ws_u, ws_v = self._scratch(u.shape), self._scratch(v.shape)
         _advect_component(u, d.u_code, u, v, *args, ux, True, self._mac, ws_u, out_u)
         _advect_component(v, d.v_code, u, v, *args, uy, False, self._mac, ws_v, out_v)
+        for _ in range(self._substeps):
+            # Jacobi-style: both components from the same old field (scratch 2 is free now)
+            tu, tv = ws_u[2], ws_v[2]
+            np.copyto(tu, out_u)
+            np.copyto(tv, out_v)
+            _diffuse_component(tu, d.u_code, self._solid_p, self._sides, ux, True, self._r, out_u)
+            _diffuse_component(tv, d.v_code, self._solid_p, self._sides, uy, False, self._r, out_v)
         return out_u, out_v
 
     def __call__(self, u, v):
         return self.into(u, v, np.empty_like(u), np.empty_like(v))
 
 
-def make_advection(domain: FlowDomain, dt: float, scheme: str = "maccormack") -> Advection:
-    """Build the self-advection of the face velocity over ``dt``.
+def make_advection(
+    domain: FlowDomain, dt: float, scheme: str = "maccormack", viscosity: float = 0.0
+) -> Advection:
+    """Build the self-advection of the face velocity over ``dt`` (plus viscous diffusion).
 
     Parameters
     ----------
@@ -183,6 +231,9 @@ def make_advection(domain: FlowDomain, dt: float, scheme: str = "maccormack") ->
         Time step, s.
     scheme : {"maccormack", "semi_lagrangian"}
         Advection scheme (resolved once here, not in the loop).
+    viscosity : float
+        Kinematic viscosity ``nu``, m^2/s (>= 0; 0: inviscid, the scheme's numerical
+        diffusion only). Applied after advection in explicit substeps.
 
     Returns
     -------
@@ -195,4 +246,10 @@ def make_advection(domain: FlowDomain, dt: float, scheme: str = "maccormack") ->
             f"The 'scheme' parameter of make_advection must be one of {SCHEMES}. "
             f"Got {scheme!r} instead."
         )
-    return Advection(domain, dt, scheme)
+    viscosity = float(viscosity)
+    if not np.isfinite(viscosity) or viscosity < 0:
+        raise ValueError(
+            "The 'viscosity' parameter of make_advection must be a finite number >= 0. "
+            f"Got {viscosity!r} instead."
+        )
+    return Advection(domain, dt, scheme, viscosity)

@@ -6,10 +6,12 @@ Each step solves the inviscid incompressible equations by operator splitting
     u* = advect(u, dt)                   semi-Lagrangian or MacCormack, see advection.py
     u  = u* - grad q,  div(grad q) = div(u*)                            see pressure.py
 
-There is no explicit viscosity: the advection scheme's numerical diffusion plays its part,
-and the sharp building corners fix the separation points, which is what vortex shedding
+By default there is no explicit viscosity: the advection scheme's numerical diffusion plays
+its part, and the sharp building corners fix the separation points, which is what vortex shedding
 from bluff rectangular bodies needs (St = 0.13 for a square cylinder: Okajima 1982,
-Lyn et al. 1995).
+Lyn et al. 1995). An optional kinematic viscosity adds ``nu lap(u)`` after advection
+(Navier-Stokes); it gives the flow a Reynolds number that does not change with the grid,
+which a resolution study needs (see strouhal.py).
 
 The run (:func:`simulate`) starts from the uniform inlet flow with a small transverse
 component (a deliberate symmetry break so that shedding starts), projects it, runs
@@ -70,7 +72,9 @@ class FlowStep:
         return out_u, out_v
 
 
-def make_flow_step(domain: FlowDomain, dt: float, advect=None, pressure_solve=None) -> FlowStep:
+def make_flow_step(
+    domain: FlowDomain, dt: float, advect=None, pressure_solve=None, viscosity: float = 0.0
+) -> FlowStep:
     """Factory of the pure time step ``(u, v) -> (u, v)`` (jax-cfd style).
 
     Parameters
@@ -85,10 +89,13 @@ def make_flow_step(domain: FlowDomain, dt: float, advect=None, pressure_solve=No
     pressure_solve : callable or str, optional
         ``project(u*, v*) -> (u, v)``, or ``"exact"`` (default, sparse direct, factorised
         once) or ``"jacobi"`` (300 sweeps).
+    viscosity : float
+        Kinematic viscosity, m^2/s, diffused after advection when ``advect`` is a scheme
+        name (0: inviscid Euler, the default).
     """
     dt = positive_float(dt, "dt", "make_flow_step")
     if advect is None or isinstance(advect, str):
-        advect = make_advection(domain, dt, advect or "maccormack")
+        advect = make_advection(domain, dt, advect or "maccormack", viscosity)
     if pressure_solve is None or isinstance(pressure_solve, str):
         kind = pressure_solve or "exact"
         if kind not in PRESSURE_SOLVERS:
@@ -237,6 +244,7 @@ def simulate(
     advection: str = "maccormack",
     pressure: str = "exact",
     symmetry_break: float = 0.05,
+    viscosity: float = 0.0,
     progress: bool = False,
 ) -> FlowSolution:
     """Simulate the 2D wind through ``city`` and return its time average (and frames).
@@ -263,6 +271,9 @@ def simulate(
     pressure : {"exact", "jacobi"}
     symmetry_break : float
         Transverse velocity of the initial field as a fraction of ``speed`` (starts shedding).
+    viscosity : float
+        Kinematic viscosity, m^2/s (>= 0). 0 (default): inviscid, the advection scheme's
+        numerical diffusion only.
     progress : bool
         Show a tqdm progress bar.
 
@@ -288,6 +299,11 @@ def simulate(
         raise ValueError(f"The 'steps' parameter of {where} must be >= 1. Got {steps} instead.")
     record_every = _nonneg_int(record_every, "record_every", where)
     symmetry_break = finite_float(symmetry_break, "symmetry_break", where)
+    viscosity = finite_float(viscosity, "viscosity", where)
+    if viscosity < 0:
+        raise ValueError(
+            f"The 'viscosity' parameter of {where} must be >= 0. Got {viscosity!r} instead."
+        )
     cfl = speed * dt / dx
     if cfl > MAX_CFL:
         raise ValueError(
@@ -295,7 +311,7 @@ def simulate(
             f"{MAX_CFL:g}; use dt <= {MAX_CFL * dx / speed:.4g} s. Got dt={dt!r} instead."
         )
     domain = city_domain(city, speed, direction_deg, dx)
-    step = make_flow_step(domain, dt, advection, pressure)
+    step = make_flow_step(domain, dt, advection, pressure, viscosity)
     u, v = step.project(*domain.initial_velocity(symmetry_break * speed))
     limit = BLOWUP_FACTOR * speed
     ny, nx = domain.grid.shape

@@ -84,6 +84,9 @@ class SquareCylinderCase:
         Convective times (in D / U) run before and during the measurement.
     advection : str
         Advection scheme.
+    reynolds : float or None
+        Reynolds number ``U D / nu`` of an explicit viscosity; None: inviscid (the scheme's
+        numerical diffusion sets an effective Reynolds number that grows as dx shrinks).
     """
 
     cells_per_side: int = 8
@@ -96,6 +99,7 @@ class SquareCylinderCase:
     spinup_time: float = 60.0
     record_time: float = 100.0
     advection: str = "maccormack"
+    reynolds: float | None = None
 
     def refined(self) -> SquareCylinderCase:
         """The same case with dx and dt both halved."""
@@ -126,7 +130,8 @@ def square_cylinder_strouhal(case: SquareCylinderCase = SquareCylinderCase(), pr
     j0 = (ny - n) // 2
     solid[j0 : j0 + n, i0 : i0 + n] = True
     domain = make_domain(grid, solid, BoundaryConditions.for_wind(case.speed, 0.0))
-    step = make_flow_step(domain, dt, case.advection, "exact")
+    nu = 0.0 if case.reynolds is None else case.speed * D / float(case.reynolds)
+    step = make_flow_step(domain, dt, case.advection, "exact", viscosity=nu)
     u, v = step.project(*domain.initial_velocity(0.05 * case.speed))
     # probe: the y-face on the centreline (between the two middle rows), probe_distance behind
     ip = i0 + n + int(round(case.probe_distance * n))
