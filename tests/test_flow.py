@@ -202,6 +202,15 @@ def test_strouhal_number_of_a_square_building():
     assert abs(res["strouhal_spectrum"] - res["strouhal"]) < 0.01
 
 
+def test_strouhal_number_of_a_square_building_maccormack_at_re_100():
+    # the default scheme with a physical viscosity: St ~ 0.14-0.15 at Re = 100 (Okajima 1982;
+    # Sohankar et al. 1998); the D = 8 -> 16 -> 32 halving study is in flow-validate --full
+    case = SquareCylinderCase(cells_per_side=8, advection="maccormack", reynolds=100.0)
+    res = square_cylinder_strouhal(case)
+    assert 0.13 <= res["strouhal"] <= 0.16
+    assert abs(res["strouhal_spectrum"] - res["strouhal"]) < 0.01
+
+
 def test_strouhal_number_of_a_pure_tone():
     t = np.arange(0.0, 200.0, 0.05)
     sig = np.sin(2 * np.pi * 0.13 * t + 0.3) + 0.1 * np.sin(2 * np.pi * 0.41 * t)
