@@ -2,8 +2,10 @@
 
 Run: ``.venv/bin/python benchmarks/bench_flow.py`` (pins numba/BLAS to one thread itself).
 Measures the median time of one incompressible step (advection + exact pressure projection)
-on 500^2 and 1200^2 cells with ~10 buildings, the thesis-style Jacobi-300 step and its
-residual divergence, peak memory, and PhiFlow 3.4's ``fluid.make_incompressible`` step
+on 1200^2 (first, so the process's peak memory is its own) and 500^2 cells with ~10
+buildings, the projection alone under the red-black Schur ordering (default) and the previous
+whole-matrix nested-dissection ordering, the thesis-style Jacobi-300 step and its residual
+divergence, and PhiFlow 3.4's ``fluid.make_incompressible`` step
 (numpy backend, staggered grid, obstacles) on the same grid and mask (200^2 as well, since
 PhiFlow reportedly overflows above ~215^2, PhiML issue #15). Appends to docs/benchmarks.md.
 """
@@ -31,6 +33,7 @@ from windnav.flow import (  # noqa: E402
     MACGrid,
     divergence,
     make_domain,
+    make_exact_projection,
     make_flow_step,
 )
 
@@ -64,12 +67,13 @@ def median_time(fn, repeats: int) -> float:
     return float(np.median(ts))
 
 
-def ours(n: int, repeats: int, pressure: str = "exact"):
+def ours(n: int, repeats: int, pressure: str = "exact", ordering: str = "red_black"):
     speed, dx = 5.0, 1.0
     dt = 0.5 * dx / speed
     domain = make_domain(MACGrid((n, n), dx), buildings(n), BoundaryConditions.for_wind(speed, 0))
     t0 = time.perf_counter()
-    step = make_flow_step(domain, dt, "maccormack", pressure)
+    project = make_exact_projection(domain, ordering) if pressure == "exact" else pressure
+    step = make_flow_step(domain, dt, "maccormack", project)
     build = time.perf_counter() - t0
     u, v = step.project(*domain.initial_velocity(0.05 * speed))
     un, vn = np.empty_like(u), np.empty_like(v)
@@ -78,10 +82,11 @@ def ours(n: int, repeats: int, pressure: str = "exact"):
         u, v, un, vn = un, vn, u, v
     t_step = median_time(lambda: step.advance(u, v, un, vn), repeats)
     t_adv = median_time(lambda: step.advect.into(u, v, un, vn), repeats)
-    div = float(np.abs(divergence(domain, un, vn)).max() * dx / speed)
+    pu, pv = np.empty_like(u), np.empty_like(v)
+    t_proj = median_time(lambda: step.project.into(un, vn, pu, pv), repeats)
     step.advance(u, v, un, vn)
     div = float(np.abs(divergence(domain, un, vn)).max() * dx / speed)
-    return {"build": build, "step": t_step, "advect": t_adv, "div": div}
+    return {"build": build, "step": t_step, "advect": t_adv, "project": t_proj, "div": div}
 
 
 def phiflow_step(n: int, repeats: int, tolerance: float):
@@ -112,24 +117,34 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     rows = ["| case | cells | median step (s) | notes |", "|---|---|---|---|"]
+    r1200 = ours(1200, max(3, args.repeats // 2))
+    peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    rows.append(
+        f"| windnav MacCormack + exact (red-black Schur) | 1200^2 | {r1200['step']:.4f} | "
+        f"advection {r1200['advect']:.4f} s, projection {r1200['project']:.4f} s, "
+        f"factorisation {r1200['build']:.2f} s once, peak RSS of the process {peak_mib:.0f} MiB, "
+        f"max|div| dx/U = {r1200['div']:.1e} |"
+    )
+    print(rows[-1], flush=True)
     r500 = ours(500, args.repeats)
     rows.append(
-        f"| windnav MacCormack + exact | 500^2 | {r500['step']:.4f} | advection "
-        f"{r500['advect']:.4f} s, factorisation {r500['build']:.2f} s once, "
-        f"max|div| dx/U = {r500['div']:.1e} |"
+        f"| windnav MacCormack + exact (red-black Schur) | 500^2 | {r500['step']:.4f} | "
+        f"advection {r500['advect']:.4f} s, projection {r500['project']:.4f} s, "
+        f"factorisation {r500['build']:.2f} s once, max|div| dx/U = {r500['div']:.1e} |"
+    )
+    print(rows[-1], flush=True)
+    nd500 = ours(500, args.repeats, ordering="nested_dissection")
+    rows.append(
+        f"| windnav MacCormack + exact (whole-matrix ND + MMD, previous default) | 500^2 | "
+        f"{nd500['step']:.4f} | projection {nd500['project']:.4f} s "
+        f"(red-black: {nd500['project'] / r500['project']:.2f}x faster), factorisation "
+        f"{nd500['build']:.2f} s |"
     )
     print(rows[-1], flush=True)
     j500 = ours(500, max(3, args.repeats // 3), "jacobi")
     rows.append(
         f"| windnav MacCormack + Jacobi-300 | 500^2 | {j500['step']:.4f} | residual "
         f"max|div| dx/U = {j500['div']:.1e} |"
-    )
-    print(rows[-1], flush=True)
-    r1200 = ours(1200, max(3, args.repeats // 2))
-    peak_mib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    rows.append(
-        f"| windnav MacCormack + exact | 1200^2 | {r1200['step']:.4f} | factorisation "
-        f"{r1200['build']:.2f} s once, peak RSS of the process {peak_mib:.0f} MiB |"
     )
     print(rows[-1], flush=True)
     if not args.no_phiflow:
