@@ -1,7 +1,7 @@
 """Closed-loop simulation: trajectories, the multi-rate runner and ``FlightLog``."""
 
 from windnav.sim.log import FlightLog
-from windnav.sim.runner import fly, steady_state
+from windnav.sim.runner import fly
 from windnav.sim.trajectories import (
     TRAJECTORIES,
     Circle,
@@ -22,5 +22,4 @@ __all__ = [
     "Waypoints",
     "fly",
     "make_trajectory",
-    "steady_state",
 ]

@@ -160,6 +160,8 @@ def fly(
     out = np.empty_like(x)
     ref = ref0
 
+    hub_buf = np.empty((B, N, 3))
+
     def wind_at(t, xk):
         if hub_wind:
             hub = np.asarray(wind.velocity(t, _hub_positions(model, xk)), dtype=np.float64)
@@ -172,8 +174,9 @@ def fly(
             raise ValueError(f"The 'wind' parameter of {where} returned an invalid wind at "
                              f"t = {t:.3f} s (shape {com.shape}, finite: "
                              f"{bool(np.all(np.isfinite(com)))}).")
-        if hub is None:
-            hub = np.broadcast_to(com[:, None, :], (B, N, 3))
+        if hub is None:  # one wind per vehicle: every hub sees the centre-of-mass wind
+            hub_buf[:] = com[:, None, :]
+            hub = hub_buf
         return np.ascontiguousarray(com), np.ascontiguousarray(hub)
 
     def log(i, t, xk, com):
@@ -277,14 +280,4 @@ def _measure(model, sensors, k_sens, snaps, dt, hub_wind, rng) -> dict:
     return out
 
 
-def steady_state(log: FlightLog, *, settle_s: float = 2.0) -> dict:
-    """Means over the part of a flight after ``settle_s`` (for power sweeps)."""
-    keep = log.t >= settle_s
-    if not np.any(keep):
-        raise ValueError(f"The 'settle_s' parameter of steady_state must be below the flight "
-                         f"duration {log.t[-1]:.3f} s. Got {settle_s!r} instead.")
-    return {"power": log.power[keep].mean(axis=0),
-            "airspeed": np.linalg.norm(log.velocity[keep] - log.wind[keep], axis=-1).mean(axis=0)}
-
-
-__all__ = ["fly", "steady_state"]
+__all__ = ["fly"]

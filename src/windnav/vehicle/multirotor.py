@@ -68,32 +68,27 @@ class Multirotor:
         B = pos.shape[0]
         sc = self.packed.scalars
         hover = np.sqrt(sc[:, 0] * sc[:, 13] / (self.n_rotors * sc[:, 1]))
-        hover = np.broadcast_to(hover[:, None], (B, self.n_rotors)) if sc.shape[0] == 1 else \
-            np.repeat(hover[:, None], self.n_rotors, axis=1)
+        self._check_batch(B)
+        hover = np.broadcast_to(hover[:, None], (B, self.n_rotors))
         att = np.zeros((B, 4))
         att[:, 3] = 1.0
         return VehicleState(pos.copy(), np.zeros((B, 3)), att, np.zeros((B, 3)),
                             np.array(hover, dtype=np.float64))
 
     def _winds(self, wind_world, B: int, where: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(wind_com (B, 3), wind_hub (B, N, 3))`` from one wind per vehicle or per hub."""
         w = np.asarray(wind_world, dtype=np.float64)
         N = self.n_rotors
-        if w.ndim == 3 or (w.ndim == 2 and w.shape == (N, 3) and N != 3 and B != N):
-            hub = batch_array(w, "wind_world", where, (N, 3))
-            if hub.shape[0] == 1 and B > 1:
-                hub = np.broadcast_to(hub, (B, N, 3))
-            if hub.shape[0] != B:
-                raise ValueError(f"The 'wind_world' parameter of {where} must have a batch of {B}."
-                                 f" Got {hub.shape[0]} instead.")
-            com = hub.mean(axis=1)
-            return np.ascontiguousarray(com), np.ascontiguousarray(hub)
-        com = batch_array(w, "wind_world", where, (3,))
-        if com.shape[0] == 1 and B > 1:
-            com = np.broadcast_to(com, (B, 3))
-        if com.shape[0] != B:
+        per_hub = w.ndim == 3
+        trailing = (N, 3) if per_hub else (3,)
+        arr = batch_array(w, "wind_world", where, trailing)
+        if arr.shape[0] not in (1, B):
             raise ValueError(f"The 'wind_world' parameter of {where} must have a batch of {B}. "
-                             f"Got {com.shape[0]} instead.")
-        com = np.ascontiguousarray(com)
+                             f"Got {arr.shape[0]} instead.")
+        arr = np.broadcast_to(arr, (B, *trailing))
+        if per_hub:
+            return np.ascontiguousarray(arr.mean(axis=1)), np.ascontiguousarray(arr)
+        com = np.ascontiguousarray(arr)
         return com, np.ascontiguousarray(np.broadcast_to(com[:, None, :], (B, N, 3)))
 
     def _packed_state(self, state: VehicleState, where: str) -> np.ndarray:
