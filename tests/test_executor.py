@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import functools
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -95,14 +96,9 @@ def test_bad_arguments_are_named_at_the_call():
         run_tasks(_seeded_mean, TASKS, workers=0)
 
 
-def test_ray_backend_without_ray_says_how_to_install_it():
-    try:
-        import ray  # noqa: F401
-    except ImportError:
-        with pytest.raises(ImportError, match=r"windnav\[ray\]"):
-            run_tasks(_seeded_mean, TASKS, backend="ray")
-    else:
-        results = _by_index(run_tasks(_seeded_mean, TASKS, backend="ray", workers=2,
-                                      progress=False))
-        serial = _by_index(run_tasks(_seeded_mean, TASKS, backend="serial", progress=False))
-        assert [r.value for r in results] == [r.value for r in serial]
+def test_ray_backend_without_ray_says_how_to_install_it(monkeypatch):
+    # Ray is a test dependency, so hide it: a None entry makes `import ray` raise ImportError.
+    # (The ray backend itself is tested on a real local Ray in test_executor_ray.py.)
+    monkeypatch.setitem(sys.modules, "ray", None)
+    with pytest.raises(ImportError, match=r"windnav\[ray\]"):
+        run_tasks(_seeded_mean, TASKS, backend="ray")

@@ -25,8 +25,7 @@ import zarr
 
 from windnav.city import City
 from windnav.commands.wind_sweep import THESIS_SPEEDS, solver_grid, sweep
-from windnav.flow import FlowSolution
-from windnav.flow.io import SweepStore, flow_attrs, load_flow, save_flow
+from windnav.flow import FlowSolution, SweepStore, flow_attrs, load_flow, save_flow
 
 HERE = Path(__file__).resolve().parent
 
@@ -294,9 +293,10 @@ def test_resuming_with_a_different_sweep_is_refused(tmp_path):
     solver = FakeSolver(str(tmp_path / "log"))
     kw = dict(directions_deg=[0.0], backend="serial", progress=False, simulate=solver)
     sweep(MAPS[:1], tmp_path / "s.zarr", speeds=[2.0], settings=SETTINGS, **kw)
-    with pytest.raises(ValueError, match="different sweep"):
+    with pytest.raises(ValueError, match="different sweep") as refused:
         sweep(MAPS[:1], tmp_path / "s.zarr", speeds=[2.0], settings={**SETTINGS, "dx": 1.0},
               **kw)
+    assert "s.zarr" in str(refused.value) and "--" not in str(refused.value)  # no CLI flags
     with pytest.raises(ValueError, match="different sweep"):
         sweep(MAPS[1:], tmp_path / "s.zarr", speeds=[2.0], settings=SETTINGS, **kw)
 
@@ -398,6 +398,24 @@ def test_cli_errors_name_the_argument(tmp_path, capsys):
     rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
                "--directions", "2.5"])
     assert rc == 2 and "'--directions'" in capsys.readouterr().err
+
+
+def test_cli_wind_sweep_into_a_store_of_another_sweep_names_out(tmp_path, capsys):
+    from windnav.cli import build_parser, main
+    from windnav.commands import wind_sweep
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    argv = ["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+            "--speeds", "2", "--directions", "2", "--backend", "serial", "--dx", "2",
+            "--steps", "2", "--no-progress"]
+    os.mkdir(tmp_path / "log")
+    solver = FakeSolver(str(tmp_path / "log"))
+    assert wind_sweep.run(build_parser().parse_args(argv), simulate=solver) == 0
+    argv[argv.index("--speeds") + 1] = "3"  # another sweep, refused before anything is solved
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "'--out'" in err and "different sweep" in err and "s.zarr" in err
+    assert solver.calls() == 2 and SweepStore(tmp_path / "s.zarr").speeds.tolist() == [2.0, 2.0]
 
 
 def test_cli_wind_sweep_ctrl_c_exits_130_and_says_how_to_resume(tmp_path, capsys):

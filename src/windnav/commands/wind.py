@@ -3,7 +3,7 @@
 ::
 
     windnav wind --map city.json --speed 5 --direction-deg 30 --out runs/wind
-    # -> runs/wind/flow.zarr (see windnav.flow.io) and runs/wind/mean_speed.png
+    # -> runs/wind/flow.zarr (see windnav.flow.solution_io) and runs/wind/mean_speed.png
 
 The flow is solved by :func:`windnav.flow.simulate`; the picture shows the time-averaged wind
 speed ``|(mean_u, mean_v)|`` with streamlines of the mean wind over the building footprints.
@@ -185,7 +185,7 @@ def register(subparsers) -> None:
 
 def run(args, simulate=None) -> int:
     """Run ``windnav wind``; returns the exit code."""
-    from windnav.flow.io import save_flow
+    from windnav.flow.solution_io import save_flow
 
     where = "windnav wind"
     speed = positive_float(args.speed, "--speed", where)

@@ -9,8 +9,8 @@
 Default inlet grid (the thesis's training data): speeds 0.1, 2.575, 5.05, 7.525, 10.0 m/s x
 8 directions 0, 45, ..., 315 deg. Every simulation is one task of
 :func:`windnav.experiments.executor.run_tasks`; the task solves the flow and writes its own chunks
-of the store (layout, completion markers and resumption: :mod:`windnav.flow.io`). Rerunning the
-same command after an interruption computes only the simulations not marked done.
+of the store (layout, completion markers and resumption: :mod:`windnav.flow.sweep_store`).
+Rerunning the same command after an interruption computes only the simulations not marked done.
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ def run_sweep_task(task: SweepTask) -> dict:
     dict
         ``map_index``, ``case_index``, ``seconds`` (solve time, s), ``max_speed`` (m/s).
     """
-    from windnav.flow.io import SweepStore
+    from windnav.flow.sweep_store import SweepStore
 
     sol, seconds = simulate_case(task.city, task.speed, task.direction_deg, task.settings,
                                  task.seed, task.simulate)
@@ -136,7 +136,7 @@ def sweep(
     """
     from windnav.commands.wind import DEFAULT_SETTINGS, auto_dt
     from windnav.experiments.executor import run_tasks
-    from windnav.flow.io import SweepMap, SweepStore
+    from windnav.flow.sweep_store import SweepMap, SweepStore
 
     where = "windnav wind-sweep"
     speeds = [positive_float(s, "--speeds", where) for s in speeds]
@@ -266,6 +266,8 @@ def _directions_arg(args):
 
 def run(args, simulate=None) -> int:
     """Run ``windnav wind-sweep``; returns 0 when every simulation is done, 1 otherwise."""
+    from windnav.flow.sweep_store import SweepMismatchError, SweepStore
+
     where = "windnav wind-sweep"
     speeds = [positive_float(v, "--speeds", where) for v in args.speeds]
     settings = solver_settings(args, max(speeds))
@@ -282,9 +284,13 @@ def run(args, simulate=None) -> int:
                                simulate=simulate)
     except ImportError as exc:  # the ray backend without ray
         raise ValueError(str(exc)) from exc
+    except SweepMismatchError as exc:  # the library's message names no flag; add it here
+        raise ValueError(
+            f"The '--out' parameter of {where} names {args.out!r}, which already holds a "
+            "different sweep (maps, speeds, directions, solver config or seed differ); choose "
+            "another --out, or delete it to start over."
+        ) from exc
     except KeyboardInterrupt:
-        from windnav.flow.io import SweepStore
-
         store = SweepStore(args.out)
         total = store.n_maps * store.n_cases
         print(f"interrupted: {total - len(store.pending())}/{total} simulations done in "

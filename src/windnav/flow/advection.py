@@ -31,6 +31,8 @@ a wall or outflow side the face itself (free slip, zero gradient).
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -141,30 +143,90 @@ def _advect_component(f, code, u, v, c, solid_p, sides, inflow_val, is_u, maccor
 
 
 @numba.njit(cache=True)
-def _diffuse_component(f, code, solid_p, sides, inflow_val, is_u, r, out):
-    """``out = f + r * (sum of the 4 neighbours - 4 f)`` on free faces; fixed faces copy f."""
+def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, out):
+    """Cell-centred kinematic viscosity ``nu0 + (C_s Delta)^2 |S|`` (Smagorinsky 1963), m^2/s.
+
+    ``|S| = sqrt(2 S_ij S_ij)``: the normal strains from the face differences of the cell, the
+    shear strain ``(du/dy + dv/dx) / 2`` averaged from the cell's four corners (one-sided at the
+    domain edges). Building cells get ``nu0``. Returns the largest value.
+    """
+    ny, nx = solid.shape
+    top = nu0
+    for j in range(ny):
+        for i in range(nx):
+            if solid[j, i] or cs_delta2 == 0.0:
+                out[j, i] = nu0
+                continue
+            ux = (u[j, i + 1] - u[j, i]) * inv_dx
+            vy = (v[j + 1, i] - v[j, i]) * inv_dx
+            shear = 0.0
+            for jc in range(j, j + 2):
+                for ic in range(i, i + 2):
+                    ja, jb = max(jc - 1, 0), min(jc, ny - 1)
+                    ia, ib = max(ic - 1, 0), min(ic, nx - 1)
+                    duy = (u[jb, ic] - u[ja, ic]) * inv_dx if jb > ja else 0.0
+                    dvx = (v[jc, ib] - v[jc, ia]) * inv_dx if ib > ia else 0.0
+                    shear += 0.25 * (duy + dvx)
+            s = math.sqrt(2.0 * (ux * ux + vy * vy) + shear * shear)
+            nu = nu0 + cs_delta2 * s
+            out[j, i] = nu
+            top = max(top, nu)
+    return top
+
+
+@numba.njit(cache=True)
+def _face_viscosity(nu_c, solid, is_u, out):
+    """Viscosity on the faces: the mean of the two cells' values (fluid cells only)."""
+    nyf, nxf = out.shape
+    ny, nx = solid.shape
+    for j in range(nyf):
+        for i in range(nxf):
+            if is_u:
+                ja, ia, jb, ib = j, max(i - 1, 0), j, min(i, nx - 1)
+            else:
+                ja, ia, jb, ib = max(j - 1, 0), i, min(j, ny - 1), i
+            fa, fb = not solid[ja, ia], not solid[jb, ib]
+            if fa and fb:
+                out[j, i] = 0.5 * (nu_c[ja, ia] + nu_c[jb, ib])
+            elif fa:
+                out[j, i] = nu_c[ja, ia]
+            else:
+                out[j, i] = nu_c[jb, ib]
+
+
+@numba.njit(cache=True)
+def _diffuse_component(f, code, solid_p, sides, inflow_val, is_u, nu_f, c, out):
+    """``out = f + c * div(nu grad f)`` on free faces (``c = dt / dx^2``); fixed faces copy f.
+
+    The viscosity between two neighbouring faces is the mean of theirs (``nu_f``, m^2/s),
+    toward a ghost neighbour the face's own.
+    """
     nyf, nxf = f.shape
     for j in range(nyf):
         for i in range(nxf):
-            c = f[j, i]
+            val = f[j, i]
             if code[j, i] == 0:
-                out[j, i] = c
+                out[j, i] = val
                 continue
-            acc = -4.0 * c
+            nu = nu_f[j, i]
+            acc = 0.0
             for k in range(4):
                 jj = j + (1 if k == 0 else -1 if k == 1 else 0)
                 ii = i + (1 if k == 2 else -1 if k == 3 else 0)
                 if jj < 0 or jj >= nyf or ii < 0 or ii >= nxf:
                     side = 2 if jj < 0 else 3 if jj >= nyf else 0 if ii < 0 else 1
-                    acc += inflow_val if sides[side] == 0 else c
+                    acc += nu * ((inflow_val if sides[side] == 0 else val) - val)
                     continue
                 # the two cells the neighbour face separates (padded solid indices)
                 if is_u:
                     inside = solid_p[jj + 1, ii] and solid_p[jj + 1, ii + 1]
                 else:
                     inside = solid_p[jj, ii + 1] and solid_p[jj + 1, ii + 1]
-                acc += -c if inside else f[jj, ii]
-            out[j, i] = c + r * acc
+                if inside:
+                    acc += nu * (-2.0 * val)
+                else:
+                    acc += 0.5 * (nu + nu_f[jj, ii]) * (f[jj, ii] - val)
+            out[j, i] = val + c * acc
 
 
 class Advection:
@@ -176,19 +238,37 @@ class Advection:
     what the time loop uses (fresh multi-megabyte arrays each step cost page faults).
     """
 
-    def __init__(self, domain: FlowDomain, dt: float, scheme: str, viscosity: float = 0.0):
+    def __init__(
+        self,
+        domain: FlowDomain,
+        dt: float,
+        scheme: str,
+        viscosity: float = 0.0,
+        smagorinsky: float = 0.0,
+        filter_width: float | None = None,
+    ):
         self.domain = domain
         self.dt = float(dt)
         self.scheme = scheme
         self.viscosity = float(viscosity)
-        self._c = self.dt / domain.grid.dx
+        self.smagorinsky = float(smagorinsky)
+        dx = domain.grid.dx
+        self.filter_width = dx if filter_width is None else float(filter_width)
+        self._c = self.dt / dx
         self._solid_p = np.pad(domain.solid, 1)
         self._sides = domain.side_codes
         self._mac = scheme == "maccormack"
         self._ws = {}
-        r = self.viscosity * self.dt / domain.grid.dx**2
-        self._substeps = int(np.ceil(r / 0.2)) if r > 0 else 0
-        self._r = r / self._substeps if r > 0 else 0.0
+        self._cs_delta2 = (self.smagorinsky * self.filter_width) ** 2
+        self._nu_c = np.full(domain.grid.shape, self.viscosity)
+        ny, nx = domain.grid.shape
+        self._nu_u = np.full((ny, nx + 1), self.viscosity)
+        self._nu_v = np.full((ny + 1, nx), self.viscosity)
+
+    @property
+    def diffuses(self) -> bool:
+        """Whether an explicit viscous step follows the advection."""
+        return self.viscosity > 0.0 or self._cs_delta2 > 0.0
 
     def _scratch(self, shape):
         if shape not in self._ws:
@@ -205,21 +285,45 @@ class Advection:
         ws_u, ws_v = self._scratch(u.shape), self._scratch(v.shape)
         _advect_component(u, d.u_code, u, v, *args, ux, True, self._mac, ws_u, out_u)
         _advect_component(v, d.v_code, u, v, *args, uy, False, self._mac, ws_v, out_v)
-        for _ in range(self._substeps):
-            # Jacobi-style: both components from the same old field (scratch 2 is free now)
-            tu, tv = ws_u[2], ws_v[2]
+        if self.diffuses:
+            self._diffuse(out_u, out_v, ws_u[2], ws_v[2])
+        return out_u, out_v
+
+    def _diffuse(self, out_u, out_v, tu, tv):
+        """Explicit viscous substeps in place, each with ``max(nu) dt_s / dx^2 <= 0.2``."""
+        d = self.domain
+        ux, uy = d.bc.inflow_velocity
+        inv_dx = 1.0 / d.grid.dx
+        nu_max = self.viscosity
+        if self._cs_delta2 > 0.0:
+            nu_max = _eddy_viscosity(
+                out_u, out_v, d.solid, self.viscosity, self._cs_delta2, inv_dx, self._nu_c
+            )
+            _face_viscosity(self._nu_c, d.solid, True, self._nu_u)
+            _face_viscosity(self._nu_c, d.solid, False, self._nu_v)
+        r = nu_max * self.dt * inv_dx**2
+        substeps = max(int(math.ceil(r / 0.2)), 1)
+        c = self.dt * inv_dx**2 / substeps
+        for _ in range(substeps):
+            # Jacobi-style: both components from the same old field
             np.copyto(tu, out_u)
             np.copyto(tv, out_v)
-            _diffuse_component(tu, d.u_code, self._solid_p, self._sides, ux, True, self._r, out_u)
-            _diffuse_component(tv, d.v_code, self._solid_p, self._sides, uy, False, self._r, out_v)
-        return out_u, out_v
+            _diffuse_component(tu, d.u_code, self._solid_p, self._sides, ux, True, self._nu_u, c,
+                               out_u)
+            _diffuse_component(tv, d.v_code, self._solid_p, self._sides, uy, False, self._nu_v, c,
+                               out_v)
 
     def __call__(self, u, v):
         return self.into(u, v, np.empty_like(u), np.empty_like(v))
 
 
 def make_advection(
-    domain: FlowDomain, dt: float, scheme: str = "maccormack", viscosity: float = 0.0
+    domain: FlowDomain,
+    dt: float,
+    scheme: str = "maccormack",
+    viscosity: float = 0.0,
+    smagorinsky: float = 0.0,
+    filter_width: float | None = None,
 ) -> Advection:
     """Build the self-advection of the face velocity over ``dt`` (plus viscous diffusion).
 
@@ -252,4 +356,10 @@ def make_advection(
             "The 'viscosity' parameter of make_advection must be a finite number >= 0. "
             f"Got {viscosity!r} instead."
         )
-    return Advection(domain, dt, scheme, viscosity)
+    for name, value in (("smagorinsky", smagorinsky), ("filter_width", filter_width)):
+        if value is not None and not (np.isfinite(float(value)) and float(value) >= 0):
+            raise ValueError(
+                f"The {name!r} parameter of make_advection must be a finite number >= 0. "
+                f"Got {value!r} instead."
+            )
+    return Advection(domain, dt, scheme, viscosity, float(smagorinsky), filter_width)

@@ -235,13 +235,15 @@ class RedBlackFactor:
         self.nnz = self._lu.nnz if self._lu is not None else 0
 
     def solve(self, b: np.ndarray) -> np.ndarray:
+        """``A^-1 b`` for ``b`` of shape (n,) or (n, k) (k right-hand sides at once)."""
         nr = self._nr
-        x = np.empty(self.shape[0])
+        dinv = self._dinv_r if b.ndim == 1 else self._dinv_r[:, None]
+        x = np.empty(b.shape, order="F")
         br = b[:nr]
-        x[:nr] = br * self._dinv_r
+        x[:nr] = br * dinv
         if self._lu is not None:
-            x[nr:] = self._lu.solve(b[nr:] - self._a_br @ x[:nr])
-            x[:nr] = (br - self._a_rb @ x[nr:]) * self._dinv_r
+            x[nr:] = self._lu.solve(np.asfortranarray(b[nr:] - self._a_br @ x[:nr]))
+            x[:nr] = (br - self._a_rb @ x[nr:]) * dinv
         return x
 
 
@@ -299,19 +301,58 @@ def factorize(domain: FlowDomain, ordering: str = "red_black"):
 class Projection:
     """A built projection: ``project(u, v) -> (u, v)`` (pure) and ``project.into(u, v,
     out_u, out_v)`` (outputs may be the inputs). Build with :func:`make_exact_projection`
-    or :func:`make_jacobi_projection`."""
+    or :func:`make_jacobi_projection`.
 
-    def __init__(self, domain: FlowDomain, solve_q, idx: np.ndarray):
+    :meth:`into_many` projects several fields that share the face classification (the same
+    map and boundary kinds, e.g. several inlet speeds) with one multi-right-hand-side solve.
+    """
+
+    def __init__(self, domain: FlowDomain, solve_q, idx: np.ndarray, solve_many=None):
         self.domain = domain
         self._solve_q = solve_q
+        self._solve_many = solve_many
         self._idx = idx
+
+    def into_many(self, us, vs, outs_u, outs_v, domains=None) -> None:
+        """Project each ``(us[c], vs[c])`` into ``(outs_u[c], outs_v[c])``.
+
+        ``domains`` (optional) are the fields' own domains: they must have this projection's
+        face classification (only their prescribed inlet values may differ).
+        """
+        if domains is not None:
+            for d in domains:
+                if not (
+                    np.array_equal(d.u_code, self.domain.u_code)
+                    and np.array_equal(d.v_code, self.domain.v_code)
+                ):
+                    raise ValueError(
+                        "Projection.into_many: every domain must have the projection's face "
+                        "classification (same buildings, grid and boundary kinds)."
+                    )
+        if self._solve_many is None:
+            for u, v, ou, ov in zip(us, vs, outs_u, outs_v, strict=True):
+                self.into(u, v, ou, ov)
+            return
+        q = self._solve_many(us, vs)
+        d = self.domain
+        for c, (u, v, ou, ov) in enumerate(zip(us, vs, outs_u, outs_v, strict=True)):
+            if ou is not u:
+                np.copyto(ou, u)
+            if ov is not v:
+                np.copyto(ov, v)
+            _subtract_gradient(q[:, c], self._idx, d.u_code, d.v_code, ou, ov)
 
     def solve(self, u, v) -> np.ndarray:
         """The potential ``q`` (indexed by the cell numbering) that removes div of (u, v)."""
         return self._solve_q(u, v)
 
-    def into(self, u, v, out_u, out_v):
+    def into(self, u, v, out_u, out_v, q_cells=None):
+        """Project ``(u, v)`` into ``out_u``, ``out_v``; ``q_cells`` (ny, nx), if given,
+        receives the potential ``q = p dt / (rho dx)`` (m/s) per fluid cell."""
         q = self._solve_q(u, v)
+        if q_cells is not None:
+            fluid = self._idx >= 0
+            q_cells[fluid] = q[self._idx[fluid]]
         d = self.domain
         if out_u is not u:
             np.copyto(out_u, u)
@@ -344,7 +385,14 @@ def make_exact_projection(domain: FlowDomain, ordering: str = "red_black") -> Pr
         b[pinned] = 0.0
         return lu.solve(b)
 
-    return Projection(domain, solve_q, idx)
+    def solve_many(us, vs):
+        bm = np.zeros((lu.shape[0], len(us)), order="F")
+        for c, (u, v) in enumerate(zip(us, vs, strict=True)):
+            _rhs(u, v, idx, bm[:, c])
+        bm[pinned] = 0.0
+        return np.asfortranarray(lu.solve(bm))
+
+    return Projection(domain, solve_q, idx, solve_many)
 
 
 @numba.njit(cache=True)

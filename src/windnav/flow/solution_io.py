@@ -1,0 +1,144 @@
+"""One flow solution on disk, in Zarr v3 (:func:`save_flow` / :func:`load_flow`).
+
+The group is self-describing through its attributes (units, frame, spacing, origin and the
+generating config: speed, direction_deg, dx, dt, steps, seed, map source)::
+
+    x (nx,) m, y (ny,) m          cell-centre coordinates, world frame
+    solid (ny, nx) bool           building cells
+    mean_u, mean_v (ny, nx) m/s   time-averaged wind, world frame
+    frames_u, frames_v (T, ny, nx) m/s, one chunk per frame   (only when recorded)
+    t (T,) s, frame times from the start of averaging        (only when recorded)
+    attrs["solution"]: speed m/s, direction_deg, dx m, dt s   (the FlowSolution's scalars)
+
+Chunks are compressed with a checksummed Zstandard frame, so a damaged file is a clear
+``ValueError`` naming the store and the array, never silently wrong numbers. Many simulations
+in one store: :mod:`windnav.flow.sweep_store`.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import zarr
+
+from windnav.flow._zarr import (
+    FLOW_FORMAT,
+    FORMAT_VERSION,
+    FRAME,
+    UNITS,
+    grid_attrs,
+    jsonable,
+    open_group,
+    read,
+    write_array,
+)
+
+__all__ = ["flow_attrs", "load_flow", "save_flow"]
+
+
+def save_flow(solution, path, config: dict | None = None) -> None:
+    """Write a flow solution to a Zarr v3 group at ``path`` (replacing what is there).
+
+    Parameters
+    ----------
+    solution : FlowSolution
+        ``x`` (nx,), ``y`` (ny,) in m; ``solid`` (ny, nx) bool; ``mean_u``, ``mean_v``
+        (ny, nx) in m/s; ``frames_u``, ``frames_v`` (T, ny, nx) in m/s and ``t`` (T,) in s,
+        or None when no frames were recorded; ``speed`` m/s, ``direction_deg``, ``dx`` m and
+        ``dt`` s.
+    path : str or os.PathLike
+        Directory of the store (conventionally ending in ``.zarr``).
+    config : dict, optional
+        The generating config, stored as the ``config`` attribute: e.g. speed (m/s),
+        direction_deg, dx (m), dt (s), spinup_steps, steps, record_every, seed, map_source.
+        JSON values only.
+    """
+    config = jsonable(config, "config", "save_flow")
+    x = np.asarray(solution.x, dtype=np.float64)
+    y = np.asarray(solution.y, dtype=np.float64)
+    shape = (y.size, x.size)
+    fields = {
+        "solid": np.asarray(solution.solid, dtype=bool),
+        "mean_u": np.asarray(solution.mean_u, dtype=np.float64),
+        "mean_v": np.asarray(solution.mean_v, dtype=np.float64),
+    }
+    for name, value in fields.items():
+        if value.shape != shape:
+            raise ValueError(
+                f"The 'solution' parameter of save_flow must have {name} of shape {shape} "
+                f"(ny, nx). Got shape {value.shape} instead."
+            )
+    group = zarr.open_group(os.fspath(path), mode="w")
+    group.attrs.update(
+        {
+            "windnav_format": FLOW_FORMAT,
+            "format_version": FORMAT_VERSION,
+            "frame": FRAME,
+            "units": {k: UNITS[k] for k in ("x", "y", "mean_u", "mean_v")},
+            **grid_attrs(x, y),
+            "solution": {
+                k: float(getattr(solution, k)) for k in ("speed", "direction_deg", "dx", "dt")
+            },
+            "config": config,
+        }
+    )
+    write_array(group, "x", x)
+    write_array(group, "y", y)
+    for name, value in fields.items():
+        write_array(group, name, value)
+    frames_u = getattr(solution, "frames_u", None)
+    frames_v = getattr(solution, "frames_v", None)
+    if frames_u is not None and frames_v is not None:
+        fu = np.asarray(frames_u, dtype=np.float64)
+        fv = np.asarray(frames_v, dtype=np.float64)
+        if fu.ndim != 3 or fu.shape[1:] != shape or fv.shape != fu.shape:
+            raise ValueError(
+                f"The 'solution' parameter of save_flow must have frames_u and frames_v of shape "
+                f"(T, {shape[0]}, {shape[1]}). Got {fu.shape} and {fv.shape} instead."
+            )
+        write_array(group, "frames_u", fu, chunks=(1, *shape))
+        write_array(group, "frames_v", fv, chunks=(1, *shape))
+        times = getattr(solution, "t", None)
+        if times is not None:
+            write_array(group, "t", np.asarray(times, dtype=np.float64))
+
+
+def flow_attrs(path) -> dict:
+    """Attributes of a stored flow solution: units, frame, spacing, origin, shape and config."""
+    return dict(open_group(path, FLOW_FORMAT, "flow_attrs").attrs)
+
+
+def load_flow(path):
+    """Read a flow solution written by :func:`save_flow`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The store directory.
+
+    Returns
+    -------
+    FlowSolution
+        With the same arrays as were saved (``frames_u``/``frames_v`` None when none were).
+        The generating config is in :func:`flow_attrs`.
+
+    Raises
+    ------
+    ValueError
+        Naming ``path`` when the store is missing, not a flow solution, or has a corrupt or
+        missing array.
+    """
+    path = os.fspath(path)
+    group = open_group(path, FLOW_FORMAT, "load_flow")
+    from windnav.flow.solver import FlowSolution
+
+    present = set(group.array_keys())
+    data = {n: read(group, n, path, "load_flow") for n in ("x", "y", "solid", "mean_u", "mean_v")}
+    for n in ("frames_u", "frames_v", "t"):  # absent when no frames were recorded
+        data[n] = read(group, n, path, "load_flow") if n in present else None
+    try:
+        scalars = {k: float(v) for k, v in group.attrs["solution"].items()}
+        return FlowSolution(**data, **scalars)
+    except Exception as exc:
+        raise ValueError(f"load_flow: the Zarr store {path!r} is incomplete: {exc}") from exc
