@@ -307,7 +307,7 @@ def test_thesis_grid_is_the_default():
 
     np.testing.assert_allclose(THESIS_SPEEDS, np.linspace(0.1, 10.0, 5))
     np.testing.assert_array_equal(directions_from(), np.arange(0, 360, 45))
-    # without --dt the step keeps the CFL number <= 1 at the fastest inlet (solver allows 2)
+    # without --dt the step keeps the CFL number <= 1 at the fastest inlet (solver allows 2.5)
     assert auto_dt(1.0, 10.0) == pytest.approx(0.1) and auto_dt(1.0, 2.0) == 0.25
 
 
@@ -375,8 +375,10 @@ def test_cli_wind_sweep_end_to_end_matches_direct_simulation_and_resumes(tmp_pat
         case = store.read_case(0, c)
         direct = simulate(city, speed=case["speed"], direction_deg=case["direction_deg"],
                           dx=2.0, dt=0.2, spinup_steps=10, steps=10)
-        np.testing.assert_array_equal(case["mean_u"], direct.mean_u)
-        np.testing.assert_array_equal(case["mean_v"], direct.mean_v)
+        # the sweep steps both speeds together (one multi-right-hand-side pressure solve):
+        # the same arithmetic up to the summation order of the solve
+        np.testing.assert_allclose(case["mean_u"], direct.mean_u, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(case["mean_v"], direct.mean_v, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(case["solid"], direct.solid)
         got = inlet_direction_deg(case["mean_u"], case["mean_v"], case["solid"], case["x"],
                                   case["y"], case["direction_deg"])

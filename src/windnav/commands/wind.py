@@ -11,25 +11,18 @@ speed ``|(mean_u, mean_v)|`` with streamlines of the mean wind over the building
 
 from __future__ import annotations
 
-import inspect
 import os
-import time
 from pathlib import Path
 
 import numpy as np
 
 from windnav._validate import finite_float, positive_float, positive_int
-
-# Solver settings shared with ``windnav wind-sweep`` (the example of the public contract).
-DEFAULT_SETTINGS = {"dx": 1.0, "dt": 0.25, "spinup_steps": 100, "steps": 200, "record_every": 0}
-# When --dt is not given: DEFAULT_SETTINGS["dt"], shortened to keep speed*dt/dx <= AUTO_CFL for
-# the fastest inlet (the solver refuses CFL numbers above 2).
-AUTO_CFL = 1.0
-
-
-def auto_dt(dx: float, max_speed: float) -> float:
-    """Default time step, s: 0.25 s, or less so that ``max_speed * dt / dx <= AUTO_CFL``."""
-    return min(DEFAULT_SETTINGS["dt"], AUTO_CFL * dx / max_speed)
+from windnav.experiments.wind_sweep import (  # noqa: F401  (re-exported for callers)
+    AUTO_CFL,
+    DEFAULT_SETTINGS,
+    auto_dt,
+    simulate_case,
+)
 
 
 def add_solver_arguments(parser) -> None:
@@ -81,40 +74,6 @@ def load_city(path, name: str = "--map", where: str = "windnav wind"):
         raise ValueError(f"The {name!r} parameter of {where} must be an existing RotorPy world "
                          f"JSON file. Got {str(path)!r} instead.")
     return City.from_rotorpy_json(path)
-
-
-def simulate_case(city, speed: float, direction_deg: float, settings: dict, seed: int,
-                  simulate=None):
-    """Run one flow simulation; the body shared by ``wind`` and every ``wind-sweep`` task.
-
-    Parameters
-    ----------
-    city : City
-    speed : float
-        Inlet speed, m/s.
-    direction_deg : float
-        Inlet direction (blowing toward, counter-clockwise from +x), deg.
-    settings : dict
-        ``dx`` m, ``dt`` s, ``spinup_steps``, ``steps``, ``record_every``.
-    seed : int
-        Passed on when the solver takes a ``seed``.
-    simulate : callable, optional
-        The solver, default :func:`windnav.flow.simulate` (injectable for tests).
-
-    Returns
-    -------
-    solution : FlowSolution
-    seconds : float
-        Wall-clock time of the solve, s.
-    """
-    if simulate is None:
-        from windnav.flow import simulate
-    kwargs = dict(settings)
-    if "seed" in inspect.signature(simulate).parameters:
-        kwargs["seed"] = int(seed)
-    t0 = time.perf_counter()
-    solution = simulate(city, speed=float(speed), direction_deg=float(direction_deg), **kwargs)
-    return solution, time.perf_counter() - t0
 
 
 def plot_mean_speed(solution, city, path, title: str = "") -> Path:

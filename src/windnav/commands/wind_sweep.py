@@ -7,182 +7,29 @@
         --backend process --workers 8
 
 Default inlet grid (the thesis's training data): speeds 0.1, 2.575, 5.05, 7.525, 10.0 m/s x
-8 directions 0, 45, ..., 315 deg. Every simulation is one task of
-:func:`windnav.experiments.executor.run_tasks`; the task solves the flow and writes its own chunks
-of the store (layout, completion markers and resumption: :mod:`windnav.flow.sweep_store`).
-Rerunning the same command after an interruption computes only the simulations not marked done.
+8 directions 0, 45, ..., 315 deg. The harness is :mod:`windnav.experiments.wind_sweep`;
+rerunning the same command after an interruption computes only the simulations not marked done.
 """
 
 from __future__ import annotations
 
 import os
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from windnav._validate import finite_float, positive_float, positive_int
-from windnav.commands.wind import add_solver_arguments, load_city, simulate_case, solver_settings
-
-THESIS_SPEEDS = (0.1, 2.575, 5.05, 7.525, 10.0)
-THESIS_DIRECTIONS = 8
-
-
-@dataclass(frozen=True)
-class SweepTask:
-    """One simulation of a sweep: everything a worker needs, picklable.
-
-    Attributes
-    ----------
-    store : str
-        Path of the sweep store.
-    map_index, case_index : int
-        Where the result goes (``maps/<map_index>/...[case_index]``).
-    city : City
-    speed : float
-        Inlet speed, m/s.
-    direction_deg : float
-        Inlet direction, deg.
-    settings : dict
-        Solver settings (dx m, dt s, spinup_steps, steps, record_every).
-    seed : int
-    simulate : callable or None
-        Solver override (tests); None means :func:`windnav.flow.simulate`.
-    """
-
-    store: str
-    map_index: int
-    case_index: int
-    city: object
-    speed: float
-    direction_deg: float
-    settings: dict
-    seed: int
-    simulate: object = None
-
-
-def run_sweep_task(task: SweepTask) -> dict:
-    """Solve one simulation and write it (then its completion marker) into the store.
-
-    Returns
-    -------
-    dict
-        ``map_index``, ``case_index``, ``seconds`` (solve time, s), ``max_speed`` (m/s).
-    """
-    from windnav.flow.sweep_store import SweepStore
-
-    sol, seconds = simulate_case(task.city, task.speed, task.direction_deg, task.settings,
-                                 task.seed, task.simulate)
-    SweepStore(task.store, mode="r+").write_case(task.map_index, task.case_index, sol, seconds)
-    fluid = ~np.asarray(sol.solid, dtype=bool)
-    max_speed = float(np.hypot(sol.mean_u, sol.mean_v)[fluid].max()) if fluid.any() else 0.0
-    return {"map_index": task.map_index, "case_index": task.case_index, "seconds": seconds,
-            "max_speed": max_speed}
-
-
-def directions_from(count: int | None = None, degrees=None) -> np.ndarray:
-    """Inlet directions, deg: ``count`` evenly spaced from 0, or the ``degrees`` given."""
-    where = "windnav wind-sweep"
-    if degrees is not None:
-        return np.array([finite_float(d, "--directions", where) for d in degrees])
-    n = positive_int(THESIS_DIRECTIONS if count is None else count, "--directions", where)
-    return 360.0 * np.arange(n) / n
-
-
-def sweep(
-    maps,
-    out,
-    speeds=THESIS_SPEEDS,
-    directions_deg=None,
-    settings: dict | None = None,
-    backend: str = "process",
-    workers: int | None = None,
-    seed: int = 0,
-    progress: bool = True,
-    verify: bool = False,
-    simulate=None,
-):
-    """Run (or resume) a sweep of flow simulations into one Zarr store.
-
-    Parameters
-    ----------
-    maps : sequence of (name, source, City)
-        The maps, in order.
-    out : str or path-like
-        The sweep store (created, or resumed when it holds the same sweep).
-    speeds : sequence of float
-        Inlet speeds, m/s. Default: the thesis's 0.1 ... 10 m/s in 5 steps.
-    directions_deg : sequence of float, optional
-        Inlet directions, deg. Default: 0, 45, ..., 315.
-    settings : dict, optional
-        Solver settings ``dx`` m, ``dt`` s, ``spinup_steps``, ``steps``, ``record_every``;
-        missing keys take :data:`windnav.commands.wind.DEFAULT_SETTINGS`, a missing ``dt``
-        :func:`windnav.commands.wind.auto_dt` of the fastest speed.
-    backend, workers, progress
-        Passed to :func:`windnav.experiments.executor.run_tasks`.
-    seed : int
-        Root seed; each simulation's seed is stored with it.
-    verify : bool
-        Also recompute finished simulations whose chunks no longer read back.
-    simulate : callable, optional
-        Solver override, picklable for the ``process`` backend (tests).
-
-    Returns
-    -------
-    store : SweepStore
-    results : list of TaskResult
-        One per simulation run now (finished ones skipped), in completion order.
-    """
-    from windnav.commands.wind import DEFAULT_SETTINGS, auto_dt
-    from windnav.experiments.executor import run_tasks
-    from windnav.flow.sweep_store import SweepMap, SweepStore
-
-    where = "windnav wind-sweep"
-    speeds = [positive_float(s, "--speeds", where) for s in speeds]
-    given = dict(settings or {})
-    settings = {**DEFAULT_SETTINGS, **given}
-    if given.get("dt") is None:
-        settings["dt"] = auto_dt(settings["dx"], max(speeds))
-    directions_deg = directions_from(degrees=directions_deg) if directions_deg is not None \
-        else directions_from()
-    if not maps:
-        raise ValueError(f"The '--maps' parameter of {where} must name at least one map.")
-    sweep_maps = []
-    for name, source, city in maps:
-        x, y = solver_grid(city, settings["dx"])
-        sweep_maps.append(SweepMap(name=name, source=source, city=city, x=x, y=y))
-    n_frames = _n_frames(settings)
-    store = SweepStore.create(out, sweep_maps, speeds, directions_deg, config=settings,
-                              n_frames=n_frames, seed=seed)
-    tasks = [
-        SweepTask(store.path, k, c, sweep_maps[k].city, float(store.speeds[c]),
-                  float(store.directions_deg[c]), settings, store.case_seed(k, c), simulate)
-        for k, c in store.pending(verify=verify)
-    ]
-    results = list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
-                             progress=progress, desc="wind-sweep"))
-    return store, results
-
-
-def solver_grid(city, dx: float) -> tuple[np.ndarray, np.ndarray]:
-    """Cell centres ``x`` (nx,), ``y`` (ny,) in m of the grid :func:`windnav.flow.simulate`
-    solves ``city`` on at spacing ``dx``: ``n = max(round(extent / dx), 2)`` cells from the
-    lower-left corner (as ``windnav.flow.solver.city_domain``). A drift between the two is
-    caught when a result is written (``SweepStore.write_case`` checks the grid).
-    """
-    from windnav.flow import MACGrid
-
-    x0, x1, y0, y1 = city.bounds
-    nx = max(int(round((x1 - x0) / dx)), 2)
-    ny = max(int(round((y1 - y0) / dx)), 2)
-    grid = MACGrid((ny, nx), dx, (x0, y0))
-    return grid.x, grid.y
-
-
-def _n_frames(settings: dict) -> int:
-    every = int(settings.get("record_every", 0))
-    return int(settings["steps"]) // every if every > 0 else 0
+from windnav._validate import positive_float, positive_int
+from windnav.commands.wind import add_solver_arguments, load_city, solver_settings
+from windnav.experiments.wind_sweep import (  # noqa: F401  (re-exported for callers)
+    THESIS_DIRECTIONS,
+    THESIS_SPEEDS,
+    SweepTask,
+    directions_from,
+    run_sweep_task,
+    solver_grid,
+    sweep,
+)
 
 
 def _map_files(items) -> list[Path]:
@@ -298,12 +145,14 @@ def run(args, simulate=None) -> int:
         return 130
     failed = [r for r in results if not r.ok]
     total = store.n_maps * store.n_cases
+    n_failed = sum(len(r.task.case_indices) for r in failed)
+    n_now = sum(len(r.task.case_indices) for r in results) - n_failed
     for r in failed:
         t = r.task
         first = (r.error or "").splitlines()[0]
-        print(f"failed: map {t.map_index} case {t.case_index} (speed {t.speed:g} m/s, "
-              f"direction {t.direction_deg:g} deg): {first}")
+        print(f"failed: map {t.map_index} cases {list(t.case_indices)} (speeds "
+              f"{', '.join(f'{s:g}' for s in t.speeds)} m/s, direction {t.direction_deg:g} deg): "
+              f"{first}")
     print(f"{store.path}: {total - len(store.pending())}/{total} simulations done "
-          f"({len(results) - len(failed)} now, {total - len(results)} already, "
-          f"{len(failed)} failed)")
+          f"({n_now} now, {total - n_now - n_failed} already, {n_failed} failed)")
     return 1 if failed else 0

@@ -39,6 +39,7 @@ import numpy as np
 from windnav.flow.grid import FlowDomain
 
 SCHEMES = ("semi_lagrangian", "maccormack")
+MAX_DIFFUSION_SUBSTEPS = 3
 
 
 @numba.njit(cache=True)
@@ -143,32 +144,31 @@ def _advect_component(f, code, u, v, c, solid_p, sides, inflow_val, is_u, maccor
 
 
 @numba.njit(cache=True)
-def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, out):
+def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, corner, out):
     """Cell-centred kinematic viscosity ``nu0 + (C_s Delta)^2 |S|`` (Smagorinsky 1963), m^2/s.
 
     ``|S| = sqrt(2 S_ij S_ij)``: the normal strains from the face differences of the cell, the
-    shear strain ``(du/dy + dv/dx) / 2`` averaged from the cell's four corners (one-sided at the
-    domain edges). Building cells get ``nu0``. Returns the largest value.
+    shear strain ``(du/dy + dv/dx) / 2`` averaged from the cell's four corners (``corner``,
+    (ny + 1, nx + 1) scratch; one-sided at the domain edges). Building cells get ``nu0``.
+    Returns the largest value.
     """
     ny, nx = solid.shape
+    for jc in range(ny + 1):
+        ja, jb = max(jc - 1, 0), min(jc, ny - 1)
+        for ic in range(nx + 1):
+            ia, ib = max(ic - 1, 0), min(ic, nx - 1)
+            duy = (u[jb, ic] - u[ja, ic]) * inv_dx if jb > ja else 0.0
+            dvx = (v[jc, ib] - v[jc, ia]) * inv_dx if ib > ia else 0.0
+            corner[jc, ic] = duy + dvx
     top = nu0
     for j in range(ny):
         for i in range(nx):
-            if solid[j, i] or cs_delta2 == 0.0:
-                out[j, i] = nu0
-                continue
             ux = (u[j, i + 1] - u[j, i]) * inv_dx
             vy = (v[j + 1, i] - v[j, i]) * inv_dx
-            shear = 0.0
-            for jc in range(j, j + 2):
-                for ic in range(i, i + 2):
-                    ja, jb = max(jc - 1, 0), min(jc, ny - 1)
-                    ia, ib = max(ic - 1, 0), min(ic, nx - 1)
-                    duy = (u[jb, ic] - u[ja, ic]) * inv_dx if jb > ja else 0.0
-                    dvx = (v[jc, ib] - v[jc, ia]) * inv_dx if ib > ia else 0.0
-                    shear += 0.25 * (duy + dvx)
-            s = math.sqrt(2.0 * (ux * ux + vy * vy) + shear * shear)
-            nu = nu0 + cs_delta2 * s
+            shear = 0.25 * (corner[j, i] + corner[j, i + 1] + corner[j + 1, i]
+                            + corner[j + 1, i + 1])
+            nu = nu0 + cs_delta2 * math.sqrt(2.0 * (ux * ux + vy * vy) + shear * shear)
+            nu = nu0 if solid[j, i] else nu
             out[j, i] = nu
             top = max(top, nu)
     return top
@@ -176,8 +176,9 @@ def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, out):
 
 @numba.njit(cache=True)
 def _face_viscosity(nu_c, solid, is_u, out):
-    """Viscosity on the faces: the mean of the two cells' values (fluid cells only)."""
-    nyf, nxf = out.shape
+    """Viscosity on the faces, padded by one ghost layer (``out`` (nyf + 2, nxf + 2)): the mean
+    of the two cells' values (fluid cells only); the ghosts repeat the edge."""
+    nyf, nxf = out.shape[0] - 2, out.shape[1] - 2
     ny, nx = solid.shape
     for j in range(nyf):
         for i in range(nxf):
@@ -187,46 +188,80 @@ def _face_viscosity(nu_c, solid, is_u, out):
                 ja, ia, jb, ib = max(j - 1, 0), i, min(j, ny - 1), i
             fa, fb = not solid[ja, ia], not solid[jb, ib]
             if fa and fb:
-                out[j, i] = 0.5 * (nu_c[ja, ia] + nu_c[jb, ib])
+                val = 0.5 * (nu_c[ja, ia] + nu_c[jb, ib])
             elif fa:
-                out[j, i] = nu_c[ja, ia]
+                val = nu_c[ja, ia]
             else:
-                out[j, i] = nu_c[jb, ib]
+                val = nu_c[jb, ib]
+            out[j + 1, i + 1] = val
+    for i in range(1, nxf + 1):
+        out[0, i] = out[1, i]
+        out[nyf + 1, i] = out[nyf, i]
+    for j in range(nyf + 2):
+        out[j, 0] = out[j, 1]
+        out[j, nxf + 1] = out[j, nxf]
+
+
+def _diffusion_weights(code, solid_p, sides, is_u):
+    """Per free face: weights (E, W, N, S) of the neighbour fluxes and the count of neighbours
+    inside a building (no-slip mirror), as float arrays of the face shape.
+
+    A neighbour across an inflow side reads the inlet value (weight 1, from the ghost layer);
+    across a wall or outflow side it is the face itself (weight 0: zero gradient); a neighbour
+    face between two building cells mirrors (``-u``: no slip on the wall half a cell away);
+    any other neighbour (fluid, or a fixed face with its prescribed value) has weight 1.
+    """
+    nyf, nxf = code.shape
+    w = np.zeros((4, nyf, nxf))
+    mirror = np.zeros((nyf, nxf))
+    free = code != 0
+    for k, (dj, di) in enumerate(((0, 1), (0, -1), (1, 0), (-1, 0))):
+        jj = np.arange(nyf)[:, None] + dj + np.zeros((1, nxf), dtype=np.int64)
+        ii = np.arange(nxf)[None, :] + di + np.zeros((nyf, 1), dtype=np.int64)
+        outside = (jj < 0) | (jj >= nyf) | (ii < 0) | (ii >= nxf)
+        side = np.where(jj < 0, 2, np.where(jj >= nyf, 3, np.where(ii < 0, 0, 1)))
+        ghost_inflow = outside & (np.asarray(sides)[side] == 0)
+        jc, ic = np.clip(jj, 0, nyf - 1), np.clip(ii, 0, nxf - 1)
+        if is_u:
+            inside = solid_p[jc + 1, ic] & solid_p[jc + 1, ic + 1]
+        else:
+            inside = solid_p[jc, ic + 1] & solid_p[jc + 1, ic + 1]
+        inside &= ~outside
+        w[k] = np.where(free & (ghost_inflow | (~outside & ~inside)), 1.0, 0.0)
+        mirror += np.where(free & inside, 1.0, 0.0)
+    return w, mirror
 
 
 @numba.njit(cache=True)
-def _diffuse_component(f, code, solid_p, sides, inflow_val, is_u, nu_f, c, out):
-    """``out = f + c * div(nu grad f)`` on free faces (``c = dt / dx^2``); fixed faces copy f.
+def _diffuse_component(fp, w, mirror, nu_p, c, out):
+    """``out = f + c * div(nu grad f)`` on the free faces (``c = dt / dx^2``, others keep f).
 
-    The viscosity between two neighbouring faces is the mean of theirs (``nu_f``, m^2/s),
-    toward a ghost neighbour the face's own.
+    ``fp`` and ``nu_p`` are the field and its face viscosity (m^2/s) padded by one ghost layer
+    (the inlet value beyond an inflow side); ``w`` (4, nyf, nxf) the neighbour weights (E, W,
+    N, S) and ``mirror`` the count of mirrored neighbours of :func:`_diffusion_weights`. The
+    viscosity between two neighbouring faces is the mean of theirs.
+
+    Explicit where that is a convex combination of the face and its neighbours (total weight
+    ``s = c sum(nu_k) <= 1``); where the eddy viscosity is so large that it is not, the face is
+    updated point-implicitly, ``(f + c sum(nu_k g_k)) / (1 + s)`` (still convex), so the update
+    is stable for any viscosity.
     """
-    nyf, nxf = f.shape
+    nyf, nxf = out.shape
     for j in range(nyf):
         for i in range(nxf):
-            val = f[j, i]
-            if code[j, i] == 0:
-                out[j, i] = val
-                continue
-            nu = nu_f[j, i]
-            acc = 0.0
-            for k in range(4):
-                jj = j + (1 if k == 0 else -1 if k == 1 else 0)
-                ii = i + (1 if k == 2 else -1 if k == 3 else 0)
-                if jj < 0 or jj >= nyf or ii < 0 or ii >= nxf:
-                    side = 2 if jj < 0 else 3 if jj >= nyf else 0 if ii < 0 else 1
-                    acc += nu * ((inflow_val if sides[side] == 0 else val) - val)
-                    continue
-                # the two cells the neighbour face separates (padded solid indices)
-                if is_u:
-                    inside = solid_p[jj + 1, ii] and solid_p[jj + 1, ii + 1]
-                else:
-                    inside = solid_p[jj, ii + 1] and solid_p[jj + 1, ii + 1]
-                if inside:
-                    acc += nu * (-2.0 * val)
-                else:
-                    acc += 0.5 * (nu + nu_f[jj, ii]) * (f[jj, ii] - val)
-            out[j, i] = val + c * acc
+            f = fp[j + 1, i + 1]
+            nu = nu_p[j + 1, i + 1]
+            a0 = w[0, j, i] * (nu + nu_p[j + 1, i + 2])
+            a1 = w[1, j, i] * (nu + nu_p[j + 1, i])
+            a2 = w[2, j, i] * (nu + nu_p[j + 2, i + 1])
+            a3 = w[3, j, i] * (nu + nu_p[j, i + 1])
+            pull = a0 * fp[j + 1, i + 2] + a1 * fp[j + 1, i] + a2 * fp[j + 2, i + 1]
+            pull = 0.5 * c * (pull + a3 * fp[j, i + 1])
+            total = 0.5 * c * (a0 + a1 + a2 + a3) + 2.0 * c * nu * mirror[j, i]
+            if total <= 1.0:
+                out[j, i] = f + pull - total * f
+            else:
+                out[j, i] = (f + pull) / (1.0 + total)
 
 
 class Advection:
@@ -260,10 +295,15 @@ class Advection:
         self._mac = scheme == "maccormack"
         self._ws = {}
         self._cs_delta2 = (self.smagorinsky * self.filter_width) ** 2
-        self._nu_c = np.full(domain.grid.shape, self.viscosity)
         ny, nx = domain.grid.shape
-        self._nu_u = np.full((ny, nx + 1), self.viscosity)
-        self._nu_v = np.full((ny + 1, nx), self.viscosity)
+        self._nu_c = np.full((ny, nx), self.viscosity)
+        self._corner = np.zeros((ny + 1, nx + 1))
+        self._nu_u = np.full((ny + 2, nx + 3), self.viscosity)
+        self._nu_v = np.full((ny + 3, nx + 2), self.viscosity)
+        self._w_u = self._w_v = None
+        if self.diffuses:
+            self._w_u = _diffusion_weights(domain.u_code, self._solid_p, self._sides, True)
+            self._w_v = _diffusion_weights(domain.v_code, self._solid_p, self._sides, False)
 
     @property
     def diffuses(self) -> bool:
@@ -286,32 +326,33 @@ class Advection:
         _advect_component(u, d.u_code, u, v, *args, ux, True, self._mac, ws_u, out_u)
         _advect_component(v, d.v_code, u, v, *args, uy, False, self._mac, ws_v, out_v)
         if self.diffuses:
-            self._diffuse(out_u, out_v, ws_u[2], ws_v[2])
+            self._diffuse(out_u, out_v)
         return out_u, out_v
 
-    def _diffuse(self, out_u, out_v, tu, tv):
-        """Explicit viscous substeps in place, each with ``max(nu) dt_s / dx^2 <= 0.2``."""
+    def _diffuse(self, out_u, out_v):
+        """Viscous substeps in place: enough for ``max(nu) dt_s / dx^2 <= 0.2`` (explicit
+        everywhere) up to :data:`MAX_DIFFUSION_SUBSTEPS`; beyond that the few faces of the
+        largest eddy viscosity (sharp corners at high CFL) are updated point-implicitly."""
         d = self.domain
         ux, uy = d.bc.inflow_velocity
         inv_dx = 1.0 / d.grid.dx
         nu_max = self.viscosity
         if self._cs_delta2 > 0.0:
-            nu_max = _eddy_viscosity(
-                out_u, out_v, d.solid, self.viscosity, self._cs_delta2, inv_dx, self._nu_c
-            )
+            nu_max = _eddy_viscosity(out_u, out_v, d.solid, self.viscosity, self._cs_delta2,
+                                     inv_dx, self._corner, self._nu_c)
             _face_viscosity(self._nu_c, d.solid, True, self._nu_u)
             _face_viscosity(self._nu_c, d.solid, False, self._nu_v)
         r = nu_max * self.dt * inv_dx**2
-        substeps = max(int(math.ceil(r / 0.2)), 1)
+        substeps = min(max(int(math.ceil(r / 0.2)), 1), MAX_DIFFUSION_SUBSTEPS)
         c = self.dt * inv_dx**2 / substeps
+        pu = self._scratch(out_u.shape)[6]
+        pv = self._scratch(out_v.shape)[6]
         for _ in range(substeps):
             # Jacobi-style: both components from the same old field
-            np.copyto(tu, out_u)
-            np.copyto(tv, out_v)
-            _diffuse_component(tu, d.u_code, self._solid_p, self._sides, ux, True, self._nu_u, c,
-                               out_u)
-            _diffuse_component(tv, d.v_code, self._solid_p, self._sides, uy, False, self._nu_v, c,
-                               out_v)
+            _pad(out_u, self._sides, ux, pu)
+            _pad(out_v, self._sides, uy, pv)
+            _diffuse_component(pu, *self._w_u, self._nu_u, c, out_u)
+            _diffuse_component(pv, *self._w_v, self._nu_v, c, out_v)
 
     def __call__(self, u, v):
         return self.into(u, v, np.empty_like(u), np.empty_like(v))

@@ -107,6 +107,19 @@ class MACGrid:
         _check_shape(v, (self.ny + 1, self.nx), name)
 
 
+def grid_for(bounds, dx: float) -> MACGrid:
+    """The grid the solver puts on a map: ``n = max(round(extent / dx), 2)`` square cells of
+    side ``dx`` (m) per axis from the lower-left corner of ``bounds = (x0, x1, y0, y1)`` (m).
+
+    The one rule shared by :func:`windnav.flow.simulate` and the sweep store; when the extent
+    is not a multiple of ``dx`` the grid ends up to ``dx / 2`` short of (or beyond) the bounds.
+    """
+    x0, x1, y0, y1 = (float(b) for b in bounds)
+    nx = max(int(round((x1 - x0) / dx)), 2)
+    ny = max(int(round((y1 - y0) / dx)), 2)
+    return MACGrid((ny, nx), dx, (x0, y0))
+
+
 def _check_shape(a, want, name):
     if np.shape(a) != want:
         raise ValueError(

@@ -34,19 +34,25 @@ import numpy as np
 
 from windnav._validate import finite_float, positive_float
 from windnav.flow.advection import make_advection
-from windnav.flow.grid import FACE_FIXED, BoundaryConditions, FlowDomain, MACGrid, make_domain
+from windnav.flow.grid import FACE_FIXED, BoundaryConditions, FlowDomain, grid_for, make_domain
 from windnav.flow.pressure import make_exact_projection, make_jacobi_projection
 
-MAX_CFL = 2.0
+MAX_CFL = 2.5
+"""Largest ``speed * dt / dx`` accepted: the thesis's protocol (dx = 1 m, dt = 0.25 s) at its
+fastest inlet, 10 m/s. The advection is unconditionally stable; the limit keeps the traces
+short enough that no building of at least 3 cells can be jumped over."""
 SMAGORINSKY = 0.17
 """Default Smagorinsky constant of :func:`simulate` (Lilly 1967's value for inertial-range
 turbulence; not fitted to any validation case)."""
+FILTER_PER_BUILDING = 8
+"""The default filter width is the median building's smaller side over this (or dx)."""
 WAKE_SEED_CELLS = 3
 DIAGNOSTICS = (
     "flow_throughs_spinup",
     "flow_throughs_average",
     "half_window_difference",
     "smagorinsky",
+    "filter_width",
     "viscosity",
 )
 BLOWUP_FACTOR = 10.0
@@ -104,6 +110,7 @@ def make_flow_step(
     pressure_solve=None,
     viscosity: float = 0.0,
     smagorinsky: float = 0.0,
+    filter_width: float | None = None,
 ) -> FlowStep:
     """Factory of the pure time step ``(u, v) -> (u, v)`` (jax-cfd style).
 
@@ -126,10 +133,15 @@ def make_flow_step(
         Smagorinsky constant ``C_s`` of an eddy viscosity ``(C_s dx)^2 |S|`` added to
         ``viscosity`` when ``advect`` is a scheme name (0, the default here: none; the
         default of :func:`simulate` is :data:`SMAGORINSKY`).
+    filter_width : float, optional
+        The filter width ``Delta`` of the eddy viscosity ``(C_s Delta)^2 |S|``, m
+        (default ``dx``).
     """
     dt = positive_float(dt, "dt", "make_flow_step")
     if advect is None or isinstance(advect, str):
-        advect = make_advection(domain, dt, advect or "maccormack", viscosity, smagorinsky)
+        advect = make_advection(
+            domain, dt, advect or "maccormack", viscosity, smagorinsky, filter_width
+        )
     if pressure_solve is None or isinstance(pressure_solve, str):
         kind = pressure_solve or "exact"
         if kind not in PRESSURE_SOLVERS:
@@ -210,8 +222,9 @@ class FlowSolution:
         RMS over fluid cells of ``|mean of the first half - mean of the second half|`` of the
         averaging window, divided by ``speed``: the statistical uncertainty of the mean field
         (NaN with fewer than 2 averaged steps).
-    smagorinsky, viscosity : float
-        The closure: Smagorinsky constant (0: none) and fixed kinematic viscosity, m^2/s.
+    smagorinsky, filter_width, viscosity : float
+        The closure: Smagorinsky constant (0: none), its filter width (m) and the fixed
+        kinematic viscosity (m^2/s).
     """
 
     x: np.ndarray
@@ -230,6 +243,7 @@ class FlowSolution:
     flow_throughs_average: float = float("nan")
     half_window_difference: float = float("nan")
     smagorinsky: float = float("nan")
+    filter_width: float = float("nan")
     viscosity: float = float("nan")
 
     @property
@@ -260,10 +274,7 @@ class FlowSolution:
 
 def city_domain(city, speed: float, direction_deg: float, dx: float) -> FlowDomain:
     """Rasterise ``city`` on a grid of spacing ``dx`` and set the wind's boundary conditions."""
-    x0, x1, y0, y1 = city.bounds
-    nx = max(int(round((x1 - x0) / dx)), 2)
-    ny = max(int(round((y1 - y0) / dx)), 2)
-    grid = MACGrid((ny, nx), dx, (x0, y0))
+    grid = grid_for(city.bounds, dx)
     solid = np.asarray(city.rasterize(grid.x, grid.y), dtype=bool)
     bc = BoundaryConditions.for_wind(speed, direction_deg)
     domain = make_domain(grid, solid, bc)
@@ -282,6 +293,21 @@ def _check_inlet_open(domain: FlowDomain, name: str, where: str) -> None:
             f"(or every path from the inlet to the outflow) for wind {domain.bc.inflow_velocity} "
             "m/s: no fluid can enter the domain."
         )
+
+
+def default_filter_width(city, dx: float) -> float:
+    """The default filter width of the eddy viscosity, m: ``max(dx, s / 8)`` with ``s`` the
+    median over the buildings of their smaller side (``dx`` for an empty map).
+
+    A filter tied to the buildings rather than to the grid gives the flow a fixed length
+    scale: on grids finer than ``s / 8`` the equations no longer change with ``dx`` and the
+    solution converges (the square-cylinder Strouhal number: docs/flow_validation.md).
+    """
+    fp = np.asarray(city.footprints, dtype=np.float64).reshape(-1, 4)
+    if fp.shape[0] == 0:
+        return float(dx)
+    side = np.minimum(fp[:, 1] - fp[:, 0], fp[:, 3] - fp[:, 2])
+    return float(max(dx, np.median(side) / FILTER_PER_BUILDING))
 
 
 def wake_seed(domain: FlowDomain, cells: int = WAKE_SEED_CELLS) -> np.ndarray:
@@ -359,6 +385,7 @@ def simulate(
     pressure: str = "exact",
     symmetry_break: float = 0.05,
     smagorinsky: float = SMAGORINSKY,
+    filter_width: float | None = None,
     viscosity: float = 0.0,
     progress: bool = False,
 ) -> FlowSolution:
@@ -375,7 +402,7 @@ def simulate(
     dx : float
         Cell size, m.
     dt : float
-        Time step, s. ``speed * dt / dx`` must not exceed 2 (CFL).
+        Time step, s. ``speed * dt / dx`` must not exceed 2.5 (CFL).
     spinup_steps : int
         Steps run before averaging starts (>= 0).
     steps : int
@@ -391,6 +418,10 @@ def simulate(
     smagorinsky : float
         Smagorinsky constant ``C_s`` (>= 0) of the eddy viscosity ``(C_s dx)^2 |S|``, the
         default closure (see the module docstring). 0 turns it off.
+    filter_width : float, optional
+        The eddy viscosity's filter width ``Delta``, m. Default (None):
+        :func:`default_filter_width`, ``max(dx, median building side / 8)``, a physical length,
+        so refining ``dx`` below it converges to one solution.
     viscosity : float
         Fixed kinematic viscosity, m^2/s (>= 0), added to the eddy viscosity. With
         ``smagorinsky=0`` and ``viscosity=0``: inviscid Euler, the advection scheme's numerical
@@ -407,7 +438,7 @@ def simulate(
     Raises
     ------
     ValueError
-        On bad input (naming the argument), a CFL number above 2, or an inlet fully blocked.
+        On bad input (naming the argument), a CFL number above 2.5, or an inlet fully blocked.
     FlowDivergedError
         If the solution blows up (non-finite or faster than 10 x ``speed``).
     """
@@ -424,6 +455,7 @@ def simulate(
         pressure=pressure,
         symmetry_break=symmetry_break,
         smagorinsky=smagorinsky,
+        filter_width=filter_width,
         viscosity=viscosity,
         progress=progress,
         _where="simulate",
@@ -444,6 +476,7 @@ def simulate_batch(
     pressure: str = "exact",
     symmetry_break: float = 0.05,
     smagorinsky: float = SMAGORINSKY,
+    filter_width: float | None = None,
     viscosity: float = 0.0,
     progress: bool = False,
     _where: str = "simulate_batch",
@@ -476,6 +509,10 @@ def simulate_batch(
     symmetry_break = finite_float(symmetry_break, "symmetry_break", where)
     smagorinsky = _nonneg_float(smagorinsky, "smagorinsky", where)
     viscosity = _nonneg_float(viscosity, "viscosity", where)
+    if filter_width is None:
+        filter_width = default_filter_width(city, dx)
+    else:
+        filter_width = positive_float(filter_width, "filter_width", where)
     cfl = max(speeds) * dt / dx
     if cfl > MAX_CFL:
         raise ValueError(
@@ -484,7 +521,8 @@ def simulate_batch(
         )
     domains = [city_domain(city, sp, direction_deg, dx) for sp in speeds]
     flow_steps = [
-        make_flow_step(d, dt, advection, pressure, viscosity, smagorinsky) for d in domains
+        make_flow_step(d, dt, advection, pressure, viscosity, smagorinsky, filter_width)
+        for d in domains
     ]
     project = flow_steps[0].project
     runs = [
@@ -507,7 +545,8 @@ def simulate_batch(
             check_finite(r.u, r.v, BLOWUP_FACTOR * r.speed, n)
             if n > spinup_steps:
                 r.accumulate(n - spinup_steps)
-    return [r.solution(spinup_steps, smagorinsky, viscosity) for r in runs]
+    closure = {"smagorinsky": smagorinsky, "filter_width": filter_width, "viscosity": viscosity}
+    return [r.solution(spinup_steps, closure) for r in runs]
 
 
 class _Run:
@@ -538,7 +577,7 @@ class _Run:
             f = k // re - 1
             _to_centres(self.u, self.v, solid, self.frames_u[f], self.frames_v[f], 1.0)
 
-    def solution(self, spinup_steps: int, smagorinsky: float, viscosity: float) -> FlowSolution:
+    def solution(self, spinup_steps: int, closure: dict) -> FlowSolution:
         d, h, steps, speed = self.domain, self.halves, self.steps, self.speed
         w1 = self.n_first / steps
         mean_u = w1 * h[0] + (1.0 - w1) * h[2]
@@ -567,8 +606,7 @@ class _Run:
             flow_throughs_spinup=speed * spinup_steps * dt / length,
             flow_throughs_average=speed * steps * dt / length,
             half_window_difference=half_diff,
-            smagorinsky=smagorinsky,
-            viscosity=viscosity,
+            **closure,
         )
 
 

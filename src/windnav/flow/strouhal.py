@@ -21,7 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from windnav.flow.grid import BoundaryConditions, MACGrid, make_domain
-from windnav.flow.solver import BLOWUP_FACTOR, SMAGORINSKY, check_finite, make_flow_step
+from windnav.flow.solver import (
+    BLOWUP_FACTOR,
+    FILTER_PER_BUILDING,
+    SMAGORINSKY,
+    check_finite,
+    make_flow_step,
+)
 
 
 def strouhal_number(
@@ -199,8 +205,9 @@ class BluffBodyCase:
         in H. The domain is square.
     spinup_time, record_time : float
         Convective times (H / U) run before and during the force record.
-    smagorinsky, viscosity : float
-        Closure, as in :func:`windnav.flow.simulate`.
+    smagorinsky, filter_width, viscosity : float
+        Closure, as in :func:`windnav.flow.simulate` (``filter_width`` None:
+        ``max(dx, min(H, B) / 8)``, the default rule for a map of this one building).
     advection : str
         Advection scheme.
     """
@@ -215,6 +222,7 @@ class BluffBodyCase:
     spinup_time: float = 50.0
     record_time: float = 100.0
     smagorinsky: float = SMAGORINSKY
+    filter_width: float | None = None
     viscosity: float = 0.0
     advection: str = "maccormack"
 
@@ -276,9 +284,12 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     solid = np.zeros((size, size), dtype=bool)
     solid[up : up + n, up : up + nb] = True
     domain = make_domain(grid, solid, BoundaryConditions.for_wind(case.speed, case.angle_deg))
+    fw = case.filter_width
+    if fw is None:
+        fw = max(dx, min(H, nb * dx) / FILTER_PER_BUILDING)
     step = make_flow_step(
         domain, dt, case.advection, "exact", viscosity=case.viscosity,
-        smagorinsky=case.smagorinsky,
+        smagorinsky=case.smagorinsky, filter_width=fw,
     )
     u, v = step.project(*initial_velocity(domain, 0.05 * case.speed))
     faces = _body_faces(domain.solid)
@@ -316,6 +327,7 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
         "shape": grid.shape,
         "steps": n_spin + n_rec,
         "cells_per_height": n,
+        "filter_width": fw,
         "aspect_ratio": float(case.aspect_ratio),
         "angle_deg": float(case.angle_deg),
     }

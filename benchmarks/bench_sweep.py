@@ -1,0 +1,131 @@
+"""Wind-sweep throughput: the thesis's training grid, extrapolated from a timed subset.
+
+Run: ``.venv/bin/python benchmarks/bench_sweep.py`` (about 5-10 minutes on 2 cores).
+
+The thesis's training data: 64 maps (32 of 500 m, 32 of 300 m) x 40 inlets (5 speeds x 8
+directions), each 100 + 200 steps at dx = 1 m, dt = 0.25 s: 2,560 simulations. This runs a
+representative subset with the ``process`` executor on 2 workers -- one 500 m and one 300 m
+training map, an axis-aligned (0 deg) and a diagonal (45 deg) direction, all 5 speeds -- twice:
+
+* batched (the sweep's default): one task per map and direction, its 5 speeds stepped
+  together (one factorisation, one 5-right-hand-side pressure solve per step);
+* per simulation (the reference, the sweep's previous scheme): one task per simulation.
+
+The full grid's time is extrapolated from the mean task time per map size (the subset's two
+directions stand for the 8) as 32 x 8 tasks per size on 2 workers. Appends to
+docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _record import append_record  # noqa: E402
+
+from windnav.city import training_map  # noqa: E402
+from windnav.experiments.wind_sweep import THESIS_SPEEDS, sweep  # noqa: E402
+from windnav.flow import simulate  # noqa: E402
+
+PROTOCOL = {"dx": 1.0, "dt": 0.25, "spinup_steps": 100, "steps": 200, "record_every": 0}
+MAPS_PER_SIZE = 32
+DIRECTIONS = 8
+WORKERS = 2
+
+
+def _maps(seed: int):
+    rng = np.random.default_rng(seed)
+    return [(f"training-{int(s)}m", f"training_map(size={s:g})", training_map(rng=rng, size=s))
+            for s in (500.0, 300.0)]
+
+
+def run(maps, out: Path, directions, batched: bool, settings: dict) -> dict:
+    """Run the subset; returns wall time and the mean task time per map (s)."""
+    t0 = time.perf_counter()
+    store, results = sweep(maps, out, speeds=THESIS_SPEEDS, directions_deg=directions,
+                           settings=settings, backend="process", workers=WORKERS,
+                           progress=False, simulate=None if batched else simulate)
+    wall = time.perf_counter() - t0
+    failed = [r for r in results if not r.ok]
+    if failed:
+        raise RuntimeError(f"{len(failed)} tasks failed: {failed[0].error}")
+    per_map = {k: [r.seconds for r in results if r.task.map_index == k]
+               for k in range(len(maps))}
+    n_sims = sum(len(r.task.case_indices) for r in results)
+    return {"wall": wall, "n_sims": n_sims, "n_tasks": len(results),
+            "task_seconds": {k: float(np.sum(v)) for k, v in per_map.items()}}
+
+
+def extrapolate(res: dict, n_directions: int) -> float:
+    """Hours for the full grid: per map size, (its subset time / subset directions) x 8
+    directions x 32 maps, over 2 workers."""
+    per_map_direction = [t / n_directions for t in res["task_seconds"].values()]
+    return sum(MAPS_PER_SIZE * DIRECTIONS * t for t in per_map_direction) / WORKERS / 3600.0
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--steps-scale", type=float, default=1.0,
+                        help="scale the protocol's step counts (for a quick check; 1 = thesis)")
+    parser.add_argument("--no-record", action="store_true")
+    args = parser.parse_args(argv)
+    settings = dict(PROTOCOL)
+    settings["spinup_steps"] = int(round(PROTOCOL["spinup_steps"] * args.steps_scale))
+    settings["steps"] = max(1, int(round(PROTOCOL["steps"] * args.steps_scale)))
+    maps = _maps(args.seed)
+    directions = [0.0, 45.0]
+    tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
+    try:
+        batched = run(maps, tmp / "batched.zarr", directions, True, settings)
+        print("batched", batched, flush=True)
+        single = run(maps, tmp / "single.zarr", directions, False, settings)
+        print("per simulation", single, flush=True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    scale = 1.0 / args.steps_scale
+    hb = extrapolate(batched, len(directions)) * scale
+    hs = extrapolate(single, len(directions)) * scale
+    rows = [
+        "| scheme | subset wall (s) | tasks | 500 m map: task s per direction | 300 m map | "
+        "full thesis grid, 2 workers (h) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, r, h in (("batched speeds (default)", batched, hb),
+                       ("one task per simulation (reference)", single, hs)):
+        t = r["task_seconds"]
+        rows.append(f"| {name} | {r['wall']:.1f} | {r['n_tasks']} | "
+                    f"{t[0] / len(directions):.1f} | {t[1] / len(directions):.1f} | {h:.2f} |")
+    rows.append("")
+    rows.append(f"- subset: {len(maps)} training maps (500 m: {maps[0][2].n_buildings} "
+                f"buildings, 300 m: {maps[1][2].n_buildings}), directions {directions} deg, "
+                f"speeds {list(THESIS_SPEEDS)} m/s, {settings['spinup_steps']} + "
+                f"{settings['steps']} steps, dx = 1 m, dt = 0.25 s, process executor, "
+                f"{WORKERS} workers, default closure")
+    rows.append(f"- batched / per simulation: {hs / hb:.2f}x faster; target: full grid <= 2 h")
+    if args.steps_scale != 1.0:
+        rows.append(f"- step counts scaled by {args.steps_scale:g} and the time rescaled")
+    for line in rows:
+        print(line)
+    if not args.no_record:
+        append_record("Wind sweep: the thesis training grid extrapolated (2 workers)", rows,
+                      command="python benchmarks/bench_sweep.py" + (
+                          f" --steps-scale {args.steps_scale:g}" if args.steps_scale != 1.0
+                          else ""))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

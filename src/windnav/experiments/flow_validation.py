@@ -1,0 +1,211 @@
+"""Strouhal studies of the flow solver against experiments: resolution, incidence, aspect ratio.
+
+Each study is a list of :class:`windnav.flow.BluffBodyCase` runs (solver defaults unless
+stated), run through :func:`windnav.experiments.executor.run_tasks`:
+
+* resolution: a square at 0 and 90 deg, H = 8, 16, 32 cells, dt halved with dx: St must stay
+  in [0.12, 0.16] and change by at most 5 % per halving, and 0 and 90 deg must agree;
+* incidence: St against the inlet angle 0-90 deg for 1:1, 2:1 and 3:1 rectangles (the thesis's
+  validation figure; experiments: Norberg 1993);
+* aspect ratio: St against the depth ratio B/H at 0 deg (Nakaguchi et al. 1968; Okajima 1982).
+
+Reference values come from ``windnav/flow/data/strouhal_reference.csv`` (one row per point,
+with its source, and whether it is stated in the text or read from a figure).
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import replace
+from importlib import resources
+
+import numpy as np
+
+from windnav.flow.strouhal import BluffBodyCase, bluff_body_strouhal
+
+RESOLUTIONS = (8, 16, 32)
+INCIDENCE_ANGLES = tuple(float(a) for a in range(0, 91, 5))
+INCIDENCE_SHAPES = (1.0, 2.0, 3.0)
+ASPECT_RATIOS = (0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0)
+STUDY_CELLS = 8
+ST_RANGE = (0.12, 0.16)
+MAX_HALVING_CHANGE = 0.05
+# a shorter domain and record for the resolution series: its finest grid is 512^2 cells
+RESOLUTION_CASE = BluffBodyCase(upstream=5.0, downstream=10.0, spinup_time=40.0,
+                                record_time=80.0)
+STUDY_CASE = BluffBodyCase(cells_per_height=STUDY_CELLS, upstream=6.0, downstream=12.0,
+                           spinup_time=40.0, record_time=80.0)
+
+
+def run_case(case: BluffBodyCase) -> dict:
+    """One Strouhal run, reduced to JSON-ready scalars and the lift history (a sweep task)."""
+    r = bluff_body_strouhal(case)
+    keep = ("strouhal", "strouhal_crossings", "cd_mean", "cl_rms", "dx", "dt", "steps",
+            "cells_per_height", "aspect_ratio", "angle_deg", "filter_width")
+    out = {k: (float(r[k]) if isinstance(r[k], float | np.floating) else r[k]) for k in keep}
+    out["shape"] = list(r["shape"])
+    out["cl"] = np.asarray(r["cl"], dtype=np.float32).tolist()
+    return out
+
+
+def _run(cases, backend: str, workers: int | None, progress: bool, desc: str) -> list[dict]:
+    from windnav.experiments.executor import run_tasks
+
+    results = sorted(run_tasks(run_case, cases, backend=backend, workers=workers,
+                               progress=progress, desc=desc), key=lambda r: r.index)
+    failed = [r for r in results if not r.ok]
+    if failed:
+        raise RuntimeError(f"{len(failed)} Strouhal runs failed; first: {failed[0].error}")
+    return [r.value for r in results]
+
+
+def resolution_study(resolutions=RESOLUTIONS, angles=(0.0, 90.0), backend="process",
+                     workers=None, progress=True, base: BluffBodyCase = RESOLUTION_CASE) -> dict:
+    """St of a square at each angle and resolution (default closure), with the verdict.
+
+    Returns
+    -------
+    dict
+        ``runs`` (list of run dicts), ``strouhal`` {angle: [St per resolution]},
+        ``halving_change`` {angle: [relative change per halving]}, ``angle_difference``
+        (max over resolutions of |St(first) - St(second angle)| / St(first)), ``passes``.
+    """
+    cases = [replace(base, cells_per_height=int(n), angle_deg=float(a))
+             for a in angles for n in resolutions]
+    runs = _run(cases, backend, workers, progress, "St resolution")
+    st = {f"{a:g}": [r["strouhal"] for r in runs if r["angle_deg"] == a] for a in angles}
+    change = {k: [abs(b - a) / a for a, b in zip(v[:-1], v[1:], strict=True)]
+              for k, v in st.items()}
+    first, *rest = st.values()
+    diff = max((abs(a - b) / a for other in rest for a, b in zip(first, other, strict=True)),
+               default=0.0)
+    lo, hi = ST_RANGE
+    passes = bool(all(lo <= s <= hi for v in st.values() for s in v)
+                  and all(c <= MAX_HALVING_CHANGE for v in change.values() for c in v)
+                  and diff <= 0.02)
+    return {"runs": runs, "resolutions": list(resolutions), "strouhal": st,
+            "halving_change": change, "angle_difference": float(diff), "passes": passes}
+
+
+def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="process",
+                    workers=None, progress=True, base: BluffBodyCase = STUDY_CASE) -> dict:
+    """St against the inlet angle for each aspect ratio, and the square's checks.
+
+    Returns
+    -------
+    dict
+        ``runs``, ``strouhal`` {aspect ratio: [St per angle]}, ``angles``, and for the square:
+        ``symmetry`` (max |St(a) - St(90 - a)| / St(a)), ``peak_angle`` and ``peak_strouhal``
+        (the largest St in 5-25 deg), ``strouhal_0``, ``checks`` (each acceptance point).
+    """
+    cases = [replace(base, aspect_ratio=float(s), angle_deg=float(a))
+             for s in shapes for a in angles]
+    runs = _run(cases, backend, workers, progress, "St incidence")
+    st = {f"{s:g}": [r["strouhal"] for r in runs if r["aspect_ratio"] == s] for s in shapes}
+    out = {"runs": runs, "angles": list(angles), "strouhal": st}
+    if 1.0 in shapes:
+        sq = dict(zip(angles, st["1"], strict=True))
+        pairs = [(a, 90.0 - a) for a in angles if a < 45.0 and (90.0 - a) in sq]
+        sym = max((abs(sq[a] - sq[b]) / sq[a] for a, b in pairs), default=float("nan"))
+        band = [a for a in angles if 5.0 <= a <= 25.0]
+        peak = max(band, key=lambda a: sq[a]) if band else float("nan")
+        s0 = sq.get(0.0, float("nan"))
+        lo, hi = ST_RANGE
+        out.update({
+            "symmetry": float(sym),
+            "peak_angle": float(peak),
+            "peak_strouhal": float(sq[peak]) if band else float("nan"),
+            "strouhal_0": float(s0),
+            "checks": {
+                "symmetric_within_3pct": bool(sym <= 0.03),
+                "peak_5_25_above_0": bool(band and sq[peak] > s0 and sq[peak] >= max(
+                    v for a, v in sq.items() if a <= 45.0)),
+                "st0_in_range": bool(lo <= s0 <= hi),
+            },
+        })
+    return out
+
+
+def aspect_ratio_study(ratios=ASPECT_RATIOS, backend="process", workers=None, progress=True,
+                       base: BluffBodyCase = STUDY_CASE) -> dict:
+    """St against the depth ratio B/H at 0 deg. Returns ``runs``, ``ratios``, ``strouhal``."""
+    cases = [replace(base, aspect_ratio=float(b), angle_deg=0.0) for b in ratios]
+    runs = _run(cases, backend, workers, progress, "St aspect ratio")
+    return {"runs": runs, "ratios": list(ratios), "strouhal": [r["strouhal"] for r in runs]}
+
+
+def load_references(path=None) -> list[dict]:
+    """The experimental reference points: a list of rows of the reference CSV.
+
+    Columns: ``study`` (incidence | aspect_ratio), ``aspect_ratio`` (B/H), ``angle_deg``,
+    ``strouhal``, ``reynolds``, ``kind`` (stated | figure), ``source``, ``note``.
+    """
+    if path is None:
+        text = resources.files("windnav.flow").joinpath("data/strouhal_reference.csv").read_text()
+    else:
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+    rows = list(csv.DictReader(line for line in text.splitlines() if not line.startswith("#")))
+    for r in rows:
+        for k in ("aspect_ratio", "angle_deg", "strouhal", "reynolds"):
+            r[k] = float(r[k]) if r.get(k) not in (None, "") else float("nan")
+    return rows
+
+
+def compare_references(refs, incidence: dict | None, aspect: dict | None) -> dict:
+    """Deviation computed - experiment at every reference point the studies cover.
+
+    The computed value at a reference's (aspect ratio, angle) is linearly interpolated in
+    angle (incidence study) or in B/H (aspect-ratio study); points outside a study's range are
+    listed as not covered. Returns ``points`` (each with ``computed`` and ``deviation``),
+    ``rms`` over the covered points and ``n``.
+    """
+    points = []
+    for r in refs:
+        computed = float("nan")
+        if r["study"] == "incidence" and incidence is not None:
+            key = f"{r['aspect_ratio']:g}"
+            if key in incidence["strouhal"]:
+                a = np.asarray(incidence["angles"], dtype=float)
+                if a.min() <= r["angle_deg"] <= a.max():
+                    computed = float(np.interp(r["angle_deg"], a, incidence["strouhal"][key]))
+        elif r["study"] == "aspect_ratio" and aspect is not None:
+            b = np.asarray(aspect["ratios"], dtype=float)
+            if b.min() <= r["aspect_ratio"] <= b.max():
+                computed = float(np.interp(r["aspect_ratio"], b, aspect["strouhal"]))
+        points.append({**r, "computed": computed, "deviation": computed - r["strouhal"]})
+    dev = np.array([p["deviation"] for p in points if np.isfinite(p["deviation"])])
+    rms = float(np.sqrt(np.mean(dev**2))) if dev.size else float("nan")
+    return {"points": points, "rms": rms, "n": int(dev.size)}
+
+
+def label_noise_study(speeds=(2.0, 5.0, 10.0), direction_deg: float = 0.0, seed: int = 0,
+                      size: float = 500.0, spinup_steps: int = 100, steps: int = 200,
+                      dx: float = 1.0, dt: float = 0.25) -> dict:
+    """The thesis's averaging protocol on a training map: how converged are its mean fields?
+
+    One ``training_map(size)`` drawn from ``seed``; for each inlet speed, the flow-throughs of
+    the spin-up and of the window and the half-window difference of the mean (relative to the
+    inlet speed), which is the noise of the labels a decoder learns from.
+
+    Returns
+    -------
+    dict
+        ``rows`` (one per speed: speed, flow_throughs_spinup, flow_throughs_average,
+        half_window_difference, filter_width, seconds), ``map`` (number of buildings, size).
+    """
+    import time
+
+    from windnav.city import training_map
+    from windnav.flow import simulate_batch
+
+    city = training_map(rng=np.random.default_rng(seed), size=size)
+    t0 = time.perf_counter()
+    sols = simulate_batch(city, list(speeds), direction_deg, dx, dt, spinup_steps, steps)
+    seconds = time.perf_counter() - t0
+    rows = [{"speed": s.speed, **s.diagnostics, "seconds_batch": seconds} for s in sols]
+    return {"rows": rows, "map": {"buildings": int(city.n_buildings), "size": size,
+                                  "seed": seed}, "protocol": {"spinup_steps": spinup_steps,
+                                                              "steps": steps, "dx": dx,
+                                                              "dt": dt,
+                                                              "direction_deg": direction_deg}}
