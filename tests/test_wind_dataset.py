@@ -355,7 +355,17 @@ def test_cli_wind_end_to_end(tmp_path, capsys):
     assert cfg["seed"] == 1 and cfg["map_source"] == str(tiny)
     png = imread(tmp_path / "run" / "mean_speed.png")
     assert png.ndim == 3 and min(png.shape[:2]) > 200 and png.std() > 0.05  # a real picture
-    assert "flow.zarr" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "flow.zarr" in printed
+    # the averaging diagnostics: printed, stored in the attributes and loaded back
+    length = 40.0 * (np.cos(np.deg2rad(30)) + np.sin(np.deg2rad(30)))  # domain along the wind
+    assert sol.flow_throughs_spinup == pytest.approx(4.0 * 30 * 0.1 / length)
+    assert sol.flow_throughs_average == pytest.approx(4.0 * 20 * 0.1 / length)
+    assert 0.0 < sol.half_window_difference < 1.0 and sol.smagorinsky == 0.17
+    stored = flow_attrs(tmp_path / "run" / "flow.zarr")["solution"]
+    assert stored["half_window_difference"] == sol.half_window_difference
+    assert f"{sol.flow_throughs_spinup:.2f} and window" in printed
+    assert "not converged" in printed  # 0.7 flow-throughs of spin-up
 
 
 def test_cli_wind_sweep_end_to_end_matches_direct_simulation_and_resumes(tmp_path, capsys):
@@ -380,6 +390,8 @@ def test_cli_wind_sweep_end_to_end_matches_direct_simulation_and_resumes(tmp_pat
         np.testing.assert_allclose(case["mean_u"], direct.mean_u, rtol=0, atol=1e-12)
         np.testing.assert_allclose(case["mean_v"], direct.mean_v, rtol=0, atol=1e-12)
         np.testing.assert_array_equal(case["solid"], direct.solid)
+        for key, value in direct.diagnostics.items():  # stored per case
+            assert case["diagnostics"][key] == pytest.approx(value, rel=1e-6), key
         got = inlet_direction_deg(case["mean_u"], case["mean_v"], case["solid"], case["x"],
                                   case["y"], case["direction_deg"])
         assert min(abs(got - case["direction_deg"]), 360 - abs(got - case["direction_deg"])) < 5

@@ -3,9 +3,11 @@
 Checks, each against a reference that does not come from this code: the discrete
 divergence after every projection (0), the normal velocity on building faces (0), uniform
 flow without buildings (stays uniform), the Taylor-Green vortex in a free-slip box (an exact
-steady Euler solution: its decay is the scheme's numerical viscosity), and the Strouhal
-number of a square building (0.13, Okajima 1982; Lyn et al. 1995; ~0.145 at Re = 100,
-Sohankar et al. 1998) with dx, dt halvings.
+steady Euler solution: its decay is the scheme's numerical viscosity). ``--studies`` adds the
+Strouhal studies of the thesis's validation figure (St against incidence for 1:1, 2:1 and 3:1
+rectangles, St against the depth ratio B/H; about 15-20 minutes on 2 cores), ``--full`` also the
+resolution series (a square at 0 and 90 deg, 8/16/32 cells per height), the closure comparison
+and the label-noise table of the thesis's averaging protocol (about 30-40 minutes).
 """
 
 from __future__ import annotations
@@ -16,17 +18,16 @@ from pathlib import Path
 import numpy as np
 
 from windnav.city import City
+from windnav.experiments import flow_validation as fv
 from windnav.flow import (
     BoundaryConditions,
     MACGrid,
-    SquareCylinderCase,
     divergence,
     fixed_face_violation,
     make_advection,
     make_domain,
     make_flow_step,
     simulate,
-    square_cylinder_strouhal,
 )
 
 
@@ -37,9 +38,14 @@ def register(subparsers) -> None:
         description=__doc__.splitlines()[0],
     )
     p.add_argument("--out", type=Path, required=True, help="output folder (plots, JSON)")
+    p.add_argument("--studies", action="store_true",
+                   help="also run the Strouhal studies against incidence and aspect ratio "
+                        "(about 15-20 minutes on 2 cores)")
     p.add_argument("--full", action="store_true",
-                   help="also run the MacCormack Strouhal halving studies (inviscid, and Re = 100 "
-                        "at D = 8, 16, 32 cells: about 10-15 minutes)")
+                   help="the studies, plus the resolution series (8/16/32 cells per height), "
+                        "the closure comparison and the label-noise table (30-40 minutes)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes for the Strouhal runs (default: all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random city layout")
     p.set_defaults(func=run)
 
@@ -75,7 +81,7 @@ def uniform_study():
     out = {}
     for direction in (0.0, 30.0, 90.0, 135.0, 200.0, 290.0):
         sol = simulate(city, speed=4.0, direction_deg=direction, dx=1.0, dt=0.2,
-                       spinup_steps=50, steps=50, symmetry_break=0.0)
+                       spinup_steps=50, steps=50)
         th = np.deg2rad(direction)
         err = max(np.abs(sol.mean_u - 4.0 * np.cos(th)).max(),
                   np.abs(sol.mean_v - 4.0 * np.sin(th)).max())
@@ -107,43 +113,7 @@ def taylor_green_study(n=64, periods=4.0):
     return res
 
 
-STROUHAL_REYNOLDS = 100.0
-
-# (label, scheme, Reynolds number or None for inviscid, resolutions D/dx): consecutive
-# resolutions halve dx and dt together (CFL fixed)
-STROUHAL_SERIES_FAST = (("semi_lagrangian", "semi_lagrangian", None, (8, 16)),)
-STROUHAL_SERIES_FULL = STROUHAL_SERIES_FAST + (
-    ("maccormack", "maccormack", None, (8, 16)),
-    (f"maccormack_re{STROUHAL_REYNOLDS:g}", "maccormack", STROUHAL_REYNOLDS, (8, 16, 32)),
-)
-
-
-def strouhal_study(full: bool):
-    """St of the square building per scheme and resolution, and the change per halving.
-
-    The inviscid runs have no resolution-independent answer with a low-dissipation scheme
-    (the effective Reynolds number grows as dx shrinks); the viscous MacCormack series at
-    Re = 100 (Okajima 1982; Sohankar et al. 1998: St ~ 0.14-0.15) is the converging study.
-    """
-    res = {}
-    for label, scheme, reynolds, resolutions in (
-        STROUHAL_SERIES_FULL if full else STROUHAL_SERIES_FAST
-    ):
-        for n in resolutions:
-            case = SquareCylinderCase(cells_per_side=n, advection=scheme, reynolds=reynolds)
-            r = square_cylinder_strouhal(case, progress=True)
-            res[f"{label}/{n}"] = {
-                "strouhal": r["strouhal"], "strouhal_spectrum": r["strouhal_spectrum"],
-                "dx": r["dx"], "dt": r["dt"], "shape": list(r["shape"]), "steps": r["steps"],
-                "reynolds": reynolds, "t": r["t"].tolist(), "probe_v": r["probe_v"].tolist(),
-            }
-        for a, b in zip(resolutions[:-1], resolutions[1:], strict=True):
-            sa, sb = (res[f"{label}/{n}"]["strouhal"] for n in (a, b))
-            res[f"{label}/halving_change_{a}_to_{b}"] = float(abs(sb - sa) / sa)
-    return res
-
-
-def _plots(out: Path, proj, tg, st):
+def _plots(out: Path, proj, tg):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -184,40 +154,107 @@ def _plots(out: Path, proj, tg, st):
     fig.savefig(out / "flow_taylor_green.png", dpi=110)
     plt.close(fig)
 
-    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(10, 3.6), width_ratios=(1, 2))
-    series = sorted({k.split("/")[0] for k in st})
-    for label in series:
-        keys = [k for k, r in st.items() if k.startswith(label + "/") and isinstance(r, dict)]
-        n = [int(k.split("/")[1]) for k in keys]
-        ax0.plot(n, [st[k]["strouhal"] for k in keys], "o-", label=label)
-        k = keys[-1]
-        r = st[k]
-        t, p = np.array(r["t"]), np.array(r["probe_v"])
-        last = t >= t[-1] - 25.0
-        ax1.plot(t[last], p[last], lw=0.8, label=f"{k} cells/D: St = {r['strouhal']:.3f}")
-    ax0.axhspan(0.12, 0.16, color="0.9", label="accepted 0.12-0.16")
-    ax0.set_xscale("log", base=2)
-    ax0.set_xlabel("D / dx (dt halved with dx)")
-    ax0.set_ylabel("St")
-    ax0.legend(fontsize=7)
-    ax1.set_xlabel("t (D/U)")
-    ax1.set_ylabel("v at wake probe (U)")
-    ax1.set_title("wake probe 2D behind the rear face, finest run of each series", fontsize=9)
-    ax1.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(out / "flow_strouhal.png", dpi=110)
-    plt.close(fig)
 
 
-def strouhal_acceptance(st) -> dict:
-    """Per series: all St within [0.12, 0.16] and every halving change below 5 %."""
+def _strouhal_plots(out: Path, res) -> list[str]:
+    """The Strouhal figures of whichever studies ran; returns the file names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = []
+    refs = res.get("references", {}).get("points", [])
+    lo, hi = fv.ST_RANGE
+    if "resolution" in res or "closures" in res:
+        fig, ax = plt.subplots(figsize=(6, 3.8))
+        if "closures" in res:
+            c = res["closures"]
+            for name, vals in c["strouhal"].items():
+                if name != "default":
+                    ax.plot(c["resolutions"], vals, "s--", alpha=0.7, label=f"0 deg, {name}")
+        if "resolution" in res:
+            r = res["resolution"]
+            for angle, vals in r["strouhal"].items():
+                ax.plot(r["resolutions"], vals, "o-", label=f"{angle} deg, default closure")
+        ax.axhspan(lo, hi, color="0.92", label=f"accepted {lo}-{hi}")
+        ax.axhline(0.132, color="k", lw=0.8, ls=":", label="Lyn et al. 1995 (Re 21,400)")
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("cells per body height H / dx (dt halved with dx)")
+        ax.set_ylabel("St = f H / U")
+        ax.set_title("square cylinder: St under grid refinement", fontsize=10)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(out / "flow_strouhal_resolution.png", dpi=110)
+        plt.close(fig)
+        names.append("flow_strouhal_resolution.png")
+    if "incidence" in res:
+        inc = res["incidence"]
+        fig, ax = plt.subplots(figsize=(6.5, 3.8))
+        for shape, vals in inc["strouhal"].items():
+            ax.plot(inc["angles"], vals, "o-", ms=3, label=f"computed {shape}:1")
+        pts = [p for p in refs if p["study"] == "incidence"]
+        if pts:
+            ax.plot([p["angle_deg"] for p in pts], [p["strouhal"] for p in pts], "k*", ms=9,
+                    label="experiments (reference CSV)")
+        ax.set_xlabel("incidence (inlet direction, deg)")
+        ax.set_ylabel("St = f H / U")
+        ax.set_title(f"St against incidence, {fv.STUDY_CELLS} cells per height H, default "
+                     "closure", fontsize=10)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(out / "flow_strouhal_incidence.png", dpi=110)
+        plt.close(fig)
+        names.append("flow_strouhal_incidence.png")
+    if "aspect_ratio" in res:
+        ar = res["aspect_ratio"]
+        fig, ax = plt.subplots(figsize=(6.5, 3.8))
+        ax.plot(ar["ratios"], ar["strouhal"], "o-", label="computed, 0 deg")
+        pts = [p for p in refs if p["study"] == "aspect_ratio"]
+        if pts:
+            ax.plot([p["aspect_ratio"] for p in pts], [p["strouhal"] for p in pts], "k*", ms=9,
+                    label="experiments (reference CSV)")
+        ax.axvline(2.8, color="0.5", ls="--", lw=0.8,
+                   label="reattachment jump, B/H ~ 2.8 (Nakaguchi et al. 1968)")
+        ax.set_xlabel("depth ratio B / H")
+        ax.set_ylabel("St = f H / U")
+        ax.set_title(f"St against aspect ratio, {fv.STUDY_CELLS} cells per height H",
+                     fontsize=10)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        fig.savefig(out / "flow_strouhal_aspect.png", dpi=110)
+        plt.close(fig)
+        names.append("flow_strouhal_aspect.png")
+    return names
+
+
+def strouhal_studies(full: bool, studies: bool, workers: int | None) -> dict:
+    """Run the requested Strouhal studies (see the module docstring)."""
+    res = {}
+    if full:
+        res["resolution"] = fv.resolution_study(workers=workers)
+        res["closures"] = fv.closure_study(workers=workers)
+        res["label_noise"] = fv.label_noise_study()
+    if full or studies:
+        res["incidence"] = fv.incidence_study(workers=workers)
+        res["aspect_ratio"] = fv.aspect_ratio_study(workers=workers)
+        res["references"] = fv.compare_references(fv.load_references(), res["incidence"],
+                                                   res["aspect_ratio"])
+    return res
+
+
+def _brief(res: dict) -> dict:
+    """The studies without the per-run force histories (for the printed summary)."""
     out = {}
-    for label in sorted({k.split("/")[0] for k in st}):
-        vals = [r["strouhal"] for k, r in st.items()
-                if k.startswith(label + "/") and isinstance(r, dict)]
-        changes = [c for k, c in st.items() if k.startswith(label + "/halving")]
-        out[label] = bool(all(0.12 <= v <= 0.16 for v in vals) and changes
-                          and all(c < 0.05 for c in changes))
+    for name, study in res.items():
+        if isinstance(study, dict):
+            out[name] = {k: v for k, v in study.items() if k not in ("runs", "points")}
+            if name == "references":
+                out[name]["points"] = [
+                    {k: p[k] for k in ("study", "aspect_ratio", "angle_deg", "strouhal",
+                                       "computed", "deviation", "source")}
+                    for p in study["points"]
+                ]
     return out
 
 
@@ -228,18 +265,20 @@ def run(args) -> int:
     proj = projection_study(rng)
     uni = uniform_study()
     tg = taylor_green_study()
-    st = strouhal_study(args.full)
-    _plots(out, proj, tg, st)
+    _plots(out, proj, tg)
+    st = strouhal_studies(args.full, args.studies, args.workers)
+    figures = _strouhal_plots(out, st)
     summary = {
         "max_div_dx_over_U": max(proj["max_div_dx_over_U"]),
         "max_fixed_face_error": max(proj["max_fixed_face_error"]),
         "uniform_flow_max_error": uni,
         "taylor_green_nu": {k: r["nu"] for k, r in tg.items()},
-        "strouhal": {k: (r["strouhal"] if isinstance(r, dict) else r) for k, r in st.items()},
-        "strouhal_spectrum": {k: r["strouhal_spectrum"] for k, r in st.items()
-                              if isinstance(r, dict)},
-        "strouhal_passes": strouhal_acceptance(st),
+        **_brief(st),
+        "figures": figures,
     }
     (out / "flow_validation.json").write_text(json.dumps(summary, indent=2))
+    runs = {name: study["runs"] for name, study in st.items() if "runs" in study}
+    if runs:
+        (out / "strouhal_runs.json").write_text(json.dumps(runs))
     print(json.dumps(summary, indent=2))
     return 0

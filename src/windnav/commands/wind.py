@@ -168,4 +168,22 @@ def run(args, simulate=None) -> int:
         title=f"{Path(args.map).name}: inlet {speed:g} m/s toward {direction_deg:g} deg",
     )
     print(f"solved in {seconds:.1f} s; wrote {out / 'flow.zarr'} and {png}")
+    print(averaging_report(solution))
     return 0
+
+
+def averaging_report(solution) -> str:
+    """One paragraph on how well the mean wind is converged (printed by ``windnav wind``)."""
+    d = getattr(solution, "diagnostics", {})
+    if not d:
+        return "averaging: no diagnostics (solver override)"
+    text = (
+        f"averaging: spin-up {d['flow_throughs_spinup']:.2f} and window "
+        f"{d['flow_throughs_average']:.2f} flow-throughs of the domain; mean differs between "
+        f"the window's halves by {d['half_window_difference']:.3f} of the inlet speed (RMS); "
+        f"closure: Smagorinsky C_s = {d['smagorinsky']:g}, filter {d['filter_width']:.2f} m"
+    )
+    if d["flow_throughs_spinup"] < 1.0 or d["half_window_difference"] > 0.05:
+        text += ("\nwarning: the mean is not converged (spin-up under one flow-through or "
+                 "halves differing by more than 5 %); raise --spinup-steps / --steps")
+    return text

@@ -8,7 +8,9 @@ generating config: speed, direction_deg, dx, dt, steps, seed, map source)::
     mean_u, mean_v (ny, nx) m/s   time-averaged wind, world frame
     frames_u, frames_v (T, ny, nx) m/s, one chunk per frame   (only when recorded)
     t (T,) s, frame times from the start of averaging        (only when recorded)
-    attrs["solution"]: speed m/s, direction_deg, dx m, dt s   (the FlowSolution's scalars)
+    attrs["solution"]: speed m/s, direction_deg, dx m, dt s, and the averaging and closure
+        diagnostics (flow_throughs_spinup, flow_throughs_average, half_window_difference,
+        smagorinsky, filter_width m, viscosity m^2/s)          (the FlowSolution's scalars)
 
 Chunks are compressed with a checksummed Zstandard frame, so a damaged file is a clear
 ``ValueError`` naming the store and the array, never silently wrong numbers. Many simulations
@@ -33,6 +35,7 @@ from windnav.flow._zarr import (
     read,
     write_array,
 )
+from windnav.flow.solver import DIAGNOSTICS
 
 __all__ = ["flow_attrs", "load_flow", "save_flow"]
 
@@ -78,7 +81,9 @@ def save_flow(solution, path, config: dict | None = None) -> None:
             "units": {k: UNITS[k] for k in ("x", "y", "mean_u", "mean_v")},
             **grid_attrs(x, y),
             "solution": {
-                k: float(getattr(solution, k)) for k in ("speed", "direction_deg", "dx", "dt")
+                k: float(getattr(solution, k))
+                for k in ("speed", "direction_deg", "dx", "dt", *DIAGNOSTICS)
+                if hasattr(solution, k)
             },
             "config": config,
         }

@@ -9,6 +9,9 @@ generating config: solver settings, seed, map sources). One group per map::
     maps/<k>/solid (C, ny, nx) bool, chunks (1, ny, nx)      the solver's solid cells of case c
     maps/<k>/frames (C, T, 2, ny, nx) m/s, chunks (1, 1, 2, ny, nx)   (when recorded)
     maps/<k>/seed (C,) int, seconds (C,) s, done (C,) bool, chunks (1,)
+    maps/<k>/diagnostics (C, 5), chunks (1, 5)   flow-throughs of spin-up and window, the
+        mean's half-window difference / U, Smagorinsky constant, filter width m (columns
+        named in its attributes; see windnav.flow.FlowSolution)
 
 Maps of different sizes are kept in separate groups rather than padded to a common grid: a padded
 grid would waste memory on the largest map's size, need a validity mask besides the solid mask and
@@ -52,6 +55,7 @@ from windnav.flow._zarr import (
     read,
     write_array,
 )
+from windnav.flow.solver import DIAGNOSTICS
 
 __all__ = ["SweepMap", "SweepMismatchError", "SweepStore", "map_fingerprint"]
 
@@ -278,6 +282,8 @@ class SweepStore:
                     f"map {k} of {self.path!r} expects {g['frames'].shape[1:]}."
                 )
             g["frames"][c] = frames.astype(np.float64)
+        if "diagnostics" in g:
+            g["diagnostics"][c] = [float(getattr(solution, k, np.nan)) for k in DIAGNOSTICS]
         g["seconds"][c] = float(seconds)
         g["done"][c] = True  # last: the completion marker
 
@@ -308,6 +314,9 @@ class SweepStore:
         if "frames" in g:
             frames = read(g, "frames", self.path, where, int(c))
             out["frames_u"], out["frames_v"] = frames[:, 0], frames[:, 1]
+        if "diagnostics" in g:
+            out["diagnostics"] = dict(zip(DIAGNOSTICS, g["diagnostics"][c].tolist(),
+                                          strict=True))
         return out
 
     def map_attrs(self, k: int) -> dict:
@@ -373,6 +382,15 @@ def _create_map_group(root, k: int, m: SweepMap, n_cases: int, n_frames: int, se
         fill_value=False,
         compressors=compressor(),
     )
+    diag = g.create_array(
+        "diagnostics",
+        shape=(n_cases, len(DIAGNOSTICS)),
+        chunks=(1, len(DIAGNOSTICS)),
+        dtype=np.float64,
+        fill_value=np.nan,
+        compressors=compressor(),
+    )
+    diag.attrs["columns"] = list(DIAGNOSTICS)
     for name, dtype, fill in (("seconds", np.float64, np.nan), ("done", bool, False)):
         arr = g.create_array(
             name,
