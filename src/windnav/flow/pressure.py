@@ -235,15 +235,28 @@ class RedBlackFactor:
         self.nnz = self._lu.nnz if self._lu is not None else 0
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        """``A^-1 b`` for ``b`` of shape (n,) or (n, k) (k right-hand sides at once)."""
+        """``A^-1 b`` for ``b`` of shape (n,) or (n, k) (k right-hand sides at once: one
+        multi-right-hand-side triangular solve, the sparse products column by column)."""
         nr = self._nr
-        dinv = self._dinv_r if b.ndim == 1 else self._dinv_r[:, None]
+        if b.ndim == 1:
+            x = np.empty(self.shape[0])
+            br = b[:nr]
+            x[:nr] = br * self._dinv_r
+            if self._lu is not None:
+                x[nr:] = self._lu.solve(b[nr:] - self._a_br @ x[:nr])
+                x[:nr] = (br - self._a_rb @ x[nr:]) * self._dinv_r
+            return x
         x = np.empty(b.shape, order="F")
-        br = b[:nr]
-        x[:nr] = br * dinv
+        k = b.shape[1]
+        for c in range(k):
+            x[:nr, c] = b[:nr, c] * self._dinv_r
         if self._lu is not None:
-            x[nr:] = self._lu.solve(np.asfortranarray(b[nr:] - self._a_br @ x[:nr]))
-            x[:nr] = (br - self._a_rb @ x[nr:]) * dinv
+            rhs = np.empty((self.shape[0] - nr, k), order="F")
+            for c in range(k):
+                rhs[:, c] = b[nr:, c] - self._a_br @ x[:nr, c]
+            x[nr:] = self._lu.solve(rhs)
+            for c in range(k):
+                x[:nr, c] = (b[:nr, c] - self._a_rb @ x[nr:, c]) * self._dinv_r
         return x
 
 

@@ -47,7 +47,8 @@ def strouhal_number(
         Free-stream speed U, m/s.
     method : {"crossings", "spectrum"}
         Mean period between upward zero crossings (linearly interpolated), or the peak of a
-        Hann-windowed periodogram zero-padded to 16x the length.
+        Hann-windowed periodogram zero-padded to 16x the length, among frequencies of at least
+        two cycles per record (slow drifts are not shedding).
 
     Returns
     -------
@@ -60,7 +61,8 @@ def strouhal_number(
         n = 16 * s.size
         spec = np.abs(np.fft.rfft(s * np.hanning(s.size), n))
         freq = np.fft.rfftfreq(n, dt)
-        return float(freq[1:][np.argmax(spec[1:])] * length / speed)
+        ok = freq >= 2.0 / (dt * s.size)  # a peak needs two cycles in the record
+        return float(freq[ok][np.argmax(spec[ok])] * length / speed)
     if method != "crossings":
         raise ValueError(
             f"The 'method' parameter of strouhal_number must be 'crossings' or 'spectrum'. "

@@ -1,0 +1,65 @@
+"""Strouhal studies against experiments: the force on a body, incidence trend, references."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from windnav.experiments.flow_validation import (
+    STUDY_CASE,
+    compare_references,
+    incidence_study,
+    load_references,
+)
+from windnav.flow.strouhal import _body_faces, body_force, strouhal_number
+
+
+def test_pressure_force_pushes_the_body_down_the_pressure_gradient():
+    """A pressure rising linearly in x (and not in y) pushes a block toward -x only; the
+    discrete force is the pressure half a cell outside each face times the face length."""
+    n, (j0, h), (i0, w) = 20, (6, 4), (5, 7)
+    solid = np.zeros((n, n), bool)
+    solid[j0:j0 + h, i0:i0 + w] = True
+    q = np.tile(np.arange(n, dtype=float), (n, 1))  # q = column index
+    dx, dt = 0.5, 0.1
+    fx, fy = body_force(q, _body_faces(solid), dx, dt)
+    scale = dx * dx / dt
+    assert fx == pytest.approx(-h * (w + 1) * scale)  # (west q - east q) per row
+    assert fy == pytest.approx(0.0)
+    assert body_force(np.full((n, n), 3.0), _body_faces(solid), dx, dt) == (0.0, 0.0)
+
+
+def test_spectral_strouhal_ignores_drifts_slower_than_two_cycles():
+    dt, t = 0.05, np.arange(0, 80, 0.05)
+    signal = 3.0 * t / t[-1] + 0.3 * np.sin(2 * np.pi * 0.15 * t)  # drift + shedding
+    assert strouhal_number(signal, dt, 1.0, 1.0, "spectrum") == pytest.approx(0.15, abs=0.003)
+
+
+@pytest.mark.slow
+def test_square_at_incidence_peaks_at_a_small_angle_and_is_symmetric_about_45_deg():
+    """The experiments' shape (Norberg 1993, the thesis's figure): St rises from 0 deg to a
+    maximum near 10-15 deg (shear-layer reattachment on the windward side face), then falls;
+    and the square's 10 and 80 deg flows are mirror images."""
+    base = replace(STUDY_CASE, spinup_time=30.0, record_time=60.0)
+    res = incidence_study(shapes=(1.0,), angles=(0.0, 10.0, 45.0, 80.0), backend="serial",
+                          progress=False, base=base)
+    st = dict(zip(res["angles"], res["strouhal"]["1"], strict=True))
+    assert st[10.0] > st[0.0] > st[45.0]
+    assert abs(st[10.0] - st[80.0]) / st[10.0] <= 0.03
+    assert 0.12 <= st[0.0] <= 0.16
+
+
+def test_reference_points_name_their_source_and_compare_by_interpolation():
+    refs = load_references()
+    assert refs and all(r["source"] and r["kind"] in ("stated", "figure") for r in refs)
+    assert all(np.isfinite(r["strouhal"]) and r["reynolds"] > 0 for r in refs)
+    inc = {"angles": [0.0, 10.0], "strouhal": {"1": [0.14, 0.16]}}
+    fake = [{**refs[0], "study": "incidence", "aspect_ratio": 1.0, "angle_deg": 5.0,
+             "strouhal": 0.13},
+            {**refs[0], "study": "incidence", "aspect_ratio": 2.0, "angle_deg": 5.0,
+             "strouhal": 0.1}]
+    out = compare_references(fake, inc, None)
+    assert out["points"][0]["computed"] == pytest.approx(0.15)
+    assert out["points"][0]["deviation"] == pytest.approx(0.02)
+    assert np.isnan(out["points"][1]["computed"])  # shape not studied: not covered
+    assert out["n"] == 1 and out["rms"] == pytest.approx(0.02)
