@@ -448,3 +448,19 @@ def test_cli_wind_sweep_ctrl_c_exits_130_and_says_how_to_resume(tmp_path, capsys
     solver = FakeSolver(str(tmp_path / "log2"))
     assert wind_sweep.run(build_parser().parse_args(argv), simulate=solver) == 0
     assert solver.calls() == 1
+
+
+def test_cli_wind_sweep_reports_failed_simulations_and_counts(tmp_path, capsys):
+    from windnav.cli import build_parser
+    from windnav.commands import wind_sweep
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    argv = ["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+            "--speeds", "2", "6", "--directions", "2", "--backend", "serial", "--dx", "2",
+            "--steps", "2", "--no-progress"]
+    os.mkdir(tmp_path / "log")
+    solver = FakeSolver(str(tmp_path / "log"), fail_speed=6.0)
+    assert wind_sweep.run(build_parser().parse_args(argv), simulate=solver) == 1
+    out = capsys.readouterr().out
+    assert out.count("failed: map 0 cases") == 2 and "solver diverged at 6.0 m/s" in out
+    assert "2/4 simulations done (2 now, 0 already, 2 failed)" in out
