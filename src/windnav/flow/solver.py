@@ -39,8 +39,9 @@ from windnav.flow.pressure import make_exact_projection, make_jacobi_projection
 
 MAX_CFL = 2.5
 """Largest ``speed * dt / dx`` accepted: the thesis's protocol (dx = 1 m, dt = 0.25 s) at its
-fastest inlet, 10 m/s. The advection is unconditionally stable; the limit keeps the traces
-short enough that no building of at least 3 cells can be jumped over."""
+fastest inlet, 10 m/s. The advection is unconditionally stable; the limit bounds the trace
+length (2.5 cells at the inlet speed, more in the jets between buildings, so a building a few
+cells thin can be stepped over at this limit: keep buildings thicker than the traces)."""
 SMAGORINSKY = 0.17
 """Default Smagorinsky constant of :func:`simulate` (Lilly 1967's value for inertial-range
 turbulence; not fitted to any validation case)."""
