@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib.util
+from collections import OrderedDict
 
 import numpy as np
 import pytest
@@ -11,6 +12,7 @@ import windnav as wn
 from windnav.city import City
 from windnav.flow import (
     BoundaryConditions,
+    FactorCache,
     FlowDivergedError,
     MACGrid,
     SquareCylinderCase,
@@ -91,6 +93,34 @@ def test_orderings_give_the_same_projection():
         got = make_exact_projection(domain, ordering)(u, v)
         np.testing.assert_allclose(got[0], ref[0], atol=1e-11)
         np.testing.assert_allclose(got[1], ref[1], atol=1e-11)
+
+
+def test_factor_cache_is_explicit_and_shared():
+    """No module-level cache: a caller-owned FactorCache shares one factorisation between
+    projections of the same face classification, and projecting is pure (no captured
+    buffer: two calls on different inputs leave the first result untouched)."""
+    from windnav.flow import pressure
+
+    assert not any(isinstance(v, OrderedDict) for v in vars(pressure).values())
+    domain = _domain(37.0)
+    cache = FactorCache(maxsize=2)
+    first = pressure.factorize(domain, cache=cache)
+    assert pressure.factorize(domain, cache=cache) is first
+    assert pressure.factorize(domain) is not first  # no cache given: factorised afresh
+    assert len(cache) == 1
+    project = make_exact_projection(domain, cache=cache)
+    assert len(cache) == 1
+    rng = np.random.default_rng(4)
+    u = np.where(domain.u_code > 0, rng.standard_normal(domain.u_code.shape), domain.u_fixed)
+    v = np.where(domain.v_code > 0, rng.standard_normal(domain.v_code.shape), domain.v_fixed)
+    a = project(u, v)
+    kept = (a[0].copy(), a[1].copy())
+    project(2.0 * u, 2.0 * v)
+    np.testing.assert_array_equal(a[0], kept[0])
+    np.testing.assert_array_equal(a[1], kept[1])
+    assert np.abs(divergence(domain, *a)).max() <= 1e-10
+    with pytest.raises(ValueError, match="maxsize"):
+        FactorCache(0)
 
 
 def test_jacobi_reduces_but_does_not_remove_divergence():

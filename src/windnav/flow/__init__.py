@@ -17,7 +17,12 @@ import importlib
 
 from windnav.flow.advection import make_advection
 from windnav.flow.grid import BoundaryConditions, FlowDomain, MACGrid, make_domain
-from windnav.flow.pressure import divergence, make_exact_projection, make_jacobi_projection
+from windnav.flow.pressure import (
+    FactorCache,
+    divergence,
+    make_exact_projection,
+    make_jacobi_projection,
+)
 from windnav.flow.solver import (
     FlowDivergedError,
     FlowSolution,
@@ -48,6 +53,7 @@ _LAZY = {
 __all__ = [
     "BluffBodyCase",
     "BoundaryConditions",
+    "FactorCache",
     "FlowDivergedError",
     "FlowDomain",
     "FlowSolution",

@@ -15,7 +15,9 @@ pinned in one cell, which is exact because its right-hand side sums to zero.
 The exact solver eliminates the red cells (``i + j`` even, coupled only to black ones) in
 closed form and factorises the Schur complement on the black cells once with SuperLU
 (``scipy.sparse.linalg.splu``, symmetric mode, MMD ordering), see :class:`RedBlackFactor`;
-the factors are cached keyed by the face classification (mask + grid + boundary kinds).
+a :class:`FactorCache` owned by the caller (e.g. one per :func:`~windnav.flow.simulate_batch`
+call, shared by its inlet speeds) reuses factors keyed by the face classification (mask +
+grid + boundary kinds); there is no module-level state.
 Whole-matrix SuperLU orderings (geometric nested dissection, George 1973; MMD; COLAMD)
 remain selectable. The Jacobi solver reproduces the thesis's fixed-iteration scheme (300
 sweeps from q = 0).
@@ -35,8 +37,6 @@ from scipy.sparse.linalg import splu
 from windnav.flow.grid import FACE_INTERIOR, FACE_OUTFLOW, FlowDomain
 
 ORDERINGS = ("red_black", "nested_dissection", "MMD_AT_PLUS_A", "COLAMD")
-_FACTOR_CACHE: OrderedDict = OrderedDict()
-_FACTOR_CACHE_SIZE = 4
 
 
 @numba.njit(cache=True)
@@ -265,8 +265,44 @@ def _splu_spd(A, permc: str):
     return splu(A, permc_spec=permc, diag_pivot_thresh=0.0, options={"SymmetricMode": True})
 
 
-def factorize(domain: FlowDomain, ordering: str = "red_black"):
-    """Factors of the domain's Poisson matrix, cached per face classification.
+class FactorCache:
+    """Factorisations of Poisson matrices, reused by face classification; owned by the caller.
+
+    Pass one to :func:`factorize`, :func:`make_exact_projection` or
+    :func:`~windnav.flow.make_flow_step` to share a factorisation between projections of the
+    same mask, grid and boundary kinds (several inlet speeds of one direction). Keeps the
+    ``maxsize`` most recently used factors (each holds tens of MB on a 500^2 grid).
+    """
+
+    def __init__(self, maxsize: int = 4):
+        if isinstance(maxsize, bool) or not isinstance(maxsize, (int, np.integer)) or maxsize < 1:
+            raise ValueError(
+                f"The 'maxsize' parameter of FactorCache must be an integer >= 1. "
+                f"Got {maxsize!r} instead."
+            )
+        self.maxsize = int(maxsize)
+        self._items: OrderedDict = OrderedDict()
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def get(self, key: str):
+        """The cached entry for ``key`` (marked most recently used), or None."""
+        if key not in self._items:
+            return None
+        self._items.move_to_end(key)
+        return self._items[key]
+
+    def put(self, key: str, value) -> None:
+        """Store ``value`` under ``key``, dropping the least recently used beyond ``maxsize``."""
+        self._items[key] = value
+        self._items.move_to_end(key)
+        while len(self._items) > self.maxsize:
+            self._items.popitem(last=False)
+
+
+def factorize(domain: FlowDomain, ordering: str = "red_black", *, cache: FactorCache | None = None):
+    """Factors of the domain's Poisson matrix (from ``cache`` when it holds them).
 
     Parameters
     ----------
@@ -275,6 +311,9 @@ def factorize(domain: FlowDomain, ordering: str = "red_black"):
         ``red_black`` (default): :class:`RedBlackFactor`. Otherwise SuperLU on the whole
         matrix with that column ordering (``nested_dissection``: cells numbered by geometric
         nested dissection, then refined by SuperLU's MMD on A + A^T).
+    cache : FactorCache, optional
+        Where to look the factors up and store them (keyed by the face classification);
+        None (default): factorise afresh.
 
     Returns
     -------
@@ -290,10 +329,9 @@ def factorize(domain: FlowDomain, ordering: str = "red_black"):
             f"The 'ordering' parameter of factorize must be one of {ORDERINGS}. "
             f"Got {ordering!r} instead."
         )
-    key = _factor_key(domain, ordering)
-    if key in _FACTOR_CACHE:
-        _FACTOR_CACHE.move_to_end(key)
-        return _FACTOR_CACHE[key]
+    key = _factor_key(domain, ordering) if cache is not None else None
+    if cache is not None and (hit := cache.get(key)) is not None:
+        return hit
     idx, n = _cell_index(domain, ordering)
     A, pinned = poisson_matrix(domain, idx, n)
     if ordering == "red_black":
@@ -305,10 +343,10 @@ def factorize(domain: FlowDomain, ordering: str = "red_black"):
         permc = "MMD_AT_PLUS_A" if ordering == "nested_dissection" else ordering
         factor = _splu_spd(A, permc)
     idx.setflags(write=False)
-    _FACTOR_CACHE[key] = (factor, idx, pinned)
-    while len(_FACTOR_CACHE) > _FACTOR_CACHE_SIZE:
-        _FACTOR_CACHE.popitem(last=False)
-    return _FACTOR_CACHE[key]
+    entry = (factor, idx, pinned)
+    if cache is not None:
+        cache.put(key, entry)
+    return entry
 
 
 class Projection:
@@ -378,28 +416,33 @@ class Projection:
         return self.into(u, v, np.empty_like(u), np.empty_like(v))
 
 
-def make_exact_projection(domain: FlowDomain, ordering: str = "red_black") -> Projection:
+def make_exact_projection(
+    domain: FlowDomain, ordering: str = "red_black", *, cache: FactorCache | None = None
+) -> Projection:
     """Build the projection solving the masked Poisson problem exactly (sparse direct).
 
-    The factorisation happens here, once (and is shared by every projection built for the
-    same mask, grid and boundary kinds).
+    The factorisation happens here, once (or comes from ``cache``, shared by every
+    projection built with it for the same mask, grid and boundary kinds).
 
     Parameters
     ----------
     domain : FlowDomain
     ordering : {"red_black", "nested_dissection", "MMD_AT_PLUS_A", "COLAMD"}
         Elimination order of the unknowns, see :func:`factorize`.
+    cache : FactorCache, optional
+        Factor cache owned by the caller (default: none, factorise here).
     """
-    lu, idx, pinned = factorize(domain, ordering)
-    b = np.zeros(lu.shape[0])
+    lu, idx, pinned = factorize(domain, ordering, cache=cache)
+    n = lu.shape[0]
 
     def solve_q(u, v):
+        b = np.empty(n)  # every unknown is a fluid cell: _rhs writes each entry
         _rhs(u, v, idx, b)
         b[pinned] = 0.0
         return lu.solve(b)
 
     def solve_many(us, vs):
-        bm = np.zeros((lu.shape[0], len(us)), order="F")
+        bm = np.empty((n, len(us)), order="F")
         for c, (u, v) in enumerate(zip(us, vs, strict=True)):
             _rhs(u, v, idx, bm[:, c])
         bm[pinned] = 0.0

@@ -35,7 +35,7 @@ import numpy as np
 from windnav._validate import finite_float, positive_float
 from windnav.flow.advection import make_advection
 from windnav.flow.grid import FACE_FIXED, BoundaryConditions, FlowDomain, grid_for, make_domain
-from windnav.flow.pressure import make_exact_projection, make_jacobi_projection
+from windnav.flow.pressure import FactorCache, make_exact_projection, make_jacobi_projection
 
 MAX_CFL = 2.5
 """Largest ``speed * dt / dx`` accepted: the thesis's protocol (dx = 1 m, dt = 0.25 s) at its
@@ -112,6 +112,8 @@ def make_flow_step(
     viscosity: float = 0.0,
     smagorinsky: float = 0.0,
     filter_width: float | None = None,
+    *,
+    factor_cache: FactorCache | None = None,
 ) -> FlowStep:
     """Factory of the pure time step ``(u, v) -> (u, v)`` (jax-cfd style).
 
@@ -137,6 +139,9 @@ def make_flow_step(
     filter_width : float, optional
         The filter width ``Delta`` of the eddy viscosity ``(C_s Delta)^2 |S|``, m
         (default ``dx``).
+    factor_cache : FactorCache, optional
+        Caller-owned cache of pressure factorisations for the ``"exact"`` projection: steps
+        built with the same cache for the same face classification share one factorisation.
     """
     dt = positive_float(dt, "dt", "make_flow_step")
     if advect is None or isinstance(advect, str):
@@ -151,7 +156,9 @@ def make_flow_step(
                 f"{PRESSURE_SOLVERS}. Got {kind!r} instead."
             )
         pressure_solve = (
-            make_exact_projection(domain) if kind == "exact" else make_jacobi_projection(domain)
+            make_exact_projection(domain, cache=factor_cache)
+            if kind == "exact"
+            else make_jacobi_projection(domain)
         )
     return FlowStep(domain, dt, advect, pressure_solve)
 
@@ -521,8 +528,10 @@ def simulate_batch(
             f"{MAX_CFL:g}; use dt <= {MAX_CFL * dx / max(speeds):.4g} s. Got dt={dt!r} instead."
         )
     domains = [city_domain(city, sp, direction_deg, dx) for sp in speeds]
+    factors = FactorCache(maxsize=1)  # the speeds share one face classification
     flow_steps = [
-        make_flow_step(d, dt, advection, pressure, viscosity, smagorinsky, filter_width)
+        make_flow_step(d, dt, advection, pressure, viscosity, smagorinsky, filter_width,
+                       factor_cache=factors)
         for d in domains
     ]
     project = flow_steps[0].project
