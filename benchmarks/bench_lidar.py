@@ -2,7 +2,7 @@
 
 Ours: ``City.lidar`` (numba, one core, broad-phase cull + slab method). Reference: every ray
 against every edge of every building in float64 numpy, one origin at a time (vectorised over
-rays x edges). Both scan the same street origins of ``dense_map(seed)`` (>= 200 buildings) with
+rays x edges). Both scan the same street origins of ``dense_map(rng=seed)`` (>= 200 buildings) with
 360 rays and a 100 m range; the figures are medians over repeats. Also times rasterising the
 map on a 1 m grid (1200 x 1200) against full-grid comparisons per building.
 
@@ -70,7 +70,7 @@ def main(argv=None) -> int:
     ap.add_argument("--no-record", action="store_true", help="do not append to docs/")
     args = ap.parse_args(argv)
 
-    city = dense_map(args.seed)
+    city = dense_map(rng=args.seed)
     rng = np.random.default_rng(args.seed)
     pts = rng.uniform(0.0, 1200.0, size=(3 * args.origins, 2))
     origins = pts[~city.contains(pts)][: args.origins]
@@ -98,7 +98,7 @@ def main(argv=None) -> int:
     same = bool(np.array_equal(city.rasterize(x, y), raster_reference(city.footprints, x, y)))
 
     rows = [
-        f"dense_map(seed={args.seed}): 1200 x 1200 m, {city.n_buildings} buildings; "
+        f"dense_map(rng={args.seed}): 1200 x 1200 m, {city.n_buildings} buildings; "
         f"{n_rays} rays, max_range {max_range} m, street origins; medians of "
         f"{args.repeats} repeats; one core.",
         "",

@@ -59,7 +59,7 @@ def test_vortex_bluff_body_is_one_building():
 def test_generated_map_round_trips_and_loads_in_rotorpy(tmp_path):
     from rotorpy.world import World  # the reference reader
 
-    city = planning_map(3)
+    city = planning_map(rng=3)
     path = city.to_rotorpy_json(tmp_path / "plan.json")
     back = City.from_rotorpy_json(path)
     np.testing.assert_array_equal(back.footprints, city.footprints)
@@ -202,7 +202,7 @@ def test_rasterize_matches_per_cell_reference(seed):
 
 
 def test_rasterize_dense_map_matches_comparisons_and_area():
-    city = dense_map(0)
+    city = dense_map(rng=0)
     x, y = city.grid(1.0)
     mask = city.rasterize(x, y)
     assert mask.shape == (1200, 1200)

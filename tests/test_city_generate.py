@@ -40,7 +40,7 @@ def _building_boxes(city) -> np.ndarray:
 def test_training_maps(size):
     counts = []
     for seed in SEEDS:
-        city = training_map(np.random.default_rng(seed), size=size)
+        city = training_map(rng=np.random.default_rng(seed), size=size)
         counts.append(city.n_buildings)
         assert city.bounds == (0.0, size, 0.0, size)
         assert 1 <= city.n_buildings <= 10
@@ -57,7 +57,7 @@ def test_training_maps(size):
 
 def test_training_map_full_count_always_placed():
     for seed in SEEDS:
-        city = training_map(seed, size=300.0, n_buildings=10)
+        city = training_map(rng=seed, size=300.0, n_buildings=10)
         assert city.n_buildings == 10
         assert np.all(_gaps(city.footprints) >= 10.0)
 
@@ -65,7 +65,7 @@ def test_training_map_full_count_always_placed():
 def test_planning_maps():
     counts, blocks_per_building = [], []
     for seed in SEEDS:
-        city = planning_map(np.random.default_rng(seed))
+        city = planning_map(rng=np.random.default_rng(seed))
         assert city.bounds == (0.0, 600.0, 0.0, 600.0)
         assert _inside(city)
         labels = city.building_labels()
@@ -92,7 +92,7 @@ def test_planning_maps():
 
 def test_dense_maps():
     for seed in range(12):
-        city = dense_map(seed)
+        city = dense_map(rng=seed)
         assert city.bounds == (0.0, 1200.0, 0.0, 1200.0)
         assert city.n_buildings >= 200
         assert _inside(city, margin=5.0)
@@ -104,28 +104,37 @@ def test_dense_maps():
 
 @pytest.mark.parametrize("make", [training_map, planning_map, dense_map])
 def test_seed_fixes_the_map(make):
-    a, b = make(7), make(np.random.default_rng(7))
+    a, b = make(rng=7), make(rng=np.random.default_rng(7))
     np.testing.assert_array_equal(a.footprints, b.footprints)
     np.testing.assert_array_equal(a.heights, b.heights)
-    c = make(8)
+    c = make(rng=8)
     assert c.footprints.shape != a.footprints.shape or not np.array_equal(
         c.footprints, a.footprints)
 
 
 @pytest.mark.parametrize("make", [training_map, planning_map, dense_map])
-def test_generators_need_explicit_randomness(make):
-    with pytest.raises(ValueError, match="'rng'"):
-        make(None)
+def test_generators_take_rng_by_keyword(make):
+    """The randomness convention: keyword-only ``rng`` (Generator, int or None); the old
+    positional form still gives the same map, with a DeprecationWarning."""
+    with pytest.warns(DeprecationWarning, match="rng="):
+        old = make(7)
+    new = make(rng=7)
+    np.testing.assert_array_equal(old.footprints, new.footprints)
+    np.testing.assert_array_equal(make(rng=np.random.default_rng(7)).footprints, new.footprints)
+    assert make(rng=None).n_buildings >= 1  # fresh entropy
+    for bad in ("seed", True, 1.5):
+        with pytest.raises(ValueError, match="'rng'"):
+            make(rng=bad)
 
 
 def test_generator_bad_arguments_are_named():
     with pytest.raises(ValueError, match="'n_buildings'"):
-        training_map(0, size=60.0, n_buildings=10, side_range=(30.0, 40.0))
+        training_map(rng=0, size=60.0, n_buildings=10, side_range=(30.0, 40.0))
     with pytest.raises(ValueError, match="'side_range'"):
-        training_map(0, side_range=(50.0, 20.0))
+        training_map(rng=0, side_range=(50.0, 20.0))
     with pytest.raises(ValueError, match="'max_blocks'"):
-        planning_map(0, max_blocks=4)
+        planning_map(rng=0, max_blocks=4)
     with pytest.raises(ValueError, match="'n_buildings'"):
-        dense_map(0, n_buildings=300)
+        dense_map(rng=0, n_buildings=300)
     with pytest.raises(ValueError, match="'size'"):
-        dense_map(0, size=-1.0)
+        dense_map(rng=0, size=-1.0)

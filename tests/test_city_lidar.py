@@ -50,10 +50,10 @@ def street_origins(city, rng, n):
 
 
 MAPS = {
-    "training300": lambda: training_map(1, size=300.0, n_buildings=10),
-    "training500": lambda: training_map(2, size=500.0),
-    "planning": lambda: planning_map(3),
-    "dense": lambda: dense_map(4),
+    "training300": lambda: training_map(rng=1, size=300.0, n_buildings=10),
+    "training500": lambda: training_map(rng=2, size=500.0),
+    "planning": lambda: planning_map(rng=3),
+    "dense": lambda: dense_map(rng=4),
 }
 
 
@@ -73,7 +73,7 @@ def test_matches_brute_force_on_streets(name, n_rays):
 
 def test_axis_rays_along_edges_and_through_corners():
     """Origins on the lines of building edges: axis rays run along edges or hit corners."""
-    city = planning_map(5)
+    city = planning_map(rng=5)
     fp = city.footprints
     rng = np.random.default_rng(0)
     origins = []
@@ -115,7 +115,7 @@ def test_min_range_clip_and_inside_origins():
 
 
 def test_batch_equals_one_by_one():
-    city = dense_map(1)
+    city = dense_map(rng=1)
     origins = street_origins(city, np.random.default_rng(2), 25)
     batch = city.lidar(origins, n_rays=90)
     for b, o in enumerate(origins):
@@ -123,7 +123,7 @@ def test_batch_equals_one_by_one():
 
 
 def test_noise_statistics_clip_and_determinism():
-    city = dense_map(2)
+    city = dense_map(rng=2)
     origins = street_origins(city, np.random.default_rng(3), 300)
     clean = city.lidar(origins, max_range=100.0)
     noisy = city.lidar(origins, max_range=100.0, noise_std=0.35, rng=np.random.default_rng(9))

@@ -1,5 +1,7 @@
 """The default solver: Smagorinsky closure, unbiased start, honest averages, batching, grids."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -191,4 +193,6 @@ def test_one_grid_rule_for_solver_and_sweep_store(extent, dx):
     np.testing.assert_array_equal(sol.y, grid.y)
     np.testing.assert_array_equal(x, grid.x)
     np.testing.assert_array_equal(y, grid.y)
-    assert grid.nx == max(round(extent / dx), 2)
+    # the one rule (windnav.city.grid_shape): the grid covers the map
+    assert grid.nx == math.ceil(extent / dx - 1e-9)
+    assert (grid.ny, grid.nx) == City.grid(city, dx)[1].shape + City.grid(city, dx)[0].shape

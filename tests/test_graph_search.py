@@ -28,7 +28,7 @@ def test_empty_map_gives_the_straight_line():
 
 @pytest.mark.parametrize("seed", range(5))
 def test_routes_keep_clearance_and_are_near_optimal(seed):
-    city = wn.city.training_map(np.random.default_rng(seed), size=300.0)
+    city = wn.city.training_map(rng=np.random.default_rng(seed), size=300.0)
     rng = np.random.default_rng(100 + seed)
     clearance = 6.0
     _, _, free = free_space(city, 2.0, clearance)

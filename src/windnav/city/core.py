@@ -21,9 +21,13 @@ from pathlib import Path
 import numpy as np
 
 from windnav._validate import batch_array, positive_float
-
-# Colour written for blocks that carry none (RotorPy accepts any matplotlib colour).
-DEFAULT_COLOR = (0.5, 0.5, 0.5)
+from windnav.city.lidar import lidar_scan
+from windnav.city.rotorpy_json import (
+    DEFAULT_COLOR,  # noqa: F401  (re-exported: the colour of blocks written without one)
+    load_rotorpy_doc,
+    parse_rotorpy_doc,
+    write_rotorpy_json,
+)
 
 
 def _block_text(i: int, fp, base: float, height: float) -> str:
@@ -193,9 +197,11 @@ class City:
     def grid(self, dx: float) -> tuple[np.ndarray, np.ndarray]:
         """Cell centres of a uniform grid of spacing ``dx`` covering the bounds.
 
-        The grid starts at ``(x_min, y_min)`` with ``nx = ceil((x_max - x_min) / dx)`` cells
-        (rounded to the nearest integer when the ratio is within 1e-9 of it); when the extent is
-        not a multiple of ``dx`` the last cell reaches past the bound.
+        The grid of :func:`grid_shape` (the one rule shared with the flow solver, the sweeps
+        and the planners): it starts at ``(x_min, y_min)`` with ``nx = ceil((x_max - x_min) /
+        dx)`` cells (at least 2; rounded to the nearest integer when the ratio is within 1e-9
+        of it); when the extent is not a multiple of ``dx`` the last cell reaches past the
+        bound.
 
         Parameters
         ----------
@@ -210,9 +216,9 @@ class City:
             Cell-centre ordinates ``y_min + (j + 0.5) dx``, m.
         """
         dx = positive_float(dx, "dx", "City.grid")
-        x0, x1, y0, y1 = self.bounds
-        return (x0 + (np.arange(_n_cells(x1 - x0, dx)) + 0.5) * dx,
-                y0 + (np.arange(_n_cells(y1 - y0, dx)) + 0.5) * dx)
+        x0, _, y0, _ = self.bounds
+        ny, nx = grid_shape(self.bounds, dx)
+        return x0 + (np.arange(nx) + 0.5) * dx, y0 + (np.arange(ny) + 0.5) * dx
 
     def rasterize(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Solid mask on the grid of cell centres ``x`` (nx,) and ``y`` (ny,).
@@ -288,8 +294,6 @@ class City:
         --------
         windnav.city.lidar.lidar_scan : the implementation and its equations.
         """
-        from windnav.city.lidar import lidar_scan
-
         return lidar_scan(self, origins_xy, n_rays=n_rays, max_range=max_range,
                           min_range=min_range, noise_std=noise_std, rng=rng)
 
@@ -315,10 +319,8 @@ class City:
 
         See Also
         --------
-        windnav.city.rotorpy_json.read_rotorpy_json
+        read_rotorpy_json
         """
-        from windnav.city.rotorpy_json import read_rotorpy_json
-
         return read_rotorpy_json(path)
 
     def to_rotorpy_json(self, path) -> Path:
@@ -334,9 +336,46 @@ class City:
         Path
             The file written.
         """
-        from windnav.city.rotorpy_json import write_rotorpy_json
-
         return write_rotorpy_json(self, path)
+
+
+def read_rotorpy_json(path) -> City:
+    """Read a RotorPy world JSON file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+
+    Returns
+    -------
+    City
+
+    Raises
+    ------
+    FileNotFoundError
+        If the file does not exist.
+    ValueError
+        If the file is not valid JSON, lacks ``bounds.extents`` or ``blocks``, has an extents
+        entry that is not 6 finite numbers, or a block that lies outside the bounds or has no
+        volume. The message names the file and the offending block (index and extents).
+    """
+    doc = load_rotorpy_doc(path)
+    try:
+        return City(**parse_rotorpy_doc(doc))
+    except ValueError as exc:
+        raise ValueError(f"RotorPy world file {str(path)!r}: {exc}") from None
+
+
+def city_from_rotorpy_dict(doc) -> City:
+    """Build a :class:`City` from a RotorPy world dictionary (as ``json.load`` returns it).
+
+    Raises
+    ------
+    ValueError
+        Naming what is missing or malformed, or the offending block (index and extents).
+    """
+    return City(**parse_rotorpy_doc(doc))
 
 
 def _check_blocks(b, zb, fp, h, base) -> None:
@@ -359,10 +398,24 @@ def _check_blocks(b, zb, fp, h, base) -> None:
             )
 
 
+def grid_shape(bounds, dx: float) -> tuple[int, int]:
+    """``(ny, nx)`` of the grid of square cells of side ``dx`` (m) that covers ``bounds =
+    (x_min, x_max, y_min, y_max)`` (m) from its lower-left corner.
+
+    The one rule for every grid put on a map (:meth:`City.grid`, the flow solver's
+    :func:`~windnav.flow.grid.grid_for`, sweeps, planners): ``n = ceil(extent / dx)`` per axis,
+    rounded to the nearest integer when ``extent / dx`` is within 1e-9 of it (so float noise
+    adds no cell), and at least 2. When the extent is not a multiple of ``dx`` the last cell
+    reaches past the bound; no part of the map is left off.
+    """
+    x0, x1, y0, y1 = (float(b) for b in bounds)
+    return _n_cells(y1 - y0, dx), _n_cells(x1 - x0, dx)
+
+
 def _n_cells(length: float, dx: float) -> int:
     r = length / dx
     n = round(r)
-    return max(1, int(n if abs(r - n) <= 1e-9 * max(1.0, r) else math.ceil(r)))
+    return max(2, int(n if abs(r - n) <= 1e-9 * max(1.0, r) else math.ceil(r)))
 
 
 def _increasing(a: np.ndarray) -> bool:

@@ -20,19 +20,32 @@ defaults.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from windnav._validate import positive_float, positive_int
 from windnav.city.core import City
 
+_UNSET = object()
 
-def _generator(rng, where: str) -> np.random.Generator:
+
+def _generator(positional, rng, where: str) -> np.random.Generator:
+    """The random source of a generator: keyword ``rng`` (Generator, int seed or None for
+    fresh entropy); a positional one still works, with a DeprecationWarning."""
+    if positional is not _UNSET:
+        warnings.warn(
+            f"{where}: pass the random source as the keyword 'rng=' (positional use is "
+            "deprecated).", DeprecationWarning, stacklevel=3)
+        if rng is not None:
+            raise ValueError(f"{where}: give the random source once, as 'rng='.")
+        rng = positional
     if isinstance(rng, np.random.Generator):
         return rng
-    if rng is None or isinstance(rng, bool):
+    if isinstance(rng, bool) or not (rng is None or isinstance(rng, int | np.integer)):
         raise ValueError(
-            f"The 'rng' parameter of {where} must be a numpy.random.Generator or an integer "
-            f"seed. Got {rng!r} instead."
+            f"The 'rng' parameter of {where} must be a numpy.random.Generator, an integer "
+            f"seed or None. Got {rng!r} instead."
         )
     return np.random.default_rng(rng)
 
@@ -70,7 +83,10 @@ def _clear(a, b, gap: float) -> bool:
 
 
 def training_map(
-    rng,
+    _rng=_UNSET,
+    /,
+    *,
+    rng: np.random.Generator | int | None = None,
     size: float = 300.0,
     n_buildings: int | None = None,
     side_range: tuple = (10.0, 80.0),
@@ -82,8 +98,8 @@ def training_map(
 
     Parameters
     ----------
-    rng : numpy.random.Generator or int
-        Random source or seed.
+    rng : numpy.random.Generator or int or None, keyword-only
+        Random source or seed (None: fresh entropy).
     size : float
         Side of the square map, m; the thesis uses 300 and 500.
     n_buildings : int, optional
@@ -108,7 +124,7 @@ def training_map(
         On bad arguments, or if the buildings cannot be placed (map too small).
     """
     where = "training_map"
-    rng = _generator(rng, where)
+    rng = _generator(_rng, rng, where)
     size = positive_float(size, "size", where)
     n = int(rng.integers(1, 11)) if n_buildings is None else positive_int(
         n_buildings, "n_buildings", where)
@@ -134,7 +150,10 @@ def _scatter(rng, n, size, side, street, margin, where) -> np.ndarray:
 
 
 def planning_map(
-    rng,
+    _rng=_UNSET,
+    /,
+    *,
+    rng: np.random.Generator | int | None = None,
     size: float = 600.0,
     n_buildings: int | None = None,
     side_range: tuple = (10.0, 50.0),
@@ -152,8 +171,8 @@ def planning_map(
 
     Parameters
     ----------
-    rng : numpy.random.Generator or int
-        Random source or seed.
+    rng : numpy.random.Generator or int or None, keyword-only
+        Random source or seed (None: fresh entropy).
     size : float
         Side of the square map, m.
     n_buildings : int, optional
@@ -175,7 +194,7 @@ def planning_map(
         Its :meth:`City.building_labels` has ``n_buildings`` distinct labels.
     """
     where = "planning_map"
-    rng = _generator(rng, where)
+    rng = _generator(_rng, rng, where)
     size = positive_float(size, "size", where)
     n = int(rng.integers(9, 17)) if n_buildings is None else positive_int(
         n_buildings, "n_buildings", where)
@@ -214,7 +233,10 @@ def _stack(rng, box, max_blocks: int) -> list:
 
 
 def dense_map(
-    rng,
+    _rng=_UNSET,
+    /,
+    *,
+    rng: np.random.Generator | int | None = None,
     size: float = 1200.0,
     n_buildings: int | None = None,
     lots_per_side: int = 16,
@@ -231,8 +253,8 @@ def dense_map(
 
     Parameters
     ----------
-    rng : numpy.random.Generator or int
-        Random source or seed.
+    rng : numpy.random.Generator or int or None, keyword-only
+        Random source or seed (None: fresh entropy).
     size : float
         Side of the square map, m.
     n_buildings : int, optional
@@ -251,7 +273,7 @@ def dense_map(
     City
     """
     where = "dense_map"
-    rng = _generator(rng, where)
+    rng = _generator(_rng, rng, where)
     size = positive_float(size, "size", where)
     lots = positive_int(lots_per_side, "lots_per_side", where)
     street = positive_float(min_street, "min_street", where)

@@ -10,6 +10,11 @@ Each block becomes one footprint ``[xmin, xmax, ymin, ymax]`` with ``base_z = zm
 sections) is kept on the :class:`~windnav.city.core.City` and written back, so reading and
 writing a file is lossless: ``json.load`` of the output equals ``json.load`` of the input
 (numbers are written as floats, which compare equal to the integers they came from).
+
+This module is the document layer (JSON text and dictionaries, checked); it does not import
+:class:`~windnav.city.core.City`, which builds itself from :func:`parse_rotorpy_doc`
+(``City.from_rotorpy_json``, :func:`~windnav.city.core.read_rotorpy_json`). Writing takes any
+object with a City's attributes.
 """
 
 from __future__ import annotations
@@ -21,48 +26,35 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav.city.core import DEFAULT_COLOR, City
+# Colour written for blocks that carry none (RotorPy accepts any matplotlib colour).
+DEFAULT_COLOR = (0.5, 0.5, 0.5)
 
 
-def read_rotorpy_json(path) -> City:
-    """Read a RotorPy world JSON file.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The file.
-
-    Returns
-    -------
-    City
+def load_rotorpy_doc(path) -> dict:
+    """The JSON document of a RotorPy world file.
 
     Raises
     ------
     FileNotFoundError
         If the file does not exist.
     ValueError
-        If the file is not valid JSON, lacks ``bounds.extents`` or ``blocks``, has an extents
-        entry that is not 6 finite numbers, or a block that lies outside the bounds or has no
-        volume. The message names the file and the offending block (index and extents).
+        If it is not valid JSON (the message names the file).
     """
     path = Path(path)
     text = path.read_text()
     try:
-        doc = json.loads(text)
+        return json.loads(text)
     except json.JSONDecodeError as exc:
         raise ValueError(f"RotorPy world file {str(path)!r} is not valid JSON: {exc}") from None
-    try:
-        return _city_from_doc(doc)
-    except ValueError as exc:
-        raise ValueError(f"RotorPy world file {str(path)!r}: {exc}") from None
 
 
-def write_rotorpy_json(city: City, path) -> Path:
+def write_rotorpy_json(city, path) -> Path:
     """Write ``city`` as RotorPy world JSON.
 
     Parameters
     ----------
     city : City
+        (or any object with its attributes)
     path : str or path-like
         The file to (over)write; parent folders are created.
 
@@ -77,7 +69,7 @@ def write_rotorpy_json(city: City, path) -> Path:
     return path
 
 
-def to_rotorpy_dict(city: City) -> dict:
+def to_rotorpy_dict(city) -> dict:
     """The RotorPy world dictionary of ``city`` (what :func:`write_rotorpy_json` writes)."""
     extras = copy.deepcopy(city.extras)
     bounds = {"extents": [*city.bounds, *city.z_bounds], **extras.pop("bounds", {})}
@@ -91,18 +83,14 @@ def to_rotorpy_dict(city: City) -> dict:
     return {"bounds": bounds, "blocks": blocks, **extras}
 
 
-def city_from_rotorpy_dict(doc) -> City:
-    """Build a :class:`City` from a RotorPy world dictionary (as ``json.load`` returns it).
+def parse_rotorpy_doc(doc) -> dict:
+    """The :class:`~windnav.city.core.City` keyword arguments of a RotorPy world dictionary.
 
     Raises
     ------
     ValueError
-        Naming what is missing or malformed, or the offending block (index and extents).
+        Naming what is missing or malformed (the City checks the blocks themselves).
     """
-    return _city_from_doc(doc)
-
-
-def _city_from_doc(doc) -> City:
     if not isinstance(doc, dict):
         raise ValueError(f"the top level must be an object, got {type(doc).__name__}")
     bounds = doc.get("bounds")
@@ -123,15 +111,15 @@ def _city_from_doc(doc) -> City:
     rest = {k: copy.deepcopy(v) for k, v in bounds.items() if k != "extents"}
     if rest:
         extras["bounds"] = rest
-    return City(
-        bounds=b[:4],
-        footprints=ext[:, :4],
-        heights=_exact_heights(ext[:, 4], ext[:, 5]),
-        base_z=ext[:, 4],
-        z_bounds=b[4:],
-        block_attrs=attrs,
-        extras=extras,
-    )
+    return {
+        "bounds": b[:4],
+        "footprints": ext[:, :4],
+        "heights": _exact_heights(ext[:, 4], ext[:, 5]),
+        "base_z": ext[:, 4],
+        "z_bounds": b[4:],
+        "block_attrs": attrs,
+        "extras": extras,
+    }
 
 
 def _extents(value, what: str) -> list[float]:

@@ -26,6 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from windnav.city.core import grid_shape
+
 FACE_FIXED = 0
 FACE_INTERIOR = 1
 FACE_OUTFLOW = 2
@@ -108,16 +110,13 @@ class MACGrid:
 
 
 def grid_for(bounds, dx: float) -> MACGrid:
-    """The grid the solver puts on a map: ``n = max(round(extent / dx), 2)`` square cells of
-    side ``dx`` (m) per axis from the lower-left corner of ``bounds = (x0, x1, y0, y1)`` (m).
-
-    The one rule shared by :func:`windnav.flow.simulate` and the sweep store; when the extent
-    is not a multiple of ``dx`` the grid ends up to ``dx / 2`` short of (or beyond) the bounds.
-    """
-    x0, x1, y0, y1 = (float(b) for b in bounds)
-    nx = max(int(round((x1 - x0) / dx)), 2)
-    ny = max(int(round((y1 - y0) / dx)), 2)
-    return MACGrid((ny, nx), dx, (x0, y0))
+    """The grid the solver puts on a map: square cells of side ``dx`` (m) from the lower-left
+    corner of ``bounds = (x0, x1, y0, y1)`` (m), as many as :func:`windnav.city.grid_shape`
+    gives (the one rule shared with :meth:`City.grid <windnav.city.City.grid>`, the sweeps and
+    the planners: the grid covers the map, the last cell reaching past the bound when the
+    extent is not a multiple of ``dx``)."""
+    x0, _, y0, _ = (float(b) for b in bounds)
+    return MACGrid(grid_shape(bounds, dx), dx, (x0, y0))
 
 
 def _check_shape(a, want, name):
