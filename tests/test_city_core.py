@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from windnav.city import City, dense_map, planning_map
+from windnav.city import City, dense_map, planning_map, training_map
 
 DATA = Path(__file__).parent / "data"
 VORTEX = DATA / "2d_vortex_shedding.json"
@@ -220,3 +220,81 @@ def test_contains_closed_footprints():
     city = City((0, 10, 0, 10), [[2, 4, 2, 4]], [1])
     pts = [[3, 3], [2, 3], [4, 4], [4.0000001, 3], [1, 1]]
     np.testing.assert_array_equal(city.contains(pts), [True, True, True, False, False])
+
+
+# ------------------------------------------------------------------ coarse grids (issue 13)
+def _overlap_reference(city, x, y, dx):
+    """A cell [x - dx/2, x + dx/2] x [...] is solid when it overlaps a footprint with area."""
+    mask = np.zeros((y.size, x.size), dtype=bool)
+    for j, yc in enumerate(y):
+        for i, xc in enumerate(x):
+            mask[j, i] = any(min(xc + dx / 2, x1) > max(xc - dx / 2, x0)
+                             and min(yc + dx / 2, y1) > max(yc - dx / 2, y0)
+                             for x0, x1, y0, y1 in city.footprints)
+    return mask
+
+
+@pytest.mark.parametrize("dx", [0.7, 3.0, 6.0, 25.0])
+def test_overlap_rasterisation_is_conservative(dx):
+    rng = np.random.default_rng(1)
+    lo = rng.uniform(0, 180, size=(10, 2))
+    ext = rng.uniform(0.1, 20, size=(10, 2))
+    fp = np.column_stack([lo[:, 0], lo[:, 0] + ext[:, 0], lo[:, 1], lo[:, 1] + ext[:, 1]])
+    city = City((0.0, 200.0, 0.0, 200.0), fp, np.ones(10))
+    x, y = city.grid(dx)
+    over = city.rasterize(x, y, rule="overlap")
+    np.testing.assert_array_equal(over, _overlap_reference(city, x, y, dx))
+    assert np.all(over >= city.rasterize(x, y))  # contains the centre rule
+    # every block leaves at least one solid cell, however thin
+    for k in range(10):
+        one = City(city.bounds, fp[k:k + 1], [1.0])
+        assert one.rasterize(x, y, rule="overlap").any()
+    with pytest.raises(ValueError, match="'rule'"):
+        city.rasterize(x, y, rule="nearest")
+
+
+def test_a_thin_wall_cannot_vanish_from_the_flow():
+    """Issue 13.5: a 0.2 m wall across the map vanished at dx = 1 m and --dx 100 on a 40 m
+    map removed every building, both silently. The solver now refuses, naming the block and
+    the dx that keeps it; the planner's occupancy keeps it."""
+    from windnav.flow import simulate
+    from windnav.plan.graph_search import free_space
+
+    wall = City((0.0, 40.0, 0.0, 20.0), [[20.1, 20.3, 0.0, 20.0]], [10.0])
+    x, y = wall.grid(1.0)
+    assert not wall.rasterize(x, y).any()  # the centre rule misses it ...
+    with pytest.raises(ValueError, match=r"block 0 .*covers no cell.*dx <= 0\.1"):
+        simulate(wall, 2.0, dx=1.0, dt=0.1, spinup_steps=0, steps=1)
+    free = free_space(wall, 1.0, 0.0)[2]
+    assert not free[:, 20].any()  # ... the planner's occupancy does not: no way through
+
+    city = City((0.0, 40.0, 0.0, 40.0), [[5.0, 15.0, 5.0, 15.0], [25.0, 35.0, 20.0, 30.0]],
+                [10.0, 10.0])
+    with pytest.raises(ValueError, match="covers no cell.*1 more block"):
+        simulate(city, 2.0, dx=100.0, dt=1.0, spinup_steps=0, steps=1)
+    with pytest.warns(UserWarning, match="thinner than 2 cells"):
+        city.check_resolution(6.0)
+
+
+def test_lidar_hits_lie_in_solid_cells():
+    """The LiDAR and the grids agree on what is solid: every return lands in a solid cell of
+    the conservative raster, and the solver's raster keeps every block (a random training
+    map at the thesis's dx = 1 m)."""
+    city = training_map(rng=3, size=300.0, n_buildings=10)
+    city.check_resolution(1.0)
+    x, y = city.grid(1.0)
+    over = city.rasterize(x, y, rule="overlap")
+    origins = np.array([[p, q] for p in np.linspace(5, 295, 12) for q in np.linspace(5, 295, 12)])
+    origins = origins[~city.contains(origins)]
+    ranges = city.lidar(origins, n_rays=360, max_range=400.0)
+    ang = 2 * np.pi * np.arange(360) / 360
+    hit = ranges < 400.0
+    pts = origins[:, None, :] + (ranges + 1e-6)[..., None] * np.stack(
+        [np.cos(ang), np.sin(ang)], -1)[None]
+    pts = pts[hit]
+    inside = (pts[:, 0] < 300.0) & (pts[:, 1] < 300.0) & (pts[:, 0] > 0) & (pts[:, 1] > 0)
+    pts = pts[inside]
+    assert pts.shape[0] > 1000
+    i = np.clip(np.floor(pts[:, 0]).astype(int), 0, x.size - 1)
+    j = np.clip(np.floor(pts[:, 1]).astype(int), 0, y.size - 1)
+    assert over[j, i].all()

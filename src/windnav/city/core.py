@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import copy
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -28,6 +29,9 @@ from windnav.city.rotorpy_json import (
     parse_rotorpy_doc,
     write_rotorpy_json,
 )
+
+RASTER_RULES = ("centre", "overlap")
+"""Rules of :meth:`City.rasterize`."""
 
 
 def _block_text(i: int, fp, base: float, height: float) -> str:
@@ -220,12 +224,8 @@ class City:
         ny, nx = grid_shape(self.bounds, dx)
         return x0 + (np.arange(nx) + 0.5) * dx, y0 + (np.arange(ny) + 0.5) * dx
 
-    def rasterize(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    def rasterize(self, x: np.ndarray, y: np.ndarray, *, rule: str = "centre") -> np.ndarray:
         """Solid mask on the grid of cell centres ``x`` (nx,) and ``y`` (ny,).
-
-        A cell is solid when its centre lies inside (or on the edge of) any footprint. For
-        increasing coordinates each footprint fills one index range found by bisection, so the
-        cost is ``O(M log n + solid cells)``; other coordinates fall back to comparisons.
 
         Parameters
         ----------
@@ -233,28 +233,84 @@ class City:
             Cell-centre abscissae, m.
         y : array_like of shape (ny,)
             Cell-centre ordinates, m.
+        rule : {"centre", "overlap"}
+            ``"centre"`` (default, the flow solver's): a cell is solid when its centre lies
+            inside (or on the edge of) any footprint, so the solid area converges to the
+            footprint area; a block thinner than a cell can cover no centre and vanish (the
+            solver refuses such maps, see :meth:`check_resolution`). ``"overlap"``
+            (conservative, for occupancy and collision checks): a cell is solid when it
+            overlaps any footprint with positive area (cells span the midpoints between
+            centres), so nothing the LiDAR can hit is ever missing from the grid.
+
+        For increasing coordinates each footprint fills one index range found by bisection, so
+        the cost is ``O(M log n + solid cells)``; with ``"centre"`` other coordinates fall back
+        to comparisons.
 
         Returns
         -------
         ndarray of bool, shape (ny, nx)
         """
+        if rule not in RASTER_RULES:
+            raise ValueError(
+                f"The 'rule' parameter of City.rasterize must be one of {RASTER_RULES}. "
+                f"Got {rule!r} instead."
+            )
         x = np.asarray(x, dtype=np.float64).reshape(-1)
         y = np.asarray(y, dtype=np.float64).reshape(-1)
         mask = np.zeros((y.size, x.size), dtype=bool)
         fp = self.footprints
         if _increasing(x) and _increasing(y):
-            i0 = np.searchsorted(x, fp[:, 0], side="left")
-            i1 = np.searchsorted(x, fp[:, 1], side="right")
-            j0 = np.searchsorted(y, fp[:, 2], side="left")
-            j1 = np.searchsorted(y, fp[:, 3], side="right")
-            for a, b, c, d in zip(i0, i1, j0, j1, strict=True):
+            for a, b, c, d in zip(*_index_ranges(fp, x, y, rule), strict=True):
                 mask[c:d, a:b] = True
             return mask
+        if rule != "centre":
+            raise ValueError(
+                "City.rasterize: the 'overlap' rule needs increasing cell centres 'x' and 'y'."
+            )
         for x0, x1, y0, y1 in fp:
             ix = (x >= x0) & (x <= x1)
             iy = (y >= y0) & (y <= y1)
             mask |= iy[:, None] & ix[None, :]
         return mask
+
+    def check_resolution(self, dx: float, where: str = "City.check_resolution") -> None:
+        """Refuse a grid of spacing ``dx`` (m, the :meth:`grid`) on which a block would vanish.
+
+        Under the solver's centre rule a block covers no cell centre when it is thinner than
+        a cell (or slips between centres); the flow would then pass through a building the
+        LiDAR sees. Raises a ValueError naming the first such block, its thinnest side and the
+        largest ``dx`` that keeps every block. Blocks thinner than ``2 dx`` (kept, but with
+        their shape lost) give a UserWarning.
+        """
+        dx = positive_float(dx, "dx", where)
+        if self.n_buildings == 0:
+            return
+        x, y = self.grid(dx)
+        i0, i1, j0, j1 = _index_ranges(self.footprints, x, y, "centre")
+        fp = self.footprints
+        thin = np.minimum(fp[:, 1] - fp[:, 0], fp[:, 3] - fp[:, 2])
+        gone = np.flatnonzero((i1 <= i0) | (j1 <= j0))
+        def block(k: int) -> str:
+            return _block_text(k, fp[k], float(self.base_z[k]), float(self.heights[k]))
+
+        if gone.size:
+            k = int(gone[0])
+            more = f" ({gone.size - 1} more blocks vanish too)" if gone.size > 1 else ""
+            raise ValueError(
+                f"{where}: City {block(k)} "
+                f"covers no cell of the grid at dx = {dx:g} m (its thinnest side is "
+                f"{thin[k]:.3g} m), so the flow would pass through it{more}. Use dx <= "
+                f"{float(np.min(thin)) / 2:.3g} m (two cells across the thinnest block) or remove "
+                "the block."
+            )
+        shape_lost = np.flatnonzero(thin < 2.0 * dx)
+        if shape_lost.size:
+            k = int(shape_lost[0])
+            warnings.warn(
+                f"{where}: {shape_lost.size} block(s) thinner than 2 cells at dx = {dx:g} m, "
+                f"e.g. {block(k)} "
+                f"({thin[k]:.3g} m): they keep at most one cell across.",
+                UserWarning, stacklevel=3)
 
     # ------------------------------------------------------------------ sensing
     def lidar(
@@ -416,6 +472,35 @@ def _n_cells(length: float, dx: float) -> int:
     r = length / dx
     n = round(r)
     return max(2, int(n if abs(r - n) <= 1e-9 * max(1.0, r) else math.ceil(r)))
+
+
+def _index_ranges(fp: np.ndarray, x: np.ndarray, y: np.ndarray, rule: str):
+    """Per footprint, the index ranges ``[i0, i1)`` along ``x`` and ``[j0, j1)`` along ``y``
+    (increasing cell centres) of the cells it makes solid under ``rule``."""
+    if rule == "centre":
+        return (np.searchsorted(x, fp[:, 0], side="left"),
+                np.searchsorted(x, fp[:, 1], side="right"),
+                np.searchsorted(y, fp[:, 2], side="left"),
+                np.searchsorted(y, fp[:, 3], side="right"))
+    # overlap: cell k spans [lo_k, hi_k] (midpoints between centres); solid when
+    # hi_k > x_min and lo_k < x_max (positive overlap)
+    xl, xh = _cell_edges(x)
+    yl, yh = _cell_edges(y)
+    return (np.searchsorted(xh, fp[:, 0], side="right"),
+            np.searchsorted(xl, fp[:, 1], side="left"),
+            np.searchsorted(yh, fp[:, 2], side="right"),
+            np.searchsorted(yl, fp[:, 3], side="left"))
+
+
+def _cell_edges(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper edges of cells centred at increasing ``c`` (midpoints; the end cells
+    symmetric about their centres)."""
+    if c.size == 1:
+        return c - 0.5, c + 0.5
+    mid = 0.5 * (c[1:] + c[:-1])
+    lo = np.concatenate([[c[0] - (mid[0] - c[0])], mid])
+    hi = np.concatenate([mid, [c[-1] + (c[-1] - mid[-1])]])
+    return lo, hi
 
 
 def _increasing(a: np.ndarray) -> bool:

@@ -281,7 +281,11 @@ class FlowSolution:
 
 
 def city_domain(city, speed: float, direction_deg: float, dx: float) -> FlowDomain:
-    """Rasterise ``city`` on a grid of spacing ``dx`` and set the wind's boundary conditions."""
+    """Rasterise ``city`` on a grid of spacing ``dx`` and set the wind's boundary conditions.
+
+    Refuses (ValueError) a ``dx`` at which a building would cover no cell and vanish from the
+    flow (:meth:`~windnav.city.City.check_resolution`)."""
+    city.check_resolution(dx, "simulate")
     grid = grid_for(city.bounds, dx)
     solid = np.asarray(city.rasterize(grid.x, grid.y), dtype=bool)
     bc = BoundaryConditions.for_wind(speed, direction_deg)

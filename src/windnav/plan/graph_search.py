@@ -18,9 +18,12 @@ from windnav._validate import batch_array, positive_float
 
 
 def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Cell centres ``x`` (nx,), ``y`` (ny,) and the free mask (ny, nx) after inflation."""
+    """Cell centres ``x`` (nx,), ``y`` (ny,) and the free mask (ny, nx) after inflation.
+
+    Occupancy is conservative (``rasterize(rule="overlap")``): a cell touched by a building
+    is solid, so no route passes through a building thinner than a cell."""
     x, y = city.grid(dx)
-    solid = city.rasterize(x, y)
+    solid = city.rasterize(x, y, rule="overlap")
     dist = scipy.ndimage.distance_transform_edt(~solid, sampling=dx)
     return x, y, dist > clearance
 
