@@ -9,7 +9,8 @@ from scipy.spatial.transform import Rotation
 
 import windnav as wn
 from windnav.cli import main
-from windnav.estimate.calibrate import DragFit, calibrate, calibration_flights, fit_drag
+from windnav.estimate.calibrate import DragFit, fit_drag
+from windnav.experiments.calibration import calibrate, calibration_flights
 
 P_HB = wn.vehicle.params("hummingbird")
 SHORT = {"x": (-4.0, -2.0, 2.0, 4.0), "y": (-4.0, 2.0, 4.0), "z": (-1.5, -0.5, 1.0, 2.0)}
@@ -61,7 +62,7 @@ def test_linear_fit_matches_the_thesis_regression_without_parasitic_drag():
 
 @pytest.fixture(scope="module")
 def hummingbird_fit():
-    return calibrate(P_HB, speeds=SHORT, duration=5.0, seed=0)
+    return calibrate(P_HB, speeds=SHORT, duration=5.0, rng=0)
 
 
 def test_calibration_recovers_the_hummingbird_drag(hummingbird_fit):
@@ -80,7 +81,7 @@ def test_calibration_recovers_the_hummingbird_drag(hummingbird_fit):
 
 def test_ignoring_parasitic_drag_inflates_the_rotor_drag():
     """The linear (thesis) model absorbs -|v| c v into k_d: the fit overestimates it."""
-    log = calibration_flights(P_HB, SHORT, duration=5.0, seed=1)
+    log = calibration_flights(P_HB, SHORT, duration=5.0, rng=1)
     lin = fit_drag(log, P_HB, parasitic=False)
     full = fit_drag(log, P_HB, parasitic=True)
     assert lin.k_d > 1.03 * P_HB.k_d
@@ -90,7 +91,7 @@ def test_ignoring_parasitic_drag_inflates_the_rotor_drag():
 
 def test_calibration_of_a_heavy_high_drag_vehicle():
     p = P_HB.replace(mass=0.84, k_d=9.0e-4, k_z=1.25e-3, c_dx=4e-4, c_dy=5e-4, c_dz=5.5e-4)
-    fit, _ = calibrate(p, speeds=SHORT, duration=5.0, seed=2)
+    fit, _ = calibrate(p, speeds=SHORT, duration=5.0, rng=2)
     assert fit.k_d == pytest.approx(p.k_d, rel=0.02)
     assert fit.k_z == pytest.approx(p.k_z, rel=0.02)
     assert all(getattr(fit, k) >= 0 for k in ("c_dx", "c_dy", "c_dz"))
@@ -124,3 +125,19 @@ def test_calibrate_command_writes_the_fit(tmp_path, capsys):
     assert abs(rec["relative_error"]["k_z"]) < 0.01
     assert (tmp_path / "calibration_log.npz").exists()
     assert "k_d" in capsys.readouterr().out
+
+
+def test_estimate_imports_neither_the_simulator_nor_the_experiments():
+    """The fitting math is pure: no module of windnav.estimate imports windnav.sim or
+    windnav.experiments at import time."""
+    import ast
+    from pathlib import Path
+
+    import windnav.estimate
+
+    for path in Path(windnav.estimate.__file__).parent.glob("*.py"):
+        for node in ast.parse(path.read_text()).body:  # module level only
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            for name in names:
+                assert not name.startswith(("windnav.sim", "windnav.experiments")), (path, name)

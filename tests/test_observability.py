@@ -33,7 +33,7 @@ def test_symbolic_model_equals_the_filter_model():
     f0_fn = sp.lambdify(args, f0, "numpy")
     g_fn = sp.lambdify(args, sp.Matrix.hstack(*gs), "numpy")
     h_fn = sp.lambdify(args, h, "numpy")
-    num = wm.model_constants(P_HB)
+    num = wm.model_constants(P_HB, wind_frame="body")  # the thesis model: w_b' = 0
     rng = np.random.default_rng(0)
     for _ in range(10):
         s = random_state(rng)
@@ -79,3 +79,22 @@ def test_bad_arguments():
         ob.rank_at(P_HB, np.zeros(12))
     with pytest.raises(ValueError, match="'order'"):
         ob.observability_matrix(P_HB, hover_state(), order=5)
+
+
+def test_hardware_measurement_set_no_accelerometer_needs_second_order():
+    """The hardware filter's outputs (gyro, mocap velocity, Euler angles; its differenced
+    velocity is d/dt of an output) reach full rank at order 2, not order 1."""
+    rng = np.random.default_rng(3)
+    states = [random_state(rng) for _ in range(3)]
+    assert [ob.rank_at(P_HB, s, measurements="hardware") for s in states] == [12] * 3
+    assert [ob.rank_at(P_HB, s, order=2, measurements="hardware") for s in states] == [16] * 3
+    # at hover rotor drag still makes the wind observable, and losing it still loses it
+    assert ob.rank_at(P_HB, hover_state(), order=2, measurements="hardware") == 16
+    assert ob.rank_at(P_HB.replace(k_d=0.0), hover_state(), order=2,
+                      measurements="hardware") == 14
+    # the hardware rows are a subset of the IMU set's: never more rank at the same order
+    O_imu = ob.observability_matrix(P_HB, states[0], order=1)
+    O_hw = ob.observability_matrix(P_HB, states[0], order=1, measurements="hardware")
+    assert O_hw.shape[0] < O_imu.shape[0]
+    with pytest.raises(ValueError, match="'measurements'"):
+        ob.rank_at(P_HB, hover_state(), measurements="lidar")

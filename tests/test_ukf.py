@@ -198,3 +198,22 @@ def test_functional_update_leaves_inputs_untouched():
     np.testing.assert_array_equal(x, x0)
     np.testing.assert_array_equal(P, P0)
     assert np.all(np.diag(res.P) < np.diag(P))   # information reduces the variance
+
+
+def test_per_update_noise_equals_a_block_with_that_noise_and_changes_no_block():
+    a = _two_block_filter()
+    b = UKF(pendulum_fx, [0.3, 0.1], np.diag([0.5, 0.5]), np.diag([1e-5, 1e-3]), dt=0.02,
+            blocks={"sin": (lambda X: np.sin(X[:, :1]), np.diag([0.04])),
+                    "prod": (lambda X: X[:, :1] * X[:, 1:2], np.diag([0.05]))})
+    for z in ([0.2, 0.05], [0.25, 0.1], [0.3, 0.2]):
+        a.predict()
+        b.predict()
+        a.update({"sin": z[0], "prod": z[1]}, noise={"sin": np.diag([0.04])})
+        b.update({"sin": z[0], "prod": z[1]})
+    np.testing.assert_array_equal(a.x, b.x)
+    np.testing.assert_array_equal(a.P, b.P)
+    np.testing.assert_array_equal(a.blocks["sin"].R, np.diag([0.01]))   # configuration kept
+    with pytest.raises(ValueError, match="'noise'"):
+        a.update({"sin": 0.1}, noise={"gps": np.eye(1)})
+    with pytest.raises(ValueError, match=r"noise\['sin'\]"):
+        a.update({"sin": 0.1}, noise={"sin": np.eye(2)})

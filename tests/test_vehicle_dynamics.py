@@ -122,11 +122,30 @@ def test_hub_wind_equal_to_com_wind_matches():
     a = model.step(s, np.full(4, 500.0), w, 0.01).to_array()
     b = model.step(s, np.full(4, 500.0), np.repeat(w[:, None, :], 4, axis=1), 0.01).to_array()
     np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
-    # a wind gradient across the rotors produces a rolling moment
+
+
+def test_wind_gradient_moment_matches_the_closed_form():
+    """Level hover, x-wind u_i = 3 + 2 y_i at hub i of the quad-X (sum y_i = sum x_i y_i = 0,
+    sum y_i^3 = sum x_i y_i^2 = 0). Each rotor carries f_i = (k_d eta u_i, 0, k_eta eta^2 +
+    k_h u_i^2) and the flapping moment (0, -k_flap eta u_i, 0); summing r_i x f_i + Mf_i + My_i
+    (the k_m yaw moments cancel at equal speeds):
+
+        M_x = k_h sum y_i u_i^2 = 12 k_h sum y_i^2
+        M_y = -k_h sum x_i u_i^2 - k_flap eta sum u_i = -12 k_flap eta
+        M_z = -k_d eta sum y_i u_i = -2 k_d eta sum y_i^2
+    """
+    p = wn.vehicle.params("hummingbird", k_flap=2.0e-6)
+    model = Multirotor(p)
+    s = model.hover_state([0.0, 0.0, 0.0])
+    eta = p.hover_rotor_speed
+    y = p.rotor_positions[:, 1]
     hub = np.zeros((1, 4, 3))
-    hub[0, :, 0] = 3.0 + 2.0 * p.rotor_positions[:, 1]  # x-wind increasing toward +y
-    m = model.derivatives(s, hub)["moment_body"]
-    assert abs(m[0, 0]) > 0 or abs(m[0, 1]) > 0
+    hub[0, :, 0] = 3.0 + 2.0 * y  # x-wind increasing toward +y
+    m = model.derivatives(s, hub)["moment_body"][0]
+    sy2 = np.sum(y**2)
+    expected = [12.0 * p.k_h * sy2, -12.0 * p.k_flap * eta, -2.0 * p.k_d * eta * sy2]
+    np.testing.assert_allclose(m, expected, rtol=1e-9, atol=0.0)
+    assert min(abs(v) for v in expected) > 1e-4  # every term is far above round-off
 
 
 @pytest.mark.parametrize(
@@ -165,3 +184,64 @@ def test_commands_beyond_limits_are_clipped():
     clipped, sat = model.clip_rotor_speeds(np.array([[-5.0, 100.0, 2000.0, 1500.0]]))
     np.testing.assert_array_equal(clipped, [[0.0, 100.0, 1500.0, 1500.0]])
     np.testing.assert_array_equal(sat, [[True, False, True, False]])
+
+
+# Translational lift: RotorPy's model (default) and the bounded option ------------------------
+def _lift_state(model, p, eta):
+    s = model.hover_state([0.0, 0.0, 0.0])
+    return VehicleState(s.position, s.velocity, s.attitude, s.body_rates,
+                        np.full((1, p.n_rotors), float(eta)))
+
+
+@pytest.mark.parametrize("vehicle", wn.vehicle.VEHICLES)
+def test_bounded_lift_closed_form_from_stopped_rotors_to_hover(vehicle):
+    """Level, at rest, in a horizontal wind V (so v_a,z = 0: no axial drag, no vertical
+    parasitic drag): F_z = sum_i (k_eta eta^2 + k_h V^2 s), s = min(1, k_eta eta^2 / T_ref)."""
+    rotorpy = wn.vehicle.params(vehicle)
+    bounded = rotorpy.replace(translational_lift="bounded")
+    V = 8.0
+    wind = np.array([[V * 0.6, -V * 0.8, 0.0]])
+    t_ref = rotorpy.mass * wn.vehicle.GRAVITY / rotorpy.n_rotors
+    for frac in (0.0, 0.25, 0.5, 1.0, 1.7):
+        eta = np.sqrt(frac * t_ref / rotorpy.k_eta)
+        f_rp = Multirotor(rotorpy).derivatives(_lift_state(Multirotor(rotorpy), rotorpy, eta), wind)
+        f_b = Multirotor(bounded).derivatives(_lift_state(Multirotor(bounded), bounded, eta), wind)
+        thrust = rotorpy.n_rotors * rotorpy.k_eta * eta**2
+        lift = rotorpy.n_rotors * rotorpy.k_h * V**2
+        np.testing.assert_allclose(f_rp["force_body"][0, 2], thrust + lift, rtol=1e-12)
+        np.testing.assert_allclose(f_b["force_body"][0, 2], thrust + lift * min(1.0, frac),
+                                   rtol=1e-12, atol=1e-15)
+        # the in-plane forces (rotor and parasitic drag) do not depend on the lift model
+        np.testing.assert_array_equal(f_b["force_body"][0, :2], f_rp["force_body"][0, :2])
+        if frac >= 1.0:  # at and above hover thrust the two models agree
+            np.testing.assert_allclose(f_b["force_body"], f_rp["force_body"], rtol=1e-12)
+            np.testing.assert_allclose(f_b["moment_body"], f_rp["moment_body"], rtol=1e-12,
+                                       atol=1e-15)
+    # stopped rotors: no lift at all with the bounded model
+    f0 = Multirotor(bounded).derivatives(_lift_state(Multirotor(bounded), bounded, 0.0), wind)
+    assert f0["force_body"][0, 2] == 0.0
+
+
+def test_stopped_rotors_in_a_30_m_s_wind_climb_only_with_rotorpy_lift():
+    """Issue 13: with RotorPy's lift a Crazyflie whose rotors are stopped climbs in a 30 m/s
+    wind (lift 4 k_h V^2 = 4.0 N against a weight of 0.43 N); the bounded lift lets it fall."""
+    p = wn.vehicle.params("crazyflie_brushless")
+    out = {}
+    for model_name in ("rotorpy", "bounded"):
+        model = Multirotor(p.replace(translational_lift=model_name))
+        s = _lift_state(model, p, 0.0)
+        for _ in range(20):
+            s = model.step(s, np.zeros((1, 4)), [30.0, 0.0, 0.0], 0.005)
+        out[model_name] = s.velocity[0, 2]
+    assert out["rotorpy"] > 0.0
+    # free fall: no thrust, no lift, no vertical drag (c_dz = 0 for this vehicle)
+    np.testing.assert_allclose(out["bounded"], -wn.vehicle.GRAVITY * 0.1, rtol=1e-9)
+
+
+def test_lift_model_and_airspeed_limit_are_validated():
+    p = wn.vehicle.params("hummingbird")
+    with pytest.raises(ValueError, match="'translational_lift'"):
+        p.replace(translational_lift="momentum")
+    with pytest.raises(ValueError, match="'max_airspeed'"):
+        p.replace(max_airspeed=-1.0)
+    assert p.replace(max_airspeed=12.0).airspeed_limit == 12.0

@@ -7,11 +7,10 @@ RK4. Positions must agree to 1e-4 m and attitudes to 1e-5 rad.
 
 import numpy as np
 import pytest
+from rotorpy.vehicles import multirotor as rotorpy_multirotor  # the reference: required
 from scipy.spatial.transform import Rotation
 
 import windnav as wn
-
-rotorpy_multirotor = pytest.importorskip("rotorpy.vehicles.multirotor")
 
 WINDS = [(0.0, 0.0, 0.0), (4.0, -2.0, 0.0), (-3.0, 5.0, 1.0), (8.0, 0.0, -0.5)]
 DT = 0.01
@@ -44,7 +43,7 @@ def _fly_rotorpy(p, wind, manoeuvre):
     state = {"x": np.zeros(3), "v": vel.copy(), "q": q.copy(), "w": rates.copy(),
              "wind": np.array(wind, dtype=float), "rotor_speeds": eta.copy()}
     vehicle = rotorpy_multirotor.Multirotor(
-        wn.vehicle.to_rotorpy_dict(p), initial_state=state, aero=True,
+        wn.vehicle.params_to_rotorpy_dict(p), initial_state=state, aero=True,
         integrator_kwargs={"method": "RK45", "rtol": 1e-11, "atol": 1e-11},
     )
     cmd = {"cmd_motor_speeds": _commands(p, manoeuvre)}

@@ -29,7 +29,15 @@ import numba
 import numpy as np
 
 from windnav.vehicle.dynamics import PackedParams, pack_params
+from windnav.vehicle.layout import K_ETA, MASS, POS, QUAT, RATES, VEL, G
 from windnav.vehicle.params import MultirotorParams
+from windnav.vehicle.rotation import quat_to_rotation
+
+# Layout of SE3Gains.as_array(), the gains the kernel reads.
+GAIN_KP_POS = 0  # 3 entries
+GAIN_KD_POS = 3  # 3 entries
+GAIN_KP_ATT = 6
+GAIN_KD_ATT = 7
 
 
 @dataclass(frozen=True)
@@ -55,7 +63,8 @@ class SE3Gains:
     extra: dict = field(default_factory=dict)
 
     def as_array(self) -> np.ndarray:
-        """``[kp_x, kp_y, kp_z, kd_x, kd_y, kd_z, kp_att, kd_att]``."""
+        """``[kp_x, kp_y, kp_z, kd_x, kd_y, kd_z, kp_att, kd_att]`` (offsets ``GAIN_KP_POS``,
+        ``GAIN_KD_POS``, ``GAIN_KP_ATT``, ``GAIN_KD_ATT`` of this module)."""
         return np.array([*self.kp_pos, *self.kd_pos, self.kp_att, self.kd_att], dtype=np.float64)
 
 
@@ -92,34 +101,18 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
     u = np.empty(4)
     for b in range(B):
         p = b if P > 1 else 0
-        m = scalars[p, 0]
-        keta = scalars[p, 1]
-        g = scalars[p, 13]
+        m = scalars[p, MASS]
+        keta = scalars[p, K_ETA]
+        g = scalars[p, G]
         I = inertia[p]
-        q0 = x[b, 6]
-        q1 = x[b, 7]
-        q2 = x[b, 8]
-        q3 = x[b, 9]
-        n = np.sqrt(q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
-        q0 /= n
-        q1 /= n
-        q2 /= n
-        q3 /= n
-        R[0, 0] = 1.0 - 2.0 * (q1 * q1 + q2 * q2)
-        R[0, 1] = 2.0 * (q0 * q1 - q2 * q3)
-        R[0, 2] = 2.0 * (q0 * q2 + q1 * q3)
-        R[1, 0] = 2.0 * (q0 * q1 + q2 * q3)
-        R[1, 1] = 1.0 - 2.0 * (q0 * q0 + q2 * q2)
-        R[1, 2] = 2.0 * (q1 * q2 - q0 * q3)
-        R[2, 0] = 2.0 * (q0 * q2 - q1 * q3)
-        R[2, 1] = 2.0 * (q1 * q2 + q0 * q3)
-        R[2, 2] = 1.0 - 2.0 * (q0 * q0 + q1 * q1)
+        (R[0, 0], R[0, 1], R[0, 2], R[1, 0], R[1, 1], R[1, 2], R[2, 0], R[2, 1],
+         R[2, 2]) = quat_to_rotation(x[b, QUAT], x[b, QUAT + 1], x[b, QUAT + 2], x[b, QUAT + 3])
         for j in range(3):
             if accel_mode:
                 a = acc_d[b, j]
             else:
-                a = (-gains[j] * (x[b, j] - pos_d[b, j])
-                     - gains[3 + j] * (x[b, 3 + j] - vel_d[b, j]) + acc_d[b, j])
+                a = (-gains[GAIN_KP_POS + j] * (x[b, POS + j] - pos_d[b, j])
+                     - gains[GAIN_KD_POS + j] * (x[b, VEL + j] - vel_d[b, j]) + acc_d[b, j])
             F[j] = m * a
         F[2] += m * g
         u1 = F[0] * R[0, 2] + F[1] * R[1, 2] + F[2] * R[2, 2]
@@ -158,13 +151,15 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         eR0 = -S[1, 2]
         eR1 = S[0, 2]
         eR2 = -S[0, 1]
-        w0 = x[b, 10]
-        w1 = x[b, 11]
-        w2 = x[b, 12]
+        w0 = x[b, RATES]
+        w1 = x[b, RATES + 1]
+        w2 = x[b, RATES + 2]
         ew2 = w2 - yaw_rate_d[b]
-        t0 = -gains[6] * eR0 - gains[7] * w0
-        t1 = -gains[6] * eR1 - gains[7] * w1
-        t2 = -gains[6] * eR2 - gains[7] * ew2
+        kp_att = gains[GAIN_KP_ATT]
+        kd_att = gains[GAIN_KD_ATT]
+        t0 = -kp_att * eR0 - kd_att * w0
+        t1 = -kp_att * eR1 - kd_att * w1
+        t2 = -kp_att * eR2 - kd_att * ew2
         h0 = I[0, 0] * w0 + I[0, 1] * w1 + I[0, 2] * w2
         h1 = I[1, 0] * w0 + I[1, 1] * w1 + I[1, 2] * w2
         h2 = I[2, 0] * w0 + I[2, 1] * w1 + I[2, 2] * w2

@@ -4,16 +4,23 @@ Public API::
 
     UKF, ukf_predict, ukf_update, merwe_weights, ...   generic unscented Kalman filter
     WindUKF, WindEstimate, wind_world                  the thesis' wind estimator (ch. 3)
-    wind_model                                         its batched process/measurement models
+    wind_model, layout                                 its batched models and packed layouts
     observability                                      Lie-derivative rank analysis (sympy)
     wind_uncertainty, wind_uncertainty_axes, ...       a-priori wind uncertainty (appendix A)
     run_wind_ukf, WindTrack, filter_inputs             the Wind UKF over a recorded flight
-    calibrate, fit_drag, calibration_flights, DragFit  drag calibration by least squares
+    fit_drag, DragFit                                  drag calibration by least squares
+    UKFConditions, CONDITIONS, ukf_conditions          named sensing + filter presets
+    OdometryAccel, odometry_specific_force             the hardware's differenced-mocap accel
+
+The calibration *flights* (``calibrate``, ``calibration_flights``) fly the simulator and live in
+:mod:`windnav.experiments.calibration`.
 """
 
-from windnav.estimate import observability, wind_model
-from windnav.estimate.calibrate import DragFit, calibrate, calibration_flights, fit_drag
+from windnav.estimate import conditions, hardware, layout, observability, wind_model
+from windnav.estimate.calibrate import DragFit, fit_drag
+from windnav.estimate.conditions import CONDITIONS, UKFConditions, ukf_conditions
 from windnav.estimate.flight import WindTrack, filter_inputs, run_wind_ukf
+from windnav.estimate.hardware import OdometryAccel, odometry_specific_force
 from windnav.estimate.ukf import (
     UKF,
     PredictResult,
@@ -34,6 +41,7 @@ from windnav.estimate.uncertainty import (
 from windnav.estimate.wind_ukf import DEFAULT_Q, DEFAULT_R, WindEstimate, WindUKF, wind_world
 
 __all__ = [
+    "CONDITIONS",
     "DEFAULT_Q",
     "DEFAULT_R",
     "UKF",
@@ -41,20 +49,25 @@ __all__ = [
     "SigmaWeights",
     "UpdateResult",
     "DragFit",
+    "OdometryAccel",
+    "UKFConditions",
     "WindTrack",
-    "calibrate",
-    "calibration_flights",
     "filter_inputs",
     "fit_drag",
+    "hardware",
+    "layout",
     "run_wind_ukf",
     "WindEstimate",
     "WindUKF",
     "compare_vehicles",
+    "conditions",
     "merwe_weights",
     "observability",
+    "odometry_specific_force",
     "robust_cholesky",
     "sigma_points",
     "ukf_predict",
+    "ukf_conditions",
     "ukf_update",
     "unscented_transform",
     "wind_model",

@@ -16,13 +16,13 @@ x and y rows, ``(k_z, c_dz)`` from the z rows, each by non-negative least square
 coefficients are >= 0). The mass ``m`` (weighed), the thrust coefficient ``k_eta`` (hover test)
 and the translational-lift coefficient ``k_h`` are taken as known.
 
-Data (:func:`calibration_flights`): steady flight at a range of airspeeds along each body
-axis. Steady flight at airspeed ``V`` through still air is, by Galilean invariance, hover in a
-uniform wind of ``-V`` (a wind tunnel); the simulator hovers one batch row per (axis, speed) and
-the fit uses the known tunnel wind, ``v_a = R^T (v_odom - w)`` (the SE(3) controller has no
-integral action, so a vehicle drifts slowly downwind; its ground speed is part of ``v_a``, so
-the rows need not be exactly steady). Samples before ``settle_s`` are dropped, and so are rows
-whose rotor commands saturated (loss of control authority) or whose samples are not finite.
+Data: steady flights at a range of airspeeds along each body axis, flown in a simulated wind
+tunnel by :func:`windnav.experiments.calibration.calibration_flights` (this module is only the
+fitting math and does not fly the simulator). The fit uses the known tunnel wind,
+``v_a = R^T (v_odom - w)`` (the SE(3) controller has no integral action, so a vehicle drifts
+slowly downwind; its ground speed is part of ``v_a``, so the rows need not be exactly steady).
+Samples before ``settle_s`` are dropped, and so are rows whose rotor commands saturated (loss
+of control authority) or whose samples are not finite.
 """
 
 from __future__ import annotations
@@ -32,17 +32,12 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 from scipy.optimize import nnls
-from scipy.spatial.transform import Rotation
 
-from windnav._validate import finite_float, positive_float
-from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
-from windnav.sim.log import FlightLog
-from windnav.sim.runner import fly
-from windnav.sim.sweeps import RowWind
-from windnav.sim.trajectories import Hover
+from windnav._validate import positive_float
 from windnav.vehicle.params import MultirotorParams
+from windnav.vehicle.rotation import quat_to_matrix
 
-__all__ = ["DEFAULT_SPEEDS", "DragFit", "calibrate", "calibration_flights", "fit_drag"]
+__all__ = ["AXES", "DEFAULT_SPEEDS", "DragFit", "fit_drag"]
 
 DEFAULT_SPEEDS = {
     "x": (-5.0, -4.0, -3.0, -2.0, -1.0, 1.0, 2.0, 3.0, 4.0, 5.0),
@@ -51,7 +46,8 @@ DEFAULT_SPEEDS = {
 }
 """Airspeeds flown along each axis, m/s (signed: + flies toward +axis)."""
 
-_AXES = {"x": 0, "y": 1, "z": 2}
+AXES = {"x": 0, "y": 1, "z": 2}
+"""Body axis names of a calibration's ``speeds`` and their indices."""
 
 
 @dataclass(frozen=True)
@@ -114,66 +110,6 @@ class DragFit:
         return json.dumps(asdict(self), indent=2)
 
 
-def calibration_flights(
-    params: MultirotorParams,
-    speeds: dict | None = None,
-    *,
-    duration: float = 6.0,
-    dt: float = 0.005,
-    sensor_rate_hz: float = 100.0,
-    sensors: SensorSuite | None = None,
-    seed: int | np.random.Generator = 0,
-) -> FlightLog:
-    """Simulate the calibration: hover, one batch row per (axis, airspeed), in a tunnel wind.
-
-    Parameters
-    ----------
-    params : MultirotorParams
-        The true vehicle.
-    speeds : dict of str to sequence of float, optional
-        Signed airspeeds (m/s) per body axis ``"x"``, ``"y"``, ``"z"``; default
-        :data:`DEFAULT_SPEEDS`. A zero-speed row (hover) is always added.
-    duration : float
-        Flight time of every row, s.
-    dt : float
-        Physics step, s.
-    sensor_rate_hz : float
-        Rate of the IMU, odometry and rotor-speed sensors, Hz (when ``sensors`` is None).
-    sensors : SensorSuite, optional
-        Overrides the default suite.
-    seed : int or numpy.random.Generator
-        Sensor noise.
-
-    Returns
-    -------
-    FlightLog
-        ``meta["airspeed_world"]`` lists the (B, 3) airspeed of each row, m/s.
-    """
-    where = "calibration_flights"
-    speeds = DEFAULT_SPEEDS if speeds is None else speeds
-    unknown = set(speeds) - set(_AXES)
-    if unknown:
-        raise ValueError(f"The 'speeds' parameter of {where} has unknown axes {sorted(unknown)};"
-                         f" known: {sorted(_AXES)}.")
-    rows = [np.zeros(3)]
-    for axis, values in speeds.items():
-        for v in np.asarray(values, dtype=np.float64).reshape(-1):
-            finite_float(v, f"speeds[{axis!r}]", where)
-            row = np.zeros(3)
-            row[_AXES[axis]] = v
-            rows.append(row)
-    airspeed = np.array(rows)
-    rate = positive_float(sensor_rate_hz, "sensor_rate_hz", where)
-    if sensors is None:
-        sensors = SensorSuite(IMU(rate_hz=rate), Odometry(rate_hz=rate),
-                              RotorSpeedSensor(rate_hz=rate))
-    # flying at +V through still air == hovering in a wind of -V (yaw 0: body = world axes)
-    log = fly(params, Hover((0.0, 0.0, 10.0)), RowWind(-airspeed), duration, dt=dt,
-              batch=airspeed.shape[0], sensors=sensors, seed=seed)
-    log.meta["airspeed_world"] = airspeed.tolist()
-    return log
-
-
 def _regressors(log, params: MultirotorParams, settle_s: float):
     """Stacked samples after ``settle_s`` of the usable rows: a, v_a, s, s2 (flattened)."""
     imu, od = log.sensors["imu"], log.sensors["odometry"]
@@ -200,7 +136,7 @@ def _regressors(log, params: MultirotorParams, settle_s: float):
     acc = imu["accel"][keep_t][:, ok]                                # (K, B', 3)
     wind_idx = np.clip(np.searchsorted(log.t, t[keep_t] - 1e-9), 0, log.t.size - 1)
     wind = log.wind[wind_idx][:, ok]
-    R = Rotation.from_quat(od["attitude"][keep_t][:, ok].reshape(-1, 4)).as_matrix()
+    R = quat_to_matrix(od["attitude"][keep_t][:, ok].reshape(-1, 4))
     v_w = (od["velocity"][keep_t][:, ok] - wind).reshape(-1, 3)
     v_a = np.einsum("bji,bj->bi", R, v_w)
     return (acc.reshape(-1, 3), v_a, eta.sum(-1).reshape(-1), (eta**2).sum(-1).reshape(-1),
@@ -232,7 +168,8 @@ def fit_drag(
     Parameters
     ----------
     log : FlightLog
-        Steady flights (see :func:`calibration_flights`) with the ``imu``, ``odometry`` and
+        Steady flights (:func:`windnav.experiments.calibration.calibration_flights`) with
+        the ``imu``, ``odometry`` and
         ``rotor_speeds`` sensors at one common rate; ``log.wind`` is the known wind the
         vehicle flew in (zero in still air, the tunnel wind otherwise).
     params : MultirotorParams
@@ -285,30 +222,3 @@ def fit_drag(
                    stderr={k: float(v) for k, v in se.items()}, residual_rms=rms,
                    r2=(r2(r_xy, y_xy), r2(r_z, y_z)), n_samples=int(n), rows_used=used,
                    rows_dropped=dropped, parasitic=bool(parasitic))
-
-
-def calibrate(
-    params_true: MultirotorParams,
-    *,
-    speeds: dict | None = None,
-    duration: float = 6.0,
-    settle_s: float = 3.0,
-    parasitic: bool = True,
-    sensors: SensorSuite | None = None,
-    seed: int | np.random.Generator = 0,
-) -> tuple[DragFit, MultirotorParams]:
-    """Fly the calibration flights of ``params_true`` and fit its drag coefficients.
-
-    Arguments are those of :func:`calibration_flights` and :func:`fit_drag`.
-
-    Returns
-    -------
-    fit : DragFit
-    params_filter : MultirotorParams
-        ``params_true`` with the drag coefficients replaced by the fitted ones: what the
-        Wind UKF believes (mass, thrust and lift coefficients known).
-    """
-    log = calibration_flights(params_true, speeds, duration=duration, sensors=sensors,
-                              seed=seed)
-    fit = fit_drag(log, params_true, settle_s=settle_s, parasitic=parasitic)
-    return fit, fit.apply(params_true)

@@ -27,6 +27,14 @@ Findings (hummingbird, order 1; checked in ``tests/test_observability.py``):
   unobservable (rank 14) although it is observable in motion; likewise ``k_z = 0`` leaves the
   vertical wind unobservable at hover (rank 15). Rotor drag (linear in airspeed) is what makes
   the wind observable at hover.
+
+Measurement sets (``measurements=``, :data:`MEASUREMENT_SETS`): ``"imu"`` (default) is the four
+outputs above. ``"hardware"`` is the author's hardware filter (:mod:`windnav.estimate.hardware`):
+no accelerometer, so ``h`` = gyro, world velocity and Euler angles. Its differenced-velocity
+acceleration adds no direction of its own: ``d/dt (R v_b) = L_f0 (R v_b) = R F / m - g e3`` is
+already a first-order Lie derivative of the velocity output, so the hardware set needs one
+order more than the IMU set for the same rank. Findings (hummingbird; tested): order 1 gives
+rank 12 at random states, order 2 gives full rank 16 (also at hover with rotor drag).
 """
 
 from __future__ import annotations
@@ -35,9 +43,27 @@ import functools
 
 import numpy as np
 
+from windnav.estimate.layout import IDX_ROTORS, IDX_VELOCITY, IDX_WIND, N_BASE, ROTORS
 from windnav.vehicle.params import GRAVITY, MultirotorParams
 
-__all__ = ["observability_matrix", "rank_at", "symbolic_model"]
+__all__ = ["MEASUREMENT_SETS", "observability_matrix", "rank_at", "symbolic_model"]
+
+_OUTPUT_ROWS = {"accel": (0, 3), "gyro": (3, 6), "velocity": (6, 9), "euler": (9, 12)}
+
+MEASUREMENT_SETS = {
+    "imu": ("accel", "gyro", "velocity", "euler"),
+    "hardware": ("gyro", "velocity", "euler"),
+}
+"""Outputs of each measurement set, as blocks of :func:`symbolic_model`'s ``h``: ``accel``
+(specific force), ``gyro``, ``velocity`` (world), ``euler``."""
+
+
+def _measurement_set(measurements, where: str) -> tuple[str, ...]:
+    found = MEASUREMENT_SETS.get(measurements) if isinstance(measurements, str) else None
+    if found is None:
+        raise ValueError(f"The 'measurements' parameter of {where} must be one of "
+                         f"{sorted(MEASUREMENT_SETS)}. Got {measurements!r} instead.")
+    return found
 
 _PARAM_NAMES = ("m", "k_eta", "k_d", "k_z", "k_h", "c_dx", "c_dy", "c_dz", "tau_m", "g", "eps")
 
@@ -93,18 +119,19 @@ def symbolic_model(n_rotors: int):
                     p + a * sp.tan(th), 0, 0, 0, *dv, 0, 0, 0, *[-e / tau for e in eta]])
     gs = []
     for i in range(n_rotors):
-        gi = sp.zeros(12 + n_rotors, 1)
-        gi[12 + i] = 1 / tau
+        gi = sp.zeros(N_BASE + n_rotors, 1)
+        gi[ROTORS + i] = 1 / tau
         gs.append(gi)
     h = sp.Matrix([*F, p, q, r, *(R * v), ps, th, ph])
     return x, prm, f0, gs, h
 
 
 @functools.lru_cache(maxsize=8)
-def _lambdified(n_rotors: int, order: int):
+def _lambdified(n_rotors: int, order: int, outputs: tuple[str, ...]):
     import sympy as sp
 
-    x, prm, f0, gs, h = symbolic_model(n_rotors)
+    x, prm, f0, gs, h_all = symbolic_model(n_rotors)
+    h = sp.Matrix.vstack(*(h_all[slice(*_OUTPUT_ROWS[o]), :] for o in outputs))
     X = sp.Matrix(x)
     level = [h]
     funcs = [h]
@@ -128,7 +155,8 @@ def _prm_values(params: MultirotorParams, eps: float) -> list[float]:
             params.c_dy, params.c_dz, params.tau_m, GRAVITY, eps]
 
 
-def observability_matrix(params: MultirotorParams, state, order: int = 1) -> np.ndarray:
+def observability_matrix(params: MultirotorParams, state, order: int = 1,
+                         measurements: str = "imu") -> np.ndarray:
     """Numerical observability matrix at one state.
 
     Parameters
@@ -137,7 +165,9 @@ def observability_matrix(params: MultirotorParams, state, order: int = 1) -> np.
     state : array_like of shape (12 + N,)
         Wind UKF state (angles rad, rates rad/s, velocities m/s, rotor speeds rad/s).
     order : int
-        Highest Lie-derivative order (0, 1 or 2; 2 builds slowly).
+        Highest Lie-derivative order (0, 1 or 2; 2 builds in seconds, once per process).
+    measurements : {"imu", "hardware"}
+        Output set (:data:`MEASUREMENT_SETS`).
 
     Returns
     -------
@@ -150,21 +180,23 @@ def observability_matrix(params: MultirotorParams, state, order: int = 1) -> np.
     if isinstance(order, bool) or order not in (0, 1, 2):
         raise ValueError(f"The 'order' parameter of observability_matrix must be 0, 1 or 2. "
                          f"Got {order!r} instead.")
-    n = 12 + params.n_rotors
+    n = N_BASE + params.n_rotors
     x = np.asarray(state, dtype=np.float64)
     if x.shape != (n,) or not np.all(np.isfinite(x)):
         raise ValueError(f"The 'state' parameter of observability_matrix must be a finite ({n},)"
                          f" array. Got shape {x.shape} instead.")
-    airspeed = float(np.linalg.norm(x[6:9] - x[9:12]))
+    airspeed = float(np.linalg.norm(x[IDX_VELOCITY] - x[IDX_WIND]))
     # |v_a| v_a has a zero gradient at v_a = 0 that the symbolic form writes as 0/0; a tiny
     # smoothing gives the limit without adding a spurious (eps-sized) gradient
     eps = 1e-12 if airspeed == 0.0 else 0.0
-    fn = _lambdified(params.n_rotors, int(order))
+    outputs = _measurement_set(measurements, "observability_matrix")
+    fn = _lambdified(params.n_rotors, int(order), outputs)
     O = np.array(fn(list(x), _prm_values(params, eps)), dtype=np.float64)
     return np.broadcast_to(O, O.shape).reshape(-1, n)
 
 
-def rank_at(params: MultirotorParams, state, order: int = 1, rtol: float = 1e-9) -> int:
+def rank_at(params: MultirotorParams, state, order: int = 1, rtol: float = 1e-9,
+            measurements: str = "imu") -> int:
     """Numerical rank of the observability matrix (full rank = 12 + N: locally observable).
 
     Columns are scaled by the state's typical magnitudes (rotor speeds by the hover speed)
@@ -179,13 +211,15 @@ def rank_at(params: MultirotorParams, state, order: int = 1, rtol: float = 1e-9)
         Lie-derivative order (1 suffices for full rank with rotor drag).
     rtol : float
         Relative singular-value threshold.
+    measurements : {"imu", "hardware"}
+        Output set (:data:`MEASUREMENT_SETS`); "hardware" needs ``order=2`` for full rank.
 
     Returns
     -------
     int
     """
-    O = observability_matrix(params, state, order)
+    O = observability_matrix(params, state, order, measurements)
     scale = np.ones(O.shape[1])
-    scale[12:] = params.hover_rotor_speed
+    scale[IDX_ROTORS] = params.hover_rotor_speed
     sv = np.linalg.svd(O * scale, compute_uv=False)
     return int(np.sum(sv > rtol * sv[0]))

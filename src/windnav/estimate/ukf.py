@@ -450,6 +450,7 @@ class UKF:
         self._note_repair(res.repaired)
 
     def _stacked(self, names: tuple[str, ...]):
+        """Joint model, noise, wrapped indices and block offsets of the blocks ``names``."""
         hit = self._stack_cache.get(names)
         if hit is not None:
             return hit
@@ -467,11 +468,12 @@ class UKF:
         else:
             def hx(X, _hxs=tuple(hxs)):
                 return np.concatenate([h(X) for h in _hxs], axis=1)
-        hit = (hx, R, np.asarray(wrap, dtype=np.intp))
+        hit = (hx, R, np.asarray(wrap, dtype=np.intp), offsets)
         self._stack_cache[names] = hit
         return hit
 
-    def update(self, measurements: Mapping[str, np.ndarray | None]) -> UpdateResult | None:
+    def update(self, measurements: Mapping[str, np.ndarray | None],
+               noise: Mapping[str, np.ndarray] | None = None) -> UpdateResult | None:
         """Fuse any subset of the registered blocks in one joint update.
 
         Parameters
@@ -479,6 +481,9 @@ class UKF:
         measurements : mapping of str to array_like of shape (m,) or None
             Block name to measured value. ``None`` means "no sample this step". A value with NaN
             or inf is rejected and counted in ``rejected[name]``; the other blocks are fused.
+        noise : mapping of str to ndarray of shape (m, m), optional
+            Measurement-noise covariances for this update only, replacing the registered ``R``
+            of those blocks (the registered blocks are not changed).
 
         Returns
         -------
@@ -510,7 +515,22 @@ class UKF:
             zs.append(z)
         if not names:
             return None
-        hx, R, wrap = self._stacked(tuple(names))
+        unknown = set(noise or ()) - set(self.blocks)
+        if unknown:
+            raise ValueError(f"The 'noise' parameter of UKF.update holds unknown blocks "
+                             f"{sorted(unknown)}; registered: {sorted(self.blocks)}.")
+        hx, R, wrap, offsets = self._stacked(tuple(names))
+        if noise:
+            R = R.copy()
+            for k, name in enumerate(names):
+                if name in noise:
+                    o, m = int(offsets[k]), int(offsets[k + 1] - offsets[k])
+                    block = np.asarray(noise[name], dtype=np.float64)
+                    if block.shape != (m, m):
+                        raise ValueError(f"The 'noise[{name!r}]' parameter of UKF.update must "
+                                         f"have shape ({m}, {m}). Got shape {block.shape} "
+                                         "instead.")
+                    R[o:o + m, o:o + m] = block  # not positive definite: S fails below
         z = zs[0] if len(zs) == 1 else np.concatenate(zs)
         res = ukf_update(self.x, self.P, z, hx, R, self.weights, wrap)
         self.x, self.P = res.x, res.P

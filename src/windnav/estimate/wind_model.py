@@ -21,9 +21,10 @@ Continuous model, with ``R = Rz(psi) Ry(theta) Rx(phi)`` and airspeed ``v_a = v_
     eta_i' = (u_i - eta_i) / tau_m
     p', q', r', w_b' = 0          (driven by the process noise Q)
 
-Option ``wind_frame="world"``: the world-frame wind is the random walk instead, so the body
-wind turns with the vehicle, ``w_b' = -Omega x w_b`` (better when the vehicle rotates in a
-steady wind; not part of the thesis model).
+Option ``wind_frame`` (default "world", the same in :func:`model_constants`, ``WindUKF`` and
+``run_wind_ukf``): "world" makes the world-frame wind the random walk, so the body wind turns
+with the vehicle, ``w_b' = -Omega x w_b`` (right when the vehicle rotates in a wind fixed in the
+world); "body" makes the body-frame wind the random walk, ``w_b' = 0`` (the thesis model).
 
 The lever-arm term ``Omega x r_i`` of each rotor's airspeed is neglected, as in the thesis.
 Integration over ``dt``: classical RK4 on the first 12 states (``n_substeps`` steps), with the
@@ -37,7 +38,10 @@ Measurement models:
     odometry       (R v_b, psi, theta, phi)     world velocity m/s and Euler angles rad (6,)
     rotor speeds   eta                          rad/s (N,)
 
-Kernels are ``numba.njit(cache=True)`` loops over the sigma points.
+Kernels are ``numba.njit(cache=True)`` loops over the sigma points. The force law is written
+once (:func:`_specific_force_body`, used by the dynamics and the accelerometer model), the
+rotation once (:func:`windnav.vehicle.rotation.euler_zyx_to_rotation`), and the packed layouts
+of the state and constants are named in :mod:`windnav.estimate.layout`.
 """
 
 from __future__ import annotations
@@ -45,7 +49,35 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from windnav.estimate._ukf_kernels import chol_lower, sigma_from_chol, unscented
+from windnav.estimate.layout import (
+    EULER,
+    IDX_EULER,
+    IDX_RATES,
+    IDX_ROTORS,
+    IDX_VELOCITY,
+    IDX_WIND,
+    N_BASE,
+    N_PRM,
+    PRM_C_DX,
+    PRM_C_DY,
+    PRM_C_DZ,
+    PRM_G,
+    PRM_K_D,
+    PRM_K_ETA,
+    PRM_K_H,
+    PRM_K_Z,
+    PRM_MASS,
+    PRM_TAU_M,
+    PRM_WORLD_WIND,
+    RATES,
+    ROTORS,
+    VELOCITY,
+    WIND,
+    state_labels,
+)
 from windnav.vehicle.params import GRAVITY, MultirotorParams
+from windnav.vehicle.rotation import euler_zyx_to_matrix, euler_zyx_to_rotation
 
 __all__ = [
     "IDX_EULER",
@@ -53,6 +85,7 @@ __all__ = [
     "IDX_ROTORS",
     "IDX_VELOCITY",
     "IDX_WIND",
+    "WIND_FRAMES",
     "euler_to_matrix",
     "model_constants",
     "odometry",
@@ -62,108 +95,111 @@ __all__ = [
     "state_labels",
 ]
 
-IDX_EULER = slice(0, 3)
-IDX_RATES = slice(3, 6)
-IDX_VELOCITY = slice(6, 9)
-IDX_WIND = slice(9, 12)
-IDX_ROTORS = slice(12, None)
+WIND_FRAMES = ("world", "body")
+"""Accepted ``wind_frame`` values; the first is the default everywhere in the package."""
 
 
-def state_labels(n_rotors: int) -> list[str]:
-    """Names of the ``12 + n_rotors`` state components, in order."""
-    return (["psi", "theta", "phi", "p", "q", "r", "vx_b", "vy_b", "vz_b", "wx_b", "wy_b",
-             "wz_b"] + [f"eta_{i}" for i in range(n_rotors)])
-
-
-def model_constants(params: MultirotorParams, *, wind_frame: str = "body") -> np.ndarray:
+def model_constants(params: MultirotorParams, *, wind_frame: str = "world") -> np.ndarray:
     """Pack the parameters the kernels need.
 
     Parameters
     ----------
     params : MultirotorParams
-    wind_frame : {"body", "world"}
+    wind_frame : {"world", "body"}
+        "world" (default): the *world-frame* wind is a random walk, so ``w_b' = -Omega x w_b``.
         "body": the body-frame wind is a random walk, ``w_b' = 0`` (the thesis model).
-        "world": the *world-frame* wind is a random walk, so ``w_b' = -Omega x w_b``.
 
     Returns
     -------
     ndarray of shape (11,)
-        ``[mass, k_eta, k_d, k_z, k_h, c_dx, c_dy, c_dz, tau_m, g, world_wind_flag]`` (SI).
+        ``[mass, k_eta, k_d, k_z, k_h, c_dx, c_dy, c_dz, tau_m, g, world_wind_flag]`` (SI),
+        indexed by the ``PRM_*`` names of :mod:`windnav.estimate.layout`.
     """
-    if wind_frame not in ("body", "world"):
-        raise ValueError("The 'wind_frame' parameter of model_constants must be 'body' or "
-                         f"'world'. Got {wind_frame!r} instead.")
-    return np.array([params.mass, params.k_eta, params.k_d, params.k_z, params.k_h,
-                     params.c_dx, params.c_dy, params.c_dz, params.tau_m, GRAVITY,
-                     1.0 if wind_frame == "world" else 0.0])
+    if wind_frame not in WIND_FRAMES:
+        raise ValueError("The 'wind_frame' parameter of model_constants must be 'world' or "
+                         f"'body'. Got {wind_frame!r} instead.")
+    prm = np.empty(N_PRM)
+    prm[PRM_MASS] = params.mass
+    prm[PRM_K_ETA] = params.k_eta
+    prm[PRM_K_D] = params.k_d
+    prm[PRM_K_Z] = params.k_z
+    prm[PRM_K_H] = params.k_h
+    prm[PRM_C_DX] = params.c_dx
+    prm[PRM_C_DY] = params.c_dy
+    prm[PRM_C_DZ] = params.c_dz
+    prm[PRM_TAU_M] = params.tau_m
+    prm[PRM_G] = GRAVITY
+    prm[PRM_WORLD_WIND] = 1.0 if wind_frame == "world" else 0.0
+    return prm
 
 
-@numba.njit(cache=True)
-def _force(x, eta, prm, out):
-    """Non-gravitational force / mass (specific force) in body axes into ``out`` (3,)."""
+@numba.njit(cache=True, inline="always")
+def _specific_force_body(x, s_eta, s_eta2, n_rot, prm):
+    """The force law: ``F / m`` in body axes (no gravity), given ``sum eta`` and
+    ``sum eta^2`` of the ``n_rot`` rotors (see the module docstring)."""
+    m = prm[PRM_MASS]
+    k_d = prm[PRM_K_D]
+    vax = x[VELOCITY] - x[WIND]
+    vay = x[VELOCITY + 1] - x[WIND + 1]
+    vaz = x[VELOCITY + 2] - x[WIND + 2]
+    speed = np.sqrt(vax * vax + vay * vay + vaz * vaz)
+    return ((-s_eta * k_d * vax - speed * prm[PRM_C_DX] * vax) / m,
+            (-s_eta * k_d * vay - speed * prm[PRM_C_DY] * vay) / m,
+            (prm[PRM_K_ETA] * s_eta2 + n_rot * prm[PRM_K_H] * (vax * vax + vay * vay)
+             - s_eta * prm[PRM_K_Z] * vaz - speed * prm[PRM_C_DZ] * vaz) / m)
+
+
+@numba.njit(cache=True, inline="always")
+def _rotor_sums(x, n_rot):
+    """``(sum eta_i, sum eta_i^2)`` of the rotor-speed states of ``x``."""
     s_eta = 0.0
     s_eta2 = 0.0
-    for i in range(eta.shape[0]):
-        s_eta += eta[i]
-        s_eta2 += eta[i] * eta[i]
-    m, k_eta, k_d, k_z, k_h = prm[0], prm[1], prm[2], prm[3], prm[4]
-    c_dx, c_dy, c_dz = prm[5], prm[6], prm[7]
-    vax = x[6] - x[9]
-    vay = x[7] - x[10]
-    vaz = x[8] - x[11]
-    speed = np.sqrt(vax * vax + vay * vay + vaz * vaz)
-    out[0] = (-s_eta * k_d * vax - speed * c_dx * vax) / m
-    out[1] = (-s_eta * k_d * vay - speed * c_dy * vay) / m
-    out[2] = (k_eta * s_eta2 + eta.shape[0] * k_h * (vax * vax + vay * vay)
-              - s_eta * k_z * vaz - speed * c_dz * vaz) / m
+    for i in range(n_rot):
+        e = x[ROTORS + i]
+        s_eta += e
+        s_eta2 += e * e
+    return s_eta, s_eta2
 
 
 @numba.njit(cache=True, inline="always")
 def _deriv12(x, s_eta, s_eta2, n_rot, prm, k):
     """Derivative of the first 12 states into ``k`` (12,), given ``sum eta`` and
-    ``sum eta^2``. Entries 3..5 (rates) stay untouched (zero); 9..11 (wind) are written only
-    for the world-fixed wind option ``prm[10] != 0``: ``w_b' = -Omega x w_b``."""
-    m, k_eta, k_d, k_z, k_h = prm[0], prm[1], prm[2], prm[3], prm[4]
-    c_dx, c_dy, c_dz, g = prm[5], prm[6], prm[7], prm[9]
-    th, ph = x[1], x[2]
-    p, q, r = x[3], x[4], x[5]
-    vx, vy, vz = x[6], x[7], x[8]
-    wx, wy, wz = x[9], x[10], x[11]
-    vax = vx - wx
-    vay = vy - wy
-    vaz = vz - wz
-    speed = np.sqrt(vax * vax + vay * vay + vaz * vaz)
+    ``sum eta^2``. Entries of the rates stay untouched (zero); those of the wind are written
+    only for the world-fixed wind option: ``w_b' = -Omega x w_b``."""
+    g = prm[PRM_G]
+    th, ph = x[EULER + 1], x[EULER + 2]
+    p, q, r = x[RATES], x[RATES + 1], x[RATES + 2]
+    vx, vy, vz = x[VELOCITY], x[VELOCITY + 1], x[VELOCITY + 2]
+    wx, wy, wz = x[WIND], x[WIND + 1], x[WIND + 2]
     sth, cth = np.sin(th), np.cos(th)
     sph, cph = np.sin(ph), np.cos(ph)
+    fx, fy, fz = _specific_force_body(x, s_eta, s_eta2, n_rot, prm)
     a = q * sph + r * cph
-    k[0] = a / cth
-    k[1] = q * cph - r * sph
-    k[2] = p + a * sth / cth
-    k[6] = (-s_eta * k_d * vax - speed * c_dx * vax) / m + g * sth - (q * vz - r * vy)
-    k[7] = (-s_eta * k_d * vay - speed * c_dy * vay) / m - g * cth * sph - (r * vx - p * vz)
-    k[8] = ((k_eta * s_eta2 + n_rot * k_h * (vax * vax + vay * vay) - s_eta * k_z * vaz
-             - speed * c_dz * vaz) / m - g * cth * cph - (p * vy - q * vx))
-    if prm[10] != 0.0:
-        k[9] = -(q * wz - r * wy)
-        k[10] = -(r * wx - p * wz)
-        k[11] = -(p * wy - q * wx)
+    k[EULER] = a / cth
+    k[EULER + 1] = q * cph - r * sph
+    k[EULER + 2] = p + a * sth / cth
+    # v_b' = F / m - R^T g e3 - Omega x v_b, with R^T e3 = (-sin th, cos th sin ph, cos th cos ph)
+    k[VELOCITY] = fx + g * sth - (q * vz - r * vy)
+    k[VELOCITY + 1] = fy - g * cth * sph - (r * vx - p * vz)
+    k[VELOCITY + 2] = fz - g * cth * cph - (p * vy - q * vx)
+    if prm[PRM_WORLD_WIND] != 0.0:
+        k[WIND] = -(q * wz - r * wy)
+        k[WIND + 1] = -(r * wx - p * wz)
+        k[WIND + 2] = -(p * wy - q * wx)
 
 
 @numba.njit(cache=True)
 def _state_derivative(X, u, prm):
     S, n = X.shape
-    nr = n - 12
+    nr = n - N_BASE
     out = np.zeros((S, n))
-    k = np.zeros(12)
+    k = np.zeros(N_BASE)
     for s in range(S):
-        se = 0.0
-        se2 = 0.0
+        se, se2 = _rotor_sums(X[s], nr)
         for i in range(nr):
-            se += X[s, 12 + i]
-            se2 += X[s, 12 + i] * X[s, 12 + i]
-            out[s, 12 + i] = (u[i] - X[s, 12 + i]) / prm[8]
+            out[s, ROTORS + i] = (u[i] - X[s, ROTORS + i]) / prm[PRM_TAU_M]
         _deriv12(X[s], se, se2, nr, prm, k)
-        for i in range(12):
+        for i in range(N_BASE):
             out[s, i] = k[i]
     return out
 
@@ -171,22 +207,22 @@ def _state_derivative(X, u, prm):
 @numba.njit(cache=True)
 def _process(X, dt, u, prm, n_substeps):
     S, n = X.shape
-    nr = n - 12
+    nr = n - N_BASE
     h = dt / n_substeps
-    e_half = np.exp(-0.5 * h / prm[8])
+    e_half = np.exp(-0.5 * h / prm[PRM_TAU_M])
     out = np.empty((S, n))
-    k1 = np.zeros(12)
-    k2 = np.zeros(12)
-    k3 = np.zeros(12)
-    k4 = np.zeros(12)
-    xs = np.empty(12)
-    x = np.empty(12)
+    k1 = np.zeros(N_BASE)
+    k2 = np.zeros(N_BASE)
+    k3 = np.zeros(N_BASE)
+    k4 = np.zeros(N_BASE)
+    xs = np.empty(N_BASE)
+    x = np.empty(N_BASE)
     eta = np.empty(nr)
     for s in range(S):
-        for i in range(12):
+        for i in range(N_BASE):
             x[i] = X[s, i]
         for i in range(nr):
-            eta[i] = X[s, 12 + i]
+            eta[i] = X[s, ROTORS + i]
         for _ in range(n_substeps):
             # exact motor solution at the RK4 stage times 0, h/2, h
             se0 = 0.0
@@ -206,33 +242,41 @@ def _process(X, dt, u, prm, n_substeps):
                 se21 += e1 * e1
                 eta[i] = e1
             _deriv12(x, se0, se20, nr, prm, k1)
-            for i in range(12):
+            for i in range(N_BASE):
                 xs[i] = x[i] + 0.5 * h * k1[i]
             _deriv12(xs, sem, se2m, nr, prm, k2)
-            for i in range(12):
+            for i in range(N_BASE):
                 xs[i] = x[i] + 0.5 * h * k2[i]
             _deriv12(xs, sem, se2m, nr, prm, k3)
-            for i in range(12):
+            for i in range(N_BASE):
                 xs[i] = x[i] + h * k3[i]
             _deriv12(xs, se1, se21, nr, prm, k4)
-            for i in range(12):
+            for i in range(N_BASE):
                 x[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-        for i in range(12):
+        for i in range(N_BASE):
             out[s, i] = x[i]
         for i in range(nr):
-            out[s, 12 + i] = eta[i]
+            out[s, ROTORS + i] = eta[i]
     return out
 
 
 @numba.njit(cache=True)
 def _specific_force(X, prm):
-    S = X.shape[0]
+    S, n = X.shape
+    nr = n - N_BASE
     out = np.empty((S, 3))
-    f = np.empty(3)
     for s in range(S):
-        _force(X[s], X[s, 12:], prm, f)
-        out[s] = f
+        se, se2 = _rotor_sums(X[s], nr)
+        out[s, 0], out[s, 1], out[s, 2] = _specific_force_body(X[s], se, se2, nr, prm)
     return out
+
+
+@numba.njit(cache=True, inline="always")
+def _rotate_euler(psi, theta, phi, vx, vy, vz):
+    """``Rz(psi) Ry(theta) Rx(phi) v``."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = euler_zyx_to_rotation(psi, theta, phi)
+    return (r00 * vx + r01 * vy + r02 * vz, r10 * vx + r11 * vy + r12 * vz,
+            r20 * vx + r21 * vy + r22 * vz)
 
 
 @numba.njit(cache=True)
@@ -240,16 +284,9 @@ def _odometry(X):
     S = X.shape[0]
     out = np.empty((S, 6))
     for s in range(S):
-        ps, th, ph = X[s, 0], X[s, 1], X[s, 2]
-        cps, sps = np.cos(ps), np.sin(ps)
-        cth, sth = np.cos(th), np.sin(th)
-        cph, sph = np.cos(ph), np.sin(ph)
-        vx, vy, vz = X[s, 6], X[s, 7], X[s, 8]
-        out[s, 0] = (cps * cth * vx + (cps * sth * sph - sps * cph) * vy
-                     + (cps * sth * cph + sps * sph) * vz)
-        out[s, 1] = (sps * cth * vx + (sps * sth * sph + cps * cph) * vy
-                     + (sps * sth * cph - cps * sph) * vz)
-        out[s, 2] = -sth * vx + cth * sph * vy + cth * cph * vz
+        ps, th, ph = X[s, EULER], X[s, EULER + 1], X[s, EULER + 2]
+        out[s, 0], out[s, 1], out[s, 2] = _rotate_euler(
+            ps, th, ph, X[s, VELOCITY], X[s, VELOCITY + 1], X[s, VELOCITY + 2])
         out[s, 3] = ps
         out[s, 4] = th
         out[s, 5] = ph
@@ -260,7 +297,7 @@ def _check_states(X, name: str, where: str) -> np.ndarray:
     X = np.asarray(X, dtype=np.float64)
     if X.ndim == 1:
         X = X[None]
-    if X.ndim != 2 or X.shape[1] < 13:
+    if X.ndim != 2 or X.shape[1] < N_BASE + 1:
         raise ValueError(f"The {name!r} parameter of {where} must have shape (S, 12 + N). "
                          f"Got shape {X.shape} instead.")
     return np.ascontiguousarray(X)
@@ -330,74 +367,41 @@ def euler_to_matrix(euler) -> np.ndarray:
     -------
     ndarray of shape (B, 3, 3)
     """
-    e = np.asarray(euler, dtype=np.float64).reshape(-1, 3)
-    cps, sps = np.cos(e[:, 0]), np.sin(e[:, 0])
-    cth, sth = np.cos(e[:, 1]), np.sin(e[:, 1])
-    cph, sph = np.cos(e[:, 2]), np.sin(e[:, 2])
-    R = np.empty((e.shape[0], 3, 3))
-    R[:, 0, 0] = cps * cth
-    R[:, 0, 1] = cps * sth * sph - sps * cph
-    R[:, 0, 2] = cps * sth * cph + sps * sph
-    R[:, 1, 0] = sps * cth
-    R[:, 1, 1] = sps * sth * sph + cps * cph
-    R[:, 1, 2] = sps * sth * cph - cps * sph
-    R[:, 2, 0] = -sth
-    R[:, 2, 1] = cth * sph
-    R[:, 2, 2] = cth * cph
-    return R
+    return euler_zyx_to_matrix(np.reshape(np.asarray(euler, dtype=np.float64), (-1, 3)))
+
+
+# The (Euler angles, body wind) marginal that the world-frame wind depends on.
+_WIND_MARGINAL = np.array([EULER, EULER + 1, EULER + 2, WIND, WIND + 1, WIND + 2])
+
+
+@numba.njit(cache=True)
+def _wind_world_sigma(x6, L, wm_, wc_, scale):
+    """Unscented transform of ``R(euler) w_b`` from the mean ``x6`` (6,) of (euler, w_b) and
+    the lower Cholesky factor ``L`` (6, 6) of its covariance: mean (3,), covariance (3, 3)."""
+    X = sigma_from_chol(x6, L, scale)
+    W = np.empty((X.shape[0], 3))
+    for s in range(X.shape[0]):
+        W[s, 0], W[s, 1], W[s, 2] = _rotate_euler(X[s, 0], X[s, 1], X[s, 2],
+                                                  X[s, 3], X[s, 4], X[s, 5])
+    return unscented(W, wm_, wc_, np.zeros((1, 1)), False)
 
 
 @numba.njit(cache=True)
 def _wind_world_ut(x, P, wm_, wc_, scale):
-    """Unscented transform of ``R(euler) w_b`` over the (euler, w_b) marginal of (x, P).
+    """:func:`_wind_world_sigma` over the (euler, w_b) marginal of (x, P).
 
     Returns (mean (3,), cov (3, 3), ok); ``ok`` is False when the 6x6 marginal is not
     positive definite (the caller repairs it).
     """
-    idx = np.array([0, 1, 2, 9, 10, 11])
+    idx = _WIND_MARGINAL
+    x6 = np.empty(6)
     A = np.empty((6, 6))
     for i in range(6):
+        x6[i] = x[idx[i]]
         for j in range(6):
-            A[i, j] = 0.5 * (P[idx[i], idx[j]] + P[idx[j], idx[i]])
-    L = np.zeros((6, 6))
-    mean = np.zeros(3)
-    cov = np.zeros((3, 3))
-    for j in range(6):
-        d = A[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if not d > 0.0:
-            return mean, cov, False
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, 6):
-            v = A[i, j]
-            for k in range(j):
-                v -= L[i, k] * L[j, k]
-            L[i, j] = v / L[j, j]
-    c = np.sqrt(scale)
-    W = np.empty((13, 3))
-    e = np.empty(6)
-    for s in range(13):
-        for i in range(6):
-            e[i] = x[idx[i]]
-        if s > 0:
-            col = (s - 1) % 6
-            sign = 1.0 if s <= 6 else -1.0
-            for i in range(6):
-                e[i] += sign * c * L[i, col]
-        cps, sps = np.cos(e[0]), np.sin(e[0])
-        cth, sth = np.cos(e[1]), np.sin(e[1])
-        cph, sph = np.cos(e[2]), np.sin(e[2])
-        wx, wy, wz = e[3], e[4], e[5]
-        W[s, 0] = (cps * cth * wx + (cps * sth * sph - sps * cph) * wy
-                   + (cps * sth * cph + sps * sph) * wz)
-        W[s, 1] = (sps * cth * wx + (sps * sth * sph + cps * cph) * wy
-                   + (sps * sth * cph - cps * sph) * wz)
-        W[s, 2] = -sth * wx + cth * sph * wy + cth * cph * wz
-        for i in range(3):
-            mean[i] += wm_[s] * W[s, i]
-    for s in range(13):
-        for i in range(3):
-            for j in range(3):
-                cov[i, j] += wc_[s] * (W[s, i] - mean[i]) * (W[s, j] - mean[j])
+            A[i, j] = P[idx[i], idx[j]]
+    L = np.empty((6, 6))
+    if not chol_lower(A, L):
+        return np.zeros(3), np.zeros((3, 3)), False
+    mean, cov = _wind_world_sigma(x6, L, wm_, wc_, scale)
     return mean, cov, True

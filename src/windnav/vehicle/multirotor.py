@@ -9,6 +9,7 @@ import numpy as np
 
 from windnav._validate import batch_array, positive_float, positive_int
 from windnav.vehicle.dynamics import derivative_kernel, pack_params, step_kernel
+from windnav.vehicle.layout import BODY_RATES, N_RIGID, VELOCITY
 from windnav.vehicle.params import MultirotorParams
 from windnav.vehicle.state import VehicleState
 
@@ -66,8 +67,7 @@ class Multirotor:
         """Level, motionless state at ``position`` (3,) or (B, 3) with rotors at hover speed."""
         pos = batch_array(position, "position", "Multirotor.hover_state", (3,))
         B = pos.shape[0]
-        sc = self.packed.scalars
-        hover = np.sqrt(sc[:, 0] * sc[:, 13] / (self.n_rotors * sc[:, 1]))
+        hover = self.packed.hover_rotor_speed
         self._check_batch(B)
         hover = np.broadcast_to(hover[:, None], (B, self.n_rotors))
         att = np.zeros((B, 4))
@@ -96,7 +96,7 @@ class Multirotor:
             raise ValueError(f"The 'state' parameter of {where} must be a VehicleState. "
                              f"Got {type(state).__name__} instead.")
         x = state.to_array()
-        if x.ndim != 2 or x.shape[1] != 13 + self.n_rotors:
+        if x.ndim != 2 or x.shape[1] != N_RIGID + self.n_rotors:
             raise ValueError(f"The 'state' parameter of {where} must hold {self.n_rotors} rotor "
                              f"speeds. Got packed shape {x.shape} instead.")
         if not np.all(np.isfinite(x)):
@@ -167,16 +167,16 @@ class Multirotor:
         """Unchecked fast path of :meth:`derivatives` on packed states and winds."""
         com, hub = wind_com, wind_hub
         B = x.shape[0]
-        dy = np.empty((B, 13))
+        dy = np.empty((B, N_RIGID))
         force = np.empty((B, 3))
         moment = np.empty((B, 3))
         p = self.packed
         derivative_kernel(p.scalars, p.inertia, p.inertia_inv, p.rotor_positions,
                           p.rotor_directions, x, com, hub, dy, force, moment)
-        mass = p.scalars[:, 0][:, None]
+        mass = p.mass[:, None]
         return {
-            "acceleration_world": dy[:, 3:6],
-            "angular_acceleration": dy[:, 10:13],
+            "acceleration_world": dy[:, VELOCITY],
+            "angular_acceleration": dy[:, BODY_RATES],
             "force_body": force,
             "moment_body": moment,
             "specific_force_body": force / mass,
@@ -184,9 +184,8 @@ class Multirotor:
 
     def clip_rotor_speeds(self, rotor_speed_cmd) -> tuple[np.ndarray, np.ndarray]:
         """Clip commands to the rotor limits; return ``(clipped, saturated_mask)``."""
-        sc = self.packed.scalars
-        lo = sc[:, 11:12]
-        hi = sc[:, 12:13]
+        lo = self.packed.rotor_speed_min[:, None]
+        hi = self.packed.rotor_speed_max[:, None]
         cmd = np.asarray(rotor_speed_cmd, dtype=np.float64)
         clipped = np.clip(cmd, lo, hi)
         return clipped, clipped != cmd

@@ -7,6 +7,7 @@ so that windnav reproduces RotorPy's physics exactly. Change a value with
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -15,6 +16,13 @@ from windnav._validate import positive_float
 
 GRAVITY = 9.81
 """Gravitational acceleration, m/s^2 (RotorPy's value)."""
+
+TRANSLATIONAL_LIFT_MODELS = ("rotorpy", "bounded")
+"""Accepted values of ``MultirotorParams.translational_lift``."""
+
+LIFT_ENVELOPE_FRACTION = 0.5
+"""Translational lift, as a fraction of the rotor's thrust, beyond which the model is used
+outside its envelope (the default of :func:`windnav.vehicle.outside_envelope`)."""
 
 
 def symmetric_rotor_positions(n_rotors: int, arm_m: float, *, x_config: bool = True) -> np.ndarray:
@@ -82,6 +90,18 @@ class MultirotorParams:
         Rotor speed limits, rad/s. Commands are clipped to this range.
     motor_efficiency : float
         Electrical-to-mechanical efficiency used by the rotor power model (0, 1].
+    extra : dict
+        Free-form metadata (not used by the physics).
+    translational_lift : {"rotorpy", "bounded"}
+        Translational-lift model of :mod:`windnav.vehicle.dynamics`. "rotorpy" (default, RotorPy
+        parity): ``k_h V_h^2`` per rotor whatever its speed. "bounded": that lift times
+        ``min(1, T_i / T_ref)`` with ``T_i = k_eta eta_i^2`` and ``T_ref = m g / N`` (hover thrust
+        per rotor), so it vanishes when the rotor stops and equals RotorPy's at or above hover
+        thrust.
+    max_airspeed : float or None
+        Airspeed beyond which the aerodynamic model is not trusted, m/s (see
+        :func:`windnav.vehicle.outside_envelope`). None (default): derived, see
+        :attr:`airspeed_limit`.
     """
 
     name: str
@@ -103,6 +123,8 @@ class MultirotorParams:
     rotor_speed_max: float = 1500.0
     motor_efficiency: float = 1.0
     extra: dict = field(default_factory=dict)
+    translational_lift: str = "rotorpy"
+    max_airspeed: float | None = None
 
     def __post_init__(self):
         where = "MultirotorParams"
@@ -136,6 +158,14 @@ class MultirotorParams:
         for name in ("k_m", "k_d", "k_z", "k_h", "k_flap", "c_dx", "c_dy", "c_dz",
                      "rotor_speed_min"):
             positive_float(getattr(self, name), name, where, allow_zero=True)
+        if self.translational_lift not in TRANSLATIONAL_LIFT_MODELS:
+            raise ValueError(
+                f"The 'translational_lift' parameter of {where} must be one of "
+                f"{list(TRANSLATIONAL_LIFT_MODELS)}. Got {self.translational_lift!r} instead."
+            )
+        if self.max_airspeed is not None:
+            object.__setattr__(self, "max_airspeed",
+                               positive_float(self.max_airspeed, "max_airspeed", where))
         if self.rotor_speed_min >= self.rotor_speed_max:
             raise ValueError(
                 f"The 'rotor_speed_min' parameter of {where} must be below rotor_speed_max. "
@@ -159,6 +189,26 @@ class MultirotorParams:
     def weight(self) -> float:
         """Weight m g, N."""
         return self.mass * GRAVITY
+
+    @property
+    def hover_thrust_per_rotor(self) -> float:
+        """``T_ref = m g / N``: the thrust of each of N equal rotors in hover, N."""
+        return self.weight / self.n_rotors
+
+    @property
+    def airspeed_limit(self) -> float:
+        """Largest airspeed at which the aerodynamic model is trusted, m/s.
+
+        :attr:`max_airspeed` when given. Otherwise derived from the translational lift: the
+        airspeed at which RotorPy's ``k_h V^2`` on a rotor at hover thrust reaches
+        :data:`LIFT_ENVELOPE_FRACTION` of that thrust, ``sqrt(0.5 m g / (N k_h))`` (13.4 m/s for
+        the Hummingbird, 7.0 m/s for the Crazyflie Brushless; infinite when ``k_h = 0``).
+        """
+        if self.max_airspeed is not None:
+            return self.max_airspeed
+        if self.k_h == 0.0:
+            return float("inf")
+        return float(np.sqrt(LIFT_ENVELOPE_FRACTION * self.hover_thrust_per_rotor / self.k_h))
 
     @property
     def rotor_drag_matrix(self) -> np.ndarray:
@@ -223,8 +273,9 @@ _BUILTIN = {
     ),
 }
 
-VEHICLES = tuple(_BUILTIN)
-"""Names accepted by :func:`params`."""
+VEHICLES = (*_BUILTIN, "crazyflie_thesis")
+"""Names accepted by :func:`params` (``crazyflie_thesis``: the Crazyflie 2.1 Brushless with the
+thesis's identified coefficients, :mod:`windnav.vehicle.thesis_presets`)."""
 
 
 def params(name: str, **overrides) -> MultirotorParams:
@@ -242,6 +293,11 @@ def params(name: str, **overrides) -> MultirotorParams:
     ValueError
         If ``name`` is not a known vehicle.
     """
+    if name == "crazyflie_thesis":
+        # the preset starts from crazyflie_brushless through params() itself
+        from windnav.vehicle.thesis_presets import crazyflie_thesis
+
+        return crazyflie_thesis(**overrides)
     if name not in _BUILTIN:
         raise ValueError(
             f"The 'name' parameter of windnav.vehicle.params must be one of {list(VEHICLES)}. "
@@ -250,8 +306,24 @@ def params(name: str, **overrides) -> MultirotorParams:
     return MultirotorParams(name=name, **{**_BUILTIN[name], **overrides})
 
 
-def to_rotorpy_dict(p: MultirotorParams) -> dict:
-    """Convert to RotorPy's ``quad_params`` dictionary (for cross-checks and adapters)."""
+def params_to_rotorpy_dict(p: MultirotorParams) -> dict:
+    """RotorPy's ``quad_params`` dictionary of a vehicle (for cross-checks and adapters).
+
+    Parameters
+    ----------
+    p : MultirotorParams
+
+    Returns
+    -------
+    dict
+        The keys RotorPy's ``Multirotor`` and ``SE3Control`` read, in SI units, with windnav's
+        default attitude gains (``kp_att``, ``kd_att``). RotorPy knows only its own
+        translational-lift model: ``translational_lift="bounded"`` and ``max_airspeed`` have no
+        counterpart in the dictionary.
+    """
+    if not isinstance(p, MultirotorParams):
+        raise ValueError("The 'p' parameter of params_to_rotorpy_dict must be a MultirotorParams."
+                         f" Got {type(p).__name__} instead.")
     return {
         "mass": p.mass,
         "Ixx": p.inertia[0, 0], "Iyy": p.inertia[1, 1], "Izz": p.inertia[2, 2],
@@ -267,3 +339,11 @@ def to_rotorpy_dict(p: MultirotorParams) -> dict:
         "rotor_speed_max": p.rotor_speed_max, "motor_noise_std": 0.0,
         "k_w": 1, "k_v": 10, "kp_att": 544, "kd_att": 46.64,
     }
+
+
+def to_rotorpy_dict(p: MultirotorParams) -> dict:
+    """Deprecated alias of :func:`params_to_rotorpy_dict` (``windnav.city.to_rotorpy_dict``
+    converts a City; this one converts vehicle parameters)."""
+    warnings.warn("windnav.vehicle.to_rotorpy_dict is deprecated; use "
+                  "windnav.vehicle.params_to_rotorpy_dict.", DeprecationWarning, stacklevel=2)
+    return params_to_rotorpy_dict(p)

@@ -1,12 +1,81 @@
-"""Small batched quaternion helpers (scalar-last ``[x, y, z, w]``, SciPy's convention).
+"""Rotation formulas, written once: quaternions (scalar-last ``[x, y, z, w]``) and ZYX Euler.
 
-They avoid constructing ``scipy.spatial.transform.Rotation`` objects in per-step loops, where
-the object overhead dominates for small batches. ``test_rotation.py`` checks them against SciPy.
+Two scalar Numba helpers hold the formulas; kernels (dynamics, SE(3) control, the Wind UKF
+model) inline them, and the batched NumPy-facing functions below loop over them::
+
+    quaternion (normalised first, as scipy.spatial.transform.Rotation does):
+        R = [[1 - 2(y^2 + z^2), 2(xy - zw),       2(xz + yw)],
+             [2(xy + zw),       1 - 2(x^2 + z^2), 2(yz - xw)],
+             [2(xz - yw),       2(yz + xw),       1 - 2(x^2 + y^2)]]
+    ZYX Euler (psi yaw, theta pitch, phi roll), body to world:
+        R = Rz(psi) Ry(theta) Rx(phi)
+
+Both return the nine entries row by row (``r00, r01, r02, r10, ...``). The NumPy helpers avoid
+constructing ``scipy.spatial.transform.Rotation`` objects in per-step loops, where the object
+overhead dominates for small batches. ``test_rotation.py`` checks them against SciPy.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
+
+__all__ = [
+    "euler_zyx_to_rotation",
+    "euler_zyx_to_matrix",
+    "quat_from_rotvec",
+    "quat_multiply",
+    "quat_to_matrix",
+    "quat_to_rotation",
+]
+
+
+@numba.njit(cache=True, inline="always")
+def quat_to_rotation(qx, qy, qz, qw):
+    """Row-major entries of the rotation matrix of a (not necessarily unit) quaternion."""
+    n = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    x = qx / n
+    y = qy / n
+    z = qz / n
+    w = qw / n
+    return (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w),
+            2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w),
+            2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y))
+
+
+@numba.njit(cache=True, inline="always")
+def euler_zyx_to_rotation(psi, theta, phi):
+    """Row-major entries of ``Rz(psi) Ry(theta) Rx(phi)`` (angles in rad)."""
+    cps, sps = np.cos(psi), np.sin(psi)
+    cth, sth = np.cos(theta), np.sin(theta)
+    cph, sph = np.cos(phi), np.sin(phi)
+    return (cps * cth, cps * sth * sph - sps * cph, cps * sth * cph + sps * sph,
+            sps * cth, sps * sth * sph + cps * cph, sps * sth * cph - cps * sph,
+            -sth, cth * sph, cth * cph)
+
+
+@numba.njit(cache=True)
+def _quat_matrices(q, out):
+    for b in range(q.shape[0]):
+        r = quat_to_rotation(q[b, 0], q[b, 1], q[b, 2], q[b, 3])
+        for k in range(9):
+            out[b, k // 3, k % 3] = r[k]
+
+
+@numba.njit(cache=True)
+def _euler_matrices(e, out):
+    for b in range(e.shape[0]):
+        r = euler_zyx_to_rotation(e[b, 0], e[b, 1], e[b, 2])
+        for k in range(9):
+            out[b, k // 3, k % 3] = r[k]
+
+
+def _batched(fn, a: np.ndarray, width: int) -> np.ndarray:
+    a = np.asarray(a, dtype=np.float64)
+    flat = np.ascontiguousarray(a.reshape(-1, width))
+    out = np.empty((flat.shape[0], 3, 3))
+    fn(flat, out)
+    return out.reshape(a.shape[:-1] + (3, 3))
 
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -32,11 +101,31 @@ def quat_from_rotvec(rotvec: np.ndarray) -> np.ndarray:
 
 
 def quat_to_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrices (B, 3, 3) of (not necessarily unit) quaternions (B, 4)."""
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    x, y, z, w = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1),
-    ], axis=-2)
+    """Rotation matrices of (not necessarily unit) quaternions.
+
+    Parameters
+    ----------
+    q : ndarray of shape (..., 4)
+        ``[qx, qy, qz, qw]``.
+
+    Returns
+    -------
+    ndarray of shape (..., 3, 3)
+        Body-to-world rotation matrices.
+    """
+    return _batched(_quat_matrices, q, 4)
+
+
+def euler_zyx_to_matrix(euler: np.ndarray) -> np.ndarray:
+    """Rotation matrices ``Rz(psi) Ry(theta) Rx(phi)`` (body to world).
+
+    Parameters
+    ----------
+    euler : ndarray of shape (..., 3)
+        ``(psi, theta, phi)``, rad.
+
+    Returns
+    -------
+    ndarray of shape (..., 3, 3)
+    """
+    return _batched(_euler_matrices, euler, 3)

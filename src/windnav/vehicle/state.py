@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from windnav.vehicle.layout import ATTITUDE, BODY_RATES, POSITION, ROTOR_SPEEDS, VELOCITY
+
 
 @dataclass(frozen=True)
 class VehicleState:
@@ -36,7 +38,8 @@ class VehicleState:
         return int(self.position.shape[0])
 
     def to_array(self) -> np.ndarray:
-        """Packed ``(B, 13 + N)``: position, velocity, attitude, body rates, rotor speeds."""
+        """Packed ``(B, 13 + N)``: position, velocity, attitude, body rates, rotor speeds
+        (the layout of :mod:`windnav.vehicle.layout`)."""
         return np.concatenate(
             [self.position, self.velocity, self.attitude, self.body_rates, self.rotor_speeds],
             axis=1,
@@ -46,7 +49,8 @@ class VehicleState:
     def from_array(cls, x: np.ndarray) -> VehicleState:
         """Inverse of :meth:`to_array`."""
         x = np.asarray(x, dtype=np.float64)
-        return cls(x[:, 0:3], x[:, 3:6], x[:, 6:10], x[:, 10:13], x[:, 13:])
+        return cls(x[:, POSITION], x[:, VELOCITY], x[:, ATTITUDE], x[:, BODY_RATES],
+                   x[:, ROTOR_SPEEDS])
 
     def __getitem__(self, idx) -> VehicleState:
         """Select vehicles (keeps the batch axis for an integer index)."""
