@@ -67,3 +67,32 @@ def test_power_curve_command(tmp_path):
     assert len(out["power_W"]) == 7
     assert out["thesis_crazyflie"]["max_range_speed_m_s"] == pytest.approx(7.73, abs=5e-3)
     assert (tmp_path / "power_curve.png").stat().st_size > 1000
+
+
+def test_sweep_marks_points_outside_the_envelope_instead_of_reporting_zero_power():
+    # issue 13: a Crazyflie "flying" at 80-200 m/s stopped its rotors (0 W) and climbed away;
+    # such points are not steady flight and must not enter the power curve
+    p = wn.vehicle.params("crazyflie_brushless")
+    speeds = np.array([0.0, 4.0, 8.0, 40.0, 80.0, 200.0])
+    s = power_sweep(p, speeds)
+    np.testing.assert_array_equal(s["valid"], [True, True, False, False, False, False])
+    assert s["envelope_speed"] == 8.0
+    assert np.all(np.isnan(s["power"][2:]))
+    assert np.all(s["power"][:2] > 0.9 * p.n_rotors * p.k_m * p.hover_rotor_speed**3)
+    # why: outside the envelope from 8 m/s; from 40 m/s the rotors sit at their lower limit
+    # (saturated) and the vehicle does not hold still
+    assert np.all(s["envelope_fraction"][2:] > 0)
+    assert np.all(s["saturated"][3:] > 0.5) and not np.any(s["steady"][3:])
+    assert s["envelope_fraction"][0] == 0 and s["saturated"][0] == 0
+
+
+def test_fitted_curve_and_its_best_speed_stay_inside_the_envelope():
+    p = wn.vehicle.params("crazyflie_brushless")
+    curve, sweep = simulated_power_curve(p, max_speed=12.0, n=25)
+    edge = sweep["envelope_speed"]
+    assert edge is not None and edge <= 12.0
+    assert not np.any(sweep["fitted"] & (sweep["speeds"] >= edge))
+    assert curve.speed_max == sweep["speeds"][sweep["fitted"]].max() < edge
+    assert 0.0 <= max_endurance_speed(curve) <= curve.speed_max
+    with pytest.raises(ValueError, match="'max_speed'"):
+        simulated_power_curve(p, max_speed=200.0, n=21)  # only the hover point is inside

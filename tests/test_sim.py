@@ -6,7 +6,7 @@ import pytest
 import windnav as wn
 from windnav.control import SE3Controller
 from windnav.sensors import IMU, Odometry, RotorSpeedSensor, SensorSuite
-from windnav.sim import FlightLog, fly, make_trajectory
+from windnav.sim import FlightLog, FlightStatus, fly, make_trajectory
 from windnav.vehicle import GRAVITY, Multirotor
 from windnav.wind import ConstantWind
 
@@ -24,12 +24,22 @@ class ShearWind:
         return np.stack([self.shear * xyz[:, 1], 0 * xyz[:, 0], 0 * xyz[:, 0]], axis=1)
 
 
-class NaNWind:
+class PatchyWind:
+    """(2, 1, 0) m/s, but NaN after ``t_bad`` s wherever y > ``y_bad`` m."""
+
+    def __init__(self, t_bad=0.5, y_bad=50.0):
+        self.t_bad, self.y_bad = t_bad, y_bad
+
     def velocity(self, t, xyz):
-        out = np.zeros((len(xyz), 3))
-        if t > 0.5:
-            out[:] = np.nan
+        out = np.tile([2.0, 1.0, 0.0], (len(xyz), 1))
+        if t > self.t_bad:
+            out[np.asarray(xyz)[:, 1] > self.y_bad] = np.nan
         return out
+
+
+class WrongShapeWind:
+    def velocity(self, t, xyz):
+        return np.zeros((len(xyz) + 1, 3))
 
 
 @pytest.mark.parametrize("vehicle", wn.vehicle.VEHICLES)
@@ -77,7 +87,7 @@ def test_imu_statistics_at_hover():
     imu = IMU(rate_hz=200.0, accel_bias_walk=0.0, gyro_bias_walk=0.0)
     log = fly(p, make_trajectory("hover"), ConstantWind((0, 0, 0)), 20.0,
               sensors=SensorSuite(imu, Odometry(rate_hz=100.0), RotorSpeedSensor(rate_hz=50.0)),
-              seed=1)
+              rng=1)
     accel = log.sensors["imu"]["accel"][:, 0]
     gyro = log.sensors["imu"]["gyro"][:, 0]
     np.testing.assert_allclose(accel.mean(axis=0), [0, 0, GRAVITY], atol=4 * imu.accel_std / 63)
@@ -120,7 +130,7 @@ def test_clipping_is_recorded():
 
 def test_log_round_trip_and_corrupt_file(tmp_path):
     p = wn.vehicle.params("hummingbird")
-    log = fly(p, make_trajectory("waypoints", size=2.0), ConstantWind((1, 0, 0)), 2.0, seed=3)
+    log = fly(p, make_trajectory("waypoints", size=2.0), ConstantWind((1, 0, 0)), 2.0, rng=3)
     path = log.save(tmp_path / "flight.npz")
     back = FlightLog.load(path)
     for name in FlightLog._ARRAYS:
@@ -144,8 +154,8 @@ def test_energy_is_integral_of_power():
 def test_same_seed_same_numbers_and_batch_rows_match():
     p = wn.vehicle.params("hummingbird")
     traj = make_trajectory("circle", size=2.0)
-    a = fly(p, traj, ConstantWind((1, 1, 0)), 1.0, seed=7)
-    b = fly(p, traj, ConstantWind((1, 1, 0)), 1.0, seed=7)
+    a = fly(p, traj, ConstantWind((1, 1, 0)), 1.0, rng=7)
+    b = fly(p, traj, ConstantWind((1, 1, 0)), 1.0, rng=7)
     np.testing.assert_array_equal(a.sensors["imu"]["accel"], b.sensors["imu"]["accel"])
     batch = fly(p, traj, ConstantWind((1, 1, 0)), 1.0, batch=3, sensors=NO_SENSORS)
     for i in range(3):
@@ -174,8 +184,14 @@ def test_hub_wind_sees_shear():
         (dict(dt=-1.0), "dt"),
         (dict(control_rate_hz=300.0), "rate_hz"),
         (dict(sensors=SensorSuite(IMU(rate_hz=333.0), None, None)), "rate_hz"),
-        (dict(wind=NaNWind()), "wind"),
+        (dict(wind=WrongShapeWind()), "wind"),
         (dict(wind=object()), "wind"),
+        (dict(dt=0.02, control_rate_hz=100.0), "control_rate_hz"),
+        (dict(seed=1, rng=1), "seed"),
+        (dict(rng="one"), "rng"),
+        (dict(initial_state=wn.vehicle.VehicleState(
+            np.array([[0.0, np.nan, 1.0]]), np.zeros((1, 3)), np.array([[0.0, 0, 0, 1]]),
+            np.zeros((1, 3)), np.full((1, 4), 500.0))), "initial_state"),
     ],
 )
 def test_bad_input(kwargs, name):
@@ -184,3 +200,189 @@ def test_bad_input(kwargs, name):
     args.update(kwargs)
     with pytest.raises(ValueError, match=name):
         fly(p, **args)
+
+
+def _hover_starts(n):
+    xy = np.column_stack([np.arange(n) * 3.0, np.zeros(n), np.full(n, 2.0)])
+    return xy
+
+
+def test_one_vehicle_in_nan_wind_is_frozen_and_flagged_the_others_fly_on():
+    p = wn.vehicle.params("hummingbird")
+    model = Multirotor(p)
+    starts = _hover_starts(8)
+    starts[3, 1] = 100.0  # only vehicle 3 meets the NaN patch
+    traj = make_trajectory("circle", start=(0, 0, 2), size=2.0, speed=1.5)
+    wind = PatchyWind(t_bad=0.5, y_bad=50.0)
+    log = fly(p, traj, wind, 1.5, batch=8, initial_state=model.hover_state(starts), rng=4)
+    keep = [b for b in range(8) if b != 3]
+    ref = fly(p, traj, wind, 1.5, batch=7, initial_state=model.hover_state(starts[keep]),
+              sensors=NO_SENSORS)
+    for name in ("position", "velocity", "attitude", "body_rates", "rotor_speeds",
+                 "rotor_speed_cmd", "saturated", "wind", "power", "energy"):
+        np.testing.assert_array_equal(getattr(log, name)[:, keep], getattr(ref, name), name)
+    assert log.flags[3] & FlightStatus.NON_FINITE
+    assert list(log.finite) == [b != 3 for b in range(8)]
+    assert all(not (f & FlightStatus.NON_FINITE) for b, f in enumerate(log.flags) if b != 3)
+    # frozen at its last finite state from the step it met the NaN wind (t > 0.5 s)
+    k = int(np.argmax(~np.isfinite(log.wind[:, 3, 0])))
+    assert log.t[k] == pytest.approx(0.505)
+    assert log.meta["non_finite_at_s"][3] == pytest.approx(0.505)
+    assert [x is None for x in log.meta["non_finite_at_s"]] == [b != 3 for b in range(8)]
+    assert np.all(np.isfinite(log.position))
+    np.testing.assert_array_equal(log.position[k:, 3], np.broadcast_to(log.position[k, 3],
+                                                                      log.position[k:, 3].shape))
+    assert np.all(log.position[1:k, 3] != log.position[:k - 1, 3])  # it flew before
+    # its sensor readings are NaN from then on, the others' finite
+    imu = log.sensors["imu"]
+    late = imu["t"] >= log.t[k] - 1e-12
+    assert np.all(np.isnan(imu["accel"][late, 3])) and np.all(np.isfinite(imu["accel"][~late, 3]))
+    assert np.all(np.isfinite(imu["accel"][:, keep]))
+
+
+def test_all_vehicles_in_nan_wind_return_a_log_instead_of_raising():
+    p = wn.vehicle.params("hummingbird")
+    log = fly(p, make_trajectory("hover"), PatchyWind(t_bad=0.2, y_bad=-1e9), 0.5, batch=2,
+              sensors=NO_SENSORS)
+    assert not np.any(log.finite)
+    assert log.meta["status"] == ["NON_FINITE", "NON_FINITE"]
+
+
+def test_controller_and_default_sensor_rates_adapt_to_a_slow_physics_step():
+    # dt = 0.02 s (50 Hz): the 100 Hz controller and 200/100 Hz default sensors cannot run
+    # faster than the physics, so they run every step
+    p = wn.vehicle.params("hummingbird")
+    log = fly(p, make_trajectory("hover", start=(0, 0, 2)), ConstantWind((1, 0, 0)), 2.0,
+              dt=0.02)
+    assert log.meta["control_rate_hz"] == pytest.approx(50.0)
+    assert log.meta["sensors"] == pytest.approx({"imu": 50.0, "odometry": 50.0,
+                                                 "rotor_speeds": 50.0})
+    np.testing.assert_allclose(np.diff(log.sensors["imu"]["t"]), 0.02)
+    assert np.max(log.tracking_error[log.t > 1.5]) < 0.2
+    # at dt = 0.003 s the default controller rate is the fastest below 100 Hz that fits
+    log = fly(p, make_trajectory("hover"), ConstantWind((0, 0, 0)), 0.3, dt=0.003,
+              sensors=NO_SENSORS)
+    assert log.meta["control_rate_hz"] == pytest.approx(1 / 0.012)
+
+
+def test_rng_and_deprecated_seed_give_the_same_noise():
+    p = wn.vehicle.params("hummingbird")
+    traj = make_trajectory("hover")
+    a = fly(p, traj, ConstantWind((1, 0, 0)), 0.5, rng=5)
+    with pytest.warns(DeprecationWarning, match="rng="):
+        b = fly(p, traj, ConstantWind((1, 0, 0)), 0.5, seed=5)
+    c = fly(p, traj, ConstantWind((1, 0, 0)), 0.5, rng=np.random.default_rng(5))
+    np.testing.assert_array_equal(a.sensors["imu"]["accel"], b.sensors["imu"]["accel"])
+    np.testing.assert_array_equal(a.sensors["imu"]["accel"], c.sensors["imu"]["accel"])
+    assert a.meta["seed"] == 5 and c.meta["seed"] is None
+
+
+def test_strong_wind_leaves_the_envelope_and_stopped_rotors_count_as_saturated():
+    # issue 13: a Crazyflie hovering in 30 m/s of wind: translational lift exceeds the weight,
+    # the controller commands 0 rad/s (its lower limit) and the vehicle still climbs
+    p = wn.vehicle.params("crazyflie_brushless")
+    log = fly(p, make_trajectory("hover", start=(0, 0, 2)), ConstantWind((30.0, 0, 0)), 1.0,
+              sensors=NO_SENSORS)
+    at_min = log.rotor_speed_cmd <= p.rotor_speed_min
+    assert np.any(at_min)
+    assert np.all(log.saturated[at_min])
+    assert log.saturation_fraction > 0
+    assert log.meta["envelope_fraction"] > 0
+    assert log.meta["envelope_fraction_per_vehicle"][0] == log.meta["envelope_fraction"]
+    assert log.flags[0] == FlightStatus.SATURATED | FlightStatus.OUTSIDE_ENVELOPE
+    calm = fly(p, make_trajectory("hover", start=(0, 0, 2)), ConstantWind((1.0, 0, 0)), 1.0,
+               sensors=NO_SENSORS)
+    assert calm.meta["envelope_fraction"] == 0.0 and calm.flags == [FlightStatus.OK]
+
+
+class CountingSensor:
+    """A custom sensor: the true altitude, through the common protocol."""
+
+    name = "altimeter"
+    rate_hz = 50.0
+
+    def sample(self, truth, rng):
+        return {"altitude": truth.position[..., 2] + rng.normal(0.0, 0.0, truth.t.shape)[:, None]}
+
+
+def test_custom_sensors_follow_the_protocol():
+    p = wn.vehicle.params("hummingbird")
+    suite = SensorSuite(None, Odometry(rate_hz=100.0), None, extra=(CountingSensor(),))
+    log = fly(p, make_trajectory("hover", start=(0, 0, 3)), ConstantWind((0, 0, 0)), 1.0,
+              sensors=suite)
+    alt = log.sensors["altimeter"]
+    np.testing.assert_allclose(np.diff(alt["t"]), 0.02)
+    np.testing.assert_allclose(alt["altitude"], 3.0, atol=1e-9)
+    same = fly(p, make_trajectory("hover", start=(0, 0, 3)), ConstantWind((0, 0, 0)), 1.0,
+               sensors=[Odometry(rate_hz=100.0), CountingSensor()])
+    np.testing.assert_array_equal(same.sensors["odometry"]["position"],
+                                  log.sensors["odometry"]["position"])
+    with pytest.raises(ValueError, match="extra"):
+        SensorSuite(extra=(object(),))
+    with pytest.raises(ValueError, match="extra"):
+        SensorSuite(extra=(CountingSensor(), CountingSensor()))
+
+
+def test_corrupt_logs_raise_value_error_naming_the_file(tmp_path):
+    p = wn.vehicle.params("hummingbird")
+    log = fly(p, make_trajectory("hover"), ConstantWind((1, 0, 0)), 0.5, rng=3)
+    path = log.save(tmp_path / "flight.npz")
+    raw = path.read_bytes()
+    back = FlightLog.load(path)
+    np.testing.assert_array_equal(back.status, log.status)
+    # truncated
+    cut = tmp_path / "truncated.npz"
+    cut.write_bytes(raw[: len(raw) // 2])
+    with pytest.raises(ValueError, match="truncated.npz"):
+        FlightLog.load(cut)
+    # bytes flipped in the middle (compressed data: a CRC or zlib error)
+    flipped = bytearray(raw)
+    mid = len(raw) // 2
+    flipped[mid:mid + 16] = bytes(b ^ 0xFF for b in flipped[mid:mid + 16])
+    (tmp_path / "flipped.npz").write_bytes(bytes(flipped))
+    with pytest.raises(ValueError, match="flipped.npz"):
+        FlightLog.load(tmp_path / "flipped.npz")
+    # an array of the wrong shape
+    arrays = dict(np.load(path))
+    arrays["velocity"] = arrays["velocity"][:, :, :2]
+    np.savez_compressed(tmp_path / "shape.npz", **arrays)
+    with pytest.raises(ValueError, match="shape.npz.*'velocity'"):
+        FlightLog.load(tmp_path / "shape.npz")
+    arrays = dict(np.load(path))
+    arrays["sensors/imu/accel"] = arrays["sensors/imu/accel"][:-1]
+    np.savez_compressed(tmp_path / "sensor.npz", **arrays)
+    with pytest.raises(ValueError, match="sensors/imu/accel"):
+        FlightLog.load(tmp_path / "sensor.npz")
+    # and an in-memory log with a wrong shape is not saved
+    log.power = log.power[:-1]
+    with pytest.raises(ValueError, match="'power'"):
+        log.save(tmp_path / "never.npz")
+    assert not (tmp_path / "never.npz").exists()
+
+
+def test_logs_without_status_get_it_derived():
+    p = wn.vehicle.params("crazyflie_brushless")
+    log = fly(p, wn.sim.Line((0, 0, 0), (15, 0, 0), duration=1.5), ConstantWind((0, 0, 0)),
+              2.0, sensors=NO_SENSORS)
+    arrays = {k: getattr(log, k) for k in FlightLog._ARRAYS if k != "status"}
+    old = FlightLog(**arrays)
+    assert old.flags == [FlightStatus.SATURATED]
+
+
+@pytest.mark.parametrize(
+    "kind, kwargs, name",
+    [("line", dict(speed=0.0), "speed"), ("waypoints", dict(speed=0.0), "speed"),
+     ("line", dict(speed=-1.0), "speed"), ("circle", dict(size=0.0), "size"),
+     ("line", dict(size=np.nan), "size"), ("hover", dict(start=(0, 0)), "start"),
+     ("spiral", {}, "trajectory")],
+)
+def test_make_trajectory_rejects_bad_parameters_by_name(kind, kwargs, name):
+    with pytest.raises(ValueError, match=f"'{name}'"):
+        make_trajectory(kind, **kwargs)
+
+
+def test_zero_speed_circle_is_a_hover():
+    traj = make_trajectory("circle", start=(1.0, 2.0, 3.0), size=2.0, speed=0.0)
+    for t in (0.0, 1.0, 5.0):
+        np.testing.assert_array_equal(traj(t).position, [1.0, 2.0, 3.0])
+        np.testing.assert_array_equal(traj(t).velocity, 0.0)

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from scipy import stats
 from scipy.spatial.transform import Rotation
 
 import windnav as wn
@@ -22,7 +23,7 @@ def circle_flight(seed, duration=30.0, sigma=(1.0, 1.0, 1.0), sensors=None, para
     wind = wn.wind.DrydenWind(mean=(2.0, 1.0, 0.0), sigma=sigma, seed=seed)
     traj = wn.sim.make_trajectory("circle", start=(0.0, 0.0, 10.0), size=3.0, speed=2.0)
     return wn.sim.fly(params, traj, wind, duration, dt=0.005,
-                      sensors=sensors or sensor_suite(100.0), seed=seed)
+                      sensors=sensors or sensor_suite(100.0), rng=seed)
 
 
 @pytest.fixture(scope="module")
@@ -42,10 +43,22 @@ def test_hummingbird_in_moderate_dryden_wind_rmse_below_0_3(logs, seed):
         (track.wind_true - track.wind_true.mean(0)) ** 2, axis=1)))
 
 
-def test_reported_covariance_is_consistent(logs):
-    """Normalised estimation error squared near its expectation 3 (within a factor of 3)."""
+def test_reported_covariance_is_not_overconfident(logs):
+    """Normalised estimation error squared against its chi-square distribution.
+
+    A consistent filter's NEES is chi2(3) per sample. The three flights give 3 x 2801 samples
+    after 2 s, correlated over a few steps (integrated autocorrelation of the whitened error
+    ~4 steps at 100 Hz); counting one independent sample per 0.5 s, K = 3 x 56 = 168, the mean
+    NEES is chi2(3K) / K and exceeds chi2.ppf(0.999, 504) / 168 = 3.62 with probability
+    0.001: above it the filter claims accuracy it does not have. The lower tail is not a
+    chi-square bound here: the tuning inflates R and Q to cover the force model's errors
+    (FILTER_R: 0.1 m/s^2 against the IMU's 0.028), so the covariance over-bounds the error
+    (mean NEES ~1.3); the test only bounds that inflation to a covariance at most 3 times the
+    error's (NEES > 1). ``test_ukf_wind`` tests both tails where the truth follows the model.
+    """
     nees = np.mean([run_wind_ukf(log, P_HB, q=FILTER_Q, r=FILTER_R).nees(2.0) for log in logs])
-    assert 1.0 < nees < 9.0
+    K = 3 * 56
+    assert 1.0 < nees < stats.chi2.ppf(0.999, 3 * K) / K
 
 
 def test_noisy_rotorpy_sensors_stay_near_the_thesis_level():
@@ -67,7 +80,7 @@ def test_wrong_drag_coefficients_bias_the_estimate(logs):
 
 def test_still_air_hover_estimates_zero_wind():
     log = wn.sim.fly(P_HB, wn.sim.Hover((0.0, 0.0, 5.0)), wn.wind.ConstantWind((0, 0, 0)), 8.0,
-                     sensors=sensor_suite(100.0), seed=3)
+                     sensors=sensor_suite(100.0), rng=3)
     track = run_wind_ukf(log, P_HB, q=FILTER_Q, r=FILTER_R)
     assert np.all(track.wind_true == 0.0)
     assert track.rmse_after(2.0) < 0.1

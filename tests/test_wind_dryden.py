@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from windnav.wind import DrydenWind, dryden_length_scales, dryden_state_space, van_loan
-from windnav.wind.dryden import FOOT
+from windnav.wind import DrydenWind, dryden_length_scales
+from windnav.wind.dryden import FOOT, dryden_state_space, van_loan
 
 MEAN = np.array([3.0, -1.0, 0.5])
 SIGMA = np.array([1.5, 1.2, 0.7])
@@ -142,27 +142,76 @@ def test_gusts_are_coloured_with_dryden_correlation(record):
 
 def test_sample_equals_repeated_velocity_queries():
     times = np.concatenate([0.002 * np.arange(1, 301), 0.6 + 0.05 * np.arange(1, 21),
-                            [1.7, 1.7, 4.0]])
+                            [1.7, 1.7, 4.0, 0.30017, 5.5e-4]])
     a = DrydenWind(mean=MEAN, sigma=SIGMA, seed=11)
     b = DrydenWind(mean=MEAN, sigma=SIGMA, seed=11)
     bulk = a.sample(times)
     loop = np.array([b.velocity(t, np.zeros((1, 3)))[0] for t in times])
-    np.testing.assert_allclose(bulk, loop, rtol=0, atol=1e-12)
-    assert a.time == b.time == 4.0
-    np.testing.assert_allclose(a.velocity(5.0, np.zeros(3)), b.velocity(5.0, np.zeros(3)),
-                               atol=1e-12)
+    np.testing.assert_array_equal(bulk, loop)
 
 
-def test_same_time_same_value_earlier_time_raises_and_reset_replays():
-    field = DrydenWind(seed=5)
-    first = field.velocity(0.5, np.zeros((2, 3)))
-    np.testing.assert_array_equal(field.velocity(0.5, np.ones((4, 3))), np.tile(first[0], (4, 1)))
+def test_same_time_same_gust_whatever_the_order_of_queries():
+    # the gust is a function of (t, seed): forward, backward, shuffled and repeated queries,
+    # fresh or reused objects, all give the same bits
+    rng = np.random.default_rng(0)
+    times = np.concatenate([rng.uniform(0.0, 30.0, 400), 0.005 * np.arange(200),
+                            [0.0, 7.3, 7.3, 29.999]])
+    forward = DrydenWind(mean=MEAN, sigma=SIGMA, seed=5)
+    ref = np.array([forward.velocity(t, np.zeros((1, 3)))[0] for t in np.sort(times)])
+    ref = ref[np.argsort(np.argsort(times, kind="stable"), kind="stable")]
+    backward = DrydenWind(mean=MEAN, sigma=SIGMA, rng=5)
+    desc = np.argsort(-times, kind="stable")
+    back = np.empty_like(ref)
+    back[desc] = [backward.velocity(t, np.zeros((1, 3)))[0] for t in times[desc]]
+    np.testing.assert_array_equal(back, ref)
+    np.testing.assert_array_equal(backward.sample(times), ref)  # reused, queried again
+    shuffled = DrydenWind(mean=MEAN, sigma=SIGMA, rng=5)
+    np.testing.assert_array_equal(shuffled.sample(times), ref)
+    # evicting the cache regenerates the same values
+    backward.reset()
+    np.testing.assert_array_equal(backward.sample(times[::-1])[::-1], ref)
+    # positions only set the batch size
+    np.testing.assert_array_equal(forward.velocity(7.3, np.ones((4, 3))),
+                                  np.tile(ref[times == 7.3][0], (4, 1)))
+
+
+def test_earlier_than_t0_raises_and_later_blocks_are_reachable_directly():
+    field = DrydenWind(seed=5, t0=2.0)
     with pytest.raises(ValueError, match="'t'"):
-        field.velocity(0.4, np.zeros((1, 3)))
+        field.velocity(1.9, np.zeros((1, 3)))
     with pytest.raises(ValueError, match="'times'"):
-        field.sample([0.3])
-    field.reset()
-    np.testing.assert_array_equal(field.velocity(0.5, np.zeros((2, 3))), first)
+        field.sample([3.0, 1.0])
+    far = field.velocity(60.0, np.zeros((1, 3)))  # many blocks ahead, generated in order
+    np.testing.assert_array_equal(DrydenWind(seed=5, t0=2.0).sample([2.0, 60.0])[1], far[0])
+
+
+def test_between_lattice_points_the_gust_is_linear():
+    field = DrydenWind(sigma=SIGMA, seed=2, time_step=0.01)
+    g0, g1, gm = field.sample([1.0, 1.01, 1.0025])
+    np.testing.assert_allclose(gm, 0.75 * g0 + 0.25 * g1, rtol=0, atol=1e-12)
+
+
+def test_rng_generator_int_and_seed_alias():
+    a = DrydenWind(rng=7).sample([0.5, 1.5])
+    np.testing.assert_array_equal(DrydenWind(seed=7).sample([0.5, 1.5]), a)
+    np.testing.assert_array_equal(DrydenWind((3, 0, 0), (1.5, 1.5, 0.7), 7).sample([0.5, 1.5]), a)
+    g1 = DrydenWind(rng=np.random.default_rng(3))
+    g2 = DrydenWind(rng=np.random.default_rng(3))
+    assert g1.seed == g2.seed
+    np.testing.assert_array_equal(g1.sample([0.5, 1.5]), g2.sample([0.5, 1.5]))
+    with pytest.raises(ValueError, match="'seed'"):
+        DrydenWind(seed=1, rng=1)
+    with pytest.raises(ValueError, match="'rng'"):
+        DrydenWind(rng="zero")
+
+
+def test_pickled_copy_gives_the_same_gusts():
+    import pickle
+
+    field = DrydenWind(mean=MEAN, sigma=SIGMA, seed=4)
+    first = field.sample([0.3, 12.0])
+    copy = pickle.loads(pickle.dumps(field))
+    np.testing.assert_array_equal(copy.sample([12.0, 0.3]), first[::-1])
 
 
 def test_different_seeds_differ_and_sigma_zero_gives_mean():
@@ -175,7 +224,8 @@ def test_different_seeds_differ_and_sigma_zero_gives_mean():
 
 def test_independent_realisations_per_row():
     r = 64
-    field = DrydenWind(mean=MEAN, sigma=SIGMA, seed=9, batch_size=r, length_scales=(5, 5, 2))
+    field = DrydenWind(mean=MEAN, sigma=SIGMA, seed=9, batch_size=r, length_scales=(5, 5, 2),
+                       time_step=0.01)
     w = field.sample(0.05 * np.arange(1, 4001))  # (K, R, 3), 200 s = 100 T_u
     assert w.shape == (4000, r, 3)
     # rows are independent: cross-correlation between realisations ~ 0
@@ -194,8 +244,54 @@ def test_independent_realisations_per_row():
     [({"sigma": (1, -1, 1)}, "sigma"), ({"airspeed": 0.0}, "airspeed"),
      ({"altitude": -2.0}, "altitude"), ({"length_scales": (1, 0, 1)}, "length_scales"),
      ({"mean": (1, np.nan, 0)}, "mean"), ({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"),
-     ({"batch_size": 0}, "batch_size")],
+     ({"batch_size": 0}, "batch_size"), ({"rng": -3}, "rng"), ({"time_step": 0.0}, "time_step")],
 )
 def test_bad_parameters_raise_naming_them(kwargs, name):
     with pytest.raises(ValueError, match=f"'{name}'"):
         DrydenWind(**kwargs)
+
+
+def test_one_object_serves_two_flights_like_two_fresh_ones():
+    # issue 8: a reused DrydenWind gives the same gusts to two flights; the second flight
+    # queries times earlier than the first one's last
+    import windnav as wn
+
+    p = wn.vehicle.params("hummingbird")
+    quiet = wn.sensors.SensorSuite(None, None, None)
+    circle = wn.sim.make_trajectory("circle", start=(0, 0, 2), size=2.0, speed=1.5)
+    hover = wn.sim.make_trajectory("hover", start=(1, 1, 3))
+
+    def gusts():
+        return DrydenWind(mean=MEAN, sigma=SIGMA, rng=21)
+
+    shared = gusts()
+    first = wn.sim.fly(p, circle, shared, 3.0, sensors=quiet)
+    second = wn.sim.fly(p, hover, shared, 1.5, sensors=quiet, dt=0.002)
+    again = wn.sim.fly(p, circle, shared, 3.0, sensors=quiet)
+    fresh_first = wn.sim.fly(p, circle, gusts(), 3.0, sensors=quiet)
+    fresh_second = wn.sim.fly(p, hover, gusts(), 1.5, sensors=quiet, dt=0.002)
+    for name in ("position", "velocity", "attitude", "rotor_speeds", "wind", "energy"):
+        np.testing.assert_array_equal(getattr(first, name), getattr(fresh_first, name))
+        np.testing.assert_array_equal(getattr(again, name), getattr(fresh_first, name))
+        np.testing.assert_array_equal(getattr(second, name), getattr(fresh_second, name))
+    # the two flights saw the same gust at the same times
+    common = np.isin(np.round(second.t, 9), np.round(first.t, 9))
+    np.testing.assert_array_equal(second.wind[common, 0],
+                                  first.wind[np.isin(np.round(first.t, 9),
+                                                     np.round(second.t, 9)), 0])
+    assert np.ptp(first.wind[:, 0, 0]) > 0.1  # they are gusts, not a constant
+
+
+def test_concurrent_queries_from_threads_see_the_same_gusts():
+    from concurrent.futures import ThreadPoolExecutor
+
+    times = np.random.default_rng(1).uniform(0.0, 40.0, (4, 300))
+    ref = DrydenWind(mean=MEAN, sigma=SIGMA, rng=8).sample(times.ravel()).reshape(4, 300, 3)
+    shared = DrydenWind(mean=MEAN, sigma=SIGMA, rng=8)
+
+    def query(row):
+        return np.array([shared.velocity(t, np.zeros((1, 3)))[0] for t in times[row]])
+
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(query, range(4)))
+    np.testing.assert_array_equal(np.stack(got), ref)

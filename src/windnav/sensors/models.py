@@ -1,7 +1,9 @@
 """Sensor models: IMU, odometry / motion capture, rotor-speed pseudo-measurements.
 
-Each sensor is a frozen parameter dataclass with its own ``rate_hz`` and a pure, batched
-``measure`` function taking an explicit ``numpy.random.Generator``.
+Each sensor is a frozen parameter dataclass with its own ``rate_hz``, a pure, batched
+``measure`` function taking an explicit ``numpy.random.Generator``, and the common
+:class:`~windnav.sensors.base.Sensor` interface the runner calls: a ``name`` and
+``sample(truth, rng)``.
 
 IMU (continuous-time noise densities, as in Kalibr / Furgale et al.)::
 
@@ -16,10 +18,12 @@ white-noise standard deviation grows with the square root of the sample rate.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from windnav._validate import positive_float
+from windnav.sensors.base import Sensor, SensorTruth
 from windnav.vehicle.rotation import quat_from_rotvec, quat_multiply
 
 
@@ -45,6 +49,7 @@ class IMU:
         Gyroscope bias random walk, rad/s^2/sqrt(Hz).
     """
 
+    name: ClassVar[str] = "imu"
     rate_hz: float = 200.0
     accel_noise_density: float = 0.0028
     gyro_noise_density: float = 0.00017
@@ -95,6 +100,11 @@ class IMU:
         gyro = body_rates + bias[..., 3:] + rng.normal(scale=self.gyro_std, size=(K, B, 3))
         return accel, gyro, bias
 
+    def sample(self, truth: SensorTruth, rng) -> dict:
+        """``accel`` (K, B, 3) m/s^2, ``gyro`` (K, B, 3) rad/s, ``bias`` (K, B, 6) of ``truth``."""
+        accel, gyro, bias = self.measure(truth.specific_force_body, truth.body_rates, rng)
+        return {"accel": accel, "gyro": gyro, "bias": bias}
+
 
 @dataclass(frozen=True)
 class Odometry:
@@ -112,6 +122,7 @@ class Odometry:
         Standard deviation of a small random rotation applied to the attitude, rad.
     """
 
+    name: ClassVar[str] = "odometry"
     rate_hz: float = 100.0
     position_std: float = 0.005
     velocity_std: float = 0.02
@@ -133,6 +144,11 @@ class Odometry:
         att = quat_multiply(attitude, quat_from_rotvec(dtheta))
         return pos, vel, att
 
+    def sample(self, truth: SensorTruth, rng) -> dict:
+        """``position`` (K, B, 3) m, ``velocity`` (K, B, 3) m/s, ``attitude`` (K, B, 4) xyzw."""
+        p, v, q = self.measure(truth.position, truth.velocity, truth.attitude, rng)
+        return {"position": p, "velocity": v, "attitude": q}
+
 
 @dataclass(frozen=True)
 class RotorSpeedSensor:
@@ -146,6 +162,7 @@ class RotorSpeedSensor:
         rad/s (0: the exact commands).
     """
 
+    name: ClassVar[str] = "rotor_speeds"
     rate_hz: float = 100.0
     noise_std: float = 0.0
 
@@ -158,15 +175,47 @@ class RotorSpeedSensor:
             return np.array(rotor_speed_cmd, dtype=np.float64)
         return rotor_speed_cmd + rng.normal(scale=self.noise_std, size=rotor_speed_cmd.shape)
 
+    def sample(self, truth: SensorTruth, rng) -> dict:
+        """``cmd`` (K, B, N): the clipped rotor-speed commands, rad/s."""
+        return {"cmd": self.measure(truth.rotor_speed_cmd, rng)}
+
 
 @dataclass(frozen=True)
 class SensorSuite:
-    """The sensors carried by a vehicle; ``None`` disables one."""
+    """The sensors carried by a vehicle; ``None`` disables one.
+
+    Attributes
+    ----------
+    imu, odometry, rotor_speeds : IMU, Odometry, RotorSpeedSensor or None
+        The standard sensors.
+    extra : tuple of Sensor
+        Further sensors (anything with ``name``, ``rate_hz`` and ``sample(truth, rng)``),
+        sampled after the standard ones; names must be unique.
+    """
 
     imu: IMU | None = IMU()
     odometry: Odometry | None = Odometry()
     rotor_speeds: RotorSpeedSensor | None = RotorSpeedSensor()
+    extra: tuple = ()
+
+    def __post_init__(self):
+        extra = tuple(self.extra)
+        for s in extra:
+            if not isinstance(s, Sensor):
+                raise ValueError("The 'extra' parameter of SensorSuite must hold sensors with "
+                                 "name, rate_hz and sample(truth, rng). "
+                                 f"Got {type(s).__name__} instead.")
+        object.__setattr__(self, "extra", extra)
+        names = [name for name, _ in self.items()]
+        if len(set(names)) != len(names):
+            raise ValueError("The 'extra' parameter of SensorSuite must not repeat a sensor "
+                             f"name. Got names {names} instead.")
+
+    def sensors(self) -> list:
+        """The enabled sensors, in sampling order."""
+        return [s for s in (self.imu, self.odometry, self.rotor_speeds, *self.extra)
+                if s is not None]
 
     def items(self):
-        return [(k, v) for k, v in (("imu", self.imu), ("odometry", self.odometry),
-                                    ("rotor_speeds", self.rotor_speeds)) if v is not None]
+        """``[(name, sensor), ...]`` of the enabled sensors, in sampling order."""
+        return [(s.name, s) for s in self.sensors()]

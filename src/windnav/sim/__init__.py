@@ -1,6 +1,7 @@
-"""Closed-loop simulation: trajectories, the multi-rate runner and ``FlightLog``."""
+"""Closed-loop simulation: trajectories, the closed loop, the multi-rate runner, ``FlightLog``."""
 
-from windnav.sim.log import FlightLog
+from windnav.sim.log import FlightLog, FlightStatus
+from windnav.sim.loop import ClosedLoop, LoopState, closed_loop_step, make_closed_loop
 from windnav.sim.runner import fly
 from windnav.sim.trajectories import (
     TRAJECTORIES,
@@ -15,11 +16,16 @@ from windnav.sim.trajectories import (
 __all__ = [
     "TRAJECTORIES",
     "Circle",
+    "ClosedLoop",
     "FlatOutput",
     "FlightLog",
+    "FlightStatus",
     "Hover",
     "Line",
+    "LoopState",
     "Waypoints",
+    "closed_loop_step",
     "fly",
+    "make_closed_loop",
     "make_trajectory",
 ]

@@ -1,46 +1,97 @@
-"""Closed-loop, multi-rate flight: trajectory -> SE(3) control -> dynamics in wind -> sensors.
+"""``fly``: a closed-loop, multi-rate flight recorded into a :class:`FlightLog`.
 
-The physics runs at ``1 / dt``; the controller and every sensor run at their own rates, which
-must divide the physics rate. Rotor power is ``sum_i k_m eta_i^3 / efficiency`` (thesis power
-model (a)); energy is its running trapezoidal integral.
+trajectory -> SE(3) control -> dynamics in wind -> sensors. The physics runs at ``1 / dt``;
+the controller and every sensor run at their own rates, each a whole number of physics steps
+per sample. Rotor power is ``sum_i k_m eta_i^3 / efficiency`` (thesis power model (a)); energy
+is its running trapezoidal integral.
+
+``fly`` is three parts: setup and the pure closed-loop step (:mod:`windnav.sim.loop`), a
+recorder of the logged series, and the sensors, sampled afterwards through one protocol
+(:class:`windnav.sensors.Sensor`). Every log reports, per vehicle, a
+:class:`~windnav.sim.log.FlightStatus` and the fractions of time saturated and outside the
+model's envelope (:func:`windnav.vehicle.envelope.outside_envelope`).
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Sequence
 
+import numba
 import numpy as np
 from tqdm.auto import tqdm
 
 from windnav._validate import positive_float, positive_int
-from windnav.control.se3 import SE3Controller, SE3Gains
-from windnav.sensors.models import SensorSuite
-from windnav.sim.log import FlightLog
-from windnav.vehicle.multirotor import Multirotor
-from windnav.vehicle.params import MultirotorParams
+from windnav.control.se3 import SE3Gains
+from windnav.sensors.base import Sensor, SensorTruth
+from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
+from windnav.sim.log import FlightLog, FlightStatus
+from windnav.sim.loop import (
+    ClosedLoop,
+    Instant,
+    LoopState,
+    advance,
+    fitted_rate,
+    initial_loop_state,
+    make_closed_loop,
+    observe,
+    steps_per_sample,
+)
+from windnav.vehicle import layout
+from windnav.vehicle.envelope import outside_envelope
+from windnav.vehicle.params import LIFT_ENVELOPE_FRACTION, MultirotorParams
 from windnav.vehicle.power import energy, rotor_power
-from windnav.vehicle.rotation import quat_to_matrix
 from windnav.vehicle.state import VehicleState
 
-
-def _ticks(rate_hz: float, dt: float, name: str) -> int:
-    """Physics steps per sample of a component running at ``rate_hz``."""
-    ratio = 1.0 / (rate_hz * dt)
-    k = round(ratio)
-    if k < 1 or abs(ratio - k) > 1e-6 * ratio:
-        raise ValueError(f"The 'rate_hz' of {name} must divide the physics rate {1 / dt:g} Hz. "
-                         f"Got {rate_hz:g} Hz instead.")
-    return k
+_WHERE = "fly"
 
 
-def _hub_positions(model: Multirotor, x: np.ndarray) -> np.ndarray:
-    """World positions of every rotor hub, (B * N, 3)."""
-    R = quat_to_matrix(x[:, 6:10])  # (B, 3, 3)
-    r = model.packed.rotor_positions  # (P, N, 3)
-    hubs = x[:, None, 0:3] + np.einsum("bij,bnj->bni", R, np.broadcast_to(r, (x.shape[0],) +
-                                                                         r.shape[1:]))
-    return hubs.reshape(-1, 3)
+def _default_sensors(dt: float) -> SensorSuite:
+    """The default suite, each rate lowered (if needed) to divide the physics rate."""
+    d = SensorSuite()
+    return SensorSuite(IMU(rate_hz=fitted_rate(d.imu.rate_hz, dt)),
+                       Odometry(rate_hz=fitted_rate(d.odometry.rate_hz, dt)),
+                       RotorSpeedSensor(rate_hz=fitted_rate(d.rotor_speeds.rate_hz, dt)))
+
+
+def _generator(rng, seed) -> tuple[np.random.Generator, int | None]:
+    if seed is not None and rng is not None:
+        raise ValueError(f"The 'seed' parameter of {_WHERE} is a deprecated alias of 'rng'; "
+                         f"pass only one of them. Got seed={seed!r} and rng={rng!r}.")
+    if seed is not None:
+        warnings.warn(f"{_WHERE}: 'seed' is deprecated; pass the random source as 'rng='.",
+                      DeprecationWarning, stacklevel=3)
+    src = seed if rng is None else rng
+    src = 0 if src is None else src
+    if isinstance(src, np.random.Generator):
+        return src, None
+    if isinstance(src, bool) or not isinstance(src, (int, np.integer)) or src < 0:
+        raise ValueError(f"The 'rng' parameter of {_WHERE} must be a numpy.random.Generator or "
+                         f"a non-negative int. Got {src!r} instead.")
+    return np.random.default_rng(int(src)), int(src)
+
+
+# The flight --------------------------------------------------------------------------------
+def _outside_envelope(loop: ClosedLoop, x, wind, alive, lift_fraction, max_airspeed):
+    """(T, B) bool: logged instants outside the model's envelope (frozen vehicles: False).
+
+    ``x`` (T, B, 13 + N) logged states, ``wind`` (T, B, 3) or per hub (T, B, N, 3), ``alive``
+    (T, B). Evaluated once after the flight, over every logged instant at once.
+    """
+    T, B = x.shape[:2]
+    wind = np.where(alive.reshape(T, B, *([1] * (wind.ndim - 2))), wind, 0.0)
+    options = {"lift_fraction": lift_fraction, "max_airspeed": max_airspeed}
+    params = loop.model.params
+    if isinstance(params, MultirotorParams):
+        flat = outside_envelope(params, x.reshape(T * B, -1), wind.reshape(T * B, *wind.shape[2:]),
+                                **options)
+        outside = np.asarray(flat, dtype=bool).reshape(T, B)
+    else:  # one vehicle per row: one call per vehicle, over its logged instants
+        outside = np.stack([np.asarray(outside_envelope(params[b], x[:, b], wind[:, b],
+                                                        **options), dtype=bool)
+                            for b in range(B)], axis=1)
+    return outside & alive
 
 
 def fly(
@@ -50,17 +101,20 @@ def fly(
     duration: float,
     *,
     dt: float = 0.005,
-    control_rate_hz: float = 100.0,
-    sensors: SensorSuite | None = None,
+    control_rate_hz: float | None = None,
+    sensors: SensorSuite | Sequence[Sensor] | None = None,
     gains: SE3Gains | None = None,
     initial_state: VehicleState | None = None,
     batch: int = 1,
     hub_wind: bool = False,
     log_every: int = 1,
-    seed: int | np.random.Generator = 0,
+    rng: np.random.Generator | int | None = None,
+    seed: int | np.random.Generator | None = None,
     progress: bool = False,
     substeps: int | None = None,
     controller=None,
+    lift_fraction: float | None = None,
+    max_airspeed: float | None = None,
 ) -> FlightLog:
     """Fly ``trajectory`` in ``wind`` for ``duration`` seconds with the SE(3) controller.
 
@@ -76,11 +130,13 @@ def fly(
         Flight time, s.
     dt : float
         Physics step, s.
-    control_rate_hz : float
-        Controller rate, Hz (must divide ``1 / dt``).
-    sensors : SensorSuite, optional
-        Defaults to ``SensorSuite()`` (IMU 200 Hz, odometry 100 Hz, rotor speeds 100 Hz); pass
-        ``SensorSuite(None, None, None)`` for none.
+    control_rate_hz : float, optional
+        Controller rate, Hz; a whole number of physics steps per update. Default 100 Hz, or
+        the fastest rate below it that fits when ``1 / dt`` is not a multiple of 100 Hz.
+    sensors : SensorSuite or sequence of Sensor, optional
+        Defaults to ``SensorSuite()`` (IMU 200 Hz, odometry 100 Hz, rotor speeds 100 Hz, each
+        lowered like the controller's to fit ``dt``); pass ``SensorSuite(None, None, None)``
+        for none.
     gains : SE3Gains, optional
         Controller gains (default per vehicle).
     initial_state : VehicleState, optional
@@ -91,8 +147,10 @@ def fly(
         Sample the wind at every rotor hub instead of once at the centre of mass.
     log_every : int
         Log every k-th physics step (sensors are always logged at their own rate).
-    seed : int or numpy.random.Generator
-        Randomness of the sensor noise.
+    rng : numpy.random.Generator or int, optional
+        Randomness of the sensor noise (default seed 0).
+    seed : int or numpy.random.Generator, optional
+        Deprecated alias of ``rng`` (a DeprecationWarning).
     progress : bool
         Show a progress bar.
     substeps : int, optional
@@ -100,183 +158,240 @@ def fly(
     controller : object, optional
         Replaces the SE(3) controller; must provide ``track(x, pos, vel, acc, yaw, yaw_rate)``
         returning ``(rotor_speed_cmd (B, N), wrench (B, 4))``.
+    lift_fraction, max_airspeed : float, optional
+        The envelope (:func:`windnav.vehicle.envelope.outside_envelope`): translational lift
+        above ``lift_fraction`` of a rotor's thrust (default that function's, 0.5), or an
+        airspeed above ``max_airspeed`` (m/s; default the vehicle's stated limit), is outside
+        it.
 
     Returns
     -------
     FlightLog
+        With a per-vehicle ``status`` (:class:`~windnav.sim.log.FlightStatus`): a vehicle that
+        meets a non-finite wind, command or state is frozen at its last finite state and
+        flagged, its sensor readings NaN from then on; the others fly on unaffected.
+        ``meta`` reports the fractions of time saturated and outside the envelope, overall
+        and per vehicle, and ``non_finite_at_s``.
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter, for bad configuration (rates that do not fit ``dt``, a wind
+        without ``velocity`` or one returning the wrong shape, a non-finite initial state).
     """
-    where = "fly"
-    duration = positive_float(duration, "duration", where)
-    dt = positive_float(dt, "dt", where)
-    log_every = positive_int(log_every, "log_every", where)
-    if not hasattr(wind, "velocity"):
-        raise ValueError(f"The 'wind' parameter of {where} must be a WindField with a "
-                         f"velocity(t, xyz) method. Got {type(wind).__name__} instead.")
-    plist = [params] if isinstance(params, MultirotorParams) else list(params)
-    B = len(plist) if len(plist) > 1 else positive_int(batch, "batch", where)
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    sensors = SensorSuite() if sensors is None else sensors
-    model = Multirotor(plist if len(plist) > 1 else plist[0], substeps=substeps)
-    ctrl = controller or SE3Controller(plist if len(plist) > 1 else plist[0], gains)
-    N = model.n_rotors
-
-    ref0 = trajectory(0.0)
-    if initial_state is None:
-        initial_state = model.hover_state(np.broadcast_to(ref0.position, (B, 3)))
-    x = np.ascontiguousarray(initial_state.to_array())
-    if x.shape != (B, 13 + N):
-        raise ValueError(f"The 'initial_state' parameter of {where} must hold {B} vehicles with "
-                         f"{N} rotors. Got packed shape {x.shape} instead.")
-
-    n_steps = int(round(duration / dt))
-    k_ctrl = _ticks(control_rate_hz, dt, "the controller")
-    k_sens = {name: _ticks(s.rate_hz, dt, name) for name, s in sensors.items()}
-    n_log = n_steps // log_every + 1
-
-    logs = {
-        "t": np.empty(n_log), "position": np.empty((n_log, B, 3)),
-        "velocity": np.empty((n_log, B, 3)), "attitude": np.empty((n_log, B, 4)),
-        "body_rates": np.empty((n_log, B, 3)), "rotor_speeds": np.empty((n_log, B, N)),
-        "rotor_speed_cmd": np.empty((n_log, B, N)), "saturated": np.zeros((n_log, B, N), bool),
-        "target_position": np.empty((n_log, 3)), "target_velocity": np.empty((n_log, 3)),
-        "wind": np.empty((n_log, B, 3)),
-    }
-    # Sensors never feed back into the controller, so the loop only keeps the true state at
-    # sensor ticks; the noisy measurements are generated afterwards, vectorised over time.
-    k_snap = math.gcd(*k_sens.values()) if k_sens else 0
-    snaps: dict = {"step": [], "x": [], "com": [], "hub": [], "cmd": []}
-    # rotor power per vehicle: k_m / efficiency folded into one coefficient
-    km_eff = model.packed.scalars[:, 2] / np.array([p.motor_efficiency for p in plist])
-    km_eff = float(km_eff[0]) if km_eff.size == 1 else km_eff
-
-    pos_d = np.empty((B, 3))
-    vel_d = np.empty((B, 3))
-    acc_d = np.empty((B, 3))
-    yaw_d = np.empty(B)
-    yaw_rate_d = np.empty(B)
-    cmd = np.zeros((B, N))
-    cmd_clipped = np.zeros((B, N))
-    sat = np.zeros((B, N), bool)
-    out = np.empty_like(x)
-    ref = ref0
-
-    hub_buf = np.empty((B, N, 3))
-
-    def wind_at(t, xk):
-        if hub_wind:
-            hub = np.asarray(wind.velocity(t, _hub_positions(model, xk)), dtype=np.float64)
-            hub = hub.reshape(B, N, 3)
-            com = hub.mean(axis=1)
-        else:
-            com = np.asarray(wind.velocity(t, xk[:, 0:3]), dtype=np.float64)
-            hub = None
-        if com.shape != (B, 3) or not np.all(np.isfinite(com)):
-            raise ValueError(f"The 'wind' parameter of {where} returned an invalid wind at "
-                             f"t = {t:.3f} s (shape {com.shape}, finite: "
-                             f"{bool(np.all(np.isfinite(com)))}).")
-        if hub is None:  # one wind per vehicle: every hub sees the centre-of-mass wind
-            hub_buf[:] = com[:, None, :]
-            hub = hub_buf
-        return np.ascontiguousarray(com), np.ascontiguousarray(hub)
-
-    def log(i, t, xk, com):
-        logs["t"][i] = t
-        logs["position"][i] = xk[:, 0:3]
-        logs["velocity"][i] = xk[:, 3:6]
-        logs["attitude"][i] = xk[:, 6:10]
-        logs["body_rates"][i] = xk[:, 10:13]
-        logs["rotor_speeds"][i] = xk[:, 13:]
-        logs["rotor_speed_cmd"][i] = cmd
-        logs["saturated"][i] = sat
-        logs["target_position"][i] = ref.position
-        logs["target_velocity"][i] = ref.velocity
-        logs["wind"][i] = com
-
+    duration = positive_float(duration, "duration", _WHERE)
+    log_every = positive_int(log_every, "log_every", _WHERE)
+    gen, seed_used = _generator(rng, seed)
+    loop = make_closed_loop(params, trajectory, wind, dt=dt, control_rate_hz=control_rate_hz,
+                            gains=gains, batch=batch, hub_wind=hub_wind, substeps=substeps,
+                            controller=controller)
+    suite = _default_sensors(loop.dt) if sensors is None else sensors
+    sensor_list = suite.sensors() if isinstance(suite, SensorSuite) else list(suite)
+    periods = [_sensor_period(s, loop.dt) for s in sensor_list]
+    names = [s.name for s in sensor_list]
+    if len(set(names)) != len(names):
+        raise ValueError(f"The 'sensors' parameter of {_WHERE} must not repeat a sensor name. "
+                         f"Got {names} instead.")
+    x0 = _initial_state(loop, initial_state)
+    lift_fraction = LIFT_ENVELOPE_FRACTION if lift_fraction is None else positive_float(
+        lift_fraction, "lift_fraction", _WHERE)
+    if max_airspeed is not None:
+        max_airspeed = positive_float(max_airspeed, "max_airspeed", _WHERE)
+    rec = _Recorder(loop, duration, log_every, periods, lift_fraction, max_airspeed)
+    state = initial_loop_state(loop, x0)
+    n_steps = rec.n_steps
     bar = tqdm(total=n_steps, disable=not progress, desc="flying", unit="step", leave=False,
                mininterval=0.5)
-    lo = model.packed.scalars[:, 11:12]
-    hi = model.packed.scalars[:, 12:13]
+    record = rec.record
     for step in range(n_steps + 1):
-        t = step * dt
-        com, hub = wind_at(t, x)
-        if step % k_ctrl == 0:
-            ref = trajectory(t)
-            pos_d[:] = ref.position
-            vel_d[:] = ref.velocity
-            acc_d[:] = ref.acceleration
-            yaw_d[:] = ref.yaw
-            yaw_rate_d[:] = ref.yaw_rate
-            cmd, _ = ctrl.track(x, pos_d, vel_d, acc_d, yaw_d, yaw_rate_d)
-            np.clip(cmd, lo, hi, out=cmd_clipped)
-            np.not_equal(cmd_clipped, cmd, out=sat)
-        if k_snap and step % k_snap == 0:
-            snaps["step"].append(step)
-            snaps["x"].append(x.copy())
-            snaps["com"].append(com)
-            snaps["hub"].append(hub if hub_wind else None)
-            snaps["cmd"].append(cmd_clipped.copy())
-        if step % log_every == 0:
-            log(step // log_every, t, x, com)
+        state, seen = observe(loop, state, step)
+        record(state, seen)
         if step == n_steps:
             break
-        model.step_packed(x, cmd_clipped, com, hub, dt, out)
-        x, out = out, x
+        state = advance(loop, state, seen)
         if progress and step % 100 == 0:
             bar.update(min(100, n_steps - bar.n))
     bar.close()
-
-    sensors_out = _measure(model, sensors, k_sens, snaps, dt, hub_wind, rng)
-    eta = logs["rotor_speeds"]
-    km_rows = np.tile(km_eff, n_log) if np.ndim(km_eff) else km_eff  # time-major rows
-    logs["power"] = rotor_power(eta.reshape(n_log * B, N), km_rows).reshape(n_log, B)
-    logs["energy"] = energy(logs["t"], logs["power"])
-    meta = {
-        "vehicles": [p.name for p in plist], "batch": B, "dt": dt, "duration": duration,
-        "control_rate_hz": control_rate_hz, "hub_wind": hub_wind, "log_every": log_every,
-        "sensors": {name: s.rate_hz for name, s in sensors.items()},
-        "wind": type(wind).__name__, "trajectory": type(trajectory).__name__,
-        "saturated_fraction": float(np.mean(logs["saturated"])),
-        "seed": seed if isinstance(seed, int) else None,
-    }
-    return FlightLog(**logs, sensors=sensors_out, meta=meta)
+    sensors_out = _sample_sensors(loop, sensor_list, periods, rec, state.failed_step, gen)
+    plist = [params] if isinstance(params, MultirotorParams) else list(params)
+    return rec.flight_log(state, plist, sensors_out, seed_used, suite_rates={
+        s.name: s.rate_hz for s in sensor_list}, names=(type(wind).__name__,
+                                                        type(trajectory).__name__))
 
 
-def _measure(model, sensors, k_sens, snaps, dt, hub_wind, rng) -> dict:
-    """Noisy sensor readings from the true states kept at sensor ticks."""
-    if not k_sens:
+def _sensor_period(sensor, dt: float) -> int:
+    if not isinstance(sensor, Sensor):
+        raise ValueError(f"The 'sensors' parameter of {_WHERE} must hold sensors with name, "
+                         f"rate_hz and sample(truth, rng). Got {type(sensor).__name__} instead.")
+    return steps_per_sample(sensor.rate_hz, dt, f"'sensors' parameter's {sensor.name} rate_hz")
+
+
+def _initial_state(loop: ClosedLoop, initial_state) -> np.ndarray:
+    B, N = loop.batch, loop.n_rotors
+    if initial_state is None:
+        ref0 = loop.trajectory(0.0)
+        initial_state = loop.model.hover_state(np.broadcast_to(ref0.position, (B, 3)))
+    x = np.ascontiguousarray(initial_state.to_array(), dtype=np.float64)
+    if x.shape != (B, layout.N_RIGID + N) or not np.all(np.isfinite(x)):
+        raise ValueError(f"The 'initial_state' parameter of {_WHERE} must hold {B} finite "
+                         f"vehicles with {N} rotors. Got packed shape {x.shape} instead.")
+    return x
+
+
+@numba.njit(cache=True)
+def _unpack_kernel(x, position, velocity, attitude, body_rates, rotor_speeds):  # pragma: no cover
+    """Copy packed states ``x`` (M, 13 + N) into their blocks, each (M, k), in the order of
+    :mod:`windnav.vehicle.layout`."""
+    for m in range(x.shape[0]):
+        for c in range(3):
+            position[m, c] = x[m, layout.POS + c]
+            velocity[m, c] = x[m, layout.VEL + c]
+            body_rates[m, c] = x[m, layout.RATES + c]
+        for c in range(4):
+            attitude[m, c] = x[m, layout.QUAT + c]
+        for c in range(rotor_speeds.shape[1]):
+            rotor_speeds[m, c] = x[m, layout.ROTORS + c]
+
+
+class _Recorder:
+    """The logged time series and the true states kept at sensor ticks.
+
+    ``record`` runs once per physics step, so it does little: the whole packed state goes into
+    one (T, B, 13 + N) array (split into position, velocity, ... once, in :meth:`flight_log`),
+    the log times are computed afterwards, and the sensor ticks keep references to the step's
+    arrays (a pure step never mutates them).
+    """
+
+    def __init__(self, loop: ClosedLoop, duration, log_every, periods, lift_fraction,
+                 max_airspeed):
+        self.loop = loop
+        self.n_steps = int(round(duration / loop.dt))
+        self.duration = duration
+        self.log_every = log_every
+        self.control_every = loop.control_every
+        self.envelope_args = (lift_fraction, max_airspeed)
+        # sensors never feed back into the controller: keep the true state at sensor ticks
+        # and sample them afterwards, vectorised over time
+        self.snap_every = math.gcd(*periods) if periods else 0
+        self.snaps: list = []  # (step, x, wind_com, wind_hub, cmd_clipped) at sensor ticks
+        B, N, T = loop.batch, loop.n_rotors, self.n_steps // log_every + 1
+        self.x = np.empty((T, B, layout.N_RIGID + N))
+        self.cmd = np.empty((T, B, N))
+        self.saturated = np.zeros((T, B, N), bool)
+        self.targets = np.empty((T, 2, 3))  # position, velocity
+        self.wind = np.empty((T, B, 3))
+        self.hub = np.empty((T, B, N, 3)) if loop.hub_wind else None
+        # ever saturated, per rotor: read off the log when it holds every control tick (the
+        # flags only change there), else gathered at every tick
+        self.saturated_rows = (np.zeros((B, N), bool) if loop.control_every % log_every
+                               else None)
+
+    def record(self, state: LoopState, seen: Instant) -> None:
+        step = seen.step
+        if self.saturated_rows is not None and step % self.control_every == 0:
+            np.logical_or(self.saturated_rows, state.saturated, out=self.saturated_rows)
+        if self.snap_every and step % self.snap_every == 0:
+            self.snaps.append((step, state.x, seen.wind_com, seen.wind_hub, state.cmd_clipped))
+        if step % self.log_every:
+            return
+        i = step // self.log_every
+        self.x[i] = state.x
+        self.cmd[i] = state.cmd
+        self.saturated[i] = state.saturated
+        targets = self.targets[i]
+        targets[0] = state.reference.position
+        targets[1] = state.reference.velocity
+        self.wind[i] = seen.wind_com
+        if self.hub is not None:
+            self.hub[i] = seen.wind_hub
+
+    def _logs(self) -> dict:
+        """The logged series, each a contiguous array."""
+        x = self.x
+        T, B, n_x = x.shape
+        parts = {name: np.empty((T, B, k)) for name, k in (
+            ("position", 3), ("velocity", 3), ("attitude", 4), ("body_rates", 3),
+            ("rotor_speeds", n_x - layout.N_RIGID))}
+        _unpack_kernel(x.reshape(T * B, n_x), *(a.reshape(T * B, -1) for a in parts.values()))
+        return {
+            "t": np.arange(T) * self.log_every * self.loop.dt,  # = step * dt
+            **parts, "rotor_speed_cmd": self.cmd, "saturated": self.saturated,
+            "target_position": np.ascontiguousarray(self.targets[:, 0]),
+            "target_velocity": np.ascontiguousarray(self.targets[:, 1]), "wind": self.wind,
+        }
+
+    def flight_log(self, state: LoopState, plist, sensors_out, seed, suite_rates, names):
+        loop, lg = self.loop, self._logs()
+        B, N = loop.batch, loop.n_rotors
+        n_log = lg["t"].size
+        km_eff = loop.model.packed.k_m / np.array(
+            [p.motor_efficiency for p in plist])
+        km_eff = float(km_eff[0]) if km_eff.size == 1 else km_eff
+        km_rows = np.tile(km_eff, n_log) if np.ndim(km_eff) else km_eff  # time-major rows
+        lg["power"] = rotor_power(lg["rotor_speeds"].reshape(n_log * B, N), km_rows).reshape(
+            n_log, B)
+        lg["energy"] = energy(lg["t"], lg["power"])
+        failed = state.failed_step
+        steps = np.arange(n_log) * self.log_every
+        alive = (failed[None, :] < 0) | (steps[:, None] < failed[None, :])
+        outside = _outside_envelope(loop, self.x, lg["wind"] if self.hub is None else self.hub,
+                                    alive, *self.envelope_args)
+        ever_saturated = (self.saturated.any(axis=(0, 2)) if self.saturated_rows is None
+                          else self.saturated_rows.any(axis=1))
+        status = (ever_saturated * FlightStatus.SATURATED
+                  | outside.any(axis=0) * FlightStatus.OUTSIDE_ENVELOPE
+                  | (failed >= 0) * FlightStatus.NON_FINITE).astype(np.uint8)
+        meta = {
+            "vehicles": [p.name for p in plist], "batch": B, "dt": loop.dt,
+            "duration": self.duration, "control_rate_hz": 1.0 / (loop.control_every * loop.dt),
+            "hub_wind": loop.hub_wind, "log_every": self.log_every, "sensors": suite_rates,
+            "wind": names[0], "trajectory": names[1],
+            "saturated_fraction": float(np.mean(lg["saturated"])),
+            "saturated_fraction_per_vehicle": np.mean(lg["saturated"], axis=(0, 2)).tolist(),
+            "envelope_fraction": float(np.mean(outside)),
+            "envelope_fraction_per_vehicle": np.mean(outside, axis=0).tolist(),
+            "envelope": {"lift_fraction": self.envelope_args[0],
+                         "max_airspeed": self.envelope_args[1] or [
+                             p.airspeed_limit for p in plist]},
+            "non_finite_at_s": [None if k < 0 else float(k * loop.dt) for k in failed],
+            "status": _status_names(status),
+            "seed": seed,
+        }
+        return FlightLog(**lg, outside_envelope=outside, status=status, sensors=sensors_out,
+                         meta=meta)
+
+
+def _status_names(status: np.ndarray) -> list[str]:
+    """``FlightStatus`` names of every vehicle (``"OK"`` for none), one lookup per value."""
+    codes = status.tolist()
+    names = {s: str(FlightStatus(s).name) if s else "OK" for s in set(codes)}
+    return [names[s] for s in codes]
+
+
+def _sample_sensors(loop: ClosedLoop, sensor_list, periods, rec: _Recorder, failed_step,
+                    rng) -> dict:
+    """Every sensor's readings, in order, from the true states kept at sensor ticks; NaN for a
+    vehicle from the tick at which it was frozen."""
+    if not sensor_list:
         return {}
-    steps = np.asarray(snaps["step"])
-    xs = np.stack(snaps["x"])  # (K, B, 13 + N)
+    step, x, com, hub, cmd = zip(*rec.snaps, strict=True)
+    steps = np.asarray(step)
+    truth = SensorTruth(
+        t=steps * loop.dt, state=np.stack(x), wind_com=np.stack(com),
+        wind_hub=np.stack(hub) if loop.hub_wind else None,
+        rotor_speed_cmd=np.stack(cmd), model=loop.model)
     out = {}
-    for name, k in k_sens.items():
+    for sensor, k in zip(sensor_list, periods, strict=True):
         sel = np.flatnonzero(steps % k == 0)
-        x = xs[sel]
-        entry = {"t": steps[sel] * dt}
-        if name == "imu":
-            K, B = x.shape[:2]
-            N = model.n_rotors
-            com = np.stack([snaps["com"][i] for i in sel]).reshape(K * B, 3)
-            if hub_wind:
-                hub = np.stack([snaps["hub"][i] for i in sel]).reshape(K * B, N, 3)
-            else:
-                hub = np.ascontiguousarray(np.broadcast_to(com[:, None, :], (K * B, N, 3)))
-            flat = x.reshape(K * B, -1)
-            if model.packed.size > 1:  # per-vehicle parameters: evaluate one tick at a time
-                f = np.concatenate([model.derivatives_packed(x[i], com[i * B:(i + 1) * B],
-                                                            hub[i * B:(i + 1) * B])
-                                    ["specific_force_body"] for i in range(K)])
-            else:
-                f = model.derivatives_packed(np.ascontiguousarray(flat), com, hub)[
-                    "specific_force_body"]
-            accel, gyro, bias = sensors.imu.measure(f.reshape(K, B, 3), x[..., 10:13], rng)
-            entry.update(accel=accel, gyro=gyro, bias=bias)
-        elif name == "odometry":
-            p, v, q = sensors.odometry.measure(x[..., 0:3], x[..., 3:6], x[..., 6:10], rng)
-            entry.update(position=p, velocity=v, attitude=q)
-        elif name == "rotor_speeds":
-            cmd = np.stack([snaps["cmd"][i] for i in sel])
-            entry.update(cmd=sensors.rotor_speeds.measure(cmd, rng))
-        out[name] = entry
+        entry = {"t": truth.t[sel], **sensor.sample(truth.at(sel), rng)}
+        dead = (failed_step[None, :] >= 0) & (steps[sel][:, None] >= failed_step[None, :])
+        if dead.any():
+            for key, arr in entry.items():
+                if key != "t" and np.issubdtype(np.asarray(arr).dtype, np.floating):
+                    arr = np.array(arr, dtype=np.float64)
+                    arr[dead] = np.nan
+                    entry[key] = arr
+        out[sensor.name] = entry
     return out
 
 

@@ -138,9 +138,22 @@ def make_trajectory(kind: str, *, start=(0.0, 0.0, 0.0), size: float = 5.0,
                     speed: float = 2.0, duration: float = 10.0):
     """Build a named trajectory starting at ``start`` (m).
 
-    ``size`` is the circle radius, the line length, or the waypoint square's side (m).
+    ``size`` is the circle radius, the line length, or the waypoint square's side (m);
+    ``speed`` the reference speed (m/s; > 0 for a line or waypoints, which must get somewhere).
+
+    Raises
+    ------
+    ValueError
+        Naming ``trajectory``, ``start``, ``size`` or ``speed`` when it is out of range.
     """
-    s = np.asarray(start, float)
+    where = "make_trajectory"
+    s = batch_array(start, "start", where, (3,), batch=1)[0]
+    if kind in ("line", "waypoints"):
+        size = positive_float(size, "size", where, allow_zero=kind == "line")
+        speed = positive_float(speed, "speed", where)
+    elif kind == "circle":
+        size = positive_float(size, "size", where)
+        speed = positive_float(speed, "speed", where, allow_zero=True)
     if kind == "hover":
         return Hover(tuple(s))
     if kind == "line":

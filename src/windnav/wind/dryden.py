@@ -42,13 +42,30 @@ with ``Q = int_0^dt expm(A s) B B^T expm(A^T s) ds`` from Van Loan's block matri
 (C. F. Van Loan, "Computing integrals involving the matrix exponential", IEEE TAC 23(3), 1978).
 For steps much longer than the slowest-decaying mode, where Van Loan's block exponential loses
 precision, the equivalent identity ``Q = P - Phi P Phi^T`` is used. The state starts from the
-stationary covariance ``P`` (``A P + P A^T + B B^T = 0``), so every sample, at any step size, has
-standard deviation exactly ``sigma`` and the gust correlations of the continuous process.
+stationary covariance ``P`` (``A P + P A^T + B B^T = 0``), so every sample has standard
+deviation exactly ``sigma`` and the gust correlations of the continuous process.
+
+A function of time, not a stream
+--------------------------------
+The gust is generated once on a fixed time lattice ``t_k = t0 + k h`` (``h = time_step``, 1 ms by
+default) with the exact step above, in blocks of 2048 steps. The process noise of block
+``j`` is drawn from its own counter-based stream, ``SeedSequence(seed, spawn_key=(1, j))``, and
+the initial state from ``spawn_key=(0,)``; block ``j`` starts from the end state of block
+``j - 1``. Every lattice value is therefore a fixed function of the seed and ``k``: blocks are
+generated lazily, their start states kept, their values cached (and regenerated bit for bit when
+evicted). Between lattice points the gust is interpolated linearly, which lowers its variance by
+at most ``(1 - rho(h)) / 2`` relative, midway: ``h / (2 T_u)`` for u (``T_u = L_u / V``), less
+for the smoother v and w (under 0.01 % at the defaults).
+
+So ``velocity(t, xyz)`` is a pure function of ``(t, xyz)`` and the seed: queries may come in
+any order (earlier times included), and one object can serve many vehicles and flights at once.
 """
 
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 
 import numba
 import numpy as np
@@ -61,11 +78,10 @@ FOOT = 0.3048
 """One international foot, m."""
 
 _N_STATES = 5  # u: 1 state, v: 2 states, w: 2 states
-_DT_DECIMALS = 12  # steps are keyed (and taken) to 1e-12 s so t_k = k*dt reuses one matrix
-_CACHE_SIZE = 64
 _VAN_LOAN_MAX_DECAYS = 4.0  # beyond dt * max|eig(A)| = 4 use Q = P - Phi P Phi^T
-_CHUNK = 1 << 16
-
+_BLOCK = 2048  # lattice steps per block of generated gusts
+_CACHE_BYTES = 64 << 20  # generated values kept per DrydenWind; evicted blocks are regenerated
+_SNAP = 1e-6  # a query within 1e-6 lattice steps of a lattice point reads that point
 
 def dryden_length_scales(altitude: float) -> np.ndarray:
     """MIL-F-8785C low-altitude turbulence length scales ``(L_u, L_v, L_w)``, m.
@@ -168,25 +184,36 @@ def _psd_sqrt(q: np.ndarray) -> np.ndarray:
     return vec * np.sqrt(np.clip(lam, 0.0, None))
 
 
-@numba.njit(cache=True)
-def _propagate(x, phis, sqrts, index, noise, c, mean, out):  # pragma: no cover - numba
-    """Advance states ``x`` (R, n) through steps ``k`` with ``(Phi, S)[index[k]]``.
+def _exact_step(a, b, p, fastest: float, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(Phi, Q)`` of one exact step of ``dt`` s: Van Loan, or ``P - Phi P Phi^T`` for long
+    steps, where Van Loan's ``exp(-A dt)`` block loses precision."""
+    if dt * fastest <= _VAN_LOAN_MAX_DECAYS:
+        return van_loan(a, b, dt)
+    phi = scipy.linalg.expm(a * dt)
+    q = p - phi @ p @ phi.T
+    return phi, 0.5 * (q + q.T)
 
-    ``noise`` (K, R, n) standard normals; writes ``mean + C x_k`` into ``out`` (K, R, 3).
+
+@numba.njit(cache=True)
+def _run_block(x, phi, s, noise, c, mean, out):  # pragma: no cover - numba
+    """Gusts of one block: ``out[k] = mean + C x_k`` for ``k = 0..M`` (``out`` (M+1, R, 3)).
+
+    ``x`` (R, n) holds the states at the block start and is advanced in place to its end by
+    ``x_{k+1} = Phi x_k + S noise[k]`` (``noise`` (M, R, n) standard normals).
     """
     n_steps, n_real, n = noise.shape
     new = np.empty(n)
-    for k in range(n_steps):
-        phi = phis[index[k]]
-        s = sqrts[index[k]]
+    for k in range(n_steps + 1):
+        if k > 0:
+            for r in range(n_real):
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(n):
+                        acc += phi[i, j] * x[r, j] + s[i, j] * noise[k - 1, r, j]
+                    new[i] = acc
+                for i in range(n):
+                    x[r, i] = new[i]
         for r in range(n_real):
-            for i in range(n):
-                acc = 0.0
-                for j in range(n):
-                    acc += phi[i, j] * x[r, j] + s[i, j] * noise[k, r, j]
-                new[i] = acc
-            for i in range(n):
-                x[r, i] = new[i]
             for i in range(3):
                 acc = mean[i]
                 for j in range(n):
@@ -194,8 +221,37 @@ def _propagate(x, phis, sqrts, index, noise, c, mean, out):  # pragma: no cover 
                 out[k, r, i] = acc
 
 
+def _seed_entropy(seed, rng, where: str) -> int:
+    """The integer that seeds every block: ``rng`` (int or Generator) or the alias ``seed``."""
+    def is_seed(v):
+        return isinstance(v, (int, np.integer)) and not isinstance(v, bool) and v >= 0
+
+    if seed is not None:
+        if rng is not None:
+            raise ValueError(f"The 'seed' parameter of {where} is a deprecated alias of 'rng'; "
+                             f"pass only one of them. Got seed={seed!r} and rng={rng!r}.")
+        if not is_seed(seed):
+            raise ValueError(f"The 'seed' parameter of {where} must be a non-negative int. "
+                             f"Got {seed!r} instead.")
+        return int(seed)
+    if rng is None:
+        return 0
+    if isinstance(rng, np.random.Generator):
+        return int(rng.integers(0, np.iinfo(np.int64).max))
+    if not is_seed(rng):
+        raise ValueError(f"The 'rng' parameter of {where} must be a numpy.random.Generator, a "
+                         f"non-negative int or None. Got {rng!r} instead.")
+    return int(rng)
+
+
+def _interpolate(values: np.ndarray, i, frac) -> np.ndarray:
+    """``g_i + frac (g_{i+1} - g_i)`` on a block's values; the one formula every query uses, so
+    the same time gives the same bits whichever method asks."""
+    return values[i] + frac * (values[i + 1] - values[i])
+
+
 class DrydenWind:
-    """Mean wind plus Dryden turbulence, exactly discretised for any query step.
+    """Mean wind plus Dryden turbulence: a fixed function of time and seed.
 
     See the module docstring for the transfer functions, length scales and discretisation.
 
@@ -205,9 +261,9 @@ class DrydenWind:
         Mean wind, m/s, world frame.
     sigma : array_like of shape (3,)
         Standard deviation of the gust along world x, y, z, m/s (>= 0).
-    seed : int
-        Seed of the ``numpy.random.Generator`` (PCG64) that draws the initial state and the
-        process noise. Same seed and same query times give the same winds.
+    seed : int, optional
+        Deprecated alias of ``rng`` (an int); kept for the public contract
+        ``DrydenWind(mean=..., sigma=..., seed=0)``.
     airspeed : float
         Reference airspeed ``V`` for the time scales ``L/V``, m/s. Default 10 m/s (see module
         docstring).
@@ -220,18 +276,28 @@ class DrydenWind:
         An int R: R independent realisations; queries must then pass exactly R positions and
         row r gets realisation r (for Monte Carlo over vehicles).
     t0 : float
-        Time at which the process starts from its stationary distribution, s.
+        Time at which the process starts from its stationary distribution, s; the first
+        lattice point. Earlier times raise ValueError.
+    rng : int or numpy.random.Generator, optional
+        Seed of the gusts. An int seeds them directly; a Generator is drawn from once for a
+        seed; None (and no ``seed``) means seed 0, the former default. Same seed, same gusts.
+    time_step : float
+        Spacing ``h`` of the lattice on which the process is generated exactly, s (default
+        1 ms); the gust is linear between lattice points. Keep it well below ``L_w / V``.
 
     Notes
     -----
-    ``velocity(t, xyz)`` advances the process from the last queried time to ``t`` in one exact
-    step (any step size). Querying the last time again returns the same value; an earlier time
-    raises ValueError (the past is not stored); :meth:`reset` restarts from ``t0`` with the seed.
-    The gust is spatially uniform: positions only set the batch size.
+    ``velocity(t, xyz)`` depends only on ``t``, ``xyz`` and the seed: the same time gives the
+    same gust bit for bit whatever was queried before, earlier times included, so one object
+    can serve many flights (and threads). The gust is spatially uniform: positions only set
+    the batch size. The lattice is generated in order from ``t0``, so the first query at a
+    time ``t`` costs ``(t - t0) / time_step`` exact steps (of the order of 1 s per 10^6); later
+    queries up to ``t`` read the cache (at most 64 MB; evicted blocks are regenerated from
+    their stored start states).
 
     Examples
     --------
-    >>> g = DrydenWind(mean=(3, 0, 0), sigma=(1.5, 1.5, 0.7), seed=0)
+    >>> g = DrydenWind(mean=(3, 0, 0), sigma=(1.5, 1.5, 0.7), rng=0)
     >>> g.velocity(0.01, [[0.0, 0.0, 2.0]]).shape
     (1, 3)
     """
@@ -240,20 +306,19 @@ class DrydenWind:
         self,
         mean=(3.0, 0.0, 0.0),
         sigma=(1.5, 1.5, 0.7),
-        seed: int = 0,
+        seed: int | None = None,
         airspeed: float = 10.0,
         altitude: float = 10.0,
         length_scales=None,
         batch_size: int | None = None,
         t0: float = 0.0,
+        *,
+        rng: np.random.Generator | int | None = None,
+        time_step: float = 1e-3,
     ):
         where = "DrydenWind"
         self._mean = batch_array(mean, "mean", where, (3,), batch=1)[0]
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ValueError(
-                f"The 'seed' parameter of {where} must be a non-negative int. Got {seed!r} instead."
-            )
-        self._seed = int(seed)
+        self._seed = _seed_entropy(seed, rng, where)
         self.airspeed = positive_float(airspeed, "airspeed", where)
         if length_scales is None:
             self.altitude = positive_float(altitude, "altitude", where)
@@ -268,11 +333,13 @@ class DrydenWind:
             arr.setflags(write=False)
         self._batch = None if batch_size is None else positive_int(batch_size, "batch_size", where)
         self._t0 = finite_float(t0, "t0", where)
+        self._h = positive_float(time_step, "time_step", where)
         self._p = stationary_covariance(self._a, self._b)
-        self._p_sqrt = _psd_sqrt(self._p)
         self._fastest = float(np.max(np.abs(np.linalg.eigvals(self._a))))
-        self._cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
-        self.reset()
+        phi, q = _exact_step(self._a, self._b, self._p, self._fastest, self._h)
+        self._phi = np.ascontiguousarray(phi)
+        self._s = np.ascontiguousarray(_psd_sqrt(q))
+        self._init_cache()
 
     # Parameters -----------------------------------------------------------------------------
     @property
@@ -284,6 +351,16 @@ class DrydenWind:
     def sigma(self) -> np.ndarray:
         """Gust standard deviations along world x, y, z (3,), m/s."""
         return self._sigma
+
+    @property
+    def seed(self) -> int:
+        """The integer seed of the gusts (from ``rng``, or ``seed``)."""
+        return self._seed
+
+    @property
+    def time_step(self) -> float:
+        """Spacing of the generation lattice, s."""
+        return self._h
 
     @property
     def length_scales(self) -> np.ndarray:
@@ -308,8 +385,7 @@ class DrydenWind:
     def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(Phi, Q)`` of one exact step of ``dt`` s (Van Loan, or ``P - Phi P Phi^T``)."""
         dt = positive_float(dt, "dt", "DrydenWind.transition", allow_zero=True)
-        phi, q, _ = self._step_matrices(round(dt, _DT_DECIMALS))
-        return phi.copy(), q.copy()
+        return _exact_step(self._a, self._b, self._p, self._fastest, dt)
 
     def lag_correlation(self, lag: float) -> np.ndarray:
         """Model autocorrelation of each gust component at ``lag`` s, (3,) (NaN where sigma=0)."""
@@ -319,77 +395,110 @@ class DrydenWind:
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.diag(self._c @ phi @ self._p @ self._c.T) / cov0
 
-    # State ------------------------------------------------------------------------------------
-    @property
-    def time(self) -> float:
-        """Time of the last query (or ``t0``), s."""
-        return self._t
+    # The lattice ------------------------------------------------------------------------------
+    def _init_cache(self) -> None:
+        n_real = 1 if self._batch is None else self._batch
+        noise = self._noise((0,), (n_real, _N_STATES))
+        self._starts = [noise @ _psd_sqrt(self._p).T]  # state at the start of block j
+        self._values: OrderedDict[int, np.ndarray] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def _noise(self, key: tuple, shape: tuple) -> np.ndarray:
+        seq = np.random.SeedSequence(self._seed, spawn_key=key)
+        return np.random.default_rng(seq).standard_normal(shape)
+
+    def _generate(self, j: int) -> np.ndarray:
+        """Values of block ``j`` (lattice points ``j M .. (j + 1) M``), from its start state."""
+        x = self._starts[j].copy()
+        noise = self._noise((1, j), (_BLOCK, x.shape[0], _N_STATES))
+        out = np.empty((_BLOCK + 1, x.shape[0], 3))
+        _run_block(x, self._phi, self._s, noise, self._c, self._mean, out)
+        if len(self._starts) == j + 1:
+            self._starts.append(x)
+        return out
+
+    def _block(self, j: int) -> np.ndarray:
+        """Block ``j``'s values (``_BLOCK + 1``, R, 3), generated (in order from the last known
+        start) or read from the cache."""
+        with self._lock:
+            values = self._values.get(j)
+            if values is not None:
+                self._values.move_to_end(j)
+                return values
+            for k in range(len(self._starts) - 1, j + 1):
+                values = self._generate(k)
+                self._values[k] = values
+            if j not in self._values:  # evicted earlier: regenerated bit for bit
+                values = self._generate(j)
+                self._values[j] = values
+            while len(self._values) > 1 and len(self._values) * values.nbytes > _CACHE_BYTES:
+                self._values.popitem(last=False)
+            return values
+
+    def _locate(self, times: np.ndarray, where: str, name: str):
+        """Block, index within the block and weight of each time on the lattice."""
+        u = (times - self._t0) / self._h
+        if np.any(u < -_SNAP):
+            raise ValueError(f"The {name!r} parameter of {where} must be >= t0 = {self._t0!r} s "
+                             f"(the process starts there). Got {times.min()!r} instead.")
+        near = np.rint(u)
+        snap = np.abs(u - near) <= _SNAP
+        k = np.where(snap, near, np.floor(u))
+        frac = np.where(snap, 0.0, u - k)
+        k = k.astype(np.int64)
+        block = k // _BLOCK
+        return block, k - block * _BLOCK, frac
 
     def reset(self) -> None:
-        """Restart at ``t0`` from the stationary distribution drawn with the seed."""
-        self._rng = np.random.default_rng(self._seed)
-        n_real = 1 if self._batch is None else self._batch
-        self._x = self._rng.standard_normal((n_real, _N_STATES)) @ self._p_sqrt.T
-        self._t = self._t0
-        self._value = self._mean + self._x @ self._c.T
+        """Drop the generated gusts (to free memory); later queries give the same values."""
+        with self._lock:
+            del self._starts[1:]
+            self._values.clear()
 
-    def _step_matrices(self, dt: float):
-        hit = self._cache.get(dt)
-        if hit is not None:
-            return hit
-        if dt * self._fastest <= _VAN_LOAN_MAX_DECAYS:
-            phi, q = van_loan(self._a, self._b, dt)
-        else:  # Van Loan's exp(-A dt) block overflows precision; use stationarity instead
-            phi = scipy.linalg.expm(self._a * dt)
-            q = self._p - phi @ self._p @ phi.T
-            q = 0.5 * (q + q.T)
-        entry = (phi, q, _psd_sqrt(q))
-        if len(self._cache) >= _CACHE_SIZE:
-            self._cache.pop(next(iter(self._cache)))
-        self._cache[dt] = entry
-        return entry
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        for name in ("_starts", "_values", "_lock"):
+            del state[name]
+        return state
 
-    def _check_time(self, t: float, where: str) -> None:
-        if t < self._t:
-            raise ValueError(
-                f"The 't' parameter of {where} must be >= the last queried time {self._t!r} "
-                f"(the process only moves forward; call reset() to restart). Got {t!r} instead."
-            )
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._init_cache()
 
+    # Queries ----------------------------------------------------------------------------------
     def velocity(self, t: float, xyz: np.ndarray) -> np.ndarray:
         """Wind at time ``t`` (s) for positions ``xyz`` (B, 3) m: (B, 3) m/s, world frame.
 
         Raises
         ------
         ValueError
-            If ``t`` is NaN/inf or earlier than the last query, or ``xyz`` is not finite (B, 3)
-            (with B equal to ``batch_size`` when that is set).
+            If ``t`` is NaN/inf or earlier than ``t0``, or ``xyz`` is not finite (B, 3) (with B
+            equal to ``batch_size`` when that is set).
         """
         where = "DrydenWind.velocity"
         t, xyz = check_query(t, xyz, where, batch=self._batch)
-        self._check_time(t, where)
-        if t > self._t:
-            dt = round(t - self._t, _DT_DECIMALS)
-            if dt > 0:
-                phi, _, s = self._step_matrices(dt)
-                noise = self._rng.standard_normal(self._x.shape)
-                self._x = self._x @ phi.T + noise @ s.T
-                self._value = self._mean + self._x @ self._c.T
-            self._t = t
+        u = (t - self._t0) / self._h  # the arithmetic of _locate, on one float
+        if u < -_SNAP:
+            self._locate(np.array([t]), where, "t")  # raises the named error
+        k = round(u)
+        if abs(u - k) <= _SNAP:
+            frac = 0.0
+        else:
+            k = math.floor(u)
+            frac = u - k
+        block, i = divmod(k, _BLOCK)
+        value = _interpolate(self._block(block), i, frac)
         if self._batch is None:
-            return np.tile(self._value[0], (xyz.shape[0], 1))
-        return self._value.copy()
+            return np.tile(value[0], (xyz.shape[0], 1))
+        return value.copy()
 
     def sample(self, times) -> np.ndarray:
-        """Advance through increasing ``times`` and return the wind at each, in one fast pass.
-
-        Equivalent to calling ``velocity(t, ...)`` for each ``t`` in order (same random stream,
-        same values) but vectorised, for long records.
+        """The wind at each of ``times``, in one vectorised pass (same values as ``velocity``).
 
         Parameters
         ----------
         times : array_like of shape (K,)
-            Non-decreasing query times, s, none earlier than :attr:`time`.
+            Query times, s, in any order, none earlier than ``t0``.
 
         Returns
         -------
@@ -403,39 +512,24 @@ class DrydenWind:
                 f"The 'times' parameter of {where} must be a finite 1-D array. "
                 f"Got shape {times.shape} instead."
             )
-        if times.size and (times[0] < self._t or np.any(np.diff(times) < 0)):
-            raise ValueError(
-                f"The 'times' parameter of {where} must be non-decreasing and >= the last "
-                f"queried time {self._t!r}."
-            )
-        n_real = self._x.shape[0]
+        n_real = 1 if self._batch is None else self._batch
         out = np.empty((times.size, n_real, 3))
-        prev = np.concatenate([[self._t], times[:-1]]) if times.size else times
-        steps = np.round(times - prev, _DT_DECIMALS)
-        for start in range(0, times.size, _CHUNK):
-            stop = min(start + _CHUNK, times.size)
-            keys, index = np.unique(steps[start:stop], return_inverse=True)
-            mats = [self._step_matrices(float(k)) for k in keys]
-            phis = np.stack([m[0] for m in mats])
-            sqrts = np.stack([m[2] for m in mats])
-            moving = keys[index] > 0
-            # draw noise only for steps that move, in the order velocity() would draw it
-            if moving.all():
-                noise = self._rng.standard_normal((stop - start, n_real, _N_STATES))
-            else:
-                noise = np.zeros((stop - start, n_real, _N_STATES))
-                noise[moving] = self._rng.standard_normal((int(moving.sum()), n_real, _N_STATES))
-            _propagate(self._x, phis, sqrts, index.astype(np.int64), noise, self._c,
-                       self._mean, out[start:stop])
         if times.size:
-            self._t = float(times[-1])
-            self._value = self._mean + self._x @ self._c.T
+            block, i, frac = self._locate(times, where, "times")
+            order = None if np.all(np.diff(block) >= 0) else np.argsort(block, kind="stable")
+            sorted_blocks = block if order is None else block[order]
+            firsts = np.flatnonzero(np.diff(sorted_blocks, prepend=-1))
+            ends = np.append(firsts[1:], times.size)
+            for a, b in zip(firsts, ends, strict=True):
+                rows = slice(a, b) if order is None else order[a:b]
+                values = self._block(int(sorted_blocks[a]))
+                out[rows] = _interpolate(values, i[rows], frac[rows][:, None, None])
         return out[:, 0, :] if self._batch is None else out
 
     def __repr__(self) -> str:
         return (
             f"DrydenWind(mean={tuple(self._mean.tolist())}, sigma={tuple(self._sigma.tolist())}, "
-            f"seed={self._seed}, airspeed={self.airspeed}, "
+            f"rng={self._seed}, airspeed={self.airspeed}, "
             f"length_scales={tuple(np.round(self._scales, 3).tolist())}, "
-            f"batch_size={self._batch})"
+            f"batch_size={self._batch}, time_step={self._h})"
         )
