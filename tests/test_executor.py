@@ -5,11 +5,13 @@ from __future__ import annotations
 import functools
 import os
 import sys
+import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from windnav.experiments.executor import TaskResult, run_tasks
+from windnav.experiments.executor import BackendUnavailableError, TaskResult, run_tasks
 
 
 def _seeded_mean(task):
@@ -100,5 +102,65 @@ def test_ray_backend_without_ray_says_how_to_install_it(monkeypatch):
     # Ray is a test dependency, so hide it: a None entry makes `import ray` raise ImportError.
     # (The ray backend itself is tested on a real local Ray in test_executor_ray.py.)
     monkeypatch.setitem(sys.modules, "ray", None)
-    with pytest.raises(ImportError, match=r"windnav\[ray\]"):
+    with pytest.raises(BackendUnavailableError, match=r"pip install 'windnav\[ray\]'") as err:
         run_tasks(_seeded_mean, TASKS, backend="ray")
+    # a bad choice of argument for this installation: a ValueError (and an ImportError)
+    assert isinstance(err.value, ValueError) and isinstance(err.value, ImportError)
+    assert "backend='process'" in str(err.value)
+
+
+def _record_pid(task):
+    folder, index, seconds = task
+    Path(folder, f"pid-{os.getpid()}-{index}").touch()
+    time.sleep(seconds)
+    Path(folder, f"end-{index}").touch()
+    return index
+
+
+def _worker_pids(folder):
+    return {int(p.name.split("-")[1]) for p in Path(folder).glob("pid-*")}
+
+
+def _gone(pids, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if not [p for p in pids if Path(f"/proc/{p}").exists()
+                and Path(f"/proc/{p}/stat").read_text().split(") ")[1][0] not in "ZX"]:
+            return True
+        time.sleep(0.1)
+    return False
+
+
+def test_on_result_sees_each_record_before_it_is_yielded():
+    seen = []
+    stream = run_tasks(_seeded_mean, TASKS, backend="serial", progress=False,
+                       on_result=seen.append)
+    first = next(stream)
+    assert seen == [first]
+    rest = list(stream)
+    assert seen == [first, *rest] and len(seen) == len(TASKS)
+    with pytest.raises(ValueError, match="'on_result' parameter of run_tasks"):
+        run_tasks(_seeded_mean, TASKS, on_result="results.jsonl")
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="checks processes through /proc")
+def test_a_failing_on_result_or_an_abandoned_stream_stops_the_workers_at_once(tmp_path):
+    tasks = [(str(tmp_path), 0, 0.0)] + [(str(tmp_path), i, 60.0) for i in range(1, 5)]
+
+    def persist(result):
+        raise OSError("disk full")
+
+    with pytest.raises(OSError, match="disk full"):
+        list(run_tasks(_record_pid, tasks, workers=2, progress=False, on_result=persist))
+    pids = _worker_pids(tmp_path)
+    assert pids and _gone(pids)
+    # stopped, not waited for: no 60 s task ran to its end
+    assert [p.name for p in tmp_path.glob("end-*")] == ["end-0"]
+    for p in tmp_path.iterdir():
+        p.unlink()
+    stream = run_tasks(_record_pid, tasks, workers=2, progress=False)
+    assert next(stream).index == 0
+    stream.close()  # the caller stops iterating
+    pids = _worker_pids(tmp_path)
+    assert pids and _gone(pids)
+    assert [p.name for p in tmp_path.glob("end-*")] == ["end-0"]

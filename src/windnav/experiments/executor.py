@@ -18,7 +18,21 @@ Backends
 ``"ray"``
     A Ray cluster (optional extra ``windnav[ray]``); ``ray`` is imported only when asked for. If
     Ray is not yet initialised, ``ray.init()`` starts a local instance (or joins the cluster named
-    by ``RAY_ADDRESS``).
+    by ``RAY_ADDRESS``). Without Ray, :class:`BackendUnavailableError` says how to install it.
+
+Interruptions and orphans
+-------------------------
+Results stream back as they finish (and to ``on_result``), so a caller that writes each record
+as it arrives loses nothing finished when the sweep is interrupted. Process workers ignore
+SIGINT: on Ctrl-C (which a terminal sends to the whole process group) only the parent reacts.
+When the stream stops early -- ``KeyboardInterrupt``, an exception, or a caller that stops
+iterating -- queued tasks are cancelled and the workers are terminated at once, with no
+traceback from the workers; the ``KeyboardInterrupt`` then reaches the caller. A worker also
+dies with its parent if the parent is killed outright (SIGKILL, the out-of-memory killer): on
+Linux through ``prctl(PR_SET_PDEATHSIG, SIGKILL)``, elsewhere through a thread that watches the
+parent's pid. The multiprocessing resource tracker exits once the workers are gone. (Linux
+sends that signal when the *thread* that started a worker exits; workers are started by the
+thread that iterates the stream, so iterate one stream from one thread.)
 
 The code of a task is the same in all three: every backend calls the same wrapper around ``fn``,
 which turns an exception into a failed status record instead of aborting the other tasks
@@ -28,8 +42,12 @@ which turns an exception into a failed status record instead of aborting the oth
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
+import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator
@@ -42,6 +60,17 @@ from tqdm import tqdm
 from windnav._validate import positive_int
 
 BACKENDS = ("serial", "process", "ray")
+PARENT_POLL_S = 0.5
+"""How often a worker without ``PR_SET_PDEATHSIG`` checks that its parent is alive, s."""
+_PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
+
+
+class BackendUnavailableError(ImportError, ValueError):
+    """The chosen backend needs an optional dependency that is not installed.
+
+    A ``ValueError`` (a bad ``backend`` argument for this installation) and an
+    ``ImportError``; the message says what to install.
+    """
 
 
 @dataclass(frozen=True)
@@ -93,30 +122,98 @@ def _serial(fn, tasks, workers) -> Iterator[TaskResult]:
         yield _call(fn, i, task)
 
 
+def die_with_parent(parent_pid: int, poll_s: float = PARENT_POLL_S) -> str:
+    """Make this process exit when the process ``parent_pid`` (its parent) dies.
+
+    On Linux the kernel sends SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``);
+    elsewhere, or if that fails, a daemon thread polls ``os.getppid()`` every ``poll_s``
+    seconds and exits the process when the parent has changed. If the parent is already gone,
+    the process exits at once.
+
+    Returns
+    -------
+    str
+        ``"pdeathsig"`` or ``"watcher"``: the mechanism armed.
+    """
+    how = "watcher"
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            if libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0:
+                how = "pdeathsig"
+        except (OSError, AttributeError):
+            pass
+    # The parent may have died before the signal was armed: then we are already an orphan.
+    if os.getppid() != parent_pid:
+        os._exit(1)
+    if how == "watcher":
+
+        def watch():
+            while os.getppid() == parent_pid:
+                time.sleep(poll_s)
+            os._exit(1)
+
+        threading.Thread(target=watch, name="windnav-parent-watch", daemon=True).start()
+    return how
+
+
+def _worker_init(parent_pid: int) -> None:
+    """Initializer of every process worker: leave Ctrl-C to the parent, die with it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent_pid)
+
+
+def _stop_pool(pool: ProcessPoolExecutor, pending) -> None:
+    """Cancel queued tasks and terminate the workers now (the stream was abandoned)."""
+    for fut in pending:
+        fut.cancel()
+    if hasattr(pool, "terminate_workers"):  # Python >= 3.14
+        pool.terminate_workers()
+        return
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in procs:
+        if proc.is_alive():
+            proc.terminate()
+    for proc in procs:
+        proc.join(timeout=5.0)
+        if proc.is_alive():
+            proc.kill()
+            proc.join(timeout=5.0)
+
+
 def _process(fn, tasks, workers) -> Iterator[TaskResult]:
     ctx = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init,
+                               initargs=(os.getpid(),))
+    pending: dict = {}
+    finished = False
+    try:
         pending = {pool.submit(_call, fn, i, t): (i, t) for i, t in enumerate(tasks)}
-        try:
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    i, t = pending.pop(fut)
-                    try:
-                        yield fut.result()
-                    except Exception as exc:  # BrokenProcessPool, pickling errors
-                        yield _lost(i, t, exc)
-        finally:
-            # An abandoned generator (caller broke out, Ctrl-C) must not leave work queued.
-            for fut in pending:
-                fut.cancel()
+        while pending:
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                i, t = pending.pop(fut)
+                try:
+                    result = fut.result()
+                except Exception as exc:  # BrokenProcessPool, pickling errors
+                    result = _lost(i, t, exc)
+                yield result
+        finished = True
+    finally:
+        if finished:
+            pool.shutdown(wait=True)
+        else:
+            # Ctrl-C, an error, or a caller that stopped iterating: nothing more is wanted,
+            # and waiting for running tasks (minutes of flow solving) would hang the exit.
+            _stop_pool(pool, pending)
 
 
 def _import_ray():
     try:
         import ray
     except ImportError as exc:
-        raise ImportError(
+        raise BackendUnavailableError(
             "The 'ray' backend of run_tasks needs the optional dependency Ray; install it with "
             "`pip install 'windnav[ray]'` or choose backend='process'."
         ) from exc
@@ -154,6 +251,7 @@ def run_tasks(
     workers: int | None = None,
     progress: bool = True,
     desc: str | None = None,
+    on_result: Callable[[TaskResult], Any] | None = None,
 ) -> Iterator[TaskResult]:
     """Run ``fn`` over ``tasks`` and yield one :class:`TaskResult` per task as each finishes.
 
@@ -173,6 +271,11 @@ def run_tasks(
         Show a tqdm progress bar (with a count of failures) on stderr.
     desc : str, optional
         Label of the progress bar.
+    on_result : callable, optional
+        Called with each :class:`TaskResult` as it finishes, before it is yielded: the place
+        to persist records one by one, so an interruption loses no finished task even when
+        the stream is collected with ``list()`` or ``sorted()``. An exception it raises stops
+        the run (the workers are stopped) and reaches the caller.
 
     Yields
     ------
@@ -184,8 +287,12 @@ def run_tasks(
     ------
     ValueError
         On an unknown ``backend`` or a ``workers`` that is not an integer >= 1.
-    ImportError
-        When ``backend="ray"`` and Ray is not installed.
+    BackendUnavailableError
+        (a ValueError and an ImportError) When ``backend="ray"`` and Ray is not installed;
+        the message gives the install command.
+    KeyboardInterrupt
+        From the iteration, on Ctrl-C, after queued tasks are cancelled and the workers
+        stopped (see the module docstring).
 
     Notes
     -----
@@ -207,17 +314,28 @@ def run_tasks(
         workers = max(1, min(workers, len(tasks)))
     if backend == "ray":
         _import_ray()  # fail now, with the install hint, rather than on first iteration
-    return _stream(_RUNNERS[backend], fn, tasks, workers, progress, desc)
+    if on_result is not None and not callable(on_result):
+        raise ValueError(
+            f"The 'on_result' parameter of run_tasks must be callable or None. "
+            f"Got {on_result!r} instead."
+        )
+    return _stream(_RUNNERS[backend], fn, tasks, workers, progress, desc, on_result)
 
 
-def _stream(runner, fn, tasks, workers, progress, desc) -> Iterator[TaskResult]:
+def _stream(runner, fn, tasks, workers, progress, desc, on_result) -> Iterator[TaskResult]:
     if not tasks:
         return
     n_failed = 0
     with tqdm(total=len(tasks), desc=desc, disable=not progress, unit="task") as bar:
-        for result in runner(fn, tasks, workers):
-            n_failed += not result.ok
-            if n_failed:
-                bar.set_postfix(failed=n_failed, refresh=False)
-            bar.update(1)
-            yield result
+        results = runner(fn, tasks, workers)
+        try:
+            for result in results:
+                n_failed += not result.ok
+                if n_failed:
+                    bar.set_postfix(failed=n_failed, refresh=False)
+                bar.update(1)
+                if on_result is not None:
+                    on_result(result)
+                yield result
+        finally:
+            results.close()  # stops the backend's workers now, not when garbage collected

@@ -5,13 +5,20 @@ Default inlet grid (the thesis's training data): speeds 0.1, 2.575, 5.05, 7.525,
 :func:`windnav.experiments.executor.run_tasks` (their speeds are stepped together and share
 the factorisation); the task writes its own chunks of the store (layout, completion markers
 and resumption: :mod:`windnav.flow.sweep_store`). Rerunning the same sweep after an
-interruption computes only the simulations not marked done.
+interruption computes only the simulations not marked done; with ``verify`` it first reads
+back every finished simulation and recomputes exactly those found damaged.
+
+Before anything is created or dispatched, each map's task is checked against the memory limit
+(:mod:`windnav.flow.memory`): a map that cannot fit is refused with
+:class:`~windnav.flow.memory.MemoryEstimateError`, and the process backend runs no more
+workers at once than the limit holds.
 """
 
 from __future__ import annotations
 
 import inspect
 import time
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -60,6 +67,8 @@ class SweepTask:
         Seed of each case.
     simulate : callable or None
         Solver override (tests); None means :func:`windnav.flow.simulate_batch`.
+    memory_limit : float or None
+        Passed to :func:`windnav.flow.simulate_batch` (bytes; None: its default).
     """
 
     store: str
@@ -71,6 +80,7 @@ class SweepTask:
     settings: dict
     seeds: tuple
     simulate: object = None
+    memory_limit: float | None = None
 
     @property
     def case_index(self) -> int:
@@ -92,8 +102,9 @@ def run_sweep_task(task: SweepTask) -> dict:
     """
     from windnav.flow.sweep_store import SweepStore
 
-    if task.simulate is None and len(task.case_indices) > 1:
-        sols, seconds = simulate_speeds(task.city, task.speeds, task.direction_deg, task.settings)
+    if task.simulate is None:
+        sols, seconds = simulate_speeds(task.city, task.speeds, task.direction_deg, task.settings,
+                                        memory_limit=task.memory_limit)
         seconds = [seconds / len(sols)] * len(sols)
     else:
         pairs = [simulate_case(task.city, sp, task.direction_deg, task.settings, seed,
@@ -110,8 +121,11 @@ def run_sweep_task(task: SweepTask) -> dict:
     return {"map_index": task.map_index, "cases": cases}
 
 
-def simulate_speeds(city, speeds, direction_deg: float, settings: dict):
+def simulate_speeds(city, speeds, direction_deg: float, settings: dict,
+                    memory_limit: float | None = None):
     """Run the flow for several inlet speeds of one direction together.
+
+    ``memory_limit`` (bytes) is passed to :func:`windnav.flow.simulate_batch`.
 
     Returns
     -------
@@ -122,7 +136,8 @@ def simulate_speeds(city, speeds, direction_deg: float, settings: dict):
     from windnav.flow import simulate_batch
 
     t0 = time.perf_counter()
-    sols = simulate_batch(city, [float(s) for s in speeds], float(direction_deg), **settings)
+    sols = simulate_batch(city, [float(s) for s in speeds], float(direction_deg), **settings,
+                          memory_limit=memory_limit)
     return sols, time.perf_counter() - t0
 
 
@@ -181,6 +196,7 @@ def sweep(
     progress: bool = True,
     verify: bool = False,
     simulate=None,
+    memory_limit: float | None = None,
 ):
     """Run (or resume) a sweep of flow simulations into one Zarr store.
 
@@ -203,16 +219,38 @@ def sweep(
     seed : int
         Root seed; each simulation's seed is stored with it.
     verify : bool
-        Also recompute finished simulations whose chunks no longer read back.
+        First read back every array of every finished simulation and compare it with its
+        digest (:meth:`SweepStore.verify`); the damaged ones are marked not done and
+        recomputed with the pending ones. The report is ``store.last_verify``.
     simulate : callable, optional
         Solver override, picklable for the ``process`` backend (tests).
+    memory_limit : float, optional
+        Memory the sweep may use on this machine, bytes (default:
+        :func:`windnav.flow.memory.default_memory_limit`). A map whose task's estimate is
+        above it is refused before anything is written; the process backend runs at most as
+        many workers at once as the limit holds (with a warning when that is fewer than
+        asked for); each task's solver gets the same limit.
 
     Returns
     -------
     store : SweepStore
+        ``store.repaired`` lists creation-time arrays that were damaged and rewritten;
+        ``store.last_verify`` is the :class:`~windnav.flow.sweep_store.VerifyReport` when
+        ``verify``, else None.
     results : list of TaskResult
         One per task run now (finished simulations skipped), in completion order; a task
         holds the pending speeds of one map and direction (``task.case_indices``).
+
+    Raises
+    ------
+    MemoryEstimateError
+        (a ValueError) When one map's task needs more memory than the limit.
+    SweepMismatchError
+        (a ValueError) When ``out`` holds a different sweep.
+    CorruptStoreError
+        (a ValueError) When ``out`` is a sweep store whose identity attributes are lost.
+    KeyboardInterrupt
+        On Ctrl-C, after the workers are stopped; finished simulations stay in the store.
     """
     from windnav.experiments.executor import run_tasks
     from windnav.flow.sweep_store import SweepMap, SweepStore
@@ -232,17 +270,23 @@ def sweep(
         x, y = solver_grid(city, settings["dx"])
         sweep_maps.append(SweepMap(name=name, source=source, city=city, x=x, y=y))
     n_frames = _n_frames(settings)
+    workers = _fit_workers(sweep_maps, settings["dx"], len(speeds) if simulate is None else 1,
+                           n_frames, backend, workers, memory_limit,
+                           len(directions_deg) * len(sweep_maps))
     store = SweepStore.create(out, sweep_maps, speeds, directions_deg, config=settings,
                               n_frames=n_frames, seed=seed)
+    if verify:
+        store.invalidate(store.verify(progress=progress).damaged)
     groups: dict = {}
-    for k, c in store.pending(verify=verify):
+    for k, c in store.pending():
         key = (k, float(store.directions_deg[c])) if simulate is None else (k, c)
         groups.setdefault(key, []).append(c)
     tasks = [
         SweepTask(store.path, k, tuple(cases), sweep_maps[k].city,
                   tuple(float(store.speeds[c]) for c in cases),
                   float(store.directions_deg[cases[0]]),
-                  settings, tuple(store.case_seed(k, c) for c in cases), simulate)
+                  settings, tuple(store.case_seed(k, c) for c in cases), simulate,
+                  memory_limit)
         for (k, _), cases in groups.items()
     ]
     results = list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
@@ -257,6 +301,47 @@ def solver_grid(city, dx: float) -> tuple[np.ndarray, np.ndarray]:
 
     grid = grid_for(city.bounds, dx)
     return grid.x, grid.y
+
+
+def _fit_workers(sweep_maps, dx: float, n_speeds: int, n_frames: int, backend: str, workers,
+                 memory_limit, n_tasks: int):
+    """Refuse a map whose task cannot fit in the memory limit; for the process backend, cap
+    the workers so that the largest tasks running at once fit too. Returns the workers."""
+    import os
+
+    from windnav.city import grid_shape
+    from windnav.flow.memory import (
+        BYTES_PER_FRAME_CELL,
+        PROCESS_BASELINE_BYTES,
+        check_flow_memory,
+        default_memory_limit,
+        fluid_fraction,
+        format_bytes,
+    )
+
+    biggest = 0
+    for k, m in enumerate(sweep_maps):
+        shape = grid_shape(m.city.bounds, dx)
+        what = (f"map {k} ({m.name!r}, {shape[0]} x {shape[1]} cells), {n_speeds} speed(s) "
+                f"of one direction at once, {n_frames} frame(s) each")
+        need = check_flow_memory(shape, n_speeds, n_frames, fluid_fraction=fluid_fraction(m.city),
+                                 memory_limit=memory_limit, where="sweep", what=what)
+        # writing a case stacks its frames once more
+        biggest = max(biggest, need + BYTES_PER_FRAME_CELL * n_frames * shape[0] * shape[1])
+    limit = memory_limit if memory_limit is not None else default_memory_limit()
+    if backend != "process" or limit is None or not np.isfinite(limit):
+        return workers
+    asked = min(workers or os.cpu_count() or 1, max(n_tasks, 1))
+    fit = max(1, int(limit // (biggest + PROCESS_BASELINE_BYTES)))
+    if fit < asked:
+        warnings.warn(
+            f"sweep: running {fit} worker(s) at once instead of {asked}: each task may need "
+            f"{format_bytes(biggest + PROCESS_BASELINE_BYTES)} (with the worker process) and the "
+            f"memory limit is {format_bytes(limit)}.",
+            stacklevel=3,
+        )
+        return fit
+    return workers
 
 
 def _n_frames(settings: dict) -> int:

@@ -17,6 +17,7 @@ import importlib
 
 from windnav.flow.advection import make_advection
 from windnav.flow.grid import BoundaryConditions, FlowDomain, MACGrid, make_domain
+from windnav.flow.memory import MemoryEstimateError, check_flow_memory, estimate_flow_memory
 from windnav.flow.pressure import (
     FactorCache,
     divergence,
@@ -43,6 +44,8 @@ from windnav.flow.strouhal import (
 
 # The Zarr I/O, imported on first access (PEP 562): name -> module.
 _LAZY = {
+    "CorruptStoreError": "_zarr",
+    "VerifyReport": "sweep_store",
     "flow_attrs": "solution_io",
     "load_flow": "solution_io",
     "save_flow": "solution_io",
@@ -53,18 +56,23 @@ _LAZY = {
 __all__ = [
     "BluffBodyCase",
     "BoundaryConditions",
+    "CorruptStoreError",
     "FactorCache",
     "FlowDivergedError",
     "FlowDomain",
     "FlowSolution",
     "FlowStep",
     "MACGrid",
+    "MemoryEstimateError",
     "SquareCylinderCase",
     "SweepMap",
     "SweepStore",
+    "VerifyReport",
     "bluff_body_strouhal",
     "cell_centred",
+    "check_flow_memory",
     "divergence",
+    "estimate_flow_memory",
     "fixed_face_violation",
     "flow_attrs",
     "load_flow",

@@ -12,14 +12,21 @@ generating config: speed, direction_deg, dx, dt, steps, seed, map source)::
         diagnostics (flow_throughs_spinup, flow_throughs_average, half_window_difference,
         smagorinsky, filter_width m, viscosity m^2/s)          (the FlowSolution's scalars)
 
-Chunks are compressed with a checksummed Zstandard frame, so a damaged file is a clear
-``ValueError`` naming the store and the array, never silently wrong numbers. Many simulations
-in one store: :mod:`windnav.flow.sweep_store`.
+    attrs["checksums"]: {array name: SHA-256 of its shape, dtype and bytes}, for every array
+
+Chunks are compressed with a checksummed Zstandard frame (a damaged chunk is a read error), and
+every array's digest is recorded when it is written and compared when it is loaded (a deleted
+chunk, which Zarr would read back as its fill value, and a deleted array are caught too). So a
+damaged file is a :class:`~windnav.flow._zarr.CorruptStoreError` (a ``ValueError``) naming the
+store and the array, never silently wrong numbers. Files written before the digests were
+recorded load with a warning that they cannot be verified. Many simulations in one store:
+:mod:`windnav.flow.sweep_store`.
 """
 
 from __future__ import annotations
 
 import os
+import warnings
 
 import numpy as np
 import zarr
@@ -29,6 +36,8 @@ from windnav.flow._zarr import (
     FORMAT_VERSION,
     FRAME,
     UNITS,
+    CorruptStoreError,
+    digest,
     grid_attrs,
     jsonable,
     open_group,
@@ -37,7 +46,7 @@ from windnav.flow._zarr import (
 )
 from windnav.flow.solver import DIAGNOSTICS
 
-__all__ = ["flow_attrs", "load_flow", "save_flow"]
+__all__ = ["CorruptStoreError", "flow_attrs", "load_flow", "save_flow"]
 
 
 def save_flow(solution, path, config: dict | None = None) -> None:
@@ -72,6 +81,21 @@ def save_flow(solution, path, config: dict | None = None) -> None:
                 f"The 'solution' parameter of save_flow must have {name} of shape {shape} "
                 f"(ny, nx). Got shape {value.shape} instead."
             )
+    arrays = {"x": x, "y": y, **fields}
+    frames_u = getattr(solution, "frames_u", None)
+    frames_v = getattr(solution, "frames_v", None)
+    if frames_u is not None and frames_v is not None:
+        fu = np.asarray(frames_u, dtype=np.float64)
+        fv = np.asarray(frames_v, dtype=np.float64)
+        if fu.ndim != 3 or fu.shape[1:] != shape or fv.shape != fu.shape:
+            raise ValueError(
+                f"The 'solution' parameter of save_flow must have frames_u and frames_v of shape "
+                f"(T, {shape[0]}, {shape[1]}). Got {fu.shape} and {fv.shape} instead."
+            )
+        arrays.update(frames_u=fu, frames_v=fv)
+        times = getattr(solution, "t", None)
+        if times is not None:
+            arrays["t"] = np.asarray(times, dtype=np.float64)
     group = zarr.open_group(os.fspath(path), mode="w")
     group.attrs.update(
         {
@@ -86,27 +110,13 @@ def save_flow(solution, path, config: dict | None = None) -> None:
                 if hasattr(solution, k)
             },
             "config": config,
+            "checksums": {name: digest(value) for name, value in arrays.items()},
+            "checksum": "SHA-256 of the array's dtype, shape and little-endian C-order bytes",
         }
     )
-    write_array(group, "x", x)
-    write_array(group, "y", y)
-    for name, value in fields.items():
-        write_array(group, name, value)
-    frames_u = getattr(solution, "frames_u", None)
-    frames_v = getattr(solution, "frames_v", None)
-    if frames_u is not None and frames_v is not None:
-        fu = np.asarray(frames_u, dtype=np.float64)
-        fv = np.asarray(frames_v, dtype=np.float64)
-        if fu.ndim != 3 or fu.shape[1:] != shape or fv.shape != fu.shape:
-            raise ValueError(
-                f"The 'solution' parameter of save_flow must have frames_u and frames_v of shape "
-                f"(T, {shape[0]}, {shape[1]}). Got {fu.shape} and {fv.shape} instead."
-            )
-        write_array(group, "frames_u", fu, chunks=(1, *shape))
-        write_array(group, "frames_v", fv, chunks=(1, *shape))
-        times = getattr(solution, "t", None)
-        if times is not None:
-            write_array(group, "t", np.asarray(times, dtype=np.float64))
+    for name, value in arrays.items():
+        chunks = (1, *shape) if name in ("frames_u", "frames_v") else None  # one per frame
+        write_array(group, name, value, chunks=chunks)
 
 
 def flow_attrs(path) -> dict:
@@ -130,20 +140,43 @@ def load_flow(path):
 
     Raises
     ------
+    CorruptStoreError
+        (a ValueError) Naming ``path`` and the array when an array is missing, unreadable or
+        differs from the digest recorded when it was saved (a deleted or damaged chunk).
     ValueError
-        Naming ``path`` when the store is missing, not a flow solution, or has a corrupt or
-        missing array.
+        Naming ``path`` when there is no store, or it is not a flow solution.
+
+    Warns
+    -----
+    UserWarning
+        When the file was written before digests were recorded: it loads, unverified.
     """
     path = os.fspath(path)
-    group = open_group(path, FLOW_FORMAT, "load_flow")
+    where = "load_flow"
+    group = open_group(path, FLOW_FORMAT, where)
     from windnav.flow.solver import FlowSolution
 
-    present = set(group.array_keys())
-    data = {n: read(group, n, path, "load_flow") for n in ("x", "y", "solid", "mean_u", "mean_v")}
+    sums = group.attrs.get("checksums")
+    if sums is None:
+        warnings.warn(
+            f"load_flow: the Zarr store {path!r} was written without checksums (by an older "
+            "windnav); its arrays cannot be verified. Save it again to record them.",
+            stacklevel=2,
+        )
+        present = set(group.array_keys())
+    else:
+        present = set(sums)  # every array saved must be there
+    data = {n: read(group, n, path, where) for n in ("x", "y", "solid", "mean_u", "mean_v")}
     for n in ("frames_u", "frames_v", "t"):  # absent when no frames were recorded
-        data[n] = read(group, n, path, "load_flow") if n in present else None
+        data[n] = read(group, n, path, where) if n in present else None
+    for name, value in data.items():
+        if sums is not None and value is not None and digest(value) != sums.get(name):
+            raise CorruptStoreError(
+                f"{where}: the array {name!r} of the Zarr store {path!r} does not match the "
+                "checksum recorded when it was saved (a chunk is missing or damaged)."
+            )
     try:
         scalars = {k: float(v) for k, v in group.attrs["solution"].items()}
         return FlowSolution(**data, **scalars)
     except Exception as exc:
-        raise ValueError(f"load_flow: the Zarr store {path!r} is incomplete: {exc}") from exc
+        raise CorruptStoreError(f"{where}: the Zarr store {path!r} is incomplete: {exc}") from exc

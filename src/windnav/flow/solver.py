@@ -34,7 +34,13 @@ import numpy as np
 
 from windnav._validate import finite_float, positive_float
 from windnav.flow.advection import make_advection
-from windnav.flow.grid import FACE_FIXED, BoundaryConditions, FlowDomain, grid_for, make_domain
+from windnav.flow.grid import (
+    FACE_FIXED,
+    BoundaryConditions,
+    FlowDomain,
+    grid_for,
+    make_domain,
+)
 from windnav.flow.pressure import FactorCache, make_exact_projection, make_jacobi_projection
 
 MAX_CFL = 2.5
@@ -400,6 +406,7 @@ def simulate(
     filter_width: float | None = None,
     viscosity: float = 0.0,
     progress: bool = False,
+    memory_limit: float | None = None,
 ) -> FlowSolution:
     """Simulate the 2D wind through ``city`` and return its time average (and frames).
 
@@ -440,6 +447,10 @@ def simulate(
         diffusion only (whose effective Reynolds number grows as dx shrinks).
     progress : bool
         Show a tqdm progress bar.
+    memory_limit : float, optional
+        Bytes the run may use (default :func:`windnav.flow.memory.default_memory_limit`: 75 %
+        of the machine's memory, or ``$WINDNAV_MEMORY_LIMIT``); a run estimated above it is
+        refused with :class:`~windnav.flow.memory.MemoryEstimateError` before allocating.
 
     Returns
     -------
@@ -470,6 +481,7 @@ def simulate(
         filter_width=filter_width,
         viscosity=viscosity,
         progress=progress,
+        memory_limit=memory_limit,
         _where="simulate",
     )[0]
 
@@ -491,6 +503,7 @@ def simulate_batch(
     filter_width: float | None = None,
     viscosity: float = 0.0,
     progress: bool = False,
+    memory_limit: float | None = None,
     _where: str = "simulate_batch",
 ) -> list[FlowSolution]:
     """:func:`simulate` for several inlet speeds of one direction, stepped together.
@@ -498,7 +511,10 @@ def simulate_batch(
     The runs share the map, the direction and so the boundary kinds: one factorisation, and
     one multi-right-hand-side pressure solve per step for all speeds. Each result equals
     :func:`simulate` with that speed (to round-off: the solves differ only in summation
-    order). Parameters as in :func:`simulate`, with ``speeds`` a sequence of m/s (> 0).
+    order). Parameters as in :func:`simulate`, with ``speeds`` a sequence of m/s (> 0), and
+    ``memory_limit`` (bytes, default :func:`windnav.flow.memory.default_memory_limit`): a run
+    whose estimated memory is above it is refused with
+    :class:`~windnav.flow.memory.MemoryEstimateError` before anything is allocated.
 
     Returns
     -------
@@ -531,6 +547,10 @@ def simulate_batch(
             f"The 'dt' parameter of {where} gives a CFL number speed*dt/dx = {cfl:.3g} above "
             f"{MAX_CFL:g}; use dt <= {MAX_CFL * dx / max(speeds):.4g} s. Got dt={dt!r} instead."
         )
+    from windnav.flow.memory import check_city_memory
+
+    check_city_memory(city, dx, len(speeds), steps // record_every if record_every else 0,
+                      pressure=pressure, memory_limit=memory_limit, where=where)
     domains = [city_domain(city, sp, direction_deg, dx) for sp in speeds]
     factors = FactorCache(maxsize=1)  # the speeds share one face classification
     flow_steps = [

@@ -4,14 +4,16 @@ The store is self-describing through its attributes (units, frame, spacing, orig
 generating config: solver settings, seed, map sources). One group per map::
 
     cases/speed (C,) m/s, cases/direction_deg (C,) deg      the inlet grid shared by every map
-    maps/<k>/x (nx,), y (ny,)                               written once, at creation
+    maps/<k>/x (nx,), y (ny,), seed (C,) int                written once, at creation
     maps/<k>/wind (C, 2, ny, nx) m/s, chunks (1, 2, ny, nx)  [u, v] mean wind of case c
     maps/<k>/solid (C, ny, nx) bool, chunks (1, ny, nx)      the solver's solid cells of case c
     maps/<k>/frames (C, T, 2, ny, nx) m/s, chunks (1, 1, 2, ny, nx)   (when recorded)
-    maps/<k>/seed (C,) int, seconds (C,) s, done (C,) bool, chunks (1,)
-    maps/<k>/diagnostics (C, 5), chunks (1, 5)   flow-throughs of spin-up and window, the
-        mean's half-window difference / U, Smagorinsky constant, filter width m (columns
-        named in its attributes; see windnav.flow.FlowSolution)
+    maps/<k>/diagnostics (C, D), chunks (1, D)   flow-throughs of spin-up and window, the
+        mean's half-window difference / U, Smagorinsky constant, filter width m, viscosity
+        (columns named in its attributes; see windnav.flow.FlowSolution)
+    maps/<k>/seconds (C,) s, done (C,) bool, chunks (1,)
+    maps/<k>/checksums (C, A) int64, chunks (1, A)   digest of each case's wind, solid, frames,
+        diagnostics and seconds (columns named in its attributes)
 
 Maps of different sizes are kept in separate groups rather than padded to a common grid: a padded
 grid would waste memory on the largest map's size, need a validity mask besides the solid mask and
@@ -19,15 +21,28 @@ break the meaning of ``x``/``y``; a reader iterating ``(map, case)`` pairs loses
 
 The solid mask is stored per case because the solver's mask can differ from the footprints
 (pockets no outflow can reach are filled, and which sides are outflows depends on the inlet).
-Every simulation owns its own chunks, so parallel workers write without locks. A worker writes
-its wind, solid mask (and frames), then ``seconds``, and only then ``done[c] = True`` (the
-completion marker). Zarr's local store writes each chunk to a temporary file and renames it, and
-chunks are compressed with a checksummed Zstandard frame, so a crash leaves a case either
-finished and marked done, or not marked and recomputed (and overwritten) on the next run.
-Reopening a store with :meth:`SweepStore.create` and the same config resumes it; a different
-config is refused.
 
-One simulation on its own: :mod:`windnav.flow.solution_io`.
+Completion and integrity
+------------------------
+Every simulation owns its own chunks, so parallel workers write without locks. A worker writes
+its wind, solid mask, frames, diagnostics and ``seconds``, then their digests (the first 8
+bytes of a SHA-256 of each case's decoded slice, :func:`windnav.flow._zarr.digest`), and only
+then ``done[c] = True`` (the completion marker). Zarr's local store writes each chunk to a
+temporary file and renames it, so a crash leaves a case either finished and marked done, or not
+marked and recomputed (and overwritten) on the next run. The arrays written once at creation
+(``cases/*``, ``x``, ``y``, ``seed``) have their digests in the attributes (``checksums``).
+
+Damage after the fact is found by :meth:`SweepStore.verify`: it reads back every array of every
+finished case and compares it with its digest. Chunks are compressed with a checksummed
+Zstandard frame, so flipped bytes are a read error; a *deleted* chunk reads back as the array's
+fill value (NaN wind, no buildings, zeros) and is caught by its digest. Damaged cases are marked
+not done (:meth:`SweepStore.invalidate`) and recomputed by the next run; damaged creation-time
+arrays are rewritten when the sweep is resumed (:meth:`SweepStore.create`). Stores written
+before the digests existed can only be checked for unreadable chunks and non-finite wind; their
+other finished cases are reported as unverified.
+
+Reopening a store with :meth:`SweepStore.create` and the same config resumes it; a different
+config is refused. One simulation on its own: :mod:`windnav.flow.solution_io`.
 """
 
 from __future__ import annotations
@@ -36,8 +51,8 @@ import hashlib
 import json
 import math
 import os
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 import zarr
@@ -48,16 +63,32 @@ from windnav.flow._zarr import (
     FRAME,
     SWEEP_FORMAT,
     UNITS,
+    CorruptStoreError,
     compressor,
+    digest,
+    digest_word,
     grid_attrs,
     jsonable,
     open_group,
     read,
+    require_attr,
     write_array,
 )
 from windnav.flow.solver import DIAGNOSTICS
 
-__all__ = ["SweepMap", "SweepMismatchError", "SweepStore", "map_fingerprint"]
+__all__ = [
+    "CorruptStoreError",
+    "SweepMap",
+    "SweepMismatchError",
+    "SweepStore",
+    "VerifyReport",
+    "map_fingerprint",
+]
+
+CASE_ARRAYS = ("wind", "solid", "frames", "diagnostics", "seconds")
+"""The per-case arrays a worker writes (``frames`` only when recorded), in checksum order."""
+DIGEST_NOTE = ("first 8 bytes of SHA-256 of the case's slice (dtype, shape, little-endian "
+               "C-order bytes) as an integer in [1, 2**63); 0: not recorded")
 
 
 class SweepMismatchError(ValueError):
@@ -97,23 +128,90 @@ class SweepMap:
     y: np.ndarray
 
 
+@dataclass(frozen=True)
+class VerifyReport:
+    """What :meth:`SweepStore.verify` found.
+
+    Attributes
+    ----------
+    damaged : dict
+        ``(map, case) -> tuple of str``: finished cases with an array that is unreadable or
+        differs from its digest, and what is wrong (e.g. ``"wind: does not match its
+        checksum ..."``). These are the cases to recompute.
+    unverified : tuple of (int, int)
+        Finished cases that read back but have no digests to compare with (a store written
+        before digests were recorded).
+    store : tuple of str
+        Damaged arrays shared by all cases (``cases/speed``, ``maps/<k>/x``, ...). Resuming
+        the sweep (:meth:`SweepStore.create` with the same maps) rewrites them.
+    n_checked : int
+        Finished cases read back.
+    """
+
+    damaged: dict = field(default_factory=dict)
+    unverified: tuple = ()
+    store: tuple = ()
+    n_checked: int = 0
+
+    @property
+    def ok(self) -> bool:
+        """True when nothing is damaged (unverified cases do not count as damage)."""
+        return not self.damaged and not self.store
+
+    @property
+    def cases(self) -> list[tuple[int, int]]:
+        """The damaged ``(map, case)`` pairs, sorted."""
+        return sorted(self.damaged)
+
+
 class SweepStore:
     """A dataset of flow simulations, ``maps x cases``, in one Zarr v3 store (see module doc).
 
     Open an existing store with ``SweepStore(path)`` (read-only unless ``mode="r+"``); make or
     resume one with :meth:`create`.
+
+    Attributes
+    ----------
+    path : str
+    config : dict
+        The solver settings of the sweep.
+    n_maps, n_cases : int
+    speeds, directions_deg : ndarray of shape (n_cases,)
+        Inlet of each case, m/s and deg.
+    repaired : list of str
+        Creation-time arrays that :meth:`create` found damaged and rewrote (empty otherwise).
+    last_verify : VerifyReport or None
+        The report of the latest :meth:`verify` on this object.
+
+    Raises
+    ------
+    CorruptStoreError
+        (a ValueError) Naming the path and what is missing when the store's metadata, a
+        required attribute (``config``, ``n_maps``) or the case list is damaged.
+    ValueError
+        When there is no store at ``path``, or it is another kind of store.
     """
 
     def __init__(self, path, mode: str = "r"):
         self.path = os.fspath(path)
-        group = open_group(self.path, SWEEP_FORMAT, "SweepStore")
-        self.group = group if mode == "r" else zarr.open_group(self.path, mode=mode)
-        attrs = self.group.attrs
-        self.config = dict(attrs["config"])
-        self.n_maps = int(attrs["n_maps"])
-        self.speeds = read(self.group, "cases/speed", self.path, "SweepStore")
-        self.directions_deg = read(self.group, "cases/direction_deg", self.path, "SweepStore")
+        where = "SweepStore"
+        self.group = open_group(self.path, SWEEP_FORMAT, where, mode=mode)
+        config = require_attr(self.group, "config", self.path, where)
+        n_maps = require_attr(self.group, "n_maps", self.path, where)
+        if not isinstance(config, dict) or isinstance(n_maps, bool) or not isinstance(n_maps, int):
+            raise CorruptStoreError(
+                f"{where}: the Zarr store {self.path!r} has a malformed 'config' or 'n_maps' "
+                f"attribute (config={config!r}, n_maps={n_maps!r})."
+            )
+        self.config = dict(config)
+        self.n_maps = int(n_maps)
+        sums = self.group.attrs.get("checksums", {})
+        self.speeds = _read_checked(self.group, "cases/speed", sums, self.path, where)
+        self.directions_deg = _read_checked(self.group, "cases/direction_deg", sums,
+                                            self.path, where)
         self.n_cases = int(self.speeds.size)
+        self.repaired: list[str] = []
+        self.last_verify: VerifyReport | None = None
 
     @classmethod
     def create(
@@ -127,6 +225,10 @@ class SweepStore:
         seed: int = 0,
     ) -> SweepStore:
         """Make a sweep store, or reopen it for resuming when it holds the same sweep.
+
+        Resuming rewrites creation-time arrays that are damaged (listed in the returned
+        store's ``repaired``) and recreates per-case arrays whose metadata is lost (their
+        cases are then marked not done).
 
         Parameters
         ----------
@@ -154,14 +256,17 @@ class SweepStore:
         ------
         SweepMismatchError
             When ``path`` holds another sweep (different maps, cases, config or seed).
+        CorruptStoreError
+            When ``path`` holds a sweep store whose identity attributes are lost.
         ValueError
             When ``path`` holds a store of another kind (or something that is not a store).
         """
+        where = "SweepStore.create"
         speeds = np.asarray(speeds, dtype=np.float64).reshape(-1)
         directions_deg = np.asarray(directions_deg, dtype=np.float64).reshape(-1)
         case_speed = np.repeat(speeds, directions_deg.size)
         case_dir = np.tile(directions_deg, speeds.size)
-        config = jsonable(config, "config", "SweepStore.create")
+        config = jsonable(config, "config", where)
         ident = {
             "config": config,
             "seed": int(seed),
@@ -171,25 +276,29 @@ class SweepStore:
             "directions_deg": directions_deg.tolist(),
         }
         path = os.fspath(path)
+        static = _static_arrays(maps, case_speed, case_dir, int(seed))
         if _is_unfinished_sweep(path):
             pass  # creation itself was interrupted: nothing computed yet, start over
         elif os.path.exists(path) and (not os.path.isdir(path) or os.listdir(path)):
-            store = cls(path, mode="r+")
-            if store.group.attrs.get("identity") != json.loads(json.dumps(ident)):
+            group = open_group(path, SWEEP_FORMAT, where, mode="r+")
+            if require_attr(group, "identity", path, where) != json.loads(json.dumps(ident)):
                 raise SweepMismatchError(
-                    f"SweepStore.create: {path!r} already holds a different sweep (maps, "
-                    "speeds, directions, solver config or seed differ); write the sweep to "
-                    "another path, or delete the store to start over."
+                    f"{where}: {path!r} already holds a different sweep (maps, speeds, "
+                    "directions, solver config or seed differ); write the sweep to another "
+                    "path, or delete the store to start over."
                 )
+            repaired = _repair(group, maps, static, case_speed.size, int(n_frames))
+            store = cls(path, mode="r+")
+            store.repaired = repaired
             return store
         group = zarr.open_group(path, mode="w")
         group.attrs["windnav_format"] = SWEEP_FORMAT + ".unfinished"
         cases = group.create_group("cases")
-        write_array(cases, "speed", case_speed)
-        write_array(cases, "direction_deg", case_dir)
+        for name in ("speed", "direction_deg"):
+            write_array(cases, name, static[f"cases/{name}"])
         n_cases = case_speed.size
         for k, m in enumerate(maps):
-            _create_map_group(group, k, m, n_cases, int(n_frames), int(seed))
+            _create_map_group(group, k, m, static, n_cases, int(n_frames))
         # Written last: a store without these attributes is not a sweep store and is refused.
         group.attrs.update(
             {
@@ -202,6 +311,7 @@ class SweepStore:
                 "n_maps": len(maps),
                 "n_frames": int(n_frames),
                 "identity": ident,
+                "checksums": {p: digest(a) for p, a in static.items() if p.startswith("cases/")},
                 "format_version": FORMAT_VERSION,
                 "windnav_format": SWEEP_FORMAT,
             }
@@ -209,18 +319,27 @@ class SweepStore:
         return cls(path, mode="r+")
 
     def _map(self, k: int):
-        return self.group[f"maps/{int(k)}"]
+        try:
+            return self.group[f"maps/{int(k)}"]
+        except Exception as exc:
+            raise CorruptStoreError(
+                f"SweepStore: the Zarr store {self.path!r} has a missing or corrupt group "
+                f"'maps/{int(k)}': {exc}"
+            ) from exc
 
     def done(self, k: int) -> np.ndarray:
         """Completion markers of map ``k``: bool array of shape (n_cases,).
 
-        An unreadable marker chunk counts as not done.
+        An unreadable marker chunk (or a lost ``done`` array) counts as not done.
         """
-        arr = self._map(k)["done"]
+        out = np.zeros(self.n_cases, dtype=bool)
+        try:
+            arr = self._map(k)["done"]
+        except Exception:
+            return out
         try:
             return np.asarray(arr[:], dtype=bool)
         except Exception:
-            out = np.zeros(self.n_cases, dtype=bool)
             for c in range(self.n_cases):
                 try:
                     out[c] = bool(arr[c])
@@ -229,30 +348,122 @@ class SweepStore:
             return out
 
     def pending(self, verify: bool = False) -> list[tuple[int, int]]:
-        """``(map, case)`` pairs still to compute.
+        """``(map, case)`` pairs still to compute, sorted.
 
-        With ``verify``, finished cases whose wind cannot be read back (damaged after the
-        fact) are pending too.
+        With ``verify``, finished cases that :meth:`verify` finds damaged are pending too
+        (reading back every array of every finished case).
         """
-        todo = []
-        for k in range(self.n_maps):
-            done = self.done(k)
-            for c in range(self.n_cases):
-                if done[c] and verify:
-                    try:
-                        self._map(k)["wind"][c]
-                    except Exception:
-                        done[c] = False
-                if not done[c]:
-                    todo.append((k, c))
+        todo = [(k, c) for k in range(self.n_maps) for c in np.flatnonzero(~self.done(k))]
+        todo = [(int(k), int(c)) for k, c in todo]
+        if verify:
+            todo = sorted(set(todo) | set(self.verify().damaged))
         return todo
+
+    def verify(self, maps: Iterable[int] | None = None, progress: bool = False) -> VerifyReport:
+        """Read back every array of every finished case and compare it with its digest.
+
+        Parameters
+        ----------
+        maps : iterable of int, optional
+            The maps to check (default: all).
+        progress : bool, default False
+            Show a tqdm progress bar over the finished cases.
+
+        Returns
+        -------
+        VerifyReport
+            Damaged cases (unreadable, missing or changed data) with what is wrong, finished
+            cases that could not be verified (no digests recorded), and damaged
+            creation-time arrays. Also kept as ``last_verify``. Nothing is changed: mark the
+            damaged cases for recomputation with :meth:`invalidate`.
+        """
+        from tqdm import tqdm
+
+        keys = range(self.n_maps) if maps is None else [int(k) for k in maps]
+        todo = [(k, int(c)) for k in keys for c in np.flatnonzero(self.done(k))]
+        damaged, unverified, store = {}, [], list(self._verify_static(keys))
+        groups = {}
+        for k, c in tqdm(todo, desc="verify", unit="case", disable=not progress):
+            if k not in groups:
+                groups[k] = self._case_checker(k)
+            problems, checked = groups[k](c)
+            if problems:
+                damaged[(k, c)] = tuple(problems)
+            elif not checked:
+                unverified.append((k, c))
+        self.last_verify = VerifyReport(damaged, tuple(unverified), tuple(store), len(todo))
+        return self.last_verify
+
+    def invalidate(self, cases: Iterable[tuple[int, int]]) -> None:
+        """Mark ``(map, case)`` pairs not done, so the next run of the sweep recomputes them."""
+        for k, c in cases:
+            g = self._map(k)
+            if "done" in g:
+                g["done"][int(c)] = False
+
+    def _verify_static(self, keys) -> Iterable[str]:
+        root_sums = self.group.attrs.get("checksums")
+        if root_sums is not None:
+            for name in ("cases/speed", "cases/direction_deg"):
+                problem = _static_problem(self.group, name, root_sums)
+                if problem:
+                    yield problem
+        for k in keys:
+            g = self._map(k)
+            sums = g.attrs.get("checksums")
+            if sums is None:
+                continue
+            for name in sums:
+                problem = _static_problem(g, name, sums)
+                if problem:
+                    yield f"maps/{k}/{problem}"
+
+    def _case_checker(self, k: int):
+        """A function ``c -> (problems, verified)`` checking case ``c`` of map ``k``."""
+        g = self._map(k)
+        digests_written = "checksums" in g.attrs  # a store written with digests
+        try:
+            sums_arr = g["checksums"]
+            columns = list(sums_arr.attrs["columns"])
+        except Exception:
+            sums_arr, columns = None, None
+        names = columns or [n for n in CASE_ARRAYS if n in g]
+
+        def check(c: int):
+            problems = []
+            recorded = None
+            if digests_written and sums_arr is None:
+                problems.append("checksums: the array is lost (resuming the sweep recreates it)")
+            elif sums_arr is not None:
+                try:
+                    recorded = np.asarray(sums_arr[c], dtype=np.int64)
+                except Exception as exc:
+                    problems.append(f"checksums: unreadable ({type(exc).__name__}: {exc})")
+                else:
+                    if not recorded.any():
+                        problems.append("checksums: not recorded (a chunk is missing)")
+                        recorded = None
+            for j, name in enumerate(names):
+                try:
+                    word, finite = _case_digest(g, name, c)
+                except Exception as exc:
+                    problems.append(f"{name}: unreadable ({type(exc).__name__}: {exc})")
+                    continue
+                if recorded is not None and word != int(recorded[j]):
+                    problems.append(f"{name}: does not match its checksum (a chunk is missing "
+                                    "or damaged)")
+                elif recorded is None and not finite and name in ("wind", "frames"):
+                    problems.append(f"{name}: not finite (a chunk is missing)")
+            return problems, digests_written or sums_arr is not None
+
+        return check
 
     def case_seed(self, k: int, c: int) -> int:
         """Seed of simulation (map ``k``, case ``c``)."""
-        return int(self._map(k)["seed"][int(c)])
+        return int(read(self._map(k), "seed", self.path, "SweepStore.case_seed", int(c)))
 
     def write_case(self, k: int, c: int, solution, seconds: float = math.nan) -> None:
-        """Write simulation (map ``k``, case ``c``) and then mark it done.
+        """Write simulation (map ``k``, case ``c``), its digests, and then mark it done.
 
         Raises
         ------
@@ -272,8 +483,10 @@ class SweepStore:
                 f"{np.size(solution.x)}) does not match map {k}'s grid ({y.size} x {x.size}) "
                 f"in {self.path!r}."
             )
-        g["wind"][c] = np.stack([solution.mean_u, solution.mean_v]).astype(np.float64)
-        g["solid"][c] = np.asarray(solution.solid, dtype=bool)
+        data = {
+            "wind": np.stack([solution.mean_u, solution.mean_v]).astype(np.float64, copy=False),
+            "solid": np.asarray(solution.solid, dtype=bool),
+        }
         if "frames" in g:
             frames = np.stack([solution.frames_u, solution.frames_v], axis=1)
             if frames.shape != g["frames"].shape[1:]:
@@ -281,24 +494,52 @@ class SweepStore:
                     f"SweepStore.write_case: the solution has frames of shape {frames.shape}; "
                     f"map {k} of {self.path!r} expects {g['frames'].shape[1:]}."
                 )
-            g["frames"][c] = frames.astype(np.float64)
+            data["frames"] = frames.astype(np.float64, copy=False)
         if "diagnostics" in g:
-            g["diagnostics"][c] = [float(getattr(solution, k, np.nan)) for k in DIAGNOSTICS]
-        g["seconds"][c] = float(seconds)
+            columns = g["diagnostics"].attrs.get("columns", list(DIAGNOSTICS))
+            data["diagnostics"] = np.array(
+                [float(getattr(solution, name, np.nan)) for name in columns], dtype=np.float64)
+        data["seconds"] = np.asarray(float(seconds), dtype=np.float64)
+        for name, value in data.items():
+            g[name][c] = value
+        if "checksums" in g:
+            columns = list(g["checksums"].attrs["columns"])
+            g["checksums"][c] = [digest_word(digest(data[name])) for name in columns]
         g["done"][c] = True  # last: the completion marker
 
-    def read_case(self, k: int, c: int) -> dict:
+    def read_case(self, k: int, c: int, verify: bool = True) -> dict:
         """Arrays of simulation (map ``k``, case ``c``).
+
+        Parameters
+        ----------
+        k, c : int
+            Map and case.
+        verify : bool, default True
+            Compare a finished case's arrays with their digests (when the store has them).
 
         Returns
         -------
         dict
             ``x`` (nx,), ``y`` (ny,) m; ``solid`` (ny, nx); ``mean_u``, ``mean_v`` (ny, nx)
-            m/s; ``frames_u``, ``frames_v`` (T, ny, nx) m/s when recorded; ``speed`` m/s,
-            ``direction_deg``, ``seed``, ``done``.
+            m/s; ``frames_u``, ``frames_v`` (T, ny, nx) m/s when recorded; ``diagnostics``
+            (a dict); ``speed`` m/s, ``direction_deg``, ``seed``, ``done``. A case not done
+            reads as the fill values (NaN wind).
+
+        Raises
+        ------
+        CorruptStoreError
+            (a ValueError) Naming the path, the case and the array when an array is
+            unreadable or (with ``verify``) differs from its digest.
         """
         g = self._map(k)
         where = f"SweepStore.read_case({k}, {c})"
+        done = bool(self.done(k)[c])
+        if verify and done:
+            problems, _ = self._case_checker(k)(int(c))
+            if problems:
+                raise CorruptStoreError(
+                    f"{where}: the Zarr store {self.path!r} is damaged: " + "; ".join(problems)
+                )
         wind = read(g, "wind", self.path, where, int(c))
         out = {
             "x": read(g, "x", self.path, where),
@@ -309,19 +550,63 @@ class SweepStore:
             "speed": float(self.speeds[c]),
             "direction_deg": float(self.directions_deg[c]),
             "seed": self.case_seed(k, c),
-            "done": bool(self.done(k)[c]),
+            "done": done,
         }
         if "frames" in g:
             frames = read(g, "frames", self.path, where, int(c))
             out["frames_u"], out["frames_v"] = frames[:, 0], frames[:, 1]
         if "diagnostics" in g:
-            out["diagnostics"] = dict(zip(DIAGNOSTICS, g["diagnostics"][c].tolist(),
-                                          strict=True))
+            columns = g["diagnostics"].attrs.get("columns", list(DIAGNOSTICS))
+            values = read(g, "diagnostics", self.path, where, int(c)).tolist()
+            out["diagnostics"] = dict(zip(columns, values, strict=True))
         return out
 
     def map_attrs(self, k: int) -> dict:
         """Attributes of map ``k``: name, source, bounds, fingerprint, spacing, origin."""
         return dict(self._map(k).attrs)
+
+
+def _read_checked(group, name: str, sums: dict, path: str, where: str) -> np.ndarray:
+    value = read(group, name, path, where)
+    if name in sums and digest(value) != sums[name]:
+        raise CorruptStoreError(
+            f"{where}: the array {name!r} of the Zarr store {path!r} does not match the "
+            "checksum recorded when it was written (a chunk is missing or damaged); resuming "
+            "the sweep with the same maps and settings rewrites it."
+        )
+    return value
+
+
+def _static_problem(group, name: str, sums: dict) -> str | None:
+    """What is wrong with creation-time array ``name`` of ``group``, or None."""
+    try:
+        value = np.asarray(group[name][...])
+    except Exception as exc:
+        return f"{name}: unreadable ({type(exc).__name__}: {exc})"
+    if digest(value) != sums.get(name):
+        return f"{name}: does not match its checksum (a chunk is missing or damaged)"
+    return None
+
+
+def _case_digest(g, name: str, c: int) -> tuple[int, bool]:
+    """Digest word of case ``c``'s slice of array ``name``, and whether it is all finite.
+
+    Frames are read one chunk at a time, so a long recording need not fit in memory."""
+    arr = g[name]
+    if name == "frames":
+        finite = [True]
+
+        def parts():
+            for t in range(arr.shape[1]):
+                part = np.asarray(arr[c, t])
+                finite[0] = finite[0] and bool(np.isfinite(part).all())
+                yield part
+
+        word = digest_word(digest(shape=arr.shape[1:], dtype=arr.dtype, parts=parts()))
+        return word, finite[0]
+    value = np.asarray(arr[c])
+    finite = bool(np.isfinite(value).all()) if value.dtype.kind == "f" else True
+    return digest_word(digest(value)), finite
 
 
 def _is_unfinished_sweep(path: str) -> bool:
@@ -332,10 +617,55 @@ def _is_unfinished_sweep(path: str) -> bool:
     return fmt == SWEEP_FORMAT + ".unfinished"
 
 
-def _create_map_group(root, k: int, m: SweepMap, n_cases: int, n_frames: int, seed: int):
-    x = np.asarray(m.x, dtype=np.float64)
-    y = np.asarray(m.y, dtype=np.float64)
-    ny, nx = y.size, x.size
+def _static_arrays(maps, case_speed, case_dir, seed: int) -> dict:
+    """The arrays written once at creation, by path: ``cases/*`` and each map's x, y, seed."""
+    out = {"cases/speed": np.asarray(case_speed, dtype=np.float64),
+           "cases/direction_deg": np.asarray(case_dir, dtype=np.float64)}
+    n_cases = int(np.size(case_speed))
+    for k, m in enumerate(maps):
+        out[f"maps/{k}/x"] = np.asarray(m.x, dtype=np.float64)
+        out[f"maps/{k}/y"] = np.asarray(m.y, dtype=np.float64)
+        out[f"maps/{k}/seed"] = np.asarray(
+            [int(np.random.SeedSequence([seed, k, c]).generate_state(1, np.uint32)[0])
+             for c in range(n_cases)], dtype=np.int64)
+    return out
+
+
+def _case_array_specs(n_cases: int, ny: int, nx: int, n_frames: int) -> dict:
+    """name -> (shape, chunks, dtype, fill value, attributes) of the per-case arrays."""
+    specs = {
+        "wind": ((n_cases, 2, ny, nx), (1, 2, ny, nx), np.float64, np.nan,
+                 {"units": "m/s", "axis1": ["u", "v"]}),
+        "solid": ((n_cases, ny, nx), (1, ny, nx), bool, False, {}),
+    }
+    if n_frames > 0:
+        specs["frames"] = ((n_cases, n_frames, 2, ny, nx), (1, 1, 2, ny, nx), np.float64,
+                           np.nan, {"units": "m/s", "axis2": ["u", "v"]})
+    nd = len(DIAGNOSTICS)
+    specs["diagnostics"] = ((n_cases, nd), (1, nd), np.float64, np.nan,
+                            {"columns": list(DIAGNOSTICS)})
+    specs["seconds"] = ((n_cases,), (1,), np.float64, np.nan, {"units": UNITS["seconds"]})
+    columns = [n for n in CASE_ARRAYS if n in specs]
+    specs["checksums"] = ((n_cases, len(columns)), (1, len(columns)), np.int64, 0,
+                          {"columns": columns, "digest": DIGEST_NOTE})
+    specs["done"] = ((n_cases,), (1,), bool, False, {})
+    return specs
+
+
+def _create_case_array(g, name: str, spec) -> None:
+    shape, chunks, dtype, fill, attrs = spec
+    arr = g.create_array(name, shape=shape, chunks=chunks, dtype=dtype, fill_value=fill,
+                         compressors=compressor(), overwrite=True)
+    if attrs:
+        arr.attrs.update(attrs)
+
+
+def _write_static(g, name: str, value: np.ndarray) -> None:
+    write_array(g, name, value, chunks=(1,) if name == "seed" else None)
+
+
+def _create_map_group(root, k: int, m: SweepMap, static: dict, n_cases: int, n_frames: int):
+    y, x = static[f"maps/{k}/y"], static[f"maps/{k}/x"]
     g = root.create_group(f"maps/{k}")
     g.attrs.update(
         {
@@ -346,59 +676,47 @@ def _create_map_group(root, k: int, m: SweepMap, n_cases: int, n_frames: int, se
             "heights": m.city.heights.tolist(),
             "fingerprint": map_fingerprint(m.city),
             **grid_attrs(x, y),
+            "checksums": {n: digest(static[f"maps/{k}/{n}"]) for n in ("x", "y", "seed")},
         }
     )
-    write_array(g, "x", x)
-    write_array(g, "y", y)
-    seeds = [
-        int(np.random.SeedSequence([seed, k, c]).generate_state(1, np.uint32)[0])
-        for c in range(n_cases)
-    ]
-    write_array(g, "seed", np.asarray(seeds, dtype=np.int64), chunks=(1,))
-    wind = g.create_array(
-        "wind",
-        shape=(n_cases, 2, ny, nx),
-        chunks=(1, 2, ny, nx),
-        dtype=np.float64,
-        fill_value=np.nan,
-        compressors=compressor(),
-    )
-    wind.attrs.update({"units": "m/s", "axis1": ["u", "v"]})
-    if n_frames > 0:
-        frames = g.create_array(
-            "frames",
-            shape=(n_cases, n_frames, 2, ny, nx),
-            chunks=(1, 1, 2, ny, nx),
-            dtype=np.float64,
-            fill_value=np.nan,
-            compressors=compressor(),
-        )
-        frames.attrs.update({"units": "m/s", "axis2": ["u", "v"]})
-    g.create_array(
-        "solid",
-        shape=(n_cases, ny, nx),
-        chunks=(1, ny, nx),
-        dtype=bool,
-        fill_value=False,
-        compressors=compressor(),
-    )
-    diag = g.create_array(
-        "diagnostics",
-        shape=(n_cases, len(DIAGNOSTICS)),
-        chunks=(1, len(DIAGNOSTICS)),
-        dtype=np.float64,
-        fill_value=np.nan,
-        compressors=compressor(),
-    )
-    diag.attrs["columns"] = list(DIAGNOSTICS)
-    for name, dtype, fill in (("seconds", np.float64, np.nan), ("done", bool, False)):
-        arr = g.create_array(
-            name,
-            shape=(n_cases,),
-            chunks=(1,),
-            dtype=dtype,
-            fill_value=fill,
-            compressors=compressor(),
-        )
-        if name in UNITS:
-            arr.attrs["units"] = UNITS[name]
+    for name in ("x", "y", "seed"):
+        _write_static(g, name, static[f"maps/{k}/{name}"])
+    for name, spec in _case_array_specs(n_cases, y.size, x.size, n_frames).items():
+        _create_case_array(g, name, spec)
+
+
+def _repair(root, maps, static: dict, n_cases: int, n_frames: int) -> list[str]:
+    """Rewrite damaged creation-time arrays and recreate lost per-case arrays of a resumed
+    store (in the parent, before any worker starts). Returns what was repaired."""
+    repaired = []
+    root_sums = root.attrs.get("checksums")
+    if root_sums is not None:
+        for name in ("cases/speed", "cases/direction_deg"):
+            if _static_problem(root, name, root_sums):
+                write_array(root.require_group("cases"), name.split("/")[1], static[name])
+                repaired.append(name)
+    for k in range(len(maps)):
+        try:
+            g = root[f"maps/{k}"]
+            sums = g.attrs.get("checksums")
+        except Exception:
+            continue  # a lost map group: SweepStore reports it by name
+        if sums is None:
+            continue  # written before digests: nothing to compare with
+        for name in ("x", "y", "seed"):
+            if _static_problem(g, name, sums):
+                _write_static(g, name, static[f"maps/{k}/{name}"])
+                repaired.append(f"maps/{k}/{name}")
+        y, x = static[f"maps/{k}/y"], static[f"maps/{k}/x"]
+        specs = _case_array_specs(n_cases, y.size, x.size, n_frames)
+        lost = []
+        for name, spec in specs.items():
+            try:
+                g[name]
+            except Exception:
+                _create_case_array(g, name, spec)
+                lost.append(name)
+        if lost:
+            g["done"][...] = False  # their cases' data is gone: recompute every case
+            repaired += [f"maps/{k}/{name}" for name in lost]
+    return repaired
