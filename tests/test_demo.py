@@ -6,10 +6,13 @@ from windnav.cli import main
 
 
 def test_demo_end_to_end(tmp_path):
-    assert main(["demo", "--seed", "1", "--out", str(tmp_path)]) == 0
-    summary = json.loads((tmp_path / "summary.json").read_text())
+    js = tmp_path / "demo.json"
+    assert main(["demo", "--seed", "1", "--out", str(tmp_path / "run"), "--json", str(js)]) == 0
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert json.loads(js.read_text()) == summary and summary["command"] == "windnav demo"
+    assert summary["config"]["flow_dt"] == 0.2  # 5 m/s on 2 m cells: CFL 0.5, the default step
     for name in ("map_wind_path.png", "wind_estimate.png"):
-        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert (tmp_path / "run" / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert summary["samples_inside_buildings"] == 0
     assert summary["rotor_saturation_fraction"] == 0.0
     # the wind varies along the route, and the filter follows it

@@ -1,8 +1,14 @@
 """The ``windnav`` command.
 
 Each subcommand lives in its own module under ``windnav.commands`` exposing
-``register(subparsers)``; modules are imported only when listed here, so a
-missing optional dependency of one command never breaks the others.
+``register(subparsers)``. Every module listed here is imported when the parser is built, so a
+command never disappears from ``--help``; a command's optional dependencies (Ray) are imported
+only when it runs, and a missing one is reported then, with an install hint.
+
+Errors: a named error (a ``ValueError``, an ``OSError`` on a path, an exception class defined
+by windnav, a missing optional dependency) is printed as one line and the exit status is
+nonzero; Ctrl-C exits with 130 and one line. Any other exception is a bug and keeps its
+traceback.
 """
 
 from __future__ import annotations
@@ -20,8 +26,18 @@ COMMAND_MODULES = (
     "flow_validate",
     "ukf_montecarlo",
     "calibrate",
+    "sysid",
+    "similitude",
+    "navigate",
     "demo",
 )
+
+EXIT_ERROR = 2
+"""Exit status of a named error (bad input, an output path that cannot be written)."""
+EXIT_FAILED = 1
+"""Exit status of an environment failure (OSError) or a named failure of the computation."""
+EXIT_INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT), as shells report it."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -31,24 +47,49 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
-        try:
-            module = importlib.import_module(f"windnav.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"windnav.commands.{name}":
-                continue  # command not written yet
-            raise
-        module.register(sub)
+        importlib.import_module(f"windnav.commands.{name}").register(sub)
     return parser
 
 
+def _missing_dependency(exc: ImportError) -> bool:
+    """True for a third-party module that is not installed (not a broken windnav import)."""
+    name = getattr(exc, "name", None) or ""
+    return name.split(".")[0] != "windnav"
+
+
+def _named(exc: Exception) -> bool:
+    """An exception class windnav defines (FlowDivergedError, ...): a named error."""
+    return type(exc).__module__.split(".")[0] == "windnav"
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    where = f"windnav {args.command}"
     try:
         return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print(f"{where}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except ValueError as exc:
-        print(f"windnav {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        print(f"{where}: error: {exc}", file=sys.stderr)
+        return EXIT_ERROR
+    except ImportError as exc:
+        if not _missing_dependency(exc):
+            raise
+        hint = "" if "install" in str(exc) else (
+            f"; this command needs the optional dependency {exc.name!r}: install it with pip")
+        print(f"{where}: error: {exc}{hint}", file=sys.stderr)
+        return EXIT_ERROR
+    except OSError as exc:
+        print(f"{where}: error: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    except Exception as exc:
+        if not _named(exc):
+            raise
+        print(f"{where}: error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -6,7 +6,7 @@
     windnav calibrate --vehicle hummingbird --out calib/ --linear   # k_d, k_z only
 
 Flies the vehicle at a range of airspeeds along body x, y and z (hover in a tunnel wind, see
-:mod:`windnav.estimate.calibrate`), fits ``k_d, k_z`` (and ``c_dx, c_dy, c_dz`` unless
+:mod:`windnav.experiments.calibration`), fits ``k_d, k_z`` (and ``c_dx, c_dy, c_dz`` unless
 ``--linear``) by least squares, prints the fit against the vehicle's true coefficients and
 writes ``calibration.json`` (and the flight log ``calibration_log.npz``) into ``--out``.
 """
@@ -17,17 +17,31 @@ import json
 from pathlib import Path
 
 from windnav._validate import positive_float
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
+
+PRODUCTS = ("calibration.json", "calibration_log.npz")
+"""What a run writes into ``--out``."""
 
 
 def register(subparsers) -> None:
     """Add the ``calibrate`` subcommand."""
+    from windnav.vehicle.params import VEHICLES
+
     p = subparsers.add_parser(
         "calibrate",
         help="fit the Wind UKF drag coefficients from simulated steady flights",
         description="Fly a vehicle at several airspeeds along each axis and fit its rotor "
                     "(and parasitic) drag coefficients by least squares.",
     )
-    p.add_argument("--vehicle", default="hummingbird", help="built-in vehicle name")
+    p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES,
+                   help="built-in vehicle name")
     p.add_argument("--out", type=Path, required=True, help="output directory")
     p.add_argument("--seed", type=int, default=0, help="sensor-noise seed (default 0)")
     p.add_argument("--duration", type=float, default=6.0, help="flight time per row, s")
@@ -36,23 +50,28 @@ def register(subparsers) -> None:
                    help="fit only k_d and k_z (parasitic drag fixed at 0)")
     p.add_argument("--sensor-noise", choices=("windnav", "rotorpy"), default="windnav",
                    help="sensor noise models (default windnav's)")
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     """Run the calibration; returns 0."""
     import windnav as wn
-    from windnav.estimate.calibrate import calibration_flights, fit_drag
+    from windnav.estimate.calibrate import fit_drag
+    from windnav.experiments.calibration import calibration_flights
+    from windnav.experiments.results import write_json
     from windnav.experiments.ukf_montecarlo import sensor_suite
 
-    where = "windnav calibrate"
+    name = where(args)
+    seed(args)
     truth = wn.vehicle.params(args.vehicle)
-    duration = positive_float(args.duration, "--duration", where)
-    settle = positive_float(args.settle, "--settle", where, allow_zero=True)
+    duration = positive_float(args.duration, "--duration", name)
+    settle = positive_float(args.settle, "--settle", name, allow_zero=True)
     if settle >= duration:
-        raise ValueError(f"The '--settle' parameter of {where} must be below --duration "
+        raise ValueError(f"The '--settle' parameter of {name} must be below --duration "
                          f"{duration:g}. Got {settle:g} instead.")
-    log = calibration_flights(truth, duration=duration, seed=args.seed,
+    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    log = calibration_flights(truth, duration=duration, rng=args.seed,
                               sensors=sensor_suite(100.0, args.sensor_noise))
     fit = fit_drag(log, truth, settle_s=settle, parasitic=not args.linear)
     print(f"drag calibration of {truth.name}: {fit.rows_used} rows ({fit.rows_dropped} "
@@ -65,12 +84,13 @@ def run(args) -> int:
     print("residual RMS of the specific force (m/s^2): "
           + ", ".join(f"{a} {r:.4f}" for a, r in zip("xyz", fit.residual_rms, strict=True))
           + f"; R^2 in-plane {fit.r2[0]:.5f}, axial {fit.r2[1]:.5f}")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    record = {"vehicle": truth.name, "seed": args.seed, "fit": json.loads(fit.to_json()),
-              "true": {k: getattr(truth, k) for k in fit.coefficients},
-              "relative_error": rel}
-    (out / "calibration.json").write_text(json.dumps(record, indent=2))
-    log.save(out / "calibration_log.npz")
-    print(f"wrote {out / 'calibration.json'} and {out / 'calibration_log.npz'}")
+    record = document("calibrate", {
+        "vehicle": truth.name, "seed": args.seed, "fit": json.loads(fit.to_json()),
+        "true": {k: getattr(truth, k) for k in fit.coefficients}, "relative_error": rel}, args)
+    with out.writing() as stage:
+        write_json(record, stage.dir / "calibration.json")
+        log.save(stage.dir / "calibration_log.npz")
+        if stage.file("--json") is not None:
+            write_json(record, stage.file("--json"))
+    print_written(out)
     return 0

@@ -1,14 +1,41 @@
-"""``windnav fly``: fly a trajectory in wind; write the FlightLog and PNG plots."""
+"""``windnav fly``: fly a trajectory in wind; write the FlightLog and PNG plots.
+
+::
+
+    windnav fly --trajectory circle --wind dryden --duration 20 --out out/fly
+    windnav fly --dt 0.01 --sensor-rate-hz 100 --json fly.json --overwrite
+    windnav fly --conditions thesis --out out/fly_thesis     # + the Wind UKF's RMSE
+
+The harness is :mod:`windnav.experiments.flight`. The controller runs at 100 Hz and the
+sensors at their own rates (IMU 200 Hz, odometry and rotor speeds 100 Hz), each lowered to
+the fastest rate a physics step ``--dt`` allows; a rate given with ``--control-rate-hz`` or
+``--sensor-rate-hz`` must be a whole number of steps. ``--conditions NAME`` (a Wind UKF preset,
+``docs/ukf.md``) flies that preset's sensors (all at 100 Hz unless ``--sensor-rate-hz``) and runs
+the Wind UKF on the log under it; the summary adds the wind RMSE.
+"""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
-import numpy as np
+from windnav._validate import finite_float, positive_float
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
+
+PRODUCTS = ("log.npz", "summary.json", "flight_*.png")
+"""What a run writes into ``--out``."""
 
 
 def register(sub) -> None:
+    from windnav.estimate.conditions import CONDITIONS
+    from windnav.experiments.flight import WIND_KINDS
     from windnav.sim.trajectories import TRAJECTORIES
     from windnav.vehicle.params import VEHICLES
 
@@ -16,7 +43,7 @@ def register(sub) -> None:
                        description="Fly a reference trajectory with the SE(3) controller in a "
                                    "constant or Dryden wind; write log.npz, summary.json, PNGs.")
     p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES)
-    p.add_argument("--wind", default="dryden", choices=("none", "constant", "dryden"))
+    p.add_argument("--wind", default="dryden", choices=WIND_KINDS)
     p.add_argument("--wind-mean", type=float, nargs=3, default=(3.0, 1.0, 0.0),
                    metavar=("WX", "WY", "WZ"), help="mean wind, world frame, m/s")
     p.add_argument("--wind-sigma", type=float, nargs=3, default=(1.5, 1.5, 0.7),
@@ -24,56 +51,85 @@ def register(sub) -> None:
     p.add_argument("--trajectory", default="circle", choices=TRAJECTORIES)
     p.add_argument("--size", type=float, default=3.0,
                    help="circle radius / line length / waypoint square side, m")
-    p.add_argument("--speed", type=float, default=2.0, help="reference speed, m/s")
+    p.add_argument("--speed", type=float, default=2.0,
+                   help="reference speed, m/s (> 0 for a line or waypoints)")
     p.add_argument("--duration", type=float, default=20.0, help="flight time, s")
-    p.add_argument("--dt", type=float, default=0.005, help="physics step, s")
+    p.add_argument("--dt", type=float, default=0.005, help="physics step, s (%(default)s)")
+    p.add_argument("--control-rate-hz", type=float, default=None,
+                   help="SE(3) controller rate, Hz; a whole number of --dt steps (default: "
+                        "100, or the fastest rate below it that fits --dt)")
+    p.add_argument("--sensor-rate-hz", type=float, default=None,
+                   help="run every sensor at this rate, Hz; a whole number of --dt steps "
+                        "(default: IMU 200 Hz, odometry and rotor speeds 100 Hz, each lowered "
+                        "to fit --dt)")
+    p.add_argument("--conditions", choices=tuple(CONDITIONS), default=None,
+                   help="Wind UKF preset: fly its sensors and run the filter under it "
+                        "(windnav, thesis, thesis-0.038, hardware; see docs/ukf.md)")
     p.add_argument("--hub-wind", action="store_true",
                    help="sample the wind at each rotor hub instead of the centre of mass")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", type=Path, default=Path("out/fly"))
+    p.add_argument("--seed", type=int, default=0, help="seed of the gusts and sensor noise")
+    p.add_argument("--out", type=Path, default=Path("out/fly"), help="output folder")
     p.add_argument("--no-plots", action="store_true")
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
-def make_wind(kind: str, mean, sigma, seed: int):
-    """The wind named on the command line."""
-    from windnav.wind import ConstantWind, DrydenWind
+def _check_rates(dt: float, control_rate_hz, sensor_rate_hz, name: str) -> None:
+    """A rate given on the command line must be a whole number of physics steps ``--dt``."""
+    from windnav.experiments.flight import misfit_rates
 
-    if kind == "none":
-        return ConstantWind((0.0, 0.0, 0.0))
-    if kind == "constant":
-        return ConstantWind(tuple(mean))
-    return DrydenWind(mean=tuple(mean), sigma=tuple(sigma), seed=seed)
+    rates = {flag: rate for flag, rate in (("--control-rate-hz", control_rate_hz),
+                                           ("--sensor-rate-hz", sensor_rate_hz))
+             if rate is not None}
+    bad = misfit_rates(dt, rates)
+    if bad:
+        listed = " and ".join(f"{flag} {rate:g} (period {1.0 / rate:g} s)"
+                              for flag, rate in bad.items())
+        raise ValueError(
+            f"The '--dt' parameter of {name} must divide the period of {listed}. Got {dt:g} "
+            "instead; use a --dt that does, or lower the rate (left out, each rate fits "
+            "itself to --dt).")
 
 
 def run(args) -> int:
-    import windnav as wn
-    from windnav.viz.flight import plot_flight
+    from windnav.experiments.flight import make_wind, run_flight
+    from windnav.experiments.results import json_ready, write_json
 
-    params = wn.vehicle.params(args.vehicle)
-    wind = make_wind(args.wind, args.wind_mean, args.wind_sigma, args.seed)
-    traj = wn.sim.make_trajectory(args.trajectory, start=(0.0, 0.0, 2.0), size=args.size,
-                                  speed=args.speed)
-    log = wn.sim.fly(params, traj, wind, args.duration, dt=args.dt, hub_wind=args.hub_wind,
-                     seed=args.seed, progress=True)
-    log.meta.update(command="fly", trajectory_kind=args.trajectory, wind_kind=args.wind)
-    args.out.mkdir(parents=True, exist_ok=True)
-    path = log.save(args.out / "log.npz")
-    settled = log.t >= min(2.0, args.duration / 2)
-    summary = {
-        "vehicle": args.vehicle, "wind": args.wind, "trajectory": args.trajectory,
-        "duration_s": args.duration, "seed": args.seed,
-        "rms_tracking_error_m": float(np.sqrt(np.mean(log.tracking_error[settled] ** 2))),
-        "max_tracking_error_m": float(np.max(log.tracking_error[settled])),
-        "mean_power_W": float(log.power.mean()), "energy_J": float(log.energy[-1, 0]),
-        "rotor_saturation_fraction": log.saturation_fraction,
-        "mean_wind_speed_m_s": float(np.linalg.norm(log.wind, axis=-1).mean()),
-    }
-    (args.out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    files = [path, args.out / "summary.json"]
-    if not args.no_plots:
-        files += plot_flight(log, args.out)
-    print(json.dumps(summary, indent=2))
-    for f in files:
-        print(f"wrote {f}")
+    name = where(args)
+    seed(args)
+    size = positive_float(args.size, "--size", name)
+    duration = positive_float(args.duration, "--duration", name)
+    dt = positive_float(args.dt, "--dt", name)
+    # a line or waypoints must get somewhere; a circle at 0 m/s holds its first point
+    speed = positive_float(args.speed, "--speed", name,
+                           allow_zero=args.trajectory in ("hover", "circle"))
+    control = (None if args.control_rate_hz is None
+               else positive_float(args.control_rate_hz, "--control-rate-hz", name))
+    sensor = (None if args.sensor_rate_hz is None
+              else positive_float(args.sensor_rate_hz, "--sensor-rate-hz", name))
+    _check_rates(dt, control, sensor, name)
+    mean = [finite_float(v, "--wind-mean", name) for v in args.wind_mean]
+    sigma = [positive_float(v, "--wind-sigma", name, allow_zero=True) for v in args.wind_sigma]
+    out = outputs(args, out=("--out", args.out, PRODUCTS))
+
+    wind = make_wind(args.wind, mean, sigma, seed=args.seed)
+    log, metrics = run_flight(args.vehicle, args.trajectory, wind, size=size, speed=speed,
+                              duration=duration, dt=dt, control_rate_hz=control,
+                              sensor_rate_hz=sensor, hub_wind=args.hub_wind, rng=args.seed,
+                              conditions=args.conditions, progress=True)
+    log.meta.update(wind_kind=args.wind)
+    summary = {"vehicle": args.vehicle, "wind": args.wind, "trajectory": args.trajectory,
+               "duration_s": duration, "seed": args.seed, **metrics}
+    doc = document("fly", summary, args)
+    with out.writing() as stage:
+        log.save(stage.dir / "log.npz")
+        write_json(doc, stage.dir / "summary.json")
+        if not args.no_plots:
+            from windnav.viz.flight import plot_flight
+
+            plot_flight(log, stage.dir)
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    print(json.dumps(json_ready(summary), indent=2))
+    print_written(out)
     return 0

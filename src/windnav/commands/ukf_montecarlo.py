@@ -3,7 +3,15 @@
 ::
 
     windnav ukf-montecarlo --trials 50 --seed 0 --json out.json --plot rmse.png
-    windnav ukf-montecarlo --trials 50 --sensor-noise rotorpy --workers 2
+    windnav ukf-montecarlo --conditions thesis --workers 2 --json thesis.json
+    windnav ukf-montecarlo --conditions hardware --workers 2
+
+``--conditions`` picks the sensing and the filter (:data:`windnav.estimate.CONDITIONS`,
+``docs/ukf.md``): ``windnav`` (default, the kindest), ``thesis`` (the thesis's Monte Carlo:
+RotorPy's sensor arithmetic with accelerometer density 0.38^2, RotorPy's Dryden gusts, no
+parasitic drag in the filter), ``thesis-0.038`` (the same with RotorPy's numpy default density
+0.038^2) and ``hardware`` (differenced motion-capture acceleration, PWM rotor speeds,
++-5% parameter errors).
 
 Every trial draws a vehicle (mass and drag around the Hummingbird), calibrates its drag, flies a
 circle in Dryden gusts and scores the filter's 3D wind RMSE after 2 s (definitions:
@@ -11,40 +19,36 @@ circle in Dryden gusts and scores the filter's 3D wind RMSE after 2 s (definitio
 :func:`windnav.experiments.run_tasks`; a failing trial is recorded with its error and does not
 stop the others. The JSON holds the config, one record per trial and a summary (median,
 quartiles); non-finite numbers are written as null.
+
+With ``--json OUT.json``, every finished trial is also appended to ``OUT.partial.jsonl`` as it
+finishes: after Ctrl-C (exit 130) or a kill, rerunning the same command runs only the trials
+not yet done; the partial file is removed once ``OUT.json`` is written.
 """
 
 from __future__ import annotations
 
-import json
-import math
 import os
 import sys
 from pathlib import Path
 
 from windnav._validate import positive_float, positive_int
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
+from windnav.estimate.conditions import CONDITIONS
+from windnav.experiments.results import write_json  # noqa: F401  (re-exported for callers)
 
 MODULE_DOC = __doc__
 
 
-def _clean(obj):
-    """JSON-safe copy: non-finite floats -> None, tuples -> lists."""
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    return obj
-
-
-def write_json(result: dict, path) -> Path:
-    """Write ``result`` atomically as JSON; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(_clean(result), indent=1))
-    tmp.replace(path)
-    return path
+def partial_path(json_path) -> Path:
+    """The record log kept next to ``--json`` while the study runs (``OUT.partial.jsonl``)."""
+    return Path(json_path).with_suffix(".partial.jsonl")
 
 
 def register(subparsers) -> None:
@@ -57,53 +61,122 @@ def register(subparsers) -> None:
     )
     p.add_argument("--trials", type=int, default=50, help="number of trials (default 50)")
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
-    p.add_argument("--json", type=Path, default=None, help="write records + summary here")
     p.add_argument("--plot", type=Path, default=None,
                    help="write the RMSE vs mass-to-drag ratio plot here (PNG)")
-    p.add_argument("--sensor-noise", choices=("windnav", "rotorpy"), default="windnav",
-                   help="sensor noise models (default windnav's; rotorpy: RotorPy's defaults)")
+    p.add_argument("--conditions", choices=tuple(CONDITIONS), default="windnav",
+                   help="sensing and filter preset (default windnav; see docs/ukf.md)")
+    p.add_argument("--sensor-noise", choices=("windnav", "rotorpy"), default=None,
+                   help="under --conditions windnav only: the sensor suite (default windnav's; "
+                        "rotorpy: the earlier study's RotorPy densities)")
     p.add_argument("--vertical-sigma-ratio", type=float, default=None,
-                   help="vertical / horizontal gust std (default MIL-F-8785C at 10 m, 0.53)")
+                   help="vertical / horizontal gust std (default MIL-F-8785C at 10 m, 0.53, "
+                        "for windnav's gusts; 1 for RotorPy's)")
+    p.add_argument("--duration", type=float, nargs=2, default=None, metavar=("MIN", "MAX"),
+                   help="range of the flight time, s (default 20 60)")
     p.add_argument("--backend", choices=("serial", "process", "ray"), default="process")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (default: CPU count)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
-    """Run the study; returns 0 when every trial succeeded, 1 otherwise."""
-    from windnav.experiments.ukf_montecarlo import MonteCarloConfig, run_montecarlo
+def _config(args):
+    from windnav.experiments.ukf_montecarlo import MonteCarloConfig
 
-    where = "windnav ukf-montecarlo"
-    kw = {"n_trials": positive_int(args.trials, "--trials", where), "seed": args.seed,
-          "sensor_noise": args.sensor_noise}
+    name = where(args)
+    seed(args)
+    if args.sensor_noise is not None and args.conditions != "windnav":
+        raise ValueError(f"The '--sensor-noise' parameter of {name} applies to --conditions "
+                         f"windnav only (the {args.conditions!r} conditions fix their sensors). "
+                         f"Got {args.sensor_noise!r} instead.")
+    kw = {"n_trials": positive_int(args.trials, "--trials", name), "seed": args.seed,
+          "sensor_noise": args.sensor_noise, "conditions": args.conditions}
     if args.vertical_sigma_ratio is not None:
         kw["vertical_sigma_ratio"] = positive_float(args.vertical_sigma_ratio,
-                                                    "--vertical-sigma-ratio", where,
+                                                    "--vertical-sigma-ratio", name,
                                                     allow_zero=True)
+    if args.duration is not None:
+        settle = MonteCarloConfig.settle_s
+        lo, hi = (positive_float(v, "--duration", name) for v in args.duration)
+        if not settle < lo <= hi:
+            raise ValueError(f"The '--duration' parameter of {name} must be a range MIN MAX "
+                             f"with {settle:g} s (the unscored settling time) < MIN <= MAX. "
+                             f"Got {lo:g} {hi:g} instead.")
+        kw["duration"] = (lo, hi)
     if args.workers is not None:
-        positive_int(args.workers, "--workers", where)
-    config = MonteCarloConfig(**kw)
-    result = run_montecarlo(config, backend=args.backend, workers=args.workers,
-                            progress=not args.no_progress)
+        positive_int(args.workers, "--workers", name)
+    return MonteCarloConfig(**kw)
+
+
+def _record_log(args, config):
+    """The record log of ``--json`` (None without it), checked before any trial runs."""
+    from windnav.experiments.results import RecordLog, RecordMismatchError
+    from windnav.experiments.ukf_montecarlo import records_header
+
+    if args.json is None:
+        return None
+    log = RecordLog(partial_path(args.json), records_header(config))
+    try:
+        n = sum(r.get("error") is None for r in log.load())
+    except RecordMismatchError:
+        if not args.overwrite:
+            raise ValueError(
+                f"The '--json' parameter of {where(args)} names {str(args.json)!r}, whose "
+                f"partial records {str(log.path)!r} belong to another study (trials, seed or "
+                "ranges differ); rerun that study to finish it, pass --overwrite to discard "
+                "them, or choose another --json.") from None
+        log.remove()
+        n = 0
+    if n:
+        print(f"resuming: {n}/{config.n_trials} trials already done in {log.path}",
+              file=sys.stderr)
+    return log
+
+
+def run(args) -> int:
+    """Run the study; returns 0 when every trial succeeded, 1 otherwise, 130 on Ctrl-C."""
+    from windnav.experiments.ukf_montecarlo import THESIS_MEDIAN, run_montecarlo
+
+    name = where(args)
+    config = _config(args)
+    out = outputs(args, files={"--json": args.json, "--plot": args.plot})
+    log = _record_log(args, config)
+    try:
+        result = run_montecarlo(config, backend=args.backend, workers=args.workers,
+                                progress=not args.no_progress,
+                                records=None if log is None else log.path)
+    except KeyboardInterrupt:
+        if log is None:
+            print(f"{name}: interrupted; finished trials were not kept (pass --json to keep "
+                  "them and resume)", file=sys.stderr)
+        else:
+            n = sum(r.get("error") is None for r in log.load()) if log.path.exists() else 0
+            print(f"{name}: interrupted: {n}/{config.n_trials} trials done, kept in "
+                  f"{log.path}; rerun the same command to resume", file=sys.stderr)
+        return 130
     s = result["summary"]
-    print(f"Wind UKF Monte Carlo: {len(result['trials'])} trials, {result['failed']} failed, "
+    print(f"Wind UKF Monte Carlo ({config.conditions} conditions): {len(result['trials'])} "
+          f"trials ({result['resumed']} resumed), {result['failed']} failed, "
           f"{result['seconds']:.1f} s on {args.workers or os.cpu_count()} workers")
     if s.get("n"):
         print(f"3D wind RMSE after {config.settle_s:g} s (m/s): median {s['median']:.3f}, "
               f"quartiles {s['q1']:.3f} / {s['q3']:.3f}, mean {s['mean']:.3f}, "
-              f"min {s['min']:.3f}, max {s['max']:.3f}")
+              f"min {s['min']:.3f}, max {s['max']:.3f} (thesis: median {THESIS_MEDIAN:g})")
         print("median per world axis (m/s): "
               + ", ".join(f"{a} {v:.3f}" for a, v in zip("xyz", s["median_axes"], strict=True)))
     for t in result["trials"]:
-        if "error" in t:
+        if t.get("error") is not None:
             first = t["error"].splitlines()[0] if t["error"] else "unknown error"
             print(f"trial {t['index']} failed: {first}", file=sys.stderr)
-    if args.json is not None:
-        print(f"wrote {write_json(result, args.json)}")
-    if args.plot is not None:
-        from windnav.viz.ukf import plot_montecarlo
+    with out.writing() as stage:
+        if stage.file("--json") is not None:
+            write_json(document("ukf-montecarlo", result, args), stage.file("--json"))
+        if stage.file("--plot") is not None:
+            from windnav.viz.ukf import plot_montecarlo
 
-        print(f"wrote {plot_montecarlo(result, args.plot)}")
+            plot_montecarlo(result, stage.file("--plot"))
+    if log is not None:
+        log.remove()
+    print_written(out)
     return 0 if result["failed"] == 0 else 1

@@ -5,8 +5,11 @@
     windnav wind --map city.json --speed 5 --direction-deg 30 --out runs/wind
     # -> runs/wind/flow.zarr (see windnav.flow.solution_io) and runs/wind/mean_speed.png
 
-The flow is solved by :func:`windnav.flow.simulate`; the picture shows the time-averaged wind
-speed ``|(mean_u, mean_v)|`` with streamlines of the mean wind over the building footprints.
+The flow is solved by :func:`windnav.flow.simulate` (through
+:func:`windnav.experiments.wind_sweep.simulate_case`, the body every ``wind-sweep`` task runs
+too); the picture (:func:`windnav.experiments.flow_figures.plot_mean_speed`) shows the
+time-averaged wind speed ``|(mean_u, mean_v)|`` with streamlines of the mean wind over the
+building footprints.
 """
 
 from __future__ import annotations
@@ -14,15 +17,25 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import numpy as np
-
 from windnav._validate import finite_float, positive_float, positive_int
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
 from windnav.experiments.wind_sweep import (  # noqa: F401  (re-exported for callers)
     AUTO_CFL,
     DEFAULT_SETTINGS,
     auto_dt,
     simulate_case,
+    solver_grid,
 )
+
+PRODUCTS = ("flow.zarr", "mean_speed.png")
+"""What a run writes into ``--out``."""
 
 
 def add_solver_arguments(parser) -> None:
@@ -55,14 +68,22 @@ def solver_settings(args, max_speed: float) -> dict:
 
     ``max_speed`` (m/s), the fastest inlet, sets the default time step (:func:`auto_dt`).
     """
-    where = f"windnav {args.command}"
-    dx = positive_float(args.dx, "--dx", where)
+    from windnav.flow.solver import MAX_CFL
+
+    name = where(args)
+    dx = positive_float(args.dx, "--dx", name)
+    dt = auto_dt(dx, max_speed) if args.dt is None else positive_float(args.dt, "--dt", name)
+    if max_speed * dt / dx > MAX_CFL:
+        raise ValueError(
+            f"The '--dt' parameter of {name} must keep the CFL number speed*dt/dx at or below "
+            f"{MAX_CFL:g} at the fastest inlet {max_speed:g} m/s; use --dt <= "
+            f"{MAX_CFL * dx / max_speed:.4g} (or leave it out). Got {dt:g} instead.")
     return {
         "dx": dx,
-        "dt": auto_dt(dx, max_speed) if args.dt is None else positive_float(args.dt, "--dt", where),
-        "spinup_steps": _count(args.spinup_steps, "--spinup-steps", where),
-        "steps": positive_int(args.steps, "--steps", where),
-        "record_every": _count(args.record_every, "--record-every", where),
+        "dt": dt,
+        "spinup_steps": _count(args.spinup_steps, "--spinup-steps", name),
+        "steps": positive_int(args.steps, "--steps", name),
+        "record_every": _count(args.record_every, "--record-every", name),
     }
 
 
@@ -74,55 +95,6 @@ def load_city(path, name: str = "--map", where: str = "windnav wind"):
         raise ValueError(f"The {name!r} parameter of {where} must be an existing RotorPy world "
                          f"JSON file. Got {str(path)!r} instead.")
     return City.from_rotorpy_json(path)
-
-
-def plot_mean_speed(solution, city, path, title: str = "") -> Path:
-    """Save a PNG of the mean wind speed with streamlines over the buildings.
-
-    Parameters
-    ----------
-    solution : FlowSolution
-        ``x`` (nx,), ``y`` (ny,) m; ``solid`` (ny, nx); ``mean_u``, ``mean_v`` (ny, nx) m/s.
-    city : City
-        Its footprints are drawn as grey rectangles.
-    path : str or path-like
-        The PNG to write.
-    title : str, optional
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-    from matplotlib.patches import Rectangle
-
-    x, y = np.asarray(solution.x), np.asarray(solution.y)
-    solid = np.asarray(solution.solid, dtype=bool)
-    u = np.ma.masked_array(solution.mean_u, mask=solid)
-    v = np.ma.masked_array(solution.mean_v, mask=solid)
-    speed = np.ma.sqrt(u * u + v * v)
-    aspect = (np.ptp(y) + 1.0) / (np.ptp(x) + 1.0)
-    fig = Figure(figsize=(7.0, float(np.clip(6.0 * aspect, 2.5, 12.0)) + 0.8))
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
-    mesh = ax.pcolormesh(x, y, speed, shading="nearest", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label="mean wind speed (m/s)")
-    if x.size > 1 and y.size > 1:
-        ax.streamplot(x, y, u.filled(np.nan), v.filled(np.nan), color="w", linewidth=0.6,
-                      density=1.2, arrowsize=0.7)
-    for x0, x1, y0, y1 in city.footprints:
-        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, facecolor="0.45", edgecolor="k",
-                               linewidth=0.4, zorder=3))
-    hx = 0.5 * (x[1] - x[0]) if x.size > 1 else 0.5
-    hy = 0.5 * (y[1] - y[0]) if y.size > 1 else 0.5
-    ax.set_xlim(x[0] - hx, x[-1] + hx)
-    ax.set_ylim(y[0] - hy, y[-1] + hy)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x east (m)")
-    ax.set_ylabel("y north (m)")
-    if title:
-        ax.set_title(title)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=150, bbox_inches="tight")
-    return path
 
 
 def register(subparsers) -> None:
@@ -139,19 +111,26 @@ def register(subparsers) -> None:
                    help="inlet direction the wind blows toward, deg CCW from +x (%(default)s)")
     p.add_argument("--out", required=True, help="output directory")
     add_solver_arguments(p)
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args, simulate=None) -> int:
     """Run ``windnav wind``; returns the exit code."""
+    from windnav.experiments.flow_figures import plot_mean_speed
+    from windnav.experiments.results import write_json
     from windnav.flow.solution_io import save_flow
 
-    where = "windnav wind"
-    speed = positive_float(args.speed, "--speed", where)
-    direction_deg = finite_float(args.direction_deg, "--direction-deg", where)
+    name = where(args)
+    seed(args)
+    speed = positive_float(args.speed, "--speed", name)
+    direction_deg = finite_float(args.direction_deg, "--direction-deg", name)
     settings = solver_settings(args, speed)
     city = load_city(args.map)
-    out = Path(args.out)
+    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    x, y = solver_grid(city, settings["dx"])
+    print(f"{name}: solving {x.size} x {y.size} cells, {settings['spinup_steps']} spin-up + "
+          f"{settings['steps']} averaged steps of {settings['dt']:g} s", flush=True)
     solution, seconds = simulate_case(city, speed, direction_deg, settings, args.seed, simulate)
     config = {
         "speed": speed,
@@ -161,13 +140,18 @@ def run(args, simulate=None) -> int:
         "map_source": os.path.abspath(args.map),
         "solve_seconds": seconds,
     }
-    out.mkdir(parents=True, exist_ok=True)
-    save_flow(solution, out / "flow.zarr", config=config)
-    png = plot_mean_speed(
-        solution, city, out / "mean_speed.png",
-        title=f"{Path(args.map).name}: inlet {speed:g} m/s toward {direction_deg:g} deg",
-    )
-    print(f"solved in {seconds:.1f} s; wrote {out / 'flow.zarr'} and {png}")
+    with out.writing() as stage:
+        save_flow(solution, stage.dir / "flow.zarr", config=config)
+        plot_mean_speed(
+            solution, city, stage.dir / "mean_speed.png",
+            title=f"{Path(args.map).name}: inlet {speed:g} m/s toward {direction_deg:g} deg",
+        )
+        if stage.file("--json") is not None:
+            diagnostics = dict(getattr(solution, "diagnostics", {}) or {})
+            write_json(document("wind", {"config": config, "diagnostics": diagnostics}, args),
+                       stage.file("--json"))
+    print(f"solved in {seconds:.1f} s")
+    print_written(out)
     print(averaging_report(solution))
     return 0
 

@@ -9,6 +9,8 @@
 Default inlet grid (the thesis's training data): speeds 0.1, 2.575, 5.05, 7.525, 10.0 m/s x
 8 directions 0, 45, ..., 315 deg. The harness is :mod:`windnav.experiments.wind_sweep`;
 rerunning the same command after an interruption computes only the simulations not marked done.
+``--json`` writes one record per task run now (a map and direction, its pending speeds) and the
+counts; the store itself is never replaced (``--overwrite`` applies to ``--json`` only).
 """
 
 from __future__ import annotations
@@ -17,10 +19,18 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from windnav._validate import positive_float, positive_int
+from windnav.commands._common import (
+    add_output_arguments,
+    check_output_path,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
 from windnav.commands.wind import add_solver_arguments, load_city, solver_settings
+from windnav.experiments.maps import MAP_KINDS, generated_maps
 from windnav.experiments.wind_sweep import (  # noqa: F401  (re-exported for callers)
     THESIS_DIRECTIONS,
     THESIS_SPEEDS,
@@ -47,21 +57,6 @@ def _map_files(items) -> list[Path]:
     return files
 
 
-def _generated_maps(k: int, kind: str, seed: int):
-    """``k`` procedural maps of ``windnav.city.<kind>_map``, map i drawn from spawn i of seed."""
-    import windnav.city as city_pkg
-
-    make = getattr(city_pkg, f"{kind}_map", None)
-    if make is None:
-        raise ValueError(
-            f"The '--map-kind' parameter of windnav wind-sweep must name a generator of "
-            f"windnav.city (training, planning, dense). Got {kind!r} instead."
-        )
-    children = np.random.SeedSequence(seed).spawn(k)
-    return [(f"{kind}-{i}", f"windnav.city.{kind}_map(SeedSequence({seed}).spawn({k})[{i}])",
-             make(np.random.default_rng(child))) for i, child in enumerate(children)]
-
-
 def register(subparsers) -> None:
     """Add the ``wind-sweep`` subcommand."""
     p = subparsers.add_parser(
@@ -75,7 +70,7 @@ def register(subparsers) -> None:
                    help="RotorPy world JSON files, or folders of them")
     p.add_argument("--generate", type=int, default=0, metavar="K",
                    help="also make K procedural maps (with --map-kind)")
-    p.add_argument("--map-kind", choices=("training", "planning", "dense"), default="training",
+    p.add_argument("--map-kind", choices=MAP_KINDS, default="training",
                    help="generator of the --generate maps (%(default)s)")
     p.add_argument("--out", required=True, help="the dataset store (a .zarr directory)")
     p.add_argument("--speeds", nargs="+", type=float, default=list(THESIS_SPEEDS),
@@ -91,6 +86,7 @@ def register(subparsers) -> None:
                    help="also recompute finished simulations whose data no longer reads back")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_solver_arguments(p)
+    add_output_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -113,32 +109,38 @@ def _directions_arg(args):
 
 def run(args, simulate=None) -> int:
     """Run ``windnav wind-sweep``; returns 0 when every simulation is done, 1 otherwise."""
+    from windnav.experiments.results import write_json
     from windnav.flow.sweep_store import SweepMismatchError, SweepStore
 
-    where = "windnav wind-sweep"
-    speeds = [positive_float(v, "--speeds", where) for v in args.speeds]
+    name = where(args)
+    seed(args)
+    speeds = [positive_float(v, "--speeds", name) for v in args.speeds]
     settings = solver_settings(args, max(speeds))
-    maps = [(f.stem, os.path.abspath(f), load_city(f, "--maps", where))
+    maps = [(f.stem, os.path.abspath(f), load_city(f, "--maps", name))
             for f in _map_files(args.maps)]
     if args.generate:
-        k = positive_int(args.generate, "--generate", where)
-        maps += _generated_maps(k, args.map_kind, args.seed)
+        k = positive_int(args.generate, "--generate", name)
+        maps += generated_maps(k, args.map_kind, seed=args.seed)
+    check_output_path(args.out, "--out", name, kind="dir")
+    out = outputs(args)
     try:
         store, results = sweep(maps, args.out, speeds=speeds,
                                directions_deg=_directions_arg(args), settings=settings,
                                backend=args.backend, workers=args.workers, seed=args.seed,
                                progress=not args.no_progress, verify=args.verify,
                                simulate=simulate)
-    except ImportError as exc:  # the ray backend without ray
-        raise ValueError(str(exc)) from exc
     except SweepMismatchError as exc:  # the library's message names no flag; add it here
         raise ValueError(
-            f"The '--out' parameter of {where} names {args.out!r}, which already holds a "
+            f"The '--out' parameter of {name} names {args.out!r}, which already holds a "
             "different sweep (maps, speeds, directions, solver config or seed differ); choose "
             "another --out, or delete it to start over."
         ) from exc
     except KeyboardInterrupt:
-        store = SweepStore(args.out)
+        try:
+            store = SweepStore(args.out)
+        except ValueError:  # interrupted before the store was created
+            print(f"{name}: interrupted before any simulation was stored", file=sys.stderr)
+            return 130
         total = store.n_maps * store.n_cases
         print(f"interrupted: {total - len(store.pending())}/{total} simulations done in "
               f"{store.path}; rerun the same command to resume.", file=sys.stderr)
@@ -147,12 +149,24 @@ def run(args, simulate=None) -> int:
     total = store.n_maps * store.n_cases
     n_failed = sum(len(r.task.case_indices) for r in failed)
     n_now = sum(len(r.task.case_indices) for r in results) - n_failed
+    n_done = total - len(store.pending())
     for r in failed:
         t = r.task
         first = (r.error or "").splitlines()[0]
         print(f"failed: map {t.map_index} cases {list(t.case_indices)} (speeds "
               f"{', '.join(f'{s:g}' for s in t.speeds)} m/s, direction {t.direction_deg:g} deg): "
               f"{first}")
-    print(f"{store.path}: {total - len(store.pending())}/{total} simulations done "
+    print(f"{store.path}: {n_done}/{total} simulations done "
           f"({n_now} now, {total - n_now - n_failed} already, {n_failed} failed)")
+    if args.json is not None:
+        records = [{"map_index": r.task.map_index, "cases": list(r.task.case_indices),
+                    "speeds": list(r.task.speeds), "direction_deg": r.task.direction_deg,
+                    "ok": r.ok, "seconds": r.seconds, "error": r.error}
+                   for r in sorted(results, key=lambda r: r.index)]
+        summary = {"store": str(store.path), "simulations": total, "done": n_done,
+                   "now": n_now, "already": total - n_now - n_failed, "failed": n_failed}
+        with out.writing() as stage:
+            write_json(document("wind-sweep", {"records": records, "summary": summary}, args),
+                       stage.file("--json"))
+        print_written(out)
     return 1 if failed else 0

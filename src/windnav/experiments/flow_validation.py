@@ -1,4 +1,10 @@
-"""Strouhal studies of the flow solver against experiments: resolution, incidence, aspect ratio.
+"""Validation of the flow solver: exact checks, and Strouhal studies against experiments.
+
+The checks (:func:`projection_study`, :func:`uniform_study`, :func:`taylor_green_study`), each
+against a reference that does not come from this code: the discrete divergence after every
+projection (0), the normal velocity on building faces (0), uniform flow without buildings
+(stays uniform), the Taylor-Green vortex in a free-slip box (an exact steady Euler solution:
+its energy decay is the scheme's numerical viscosity).
 
 Each study is a list of :class:`windnav.flow.BluffBodyCase` runs (solver defaults unless
 stated), run through :func:`windnav.experiments.executor.run_tasks`:
@@ -21,6 +27,17 @@ from importlib import resources
 
 import numpy as np
 
+from windnav.city import City
+from windnav.flow import (
+    BoundaryConditions,
+    MACGrid,
+    divergence,
+    fixed_face_violation,
+    make_advection,
+    make_domain,
+    make_flow_step,
+    simulate,
+)
 from windnav.flow.strouhal import BluffBodyCase, bluff_body_strouhal
 
 RESOLUTIONS = (8, 16, 32)
@@ -35,6 +52,10 @@ RESOLUTION_CASE = BluffBodyCase(upstream=5.0, downstream=10.0, spinup_time=40.0,
                                 record_time=80.0)
 STUDY_CASE = BluffBodyCase(cells_per_height=STUDY_CELLS, upstream=6.0, downstream=12.0,
                            spinup_time=40.0, record_time=80.0)
+
+
+class StudyFailedError(RuntimeError):
+    """A Strouhal study some of whose runs failed (the message gives the first error)."""
 
 
 def run_case(case: BluffBodyCase) -> dict:
@@ -55,7 +76,8 @@ def _run(cases, backend: str, workers: int | None, progress: bool, desc: str) ->
                                progress=progress, desc=desc), key=lambda r: r.index)
     failed = [r for r in results if not r.ok]
     if failed:
-        raise RuntimeError(f"{len(failed)} Strouhal runs failed; first: {failed[0].error}")
+        raise StudyFailedError(f"{len(failed)} of {len(results)} Strouhal runs ({desc}) "
+                               f"failed; first: {failed[0].error}")
     return [r.value for r in results]
 
 
@@ -237,3 +259,145 @@ def closure_study(resolutions=(8, 16), backend="process", workers=None, progress
         r["closure"] = name
     st = {name: [r["strouhal"] for r in runs if r["closure"] == name] for name in CLOSURES}
     return {"runs": runs, "resolutions": list(resolutions), "strouhal": st}
+
+
+# ------------------------------------------------------------------------------ exact checks
+
+
+def random_city(*, rng) -> City:
+    """Eight random 4-12 m buildings in a 140 x 80 m map (the projection study's map)."""
+    rng = np.random.default_rng(rng)
+    fp = []
+    for _ in range(8):
+        x0, y0 = rng.uniform(15.0, 105.0), rng.uniform(8.0, 62.0)
+        w, h = rng.uniform(4.0, 12.0, 2)
+        fp.append([x0, x0 + w, y0, y0 + h])
+    return City((0.0, 140.0, 0.0, 80.0), fp, np.full(len(fp), 20.0))
+
+
+def projection_study(*, rng, steps: int = 300) -> dict:
+    """Step the flow through a random city (:func:`random_city`), 5 m/s at 15 deg.
+
+    Returns ``max_div_dx_over_U`` and ``max_fixed_face_error`` per step (both 0 for an exact
+    projection), and the last ``u``, ``v``, the ``solid`` mask and the ``grid``.
+    """
+    city = random_city(rng=rng)
+    speed, dx, dt = 5.0, 1.0, 0.1
+    grid = MACGrid((80, 140), dx)
+    domain = make_domain(grid, city.rasterize(grid.x, grid.y),
+                         BoundaryConditions.for_wind(speed, 15.0))
+    step = make_flow_step(domain, dt)
+    u, v = step.project(*domain.initial_velocity(0.05 * speed))
+    div, wall = [], []
+    for _ in range(steps):
+        u, v = step(u, v)
+        div.append(float(np.abs(divergence(domain, u, v)).max() * dx / speed))
+        wall.append(fixed_face_violation(domain, u, v))
+    return {"max_div_dx_over_U": div, "max_fixed_face_error": wall,
+            "solid": domain.solid, "u": u, "v": v, "grid": grid}
+
+
+def uniform_study(directions=(0.0, 30.0, 90.0, 135.0, 200.0, 290.0)) -> dict:
+    """Largest deviation (m/s) of the mean wind from a 4 m/s uniform inlet without buildings,
+    per direction (deg)."""
+    city = City((0.0, 60.0, 0.0, 40.0), np.zeros((0, 4)), np.zeros(0))
+    out = {}
+    for direction in directions:
+        sol = simulate(city, speed=4.0, direction_deg=direction, dx=1.0, dt=0.2,
+                       spinup_steps=50, steps=50)
+        th = np.deg2rad(direction)
+        err = max(np.abs(sol.mean_u - 4.0 * np.cos(th)).max(),
+                  np.abs(sol.mean_v - 4.0 * np.sin(th)).max())
+        out[f"{direction:g}"] = float(err)
+    return out
+
+
+def taylor_green_study(n: int = 64, periods: float = 4.0) -> dict:
+    """Numerical viscosity ``nu`` (m^2/s) of each advection scheme from the energy decay
+    ``E(t) ~ exp(-4 nu t)`` of the Taylor-Green vortex in a free-slip box [0, pi]^2."""
+    dx = np.pi / n
+    grid = MACGrid((n, n), dx)
+    box = make_domain(grid, np.zeros((n, n), bool), BoundaryConditions(("wall",) * 4))
+    res = {}
+    for scheme in ("semi_lagrangian", "maccormack"):
+        u = np.sin(grid.x_faces)[None, :] * np.cos(grid.y)[:, None]
+        v = -np.cos(grid.x)[None, :] * np.sin(grid.y_faces)[:, None]
+        u[:, [0, -1]] = 0.0
+        v[[0, -1], :] = 0.0
+        dt = 0.5 * dx
+        step = make_flow_step(box, dt, make_advection(box, dt, scheme))
+        u, v = step.project(u, v)
+        steps = int(periods * np.pi / dt)
+        e = []
+        for _ in range(steps):
+            e.append(0.5 * (np.sum(u**2) + np.sum(v**2)) * dx**2)
+            u, v = step(u, v)
+        t = dt * np.arange(steps)
+        nu = -np.polyfit(t, np.log(e), 1)[0] / 4.0
+        res[scheme] = {"nu": float(nu), "t": t.tolist(), "energy": e, "dx": dx, "dt": dt}
+    return res
+
+
+# ------------------------------------------------------------------------------ the report
+
+
+def strouhal_studies(full: bool, studies: bool, workers: int | None = None,
+                     progress: bool = True, seed: int = 0) -> dict:
+    """The requested Strouhal studies: ``studies`` the incidence and aspect-ratio studies
+    (with the reference comparison), ``full`` also the resolution series, the closure
+    comparison and the label-noise table (on the training map of ``seed``)."""
+    res = {}
+    if full:
+        res["resolution"] = resolution_study(workers=workers, progress=progress)
+        res["closures"] = closure_study(workers=workers, progress=progress)
+        res["label_noise"] = label_noise_study(seed=seed)
+    if full or studies:
+        res["incidence"] = incidence_study(workers=workers, progress=progress)
+        res["aspect_ratio"] = aspect_ratio_study(workers=workers, progress=progress)
+        res["references"] = compare_references(load_references(), res["incidence"],
+                                               res["aspect_ratio"])
+    return res
+
+
+def brief(res: dict) -> dict:
+    """The studies without the per-run force histories (for the printed summary)."""
+    out = {}
+    for name, study in res.items():
+        if isinstance(study, dict):
+            out[name] = {k: v for k, v in study.items() if k not in ("runs", "points")}
+            if name == "references":
+                out[name]["points"] = [
+                    {k: p[k] for k in ("study", "aspect_ratio", "angle_deg", "strouhal",
+                                       "computed", "deviation", "source")}
+                    for p in study["points"]
+                ]
+    return out
+
+
+def run_validation(*, seed: int = 0, studies: bool = False, full: bool = False,
+                   workers: int | None = None, progress: bool = True) -> dict:
+    """Every check, and the requested Strouhal studies.
+
+    Returns
+    -------
+    dict
+        ``summary`` (JSON-ready: the checks' maxima, per-direction uniform-flow errors, the
+        Taylor-Green viscosities and the studies without their histories), ``runs`` (the
+        studies' per-run records), and ``projection``, ``taylor_green``, ``strouhal`` (the
+        raw results, for the figures of :mod:`windnav.experiments.flow_figures`).
+    """
+    proj = projection_study(rng=np.random.default_rng(seed))
+    uni = uniform_study()
+    tg = taylor_green_study()
+    st = strouhal_studies(full, studies, workers, progress, seed)
+    summary = {
+        "seed": seed,
+        "max_div_dx_over_U": max(proj["max_div_dx_over_U"]),
+        "max_fixed_face_error": max(proj["max_fixed_face_error"]),
+        "uniform_flow_max_error": uni,
+        "taylor_green_nu": {k: r["nu"] for k, r in tg.items()},
+        **brief(st),
+    }
+    runs = {name: study["runs"] for name, study in st.items() if "runs" in study}
+    return {"summary": summary, "runs": runs, "projection": proj, "taylor_green": tg,
+            "strouhal": st}

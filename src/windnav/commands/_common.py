@@ -1,0 +1,58 @@
+"""Arguments and output handling shared by every command.
+
+Every command that writes results takes ``--json PATH`` (a JSON summary, see
+:func:`windnav.experiments.results.document`) and ``--overwrite`` (replace the results of an
+earlier run, removing its stale files); its output paths are checked by
+:class:`windnav.experiments.results.Outputs` before anything is computed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from windnav.experiments.results import Outputs, check_output_path, document
+
+__all__ = ["add_output_arguments", "check_output_path", "document", "outputs", "print_written",
+           "seed", "where"]
+
+
+def add_output_arguments(parser, *, overwrite: bool = True) -> None:
+    """Add ``--json PATH`` (and ``--overwrite``) to ``parser``."""
+    parser.add_argument("--json", type=Path, default=None, metavar="PATH",
+                        help="also write a JSON summary of the run here")
+    if overwrite:
+        parser.add_argument("--overwrite", action="store_true",
+                            help="replace the results of an earlier run (its files that this run "
+                                 "does not write again are removed); without it, existing "
+                                 "results are never replaced")
+
+
+def where(args) -> str:
+    """``"windnav <command>"``, the subject of every message."""
+    return f"windnav {args.command}"
+
+
+def seed(args) -> int:
+    """``--seed``, checked: an integer >= 0 (what ``numpy.random.default_rng`` accepts)."""
+    value = args.seed
+    if isinstance(value, bool) or int(value) != value or value < 0:
+        raise ValueError(f"The '--seed' parameter of {where(args)} must be an integer >= 0. "
+                         f"Got {value!r} instead.")
+    return int(value)
+
+
+def outputs(args, *, out=None, files=None) -> Outputs:
+    """Check the run's output paths now (before any computation); see
+    :class:`~windnav.experiments.results.Outputs`. ``files`` defaults to ``{"--json":
+    args.json}``."""
+    files = {"--json": getattr(args, "json", None)} if files is None else files
+    return Outputs(where(args), out=out, files=files,
+                   overwrite=bool(getattr(args, "overwrite", False)))
+
+
+def print_written(out: Outputs) -> None:
+    """One ``wrote`` line per file written, one ``removed`` line per stale file removed."""
+    for path in out.written:
+        print(f"wrote {path}")
+    for path in out.removed:
+        print(f"removed {path} (from an earlier run)")

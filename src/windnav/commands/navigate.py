@@ -1,0 +1,128 @@
+"""``windnav navigate``: fly a planner variant through a city's urban wind (closed loop).
+
+::
+
+    windnav navigate --map city.json --start 40 300 --goal 560 300 --speed 5 \\
+                     --direction-deg 0 --variant ea-mppi-w --seed 0 --out out/nav --json nav.json
+
+The harness is :func:`windnav.experiments.navigate.navigate` (its docstring describes the loop,
+the termination rules and the two energies). The wind is simulated first (25 s of spin-up and
+100 s of recorded frames on a 1 m grid; ``--spinup-s``, ``--record-s``), which takes about a
+minute for a 600 m map. Writes ``summary.json``, ``series.npz`` (the time series) and two
+figures: the path over the mean wind, and airspeed, power and energy against time.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from windnav._validate import finite_float, positive_float
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
+
+PRODUCTS = ("summary.json", "series.npz", "navigate_*.png")
+"""What a run writes into ``--out``."""
+
+
+def register(sub) -> None:
+    from windnav.plan import VARIANTS
+
+    p = sub.add_parser("navigate", help="fly a planner through a city's urban wind",
+                       description="Simulate the map's unsteady wind, then fly the 6-DoF "
+                                   "Hummingbird from --start to --goal with a planner variant "
+                                   "(closed loop: 10 Hz planner, 100 Hz SE(3) control); report "
+                                   "the outcome, the energy and the flight time.")
+    p.add_argument("--map", type=Path, required=True, metavar="FILE",
+                   help="city map, RotorPy world JSON")
+    p.add_argument("--start", type=float, nargs=2, required=True, metavar=("X", "Y"),
+                   help="start position, m")
+    p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"),
+                   help="goal position, m")
+    p.add_argument("--speed", type=float, required=True, help="inlet wind speed, m/s")
+    p.add_argument("--direction-deg", type=float, default=0.0,
+                   help="direction the wind blows toward, deg CCW from +x (%(default)s)")
+    p.add_argument("--variant", choices=tuple(VARIANTS), default="ea-mppi-w")
+    p.add_argument("--horizon", type=float, default=math.inf,
+                   help="side H of the window in which the -w MPPI variants know the wind, m "
+                        "(default: inf, the whole map)")
+    p.add_argument("--altitude", type=float, default=10.0, help="flight altitude, m")
+    p.add_argument("--tilt-max-deg", type=float, default=55.0,
+                   help="tilt cap of the acceleration commands, deg (%(default)s)")
+    p.add_argument("--spinup-s", type=float, default=25.0, help="wind spin-up, s (%(default)s)")
+    p.add_argument("--record-s", type=float, default=100.0,
+                   help="recorded wind, s; the longest flight (%(default)s)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the planner and LiDAR noise")
+    p.add_argument("--out", type=Path, default=Path("out/navigate"), help="output folder")
+    p.add_argument("--no-plots", action="store_true")
+    add_output_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _city(path: Path, name: str):
+    from windnav.city import City
+
+    if not Path(path).is_file():
+        raise ValueError(f"The '--map' parameter of {name} must be an existing RotorPy world "
+                         f"JSON file. Got {str(path)!r} instead.")
+    return City.from_rotorpy_json(path)
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from windnav.experiments.navigate import navigate, simulate_flow
+    from windnav.experiments.results import json_ready, write_json
+
+    name = where(args)
+    seed(args)
+    speed = positive_float(args.speed, "--speed", name)
+    direction = finite_float(args.direction_deg, "--direction-deg", name)
+    positive_float(args.altitude, "--altitude", name)
+    horizon = float(args.horizon)
+    if not horizon > 0:
+        raise ValueError(f"The '--horizon' parameter of {name} must be > 0 (inf allowed). "
+                         f"Got {args.horizon!r} instead.")
+    spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
+    record = positive_float(args.record_s, "--record-s", name)
+    start = [finite_float(v, "--start", name) for v in args.start]
+    goal = [finite_float(v, "--goal", name) for v in args.goal]
+    city = _city(args.map, name)
+    out = outputs(args, out=("--out", args.out, PRODUCTS))
+
+    # check the start and goal before the (long) flow simulation
+    from windnav.experiments.navigate import check_point
+
+    check_point(city, start, "--start", name)
+    check_point(city, goal, "--goal", name)
+    flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record)
+    result = navigate(city, start, goal, speed=speed, direction_deg=direction,
+                      variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
+                      horizon=horizon, tilt_max_deg=args.tilt_max_deg)
+    summary = {"map": str(args.map), "seed": args.seed, **result.summary()}
+    doc = document("navigate", summary, args)
+    with out.writing() as stage:
+        write_json(doc, stage.dir / "summary.json")
+        np.savez_compressed(stage.dir / "series.npz", t=result.t, position=result.position,
+                            velocity=result.velocity, wind=result.wind,
+                            airspeed=result.airspeed, accel_cmd=result.accel_cmd,
+                            power=result.power, rotor_power=result.rotor_power,
+                            energy=result.energy, rotor_energy=result.rotor_energy)
+        if not args.no_plots:
+            from windnav.viz.navigate import plot_navigation
+
+            plot_navigation(result, city, flow, stage.dir)
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    print(json.dumps(json_ready({k: summary[k] for k in (
+        "outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "distance_m",
+        "mean_cmd_accel", "planner_ms_median", "fallbacks")}), indent=2))
+    print_written(out)
+    return 0

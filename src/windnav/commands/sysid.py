@@ -1,0 +1,578 @@
+"""``windnav sysid``: the thesis's chapter-6 tools, from data files to coefficients and figures.
+
+::
+
+    windnav sysid thrust-stand --csv stand_*.csv --n-rotors 4 --json stand.json --out out/stand
+    windnav sysid aero --log tunnel_log.npz --json aero.json --out out/aero
+    windnav sysid aero --csv tunnel.csv --mass 0.044 --out out/aero
+    windnav sysid power --csv flight.csv --speed-col speed --power-col power --out out/power
+    windnav sysid similitude --full-scale-mass 2000 --full-scale-speed 10 --scale 32
+    windnav sysid unsteadiness --log flight.npz --cell 1 --out out/unsteady
+    windnav sysid simulate-stand --out out/sim_stand --seed 0
+    windnav sysid simulate-tunnel --out out/sim_tunnel --seed 0
+
+Inputs are CSV files (a header line), headerless whitespace tables (``--layout``), FlightLog
+``.npz`` files (``--log``) and ROS 1/2 bags (``--bag`` with ``--topic COLUMN=/topic:field``,
+through the optional ``rosbags`` package). Every fit writes its JSON (coefficients with 95%
+confidence intervals and R^2) and a figure (fitted curves over the data, residuals) into
+``--out``, and the JSON also to ``--json`` when given. Output paths are checked before any
+computation; earlier results are replaced only with ``--overwrite``. The fits are in
+:mod:`windnav.sysid`, the experiments and figures in :mod:`windnav.experiments.sysid`; the
+column layouts are in ``docs/sysid.md``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from windnav._validate import finite_float, positive_float, positive_int
+from windnav.commands._common import add_output_arguments, document, print_written
+
+PRODUCTS = {
+    "thrust-stand": ("thrust_stand.json", "thrust_stand.png"),
+    "aero": ("aero.json", "aero.png"),
+    "power": ("power.json", "power.png"),
+    "unsteadiness": ("unsteadiness.json", "unsteadiness.png"),
+    "simulate-stand": ("stand_*.csv", "truth.json"),
+    "simulate-tunnel": ("tunnel_log.npz", "tunnel.csv", "truth.json"),
+}
+"""What each subcommand writes into ``--out``."""
+
+
+def _where(args) -> str:
+    sub = getattr(args, "sysid_command", None)
+    return f"windnav {args.command}" + (f" {sub}" if sub else "")
+
+
+def _outputs(args, name: str):
+    from windnav.experiments.results import Outputs
+
+    out = None if getattr(args, "out", None) is None else ("--out", args.out, PRODUCTS[name])
+    return Outputs(_where(args), out=out, files={"--json": args.json},
+                   overwrite=bool(getattr(args, "overwrite", False)))
+
+
+def _add_bag_arguments(p) -> None:
+    p.add_argument("--bag", type=Path, action="append", default=[], metavar="BAG",
+                   help="a ROS 1 (.bag) or ROS 2 (folder) bag; repeat for several (needs the "
+                        "rosbags package)")
+    p.add_argument("--topic", action="append", default=[], metavar="COLUMN=/topic:field",
+                   help="map a message field to a column (repeat); the first topic is the "
+                        "time base")
+
+
+def _bag_tables(args, time_column: str) -> list:
+    from windnav.sysid.io import parse_topic_map, read_bag
+
+    if not args.bag:
+        if args.topic:
+            raise ValueError(f"The '--topic' parameter of {_where(args)} is only for --bag.")
+        return []
+    topics = parse_topic_map(args.topic, _where(args))
+    return [read_bag(b, topics, time_column=time_column, where=_where(args)) for b in args.bag]
+
+
+def _print(summary: dict, out) -> None:
+    from windnav.experiments.results import json_ready
+
+    print(json.dumps(json_ready(summary), indent=2))
+    print_written(out)
+
+
+def _write(args, doc: dict, out, name: str, plot=None) -> None:
+    from windnav.experiments.results import write_json
+
+    with out.writing() as stage:
+        if stage.dir is not None:
+            write_json(doc, stage.dir / f"{name}.json")
+            if plot is not None:
+                plot(stage.dir / f"{name}.png")
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+
+
+def _coefficients(payload: dict, names) -> dict:
+    return {n: {"value": payload[n]["value"], "ci95": payload[n]["ci95"]} for n in names}
+
+
+# ------------------------------------------------------------------------------ register
+
+
+def register(sub) -> None:
+    p = sub.add_parser("sysid", help="system identification, energetics and similitude",
+                       description="The thesis's chapter-6 tools: thrust stand, tunnel hover "
+                                   "aerodynamics, power curves, similitude, unsteadiness maps, "
+                                   "and simulated experiments that produce their data.")
+    ss = p.add_subparsers(dest="sysid_command", required=True, metavar="EXPERIMENT")
+    _register_thrust_stand(ss)
+    _register_aero(ss)
+    _register_power(ss)
+    q = ss.add_parser("similitude", help="Froude and Reynolds scaling between a full-scale "
+                                         "aircraft and a model")
+    add_similitude_arguments(q)
+    q.set_defaults(func=run_similitude)
+    _register_unsteadiness(ss)
+    _register_simulate_stand(ss)
+    _register_simulate_tunnel(ss)
+
+
+# ------------------------------------------------------------------------------ thrust stand
+
+
+def _register_thrust_stand(ss) -> None:
+    p = ss.add_parser("thrust-stand", help="fit k_eta and the PWM motor model to stand logs",
+                      description="Keep the steady points (|dw/dt| < --max-accel, w > "
+                                  "--min-speed), fit thrust per rotor = k_eta w^2 and "
+                                  "w = Kv (V + V0)(PWM - DZ)^(2/3). CSV header: timestamp,pwm,"
+                                  "thrust_N,torque_Nm,rpm,voltage_V,current_A (thrust_N: the "
+                                  "whole vehicle; rpm: one motor).")
+    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE")
+    _add_bag_arguments(p)
+    p.add_argument("--n-rotors", type=int, default=4,
+                   help="rotors carrying the measured thrust (%(default)s)")
+    p.add_argument("--max-accel", type=float, default=1000.0,
+                   help="steady: |dw/dt| below this, rad/s^2 (%(default)s)")
+    p.add_argument("--min-speed", type=float, default=250.0,
+                   help="steady: w above this, rad/s (%(default)s)")
+    p.add_argument("--window-s", type=float, default=0.1,
+                   help="window of the dw/dt line fit, s (%(default)s)")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_thrust_stand"))
+    add_output_arguments(p)
+    p.set_defaults(func=run_thrust_stand)
+
+
+def run_thrust_stand(args) -> int:
+    from windnav.experiments.sysid import plot_thrust_stand, thrust_stand_study
+
+    name = _where(args)
+    n_rotors = positive_int(args.n_rotors, "--n-rotors", name)
+    max_accel = positive_float(args.max_accel, "--max-accel", name)
+    min_speed = positive_float(args.min_speed, "--min-speed", name, allow_zero=True)
+    window = positive_float(args.window_s, "--window-s", name)
+    if not args.csv and not args.bag:
+        raise ValueError(f"The '--csv' parameter of {name} must name at least one file (or "
+                         "give --bag).")
+    out = _outputs(args, "thrust-stand")
+    fit, payload = thrust_stand_study(args.csv, n_rotors, max_accel=max_accel,
+                                      min_speed=min_speed, window_s=window,
+                                      tables=_bag_tables(args, "timestamp"), where=name)
+    doc = document("sysid thrust-stand", payload, args)
+    _write(args, doc, out, "thrust_stand", lambda path: plot_thrust_stand(fit, path))
+    _print({**_coefficients(payload, ("k_eta", "Kv", "V0", "DZ")), "r2": payload["r2"]}, out)
+    return 0
+
+
+# ------------------------------------------------------------------------------ aero
+
+
+def _register_aero(ss) -> None:
+    p = ss.add_parser("aero", help="fit k_d, k_eta, k_z, k_h to hover in a known airflow",
+                      description="Lateral: m f_xy = -k_d v_xy sum(eta) + m b; vertical: "
+                                  "m f_z = k_eta sum(eta^2) - k_z v_z sum(eta) + N k_h v_h^2. "
+                                  "CSV header: time_s,airspeed_x,airspeed_y,airspeed_z,"
+                                  "specific_force_x,specific_force_y,specific_force_z,"
+                                  "rotor_speed_1,...,rotor_speed_N (SI, body x fwd, y left, "
+                                  "z up).")
+    p.add_argument("--log", type=Path, nargs="+", default=[], metavar="FILE",
+                   help="FlightLog .npz files (IMU specific force, logged airspeed and rotor "
+                        "speeds)")
+    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE")
+    _add_bag_arguments(p)
+    p.add_argument("--mass", type=float, default=None,
+                   help="vehicle mass, kg (default: from --vehicle or the log)")
+    p.add_argument("--vehicle", default=None, help="take the mass from this vehicle preset")
+    p.add_argument("--settle-s", type=float, default=None,
+                   help="drop log samples before this time, s (default: the log's "
+                        "meta['sysid']['settle_s'], else 0)")
+    p.add_argument("--average-s", type=float, default=None,
+                   help="average consecutive samples over blocks of this many seconds "
+                        "before fitting (against noise on rotor speeds and airspeed)")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_aero"))
+    add_output_arguments(p)
+    p.set_defaults(func=run_aero)
+
+
+def _aero_mass(args, logs, name: str) -> float:
+    from windnav.experiments.sysid import vehicle_names, vehicle_params
+
+    if args.mass is not None:
+        return positive_float(args.mass, "--mass", name)
+    if args.vehicle is not None:
+        if args.vehicle not in vehicle_names():
+            raise ValueError(f"The '--vehicle' parameter of {name} must be one of "
+                             f"{list(vehicle_names())}. Got {args.vehicle!r} instead.")
+        return vehicle_params(args.vehicle).mass
+    for path, log in logs:
+        meta = log.meta
+        if "mass" in meta.get("sysid", {}):
+            return positive_float(meta["sysid"]["mass"], "meta['sysid']['mass']",
+                                  str(path))
+        vehicles = meta.get("vehicles") or []
+        if vehicles and vehicles[0] in vehicle_names():
+            return vehicle_params(vehicles[0]).mass
+    raise ValueError(f"The '--mass' parameter of {name} must be given (kg): the inputs do "
+                     "not say the vehicle's mass (or pass --vehicle).")
+
+
+def run_aero(args) -> int:
+    from windnav.experiments.sysid import aero_study, plot_aero
+    from windnav.sim import FlightLog
+    from windnav.sysid.aero import AeroData, aero_from_flight_log, block_average
+    from windnav.sysid.io import read_table
+
+    name = _where(args)
+    if not (args.log or args.csv or args.bag):
+        raise ValueError(f"The '--log' parameter of {name} must name at least one file (or "
+                         "give --csv or --bag).")
+    settle = (None if args.settle_s is None
+              else positive_float(args.settle_s, "--settle-s", name, allow_zero=True))
+    out = _outputs(args, "aero")
+    logs = [(p, FlightLog.load(p)) for p in args.log]
+    parts = [aero_from_flight_log(log, settle_s=settle, source=str(p)) for p, log in logs]
+    tables = [read_table(p, where=name) for p in args.csv] + _bag_tables(args, "time_s")
+    parts += [AeroData.from_table(t, name) for t in tables]
+    mass = _aero_mass(args, logs, name)
+    if args.average_s is not None:
+        window = positive_float(args.average_s, "--average-s", name)
+        parts = [block_average(p, window) for p in parts]
+    fit, payload = aero_study(parts if len(parts) > 1 else parts[0], mass, where=name)
+    doc = document("sysid aero", payload, args)
+    _write(args, doc, out, "aero", lambda path: plot_aero(fit, path))
+    summary = _coefficients(payload, ("k_eta", "k_d", "k_z", "k_h"))
+    summary["accel_bias"] = {a: payload["accel_bias"][a]["value"] for a in "xy"}
+    _print(summary, out)
+    return 0
+
+
+# ------------------------------------------------------------------------------ power
+
+
+def _register_power(ss) -> None:
+    from windnav.sysid.io import LAYOUTS
+
+    p = ss.add_parser("power", help="fit power against speed; hover, endurance, range speeds",
+                      description="Fit a polynomial (default a cubic) of power against speed; "
+                                  "report hover power, the max-endurance and max-range speeds "
+                                  "and the max-range speed in along-track winds. With "
+                                  "--time-col, only steady level flight is used.")
+    p.add_argument("--csv", type=Path, default=None, metavar="FILE",
+                   help="a CSV with a header, or a headerless whitespace table (columns "
+                        "named 0, 1, ... or by --layout)")
+    _add_bag_arguments(p)
+    p.add_argument("--layout", default=None, choices=sorted(LAYOUTS),
+                   help="column names of a headerless table")
+    p.add_argument("--speed-col", required=True, help="speed column, m/s")
+    p.add_argument("--power-col", required=True, help="electrical power column, W")
+    p.add_argument("--time-col", default=None,
+                   help="time column, s: select steady level flight")
+    p.add_argument("--vertical-speed-col", default=None, help="climb-rate column, m/s")
+    p.add_argument("--altitude-col", default=None, help="height column, m")
+    p.add_argument("--min-altitude", type=float, default=None, help="keep samples above, m")
+    p.add_argument("--max-vertical-speed", type=float, default=0.3,
+                   help="level: |climb rate| below, m/s (%(default)s)")
+    p.add_argument("--max-accel", type=float, default=0.5,
+                   help="steady: |dV/dt| below, m/s^2 (%(default)s)")
+    p.add_argument("--min-segment-s", type=float, default=1.0,
+                   help="drop steady runs shorter than this, s (%(default)s)")
+    p.add_argument("--speed-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
+                   help="fit only the samples with speeds in [LO, HI], m/s")
+    p.add_argument("--degree", type=int, default=3, help="polynomial degree (%(default)s)")
+    p.add_argument("--speed-max", type=float, default=None,
+                   help="upper end of the speed searches, m/s (default: the fastest sample)")
+    p.add_argument("--wind", type=float, nargs=3, default=(-5.0, 5.0, 1.0),
+                   metavar=("MIN", "MAX", "STEP"),
+                   help="along-track winds of the range table, m/s (%(default)s; > 0 "
+                        "tailwind)")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_power"))
+    add_output_arguments(p)
+    p.set_defaults(func=run_power)
+
+
+def _speed_range(value, name: str):
+    if value is None:
+        return None
+    lo = positive_float(value[0], "--speed-range", name, allow_zero=True)
+    hi = positive_float(value[1], "--speed-range", name)
+    if hi <= lo:
+        raise ValueError(f"The '--speed-range' parameter of {name} must be LO < HI. Got "
+                         f"{list(value)} instead.")
+    return lo, hi
+
+
+def run_power(args) -> int:
+    import numpy as np
+
+    from windnav.experiments.sysid import plot_power, power_study
+    from windnav.sysid.io import read_table
+
+    name = _where(args)
+    degree = positive_int(args.degree, "--degree", name)
+    lo, hi, step = (finite_float(v, "--wind", name) for v in args.wind)
+    if step <= 0 or hi < lo:
+        raise ValueError(f"The '--wind' parameter of {name} must be MIN <= MAX and STEP > 0. "
+                         f"Got {list(args.wind)} instead.")
+    winds = np.round(np.arange(lo, hi + 0.5 * step, step), 10)
+    if (args.csv is None) == (not args.bag):
+        raise ValueError(f"The '--csv' parameter of {name} must name one file, or give one "
+                         "--bag instead (not both).")
+    if len(args.bag) > 1:
+        raise ValueError(f"The '--bag' parameter of {name} takes one bag.")
+    speed_max = (None if args.speed_max is None
+                 else positive_float(args.speed_max, "--speed-max", name))
+    out = _outputs(args, "power")
+    table = (read_table(args.csv, layout=args.layout, where=name) if args.csv is not None
+             else _bag_tables(args, args.time_col or "time_s")[0])
+    fit, payload = power_study(
+        table, args.speed_col, args.power_col, degree=degree, speed_max=speed_max,
+        time_col=args.time_col, vertical_speed_col=args.vertical_speed_col,
+        altitude_col=args.altitude_col, min_altitude=args.min_altitude,
+        max_vertical_speed=positive_float(args.max_vertical_speed, "--max-vertical-speed",
+                                          name),
+        max_accel=positive_float(args.max_accel, "--max-accel", name),
+        min_segment_s=positive_float(args.min_segment_s, "--min-segment-s", name,
+                                     allow_zero=True),
+        winds=winds, speed_range=_speed_range(args.speed_range, name), where=name)
+    doc = document("sysid power", payload, args)
+    title = f"{Path(table.source).name}: {args.power_col} vs {args.speed_col}"
+    _write(args, doc, out, "power",
+           lambda path: plot_power(fit, path, title=title, xlabel=f"{args.speed_col} (m/s)"))
+    _print({k: payload[k] for k in ("coefficient_values", "hover_W", "min_power_W",
+                                    "max_endurance_speed", "max_range_speed", "hover_ratio",
+                                    "r2")}, out)
+    return 0
+
+
+# ------------------------------------------------------------------------------ similitude
+
+
+def add_similitude_arguments(p) -> None:
+    """The arguments of ``windnav sysid similitude`` and ``windnav similitude``."""
+    p.add_argument("--full-scale-diameter", type=float, default=1.8,
+                   help="full-scale rotor diameter, m (%(default)s: the thesis's air taxi)")
+    p.add_argument("--model-diameter", type=float, default=0.055,
+                   help="model rotor diameter, m (%(default)s: Crazyflie)")
+    p.add_argument("--scale", type=float, default=None,
+                   help="length scale to use (the thesis rounds 32.7 to 32); default the "
+                        "ratio of the diameters")
+    p.add_argument("--full-scale-mass", type=float, default=None, help="kg")
+    speed = p.add_mutually_exclusive_group()
+    speed.add_argument("--full-scale-speed", type=float, default=None, help="m/s")
+    speed.add_argument("--model-speed", type=float, default=None, help="m/s")
+    p.add_argument("--control-rate-hz", type=float, default=None,
+                   help="the model's control rate, Hz")
+    p.add_argument("--obstacle-width", type=float, default=None,
+                   help="width of the model's obstacle, m (for the shedding frequency)")
+    p.add_argument("--strouhal", type=float, default=0.2,
+                   help="Strouhal number of the shedding (%(default)s)")
+    p.add_argument("--kinematic-viscosity", type=float, default=1.5e-5,
+                   help="m^2/s (%(default)s: air at 20 degC)")
+    add_output_arguments(p)
+
+
+def run_similitude(args) -> int:
+    from windnav.experiments.results import Outputs
+    from windnav.sysid.similitude import Similitude
+
+    name = _where(args)
+    sim = Similitude(positive_float(args.full_scale_diameter, "--full-scale-diameter", name),
+                     positive_float(args.model_diameter, "--model-diameter", name),
+                     None if args.scale is None else positive_float(args.scale, "--scale",
+                                                                    name))
+    out = Outputs(name, files={"--json": args.json}, overwrite=bool(args.overwrite))
+    report = sim.report(full_scale_speed=args.full_scale_speed,
+                        full_scale_mass=args.full_scale_mass, model_speed=args.model_speed,
+                        control_rate_hz=args.control_rate_hz,
+                        obstacle_width=args.obstacle_width, strouhal=args.strouhal,
+                        kinematic_viscosity=args.kinematic_viscosity)
+    doc = document(name.removeprefix("windnav "), report, args)
+    _write(args, doc, out, "similitude")
+    _print(report, out)
+    return 0
+
+
+# ------------------------------------------------------------------------------ unsteadiness
+
+
+def _register_unsteadiness(ss) -> None:
+    p = ss.add_parser("unsteadiness", help="bin wind and control activity on an x-y grid",
+                      description="Mean wind per bin; std of the lateral force command and "
+                                  "mean body-rate magnitude per bin. CSV header: x,y,wind_x,"
+                                  "wind_y,force_cmd_x,force_cmd_y,body_rate_x,body_rate_y,"
+                                  "body_rate_z (SI, world x-y).")
+    p.add_argument("--log", type=Path, nargs="+", default=[], metavar="FILE")
+    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE")
+    p.add_argument("--wind", choices=("truth", "ukf"), default="truth",
+                   help="for logs: the simulator's wind, or the Wind UKF's estimate run on "
+                        "the log's sensors (%(default)s)")
+    p.add_argument("--vehicle", default=None,
+                   help="vehicle preset for k_eta and the UKF (default: the log's)")
+    p.add_argument("--cell", type=float, default=1.0, help="bin size, m (%(default)s)")
+    p.add_argument("--min-count", type=int, default=5,
+                   help="bins with fewer samples are blank (%(default)s)")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_unsteadiness"))
+    add_output_arguments(p)
+    p.set_defaults(func=run_unsteadiness)
+
+
+def run_unsteadiness(args) -> int:
+    from windnav.experiments.sysid import (
+        plot_unsteadiness,
+        ukf_wind_on_log,
+        unsteadiness_study,
+        vehicle_names,
+        vehicle_params,
+    )
+    from windnav.sim import FlightLog
+    from windnav.sysid.io import read_table
+    from windnav.sysid.unsteadiness import FlightSamples, flight_samples_from_log
+
+    name = _where(args)
+    cell = positive_float(args.cell, "--cell", name)
+    min_count = positive_int(args.min_count, "--min-count", name)
+    if not (args.log or args.csv):
+        raise ValueError(f"The '--log' parameter of {name} must name at least one file (or "
+                         "give --csv).")
+    if args.vehicle is not None and args.vehicle not in vehicle_names():
+        raise ValueError(f"The '--vehicle' parameter of {name} must be one of "
+                         f"{list(vehicle_names())}. Got {args.vehicle!r} instead.")
+    out = _outputs(args, "unsteadiness")
+    parts = []
+    for path in args.log:
+        log = FlightLog.load(path)
+        vname = args.vehicle or (log.meta.get("vehicles") or [None])[0]
+        if vname not in vehicle_names():
+            raise ValueError(f"The '--vehicle' parameter of {name} must be given: the log "
+                             f"{str(path)!r} flew {vname!r}, not a known preset.")
+        params = vehicle_params(vname)
+        wind = ukf_wind_on_log(log, params) if args.wind == "ukf" else None
+        parts.append(flight_samples_from_log(log, params.k_eta, wind_xy=wind))
+    parts += [FlightSamples.from_table(read_table(p, where=name), name) for p in args.csv]
+    maps, payload = unsteadiness_study(FlightSamples.concatenate(parts), cell=cell,
+                                       min_count=min_count)
+    payload["wind_source"] = args.wind if args.log else "csv"
+    doc = document("sysid unsteadiness", payload, args)
+    _write(args, doc, out, "unsteadiness", lambda path: plot_unsteadiness(maps, path))
+    _print({k: payload[k] for k in ("n_samples", "occupied_bins", "force_cmd_std_N_max",
+                                    "body_rate_mean_rad_s_max")}, out)
+    return 0
+
+
+# ------------------------------------------------------------------------------ simulations
+
+
+def _vehicle_argument(p) -> None:
+    from windnav.experiments.sysid import THESIS_VEHICLE, vehicle_names
+
+    p.add_argument("--vehicle", default=THESIS_VEHICLE, choices=vehicle_names())
+
+
+def _register_simulate_stand(ss) -> None:
+    from windnav.experiments.sysid import STAND_VOLTAGES
+
+    p = ss.add_parser("simulate-stand", help="simulate the thrust-stand procedure (CSV files)",
+                      description="PWM ramp 10k..50k in 5k steps, 1 s each, at each supply "
+                                  "voltage; first-order motor driven by the PWM model; noisy "
+                                  "thrust, rpm, voltage, current. Writes stand_<V>V.csv and "
+                                  "truth.json into --out.")
+    _vehicle_argument(p)
+    p.add_argument("--voltages", type=float, nargs="+", default=list(STAND_VOLTAGES),
+                   metavar="V", help="supply voltages, V (2.7 ... 4.1)")
+    p.add_argument("--rate-hz", type=float, default=100.0, help="log rate, Hz (%(default)s)")
+    p.add_argument("--step-s", type=float, default=1.0, help="time per PWM step, s")
+    p.add_argument("--kv", type=float, default=None, help="override the motor model's Kv")
+    p.add_argument("--v0", type=float, default=None, help="override V0, V")
+    p.add_argument("--dz", type=float, default=None, help="override DZ, counts")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_stand"))
+    add_output_arguments(p)
+    p.set_defaults(func=run_simulate_stand)
+
+
+def run_simulate_stand(args) -> int:
+    from windnav.experiments.results import write_json
+    from windnav.experiments.sysid import simulate_stand, vehicle_params, write_stand_csvs
+    from windnav.sysid.thrust_stand import PWMMotorModel
+
+    name = _where(args)
+    volts = [positive_float(v, "--voltages", name) for v in args.voltages]
+    rate = positive_float(args.rate_hz, "--rate-hz", name)
+    step = positive_float(args.step_s, "--step-s", name)
+    params = vehicle_params(args.vehicle)
+    overrides = {"Kv": args.kv, "V0": args.v0, "DZ": args.dz}
+    if "pwm_motor" in params.extra:
+        base = PWMMotorModel.from_params(params).to_dict()
+    elif None in overrides.values():
+        raise ValueError(f"The '--kv' parameter of {name} must be given with --v0 and --dz: "
+                         f"the vehicle {args.vehicle!r} carries no PWM motor model.")
+    else:
+        base = {}
+    spec = {**base, **{k: v for k, v in overrides.items() if v is not None}}
+    motor = PWMMotorModel(Kv=spec["Kv"], V0=spec["V0"], DZ=spec["DZ"],
+                          pwm_max=spec.get("pwm_max", 65535.0))
+    out = _outputs(args, "simulate-stand")
+    runs = simulate_stand(params, voltages=volts, rate_hz=rate, step_s=step, motor=motor,
+                          rng=args.seed)
+    truth = {"vehicle": params.name, "n_rotors": params.n_rotors, "k_eta": params.k_eta,
+             "tau_m": params.tau_m, "motor": motor.to_dict(), "voltages": volts,
+             "seed": args.seed}
+    doc = document("sysid simulate-stand", truth, args)
+    with out.writing() as stage:
+        write_stand_csvs(runs, stage.dir)
+        write_json(doc, stage.dir / "truth.json")
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    _print(truth, out)
+    return 0
+
+
+def _register_simulate_tunnel(ss) -> None:
+    from windnav.experiments.sysid import AXES
+
+    p = ss.add_parser("simulate-tunnel", help="simulate hover in a wind tunnel (log + CSV)",
+                      description="Hover (SE(3) control) in steady airflows of 0 ... "
+                                  "--max-speed along body axes, IMU with noise and bias. "
+                                  "Writes tunnel_log.npz, tunnel.csv (aero CSV with "
+                                  "anemometer and telemetry noise) and truth.json.")
+    _vehicle_argument(p)
+    p.add_argument("--axes", nargs="+", default=["x", "y", "xy", "z", "neg_z"],
+                   choices=list(AXES),
+                   help="airspeed directions, body axes (%(default)s)")
+    p.add_argument("--max-speed", type=float, default=6.0, help="m/s (%(default)s)")
+    p.add_argument("--speed-step", type=float, default=0.5, help="m/s (%(default)s)")
+    p.add_argument("--settle-s", type=float, default=2.5,
+                   help="transient dropped by the fits, s (%(default)s)")
+    p.add_argument("--record-s", type=float, default=1.5, help="recorded hover, s")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_tunnel"))
+    add_output_arguments(p)
+    p.set_defaults(func=run_simulate_tunnel)
+
+
+def run_simulate_tunnel(args) -> int:
+    import numpy as np
+
+    from windnav.experiments.results import write_json
+    from windnav.experiments.sysid import simulate_tunnel, vehicle_params
+    from windnav.sysid.io import write_csv
+
+    name = _where(args)
+    vmax = positive_float(args.max_speed, "--max-speed", name, allow_zero=True)
+    step = positive_float(args.speed_step, "--speed-step", name)
+    settle = positive_float(args.settle_s, "--settle-s", name, allow_zero=True)
+    record = positive_float(args.record_s, "--record-s", name)
+    out = _outputs(args, "simulate-tunnel")
+    params = vehicle_params(args.vehicle)
+    speeds = np.round(np.arange(0.0, vmax + 0.5 * step, step), 10)
+    log, columns = simulate_tunnel(params, speeds=speeds, axes=args.axes, settle_s=settle,
+                                   record_s=record, rng=args.seed)
+    truth = {**log.meta["sysid"], "status": log.meta.get("status"), "seed": args.seed}
+    doc = document("sysid simulate-tunnel", truth, args)
+    with out.writing() as stage:
+        log.save(stage.dir / "tunnel_log.npz")
+        write_csv(stage.dir / "tunnel.csv", columns)
+        write_json(doc, stage.dir / "truth.json")
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    _print({k: truth[k] for k in ("vehicle", "mass", "true", "settle_s")}, out)
+    return 0

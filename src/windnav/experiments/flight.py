@@ -1,0 +1,127 @@
+"""One reference flight in wind, and its summary (the harness of ``windnav fly``).
+
+The vehicle flies a named trajectory (:func:`windnav.sim.make_trajectory`) with the SE(3)
+controller in no wind, a constant wind or Dryden gusts; the summary scores the tracking error
+after the take-off transient (``t >= min(2 s, duration / 2)``), the rotor power and energy,
+and the fraction of rotor commands that saturated.
+
+With ``conditions`` (a Wind UKF preset, :data:`windnav.estimate.CONDITIONS`) the vehicle
+carries that preset's sensors and the Wind UKF runs on the log under it
+(:func:`windnav.experiments.ukf_conditions.estimate_wind`; no calibration flights: the filter
+starts from the true parameters, less what the preset's filter does not model or gets wrong);
+the summary adds the wind RMSE after the same transient.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
+
+__all__ = ["WIND_KINDS", "flight_summary", "make_wind", "misfit_rates", "run_flight",
+           "sensors_at", "wind_estimate"]
+
+WIND_KINDS = ("none", "constant", "dryden")
+
+
+def make_wind(kind: str, mean=(0.0, 0.0, 0.0), sigma=(0.0, 0.0, 0.0), *, seed: int = 0):
+    """The wind of a flight: ``"none"``, ``"constant"`` (``mean``, m/s, world frame) or
+    ``"dryden"`` gusts of standard deviation ``sigma`` (m/s) around ``mean``, seeded by ``seed``.
+    """
+    from windnav.wind import ConstantWind, DrydenWind
+
+    if kind == "none":
+        return ConstantWind((0.0, 0.0, 0.0))
+    if kind == "constant":
+        return ConstantWind(tuple(mean))
+    if kind == "dryden":
+        return DrydenWind(mean=tuple(mean), sigma=tuple(sigma), seed=seed)
+    raise ValueError(f"The 'kind' parameter of make_wind must be one of {WIND_KINDS}. "
+                     f"Got {kind!r} instead.")
+
+
+def sensors_at(rate_hz: float | None = None, conditions=None, *, dt: float = 0.005
+               ) -> SensorSuite | None:
+    """windnav's default sensors all at ``rate_hz`` (Hz); None (the runner's defaults, each
+    lowered when needed to fit the physics step) without one. With ``conditions`` (a Wind UKF
+    preset): its sensors, all at ``rate_hz`` or 100 Hz lowered to fit ``dt`` (s)."""
+    if conditions is not None:
+        from windnav.estimate.conditions import ukf_conditions
+        from windnav.sim.loop import fitted_rate
+
+        rate = fitted_rate(100.0, dt) if rate_hz is None else rate_hz
+        return ukf_conditions(conditions).sensor_suite(rate)
+    if rate_hz is None:
+        return None
+    return SensorSuite(IMU(rate_hz=rate_hz), Odometry(rate_hz=rate_hz),
+                       RotorSpeedSensor(rate_hz=rate_hz))
+
+
+def misfit_rates(dt: float, rates: dict[str, float]) -> dict[str, float]:
+    """The ``name -> rate_hz`` of ``rates`` that are not a whole number (>= 1) of physics steps
+    ``dt`` (s) per sample."""
+    bad = {}
+    for name, rate in rates.items():
+        steps = 1.0 / (rate * dt)
+        if round(steps) < 1 or abs(steps - round(steps)) > 1e-6 * steps:
+            bad[name] = rate
+    return bad
+
+
+def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float,
+               duration: float, dt: float, control_rate_hz: float | None = None,
+               sensor_rate_hz: float | None = None, hub_wind: bool = False, rng=0,
+               conditions=None, progress: bool = False):
+    """Fly ``trajectory`` (from (0, 0, 2) m) in ``wind``; returns ``(log, summary)``.
+
+    Parameters as in :func:`windnav.sim.fly` and :func:`windnav.sim.make_trajectory`;
+    ``sensor_rate_hz`` (optional) runs every sensor at one rate. Without rates the controller
+    (100 Hz) and the sensors run at their defaults, lowered where ``dt`` needs it. ``rng``
+    (a seed) draws the sensor noise and the preset's parameter errors. ``conditions`` (a Wind
+    UKF preset name, optional): fly its sensors and run the Wind UKF under it (module
+    docstring); the summary gains ``conditions``, ``wind_rmse_m_s`` and
+    ``wind_rmse_axes_m_s``.
+    """
+    import windnav as wn
+
+    params = wn.vehicle.params(vehicle)
+    traj = wn.sim.make_trajectory(trajectory, start=(0.0, 0.0, 2.0), size=size, speed=speed)
+    log = wn.sim.fly(params, traj, wind, duration, dt=dt, control_rate_hz=control_rate_hz,
+                     sensors=sensors_at(sensor_rate_hz, conditions, dt=dt), hub_wind=hub_wind,
+                     rng=rng, progress=progress)
+    log.meta.update(command="fly", trajectory_kind=trajectory)
+    summary = flight_summary(log, duration)
+    if conditions is not None:
+        summary.update(wind_estimate(log, params, conditions, duration, rng=rng))
+    return log, summary
+
+
+def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
+    """The Wind UKF's accuracy on ``log`` under ``conditions`` (see the module docstring):
+    ``conditions``, ``wind_rmse_m_s`` (3D) and ``wind_rmse_axes_m_s`` after
+    ``min(2 s, duration / 2)``, ``filter_covariance_repairs``."""
+    from windnav.experiments.ukf_conditions import estimate_wind
+
+    track, applied = estimate_wind(log, params, conditions, rng=np.random.default_rng([rng, 2]))
+    settle = min(2.0, duration / 2)
+    return {"conditions": applied["conditions"], "wind_rmse_m_s": track.rmse_after(settle),
+            "wind_rmse_axes_m_s": [track.rmse_after(settle, axis=k) for k in range(3)],
+            "filter_covariance_repairs": int(track.repairs)}
+
+
+def flight_summary(log, duration: float) -> dict:
+    """Tracking error (m) after the take-off transient, power (W), energy (J), saturation,
+    mean wind speed (m/s) and the flight status (``OK``, or the flags of
+    :class:`windnav.sim.log.FlightStatus`: saturated, outside the envelope, non-finite) of
+    ``log``."""
+    settled = log.t >= min(2.0, duration / 2)
+    err = log.tracking_error[settled]
+    return {
+        "status": log.meta.get("status"),
+        "rms_tracking_error_m": float(np.sqrt(np.mean(err ** 2))),
+        "max_tracking_error_m": float(np.max(err)),
+        "mean_power_W": float(log.power.mean()),
+        "energy_J": float(log.energy[-1, 0]),
+        "rotor_saturation_fraction": log.saturation_fraction,
+        "mean_wind_speed_m_s": float(np.linalg.norm(log.wind, axis=-1).mean()),
+    }

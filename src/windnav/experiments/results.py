@@ -1,0 +1,430 @@
+"""Where results go: output paths checked before a run, atomic writes, JSON documents, records.
+
+Every command writes its results through this module, so they share one contract:
+
+* **Checked first.** :class:`Outputs` checks every output path (``--out``, ``--json``,
+  ``--plot``) when it is built, before any computation: the nearest existing ancestor must be a
+  writable folder, a folder is never given where a file is expected (nor the reverse), and the
+  results of an earlier run are never replaced unless ``overwrite=True`` (``--overwrite``).
+* **All or nothing.** A run writes into a staging area next to its targets and moves every
+  file into place only when it finished (:meth:`Outputs.writing`); an exception or Ctrl-C
+  leaves the earlier results as they were and no temporary file behind. With ``overwrite``, the
+  files of the earlier run that this run did not write again (a figure of a study not run this
+  time) are removed, so a folder never mixes two runs.
+* **One JSON shape.** :func:`document` wraps a payload with the command and its arguments;
+  :func:`json_ready` writes non-finite numbers as ``null``.
+* **Finished work is kept.** :class:`RecordLog` appends one JSON line per finished trial, so an
+  interrupted study resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import shutil
+import uuid
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "OutputExistsError",
+    "OutputPathError",
+    "Outputs",
+    "RecordLog",
+    "RecordMismatchError",
+    "atomic_path",
+    "check_output_path",
+    "document",
+    "json_ready",
+    "write_json",
+]
+
+_STAGING_PREFIX = ".windnav-staging-"
+
+
+class OutputPathError(ValueError):
+    """An output path that cannot be written (its parent is a file, a folder is not writable,
+    a folder where a file is expected)."""
+
+
+class OutputExistsError(OutputPathError):
+    """An output path that holds the results of an earlier run, without ``overwrite``."""
+
+
+class RecordMismatchError(ValueError):
+    """A record log that holds the records of another study."""
+
+
+# ------------------------------------------------------------------------------- JSON
+
+
+def json_ready(obj, *, keep_nonfinite: bool = False):
+    """A JSON-safe copy of ``obj``: non-finite floats -> None (kept with ``keep_nonfinite``,
+    for files only Python reads back), tuples and arrays -> lists, paths -> str, numpy scalars
+    -> Python numbers, keys -> str."""
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        return v if keep_nonfinite or math.isfinite(v) else None
+    if isinstance(obj, Mapping):
+        return {str(k): json_ready(v, keep_nonfinite=keep_nonfinite) for k, v in obj.items()}
+    if isinstance(obj, np.ndarray):
+        return json_ready(obj.tolist(), keep_nonfinite=keep_nonfinite)
+    if isinstance(obj, (list, tuple)):
+        return [json_ready(v, keep_nonfinite=keep_nonfinite) for v in obj]
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    return obj
+
+
+def document(command: str, payload: Mapping, arguments=None) -> dict:
+    """The JSON document of one run: ``command``, ``windnav_version``, ``arguments`` (the
+    parsed command line, when given) and the ``payload`` keys."""
+    from windnav import __version__
+
+    doc = {"command": f"windnav {command}", "windnav_version": __version__}
+    if arguments is not None:
+        args = vars(arguments) if not isinstance(arguments, Mapping) else dict(arguments)
+        doc["arguments"] = {k: v for k, v in args.items() if k not in ("func", "command")}
+    doc.update(payload)
+    return json_ready(doc)
+
+
+def write_json(result: Mapping, path, *, indent: int | None = 1) -> Path:
+    """Write ``result`` (made :func:`json_ready`) to ``path`` atomically; returns the path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(json_ready(result), indent=indent, allow_nan=False) + "\n"
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return path
+
+
+# ------------------------------------------------------------------------------- atomic writes
+
+
+def _temporary_name(path: Path) -> Path:
+    """A hidden sibling of ``path`` with the same suffix (writers pick the format from it)."""
+    return path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.windnav-tmp{path.suffix}")
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    else:
+        with contextlib.suppress(FileNotFoundError):
+            path.unlink()
+
+
+@contextlib.contextmanager
+def atomic_path(path) -> Iterator[Path]:
+    """Yield a temporary sibling of ``path`` to write; on success it replaces ``path``.
+
+    On an exception (or Ctrl-C) the temporary file or folder is removed and ``path`` is left
+    as it was. Works for folders too (a Zarr store): the earlier one is replaced whole.
+    """
+    path = Path(path)
+    tmp = _temporary_name(path)
+    try:
+        yield tmp
+        _replace(tmp, path)
+    finally:
+        if tmp.exists() or tmp.is_symlink():
+            _remove(tmp)
+
+
+def _replace(src: Path, dst: Path) -> None:
+    """Move ``src`` onto ``dst``; a folder ``dst`` is swapped out, then deleted."""
+    if dst.is_dir() and not dst.is_symlink():
+        old = _temporary_name(dst)
+        os.replace(dst, old)
+        try:
+            os.replace(src, dst)
+        except BaseException:
+            os.replace(old, dst)
+            raise
+        _remove(old)
+    else:
+        os.replace(src, dst)
+
+
+# ------------------------------------------------------------------------------- output paths
+
+
+def _nearest_existing(path: Path) -> Path:
+    p = path
+    while not (p.exists() or p.is_symlink()):
+        if p.parent == p:
+            break
+        p = p.parent
+    return p
+
+
+def check_output_path(path, flag: str, where: str, *, kind: str = "file") -> Path:
+    """Check that ``path`` can be written as a ``kind`` (``"file"`` or ``"dir"``).
+
+    Raises
+    ------
+    OutputPathError
+        When the path is empty, an ancestor is a file, the nearest existing folder is not
+        writable, or the path is a folder where a file is expected (or the reverse).
+    """
+    if path is None or str(path) == "":
+        raise OutputPathError(f"The {flag!r} parameter of {where} must be a path. "
+                              f"Got {path!r} instead.")
+    p = Path(path)
+    rule = "a file path" if kind == "file" else "a folder path"
+    if p.exists():
+        if kind == "file" and p.is_dir():
+            raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule}, not a "
+                                  f"folder. Got {str(path)!r} instead, which is a folder.")
+        if kind == "dir" and not p.is_dir():
+            raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule}. "
+                                  f"Got {str(path)!r} instead, which is a file.")
+    anchor = _nearest_existing(p if kind == "dir" and p.exists() else p.parent)
+    if not anchor.is_dir():
+        raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule} that can be "
+                              f"created. Got {str(path)!r} instead: {str(anchor)!r} is a file, "
+                              "not a folder.")
+    if not os.access(anchor, os.W_OK | os.X_OK):
+        raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule} in a writable "
+                              f"folder. Got {str(path)!r} instead: {str(anchor)!r} is not "
+                              "writable.")
+    return p
+
+
+def _matches(folder: Path, patterns: Sequence[str]) -> list[Path]:
+    if not folder.is_dir():
+        return []
+    found = {m for pattern in patterns for m in folder.glob(pattern)}
+    return sorted(m for m in found if not m.name.startswith(_STAGING_PREFIX))
+
+
+class Outputs:
+    """The output paths of one run, checked at construction, written all at once.
+
+    Parameters
+    ----------
+    where : str
+        The command, for messages (``"windnav fly"``).
+    out : (flag, path, products), optional
+        An output folder: its flag (``"--out"``), its path, and the names (glob patterns) of
+        everything a run of the command writes there. Those that exist are the results of an
+        earlier run.
+    files : mapping flag -> path, optional
+        Single output files (``{"--json": ..., "--plot": ...}``); None values are skipped.
+    overwrite : bool
+        Replace the results of an earlier run; otherwise an existing one is refused.
+
+    Raises
+    ------
+    OutputPathError
+        A path that cannot be written (see :func:`check_output_path`), or two outputs that name
+        the same file.
+    OutputExistsError
+        An earlier run's results, without ``overwrite``.
+
+    Examples
+    --------
+    >>> outputs = Outputs("windnav fly", out=("--out", "run", ("log.npz",)))  # doctest: +SKIP
+    >>> with outputs.writing() as stage:                                      # doctest: +SKIP
+    ...     log.save(stage.dir / "log.npz")
+    >>> outputs.written                                                       # doctest: +SKIP
+    [PosixPath('run/log.npz')]
+    """
+
+    def __init__(self, where: str, *, out=None, files: Mapping | None = None,
+                 overwrite: bool = False):
+        self.where = where
+        self.overwrite = bool(overwrite)
+        self.dir: Path | None = None
+        self.products: tuple[str, ...] = ()
+        self.files: dict[str, Path] = {}
+        self.written: list[Path] = []
+        self.removed: list[Path] = []
+        if out is not None:
+            flag, path, products = out
+            self.dir = check_output_path(path, flag, where, kind="dir")
+            self.products = tuple(products)
+            self._out_flag = flag
+        for flag, path in (files or {}).items():
+            if path is not None:
+                self.files[flag] = check_output_path(path, flag, where, kind="file")
+        self._check_distinct()
+        self._check_earlier_run()
+
+    def _check_distinct(self) -> None:
+        seen: dict[Path, str] = {}
+        for flag, path in self.files.items():
+            key = Path(os.path.abspath(path))
+            if key in seen:
+                raise OutputPathError(f"The {flag!r} parameter of {self.where} must differ from "
+                                      f"{seen[key]}. Got {str(path)!r} for both.")
+            seen[key] = flag
+            if self.dir is not None and key.parent == Path(os.path.abspath(self.dir)) and any(
+                    key.match(p) for p in self.products):
+                raise OutputPathError(
+                    f"The {flag!r} parameter of {self.where} must not name a file that "
+                    f"{self._out_flag} holds. Got {str(path)!r} instead.")
+
+    def _check_earlier_run(self) -> None:
+        if self.overwrite:
+            return
+        hint = "pass --overwrite to replace them, or choose another path"
+        if self.dir is not None:
+            earlier = _matches(self.dir, self.products)
+            if earlier:
+                names = ", ".join(p.name for p in earlier[:6]) + (", ..." if len(earlier) > 6
+                                                                   else "")
+                raise OutputExistsError(
+                    f"The {self._out_flag!r} parameter of {self.where} names "
+                    f"{str(self.dir)!r}, which holds the results of an earlier run ({names}); "
+                    f"{hint}.")
+        for flag, path in self.files.items():
+            if path.exists():
+                raise OutputExistsError(f"The {flag!r} parameter of {self.where} names "
+                                        f"{str(path)!r}, which already exists; {hint}.")
+
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[_Stage]:
+        """Stage the results; move them into place when the block ends without an exception.
+
+        Yields a stage whose ``dir`` is the folder to write the ``out`` products into and
+        whose :meth:`_Stage.file` gives where to write each single file. On success
+        :attr:`written` lists the final paths and :attr:`removed` the files of an earlier run
+        that this run did not write again.
+        """
+        stage = _Stage(self)
+        try:
+            yield stage
+            self._commit(stage)
+        finally:
+            stage.discard()
+
+    def _commit(self, stage: _Stage) -> None:
+        written = []
+        if stage.dir is not None:
+            new = sorted(stage.dir.iterdir())
+            names = {p.name for p in new}
+            for src in new:
+                dst = self.dir / src.name
+                _replace(src, dst)
+                written.append(dst)
+            # the earlier run's outputs that this run did not write again
+            for stale in _matches(self.dir, self.products):
+                if stale.name not in names:
+                    _remove(stale)
+                    self.removed.append(stale)
+        for flag, tmp in stage.staged_files.items():
+            if tmp.exists():
+                _replace(tmp, self.files[flag])
+                written.append(self.files[flag])
+        self.written = written
+
+
+class _Stage:
+    """Where a run writes before :meth:`Outputs.writing` moves its files into place."""
+
+    def __init__(self, outputs: Outputs):
+        self._outputs = outputs
+        self.dir: Path | None = None
+        self.staged_files: dict[str, Path] = {}
+        if outputs.dir is not None:
+            outputs.dir.mkdir(parents=True, exist_ok=True)
+            self.dir = outputs.dir / f"{_STAGING_PREFIX}{uuid.uuid4().hex[:8]}"
+            self.dir.mkdir()
+        for flag, path in outputs.files.items():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self.staged_files[flag] = _temporary_name(path)
+
+    def file(self, flag: str) -> Path | None:
+        """Where to write the single file of ``flag`` (None when it was not asked for)."""
+        return self.staged_files.get(flag)
+
+    def discard(self) -> None:
+        if self.dir is not None and self.dir.exists():
+            shutil.rmtree(self.dir, ignore_errors=True)
+        for tmp in self.staged_files.values():
+            if tmp.exists() or tmp.is_symlink():
+                _remove(tmp)
+
+
+# ------------------------------------------------------------------------------- record logs
+
+
+class RecordLog:
+    """Finished records of a study, one JSON line each, kept across interruptions.
+
+    The first line is a header (``{"header": ...}``) naming the study; :meth:`load` refuses a
+    file whose header differs, so records of two studies never mix. Each :meth:`append` is
+    flushed and synced before it returns: a Ctrl-C or a kill loses at most the record being
+    written (a torn last line is ignored on load). Non-finite numbers are kept (as Python's
+    ``json`` writes them, ``NaN``, ``Infinity``), so a record reads back as it was written.
+
+    Parameters
+    ----------
+    path : str or path-like
+    header : dict
+        JSON-ready description of the study (its configuration).
+    """
+
+    def __init__(self, path, header: Mapping):
+        self.path = Path(path)
+        self.header = json_ready(dict(header), keep_nonfinite=True)
+
+    def load(self) -> list[dict]:
+        """The records already in the file ([] when there is none).
+
+        Raises
+        ------
+        RecordMismatchError
+            When the file holds another study's records (or is not a record log).
+        """
+        if not self.path.exists():
+            return []
+        lines = self.path.read_text().splitlines()
+        try:
+            head = json.loads(lines[0])["header"] if lines else None
+        except (json.JSONDecodeError, KeyError, TypeError):
+            head = None
+        if head != self.header:
+            raise RecordMismatchError(
+                f"The record log {str(self.path)!r} holds the records of another study (or is "
+                "not a record log); move it away, or start over.")
+        records = []
+        for line in lines[1:]:
+            try:
+                records.append(json.loads(line))
+            except json.JSONDecodeError:
+                continue  # a record torn by a kill mid-write
+        return records
+
+    def append(self, record: Mapping) -> None:
+        """Add one record (made :func:`json_ready`), durably."""
+        new = not self.path.exists() or self.path.stat().st_size == 0
+        lead = ""
+        if new:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        else:
+            with open(self.path, "rb") as f:
+                f.seek(-1, os.SEEK_END)
+                lead = "" if f.read(1) == b"\n" else "\n"  # end a torn line first
+        with open(self.path, "a") as f:
+            if new:
+                f.write(json.dumps({"header": self.header}) + "\n")
+            f.write(lead)
+            f.write(json.dumps(json_ready(record, keep_nonfinite=True)) + "\n")
+            f.flush()
+            os.fsync(f.fileno())
+
+    def remove(self) -> None:
+        """Delete the file (once the study's results are written)."""
+        with contextlib.suppress(FileNotFoundError):
+            self.path.unlink()

@@ -1,0 +1,280 @@
+"""One shape for every command's outputs: --json, --overwrite, --seed, atomic and resumable.
+
+The helpers of :mod:`windnav.experiments.results` are tested directly; the commands are run
+in-process (``windnav.cli.main``) on tiny inputs.
+"""
+
+import argparse
+import json
+import math
+
+import numpy as np
+import pytest
+
+import windnav.experiments.ukf_montecarlo as mc
+from windnav.cli import COMMAND_MODULES, build_parser, main
+from windnav.experiments import results as res
+
+SEEDED = {"fly", "wind", "wind-sweep", "flow-validate", "ukf-montecarlo", "calibrate", "demo",
+          "navigate"}
+"""Commands that draw random numbers; ``power-curve`` draws none (no sensors, steady wind)."""
+
+
+def leaves(choices, prefix=()):
+    """(command words, parser) of every runnable command, nested subcommands included."""
+    for name, sub in choices.items():
+        nested = [a for a in sub._actions if isinstance(a, argparse._SubParsersAction)]
+        if nested:
+            yield from leaves(nested[0].choices, prefix + (name,))
+        else:
+            yield prefix + (name,), sub
+
+
+def options(sub):
+    return {s for a in sub._actions for s in a.option_strings}
+
+
+def test_every_listed_command_is_registered_with_json_overwrite_and_seed():
+    parser = build_parser()
+    action = next(a for a in parser._actions if a.dest == "command")
+    assert set(action.choices) == {m.replace("_", "-") for m in COMMAND_MODULES}
+    for words, sub in leaves(action.choices):
+        opts = options(sub)
+        assert {"--json", "--overwrite"} <= opts, words
+        if words[0] in SEEDED or words == ("power-curve",):
+            assert ("--seed" in opts) == (words[0] in SEEDED), words
+
+
+def test_a_command_module_that_fails_to_import_is_not_dropped(monkeypatch):
+    import windnav.cli as cli
+
+    monkeypatch.setattr(cli, "COMMAND_MODULES", cli.COMMAND_MODULES + ("not_written_yet",))
+    with pytest.raises(ModuleNotFoundError, match="not_written_yet"):
+        cli.build_parser()
+
+
+# ------------------------------------------------------------------ helpers of results.py
+
+
+def test_json_ready_writes_non_finite_numbers_as_null():
+    doc = res.json_ready({"a": np.float64("nan"), "b": (1, np.int64(2)), 3: np.array([1.5, np.inf]),
+                          "ok": np.bool_(True)})
+    assert doc == {"a": None, "b": [1, 2], "3": [1.5, None], "ok": True}
+    json.dumps(doc, allow_nan=False)
+    kept = res.json_ready({"x": float("inf")}, keep_nonfinite=True)
+    assert kept["x"] == math.inf
+
+
+def test_atomic_path_keeps_the_old_file_on_failure_and_leaves_nothing_behind(tmp_path):
+    target = tmp_path / "r.json"
+    target.write_text("old")
+    with pytest.raises(RuntimeError), res.atomic_path(target) as tmp:
+        tmp.write_text("half")
+        raise RuntimeError("disk on fire")
+    assert target.read_text() == "old" and sorted(tmp_path.iterdir()) == [target]
+    with res.atomic_path(target) as tmp:
+        assert tmp.suffix == ".json"  # writers that pick the format from the suffix still work
+        tmp.write_text("new")
+    assert target.read_text() == "new" and sorted(tmp_path.iterdir()) == [target]
+
+
+def test_atomic_path_replaces_a_folder_whole(tmp_path):
+    store = tmp_path / "flow.zarr"
+    (store / "old").mkdir(parents=True)
+    with res.atomic_path(store) as tmp:
+        (tmp / "new").mkdir(parents=True)
+    assert [p.name for p in store.iterdir()] == ["new"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["flow.zarr"]
+
+
+def test_outputs_refuse_an_earlier_run_and_replace_it_whole_with_overwrite(tmp_path):
+    out = tmp_path / "run"
+    products = ("summary.json", "fig_*.png")
+    first = res.Outputs("windnav x", out=("--out", out, products))
+    with first.writing() as stage:
+        for name in ("summary.json", "fig_a.png", "fig_b.png"):
+            (stage.dir / name).write_text("run 1")
+    assert sorted(p.name for p in first.written) == ["fig_a.png", "fig_b.png", "summary.json"]
+    (out / "notes.txt").write_text("mine")  # not a product: never touched
+    with pytest.raises(res.OutputExistsError, match="--overwrite") as refused:
+        res.Outputs("windnav x", out=("--out", out, products))
+    assert "'--out'" in str(refused.value) and "summary.json" in str(refused.value)
+    again = res.Outputs("windnav x", out=("--out", out, products), overwrite=True)
+    with again.writing() as stage:
+        for name in ("summary.json", "fig_a.png"):
+            (stage.dir / name).write_text("run 2")
+    assert sorted(p.name for p in out.iterdir()) == ["fig_a.png", "notes.txt", "summary.json"]
+    assert (out / "fig_a.png").read_text() == "run 2"
+    assert [p.name for p in again.removed] == ["fig_b.png"]  # stale figure of run 1
+
+
+def test_outputs_write_nothing_when_the_run_fails(tmp_path):
+    out = tmp_path / "run"
+    o = res.Outputs("windnav x", out=("--out", out, ("a.txt",)), files={"--json": tmp_path / "j"})
+    with pytest.raises(KeyboardInterrupt), o.writing() as stage:
+        (stage.dir / "a.txt").write_text("half")
+        stage.file("--json").write_text("{}")
+        raise KeyboardInterrupt
+    assert list(out.iterdir()) == [] and sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+
+
+def test_outputs_refuse_two_flags_naming_one_file(tmp_path):
+    with pytest.raises(res.OutputPathError, match="--plot"):
+        res.Outputs("windnav x", files={"--json": tmp_path / "a", "--plot": tmp_path / "a"})
+    with pytest.raises(res.OutputPathError, match="--json"):
+        res.Outputs("windnav x", out=("--out", tmp_path, ("summary.json",)),
+                    files={"--json": tmp_path / "summary.json"})
+
+
+def test_record_log_refuses_another_study_and_skips_a_torn_line(tmp_path):
+    log = res.RecordLog(tmp_path / "r.jsonl", {"seed": 1})
+    log.append({"index": 0, "rmse": float("nan")})
+    with open(log.path, "a") as f:
+        f.write('{"index": 1, "rm')  # killed mid-write
+    log.append({"index": 2, "rmse": 0.25})
+    got = log.load()
+    assert [r["index"] for r in got] == [0, 2] and math.isnan(got[0]["rmse"])
+    with pytest.raises(res.RecordMismatchError, match="another study"):
+        res.RecordLog(tmp_path / "r.jsonl", {"seed": 2}).load()
+
+
+# ------------------------------------------------------------------ --json of each command
+
+
+def write_tiny_map(path):
+    doc = {"bounds": {"extents": [0, 20, 0, 16, 0, 20]},
+           "blocks": [{"extents": [8, 12, 6, 10, 0, 10], "color": [0, 1, 0]}]}
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def read_doc(path, command):
+    doc = json.loads(path.read_text())
+    assert doc["command"] == f"windnav {command}" and doc["windnav_version"]
+    assert doc["arguments"]["json"] == str(path)
+    return doc
+
+
+def test_fly_json_equals_its_summary_and_names_its_arguments(tmp_path):
+    js = tmp_path / "fly.json"
+    argv = ["fly", "--duration", "0.2", "--wind", "constant", "--no-plots", "--seed", "3",
+            "--out", str(tmp_path / "run"), "--json", str(js)]
+    assert main(argv) == 0
+    doc = read_doc(js, "fly")
+    assert doc == json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert doc["seed"] == 3 and doc["arguments"]["duration"] == 0.2
+    assert doc["mean_wind_speed_m_s"] == pytest.approx(np.hypot(3.0, 1.0))
+
+
+def test_power_curve_and_calibrate_json(tmp_path):
+    js = tmp_path / "p.json"
+    assert main(["power-curve", "--points", "3", "--degree", "2", "--max-speed", "4",
+                 "--out", str(tmp_path / "p"), "--json", str(js)]) == 0
+    doc = read_doc(js, "power-curve")
+    assert len(doc["power_W"]) == 3 and all(p > 0 for p in doc["power_W"])
+    js = tmp_path / "c.json"
+    assert main(["calibrate", "--duration", "2", "--settle", "1", "--out", str(tmp_path / "c"),
+                 "--json", str(js)]) == 0
+    doc = read_doc(js, "calibrate")
+    assert doc == json.loads((tmp_path / "c" / "calibration.json").read_text())
+    assert abs(doc["relative_error"]["k_d"]) < 0.05
+
+
+def test_wind_and_wind_sweep_json(tmp_path):
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    js = tmp_path / "w.json"
+    assert main(["wind", "--map", str(tiny), "--speed", "3", "--dx", "2", "--steps", "3",
+                 "--spinup-steps", "2", "--out", str(tmp_path / "w"), "--json", str(js)]) == 0
+    doc = read_doc(js, "wind")
+    assert doc["config"]["speed"] == 3.0 and doc["config"]["steps"] == 3
+    assert "half_window_difference" in doc["diagnostics"]
+    js = tmp_path / "s.json"
+    assert main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+                 "--speeds", "2", "--directions", "2", "--backend", "serial", "--dx", "2",
+                 "--steps", "2", "--spinup-steps", "0", "--no-progress", "--json", str(js)]) == 0
+    doc = read_doc(js, "wind-sweep")
+    assert doc["summary"]["simulations"] == 2 and doc["summary"]["done"] == 2
+    assert [r["ok"] for r in doc["records"]] == [True, True]
+    assert sorted(r["direction_deg"] for r in doc["records"]) == [0.0, 180.0]
+
+
+def test_flow_validate_json_and_figures(tmp_path, monkeypatch):
+    import windnav.experiments.flow_validation as fv
+
+    real = (fv.projection_study, fv.uniform_study, fv.taylor_green_study)
+    monkeypatch.setattr(fv, "projection_study", lambda *, rng: real[0](rng=rng, steps=3))
+    monkeypatch.setattr(fv, "uniform_study", lambda: real[1](directions=(30.0,)))
+    monkeypatch.setattr(fv, "taylor_green_study", lambda: real[2](n=8, periods=0.5))
+    js = tmp_path / "v.json"
+    assert main(["flow-validate", "--out", str(tmp_path / "v"), "--json", str(js)]) == 0
+    doc = read_doc(js, "flow-validate")
+    assert doc["max_div_dx_over_U"] < 1e-8 and doc["max_fixed_face_error"] < 1e-8
+    assert set(doc["taylor_green_nu"]) == {"semi_lagrangian", "maccormack"}
+    assert sorted(p.name for p in (tmp_path / "v").iterdir()) == sorted(
+        doc["figures"] + ["flow_validation.json"])
+
+
+# ------------------------------------------------------------------ ukf-montecarlo: resume
+
+
+UKF = ["ukf-montecarlo", "--trials", "3", "--duration", "3", "3", "--backend", "serial",
+       "--no-progress"]
+
+
+def test_ukf_montecarlo_interrupted_keeps_finished_trials_and_resumes(tmp_path, monkeypatch,
+                                                                      capsys):
+    js = tmp_path / "mc.json"
+    argv = UKF + ["--json", str(js)]
+    real = mc.run_trial
+    calls = []
+
+    def interrupted_after_one(spec):
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(spec.index)
+        return real(spec)
+
+    monkeypatch.setattr(mc, "run_trial", interrupted_after_one)
+    assert main(argv) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "1/3 trials done" in err[0] and "rerun" in err[0]
+    partial = tmp_path / "mc.partial.jsonl"
+    assert not js.exists() and len(partial.read_text().splitlines()) == 2  # header + 1 trial
+
+    calls.clear()
+
+    def counted(spec):
+        calls.append(spec.index)
+        return real(spec)
+
+    monkeypatch.setattr(mc, "run_trial", counted)
+    assert main(argv) == 0
+    assert calls == [1, 2]  # trial 0 was not run again
+    assert "resuming: 1/3" in capsys.readouterr().err
+    doc = read_doc(js, "ukf-montecarlo")
+    assert doc["resumed"] == 1 and [t["index"] for t in doc["trials"]] == [0, 1, 2]
+    assert not partial.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["mc.json"]
+    # a resumed study gives the numbers of an uninterrupted one
+    whole = mc.run_montecarlo(mc.MonteCarloConfig(n_trials=3, duration=(3.0, 3.0)),
+                              backend="serial", progress=False)
+    assert [t["rmse"] for t in doc["trials"]] == pytest.approx([t["rmse"] for t in whole["trials"]])
+    assert doc["summary"]["median"] == pytest.approx(whole["summary"]["median"])
+
+
+def test_ukf_montecarlo_partial_records_of_another_study_are_not_mixed_in(tmp_path, monkeypatch,
+                                                                          capsys):
+    js = tmp_path / "mc.json"
+    cfg = mc.MonteCarloConfig(n_trials=3, seed=5, duration=(3.0, 3.0))
+    log = res.RecordLog(tmp_path / "mc.partial.jsonl", mc.records_header(cfg))
+    log.append({"index": 0, "rmse": 0.1})
+    ran = []
+    monkeypatch.setattr(mc, "run_trial", lambda spec: ran.append(spec) or {})
+    assert main(UKF + ["--json", str(js)]) == 2  # seed 0 is another study
+    err = capsys.readouterr().err
+    assert "'--json'" in err and "another study" in err and "--overwrite" in err
+    assert ran == [] and log.path.exists()
+    monkeypatch.setattr(mc, "run_trial", lambda spec: {"index": spec.index, "rmse": 0.2,
+                                                       "rmse_axes": [0.1, 0.1, 0.1]})
+    assert main(UKF + ["--json", str(js), "--overwrite"]) == 0
+    assert [t["rmse"] for t in json.loads(js.read_text())["trials"]] == [0.2, 0.2, 0.2]
+    assert not log.path.exists()

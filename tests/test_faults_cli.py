@@ -1,0 +1,339 @@
+"""Fault injection at the command line: bad output paths, earlier results, Ctrl-C, named errors.
+
+Every command checks its output paths before it computes anything: the heavy function of each
+command is replaced by one that fails the test if called. Ctrl-C is a real SIGINT sent to a
+real ``windnav`` process (its process group, as a terminal does).
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from windnav.cli import main
+
+WINDNAV = str(Path(sys.executable).parent / "windnav")
+
+
+def write_tiny_map(path):
+    doc = {"bounds": {"extents": [0, 20, 0, 16, 0, 20]},
+           "blocks": [{"extents": [8, 12, 6, 10, 0, 10], "color": [0, 1, 0]}]}
+    path.write_text(json.dumps(doc))
+    return str(path)
+
+
+# command -> (module, heavy function, argv before the output flags, its output folder flag,
+#             one file an earlier run leaves in that folder)
+COMMANDS = {
+    "fly": ("windnav.experiments.flight", "run_flight", [], "--out", "log.npz"),
+    "power-curve": ("windnav.experiments.power_curve", "power_curve_study", [], "--out",
+                    "power_curve.png"),
+    "wind": ("windnav.commands.wind", "simulate_case", ["--map", "MAP", "--speed", "3"],
+             "--out", "mean_speed.png"),
+    "wind-sweep": ("windnav.commands.wind_sweep", "sweep", ["--maps", "MAP"], "--out", None),
+    "flow-validate": ("windnav.experiments.flow_validation", "run_validation", [], "--out",
+                      "flow_strouhal_aspect.png"),
+    "ukf-montecarlo": ("windnav.experiments.ukf_montecarlo", "run_montecarlo", [], None, None),
+    "calibrate": ("windnav.experiments.calibration", "calibration_flights", [], "--out",
+                  "calibration.json"),
+    "demo": ("windnav.experiments.demo", "run_demo", [], "--out", "summary.json"),
+}
+
+
+@pytest.fixture
+def never_computes(monkeypatch):
+    """Replace a command's heavy function by one that fails the test when called."""
+
+    def install(command):
+        module, fn = COMMANDS[command][:2]
+
+        def forbidden(*args, **kwargs):
+            pytest.fail(f"{command} computed before checking its outputs")
+
+        monkeypatch.setattr(f"{module}.{fn}", forbidden)
+
+    return install
+
+
+def argv_for(command, tmp_path, **outputs):
+    _, _, base, _, _ = COMMANDS[command]
+    argv = [command] + [write_tiny_map(tmp_path / "tiny.json") if a == "MAP" else a
+                        for a in base]
+    for flag, path in outputs.items():
+        argv += [f"--{flag}", str(path)]
+    return argv
+
+
+def one_line_error(capsys, *needles):
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    for needle in needles:
+        assert needle in lines[0], lines[0]
+    return lines[0]
+
+
+@pytest.mark.parametrize("command, flag", [(c, f) for c in sorted(COMMANDS)
+                                           for f in ("out", "json")
+                                           if f == "json" or COMMANDS[c][3] is not None])
+def test_an_output_under_a_file_is_refused_before_computing(command, flag, tmp_path, capsys,
+                                                             never_computes):
+    never_computes(command)
+    blocker = tmp_path / "results.txt"
+    blocker.write_text("not a folder")
+    outputs = {flag: blocker / ("sub" if flag == "out" else "x.json")}
+    if flag == "json" and COMMANDS[command][3] is not None:
+        outputs["out"] = tmp_path / "run"
+    assert main(argv_for(command, tmp_path, **outputs)) == 2
+    one_line_error(capsys, f"'--{flag}'", "is a file")
+    assert blocker.read_text() == "not a folder"
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_a_json_path_that_is_a_folder_is_refused_before_computing(command, tmp_path, capsys,
+                                                                   never_computes):
+    never_computes(command)
+    outputs = {"json": tmp_path}
+    if COMMANDS[command][3] is not None:
+        outputs["out"] = tmp_path / "run"
+    assert main(argv_for(command, tmp_path, **outputs)) == 2
+    one_line_error(capsys, "'--json'", "folder")
+
+
+@pytest.mark.parametrize("command", sorted(c for c, v in COMMANDS.items() if v[4]))
+def test_an_earlier_run_is_never_overwritten_silently(command, tmp_path, capsys, never_computes):
+    never_computes(command)
+    out = tmp_path / "run"
+    out.mkdir()
+    earlier = out / COMMANDS[command][4]
+    earlier.write_text("earlier result")
+    assert main(argv_for(command, tmp_path, out=out)) == 2
+    one_line_error(capsys, "'--out'", "earlier run", "--overwrite")
+    assert earlier.read_text() == "earlier result"
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_an_existing_json_is_never_overwritten_silently(command, tmp_path, capsys,
+                                                        never_computes):
+    never_computes(command)
+    js = tmp_path / "earlier.json"
+    js.write_text("{}")
+    outputs = {"json": js}
+    if COMMANDS[command][3] is not None:
+        outputs["out"] = tmp_path / "run"
+    assert main(argv_for(command, tmp_path, **outputs)) == 2
+    one_line_error(capsys, "'--json'", "already exists", "--overwrite")
+    assert js.read_text() == "{}"
+
+
+@pytest.mark.parametrize("command", sorted(c for c in COMMANDS if c != "power-curve"))
+def test_a_negative_seed_is_named_before_computing(command, tmp_path, capsys, never_computes):
+    never_computes(command)
+    outputs = {"seed": -1}
+    if COMMANDS[command][3] is not None:
+        outputs["out"] = tmp_path / "run"
+    assert main(argv_for(command, tmp_path, **outputs)) == 2
+    one_line_error(capsys, "'--seed'", ">= 0", "-1")
+
+
+# ------------------------------------------------------------------ overwrite, for real
+
+FLY = ["fly", "--duration", "0.2", "--wind", "constant"]
+
+
+def test_overwrite_replaces_the_run_and_removes_its_stale_figures(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(FLY + ["--out", str(out)]) == 0
+    first = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert set(first) == {"log.npz", "summary.json", "flight_path.png", "flight_timeseries.png"}
+    assert main(FLY + ["--out", str(out), "--no-plots", "--seed", "1"]) == 2
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == first  # untouched
+    capsys.readouterr()
+    assert main(FLY + ["--out", str(out), "--no-plots", "--seed", "1", "--overwrite"]) == 0
+    printed = capsys.readouterr().out
+    # the figures belonged to the earlier run: a folder never mixes two runs
+    assert sorted(p.name for p in out.iterdir()) == ["log.npz", "summary.json"]
+    assert "removed" in printed and "flight_path.png" in printed
+    assert json.loads((out / "summary.json").read_text())["seed"] == 1
+
+
+def test_a_run_that_fails_while_writing_leaves_the_earlier_results(tmp_path, monkeypatch):
+    import windnav.viz.flight
+
+    out = tmp_path / "run"
+    assert main(FLY + ["--out", str(out), "--no-plots"]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+
+    def broken_plot(log, out_dir, **kw):
+        (Path(out_dir) / "flight_path.png").write_bytes(b"half a figure")
+        raise ZeroDivisionError("a bug in the plotting code")
+
+    monkeypatch.setattr(windnav.viz.flight, "plot_flight", broken_plot)
+    with pytest.raises(ZeroDivisionError):  # a bug keeps its traceback
+        main(FLY + ["--out", str(out), "--seed", "2", "--overwrite"])
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # no staging, no tmp
+
+
+# ------------------------------------------------------------------ named errors: one line
+
+
+def test_fly_names_the_option_behind_a_bad_rate_or_speed(tmp_path, capsys, never_computes):
+    never_computes("fly")
+    out = str(tmp_path / "run")
+    assert main(["fly", "--dt", "0.02", "--control-rate-hz", "100", "--out", out]) == 2
+    one_line_error(capsys, "'--dt'", "--control-rate-hz 100 (period 0.01 s)")
+    assert main(["fly", "--sensor-rate-hz", "300", "--out", out]) == 2
+    one_line_error(capsys, "'--dt'", "--sensor-rate-hz 300")
+    assert main(["fly", "--trajectory", "line", "--speed", "0", "--out", out]) == 2
+    one_line_error(capsys, "'--speed'", "> 0")
+    assert not (tmp_path / "run").exists()
+
+
+def test_fly_at_a_coarse_step_runs_its_controller_and_sensors_at_rates_that_fit(tmp_path):
+    out = tmp_path / "run"
+    assert main(FLY + ["--dt", "0.02", "--no-plots", "--out", str(out)]) == 0
+    meta = json.loads(str(np.load(out / "log.npz")["meta"]))
+    assert meta["control_rate_hz"] == pytest.approx(50.0)
+    assert main(FLY + ["--dt", "0.02", "--control-rate-hz", "25", "--sensor-rate-hz", "50",
+                       "--no-plots", "--out", str(tmp_path / "run2")]) == 0
+    meta = json.loads(str(np.load(tmp_path / "run2" / "log.npz")["meta"]))
+    assert meta["control_rate_hz"] == pytest.approx(25.0)
+    assert meta["sensors"] == pytest.approx({"imu": 50.0, "odometry": 50.0,
+                                             "rotor_speeds": 50.0})
+
+
+def test_demo_advises_its_own_flow_step(tmp_path, capsys, monkeypatch):
+    import windnav.experiments.demo as demo
+
+    seen = []
+    monkeypatch.setattr(demo, "run_demo", lambda cfg, **kw: seen.append(cfg) or 1 / 0)
+    assert main(["demo", "--wind-speed", "60", "--flow-dt", "0.2",
+                 "--out", str(tmp_path / "d")]) == 2
+    line = one_line_error(capsys, "'--flow-dt'", "--flow-dt <= 0.08333")
+    assert "'--dt'" not in line and seen == []
+    with pytest.raises(ZeroDivisionError):  # no --flow-dt: one that keeps CFL <= 1
+        main(["demo", "--wind-speed", "60", "--out", str(tmp_path / "d")])
+    assert seen[0].wind_speed * seen[0].flow_dt / seen[0].dx == pytest.approx(1.0)
+
+
+def test_the_ray_backend_without_ray_is_one_line(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray -> ImportError
+    rc = main(["ukf-montecarlo", "--trials", "1", "--duration", "3", "3", "--backend", "ray",
+               "--no-progress"])
+    assert rc == 2
+    one_line_error(capsys, "Ray", "install")
+
+
+@pytest.mark.parametrize("error, status, text", [
+    (OSError(28, "No space left on device"), 1, "No space left on device"),
+    (KeyboardInterrupt(), 130, "interrupted"),
+    (ValueError("The 'x' parameter of y must be z. Got w instead."), 2, "'x' parameter"),
+])
+def test_named_errors_and_ctrl_c_are_one_line(error, status, text, tmp_path, capsys,
+                                              monkeypatch):
+    def fail(*args, **kwargs):
+        raise error
+
+    monkeypatch.setattr("windnav.experiments.power_curve.power_curve_study", fail)
+    assert main(["power-curve", "--out", str(tmp_path / "p")]) == status
+    one_line_error(capsys, "windnav power-curve", text)
+    assert not (tmp_path / "p").exists()
+
+
+def test_a_named_windnav_error_is_one_line_and_a_bug_keeps_its_traceback(tmp_path, capsys,
+                                                                         monkeypatch):
+    from windnav.flow import FlowDivergedError
+
+    def diverge(*args, **kwargs):
+        raise FlowDivergedError("the flow blew up at step 3")
+
+    monkeypatch.setattr("windnav.commands.wind.simulate_case", diverge)
+    argv = argv_for("wind", tmp_path, out=tmp_path / "w")
+    assert main(argv) == 1
+    one_line_error(capsys, "FlowDivergedError", "step 3")
+
+    def bug(*args, **kwargs):
+        return {}["missing"]
+
+    monkeypatch.setattr("windnav.commands.wind.simulate_case", bug)
+    with pytest.raises(KeyError):
+        main(argv)
+
+
+# ------------------------------------------------------------------ Ctrl-C, for real
+
+
+def start(argv, cwd):
+    """A real ``windnav`` process in its own group, with SIGINT as a terminal leaves it."""
+    return subprocess.Popen(
+        [WINDNAV, *argv], cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        start_new_session=True,
+        # a test runner started in the background ignores SIGINT; its children would inherit it
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+
+
+def ctrl_c(proc, ready, timeout=120.0):
+    """Wait until ``ready()``, send SIGINT to the process group, return (status, out, err)."""
+    try:
+        deadline = time.monotonic() + timeout
+        while not ready():
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "never got ready"
+            time.sleep(0.05)
+        os.killpg(proc.pid, signal.SIGINT)
+        out, err = proc.communicate(timeout=timeout)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    return proc.returncode, out, err
+
+
+def leftovers(folder):
+    return [p.name for p in Path(folder).rglob("*") if "tmp" in p.name or "staging" in p.name]
+
+
+def test_ctrl_c_in_ukf_montecarlo_exits_130_and_keeps_finished_trials(tmp_path):
+    js = tmp_path / "mc.json"
+    partial = tmp_path / "mc.partial.jsonl"
+    proc = start(["ukf-montecarlo", "--trials", "8", "--duration", "3", "3", "--backend",
+                  "serial", "--no-progress", "--json", str(js), "--plot",
+                  str(tmp_path / "mc.png")], tmp_path)
+
+    def two_done():
+        return partial.exists() and len(partial.read_text().splitlines()) >= 3
+
+    status, out, err = ctrl_c(proc, two_done)
+    assert status == 130, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert "trials done, kept in" in err and "rerun the same command" in err
+    records = [json.loads(line) for line in partial.read_text().splitlines()[1:]]
+    assert len(records) >= 2 and all(r["rmse"] > 0 for r in records)
+    n_kept = int(err.split("interrupted: ")[1].split("/")[0])
+    assert n_kept == len(records)
+    assert not js.exists() and not (tmp_path / "mc.png").exists()
+    assert leftovers(tmp_path) == []
+
+
+def test_ctrl_c_in_wind_exits_130_with_one_line(tmp_path):
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    proc = start(["wind", "--map", tiny, "--speed", "3", "--dx", "1", "--steps", "1000000",
+                  "--out", str(tmp_path / "w")], tmp_path)
+    first = []
+
+    def solving():
+        if not first:
+            first.append(proc.stdout.readline())  # the line printed before the solve
+        return "solving" in first[0]
+
+    status, out, err = ctrl_c(proc, solving)
+    assert status == 130, err
+    assert "Traceback" not in err and err.strip() == "windnav wind: interrupted"
+    assert not (tmp_path / "w" / "flow.zarr").exists() and leftovers(tmp_path) == []
