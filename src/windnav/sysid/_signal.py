@@ -1,0 +1,98 @@
+"""Signal helpers shared by the fits: derivatives of noisy logs and runs of kept samples."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["local_slope", "min_run", "steepest_slope"]
+
+
+def _segments(t: np.ndarray) -> list[np.ndarray]:
+    """Index runs of ``t`` split at gaps longer than five median steps."""
+    if t.size < 2:
+        return [np.arange(t.size)]
+    step = float(np.median(np.diff(t)))
+    breaks = np.flatnonzero(np.diff(t) > 5 * step) + 1
+    return np.split(np.arange(t.size), breaks)
+
+
+def _window_slope(t: np.ndarray, y: np.ndarray, before: int, after: int) -> np.ndarray:
+    """Slope of the least-squares line over samples ``i - before ... i + after`` (clipped to
+    each segment), for every sample ``i``; 0 where the window holds one sample."""
+    out = np.zeros_like(y)
+    for seg in _segments(t):
+        ts, ys = t[seg] - t[seg[0]], y[seg]
+        n = ts.size
+        if n < 2:
+            continue
+        c = [np.concatenate([[0.0], np.cumsum(a)])
+             for a in (np.ones(n), ts, ys, ts * ys, ts * ts)]
+        i = np.arange(n)
+        lo, hi = np.clip(i - before, 0, n), np.clip(i + after + 1, 0, n)
+        k, st, sy, sty, stt = (a[hi] - a[lo] for a in c)
+        den = k * stt - st * st
+        ok = (k > 1) & (den > 1e-12 * np.maximum(stt * k, 1e-300))
+        out[seg] = np.where(ok, (k * sty - st * sy) / np.where(ok, den, 1.0), 0.0)
+    return out
+
+
+def _half_width(t: np.ndarray, window_s: float) -> int:
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    return max(1, int(round(0.5 * window_s / step))) if step > 0 else 1
+
+
+def local_slope(t, y, window_s: float) -> np.ndarray:
+    """``dy/dt`` as the slope of a least-squares line over each sample's centred window.
+
+    Parameters
+    ----------
+    t : ndarray of shape (n,)
+        Increasing times, s.
+    y : ndarray of shape (n,)
+        The signal.
+    window_s : float
+        Window width, s (at least one sample each side).
+
+    Returns
+    -------
+    ndarray of shape (n,)
+        The slope, in units of ``y`` per second. A gap longer than five median steps starts a
+        new segment (windows never span it); a segment of one sample gets 0.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if t.size < 2:
+        return np.zeros_like(y)
+    h = _half_width(t, window_s)
+    return _window_slope(t, y, h, h)
+
+
+def steepest_slope(t, y, window_s: float) -> np.ndarray:
+    """``dy/dt`` as the steeper of the two one-sided slopes, over the half-windows that end
+    and that start at each sample (``window_s / 2`` each, least-squares lines).
+
+    A centred window averages a step with the flat samples before it, so the first samples
+    after a step in the command pass for steady; the one-sided slope after them does not.
+    Same arguments and segments as :func:`local_slope`.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if t.size < 2:
+        return np.zeros_like(y)
+    h = _half_width(t, window_s)
+    left, right = _window_slope(t, y, h, 0), _window_slope(t, y, 0, h)
+    return np.where(np.abs(left) >= np.abs(right), left, right)
+
+
+def min_run(t, mask, min_s: float) -> np.ndarray:
+    """``mask`` with the runs of True shorter than ``min_s`` seconds removed (a gap in ``t``
+    longer than five median steps ends a run)."""
+    t = np.asarray(t, dtype=np.float64)
+    mask = np.asarray(mask, dtype=bool).copy()
+    for seg in _segments(t):
+        m = mask[seg]
+        edges = np.flatnonzero(np.diff(np.r_[0, m.astype(np.int8), 0]))
+        for a, b in zip(edges[::2], edges[1::2], strict=True):
+            if t[seg[b - 1]] - t[seg[a]] < min_s:
+                mask[seg[a:b]] = False
+    return mask

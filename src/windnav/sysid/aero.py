@@ -1,0 +1,299 @@
+"""Aerodynamic coefficients from hover in a wind tunnel: rotor drag, inflow and lift.
+
+With the body airspeed ``v_a = R^T (v - w)`` (the same at every hub in steady hover), rotor
+speeds ``eta_i`` (``S = sum_i eta_i``, ``S2 = sum_i eta_i^2``) and the accelerometer's specific
+force ``f`` in body axes (x forward, y left, z up), the force model of
+:mod:`windnav.vehicle.dynamics` gives (thesis ch. 6)::
+
+    lateral    m f_x = -k_d v_a,x S + m b_x,     m f_y = -k_d v_a,y S + m b_y
+    vertical   m f_z = k_eta S2 - k_z v_a,z S + N k_h (v_a,x^2 + v_a,y^2)
+
+The lateral equations share the slope ``k_d``; their intercepts are the accelerometer biases
+``b_x``, ``b_y``. ``k_eta``, ``k_z`` and ``k_h`` come jointly from the vertical one, by least
+squares (``windnav.sysid._fit``). Thesis values (Crazyflie 2.1 Brushless): k_eta 4.26e-8,
+k_d 5.09e-6, k_z 1.19e-5, k_h 1.11e-3.
+
+Parasitic frame drag (``c_d |v_a| v_a``) is not in the model: fit a vehicle whose frame drag
+matters with it removed from ``f`` first.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from windnav._validate import positive_float
+from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
+from windnav.sysid.io import Table
+
+__all__ = ["AERO_COLUMNS", "AeroData", "AeroFit", "aero_columns", "aero_from_flight_log",
+           "block_average", "fit_aero"]
+
+AERO_COLUMNS = ("time_s", "airspeed_x", "airspeed_y", "airspeed_z", "specific_force_x",
+                "specific_force_y", "specific_force_z")
+"""The first columns of an aero CSV: time (s), body airspeed (m/s), body specific force
+(m/s^2), body axes x forward, y left, z up; then ``rotor_speed_1`` ... ``rotor_speed_N``
+(rad/s)."""
+
+_ROTOR = re.compile(r"^rotor_speed_(\d+)$")
+
+
+def aero_columns(n_rotors: int) -> tuple[str, ...]:
+    """The full header of an aero CSV for ``n_rotors`` rotors."""
+    return AERO_COLUMNS + tuple(f"rotor_speed_{i + 1}" for i in range(n_rotors))
+
+
+@dataclass(frozen=True, eq=False)
+class AeroData:
+    """Samples of a hovering vehicle in a known airflow.
+
+    Attributes
+    ----------
+    t : ndarray of shape (K,)
+        Times, s.
+    airspeed_body : ndarray of shape (K, 3)
+        ``R^T (v - w)``, body axes, m/s.
+    specific_force_body : ndarray of shape (K, 3)
+        Accelerometer reading, body axes, m/s^2 (about +9.81 on z in hover).
+    rotor_speeds : ndarray of shape (K, N)
+        rad/s.
+    source : str
+        Where the samples came from, for messages.
+    """
+
+    t: np.ndarray
+    airspeed_body: np.ndarray
+    specific_force_body: np.ndarray
+    rotor_speeds: np.ndarray
+    source: str = "aero data"
+
+    @property
+    def n_rotors(self) -> int:
+        return int(self.rotor_speeds.shape[1])
+
+    @classmethod
+    def from_table(cls, table: Table, where: str = "AeroData.from_table") -> AeroData:
+        """From a table with the columns :func:`aero_columns` (rows with NaN are dropped)."""
+        table.require(AERO_COLUMNS, where)
+        idx = sorted(int(m.group(1)) for n in table.names if (m := _ROTOR.match(n)))
+        if not idx or idx != list(range(1, len(idx) + 1)):
+            raise ValueError(f"The file {table.source!r} given to {where} must have the "
+                             "columns 'rotor_speed_1' ... 'rotor_speed_N' (rad/s). Got "
+                             f"{[n for n in table.names if n.startswith('rotor_speed')]} "
+                             "instead.")
+        c = table.columns
+        va = np.column_stack([c[f"airspeed_{a}"] for a in "xyz"])
+        f = np.column_stack([c[f"specific_force_{a}"] for a in "xyz"])
+        eta = np.column_stack([c[f"rotor_speed_{i}"] for i in idx])
+        t = c["time_s"]
+        ok = np.isfinite(t) & np.all(np.isfinite(va), 1) & np.all(np.isfinite(f), 1) & np.all(
+            np.isfinite(eta), 1)
+        return cls(t[ok], va[ok], f[ok], eta[ok], table.source)
+
+    def to_columns(self) -> dict:
+        """``{column: (K,)}`` in the aero CSV layout."""
+        cols = {"time_s": self.t}
+        for j, a in enumerate("xyz"):
+            cols[f"airspeed_{a}"] = self.airspeed_body[:, j]
+        for j, a in enumerate("xyz"):
+            cols[f"specific_force_{a}"] = self.specific_force_body[:, j]
+        for i in range(self.n_rotors):
+            cols[f"rotor_speed_{i + 1}"] = self.rotor_speeds[:, i]
+        return cols
+
+    @staticmethod
+    def concatenate(parts: Sequence[AeroData]) -> AeroData:
+        """All samples of ``parts`` (same rotor count) as one."""
+        n = {p.n_rotors for p in parts}
+        if len(n) != 1:
+            raise ValueError("The aero data to pool must have the same number of rotors. Got "
+                             f"{sorted(n)} from {[p.source for p in parts]}.")
+        return AeroData(np.concatenate([p.t for p in parts]),
+                        np.concatenate([p.airspeed_body for p in parts]),
+                        np.concatenate([p.specific_force_body for p in parts]),
+                        np.concatenate([p.rotor_speeds for p in parts]),
+                        ", ".join(repr(p.source) for p in parts))
+
+
+def aero_from_flight_log(log, *, settle_s: float | None = None,
+                         source: str = "FlightLog") -> AeroData:
+    """Aero samples of a :class:`~windnav.sim.FlightLog` at its IMU sample times.
+
+    Specific force: the logged IMU accelerometer (with its noise and bias). Airspeed
+    ``R^T (v - w)`` and rotor speeds: the logged state and wind at the same times (the log
+    is interpolated linearly; the attitude is taken at the nearest logged instant). Every
+    vehicle of the batch contributes, except those flagged non-finite.
+
+    Parameters
+    ----------
+    log : FlightLog
+        With the ``imu`` sensor.
+    settle_s : float, optional
+        Samples before this time are dropped (the transient after the flow starts). Default
+        ``log.meta["sysid"]["settle_s"]`` when present, else 0.
+    source : str
+        For messages.
+    """
+    from scipy.spatial.transform import Rotation
+
+    if "imu" not in log.sensors:
+        raise ValueError(f"The flight log {source!r} must carry the 'imu' sensor for an aero "
+                         f"fit (logged: {sorted(log.sensors)}).")
+    if settle_s is None:
+        settle_s = float(log.meta.get("sysid", {}).get("settle_s", 0.0))
+    settle_s = positive_float(settle_s, "settle_s", "aero_from_flight_log", allow_zero=True)
+    imu = log.sensors["imu"]
+    t_imu = np.asarray(imu["t"], dtype=np.float64)
+    keep = t_imu >= log.t[0] + settle_s
+    t = t_imu[keep]
+    near = np.clip(np.searchsorted(log.t, t - 1e-9), 0, log.t.size - 1)
+    B = log.position.shape[1]
+    finite = np.asarray(log.finite, dtype=bool)
+    parts = []
+    for b in range(B):
+        if not finite[b]:
+            continue
+
+        def at(arr, b=b):
+            return np.column_stack([np.interp(t, log.t, arr[:, b, j])
+                                    for j in range(arr.shape[2])])
+
+        rel = at(log.velocity) - at(log.wind)
+        R = Rotation.from_quat(log.attitude[near, b])
+        va = R.inv().apply(rel)
+        f = np.asarray(imu["accel"])[keep, b]
+        parts.append(AeroData(t, va, f, at(log.rotor_speeds), source))
+    if not parts:
+        raise ValueError(f"The flight log {source!r} has no vehicle that flew with finite "
+                         "values.")
+    data = AeroData.concatenate(parts)
+    ok = np.all(np.isfinite(data.specific_force_body), 1)
+    return AeroData(data.t[ok], data.airspeed_body[ok], data.specific_force_body[ok],
+                    data.rotor_speeds[ok], source)
+
+
+def block_average(data: AeroData, window_s: float) -> AeroData:
+    """Means over consecutive blocks of ``window_s`` seconds (a time gap or a step back in
+    time starts a new block).
+
+    Averaging the samples before forming the regressors keeps sensor noise on the rotor
+    speeds and airspeed (errors in the regressors, which bias least squares toward zero) from
+    biasing the coefficients; in steady hover it changes nothing else.
+    """
+    w = positive_float(window_s, "window_s", "block_average")
+    t = data.t
+    if t.size == 0:
+        return data
+    dt = np.diff(t)
+    step = float(np.median(dt[dt > 0])) if np.any(dt > 0) else w
+    new_seg = np.r_[True, (dt <= 0) | (dt > 5 * step)]
+    seg = np.cumsum(new_seg) - 1
+    start = t[np.flatnonzero(new_seg)][seg]
+    block = np.floor((t - start) / w + 1e-9).astype(np.int64)
+    key = seg * (int(block.max()) + 1) + block
+    _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
+
+    def mean(a):
+        a2 = a.reshape(a.shape[0], -1)
+        out = np.stack([np.bincount(inverse, a2[:, j]) for j in range(a2.shape[1])], 1)
+        return (out / counts[:, None]).reshape((-1,) + a.shape[1:])
+
+    return AeroData(mean(t), mean(data.airspeed_body), mean(data.specific_force_body),
+                    mean(data.rotor_speeds), data.source)
+
+
+@dataclass(frozen=True, eq=False)
+class AeroFit:
+    """Rotor aerodynamic coefficients from hover in a known airflow.
+
+    Attributes
+    ----------
+    k_eta : Estimate
+        Thrust coefficient, N/(rad/s)^2.
+    k_d : Estimate
+        In-plane rotor drag, kg/rad.
+    k_z : Estimate
+        Axial (inflow) rotor drag, kg/rad.
+    k_h : Estimate
+        Translational lift, kg/m.
+    accel_bias : tuple of Estimate
+        Accelerometer biases ``(b_x, b_y)``, m/s^2.
+    lateral, vertical : LeastSquares
+        The two regressions (``lateral`` stacks the x then the y equations).
+    mass : float
+        Mass used, kg.
+    data : AeroData
+        The samples.
+    """
+
+    k_eta: Estimate
+    k_d: Estimate
+    k_z: Estimate
+    k_h: Estimate
+    accel_bias: tuple
+    lateral: LeastSquares
+    vertical: LeastSquares
+    mass: float
+    data: AeroData
+
+    def to_dict(self) -> dict:
+        """The JSON payload: each coefficient with ``value``, ``std_error``, ``ci95``."""
+        return {
+            "k_eta": self.k_eta.to_dict(), "k_d": self.k_d.to_dict(),
+            "k_z": self.k_z.to_dict(), "k_h": self.k_h.to_dict(),
+            "accel_bias": {"x": self.accel_bias[0].to_dict(), "y": self.accel_bias[1].to_dict()},
+            "r2_lateral": self.lateral.r2, "r2_vertical": self.vertical.r2,
+            "rmse_lateral_m_s2": self.lateral.rmse, "rmse_vertical_m_s2": self.vertical.rmse,
+            "mass_kg": self.mass, "n_points": int(self.data.t.size),
+            "n_rotors": self.data.n_rotors,
+            "units": {"k_eta": "N/(rad/s)^2", "k_d": "kg/rad", "k_z": "kg/rad", "k_h": "kg/m",
+                      "accel_bias": "m/s^2"},
+        }
+
+
+def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
+             where: str = "fit_aero") -> AeroFit:
+    """Fit ``k_d`` (with the accelerometer biases) and ``k_eta, k_z, k_h`` (jointly).
+
+    Parameters
+    ----------
+    data : AeroData or sequence of AeroData
+        Hover samples in several airflows (pooled).
+    mass : float
+        Vehicle mass, kg.
+    where : str
+        The caller, for messages.
+
+    Returns
+    -------
+    AeroFit
+
+    Raises
+    ------
+    ValueError
+        Naming the source: too few samples, or airflows that do not separate the
+        coefficients (e.g. no lateral airspeed, or only one airspeed).
+    """
+    m = positive_float(mass, "mass", where)
+    d = data if isinstance(data, AeroData) else AeroData.concatenate(list(data))
+    va, f, eta = d.airspeed_body, d.specific_force_body, d.rotor_speeds
+    K, N = eta.shape
+    s1 = eta.sum(axis=1)
+    s2 = (eta**2).sum(axis=1)
+    zero, one = np.zeros(K), np.ones(K)
+    X_lat = np.vstack([np.column_stack([-va[:, 0] * s1 / m, one, zero]),
+                       np.column_stack([-va[:, 1] * s1 / m, zero, one])])
+    y_lat = np.concatenate([f[:, 0], f[:, 1]])
+    lat = linear_fit(X_lat, y_lat, ["k_d", "b_x", "b_y"],
+                     source=f"{d.source} (columns 'specific_force_x', 'specific_force_y', "
+                            "'airspeed_x', 'airspeed_y', 'rotor_speed_*')")
+    X_v = np.column_stack([s2 / m, -va[:, 2] * s1 / m, N * (va[:, 0] ** 2 + va[:, 1] ** 2) / m])
+    ver = linear_fit(X_v, f[:, 2], ["k_eta", "k_z", "k_h"],
+                     source=f"{d.source} (columns 'specific_force_z', 'airspeed_*', "
+                            "'rotor_speed_*')")
+    return AeroFit(ver.estimate("k_eta"), lat.estimate("k_d"), ver.estimate("k_z"),
+                   ver.estimate("k_h"), (lat.estimate("b_x"), lat.estimate("b_y")), lat, ver,
+                   m, d)

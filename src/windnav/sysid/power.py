@@ -1,0 +1,244 @@
+"""Electrical power against speed: the fitted curve, the best speeds, and their uncertainty.
+
+A polynomial (the thesis: a cubic) is fitted to steady level-flight samples by least squares::
+
+    P(V) = c0 + c1 V + c2 V^2 + c3 V^3                        (W, V in m/s)
+
+and gives (:mod:`windnav.vehicle.power`):
+
+- the hover power ``P(0) = c0``;
+- the maximum-endurance speed ``V_E = argmin_V P(V)`` and the least power ``P(V_E)``;
+- the maximum-range speed ``V_R = argmin_V P(V) / V`` (the tangent from the origin), and in a
+  wind ``W`` along the track (``W > 0`` tailwind, ``W < 0`` headwind) the ground speed
+  ``V_R(W) = argmin_V P(|V - W|) / V``.
+
+Confidence intervals of the derived speeds and powers come from the coefficients' covariance
+by the delta method (central differences of each quantity in each coefficient).
+
+Thesis (Crazyflie 2.1 Brushless): P = 10.56 + 0.15160 V - 0.14970 V^2 + 0.021114 V^3 W, hover
+10.56 W, minimum 10.12 W at 4.15 m/s, maximum-range speed 7.73 m/s.
+
+For logs, :func:`steady_level_mask` keeps level, steady flight: small vertical speed, small
+along-track acceleration, above a minimum height, in runs of a minimum duration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.stats
+
+from windnav._validate import finite_float, positive_float, positive_int
+from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
+from windnav.sysid._signal import min_run, steepest_slope
+from windnav.vehicle.power import PowerCurve, max_endurance_speed, max_range_speed
+
+__all__ = ["DEFAULT_WINDS", "PowerFit", "fit_power", "steady_level_mask"]
+
+DEFAULT_WINDS = tuple(float(w) for w in range(-5, 6))
+"""Along-track winds of the ``max_range_speed_in_wind`` table, m/s (-5 ... +5)."""
+
+
+def steady_level_mask(t, speed, *, vertical_speed=None, altitude=None,
+                      max_vertical_speed: float = 0.3, max_accel: float = 0.5,
+                      min_altitude: float | None = None, window_s: float = 1.0,
+                      min_segment_s: float = 1.0) -> np.ndarray:
+    """Samples of level, steady flight.
+
+    Parameters
+    ----------
+    t : ndarray of shape (n,)
+        Times, s (gaps longer than five median steps split the log).
+    speed : ndarray of shape (n,)
+        Horizontal speed, m/s.
+    vertical_speed : ndarray of shape (n,), optional
+        Climb rate, m/s: kept where ``|vz| < max_vertical_speed``.
+    altitude : ndarray of shape (n,), optional
+        Height, m: kept where ``altitude > min_altitude`` (clear of ground effect, take-off
+        and landing).
+    max_vertical_speed : float
+        m/s.
+    max_accel : float
+        Largest ``|dV/dt|``, m/s^2: the steeper of the line slopes over the ``window_s / 2``
+        before and after each sample.
+    min_altitude : float, optional
+        m.
+    window_s : float
+        Window of the acceleration estimate, s.
+    min_segment_s : float
+        Runs of kept samples shorter than this are dropped, s.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+    """
+    where = "steady_level_mask"
+    t = np.asarray(t, dtype=np.float64)
+    v = np.asarray(speed, dtype=np.float64)
+    keep = np.isfinite(v) & np.isfinite(t)
+    accel = steepest_slope(t, v, positive_float(window_s, "window_s", where))
+    keep &= np.abs(accel) < positive_float(max_accel, "max_accel", where)
+    if vertical_speed is not None:
+        vz = np.asarray(vertical_speed, dtype=np.float64)
+        keep &= np.abs(vz) < positive_float(max_vertical_speed, "max_vertical_speed", where)
+    if altitude is not None and min_altitude is not None:
+        keep &= np.asarray(altitude, dtype=np.float64) > finite_float(min_altitude,
+                                                                      "min_altitude", where)
+    return min_run(t, keep, positive_float(min_segment_s, "min_segment_s", where,
+                                           allow_zero=True))
+
+
+@dataclass(frozen=True, eq=False)
+class PowerFit:
+    """A fitted power curve and what it gives.
+
+    Attributes
+    ----------
+    coefficients : tuple of Estimate
+        ``c_k`` in ascending powers, W/(m/s)^k.
+    fit : LeastSquares
+        The regression (residuals in W).
+    curve : PowerCurve
+        The curve, searched on ``[0, speed_max]`` m/s.
+    hover, min_power, max_endurance_speed, max_range_speed : Estimate
+        ``P(0)`` (W), ``P(V_E)`` (W), ``V_E`` (m/s), ``V_R`` (m/s, no wind).
+    in_wind : list of dict
+        Per along-track wind ``W`` (m/s): the ground speed ``V_R(W)``, its airspeed, power and
+        energy per metre, and ``at_speed_limit`` when the airspeed sits on ``speed_max``
+        (the optimum lies beyond the data).
+    speed, power : ndarray of shape (n,)
+        The samples, m/s and W.
+    """
+
+    coefficients: tuple
+    fit: LeastSquares
+    curve: PowerCurve
+    hover: Estimate
+    min_power: Estimate
+    max_endurance_speed: Estimate
+    max_range_speed: Estimate
+    in_wind: list
+    speed: np.ndarray
+    power: np.ndarray
+
+    @property
+    def hover_ratio(self) -> float:
+        """``P(V_E) / P(0)``: how deep the bucket is (1 = no bucket)."""
+        return self.min_power.value / self.hover.value
+
+    def to_dict(self) -> dict:
+        """The JSON payload."""
+        return {
+            "coefficients": [c.to_dict() for c in self.coefficients],
+            "coefficient_values": [c.value for c in self.coefficients],
+            "degree": len(self.coefficients) - 1,
+            "r2": self.fit.r2, "rmse_W": self.fit.rmse, "n_points": int(self.speed.size),
+            "speed_max": self.curve.speed_max,
+            "hover_W": self.hover.value, "hover_W_ci95": list(self.hover.ci95),
+            "min_power_W": self.min_power.value, "min_power_W_ci95": list(self.min_power.ci95),
+            "max_endurance_speed": self.max_endurance_speed.value,
+            "max_endurance_speed_ci95": list(self.max_endurance_speed.ci95),
+            "max_range_speed": self.max_range_speed.value,
+            "max_range_speed_ci95": list(self.max_range_speed.ci95),
+            "max_range_at_speed_limit": bool(
+                self.max_range_speed.value >= self.curve.speed_max * (1 - 1e-6)),
+            "max_endurance_at_speed_limit": bool(
+                self.max_endurance_speed.value >= self.curve.speed_max * (1 - 1e-6)
+                or self.max_endurance_speed.value <= 1e-6 * self.curve.speed_max),
+            "hover_ratio": self.hover_ratio,
+            "max_range_speed_in_wind": self.in_wind,
+            "units": {"speed": "m/s", "power": "W", "coefficients": "W/(m/s)^k",
+                      "wind_m_s": "along track, > 0 tailwind, < 0 headwind"},
+        }
+
+
+def _delta(func, coef: np.ndarray, cov: np.ndarray, dof: int) -> Estimate:
+    """Estimate of ``func(coef)`` with the delta-method CI."""
+    value = func(coef)
+    grad = np.empty(coef.size)
+    for k in range(coef.size):
+        h = 1e-6 * max(abs(coef[k]), 1e-12) + 1e-9 * np.sqrt(max(cov[k, k], 0.0))
+        up, dn = coef.copy(), coef.copy()
+        up[k] += h
+        dn[k] -= h
+        grad[k] = (func(up) - func(dn)) / (2 * h)
+    se = float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+    half = float(scipy.stats.t.ppf(0.975, dof)) * se
+    return Estimate(float(value), se, (value - half, value + half))
+
+
+def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
+              winds=DEFAULT_WINDS, source: str = "the power samples") -> PowerFit:
+    """Fit ``P(V)`` by least squares and derive hover power and the best speeds.
+
+    Parameters
+    ----------
+    speed : array_like of shape (n,)
+        Speeds, m/s (>= 0).
+    power : array_like of shape (n,)
+        Electrical power, W.
+    degree : int
+        Polynomial degree (3: the thesis's cubic).
+    speed_max : float, optional
+        Upper end of the speed searches, m/s (default: the largest sample speed).
+    winds : sequence of float
+        Along-track winds of the ``in_wind`` table, m/s (> 0 tailwind).
+    source : str
+        What the samples are (file and columns), for messages.
+
+    Raises
+    ------
+    ValueError
+        Naming ``source``: non-finite or negative speeds, fewer distinct speeds than
+        coefficients, a curve without an interior minimum is not an error (reported as
+        found).
+    """
+    where = "fit_power"
+    deg = positive_int(degree, "degree", where)
+    v = np.asarray(speed, dtype=np.float64).reshape(-1)
+    p = np.asarray(power, dtype=np.float64).reshape(-1)
+    if v.shape != p.shape:
+        raise ValueError(f"The speeds and powers of {source} must have the same length. Got "
+                         f"{v.size} and {p.size} instead.")
+    ok = np.isfinite(v) & np.isfinite(p)
+    v, p = v[ok], p[ok]
+    if np.any(v < 0):
+        raise ValueError(f"The speeds of {source} must be >= 0. Got {v.min()!r} instead.")
+    if np.unique(v).size <= deg:
+        raise ValueError(f"The data of {source} hold {np.unique(v).size} distinct speeds, "
+                         f"fewer than the {deg + 1} needed to fit a degree-{deg} curve with an "
+                         "uncertainty.")
+    names = [f"c{k}" for k in range(deg + 1)]
+    fit = linear_fit(np.vander(v, deg + 1, increasing=True), p, names, source=source)
+    vmax = float(v.max()) if speed_max is None else positive_float(speed_max, "speed_max",
+                                                                   where)
+    curve = PowerCurve(fit.coef, speed_max=vmax, name="fitted")
+
+    def ve(c):
+        return max_endurance_speed(PowerCurve(c, speed_max=vmax))
+
+    def pmin(c):
+        pc = PowerCurve(c, speed_max=vmax)
+        return float(pc(max_endurance_speed(pc)))
+
+    def vr(c):
+        return max_range_speed(PowerCurve(c, speed_max=vmax), 0.0).ground_speed
+
+    table = []
+    for w in winds:
+        w = finite_float(w, "winds", where)
+        if w + vmax <= 0:
+            table.append({"wind_m_s": w, "ground_speed_m_s": None, "airspeed_m_s": None,
+                          "power_W": None, "energy_per_metre_J_m": None,
+                          "at_speed_limit": True})
+            continue
+        opt = max_range_speed(curve, w)
+        table.append({"wind_m_s": w, "ground_speed_m_s": opt.ground_speed,
+                      "airspeed_m_s": opt.airspeed, "power_W": opt.power,
+                      "energy_per_metre_J_m": opt.energy_per_metre,
+                      "at_speed_limit": bool(opt.airspeed >= vmax * (1 - 1e-6))})
+    return PowerFit(tuple(fit.estimate(n) for n in names), fit, curve, fit.estimate("c0"),
+                    _delta(pmin, fit.coef, fit.cov, fit.dof),
+                    _delta(ve, fit.coef, fit.cov, fit.dof),
+                    _delta(vr, fit.coef, fit.cov, fit.dof), table, v, p)

@@ -1,0 +1,183 @@
+"""Similitude between a full-scale aircraft and a small model flying in scaled wind.
+
+The length scale is the ratio of rotor diameters, ``lambda = D_FS / D_M`` (thesis: a 1.8 m
+air-taxi rotor against the Crazyflie's 55 mm, 32.7, used as 32). With model quantities ``_M``
+and full-scale ones ``_FS``:
+
+- **Reynolds similarity** (same ``Re = U D / nu``, same fluid) needs ``U_M = lambda U_FS``:
+  a model 32 times faster than the aircraft, impossible in practice;
+- **Froude similarity** (same ``Fr = U^2 / (g D)``), the one used: ::
+
+      speed      U_M = U_FS / sqrt(lambda)         time   t_M = t_FS / sqrt(lambda)
+      frequency  f_M = f_FS sqrt(lambda)           mass   m_M = m_FS / lambda^3
+      force      F_M = F_FS / lambda^3             power  P_M = P_FS / lambda^3.5
+
+  so a 2000 kg aircraft corresponds to a 2000 / 32^3 = 61 g model. The Reynolds number is
+  not kept: ``Re_M = Re_FS / lambda^1.5``.
+- Every frequency scales alike, so the ratio of the control rate to the vortex-shedding
+  frequency ``f_shed = St U / W`` of an obstacle of width ``W`` is the same at both scales
+  (the thesis: about 50).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from windnav._validate import positive_float
+
+__all__ = ["KINEMATIC_VISCOSITY_AIR", "Similitude"]
+
+KINEMATIC_VISCOSITY_AIR = 1.5e-5
+"""Kinematic viscosity of air at 20 degC, m^2/s."""
+
+
+@dataclass(frozen=True)
+class Similitude:
+    """Froude scaling between a full-scale vehicle and its model.
+
+    Attributes
+    ----------
+    full_scale_diameter : float
+        Rotor diameter at full scale, m.
+    model_diameter : float
+        Rotor diameter of the model, m.
+    scale : float or None
+        The length scale used; None: the exact ratio of the diameters (the thesis rounds
+        32.7 to 32).
+    """
+
+    full_scale_diameter: float
+    model_diameter: float
+    scale: float | None = None
+
+    def __post_init__(self):
+        where = "Similitude"
+        positive_float(self.full_scale_diameter, "full_scale_diameter", where)
+        positive_float(self.model_diameter, "model_diameter", where)
+        if self.scale is not None:
+            positive_float(self.scale, "scale", where)
+
+    @classmethod
+    def thesis(cls) -> Similitude:
+        """1.8 m against 0.055 m rotors, used as lambda = 32."""
+        return cls(1.8, 0.055, 32.0)
+
+    @property
+    def exact_scale(self) -> float:
+        """``D_FS / D_M``."""
+        return self.full_scale_diameter / self.model_diameter
+
+    @property
+    def length_scale(self) -> float:
+        """lambda: ``scale`` when given, else :attr:`exact_scale`."""
+        return self.exact_scale if self.scale is None else float(self.scale)
+
+    # Froude ------------------------------------------------------------------------------
+    def model_speed(self, full_scale_speed: float) -> float:
+        """``U_M = U_FS / sqrt(lambda)``, m/s."""
+        return full_scale_speed / math.sqrt(self.length_scale)
+
+    def full_scale_speed(self, model_speed: float) -> float:
+        """``U_FS = U_M sqrt(lambda)``, m/s."""
+        return model_speed * math.sqrt(self.length_scale)
+
+    def model_mass(self, full_scale_mass: float) -> float:
+        """``m_M = m_FS / lambda^3``, kg."""
+        return full_scale_mass / self.length_scale**3
+
+    def model_frequency(self, full_scale_frequency: float) -> float:
+        """``f_M = f_FS sqrt(lambda)``, Hz."""
+        return full_scale_frequency * math.sqrt(self.length_scale)
+
+    def full_scale_frequency(self, model_frequency: float) -> float:
+        """``f_FS = f_M / sqrt(lambda)``, Hz."""
+        return model_frequency / math.sqrt(self.length_scale)
+
+    # Reynolds ----------------------------------------------------------------------------
+    def reynolds_model_speed(self, full_scale_speed: float) -> float:
+        """The model speed Reynolds similarity would need, ``lambda U_FS``, m/s."""
+        return self.length_scale * full_scale_speed
+
+    def reynolds(self, speed: float, diameter: float,
+                 kinematic_viscosity: float = KINEMATIC_VISCOSITY_AIR) -> float:
+        """``U D / nu``."""
+        return speed * diameter / kinematic_viscosity
+
+    def report(self, *, full_scale_speed: float | None = None,
+               full_scale_mass: float | None = None, model_speed: float | None = None,
+               control_rate_hz: float | None = None, obstacle_width: float | None = None,
+               strouhal: float = 0.2,
+               kinematic_viscosity: float = KINEMATIC_VISCOSITY_AIR) -> dict:
+        """The scalings and, for the quantities given, their values at both scales.
+
+        Parameters
+        ----------
+        full_scale_speed : float, optional
+            Wind or flight speed at full scale, m/s (or give ``model_speed``).
+        full_scale_mass : float, optional
+            kg.
+        model_speed : float, optional
+            m/s.
+        control_rate_hz : float, optional
+            The model's control rate, Hz.
+        obstacle_width : float, optional
+            Width of the model's obstacle (a building), m: with a speed and a control rate,
+            gives the shedding frequency ``St U / W`` and the ratio ``f_control / f_shed``.
+        strouhal : float
+            Strouhal number of the shedding (0.2: a circular cylinder; about 0.13 for a
+            square one).
+        kinematic_viscosity : float
+            m^2/s.
+
+        Returns
+        -------
+        dict
+            JSON-ready.
+        """
+        where = "Similitude.report"
+        lam = self.length_scale
+        nu = positive_float(kinematic_viscosity, "kinematic_viscosity", where)
+        out = {
+            "length_scale_exact": self.exact_scale, "length_scale": lam,
+            "full_scale_diameter_m": self.full_scale_diameter,
+            "model_diameter_m": self.model_diameter,
+            "froude": {"speed": 1 / math.sqrt(lam), "time": 1 / math.sqrt(lam),
+                       "frequency": math.sqrt(lam), "mass": lam**-3, "force": lam**-3,
+                       "power": lam**-3.5, "reynolds": lam**-1.5,
+                       "note": "model / full-scale ratios under Froude similarity"},
+        }
+        if full_scale_speed is not None and model_speed is not None:
+            raise ValueError(f"The 'model_speed' parameter of {where} must not be given with "
+                             "full_scale_speed (one follows from the other).")
+        if model_speed is not None:
+            full_scale_speed = self.full_scale_speed(positive_float(model_speed, "model_speed",
+                                                                    where))
+        if full_scale_speed is not None:
+            u = positive_float(full_scale_speed, "full_scale_speed", where)
+            um = self.model_speed(u)
+            out["speed"] = {
+                "full_scale_m_s": u, "model_froude_m_s": um,
+                "model_reynolds_m_s": self.reynolds_model_speed(u),
+                "reynolds_full_scale": self.reynolds(u, self.full_scale_diameter, nu),
+                "reynolds_model": self.reynolds(um, self.model_diameter, nu),
+            }
+        if full_scale_mass is not None:
+            m = positive_float(full_scale_mass, "full_scale_mass", where)
+            out["mass"] = {"full_scale_kg": m, "model_kg": self.model_mass(m)}
+        if control_rate_hz is not None:
+            fc = positive_float(control_rate_hz, "control_rate_hz", where)
+            out["control"] = {"model_hz": fc, "full_scale_hz": self.full_scale_frequency(fc)}
+            if obstacle_width is not None and full_scale_speed is not None:
+                w = positive_float(obstacle_width, "obstacle_width", where)
+                st = positive_float(strouhal, "strouhal", where)
+                f_m = st * self.model_speed(full_scale_speed) / w
+                f_fs = st * full_scale_speed / (w * lam)
+                out["shedding"] = {
+                    "strouhal": st, "model_obstacle_width_m": w,
+                    "full_scale_obstacle_width_m": w * lam,
+                    "model_hz": f_m, "full_scale_hz": f_fs,
+                    "control_to_shedding_model": fc / f_m,
+                    "control_to_shedding_full_scale": self.full_scale_frequency(fc) / f_fs,
+                }
+        return out

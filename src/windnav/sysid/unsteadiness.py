@@ -1,0 +1,239 @@
+"""Flow reconstruction and unsteadiness maps: flight samples binned on an x-y grid.
+
+The thesis (ch. 6) reconstructs the mean flow by binning the wind estimates on an x-y grid
+(the mean per bin), and maps unsteadiness as the standard deviation of the lateral force
+command and the mean body-rate magnitude per bin. Here:
+
+- lateral force command: the horizontal (world x, y) part of the commanded collective thrust
+  ``R e3 sum_i k_eta eta_cmd,i^2`` (N), with the attitude ``R`` at the same instant; its
+  unsteadiness per bin is the total standard deviation ``sqrt(var F_x + var F_y)`` (N);
+- body-rate magnitude ``|Omega|`` (rad/s), its mean per bin.
+
+Bins are ``cell`` metres square, aligned on multiples of ``cell``; a bin with fewer than
+``min_count`` samples is NaN.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from windnav._validate import positive_float, positive_int
+from windnav.sysid.io import Table
+
+__all__ = ["UNSTEADINESS_COLUMNS", "FlightSamples", "UnsteadinessMaps", "bin_xy",
+           "flight_samples_from_log", "lateral_force_command", "unsteadiness_maps"]
+
+UNSTEADINESS_COLUMNS = ("x", "y", "wind_x", "wind_y", "force_cmd_x", "force_cmd_y",
+                        "body_rate_x", "body_rate_y", "body_rate_z")
+"""Columns of an unsteadiness CSV: position (m), estimated wind (m/s) and lateral force
+command (N), world frame; body rates (rad/s)."""
+
+
+def lateral_force_command(attitude, rotor_speed_cmd, k_eta: float) -> np.ndarray:
+    """Horizontal part of the commanded collective thrust, world frame.
+
+    Parameters
+    ----------
+    attitude : ndarray of shape (K, 4)
+        Quaternions xyzw, body to world.
+    rotor_speed_cmd : ndarray of shape (K, N)
+        Commanded rotor speeds, rad/s.
+    k_eta : float
+        Thrust coefficient, N/(rad/s)^2.
+
+    Returns
+    -------
+    ndarray of shape (K, 2)
+        ``[F_x, F_y]`` of ``R e3 sum_i k_eta eta_cmd,i^2``, N.
+    """
+    from scipy.spatial.transform import Rotation
+
+    k = positive_float(k_eta, "k_eta", "lateral_force_command")
+    thrust = k * np.sum(np.asarray(rotor_speed_cmd, dtype=np.float64) ** 2, axis=1)
+    axis = Rotation.from_quat(np.asarray(attitude, dtype=np.float64)).apply([0.0, 0.0, 1.0])
+    return axis[:, :2] * thrust[:, None]
+
+
+@dataclass(frozen=True, eq=False)
+class FlightSamples:
+    """Samples along one or more flights for the maps.
+
+    Attributes
+    ----------
+    xy : ndarray of shape (K, 2)
+        Position, world frame, m.
+    wind_xy : ndarray of shape (K, 2)
+        Wind (estimate or truth), world frame, m/s.
+    force_cmd_xy : ndarray of shape (K, 2)
+        Lateral force command, world frame, N.
+    body_rates : ndarray of shape (K, 3)
+        rad/s.
+    """
+
+    xy: np.ndarray
+    wind_xy: np.ndarray
+    force_cmd_xy: np.ndarray
+    body_rates: np.ndarray
+
+    @classmethod
+    def from_table(cls, table: Table, where: str = "FlightSamples.from_table"
+                   ) -> FlightSamples:
+        """From a table with :data:`UNSTEADINESS_COLUMNS` (rows with NaN are dropped)."""
+        table.require(UNSTEADINESS_COLUMNS, where)
+        c = table.columns
+        cols = [np.column_stack([c[n] for n in names]) for names in (
+            ("x", "y"), ("wind_x", "wind_y"), ("force_cmd_x", "force_cmd_y"),
+            ("body_rate_x", "body_rate_y", "body_rate_z"))]
+        ok = np.logical_and.reduce([np.all(np.isfinite(a), 1) for a in cols])
+        return cls(*(a[ok] for a in cols))
+
+    @staticmethod
+    def concatenate(parts) -> FlightSamples:
+        parts = list(parts)
+        return FlightSamples(*(np.concatenate([getattr(p, f) for p in parts]) for f in
+                               ("xy", "wind_xy", "force_cmd_xy", "body_rates")))
+
+
+def flight_samples_from_log(log, k_eta: float, *, wind_xy=None) -> FlightSamples:
+    """Samples of every finite vehicle of a FlightLog at its logged instants.
+
+    Parameters
+    ----------
+    log : FlightLog
+    k_eta : float
+        Thrust coefficient of the vehicle, N/(rad/s)^2 (for the force command).
+    wind_xy : ndarray of shape (T, B, 2), optional
+        Wind estimates on the log's times; default the logged true wind.
+    """
+    T, B = log.position.shape[:2]
+    wind = log.wind[..., :2] if wind_xy is None else np.asarray(wind_xy, dtype=np.float64)
+    if wind.shape != (T, B, 2):
+        raise ValueError("The 'wind_xy' parameter of flight_samples_from_log must have shape "
+                         f"{(T, B, 2)}. Got {wind.shape} instead.")
+    parts = []
+    for b in np.flatnonzero(np.asarray(log.finite, dtype=bool)):
+        parts.append(FlightSamples(log.position[:, b, :2], wind[:, b],
+                                   lateral_force_command(log.attitude[:, b],
+                                                         log.rotor_speed_cmd[:, b], k_eta),
+                                   log.body_rates[:, b]))
+    if not parts:
+        raise ValueError("The flight log has no vehicle that flew with finite values.")
+    return FlightSamples.concatenate(parts)
+
+
+def bin_xy(xy, values, x_edges, y_edges):
+    """Per-bin count, mean and variance of ``values`` on an x-y grid.
+
+    Parameters
+    ----------
+    xy : ndarray of shape (K, 2)
+        Positions, m.
+    values : ndarray of shape (K, C)
+        Quantities to bin.
+    x_edges, y_edges : ndarray of shape (nx + 1,), (ny + 1,)
+        Bin edges, m, increasing.
+
+    Returns
+    -------
+    count : ndarray of shape (ny, nx)
+    mean : ndarray of shape (ny, nx, C)
+        NaN in empty bins.
+    var : ndarray of shape (ny, nx, C)
+        Population variance, NaN in empty bins.
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    v = np.asarray(values, dtype=np.float64)
+    nx, ny = len(x_edges) - 1, len(y_edges) - 1
+    ix = np.searchsorted(x_edges, xy[:, 0], side="right") - 1
+    iy = np.searchsorted(y_edges, xy[:, 1], side="right") - 1
+    inside = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+    flat = iy[inside] * nx + ix[inside]
+    v = v[inside]
+    count = np.bincount(flat, minlength=nx * ny).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s1 = np.stack([np.bincount(flat, v[:, c], nx * ny) for c in range(v.shape[1])], 1)
+        mean = s1 / count[:, None]
+        dev = v - mean[flat]
+        var = np.stack([np.bincount(flat, dev[:, c] ** 2, nx * ny)
+                        for c in range(v.shape[1])], 1) / count[:, None]
+    return (count.reshape(ny, nx), mean.reshape(ny, nx, -1), var.reshape(ny, nx, -1))
+
+
+@dataclass(frozen=True, eq=False)
+class UnsteadinessMaps:
+    """Binned mean flow and unsteadiness.
+
+    Attributes
+    ----------
+    x_edges, y_edges : ndarray
+        Bin edges, m.
+    count : ndarray of shape (ny, nx)
+        Samples per bin.
+    wind_mean : ndarray of shape (ny, nx, 2)
+        Mean wind per bin, world frame, m/s (NaN below ``min_count``).
+    force_cmd_std : ndarray of shape (ny, nx)
+        ``sqrt(var F_x + var F_y)`` of the lateral force command, N.
+    body_rate_mean : ndarray of shape (ny, nx)
+        Mean ``|Omega|``, rad/s.
+    """
+
+    x_edges: np.ndarray
+    y_edges: np.ndarray
+    count: np.ndarray
+    wind_mean: np.ndarray
+    force_cmd_std: np.ndarray
+    body_rate_mean: np.ndarray
+
+    @property
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bin centres ``(x (nx,), y (ny,))``, m."""
+        return (0.5 * (self.x_edges[1:] + self.x_edges[:-1]),
+                0.5 * (self.y_edges[1:] + self.y_edges[:-1]))
+
+    def to_dict(self) -> dict:
+        """JSON payload (arrays as nested lists, NaN as null by the writer)."""
+        occupied = self.count > 0
+        return {
+            "x_edges_m": self.x_edges, "y_edges_m": self.y_edges, "count": self.count,
+            "wind_mean_x_m_s": self.wind_mean[..., 0], "wind_mean_y_m_s": self.wind_mean[..., 1],
+            "force_cmd_std_N": self.force_cmd_std, "body_rate_mean_rad_s": self.body_rate_mean,
+            "occupied_bins": int(occupied.sum()),
+            "force_cmd_std_N_max": float(np.nanmax(self.force_cmd_std))
+            if np.isfinite(self.force_cmd_std).any() else None,
+            "body_rate_mean_rad_s_max": float(np.nanmax(self.body_rate_mean))
+            if np.isfinite(self.body_rate_mean).any() else None,
+        }
+
+
+def unsteadiness_maps(samples: FlightSamples, *, cell: float = 1.0,
+                      min_count: int = 1) -> UnsteadinessMaps:
+    """Bin ``samples`` on a grid of ``cell``-metre squares covering them.
+
+    Parameters
+    ----------
+    samples : FlightSamples
+    cell : float
+        Bin size, m.
+    min_count : int
+        Bins with fewer samples are NaN.
+    """
+    where = "unsteadiness_maps"
+    cell = positive_float(cell, "cell", where)
+    min_count = positive_int(min_count, "min_count", where)
+    if samples.xy.shape[0] == 0:
+        raise ValueError(f"The 'samples' parameter of {where} holds no finite sample.")
+    lo = np.floor(samples.xy.min(axis=0) / cell) * cell
+    hi = (np.floor(samples.xy.max(axis=0) / cell) + 1) * cell
+    x_edges = np.arange(lo[0], hi[0] + 0.5 * cell, cell)
+    y_edges = np.arange(lo[1], hi[1] + 0.5 * cell, cell)
+    rate = np.linalg.norm(samples.body_rates, axis=1)
+    values = np.column_stack([samples.wind_xy, samples.force_cmd_xy, rate])
+    count, mean, var = bin_xy(samples.xy, values, x_edges, y_edges)
+    empty = count < min_count
+    mean[empty] = np.nan
+    var[empty] = np.nan
+    return UnsteadinessMaps(x_edges, y_edges, count, mean[..., :2],
+                            np.sqrt(var[..., 2] + var[..., 3]), mean[..., 4])
+

@@ -1,0 +1,178 @@
+"""Tunnel hover: the simulated campaign through the command line, back to k_eta, k_d, k_z,
+k_h and the accelerometer bias; the same fit from a CSV and from ROS 1 and ROS 2 bags."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+import windnav.commands.sysid
+from windnav.experiments.sysid import vehicle_params
+from windnav.sysid import AeroData, PWMMotorModel, aero_columns, fit_aero, read_table, write_csv
+from windnav.vehicle.thesis_presets import THESIS_CRAZYFLIE, crazyflie_thesis
+
+TRUE = {"k_eta": 4.052e-8, "k_d": 5.09e-6, "k_z": 1.19e-5, "k_h": 1.11e-3}
+MASS = 0.044
+
+
+def _cli(*argv):
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    windnav.commands.sysid.register(sub)
+    args = parser.parse_args([str(a) for a in argv])
+    return args.func(args)
+
+
+def _model_samples(n=400, bias=(0.05, -0.04), seed=0):
+    """Specific force from the force model of windnav.vehicle.dynamics (closed form)."""
+    rng = np.random.default_rng(seed)
+    va = rng.uniform(-6, 6, (n, 3)) * [1, 1, 0.5]
+    eta = rng.uniform(1200, 2200, (n, 4))
+    s1, s2 = eta.sum(1), (eta**2).sum(1)
+    f = np.empty((n, 3))
+    f[:, 0] = -TRUE["k_d"] * va[:, 0] * s1 / MASS + bias[0]
+    f[:, 1] = -TRUE["k_d"] * va[:, 1] * s1 / MASS + bias[1]
+    f[:, 2] = (TRUE["k_eta"] * s2 - TRUE["k_z"] * va[:, 2] * s1
+               + 4 * TRUE["k_h"] * (va[:, 0] ** 2 + va[:, 1] ** 2)) / MASS
+    return AeroData(np.arange(n) * 0.01, va, f, eta, "model")
+
+
+def test_exact_data_give_the_exact_coefficients():
+    fit = fit_aero(_model_samples(), MASS)
+    for k, v in TRUE.items():
+        assert getattr(fit, k).value == pytest.approx(v, rel=1e-9)
+    assert fit.accel_bias[0].value == pytest.approx(0.05, abs=1e-9)
+    assert fit.accel_bias[1].value == pytest.approx(-0.04, abs=1e-9)
+    assert fit.lateral.r2 == pytest.approx(1.0) and fit.vertical.r2 == pytest.approx(1.0)
+
+
+@pytest.fixture(scope="module")
+def tunnel(tmp_path_factory):
+    root = tmp_path_factory.mktemp("tunnel")
+    _cli("sysid", "simulate-tunnel", "--out", root / "sim", "--seed", 7)
+    _cli("sysid", "aero", "--log", root / "sim" / "tunnel_log.npz", "--json",
+         root / "log.json", "--out", root / "log")
+    _cli("sysid", "aero", "--csv", root / "sim" / "tunnel.csv", "--vehicle",
+         "crazyflie_thesis", "--json", root / "csv.json", "--out", root / "csv")
+    return root
+
+
+@pytest.mark.parametrize("source", ["log", "csv"])
+def test_round_trip_recovers_the_thesis_coefficients(tunnel, source):
+    doc = json.loads((tunnel / f"{source}.json").read_text())
+    truth = json.loads((tunnel / "sim" / "truth.json").read_text())
+    assert truth["true"] == {**TRUE, "accel_bias": [0.05, -0.04, 0.03]}
+    for key, tol in (("k_eta", 0.02), ("k_d", 0.02), ("k_z", 0.02), ("k_h", 0.10)):
+        assert doc[key]["value"] == pytest.approx(TRUE[key], rel=tol), key
+        assert doc[key]["ci95"][0] < doc[key]["value"] < doc[key]["ci95"][1]
+    assert doc["accel_bias"]["x"]["value"] == pytest.approx(0.05, abs=0.01)
+    assert doc["accel_bias"]["y"]["value"] == pytest.approx(-0.04, abs=0.01)
+    assert doc["mass_kg"] == MASS and doc["n_rotors"] == 4
+    assert (tunnel / source / "aero.png").stat().st_size > 10_000
+
+
+def test_simulated_tunnel_csv_has_the_documented_header(tunnel):
+    tab = read_table(tunnel / "sim" / "tunnel.csv")
+    assert tab.names == list(aero_columns(4))
+    # 13 airspeeds (0 ... 6 m/s by 0.5) on 5 axes, 2.5 ... 4.0 s at 200 Hz (both ends)
+    speed = np.linalg.norm(np.column_stack([tab.columns[f"airspeed_{a}"] for a in "xyz"]),
+                           axis=1)
+    assert speed.max() == pytest.approx(6.0, abs=0.2)
+    assert len(tab) == 65 * 301
+
+
+def test_csv_without_rotor_speeds_names_file_and_columns(tmp_path):
+    cols = {k: v for k, v in _model_samples(10).to_columns().items()
+            if not k.startswith("rotor")}
+    path = write_csv(tmp_path / "tun.csv", cols)
+    with pytest.raises(ValueError, match=r"tun\.csv.*'rotor_speed_1' \.\.\. 'rotor_speed_N'"):
+        _cli("sysid", "aero", "--csv", path, "--mass", MASS, "--out", tmp_path / "o")
+    full = write_csv(tmp_path / "full.csv", _model_samples(10).to_columns())
+    with pytest.raises(ValueError, match="'--mass' parameter"):
+        _cli("sysid", "aero", "--csv", full, "--out", tmp_path / "o")
+
+
+def _write_bag(path, data: AeroData, ros1: bool):
+    from rosbags.rosbag1 import Writer as Writer1
+    from rosbags.rosbag2 import Writer as Writer2
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+    imu_t, v3s_t = "sensor_msgs/msg/Imu", "geometry_msgs/msg/Vector3Stamped"
+    arr_t = "std_msgs/msg/Float64MultiArray"
+
+    def header(t):
+        sec = int(np.floor(t))
+        return T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](
+            sec=sec, nanosec=int(round((t - sec) * 1e9))), frame_id="base_link")
+
+    def vec(v):
+        return T["geometry_msgs/msg/Vector3"](x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+    ser = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+    writer = Writer1(path) if ros1 else Writer2(path, version=9)
+    with writer as w:
+        c_imu = w.add_connection("/imu", imu_t, typestore=ts)
+        c_air = w.add_connection("/tunnel/airspeed", v3s_t, typestore=ts)
+        c_mot = w.add_connection("/motors", arr_t, typestore=ts)
+        for k in range(data.t.size):
+            t = 1000.0 + data.t[k]
+            ns = int(round(t * 1e9)) + 1000  # receive time a little after the stamp
+            imu = T[imu_t](header=header(t), orientation=T["geometry_msgs/msg/Quaternion"](
+                x=0.0, y=0.0, z=0.0, w=1.0), orientation_covariance=np.zeros(9),
+                angular_velocity=vec((0, 0, 0)), angular_velocity_covariance=np.zeros(9),
+                linear_acceleration=vec(data.specific_force_body[k]),
+                linear_acceleration_covariance=np.zeros(9))
+            w.write(c_imu, ns, ser(imu, imu_t))
+            w.write(c_air, ns, ser(T[v3s_t](header=header(t), vector=vec(
+                data.airspeed_body[k])), v3s_t))
+            w.write(c_mot, ns, ser(T[arr_t](layout=T["std_msgs/msg/MultiArrayLayout"](
+                dim=[], data_offset=0), data=data.rotor_speeds[k].copy()), arr_t))
+
+
+@pytest.mark.parametrize("ros1", [False, True], ids=["ros2", "ros1"])
+def test_bag_round_trip(tmp_path, ros1):
+    import importlib.util
+
+    if importlib.util.find_spec("rosbags") is None:  # a test dependency: fail, do not skip
+        pytest.fail("The ROS bag reader needs the 'rosbags' package (pip install rosbags, in "
+                    "the 'test' extra).")
+    data = _model_samples(120, seed=3)
+    bag = tmp_path / ("tunnel.bag" if ros1 else "tunnel_ros2")
+    _write_bag(bag, data, ros1)
+    _cli("sysid", "aero", "--bag", bag, "--topic", "specific_force=/imu:linear_acceleration",
+         "--topic", "airspeed=/tunnel/airspeed:vector", "--topic", "rotor_speed=/motors:data",
+         "--mass", MASS, "--json", tmp_path / "bag.json", "--out", tmp_path / "o")
+    doc = json.loads((tmp_path / "bag.json").read_text())
+    # the motors' array has no header: its receive times, 1 us after the stamps, bound the
+    # common span, which leaves out the first IMU sample
+    assert doc["n_points"] == 119
+    for k, v in TRUE.items():
+        assert doc[k]["value"] == pytest.approx(v, rel=1e-4)  # motors interpolated by 1 us
+    with pytest.raises(ValueError, match=r"has no topic '/nope'.*'/imu'"):
+        _cli("sysid", "aero", "--bag", bag, "--topic", "specific_force=/nope:x", "--mass",
+             MASS, "--out", tmp_path / "o2")
+
+
+def test_thesis_preset_carries_the_identified_values():
+    p = crazyflie_thesis()
+    base = vehicle_params("crazyflie_brushless")
+    assert p.name == "crazyflie_thesis"
+    for k in ("k_eta", "k_d", "k_z", "k_h"):
+        assert getattr(p, k) == THESIS_CRAZYFLIE[k]
+    assert p.mass == base.mass and np.array_equal(p.inertia, base.inertia)
+    motor = PWMMotorModel.from_params(p)
+    assert (motor.Kv, motor.V0, motor.DZ) == (0.3637, 0.5535, 4673.0)
+    # the model's inverse: the PWM that gives hover at 3.7 V lies inside the ramp
+    pwm = motor.pwm(p.hover_rotor_speed, 3.7)
+    assert 10_000 < pwm < 50_000
+    assert motor.rotor_speed(pwm, 3.7) == pytest.approx(p.hover_rotor_speed)
+    np.testing.assert_allclose(p.extra["power_curve"], [10.56, 0.15160, -0.14970, 0.021114],
+                               rtol=2e-4)
+    assert crazyflie_thesis(mass=0.05).mass == 0.05
+    with pytest.raises(ValueError, match="pwm_motor"):
+        PWMMotorModel.from_params(base)

@@ -1,0 +1,126 @@
+"""Power curves: the thesis's numbers from samples of its cubic, range speeds in wind against
+brute force, the real 2.63 kg quadrotor log, and bad input."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import windnav.commands.sysid
+from windnav.sysid import fit_power, write_csv
+from windnav.vehicle.power import PowerCurve
+
+REAL_LOG = (Path(__file__).resolve().parents[2] / "shared" / "data" / "optimal_energy_quad"
+            / "12in_data_long_cruise_heavy.txt")
+
+
+def _cli(*argv):
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    windnav.commands.sysid.register(sub)
+    args = parser.parse_args([str(a) for a in argv])
+    return args.func(args)
+
+
+def _brute_force_range_speed(curve: PowerCurve, wind: float) -> float:
+    """Ground speed minimising P(|V - W|) / V on a 1e-4 m/s grid."""
+    v = np.arange(1e-4, wind + curve.speed_max, 1e-4)
+    v = v[np.abs(v - wind) <= curve.speed_max]
+    return float(v[np.argmin(curve(np.abs(v - wind)) / v)])
+
+
+@pytest.fixture(scope="module")
+def thesis_fit(tmp_path_factory):
+    root = tmp_path_factory.mktemp("power")
+    thesis = PowerCurve.crazyflie()
+    v = np.arange(0.0, 12.0001, 0.25)
+    path = write_csv(root / "samples.csv", {"speed_m_s": v, "power_W": thesis(v)})
+    _cli("sysid", "power", "--csv", path, "--speed-col", "speed_m_s", "--power-col",
+         "power_W", "--json", root / "power.json", "--out", root / "out")
+    return root, json.loads((root / "power.json").read_text())
+
+
+def test_thesis_cubic_gives_the_thesis_numbers(thesis_fit):
+    root, doc = thesis_fit
+    np.testing.assert_allclose(doc["coefficient_values"], [10.56, 0.15160, -0.14970, 0.021114],
+                               atol=2e-5)
+    assert doc["hover_W"] == pytest.approx(10.56, abs=0.01)
+    assert doc["min_power_W"] == pytest.approx(10.12, abs=0.01)
+    assert doc["max_endurance_speed"] == pytest.approx(4.15, abs=0.01)
+    assert doc["max_range_speed"] == pytest.approx(7.73, abs=0.01)
+    assert doc["r2"] == pytest.approx(1.0)
+    assert (root / "out" / "power.png").stat().st_size > 10_000
+
+
+def test_range_speed_in_head_and_tailwind_matches_brute_force(thesis_fit):
+    _, doc = thesis_fit
+    table = {row["wind_m_s"]: row for row in doc["max_range_speed_in_wind"]}
+    assert sorted(table) == [float(w) for w in range(-5, 6)]
+    curve = PowerCurve(doc["coefficient_values"], speed_max=12.0)
+    for wind in (-3.0, 3.0):  # 3 m/s headwind, 3 m/s tailwind
+        row = table[wind]
+        assert row["ground_speed_m_s"] == pytest.approx(_brute_force_range_speed(curve, wind),
+                                                        abs=0.01)
+        assert row["airspeed_m_s"] == pytest.approx(abs(row["ground_speed_m_s"] - wind))
+        assert not row["at_speed_limit"]
+    # against a headwind fly faster through the air, with a tailwind slower
+    assert table[-3.0]["airspeed_m_s"] > doc["max_range_speed"] > table[3.0]["airspeed_m_s"]
+
+
+def test_noisy_samples_intervals_cover_the_thesis_numbers():
+    rng = np.random.default_rng(5)
+    thesis = PowerCurve.crazyflie()
+    v = np.repeat(np.arange(0.0, 10.01, 0.5), 5)
+    fit = fit_power(v, thesis(v) + rng.normal(0, 0.05, v.size))
+    for est, true in ((fit.hover, 10.56), (fit.min_power, 10.12),
+                      (fit.max_endurance_speed, 4.15), (fit.max_range_speed, 7.73)):
+        assert est.ci95[0] < true < est.ci95[1]
+        assert est.ci95[1] - est.ci95[0] < 0.6
+
+
+def test_real_quadrotor_log_has_a_bucket_between_4_and_8_m_s(tmp_path):
+    if not REAL_LOG.is_file():
+        pytest.fail(f"The real flight log {REAL_LOG} is missing: it belongs to /work/shared/data "
+                    "(spencerfolk/optimal_energy_quad @ a339fdf3, see shared/data/README.md).")
+    _cli("sysid", "power", "--csv", REAL_LOG, "--layout", "optimal_energy_quad",
+         "--speed-col", "horizontal_speed_m_s", "--power-col", "power_W",
+         "--time-col", "time_s", "--vertical-speed-col", "vertical_speed_m_s",
+         "--altitude-col", "altitude_m", "--min-altitude", 5, "--json", tmp_path / "p.json",
+         "--out", tmp_path / "o")
+    doc = json.loads((tmp_path / "p.json").read_text())
+    assert 4.0 < doc["max_endurance_speed"] < 8.0
+    curve = PowerCurve(doc["coefficient_values"], speed_max=doc["speed_max"])
+    v_e = doc["max_endurance_speed"]
+    # a bucket: higher in hover and at the fastest steady speed than at the minimum, convex
+    assert doc["min_power_W"] < doc["hover_W"] and doc["min_power_W"] < curve(doc["speed_max"])
+    second = np.polynomial.polynomial.polyval(v_e, np.polynomial.polynomial.polyder(
+        doc["coefficient_values"], 2))
+    assert second > 0
+    assert 0.6 < doc["hover_ratio"] < 1.0
+    # level, steady flight of a 2.63 kg quad draws hundreds of watts
+    assert 200 < doc["min_power_W"] < 400
+    assert doc["selection"]["steady_level"] > 500
+
+
+# --- bad input -----------------------------------------------------------------------------
+def test_missing_column_and_too_few_speeds_name_file_and_column(tmp_path):
+    path = write_csv(tmp_path / "p.csv", {"v": [0.0, 1.0, 2.0], "P": [10.0, 9.0, 9.5]})
+    with pytest.raises(ValueError, match=r"p\.csv.*lacks the column\(s\) \['power_W'\]"):
+        _cli("sysid", "power", "--csv", path, "--speed-col", "v", "--power-col", "power_W",
+             "--out", tmp_path / "o")
+    with pytest.raises(ValueError, match=r"p\.csv.*'v', 'P'.*3 distinct speeds, fewer than "
+                                         r"the 4"):
+        _cli("sysid", "power", "--csv", path, "--speed-col", "v", "--power-col", "P",
+             "--out", tmp_path / "o")
+
+
+def test_only_unsteady_points_name_file_and_column(tmp_path):
+    t = np.arange(0, 20, 0.1)
+    path = write_csv(tmp_path / "accel.csv", {"t": t, "v": 2.0 * t, "P": 100 + t})
+    with pytest.raises(ValueError, match=r"accel\.csv.*no steady level point.*\|d v/dt\|"):
+        _cli("sysid", "power", "--csv", path, "--speed-col", "v", "--power-col", "P",
+             "--time-col", "t", "--out", tmp_path / "o")

@@ -1,0 +1,61 @@
+"""Similitude: Froude and Reynolds scaling between a full-scale aircraft and its model."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import pytest
+
+import windnav.commands.similitude
+import windnav.commands.sysid
+from windnav.sysid import Similitude
+
+
+def _cli(*argv):
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    windnav.commands.sysid.register(sub)
+    windnav.commands.similitude.register(sub)
+    args = parser.parse_args([str(a) for a in argv])
+    return args.func(args)
+
+
+# --- similitude-------------------------------------------------------------------------
+def test_thesis_scaling_numbers():
+    s = Similitude.thesis()
+    assert s.exact_scale == pytest.approx(1.8 / 0.055) and round(s.exact_scale, 1) == 32.7
+    assert s.length_scale == 32.0
+    assert s.model_mass(2000.0) == pytest.approx(0.061, abs=5e-4)  # 61 g
+    assert s.model_speed(10.0) == pytest.approx(10.0 / math.sqrt(32))
+    assert s.reynolds_model_speed(10.0) == pytest.approx(320.0)
+    # Froude numbers U^2 / (g L) agree; Reynolds numbers do not
+    u_fs = 12.0
+    assert (s.model_speed(u_fs) ** 2 / 0.055) == pytest.approx(u_fs**2 / (0.055 * 32))
+    r = s.report(full_scale_speed=u_fs)
+    assert r["speed"]["reynolds_model"] / r["speed"]["reynolds_full_scale"] == pytest.approx(
+        32**-1.5 * (0.055 * 32 / 1.8))
+
+
+def test_control_to_shedding_ratio_is_the_same_at_both_scales():
+    r = Similitude.thesis().report(model_speed=2.0, control_rate_hz=500.0, obstacle_width=0.5,
+                                   strouhal=0.2)
+    sh = r["shedding"]
+    assert sh["model_hz"] == pytest.approx(0.2 * 2.0 / 0.5)
+    assert sh["control_to_shedding_model"] == pytest.approx(500.0 / 0.8)
+    assert sh["control_to_shedding_full_scale"] == pytest.approx(sh["control_to_shedding_model"])
+    assert r["control"]["full_scale_hz"] == pytest.approx(500.0 / math.sqrt(32))
+    with pytest.raises(ValueError, match="'model_speed' parameter"):
+        Similitude.thesis().report(model_speed=1.0, full_scale_speed=1.0)
+
+
+@pytest.mark.parametrize("command", [["similitude"], ["sysid", "similitude"]])
+def test_similitude_command(tmp_path, command):
+    _cli(*command, "--scale", 32, "--full-scale-mass", 2000, "--full-scale-speed", 10,
+         "--json", tmp_path / "s.json")
+    doc = json.loads((tmp_path / "s.json").read_text())
+    assert doc["command"] == "windnav " + " ".join(command)
+    assert doc["mass"]["model_kg"] == pytest.approx(2000 / 32**3)
+    assert doc["speed"]["model_reynolds_m_s"] == pytest.approx(320.0)
+    assert doc["length_scale_exact"] == pytest.approx(32.727, abs=1e-3)

@@ -1,0 +1,137 @@
+"""Thrust stand: the simulated procedure through the command line, back to k_eta and the PWM
+motor model (``windnav sysid simulate-stand`` -> ``windnav sysid thrust-stand``)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+import windnav.commands.sysid
+from windnav.experiments.results import OutputExistsError
+from windnav.experiments.sysid import vehicle_params
+from windnav.sysid import PWMMotorModel, read_table, steady_mask
+from windnav.sysid.thrust_stand import RPM_TO_RAD_S
+
+HEADER = "timestamp,pwm,thrust_N,torque_Nm,rpm,voltage_V,current_A"
+
+
+def _cli(*argv):
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    windnav.commands.sysid.register(sub)
+    args = parser.parse_args([str(a) for a in argv])
+    return args.func(args)
+
+
+@pytest.fixture(scope="module")
+def stand(tmp_path_factory):
+    """The thesis's procedure on the crazyflie_thesis preset, and its fit."""
+    root = tmp_path_factory.mktemp("stand")
+    _cli("sysid", "simulate-stand", "--out", root / "sim", "--seed", 4)
+    csvs = sorted((root / "sim").glob("stand_*.csv"))
+    _cli("sysid", "thrust-stand", "--csv", *csvs, "--n-rotors", 4, "--json",
+         root / "fit.json", "--out", root / "fit")
+    return root, csvs, json.loads((root / "fit.json").read_text())
+
+
+def test_simulated_stand_follows_the_thesis_procedure(stand):
+    _, csvs, _ = stand
+    assert [c.name for c in csvs] == [f"stand_{v:.2f}V.csv" for v in
+                                      (2.7, 2.9, 3.1, 3.3, 3.5, 3.7, 3.9, 4.1)]
+    tab = read_table(csvs[0])
+    assert tab.names == HEADER.split(",")
+    steps = np.unique(tab.columns["pwm"])
+    np.testing.assert_array_equal(steps, np.arange(10_000, 50_001, 5_000))
+    # one second per step
+    assert np.ptp(tab.columns["timestamp"][tab.columns["pwm"] == 20_000]) == pytest.approx(
+        0.99, abs=0.011)
+
+
+def test_round_trip_recovers_k_eta_and_the_rotor_speed_within_one_percent(stand):
+    root, _, doc = stand
+    p = vehicle_params("crazyflie_thesis")
+    assert doc["k_eta"]["value"] == pytest.approx(p.k_eta, rel=0.02)
+    lo, hi = doc["k_eta"]["ci95"]
+    assert lo < doc["k_eta"]["value"] < hi
+    fitted = PWMMotorModel(doc["Kv"]["value"], doc["V0"]["value"], doc["DZ"]["value"])
+    truth = PWMMotorModel.thesis()
+    pwm, volt = np.meshgrid(np.arange(10_000, 50_001, 5_000.0), np.linspace(2.7, 4.1, 29))
+    err = fitted.rotor_speed(pwm, volt) / truth.rotor_speed(pwm, volt) - 1
+    assert np.max(np.abs(err)) < 0.01
+    for key in ("Kv", "V0", "DZ"):
+        assert len(doc[key]["ci95"]) == 2 and doc[key]["std_error"] > 0
+    assert doc["r2"] > 0.99
+    assert (root / "fit" / "thrust_stand.png").stat().st_size > 10_000
+
+
+def test_outputs_are_checked_before_any_work(stand):
+    root, csvs, _ = stand
+    with pytest.raises(OutputExistsError, match="--overwrite"):
+        _cli("sysid", "thrust-stand", "--csv", *csvs, "--out", root / "fit")
+
+
+def test_steady_points_exclude_the_start_of_each_step():
+    t = np.arange(0, 2, 0.01)
+    tau = 0.05
+    w_cmd = np.where(t < 1, 1000.0, 1500.0)
+    w = np.where(t < 1, 1000.0, 1500.0 - 500.0 * np.exp(-(t - 1) / tau))
+    mask = steady_mask(t, w)
+    after = (t >= 1) & ~mask
+    # rejected while |dw/dt| = gap / tau >= 1000 rad/s^2, i.e. while the gap is >= 50 rad/s
+    assert np.all(np.abs(w_cmd - w)[(t >= 1) & mask] < 60.0)
+    assert after[t >= 1][:5].all()
+    assert mask[(t > 0.1) & (t < 0.95)].all()
+    assert not steady_mask(t, np.full_like(t, 200.0)).any()  # too slow
+
+
+# --- bad input -----------------------------------------------------------------------------
+def _write(path, rows, header=HEADER):
+    path.write_text(header + "\n" + "\n".join(",".join(str(v) for v in r) for r in rows) + "\n")
+    return path
+
+
+def test_missing_column_names_file_and_column(tmp_path):
+    path = _write(tmp_path / "a.csv", [[0, 1e4, 0.1, 0, 3000, 3.7]],
+                  header="timestamp,pwm,thrust_N,torque_Nm,rpm,current_A")
+    with pytest.raises(ValueError, match=r"a\.csv.*lacks the column\(s\) \['voltage_V'\]"):
+        _cli("sysid", "thrust-stand", "--csv", path, "--out", tmp_path / "o")
+
+
+def test_non_numeric_value_names_file_and_column(tmp_path):
+    path = _write(tmp_path / "b.csv", [[0, 1e4, 0.1, 0, 3000, 3.7, 1], [0.01, 1e4, "n/a", 0,
+                                                                        3000, 3.7, 1]])
+    with pytest.raises(ValueError, match=r"b\.csv.*'n/a' in column 'thrust_N' at line 3"):
+        _cli("sysid", "thrust-stand", "--csv", path, "--out", tmp_path / "o")
+
+
+def test_fewer_points_than_parameters_names_file_and_columns(tmp_path):
+    rows = [[k, 1e4 * (k + 1), 0.1, 0, 3000 + k, 3.0 + 0.5 * k, 1] for k in range(3)]
+    path = _write(tmp_path / "c.csv", rows)
+    with pytest.raises(ValueError, match=r"c\.csv.*'pwm', 'voltage_V', 'rpm'.*3 usable points, "
+                                         r"fewer than the 4"):
+        _cli("sysid", "thrust-stand", "--csv", path, "--out", tmp_path / "o")
+
+
+def test_only_unsteady_points_names_file_and_column(tmp_path):
+    t = np.arange(0, 1, 0.01)
+    rpm = (300 + 5000 * t) / RPM_TO_RAD_S  # 5000 rad/s^2 throughout
+    rows = [[tk, 3e4, 0.1, 0, rk, 3.7, 1] for tk, rk in zip(t, rpm, strict=True)]
+    path = _write(tmp_path / "d.csv", rows)
+    with pytest.raises(ValueError, match=r"d\.csv.*no steady point in column 'rpm'"):
+        _cli("sysid", "thrust-stand", "--csv", path, "--out", tmp_path / "o")
+
+
+def test_windnav_main_reports_bad_input_in_one_line(tmp_path, capsys):
+    from windnav import cli
+
+    assert "sysid" in cli.COMMAND_MODULES and "similitude" in cli.COMMAND_MODULES
+    path = _write(tmp_path / "e.csv", [[0, 1e4, 0.1, 0, 3000, 3.7]],
+                  header="timestamp,pwm,thrust_N,torque_Nm,rpm,current_A")
+    status = cli.main(["sysid", "thrust-stand", "--csv", str(path), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert status == 2
+    assert len(err.splitlines()) == 1 and "e.csv" in err and "'voltage_V'" in err
+    assert not (tmp_path / "o").exists()

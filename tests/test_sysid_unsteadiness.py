@@ -1,0 +1,96 @@
+"""Unsteadiness maps: binned mean wind, force-command spread and body rates."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+import windnav as wn
+import windnav.commands.sysid
+from windnav.sysid import (
+    FlightSamples,
+    bin_xy,
+    lateral_force_command,
+    unsteadiness_maps,
+    write_csv,
+)
+
+
+def _cli(*argv):
+    parser = argparse.ArgumentParser()
+    sub = parser.add_subparsers(dest="command")
+    windnav.commands.sysid.register(sub)
+    args = parser.parse_args([str(a) for a in argv])
+    return args.func(args)
+
+
+# --- unsteadiness-----------------------------------------------------------------------
+def test_bin_xy_matches_loops():
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-2, 3, (500, 2))
+    vals = rng.normal(size=(500, 2))
+    xe, ye = np.arange(-2, 3.5, 1.0), np.arange(-2, 3.5, 0.5)
+    count, mean, var = bin_xy(xy, vals, xe, ye)
+    for j in range(len(ye) - 1):
+        for i in range(len(xe) - 1):
+            sel = ((xy[:, 0] >= xe[i]) & (xy[:, 0] < xe[i + 1]) & (xy[:, 1] >= ye[j])
+                   & (xy[:, 1] < ye[j + 1]))
+            assert count[j, i] == sel.sum()
+            if sel.any():
+                np.testing.assert_allclose(mean[j, i], vals[sel].mean(0), atol=1e-12)
+                np.testing.assert_allclose(var[j, i], vals[sel].var(0), atol=1e-12)
+
+
+def test_lateral_force_command_of_a_tilted_thrust():
+    eta = np.full((2, 4), 1000.0)
+    theta = 0.3
+    att = np.array([[0, 0, 0, 1.0], [0, np.sin(theta / 2), 0, np.cos(theta / 2)]])
+    f = lateral_force_command(att, eta, 4e-8)
+    thrust = 4 * 4e-8 * 1000.0**2
+    np.testing.assert_allclose(f[0], [0, 0], atol=1e-15)
+    np.testing.assert_allclose(f[1], [thrust * np.sin(theta), 0], rtol=1e-12)
+
+
+def test_unsteadiness_maps_of_known_samples(tmp_path):
+    # two bins: calm (constant force) and gusty (force alternating +/- 0.1 N on x)
+    n = 40
+    xy = np.r_[np.full((n, 2), 0.5), np.full((n, 2), [1.5, 0.5])]
+    fx = np.r_[np.full(n, 0.2), 0.2 + 0.1 * (-1.0) ** np.arange(n)]
+    cols = {"x": xy[:, 0], "y": xy[:, 1], "wind_x": np.r_[np.full(n, 1.0), np.full(n, 3.0)],
+            "wind_y": np.zeros(2 * n), "force_cmd_x": fx, "force_cmd_y": np.zeros(2 * n),
+            "body_rate_x": np.r_[np.zeros(n), np.full(n, 0.3)], "body_rate_y": np.zeros(2 * n),
+            "body_rate_z": np.r_[np.zeros(n), np.full(n, 0.4)]}
+    maps = unsteadiness_maps(FlightSamples(xy, np.column_stack([cols["wind_x"], cols["wind_y"]]),
+                                           np.column_stack([fx, np.zeros(2 * n)]),
+                                           np.zeros((2 * n, 3))), cell=1.0)
+    np.testing.assert_allclose(maps.wind_mean[0, :, 0], [1.0, 3.0])
+    np.testing.assert_allclose(maps.force_cmd_std[0], [0.0, 0.1], atol=1e-12)
+    path = write_csv(tmp_path / "u.csv", cols)
+    _cli("sysid", "unsteadiness", "--csv", path, "--cell", 1.0, "--min-count", 1,
+         "--json", tmp_path / "u.json", "--out", tmp_path / "o")
+    doc = json.loads((tmp_path / "u.json").read_text())
+    np.testing.assert_allclose(doc["body_rate_mean_rad_s"][0], [0.0, 0.5], atol=1e-12)
+    np.testing.assert_allclose(doc["force_cmd_std_N"][0], [0.0, 0.1], atol=1e-12)
+    assert (tmp_path / "o" / "unsteadiness.png").is_file()
+
+
+def test_unsteadiness_of_a_flight_log_with_ukf_wind(tmp_path):
+    p = wn.vehicle.params("crazyflie_brushless")
+    log = wn.sim.fly(p, wn.sim.Line((0, 0, 1), (4, 0, 1), 6.0),
+                     wn.wind.ConstantWind((2.0, 1.0, 0.0)), 6.0, rng=0, log_every=4)
+    log.save(tmp_path / "line.npz")
+    for source in ("truth", "ukf"):
+        _cli("sysid", "unsteadiness", "--log", tmp_path / "line.npz", "--wind", source,
+             "--cell", 1.0, "--min-count", 10, "--json", tmp_path / f"{source}.json",
+             "--out", tmp_path / source)
+        doc = json.loads((tmp_path / f"{source}.json").read_text())
+        assert doc["wind_source"] == source
+        wx = np.array(doc["wind_mean_x_m_s"], dtype=float)
+        wy = np.array(doc["wind_mean_y_m_s"], dtype=float)
+        xc = 0.5 * (np.array(doc["x_edges_m"][1:]) + np.array(doc["x_edges_m"][:-1]))
+        later = np.isfinite(wx) & (xc[None, :] > 1.0)  # after the filter has converged
+        assert later.sum() >= 2
+        np.testing.assert_allclose(wx[later], 2.0, atol=0.05)
+        np.testing.assert_allclose(wy[later], 1.0, atol=0.05)
