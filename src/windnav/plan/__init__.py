@@ -1,5 +1,71 @@
-"""Planning: global graph search (this module needs no torch); MPPI comes later."""
+"""Planning: the energy-aware MPPI planner and the global graph searches (no torch).
 
+Public API::
+
+    planner_config, PlannerConfig, VARIANTS, Variant     configuration derived from a vehicle
+    MPPIPlanner, mppi_step, rollout, ...                  the MPPI planner and its parts
+    LocalWind                                             the wind the planner knows
+    obstacle_field, ObstacleField, obstacle_cost, scan_points   obstacles from a LiDAR scan
+    energy_route, EnergyRoute                             GS / GS+W: energy-optimal routes
+    free_space, grid_route                                shortest-distance routes
+"""
+
+from windnav.plan.config import (
+    SAMPLING,
+    VARIANTS,
+    PlannerConfig,
+    Variant,
+    acceleration_limit,
+    planner_config,
+    steady_flight,
+    with_variant,
+)
+from windnav.plan.energy_search import MOVES, EnergyRoute, energy_route
 from windnav.plan.graph_search import free_space, grid_route
+from windnav.plan.local_wind import LocalWind
+from windnav.plan.mppi import (
+    MPPIPlanner,
+    PlannerStats,
+    PlanResult,
+    Problem,
+    fused_rollout_cost,
+    mppi_step,
+    rollout,
+    sample_controls,
+    shift_controls,
+    smoothing_matrix,
+    softmin_weights,
+)
+from windnav.plan.obstacles import ObstacleField, obstacle_cost, obstacle_field, scan_points
 
-__all__ = ["free_space", "grid_route"]
+__all__ = [
+    "MOVES",
+    "EnergyRoute",
+    "SAMPLING",
+    "VARIANTS",
+    "LocalWind",
+    "MPPIPlanner",
+    "ObstacleField",
+    "PlanResult",
+    "PlannerConfig",
+    "PlannerStats",
+    "Problem",
+    "Variant",
+    "acceleration_limit",
+    "energy_route",
+    "free_space",
+    "fused_rollout_cost",
+    "grid_route",
+    "mppi_step",
+    "obstacle_cost",
+    "obstacle_field",
+    "planner_config",
+    "rollout",
+    "sample_controls",
+    "scan_points",
+    "shift_controls",
+    "smoothing_matrix",
+    "softmin_weights",
+    "steady_flight",
+    "with_variant",
+]

@@ -24,6 +24,8 @@ def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarra
     is solid, so no route passes through a building thinner than a cell."""
     x, y = city.grid(dx)
     solid = city.rasterize(x, y, rule="overlap")
+    if not solid.any():  # the transform needs a background cell; with none, all is free
+        return x, y, np.ones_like(solid)
     dist = scipy.ndimage.distance_transform_edt(~solid, sampling=dx)
     return x, y, dist > clearance
 

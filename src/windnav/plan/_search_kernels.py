@@ -1,0 +1,206 @@
+"""Numba kernels of the energy-optimal graph search (private; see energy_search.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from windnav.plan._kernels import power_bar
+
+_GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
+
+
+@numba.njit(cache=True, inline="always")
+def energy_per_metre(v, ex, ey, wx, wy, ptab):  # pragma: no cover - numba
+    """``P(|v e - w|) / (P_hover v)``: energy per metre of track at ground speed ``v`` along
+    the unit vector ``e`` in the wind ``w``, in units of ``P_hover`` (s/m)."""
+    ax = v * ex - wx
+    ay = v * ey - wy
+    return power_bar(math.sqrt(ax * ax + ay * ay), ptab) / v
+
+
+@numba.njit(cache=True)
+def best_level(ex, ey, wx, wy, speeds, ptab):  # pragma: no cover - numba
+    """Index of the speed level with the least energy per metre, and that energy."""
+    best = np.inf
+    j = 0
+    for m in range(speeds.size):
+        e = energy_per_metre(speeds[m], ex, ey, wx, wy, ptab)
+        if e < best:
+            best = e
+            j = m
+    return j, best
+
+
+@numba.njit(cache=True)
+def best_speed(ex, ey, wx, wy, speeds, ptab):  # pragma: no cover - numba
+    """Continuous minimiser of the energy per metre over ``[speeds[0], speeds[-1]]``: the best
+    level, then golden-section search between its neighbours. Returns ``(v, e)``."""
+    j, e = best_level(ex, ey, wx, wy, speeds, ptab)
+    a = speeds[max(j - 1, 0)]
+    b = speeds[min(j + 1, speeds.size - 1)]
+    c = b - _GOLDEN * (b - a)
+    d = a + _GOLDEN * (b - a)
+    fc = energy_per_metre(c, ex, ey, wx, wy, ptab)
+    fd = energy_per_metre(d, ex, ey, wx, wy, ptab)
+    for _ in range(60):
+        if fc < fd:
+            b = d
+            d = c
+            fd = fc
+            c = b - _GOLDEN * (b - a)
+            fc = energy_per_metre(c, ex, ey, wx, wy, ptab)
+        else:
+            a = c
+            c = d
+            fc = fd
+            d = a + _GOLDEN * (b - a)
+            fd = energy_per_metre(d, ex, ey, wx, wy, ptab)
+    v = 0.5 * (a + b)
+    ev = energy_per_metre(v, ex, ey, wx, wy, ptab)
+    if ev < e:
+        return v, ev
+    return speeds[j], e
+
+
+@numba.njit(cache=True)
+def edge_weights(free, wind, moves, guards, dx, speeds, ptab, rows, cols, weights,
+                 levels):  # pragma: no cover - numba
+    """Directed edges of the lattice and their energies (units of ``P_hover`` seconds).
+
+    For every free cell and every move ``(di, dj)`` to a free cell whose guard cells (the cells
+    the straight move passes through) are free: weight ``L min_v P(|v e - w|) / v`` with ``L``
+    the move's length, ``e`` its direction, ``w`` the mean of the two cells' winds and ``v``
+    over the speed levels. Returns the number of edges written.
+    """
+    ny, nx = free.shape
+    n = 0
+    for j in range(ny):
+        for i in range(nx):
+            if not free[j, i]:
+                continue
+            for m in range(moves.shape[0]):
+                di = moves[m, 0]
+                dj = moves[m, 1]
+                i2 = i + di
+                j2 = j + dj
+                if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny or not free[j2, i2]:
+                    continue
+                ok = True
+                for g in range(guards.shape[1]):
+                    gi = i + guards[m, g, 0]
+                    gj = j + guards[m, g, 1]
+                    if not free[gj, gi]:
+                        ok = False
+                        break
+                if not ok:
+                    continue
+                length = dx * math.sqrt(di * di + dj * dj)
+                ex = di * dx / length
+                ey = dj * dx / length
+                wx = 0.5 * (wind[j, i, 0] + wind[j2, i2, 0])
+                wy = 0.5 * (wind[j, i, 1] + wind[j2, i2, 1])
+                lev, e = best_level(ex, ey, wx, wy, speeds, ptab)
+                rows[n] = j * nx + i
+                cols[n] = j2 * nx + i2
+                weights[n] = length * e
+                levels[n] = lev
+                n += 1
+    return n
+
+
+@numba.njit(cache=True, inline="always")
+def _wind_bilinear(x, y, x0, y0, dx, wind):  # pragma: no cover - numba
+    ny, nx = wind.shape[0], wind.shape[1]
+    fx = min(max((x - x0) / dx, 0.0), nx - 1.0)
+    fy = min(max((y - y0) / dx, 0.0), ny - 1.0)
+    i = min(int(fx), nx - 2)
+    j = min(int(fy), ny - 2)
+    a = fx - i
+    b = fy - j
+    wx = ((1 - a) * (1 - b) * wind[j, i, 0] + a * (1 - b) * wind[j, i + 1, 0]
+          + (1 - a) * b * wind[j + 1, i, 0] + a * b * wind[j + 1, i + 1, 0])
+    wy = ((1 - a) * (1 - b) * wind[j, i, 1] + a * (1 - b) * wind[j, i + 1, 1]
+          + (1 - a) * b * wind[j + 1, i, 1] + a * b * wind[j + 1, i + 1, 1])
+    return wx, wy
+
+
+@numba.njit(cache=True)
+def segment(px, py, qx, qy, free, x0, y0, dx, wind, speeds, ptab, refine,
+            out_v):  # pragma: no cover - numba
+    """Energy (units of ``P_hover`` s) of the straight segment p -> q flown at the best speed
+    of each piece (pieces of at most ``dx / 2``), or inf when it meets a non-free cell.
+
+    ``out_v`` (at least n pieces) receives each piece's speed; returns ``(energy, n)``.
+    ``refine``: continuous speeds (golden section) instead of the levels.
+    """
+    ny, nx = free.shape
+    lx = qx - px
+    ly = qy - py
+    length = math.sqrt(lx * lx + ly * ly)
+    if length == 0.0:
+        return 0.0, 0
+    n = int(math.ceil(length / (0.5 * dx)))
+    ex = lx / length
+    ey = ly / length
+    piece = length / n
+    total = 0.0
+    # collision: sample at quarter cells, nearest cell centre
+    m = int(math.ceil(length / (0.25 * dx))) + 1
+    for t in range(m):
+        s = t / (m - 1)
+        i = int(round((px + s * lx - x0) / dx))
+        j = int(round((py + s * ly - y0) / dx))
+        i = min(max(i, 0), nx - 1)
+        j = min(max(j, 0), ny - 1)
+        if not free[j, i]:
+            return np.inf, 0
+    for t in range(n):
+        s = (t + 0.5) / n
+        wx, wy = _wind_bilinear(px + s * lx, py + s * ly, x0, y0, dx, wind)
+        if refine:
+            v, e = best_speed(ex, ey, wx, wy, speeds, ptab)
+        else:
+            lev, e = best_level(ex, ey, wx, wy, speeds, ptab)
+            v = speeds[lev]
+        out_v[t] = v
+        total += piece * e
+    return total, n
+
+
+@numba.njit(cache=True)
+def _shortcut_ok(path, prefix, k, m, free, x0, y0, dx, wind, speeds, ptab, buf):  # pragma: no cover
+    e, _ = segment(path[k, 0], path[k, 1], path[m, 0], path[m, 1], free, x0, y0, dx, wind,
+                   speeds, ptab, False, buf)
+    return e <= prefix[m] - prefix[k] + 1e-9 * (1.0 + prefix[m])
+
+
+@numba.njit(cache=True)
+def prune(path, prefix, free, x0, y0, dx, wind, speeds, ptab, keep):  # pragma: no cover
+    """Greedy shortcutting of a cell path (L, 2): from each kept point, the straight segment to
+    the goal if it is free and costs no more energy than the lattice sub-path (``prefix``:
+    cumulative lattice energy along the path), else the farthest point reached by extending
+    the segment one path point at a time while that holds. Returns the count kept."""
+    L = path.shape[0]
+    span = 0.0
+    for t in range(L - 1):
+        span += math.sqrt((path[t + 1, 0] - path[t, 0]) ** 2 + (path[t + 1, 1] - path[t, 1]) ** 2)
+    buf = np.empty(int(math.ceil(span / (0.5 * dx))) + 8)
+    keep[0] = 0
+    n = 1
+    k = 0
+    while k < L - 1:
+        if L - 1 > k + 1 and _shortcut_ok(path, prefix, k, L - 1, free, x0, y0, dx, wind,
+                                          speeds, ptab, buf):
+            nxt = L - 1
+        else:
+            nxt = k + 1
+            while nxt + 1 < L - 1 and _shortcut_ok(path, prefix, k, nxt + 1, free, x0, y0, dx,
+                                                   wind, speeds, ptab, buf):
+                nxt += 1
+        keep[n] = nxt
+        n += 1
+        k = nxt
+    return n

@@ -1,0 +1,98 @@
+"""The wind the planner knows: uniform, or on a local grid centred on the vehicle.
+
+The planner's wind ``w(p~)`` (m/s, world-aligned) is a local, time-averaged estimate around the
+vehicle: the Wind UKF's uniform estimate, or the decoder's field ``(2, H, H)`` (``[u, v]``
+indexed ``[iy, ix]`` on cell-centre offsets, as :meth:`windnav.predict` returns it). It is
+known only inside the window ``L_t = {|p~|_inf <= H/2}`` around the start of the planning
+period and is zero outside (Folk 2026, ch. 5); ``H`` is :attr:`PlannerConfig.horizon`. Between
+the outermost cell centres and the window's edge the grid is clamped to its edge cells.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["LocalWind"]
+
+_WHERE = "LocalWind"
+
+
+def _offsets(values, name: str) -> np.ndarray:
+    a = np.asarray(values, dtype=np.float64).reshape(-1)
+    if a.size < 2 or not np.all(np.isfinite(a)):
+        raise ValueError(f"The {name!r} parameter of {_WHERE} must be a finite 1-D array of at "
+                         f"least 2 offsets. Got shape {a.shape} instead.")
+    step = np.diff(a)
+    if np.any(step <= 0) or np.ptp(step) > 1e-6 * step[0]:
+        raise ValueError(f"The {name!r} parameter of {_WHERE} must be evenly spaced and "
+                         "increasing (cell centres). Got uneven or decreasing offsets instead.")
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class LocalWind:
+    """Wind around the vehicle, relative to its position at the start of the planning period.
+
+    Attributes
+    ----------
+    uv : ndarray of shape (2, ny, nx)
+        ``[u, v]`` wind components, world frame, m/s; ``(2, 1, 1)`` for a uniform wind.
+    x, y : ndarray of shape (nx,), (ny,)
+        Evenly spaced cell-centre offsets, m (empty for a uniform wind).
+
+    Build it with :meth:`uniform` or :meth:`grid`. Values may be non-finite: the planner
+    checks them at each update and falls back (it does not raise in its loop).
+    """
+
+    uv: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+
+    @classmethod
+    def uniform(cls, wind_xy) -> LocalWind:
+        """A uniform wind ``wind_xy`` (2,), m/s, world frame."""
+        w = np.asarray(wind_xy, dtype=np.float64).reshape(-1)
+        if w.shape != (2,):
+            raise ValueError(f"The 'wind_xy' parameter of {_WHERE}.uniform must have shape (2,). "
+                             f"Got shape {np.shape(wind_xy)} instead.")
+        return cls(w.reshape(2, 1, 1).copy(), np.zeros(0), np.zeros(0))
+
+    @classmethod
+    def grid(cls, uv, offsets, offsets_y=None) -> LocalWind:
+        """A gridded wind ``uv`` (2, ny, nx) (m/s) on cell centres ``offsets`` (m).
+
+        ``offsets`` are the x offsets and, unless ``offsets_y`` is given, the y offsets too
+        (the decoder's ``dec.offsets``).
+        """
+        arr = np.asarray(uv, dtype=np.float64)
+        x = _offsets(offsets, "offsets")
+        y = x if offsets_y is None else _offsets(offsets_y, "offsets_y")
+        if arr.shape != (2, y.size, x.size):
+            raise ValueError(f"The 'uv' parameter of {_WHERE}.grid must have shape "
+                             f"(2, {y.size}, {x.size}). Got shape {arr.shape} instead.")
+        return cls(np.ascontiguousarray(arr), x, y)
+
+    @property
+    def is_uniform(self) -> bool:
+        """True for a uniform wind."""
+        return self.x.size == 0
+
+    @property
+    def finite(self) -> bool:
+        """True when every value is finite."""
+        return bool(np.all(np.isfinite(self.uv)))
+
+    def pack(self, horizon: float) -> tuple[int, np.ndarray, np.ndarray]:
+        """``(mode, grid, meta)`` for the kernels, with the window side ``H = horizon`` (m)."""
+        half = 0.5 * float(horizon)
+        if self.is_uniform:
+            return 1, self.uv, np.array([0.0, 0.0, 1.0, 1.0, half])
+        meta = np.array([self.x[0], self.y[0], self.x[1] - self.x[0], self.y[1] - self.y[0],
+                         half])
+        return 2, self.uv, meta
+
+
+NO_WIND = (0, np.zeros((2, 1, 1)), np.array([0.0, 0.0, 1.0, 1.0, 0.0]))
+"""Packed kernel arguments of the variants without wind."""

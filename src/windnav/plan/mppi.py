@@ -1,0 +1,512 @@
+"""Energy-aware MPPI: a batched sampling planner for a point mass in wind (Folk 2026, ch. 5).
+
+Model. A point mass in the plane; state ``p~`` (position relative to the start of the planning
+period, m) and ground velocity ``v`` (m/s); control ``u = a`` (m/s^2) clipped per axis to
+``[a_min, a_max]``; drag ``d = -C |v_a| v_a`` with ``v_a = v - w(p~)``; forward Euler with step
+``dt`` over ``N_k`` steps (:func:`rollout`). The wind is known inside ``L_t`` only
+(:class:`~windnav.plan.local_wind.LocalWind`), and is zero for the variants without wind.
+
+Cost, non-dimensionalised by the LiDAR range ``D_max`` and the hover power ``P_hover``::
+
+    J_prog = sum_k |p~_k / D_max - g / D_max|^2     (goal g capped at radius D_max)
+    J_obs  = max_k max_o D_max^2 / |p~_k - o|^2      (LiDAR points o; obstacles.py)
+    J_E    = sum_k P(|v_k - w_k|) / P_hover dt        (steady-flight power curve, config.py)
+    J      = J_prog + Q_O J_obs + Q_E J_E
+
+Update (one call of :meth:`MPPIPlanner.update`, :func:`mppi_step`):
+
+1. sample ``N_tau`` sequences: ``"gaussian"`` perturbs the previous optimal sequence with
+   ``N(0, sigma_u^2)``, clips to the bounds, and smooths each sequence along time with a
+   Gaussian kernel of ``sigma_gf`` steps (rows renormalised at the ends); ``"uniform"`` draws
+   every control uniformly in ``[a_min, a_max]`` (thesis hardware);
+2. roll out and cost every sequence in one fused Numba pass (``_kernels.rollout_cost``);
+3. weight by the softmin ``w_i ∝ exp(-(J_i - min J) / lambda)`` and average the sequences;
+4. apply its first control; keep the sequence, shifted by ``1 / f_plan``, as the next warm
+   start.
+
+A non-finite state returns zero acceleration (hover) and non-finite scan or wind data return
+a braking command; both are counted in :attr:`MPPIPlanner.stats` and never raise.
+
+Speed. The update runs in single-threaded Numba kernels (``cache=True``): ziggurat normals
+(``_random``), perturb-clip-smooth into float32 samples laid out time-major as structure of
+arrays (K, 2, S), the rollout and costs advancing all samples one step at a time (so the
+dynamics vectorise), and the obstacle distance field (:mod:`windnav.plan.obstacles`).
+``benchmarks/bench_mppi.py`` times it against pytorch_mppi on the same problem.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import NamedTuple
+
+import numpy as np
+
+from windnav._validate import batch_array
+from windnav.plan import _kernels as K
+from windnav.plan.config import PlannerConfig
+from windnav.plan.local_wind import NO_WIND, LocalWind
+from windnav.plan.obstacles import ObstacleField, obstacle_field, scan_points
+
+__all__ = [
+    "MPPIPlanner",
+    "PlanResult",
+    "PlannerStats",
+    "Problem",
+    "fused_rollout_cost",
+    "mppi_step",
+    "rollout",
+    "sample_controls",
+    "shift_controls",
+    "smoothing_matrix",
+    "softmin_weights",
+]
+
+
+class Problem(NamedTuple):
+    """What one update plans against (all relative to the vehicle's current position).
+
+    Attributes
+    ----------
+    velocity : ndarray of shape (2,)
+        Ground velocity, m/s.
+    goal : ndarray of shape (2,)
+        Goal, m, capped at ``D_max``.
+    field : ObstacleField
+        Obstacle points of the scan.
+    wind : tuple
+        Packed wind ``(mode, grid, meta)`` (see ``_kernels``).
+    """
+
+    velocity: np.ndarray
+    goal: np.ndarray
+    field: ObstacleField
+    wind: tuple
+
+
+RolloutCost = Callable[[PlannerConfig, np.ndarray, Problem], tuple[np.ndarray, np.ndarray]]
+"""``(config, controls (K, 2, S), problem) -> (costs (S,), parts (S, 4))``."""
+
+
+def smoothing_matrix(n_steps: int, sigma: float) -> np.ndarray:
+    """Gaussian smoothing along time as a matrix ``G`` (K, K): ``U_smooth = G @ U``.
+
+    Taps ``exp(-(i - j)^2 / (2 sigma^2))`` truncated at ``4 sigma`` and each row normalised to
+    sum 1, so a constant sequence is unchanged and smoothed controls stay inside the bounds.
+    ``sigma = 0`` gives the identity.
+    """
+    k = np.arange(n_steps)
+    if sigma <= 0:
+        return np.eye(n_steps)
+    d = k[:, None] - k[None, :]
+    g = np.exp(-0.5 * (d / sigma) ** 2) * (np.abs(d) <= 4.0 * sigma + 1e-9)
+    return g / g.sum(axis=1, keepdims=True)
+
+
+@lru_cache(maxsize=16)
+def _smoothing_bands(n_steps: int, sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(taps, lo, hi)`` of the banded :func:`smoothing_matrix` for the kernel."""
+    g = smoothing_matrix(n_steps, sigma)
+    nz = g != 0
+    lo = nz.argmax(axis=1)
+    hi = g.shape[1] - nz[:, ::-1].argmax(axis=1)
+    taps = np.zeros((g.shape[0], int((hi - lo).max())), np.float32)
+    for k in range(g.shape[0]):
+        taps[k, :hi[k] - lo[k]] = g[k, lo[k]:hi[k]]
+    return taps, lo.astype(np.int64), hi.astype(np.int64)
+
+
+def shift_controls(controls: np.ndarray, steps: float) -> np.ndarray:
+    """The sequence advanced by ``steps`` (fractional) model steps, the last control held.
+
+    ``out[k] = controls(k + steps)`` by linear interpolation in time.
+    """
+    i, j, a = _shift_weights(controls.shape[0], float(steps))
+    return (1.0 - a) * controls[i] + a * controls[j]
+
+
+@lru_cache(maxsize=16)
+def _shift_weights(n: int, steps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    t = np.minimum(np.arange(n) + steps, n - 1)
+    i = np.minimum(np.floor(t).astype(int), max(n - 2, 0))
+    j = np.minimum(i + 1, n - 1)
+    a = (t - i)[:, None] if n > 1 else np.zeros((n, 1))
+    for arr in (i, j, a):
+        arr.setflags(write=False)   # cached: shared by every call
+    return i, j, a
+
+
+def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Generator, *,
+                    out: np.ndarray | None = None, work: np.ndarray | None = None
+                    ) -> np.ndarray:
+    """Draw ``N_tau`` control sequences, (K, 2, S) float32 (time-major, structure of arrays
+    for the kernels), m/s^2.
+
+    ``"gaussian"``: ``G @ clip(mean + sigma_u eps)`` with ``G`` the :func:`smoothing_matrix`
+    of ``sigma_gf`` and ``eps`` standard normals (a ziggurat seeded by one draw of ``rng``,
+    ``windnav.plan._random``); ``"uniform"``: ``U[a_min, a_max]`` per axis and step. The
+    samples are float32 (planning tensors may be, DESIGN.md); the kernels clip them to the
+    float64 bounds again. ``out`` and ``work`` (float32 buffers of that shape) are reused when
+    given.
+    """
+    shape = (config.n_steps, 2, config.n_samples)
+    out = np.empty(shape, np.float32) if out is None else out
+    if config.sampling == "uniform":
+        rng.random(dtype=np.float32, out=out)
+        out *= np.float32(config.a_max - config.a_min)
+        out += np.float32(config.a_min)
+        return out
+    clipped = work if work is not None else np.empty(shape, np.float32)
+    taps, lo, hi = _smoothing_bands(config.n_steps, config.sigma_gf)
+    K.perturb_clip_smooth(rng.integers(0, 2**64, dtype=np.uint64), clipped,
+                          np.ascontiguousarray(mean, dtype=np.float64), config.sigma_u,
+                          config.a_min, config.a_max, taps, lo, hi, out)
+    return out
+
+
+def softmin_weights(costs: np.ndarray, temperature: float) -> np.ndarray:
+    """``w_i = exp(-(J_i - min J) / lambda) / sum``; non-finite costs get weight 0.
+
+    Returns all zeros when no cost is finite.
+    """
+    ok = np.isfinite(costs)
+    w = np.zeros_like(costs)
+    if not ok.any():
+        return w
+    c = costs[ok]
+    e = np.exp(-(c - c.min()) / temperature)
+    w[ok] = e / e.sum()
+    return w
+
+
+def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Problem
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """Costs (S,) and their parts (S, 4) ``[J_prog, J_obs, J_E, d_min (m)]`` of the
+    sequences ``controls`` (K, 2, S): the fused Numba rollout and cost."""
+    s = controls.shape[2]
+    costs = np.empty(s)
+    parts = np.empty((s, 4))
+    mode, grid, meta = problem.wind
+    f = problem.field
+    K.rollout_cost(controls, problem.velocity, problem.goal, config.dt, config.drag,
+                   1.0 / config.lidar_range, config.a_min, config.a_max, config.obstacle_weight,
+                   config.energy_weight, config.power_table(), mode, grid, meta, not f.empty,
+                   *f.kernel_args(), costs, parts)
+    return costs, parts
+
+
+def rollout(config: PlannerConfig, controls, velocity, wind: LocalWind | None = None
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """States of the point-mass model under control sequences.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+        Model constants (``dt``, ``drag``, bounds, ``horizon``; the wind is used only when
+        ``config.use_wind``).
+    controls : array_like of shape (S, K, 2) or (K, 2)
+        Accelerations, m/s^2 (clipped to the bounds).
+    velocity : array_like of shape (2,)
+        Initial ground velocity, m/s.
+    wind : LocalWind, optional
+
+    Returns
+    -------
+    positions, velocities : ndarray of shape (S, K + 1, 2)
+        Relative to the start (``positions[:, 0] = 0``), m and m/s.
+    """
+    u = np.asarray(controls, dtype=np.float64)
+    if u.ndim == 2:
+        u = u[None]
+    u = np.ascontiguousarray(u.transpose(1, 2, 0))
+    v0 = batch_array(velocity, "velocity", "rollout", (2,), batch=1)[0]
+    mode, grid, meta = _pack_wind(config, wind)
+    s, k = u.shape[2], u.shape[0]
+    pos = np.empty((s, k + 1, 2))
+    vel = np.empty((s, k + 1, 2))
+    K.rollout_states(u, v0, config.dt, config.drag, config.a_min, config.a_max, mode, grid,
+                     meta, pos, vel)
+    return pos, vel
+
+
+def _pack_wind(config: PlannerConfig, wind: LocalWind | None) -> tuple:
+    if not config.use_wind or wind is None:
+        return NO_WIND
+    return wind.pack(config.horizon)
+
+
+def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
+              rng: np.random.Generator, *, rollout_cost: RolloutCost = fused_rollout_cost,
+              workspace: tuple | None = None, profile: dict | None = None) -> dict:
+    """One MPPI update (pure apart from ``rng`` and ``workspace``): sample, roll out and cost,
+    reweight.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+    mean : ndarray of shape (K, 2)
+        Warm start (the previous optimal sequence, already shifted), m/s^2.
+    problem : Problem
+    rng : numpy.random.Generator
+    rollout_cost : callable, optional
+        ``(config, controls (K, 2, S), problem) -> (costs (S,), parts (S, 4))``.
+    workspace : tuple of ndarray, optional
+        Float32 buffers ``(samples, clipped)``, each (K, 2, S), reused across updates.
+    profile : dict, optional
+        Filled with the milliseconds of ``sampling``, ``rollout_cost`` and ``update``.
+
+    Returns
+    -------
+    dict
+        ``controls`` (K, 2) the weighted mean, ``costs`` (S,), ``parts`` (S, 4), ``weights``
+        (S,), ``samples`` (K, 2, S) (the workspace's buffer when one is given) and ``ok``
+        (False when no sample had a finite cost).
+    """
+    t0 = time.perf_counter()
+    u = sample_controls(config, mean, rng, out=None if workspace is None else workspace[0],
+                        work=None if workspace is None else workspace[1])
+    t1 = time.perf_counter()
+    costs, parts = rollout_cost(config, u, problem)
+    t2 = time.perf_counter()
+    w = np.empty(costs.size)
+    new = mean.copy()
+    ok = bool(K.softmin_mean(costs, config.temperature, u, w, new))
+    t3 = time.perf_counter()
+    if profile is not None:
+        profile.update(sampling=1e3 * (t1 - t0), rollout_cost=1e3 * (t2 - t1),
+                       update=1e3 * (t3 - t2))
+    return {"controls": new, "costs": costs, "parts": parts, "weights": w, "samples": u,
+            "ok": ok}
+
+
+class PlanResult(NamedTuple):
+    """The plan of the last update, in the world frame.
+
+    Attributes
+    ----------
+    controls : ndarray of shape (K, 2)
+        Optimal accelerations, m/s^2.
+    positions, velocities : ndarray of shape (K + 1, 2)
+        Its rollout from the vehicle's state, m and m/s (world).
+    cost_parts : ndarray of shape (4,)
+        ``[J_prog, J_obs, J_E, d_min]`` of the lowest-cost sample.
+    """
+
+    controls: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    cost_parts: np.ndarray
+
+
+@dataclass
+class PlannerStats:
+    """Counters and timings of a planner.
+
+    Attributes
+    ----------
+    updates : int
+        Calls of ``update``.
+    fallbacks : int
+        Updates that returned hover or braking instead of a plan.
+    reasons : dict of str to int
+        Fallbacks by cause: ``"state"``, ``"scan"``, ``"wind"``, ``"costs"``.
+    profile_ms : dict of str to float
+        The last planned update's ``obstacles`` (scan to distance field), ``sampling``,
+        ``rollout_cost`` (the fused rollout and cost), ``update`` (weights, mean, warm start)
+        and ``total``, ms.
+    profile_sum_ms : dict of str to float
+        The same, summed over all planned updates (see :meth:`mean_profile_ms`).
+    total_ms : list of float
+        Duration of every update, ms (fallbacks included).
+    """
+
+    updates: int = 0
+    fallbacks: int = 0
+    reasons: dict = field(default_factory=dict)
+    profile_ms: dict = field(default_factory=dict)
+    profile_sum_ms: dict = field(default_factory=dict)
+    total_ms: list = field(default_factory=list)
+
+    def median_ms(self) -> float:
+        """Median update time, ms (nan before the first update)."""
+        return float(np.median(self.total_ms)) if self.total_ms else float("nan")
+
+    def mean_profile_ms(self) -> dict:
+        """Mean of each part of :attr:`profile_ms` over the planned updates, ms."""
+        n = self.updates - self.fallbacks
+        return {k: v / n for k, v in self.profile_sum_ms.items()} if n else {}
+
+
+class MPPIPlanner:
+    """MPPI planner: a thin shell holding the warm start, the goal, the RNG and statistics.
+
+    Parameters
+    ----------
+    config : PlannerConfig
+        From :func:`windnav.plan.planner_config`.
+    goal_xy : array_like of shape (2,), optional
+        Goal in the world frame, m (or :meth:`set_goal` later).
+    rng : numpy.random.Generator or int or None, keyword-only
+        Sampling noise (None: fresh entropy).
+    rollout_cost : callable, optional
+        Injected ``(config, controls (K, 2, S), problem) -> (costs, parts)``; default the fused
+        Numba kernel.
+
+    Examples
+    --------
+    >>> planner = MPPIPlanner(planner_config(params, "ea-mppi"), goal_xy=(500, 300), rng=0)
+    >>> accel = planner.update([x, y, vx, vy], city.lidar([x, y])[0])   # every 0.1 s
+    """
+
+    def __init__(self, config: PlannerConfig, goal_xy=None, *,
+                 rng: np.random.Generator | int | None = None,
+                 rollout_cost: RolloutCost | None = None):
+        if not isinstance(config, PlannerConfig):
+            raise ValueError("The 'config' parameter of MPPIPlanner must be a PlannerConfig. "
+                             f"Got {type(config).__name__} instead.")
+        if config.planner != "mppi":
+            raise ValueError("The 'config' parameter of MPPIPlanner must have an MPPI variant. "
+                             f"Got variant {config.variant!r} instead.")
+        if rng is not None and not isinstance(rng, (np.random.Generator, int, np.integer)):
+            raise ValueError("The 'rng' parameter of MPPIPlanner must be a numpy Generator, an "
+                             f"int or None. Got {type(rng).__name__} instead.")
+        self.config = config
+        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        self.rollout_cost = fused_rollout_cost if rollout_cost is None else rollout_cost
+        self.goal = None if goal_xy is None else self._goal(goal_xy)
+        shape = (config.n_steps, 2, config.n_samples)
+        self._work = (np.empty(shape, np.float32), np.empty(shape, np.float32))
+        self.stats = PlannerStats()
+        self.reset()
+
+    @staticmethod
+    def _goal(goal_xy) -> np.ndarray:
+        return batch_array(goal_xy, "goal_xy", "MPPIPlanner", (2,), batch=1)[0].copy()
+
+    def set_goal(self, goal_xy) -> None:
+        """Set the goal, world frame, m."""
+        self.goal = self._goal(goal_xy)
+
+    def reset(self) -> None:
+        """Forget the warm start (zeros) and the last plan; keep the goal and the stats."""
+        self.mean = np.zeros((self.config.n_steps, 2))
+        self._last = None
+
+    # ------------------------------------------------------------------------------------
+    def update(self, state, scan=None, wind: LocalWind | None = None) -> np.ndarray:
+        """Plan from ``state`` and return the acceleration command, m/s^2, world (2,).
+
+        Parameters
+        ----------
+        state : array_like of shape (4,) or VehicleState-like
+            ``[x, y, v_x, v_y]`` (m, m/s, world), or an object with ``position`` and
+            ``velocity`` arrays (the first row's x and y are used).
+        scan : array_like, optional
+            LiDAR: ranges (n_rays,) of one scan (ray k at ``2 pi k / n_rays``; readings at or
+            beyond ``lidar_range`` are no return), or points (P, 2) relative to the vehicle,
+            m. None: no obstacles.
+        wind : LocalWind, optional
+            The local wind estimate (used only by the variants with wind).
+
+        Returns
+        -------
+        ndarray of shape (2,)
+            Acceleration, m/s^2, inside ``[a_min, a_max]``. Zero (hover) when the state is not
+            finite; braking ``clip(-v / dt)`` when the scan, the wind or every sampled cost is
+            not finite.
+        """
+        if self.goal is None:
+            raise ValueError("The 'goal_xy' of MPPIPlanner must be set (constructor or "
+                             "set_goal) before update. Got None instead.")
+        t0 = time.perf_counter()
+        cfg = self.config
+        self.stats.updates += 1
+        pos, vel = _state_xy(state)
+        if not (np.all(np.isfinite(pos)) and np.all(np.isfinite(vel))):
+            return self._fallback("state", np.zeros(2), t0)
+        points = _scan_to_points(scan, cfg.lidar_range)
+        if points is None:
+            return self._fallback("scan", self._brake(vel), t0)
+        if cfg.use_wind and wind is not None and not (isinstance(wind, LocalWind)
+                                                      and wind.finite):
+            if not isinstance(wind, LocalWind):
+                raise ValueError("The 'wind' parameter of MPPIPlanner.update must be a "
+                                 f"LocalWind or None. Got {type(wind).__name__} instead.")
+            return self._fallback("wind", self._brake(vel), t0)
+        goal = self.goal - pos
+        dist = float(np.hypot(*goal))
+        if dist > cfg.lidar_range:
+            goal *= cfg.lidar_range / dist
+        field_ = obstacle_field(points, resolution=cfg.obstacle_resolution)
+        t1 = time.perf_counter()
+        problem = Problem(vel, goal, field_, _pack_wind(cfg, wind))
+        prof: dict = {}
+        out = mppi_step(cfg, self.mean, problem, self.rng, rollout_cost=self.rollout_cost,
+                        workspace=self._work, profile=prof)
+        if not out["ok"]:
+            return self._fallback("costs", self._brake(vel), t0)
+        controls = out["controls"]
+        self._last = (controls.copy(), pos.copy(), vel.copy(), problem.wind,
+                      out["parts"][int(np.argmin(out["costs"]))].copy())
+        self.mean = shift_controls(controls, 1.0 / (cfg.rate_hz * cfg.dt))
+        total = 1e3 * (time.perf_counter() - t0)
+        self.stats.profile_ms = {"obstacles": 1e3 * (t1 - t0), **prof, "total": total}
+        for key, value in self.stats.profile_ms.items():
+            self.stats.profile_sum_ms[key] = self.stats.profile_sum_ms.get(key, 0.0) + value
+        self.stats.total_ms.append(total)
+        return controls[0].copy()
+
+    def plan(self) -> PlanResult | None:
+        """The last update's plan in the world frame (None before the first good update)."""
+        if self._last is None:
+            return None
+        controls, pos, vel, wind, parts = self._last
+        u = np.ascontiguousarray(controls[:, :, None])
+        k = controls.shape[0]
+        p = np.empty((1, k + 1, 2))
+        v = np.empty((1, k + 1, 2))
+        mode, grid, meta = wind
+        K.rollout_states(u, vel, self.config.dt, self.config.drag, self.config.a_min,
+                         self.config.a_max, mode, grid, meta, p, v)
+        return PlanResult(controls, p[0] + pos, v[0], parts)
+
+    # ------------------------------------------------------------------------------------
+    def _brake(self, vel: np.ndarray) -> np.ndarray:
+        if not np.all(np.isfinite(vel)):
+            return np.zeros(2)
+        return np.clip(-vel / self.config.dt, self.config.a_min, self.config.a_max)
+
+    def _fallback(self, reason: str, accel: np.ndarray, t0: float) -> np.ndarray:
+        self.stats.fallbacks += 1
+        self.stats.reasons[reason] = self.stats.reasons.get(reason, 0) + 1
+        self.stats.total_ms.append(1e3 * (time.perf_counter() - t0))
+        return accel
+
+
+def _state_xy(state) -> tuple[np.ndarray, np.ndarray]:
+    if hasattr(state, "position") and hasattr(state, "velocity"):
+        p = np.asarray(state.position, dtype=np.float64).reshape(-1, np.shape(state.position)[-1])
+        v = np.asarray(state.velocity, dtype=np.float64).reshape(-1, np.shape(state.velocity)[-1])
+        return p[0, :2].copy(), v[0, :2].copy()
+    s = np.asarray(state, dtype=np.float64).reshape(-1)
+    if s.shape != (4,):
+        raise ValueError("The 'state' parameter of MPPIPlanner.update must be [x, y, vx, vy] or "
+                         f"have position and velocity. Got shape {np.shape(state)} instead.")
+    return s[:2].copy(), s[2:].copy()
+
+
+def _scan_to_points(scan, lidar_range: float) -> np.ndarray | None:
+    """Points (P, 2) relative to the vehicle, or None when the scan holds non-finite values."""
+    if scan is None:
+        return np.zeros((0, 2))
+    a = np.asarray(scan, dtype=np.float64)
+    if not np.all(np.isfinite(a)):
+        return None
+    if a.ndim == 1:
+        return scan_points(a, max_range=lidar_range)
+    if a.ndim == 2 and a.shape[1] == 2:
+        return a
+    raise ValueError("The 'scan' parameter of MPPIPlanner.update must be ranges (n_rays,) or "
+                     f"points (P, 2). Got shape {a.shape} instead.")

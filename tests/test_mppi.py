@@ -1,0 +1,277 @@
+"""MPPI planner: model and cost against a plain NumPy reference, sampling, closed-loop physics,
+and bad input."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import windnav as wn
+from windnav.city import City
+from windnav.plan import (
+    LocalWind,
+    MPPIPlanner,
+    Problem,
+    _kernels,
+    fused_rollout_cost,
+    obstacle_cost,
+    obstacle_field,
+    planner_config,
+    rollout,
+    sample_controls,
+    scan_points,
+    shift_controls,
+    smoothing_matrix,
+    softmin_weights,
+    with_variant,
+)
+
+
+@pytest.fixture(scope="module")
+def base():
+    return planner_config(wn.vehicle.params("hummingbird"), "ea-mppi-w")
+
+
+# --- a plain NumPy reference of the model and the cost (one step at a time) -------------------
+def _ref_wind(wind: LocalWind | None, horizon, p):
+    """w(p) (S, 2): zero outside |p|_inf <= H/2; uniform, or bilinear clamped at the edges."""
+    if wind is None:
+        return np.zeros_like(p)
+    inside = np.all(np.abs(p) <= horizon / 2, axis=1)[:, None]
+    if wind.is_uniform:
+        return np.where(inside, wind.uv[:, 0, 0], 0.0)
+    from scipy.interpolate import RegularGridInterpolator
+    q = np.stack([np.clip(p[:, 1], wind.y[0], wind.y[-1]),
+                  np.clip(p[:, 0], wind.x[0], wind.x[-1])], 1)
+    w = np.stack([RegularGridInterpolator((wind.y, wind.x), wind.uv[c])(q) for c in (0, 1)], 1)
+    return np.where(inside, w, 0.0)
+
+
+def _ref_costs(cfg, u, v0, goal, pts, wind):
+    """(S,) costs, (S, 3) parts and positions (S, K, 2) of controls u (S, K, 2)."""
+    s, k = u.shape[:2]
+    p = np.zeros((s, 2))
+    v = np.tile(v0, (s, 1))
+    jp = np.zeros(s)
+    je = np.zeros(s)
+    pos = []
+    for t in range(k):
+        va = v - _ref_wind(wind if cfg.use_wind else None, cfg.horizon, p)
+        speed = np.linalg.norm(va, axis=1)
+        je += cfg.power(speed) / cfg.hover_power * cfg.dt
+        a = np.clip(u[:, t], cfg.a_min, cfg.a_max)
+        p = p + cfg.dt * v
+        v = v + cfg.dt * (a - cfg.drag * speed[:, None] * va)
+        jp += np.sum(((p - goal) / cfg.lidar_range) ** 2, axis=1)
+        pos.append(p)
+    pos = np.stack(pos, 1)
+    jo = obstacle_cost(pos, pts, cfg.lidar_range)
+    return jp + cfg.obstacle_weight * jo + cfg.energy_weight * je, np.stack([jp, jo, je], 1), pos
+
+
+@pytest.mark.parametrize("kind", ["none", "uniform", "grid"])
+def test_fused_kernel_matches_the_numpy_reference(base, kind):
+    rng = np.random.default_rng(3)
+    cfg = dataclasses.replace(base, n_samples=64, n_steps=30, horizon=60.0)
+    if kind == "none":
+        cfg, wind = with_variant(cfg, "ea-mppi"), None
+    elif kind == "uniform":
+        wind = LocalWind.uniform([4.0, -2.0])
+    else:
+        off = np.arange(-20, 21) * 1.5
+        X, Y = np.meshgrid(off, off)
+        wind = LocalWind.grid(np.stack([3 + 0.1 * Y, -1 + 0.05 * X]), off)
+    city = wn.city.planning_map(rng=1)
+    origin = np.array([300.0, 300.0])
+    while city.contains(origin[None])[0]:
+        origin = rng.uniform(50, 550, 2)
+    pts = scan_points(city.lidar(origin)[0], max_range=cfg.lidar_range)
+    u = rng.normal(0, 20, (cfg.n_samples, cfg.n_steps, 2))   # some beyond the bounds
+    v0, goal = np.array([2.0, -1.0]), np.array([80.0, 30.0])
+    mode = wind.pack(cfg.horizon) if (wind is not None and cfg.use_wind) else None
+    problem = Problem(v0, goal, obstacle_field(pts),
+                      mode or (0, np.zeros((2, 1, 1)), np.array([0, 0, 1, 1, 0.0])))
+    costs, parts = fused_rollout_cost(cfg, np.ascontiguousarray(u.transpose(1, 2, 0)), problem)
+    ref, ref_parts, ref_pos = _ref_costs(cfg, u, v0, goal, pts, wind)
+    np.testing.assert_allclose(parts[:, :3], ref_parts, rtol=1e-10)
+    np.testing.assert_allclose(costs, ref, rtol=1e-10)
+    pos, vel = rollout(cfg, u, v0, wind)
+    np.testing.assert_allclose(pos[:, 1:], ref_pos, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(parts[:, 3], np.sqrt(
+        ((ref_pos[:, :, None] - pts[None, None]) ** 2).sum(-1)).min((1, 2)), rtol=1e-9)
+
+
+def test_rollout_reaches_the_terminal_speed_of_the_drag(base):
+    # constant acceleration a along x in still air: v -> sqrt(a / C); without drag, Euler's
+    # exact sums p_K = dt^2 a K (K - 1) / 2
+    cfg = with_variant(dataclasses.replace(base, n_steps=400), "mppi")
+    a = 20.0
+    u = np.tile([a, 0.0], (cfg.n_steps, 1))
+    _, vel = rollout(cfg, u, [0.0, 0.0])
+    assert vel[0, -1, 0] == pytest.approx(np.sqrt(a / cfg.drag), rel=1e-6)
+    free = dataclasses.replace(cfg, drag=0.0, n_steps=10)
+    pos, _ = rollout(free, u[:10], [0.0, 0.0])
+    assert pos[0, -1, 0] == pytest.approx(free.dt**2 * a * 10 * 9 / 2, rel=1e-12)
+
+
+def test_sampling_bounds_smoothing_and_seed(base):
+    cfg = dataclasses.replace(base, n_samples=4000, n_steps=25)
+    g = smoothing_matrix(25, cfg.sigma_gf)
+    np.testing.assert_allclose(g.sum(1), 1.0, rtol=1e-12)
+    mean = np.tile([1.0, -2.0], (25, 1))
+    u = sample_controls(cfg, mean, np.random.default_rng(0))
+    assert u.shape == (25, 2, 4000)   # time-major, structure of arrays
+    tol = 1e-5 * cfg.a_max            # float32 samples
+    assert u.min() >= cfg.a_min - tol and u.max() <= cfg.a_max + tol
+    # smoothing by G turns N(mean, sigma^2) into N(mean, sigma^2 |G_k|^2) at each step
+    std = u[:, 0].std(axis=1)
+    np.testing.assert_allclose(std, cfg.sigma_u * np.linalg.norm(g, axis=1), rtol=0.08)
+    np.testing.assert_allclose(u.mean(axis=2), mean, atol=0.2)
+    again = sample_controls(cfg, mean, np.random.default_rng(0))
+    np.testing.assert_array_equal(u, again)
+    uni = sample_controls(dataclasses.replace(cfg, sampling="uniform"), mean,
+                          np.random.default_rng(0))
+    assert uni.min() >= cfg.a_min - tol and uni.max() <= cfg.a_max + tol
+    assert np.std(uni) == pytest.approx((cfg.a_max - cfg.a_min) / np.sqrt(12), rel=0.02)
+
+
+def test_sampler_normals_are_standard_normal():
+    """The planner's ziggurat (windnav.plan._random) against N(0, 1): moments, the mass of the
+    tail beyond the ziggurat's base (a separate code path), Kolmogorov-Smirnov; seeded."""
+    from scipy import stats
+
+    from windnav.plan import _random
+    x = _random.standard_normal(np.random.default_rng(0), 1_000_000)
+    assert abs(x.mean()) < 5e-3 and abs(x.var() - 1) < 5e-3
+    assert abs(stats.skew(x)) < 0.01 and abs(stats.kurtosis(x)) < 0.02
+    tail = np.sum(np.abs(x) > _random._R)
+    expect = 2 * stats.norm.sf(_random._R) * x.size
+    assert abs(tail - expect) < 5 * np.sqrt(expect)
+    assert stats.kstest(x, "norm").pvalue > 1e-3
+    np.testing.assert_array_equal(x[:100], _random.standard_normal(np.random.default_rng(0), 100))
+
+
+def test_softmin_mean_and_shift(base):
+    rng = np.random.default_rng(2)
+    costs = rng.uniform(0, 5, 300)
+    costs[7] = np.inf
+    u = rng.normal(size=(20, 2, 300))
+    w = np.empty(300)
+    out = np.empty((20, 2))
+    assert _kernels.softmin_mean(costs, 0.79, u, w, out)
+    ref = softmin_weights(costs, 0.79)
+    np.testing.assert_allclose(w, ref, rtol=1e-12)
+    assert ref[7] == 0 and ref.sum() == pytest.approx(1.0)
+    np.testing.assert_allclose(out, np.einsum("s,kcs->kc", ref, u), rtol=1e-12)
+    assert not _kernels.softmin_mean(np.full(3, np.nan), 0.79, u[:, :, :3], w[:3], out)
+    seq = np.arange(10.0)[:, None] * [1.0, 2.0]
+    np.testing.assert_allclose(shift_controls(seq, 1.0)[:-1], seq[1:])
+    np.testing.assert_allclose(shift_controls(seq, 1.0)[-1], seq[-1])
+    np.testing.assert_allclose(shift_controls(seq, 0.4)[:-1], seq[:-1] + 0.4 * (seq[1] - seq[0]))
+
+
+def _fly(cfg, goal, seconds, *, city=None, seed=0):
+    """Closed loop of the planner's own point mass (10 ms substeps), re-planning at f_plan."""
+    planner = MPPIPlanner(cfg, goal_xy=goal, rng=seed)
+    x = np.zeros(4) if city is None else np.array([50.0, 100.0, 0.0, 0.0])
+    track = []
+    period = 1.0 / cfg.rate_hz
+    for _ in range(int(seconds * cfg.rate_hz)):
+        scan = None if city is None else city.lidar(x[:2])[0]
+        a = planner.update(x, scan)
+        for _ in range(10):
+            v = x[2:].copy()
+            x[:2] += 0.1 * period * v
+            x[2:] += 0.1 * period * (a - cfg.drag * np.linalg.norm(v) * v)
+            track.append(x.copy())
+        if city is not None and np.hypot(*(x[:2] - goal)) < 2.0:
+            break
+    return np.array(track), planner
+
+
+def test_ea_mppi_cruises_near_the_max_range_speed_and_mppi_faster(base):
+    """Open space, still air, a far goal: the energy cost pulls EA-MPPI to the speed of least
+    energy per metre of its power curve (thesis: 'near V_R'); MPPI has only the progress cost."""
+    v_r = base.max_range_speed()
+    speeds = {}
+    for variant in ("ea-mppi", "mppi"):
+        track, planner = _fly(with_variant(base, variant), (3000.0, 1000.0), 30.0)
+        speeds[variant] = np.linalg.norm(track[len(track) // 2:, 2:], axis=1).mean()
+        assert planner.stats.fallbacks == 0
+        heading = track[-1, :2] / np.linalg.norm(track[-1, :2])
+        assert heading @ np.array([3.0, 1.0]) / np.sqrt(10) > 0.98
+    assert abs(speeds["ea-mppi"] - v_r) < 0.15 * v_r
+    assert speeds["mppi"] > 1.25 * speeds["ea-mppi"]
+
+
+def test_uniform_sampling_also_makes_progress(base):
+    """The thesis hardware's sampler (uniform in the bounds, no warm start noise or smoothing)
+    is cruder but still drives the point mass toward the goal."""
+    cfg = dataclasses.replace(with_variant(base, "ea-mppi"), sampling="uniform")
+    goal = np.array([150.0, 50.0])
+    track, planner = _fly(cfg, goal, 30.0)
+    assert np.hypot(*(track[-1, :2] - goal)) < 0.3 * np.hypot(*goal)
+    assert planner.stats.fallbacks == 0
+
+
+def test_mppi_reaches_a_goal_behind_a_building():
+    cfg = planner_config(wn.vehicle.params("hummingbird"), "mppi")
+    box = np.array([120.0, 180.0, 60.0, 140.0])
+    city = City((0, 300, 0, 200), [box], [30])
+    goal = np.array([250.0, 100.0])
+    track, planner = _fly(cfg, goal, 60.0, city=city)
+    assert np.hypot(*(track[-1, :2] - goal)) < 2.0
+    gap_x = np.maximum.reduce([box[0] - track[:, 0], np.zeros(len(track)), track[:, 0] - box[1]])
+    gap_y = np.maximum.reduce([box[2] - track[:, 1], np.zeros(len(track)), track[:, 1] - box[3]])
+    assert np.hypot(gap_x, gap_y).min() > 3.0
+    assert planner.stats.fallbacks == 0
+    assert set(planner.stats.profile_ms) == {"obstacles", "sampling", "rollout_cost", "update",
+                                             "total"}
+
+
+def test_variants_without_wind_ignore_it(base):
+    cfg = with_variant(dataclasses.replace(base, n_samples=50, n_steps=20), "ea-mppi")
+    a = MPPIPlanner(cfg, goal_xy=(100, 0), rng=5).update([0, 0, 1, 0])
+    b = MPPIPlanner(cfg, goal_xy=(100, 0), rng=5).update([0, 0, 1, 0], None,
+                                                          LocalWind.uniform([8.0, 0.0]))
+    np.testing.assert_array_equal(a, b)
+    w = with_variant(cfg, "ea-mppi-w")
+    c = MPPIPlanner(w, goal_xy=(100, 0), rng=5).update([0, 0, 1, 0], None,
+                                                       LocalWind.uniform([8.0, 0.0]))
+    assert not np.allclose(a, c)
+
+
+def test_nan_input_falls_back_and_is_counted(base):
+    cfg = dataclasses.replace(base, n_samples=50, n_steps=20)
+    planner = MPPIPlanner(cfg, goal_xy=(100, 0), rng=0)
+    planner.update([0, 0, 2.0, 1.0])
+    warm = planner.mean.copy()
+    np.testing.assert_array_equal(planner.update([np.nan, 0, 2.0, 1.0]), [0.0, 0.0])
+    scan = np.full(360, 50.0)
+    scan[10] = np.nan
+    brake = planner.update([0, 0, 2.0, 1.0], scan)
+    np.testing.assert_allclose(brake, np.clip(-np.array([2.0, 1.0]) / cfg.dt, cfg.a_min,
+                                              cfg.a_max))
+    bad_wind = LocalWind.grid(np.full((2, 3, 3), np.nan), [-1.0, 0.0, 1.0])
+    np.testing.assert_allclose(planner.update([0, 0, 2.0, 1.0], None, bad_wind), brake)
+    assert planner.stats.updates == 4
+    assert planner.stats.fallbacks == 3
+    assert planner.stats.reasons == {"state": 1, "scan": 1, "wind": 1}
+    np.testing.assert_array_equal(planner.mean, warm)   # the warm start is untouched
+    good = planner.update([0, 0, 2.0, 1.0])
+    assert np.all(np.isfinite(good)) and planner.stats.fallbacks == 3
+
+
+def test_bad_planner_arguments_raise_named_errors(base):
+    with pytest.raises(ValueError, match="'config' parameter of MPPIPlanner"):
+        MPPIPlanner(with_variant(base, "gs"))
+    with pytest.raises(ValueError, match="'goal_xy' parameter of MPPIPlanner"):
+        MPPIPlanner(base, goal_xy=(np.nan, 0))
+    planner = MPPIPlanner(dataclasses.replace(base, n_samples=10, n_steps=5), rng=0)
+    with pytest.raises(ValueError, match="'goal_xy'"):
+        planner.update([0, 0, 0, 0])
+    planner.set_goal((10, 0))
+    with pytest.raises(ValueError, match="'state' parameter of MPPIPlanner.update"):
+        planner.update([0, 0, 0])
+    with pytest.raises(ValueError, match="'offsets' parameter of LocalWind"):
+        LocalWind.grid(np.zeros((2, 3, 3)), [0.0, 1.0, 3.0])

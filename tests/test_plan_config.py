@@ -1,0 +1,110 @@
+"""Planner configuration: constants derived from the simulated vehicle, validation, variants."""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+import windnav as wn
+from windnav.plan import VARIANTS, PlannerConfig, acceleration_limit, planner_config, with_variant
+from windnav.vehicle import GRAVITY, max_range_speed
+
+
+@pytest.fixture(scope="module")
+def params():
+    return wn.vehicle.params("hummingbird")
+
+
+@pytest.fixture(scope="module")
+def config(params):
+    return planner_config(params, "ea-mppi-w")
+
+
+def test_thesis_hyperparameters_and_variants(config):
+    assert (config.n_samples, config.n_steps, config.dt, config.rate_hz) == (100, 187, 0.25, 10.0)
+    assert (config.temperature, config.sigma_u, config.sigma_gf) == (0.79, 5.15, 5.97)
+    assert (config.obstacle_weight, config.lidar_range) == (1.25, 100.0)
+    table = {k: (v.planner, v.energy_weight, v.use_wind) for k, v in VARIANTS.items()}
+    assert table == {"mppi": ("mppi", 0.0, False), "mppi-w": ("mppi", 0.0, True),
+                     "ea-mppi": ("mppi", 3.0, False), "ea-mppi-w": ("mppi", 5.0, True),
+                     "gs": ("gs", 0.0, False), "gs-w": ("gs", 0.0, True)}
+    assert (config.energy_weight, config.use_wind) == (5.0, True)
+    mppi = with_variant(config, "mppi")
+    assert (mppi.energy_weight, mppi.use_wind) == (0.0, False)
+    assert mppi.power_coefficients == config.power_coefficients
+
+
+def test_acceleration_limit_is_the_thrust_margin(params, config):
+    # N k_eta eta_max^2 / m, tilted to hold the weight: a_h^2 + g^2 = (T_max / m)^2
+    t_max = params.n_rotors * params.k_eta * params.rotor_speed_max**2 / params.mass
+    a_h = acceleration_limit(params)
+    assert a_h**2 + GRAVITY**2 == pytest.approx(t_max**2, rel=1e-12)
+    # the per-axis box is inscribed in the disk of achievable horizontal accelerations
+    assert math.hypot(config.a_max, config.a_max) == pytest.approx(a_h, rel=1e-12)
+    assert config.a_min == -config.a_max
+    weak = params.replace(rotor_speed_max=0.9 * params.hover_rotor_speed)
+    with pytest.raises(ValueError, match="'params'"):
+        acceleration_limit(weak)
+
+
+def test_hover_power_is_the_rotor_power_in_hover(params, config):
+    # hover: N rotors at eta_h, each drawing k_m eta_h^3 (closed form, not the sweep)
+    p_hover = params.n_rotors * params.k_m * params.hover_rotor_speed**3
+    assert config.hover_power == pytest.approx(p_hover, rel=0.01)
+    assert config.power(0.0) == pytest.approx(config.hover_power)
+
+
+def test_drag_from_the_sweep_matches_the_parameters_at_low_speed(params, config):
+    # the simulator's steady-flight drag, g tan(tilt), against the parameters linearised at
+    # hover rotor speed: (N k_d eta_h V + (c_dx + c_dy)/2 V^2) / m
+    d = config.derivation
+    v = np.array(d["sweep_speeds_mps"])
+    sim = np.array(d["drag_accel_mps2"])
+    lin, quad = d["drag_from_params_per_m"]["linear"], d["drag_from_params_per_m"]["quadratic"]
+    low = (v > 0) & (v <= 6.0)
+    np.testing.assert_allclose(sim[low], lin * v[low] + quad * v[low] ** 2, rtol=0.05)
+    # and C is the least-squares fit of C V^2 to that drag
+    c = np.sum(sim * v**2) / np.sum(v**4)
+    assert config.drag == pytest.approx(c, rel=1e-12)
+    assert d["drag_fit_rms_mps2"] < 0.2 * sim.max()
+
+
+def test_power_curve_follows_the_sweep_and_is_continued_smoothly(config):
+    d = config.derivation
+    v = np.array(d["sweep_speeds_mps"])
+    np.testing.assert_allclose(config.power(v), d["sweep_power_W"], atol=1.0)
+    vm = config.power_speed_max
+    eps = 1e-6
+    below, above = config.power(vm - eps), config.power(vm + eps)
+    assert above == pytest.approx(below, rel=1e-6)
+    slope_in = (config.power(vm) - config.power(vm - 1e-3)) / 1e-3
+    slope_out = (config.power(vm + 1e-3) - config.power(vm)) / 1e-3
+    assert slope_out == pytest.approx(slope_in, rel=1e-2)
+    assert np.all(np.diff(config.power(np.linspace(vm, 3 * vm, 50))) > 0)
+
+
+def test_max_range_speed_agrees_with_the_vehicle_power_module(config):
+    for w in (0.0, 3.0, -3.0):
+        ref = max_range_speed(config.power_curve, w).ground_speed
+        assert config.max_range_speed(w) == pytest.approx(ref, abs=2e-3)
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("temperature", 0.0), ("sigma_u", -1.0), ("sigma_gf", -0.1), ("n_samples", 0),
+    ("n_steps", 2.5), ("dt", float("nan")), ("obstacle_weight", -1.0), ("lidar_range", 0.0),
+    ("horizon", -5.0), ("horizon", "wide"), ("sampling", "sobol"), ("variant", "astar"),
+    ("a_max", 0.0), ("a_min", 100.0), ("drag", -0.1), ("power_coefficients", (-1.0, 0.0)),
+    ("energy_weight", -3.0), ("use_wind", "yes"), ("dt", 5.0),
+])
+def test_bad_config_values_raise_named_errors(config, field, value):
+    with pytest.raises(ValueError, match=f"'{field}' parameter of PlannerConfig"):
+        dataclasses.replace(config, **{field: value})
+
+
+def test_planner_config_rejects_unknown_names(params):
+    with pytest.raises(ValueError, match="'variant' parameter of planner_config"):
+        planner_config(params, "rrt")
+    with pytest.raises(ValueError, match="'overrides' parameter of planner_config"):
+        planner_config(params, "mppi", n_sample=10)
+    assert isinstance(planner_config(params, "mppi", n_samples=1000, n_steps=25), PlannerConfig)

@@ -1,0 +1,125 @@
+"""GS / GS+W: energy-optimal routes on the (position, ground speed) lattice."""
+
+import numpy as np
+import pytest
+
+import windnav as wn
+from windnav.city import City
+from windnav.plan import MOVES, energy_route, planner_config, with_variant
+
+
+@pytest.fixture(scope="module")
+def gs_w():
+    return planner_config(wn.vehicle.params("hummingbird"), "gs-w")
+
+
+def _v_r(cfg, direction, wind):
+    """Brute-force argmin_V P(|V e - w|) / V over [0.5, 20] m/s, and the minimum (J/m)."""
+    v = np.linspace(0.5, 20.0, 400001)
+    f = cfg.power(np.hypot(*(v[:, None] * direction - np.asarray(wind, float)).T)) / v
+    return v[np.argmin(f)], f.min()
+
+
+@pytest.mark.parametrize("wind", [(0.0, 0.0), (4.0, 2.0), (-4.0, -2.0), (-2.0, 4.0)])
+def test_empty_map_uniform_wind_gives_the_straight_line_at_v_r(gs_w, wind):
+    city = City((0, 200, 0, 200), np.zeros((0, 4)), np.zeros(0))
+    start, goal = np.array([10.0, 30.0]), np.array([190.0, 120.0])
+    r = energy_route(city, start, goal, gs_w, wind=wind)
+    np.testing.assert_allclose(r.waypoints, [start, goal])
+    e = (goal - start) / np.linalg.norm(goal - start)
+    v_r, e_min = _v_r(gs_w, e, wind)
+    np.testing.assert_allclose(r.speeds, v_r, atol=1e-3)
+    length = np.linalg.norm(goal - start)
+    assert r.length == pytest.approx(length)
+    assert r.energy == pytest.approx(length * e_min, rel=1e-6)
+    assert r.time == pytest.approx(length / v_r, rel=1e-3)
+    np.testing.assert_allclose(r.airspeeds, np.linalg.norm(v_r * e - np.array(wind)), atol=1e-3)
+    # the lattice path (16 directions) costs at most a few per cent more than the line
+    assert r.energy <= r.lattice_energy <= 1.03 * r.energy
+
+
+def test_gs_plans_in_still_air_whatever_the_wind(gs_w):
+    city = City((0, 200, 0, 200), np.zeros((0, 4)), np.zeros(0))
+    gs = with_variant(gs_w, "gs")
+    r = energy_route(city, (10, 100), (190, 100), gs, wind=(-5.0, 0.0))
+    np.testing.assert_allclose(r.speeds, gs.max_range_speed(0.0), atol=1e-3)
+    assert r.variant == "gs"
+
+
+def test_gs_w_takes_the_sheltered_corridor(gs_w):
+    """Two corridors around a central block; a strong headwind blows in the southern one, which
+    is the shorter. GS (still air) takes the shorter; GS+W the sheltered one, and uses less
+    energy in the real wind."""
+    city = City((0, 300, 0, 160), [[60, 240, 50, 110], [60, 240, 0, 10]], [30, 30])
+
+    class CorridorWind:
+        def velocity(self, t, xyz):
+            w = np.zeros((len(xyz), 3))
+            w[:, 0] = np.where(xyz[:, 1] < 50, -9.0, 0.0)
+            return w
+
+    start, goal = (20.0, 40.0), (280.0, 40.0)
+    with_wind = energy_route(city, start, goal, gs_w, wind=CorridorWind())
+    still = energy_route(city, start, goal, with_variant(gs_w, "gs"), wind=CorridorWind())
+    assert np.all(still.samples[:, 1] < 50.0)            # the short, windy corridor
+    assert np.max(with_wind.samples[:, 1]) > 110.0        # around the block, out of the wind
+    # flown in the real wind, GS's route costs more than GS+W's (the planner sees the wind on
+    # its lattice, bilinear between cell centres: 1% of the step at the corridor's edge)
+    assert _route_energy_in_wind(gs_w, with_wind, CorridorWind()) == pytest.approx(
+        with_wind.energy, rel=0.01)
+    in_wind = _route_energy_in_wind(gs_w, still, CorridorWind())
+    assert in_wind > 1.1 * with_wind.energy
+
+
+def _route_energy_in_wind(cfg, route, wind):
+    """Energy of ``route`` flown at its own speeds through ``wind``, J."""
+    seg = np.diff(route.samples, axis=0)
+    length = np.linalg.norm(seg, axis=1)
+    mid = 0.5 * (route.samples[1:] + route.samples[:-1])
+    w = wind.velocity(0.0, np.c_[mid, np.zeros(len(mid))])[:, :2]
+    air = np.linalg.norm(route.speeds[:, None] * seg / length[:, None] - w, axis=1)
+    return float(np.sum(cfg.power(air) * length / route.speeds))
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_routes_keep_clearance_on_planning_maps(gs_w, seed):
+    city = wn.city.planning_map(rng=seed, size=300.0)
+    rng = np.random.default_rng(seed)
+    from windnav.plan import free_space
+    x, y, free = free_space(city, 2.0, 6.0)
+    cells = np.argwhere(free)
+    a, b = cells[rng.choice(len(cells), 2, replace=False)]
+    start, goal = np.array([x[a[1]], y[a[0]]]), np.array([x[b[1]], y[b[0]]])
+    r = energy_route(city, start, goal, gs_w, wind=(3.0, -2.0))
+    pts = r.samples
+    for x0, x1, y0, y1 in city.footprints:
+        gx = np.maximum.reduce([x0 - pts[:, 0], np.zeros(len(pts)), pts[:, 0] - x1])
+        gy = np.maximum.reduce([y0 - pts[:, 1], np.zeros(len(pts)), pts[:, 1] - y1])
+        assert np.min(np.hypot(gx, gy)) > 6.0 - 2.0   # within one cell of the clearance
+    assert r.energy <= r.lattice_energy * (1 + 1e-9)
+    assert np.all((r.speeds >= 0.5) & (r.speeds <= 20.0))
+
+
+def test_moves_and_bad_input(gs_w):
+    assert len({tuple(m) for m in MOVES}) == 16
+    city = City((0, 100, 0, 100), [[40, 60, 40, 60]], [20])
+    with pytest.raises(ValueError, match="'goal_xy' parameter of energy_route"):
+        energy_route(city, (5, 5), (50, 50), gs_w)
+    walled = City((0, 100, 0, 100), [[45, 55, 0, 100]], [20])
+    with pytest.raises(ValueError, match="cannot be reached"):
+        energy_route(walled, (5, 50), (95, 50), gs_w)
+    with pytest.raises(ValueError, match="'speed_range' parameter of energy_route"):
+        energy_route(city, (5, 5), (95, 95), gs_w, speed_range=(5.0, 1.0))
+    with pytest.raises(ValueError, match="'wind' parameter of energy_route"):
+        energy_route(city, (5, 5), (95, 95), gs_w, wind=(1.0, np.nan))
+
+
+def test_a_map_without_buildings_is_free_everywhere(gs_w):
+    # the distance transform of an image with no background measures from a phantom corner;
+    # free_space must not inherit that (a start 3 m from the edge of an empty map is free)
+    from windnav.plan import free_space
+    city = City((0, 20, 0, 20), np.zeros((0, 4)), np.zeros(0))
+    _, _, free = free_space(city, 2.0, 6.0)
+    assert free.all()
+    r = energy_route(city, (3, 3), (17, 17), gs_w)
+    assert r.length == pytest.approx(np.hypot(14, 14))
