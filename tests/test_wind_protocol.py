@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from windnav.wind import ConstantWind, DrydenWind, GriddedWind, WindField
+from windnav.wind import ConstantWind, DrydenWind, FromRotorPy, GriddedWind, WindField
 
 
 def _grid_fields(unsteady: bool):
@@ -20,12 +20,20 @@ def _grid_fields(unsteady: bool):
     return GriddedWind(x, y, u, v, t=np.array([0.0, 0.4, 1.0]) if unsteady else None)
 
 
+def _rotorpy_gusts():
+    from rotorpy.wind.dryden_winds import DrydenGust
+
+    gust = DrydenGust(dt=0.01, avg_wind=np.array([2.0, 0.0, 0.0]), sig_wind=np.full(3, 40.0))
+    return FromRotorPy(gust, dt=0.01, seed=5)
+
+
 FACTORIES = {
     "constant": lambda: ConstantWind((2.0, 1.0, 0.0)),
     "dryden": lambda: DrydenWind(mean=(3, 0, 0), sigma=(1.5, 1.5, 0.7), seed=3),
     "dryden_short_scales": lambda: DrydenWind(seed=4, length_scales=(5.0, 3.0, 1.0)),
     "gridded_steady": lambda: _grid_fields(False),
     "gridded_unsteady": lambda: _grid_fields(True),
+    "rotorpy_gusts": _rotorpy_gusts,
 }
 TIMES = (0.0, 0.013, 0.25, 0.7, 1.3)
 

@@ -23,7 +23,7 @@ world-frame wind at the centre of mass logged by the simulator.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,6 +32,16 @@ from tqdm.auto import tqdm
 
 from windnav._validate import finite_float, positive_int
 from windnav.estimate import wind_model as wm
+from windnav.estimate.conditions import UKFConditions, ukf_conditions
+from windnav.estimate.hardware import OdometryAccel
+from windnav.estimate.layout import (
+    IDX_EULER,
+    IDX_ROTORS,
+    IDX_VELOCITY,
+    N_BASE,
+    ODOM_EULER,
+    ODOM_VELOCITY,
+)
 from windnav.estimate.wind_ukf import WindUKF
 from windnav.vehicle.params import MultirotorParams
 
@@ -134,8 +144,20 @@ def _on_grid(grid: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
     return out
 
 
+def _mapped(rotor_speed_map, t: np.ndarray, cmd: np.ndarray) -> np.ndarray:
+    """``rotor_speed_map(t, cmd)`` checked to keep the shape (``cmd`` when no map)."""
+    if rotor_speed_map is None:
+        return cmd
+    out = np.asarray(rotor_speed_map(t, cmd), dtype=np.float64)
+    if out.shape != cmd.shape:
+        raise ValueError(f"The 'rotor_speed_map' parameter of filter_inputs must return the "
+                         f"shape of the commands {cmd.shape}. Got shape {out.shape} instead.")
+    return out
+
+
 def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
-                  sensors: tuple[str, ...] = _SENSORS) -> dict[str, np.ndarray]:
+                  sensors: tuple[str, ...] = _SENSORS,
+                  rotor_speed_map: Callable | None = None) -> dict[str, np.ndarray]:
     """The filter's inputs on its time grid, from a flight log.
 
     Parameters
@@ -148,6 +170,9 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
         Batch row of the log.
     sensors : tuple of str
         Which logged sensors to use (``imu``, ``odometry``, ``rotor_speeds``).
+    rotor_speed_map : callable ``(t (K,), cmd (K, N)) -> (K, N)``, optional
+        Applied to the commands (log rate) before they become the inputs ``u``, and to the
+        logged pseudo-measurements (see :func:`run_wind_ukf`).
 
     Returns
     -------
@@ -173,8 +198,8 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
                              f"(logged: {sorted(log.sensors)}).")
     grid, dt = _grid(log, use)
     N = log.rotor_speed_cmd.shape[2]
-    cmd = np.clip(log.rotor_speed_cmd[:, vehicle], params.rotor_speed_min,
-                  params.rotor_speed_max)
+    cmd = _mapped(rotor_speed_map, log.t, log.rotor_speed_cmd[:, vehicle])
+    cmd = np.clip(cmd, params.rotor_speed_min, params.rotor_speed_max)
     held = cmd[_at(log.t, np.r_[grid[0], grid[:-1]])]
     imu, od = log.sensors["imu"], log.sensors["odometry"]
     euler = Rotation.from_quat(od["attitude"][:, vehicle]).as_euler("ZYX")
@@ -188,7 +213,8 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
     }
     if "rotor_speeds" in use:
         rs = log.sensors["rotor_speeds"]
-        prev = np.clip(rs["cmd"][:, vehicle], params.rotor_speed_min, params.rotor_speed_max)
+        prev = np.clip(_mapped(rotor_speed_map, rs["t"], rs["cmd"][:, vehicle]),
+                       params.rotor_speed_min, params.rotor_speed_max)
         # the command sampled at t_{j-1} measures eta at t_j (the next sample time)
         out["rotor_speeds"] = _on_grid(grid, rs["t"][1:], prev[:-1])
     return out
@@ -201,10 +227,15 @@ def run_wind_ukf(
     vehicle: int = 0,
     q: Mapping[str, float] | None = None,
     r: Mapping | None = None,
-    wind_frame: str = "world",
-    accel_from_odometry: bool = False,
-    sensors: tuple[str, ...] = _SENSORS,
+    wind_frame: str | None = None,
+    accel_from_odometry: bool | OdometryAccel | None = None,
+    sensors: tuple[str, ...] | None = None,
     n_substeps: int = 1,
+    conditions: str | UKFConditions | None = None,
+    alpha: float | None = None,
+    beta: float | None = None,
+    kappa: float | None = None,
+    rotor_speed_map: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
     progress: bool = False,
 ) -> WindTrack:
     """Feed a flight's logged sensors through :class:`~windnav.estimate.WindUKF`.
@@ -220,15 +251,29 @@ def run_wind_ukf(
         Batch row of the log to estimate.
     q, r : mapping, optional
         Process / measurement noise overrides passed to :class:`WindUKF`.
-    wind_frame : {"world", "body"}
+    wind_frame : {"world", "body"}, optional
         Random-walk frame of the wind (see :mod:`windnav.estimate.wind_model`). Default
-        "world": the mean wind of a flight is fixed in the world, not in the turning body.
-    accel_from_odometry : bool
-        Form the specific force from differenced odometry instead of the IMU.
-    sensors : tuple of str
-        Logged sensors to use.
+        "world" (as for :class:`WindUKF`): the mean wind of a flight is fixed in the world, not
+        in the turning body.
+    accel_from_odometry : bool or OdometryAccel, optional
+        Form the specific force from differenced odometry instead of the IMU (an
+        :class:`~windnav.estimate.hardware.OdometryAccel`: the hardware's chain).
+    sensors : tuple of str, optional
+        Logged sensors to use (default all three, or the conditions').
     n_substeps : int
         RK4 steps per filter step.
+    conditions : str or UKFConditions, optional
+        A preset (:data:`windnav.estimate.conditions.CONDITIONS`) whose filter settings and
+        fused sensors are the defaults of the arguments above; explicit arguments override
+        it (``q`` and ``r`` key by key). What the filter is told about the vehicle
+        (``params_filter``) and the rotor-speed chain (``rotor_speed_map``) are the caller's.
+    alpha, beta, kappa : float, optional
+        Sigma-point parameters (default 1, 2, 0, or the conditions').
+    rotor_speed_map : callable ``(t (K,), cmd (K, N)) -> (K, N)``, optional
+        What the filter sees of the rotor-speed commands (rad/s) at times ``t`` (s), for the
+        inputs ``u`` and the pseudo-measurements alike: e.g. commands sent as PWM and read
+        back through a motor model with errors (:mod:`windnav.experiments.ukf_conditions`).
+        Default: the commands themselves.
     progress : bool
         Show a progress bar.
 
@@ -241,24 +286,29 @@ def run_wind_ukf(
         raise ValueError(f"The 'params_filter' parameter of {where} must be a MultirotorParams. "
                          f"Got {type(params_filter).__name__} instead.")
     n_substeps = positive_int(n_substeps, "n_substeps", where)
-    inp = filter_inputs(log, params_filter, vehicle=vehicle, sensors=sensors)
+    if conditions is not None:
+        sensors = ukf_conditions(conditions).filter_sensors if sensors is None else sensors
+    inp = filter_inputs(log, params_filter, vehicle=vehicle,
+                        sensors=_SENSORS if sensors is None else sensors,
+                        rotor_speed_map=rotor_speed_map)
     T = inp["t"].size
     N = params_filter.n_rotors
     if inp["u"].shape[1] != N:
         raise ValueError(f"The 'params_filter' parameter of {where} has {N} rotors but the log "
                          f"has {inp['u'].shape[1]}.")
     first = int(np.flatnonzero(np.all(np.isfinite(inp["odom"]), axis=1))[0])
-    x0 = np.zeros(12 + N)
+    x0 = np.zeros(N_BASE + N)
     odom0 = inp["odom"][first]
-    x0[wm.IDX_EULER] = odom0[3:]
-    x0[wm.IDX_VELOCITY] = wm.euler_to_matrix(odom0[3:])[0].T @ odom0[:3]
-    x0[wm.IDX_ROTORS] = inp["u"][0]
+    x0[IDX_EULER] = odom0[ODOM_EULER]
+    x0[IDX_VELOCITY] = wm.euler_to_matrix(odom0[ODOM_EULER])[0].T @ odom0[ODOM_VELOCITY]
+    x0[IDX_ROTORS] = inp["u"][0]
     ukf = WindUKF(params_filter, inp["dt"], q=q, r=r, x0=x0, wind_frame=wind_frame,
-                  accel_from_odometry=accel_from_odometry, n_substeps=n_substeps)
+                  accel_from_odometry=accel_from_odometry, n_substeps=n_substeps,
+                  alpha=alpha, beta=beta, kappa=kappa, conditions=conditions)
     est = ukf.estimate()
     wind_est = np.empty((T, 3))
     wind_cov = np.empty((T, 3, 3))
-    xs = np.empty((T, 12 + N))
+    xs = np.empty((T, N_BASE + N))
     wind_est[0], wind_cov[0], xs[0] = est.wind_world, est.wind_world_cov, est.x
     blocks = ("accel", "gyro", "odom", "rotor_speeds")
     have = {b: np.all(np.isfinite(inp[b]), axis=1) for b in blocks}

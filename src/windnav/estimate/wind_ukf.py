@@ -8,14 +8,24 @@ step (multi-rate sensors simply leave theirs out):
     "odom"          (6,)  world-frame velocity (m/s) then ZYX Euler angles psi, theta, phi (rad)
     "rotor_speeds"  (N,)  measured rotor speeds, rad/s
 
-With ``accel_from_odometry=True`` (what the author's hardware filter did) the accelerometer is
-not used: each odometry sample after the first forms the specific force
+With ``accel_from_odometry=True`` the accelerometer is not used: each odometry sample after the
+first forms the specific force
 
     a_b = R(psi, theta, phi)^T ((v_k - v_{k-1}) / (t_k - t_{k-1}) + [0, 0, g])
 
 from the differenced world velocity and the measured Euler angles, fused through the same
 accelerometer model. Its default noise is ``sqrt(2) sigma_v / dt_odom`` per axis
-(uncorrelated differencing noise; correlation between consecutive samples is neglected).
+(uncorrelated differencing noise; correlation between consecutive samples is neglected),
+built for each update from the interval between the two samples and passed to that update
+(``UKF.update(..., noise=...)``): a step never rewrites the filter's configured noise. With
+``accel_from_odometry=OdometryAccel(...)`` the differenced specific force is clamped and
+low-passed as on the author's hardware (:mod:`windnav.estimate.hardware`) and fused with the
+configured ``r["accel"]`` (3.61 (m/s^2)^2 on the hardware).
+
+``conditions=`` (a name of :data:`windnav.estimate.conditions.CONDITIONS` or a
+:class:`~windnav.estimate.conditions.UKFConditions`) sets ``q, r, alpha, beta, kappa,
+wind_frame`` and ``accel_from_odometry`` of a preset; arguments given explicitly override it
+(``q`` and ``r`` key by key).
 
 Output: wind in the world frame ``w = R(psi, theta, phi) w_b`` with its 3x3 covariance from an
 unscented transform over the 6-dimensional marginal of (Euler angles, body wind), so the
@@ -35,7 +45,19 @@ import numpy as np
 
 from windnav._validate import batch_array, positive_float, positive_int
 from windnav.estimate import wind_model as wm
-from windnav.estimate.ukf import UKF, merwe_weights, robust_cholesky, sigma_points
+from windnav.estimate.conditions import UKFConditions, ukf_conditions
+from windnav.estimate.hardware import OdometryAccel
+from windnav.estimate.layout import (
+    IDX_EULER,
+    IDX_RATES,
+    IDX_ROTORS,
+    IDX_VELOCITY,
+    IDX_WIND,
+    N_BASE,
+    ODOM_EULER,
+    ODOM_VELOCITY,
+)
+from windnav.estimate.ukf import UKF, merwe_weights, robust_cholesky
 from windnav.vehicle.params import GRAVITY, MultirotorParams
 
 __all__ = ["DEFAULT_Q", "DEFAULT_R", "WindEstimate", "WindUKF", "wind_world"]
@@ -59,8 +81,8 @@ DEFAULT_Q = {
 """Default process-noise densities: per-step variance is ``q**2 * dt``."""
 
 _P0 = {"euler": 0.1, "rates": 0.2, "velocity": 0.5, "wind": 3.0, "rotor_speeds": 50.0}
-_GROUPS = (("euler", wm.IDX_EULER), ("rates", wm.IDX_RATES), ("velocity", wm.IDX_VELOCITY),
-           ("wind", wm.IDX_WIND), ("rotor_speeds", wm.IDX_ROTORS))
+_GROUPS = (("euler", IDX_EULER), ("rates", IDX_RATES), ("velocity", IDX_VELOCITY),
+           ("wind", IDX_WIND), ("rotor_speeds", IDX_ROTORS))
 _WIND_WEIGHTS = merwe_weights(6, 1.0, 2.0, 0.0)
 
 
@@ -88,7 +110,7 @@ class WindEstimate:
     @property
     def wind_body(self) -> np.ndarray:
         """Wind in body axes, m/s (3,)."""
-        return self.x[wm.IDX_WIND]
+        return self.x[IDX_WIND]
 
 
 def wind_world(x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -110,14 +132,11 @@ def wind_world(x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     mean, cov, ok = wm._wind_world_ut(x, P, w.wm, w.wc, w.scale)
     if ok:
         return mean, cov
-    idx = np.r_[0:3, 9:12]
+    # the (euler, wind) marginal lost positive definiteness: repair it, same transform
+    idx = wm._WIND_MARGINAL
     L, _, _ = robust_cholesky(P[np.ix_(idx, idx)])
-    Xs = sigma_points(x[idx], L, _WIND_WEIGHTS)
-    W = np.einsum("sij,sj->si", wm.euler_to_matrix(Xs[:, :3]), Xs[:, 3:])
-    mean = _WIND_WEIGHTS.wm @ W
-    dev = W - mean
-    cov = (dev.T * _WIND_WEIGHTS.wc) @ dev
-    return mean, 0.5 * (cov + cov.T)
+    return wm._wind_world_sigma(np.ascontiguousarray(x[idx]), np.ascontiguousarray(L), w.wm,
+                                w.wc, w.scale)
 
 
 def _noise_cov(value, m: int, name: str) -> np.ndarray:
@@ -133,6 +152,21 @@ def _noise_cov(value, m: int, name: str) -> np.ndarray:
         raise ValueError(f"The 'r[{name!r}]' parameter of WindUKF must be a positive standard "
                          f"deviation (scalar or ({m},)). Got {value!r} instead.")
     return np.diag(std**2)
+
+
+_OPTION_DEFAULTS = {"alpha": 1.0, "beta": 2.0, "kappa": 0.0, "wind_frame": "world",
+                    "accel_from_odometry": False}
+
+
+def _resolve_options(conditions, q, r, **given) -> tuple[dict, dict, dict]:
+    """``(q, r, options)``: the conditions' filter settings (if any) under the explicit
+    arguments (``q``, ``r`` key by key; options not None), then the filter's defaults."""
+    preset = {} if conditions is None else ukf_conditions(conditions).filter_options()
+    q = {**preset.get("q", {}), **(q or {})}
+    r = {**preset.get("r", {}), **(r or {})}
+    opt = {k: v if v is not None else preset.get(k, _OPTION_DEFAULTS[k])
+           for k, v in given.items()}
+    return q, r, opt
 
 
 class WindUKF:
@@ -155,15 +189,21 @@ class WindUKF:
         Initial state; default level hover at rest in still air.
     P0 : array_like of shape (12 + N, 12 + N), optional
         Initial covariance; default diagonal (0.1 rad, 0.2 rad/s, 0.5 m/s, 3 m/s, 50 rad/s).
-    accel_from_odometry : bool
-        Form the accelerometer measurement from differenced odometry (see module docstring).
+    accel_from_odometry : bool or OdometryAccel, optional
+        Form the accelerometer measurement from differenced odometry (see module docstring);
+        an :class:`~windnav.estimate.hardware.OdometryAccel` adds the hardware's clamp and
+        low-pass. Default False (or the conditions').
     n_substeps : int
         RK4 steps per ``dt``.
-    wind_frame : {"body", "world"}
-        Random-walk frame of the wind: "body" (``w_b' = 0``, the thesis model) or "world"
-        (``w_b' = -Omega x w_b``, see :func:`windnav.estimate.wind_model.model_constants`).
-    alpha, beta, kappa : float
-        Sigma-point parameters.
+    wind_frame : {"world", "body"}, optional
+        Random-walk frame of the wind: "world" (default, as in :func:`run_wind_ukf`:
+        ``w_b' = -Omega x w_b``, the wind is fixed in the world while the body turns) or "body"
+        (``w_b' = 0``, the thesis model); see :func:`windnav.estimate.wind_model.model_constants`.
+    alpha, beta, kappa : float, optional
+        Sigma-point parameters; default 1, 2, 0 (or the conditions').
+    conditions : str or UKFConditions, optional
+        A preset whose filter settings are the defaults of the arguments above (see the module
+        docstring); None: windnav's defaults (:data:`DEFAULT_Q`, :data:`DEFAULT_R`).
 
     Examples
     --------
@@ -174,24 +214,33 @@ class WindUKF:
 
     def __init__(self, params: MultirotorParams, dt: float = 0.01, *,
                  q: Mapping[str, float] | None = None, r: Mapping | None = None,
-                 x0=None, P0=None, accel_from_odometry: bool = False, n_substeps: int = 1,
-                 wind_frame: str = "body",
-                 alpha: float = 1.0, beta: float = 2.0, kappa: float = 0.0):
+                 x0=None, P0=None, accel_from_odometry: bool | OdometryAccel | None = None,
+                 n_substeps: int = 1, wind_frame: str | None = None,
+                 alpha: float | None = None, beta: float | None = None,
+                 kappa: float | None = None,
+                 conditions: str | UKFConditions | None = None):
         where = "WindUKF"
         if not isinstance(params, MultirotorParams):
             raise ValueError(f"The 'params' parameter of {where} must be a MultirotorParams. "
                              f"Got {type(params).__name__} instead.")
+        q, r, opt = _resolve_options(conditions, q, r, alpha=alpha, beta=beta, kappa=kappa,
+                                     wind_frame=wind_frame,
+                                     accel_from_odometry=accel_from_odometry)
+        alpha, beta, kappa, wind_frame = (opt[k] for k in ("alpha", "beta", "kappa",
+                                                             "wind_frame"))
         self.params = params
         self.dt = positive_float(dt, "dt", where)
         self.n_substeps = positive_int(n_substeps, "n_substeps", where)
-        self.accel_from_odometry = bool(accel_from_odometry)
+        chain = opt["accel_from_odometry"]
+        self.odometry_accel = chain if isinstance(chain, OdometryAccel) else None
+        self.accel_from_odometry = self.odometry_accel is not None or bool(chain)
         N = params.n_rotors
-        n = 12 + N
+        n = N_BASE + N
         self._prm = wm.model_constants(params, wind_frame=wind_frame)
         self.wind_frame = wind_frame
         self._u_lo, self._u_hi = params.rotor_speed_min, params.rotor_speed_max
 
-        q = {**DEFAULT_Q, **(q or {})}
+        q = {**DEFAULT_Q, **q}
         unknown = set(q) - set(DEFAULT_Q)
         if unknown:
             raise ValueError(f"The 'q' parameter of {where} has unknown keys {sorted(unknown)}; "
@@ -203,14 +252,14 @@ class WindUKF:
 
         if x0 is None:
             x0 = np.zeros(n)
-            x0[wm.IDX_ROTORS] = params.hover_rotor_speed
+            x0[IDX_ROTORS] = params.hover_rotor_speed
         x0 = batch_array(x0, "x0", where, (n,))[0]
         if P0 is None:
             p0 = np.empty(n)
             for key, sl in _GROUPS:
                 p0[sl] = _P0[key] ** 2
             P0 = np.diag(p0)
-        self.R = self._measurement_covs(r or {}, N)
+        self.R = self._measurement_covs(r, N)
         prm, nsub = self._prm, self.n_substeps
 
         def fx(X, dt, u):
@@ -220,23 +269,25 @@ class WindUKF:
             return wm._specific_force(X, prm)
 
         def h_gyro(X):
-            return X[:, 3:6]
+            return X[:, IDX_RATES]
 
         def h_rotor(X):
-            return X[:, 12:]
+            return X[:, IDX_ROTORS]
 
         blocks = {
             "accel": (h_accel, self.R["accel"]),
             "gyro": (h_gyro, self.R["gyro"]),
-            "odom": (wm._odometry, self.R["odom"], (3, 4, 5)),
+            "odom": (wm._odometry, self.R["odom"], np.arange(6)[ODOM_EULER]),
             "rotor_speeds": (h_rotor, self.R["rotor_speeds"]),
         }
         self.ukf = UKF(fx, x0, P0, self.Q, dt=self.dt, blocks=blocks, alpha=alpha, beta=beta,
                        kappa=kappa)
         self._last_odom: np.ndarray | None = None
         self._steps_since_odom = 0
-        self._r_accel_override = "accel" in (r or {})
-        self._accel_dt = 0.0
+        self._accel_lp: np.ndarray | None = None  # output of the hardware chain
+        self._r_accel_override = "accel" in r or self.odometry_accel is not None
+        # std of differenced odometry velocity times the interval: sqrt(2) sigma_v, m/s
+        self._diff_std_dt = np.sqrt(2.0) * np.sqrt(np.diag(self.R["odom"])[ODOM_VELOCITY])
 
     def _measurement_covs(self, r: Mapping, N: int) -> dict[str, np.ndarray]:
         known = set(DEFAULT_R) | {"odom"}
@@ -284,22 +335,28 @@ class WindUKF:
         w, C = wind_world(self.ukf.x, self.ukf.P)
         return WindEstimate(w, C, self.ukf.x.copy(), self.ukf.P.copy())
 
-    def _accel_from_odom(self, odom: np.ndarray) -> np.ndarray | None:
-        """Specific force (3,) from the previous and this odometry sample, or None."""
+    def _accel_from_odom(self, odom: np.ndarray):
+        """Specific force (3,) from the previous and this odometry sample and its noise
+        covariance (3, 3) for this step (None to keep the registered one); ``(None, None)`` at
+        the first sample. The noise follows the interval between the samples, so it is built
+        per call rather than written into the filter's blocks."""
         last, self._last_odom = self._last_odom, odom
         steps, self._steps_since_odom = self._steps_since_odom, 0
+        chain = self.odometry_accel
         if last is None:
-            return None
+            if chain is not None:
+                self._accel_lp = chain.initial(odom[ODOM_EULER])
+            return None, None
         dt = steps * self.dt
-        a_world = (odom[:3] - last[:3]) / dt
+        if chain is not None:
+            self._accel_lp = chain.step(self._accel_lp, last[ODOM_VELOCITY],
+                                        odom[ODOM_VELOCITY], odom[ODOM_EULER], dt)
+            return self._accel_lp.copy(), None
+        a_world = (odom[ODOM_VELOCITY] - last[ODOM_VELOCITY]) / dt
         a_world[2] += GRAVITY
-        Rm = wm.euler_to_matrix(odom[3:6])[0]
-        if not self._r_accel_override and dt != self._accel_dt:
-            self._accel_dt = dt
-            sv = np.sqrt(np.diag(self.R["odom"])[:3])
-            self.ukf.add_block("accel", self.ukf.blocks["accel"].hx,
-                               np.diag((np.sqrt(2.0) * sv / dt) ** 2))
-        return Rm.T @ a_world
+        Rm = wm.euler_to_matrix(odom[ODOM_EULER])[0]
+        noise = None if self._r_accel_override else np.diag((self._diff_std_dt / dt) ** 2)
+        return Rm.T @ a_world, noise
 
     def step(self, u_cmd, measurements: Mapping[str, np.ndarray | None]) -> WindEstimate:
         """Predict over ``dt`` with the commanded rotor speeds, then fuse the measurements.
@@ -323,12 +380,15 @@ class WindUKF:
         self.ukf.predict(self.dt, u)
         self._steps_since_odom += 1
         meas = dict(measurements)
+        noise = {}
         if self.accel_from_odometry:
             meas.pop("accel", None)
             odom = meas.get("odom")
             if odom is not None:
                 odom = np.asarray(odom, dtype=np.float64)
                 if odom.shape == (6,) and np.all(np.isfinite(odom)):
-                    meas["accel"] = self._accel_from_odom(odom)
-        self.ukf.update(meas)
+                    meas["accel"], r_accel = self._accel_from_odom(odom)
+                    if r_accel is not None:
+                        noise["accel"] = r_accel
+        self.ukf.update(meas, noise)
         return self.estimate()

@@ -7,6 +7,11 @@
    rotor-speed sensors at 100 Hz, sampling the wind at every rotor hub.
 5. The Wind UKF estimates the wind from the logged sensors; its error is scored against the
    true wind at the centre of mass.
+
+``DemoConfig.conditions`` (a Wind UKF preset, :data:`windnav.estimate.CONDITIONS`; default
+None: windnav's sensors and the filter's defaults) gives the vehicle that preset's sensors and
+runs the filter under it (:func:`windnav.experiments.ukf_conditions.estimate_wind`, from the
+true parameters: the demo flies no calibration).
 """
 
 from __future__ import annotations
@@ -16,8 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from windnav._validate import positive_float
 from windnav.city.generate import training_map
+from windnav.estimate.conditions import ukf_conditions
 from windnav.estimate.flight import run_wind_ukf
+from windnav.experiments.ukf_conditions import estimate_wind
 from windnav.flow import simulate
 from windnav.plan.graph_search import free_space, grid_route
 from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
@@ -26,10 +34,26 @@ from windnav.sim.trajectories import Waypoints
 from windnav.vehicle.params import params as vehicle_params
 from windnav.wind.gridded import GriddedWind
 
+DEFAULT_FLOW_DT = 0.2
+"""Flow time step of the demo at moderate inlet speeds, s."""
+AUTO_CFL = 1.0
+"""CFL number ``speed * flow_dt / dx`` that :func:`auto_flow_dt` keeps to (the solver allows
+2.5)."""
+
+
+def auto_flow_dt(wind_speed: float, dx: float = 2.0) -> float:
+    """The flow time step for an inlet of ``wind_speed`` m/s on cells of ``dx`` m: 0.2 s, or
+    less to keep the CFL number at or below 1, s."""
+    return min(DEFAULT_FLOW_DT, AUTO_CFL * dx / wind_speed)
+
 
 @dataclass(frozen=True)
 class DemoConfig:
-    """Settings of :func:`run_demo` (SI units)."""
+    """Settings of :func:`run_demo` (SI units).
+
+    ``flow_dt`` must keep the flow solver's CFL number ``wind_speed * flow_dt / dx`` at or
+    below 2.5 (:func:`auto_flow_dt` picks one that does).
+    """
 
     seed: int = 0
     vehicle: str = "hummingbird"
@@ -43,6 +67,27 @@ class DemoConfig:
     clearance: float = 8.0
     sim_dt: float = 0.01
     settle_s: float = 2.0
+    conditions: str | None = None
+
+    def __post_init__(self):
+        from windnav.estimate.conditions import CONDITIONS
+        from windnav.flow.solver import MAX_CFL
+
+        where = "DemoConfig"
+        if self.conditions is not None and self.conditions not in CONDITIONS:
+            raise ValueError(f"The 'conditions' parameter of {where} must be None or one of "
+                             f"{sorted(CONDITIONS)}. Got {self.conditions!r} instead.")
+        for name in ("map_size", "wind_speed", "dx", "flow_dt", "cruise_speed", "altitude",
+                     "sim_dt"):
+            positive_float(getattr(self, name), name, where)
+        for name in ("spinup_s", "clearance", "settle_s"):
+            positive_float(getattr(self, name), name, where, allow_zero=True)
+        cfl = self.wind_speed * self.flow_dt / self.dx
+        if cfl > MAX_CFL:
+            raise ValueError(
+                f"The 'flow_dt' parameter of {where} gives a CFL number wind_speed*flow_dt/dx "
+                f"= {cfl:.3g} above {MAX_CFL:g}; use flow_dt <= "
+                f"{MAX_CFL * self.dx / self.wind_speed:.4g} s. Got {self.flow_dt!r} instead.")
 
 
 def _free_point(city, rng, x: float, cfg: DemoConfig) -> np.ndarray:
@@ -61,7 +106,7 @@ def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
     rng = np.random.default_rng(cfg.seed)
     timings = {}
     t0 = time.perf_counter()
-    city = training_map(rng, size=cfg.map_size, n_buildings=int(rng.integers(5, 11)))
+    city = training_map(rng=rng, size=cfg.map_size, n_buildings=int(rng.integers(5, 11)))
     # the wind blows roughly along the route, which crosses the map from west to east
     direction_deg = float(rng.uniform(-40.0, 40.0))
     start = _free_point(city, rng, 15.0, cfg)
@@ -84,21 +129,29 @@ def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
     wp = np.column_stack([route["waypoints"], np.full(len(route["waypoints"]), cfg.altitude)])
     traj = Waypoints(tuple(map(tuple, wp)), speed=cfg.cruise_speed)
     duration = traj.duration + 5.0
-    sensors = SensorSuite(IMU(rate_hz=100.0), Odometry(rate_hz=100.0),
-                          RotorSpeedSensor(rate_hz=100.0))
+    if cfg.conditions is None:
+        sensors = SensorSuite(IMU(rate_hz=100.0), Odometry(rate_hz=100.0),
+                              RotorSpeedSensor(rate_hz=100.0))
+    else:
+        sensors = ukf_conditions(cfg.conditions).sensor_suite(100.0)
     t0 = time.perf_counter()
     log = fly(p, traj, wind, duration, dt=cfg.sim_dt, sensors=sensors, hub_wind=True,
-              seed=cfg.seed, progress=progress)
+              rng=cfg.seed, progress=progress)
     timings["flight"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    track = run_wind_ukf(log, p, progress=progress)
+    if cfg.conditions is None:
+        track = run_wind_ukf(log, p, progress=progress)
+    else:
+        track, _ = estimate_wind(log, p, cfg.conditions, rng=np.random.default_rng([cfg.seed, 2]),
+                                 progress=progress)
     timings["ukf"] = time.perf_counter() - t0
 
     pos = log.position[:, 0, :2]
     solid_hit = wind.is_solid(np.column_stack([pos, np.zeros(len(pos))]))
     metrics = {
         "seed": cfg.seed,
+        "conditions": cfg.conditions,
         "n_buildings": city.n_buildings,
         "wind_direction_deg": direction_deg,
         "inlet_speed_m_s": cfg.wind_speed,

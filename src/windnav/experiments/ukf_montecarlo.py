@@ -1,26 +1,45 @@
 """Monte Carlo of the Wind UKF over vehicles and winds (Folk 2026, ch. 3, Monte Carlo study).
 
+The study runs under one of the named conditions of
+:data:`windnav.estimate.conditions.CONDITIONS` (``conditions=``; ``docs/ukf.md`` has each one
+and its sources): ``windnav`` (the kindest: windnav's sensors and filter, windnav's gusts),
+``thesis`` / ``thesis-0.038`` (the thesis's Monte Carlo: RotorPy's sensor arithmetic and
+Dryden gusts, a filter without parasitic drag, FilterPy sigma points) and ``hardware`` (the
+thesis's flights: differenced motion-capture acceleration, PWM rotor speeds, parameter
+errors).
+
 Each trial (all draws uniform, from one seed per trial spawned from the study seed):
 
 1. **Vehicle.** The Hummingbird with ``mass`` in [0.375, 0.9375] kg, ``c_dx``, ``c_dy`` in
    [0, 1e-3] N/(m/s)^2, ``c_dz`` in [0, 2e-2] N/(m/s)^2, ``k_d`` in [0, 1.19e-3] kg/rad and
-   ``k_z`` in [0, 2.32e-3] kg/rad; every other parameter is the Hummingbird's.
-2. **Calibration.** :func:`windnav.estimate.calibrate.calibrate`: steady flights along x, y, z
-   at the airspeeds of :data:`~windnav.estimate.calibrate.DEFAULT_SPEEDS`, then a joint
-   (non-negative) least-squares fit of ``k_d, k_z, c_dx, c_dy, c_dz``. The filter believes the
-   fitted drag and the true mass, ``k_eta`` and ``k_h`` (weighed / measured on a bench).
+   ``k_z`` in [0, 2.32e-3] kg/rad; every other parameter is the Hummingbird's (the thesis's
+   ranges).
+2. **Calibration** (conditions with ``calibrate``):
+   :func:`windnav.experiments.calibration.calibrate`: steady flights along x, y, z at the
+   airspeeds of :data:`~windnav.experiments.calibration.DEFAULT_SPEEDS` with the conditions'
+   sensors, then a (non-negative) least-squares fit of ``k_d, k_z`` and, when the conditions'
+   filter models parasitic drag, ``c_dx, c_dy, c_dz``. The filter believes the fitted drag and
+   the true mass, ``k_eta`` and ``k_h`` (weighed / measured on a bench). Without
+   ``calibrate`` (hardware) it believes the true values scaled by the conditions' parameter
+   errors (:func:`windnav.experiments.ukf_conditions.believed_params`).
 3. **Flight.** A counter-clockwise horizontal circle, radius in [2, 5] m, speed in [1, 3] m/s
-   (SE(3) controller), for a duration in [20, 60] s, in Dryden gusts
-   (:class:`windnav.wind.DrydenWind`, default 10 m altitude and 10 m/s reference airspeed):
-   mean wind ``(U_x, U_y, 0)`` with ``U_x, U_y`` in [-3, 3] m/s; gust standard deviation
-   ``s`` in [1, 2] m/s along world x and y, and ``vertical_sigma_ratio * s`` along z. The
-   default ratio 0.53 is MIL-F-8785C's low-altitude ``sigma_w / sigma_u = (0.177 + 0.000823
-   h)^0.4`` at h = 10 m (33 ft). IMU, odometry and rotor-speed sensors at 100 Hz
-   (:func:`sensor_suite`: windnav's default noise models, or ``sensor_noise="rotorpy"`` for
-   RotorPy's default IMU and motion-capture noise, about 10x noisier accelerometer); physics at
-   200 Hz.
-4. **Estimate.** :func:`windnav.estimate.flight.run_wind_ukf` with the calibrated parameters and
-   the study's filter tuning for that sensor suite (:data:`TUNING`, world-frame wind walk).
+   (SE(3) controller), for a duration in [20, 60] s, in gusts around a mean wind
+   ``(U_x, U_y, 0)`` with ``U_x, U_y`` in [-3, 3] m/s:
+
+   - ``wind_model="windnav"`` (windnav conditions): :class:`windnav.wind.DrydenWind` (default
+     10 m altitude and 10 m/s reference airspeed), gust standard deviation ``s`` in [1, 2]
+     m/s along world x and y and ``vertical_sigma_ratio * s`` along z. The default ratio
+     0.53 is MIL-F-8785C's low-altitude ``sigma_w / sigma_u = (0.177 + 0.000823 h)^0.4`` at
+     h = 10 m (33 ft).
+   - ``wind_model="rotorpy"`` (thesis and hardware conditions): RotorPy's ``DrydenGust``
+     with intensity ``s`` in [30, 60] on all three axes (ratio 1), stepped at 100 Hz
+     (:func:`windnav.experiments.ukf_conditions.rotorpy_dryden`; gusts of about 1-2 m/s).
+
+   IMU, odometry and rotor-speed sensors at 100 Hz (the conditions' sensor preset,
+   :mod:`windnav.sensors.presets`); physics at 200 Hz.
+4. **Estimate.** :func:`windnav.experiments.ukf_conditions.estimate_wind` under the
+   conditions (filter settings, rotor-speed chain, believed parameters), with the study's
+   overrides ``q``, ``r``, ``wind_frame``.
 
 Metric: ``rmse`` = root mean square over the filter samples with ``t >= settle_s`` (2 s) of
 the 3D error norm ``|w_hat - w_true|`` (m/s), the wind being the true wind at the centre of mass.
@@ -36,32 +55,42 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
 from windnav._validate import positive_float, positive_int
-from windnav.estimate.calibrate import calibrate
-from windnav.estimate.flight import run_wind_ukf
+from windnav.estimate.conditions import CONDITIONS, UKFConditions, ukf_conditions
+from windnav.estimate.wind_ukf import DEFAULT_R
+from windnav.experiments.calibration import calibrate
 from windnav.experiments.executor import run_tasks
-from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
+from windnav.experiments.ukf_conditions import estimate_wind, rotorpy_dryden
+from windnav.sensors import presets
+from windnav.sensors.models import SensorSuite
 from windnav.sim.runner import fly
 from windnav.sim.trajectories import Circle
 from windnav.vehicle.params import MultirotorParams, params
 from windnav.wind.dryden import DrydenWind
 
 __all__ = [
+    "CONDITIONS",
+    "config_dict",
     "FILTER_Q",
     "FILTER_R",
     "MIL_VERTICAL_SIGMA_RATIO",
     "MonteCarloConfig",
+    "STUDY_WIND",
+    "THESIS_MEDIAN",
     "TUNING",
     "TrialSpec",
     "draw_trials",
+    "failed_record",
     "mass_to_drag",
+    "records_header",
     "run_montecarlo",
     "run_trial",
     "sensor_suite",
+    "study_wind",
     "summarize",
 ]
 
@@ -78,11 +107,26 @@ motor lag between commands and speeds, calibration error), so 0.1 m/s^2. Others 
 
 TUNING = {
     "windnav": (FILTER_Q, FILTER_R),
-    # RotorPy's sensors are what DEFAULT_R was set for (accel 0.27 m/s^2 at 100 Hz); a smaller
-    # wind walk suits the slow horizontal gusts once the accelerometer is this noisy
-    "rotorpy": ({"wind": 0.7}, {}),
+    # RotorPy's densities read as densities are what DEFAULT_R was set for (accel 0.27 m/s^2
+    # at 100 Hz); a smaller wind walk suits the slow horizontal gusts once the accelerometer
+    # is this noisy
+    "rotorpy": ({"wind": 0.7}, {"accel": DEFAULT_R["accel"]}),
 }
-"""``sensor_noise -> (q, r)`` filter tuning of the study."""
+"""``sensor_noise -> (q, r)`` filter tuning of the study under the ``windnav`` conditions
+(on top of the conditions' own, key by key)."""
+
+STUDY_WIND = {
+    "windnav": ("windnav", (1.0, 2.0), None),
+    "thesis": ("rotorpy", (30.0, 60.0), 1.0),
+    "thesis-0.038": ("rotorpy", (30.0, 60.0), 1.0),
+    "hardware": ("rotorpy", (30.0, 60.0), 1.0),
+}
+"""``conditions -> (wind_model, gust_sigma range, vertical_sigma_ratio)`` defaults of the study
+(None: MIL-F-8785C's ratio); ``gust_sigma`` is in m/s for windnav's gusts and RotorPy's
+intensity for RotorPy's. Conditions not listed get the thesis's."""
+
+THESIS_MEDIAN = 0.5
+"""Median 3D wind RMSE of the thesis's simulated Monte Carlo, m/s (its real flights: 0.8)."""
 
 MIL_VERTICAL_SIGMA_RATIO = float((0.177 + 0.000823 * 10.0 / 0.3048) ** 0.4)
 """``sigma_w / sigma_u`` of MIL-F-8785C at 10 m (33 ft) altitude, about 0.53."""
@@ -104,22 +148,32 @@ class MonteCarloConfig:
         Flight time, s.
     mean_wind : tuple of float
         Range of each horizontal component of the mean wind, m/s.
-    gust_sigma : tuple of float
-        Range of the horizontal gust standard deviation, m/s.
-    vertical_sigma_ratio : float
-        Vertical gust std over horizontal.
+    gust_sigma : tuple of float, optional
+        Range of the horizontal gust standard deviation, m/s (RotorPy's intensity for
+        ``wind_model="rotorpy"``); default from :data:`STUDY_WIND`.
+    vertical_sigma_ratio : float, optional
+        Vertical gust std over horizontal; default from :data:`STUDY_WIND`.
     radius, speed : tuple of float
         Circle radius (m) and speed (m/s).
     sensor_rate_hz : float
-    sensor_noise : {"windnav", "rotorpy"}
-        Noise models of the sensors (see :func:`sensor_suite`).
+    sensor_noise : str, optional
+        Sensor preset (:mod:`windnav.sensors.presets`); default the conditions'. Under the
+        ``windnav`` conditions it may be ``"rotorpy"`` (the earlier study's suite).
     dt : float
         Physics step, s.
     settle_s : float
         Samples before this time are not scored, s.
     q, r : dict, optional
-        Filter tuning overrides; default ``TUNING[sensor_noise]``.
-    wind_frame : str
+        Filter tuning, on top of the conditions' key by key (and of ``TUNING[sensor_noise]``
+        under the windnav conditions); stored resolved.
+    wind_frame : str, optional
+        Default the conditions'.
+    conditions : str or UKFConditions
+        A name of :data:`~windnav.estimate.conditions.CONDITIONS`, or custom conditions (an
+        ablation: ``dataclasses.replace(CONDITIONS["hardware"], name=..., kv_error=0.0)``;
+        the study's wind defaults are then the thesis's).
+    wind_model : {"windnav", "rotorpy"}, optional
+        Default from :data:`STUDY_WIND`.
     """
 
     n_trials: int = 50
@@ -133,20 +187,23 @@ class MonteCarloConfig:
     c_dz: tuple = (0.0, 2e-2)
     duration: tuple = (20.0, 60.0)
     mean_wind: tuple = (-3.0, 3.0)
-    gust_sigma: tuple = (1.0, 2.0)
-    vertical_sigma_ratio: float = MIL_VERTICAL_SIGMA_RATIO
+    gust_sigma: tuple | None = None
+    vertical_sigma_ratio: float | None = None
     radius: tuple = (2.0, 5.0)
     speed: tuple = (1.0, 3.0)
     sensor_rate_hz: float = 100.0
-    sensor_noise: str = "windnav"
+    sensor_noise: str | None = None
     dt: float = 0.005
     settle_s: float = 2.0
     q: dict | None = None
     r: dict | None = None
-    wind_frame: str = "world"
+    wind_frame: str | None = None
+    conditions: str = "windnav"
+    wind_model: str | None = None
 
     def __post_init__(self):
         where = "MonteCarloConfig"
+        self._resolve(where)
         positive_int(self.n_trials, "n_trials", where)
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) \
                 or self.seed < 0:
@@ -164,17 +221,46 @@ class MonteCarloConfig:
             positive_float(getattr(self, name)[0], name, where, allow_zero=True)
         positive_float(self.vertical_sigma_ratio, "vertical_sigma_ratio", where, allow_zero=True)
         positive_float(self.sensor_rate_hz, "sensor_rate_hz", where)
-        if self.sensor_noise not in TUNING:
-            raise ValueError(f"The 'sensor_noise' parameter of {where} must be one of "
-                             f"{sorted(TUNING)}. Got {self.sensor_noise!r} instead.")
-        q, r = TUNING[self.sensor_noise]
-        object.__setattr__(self, "q", dict(q) if self.q is None else dict(self.q))
-        object.__setattr__(self, "r", dict(r) if self.r is None else dict(self.r))
         positive_float(self.dt, "dt", where)
         positive_float(self.settle_s, "settle_s", where, allow_zero=True)
         if self.settle_s >= self.duration[0]:
             raise ValueError(f"The 'settle_s' parameter of {where} must be below the shortest "
                              f"flight {self.duration[0]!r} s. Got {self.settle_s!r} instead.")
+
+
+    def _resolve(self, where: str) -> None:
+        """Fill the fields left None from the conditions (names and their defaults)."""
+        if not (isinstance(self.conditions, UKFConditions) or self.conditions in CONDITIONS):
+            raise ValueError(f"The 'conditions' parameter of {where} must be one of "
+                             f"{sorted(CONDITIONS)} or a UKFConditions. Got "
+                             f"{self.conditions!r} instead.")
+        cond = ukf_conditions(self.conditions)
+        noise = cond.sensors if self.sensor_noise is None else self.sensor_noise
+        allowed = sorted(TUNING) if cond.name == "windnav" else [cond.sensors]
+        if noise not in allowed:
+            raise ValueError(f"The 'sensor_noise' parameter of {where} must be one of {allowed} "
+                             f"under the {cond.name!r} conditions. Got {noise!r} instead.")
+        tq, tr = TUNING[noise] if cond.name == "windnav" else ({}, {})
+        study = STUDY_WIND.get(cond.name, STUDY_WIND["thesis"])
+        model, sigma, ratio = study
+        model = model if self.wind_model is None else self.wind_model
+        if model not in ("windnav", "rotorpy"):
+            raise ValueError(f"The 'wind_model' parameter of {where} must be 'windnav' or "
+                             f"'rotorpy'. Got {model!r} instead.")
+        if model != study[0]:
+            sigma, ratio = STUDY_WIND["windnav" if model == "windnav" else "thesis"][1:]
+        ratio = MIL_VERTICAL_SIGMA_RATIO if ratio is None else ratio
+        filled = {
+            "sensor_noise": noise, "wind_model": model,
+            "gust_sigma": sigma if self.gust_sigma is None else tuple(self.gust_sigma),
+            "vertical_sigma_ratio": (ratio if self.vertical_sigma_ratio is None
+                                     else self.vertical_sigma_ratio),
+            "q": {**cond.q, **tq, **(self.q or {})},
+            "r": {**cond.r, **tr, **(self.r or {})},
+            "wind_frame": cond.wind_frame if self.wind_frame is None else self.wind_frame,
+        }
+        for k, v in filled.items():
+            object.__setattr__(self, k, v)
 
 
 @dataclass(frozen=True)
@@ -198,28 +284,14 @@ class TrialSpec:
 
 
 def sensor_suite(rate_hz: float = 100.0, noise: str = "windnav") -> SensorSuite:
-    """IMU, odometry and rotor-speed sensors all at ``rate_hz``.
-
-    ``noise="windnav"``: the default noise models of :mod:`windnav.sensors`. ``"rotorpy"``:
-    RotorPy's defaults (``rotorpy.sensors``), whose white noise per sample is
-    ``density * sqrt(rate / 2)``: accelerometer 0.038 m/s^2/sqrt(Hz), gyro 0.01 rad/s/sqrt(Hz),
-    motion capture 0.0005 m, 0.005 m/s and 0.0005 rad per sqrt(Hz); no bias walk.
-    """
-    rate = positive_float(rate_hz, "rate_hz", "sensor_suite")
-    if noise == "windnav":
-        return SensorSuite(IMU(rate_hz=rate), Odometry(rate_hz=rate),
-                           RotorSpeedSensor(rate_hz=rate))
-    if noise == "rotorpy":
-        c = math.sqrt(rate / 2.0)
-        return SensorSuite(
-            IMU(rate_hz=rate, accel_noise_density=0.038 / math.sqrt(2.0),
-                gyro_noise_density=0.01 / math.sqrt(2.0), accel_bias_walk=0.0,
-                gyro_bias_walk=0.0),
-            Odometry(rate_hz=rate, position_std=0.0005 * c, velocity_std=0.005 * c,
-                     attitude_std=0.0005 * c),
-            RotorSpeedSensor(rate_hz=rate))
-    raise ValueError(f"The 'noise' parameter of sensor_suite must be one of {sorted(TUNING)}. "
-                     f"Got {noise!r} instead.")
+    """IMU, odometry and rotor-speed sensors all at ``rate_hz``: the sensor preset ``noise``
+    of :mod:`windnav.sensors.presets` (``"windnav"``: windnav's defaults; ``"rotorpy"``:
+    RotorPy's default densities read as densities, ``density * sqrt(rate / 2)``, the earlier
+    study's suite; ``"thesis"``, ``"thesis-0.038"``: RotorPy's arithmetic; ``"hardware"``)."""
+    if noise not in presets.SENSOR_PRESETS:
+        raise ValueError(f"The 'noise' parameter of sensor_suite must be one of "
+                         f"{sorted(presets.SENSOR_PRESETS)}. Got {noise!r} instead.")
+    return presets.sensor_suite(noise, positive_float(rate_hz, "rate_hz", "sensor_suite"))
 
 
 def mass_to_drag(p: MultirotorParams) -> float:
@@ -248,25 +320,39 @@ def draw_trials(config: MonteCarloConfig) -> list[TrialSpec]:
     return out
 
 
+def study_wind(spec: TrialSpec):
+    """The gusts of a trial: windnav's Dryden field or RotorPy's ``DrydenGust``."""
+    if spec.config.wind_model == "rotorpy":
+        return rotorpy_dryden(spec.mean_wind, spec.sigma, seed=spec.seed)
+    return DrydenWind(mean=spec.mean_wind, sigma=spec.sigma, seed=spec.seed)
+
+
 def run_trial(spec: TrialSpec) -> dict:
     """Calibrate, fly and estimate one trial; returns its JSON-ready record (see
     :func:`run_montecarlo`)."""
     t0 = time.perf_counter()
     cfg = spec.config
+    cond = ukf_conditions(cfg.conditions)
     truth = spec.params()
     sensors = sensor_suite(cfg.sensor_rate_hz, cfg.sensor_noise)
-    fit, believed = calibrate(truth, seed=spec.seed, sensors=sensors)
-    wind = DrydenWind(mean=spec.mean_wind, sigma=spec.sigma, seed=spec.seed)
+    fit = None
+    believed = truth
+    if cond.calibrate:
+        fit, believed = calibrate(truth, rng=spec.seed, sensors=sensors,
+                                  parasitic=cond.parasitic_drag)
+    wind = study_wind(spec)
     traj = Circle(center=(0.0, 0.0, 10.0), radius=spec.radius, speed=spec.speed)
     # start on the circle (its t = 0 point) so the flight starts in hover
     log = fly(truth, traj, wind, spec.duration, dt=cfg.dt, sensors=sensors,
-              seed=np.random.default_rng([spec.seed, 1]))
-    track = run_wind_ukf(log, believed, q=cfg.q, r=cfg.r, wind_frame=cfg.wind_frame)
+              rng=np.random.default_rng([spec.seed, 1]))
+    track, applied = estimate_wind(log, believed, cond, rng=np.random.default_rng([spec.seed, 2]),
+                                   q=cfg.q, r=cfg.r, wind_frame=cfg.wind_frame)
     return {
-        "index": spec.index, "seed": spec.seed,
+        "index": spec.index, "seed": spec.seed, "conditions": cond.name,
         "params": {k: getattr(truth, k) for k in ("mass", "k_d", "k_z", "c_dx", "c_dy", "c_dz")},
-        "fitted": fit.coefficients,
-        "calibration_residual_rms": list(fit.residual_rms),
+        "fitted": None if fit is None else fit.coefficients,
+        "calibration_residual_rms": None if fit is None else list(fit.residual_rms),
+        "parameter_errors": applied["parameter_errors"], "kv_error": applied["kv_error"],
         "tau_drag": mass_to_drag(truth),
         "duration": spec.duration, "mean_wind": list(spec.mean_wind),
         "sigma": list(spec.sigma), "radius": spec.radius, "speed": spec.speed,
@@ -281,8 +367,9 @@ def run_trial(spec: TrialSpec) -> dict:
 
 
 def summarize(records: list[dict]) -> dict:
-    """Median, quartiles, mean and extremes of the 3D RMSE over the finite trials (m/s), and
-    the number of trials whose rotor commands saturated more than 1% of the time."""
+    """Median, quartiles, mean and extremes of the 3D RMSE over the finite trials (m/s), the
+    median and quartiles of the per-axis RMSE (world x, y, z), and the number of trials whose
+    rotor commands saturated more than 1% of the time."""
     rmse = np.array([r["rmse"] for r in records], dtype=np.float64)
     ok = np.isfinite(rmse)
     if not np.any(ok):
@@ -294,6 +381,8 @@ def summarize(records: list[dict]) -> dict:
         "n": int(v.size), "median": float(med), "q1": float(q1), "q3": float(q3),
         "mean": float(v.mean()), "min": float(v.min()), "max": float(v.max()),
         "median_axes": np.median(axes, axis=0).tolist(),
+        "q1_axes": np.percentile(axes, 25, axis=0).tolist(),
+        "q3_axes": np.percentile(axes, 75, axis=0).tolist(),
         "fraction_below_0.5": float(np.mean(v <= 0.5)),
         # heavy, high-drag draws can exceed the SE(3) controller's authority in strong wind:
         # they are kept (the filter sees the flight as flown) but counted
@@ -302,32 +391,75 @@ def summarize(records: list[dict]) -> dict:
     }
 
 
+def config_dict(config: MonteCarloConfig) -> dict:
+    """The JSON-ready fields of ``config`` (custom conditions as their description)."""
+    out = {f.name: getattr(config, f.name) for f in fields(config)}
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in out.items()}
+    if isinstance(config.conditions, UKFConditions):
+        out["conditions"] = config.conditions.to_dict()
+    return out
+
+
+def records_header(config: MonteCarloConfig) -> dict:
+    """The header of a study's record log: which study its records belong to."""
+    return {"study": "windnav.experiments.ukf_montecarlo", "config": config_dict(config)}
+
+
+def failed_record(spec: TrialSpec, error: str | None, seconds: float = 0.0) -> dict:
+    """The record of a trial that raised: its draw, the error, NaN results."""
+    return {"index": spec.index, "seed": spec.seed, "params": spec.drag, "error": error,
+            "rmse": math.nan, "rmse_axes": [math.nan] * 3, "seconds": seconds}
+
+
 def run_montecarlo(config: MonteCarloConfig, *, backend: str = "process",
-                   workers: int | None = None, progress: bool = True) -> dict:
+                   workers: int | None = None, progress: bool = True,
+                   records=None) -> dict:
     """Run the study through :func:`windnav.experiments.run_tasks`.
+
+    Parameters
+    ----------
+    config : MonteCarloConfig
+    backend, workers, progress
+        Passed to :func:`windnav.experiments.run_tasks`.
+    records : str or path-like, optional
+        A record log (:class:`windnav.experiments.results.RecordLog`, JSON lines): every
+        trial's record is appended as soon as it finishes, so an interrupted study loses only
+        the trials that were running. Trials already recorded there as successful are not run
+        again (a failed one is retried); it must hold this study's records.
 
     Returns
     -------
     dict
         ``config`` (dict), ``trials`` (per-trial records sorted by index, see
         :func:`run_trial`; failed trials carry ``error`` instead of results), ``failed``
-        (count), ``summary`` (:func:`summarize` over the successful trials), ``seconds``.
+        (count), ``resumed`` (trials taken from ``records``), ``summary`` (:func:`summarize`
+        over the successful trials), ``seconds``.
+
+    Raises
+    ------
+    RecordMismatchError
+        When ``records`` holds the records of another study (checked before any trial runs).
     """
+    from windnav.experiments.results import RecordLog
+
     specs = draw_trials(config)
+    log = RecordLog(records, records_header(config)) if records is not None else None
+    done = {}
+    for rec in (log.load() if log is not None else []):
+        if rec.get("error") is None and 0 <= rec.get("index", -1) < len(specs):
+            done[rec["index"]] = rec
     t0 = time.perf_counter()
-    results = sorted(run_tasks(run_trial, specs, backend=backend, workers=workers,
-                               progress=progress, desc="ukf monte carlo"),
-                     key=lambda r: r.index)
-    trials, failed = [], 0
-    for res in results:
-        if res.ok:
-            trials.append(res.value)
-        else:
-            failed += 1
-            spec = res.task
-            trials.append({"index": spec.index, "seed": spec.seed, "params": spec.drag,
-                           "error": res.error, "rmse": math.nan,
-                           "rmse_axes": [math.nan] * 3, "seconds": res.seconds})
-    return {"config": asdict(config), "trials": trials, "failed": failed,
-            "summary": summarize([t for t in trials if "error" not in t]),
+    trials = dict(done)
+    todo = [s for s in specs if s.index not in done]
+    for res in run_tasks(run_trial, todo, backend=backend, workers=workers, progress=progress,
+                         desc="ukf monte carlo"):
+        rec = res.value if res.ok else failed_record(res.task, res.error, res.seconds)
+        if log is not None:
+            log.append(rec)
+        trials[rec["index"]] = rec
+    trials = [trials[i] for i in sorted(trials)]
+    failed = sum("error" in t and t["error"] is not None for t in trials)
+    return {"config": config_dict(config), "trials": trials, "failed": failed,
+            "resumed": len(done),
+            "summary": summarize([t for t in trials if t.get("error") is None]),
             "seconds": time.perf_counter() - t0}
