@@ -1,0 +1,752 @@
+"""The closed loop of navigation: a planner flies the 6-DoF Hummingbird through urban wind.
+
+This is the experimental setup of the thesis (Folk 2026, ch. 5) as one function,
+:func:`navigate`, and the comparison of variants over scenarios, :func:`compare_variants`.
+
+The loop
+--------
+* **Wind.** The 2D urban flow (:func:`windnav.flow.simulate`) of the map at the inlet ``speed``
+  and ``direction_deg``: 25 s of spin-up, then 100 s of frames recorded every ``dt = 0.25`` s at
+  ``dx = 1`` m (:func:`simulate_flow`), interpolated bilinearly in space and linearly in time
+  (:meth:`FlowSolution.wind_field` with ``unsteady=True``; ``w = 0``). Flight time ``t`` is the
+  time of the record (its first frame is held before ``t = 0.25`` s).
+* **Vehicle.** :class:`windnav.vehicle.Multirotor` with aerodynamics, stepped over
+  ``1 / control_rate_hz`` (RK4 sub-steps of at most 5 ms) with the wind at the centre of mass.
+* **Control, 100 Hz.** :meth:`windnav.control.SE3Controller.accelerate` on the command
+  ``[a_x, a_y, a_z]``: the horizontal part from the planner (held between its updates), the
+  vertical part from an altitude hold ``a_z = k_p (z_ref - z) - k_d v_z`` with the SE(3)
+  controller's own z gains (15 s^-2, 9 s^-1), clipped to ``+-0.5 g``; yaw is held at 0.
+* **Tilt cap.** The horizontal command is clipped to the disk ``|a_xy| <= g tan(tilt_max)``,
+  ``tilt_max = 55 deg`` by default (thrust ``1.74 mg`` at the cap). 55 deg leaves margin above
+  the 46 deg of steady flight at 13 m/s, the last airspeed at which the power curve is valid, so
+  the vehicle can hold every airspeed of the model and still manoeuvre. So that planner and
+  flight agree, the MPPI planner's per-axis bound is the box inscribed in that disk,
+  ``a_max = g tan(tilt_max) / sqrt(2)`` (9.9 m/s^2; :func:`planner_config` would otherwise
+  allow the 70 m/s^2 of full thrust); the clip then never acts on its commands.
+* **Planner, 10 Hz.** MPPI variants get the true ``[x, y, v_x, v_y]``, a LiDAR scan (360 rays,
+  ``D_max = 100`` m, noise 0.14 m; :meth:`City.lidar`) and, in the ``-w`` variants, the
+  ground-truth wind averaged over the 100 s record, noise-free, on the solver's 1 m grid inside
+  the window ``L_t`` of side ``H = horizon`` (``inf``: the whole map).
+* **GS / GS+W.** :func:`windnav.plan.energy_route` is computed once before take-off, with full
+  knowledge of the buildings and (GS+W) the mean wind, and flown by a path follower in the same
+  acceleration mode: a reference point moves along the route's samples at the route's planned
+  ground speed (ramped up from 0.5 m/s and down to 0 at the goal at 2 m/s^2, and held back while
+  the vehicle is more than 4 m behind it), and ``a = K_p (p_ref - p) + K_d (v_ref - v)`` with the
+  SE(3) controller's horizontal gains (6.5 s^-2, 4 s^-1), then the tilt cap.
+
+Termination (checked every control step)
+----------------------------------------
+``success``: within 5 m of the goal with ``|v| <= 2`` m/s for 5 s; ``hover``: ``|v| <= 1`` m/s
+for 5 s anywhere else (the thesis's hover failure); ``collision``: the vehicle's position inside a
+building footprint; and, our additions, ``left_map``: outside the map's bounds, ``timeout``: the
+end of the recorded wind. ``time_s`` is the time the flight ended (for success, the end of the
+5 s hold).
+
+Energy is reported twice: ``energy_J`` integrates the planner's steady-flight power curve at the
+true horizontal airspeed, ``P(|v_xy - w_xy|)`` (as the thesis does), and ``rotor_energy_J``
+the 6-DoF simulator's rotor power ``sum_i k_m eta_i^3 / efficiency``, both by the trapezoid rule
+over the control steps.
+
+A planner update that returns a non-finite acceleration is replaced by hover (zero horizontal
+acceleration) and counted in ``fallbacks`` (reason ``"nan"``), next to the planner's own
+fallbacks (:attr:`windnav.plan.MPPIPlanner.stats`).
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from windnav._validate import batch_array, finite_float, positive_float
+
+__all__ = [
+    "OUTCOMES",
+    "NavigationResult",
+    "check_point",
+    "compare_variants",
+    "free_point",
+    "local_wind",
+    "navigate",
+    "simulate_flow",
+]
+
+OUTCOMES = ("success", "hover", "collision", "left_map", "timeout")
+"""How a flight ends (see the module docstring)."""
+
+GOAL_RADIUS = 5.0
+"""Success radius around the goal, m."""
+GOAL_SPEED = 2.0
+"""Largest speed that counts as stopped at the goal, m/s."""
+HOVER_SPEED = 1.0
+"""Largest speed that counts as hovering (failure when away from the goal), m/s."""
+HOLD_S = 5.0
+"""How long either condition must hold, s."""
+
+LIDAR_RAYS = 360
+LIDAR_RANGE = 100.0
+LIDAR_NOISE = 0.14
+
+_WHERE = "navigate"
+
+
+@dataclass(frozen=True, eq=False)
+class NavigationResult:
+    """One closed-loop flight.
+
+    Attributes
+    ----------
+    outcome : str
+        One of :data:`OUTCOMES`.
+    variant : str
+        The planner variant flown.
+    energy_J : float
+        Energy from the airspeed power curve ``P(|v - w|)``, J.
+    rotor_energy_J : float
+        Rotor energy of the 6-DoF simulator, J.
+    time_s : float
+        Flight time until termination, s.
+    distance_m : float
+        Horizontal distance flown, m.
+    mean_cmd_accel : float
+        Mean norm of the horizontal acceleration command, m/s^2.
+    planner_ms_median : float
+        Median planner update time, ms (GS: the one route computation).
+    fallbacks : int
+        Planner updates replaced by hover or braking (the planner's and the loop's own).
+    fallback_reasons : dict of str to int
+        Fallbacks by cause (``"state"``, ``"scan"``, ``"wind"``, ``"costs"``, ``"nan"``).
+    planner_updates : int
+        Planner updates (GS: 1).
+    start, goal : ndarray of shape (2,)
+        m, world.
+    t : ndarray of shape (T,)
+        Times of the control steps, s.
+    position, velocity : ndarray of shape (T, 3)
+        m and m/s, world.
+    wind : ndarray of shape (T, 2)
+        True wind at the vehicle, m/s, world.
+    airspeed : ndarray of shape (T,)
+        Horizontal airspeed ``|v_xy - w_xy|``, m/s.
+    accel_cmd : ndarray of shape (T, 2)
+        Horizontal acceleration command, m/s^2, world.
+    power, rotor_power : ndarray of shape (T,)
+        Airspeed-model and rotor power, W.
+    energy, rotor_energy : ndarray of shape (T,)
+        Their running integrals, J.
+    route : ndarray of shape (M, 2) or None
+        The GS route's samples, m (None for MPPI).
+    wall_s : float
+        Wall time of the closed loop (flow simulation and route search excluded), s.
+    """
+
+    outcome: str
+    variant: str
+    energy_J: float
+    rotor_energy_J: float
+    time_s: float
+    distance_m: float
+    mean_cmd_accel: float
+    planner_ms_median: float
+    fallbacks: int
+    fallback_reasons: dict
+    planner_updates: int
+    start: np.ndarray
+    goal: np.ndarray
+    t: np.ndarray
+    position: np.ndarray
+    velocity: np.ndarray
+    wind: np.ndarray
+    airspeed: np.ndarray
+    accel_cmd: np.ndarray
+    power: np.ndarray
+    rotor_power: np.ndarray
+    energy: np.ndarray
+    rotor_energy: np.ndarray
+    route: np.ndarray | None = None
+    wall_s: float = float("nan")
+    settings: dict = field(default_factory=dict)
+
+    def arrival(self) -> dict:
+        """``arrival_time_s`` and ``arrival_energy_J``, ``arrival_rotor_energy_J``: when the
+        vehicle first came within :data:`GOAL_RADIUS` of the goal and the energies used until
+        then (NaN if it never did)."""
+        d = np.hypot(*(self.position[:, :2] - self.goal).T)
+        hit = np.flatnonzero(d <= GOAL_RADIUS)
+        if hit.size == 0:
+            nan = float("nan")
+            return {"arrival_time_s": nan, "arrival_energy_J": nan,
+                    "arrival_rotor_energy_J": nan}
+        k = int(hit[0])
+        return {"arrival_time_s": float(self.t[k]), "arrival_energy_J": float(self.energy[k]),
+                "arrival_rotor_energy_J": float(self.rotor_energy[k])}
+
+    def summary(self) -> dict:
+        """The scalars, JSON-ready (what ``windnav navigate --json`` writes)."""
+        return {
+            "outcome": self.outcome, "variant": self.variant,
+            "energy_J": self.energy_J, "rotor_energy_J": self.rotor_energy_J,
+            "time_s": self.time_s, "distance_m": self.distance_m,
+            "mean_cmd_accel": self.mean_cmd_accel,
+            "planner_ms_median": self.planner_ms_median,
+            "fallbacks": self.fallbacks, "fallback_reasons": dict(self.fallback_reasons),
+            "planner_updates": self.planner_updates,
+            "start": self.start.tolist(), "goal": self.goal.tolist(),
+            "final_position": self.position[-1].tolist(),
+            "final_distance_to_goal_m": float(np.hypot(*(self.position[-1, :2] - self.goal))),
+            **self.arrival(),
+            "wall_s": self.wall_s, "settings": dict(self.settings),
+        }
+
+
+# ------------------------------------------------------------------------------------ wind
+
+
+def simulate_flow(city, speed: float, direction_deg: float, *, spinup_s: float = 25.0,
+                  record_s: float = 100.0, dx: float = 1.0, dt: float = 0.25,
+                  progress: bool = False):
+    """The unsteady wind of the thesis setup: ``spinup_s`` of spin-up, then ``record_s`` of
+    frames every ``dt`` (defaults: 25 s, 100 s, 0.25 s, on a 1 m grid).
+
+    Returns
+    -------
+    windnav.flow.FlowSolution
+        With ``frames_u, frames_v`` (T, ny, nx) and the mean over the record.
+    """
+    from windnav.flow import simulate
+
+    where = "simulate_flow"
+    dt = positive_float(dt, "dt", where)
+    spin = int(round(positive_float(spinup_s, "spinup_s", where, allow_zero=True) / dt))
+    steps = max(2, int(round(positive_float(record_s, "record_s", where) / dt)))
+    return simulate(city, speed, direction_deg, dx=dx, dt=dt, spinup_steps=spin, steps=steps,
+                    record_every=1, progress=progress)
+
+
+def local_wind(flow, position_xy, horizon: float, *, uv=None):
+    """The mean wind the ``-w`` planners know: ``flow``'s time average inside ``L_t``.
+
+    Parameters
+    ----------
+    flow : FlowSolution
+    position_xy : array_like of shape (2,)
+        The vehicle's position at the start of the planning period, m.
+    horizon : float
+        ``H``, side of the window, m (``inf``: the whole map).
+    uv : ndarray of shape (2, ny, nx), optional
+        ``[flow.mean_u, flow.mean_v]``, stacked once by a caller that queries many times.
+
+    Returns
+    -------
+    windnav.plan.LocalWind
+        On the solver's cell centres, offsets relative to ``position_xy`` (the planner zeroes
+        it outside the window).
+    """
+    from windnav.plan import LocalWind
+
+    if uv is None:
+        uv = np.stack([flow.mean_u, flow.mean_v])
+    x, y = flow.x, flow.y
+    px, py = float(position_xy[0]), float(position_xy[1])
+    if math.isfinite(horizon):
+        half = 0.5 * horizon + 2.0 * flow.dx
+        i0, i1 = np.searchsorted(x, [px - half, px + half])
+        j0, j1 = np.searchsorted(y, [py - half, py + half])
+        i0, j0 = min(i0, x.size - 2), min(j0, y.size - 2)
+        i1, j1 = max(i1, i0 + 2), max(j1, j0 + 2)
+        uv, x, y = uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1]
+    return LocalWind.grid(uv, x - px, y - py)
+
+
+# ------------------------------------------------------------------------------- checks
+
+
+def check_point(city, value, name: str, where: str = _WHERE) -> np.ndarray:
+    """``value`` as a (2,) point, checked to lie inside the map and outside every building.
+
+    Raises
+    ------
+    ValueError
+        Naming ``name`` (``"start_xy"``, ``"--goal"``) and ``where``.
+    """
+    p = batch_array(value, name, where, (2,), batch=1)[0].astype(np.float64)
+    x0, x1, y0, y1 = city.bounds
+    if not (x0 < p[0] < x1 and y0 < p[1] < y1):
+        raise ValueError(f"The {name!r} parameter of {where} must lie inside the map "
+                         f"{tuple(float(b) for b in city.bounds)}. Got {p.tolist()} instead.")
+    if bool(city.contains(p[None])[0]):
+        raise ValueError(f"The {name!r} parameter of {where} must not lie inside a building. "
+                         f"Got {p.tolist()} instead, which is inside one.")
+    return p
+
+
+def _check_flow(flow, speed: float, direction_deg: float, city):
+    if flow.frames_u is None or flow.t is None or flow.t.size < 2:
+        raise ValueError(f"The 'flow' parameter of {_WHERE} must hold recorded frames "
+                         "(simulate with record_every > 0, e.g. simulate_flow). Got a mean "
+                         "field only instead.")
+    if not (math.isclose(flow.speed, speed, rel_tol=1e-9)
+            and math.isclose(flow.direction_deg, direction_deg, abs_tol=1e-9)):
+        raise ValueError(f"The 'flow' parameter of {_WHERE} must be simulated at speed={speed} "
+                         f"and direction_deg={direction_deg}. Got speed={flow.speed} and "
+                         f"direction_deg={flow.direction_deg} instead.")
+    x0, x1, y0, y1 = city.bounds
+    if not (flow.x[0] - flow.dx <= x0 and flow.x[-1] + flow.dx >= x1
+            and flow.y[0] - flow.dx <= y0 and flow.y[-1] + flow.dx >= y1):
+        raise ValueError(f"The 'flow' parameter of {_WHERE} must cover the map "
+                         f"{tuple(float(b) for b in city.bounds)}. Got a grid over "
+                         f"x {flow.x[0]:g}..{flow.x[-1]:g}, y {flow.y[0]:g}..{flow.y[-1]:g} "
+                         "instead.")
+
+
+# ------------------------------------------------------------------------------ the loop
+
+
+class _RouteFollower:
+    """Acceleration commands that fly an :class:`EnergyRoute` (see the module docstring)."""
+
+    RAMP = 2.0        # m/s^2, speed ramp at take-off and before the goal
+    V_START = 0.5     # m/s, reference speed at the start of the ramp
+    LAG = 4.0         # m, distance behind the reference beyond which it waits
+
+    def __init__(self, route, kp: float, kd: float):
+        self.samples = np.asarray(route.samples, dtype=np.float64)
+        pieces = np.diff(self.samples, axis=0)
+        lengths = np.hypot(pieces[:, 0], pieces[:, 1])
+        self.s_knots = np.concatenate([[0.0], np.cumsum(lengths)])
+        self.length = float(self.s_knots[-1])
+        self.tangent = pieces / np.maximum(lengths, 1e-12)[:, None]
+        self.speeds = np.asarray(route.speeds, dtype=np.float64)
+        self.kp, self.kd = kp, kd
+        self.s = 0.0
+
+    def _piece(self, s: float) -> int:
+        return int(np.clip(np.searchsorted(self.s_knots, s, side="right") - 1, 0,
+                           self.speeds.size - 1))
+
+    def speed(self, s: float) -> float:
+        if self.speeds.size == 0:
+            return 0.0
+        v = self.speeds[self._piece(s)]
+        v = min(v, math.sqrt(self.V_START**2 + 2.0 * self.RAMP * s))
+        return min(v, math.sqrt(2.0 * self.RAMP * max(self.length - s, 0.0)))
+
+    def command(self, pos: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
+        if self.speeds.size == 0:
+            return self.kp * (self.samples[-1] - pos) - self.kd * vel
+        k = self._piece(self.s)
+        ref = self.samples[k] + (self.s - self.s_knots[k]) * self.tangent[k]
+        v_ref = self.speed(self.s) * self.tangent[k]
+        behind = float(np.hypot(*(ref - pos)))
+        a = self.kp * (ref - pos) + self.kd * (v_ref - vel)
+        if behind < self.LAG:
+            self.s = min(self.length, self.s + self.speed(self.s) * dt)
+        return a
+
+
+class _FastWind:
+    """``GriddedWind.velocity`` for one position per call without its per-call checks (the
+    loop's positions are finite (1, 3) float64 arrays): the frame bracket by bisection, then
+    the same compiled interpolation. ~25x faster per query than the checked method."""
+
+    def __init__(self, field):
+        from windnav.wind.gridded import _interpolate
+
+        self.field = field
+        self._interpolate = _interpolate
+        self._t = [float(v) for v in field.t]
+        self._out = np.empty((1, 3))
+
+    def __call__(self, t: float, xyz: np.ndarray) -> np.ndarray:
+        ts = self._t
+        if t <= ts[0]:
+            k, c = 0, 0.0
+        elif t >= ts[-1]:
+            k, c = len(ts) - 2, 1.0
+        else:
+            k = bisect.bisect_right(ts, t) - 1
+            c = (t - ts[k]) / (ts[k + 1] - ts[k])
+        f = self.field
+        self._interpolate(f.x, f.y, f._frames, k, k + 1, c, xyz, self._out)
+        return self._out
+
+
+def _default_params():
+    from windnav.vehicle import params
+
+    return params("hummingbird")
+
+
+def navigate(
+    city,
+    start_xy,
+    goal_xy,
+    *,
+    speed: float,
+    direction_deg: float,
+    variant: str,
+    rng: np.random.Generator | int | None = None,
+    flow=None,
+    altitude: float = 10.0,
+    horizon: float = math.inf,
+    vehicle=None,
+    config=None,
+    planner=None,
+    tilt_max_deg: float = 55.0,
+    control_rate_hz: float = 100.0,
+    plan_rate_hz: float = 10.0,
+    duration: float | None = None,
+    route_dx: float = 2.0,
+    route_clearance: float = 6.0,
+    planner_overrides: dict | None = None,
+) -> NavigationResult:
+    """Fly from ``start_xy`` to ``goal_xy`` through ``city`` in its urban wind (closed loop).
+
+    Parameters
+    ----------
+    city : windnav.city.City
+    start_xy, goal_xy : array_like of shape (2,)
+        m, world; inside the map and outside every building.
+    speed : float
+        Inlet wind speed, m/s.
+    direction_deg : float
+        Direction the wind blows toward, degrees counter-clockwise from +x.
+    variant : str
+        A key of :data:`windnav.plan.VARIANTS`.
+    rng : numpy.random.Generator or int or None, keyword-only
+        Seeds the planner's sampling and the LiDAR noise. Same seed, same flight.
+    flow : FlowSolution, optional
+        The wind, precomputed (reuse it across variants); default :func:`simulate_flow` at
+        ``speed`` and ``direction_deg``. It must have recorded frames and match them.
+    altitude : float
+        Flight altitude held by the controller, m.
+    horizon : float
+        ``H``, side of the window inside which the ``-w`` MPPI variants know the wind, m.
+    vehicle : MultirotorParams, optional
+        Default: the Hummingbird.
+    config : PlannerConfig, optional
+        The planner's configuration; default ``planner_config(vehicle, variant,
+        horizon=horizon, a_max=g tan(tilt_max) / sqrt(2), **planner_overrides)``.
+    planner : object, optional
+        Replaces the MPPI planner: anything with ``update(state, scan, wind) -> (2,)`` (a
+        ``stats`` attribute is read when present). For tests and ablations.
+    tilt_max_deg : float
+        Tilt cap: horizontal commands are clipped to ``g tan(tilt_max)``, degrees (0-80).
+    control_rate_hz, plan_rate_hz : float
+        Controller and planner rates, Hz; the planner's a whole number of control steps.
+    duration : float, optional
+        Longest flight, s; default (and at most) the end of the recorded wind.
+    route_dx, route_clearance : float
+        Lattice spacing and building clearance of the GS route, m.
+    planner_overrides : dict, optional
+        Extra :class:`~windnav.plan.PlannerConfig` fields for the default configuration.
+
+    Returns
+    -------
+    NavigationResult
+
+    Raises
+    ------
+    ValueError
+        On a start or goal outside the map or inside a building, an unknown variant, a flow that
+        does not match, or invalid rates.
+    """
+    from windnav.control import SE3Controller
+    from windnav.plan import VARIANTS, MPPIPlanner, energy_route, planner_config
+    from windnav.vehicle import Multirotor
+    from windnav.vehicle.params import GRAVITY
+
+    if variant not in VARIANTS:
+        raise ValueError(f"The 'variant' parameter of {_WHERE} must be one of "
+                         f"{list(VARIANTS)}. Got {variant!r} instead.")
+    start = check_point(city, start_xy, "start_xy")
+    goal = check_point(city, goal_xy, "goal_xy")
+    speed = positive_float(speed, "speed", _WHERE)
+    direction_deg = finite_float(direction_deg, "direction_deg", _WHERE)
+    altitude = positive_float(altitude, "altitude", _WHERE)
+    tilt = finite_float(tilt_max_deg, "tilt_max_deg", _WHERE)
+    if not 0.0 < tilt < 80.0:
+        raise ValueError(f"The 'tilt_max_deg' parameter of {_WHERE} must be in (0, 80). Got "
+                         f"{tilt_max_deg!r} instead.")
+    control_dt = 1.0 / positive_float(control_rate_hz, "control_rate_hz", _WHERE)
+    ratio = control_rate_hz / positive_float(plan_rate_hz, "plan_rate_hz", _WHERE)
+    plan_every = int(round(ratio))
+    if plan_every < 1 or abs(ratio - plan_every) > 1e-9 * ratio:
+        raise ValueError(f"The 'plan_rate_hz' parameter of {_WHERE} must divide "
+                         f"control_rate_hz={control_rate_hz:g}. Got {plan_rate_hz!r} instead.")
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    planner_rng, lidar_rng = gen.spawn(2)
+
+    if flow is None:
+        flow = simulate_flow(city, speed, direction_deg)
+    _check_flow(flow, speed, direction_deg, city)
+    end = float(flow.t[-1])
+    if duration is not None:
+        end = min(end, positive_float(duration, "duration", _WHERE))
+    wind_at = _FastWind(flow.wind_field(unsteady=True))
+
+    params = _default_params() if vehicle is None else vehicle
+    a_cap = GRAVITY * math.tan(math.radians(tilt))
+    if config is None:
+        overrides = {"a_max": a_cap / math.sqrt(2.0), **(planner_overrides or {})}
+        config = planner_config(params, variant, horizon=horizon, **overrides)
+    model = Multirotor(params)
+    controller = SE3Controller(params)
+    kp_xy, kd_xy = controller.gains.kp_pos[0], controller.gains.kd_pos[0]
+    kp_z, kd_z = controller.gains.kp_pos[2], controller.gains.kd_pos[2]
+    az_cap = 0.5 * GRAVITY
+
+    # the planner, or the GS route and its follower
+    follower, route, plan_ms = None, None, []
+    use_wind = bool(VARIANTS[variant].use_wind)
+    mean_uv = np.ascontiguousarray(np.stack([flow.mean_u, flow.mean_v])) if use_wind else None
+    if planner is None and VARIANTS[variant].planner == "gs":
+        gs_config = config if config.planner == "gs" else planner_config(params, variant)
+        t0 = time.perf_counter()
+        route = energy_route(city, start, goal, gs_config, wind=flow.wind_field(),
+                             dx=route_dx, clearance=route_clearance, altitude=altitude)
+        plan_ms.append(1e3 * (time.perf_counter() - t0))
+        follower = _RouteFollower(route, kp_xy, kd_xy)
+    elif planner is None:
+        planner = MPPIPlanner(config, goal, rng=planner_rng)
+
+    # the loop -------------------------------------------------------------------------------
+    n_max = int(math.floor(end / control_dt + 1e-9)) + 1
+    x = model.hover_state(np.array([start[0], start[1], altitude])).to_array()
+    out = np.empty_like(x)
+    N = model.n_rotors
+    lo = model.packed.rotor_speed_min[:, None]
+    hi = model.packed.rotor_speed_max[:, None]
+    yaw, yaw_rate = np.zeros(1), np.zeros(1)
+    x0b, x1b, y0b, y1b = city.bounds
+    T_pos = np.empty((n_max, 3))
+    T_vel = np.empty((n_max, 3))
+    T_wind = np.empty((n_max, 2))
+    T_acc = np.empty((n_max, 2))
+    T_eta = np.empty((n_max, N))
+    a_cmd = np.zeros((1, 3))
+    a_xy = np.zeros(2)
+    com = np.zeros((1, 3))
+    # every hub sees the centre-of-mass wind: a (1, N, 3) view of ``com`` (stride 0 over hubs)
+    hub = np.ndarray((1, N, 3), np.float64, com, 0, (com.strides[0], 0, com.strides[1]))
+    xyz = np.zeros((1, 3))
+    fx0, fx1, fy0, fy1 = (np.ascontiguousarray(c) for c in city.footprints.T)
+    loop_fallbacks = 0
+    goal_since = hover_since = None
+    outcome = "timeout"
+    n = n_max
+    wall0 = time.perf_counter()
+    for k in range(n_max):
+        t = k * control_dt
+        pos = x[0, 0:3]
+        vel = x[0, 3:6]
+        xyz[0] = pos
+        w = wind_at(t, xyz)
+        T_pos[k] = pos
+        T_vel[k] = vel
+        T_wind[k] = w[0, :2]
+        T_eta[k] = x[0, 13:13 + N]
+        # termination ---------------------------------------------------------------------
+        px, py = pos[0], pos[1]
+        if not (x0b <= px <= x1b and y0b <= py <= y1b):
+            outcome = "left_map"
+        elif ((fx0 <= px) & (px <= fx1) & (fy0 <= py) & (py <= fy1)).any():  # City.contains
+            outcome = "collision"
+        else:
+            v_norm = math.sqrt(vel[0] ** 2 + vel[1] ** 2 + vel[2] ** 2)
+            at_goal = math.hypot(px - goal[0], py - goal[1]) <= GOAL_RADIUS
+            if at_goal and v_norm <= GOAL_SPEED:
+                goal_since = t if goal_since is None else goal_since
+            else:
+                goal_since = None
+            if not at_goal and v_norm <= HOVER_SPEED:
+                hover_since = t if hover_since is None else hover_since
+            else:
+                hover_since = None
+            if goal_since is not None and t - goal_since >= HOLD_S - 1e-9:
+                outcome = "success"
+            elif hover_since is not None and t - hover_since >= HOLD_S - 1e-9:
+                outcome = "hover"
+        if outcome != "timeout" or k == n_max - 1:
+            n = k + 1
+            T_acc[k] = a_xy
+            break
+        # planning, 10 Hz -----------------------------------------------------------------
+        if follower is not None:
+            a_xy = follower.command(pos[:2], vel[:2], control_dt)
+        elif k % plan_every == 0:
+            scan = city.lidar(pos[None, :2], n_rays=LIDAR_RAYS, max_range=LIDAR_RANGE,
+                              noise_std=LIDAR_NOISE, rng=lidar_rng)[0]
+            known = (local_wind(flow, pos[:2], config.horizon, uv=mean_uv) if use_wind
+                     else None)
+            a_new = np.asarray(planner.update(np.array([px, py, vel[0], vel[1]]), scan, known),
+                               dtype=np.float64).reshape(-1)
+            if a_new.shape != (2,) or not np.all(np.isfinite(a_new)):
+                loop_fallbacks += 1
+                a_new = np.zeros(2)
+            a_xy = a_new
+        # control, 100 Hz -----------------------------------------------------------------
+        norm = math.hypot(a_xy[0], a_xy[1])
+        scale = a_cap / norm if norm > a_cap else 1.0
+        a_cmd[0, 0] = a_xy[0] * scale
+        a_cmd[0, 1] = a_xy[1] * scale
+        a_cmd[0, 2] = min(max(kp_z * (altitude - pos[2]) - kd_z * vel[2], -az_cap), az_cap)
+        T_acc[k] = a_cmd[0, :2]
+        cmd, _ = controller.accelerate(x, a_cmd, yaw, yaw_rate)
+        np.minimum(cmd, hi, out=cmd)
+        np.maximum(cmd, lo, out=cmd)
+        com[0] = w[0]
+        model.step_packed(x, cmd, com, hub, control_dt, out)
+        x, out = out, x
+        if not np.all(np.isfinite(x)):  # the vehicle left the model: stop, keep what was flown
+            n = k + 1
+            outcome = "collision" if city.contains(T_pos[k:k + 1, :2])[0] else "left_map"
+            break
+    wall = time.perf_counter() - wall0
+
+    # results --------------------------------------------------------------------------------
+    from windnav.vehicle.power import energy as cumulative_energy
+
+    t = np.arange(n) * control_dt
+    vel_xy = T_vel[:n, :2]
+    air = np.hypot(*(vel_xy - T_wind[:n]).T)
+    power = config.power(air)
+    eff = getattr(params, "motor_efficiency", 1.0)
+    rotor_power = float(model.packed.k_m[0]) * np.sum(np.abs(T_eta[:n]) ** 3, axis=1) / eff
+    e = cumulative_energy(t, power)
+    e_rot = cumulative_energy(t, rotor_power)
+    steps = np.diff(T_pos[:n, :2], axis=0)
+    stats = getattr(planner, "stats", None)
+    reasons = dict(getattr(stats, "reasons", {}) or {})
+    if loop_fallbacks:
+        reasons["nan"] = reasons.get("nan", 0) + loop_fallbacks
+    if stats is not None and getattr(stats, "total_ms", None):
+        plan_ms = list(stats.total_ms)
+    updates = (int(getattr(stats, "updates", 0)) if stats is not None
+               else (1 if follower is not None else (n - 1 + plan_every - 1) // plan_every))
+    settings = {"speed": speed, "direction_deg": direction_deg, "altitude": altitude,
+                "horizon": config.horizon, "tilt_max_deg": tilt, "a_max": config.a_max,
+                "control_rate_hz": 1.0 / control_dt, "plan_rate_hz": plan_rate_hz,
+                "duration_max_s": end, "vehicle": getattr(params, "name", "")}
+    if route is not None:
+        settings.update(route_energy_J=route.energy, route_time_s=route.time,
+                        route_length_m=route.length)
+    return NavigationResult(
+        outcome=outcome, variant=variant,
+        energy_J=float(e[-1]), rotor_energy_J=float(e_rot[-1]), time_s=float(t[-1]),
+        distance_m=float(np.sum(np.hypot(steps[:, 0], steps[:, 1]))),
+        mean_cmd_accel=float(np.mean(np.hypot(*T_acc[:n].T))),
+        planner_ms_median=float(np.median(plan_ms)) if plan_ms else float("nan"),
+        fallbacks=int(sum(reasons.values())), fallback_reasons=reasons,
+        planner_updates=updates, start=start, goal=goal, t=t,
+        position=T_pos[:n].copy(), velocity=T_vel[:n].copy(), wind=T_wind[:n].copy(),
+        airspeed=air, accel_cmd=T_acc[:n].copy(), power=power, rotor_power=rotor_power,
+        energy=e, rotor_energy=e_rot,
+        route=None if route is None else np.asarray(route.samples).copy(),
+        wall_s=wall, settings=settings,
+    )
+
+
+# ------------------------------------------------------------------------- comparisons
+
+
+def free_point(city, xy, *, clearance: float = 10.0, edge: float = 10.0,
+               step: float = 2.0) -> np.ndarray:
+    """The point nearest ``xy`` (m) at least ``clearance`` m from every building and ``edge`` m
+    from the map's edge, searched on rings of spacing ``step``; raises ValueError when there
+    is none."""
+    xy = np.asarray(xy, dtype=np.float64)
+    x0, x1, y0, y1 = city.bounds
+    fp = city.footprints
+    for r in np.arange(0.0, max(x1 - x0, y1 - y0), step):
+        n = max(1, int(2 * math.pi * r / step))
+        ang = np.arange(n) * 2 * math.pi / n
+        cand = xy + r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+        ok = ((cand[:, 0] >= x0 + edge) & (cand[:, 0] <= x1 - edge)
+              & (cand[:, 1] >= y0 + edge) & (cand[:, 1] <= y1 - edge))
+        dx = np.maximum(np.maximum(fp[None, :, 0] - cand[:, None, 0],
+                                   cand[:, None, 0] - fp[None, :, 1]), 0.0)
+        dy = np.maximum(np.maximum(fp[None, :, 2] - cand[:, None, 1],
+                                   cand[:, None, 1] - fp[None, :, 3]), 0.0)
+        ok &= np.all(np.hypot(dx, dy) >= clearance, axis=1)
+        if ok.any():
+            return cand[int(np.argmax(ok))]
+    raise ValueError(f"The 'xy' parameter of free_point has no point {clearance} m clear of the "
+                     f"buildings in the map. Got {xy.tolist()} instead.")
+
+
+DEFAULT_SCENARIOS = (
+    {"map_seed": 0, "speed": 5.0, "direction_deg": 0.0},
+    {"map_seed": 1, "speed": 10.0, "direction_deg": 0.0},
+    {"map_seed": 2, "speed": 5.0, "direction_deg": 180.0},
+    {"map_seed": 3, "speed": 10.0, "direction_deg": 180.0},
+)
+"""The acceptance scenarios: 600 m planning maps, upwind/downwind flights across them."""
+
+
+def compare_variants(
+    scenarios: Sequence[dict] = DEFAULT_SCENARIOS,
+    variants: Sequence[str] = ("mppi", "ea-mppi-w"),
+    *,
+    rng: int = 0,
+    map_size: float = 600.0,
+    start_xy=(80.0, 300.0),
+    goal_xy=(520.0, 300.0),
+    clearance: float = 40.0,
+    edge: float = 50.0,
+    progress: bool = False,
+    **navigate_kwargs,
+) -> dict:
+    """Fly every variant on every scenario (one flow simulation per scenario).
+
+    Each scenario is a dict with ``map_seed`` (:func:`windnav.city.planning_map`), ``speed``,
+    ``direction_deg`` and optionally ``start_xy``, ``goal_xy`` (m; moved to the nearest point
+    ``clearance`` m clear of the buildings and ``edge`` m from the map's edge,
+    :func:`free_point`: the MPPI planner wanders around its goal, and its obstacle cost pushes
+    its rest point away from buildings near the goal).
+
+    Returns
+    -------
+    dict
+        ``records``: one per (scenario, variant), the :meth:`NavigationResult.summary` plus the
+        scenario; ``both_succeeded``: per scenario, whether ``variants[-1]`` used less
+        ``energy_J`` than ``variants[0]`` where both succeeded (None otherwise); and
+        ``holds``: True when that is so in every such scenario.
+    """
+    from windnav.city import planning_map
+
+    records, verdicts = [], []
+    for i, sc in enumerate(scenarios):
+        city = planning_map(rng=int(sc["map_seed"]), size=map_size)
+        start = free_point(city, sc.get("start_xy", start_xy), clearance=clearance, edge=edge)
+        goal = free_point(city, sc.get("goal_xy", goal_xy), clearance=clearance, edge=edge)
+        t0 = time.perf_counter()
+        flow = simulate_flow(city, sc["speed"], sc["direction_deg"])
+        flow_s = time.perf_counter() - t0
+        runs = {}
+        for v in variants:
+            res = navigate(city, start, goal, speed=sc["speed"],
+                           direction_deg=sc["direction_deg"], variant=v, rng=rng + i,
+                           flow=flow, **navigate_kwargs)
+            runs[v] = res
+            rec = {"scenario": i, **sc, "flow_s": flow_s, **res.summary(),
+                   "min_goal_distance_m": float(np.min(np.hypot(*(res.position[:, :2]
+                                                                  - goal).T)))}
+            records.append(rec)
+            if progress:
+                print(f"scenario {i} {v:10s} {res.outcome:9s} E={res.energy_J:8.0f} J "
+                      f"E_rot={res.rotor_energy_J:8.0f} J t={res.time_s:6.1f} s "
+                      f"wall={res.wall_s:5.2f} s", flush=True)
+        a, b = runs[variants[0]], runs[variants[-1]]
+        if a.outcome == b.outcome == "success":
+            verdicts.append(bool(b.energy_J < a.energy_J))
+        else:
+            verdicts.append(None)
+    decided = [v for v in verdicts if v is not None]
+    return {"records": records, "both_succeeded": verdicts,
+            "holds": bool(decided) and all(decided)}
+

@@ -1,0 +1,207 @@
+"""The navigation closed loop: a planner flies the 6-DoF Hummingbird through urban wind.
+
+One small map (140 m x 120 m, one building between start and goal) and one short, weak wind
+(2 m/s, 10 s spin-up, 40 s recorded) serve every test.
+"""
+
+import argparse
+import json
+
+import numpy as np
+import pytest
+
+import windnav.commands.navigate as nav_cmd
+from windnav.city import City
+from windnav.experiments.navigate import OUTCOMES, navigate, simulate_flow
+
+START = (10.0, 60.0)
+GOAL = (110.0, 60.0)
+BUILDING = (35.0, 45.0, 45.0, 75.0)
+SPEED = 2.0
+
+
+@pytest.fixture(scope="module")
+def city():
+    return City((0.0, 140.0, 0.0, 120.0), np.array([BUILDING]), np.array([20.0]))
+
+
+@pytest.fixture(scope="module")
+def flow(city):
+    return simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
+
+
+def fly(city, flow, variant="mppi", **kw):
+    kw.setdefault("rng", 0)
+    return navigate(city, kw.pop("start", START), kw.pop("goal", GOAL), speed=SPEED,
+                    direction_deg=0.0, variant=variant, flow=flow, **kw)
+
+
+class Constant:
+    """A planner that always commands the same acceleration (m/s^2)."""
+
+    def __init__(self, accel):
+        self.accel = np.asarray(accel, dtype=float)
+        self.calls = 0
+
+    def update(self, state, scan=None, wind=None):
+        self.calls += 1
+        return self.accel.copy()
+
+
+class Brake:
+    """A planner that brakes, ``a = -4 v``: the vehicle stops and hovers where it is."""
+
+    def update(self, state, scan=None, wind=None):
+        return -4.0 * np.asarray(state[2:4], dtype=float)
+
+
+def goal_distance(res):
+    return np.hypot(*(res.position[:, :2] - res.goal).T)
+
+
+# ----------------------------------------------------------------------------- planners
+
+
+def test_mppi_flies_around_the_building_to_the_goal(city, flow):
+    res = fly(city, flow, "mppi")
+    assert res.outcome not in ("collision", "left_map")
+    assert goal_distance(res).min() < 5.0
+    # it went around: while abreast of the building it was outside its y extent
+    abreast = (res.position[:, 0] > BUILDING[0]) & (res.position[:, 0] < BUILDING[1])
+    y = res.position[abreast, 1]
+    assert y.size and np.all((y < BUILDING[2]) | (y > BUILDING[3]))
+    assert not city.contains(res.position[:, :2]).any()
+    # altitude hold, commands within the tilt cap, the planner ran at 10 Hz
+    assert np.max(np.abs(res.position[:, 2] - 10.0)) < 0.5
+    assert np.max(np.hypot(*res.accel_cmd.T)) <= 9.81 * np.tan(np.radians(55.0)) + 1e-9
+    assert res.planner_updates == pytest.approx(res.time_s * 10.0, abs=2)
+    assert res.fallbacks == 0 and np.isfinite(res.planner_ms_median)
+
+
+def test_energies_agree_with_each_other_and_with_hover_power(city, flow):
+    res = fly(city, flow, "ea-mppi-w", duration=15.0)
+    # both integrate the power flown: the curve fitted to the simulator's steady flight and the
+    # simulator's own rotor power agree within the transients of manoeuvring
+    assert 0.85 < res.rotor_energy_J / res.energy_J < 1.2
+    assert res.energy[-1] == pytest.approx(res.energy_J)
+    assert np.all(np.diff(res.energy) >= 0)
+    # and the airspeed energy is the integral of P(|v - w|) (trapezoid rule)
+    assert res.energy_J == pytest.approx(np.trapezoid(res.power, res.t), rel=1e-12)
+    assert res.distance_m == pytest.approx(
+        np.sum(np.hypot(*np.diff(res.position[:, :2], axis=0).T)))
+
+
+def test_gs_route_is_flown_to_a_success(city, flow):
+    res = fly(city, flow, "gs-w")
+    assert res.outcome == "success"
+    assert goal_distance(res)[-1] < 5.0
+    assert np.hypot(*res.velocity[-1, :2]) <= 2.0
+    assert res.route is not None and not city.contains(res.position[:, :2]).any()
+    # success is declared after 5 s stopped at the goal
+    stopped = (goal_distance(res) <= 5.0) & (np.linalg.norm(res.velocity, axis=1) <= 2.0)
+    assert stopped[-501:].all()
+
+
+# --------------------------------------------------------------------------- outcomes
+
+
+def test_flying_into_a_wall_is_a_collision(city, flow):
+    res = fly(city, flow, planner=Constant([4.0, 0.0]))
+    assert res.outcome == "collision"
+    assert city.contains(res.position[-1:, :2])[0]
+    assert res.position[-1, 0] == pytest.approx(BUILDING[0], abs=0.5)
+
+
+def test_leaving_the_map_and_hovering_and_timeout(city, flow):
+    out = fly(city, flow, planner=Constant([-3.0, 0.0]))
+    assert out.outcome == "left_map" and out.position[-1, 0] < 0.0
+    still = fly(city, flow, planner=Brake())
+    assert still.outcome == "hover" and still.time_s == pytest.approx(5.0, abs=0.02)
+    assert np.hypot(*(still.position[-1, :2] - START)) < 1.0
+    slow = fly(city, flow, planner=Constant([0.0, 0.3]), duration=3.0)
+    assert slow.outcome == "timeout" and slow.time_s == pytest.approx(3.0)
+    assert set(o.outcome for o in (out, still, slow)) <= set(OUTCOMES)
+
+
+def test_a_nan_planner_update_falls_back_to_hover_and_is_counted(city, flow):
+    res = fly(city, flow, planner=Constant([np.nan, 1.0]), duration=4.0)
+    assert res.outcome == "timeout"
+    assert res.fallbacks == res.planner_updates > 0
+    assert res.fallback_reasons == {"nan": res.fallbacks}
+    assert np.all(res.accel_cmd == 0.0)
+
+
+# ------------------------------------------------------------------------ determinism
+
+
+def test_same_seed_same_flight_other_seed_other_flight(city, flow):
+    a = fly(city, flow, "ea-mppi-w", rng=3, duration=6.0)
+    b = fly(city, flow, "ea-mppi-w", rng=3, duration=6.0)
+    c = fly(city, flow, "ea-mppi-w", rng=4, duration=6.0)
+    for name in ("position", "velocity", "accel_cmd", "energy", "rotor_energy"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert not np.array_equal(a.position, c.position)
+
+
+# ---------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"start": (40.0, 60.0)}, "'start_xy'.*inside a building"),
+    ({"goal": (150.0, 60.0)}, "'goal_xy'.*inside the map"),
+    ({"goal": (np.nan, 60.0)}, "goal_xy"),
+    ({"variant": "astar"}, "'variant'"),
+])
+def test_bad_input_is_named(city, flow, kw, match):
+    variant = kw.pop("variant", "mppi")
+    with pytest.raises(ValueError, match=match):
+        fly(city, flow, variant, **kw)
+
+
+def test_a_flow_of_another_wind_is_refused(city, flow):
+    with pytest.raises(ValueError, match="'flow'.*speed"):
+        navigate(city, START, GOAL, speed=5.0, direction_deg=0.0, variant="mppi", flow=flow)
+
+
+# ------------------------------------------------------------------------------ command
+
+
+def parse(argv):
+    p = argparse.ArgumentParser()
+    sub = p.add_subparsers(dest="command")
+    nav_cmd.register(sub)
+    return p.parse_args(argv)
+
+
+def test_command_writes_the_outcome_json_and_figures(city, tmp_path):
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    argv = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+            "--speed", "2", "--variant", "gs", "--seed", "1", "--spinup-s", "5",
+            "--record-s", "25", "--out", str(tmp_path / "out"), "--json",
+            str(tmp_path / "nav.json")]
+    args = parse(argv)
+    assert args.func(args) == 0
+    doc = json.loads((tmp_path / "nav.json").read_text())
+    for key in ("outcome", "energy_J", "rotor_energy_J", "time_s", "distance_m",
+                "mean_cmd_accel", "planner_ms_median", "fallbacks"):
+        assert key in doc, key
+    assert doc["outcome"] == "success" and doc["energy_J"] > 0 and doc["time_s"] > 5.0
+    assert doc["command"] == "windnav navigate" and doc["arguments"]["variant"] == "gs"
+    names = sorted(p.name for p in (tmp_path / "out").iterdir())
+    assert names == ["navigate_path.png", "navigate_series.png", "series.npz", "summary.json"]
+    # an earlier run is never replaced without --overwrite
+    with pytest.raises(ValueError, match="--overwrite"):
+        args = parse(argv)
+        args.func(args)
+
+
+def test_command_names_a_start_inside_a_building_before_simulating(city, tmp_path):
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    args = parse(["navigate", "--map", str(path), "--start", "40", "60", "--goal", "100", "30",
+                  "--speed", "2", "--out", str(tmp_path / "out")])
+    with pytest.raises(ValueError, match="'--start'.*inside a building"):
+        args.func(args)
+    args = parse(["navigate", "--map", str(tmp_path / "none.json"), "--start", "4", "6",
+                  "--goal", "100", "30", "--speed", "2", "--out", str(tmp_path / "out")])
+    with pytest.raises(ValueError, match="'--map'"):
+        args.func(args)
