@@ -34,7 +34,7 @@ import scipy.sparse.csgraph
 from windnav._validate import batch_array, finite_float, positive_float
 from windnav.plan import _search_kernels as SK
 from windnav.plan.config import PlannerConfig
-from windnav.plan.graph_search import free_space
+from windnav.plan.graph_search import cell_path, free_cell, free_space
 
 __all__ = ["MOVES", "EnergyRoute", "energy_route"]
 
@@ -191,15 +191,8 @@ def energy_route(
         speeds = np.append(speeds, v_hi)
     ptab = config.power_table()
 
-    def cell(p, name):
-        i = int(np.clip(np.round((p[0] - x[0]) / dx), 0, len(x) - 1))
-        j = int(np.clip(np.round((p[1] - y[0]) / dx), 0, len(y) - 1))
-        if not free[j, i]:
-            raise ValueError(f"The '{name}' parameter of {where} lies inside a building or "
-                             f"within {clearance} m of one. Got {p.tolist()} instead.")
-        return j * len(x) + i
-
-    s, g = cell(start, "start_xy"), cell(goal, "goal_xy")
+    s = free_cell(start, "start_xy", x, y, free, dx, clearance, where)
+    g = free_cell(goal, "goal_xy", x, y, free, dx, clearance, where)
     n_cap = int(free.sum()) * len(MOVES)
     rows = np.empty(n_cap, np.int64)
     cols = np.empty(n_cap, np.int64)
@@ -214,13 +207,7 @@ def energy_route(
     if not np.isfinite(dist[g]):
         raise ValueError(f"The 'goal_xy' parameter of {where} cannot be reached from start_xy "
                          f"with {clearance} m clearance. Got {goal.tolist()} instead.")
-    order = [g]
-    while order[-1] != s:
-        order.append(pred[order[-1]])
-    order = np.array(order[::-1])
-    path = np.stack([x[order % len(x)], y[order // len(x)]], axis=1)
-    path[0], path[-1] = start, goal
-    path = np.ascontiguousarray(path)
+    path = np.ascontiguousarray(cell_path(pred, s, g, x, y, start, goal))
     buf = np.empty(int(np.ceil(4 * dx / (0.5 * dx))) + 8)
     seg = np.array([SK.segment(*path[t], *path[t + 1], free, x[0], y[0], dx, wind_grid, speeds,
                                ptab, False, buf)[0] for t in range(len(path) - 1)])

@@ -30,6 +30,29 @@ def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarra
     return x, y, dist > clearance
 
 
+def free_cell(p, name: str, x, y, free, dx: float, clearance: float, where: str) -> int:
+    """Flat index (``j * nx + i``) of the grid cell nearest ``p`` (m); a ValueError naming
+    ``name`` when that cell is not free (inside a building or its ``clearance``, m)."""
+    i = int(np.clip(np.round((p[0] - x[0]) / dx), 0, len(x) - 1))
+    j = int(np.clip(np.round((p[1] - y[0]) / dx), 0, len(y) - 1))
+    if not free[j, i]:
+        raise ValueError(f"The '{name}' parameter of {where} lies inside a building or within "
+                         f"{clearance} m of one. Got {p.tolist()} instead.")
+    return j * len(x) + i
+
+
+def cell_path(pred, s: int, g: int, x, y, start, goal) -> np.ndarray:
+    """Cell centres (K, 2), m, of the shortest-path tree ``pred`` from cell ``s`` to ``g``,
+    with the exact ``start`` and ``goal`` as end points."""
+    order = [g]
+    while order[-1] != s:
+        order.append(pred[order[-1]])
+    order = np.array(order[::-1])
+    path = np.stack([x[order % len(x)], y[order // len(x)]], axis=1)
+    path[0], path[-1] = start, goal
+    return path
+
+
 def _grid_graph(free: np.ndarray, dx: float) -> scipy.sparse.csr_matrix:
     """8-connected graph of the free cells (no corner cutting), edge weights in metres."""
     ny, nx = free.shape
@@ -92,26 +115,14 @@ def grid_route(city, start_xy, goal_xy, *, dx: float = 2.0, clearance: float = 6
     goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
     x, y, free = free_space(city, dx, clearance)
 
-    def cell(p, name):
-        i = int(np.clip(np.round((p[0] - x[0]) / dx), 0, len(x) - 1))
-        j = int(np.clip(np.round((p[1] - y[0]) / dx), 0, len(y) - 1))
-        if not free[j, i]:
-            raise ValueError(f"The '{name}' parameter of {where} lies inside a building or within "
-                             f"{clearance} m of one. Got {p.tolist()} instead.")
-        return j * len(x) + i
-
-    s, g = cell(start, "start_xy"), cell(goal, "goal_xy")
+    s = free_cell(start, "start_xy", x, y, free, dx, clearance, where)
+    g = free_cell(goal, "goal_xy", x, y, free, dx, clearance, where)
     graph = _grid_graph(free, dx)
     dist, pred = scipy.sparse.csgraph.dijkstra(graph, indices=s, return_predecessors=True)
     if not np.isfinite(dist[g]):
         raise ValueError(f"The 'goal_xy' parameter of {where} cannot be reached from start_xy "
                          f"with {clearance} m clearance. Got {goal.tolist()} instead.")
-    order = [g]
-    while order[-1] != s:
-        order.append(pred[order[-1]])
-    order = np.array(order[::-1])
-    path = np.stack([x[order % len(x)], y[order // len(x)]], axis=1)
-    path[0], path[-1] = start, goal
+    path = cell_path(pred, s, g, x, y, start, goal)
     # line-of-sight pruning
     keep = [0]
     k = 0
