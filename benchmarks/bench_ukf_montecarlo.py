@@ -16,7 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from windnav.commands.ukf_montecarlo import write_json
+from windnav.experiments.results import write_json
 from windnav.experiments.ukf_montecarlo import MonteCarloConfig, run_montecarlo
 from windnav.viz.ukf import plot_montecarlo
 

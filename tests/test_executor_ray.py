@@ -17,8 +17,8 @@ import ray
 import zarr
 
 from windnav.city import City
-from windnav.commands.wind_sweep import sweep
 from windnav.experiments.executor import run_tasks
+from windnav.experiments.wind_sweep import sweep
 
 HERE = Path(__file__).resolve().parent
 

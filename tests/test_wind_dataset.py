@@ -24,7 +24,7 @@ import pytest
 import zarr
 
 from windnav.city import City
-from windnav.commands.wind_sweep import THESIS_SPEEDS, solver_grid, sweep
+from windnav.experiments.wind_sweep import THESIS_SPEEDS, solver_grid, sweep
 from windnav.flow import FlowSolution, SweepStore, flow_attrs, load_flow, save_flow
 
 HERE = Path(__file__).resolve().parent
@@ -258,7 +258,7 @@ def test_sweep_killed_with_sigkill_resumes(tmp_path):
         import sys
         sys.path.insert(0, {str(HERE)!r})
         from test_wind_dataset import FakeSolver, MAPS, SETTINGS
-        from windnav.commands.wind_sweep import sweep
+        from windnav.experiments.wind_sweep import sweep
         sweep(MAPS, {str(out)!r}, speeds=[2.0, 6.0], directions_deg=[0.0, 90.0, 180.0],
               settings=SETTINGS, backend="process", workers=2, progress=False,
               simulate=FakeSolver({str(log1)!r}, sleep=1.0))
@@ -302,8 +302,7 @@ def test_resuming_with_a_different_sweep_is_refused(tmp_path):
 
 
 def test_thesis_grid_is_the_default():
-    from windnav.commands.wind import auto_dt
-    from windnav.commands.wind_sweep import directions_from
+    from windnav.experiments.wind_sweep import auto_dt, directions_from
 
     np.testing.assert_allclose(THESIS_SPEEDS, np.linspace(0.1, 10.0, 5))
     np.testing.assert_array_equal(directions_from(), np.arange(0, 360, 45))

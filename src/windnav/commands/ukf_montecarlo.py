@@ -41,7 +41,7 @@ from windnav.commands._common import (
     where,
 )
 from windnav.estimate.conditions import CONDITIONS
-from windnav.experiments.results import write_json  # noqa: F401  (re-exported for callers)
+from windnav.experiments.results import write_json
 
 MODULE_DOC = __doc__
 

@@ -26,7 +26,7 @@ from windnav.commands._common import (
     seed,
     where,
 )
-from windnav.experiments.wind_sweep import (  # noqa: F401  (re-exported for callers)
+from windnav.experiments.wind_sweep import (
     AUTO_CFL,
     DEFAULT_SETTINGS,
     auto_dt,

@@ -31,15 +31,7 @@ from windnav.commands._common import (
 )
 from windnav.commands.wind import add_solver_arguments, load_city, solver_settings
 from windnav.experiments.maps import MAP_KINDS, generated_maps
-from windnav.experiments.wind_sweep import (  # noqa: F401  (re-exported for callers)
-    THESIS_DIRECTIONS,
-    THESIS_SPEEDS,
-    SweepTask,
-    directions_from,
-    run_sweep_task,
-    solver_grid,
-    sweep,
-)
+from windnav.experiments.wind_sweep import THESIS_SPEEDS, directions_from, sweep
 
 
 def _map_files(items) -> list[Path]:
