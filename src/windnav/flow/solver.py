@@ -289,9 +289,8 @@ class FlowSolution:
 def city_domain(city, speed: float, direction_deg: float, dx: float) -> FlowDomain:
     """Rasterise ``city`` on a grid of spacing ``dx`` and set the wind's boundary conditions.
 
-    Refuses (ValueError) a ``dx`` at which a building would cover no cell and vanish from the
-    flow (:meth:`~windnav.city.City.check_resolution`)."""
-    city.check_resolution(dx, "simulate")
+    The caller checks the resolution first (:meth:`~windnav.city.City.check_resolution`, once
+    per map, as :func:`simulate_batch` does)."""
     grid = grid_for(city.bounds, dx)
     solid = np.asarray(city.rasterize(grid.x, grid.y), dtype=bool)
     bc = BoundaryConditions.for_wind(speed, direction_deg)
@@ -551,6 +550,8 @@ def simulate_batch(
 
     check_city_memory(city, dx, len(speeds), steps // record_every if record_every else 0,
                       pressure=pressure, memory_limit=memory_limit, where=where)
+    # a dx at which a building covers no cell would let the flow pass through it
+    city.check_resolution(dx, where)
     domains = [city_domain(city, sp, direction_deg, dx) for sp in speeds]
     factors = FactorCache(maxsize=1)  # the speeds share one face classification
     flow_steps = [
