@@ -74,8 +74,18 @@ def test_mppi_flies_around_the_building_to_the_goal(city, flow):
     # altitude hold, commands within the tilt cap, the planner ran at 10 Hz
     assert np.max(np.abs(res.position[:, 2] - 10.0)) < 0.5
     assert np.max(np.hypot(*res.accel_cmd.T)) <= 9.81 * np.tan(np.radians(55.0)) + 1e-9
-    assert res.planner_updates == pytest.approx(res.time_s * 10.0, abs=2)
+    # the planner ran at 10 Hz until the goal capture, then the position hold took over
+    hold = res.settings["hold_started_s"]
+    assert hold is not None and goal_distance(res)[round(hold * 100)] <= 10.0
+    assert res.planner_updates == pytest.approx(hold * 10.0, abs=2)
+    assert res.outcome == "success"
     assert res.fallbacks == 0 and np.isfinite(res.planner_ms_median)
+
+
+def test_without_capture_the_planner_flies_to_the_end(city, flow):
+    res = fly(city, flow, "mppi", duration=30.0, capture_radius=0.0)
+    assert res.settings["hold_started_s"] is None
+    assert res.planner_updates == pytest.approx(res.time_s * 10.0, abs=2)
 
 
 def test_energies_agree_with_each_other_and_with_hover_power(city, flow):
