@@ -738,8 +738,8 @@ def compare_variants(
     Each scenario is a dict with ``map_seed`` (:func:`windnav.city.planning_map`), ``speed``,
     ``direction_deg`` and optionally ``start_xy``, ``goal_xy`` (m; moved to the nearest point
     ``clearance`` m clear of the buildings and ``edge`` m from the map's edge,
-    :func:`free_point`: the MPPI planner wanders around its goal, and its obstacle cost pushes
-    its rest point away from buildings near the goal).
+    :func:`free_point`: MPPI's obstacle cost pushes its rest point away from buildings near the
+    goal, see the module docstring's goal capture).
 
     Returns
     -------

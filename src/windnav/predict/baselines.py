@@ -1,0 +1,151 @@
+"""The decoder's baselines (thesis ch. 4) and the input validation every predictor shares.
+
+Every predictor, learned or not, answers ``predict(scans, w_up, w_robot) -> (B, 2, H, H)`` on
+the grid ``offsets`` (:func:`windnav.predict.dataset.grid_offsets`):
+
+- :class:`UpstreamBaseline`: the inlet wind ``W_up`` everywhere;
+- :class:`LocalBaseline`: the wind measured at the robot ``W_robot`` everywhere.
+
+:func:`check_inputs` is the one validation of the inputs, so the learned decoder and the
+baselines refuse the same bad input with the same messages.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from windnav._validate import batch_array, positive_float, positive_int
+from windnav.predict.dataset import N_RAYS, grid_offsets
+
+
+def _array(value, name: str, where: str) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of numbers. "
+                         f"Got {type(value).__name__} instead.") from None
+
+
+def check_inputs(scans, w_up, w_robot, where: str):
+    """Validate and batch a predictor's inputs.
+
+    Parameters
+    ----------
+    scans : array_like of shape (B, 360) or (360,)
+        LiDAR ranges, m, ray k at k degrees counter-clockwise from +x (world frame); finite
+        and >= 0.
+    w_up : array_like of shape (B, 2) or (2,)
+        Inlet wind, m/s, world frame, finite.
+    w_robot : array_like of shape (B, 2) or (2,)
+        Wind at the robot, m/s, world frame, finite.
+    where : str
+        The caller, named in the messages (e.g. ``"LocalBaseline.predict"``).
+
+    Returns
+    -------
+    scans : ndarray of float64, shape (B, 360)
+    w_up, w_robot : ndarray of float64, shape (B, 2)
+        A single sample (``(360,)``, ``(2,)``, ``(2,)``) becomes a batch of one.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: a scan of the wrong length or shape, NaN, inf or negative ranges,
+        NaN or inf wind, a wrongly shaped wind, or a batch size different from the scans'.
+    """
+    scans = batch_array(_array(scans, "scans", where), "scans", where, (N_RAYS,))
+    if np.any(scans < 0):
+        bad = int(np.flatnonzero((scans < 0).any(axis=1))[0])
+        raise ValueError(f"The 'scans' parameter of {where} must hold ranges >= 0, m. "
+                         f"Got a negative range in scan {bad} instead.")
+    b = scans.shape[0]
+    w_up = batch_array(_array(w_up, "w_up", where), "w_up", where, (2,), batch=b)
+    w_robot = batch_array(_array(w_robot, "w_robot", where), "w_robot", where, (2,), batch=b)
+    return scans, w_up, w_robot
+
+
+@dataclass(frozen=True)
+class _UniformBaseline:
+    """A uniform field on an ``H x H`` grid of spacing ``spacing`` (m) centred on the robot."""
+
+    size: int = 25
+    spacing: float = 1.0
+
+    def __post_init__(self):
+        where = type(self).__name__
+        object.__setattr__(self, "size", positive_int(self.size, "size", where))
+        object.__setattr__(self, "spacing", positive_float(self.spacing, "spacing", where))
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """Cell-centre offsets ``(H,)``, m, the same along x and y."""
+        return grid_offsets(self.size, self.spacing)
+
+    def _uniform(self, wind: np.ndarray) -> np.ndarray:
+        h = self.size
+        return np.broadcast_to(wind.astype(np.float32)[:, :, None, None],
+                               (wind.shape[0], 2, h, h)).copy()
+
+
+@dataclass(frozen=True)
+class UpstreamBaseline(_UniformBaseline):
+    """The Upstream baseline: the inlet wind ``W_up`` in every cell.
+
+    Parameters
+    ----------
+    size : int
+        Cells per side ``H``, >= 1.
+    spacing : float
+        Cell size, m, > 0.
+    """
+
+    def predict(self, scans, w_up, w_robot) -> np.ndarray:
+        """Predict the local mean wind.
+
+        Parameters
+        ----------
+        scans : array_like of shape (B, 360)
+            LiDAR ranges, m (checked, otherwise unused).
+        w_up, w_robot : array_like of shape (B, 2)
+            Inlet wind and wind at the robot, m/s, world frame.
+
+        Returns
+        -------
+        ndarray of float32, shape (B, 2, H, H)
+            ``[u, v]`` = ``w_up`` in every cell, m/s, indexed ``[b, :, iy, ix]``.
+        """
+        _, w_up, _ = check_inputs(scans, w_up, w_robot, "UpstreamBaseline.predict")
+        return self._uniform(w_up)
+
+
+@dataclass(frozen=True)
+class LocalBaseline(_UniformBaseline):
+    """The Local baseline: the wind at the robot ``W_robot`` in every cell.
+
+    Parameters
+    ----------
+    size : int
+        Cells per side ``H``, >= 1.
+    spacing : float
+        Cell size, m, > 0.
+    """
+
+    def predict(self, scans, w_up, w_robot) -> np.ndarray:
+        """Predict the local mean wind.
+
+        Parameters
+        ----------
+        scans : array_like of shape (B, 360)
+            LiDAR ranges, m (checked, otherwise unused).
+        w_up, w_robot : array_like of shape (B, 2)
+            Inlet wind and wind at the robot, m/s, world frame.
+
+        Returns
+        -------
+        ndarray of float32, shape (B, 2, H, H)
+            ``[u, v]`` = ``w_robot`` in every cell, m/s, indexed ``[b, :, iy, ix]``.
+        """
+        _, _, w_robot = check_inputs(scans, w_up, w_robot, "LocalBaseline.predict")
+        return self._uniform(w_robot)

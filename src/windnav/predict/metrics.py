@@ -1,0 +1,216 @@
+"""The decoder's error metrics, defined once (thesis ch. 4) and used by every study.
+
+On the free cells of the label grids (outside buildings, inside the solver grid), with the
+prediction ``û`` and the truth ``u`` (2-vectors, m/s):
+
+- speed error ``| |û| - |u| |``, m/s;
+- direction error ``arccos(clip(û . u / (|û| |u|), -1, 1))``, deg (the thesis's definition).
+  Undefined where either vector is zero: such cells (``|û|`` or ``|u|`` below
+  :data:`ZERO_SPEED`) are left out of the direction means. The masked variant keeps only cells
+  with ``|u| >= min_speed_fraction * inlet speed``, where the direction is well defined;
+- vector error ``|û - u|``, m/s.
+
+Each is the mean over all the counted cells of all samples (cells weigh equally, samples with
+more free cells weigh more). Per-sample means and cell counts (``per_sample=True``) let callers
+pool any subset (a map, an inlet) the same way, with :func:`pooled_errors`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from windnav._validate import positive_float
+
+ZERO_SPEED = 1e-9
+"""Speeds below this (m/s) count as zero vectors, which have no direction."""
+
+METRICS = ("speed_error", "direction_error_deg", "direction_error_masked_deg", "vector_error")
+"""The metric names, in report order."""
+_COUNTS = {"speed_error": "n_free", "vector_error": "n_free",
+           "direction_error_deg": "n_direction",
+           "direction_error_masked_deg": "n_direction_masked"}
+_CHUNK = 4096  # samples per pass (float64 temporaries of a few hundred MB at most)
+
+
+def _fail(name: str, where: str, rule: str, got) -> ValueError:
+    return ValueError(f"The {name!r} parameter of {where} must be {rule}. Got {got} instead.")
+
+
+def _fields(pred, true, free, inlet_speed, where):
+    pred = np.asarray(pred)
+    true = np.asarray(true)
+    if true.ndim != 4 or true.shape[1] != 2 or true.shape[2] != true.shape[3]:
+        raise _fail("true", where, "an array of shape (B, 2, H, H)", f"shape {true.shape}")
+    if pred.shape != true.shape:
+        raise _fail("pred", where, f"an array of the shape of 'true' {true.shape}",
+                    f"shape {pred.shape}")
+    b, _, h, _ = true.shape
+    free = np.asarray(free)
+    if free.shape != (b, h, h) or free.dtype != bool:
+        raise _fail("free", where, f"a boolean array of shape {(b, h, h)}",
+                    f"{free.dtype} of shape {free.shape}")
+    speed = np.asarray(inlet_speed, dtype=np.float64)
+    if speed.shape != (b,) or not np.all(np.isfinite(speed)) or np.any(speed < 0):
+        raise _fail("inlet_speed", where, f"finite speeds >= 0 of shape ({b},), m/s",
+                    f"shape {speed.shape}" if speed.shape != (b,) else "a negative or NaN speed")
+    for name, arr in (("pred", pred), ("true", true)):
+        if not np.all(np.isfinite(arr)):
+            raise _fail(name, where, "finite (no NaN or inf)", "non-finite entries")
+    return pred, true, free, speed
+
+
+def field_errors(pred, true, free, inlet_speed, *, min_speed_fraction: float = 0.1,
+                 per_sample: bool = False) -> dict:
+    """Speed, direction and vector errors of predicted local wind fields (see the module doc).
+
+    Parameters
+    ----------
+    pred, true : array_like of shape (B, 2, H, H)
+        Predicted and true ``[u, v]``, m/s, indexed ``[b, :, iy, ix]``.
+    free : ndarray of bool, shape (B, H, H)
+        Cells that count (outside buildings, inside the solver grid).
+    inlet_speed : array_like of shape (B,)
+        Inlet speed of each sample, m/s, >= 0 (for the masked direction error).
+    min_speed_fraction : float
+        The masked direction error keeps cells with ``|u| >= min_speed_fraction *
+        inlet_speed``, >= 0.
+    per_sample : bool
+        Also return ``"per_sample"``: each metric's mean per sample, shape (B,) (NaN where a
+        sample has no counted cell), and the counts ``"n_free"``, ``"n_direction"``,
+        ``"n_direction_masked"`` (B,).
+
+    Returns
+    -------
+    dict
+        ``speed_error`` m/s, ``direction_error_deg`` deg, ``direction_error_masked_deg`` deg,
+        ``vector_error`` m/s (floats, NaN when no cell counts), the cell counts ``n_free``,
+        ``n_direction``, ``n_direction_masked`` (ints), and ``per_sample`` when asked.
+
+    Raises
+    ------
+    ValueError
+        Naming the argument: mismatched shapes, a non-boolean mask, NaN values or speeds.
+    """
+    where = "field_errors"
+    pred, true, free, speed = _fields(pred, true, free, inlet_speed, where)
+    frac = positive_float(min_speed_fraction, "min_speed_fraction", where, allow_zero=True)
+    b = true.shape[0]
+    sums = {name: np.zeros(b) for name in METRICS}
+    counts = {name: np.zeros(b, dtype=np.int64) for name in set(_COUNTS.values())}
+    for s in range(0, b, _CHUNK):
+        p = pred[s:s + _CHUNK].astype(np.float64)
+        t = true[s:s + _CHUNK].astype(np.float64)
+        f = free[s:s + _CHUNK]
+        sp, st = np.hypot(p[:, 0], p[:, 1]), np.hypot(t[:, 0], t[:, 1])
+        cos = (p[:, 0] * t[:, 0] + p[:, 1] * t[:, 1]) / np.maximum(sp * st, ZERO_SPEED**2)
+        angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        has_dir = f & (sp >= ZERO_SPEED) & (st >= ZERO_SPEED)
+        masked = has_dir & (st >= frac * speed[s:s + _CHUNK, None, None])
+        axes = (1, 2)
+        sums["speed_error"][s:s + _CHUNK] = np.where(f, np.abs(sp - st), 0.0).sum(axes)
+        sums["vector_error"][s:s + _CHUNK] = np.where(
+            f, np.hypot(p[:, 0] - t[:, 0], p[:, 1] - t[:, 1]), 0.0).sum(axes)
+        sums["direction_error_deg"][s:s + _CHUNK] = np.where(has_dir, angle, 0.0).sum(axes)
+        sums["direction_error_masked_deg"][s:s + _CHUNK] = np.where(masked, angle, 0.0).sum(axes)
+        counts["n_free"][s:s + _CHUNK] = f.sum(axes)
+        counts["n_direction"][s:s + _CHUNK] = has_dir.sum(axes)
+        counts["n_direction_masked"][s:s + _CHUNK] = masked.sum(axes)
+    out = {}
+    for name in METRICS:
+        n = int(counts[_COUNTS[name]].sum())
+        out[name] = float(sums[name].sum() / n) if n else float("nan")
+    out.update({name: int(c.sum()) for name, c in counts.items()})
+    if per_sample:
+        ps = {}
+        with np.errstate(invalid="ignore", divide="ignore"):
+            for name in METRICS:
+                n = counts[_COUNTS[name]]
+                ps[name] = np.where(n > 0, sums[name] / np.maximum(n, 1), np.nan)
+        ps.update(counts)
+        out["per_sample"] = ps
+    return out
+
+
+def pooled_errors(per_sample: dict, select=None) -> dict:
+    """Pool per-sample errors (``field_errors(..., per_sample=True)["per_sample"]``) over a
+    subset of samples exactly as :func:`field_errors` pools all of them.
+
+    Parameters
+    ----------
+    per_sample : dict
+        Per-sample means and counts.
+    select : array_like of bool or int, optional
+        The samples to pool (a mask or indices); default all.
+
+    Returns
+    -------
+    dict
+        The four metrics (NaN when no cell counts) and the three counts.
+    """
+    out = {}
+    for name in METRICS:
+        n = np.asarray(per_sample[_COUNTS[name]])
+        mean = np.asarray(per_sample[name], dtype=np.float64)
+        if select is not None:
+            n, mean = n[select], mean[select]
+        total = int(n.sum())
+        out[name] = float(np.sum(np.where(n > 0, mean, 0.0) * n) / total) if total else np.nan
+    for name in set(_COUNTS.values()):
+        n = np.asarray(per_sample[name])
+        out[name] = int((n if select is None else n[select]).sum())
+    return out
+
+
+def improvement(model_err, baseline_err):
+    """Relative improvement of a model over a baseline: ``1 - model_err / baseline_err``.
+
+    Parameters
+    ----------
+    model_err : float or array_like
+        The model's error, >= 0.
+    baseline_err : float or array_like
+        The baseline's error, > 0 (same unit).
+
+    Returns
+    -------
+    float or ndarray
+        0.35 means 35 % less error than the baseline; negative when worse.
+    """
+    where = "improvement"
+    m = np.asarray(model_err, dtype=np.float64)
+    base = np.asarray(baseline_err, dtype=np.float64)
+    if not np.all(np.isfinite(m)) or np.any(m < 0):
+        raise _fail("model_err", where, "finite and >= 0", repr(model_err))
+    if not np.all(np.isfinite(base)) or np.any(base <= 0):
+        raise _fail("baseline_err", where, "finite and > 0", repr(baseline_err))
+    out = 1.0 - m / base
+    return float(out) if out.ndim == 0 else out
+
+
+def central_gradients(uv, spacing: float) -> np.ndarray:
+    """Wind gradients at the centre cell (the robot) by central differences.
+
+    Parameters
+    ----------
+    uv : array_like of shape (B, 2, H, H)
+        ``[u, v]`` on the label grid, m/s, indexed ``[b, :, iy, ix]``; ``H`` odd, >= 3.
+    spacing : float
+        Grid spacing, m, > 0.
+
+    Returns
+    -------
+    ndarray of shape (B, 4)
+        ``du/dx, du/dy, dv/dx, dv/dy``, 1/s: e.g. ``du/dx = (u[c, c+1] - u[c, c-1]) /
+        (2 spacing)`` with ``c = (H - 1) / 2``. Exact for a field linear in x and y.
+    """
+    where = "central_gradients"
+    uv = np.asarray(uv, dtype=np.float64)
+    if uv.ndim != 4 or uv.shape[1] != 2 or uv.shape[2] != uv.shape[3] or uv.shape[2] < 3 \
+            or uv.shape[2] % 2 == 0:
+        raise _fail("uv", where, "an array of shape (B, 2, H, H) with H odd and >= 3",
+                    f"shape {uv.shape}")
+    h = positive_float(spacing, "spacing", where)
+    c = (uv.shape[2] - 1) // 2
+    ddx = (uv[:, :, c, c + 1] - uv[:, :, c, c - 1]) / (2.0 * h)
+    ddy = (uv[:, :, c + 1, c] - uv[:, :, c - 1, c]) / (2.0 * h)
+    return np.stack([ddx[:, 0], ddy[:, 0], ddx[:, 1], ddy[:, 1]], axis=1)
