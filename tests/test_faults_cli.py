@@ -42,7 +42,7 @@ COMMANDS = {
     "ukf-montecarlo": ("windnav.experiments.ukf_montecarlo", "run_montecarlo", [], None, None),
     "calibrate": ("windnav.experiments.calibration", "calibration_flights", [], "--out",
                   "calibration.json"),
-    "demo": ("windnav.experiments.demo", "run_demo", [], "--out", "summary.json"),
+    "demo": ("windnav.experiments.nav_demo", "run_nav_demo", [], "--out", "summary.json"),
 }
 
 
@@ -214,12 +214,12 @@ def test_demo_advises_its_own_flow_step(tmp_path, capsys, monkeypatch):
 
     seen = []
     monkeypatch.setattr(demo, "run_demo", lambda cfg, **kw: seen.append(cfg) or 1 / 0)
-    assert main(["demo", "--wind-speed", "60", "--flow-dt", "0.2",
+    assert main(["demo", "--story", "ukf", "--wind-speed", "60", "--flow-dt", "0.2",
                  "--out", str(tmp_path / "d")]) == 2
     line = one_line_error(capsys, "'--flow-dt'", "--flow-dt <= 0.08333")
     assert "'--dt'" not in line and seen == []
     with pytest.raises(ZeroDivisionError):  # no --flow-dt: one that keeps CFL <= 1
-        main(["demo", "--wind-speed", "60", "--out", str(tmp_path / "d")])
+        main(["demo", "--story", "ukf", "--wind-speed", "60", "--out", str(tmp_path / "d")])
     assert seen[0].wind_speed * seen[0].flow_dt / seen[0].dx == pytest.approx(1.0)
 
 

@@ -1,22 +1,34 @@
-"""``windnav demo``: the end-to-end demo (city wind, flight, Wind UKF) with figures.
+"""``windnav demo``: the end-to-end demo, in one of two stories.
+
+``--story navigate`` (the default): a city and its wind; MPPI and EA-MPPI+W fly the same start
+and goal through it; the energy each used, and an animated GIF of the flight. The harness is
+:mod:`windnav.experiments.nav_demo`; writes ``summary.json``, ``paths.png``, ``energy.png`` and
+``flight.gif``.
+
+``--story ukf``: a city's wind, a flight along a graph-search route with sensors, and the Wind
+UKF's estimate of the wind (:mod:`windnav.experiments.demo`); writes ``map_wind_path.png``,
+``wind_estimate.png``, ``flight.npz`` and ``summary.json``.
 
 ::
 
-    windnav demo --seed 1 --out out/demo
-    windnav demo --wind-speed 12 --flow-dt 0.1 --out out/demo12 --json demo12.json
-    windnav demo --conditions thesis --out out/demo_thesis   # the thesis's sensing and filter
+    windnav demo --out out/demo --seed 0                       # the navigation story
+    windnav demo --wind-speed 8 --direction-deg 180 --out out/demo8
+    windnav demo --story ukf --seed 1 --out out/demo_ukf
+    windnav demo --story ukf --conditions thesis --out out/demo_thesis
 
-The harness is :mod:`windnav.experiments.demo`. The flow time step defaults to 0.2 s, or less
-to keep the CFL number ``wind_speed * flow_dt / dx`` (dx = 2 m) at or below 1.
+The flow time step defaults to the story's (0.25 s navigate, 0.2 s ukf), or less to keep the
+CFL number ``wind_speed * flow_dt / dx`` at or below 1.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import json
+import sys
+import time
 from pathlib import Path
 
-from windnav._validate import positive_float
+from windnav._validate import finite_float, positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
@@ -26,54 +38,179 @@ from windnav.commands._common import (
     where,
 )
 
-PRODUCTS = ("map_wind_path.png", "wind_estimate.png", "flight.npz", "summary.json")
-"""What a run writes into ``--out``."""
+NAV_PRODUCTS = ("summary.json", "paths.png", "energy.png", "flight.gif")
+"""What ``--story navigate`` writes into ``--out``."""
+UKF_PRODUCTS = ("map_wind_path.png", "wind_estimate.png", "flight.npz", "summary.json")
+"""What ``--story ukf`` writes into ``--out``."""
+PRODUCTS = tuple(dict.fromkeys(NAV_PRODUCTS + UKF_PRODUCTS))
+"""What a run of either story may have written into ``--out`` (``--overwrite`` replaces them
+all, so a folder never mixes the two stories)."""
+STORIES = ("navigate", "ukf")
+GIF_FRAMES = 80
+"""Frames of ``flight.gif`` (8 s at 10 frames per second)."""
+NAV_FLOW_DT = 0.25
+"""Flow time step (and frame interval) of the navigation story at moderate inlet speeds, s."""
 
 
 def register(sub) -> None:
     from windnav.estimate.conditions import CONDITIONS
+    from windnav.experiments.nav_demo import NavDemoConfig as Nav
     from windnav.vehicle.params import VEHICLES
 
-    p = sub.add_parser("demo", help="end-to-end demo: urban wind, flight, wind estimation",
-                       description="Simulate the wind of a random city, fly a route through it "
-                                   "and estimate the wind with the Wind UKF; write figures.")
-    p.add_argument("--seed", type=int, default=0, help="seed of the city, wind and sensors")
-    p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES)
+    p = sub.add_parser("demo", help="end-to-end demo: urban wind, MPPI vs EA-MPPI+W (or the "
+                                    "Wind UKF)",
+                       description="Simulate the wind of a random city and fly through it. "
+                                   "--story navigate (default): MPPI and EA-MPPI+W fly the same "
+                                   "start and goal; their energies, figures and a GIF. --story "
+                                   "ukf: a route flown with sensors, the wind estimated by the "
+                                   "Wind UKF.")
+    p.add_argument("--story", choices=STORIES, default="navigate",
+                   help="which demo (default: %(default)s)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the city, the planners and the sensors")
     p.add_argument("--wind-speed", type=float, default=5.0, help="inlet wind speed, m/s")
     p.add_argument("--flow-dt", type=float, default=None,
-                   help="time step of the flow solver, s (default: 0.2, or less to keep "
-                        "wind_speed * flow_dt / dx <= 1 with dx = 2 m)")
-    p.add_argument("--conditions", choices=tuple(CONDITIONS), default=None,
-                   help="Wind UKF preset (sensors and filter; see docs/ukf.md); default: "
-                        "windnav's sensors and the filter's defaults")
+                   help="time step of the flow solver, s (default: 0.25 navigate, 0.2 ukf, or "
+                        "less to keep wind_speed * flow_dt / dx <= 1)")
+    nav = p.add_argument_group("navigate story")
+    nav.add_argument("--direction-deg", type=float, default=None,
+                     help="direction the inlet wind blows toward, deg CCW from +x "
+                          f"(default {Nav.direction_deg:g})")
+    nav.add_argument("--map-size", type=float, default=None,
+                     help=f"side of the square city, m (default {Nav.map_size:g})")
+    nav.add_argument("--record-s", type=float, default=None,
+                     help=f"recorded wind after the {Nav.spinup_s:g} s spin-up, s: the longest "
+                          f"flight (default {Nav.record_s:g})")
+    nav.add_argument("--gif-frames", type=int, default=None,
+                     help=f"frames of flight.gif, shown at 10 per second (default {GIF_FRAMES})")
+    ukf = p.add_argument_group("ukf story")
+    ukf.add_argument("--vehicle", default=None, choices=VEHICLES,
+                     help="vehicle (default hummingbird)")
+    ukf.add_argument("--conditions", choices=tuple(CONDITIONS), default=None,
+                     help="Wind UKF preset (sensors and filter; see docs/ukf.md); default: "
+                          "windnav's sensors and the filter's defaults")
     p.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder")
     add_output_arguments(p)
     p.set_defaults(func=run)
 
 
-def _config(args):
-    from windnav.experiments.demo import DemoConfig, auto_flow_dt
+def _only(args, story: str, flags: dict) -> None:
+    """Refuse options of the other story (their default is None)."""
+    name = where(args)
+    for flag, value in flags.items():
+        if value is not None:
+            raise ValueError(f"The {flag!r} parameter of {name} applies to --story {story} "
+                             f"only. Got {value!r} with --story {args.story} instead.")
+
+
+def _flow_dt(args, default, dx: float) -> float:
+    """``--flow-dt``, checked against the CFL limit; ``default(speed, dx)`` when not given."""
     from windnav.flow.solver import MAX_CFL
 
     name = where(args)
-    seed(args)
     speed = positive_float(args.wind_speed, "--wind-speed", name)
-    dx = DemoConfig.dx
     if args.flow_dt is None:
-        flow_dt = auto_flow_dt(speed, dx)
-    else:
-        flow_dt = positive_float(args.flow_dt, "--flow-dt", name)
-        if speed * flow_dt / dx > MAX_CFL:
-            raise ValueError(
-                f"The '--flow-dt' parameter of {name} must keep the CFL number "
-                f"wind_speed*flow_dt/dx at or below {MAX_CFL:g} (dx = {dx:g} m); use "
-                f"--flow-dt <= {MAX_CFL * dx / speed:.4g} at --wind-speed {speed:g}. "
-                f"Got {flow_dt:g} instead.")
-    return DemoConfig(seed=args.seed, vehicle=args.vehicle, wind_speed=speed, flow_dt=flow_dt,
+        return default(speed, dx)
+    flow_dt = positive_float(args.flow_dt, "--flow-dt", name)
+    if speed * flow_dt / dx > MAX_CFL:
+        raise ValueError(
+            f"The '--flow-dt' parameter of {name} must keep the CFL number "
+            f"wind_speed*flow_dt/dx at or below {MAX_CFL:g} (dx = {dx:g} m); use "
+            f"--flow-dt <= {MAX_CFL * dx / speed:.4g} at --wind-speed {speed:g}. "
+            f"Got {flow_dt:g} instead.")
+    return flow_dt
+
+
+def _config(args):
+    """The UKF story's :class:`~windnav.experiments.demo.DemoConfig`."""
+    from windnav.experiments.demo import DemoConfig, auto_flow_dt
+
+    seed(args)
+    _only(args, "navigate", {"--direction-deg": args.direction_deg,
+                             "--map-size": args.map_size, "--record-s": args.record_s,
+                             "--gif-frames": args.gif_frames})
+    flow_dt = _flow_dt(args, auto_flow_dt, DemoConfig.dx)
+    return DemoConfig(seed=args.seed, vehicle=args.vehicle or "hummingbird",
+                      wind_speed=float(args.wind_speed), flow_dt=flow_dt,
                       conditions=args.conditions)
 
 
+def _nav_config(args):
+    """The navigation story's :class:`~windnav.experiments.nav_demo.NavDemoConfig` and the
+    GIF's frame count."""
+    from windnav.experiments.nav_demo import NavDemoConfig
+
+    name = where(args)
+    seed(args)
+    _only(args, "ukf", {"--vehicle": args.vehicle, "--conditions": args.conditions})
+    frames = GIF_FRAMES if args.gif_frames is None else args.gif_frames
+    if isinstance(frames, bool) or int(frames) != frames or frames < 2:
+        raise ValueError(f"The '--gif-frames' parameter of {name} must be an integer >= 2. "
+                         f"Got {frames!r} instead.")
+    fields = {"seed": args.seed, "wind_speed": positive_float(args.wind_speed, "--wind-speed",
+                                                              name)}
+    if args.direction_deg is not None:
+        fields["direction_deg"] = finite_float(args.direction_deg, "--direction-deg", name)
+    if args.map_size is not None:
+        fields["map_size"] = positive_float(args.map_size, "--map-size", name)
+    if args.record_s is not None:
+        fields["record_s"] = positive_float(args.record_s, "--record-s", name)
+    fields["flow_dt"] = _flow_dt(args, lambda speed, dx: min(NAV_FLOW_DT, dx / speed),
+                                 NavDemoConfig.dx)
+    return NavDemoConfig(**fields), int(frames)
+
+
 def run(args) -> int:
+    if args.story == "ukf":
+        return _run_ukf(args)
+    return _run_navigate(args)
+
+
+def _run_navigate(args) -> int:
+    from windnav.experiments.nav_demo import LABELS, describe, run_nav_demo
+    from windnav.experiments.results import write_json
+    from windnav.viz.animate import animate_flights
+    from windnav.viz.nav_compare import plot_energy, plot_paths
+
+    t_start = time.perf_counter()
+    cfg, n_frames = _nav_config(args)
+    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    result = run_nav_demo(cfg, progress=True)
+    summary = result["summary"]
+    city, flow = result["city"], result["flow"]
+    named = {LABELS[v]: r for v, r in result["results"].items()}
+    inlet = f"{cfg.wind_speed:g} m/s toward {cfg.direction_deg:g} deg"
+    timings = summary["timings_s"]
+    with out.writing() as stage:
+        print("drawing the figures and the GIF", file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        plot_paths(named, city, flow, stage.dir / "paths.png",
+                   title=f"Seed {cfg.seed}: {' vs '.join(named)}, wind {inlet}")
+        plot_energy(named, stage.dir / "energy.png",
+                    title=f"Seed {cfg.seed}, wind {inlet}: airspeed, power and energy")
+        timings["figures"] = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        gif = animate_flights(named, city, flow, stage.dir / "flight.gif",
+                              n_frames=n_frames, fps=10.0,
+                              title=f"{' vs '.join(named)}, wind {inlet}")
+        timings["gif"] = time.perf_counter() - t0
+        timings["total"] = time.perf_counter() - t_start
+        payload = {"story": "navigate", "config": dataclasses.asdict(cfg), **summary,
+                   "gif": {"frames": n_frames, "fps": 10.0,
+                           "bytes": gif.stat().st_size}}
+        doc = document("demo", payload, args)
+        write_json(doc, stage.dir / "summary.json")
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    print(describe(summary))
+    print(f"({timings['total']:.0f} s: wind {timings['flow']:.0f} s, flights "
+          f"{sum(timings[v] for v in result['results']):.0f} s, figures and GIF "
+          f"{timings['figures'] + timings['gif']:.0f} s)")
+    print_written(out)
+    return 0
+
+
+def _run_ukf(args) -> int:
     from windnav.experiments.demo import run_demo
     from windnav.experiments.results import write_json
     from windnav.viz.demo import plot_map, plot_wind_estimate
@@ -81,7 +218,8 @@ def run(args) -> int:
     cfg = _config(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     result = run_demo(cfg, progress=True)
-    summary = document("demo", {"config": dataclasses.asdict(cfg), **result["metrics"]}, args)
+    metrics = {"story": "ukf", "config": dataclasses.asdict(cfg), **result["metrics"]}
+    summary = document("demo", metrics, args)
     with out.writing() as stage:
         plot_map(result, stage.dir / "map_wind_path.png")
         plot_wind_estimate(result, stage.dir / "wind_estimate.png")
@@ -89,6 +227,6 @@ def run(args) -> int:
         write_json(summary, stage.dir / "summary.json")
         if stage.file("--json") is not None:
             write_json(summary, stage.file("--json"))
-    print(json.dumps({"config": dataclasses.asdict(cfg), **result["metrics"]}, indent=2))
+    print(json.dumps(metrics, indent=2))
     print_written(out)
     return 0

@@ -1,4 +1,6 @@
-"""The end-to-end demo: city -> urban wind -> route -> closed-loop flight -> Wind UKF.
+"""The UKF story of ``windnav demo --story ukf``: city -> urban wind -> route -> flight -> Wind UKF.
+
+(The default story, MPPI against EA-MPPI+W, is :mod:`windnav.experiments.nav_demo`.)
 
 1. A random training city (300 m, 5-10 buildings) from a seed.
 2. Its 2D wind from the flow solver (unsteady frames, flown as a time-varying field).

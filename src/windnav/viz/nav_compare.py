@@ -1,0 +1,157 @@
+"""Figures that compare several navigation flights (``NavigationResult``) in one city's wind.
+
+:func:`plot_paths`: every flown path over the mean wind speed, its streamlines and the
+buildings; :func:`plot_energy`: airspeed, power and cumulative energy against time, one colour
+per flight. The animated version of the first is :func:`windnav.viz.animate.animate_flights`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.patheffects as pe  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import Rectangle  # noqa: E402
+
+__all__ = ["COLORS", "plot_energy", "plot_paths", "wind_background"]
+
+COLORS = ("#ff2d55", "#ffffff", "#ff9500", "#5ac8fa")
+"""Line colours of the flights, in order (drawn with a black outline over the wind)."""
+
+OUTLINE = [pe.Stroke(linewidth=3.2, foreground="k"), pe.Normal()]
+
+
+def wind_background(ax, city, flow, speed=None, *, vmax: float | None = None,
+                    streamlines: bool = True):
+    """Draw a wind speed field (default: the mean), buildings and the map's frame on ``ax``.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    city : windnav.city.City
+    flow : windnav.flow.FlowSolution
+    speed : ndarray of shape (ny, nx), optional
+        Wind speed on ``flow``'s cell centres, m/s; default the mean ``|(u, v)|``.
+    vmax : float, optional
+        Top of the colour scale, m/s; default the field's 99th percentile over fluid cells.
+    streamlines : bool
+        Draw the mean flow's streamlines.
+
+    Returns
+    -------
+    matplotlib.image.AxesImage
+        The speed image (``set_data`` it to animate).
+    """
+    if speed is None:
+        speed = np.hypot(flow.mean_u, flow.mean_v)
+    fluid = ~flow.solid
+    if vmax is None:
+        vmax = float(np.percentile(speed[fluid], 99)) if fluid.any() else 1.0
+    h = 0.5 * flow.dx
+    extent = (flow.x[0] - h, flow.x[-1] + h, flow.y[0] - h, flow.y[-1] + h)
+    im = ax.imshow(np.ma.masked_array(speed, flow.solid), origin="lower", extent=extent,
+                   cmap="viridis", vmin=0.0, vmax=vmax, interpolation="bilinear")
+    if streamlines:
+        ax.streamplot(flow.x, flow.y, np.where(flow.solid, 0.0, flow.mean_u),
+                      np.where(flow.solid, 0.0, flow.mean_v), color=(1, 1, 1, 0.45),
+                      linewidth=0.5, density=1.0, arrowsize=0.6)
+    for x0, x1, y0, y1 in city.footprints:
+        ax.add_patch(Rectangle((x0, y0), x1 - x0, y1 - y0, fc="0.35", ec="0.15", lw=0.5,
+                               zorder=3))
+    x0, x1, y0, y1 = city.bounds
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x east (m)")
+    ax.set_ylabel("y north (m)")
+    return im
+
+
+def _endpoints(ax, result) -> None:
+    ax.plot(*result.start, "o", color="w", mec="k", ms=8, zorder=6, label="start")
+    ax.plot(*result.goal, "*", color="w", mec="k", ms=14, zorder=6, label="goal")
+
+
+def plot_paths(results: dict, city, flow, path, *, title: str | None = None) -> Path:
+    """Every flight's path over the mean wind speed, its streamlines and the buildings.
+
+    Parameters
+    ----------
+    results : dict of str to NavigationResult
+        The flights (same start and goal) by their legend name (``"EA-MPPI+W"``), drawn in
+        the order given.
+    city : windnav.city.City
+    flow : windnav.flow.FlowSolution
+    path : str or Path
+        The PNG to write.
+    title : str, optional
+
+    Returns
+    -------
+    Path
+    """
+    fig, ax = plt.subplots(figsize=(7.2, 6.2))
+    im = wind_background(ax, city, flow)
+    fig.colorbar(im, ax=ax, label="mean wind speed (m/s)", shrink=0.85)
+    for i, (name, r) in enumerate(results.items()):
+        c = COLORS[i % len(COLORS)]
+        ax.plot(*r.position[:, :2].T, color=c, lw=2.0, zorder=5, path_effects=OUTLINE,
+                label=f"{name}: {r.outcome}, {r.energy_J / 1e3:.2f} kJ, {r.time_s:.0f} s")
+    first = next(iter(results.values()))
+    _endpoints(ax, first)
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.75)
+    ax.set_title(title or "Flown paths over the mean wind")
+    return _save(fig, path)
+
+
+def plot_energy(results: dict, path, *, title: str | None = None) -> Path:
+    """Airspeed, power (airspeed power curve) and cumulative energy against time.
+
+    The energy panel draws the airspeed-model energy (solid) and the rotor energy of the 6-DoF
+    simulator (dotted).
+
+    Parameters
+    ----------
+    results : dict of str to NavigationResult
+        The flights by their legend name.
+    path : str or Path
+        The PNG to write.
+    title : str, optional
+
+    Returns
+    -------
+    Path
+    """
+    colors = ("tab:red", "tab:blue", "tab:orange", "tab:green")
+    fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True)
+    for i, (name, r) in enumerate(results.items()):
+        c = colors[i % len(colors)]
+        axes[0].plot(r.t, r.airspeed, color=c, lw=1.2, label=name)
+        axes[1].plot(r.t, r.power, color=c, lw=1.2, label=name)
+        axes[2].plot(r.t, r.energy / 1e3, color=c, lw=1.6,
+                     label=f"{name}: {r.energy_J / 1e3:.2f} kJ ({r.outcome})")
+        axes[2].plot(r.t, r.rotor_energy / 1e3, color=c, lw=1.0, ls=":",
+                     label=f"{name}, rotor: {r.rotor_energy_J / 1e3:.2f} kJ")
+        axes[2].plot(r.t[-1], r.energy[-1] / 1e3, "o", color=c, ms=4)
+    axes[0].set_ylabel("airspeed (m/s)")
+    axes[1].set_ylabel("power P(|v - w|) (W)")
+    axes[2].set_ylabel("energy (kJ)")
+    axes[2].set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[2].legend(fontsize=8, loc="upper left")
+    axes[0].set_title(title or "Airspeed, power and energy")
+    return _save(fig, path)
+
+
+def _save(fig, path) -> Path:
+    path = Path(path)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
