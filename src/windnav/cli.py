@@ -30,6 +30,7 @@ COMMAND_MODULES = (
     "similitude",
     "navigate",
     "demo",
+    "benchmark_nav",
 )
 
 EXIT_ERROR = 2

@@ -1,0 +1,252 @@
+"""``windnav benchmark-nav``: the thesis's navigation benchmark, its store and its table.
+
+::
+
+    windnav benchmark-nav --suite thesis --variants mppi,mppi-w,ea-mppi,ea-mppi-w \\
+                          --executor process --workers 2 --out runs/thesis
+    windnav benchmark-nav --out runs/thesis --table --json table.json
+    windnav benchmark-nav --out runs/thesis --replay thesis/m03/w07/p2 --variant ea-mppi-w \\
+                          --json replay.json
+
+A run flies every pending (scenario, variant) of the suite, one task per (map, wind) whose wind
+is simulated once, and appends one JSON line per flight to ``STORE/records.jsonl``; rerun the
+same command after an interruption to resume. At the end it prints the ablation table in
+Markdown. ``--table`` prints the table of a store without flying; ``--replay`` re-flies one
+scenario from its id and seed and writes the record's fields (compared with the recorded
+flight when ``--out`` holds it). The harness is :mod:`windnav.experiments.nav_benchmark`.
+``--json`` writes the run's counts and the table as data; the store itself is never replaced
+(``--overwrite`` applies to ``--json`` only).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from windnav._validate import positive_int
+from windnav.commands._common import (
+    add_output_arguments,
+    check_output_path,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
+
+DEFAULT_VARIANTS = "mppi,mppi-w,ea-mppi,ea-mppi-w"
+
+
+def register(subparsers) -> None:
+    """Add the ``benchmark-nav`` subcommand."""
+    from windnav.experiments.executor import BACKENDS
+    from windnav.experiments.nav_suite import SUITES
+
+    p = subparsers.add_parser(
+        "benchmark-nav",
+        help="fly the navigation benchmark (thesis: 1,024 scenarios per variant)",
+        description="Fly every planner variant through every scenario of a suite (maps x "
+                    "winds x start/goal pairs), one wind simulation per map and wind, into a "
+                    "resumable store of per-flight records; print the ablation table.",
+    )
+    p.add_argument("--suite", choices=tuple(SUITES), default=None,
+                   help="the suite (required for a new store; default: the store's own)")
+    p.add_argument("--variants", default=DEFAULT_VARIANTS,
+                   help="comma-separated planner variants (%(default)s)")
+    p.add_argument("--executor", choices=BACKENDS, default="process",
+                   help="where the tasks run (%(default)s)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (default: all cores); each holds one wind, 2.3 GB "
+                        "for a 600 m map")
+    p.add_argument("--out", type=Path, default=None, metavar="STORE",
+                   help="the store folder (manifest.json, records.jsonl)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="suite seed (default: the store's own, else 0)")
+    p.add_argument("--retry-errors", action="store_true",
+                   help="also re-fly the flights whose harness failed in an earlier run")
+    p.add_argument("--table", action="store_true",
+                   help="print the table of the store's records; fly nothing")
+    p.add_argument("--reference", default="mppi",
+                   help="the variant the energies are compared with (%(default)s)")
+    p.add_argument("--replay", default=None, metavar="SCENARIO_ID",
+                   help="re-fly one scenario (e.g. thesis/m03/w07/p2) with --variant")
+    p.add_argument("--variant", default=None, help="the variant of --replay")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_output_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _manifest(store: Path | None) -> dict | None:
+    import json
+
+    if store is None or not (store / "manifest.json").is_file():
+        return None
+    try:
+        return json.loads((store / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return None  # NavStore names the problem
+
+
+def _spec(args, name: str, prefer: str | None = None):
+    """The suite: ``--suite``, else ``prefer`` (a replayed id's suite), else the store's
+    manifest; the seed: ``--seed``, else the store's (for its own suite), else 0."""
+    from windnav.experiments.nav_suite import SUITES, get_suite
+
+    man = _manifest(args.out) or {}
+    suite = args.suite or prefer or (man.get("suite") if man.get("suite") in SUITES else None)
+    if suite is None:
+        raise ValueError(f"The '--suite' parameter of {name} must be given for a new store "
+                         f"(one of {list(SUITES)}). Got None instead.")
+    if args.seed is None:
+        value = man.get("seed", 0) if man.get("suite") == suite else 0
+    else:
+        value = seed(args)
+    return get_suite(suite, seed=value)
+
+
+def run(args) -> int:
+    """Run ``windnav benchmark-nav``; 0 when every flight flew, 1 when some harness failed."""
+    name = where(args)
+    if args.seed is not None:
+        seed(args)
+    if args.replay is not None:
+        return _replay(args, name)
+    if args.out is None:
+        raise ValueError(f"The '--out' parameter of {name} must name the store folder. Got "
+                         "None instead.")
+    check_output_path(args.out, "--out", name, kind="dir")
+    if args.table:
+        return _table(args, name)
+    return _run(args, name)
+
+
+def _variants(args, name: str) -> tuple[str, ...]:
+    from windnav.experiments.nav_benchmark import check_variants
+
+    try:
+        return check_variants(args.variants, name)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'variants'", "'--variants'")) from None
+
+
+def _print_table(records, variants, reference) -> dict:
+    from windnav.experiments.nav_records import benchmark_table, render_table
+
+    present = {r["variant"] for r in records}
+    rows = [v for v in variants if v in present and v != reference]
+    if reference in present:
+        rows = [reference, *rows]
+    table = benchmark_table(records, variants=rows, reference=reference)
+    print(render_table(table), end="")
+    return table
+
+
+def _run(args, name: str) -> int:
+    from windnav.experiments.nav_benchmark import NavStore, run_benchmark
+    from windnav.experiments.results import write_json
+
+    variants = _variants(args, name)
+    spec = _spec(args, name)
+    out = outputs(args)
+    workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    try:
+        summary = run_benchmark(spec, variants, args.out, executor=args.executor,
+                                workers=workers, progress=not args.no_progress,
+                                retry_errors=args.retry_errors)
+    except KeyboardInterrupt:
+        try:
+            n = len(NavStore(args.out, spec, create=False).latest())
+        except ValueError:
+            n = 0
+        print(f"{name}: interrupted; {n} flights recorded in {args.out}; rerun the same "
+              "command to resume.", file=sys.stderr)
+        return 130
+    records = NavStore(args.out, spec, create=False).load()
+    print(f"{summary['store']}: suite {spec.name} (seed {spec.seed}), "
+          f"{summary['total'] - summary['pending']}/{summary['total']} flights recorded "
+          f"({summary['now']} now, {summary['already']} already, {summary['errors_now']} "
+          f"harness errors now) in {summary['wall_s']:.0f} s")
+    for t in summary["failed_tasks"]:
+        print(f"failed: map {t['map_index']} wind {t['wind_index']}: {t['error']}")
+    if summary["errors_now"]:
+        print(f"{summary['errors_now']} flights failed in the harness: their tracebacks are in "
+              f"{summary['store']}/records.jsonl ('error'); --retry-errors re-flies them")
+    print()
+    table = _print_table(records, variants, args.reference)
+    if args.json is not None:
+        with out.writing() as stage:
+            write_json(document("benchmark-nav", {"summary": summary, "table": table}, args),
+                       stage.file("--json"))
+        print_written(out)
+    return 1 if summary["errors_now"] or summary["pending"] else 0
+
+
+def _table(args, name: str) -> int:
+    from windnav.experiments.nav_benchmark import NavStore
+    from windnav.experiments.results import write_json
+
+    if _manifest(args.out) is None:
+        raise ValueError(f"The '--out' parameter of {name} must name a benchmark store (with "
+                         f"manifest.json). Got {str(args.out)!r} instead.")
+    spec = _spec(args, name)
+    out = outputs(args)
+    records = NavStore(args.out, spec, create=False).load()
+    present = sorted({r["variant"] for r in records})
+    asked = args.variants if args.variants != DEFAULT_VARIANTS else ",".join(present)
+    from windnav.experiments.nav_benchmark import check_variants
+
+    variants = check_variants(asked, name) if asked else ()
+    table = _print_table(records, variants, args.reference)
+    if args.json is not None:
+        with out.writing() as stage:
+            write_json(document("benchmark-nav", {"table": table}, args), stage.file("--json"))
+        print_written(out)
+    return 0
+
+
+def _replay(args, name: str) -> int:
+    import json
+
+    from windnav.experiments.nav_benchmark import NavStore, compare_records, replay
+    from windnav.experiments.results import json_ready, write_json
+
+    if args.variant is None:
+        raise ValueError(f"The '--variant' parameter of {name} must name the variant to "
+                         "replay with --replay. Got None instead.")
+    suite = str(args.replay).split("/", 1)[0]
+    from windnav.experiments.nav_suite import SUITES
+
+    if args.suite is None and suite not in SUITES:
+        raise ValueError(f"The '--replay' parameter of {name} must be a scenario id of a suite "
+                         f"in {list(SUITES)} (e.g. thesis/m03/w07/p2). Got {args.replay!r} "
+                         "instead.")
+    spec = _spec(args, name, prefer=suite)
+    out = outputs(args)
+    recorded = None
+    if args.out is not None and _manifest(args.out) is not None:
+        recorded = NavStore(args.out, spec, create=False).latest().get(
+            (args.replay, args.variant))
+    try:
+        record = replay(spec, args.replay, args.variant)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'scenario_id' parameter of parse_scenario_id",
+                                          f"'--replay' parameter of {name}")
+                         .replace("'variants' parameter of replay",
+                                  f"'--variant' parameter of {name}")) from None
+    payload = dict(record)
+    if recorded is not None:
+        payload["check"] = compare_records(record, recorded)
+    keys = ("scenario_id", "variant", "seed", "outcome", "energy_J", "rotor_energy_J",
+            "time_s", "distance_m", "mean_cmd_accel")
+    print(json.dumps(json_ready({k: record[k] for k in keys}), indent=2))
+    if recorded is not None:
+        c = payload["check"]
+        print(f"against the record in {args.out}: same outcome {c['same_outcome']}, largest "
+              f"relative difference {c['max_relative_difference']:.3g}")
+    if record["error"]:
+        print(record["error"], file=sys.stderr)
+    if args.json is not None:
+        with out.writing() as stage:
+            write_json(document("benchmark-nav", payload, args), stage.file("--json"))
+        print_written(out)
+    return 1 if record["error"] else 0

@@ -1,0 +1,421 @@
+"""The navigation benchmark of the thesis (ch. 5): every variant flies every scenario of a suite.
+
+The scenarios are those of :mod:`windnav.experiments.nav_suite` (the ``thesis`` suite: 16 maps
+x 16 winds x 4 start/goal pairs = 1,024 per variant); the flight is the closed loop of
+:func:`windnav.experiments.navigate.navigate`; the records and the table are
+:mod:`windnav.experiments.nav_records`.
+
+How a run is organised
+----------------------
+* **One wind per task.** The flights of a suite are grouped by (map, wind); one task of
+  :func:`windnav.experiments.executor.run_tasks` (``serial``, ``process`` or ``ray``) simulates
+  that wind once (:func:`windnav.experiments.navigate.simulate_flow`: ``spinup_s`` of spin-up,
+  then ``record_s`` of frames every ``dt`` on a ``dx`` grid) and flies every pending
+  (pair, variant) of it in that wind. The gridded wind field (frames stacked as
+  ``(T, ny, nx, 2)``) is built once per task and shared by its flights
+  (:class:`SharedFlow`); the solver's own frame arrays are released first, so a task holds one
+  copy of the frames (2.3 GB for 600 m x 600 m x 400 frames in float64).
+* **Flows are recomputed, not stored.** A 600 m wind of 125 s at ``dx = 1`` m is 2.3 GB of
+  float64 frames (1.2 GB in float32): the thesis suite's 256 winds would need ~300 GB, so a
+  task recomputes its wind (deterministic: same map, inlet and settings, same frames) and the
+  store keeps only the records. A replay recomputes it the same way.
+* **Resumable.** Each flight's record is appended to the store by the worker that flew it as
+  soon as it lands (see :class:`~windnav.experiments.nav_records.NavStore`); a rerun skips every
+  (scenario_id, variant) already recorded (with ``retry_errors``, also re-flies those whose
+  harness failed). A killed run loses only the flights in the air and the winds being solved.
+* **Failures are data.** A flight that raises is recorded with ``outcome = "error"`` and its
+  traceback in ``error``; a task whose wind cannot be simulated (or whose worker dies) records
+  that error for each of its pending flights. Neither stops the run.
+
+The flight's seed (:attr:`Scenario.seed`) seeds the planner's sampling and the LiDAR noise and
+is the same for every variant, so that variants fly paired scenarios. Same suite, same seed,
+same records (up to the wall times): :func:`replay` re-flies one record.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from windnav.experiments.nav_records import (
+    ERROR,
+    CorruptRecordError,
+    NavStore,
+    SuiteMismatchError,
+    benchmark_table,
+    render_table,
+)
+from windnav.experiments.nav_suite import (
+    SUITES,
+    Scenario,
+    SuiteSpec,
+    check_suite_spec,
+    get_suite,
+    make_suite,
+    parse_scenario_id,
+    suite_map,
+)
+
+__all__ = [
+    "RECORD_FIELDS",
+    "SUITES",
+    "CorruptRecordError",
+    "GroupTask",
+    "NavStore",
+    "Scenario",
+    "SharedFlow",
+    "SuiteMismatchError",
+    "SuiteSpec",
+    "benchmark_table",
+    "check_variants",
+    "compare_records",
+    "error_record",
+    "fly_scenario",
+    "get_suite",
+    "make_suite",
+    "render_table",
+    "replay",
+    "run_benchmark",
+    "run_group",
+    "suite_flow",
+]
+
+RECORD_FIELDS = (
+    "scenario_id", "variant", "seed", "outcome", "energy_J", "rotor_energy_J", "time_s",
+    "distance_m", "mean_cmd_accel", "planner_ms_median", "kind", "speed", "direction_deg",
+    "map_index", "wind_index", "pair_index", "start", "goal", "fallbacks", "planner_updates",
+    "final_distance_to_goal_m", "arrival_time_s", "wall_s", "loop_wall_s", "flow_s", "error",
+)
+"""The fields of a flight record, in order (metrics in SI units: J, s, m, m/s^2, ms)."""
+
+_METRICS = ("energy_J", "rotor_energy_J", "time_s", "distance_m", "mean_cmd_accel",
+            "planner_ms_median", "fallbacks", "planner_updates", "final_distance_to_goal_m",
+            "arrival_time_s")
+REPLAY_FIELDS = ("outcome", "energy_J", "rotor_energy_J", "time_s", "distance_m",
+                 "mean_cmd_accel")
+"""Fields a replay must reproduce (the wall times and planner timings are not reproducible)."""
+
+
+# ------------------------------------------------------------------------------- the wind
+
+
+class SharedFlow:
+    """A :class:`~windnav.flow.FlowSolution` whose unsteady wind field is built once.
+
+    :func:`~windnav.experiments.navigate.navigate` asks its ``flow`` for
+    ``wind_field(unsteady=True)`` on every flight, which stacks the frames anew (2.3 GB for a
+    600 m map); this wrapper builds that field once, keeps the solution's ``frames_u`` and
+    ``frames_v`` as views into it (so the solver's arrays can be freed) and answers every other
+    attribute from the solution. The field's values are the solution's, so a flight on it is
+    the flight on the solution itself.
+    """
+
+    def __init__(self, flow):
+        self._field = flow.wind_field(unsteady=True)
+        self._flow = dataclasses.replace(flow, frames_u=self._field.u, frames_v=self._field.v)
+
+    def wind_field(self, unsteady: bool = False):
+        """The shared unsteady field, or the steady mean field (as ``FlowSolution``)."""
+        return self._field if unsteady else self._flow.wind_field()
+
+    def __getattr__(self, name):
+        return getattr(self._flow, name)
+
+
+def suite_flow(spec: SuiteSpec, city, speed: float, direction_deg: float) -> SharedFlow:
+    """The suite's wind for one inlet: :func:`~windnav.experiments.navigate.simulate_flow`
+    with the suite's spin-up, record, ``dx`` and ``dt``, wrapped in :class:`SharedFlow`."""
+    from windnav.experiments.navigate import simulate_flow
+
+    flow = simulate_flow(city, speed, direction_deg, spinup_s=spec.spinup_s,
+                         record_s=spec.record_s, dx=spec.dx, dt=spec.dt)
+    return SharedFlow(flow)
+
+
+# ------------------------------------------------------------------------------- one flight
+
+
+def check_variants(variants, where: str) -> tuple[str, ...]:
+    """``variants`` (a sequence, or one comma-separated string) checked against
+    :data:`windnav.plan.VARIANTS`: known, distinct, at least one."""
+    from windnav.plan import VARIANTS
+
+    if isinstance(variants, str):
+        variants = [v.strip() for v in variants.split(",") if v.strip()]
+    variants = tuple(variants)
+    unknown = [v for v in variants if v not in VARIANTS]
+    if not variants or unknown or len(set(variants)) != len(variants):
+        got = unknown[0] if unknown else list(variants)
+        raise ValueError(f"The 'variants' parameter of {where} must be distinct names among "
+                         f"{list(VARIANTS)}. Got {got!r} instead.")
+    return variants
+
+
+def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None, flow=None,
+                 navigate_fn: Callable | None = None) -> dict:
+    """Fly one scenario with one variant and return its record (never raises an Exception).
+
+    Parameters
+    ----------
+    spec : SuiteSpec
+    scenario : Scenario
+    variant : str
+        A key of :data:`windnav.plan.VARIANTS`.
+    city, flow : optional
+        The scenario's map (:func:`suite_map`) and wind (:func:`suite_flow`), when already
+        built; otherwise built here.
+    navigate_fn : callable, optional
+        Replaces :func:`~windnav.experiments.navigate.navigate` (same signature; its result
+        needs a ``summary()``): a hook for tests and ablations.
+
+    Returns
+    -------
+    dict
+        :data:`RECORD_FIELDS`. When anything raised, ``outcome`` is ``"error"``, the metrics
+        are None and ``error`` holds ``"Type: message"`` and the traceback.
+    """
+    t0 = time.perf_counter()
+    rec = error_record(scenario, variant, None)
+    try:
+        if navigate_fn is None:
+            from windnav.experiments.navigate import navigate as navigate_fn
+        if city is None:
+            city = suite_map(spec, scenario.map_index)
+        if flow is None:
+            t_flow = time.perf_counter()
+            flow = suite_flow(spec, city, scenario.speed, scenario.direction_deg)
+            rec["flow_s"] = time.perf_counter() - t_flow
+        result = navigate_fn(city, scenario.start, scenario.goal, speed=scenario.speed,
+                             direction_deg=scenario.direction_deg, variant=variant,
+                             rng=scenario.seed, flow=flow, **spec.navigate_options)
+        summary = result.summary()
+        rec["outcome"] = summary["outcome"]
+        rec.update({k: summary.get(k) for k in _METRICS})
+        rec["loop_wall_s"] = summary.get("wall_s")
+    except Exception as exc:  # one failing flight must not stop the suite
+        rec["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
+    rec["wall_s"] = time.perf_counter() - t0
+    return rec
+
+
+# ------------------------------------------------------------------------------- tasks
+
+
+@dataclass(frozen=True)
+class GroupTask:
+    """The pending flights of one (map, wind): one task, one wind simulation. Picklable.
+
+    Attributes
+    ----------
+    spec : SuiteSpec
+    store : str
+        Path of the store the worker appends its records to.
+    map_index, wind_index : int
+    flights : tuple of (Scenario, str)
+        The scenarios (of this map and wind) and variants to fly, in order.
+    navigate_fn : callable or None
+        See :func:`fly_scenario` (module-level, to pickle).
+    """
+
+    spec: SuiteSpec
+    store: str
+    map_index: int
+    wind_index: int
+    flights: tuple
+    navigate_fn: Callable | None = None
+
+
+def run_group(task: GroupTask) -> dict:
+    """Simulate the task's wind once, fly its flights in it, append each record to the store.
+
+    Returns
+    -------
+    dict
+        ``map_index``, ``wind_index``, ``flights`` (flown), ``errors`` (flights whose harness
+        failed), ``flow_s`` (the wind simulation's wall time, s).
+
+    Raises
+    ------
+    Exception
+        Whatever the map or the wind simulation raised (the caller records it for every
+        flight of the task).
+    """
+    spec = task.spec
+    store = NavStore(task.store, spec, create=False)
+    city = suite_map(spec, task.map_index)
+    speed, direction = spec.wind(task.wind_index)
+    t0 = time.perf_counter()
+    flow = suite_flow(spec, city, speed, direction)
+    flow_s = time.perf_counter() - t0
+    errors = 0
+    for scenario, variant in task.flights:
+        rec = fly_scenario(spec, scenario, variant, city=city, flow=flow,
+                           navigate_fn=task.navigate_fn)
+        rec["flow_s"] = flow_s
+        store.append(rec)
+        errors += rec["error"] is not None
+    return {"map_index": task.map_index, "wind_index": task.wind_index,
+            "flights": len(task.flights), "errors": errors, "flow_s": flow_s}
+
+
+def error_record(scenario: Scenario, variant: str, error: str | None) -> dict:
+    """The record of a flight that did not fly: ``outcome = "error"``, no metrics, ``error``
+    (the traceback). Also the skeleton every record starts from (:data:`RECORD_FIELDS`)."""
+    rec = dict.fromkeys(RECORD_FIELDS)
+    rec.update(scenario_id=scenario.scenario_id, variant=variant, seed=scenario.seed,
+               outcome=ERROR, kind=scenario.kind, speed=scenario.speed,
+               direction_deg=scenario.direction_deg, map_index=scenario.map_index,
+               wind_index=scenario.wind_index, pair_index=scenario.pair_index,
+               start=list(scenario.start), goal=list(scenario.goal), error=error)
+    return rec
+
+
+def run_benchmark(
+    spec,
+    variants: Sequence[str] | str,
+    store,
+    *,
+    executor: str = "process",
+    workers: int | None = None,
+    progress: bool = True,
+    retry_errors: bool = False,
+    navigate_fn: Callable | None = None,
+) -> dict:
+    """Fly (or resume) every pending (scenario, variant) of the suite into ``store``.
+
+    Parameters
+    ----------
+    spec : SuiteSpec or str
+        The suite (a name of :data:`SUITES`: its seed 0).
+    variants : sequence of str, or a comma-separated str
+        Keys of :data:`windnav.plan.VARIANTS`.
+    store : str or path-like
+        The store folder (created with its manifest; resumed when it holds this suite).
+    executor : {"serial", "process", "ray"}
+        Backend of :func:`~windnav.experiments.executor.run_tasks` (one task per map and wind;
+        the workers append to the store, so it must be on a filesystem they share).
+    workers : int, optional
+        Worker processes (default: every core, at most one per task). Each holds one wind
+        (about 2.3 GB for a 600 m map, 4.6 GB while it is being built).
+    progress : bool
+        A progress bar over the tasks, on stderr.
+    retry_errors : bool
+        Also re-fly the flights whose recorded harness failed (``outcome == "error"``).
+    navigate_fn : callable, optional
+        See :func:`fly_scenario`.
+
+    Returns
+    -------
+    dict
+        ``suite``, ``seed``, ``store``, ``variants``, ``scenarios`` (per variant), ``total``
+        (flights of the run's variants), ``already`` (recorded before), ``now`` (recorded by
+        this run), ``errors_now`` (of those, harness failures), ``pending`` (left: 0 unless
+        a task was lost), ``failed_tasks`` (``map_index``, ``wind_index``, first line of the
+        error) and ``wall_s``.
+
+    Raises
+    ------
+    ValueError
+        An unknown variant or executor; :class:`SuiteMismatchError` for a store of another
+        suite; :class:`CorruptRecordError` for a corrupt record line.
+    KeyboardInterrupt
+        On Ctrl-C, after the workers are stopped; every finished flight is in the store.
+    """
+    from windnav.experiments.executor import BACKENDS, run_tasks
+
+    where = "run_benchmark"
+    spec = check_suite_spec(spec, where)
+    variants = check_variants(variants, where)
+    if executor not in BACKENDS:
+        raise ValueError(f"The 'executor' parameter of {where} must be one of {BACKENDS}. "
+                         f"Got {executor!r} instead.")
+    t0 = time.perf_counter()
+    nav_store = NavStore(store, spec)
+    done = nav_store.latest()
+
+    def finished(key) -> bool:
+        rec = done.get(key)
+        return rec is not None and not (retry_errors and rec["outcome"] == ERROR)
+
+    scenarios = make_suite(spec)
+    groups: dict[tuple[int, int], list] = {}
+    for sc in scenarios:
+        for v in variants:
+            if not finished((sc.scenario_id, v)):
+                groups.setdefault(sc.group, []).append((sc, v))
+    already = len(scenarios) * len(variants) - sum(len(f) for f in groups.values())
+    tasks = [GroupTask(spec, str(nav_store.path), m, w, tuple(f), navigate_fn)
+             for (m, w), f in sorted(groups.items())]
+    failed_tasks = []
+
+    def on_result(result) -> None:
+        if result.ok:
+            return
+        task = result.task
+        recorded = nav_store.latest()
+        for sc, v in task.flights:  # those its worker did not record before it failed
+            key = (sc.scenario_id, v)
+            if recorded.get(key) is None or recorded[key] == done.get(key):
+                nav_store.append(error_record(sc, v, result.error or "task lost"))
+        failed_tasks.append({"map_index": task.map_index, "wind_index": task.wind_index,
+                             "error": (result.error or "").splitlines()[0] if result.error
+                             else "task lost"})
+
+    for _ in run_tasks(run_group, tasks, backend=executor, workers=workers, progress=progress,
+                       desc=f"benchmark-nav {spec.name}", on_result=on_result):
+        pass
+    pending_keys = [(sc.scenario_id, v) for f in groups.values() for sc, v in f]
+    final = nav_store.latest()
+    now = [final[k] for k in pending_keys if k in final and final[k] != done.get(k)]
+    return {"suite": spec.name, "seed": spec.seed, "store": str(nav_store.path),
+            "variants": list(variants), "scenarios": len(scenarios),
+            "total": len(scenarios) * len(variants), "already": already, "now": len(now),
+            "errors_now": sum(r["outcome"] == ERROR for r in now),
+            "pending": len(pending_keys) - len(now), "failed_tasks": failed_tasks,
+            "wall_s": time.perf_counter() - t0}
+
+
+# ------------------------------------------------------------------------------- replay
+
+
+def replay(spec, scenario_id: str, variant: str, *, navigate_fn: Callable | None = None) -> dict:
+    """Re-fly one scenario from its id (its map, wind, pair and seed) and return its record.
+
+    The wind is simulated again (about a minute for a 600 m map) exactly as a run does, so the
+    record equals the recorded one in :data:`REPLAY_FIELDS` (see :func:`compare_records`).
+
+    Raises
+    ------
+    ValueError
+        An id that is not a scenario of ``spec`` or an unknown variant.
+    """
+    where = "replay"
+    spec = check_suite_spec(spec, where)
+    (variant,) = check_variants([variant], where)
+    scenario = parse_scenario_id(spec, scenario_id)
+    return fly_scenario(spec, scenario, variant, navigate_fn=navigate_fn)
+
+
+def compare_records(replayed: dict, recorded: dict) -> dict:
+    """How a replayed record differs from the recorded one.
+
+    Returns
+    -------
+    dict
+        ``same_outcome`` (bool), ``relative_difference`` {field: |a - b| / max(|b|, 1e-12)} for
+        the numeric :data:`REPLAY_FIELDS`, and ``max_relative_difference``.
+    """
+    rel = {}
+    for k in REPLAY_FIELDS[1:]:
+        a, b = replayed.get(k), recorded.get(k)
+        if a is None or b is None:
+            rel[k] = 0.0 if a is None and b is None else math.inf
+        else:
+            rel[k] = abs(float(a) - float(b)) / max(abs(float(b)), 1e-12)
+    return {"same_outcome": replayed.get("outcome") == recorded.get("outcome"),
+            "relative_difference": rel, "max_relative_difference": max(rel.values())}
+

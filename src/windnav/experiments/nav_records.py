@@ -1,0 +1,474 @@
+"""The navigation benchmark's store of flight records, and its ablation table.
+
+The store (:class:`NavStore`) is a folder:
+
+* ``manifest.json``: the suite (``suite``, ``seed``, ``settings_hash`` and the full
+  ``settings`` of :class:`~windnav.experiments.nav_suite.SuiteSpec`). A store answers only to the
+  suite that created it: any other gives :class:`SuiteMismatchError`.
+* ``records.jsonl``: one JSON object per finished flight, appended as each flight ends (by the
+  worker that flew it, under an exclusive ``flock`` so that parallel workers never interleave),
+  flushed and synced. A kill loses at most the line being written: a last line without its
+  newline is *torn*, ignored on reading and cut off before the next append. Any other line
+  that is not a record is corrupt and gives :class:`CorruptRecordError` naming the file and the
+  line. When a flight was recorded twice (``--retry-errors``), its last record counts.
+
+The table (:func:`benchmark_table`, :func:`render_table`) follows the thesis's ablation table:
+per variant, the mean +- standard deviation over *successful* flights of the energy from the
+airspeed power curve, the rotor energy, the mean commanded acceleration, the time to goal and
+the distance flown, with 95 % confidence intervals of the means (Student t); the failure rate
+with its breakdown (collision, hover, left_map, timeout) and a Wilson 95 % interval. Against the
+reference (MPPI), for both energies:
+
+* the *table ratio* ``1 - mean(E_variant) / mean(E_ref)``, each mean over that variant's
+  successful flights (95 % percentile bootstrap interval, resampling each variant's flights);
+* the *paired reduction*: the mean over scenarios where neither failed of
+  ``1 - E_variant / E_ref`` (Student t interval), also per inlet speed.
+
+Flights whose harness failed (``outcome == "error"``, a traceback in ``error``) are counted
+apart and left out of every rate.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+__all__ = [
+    "FAILURES",
+    "CorruptRecordError",
+    "NavStore",
+    "SuiteMismatchError",
+    "benchmark_table",
+    "render_table",
+]
+
+FAILURES = ("collision", "hover", "left_map", "timeout")
+"""Flight outcomes that count as failures (``navigate``'s outcomes other than success)."""
+
+ERROR = "error"
+"""Outcome of a flight whose harness raised (its traceback is in the record's ``error``)."""
+
+METRICS = (
+    ("energy_kJ", "energy_J", 1e-3),
+    ("rotor_energy_kJ", "rotor_energy_J", 1e-3),
+    ("mean_cmd_accel", "mean_cmd_accel", 1.0),
+    ("time_s", "time_s", 1.0),
+    ("distance_m", "distance_m", 1.0),
+)
+"""Table metrics: (name in the table, record field, scale)."""
+
+ENERGIES = ("energy_J", "rotor_energy_J")
+
+MANIFEST = "manifest.json"
+RECORDS = "records.jsonl"
+
+
+class SuiteMismatchError(ValueError):
+    """A store that holds another suite (name, seed or settings), or is not a store."""
+
+
+class CorruptRecordError(ValueError):
+    """A line of the record file that is not a flight record (and is not a torn last line)."""
+
+
+# ------------------------------------------------------------------------------- the store
+
+
+class NavStore:
+    """The folder of one suite's flight records (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The store folder.
+    spec : SuiteSpec
+        The suite it holds.
+    create : bool
+        Create the folder and its manifest when missing; otherwise a missing store is an error.
+
+    Raises
+    ------
+    SuiteMismatchError
+        When the folder's manifest names another suite, seed or settings, or the folder holds a
+        record file without a manifest.
+    """
+
+    def __init__(self, path, spec, *, create: bool = True):
+        self.path = Path(path)
+        self.spec = spec
+        self.records_path = self.path / RECORDS
+        self.manifest = {"suite": spec.name, "seed": spec.seed,
+                         "settings_hash": spec.settings_hash(), "settings": spec.settings()}
+        man = self.path / MANIFEST
+        if man.exists():
+            self._check(man)
+        elif self.records_path.exists():
+            raise SuiteMismatchError(
+                f"The store {str(self.path)!r} holds {RECORDS} but no {MANIFEST}, so its suite "
+                "is unknown; choose another folder, or restore the manifest.")
+        elif not create:
+            raise SuiteMismatchError(
+                f"The store {str(self.path)!r} holds no benchmark records ({MANIFEST} is "
+                "missing); run the suite into it first.")
+        else:
+            from windnav import __version__
+            from windnav.experiments.results import write_json
+
+            self.path.mkdir(parents=True, exist_ok=True)
+            write_json({**self.manifest, "windnav_version": __version__}, man)
+
+    def _check(self, man: Path) -> None:
+        try:
+            found = json.loads(man.read_text())
+            got = {k: found[k] for k in ("suite", "seed", "settings_hash")}
+        except (json.JSONDecodeError, KeyError, TypeError, OSError):
+            raise SuiteMismatchError(
+                f"The store {str(self.path)!r} has a {MANIFEST} that is not a benchmark "
+                "manifest; choose another folder.") from None
+        want = {k: self.manifest[k] for k in ("suite", "seed", "settings_hash")}
+        if got != want:
+            diff = ", ".join(f"{k} {got[k]!r} (asked: {want[k]!r})" for k in want
+                             if got[k] != want[k])
+            raise SuiteMismatchError(
+                f"The store {str(self.path)!r} holds another suite: {diff}. Use another "
+                "folder for this suite, or run the store's own suite and seed.")
+
+    # ----------------------------------------------------------------------------- reading
+
+    def load(self) -> list[dict]:
+        """Every record in the file, in order ([] when there is none).
+
+        Raises
+        ------
+        CorruptRecordError
+            Naming the file and the (1-based) line of the first line that is not a record;
+            a torn last line (no newline) is ignored.
+        """
+        if not self.records_path.exists():
+            return []
+        data = self.records_path.read_bytes()
+        lines = data.split(b"\n")
+        complete = lines[:-1]  # the last item follows the last newline: torn or empty
+        out = []
+        prefix = f"{self.spec.name}/"
+        for i, raw in enumerate(complete, start=1):
+            if not raw.strip():
+                continue
+            try:
+                rec = json.loads(raw)
+            except (json.JSONDecodeError, UnicodeDecodeError):
+                rec = None
+            ok = (isinstance(rec, dict) and isinstance(rec.get("scenario_id"), str)
+                  and isinstance(rec.get("variant"), str) and "outcome" in rec)
+            if not ok:
+                text = raw[:80].decode("utf-8", "replace")
+                raise CorruptRecordError(
+                    f"The record file {str(self.records_path)!r} has a corrupt record at line "
+                    f"{i}: {text!r}. Delete or repair that line; the other lines keep their "
+                    "finished flights.")
+            if not rec["scenario_id"].startswith(prefix):
+                raise SuiteMismatchError(
+                    f"The record file {str(self.records_path)!r} has at line {i} a record of "
+                    f"another suite ({rec['scenario_id']!r}, expected {prefix}...).")
+            out.append(rec)
+        return out
+
+    def latest(self) -> dict[tuple[str, str], dict]:
+        """The last record of each ``(scenario_id, variant)``."""
+        return {(r["scenario_id"], r["variant"]): r for r in self.load()}
+
+    # ----------------------------------------------------------------------------- writing
+
+    @contextlib.contextmanager
+    def _locked(self):
+        import fcntl  # POSIX; the store is written by processes of one machine
+
+        self.path.mkdir(parents=True, exist_ok=True)
+        with open(self.records_path, "a+b") as f:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+            try:
+                yield f
+            finally:
+                fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+
+    def append(self, record: Mapping) -> None:
+        """Append one record (made JSON-ready: non-finite numbers become null), durably.
+
+        A torn last line left by an earlier kill is cut off first.
+        """
+        from windnav.experiments.results import json_ready
+
+        line = (json.dumps(json_ready(record), allow_nan=False) + "\n").encode()
+        with self._locked() as f:
+            _cut_torn_tail(f)
+            f.seek(0, os.SEEK_END)
+            f.write(line)
+            f.flush()
+            os.fsync(f.fileno())
+
+
+def _cut_torn_tail(f) -> None:
+    """Truncate an open (binary, read/write) file after its last newline."""
+    size = f.seek(0, os.SEEK_END)
+    if size == 0:
+        return
+    f.seek(size - 1)
+    if f.read(1) == b"\n":
+        return
+    pos, block = size, 4096
+    while pos > 0:
+        start = max(0, pos - block)
+        f.seek(start)
+        chunk = f.read(pos - start)
+        k = chunk.rfind(b"\n")
+        if k >= 0:
+            f.truncate(start + k + 1)
+            return
+        pos = start
+    f.truncate(0)
+
+
+# ------------------------------------------------------------------------------- statistics
+
+
+def _num(value) -> float:
+    return float("nan") if value is None else float(value)
+
+
+def _t_quantile(confidence: float, dof: int) -> float:
+    from scipy.stats import t
+
+    return float(t.ppf(0.5 + 0.5 * confidence, dof))
+
+
+def _describe(values, confidence: float) -> dict:
+    """mean, std (ddof 1), n, and the Student-t interval of the mean."""
+    v = np.asarray([x for x in values if math.isfinite(x)], dtype=np.float64)
+    n = int(v.size)
+    if n == 0:
+        return {"mean": None, "std": None, "n": 0, "ci95": None}  # std: None below 2
+    mean = float(v.mean())
+    std = float(v.std(ddof=1)) if n > 1 else None
+    ci = None
+    if n > 1:
+        half = _t_quantile(confidence, n - 1) * std / math.sqrt(n)
+        ci = [mean - half, mean + half]
+    return {"mean": mean, "std": std, "n": n, "ci95": ci}
+
+
+def _wilson(k: int, n: int, confidence: float) -> list[float] | None:
+    """Wilson score interval of a proportion ``k / n``, in percent."""
+    if n == 0:
+        return None
+    from scipy.stats import norm
+
+    z = float(norm.ppf(0.5 + 0.5 * confidence))
+    p = k / n
+    den = 1.0 + z * z / n
+    mid = (p + z * z / (2 * n)) / den
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return [100.0 * max(0.0, mid - half), 100.0 * min(1.0, mid + half)]
+
+
+def _table_ratio(ev, er, confidence, n_boot, rng) -> dict:
+    ev = np.asarray(ev, dtype=np.float64)
+    er = np.asarray(er, dtype=np.float64)
+    out = {"value": None, "ci95": None, "n_variant": int(ev.size), "n_reference": int(er.size)}
+    if ev.size == 0 or er.size == 0 or er.mean() <= 0:
+        return out
+    out["value"] = float(1.0 - ev.mean() / er.mean())
+    if ev.size > 1 and er.size > 1 and n_boot > 0:
+        mv = ev[rng.integers(0, ev.size, (n_boot, ev.size))].mean(axis=1)
+        mr = er[rng.integers(0, er.size, (n_boot, er.size))].mean(axis=1)
+        boot = 1.0 - mv / mr
+        a = 0.5 * (1.0 - confidence)
+        out["ci95"] = [float(np.quantile(boot, a)), float(np.quantile(boot, 1.0 - a))]
+    return out
+
+
+def _energies(recs, field):
+    return [_num(r.get(field)) for r in recs if r["outcome"] == "success"
+            and math.isfinite(_num(r.get(field)))]
+
+
+def benchmark_table(
+    records: Iterable[Mapping],
+    *,
+    variants: Sequence[str] | None = None,
+    reference: str = "mppi",
+    confidence: float = 0.95,
+    n_boot: int = 2000,
+    rng: int = 0,
+) -> dict:
+    """The ablation table as data.
+
+    Parameters
+    ----------
+    records : iterable of dict
+        Flight records (``scenario_id``, ``variant``, ``outcome``, the metrics, ``speed``); when
+        a ``(scenario_id, variant)`` appears twice the last one counts.
+    variants : sequence of str, optional
+        Rows, in order; default every variant in ``records`` (sorted, reference first).
+    reference : str
+        The variant the energies are compared with (MPPI).
+    confidence : float
+        Level of every interval (0.95).
+    n_boot : int
+        Bootstrap resamples of the table ratio's interval (0: none).
+    rng : int
+        Seed of the bootstrap.
+
+    Returns
+    -------
+    dict
+        ``reference``, ``confidence``, ``variants`` (the rows, in order) and ``rows``: per
+        variant ``scenarios`` (flights recorded), ``errors`` (harness failures, left out),
+        ``flights`` (the rest), ``success``, ``failure_pct`` {``value``, ``ci95``},
+        ``failures`` {outcome: {``count``, ``pct``}} for :data:`FAILURES`, ``metrics``
+        {name: {``mean``, ``std``, ``n``, ``ci95``}} over successful flights (energies in kJ),
+        and, for variants other than the reference when it has records, ``vs_reference``
+        {``energy_J`` and ``rotor_energy_J``: {``table_ratio`` {``value``, ``ci95``,
+        ``n_variant``, ``n_reference``}, ``paired_reduction`` {``mean``, ``std``, ``n``,
+        ``ci95``, ``by_speed`` {speed: {``mean``, ``std``, ``n``}}}}} (fractions, not %).
+    """
+    if not 0.0 < confidence < 1.0:
+        raise ValueError(f"The 'confidence' parameter of benchmark_table must be in (0, 1). "
+                         f"Got {confidence!r} instead.")
+    latest: dict[tuple[str, str], Mapping] = {}
+    for r in records:
+        latest[(r["scenario_id"], r["variant"])] = r
+    by_variant: dict[str, dict[str, Mapping]] = {}
+    for (sid, v), r in latest.items():
+        by_variant.setdefault(v, {})[sid] = r
+    if variants is None:
+        variants = sorted(by_variant, key=lambda v: (v != reference, v))
+    gen = np.random.default_rng(rng)
+    ref = by_variant.get(reference, {})
+    rows = {}
+    for v in variants:
+        recs = list(by_variant.get(v, {}).values())
+        valid = [r for r in recs if r["outcome"] != ERROR]
+        n = len(valid)
+        succ = [r for r in valid if r["outcome"] == "success"]
+        n_fail = n - len(succ)
+        row = {
+            "scenarios": len(recs),
+            "errors": len(recs) - n,
+            "flights": n,
+            "success": len(succ),
+            "failure_pct": {"value": 100.0 * n_fail / n if n else None,
+                            "ci95": _wilson(n_fail, n, confidence)},
+            "failures": {o: {"count": sum(r["outcome"] == o for r in valid),
+                             "pct": (100.0 * sum(r["outcome"] == o for r in valid) / n
+                                     if n else None)} for o in FAILURES},
+            "metrics": {name: _describe([scale * _num(r.get(key)) for r in succ], confidence)
+                        for name, key, scale in METRICS},
+        }
+        if v != reference and ref:
+            row["vs_reference"] = {
+                e: _versus(by_variant.get(v, {}), ref, e, confidence, n_boot, gen)
+                for e in ENERGIES}
+        rows[v] = row
+    return {"reference": reference, "confidence": confidence, "variants": list(variants),
+            "rows": rows}
+
+
+def _versus(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, gen) -> dict:
+    ratio = _table_ratio(_energies(mine.values(), field), _energies(ref.values(), field),
+                         confidence, n_boot, gen)
+    paired, speeds = [], []
+    for sid, r in mine.items():
+        q = ref.get(sid)
+        if q is None or r["outcome"] != "success" or q["outcome"] != "success":
+            continue
+        e, e_ref = _num(r.get(field)), _num(q.get(field))
+        if math.isfinite(e) and math.isfinite(e_ref) and e_ref > 0:
+            paired.append(1.0 - e / e_ref)
+            speeds.append(_num(r.get("speed")))
+    red = _describe(paired, confidence)
+    by_speed = {}
+    for s in sorted({s for s in speeds if math.isfinite(s)}):
+        d = _describe([p for p, sp in zip(paired, speeds, strict=True) if sp == s], confidence)
+        by_speed[f"{s:g}"] = {k: d[k] for k in ("mean", "std", "n")}
+    red["by_speed"] = by_speed
+    return {"table_ratio": ratio, "paired_reduction": red}
+
+
+# ------------------------------------------------------------------------------- Markdown
+
+
+def _pm(d: Mapping, digits: int) -> str:
+    if not d or d.get("mean") is None:
+        return "-"
+    if d.get("std") is None:
+        return f"{d['mean']:.{digits}f} (n = 1)"
+    return f"{d['mean']:.{digits}f} ± {d['std']:.{digits}f}"
+
+
+def _ci(interval, digits: int, scale: float = 1.0, unit: str = "") -> str:
+    if not interval:
+        return "-"
+    return f"[{scale * interval[0]:.{digits}f}, {scale * interval[1]:.{digits}f}]{unit}"
+
+
+def _pct(value, digits: int = 1) -> str:
+    return "-" if value is None else f"{100.0 * value:.{digits}f}%"
+
+
+_COLUMNS = (("energy_kJ", "energy (kJ)", 2), ("rotor_energy_kJ", "rotor energy (kJ)", 2),
+            ("mean_cmd_accel", "cmd. acc. (m/s²)", 2), ("time_s", "time to goal (s)", 2),
+            ("distance_m", "distance (m)", 1))
+
+
+def render_table(table: Mapping) -> str:
+    """The table of :func:`benchmark_table` as Markdown: the ablation table (mean ± std over
+    successful flights, failure % with its breakdown), the 95 % intervals of its entries, and
+    both energy measures against the reference."""
+    rows, variants = table["rows"], table["variants"]
+    pct_conf = f"{100 * table['confidence']:g}%"
+    head = ("| variant | flights | " + " | ".join(c[1] for c in _COLUMNS)
+            + " | failure % (collision, hover, left map, timeout) |")
+    out = [head, "|" + "---|" * (len(_COLUMNS) + 3)]
+    for v in variants:
+        r = rows[v]
+        f = r["failures"]
+        fail = r["failure_pct"]["value"]
+        parts = ", ".join("-" if f[o]["pct"] is None else f"{f[o]['pct']:.1f}" for o in FAILURES)
+        fail_s = "-" if fail is None else f"{fail:.1f} ({parts})"
+        n = f"{r['flights']}" + (f" (+{r['errors']} errors)" if r["errors"] else "")
+        out.append(f"| {v} | {n} | " + " | ".join(_pm(r["metrics"][c], d) for c, _, d in _COLUMNS)
+                   + f" | {fail_s} |")
+    out += ["", f"{pct_conf} confidence intervals (means: Student t over successful flights; "
+            "failure %: Wilson):", "",
+            "| variant | " + " | ".join(c[1] for c in _COLUMNS) + " | failure % |",
+            "|" + "---|" * (len(_COLUMNS) + 2)]
+    for v in variants:
+        r = rows[v]
+        out.append(f"| {v} | " + " | ".join(_ci(r["metrics"][c]["ci95"], d) for c, _, d in
+                                              _COLUMNS)
+                   + f" | {_ci(r['failure_pct']['ci95'], 1)} |")
+    ref = table["reference"]
+    others = [v for v in variants if "vs_reference" in rows[v]]
+    if others:
+        out += ["", f"Energy against {ref} (table ratio: 1 - mean(E)/mean(E_{ref}) over each "
+                "variant's successful flights, bootstrap interval; paired reduction: mean of "
+                f"1 - E/E_{ref} over the scenarios where neither failed, t interval):", "",
+                "| variant | energy | table ratio | paired reduction | n (variant, ref; "
+                "pairs) |", "|---|---|---|---|---|"]
+        for v in others:
+            for e, label in (("energy_J", "airspeed model"), ("rotor_energy_J", "rotor")):
+                d = rows[v]["vs_reference"][e]
+                tr, pr = d["table_ratio"], d["paired_reduction"]
+                tr_s = (f"{_pct(tr['value'])} {_ci(tr['ci95'], 1, 100.0, '%')}"
+                        if tr["value"] is not None else "-")
+                pr_s = (f"{_pct(pr['mean'])} {_ci(pr['ci95'], 1, 100.0, '%')}"
+                        if pr["mean"] is not None else "-")
+                out.append(f"| {v} | {label} | {tr_s} | {pr_s} | {tr['n_variant']}, "
+                           f"{tr['n_reference']}; {pr['n']} |")
+    return "\n".join(out) + "\n"

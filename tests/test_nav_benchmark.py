@@ -1,0 +1,500 @@
+"""The navigation benchmark harness: suites, the resumable store, failures, the table, replay.
+
+Real flights use a tiny suite (one 200 m map with two small buildings, a 3 m/s wind, 5 s of
+spin-up and 30 s recorded: a flow takes a second or two); the store and error tests replace the
+wind and the flight with stand-ins so that they take milliseconds. The ``quick`` suite itself
+(four 600 m winds, minutes on two cores) runs when ``WINDNAV_QUICK_SUITE=1``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import windnav.commands.benchmark_nav as bench_cmd
+import windnav.experiments.nav_benchmark as nb
+from windnav.experiments.nav_records import (
+    CorruptRecordError,
+    NavStore,
+    SuiteMismatchError,
+    benchmark_table,
+    render_table,
+)
+from windnav.experiments.nav_suite import (
+    SUITES,
+    SuiteSpec,
+    clearance_to_buildings,
+    get_suite,
+    make_suite,
+    parse_scenario_id,
+    suite_map,
+)
+
+TINY = SuiteSpec(
+    "tiny", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,), incidences_deg=(0.0, 90.0),
+    n_tailwind=1, n_headwind=1, pair_distance=100.0, clearance=25.0, edge=15.0, map_size=200.0,
+    map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+
+
+def angle_between(a_deg, b_deg):
+    return abs((a_deg - b_deg + 180.0) % 360.0 - 180.0)
+
+
+# ----------------------------------------------------------------------------- the suites
+
+
+def test_thesis_suite_is_deterministic_and_follows_the_pair_rules():
+    spec = SUITES["thesis"]
+    a, b = make_suite(spec), make_suite(spec)
+    assert a == b
+    assert len(a) == 1024 == spec.n_scenarios
+    assert len({s.scenario_id for s in a}) == 1024
+    assert {(s.speed, s.direction_deg) for s in a} == {
+        (sp, inc) for sp in (2.0, 5.0, 7.0, 10.0) for inc in (0.0, 15.0, 30.0, 45.0)}
+    cities = {m: suite_map(spec, m) for m in spec.maps}
+    assert len({c.footprints.tobytes() for c in cities.values()}) == 16
+    assert all(9 <= len(set(c.building_labels().tolist())) <= 16
+               and c.bounds == (0, 600, 0, 600) for c in cities.values())
+    for s in a:
+        start, goal = np.array(s.start), np.array(s.goal)
+        v = goal - start
+        assert np.hypot(*v) == pytest.approx(282.0, abs=1e-9)
+        heading = math.degrees(math.atan2(v[1], v[0]))
+        target = s.direction_deg + (0.0 if s.kind == "tailwind" else 180.0)
+        assert angle_between(heading, target) <= 45.0 + 1e-9, s.scenario_id
+        assert s.kind == ("tailwind" if s.pair_index < 2 else "headwind")
+        pts = np.array([start, goal])
+        assert np.all(pts >= 25.0) and np.all(pts <= 575.0)
+        assert clearance_to_buildings(cities[s.map_index], pts).min() >= 15.0
+        assert s.scenario_id == f"thesis/m{s.map_index:02d}/w{s.wind_index:02d}/p{s.pair_index}"
+    # two pairs of each kind per wind, and seeds that differ between scenarios
+    kinds = {}
+    for s in a:
+        kinds.setdefault(s.group, []).append(s.kind)
+    assert all(k == ["tailwind", "tailwind", "headwind", "headwind"] for k in kinds.values())
+    assert len({s.seed for s in a}) == 1024
+    # another suite seed, other maps and pairs
+    other = make_suite(replace(get_suite("thesis", seed=1), maps=(0,)))
+    assert [s.start for s in other[:8]] != [s.start for s in a[:8]]
+    assert not np.array_equal(suite_map(get_suite("thesis", seed=1), 0).footprints,
+                              cities[0].footprints)
+
+
+def test_quick_is_a_subset_of_thesis_and_ids_parse_back():
+    thesis = {s.scenario_id.split("/", 1)[1]: s for s in make_suite(SUITES["thesis"])}
+    quick = make_suite(SUITES["quick"])
+    assert len(quick) == 8
+    assert {s.kind for s in quick} == {"tailwind", "headwind"}
+    for s in quick:
+        t = thesis[s.scenario_id.split("/", 1)[1]]
+        assert (s.start, s.goal, s.seed, s.speed, s.direction_deg) == (
+            t.start, t.goal, t.seed, t.speed, t.direction_deg)
+    s = quick[3]
+    assert parse_scenario_id(SUITES["quick"], s.scenario_id) == s
+    for bad in ("quick/m0/w04", "thesis/m00/w04/p0", "quick/m05/w04/p0"):
+        with pytest.raises(ValueError, match="'scenario_id' parameter of parse_scenario_id"):
+            parse_scenario_id(SUITES["quick"], bad)
+
+
+def test_suite_settings_are_validated_and_hashed():
+    assert TINY.settings_hash() == SuiteSpec(**{**TINY.__dict__}).settings_hash()
+    assert TINY.settings_hash() != SuiteSpec(**{**TINY.__dict__, "record_s": 31.0}).settings_hash()
+    with pytest.raises(ValueError, match="'winds' parameter of SuiteSpec.*< 2"):
+        SuiteSpec("x", winds=(2,), speeds=(3.0,), incidences_deg=(0.0, 90.0))
+    with pytest.raises(ValueError, match="'name' parameter of SuiteSpec"):
+        SuiteSpec("a/b")
+    with pytest.raises(ValueError, match="'pair_distance' parameter of SuiteSpec"):
+        SuiteSpec("x", map_size=100.0, pair_distance=282.0)
+
+
+# ----------------------------------------------------------------------------- stand-ins
+
+
+def fake_flow(spec, city, speed, direction_deg):
+    return SimpleNamespace(speed=speed, direction_deg=direction_deg)
+
+
+class Fake:
+    """A stand-in for ``navigate``: a deterministic 'flight' from the seed, no physics."""
+
+    def __init__(self, fail_on=None, interrupt_after=None, exc=ValueError):
+        self.calls = 0
+        self.fail_on, self.interrupt_after, self.exc = fail_on, interrupt_after, exc
+
+    def __call__(self, city, start, goal, *, speed, direction_deg, variant, rng, flow, **kw):
+        self.calls += 1
+        if self.interrupt_after is not None and self.calls > self.interrupt_after:
+            raise KeyboardInterrupt
+        if self.fail_on is not None and (tuple(start), variant) == self.fail_on:
+            raise self.exc("the planner blew up")
+        e = 1000.0 + rng % 997 + (0.0 if variant == "mppi" else -100.0)
+        summary = {"outcome": "success" if rng % 3 else "hover", "energy_J": e,
+                   "rotor_energy_J": 1.1 * e, "time_s": 20.0, "distance_m": 100.0,
+                   "mean_cmd_accel": 2.0, "planner_ms_median": 1.0, "fallbacks": 0,
+                   "planner_updates": 200, "final_distance_to_goal_m": 0.1,
+                   "arrival_time_s": 15.0, "wall_s": 0.01}
+        return SimpleNamespace(summary=lambda: summary)
+
+
+@pytest.fixture
+def no_wind(monkeypatch):
+    monkeypatch.setattr(nb, "suite_flow", fake_flow)
+
+
+def keys(store):
+    return [(r["scenario_id"], r["variant"]) for r in store.load()]
+
+
+# ----------------------------------------------------------------------------- the store
+
+
+def test_a_killed_run_resumes_without_duplicates(tmp_path, no_wind):
+    store = tmp_path / "store"
+    with pytest.raises(KeyboardInterrupt):
+        nb.run_benchmark(TINY, ["mppi", "ea-mppi-w"], store, executor="serial",
+                         progress=False, navigate_fn=Fake(interrupt_after=3))
+    s = NavStore(store, TINY)
+    assert len(keys(s)) == 3
+    # the kill also tore a line in half
+    with open(s.records_path, "ab") as f:
+        f.write(b'{"scenario_id": "tiny/m00/w01/p0", "varia')
+    assert len(keys(s)) == 3  # the torn line is ignored
+    out = nb.run_benchmark(TINY, ["mppi", "ea-mppi-w"], store, executor="serial",
+                           progress=False, navigate_fn=Fake())
+    assert (out["already"], out["now"], out["pending"], out["total"]) == (3, 5, 0, 8)
+    k = keys(s)
+    assert len(k) == len(set(k)) == 8
+    assert s.records_path.read_bytes().endswith(b"\n")
+    assert all(json.loads(line) for line in s.records_path.read_text().splitlines())
+    again = nb.run_benchmark(TINY, "mppi,ea-mppi-w", store, executor="serial", progress=False,
+                             navigate_fn=Fake())
+    assert (again["already"], again["now"]) == (8, 0)
+    assert len(keys(s)) == 8
+
+
+def test_a_failed_flight_is_recorded_with_its_traceback_and_the_run_goes_on(tmp_path, no_wind):
+    victim = make_suite(TINY)[1]
+    fake = Fake(fail_on=(victim.start, "ea-mppi-w"))
+    out = nb.run_benchmark(TINY, ["mppi", "ea-mppi-w"], tmp_path, executor="serial",
+                           progress=False, navigate_fn=fake)
+    assert (out["now"], out["errors_now"], out["pending"]) == (8, 1, 0)
+    recs = NavStore(tmp_path, TINY).latest()
+    bad = recs[(victim.scenario_id, "ea-mppi-w")]
+    assert bad["outcome"] == "error" and bad["energy_J"] is None
+    assert bad["error"].startswith("ValueError: the planner blew up")
+    assert "Traceback" in bad["error"] and "__call__" in bad["error"]
+    assert sum(r["error"] is not None for r in recs.values()) == 1
+    # a rerun skips it; --retry-errors flies it again, and its new record counts
+    assert nb.run_benchmark(TINY, ["ea-mppi-w"], tmp_path, executor="serial", progress=False,
+                            navigate_fn=Fake())["now"] == 0
+    again = nb.run_benchmark(TINY, ["ea-mppi-w"], tmp_path, executor="serial", progress=False,
+                             navigate_fn=Fake(), retry_errors=True)
+    assert (again["now"], again["errors_now"]) == (1, 0)
+    assert NavStore(tmp_path, TINY).latest()[(victim.scenario_id, "ea-mppi-w")]["error"] is None
+
+
+def test_a_wind_that_cannot_be_simulated_fails_its_flights_only(tmp_path, monkeypatch):
+    def flow(spec, city, speed, direction_deg):
+        if direction_deg == 90.0:
+            raise RuntimeError("the flow diverged")
+        return fake_flow(spec, city, speed, direction_deg)
+
+    monkeypatch.setattr(nb, "suite_flow", flow)
+    out = nb.run_benchmark(TINY, ["mppi"], tmp_path, executor="serial", progress=False,
+                           navigate_fn=Fake())
+    assert out["now"] == 4 and out["errors_now"] == 2
+    assert [t["wind_index"] for t in out["failed_tasks"]] == [1]
+    recs = NavStore(tmp_path, TINY).load()
+    failed = [r for r in recs if r["outcome"] == "error"]
+    assert {r["wind_index"] for r in failed} == {1}
+    assert all("RuntimeError: the flow diverged" in r["error"] for r in failed)
+
+
+def test_a_store_of_another_suite_is_refused(tmp_path, no_wind):
+    nb.run_benchmark(TINY, ["mppi"], tmp_path, executor="serial", progress=False,
+                     navigate_fn=Fake())
+    for other, what in ((SuiteSpec(**{**TINY.__dict__, "seed": 1}), "seed 0"),
+                        (SuiteSpec(**{**TINY.__dict__, "record_s": 20.0}), "settings_hash"),
+                        (SuiteSpec(**{**TINY.__dict__, "name": "tiny2"}), "suite 'tiny'")):
+        with pytest.raises(SuiteMismatchError, match=f"holds another suite: .*{what}"):
+            nb.run_benchmark(other, ["mppi"], tmp_path, executor="serial", progress=False,
+                             navigate_fn=Fake())
+    (tmp_path / "manifest.json").unlink()
+    with pytest.raises(SuiteMismatchError, match="no manifest.json"):
+        NavStore(tmp_path, TINY)
+
+
+def test_an_unknown_variant_is_named_before_anything_is_written(tmp_path):
+    with pytest.raises(ValueError, match="'variants' parameter of run_benchmark.*'mppi-x'"):
+        nb.run_benchmark(TINY, "mppi,mppi-x", tmp_path / "s", executor="serial")
+    with pytest.raises(ValueError, match="'variants' parameter of run_benchmark"):
+        nb.run_benchmark(TINY, ["mppi", "mppi"], tmp_path / "s", executor="serial")
+    assert not (tmp_path / "s").exists()
+
+
+def test_a_corrupt_record_is_named_by_file_and_line(tmp_path, no_wind):
+    nb.run_benchmark(TINY, ["mppi"], tmp_path, executor="serial", progress=False,
+                     navigate_fn=Fake())
+    path = tmp_path / "records.jsonl"
+    lines = path.read_text().splitlines(keepends=True)
+    path.write_text(lines[0] + "{not json\n" + "".join(lines[1:]))
+    with pytest.raises(CorruptRecordError, match=r"records.jsonl' has a corrupt record at line 2"):
+        nb.run_benchmark(TINY, ["mppi"], tmp_path, executor="serial", progress=False,
+                         navigate_fn=Fake())
+    path.write_text(lines[0] + '{"scenario_id": "other/m00/w00/p0", "variant": "mppi", '
+                    '"outcome": "success"}\n')
+    with pytest.raises(SuiteMismatchError, match="line 2 a record of another suite"):
+        NavStore(tmp_path, TINY).load()
+
+
+# ----------------------------------------------------------------------------- the table
+
+
+def synthetic_records():
+    """mppi and ea-mppi-w on 6 scenarios at two speeds, with known energies and outcomes."""
+    recs = []
+    e_ref = [1000.0, 2000.0, 3000.0, 4000.0, 5000.0, 6000.0]
+    e_ea = [900.0, 1500.0, None, 3000.0, 5500.0, 4500.0]
+    out_ref = ["success"] * 5 + ["collision"]
+    out_ea = ["success", "success", "hover", "success", "success", "success"]
+    for i in range(6):
+        sid = f"s/m00/w{i:02d}/p0"
+        speed = 5.0 if i < 3 else 10.0
+        for v, e, o in (("mppi", e_ref[i], out_ref[i]), ("ea-mppi-w", e_ea[i], out_ea[i])):
+            recs.append({"scenario_id": sid, "variant": v, "outcome": o, "speed": speed,
+                         "energy_J": e, "rotor_energy_J": None if e is None else 2 * e,
+                         "mean_cmd_accel": 2.0, "time_s": 30.0 + i, "distance_m": 300.0})
+    # a harness failure, then an old record of a flight recorded again (the last one counts)
+    recs.append({"scenario_id": "s/m00/w06/p0", "variant": "ea-mppi-w", "outcome": "error",
+                 "speed": 5.0, "energy_J": None, "error": "Traceback ..."})
+    recs.insert(0, {**recs[0], "outcome": "timeout"})
+    return recs
+
+
+def test_table_counts_means_and_both_energy_measures():
+    t = benchmark_table(synthetic_records(), n_boot=500)
+    assert t["variants"] == ["mppi", "ea-mppi-w"] and t["reference"] == "mppi"
+    ref, ea = t["rows"]["mppi"], t["rows"]["ea-mppi-w"]
+    assert (ref["flights"], ref["success"], ref["errors"]) == (6, 5, 0)
+    assert (ea["scenarios"], ea["flights"], ea["success"], ea["errors"]) == (7, 6, 5, 1)
+    assert ref["failure_pct"]["value"] == pytest.approx(100 / 6)
+    assert ref["failures"]["collision"] == {"count": 1, "pct": pytest.approx(100 / 6)}
+    assert ea["failures"]["hover"]["count"] == 1 and ea["failures"]["timeout"]["count"] == 0
+    lo, hi = ea["failure_pct"]["ci95"]
+    assert 0.0 <= lo < 100 / 6 < hi <= 100.0
+    m = ref["metrics"]["energy_kJ"]
+    assert m["n"] == 5 and m["mean"] == pytest.approx(3.0)
+    assert m["std"] == pytest.approx(np.std([1, 2, 3, 4, 5], ddof=1))
+    assert m["ci95"][0] < 3.0 < m["ci95"][1]
+    assert ref["metrics"]["rotor_energy_kJ"]["mean"] == pytest.approx(6.0)
+    assert set(ref["metrics"]) == {"energy_kJ", "rotor_energy_kJ", "mean_cmd_accel", "time_s",
+                                   "distance_m"}
+    assert "vs_reference" not in ref
+    vs = ea["vs_reference"]["energy_J"]
+    mean_ea = np.mean([900, 1500, 3000, 5500, 4500])
+    assert vs["table_ratio"]["value"] == pytest.approx(1 - mean_ea / 3000.0)
+    assert (vs["table_ratio"]["n_variant"], vs["table_ratio"]["n_reference"]) == (5, 5)
+    lo, hi = vs["table_ratio"]["ci95"]
+    assert lo < vs["table_ratio"]["value"] < hi
+    paired = [1 - 900 / 1000, 1 - 1500 / 2000, 1 - 3000 / 4000, 1 - 5500 / 5000]
+    pr = vs["paired_reduction"]
+    assert pr["n"] == 4 and pr["mean"] == pytest.approx(np.mean(paired))
+    assert pr["by_speed"]["5"]["n"] == 2 and pr["by_speed"]["10"]["n"] == 2
+    assert pr["by_speed"]["10"]["mean"] == pytest.approx(np.mean(paired[2:]))
+    rot = ea["vs_reference"]["rotor_energy_J"]["paired_reduction"]
+    assert rot["mean"] == pytest.approx(np.mean(paired))  # rotor = 2 x airspeed here
+    md = render_table(t)
+    assert md.count("\n| mppi |") == 2 and md.count("| ea-mppi-w |") == 4
+    assert "3.00 ± 1.58" in md and "16.7 (16.7, 0.0, 0.0, 0.0)" in md
+    assert "6 (+1 errors)" in md and f"{100 * (1 - mean_ea / 3000):.1f}%" in md
+    assert f"{100 * np.mean(paired):.1f}%" in md
+
+
+def test_table_without_reference_or_flights():
+    recs = [r for r in synthetic_records() if r["variant"] == "ea-mppi-w"]
+    t = benchmark_table(recs, variants=["ea-mppi-w", "mppi"])
+    assert "vs_reference" not in t["rows"]["ea-mppi-w"]
+    assert t["rows"]["mppi"]["flights"] == 0 and t["rows"]["mppi"]["failure_pct"]["value"] is None
+    assert "| mppi | 0 | - |" in render_table(t)
+
+
+# ----------------------------------------------------------------------------- real flights
+
+
+@pytest.fixture(scope="module")
+def tiny_store(tmp_path_factory):
+    path = tmp_path_factory.mktemp("tiny")
+    out = nb.run_benchmark(TINY, ["mppi", "ea-mppi-w"], path, executor="serial",
+                           progress=False)
+    return path, out
+
+
+def test_tiny_suite_flies_every_flight_once_per_wind(tiny_store):
+    path, out = tiny_store
+    assert (out["now"], out["errors_now"], out["pending"]) == (8, 0, 0)
+    recs = NavStore(path, TINY).load()
+    assert [r["error"] for r in recs] == [None] * 8
+    assert list(recs[0]) == list(nb.RECORD_FIELDS)
+    # one wind simulation per (map, wind): every flight of a wind reports the same flow time
+    for w in (0, 1):
+        assert len({r["flow_s"] for r in recs if r["wind_index"] == w}) == 1
+    for r in recs:
+        assert r["outcome"] in ("success", "hover", "collision", "left_map", "timeout")
+        assert r["energy_J"] > 0 and r["rotor_energy_J"] > 0 and r["time_s"] <= 30.0
+    # both variants flew the same scenarios with the same seed (paired)
+    by = {}
+    for r in recs:
+        by.setdefault(r["scenario_id"], set()).add((r["seed"], tuple(r["start"])))
+    assert all(len(v) == 1 for v in by.values())
+    table = benchmark_table(recs)
+    assert table["rows"]["mppi"]["flights"] == table["rows"]["ea-mppi-w"]["flights"] == 4
+
+
+def test_replay_reproduces_a_recorded_flight(tiny_store):
+    path, _ = tiny_store
+    recorded = NavStore(path, TINY).latest()
+    for key in (("tiny/m00/w01/p0", "ea-mppi-w"), ("tiny/m00/w00/p1", "mppi")):
+        again = nb.replay(TINY, *key)
+        check = nb.compare_records(again, recorded[key])
+        assert check["same_outcome"], (again["outcome"], recorded[key]["outcome"])
+        assert check["max_relative_difference"] <= 1e-6, check
+        assert again["seed"] == recorded[key]["seed"]
+    with pytest.raises(ValueError, match="'variants' parameter of replay"):
+        nb.replay(TINY, "tiny/m00/w01/p0", "mppi-x")
+
+
+# ----------------------------------------------------------------------------- the command
+
+
+def command(argv):
+    parser = argparse.ArgumentParser(prog="windnav")
+    sub = parser.add_subparsers(dest="command", required=True)
+    bench_cmd.register(sub)
+    args = parser.parse_args(["benchmark-nav", *map(str, argv)])
+    return args.func(args)
+
+
+REAL_FLY = nb.fly_scenario
+
+
+def fake_fly(spec, scenario, variant, *, city=None, flow=None, navigate_fn=None):
+    return REAL_FLY(spec, scenario, variant, city=city, flow=flow, navigate_fn=Fake())
+
+
+@pytest.fixture
+def tiny_suite(monkeypatch, no_wind):
+    monkeypatch.setitem(SUITES, "quick", TINY.__class__(**{**TINY.__dict__, "name": "quick"}))
+    monkeypatch.setattr(nb, "fly_scenario", fake_fly)
+
+
+def test_command_runs_resumes_prints_the_table_and_writes_json(tmp_path, tiny_suite, capsys):
+    store = tmp_path / "store"
+    assert command(["--suite", "quick", "--variants", "mppi,ea-mppi-w", "--executor", "serial",
+                    "--out", store, "--json", tmp_path / "run.json", "--no-progress"]) == 0
+    text = capsys.readouterr().out
+    assert "8/8 flights recorded (8 now, 0 already" in text
+    assert "| variant | flights | energy (kJ)" in text and "| ea-mppi-w | 4 |" in text
+    doc = json.loads((tmp_path / "run.json").read_text())
+    assert doc["command"] == "windnav benchmark-nav" and doc["summary"]["now"] == 8
+    assert set(doc["table"]["rows"]) == {"mppi", "ea-mppi-w"}
+    # the store remembers its suite: a rerun needs no --suite and flies nothing
+    assert command(["--variants", "mppi", "--executor", "serial", "--out", store,
+                    "--no-progress"]) == 0
+    assert "(0 now, 4 already" in capsys.readouterr().out
+    assert command(["--out", store, "--table", "--json", tmp_path / "t.json"]) == 0
+    assert "| mppi | 4 |" in capsys.readouterr().out
+    assert json.loads((tmp_path / "t.json").read_text())["table"]["variants"] == [
+        "mppi", "ea-mppi-w"]
+
+
+def test_command_errors_are_named(tmp_path, tiny_suite):
+    with pytest.raises(ValueError, match="'--variants' parameter of windnav benchmark-nav.*"
+                                         "'bogus'"):
+        command(["--suite", "quick", "--variants", "mppi,bogus", "--out", tmp_path / "a"])
+    with pytest.raises(ValueError, match="'--suite' parameter .* new store"):
+        command(["--out", tmp_path / "b", "--executor", "serial"])
+    with pytest.raises(ValueError, match="'--out' parameter .* benchmark store"):
+        command(["--out", tmp_path / "c", "--table"])
+    with pytest.raises(ValueError, match="'--variant' parameter"):
+        command(["--replay", "quick/m00/w00/p0"])
+    with pytest.raises(ValueError, match="'--replay' parameter of windnav benchmark-nav"):
+        command(["--replay", "quick/m09/w00/p0", "--variant", "mppi"])
+
+
+def test_command_ctrl_c_keeps_the_finished_flights(tmp_path, tiny_suite, monkeypatch, capsys):
+    calls = []
+
+    def fly(spec, scenario, variant, **kw):
+        calls.append(1)
+        if len(calls) > 2:
+            raise KeyboardInterrupt
+        return fake_fly(spec, scenario, variant, **kw)
+
+    monkeypatch.setattr(nb, "fly_scenario", fly)
+    assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial",
+                    "--out", tmp_path, "--no-progress"]) == 130
+    assert "interrupted; 2 flights recorded" in capsys.readouterr().err
+
+
+def test_command_replay_writes_the_record_and_checks_it(tmp_path, tiny_suite, capsys):
+    command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
+             "--no-progress"])
+    capsys.readouterr()
+    assert command(["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path,
+                    "--json", tmp_path / "r.json"]) == 0
+    assert "same outcome True, largest relative difference 0" in capsys.readouterr().out
+    doc = json.loads((tmp_path / "r.json").read_text())
+    assert doc["scenario_id"] == "quick/m00/w01/p1" and doc["variant"] == "mppi"
+    assert set(nb.RECORD_FIELDS) <= set(doc) and doc["check"]["same_outcome"]
+
+
+# ----------------------------------------------------------------------------- quick suite
+
+QUICK = os.environ.get("WINDNAV_QUICK_SUITE") == "1"
+needs_quick = pytest.mark.skipif(not QUICK, reason="the quick suite takes minutes on 2 cores; "
+                                 "set WINDNAV_QUICK_SUITE=1 (CI)")
+QUICK_VARIANTS = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w")
+
+
+@pytest.fixture(scope="module")
+def quick_table(tmp_path_factory):
+    path = tmp_path_factory.mktemp("quick")
+    out = nb.run_benchmark("quick", QUICK_VARIANTS, path, progress=False)
+    return out, benchmark_table(NavStore(path, SUITES["quick"]).load(), n_boot=200)
+
+
+@needs_quick
+def test_quick_suite_table_structure(quick_table):
+    out, table = quick_table
+    assert (out["total"], out["now"], out["errors_now"], out["pending"]) == (32, 32, 0, 0)
+    assert table["variants"] == ["mppi", "ea-mppi", "ea-mppi-w", "mppi-w"]
+    for v, row in table["rows"].items():
+        assert row["flights"] == 8 and row["errors"] == 0
+        assert row["success"] + sum(f["count"] for f in row["failures"].values()) == 8
+        if v != "mppi":
+            for e in ("energy_J", "rotor_energy_J"):
+                d = row["vs_reference"][e]
+                assert set(d) == {"table_ratio", "paired_reduction"}
+                assert d["table_ratio"]["n_reference"] == table["rows"]["mppi"]["success"]
+    assert render_table(table).count("| ea-mppi-w |") == 4
+
+
+@needs_quick
+@pytest.mark.xfail(strict=False, reason=(
+    "EA-MPPI+W has not saved energy against MPPI in any closed-loop case so far "
+    "(docs/planner.md). Measured on the quick suite (seed 0, 2026-11-23): airspeed-model energy "
+    "table ratio -35.2 % (3 EA-MPPI+W successes, 2 MPPI successes of 8) and paired reduction "
+    "-35.9 % over the 2 scenarios where neither failed (rotor energy: -32.6 %, -33.2 %); the "
+    "Hummingbird's power curve is flat below 5 m/s, so the slower flight costs more"))
+def test_quick_suite_ea_mppi_w_uses_less_energy_than_mppi(quick_table):
+    _, table = quick_table
+    vs = table["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]
+    assert vs["table_ratio"]["value"] > 0.0
+    assert vs["paired_reduction"]["n"] > 0 and vs["paired_reduction"]["mean"] > 0.0
