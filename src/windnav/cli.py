@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     "navigate",
     "demo",
     "benchmark_nav",
+    "train_decoder",
 )
 
 EXIT_ERROR = 2

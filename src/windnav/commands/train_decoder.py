@@ -1,0 +1,151 @@
+"""``windnav train-decoder``: run (or resume) a decoder recipe: its sweep, then the training.
+
+::
+
+    windnav train-decoder --config src/windnav/predict/recipes/default.toml --out runs/default
+    windnav train-decoder --config tiny.toml --out runs/tiny --overwrite   # train again
+
+The recipe (TOML, :mod:`windnav.predict.train`) names the maps, inlets and solver settings of
+the sweep, the samples, the architecture and the schedule. The command first runs or resumes
+the sweep into ``<out>/<sweep.store>`` (:func:`windnav.experiments.wind_sweep.sweep`: finished
+simulations are kept), then trains with :func:`windnav.predict.train.train_decoder`, which
+resumes from ``<out>/checkpoint.pt`` after an interruption. Rerun the same command to continue
+either step. ``--overwrite`` starts the training over (the sweep store is kept and reused).
+
+Writes into ``--out``: ``model.npz`` (the best decoder on the held-out maps; load it with
+``windnav.predict.load_decoder``), ``history.json``, ``checkpoint.pt``, ``recipe.toml`` (a copy
+of the recipe a fresh run started with), ``tensorboard/`` (when the ``tensorboard`` package is
+installed) and the sweep store.
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+import time
+from pathlib import Path
+
+from windnav.commands._common import (
+    add_output_arguments,
+    check_output_path,
+    document,
+    outputs,
+    print_written,
+    where,
+)
+
+__all__ = ["TRAINING_PRODUCTS", "register", "run"]
+
+TRAINING_PRODUCTS = ("checkpoint.pt", "history.json", "model.npz", "tensorboard",
+                     "recipe.toml")
+"""What the training writes into ``--out`` (removed by ``--overwrite``; the store is kept)."""
+
+
+def register(subparsers) -> None:
+    """Add the ``train-decoder`` subcommand."""
+    p = subparsers.add_parser(
+        "train-decoder",
+        help="run a wind flow decoder recipe: its flow sweep, then the training (resumable)",
+        description="Run (or resume) the sweep of a decoder recipe (TOML), then train (or "
+                    "resume training) the decoder; the best model on the held-out maps is "
+                    "written to OUT/model.npz.",
+    )
+    p.add_argument("--config", type=Path, required=True, metavar="FILE",
+                   help="the recipe (e.g. src/windnav/predict/recipes/default.toml)")
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="output folder (default runs/<recipe name>)")
+    p.add_argument("--backend", choices=("serial", "process", "ray"), default=None,
+                   help="sweep executor (default: the recipe's)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="sweep workers (default: the recipe's)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
+    add_output_arguments(p)
+    p.set_defaults(func=run)
+
+
+def run(args, simulate=None) -> int:
+    """Run ``windnav train-decoder``; returns 0 (failed simulations are left out, warned)."""
+    from windnav.experiments.results import write_json
+    from windnav.experiments.wind_sweep import sweep
+    from windnav.flow.sweep_store import SweepMismatchError
+    from windnav.predict.train import load_recipe, recipe_maps, resolve_paths, train_decoder
+
+    name = where(args)
+    try:
+        recipe = load_recipe(args.config)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'config' parameter of load_recipe",
+                                          f"'--config' parameter of {name}")) from None
+    out_dir, store = resolve_paths(recipe, args.out)
+    check_output_path(out_dir, "--out", name, kind="dir")
+    out = outputs(args)
+    if args.overwrite:
+        for product in TRAINING_PRODUCTS:
+            path = out_dir / product
+            if path.is_dir():
+                shutil.rmtree(path)
+                print(f"removed {path} (from an earlier run)")
+            elif path.exists():
+                path.unlink()
+                print(f"removed {path} (from an earlier run)")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    copy = out_dir / "recipe.toml"
+    if not (out_dir / "checkpoint.pt").exists() and args.config.resolve() != copy.resolve():
+        shutil.copyfile(args.config, copy)  # a fresh run: the recipe it was made with
+
+    sw = recipe["sweep"]
+    progress = not args.no_progress
+    t0 = time.perf_counter()
+    try:
+        st, results = sweep(recipe_maps(recipe), store, speeds=sw["speeds"],
+                            directions_deg=sw["directions_deg"], settings=sw["settings"],
+                            backend=args.backend or sw["backend"],
+                            workers=args.workers if args.workers is not None else sw["workers"],
+                            seed=sw["seed"], progress=progress, simulate=simulate)
+    except SweepMismatchError as exc:
+        raise ValueError(
+            f"The '--out' parameter of {name} holds a sweep store {str(store)!r} of a "
+            "different sweep (maps, inlets, solver settings or seed); use another --out, or "
+            "delete the store to start over."
+        ) from exc
+    sweep_seconds = time.perf_counter() - t0
+    failed = [r for r in results if not r.ok]
+    for r in failed:
+        t = r.task
+        print(f"failed: map {t.map_index} cases {list(t.case_indices)} (direction "
+              f"{t.direction_deg:g} deg): {(r.error or '').splitlines()[0]}", file=sys.stderr)
+    total = st.n_maps * st.n_cases
+    print(f"sweep {st.path}: {total - len(st.pending())}/{total} simulations done "
+          f"({sum(len(r.task.case_indices) for r in results if r.ok)} now, "
+          f"{sweep_seconds:.0f} s)")
+    if failed:
+        # a simulation that fails (e.g. FlowDivergedError on a map whose streets jet the flow
+        # past 10x the inlet) fails the same way every time: train on the rest, and say so;
+        # the next run of the command retries them first
+        print(f"{name}: warning: {len(failed)} sweep task(s) failed and are left out of the "
+              "training (listed above); rerunning the command retries them.", file=sys.stderr)
+
+    t1 = time.perf_counter()
+    try:
+        history = train_decoder(recipe, store=store, out_dir=out_dir, progress=progress)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'config' parameter of train_decoder",
+                                          f"'--config' parameter of {name}")) from None
+    train_seconds = time.perf_counter() - t1
+    best = history["best_val"]
+    local = history["baselines"]["local"]
+    print(f"model: {out_dir / 'model.npz'} ({recipe['model']['architecture']}, "
+          f"{history['n_parameters']} parameters, best epoch {history['best_epoch']}/"
+          f"{len(history['epochs'])})")
+    print(f"held-out maps: speed error {best['speed_error']:.3f} m/s (Local "
+          f"{local['speed_error']:.3f}), direction error {best['direction_error_deg']:.2f} deg "
+          f"(Local {local['direction_error_deg']:.2f}); training {train_seconds:.0f} s")
+    if args.json is not None:
+        payload = {"model": str(out_dir / "model.npz"), "store": str(store),
+                   "sweep_seconds": sweep_seconds, "train_seconds": train_seconds,
+                   "history": history}
+        with out.writing() as stage:
+            write_json(document("train-decoder", payload, args), stage.file("--json"))
+        print_written(out)
+    return 0
+

@@ -1,0 +1,796 @@
+"""The wind flow decoder: NumPy inference of the local mean wind field (thesis chapter 4).
+
+``Psi(D, W_up, W_robot) -> (u, v)`` on an ``H x H`` grid of spacing ``Delta`` centred on the
+robot and aligned with the world axes, from one 360-ray LiDAR scan ``D`` (ray ``k`` at ``k``
+deg counter-clockwise from +x), the free-stream wind ``W_up`` and the time-averaged wind at the
+robot ``W_robot`` (both world frame, m/s). This module owns the model file format and the
+NumPy forward pass of every architecture; training (torch) lives in
+:mod:`windnav.predict.torch_models` and :mod:`windnav.predict.train` and is never imported here.
+
+Architectures
+-------------
+``thesis-mlp``
+    The thesis's MLP, 364 -> depth x width (ReLU) -> 2 H^2 (11.7 M parameters at width 2048,
+    depth 3, H = 25). Inputs ``[D / 100 m, W_up / 10 m/s, W_robot / 10 m/s]``; outputs are
+    multiplied by the same 10 m/s. About 23 MFLOP per sample.
+
+``d4-film`` (designed for a CPU)
+    The same mapping with the symmetries and scales of the problem built in, so that the
+    parameters go to what cannot be derived: 0.15 M parameters at the default widths, about
+    0.47 MFLOP per sample as executed (the convolution runs as a dense circulant product).
+
+    1. *Canonical frame: exact D4 equivariance.* The maps are rectangles on a square grid and
+       the solver's grid is square, so rotating the world by 90 deg or mirroring it
+       (y -> -y) rotates or mirrors the mean flow. One of the 8 elements ``g`` of the dihedral
+       group D4 maps the direction of ``W_up`` into the sector [0, 45] deg, and the network
+       works in that frame. On a 1-degree scan the action is exact: a 90 deg rotation is a
+       shift of 90 rays and the mirror is ray k -> -k; the winds are multiplied by the
+       integer matrix ``A_g``; the grid goes back by the inverse cell permutation (a
+       ``np.rot90``/flip) and ``A_g^T`` on the components,
+       ``u_world(p) = A_g^T u_canonical(A_g p)``. The decoder is therefore equivariant by
+       construction (a rotated or mirrored scenario gives the rotated or mirrored
+       prediction), it meets 8 times fewer distinct situations, and a sweep over a few inlet
+       directions covers the circle once folded. What is left of the direction, the angle
+       ``beta`` of ``W_up`` in [0, 45] deg, enters as a feature.
+    2. *Speed scaling: exact self-similarity.* The solver (:func:`windnav.flow.simulate`) has
+       no fixed viscosity (a Smagorinsky eddy viscosity ``(C_s Delta)^2 |S|`` and inviscid
+       walls), so it has no velocity scale: the flow at inlet speed ``lambda U`` is the flow
+       at ``U`` with velocities times ``lambda`` and time divided by ``lambda``, and with the
+       default time step (``U dt / dx = 1`` for U >= 4 m/s) the mean fields of all those
+       speeds are the same field scaled. So the winds enter divided by
+       ``U = max(|W_up|, speed_floor)``, the learned part of the output is multiplied by U,
+       and the decoder is exactly homogeneous: ``Psi(D, l W_up, l W_robot) = l Psi(D, W_up,
+       W_robot)`` for ``l > 0`` (while ``|W_up| >= speed_floor``). A sweep then needs one
+       inlet speed per direction.
+    3. *Residual on the Local baseline.* The output is ``W_robot + U * r``: the model starts
+       from the uniform ``W_robot`` (the Local baseline) and learns the spatial deviation
+       ``r`` (the truth has ``r = 0`` at the robot).
+    4. *Scan encoder.* The scan is min-pooled into ``n_rays / pool`` sectors centred on
+       multiples of ``pool`` deg (odd ``pool`` dividing 90: these sectors are permuted, not
+       cut, by D4, so pooling commutes with the frame change and is done first, on 5 times
+       less data); each sector's nearest wall becomes two channels (range / 100 m and its
+       log), then one circular 1D convolution (ReLU), a max-pool of 2 and one dense layer.
+       The convolution finds walls and corners wherever they are; the dense layer knows
+       where they are relative to the wind (the frame is canonical, so position on the ring
+       has a meaning).
+    5. *FiLM.* The five wind features (``W_up / U = (cos beta, sin beta)``, ``W_robot / U``,
+       ``|W_robot| / U``) scale and shift the scan embedding
+       (``h = relu(e (1 + gamma) + beta)``, Perez et al. 2018) and also enter the trunk: how
+       the same buildings shape the flow depends on where the wind comes from.
+    6. *Mode decoder.* The trunk ends in ``modes`` coefficients of a linear basis of
+       ``2 H^2`` cells (the thesis finds 16 PCA eigenflows explain >= 98 % of the variance of
+       the local fields). Training initialises the basis with the principal components of
+       the training residuals, so the first step already predicts the mean pattern.
+
+    The NumPy forward folds the frame change into the basis: for each of the 8 elements it
+    keeps the basis with its cells permuted and its components rotated back, so a batch is
+    decoded straight into the world frame, group by group (no gather over the output).
+    Nearly all the cost is then three matrix products (the convolution as a circulant matrix,
+    the dense scan layer and the basis), at BLAS speed.
+
+File format
+-----------
+One ``.npz`` (no pickles) with one float32 array per parameter, named as in the torch
+module's ``state_dict``, and ``__metadata__``: a JSON string with ``format``
+(``"windnav-decoder"``), ``version`` (:data:`FORMAT_VERSION`), ``architecture``,
+``hyperparameters`` (with ``size``, the input scales and ``n_rays``), ``spacing`` (m) and, when
+made by training, ``recipe``, ``metrics`` and ``training`` summaries.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from windnav.predict.baselines import check_inputs
+from windnav.predict.dataset import grid_offsets
+
+__all__ = [
+    "ARCHITECTURES",
+    "DEFAULT_MODEL",
+    "FORMAT",
+    "FORMAT_VERSION",
+    "D4FilmArchitecture",
+    "Decoder",
+    "ThesisMLPArchitecture",
+    "canonical_elements",
+    "canonicalize",
+    "canonicalize_field",
+    "centred_min_pool",
+    "d4_grid_permutation",
+    "d4_matrices",
+    "d4_ring_indices",
+    "load_decoder",
+    "make_architecture",
+    "save_decoder",
+    "uncanonicalize",
+    "wind_features",
+]
+
+FORMAT = "windnav-decoder"
+FORMAT_VERSION = 1
+METADATA_KEY = "__metadata__"
+DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "decoder_default.npz"
+DEFAULT_RECIPE = "src/windnav/predict/recipes/default.toml"
+N_WIND_FEATURES = 5
+"""Wind features of d4-film (see :func:`wind_features`)."""
+
+
+# ------------------------------------------------------------------------------ D4 frames
+
+
+def d4_matrices() -> np.ndarray:
+    """The 8 elements of D4 as integer 2x2 matrices ``A_g = R(90 k) M^m``, ``g = 4 m + k``.
+
+    ``M = diag(1, -1)`` mirrors y -> -y; ``R(90 k)`` rotates by ``90 k`` deg. On a direction
+    angle the element acts as ``theta -> (-1)^m theta + 90 k``.
+
+    Returns
+    -------
+    ndarray of shape (8, 2, 2), float32
+        Entries 0 and +-1, so products with them are exact.
+    """
+    out = np.empty((8, 2, 2), dtype=np.float32)
+    mirror = np.diag([1.0, -1.0])
+    for m in range(2):
+        for k in range(4):
+            c, s = [(1, 0), (0, 1), (-1, 0), (0, -1)][k]
+            rot = np.array([[c, -s], [s, c]], dtype=np.float64)
+            out[4 * m + k] = rot @ (mirror if m else np.eye(2))
+    return out
+
+
+_D4 = d4_matrices()
+_D4_T = np.ascontiguousarray(_D4.transpose(0, 2, 1))  # inverses
+
+
+def canonical_elements(w_up: np.ndarray) -> np.ndarray:
+    """The D4 element taking each free-stream direction into the sector [0, 45] deg.
+
+    Parameters
+    ----------
+    w_up : ndarray of shape (B, 2)
+        Free-stream wind, world frame, m/s.
+
+    Returns
+    -------
+    ndarray of shape (B,), int64
+        ``g = 4 m + k`` (see :func:`d4_matrices`): ``A_g w_up`` points into [0, 45] deg.
+        Sector ``s = floor(alpha / 45 deg)`` of the direction ``alpha`` in [0, 360): an even
+        ``s = 2 j`` is rotated by ``-90 j``; an odd ``s = 2 j + 1`` is mirrored, then rotated
+        by ``90 (j + 1)``. A zero wind gets the identity.
+    """
+    alpha = np.degrees(np.arctan2(w_up[:, 1], w_up[:, 0])) % 360.0
+    sector = np.minimum((alpha // 45.0).astype(np.int64), 7)
+    j, odd = sector // 2, sector % 2
+    k = np.where(odd == 1, (j + 1) % 4, (-j) % 4)
+    return 4 * odd + k
+
+
+def d4_ring_indices(n: int) -> np.ndarray:
+    """Permutations of ``n`` equally spaced directions (rays or centred sectors) under D4.
+
+    Direction ``j`` is at ``360 j / n`` deg. The canonical direction ``j`` is the world
+    direction ``A_g^-1(j) = (-1)^m (j - n k / 4)``, so ``ring_c = ring[:, idx[g]]``.
+
+    Returns
+    -------
+    ndarray of shape (8, n), int64
+    """
+    if n % 4:
+        raise ValueError(f"The 'n' parameter of d4_ring_indices must be a multiple of 4. "
+                         f"Got {n!r} instead.")
+    j = np.arange(n)
+    out = np.empty((8, n), dtype=np.int64)
+    for m in range(2):
+        for k in range(4):
+            out[4 * m + k] = ((-1) ** m * (j - (n // 4) * k)) % n
+    return out
+
+
+def d4_grid_permutation(size: int) -> np.ndarray:
+    """Cell permutations of the 8 elements on the centred ``size x size`` grid.
+
+    ``perm[g, c]`` is the flat index (``iy * size + ix``) of the cell ``A_g p`` for the cell
+    ``c`` at offset ``p``: ``field_world[..., c] = A_g^T field_c[..., perm[g, c]]``.
+
+    Returns
+    -------
+    ndarray of shape (8, size * size), int64
+    """
+    c = 2 * np.arange(size) - (size - 1)  # centred integer coordinates: exact for any H
+    px, py = np.meshgrid(c, c)  # [iy, ix]
+    pts = np.stack([px.ravel(), py.ravel()])
+    out = np.empty((8, size * size), dtype=np.int64)
+    for g, a in enumerate(_D4.astype(np.int64)):
+        q = a @ pts
+        out[g] = (q[1] + size - 1) // 2 * size + (q[0] + size - 1) // 2
+    return out
+
+
+def canonicalize(scans, w_up, w_robot):
+    """Inputs in the canonical frame of each sample (the reference frame change).
+
+    Parameters
+    ----------
+    scans : ndarray of shape (B, n_rays)
+        Ranges, m, world frame (``n_rays`` a multiple of 4).
+    w_up, w_robot : ndarray of shape (B, 2)
+        Winds, m/s, world frame.
+
+    Returns
+    -------
+    g : ndarray of shape (B,), int64
+    scans_c : ndarray of shape (B, n_rays)
+    w_up_c, w_robot_c : ndarray of shape (B, 2)
+        ``A_g w``; ``w_up_c`` points into [0, 45] deg.
+    """
+    g = canonical_elements(w_up)
+    scans_c = np.take_along_axis(scans, d4_ring_indices(scans.shape[1])[g], axis=1)
+    mats = _D4[g]
+    return (g, scans_c, np.einsum("bij,bj->bi", mats, w_up),
+            np.einsum("bij,bj->bi", mats, w_robot))
+
+
+def uncanonicalize(field_c: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Canonical fields ``(B, 2, H^2)`` back in the world frame, ``(B, 2, H^2)`` (exact)."""
+    size = math.isqrt(field_c.shape[2])
+    cells = np.take_along_axis(field_c, d4_grid_permutation(size)[g][:, None, :], axis=2)
+    return np.einsum("bij,bjn->bin", _D4_T[g], cells)
+
+
+def canonicalize_field(field: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """World fields ``(B, 2, H^2)`` in the canonical frame (the inverse of
+    :func:`uncanonicalize`)."""
+    size = math.isqrt(field.shape[2])
+    inverse = np.argsort(d4_grid_permutation(size), axis=1)[g]
+    cells = np.take_along_axis(field, inverse[:, None, :], axis=2)
+    return np.einsum("bij,bjn->bin", _D4[g], cells)
+
+
+# ------------------------------------------------------------------------- features
+
+
+def centred_min_pool(scans: np.ndarray, pool: int) -> np.ndarray:
+    """Nearest range in each sector of ``pool`` rays centred on ray ``pool * i``.
+
+    Parameters
+    ----------
+    scans : ndarray of shape (B, n_rays)
+    pool : int
+        Odd, dividing ``n_rays``.
+
+    Returns
+    -------
+    ndarray of shape (B, n_rays / pool)
+        Sector ``i`` is the minimum of rays ``pool * i - h ... pool * i + h``,
+        ``h = (pool - 1) / 2`` (circularly).
+    """
+    h = (pool - 1) // 2
+    n = scans.shape[1]
+    shifted = np.concatenate([scans[:, n - h:], scans[:, :n - h]], axis=1) if h else scans
+    out = shifted[:, 0::pool].copy()
+    for j in range(1, pool):
+        np.minimum(out, shifted[:, j::pool], out=out)
+    return out
+
+
+def range_channels(ranges: np.ndarray, range_scale: float, range_min: float) -> np.ndarray:
+    """Ranges ``(B, N)`` m as two channels ``(B, 2, N)`` in [0, 1]: ``r / range_scale`` and
+    ``log(r / range_min) / log(range_scale / range_min)``, ``r`` clipped to the scan's range."""
+    r = np.clip(ranges, np.float32(range_min), np.float32(range_scale))
+    span = np.float32(math.log(range_scale / range_min))
+    return np.stack([r / np.float32(range_scale), np.log(r / np.float32(range_min)) / span],
+                    axis=1)
+
+
+def wind_features(w_up_c: np.ndarray, w_robot_c: np.ndarray, speed_floor: float):
+    """The five canonical wind features and the speed scale ``U``.
+
+    Returns
+    -------
+    features : ndarray of shape (B, 5), float32
+        ``W_up / U`` (2), ``W_robot / U`` clipped to +-4 (2), ``|W_robot| / U`` clipped to
+        [0, 4].
+    scale : ndarray of shape (B,), float32
+        ``U = max(|W_up|, speed_floor)``, m/s.
+    """
+    w_up_c = np.asarray(w_up_c, dtype=np.float32)
+    w_robot_c = np.asarray(w_robot_c, dtype=np.float32)
+    scale = np.maximum(np.hypot(w_up_c[:, 0], w_up_c[:, 1]), np.float32(speed_floor))
+    rob = np.clip(w_robot_c / scale[:, None], -4.0, 4.0)
+    rob_speed = np.minimum(np.hypot(w_robot_c[:, 0], w_robot_c[:, 1]) / scale, 4.0)
+    feats = np.concatenate([w_up_c / scale[:, None], rob, rob_speed[:, None]], axis=1)
+    return feats.astype(np.float32, copy=False), scale
+
+
+# --------------------------------------------------------------------- architectures
+
+
+class ThesisMLPArchitecture:
+    """The ``thesis-mlp`` (see the module docstring): world frame, constant input scales.
+
+    Every architecture has the same parts: ``shapes()`` (parameter name -> shape),
+    ``features(scans, w_up, w_robot)`` (the NumPy preprocessing, shared with training),
+    ``prepare(weights)`` (the weights plus arrays derived from them once),
+    ``network(prepared, features)`` (the learned part, mirrored by
+    :mod:`windnav.predict.torch_models`; a model-frame field ``(B, 2, H^2)``, m/s),
+    ``world_frame(field, features)`` (to ``(B, 2, H, H)``), ``model_labels(labels, free,
+    features)`` (world labels into the model frame, for training) and ``predict(prepared,
+    scans, w_up, w_robot)`` (the inference path, world frame in and out).
+
+    Parameters
+    ----------
+    hp : dict
+        Complete hyperparameters (:func:`make_architecture`).
+    """
+
+    name = "thesis-mlp"
+    defaults = {"n_rays": 360, "width": 2048, "depth": 3, "range_scale": 100.0,
+                "wind_scale": 10.0}
+
+    def __init__(self, hp: dict):
+        self.hp = hp
+
+    def shapes(self) -> dict:
+        hp = self.hp
+        dims = [hp["n_rays"] + 4] + [hp["width"]] * hp["depth"] + [2 * hp["size"] ** 2]
+        shapes = {}
+        for i in range(len(dims) - 1):
+            shapes[f"layers.{i}.weight"] = (dims[i + 1], dims[i])
+            shapes[f"layers.{i}.bias"] = (dims[i + 1],)
+        return shapes
+
+    def features(self, scans, w_up, w_robot) -> dict:
+        rs, ws = np.float32(self.hp["range_scale"]), np.float32(self.hp["wind_scale"])
+        x = np.concatenate([np.minimum(scans, rs) / rs, w_up / ws, w_robot / ws], axis=1)
+        return {"x": x.astype(np.float32, copy=False)}
+
+    def network(self, w: dict, f: dict) -> np.ndarray:
+        x = f["x"]
+        n = self.hp["depth"] + 1
+        for i in range(n):
+            x = x @ w[f"layers.{i}.weight"].T + w[f"layers.{i}.bias"]
+            if i < n - 1:
+                np.maximum(x, 0.0, out=x)
+        return (x * np.float32(self.hp["wind_scale"])).reshape(x.shape[0], 2, -1)
+
+    def world_frame(self, field: np.ndarray, f: dict) -> np.ndarray:
+        h = self.hp["size"]
+        return field.reshape(-1, 2, h, h)
+
+    def model_labels(self, labels: np.ndarray, free: np.ndarray, f: dict):
+        return labels, free
+
+    def prepare(self, w: dict) -> dict:
+        return dict(w)
+
+    def predict(self, w: dict, scans, w_up, w_robot) -> np.ndarray:
+        return self.world_frame(self.network(w, self.features(scans, w_up, w_robot)), None)
+
+
+class D4FilmArchitecture(ThesisMLPArchitecture):
+    """The ``d4-film`` architecture (see the module docstring): canonical frame, speed scaling,
+    circular-convolution scan encoder, FiLM, residual mode decoder."""
+
+    name = "d4-film"
+    defaults = {"n_rays": 360, "pool": 5, "conv_channels": 8, "kernel": 5, "embed": 128,
+                "film_hidden": 32, "width": 128, "depth": 2, "modes": 48,
+                "range_scale": 100.0, "range_min": 0.25, "speed_floor": 0.1}
+
+    def __init__(self, hp: dict):
+        super().__init__(hp)
+        self._bins = d4_ring_indices(hp["n_rays"] // hp["pool"])
+        self._perm = d4_grid_permutation(hp["size"])
+        self._inverse = np.argsort(self._perm, axis=1)
+
+    def shapes(self) -> dict:
+        hp = self.hp
+        c, k, e, width = hp["conv_channels"], hp["kernel"], hp["embed"], hp["width"]
+        n_pooled = hp["n_rays"] // hp["pool"] // 2
+        shapes = {
+            "conv.weight": (c, 2, k), "conv.bias": (c,),
+            "embed.weight": (e, n_pooled * c), "embed.bias": (e,),
+            "film_in.weight": (hp["film_hidden"], N_WIND_FEATURES),
+            "film_in.bias": (hp["film_hidden"],),
+            "film_out.weight": (2 * e, hp["film_hidden"]), "film_out.bias": (2 * e,),
+        }
+        n_in = e + N_WIND_FEATURES
+        for i in range(hp["depth"]):
+            shapes[f"trunk.{i}.weight"] = (width, n_in)
+            shapes[f"trunk.{i}.bias"] = (width,)
+            n_in = width
+        shapes["coeff.weight"] = (hp["modes"], n_in)
+        shapes["coeff.bias"] = (hp["modes"],)
+        shapes["basis.weight"] = (2 * hp["size"] ** 2, hp["modes"])
+        shapes["basis.bias"] = (2 * hp["size"] ** 2,)
+        return shapes
+
+    def features(self, scans, w_up, w_robot) -> dict:
+        """``g`` (B,), ``channels`` (B, 2, n_rays / pool), ``winds`` (B, 5), ``scale`` (B,) m/s,
+        ``w_robot`` (B, 2) m/s canonical, ``w_robot_world`` (B, 2) m/s."""
+        hp = self.hp
+        g = canonical_elements(w_up)
+        pooled = centred_min_pool(scans, hp["pool"])
+        pooled = np.take_along_axis(pooled, self._bins[g], axis=1)
+        mats = _D4[g]
+        w_up_c = np.einsum("bij,bj->bi", mats, w_up)
+        w_robot_c = np.einsum("bij,bj->bi", mats, w_robot).astype(np.float32)
+        winds, scale = wind_features(w_up_c, w_robot_c, hp["speed_floor"])
+        return {"g": g, "channels": range_channels(pooled, hp["range_scale"], hp["range_min"]),
+                "winds": winds, "scale": scale, "w_robot": w_robot_c,
+                "w_robot_world": np.asarray(w_robot, dtype=np.float32)}
+
+    def coefficients(self, w: dict, f: dict) -> np.ndarray:
+        """The mode coefficients ``(B, modes)``, in units of U; ``w`` as :meth:`prepare`
+        returns it."""
+        channels, winds = f["channels"], f["winds"]
+        b = channels.shape[0]
+        # circular convolution as one product with its circulant matrix, columns ordered
+        # (parity, position / 2, channel), so the max-pool of 2 is the larger of two halves;
+        # the ReLU comes after the pool (they commute)
+        y = channels.reshape(b, -1) @ w["conv.circulant"] + w["conv.bias_cols"]
+        half = y.shape[1] // 2
+        y = np.maximum(y[:, :half], y[:, half:])
+        np.maximum(y, 0.0, out=y)
+        e = y @ w["embed.weight"].T + w["embed.bias"]
+        hidden = np.maximum(winds @ w["film_in.weight"].T + w["film_in.bias"], 0.0)
+        gb = hidden @ w["film_out.weight"].T + w["film_out.bias"]
+        n_e = e.shape[1]
+        h = np.maximum(e * (1.0 + gb[:, :n_e]) + gb[:, n_e:], 0.0)
+        h = np.concatenate([h, winds], axis=1)
+        for i in range(self.hp["depth"]):
+            h = h @ w[f"trunk.{i}.weight"].T + w[f"trunk.{i}.bias"]
+            np.maximum(h, 0.0, out=h)
+        return h @ w["coeff.weight"].T + w["coeff.bias"]
+
+    def network(self, w: dict, f: dict) -> np.ndarray:
+        """Canonical field ``(B, 2, H^2)``, m/s: ``w_robot + U (coefficients @ basis)``."""
+        a = self.coefficients(w, f)
+        r = (a @ w["basis.weight"].T + w["basis.bias"]).reshape(a.shape[0], 2, -1)
+        r *= f["scale"][:, None, None]
+        r += f["w_robot"][:, :, None]
+        return r
+
+    def world_frame(self, field_c: np.ndarray, f: dict) -> np.ndarray:
+        h = self.hp["size"]
+        return uncanonicalize(field_c, f["g"]).reshape(-1, 2, h, h)
+
+    def model_labels(self, labels: np.ndarray, free: np.ndarray, f: dict):
+        inverse = self._inverse[f["g"]]
+        cells = np.take_along_axis(labels, inverse[:, None, :], axis=2)
+        return (np.einsum("bij,bjn->bin", _D4[f["g"]], cells),
+                np.take_along_axis(free, inverse, axis=1))
+
+    def prepare(self, w: dict) -> dict:
+        """The weights plus what inference derives from them once.
+
+        ``conv.circulant (2 N, N C)`` and ``conv.bias_cols (N C,)``: the circular convolution
+        over the ``N`` sectors as a matrix, output columns ordered (parity, position / 2,
+        channel). ``basis.folded (8, modes + 3, 2 H^2)``: for each element ``g``, the basis,
+        its bias and the two uniform unit fields, with the way back to the world frame folded
+        in (cells permuted, components multiplied by ``A_g^T``), so that the world field is
+        ``[U a, U, W_robot] @ basis.folded[g]``.
+        """
+        hp = self.hp
+        n = hp["n_rays"] // hp["pool"]
+        conv = w["conv.weight"]
+        c_out, c_in, k = conv.shape
+        pad = k // 2
+        circulant = np.zeros((c_in, n, 2, n // 2, c_out), dtype=np.float32)
+        for pos in range(n):
+            for t in range(k):
+                circulant[:, (pos + t - pad) % n, pos % 2, pos // 2, :] += conv[:, :, t].T
+        cells = hp["size"] ** 2
+        basis = w["basis.weight"].T.reshape(hp["modes"], 2, cells)
+        bias = w["basis.bias"].reshape(1, 2, cells)
+        folded = np.empty((8, hp["modes"], 2 * cells), dtype=np.float32)
+        folded_bias = np.empty((8, 2 * cells), dtype=np.float32)
+        for g in range(8):
+            perm = self._perm[g]
+            folded[g] = np.einsum("ij,kjn->kin", _D4_T[g], basis[:, :, perm]).reshape(
+                hp["modes"], -1)
+            folded_bias[g] = np.einsum("ij,kjn->kin", _D4_T[g], bias[:, :, perm]).reshape(-1)
+        # rows for the uniform W_robot: 1 on the u (then v) cells
+        uniform = np.zeros((8, 2, 2 * cells), dtype=np.float32)
+        uniform[:, 0, :cells] = uniform[:, 1, cells:] = 1.0
+        return {**w, "conv.circulant": circulant.reshape(c_in * n, n * c_out),
+                "conv.bias_cols": np.tile(w["conv.bias"], n),
+                "basis.folded": np.concatenate([folded, folded_bias[:, None], uniform], axis=1)}
+
+    def predict(self, w: dict, scans, w_up, w_robot) -> np.ndarray:
+        f = self.features(scans, w_up, w_robot)
+        a = self.coefficients(w, f)
+        b, k = a.shape
+        # world field = [U a, U, W_robot] @ folded[g]: scale, bias and residual in one product
+        aug = np.empty((b, k + 3), dtype=np.float32)
+        np.multiply(a, f["scale"][:, None], out=aug[:, :k])
+        aug[:, k] = f["scale"]
+        aug[:, k + 1:] = f["w_robot_world"]
+        basis = w["basis.folded"]
+        g = f["g"]
+        if np.all(g == g[0]):
+            return (aug @ basis[g[0]]).reshape(b, 2, -1)
+        order = np.argsort(g, kind="stable")
+        bounds = np.searchsorted(g[order], np.arange(9))
+        aug = aug[order]
+        sorted_out = np.empty((b, basis.shape[2]), dtype=np.float32)
+        for e in range(8):
+            lo, hi = bounds[e], bounds[e + 1]
+            if hi > lo:
+                np.matmul(aug[lo:hi], basis[e], out=sorted_out[lo:hi])
+        out = np.empty_like(sorted_out)
+        out[order] = sorted_out
+        return out.reshape(b, 2, -1)
+
+
+ARCHITECTURES = {a.name: a for a in (ThesisMLPArchitecture, D4FilmArchitecture)}
+"""Architecture name -> its class (see :class:`ThesisMLPArchitecture` for the parts)."""
+
+_INT_HP = ("n_rays", "width", "depth", "pool", "conv_channels", "kernel", "embed",
+           "film_hidden", "modes", "size")
+
+
+def make_architecture(name: str, size: int, **overrides):
+    """An architecture with complete, checked hyperparameters for an ``size x size`` grid.
+
+    Parameters
+    ----------
+    name : {"thesis-mlp", "d4-film"}
+    size : int
+        H, cells per side of the output grid.
+    **overrides
+        Hyperparameters replacing the architecture's ``defaults``.
+
+    Returns
+    -------
+    ThesisMLPArchitecture or D4FilmArchitecture
+        Its ``hp`` holds every hyperparameter, ``size`` included.
+    """
+    where = "make_architecture"
+    if name not in ARCHITECTURES:
+        raise ValueError(f"The 'name' parameter of {where} must be one of "
+                         f"{sorted(ARCHITECTURES)}. Got {name!r} instead.")
+    cls = ARCHITECTURES[name]
+    unknown = sorted(set(overrides) - set(cls.defaults))
+    if unknown:
+        raise ValueError(f"The hyperparameters of {where} for {name!r} must be among "
+                         f"{sorted(cls.defaults)}. Got unknown {unknown} instead.")
+    hp = {**cls.defaults, **overrides, "size": size}
+    for key in _INT_HP:
+        v = hp.get(key, 1)
+        if isinstance(v, bool) or not isinstance(v, (int, float, np.integer)) or int(v) != v \
+                or v < 1:
+            raise ValueError(f"The '{key}' hyperparameter of {where} must be an integer >= 1. "
+                             f"Got {v!r} instead.")
+        if key in hp:
+            hp[key] = int(v)
+    for key in ("range_scale", "range_min", "speed_floor", "wind_scale"):
+        if key in hp and not (isinstance(hp[key], (int, float)) and 0 < hp[key] < math.inf):
+            raise ValueError(f"The '{key}' hyperparameter of {where} must be a positive "
+                             f"number. Got {hp[key]!r} instead.")
+        if key in hp:
+            hp[key] = float(hp[key])
+    if name == "d4-film":
+        p, n = hp["pool"], hp["n_rays"]
+        if p % 2 == 0 or n % p or (n // p) % 4:
+            raise ValueError(f"The 'pool' hyperparameter of {where} must be odd and divide "
+                             f"n_rays = {n} into a multiple of 4 sectors (3, 5, 9, ... for "
+                             f"360). Got {p!r} instead.")
+        if hp["kernel"] % 2 == 0:
+            raise ValueError(f"The 'kernel' hyperparameter of {where} must be odd. Got "
+                             f"{hp['kernel']!r} instead.")
+    return cls(hp)
+
+
+# --------------------------------------------------------------------------- Decoder
+
+
+class Decoder:
+    """A trained wind flow decoder, evaluated with NumPy.
+
+    Parameters
+    ----------
+    weights : dict of str to ndarray
+        The parameters, named as in ``make_architecture(...).shapes()`` (cast to float32).
+    metadata : dict
+        At least ``architecture``, ``hyperparameters`` (with ``size``) and ``spacing`` (m).
+
+    Attributes
+    ----------
+    offsets : ndarray of shape (H,)
+        Cell-centre offsets of the output grid, m, the same for x and y.
+    size : int
+        H, cells per side.
+    spacing : float
+        Cell size, m.
+    architecture : str
+        Its name.
+    arch : ThesisMLPArchitecture or D4FilmArchitecture
+        The architecture's parts (features, network, frame changes).
+    hyperparameters : dict
+    metadata : dict
+        Everything the file holds besides the weights (recipe, metrics, ...).
+    n_parameters : int
+    """
+
+    def __init__(self, weights: dict, metadata: dict):
+        where = "Decoder"
+        name = metadata.get("architecture")
+        if name not in ARCHITECTURES:
+            raise ValueError(f"The 'metadata' parameter of {where} must name an architecture "
+                             f"among {sorted(ARCHITECTURES)}. Got {name!r} instead.")
+        hp = dict(metadata.get("hyperparameters", {}))
+        arch = make_architecture(name, hp.pop("size", metadata.get("size")), **hp)
+        shapes = arch.shapes()
+        missing = sorted(set(shapes) - set(weights))
+        extra = sorted(set(weights) - set(shapes))
+        bad = [(k, tuple(np.shape(weights[k])), shapes[k]) for k in sorted(shapes)
+               if k in weights and tuple(np.shape(weights[k])) != tuple(shapes[k])]
+        if missing or extra or bad:
+            raise ValueError(
+                f"The 'weights' parameter of {where} must hold the parameters of {name!r} with "
+                f"size {arch.hp['size']}. Got missing {missing}, unexpected {extra}, wrong "
+                f"shapes {bad} instead.")
+        self.weights = {k: np.ascontiguousarray(weights[k], dtype=np.float32) for k in shapes}
+        for k, v in self.weights.items():
+            if not np.all(np.isfinite(v)):
+                raise ValueError(f"The 'weights' parameter of {where} must be finite. Got "
+                                 f"non-finite values in {k!r} instead.")
+        self.architecture = name
+        self.arch = arch
+        self.hyperparameters = arch.hp
+        self.size = arch.hp["size"]
+        self.spacing = float(metadata.get("spacing", 1.0))
+        self.n_rays = arch.hp["n_rays"]
+        self.offsets = grid_offsets(self.size, self.spacing)
+        self.metadata = {**metadata, "architecture": name, "hyperparameters": dict(arch.hp),
+                         "size": self.size, "spacing": self.spacing, "n_rays": self.n_rays}
+        self.prepared = arch.prepare(self.weights)
+
+    @property
+    def n_parameters(self) -> int:
+        """Number of scalar parameters."""
+        return int(sum(v.size for v in self.weights.values()))
+
+    def predict(self, scans, w_up, w_robot) -> np.ndarray:
+        """The local mean wind field around each robot.
+
+        Parameters
+        ----------
+        scans : array_like of shape (B, n_rays)
+            LiDAR ranges, m; ray ``k`` at ``360 k / n_rays`` deg counter-clockwise from +x
+            (world frame), as :meth:`windnav.city.City.lidar` returns them.
+        w_up : array_like of shape (B, 2)
+            Free-stream (inlet) wind, world frame, m/s.
+        w_robot : array_like of shape (B, 2)
+            Time-averaged wind at the robot, world frame, m/s.
+
+        Returns
+        -------
+        ndarray of shape (B, 2, H, H), float32
+            ``[u, v]`` in m/s, world frame, indexed ``[.., iy, ix]`` at
+            ``(x + offsets[ix], y + offsets[iy])``.
+
+        Raises
+        ------
+        ValueError
+            Naming the argument, for a scan of the wrong length, NaN or negative ranges, NaN
+            wind or a batch-size mismatch (:func:`windnav.predict.baselines.check_inputs`).
+        """
+        scans, w_up, w_robot = check_inputs(scans, w_up, w_robot, "Decoder.predict")
+        if scans.shape[1] != self.n_rays:
+            raise ValueError(f"The 'scans' parameter of Decoder.predict must have "
+                             f"{self.n_rays} rays per scan. Got shape {scans.shape} instead.")
+        field = self.arch.predict(self.prepared, np.asarray(scans, dtype=np.float32),
+                                  np.asarray(w_up, dtype=np.float32),
+                                  np.asarray(w_robot, dtype=np.float32))
+        return field.reshape(-1, 2, self.size, self.size)
+
+    def save(self, path) -> Path:
+        """Write this decoder to ``path`` (.npz); see :func:`save_decoder`."""
+        return save_decoder(self.weights, self.metadata, path)
+
+    def __repr__(self) -> str:
+        return (f"Decoder({self.architecture!r}, H={self.size}, spacing={self.spacing:g} m, "
+                f"{self.n_parameters} parameters)")
+
+
+def save_decoder(weights: dict, metadata: dict, path) -> Path:
+    """Write a decoder file: the parameters and the JSON metadata in one ``.npz``.
+
+    The file is written to a temporary name and renamed, so a crash never leaves a half
+    file under ``path``. ``format`` and ``version`` are set here.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    meta = {**metadata, "format": FORMAT, "version": FORMAT_VERSION}
+    arrays = {k: np.asarray(v, dtype=np.float32) for k, v in weights.items()}
+    if METADATA_KEY in arrays:
+        raise ValueError(f"The 'weights' parameter of save_decoder must not hold a parameter "
+                         f"named {METADATA_KEY!r}.")
+    arrays[METADATA_KEY] = np.array(json.dumps(meta, sort_keys=True, default=_jsonable))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp.npz")
+    np.savez(tmp, **arrays)
+    os.replace(tmp, path)
+    return path
+
+
+def _jsonable(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def load_decoder(path=None) -> Decoder:
+    """Load a wind flow decoder.
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        A decoder file (.npz) written by :func:`save_decoder` or ``windnav train-decoder``.
+        Default: the model shipped with windnav (``windnav/predict/data/decoder_default.npz``).
+
+    Returns
+    -------
+    Decoder
+
+    Raises
+    ------
+    ValueError
+        Naming 'path', when the file is missing, is not a decoder file, is corrupt, or was
+        written by an incompatible format version.
+    """
+    where = "load_decoder"
+    if path is None:
+        if not DEFAULT_MODEL.is_file():
+            raise ValueError(
+                f"The 'path' parameter of {where} defaults to the shipped decoder "
+                f"{str(DEFAULT_MODEL)!r}, which is not installed. Build it with `windnav "
+                f"train-decoder --config {DEFAULT_RECIPE}` and copy its model.npz there, or "
+                "pass the path of a trained decoder."
+            )
+        path = DEFAULT_MODEL
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"The 'path' parameter of {where} must name an existing decoder file "
+                         f"(.npz). Got {str(path)!r} instead, which does not exist.")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: np.asarray(data[k]) for k in data.files}
+    except Exception as exc:  # zip, header and decompression errors all mean a corrupt file
+        raise ValueError(f"The 'path' parameter of {where} must name a readable decoder file "
+                         f"(.npz). Got {str(path)!r} instead, which cannot be read: "
+                         f"{type(exc).__name__}: {exc}") from exc
+    raw = arrays.pop(METADATA_KEY, None)
+    try:
+        meta = json.loads(str(raw[()])) if raw is not None else None
+    except (ValueError, TypeError, IndexError) as exc:
+        raise ValueError(f"The 'path' parameter of {where} names {str(path)!r}, whose metadata "
+                         f"is not valid JSON: {exc}") from exc
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise ValueError(f"The 'path' parameter of {where} must name a windnav decoder file. "
+                         f"Got {str(path)!r} instead, which has no '{FORMAT}' metadata.")
+    version = meta.get("version")
+    if version != FORMAT_VERSION:
+        raise ValueError(f"The 'path' parameter of {where} names {str(path)!r}, a decoder file "
+                         f"of format version {version!r}; this windnav reads version "
+                         f"{FORMAT_VERSION}. Retrain it with `windnav train-decoder`.")
+    try:
+        return Decoder(arrays, meta)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"The 'path' parameter of {where} names {str(path)!r}, whose "
+                         f"parameters do not match its metadata: {exc}") from exc

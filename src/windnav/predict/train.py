@@ -1,0 +1,753 @@
+"""Training of the wind flow decoder from a sweep store of mean fields (torch; resumable).
+
+A *recipe* (TOML, :func:`load_recipe`) says everything: the sweep that makes the data (maps,
+inlets, solver settings: run by ``windnav train-decoder``, which calls
+:func:`windnav.experiments.wind_sweep.sweep` with :func:`recipe_maps`), how samples are drawn
+from it (:class:`windnav.predict.dataset.DecoderDataset`), the architecture and the training
+schedule. :func:`train_decoder` then
+
+- splits the store's fields into training and validation by map (``data.validation_maps``:
+  whole maps held out);
+- draws the training samples (kept in memory with ``train.cache``), new ones every
+  ``train.resample_every`` epochs (fresh robot positions and noise), and the validation
+  samples once; optionally turns each training sample by a random D4 element
+  (``train.augment_d4``) and rescales it to a random inlet speed (``train.augment_speed``),
+  both exact symmetries of the solver, which the ``thesis-mlp`` must learn and the
+  ``d4-film`` has built in;
+- initialises the model (``train.seed``); a ``d4-film`` basis from the principal components of
+  the training residuals (:func:`windnav.predict.torch_models.init_basis_pca`);
+- minimises the mean over free cells of ``w (pred - label)^2 / U^2``, ``w = (U / 10 m/s)^p``
+  (``train.loss_speed_power`` p: 0 weighs every inlet speed alike, 2 is the plain MSE in units
+  of 10 m/s, the thesis's), plus ``train.direction_loss_weight`` times the mean of
+  ``1 - cos(pred, label)`` (the direction error weighs slow cells as much as fast ones, the
+  MSE does not), with Adam or AdamW, weight decay (the thesis's
+  ``lambda / 2 |theta|^2``, lambda = 0.002, is Adam with ``weight_decay = 0.002``), a linear
+  warm-up and a cosine decay per step;
+- after every epoch evaluates the NumPy decoder (the shipped inference path, not the torch
+  module) on the validation samples with :func:`windnav.predict.metrics.field_errors`, keeps
+  the best (lowest mean of the speed and direction errors relative to the Local baseline's) as
+  ``model.npz``, writes ``checkpoint.pt`` (model, optimizer, schedule, history, best) and
+  ``history.json``, and logs to TensorBoard when the ``tensorboard`` package is installed.
+
+Re-running with the same recipe and out folder continues after the last finished epoch and
+ends with the same model as an uninterrupted run: the sample order of epoch ``e`` and any
+augmentation are functions of (seed, e), the samples are functions of the seed, and the torch
+state is restored from the checkpoint (bit for bit on one CPU thread count).
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import os
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from windnav.predict.baselines import LocalBaseline, UpstreamBaseline
+from windnav.predict.dataset import DecoderDataset, fields_from_store
+from windnav.predict.decoder import (
+    Decoder,
+    canonicalize_field,
+    d4_grid_permutation,
+    d4_matrices,
+    d4_ring_indices,
+    load_decoder,
+    make_architecture,
+    save_decoder,
+)
+from windnav.predict.metrics import field_errors
+
+__all__ = ["DEFAULTS", "load_recipe", "recipe_maps", "resolve_paths", "train_decoder"]
+
+RECIPES = Path(__file__).resolve().parent / "recipes"
+"""Folder of the recipes shipped with windnav (``default.toml``, ``tiny.toml``, ...)."""
+
+DEFAULTS = {
+    "name": "decoder",
+    "sweep": {
+        "store": "sweep.zarr",  # relative to the out folder
+        "speeds": [6.0],
+        "directions_deg": [3.75, 56.25, 101.25, 198.75, 228.75, 296.25],
+        "settings": {},
+        "seed": 0,
+        "backend": "process",
+        "workers": None,
+        "maps": [],
+    },
+    "data": {
+        "size": 25,
+        "spacing": 1.0,
+        "samples_per_field": 512,
+        "validation_maps": [],
+        "validation_samples_per_field": 256,
+        "scan_noise": 0.35,
+        "w_robot_noise": 0.0,
+        "wall_clearance": 1.0,
+        "building_reach": 40.0,
+        "seed": 0,
+    },
+    "model": {"architecture": "d4-film", "hyperparameters": {}},
+    "train": {
+        "epochs": 10,
+        "batch_size": 256,
+        "optimizer": "adamw",
+        "learning_rate": 2e-3,
+        "weight_decay": 1e-4,
+        "warmup_fraction": 0.03,
+        "final_lr_fraction": 0.02,
+        "loss_speed_power": 1.0,
+        "direction_loss_weight": 0.0,
+        "augment_d4": False,
+        "augment_speed": [],
+        "pca_samples": 8192,
+        "cache": True,
+        "resample_every": 0,
+        "threads": 2,
+        "device": "auto",
+        "seed": 0,
+        "eval_batch_size": 4096,
+        "train_eval_samples": 4096,
+        "tensorboard": True,
+    },
+}
+"""Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
+
+MAP_KINDS = ("training", "dense", "planning")
+SPEED_REF = 10.0  # m/s, the reference of the loss weight (U / SPEED_REF)^p
+
+
+# ---------------------------------------------------------------------------- recipes
+
+
+def _read_toml(path: Path) -> dict:
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover - Python 3.10
+        import tomli as tomllib
+    with open(path, "rb") as fh:
+        return tomllib.load(fh)
+
+
+def _merge(defaults: dict, given: dict, where: str, prefix: str = "") -> dict:
+    out = copy.deepcopy(defaults)
+    for key, value in given.items():
+        if key not in defaults:
+            raise ValueError(f"The 'config' parameter of {where} must hold only known keys. "
+                             f"Got unknown key {prefix + key!r} instead (known: "
+                             f"{sorted(defaults)}).")
+        if isinstance(defaults[key], dict) and key != "hyperparameters" and key != "settings":
+            if not isinstance(value, dict):
+                raise ValueError(f"The 'config' parameter of {where} must hold a table at "
+                                 f"{prefix + key!r}. Got {value!r} instead.")
+            out[key] = _merge(defaults[key], value, where, prefix + key + ".")
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def load_recipe(config) -> dict:
+    """A complete, checked recipe from a dict or a TOML file.
+
+    Parameters
+    ----------
+    config : dict, str or path-like
+        The recipe, or the path of its TOML file; missing keys take :data:`DEFAULTS`.
+
+    Returns
+    -------
+    dict
+        With the sections ``sweep``, ``data``, ``model``, ``train`` complete; the source file
+        (if any) under ``"source"``.
+
+    Raises
+    ------
+    ValueError
+        Naming 'config', for a missing or unreadable file, an unknown key or a bad value.
+    """
+    where = "load_recipe"
+    source = None
+    if not isinstance(config, dict):
+        source = Path(config)
+        if not source.is_file():
+            raise ValueError(f"The 'config' parameter of {where} must name a TOML recipe file. "
+                             f"Got {str(source)!r} instead, which does not exist.")
+        try:
+            config = _read_toml(source)
+        except Exception as exc:  # tomllib.TOMLDecodeError, UnicodeDecodeError, OSError
+            raise ValueError(f"The 'config' parameter of {where} names {str(source)!r}, which "
+                             f"is not valid TOML: {exc}") from exc
+    config = {k: v for k, v in config.items() if k != "source"}
+    recipe = _merge(DEFAULTS, config, where)
+    _check_recipe(recipe, where)
+    recipe["source"] = str(source) if source is not None else None
+    return recipe
+
+
+def _check_recipe(r: dict, where: str) -> None:
+    def fail(key, rule, got):
+        raise ValueError(f"The 'config' parameter of {where} must have {key} {rule}. Got "
+                         f"{got!r} instead.")
+
+    t, d = r["train"], r["data"]
+    for key in ("epochs", "batch_size", "threads", "eval_batch_size", "train_eval_samples",
+                "pca_samples"):
+        v = t[key]
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            fail(f"train.{key}", "an integer >= 1", v)
+    v = t["resample_every"]
+    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+        fail("train.resample_every", "an integer >= 0 (0: the same samples every epoch)", v)
+    for key in ("size", "samples_per_field", "validation_samples_per_field"):
+        v = d[key]
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            fail(f"data.{key}", "an integer >= 1", v)
+    for key in ("learning_rate",):
+        if not isinstance(t[key], (int, float)) or not 0 < t[key] < math.inf:
+            fail(f"train.{key}", "a positive number", t[key])
+    for key in ("weight_decay", "warmup_fraction", "final_lr_fraction",
+                "direction_loss_weight"):
+        top = 1 if key in ("warmup_fraction", "final_lr_fraction") else math.inf
+        if not isinstance(t[key], (int, float)) or not 0 <= t[key] <= top:
+            fail(f"train.{key}", "a number >= 0 (a fraction <= 1)", t[key])
+    if t["optimizer"] not in ("adam", "adamw"):
+        fail("train.optimizer", "'adam' or 'adamw'", t["optimizer"])
+    sp = t["augment_speed"]
+    if not isinstance(sp, list) or (sp and (len(sp) != 2 or not all(
+            isinstance(v, (int, float)) and v > 0 for v in sp) or sp[0] > sp[1])):
+        fail("train.augment_speed", "[] or [lo, hi] with 0 < lo <= hi, m/s", sp)
+    if t["device"] not in ("auto", "cpu", "cuda"):
+        fail("train.device", "'auto', 'cpu' or 'cuda'", t["device"])
+    if not isinstance(d["validation_maps"], list) or not d["validation_maps"]:
+        fail("data.validation_maps", "a non-empty list of store map names (held out)",
+             d["validation_maps"])
+    # the architecture and its hyperparameters
+    make_architecture(r["model"]["architecture"], d["size"], **r["model"]["hyperparameters"])
+    for i, group in enumerate(r["sweep"]["maps"]):
+        if not isinstance(group, dict) or group.get("kind") not in MAP_KINDS:
+            fail(f"sweep.maps[{i}].kind", f"one of {MAP_KINDS}", group)
+        if "name" not in group:
+            fail(f"sweep.maps[{i}].name", "a name (the map names are '<name>-<i>')", group)
+
+
+def recipe_maps(recipe: dict) -> list[tuple]:
+    """The sweep's maps of a recipe, drawn reproducibly: ``[(name, source, City)]``.
+
+    Each ``[[sweep.maps]]`` group has ``name``, ``kind`` (a :mod:`windnav.city` generator:
+    ``training``, ``dense``, ``planning``), ``count``, ``seed`` and keyword arguments of the
+    generator (``size``, ``lots_per_side``, ...). Map ``i`` of a group is named
+    ``"<name>-<i>"`` and drawn from child ``i`` of ``SeedSequence(seed).spawn(count)``.
+    """
+    import windnav.city as city_pkg
+
+    recipe = load_recipe(recipe)
+    out = []
+    for group in recipe["sweep"]["maps"]:
+        kw = {k: v for k, v in group.items() if k not in ("name", "kind", "count", "seed")}
+        count, seed = int(group.get("count", 1)), int(group.get("seed", 0))
+        make = getattr(city_pkg, f"{group['kind']}_map")
+        for i, child in enumerate(np.random.SeedSequence(seed).spawn(count)):
+            source = (f"windnav.city.{group['kind']}_map(SeedSequence({seed}).spawn({count})"
+                      f"[{i}], **{kw!r})")
+            out.append((f"{group['name']}-{i}", source,
+                        make(rng=np.random.default_rng(child), **kw)))
+    return out
+
+
+def resolve_paths(recipe: dict, out_dir=None) -> tuple[Path, Path]:
+    """The out folder (default ``runs/<name>``) and the sweep store (relative to it)."""
+    out = Path(out_dir) if out_dir is not None else Path("runs") / recipe["name"]
+    store = Path(recipe["sweep"]["store"])
+    return out, store if store.is_absolute() else out / store
+
+
+def _fingerprint(recipe: dict) -> str:
+    """What must not change between a run and its resumption (not paths or workers)."""
+    sweep = {k: v for k, v in recipe["sweep"].items() if k not in ("store", "backend", "workers")}
+    keep = {"sweep": sweep, "data": recipe["data"], "model": recipe["model"],
+            "train": {k: v for k, v in recipe["train"].items()
+                      if k not in ("threads", "device", "tensorboard", "eval_batch_size")}}
+    return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
+
+
+# ------------------------------------------------------------------------------- data
+
+
+def _split_fields(store_path, validation_maps, where):
+    from windnav.flow.sweep_store import SweepStore
+
+    store = SweepStore(store_path)
+    names = [str(store.map_attrs(k).get("name", k)) for k in range(store.n_maps)]
+    missing = [m for m in validation_maps if m not in names]
+    if missing:
+        raise ValueError(f"The 'config' parameter of {where} must name validation maps of the "
+                         f"store {str(store_path)!r}. Got {missing} instead (the store holds "
+                         f"{names}).")
+    val = [k for k, n in enumerate(names) if n in validation_maps]
+    train = [k for k in range(store.n_maps) if k not in val]
+    if not train:
+        raise ValueError(f"The 'config' parameter of {where} holds out every map of the store "
+                         f"{str(store_path)!r}; keep at least one for training.")
+    fields_train = fields_from_store(store, maps=train)
+    fields_val = fields_from_store(store, maps=val)
+    if not fields_train or not fields_val:
+        raise ValueError(f"{where}: the store {str(store_path)!r} has no finished simulation "
+                         f"for {'training' if not fields_train else 'validation'}; run (or "
+                         "resume) its sweep first (`windnav train-decoder` does).")
+    return fields_train, fields_val, len(train), len(val)
+
+
+def _dataset(fields, per_field, data: dict, seed_offset: int) -> DecoderDataset:
+    return DecoderDataset(fields, per_field, seed=int(data["seed"]) + seed_offset,
+                          size=data["size"], spacing=data["spacing"],
+                          scan_noise=data["scan_noise"], w_robot_noise=data["w_robot_noise"],
+                          wall_clearance=data["wall_clearance"],
+                          building_reach=data["building_reach"])
+
+
+def _augment(batch, rng: np.random.Generator):
+    """One random D4 element per sample applied to a world-frame batch (exact): the sample
+    of the same map turned by that element (ray ``j`` sees what ray ``A_g^-1(j)`` saw; the
+    field at ``p`` is ``A_g u(A_g^-1 p)``)."""
+    scans, w_up, w_robot, labels, free, speed = batch
+    b, h = labels.shape[0], labels.shape[-1]
+    g = rng.integers(0, 8, size=b)
+    mats = d4_matrices()[g]
+    scans = np.take_along_axis(scans, d4_ring_indices(scans.shape[1])[g], axis=1)
+    labels = canonicalize_field(labels.reshape(b, 2, -1), g).reshape(b, 2, h, h)
+    inverse = np.argsort(d4_grid_permutation(h), axis=1)[g]
+    free = np.take_along_axis(free.reshape(b, -1), inverse, axis=1).reshape(b, h, h)
+    return (scans, np.einsum("bij,bj->bi", mats, w_up), np.einsum("bij,bj->bi", mats, w_robot),
+            labels, free, speed)
+
+
+def _rescale(batch, rng: np.random.Generator, lo: float, hi: float):
+    """Each sample rescaled to an inlet speed uniform in [lo, hi] m/s: winds and labels times
+    ``speed' / speed`` (exact: the solver has no velocity scale, see
+    :mod:`windnav.predict.decoder`)."""
+    scans, w_up, w_robot, labels, free, speed = batch
+    target = rng.uniform(lo, hi, size=labels.shape[0]).astype(np.float32)
+    k = target / np.maximum(np.asarray(speed, np.float32), np.float32(1e-6))
+    return (scans, w_up * k[:, None], w_robot * k[:, None], labels * k[:, None, None, None],
+            free, target)
+
+
+class _Batches:
+    """Training batches, world frame. The samples of epoch ``e`` are those of the dataset of
+    block ``e // resample_every`` (seed ``data.seed + 1000 * block``; one block when
+    ``resample_every`` is 0): fresh robot positions and noise every few epochs, each a
+    function of the seed and the epoch. A block's samples are materialized once (``cache``)
+    or regenerated batch by batch."""
+
+    def __init__(self, make_dataset, cache: bool, batch_size: int, resample_every: int):
+        self.make, self.cache, self.batch_size = make_dataset, cache, batch_size
+        self.every = resample_every
+        self.block, self.dataset, self.arrays = None, None, None
+        self._use(0)
+
+    def _use(self, block: int) -> None:
+        if block == self.block:
+            return
+        self.arrays = None  # free the previous block first
+        self.dataset, self.block = self.make(block), block
+        if self.cache:
+            s = self.dataset.materialize()
+            self.arrays = (s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed)
+
+    def __len__(self) -> int:
+        return -(-len(self.dataset) // self.batch_size)
+
+    def spread(self, n: int):
+        """``n`` samples of block 0 spread evenly over the set (every field contributes)."""
+        self._use(0)
+        rows = np.unique(np.linspace(0, len(self.dataset) - 1, min(n, len(self.dataset)))
+                         .astype(np.int64))
+        if self.arrays is not None:
+            return tuple(a[rows] for a in self.arrays)
+        s = self.dataset.samples(rows)
+        return s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed
+
+    def epoch(self, e: int):
+        self._use(e // self.every if self.every else 0)
+        if self.arrays is None:
+            for s in self.dataset.epoch(e, self.batch_size):
+                yield s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed
+            return
+        order = self.dataset.indices(e)
+        for i in range(0, order.size, self.batch_size):
+            rows = np.sort(order[i:i + self.batch_size])
+            yield tuple(a[rows] for a in self.arrays)
+
+
+# ---------------------------------------------------------------------------- training
+
+
+def _device(name: str):
+    import torch
+
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise ValueError("The 'train.device' setting of train_decoder is 'cuda', but torch "
+                         "sees no CUDA device. Use 'auto' or 'cpu'.")
+    return torch.device(name)
+
+
+def _tensor_batch(arch, batch, device):
+    """Network inputs, model-frame labels, free mask and inlet speeds as tensors."""
+    import torch
+
+    from windnav.predict.torch_models import to_tensors
+
+    scans, w_up, w_robot, labels, free, speed = batch
+    f = arch.features(np.asarray(scans, np.float32), np.asarray(w_up, np.float32),
+                      np.asarray(w_robot, np.float32))
+    b = labels.shape[0]
+    lab, fr = arch.model_labels(labels.reshape(b, 2, -1), free.reshape(b, -1), f)
+    def to(a):
+        return torch.from_numpy(np.ascontiguousarray(a)).to(device, torch.float32)
+
+    return to_tensors(f, arch.name, device), to(lab), to(fr), to(np.asarray(speed, np.float32))
+
+
+def _loss(pred, labels, free, speed, power: float, direction_weight: float):
+    """``mean_free((U / 10)^p |pred - label|^2 / U^2) + direction_weight * mean_free(c (1 -
+    cos(pred, label)))``.
+
+    The cosine is scale-invariant (its gradient never pulls on the predicted speed), softened
+    only by ``1e-6 U^2`` against 0 / 0; ``c = min(1, |label| / (0.1 U))`` fades out cells
+    whose true direction is barely defined.
+    """
+    import torch
+
+    u = torch.clamp(speed, min=0.1)
+    w = (u / SPEED_REF) ** power / (u * u)
+    n_free = torch.clamp(free.sum(), min=1.0)
+    err = ((pred - labels) ** 2).sum(dim=1) * free  # (B, H^2)
+    loss = (err * w[:, None]).sum() / n_free
+    if direction_weight > 0:
+        norm_p = torch.sqrt((pred ** 2).sum(dim=1))
+        norm_l = torch.sqrt((labels ** 2).sum(dim=1))
+        cos = (pred * labels).sum(dim=1) / (norm_p * norm_l + 1e-6 * (u * u)[:, None])
+        c = torch.clamp(norm_l / (0.1 * u[:, None]), max=1.0)
+        loss = loss + direction_weight * ((1.0 - cos) * c * free).sum() / n_free
+    return loss
+
+
+def _schedule(total_steps: int, warmup: float, final: float):
+    warm = max(1, int(round(warmup * total_steps)))
+
+    def factor(step: int) -> float:
+        if step < warm:
+            return (step + 1) / warm
+        p = min(1.0, (step - warm) / max(1, total_steps - warm))
+        return final + (1.0 - final) * 0.5 * (1.0 + math.cos(math.pi * p))
+
+    return factor
+
+
+def _evaluate(decoder: Decoder, samples, batch_size: int) -> dict:
+    pred = np.concatenate([decoder.predict(samples.scans[i:i + batch_size],
+                                           samples.w_up[i:i + batch_size],
+                                           samples.w_robot[i:i + batch_size])
+                           for i in range(0, samples.scans.shape[0], batch_size)])
+    return _errors(pred, samples)
+
+
+def _errors(pred, samples) -> dict:
+    out = field_errors(pred, samples.labels, samples.free, samples.inlet_speed)
+    return {k: float(v) for k, v in out.items() if k in (
+        "speed_error", "direction_error_deg", "direction_error_masked_deg", "vector_error")}
+
+
+def _baselines(samples, size: int, spacing: float) -> dict:
+    return {name: _errors(cls(size=size, spacing=spacing).predict(
+        samples.scans, samples.w_up, samples.w_robot), samples)
+        for name, cls in (("local", LocalBaseline), ("upstream", UpstreamBaseline))}
+
+
+def _score(metrics: dict, local: dict) -> float:
+    """Mean of the speed and direction errors relative to the Local baseline's (lower is
+    better): the model selection criterion."""
+    return 0.5 * (metrics["speed_error"] / max(local["speed_error"], 1e-12)
+                  + metrics["direction_error_deg"] / max(local["direction_error_deg"], 1e-12))
+
+
+def _summary_writer(enabled: bool, log_dir: Path):
+    if not enabled:
+        return None
+    try:
+        from torch.utils.tensorboard import SummaryWriter
+    except ImportError:
+        warnings.warn("train_decoder: the 'tensorboard' package is not installed, so no "
+                      "TensorBoard log is written (install windnav[train]); the JSON history "
+                      "is written as usual.", stacklevel=3)
+        return None
+    return SummaryWriter(log_dir=str(log_dir))
+
+
+def _atomic_json(obj, path: Path) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(obj, indent=2, sort_keys=False) + "\n")
+    os.replace(tmp, path)
+
+
+def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, log=print,
+                  callback=None) -> dict:
+    """Train (or resume training) a wind flow decoder.
+
+    Parameters
+    ----------
+    config : dict, str or path-like
+        The recipe (:func:`load_recipe`).
+    store : str or path-like, optional
+        The sweep store with the mean fields (default: the recipe's ``sweep.store`` in
+        ``out_dir``). Its maps named in ``data.validation_maps`` are held out.
+    out_dir : str or path-like, optional
+        Where ``checkpoint.pt``, ``history.json``, ``model.npz`` (the best decoder) and
+        ``tensorboard/`` go (default ``runs/<name>``). A checkpoint of the same recipe there is
+        resumed; one of another recipe is refused.
+    progress : bool
+        Show a tqdm bar per epoch.
+    log : callable
+        Receives one line per epoch (``print`` by default; None: silent).
+    callback : callable, optional
+        ``callback(epoch, record)`` after each epoch's checkpoint (tests stop a run with it).
+
+    Returns
+    -------
+    dict
+        The history, as in ``history.json``: ``epochs`` (one record per epoch: ``train_loss``,
+        ``val`` metrics, ``score``, ``lr``, ``seconds``), ``baselines`` (the validation metrics
+        of the Local and Upstream baselines), ``best_epoch``, ``best_val``, ``train_metrics``
+        (the best model on training samples, with the baselines'), ``model`` (path),
+        ``n_parameters`` and the ``recipe``.
+
+    Raises
+    ------
+    ValueError
+        Naming 'config' for a bad recipe or a checkpoint of another recipe in ``out_dir``; for
+        a store without the validation maps or without finished simulations.
+    """
+    import torch
+
+    where = "train_decoder"
+    recipe = load_recipe(config)
+    out, default_store = resolve_paths(recipe, out_dir)
+    store = Path(store) if store is not None else default_store
+    out.mkdir(parents=True, exist_ok=True)
+    run = _Run(recipe, out, store)
+    ckpt = run.load_checkpoint(where)
+    if ckpt is not None and "train_metrics" in ckpt["history"]:
+        return ckpt["history"]  # finished
+
+    tr = recipe["train"]
+    torch.set_num_threads(tr["threads"])
+    run.setup(where)
+    if ckpt is not None:
+        run.restore(ckpt)
+        if log and run.start < tr["epochs"]:
+            log(f"{where}: resuming {str(out)!r} after epoch {run.start}")
+    writer = _summary_writer(tr["tensorboard"], out / "tensorboard") \
+        if run.start < tr["epochs"] else None
+    try:
+        for e in range(run.start, tr["epochs"]):
+            record = run.epoch(e, progress)
+            run.save_checkpoint()
+            if writer is not None:
+                _log_scalars(writer, record)
+            if log:
+                local = run.history["baselines"]["local"]
+                log(f"epoch {e + 1}/{tr['epochs']}: loss {record['train_loss']:.4g}, val speed "
+                    f"{record['val']['speed_error']:.3f} m/s, direction "
+                    f"{record['val']['direction_error_deg']:.2f} deg (Local "
+                    f"{local['speed_error']:.3f} m/s, {local['direction_error_deg']:.2f} deg), "
+                    f"{record['seconds']:.0f} s")
+            if callback is not None:
+                callback(e + 1, record)
+    finally:
+        if writer is not None:
+            writer.close()
+    run.finish()
+    return run.history
+
+
+def _log_scalars(writer, record: dict) -> None:
+    step = record["epoch"]
+    writer.add_scalar("loss/train", record["train_loss"], step)
+    for k, v in record["val"].items():
+        writer.add_scalar(f"val/{k}", v, step)
+    writer.add_scalar("val/score", record["score"], step)
+    writer.add_scalar("lr", record["lr"], step)
+    writer.flush()
+
+
+class _Run:
+    """The state of one training run: data, model, optimizer, history, and its files."""
+
+    def __init__(self, recipe: dict, out: Path, store: Path):
+        self.recipe, self.out, self.store = recipe, out, store
+        self.data, self.tr, self.mdl = recipe["data"], recipe["train"], recipe["model"]
+        self.fingerprint = _fingerprint(recipe)
+        self.ckpt_path = out / "checkpoint.pt"
+        self.hist_path = out / "history.json"
+        self.model_path = out / "model.npz"
+        self.start = 0
+
+    def load_checkpoint(self, where: str):
+        import torch
+
+        if not self.ckpt_path.is_file():
+            return None
+        ckpt = torch.load(self.ckpt_path, map_location="cpu", weights_only=True)
+        if ckpt.get("fingerprint") != self.fingerprint:
+            raise ValueError(f"The 'config' parameter of {where} differs from the recipe of the "
+                             f"checkpoint in {str(self.out)!r}; use another out folder, or delete "
+                             "it (`windnav train-decoder --overwrite`) to start over.")
+        return ckpt
+
+    def train_set(self, block: int) -> DecoderDataset:
+        return _dataset(self.fields_train, self.data["samples_per_field"], self.data,
+                        1000 * block)
+
+    def setup(self, where: str) -> None:
+        import torch
+
+        from windnav.predict.torch_models import build_model
+
+        data, tr, mdl = self.data, self.tr, self.mdl
+        self.device = _device(tr["device"])
+        self.fields_train, fields_val, n_train_maps, n_val_maps = _split_fields(
+            self.store, data["validation_maps"], where)
+        self.val = _dataset(fields_val, data["validation_samples_per_field"], data,
+                            1).materialize()
+        self.arch = make_architecture(mdl["architecture"], data["size"],
+                                      **mdl["hyperparameters"])
+        self.batches = _Batches(self.train_set, tr["cache"], tr["batch_size"],
+                                tr["resample_every"])
+        torch.manual_seed(tr["seed"])
+        self.model = build_model(mdl["architecture"], data["size"],
+                                 **mdl["hyperparameters"]).to(self.device)
+        self.meta = {"spacing": float(data["spacing"]),
+                     "recipe": {k: v for k, v in self.recipe.items() if k != "source"}}
+        if mdl["architecture"] == "d4-film":
+            self.meta["pca_explained_variance"] = self._init_basis()
+        opt_cls = torch.optim.AdamW if tr["optimizer"] == "adamw" else torch.optim.Adam
+        self.opt = opt_cls(self.model.parameters(), lr=tr["learning_rate"],
+                           weight_decay=tr["weight_decay"])
+        self.sched = torch.optim.lr_scheduler.LambdaLR(self.opt, _schedule(
+            tr["epochs"] * len(self.batches), tr["warmup_fraction"], tr["final_lr_fraction"]))
+        baselines = _baselines(self.val, data["size"], data["spacing"])
+        self.history = {
+            "recipe": self.meta["recipe"], "fingerprint": self.fingerprint,
+            "store": str(self.store), "n_train_fields": len(self.fields_train),
+            "n_val_fields": len(fields_val), "n_train_maps": n_train_maps,
+            "n_val_maps": n_val_maps, "n_train_samples": len(self.batches.dataset),
+            "n_val_samples": int(self.val.scans.shape[0]),
+            "n_parameters": int(sum(p.numel() for p in self.model.parameters())),
+            "device": str(self.device), "threads": tr["threads"], "baselines": baselines,
+            "epochs": [], "best_epoch": None, "best_val": None, "best_score": None,
+            "model": str(self.model_path)}
+
+    def _init_basis(self) -> list:
+        """PCA of the canonical residuals ``(label - W_robot) / U`` of training samples."""
+        from windnav.predict.torch_models import init_basis_pca
+
+        first = self.batches.spread(self.tr["pca_samples"])
+        f = self.arch.features(*first[:3])
+        b = first[3].shape[0]
+        lab, fr = self.arch.model_labels(first[3].reshape(b, 2, -1), first[4].reshape(b, -1),
+                                         f)
+        resid = (lab - f["w_robot"][:, :, None]) / f["scale"][:, None, None] * fr[:, None, :]
+        explained = init_basis_pca(self.model, resid.reshape(b, -1))
+        return [round(float(x), 6) for x in explained]
+
+    def restore(self, ckpt: dict) -> None:
+        import torch
+
+        self.model.load_state_dict(ckpt["model"])
+        self.opt.load_state_dict(ckpt["optimizer"])
+        self.sched.load_state_dict(ckpt["scheduler"])
+        torch.set_rng_state(ckpt["torch_rng"])
+        self.history = ckpt["history"]
+        self.start = len(self.history["epochs"])
+
+    def epoch(self, e: int, progress: bool) -> dict:
+        """Train epoch ``e``, validate, keep the best model; returns the epoch's record."""
+        from tqdm.auto import tqdm
+
+        from windnav.predict.torch_models import export_weights
+
+        tr, model = self.tr, self.model
+        t0 = time.perf_counter()
+        model.train()
+        rng = np.random.default_rng([int(tr["seed"]), 2, e])
+        total, count = 0.0, 0
+        bar = tqdm(self.batches.epoch(e), total=len(self.batches), disable=not progress,
+                   desc=f"epoch {e + 1}/{tr['epochs']}", leave=False)
+        for batch in bar:
+            if tr["augment_speed"]:
+                batch = _rescale(batch, rng, *tr["augment_speed"])
+            if tr["augment_d4"]:
+                batch = _augment(batch, rng)
+            inputs, labels, free, speed = _tensor_batch(self.arch, batch, self.device)
+            loss = _loss(model(inputs), labels, free, speed, tr["loss_speed_power"],
+                         tr["direction_loss_weight"])
+            self.opt.zero_grad(set_to_none=True)
+            loss.backward()
+            self.opt.step()
+            self.sched.step()
+            total += float(loss.detach()) * labels.shape[0]
+            count += labels.shape[0]
+            bar.set_postfix(loss=f"{total / count:.4g}", refresh=False)
+        model.eval()
+        decoder = Decoder(export_weights(model), {**self.meta, "architecture": self.arch.name,
+                                                  "hyperparameters": self.arch.hp})
+        metrics = _evaluate(decoder, self.val, tr["eval_batch_size"])
+        h = self.history
+        score = _score(metrics, h["baselines"]["local"])
+        record = {"epoch": e + 1, "train_loss": total / max(count, 1), "val": metrics,
+                  "score": score, "lr": float(self.opt.param_groups[0]["lr"]),
+                  "seconds": time.perf_counter() - t0}
+        h["epochs"].append(record)
+        if h["best_score"] is None or score < h["best_score"]:
+            h.update(best_epoch=e + 1, best_val=metrics, best_score=score)
+            save_decoder(decoder.weights, {**decoder.metadata, "metrics": {
+                "validation": metrics, "validation_baselines": h["baselines"],
+                "epoch": e + 1}}, self.model_path)
+        return record
+
+    def save_checkpoint(self) -> None:
+        import torch
+
+        state = {"fingerprint": self.fingerprint, "model": self.model.state_dict(),
+                 "optimizer": self.opt.state_dict(), "scheduler": self.sched.state_dict(),
+                 "torch_rng": torch.get_rng_state(), "history": self.history}
+        tmp = self.ckpt_path.with_name(self.ckpt_path.name + ".tmp")
+        torch.save(state, tmp)
+        os.replace(tmp, self.ckpt_path)
+        _atomic_json(self.history, self.hist_path)
+
+    def finish(self) -> None:
+        """The best model on training samples (with the baselines), into its file, the
+        history and the checkpoint (which then marks the run finished)."""
+        h, tr = self.history, self.tr
+        best = load_decoder(self.model_path)
+        block0 = self.train_set(0)
+        subset = block0.samples(np.unique(np.linspace(
+            0, len(block0) - 1, min(tr["train_eval_samples"], len(block0))).astype(np.int64)))
+        h["train_metrics"] = {"decoder": _evaluate(best, subset, tr["eval_batch_size"]),
+                              **_baselines(subset, self.data["size"], self.data["spacing"])}
+        save_decoder(best.weights, {**best.metadata, "metrics": {
+            **best.metadata["metrics"], "training_subset": h["train_metrics"]},
+            "training": {"epochs": tr["epochs"], "best_epoch": h["best_epoch"],
+                         "seconds": sum(r["seconds"] for r in h["epochs"]),
+                         "device": h["device"], "threads": tr["threads"],
+                         "n_train_samples": h["n_train_samples"],
+                         "n_train_fields": h["n_train_fields"]}}, self.model_path)
+        self.save_checkpoint()

@@ -1,0 +1,302 @@
+"""The wind flow decoder's inference (windnav.predict.decoder): NumPy against torch for every
+architecture, exact D4 equivariance of ``d4-film``, the model file and its errors, the input
+checks, and inference without torch.
+
+The D4 action is checked against geometry nobody here fitted: a map turned by 90 deg (or
+mirrored) must give, through ``City.lidar``, the scan the ray permutation predicts.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from windnav.city import City
+from windnav.predict.decoder import (
+    ARCHITECTURES,
+    FORMAT_VERSION,
+    METADATA_KEY,
+    Decoder,
+    canonical_elements,
+    canonicalize_field,
+    d4_grid_permutation,
+    d4_matrices,
+    d4_ring_indices,
+    load_decoder,
+    make_architecture,
+    save_decoder,
+    uncanonicalize,
+)
+
+torch = pytest.importorskip("torch")
+from windnav.predict import torch_models as tm  # noqa: E402
+
+SMALL = {"thesis-mlp": {"width": 48, "depth": 2},
+         "d4-film": {"conv_channels": 4, "embed": 24, "film_hidden": 8, "width": 24,
+                     "depth": 2, "modes": 12}}
+
+
+def random_inputs(b, rng):
+    scans = rng.uniform(0.25, 100.0, (b, 360))
+    scans[:, rng.integers(0, 360, 40)] = 100.0  # rays that hit nothing
+    return scans, rng.normal(0.0, 5.0, (b, 2)), rng.normal(0.0, 3.0, (b, 2))
+
+
+def random_decoder(name, size=25, seed=0, **hp):
+    torch.manual_seed(seed)
+    model = tm.build_model(name, size, **{**SMALL[name], **hp})
+    with torch.no_grad():  # push the weights off their initial values (the zero FiLM too)
+        for p in model.parameters():
+            p.add_(0.05 * torch.randn_like(p))
+    return model, tm.to_decoder(model)
+
+
+def transform_scenario(h, scans, w_up, w_robot):
+    """The same scene turned by the D4 element h: what the robot sees and the winds."""
+    a = d4_matrices()[h]
+    return scans[:, d4_ring_indices(360)[h]], w_up @ a.T, w_robot @ a.T
+
+
+def transform_field(h, field):
+    """Field (B, 2, H, H) turned by h: u'(p) = A_h u(A_h^-1 p)."""
+    b, _, n, _ = field.shape
+    g = np.full(b, h)
+    return canonicalize_field(field.reshape(b, 2, -1), g).reshape(b, 2, n, n)
+
+
+# ------------------------------------------------------------------ NumPy against torch
+
+
+@pytest.mark.parametrize("name", sorted(ARCHITECTURES))
+@pytest.mark.parametrize("size", [25, 6])
+def test_numpy_inference_matches_torch_forward(name, size):
+    rng = np.random.default_rng(1)
+    model, dec = random_decoder(name, size)
+    scans, w_up, w_robot = random_inputs(64, rng)
+    out = dec.predict(scans, w_up, w_robot)
+    f = dec.arch.features(scans.astype(np.float32), w_up.astype(np.float32),
+                          w_robot.astype(np.float32))
+    with torch.no_grad():
+        ref = model(tm.to_tensors(f, name)).numpy()
+    ref = dec.arch.world_frame(ref, f)
+    assert out.shape == (64, 2, size, size) and out.dtype == np.float32
+    scale = np.abs(ref).max()
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-5 * scale)
+    assert dec.n_parameters == sum(p.numel() for p in model.parameters())
+
+
+def test_thesis_mlp_has_the_thesis_size():
+    arch = make_architecture("thesis-mlp", 25)
+    n = sum(int(np.prod(s)) for s in arch.shapes().values())
+    assert n == 11_701_474  # 364 -> 3 x 2048 -> 1250: the thesis's 11.7 M
+
+
+def test_single_sample_is_a_batch_of_one_and_batches_agree():
+    rng = np.random.default_rng(2)
+    _, dec = random_decoder("d4-film")
+    scans, w_up, w_robot = random_inputs(16, rng)
+    batch = dec.predict(scans, w_up, w_robot)
+    one = dec.predict(scans[3], w_up[3], w_robot[3])
+    assert one.shape == (1, 2, 25, 25)
+    np.testing.assert_allclose(one[0], batch[3], atol=1e-5 * np.abs(batch).max())
+    assert dec.offsets.shape == (25,) and dec.offsets[12] == 0.0 and dec.offsets[-1] == 12.0
+
+
+# ------------------------------------------------------------------------------ D4
+
+
+def test_canonical_element_puts_the_wind_in_the_first_sector():
+    rng = np.random.default_rng(3)
+    w = rng.normal(size=(4000, 2))
+    w[:8] = [[1, 0], [0, 1], [-1, 0], [0, -1], [1, 1], [-1, 1], [-1, -1], [1, -1]]
+    g = canonical_elements(w)
+    wc = np.einsum("bij,bj->bi", d4_matrices()[g], w)
+    angle = np.degrees(np.arctan2(wc[:, 1], wc[:, 0]))
+    assert angle.min() >= 0.0 and angle.max() <= 45.0 + 1e-12
+    np.testing.assert_allclose(np.hypot(*wc.T), np.hypot(*w.T), rtol=1e-15)
+
+
+def test_d4_tables_form_the_group_and_match_the_matrices():
+    mats = d4_matrices().astype(int)
+    rays, perm = d4_ring_indices(360), d4_grid_permutation(5)
+    for g in range(8):
+        for h in range(8):
+            gh = [k for k in range(8) if np.array_equal(mats[k], mats[g] @ mats[h])]
+            assert len(gh) == 1
+            # composing the permutations composes the elements
+            np.testing.assert_array_equal(rays[h][rays[g]], rays[gh[0]])
+            np.testing.assert_array_equal(perm[g][perm[h]], perm[gh[0]])
+    # the element turning by 90 deg takes the cell at offset (+2, 0) to (0, +2)
+    r90 = [k for k in range(8) if np.array_equal(mats[k], [[0, -1], [1, 0]])][0]
+    assert perm[r90][2 * 5 + 4] == 4 * 5 + 2
+
+
+@pytest.mark.parametrize("h", range(8))
+def test_the_scan_permutation_is_the_lidar_of_the_turned_map(h):
+    """Turn a map about the robot by element h: City.lidar sees the permuted scan."""
+    a = d4_matrices()[h].astype(float)
+    fp = np.array([[5.0, 15.0, -3.0, 8.0], [-20.0, -12.0, -25.0, 30.0], [2.0, 9.0, 12.0, 40.0]])
+    corners = np.stack([fp[:, [0, 2]], fp[:, [1, 3]]], axis=1)  # (M, 2, 2) lower-left, upper-right
+    turned = corners @ a.T
+    lo, hi = turned.min(axis=1), turned.max(axis=1)
+    fp_t = np.column_stack([lo[:, 0], hi[:, 0], lo[:, 1], hi[:, 1]])
+    heights = np.full(3, 20.0)
+    city = City((-60.0, 60.0, -60.0, 60.0), fp, heights)
+    city_t = City((-60.0, 60.0, -60.0, 60.0), fp_t, heights)
+    scan = city.lidar(np.zeros((1, 2)), n_rays=360, max_range=100.0)
+    scan_t = city_t.lidar(np.zeros((1, 2)), n_rays=360, max_range=100.0)
+    np.testing.assert_allclose(scan_t, scan[:, d4_ring_indices(360)[h]], atol=1e-9)
+
+
+@pytest.mark.parametrize("h", range(8))
+def test_d4_film_is_equivariant_exactly(h):
+    """Turning the scenario turns the prediction: bit for bit through the reference frame
+    change, to float32 rounding through the folded basis of Decoder.predict."""
+    rng = np.random.default_rng(10 + h)
+    _, dec = random_decoder("d4-film", size=9)
+    scans, w_up, w_robot = (x.astype(np.float32) for x in random_inputs(32, rng))
+    arch, w = dec.arch, dec.prepared
+
+    def reference(s, a, b):
+        f = arch.features(s, a, b)
+        return arch.world_frame(arch.network(w, f), f).reshape(-1, 2, 9, 9)
+
+    expected = transform_field(h, reference(scans, w_up, w_robot))
+    turned = transform_scenario(h, scans, w_up, w_robot)
+    np.testing.assert_array_equal(reference(*turned), expected)
+    got = dec.predict(*turned)
+    np.testing.assert_allclose(got, expected, rtol=0, atol=2e-6 * np.abs(expected).max())
+
+
+@pytest.mark.parametrize("factor", [0.37, 2.5])
+def test_d4_film_is_homogeneous_in_the_wind_speed(factor):
+    """The solver has no velocity scale, so neither has the decoder: scaling both winds
+    scales the field."""
+    rng = np.random.default_rng(7)
+    _, dec = random_decoder("d4-film")
+    scans, w_up, w_robot = random_inputs(32, rng)
+    w_up[np.hypot(*w_up.T) < 0.5] = 1.0  # stay above speed_floor after scaling
+    base = dec.predict(scans, w_up, w_robot)
+    np.testing.assert_allclose(dec.predict(scans, factor * w_up, factor * w_robot),
+                               factor * base, rtol=0, atol=1e-5 * factor * np.abs(base).max())
+
+
+def test_frame_changes_are_inverse_and_exact():
+    rng = np.random.default_rng(4)
+    field = rng.normal(size=(40, 2, 49)).astype(np.float32)
+    g = rng.integers(0, 8, 40)
+    np.testing.assert_array_equal(uncanonicalize(canonicalize_field(field, g), g), field)
+    arch = make_architecture("d4-film", 7)
+    f = {"g": g}
+    free = rng.random((40, 49)) > 0.3
+    lab, fr = arch.model_labels(field, free, f)
+    np.testing.assert_array_equal(arch.world_frame(lab, f), field.reshape(40, 2, 7, 7))
+    np.testing.assert_array_equal(fr, np.take_along_axis(
+        free, np.argsort(d4_grid_permutation(7), axis=1)[g], axis=1))
+
+
+# ---------------------------------------------------------------------- model files
+
+
+def test_save_and_load_round_trip(tmp_path):
+    rng = np.random.default_rng(5)
+    _, dec = random_decoder("d4-film", size=11)
+    path = save_decoder(dec.weights, {**dec.metadata, "metrics": {"speed_error": 0.5}},
+                        tmp_path / "m.npz")
+    back = load_decoder(path)
+    args = random_inputs(8, rng)
+    np.testing.assert_array_equal(back.predict(*args), dec.predict(*args))
+    assert back.metadata["metrics"] == {"speed_error": 0.5}
+    assert back.metadata["version"] == FORMAT_VERSION and back.size == 11
+    assert back.n_parameters == dec.n_parameters and "d4-film" in repr(back)
+
+
+def test_missing_model_file_is_a_value_error_naming_path(tmp_path):
+    with pytest.raises(ValueError, match="'path' parameter of load_decoder.*does not exist"):
+        load_decoder(tmp_path / "nope.npz")
+
+
+def test_missing_default_model_says_how_to_build_it(monkeypatch, tmp_path):
+    import windnav.predict.decoder as decoder
+
+    monkeypatch.setattr(decoder, "DEFAULT_MODEL", tmp_path / "decoder_default.npz")
+    with pytest.raises(ValueError, match="'path'.*windnav train-decoder"):
+        load_decoder()
+
+
+@pytest.mark.parametrize("damage", ["garbage", "truncated", "plain_npz", "bad_json",
+                                    "wrong_version", "wrong_shape", "nan_weight"])
+def test_corrupt_model_file_is_a_value_error_naming_path(tmp_path, damage):
+    _, dec = random_decoder("d4-film", size=5)
+    path = save_decoder(dec.weights, dec.metadata, tmp_path / "m.npz")
+    arrays = dict(np.load(path))
+    meta = json.loads(str(arrays[METADATA_KEY]))
+    if damage == "garbage":
+        path.write_bytes(b"not a zip file at all" * 10)
+    elif damage == "truncated":
+        path.write_bytes(path.read_bytes()[:300])
+    elif damage == "plain_npz":
+        np.savez(path, x=np.zeros(3))
+    elif damage == "bad_json":
+        np.savez(path, **{**arrays, METADATA_KEY: np.array("{not json")})
+    elif damage == "wrong_version":
+        np.savez(path, **{**arrays, METADATA_KEY: np.array(json.dumps(
+            {**meta, "version": FORMAT_VERSION + 1}))})
+    elif damage == "wrong_shape":
+        np.savez(path, **{**arrays, "coeff.weight": np.zeros((3, 3), np.float32)})
+    elif damage == "nan_weight":
+        bad = arrays["embed.weight"].copy()
+        bad[0, 0] = np.nan
+        np.savez(path, **{**arrays, "embed.weight": bad})
+    with pytest.raises(ValueError, match="'path' parameter of load_decoder"):
+        load_decoder(path)
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+@pytest.mark.parametrize(("bad", "name"), [
+    ({"scans": np.full((2, 359), 10.0)}, "scans"),
+    ({"scans": np.where(np.arange(360) == 7, np.nan, 10.0)[None].repeat(2, 0)}, "scans"),
+    ({"scans": np.where(np.arange(360) == 7, -1.0, 10.0)[None].repeat(2, 0)}, "scans"),
+    ({"w_up": np.array([[np.nan, 1.0], [1.0, 1.0]])}, "w_up"),
+    ({"w_robot": np.array([[1.0, np.inf], [1.0, 1.0]])}, "w_robot"),
+    ({"w_robot": np.ones((3, 2))}, "w_robot"),
+])
+@pytest.mark.parametrize("arch", sorted(ARCHITECTURES))
+def test_bad_inputs_raise_value_errors_naming_the_argument(bad, name, arch):
+    _, dec = random_decoder(arch, size=5)
+    args = {"scans": np.full((2, 360), 10.0), "w_up": np.ones((2, 2)),
+            "w_robot": np.ones((2, 2)), **bad}
+    with pytest.raises(ValueError, match=f"'{name}' parameter of Decoder.predict"):
+        dec.predict(**args)
+
+
+def test_bad_hyperparameters_are_refused():
+    with pytest.raises(ValueError, match="'pool' hyperparameter"):
+        make_architecture("d4-film", 25, pool=4)  # sectors not permuted by D4
+    with pytest.raises(ValueError, match="'name' parameter"):
+        make_architecture("resnet", 25)
+    with pytest.raises(ValueError, match="unknown"):
+        make_architecture("thesis-mlp", 25, modes=3)
+    with pytest.raises(ValueError, match="'width' hyperparameter"):
+        make_architecture("thesis-mlp", 25, width=0)
+    with pytest.raises(ValueError, match="'metadata' parameter of Decoder"):
+        Decoder({}, {"architecture": "nope"})
+
+
+def test_inference_does_not_import_torch(tmp_path):
+    _, dec = random_decoder("d4-film", size=5)
+    path = dec.save(tmp_path / "m.npz")
+    code = ("import sys, numpy as np\n"
+            "import windnav.predict\n"
+            "from windnav.predict.decoder import load_decoder\n"
+            f"d = load_decoder({str(path)!r})\n"
+            "out = d.predict(np.full((3, 360), 20.0), np.ones((3, 2)), np.ones((3, 2)))\n"
+            "assert out.shape == (3, 2, 5, 5)\n"
+            "assert 'torch' not in sys.modules, 'inference imported torch'\n")
+    subprocess.run([sys.executable, "-c", code], check=True)

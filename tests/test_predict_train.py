@@ -1,0 +1,240 @@
+"""Training the wind flow decoder end to end on the tiny recipe: a real (tiny) flow sweep, a
+tiny d4-film that must beat the Local baseline on its training maps and on the held-out map,
+the saved model reproducing the metrics measured in memory, resumption from a checkpoint
+giving the uninterrupted run's model, and the ``train-decoder`` command."""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import importlib.util
+import json
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+
+from windnav.experiments.wind_sweep import sweep  # noqa: E402
+from windnav.predict.dataset import DecoderDataset, fields_from_store  # noqa: E402
+from windnav.predict.decoder import load_decoder, make_architecture  # noqa: E402
+from windnav.predict.metrics import field_errors  # noqa: E402
+from windnav.predict.train import (  # noqa: E402
+    RECIPES,
+    _augment,
+    _loss,
+    load_recipe,
+    recipe_maps,
+    train_decoder,
+)
+
+
+class Stop(Exception):
+    """Raised by a callback to interrupt a training run."""
+
+
+def tiny_recipe(**train):
+    recipe = load_recipe(RECIPES / "tiny.toml")
+    recipe["train"].update({"tensorboard": False, **train})
+    return recipe
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    """The tiny recipe's sweep (serial) and one uninterrupted training run."""
+    recipe = tiny_recipe()
+    out = tmp_path_factory.mktemp("tiny")
+    sw = recipe["sweep"]
+    store, results = sweep(recipe_maps(recipe), out / "sweep.zarr", speeds=sw["speeds"],
+                           directions_deg=sw["directions_deg"], settings=sw["settings"],
+                           backend="serial", seed=sw["seed"], progress=False)
+    assert all(r.ok for r in results)
+    history = train_decoder(recipe, store=out / "sweep.zarr", out_dir=out, progress=False,
+                            log=None)
+    return recipe, out, history
+
+
+def test_tiny_model_learns_and_beats_the_local_baseline(tiny):
+    recipe, out, h = tiny
+    losses = [e["train_loss"] for e in h["epochs"]]
+    assert len(losses) == recipe["train"]["epochs"] and losses[-1] < 0.8 * losses[0]
+    mine, local = h["train_metrics"]["decoder"], h["train_metrics"]["local"]
+    assert mine["speed_error"] < 0.9 * local["speed_error"]
+    assert mine["direction_error_deg"] < local["direction_error_deg"]
+    # and on the held-out map
+    assert h["best_val"]["speed_error"] < h["baselines"]["local"]["speed_error"]
+    assert h["baselines"]["upstream"]["speed_error"] > h["baselines"]["local"]["speed_error"]
+    saved = json.loads((out / "history.json").read_text())
+    assert saved["best_epoch"] == h["best_epoch"] and len(saved["epochs"]) == len(losses)
+
+
+def test_saved_model_reproduces_the_metrics_measured_in_memory(tiny):
+    recipe, out, h = tiny
+    dec = load_decoder(out / "model.npz")
+    assert dec.architecture == "d4-film" and dec.size == recipe["data"]["size"]
+    assert dec.metadata["metrics"]["validation"] == h["best_val"]
+    assert dec.metadata["recipe"]["train"]["epochs"] == recipe["train"]["epochs"]
+    data = recipe["data"]
+    fields = fields_from_store(out / "sweep.zarr", maps=[2])  # the held-out map
+    val = DecoderDataset(fields, data["validation_samples_per_field"], seed=data["seed"] + 1,
+                         size=data["size"]).materialize()
+    e = field_errors(dec.predict(val.scans, val.w_up, val.w_robot), val.labels, val.free,
+                     val.inlet_speed)
+    for k, v in h["best_val"].items():
+        assert float(e[k]) == pytest.approx(v, rel=1e-6)
+
+
+def test_resumed_training_ends_with_the_uninterrupted_model(tiny, tmp_path):
+    recipe, out, full = tiny
+    tensorboard = importlib.util.find_spec("tensorboard") is not None
+    resumed = copy.deepcopy(recipe)
+    resumed["train"]["tensorboard"] = True  # not part of the recipe's identity
+
+    def stop_after_two(epoch, record):
+        if epoch == 2:
+            raise Stop
+
+    with pytest.warns(UserWarning, match="tensorboard") if not tensorboard else _nothing():
+        with pytest.raises(Stop):
+            train_decoder(resumed, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                          log=None, callback=stop_after_two)
+    assert len(json.loads((tmp_path / "history.json").read_text())["epochs"]) == 2
+    lines = []
+    with pytest.warns(UserWarning, match="tensorboard") if not tensorboard else _nothing():
+        h = train_decoder(resumed, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                          log=lines.append)
+    assert "resuming" in lines[0] and "after epoch 2" in lines[0]
+    assert (tmp_path / "tensorboard").is_dir() == tensorboard
+    assert [e["train_loss"] for e in h["epochs"]] == [e["train_loss"] for e in full["epochs"]]
+    a, b = load_decoder(out / "model.npz"), load_decoder(tmp_path / "model.npz")
+    for k in a.weights:
+        np.testing.assert_array_equal(a.weights[k], b.weights[k])
+    # a finished run is not trained again
+    again = train_decoder(resumed, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                          log=None)
+    assert again["epochs"] == h["epochs"]
+
+
+class _nothing:
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+
+def test_another_recipe_does_not_resume_a_checkpoint(tiny):
+    recipe, out, _ = tiny
+    changed = copy.deepcopy(recipe)
+    changed["train"]["learning_rate"] = 1e-2
+    with pytest.raises(ValueError, match="'config' parameter of train_decoder differs"):
+        train_decoder(changed, store=out / "sweep.zarr", out_dir=out, progress=False, log=None)
+
+
+def test_thesis_mlp_trains_with_d4_augmentation(tiny, tmp_path):
+    recipe, out, _ = tiny
+    mlp = copy.deepcopy(recipe)
+    mlp["model"] = {"architecture": "thesis-mlp", "hyperparameters": {"width": 64, "depth": 2}}
+    mlp["train"].update(epochs=2, optimizer="adam", weight_decay=0.002, loss_speed_power=2.0,
+                        augment_d4=True, cache=False)
+    h = train_decoder(mlp, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None)
+    assert h["epochs"][-1]["train_loss"] < h["epochs"][0]["train_loss"]
+    assert load_decoder(tmp_path / "model.npz").architecture == "thesis-mlp"
+
+
+def test_d4_augmentation_turns_whole_samples(tiny):
+    """The canonical frame forgets the turn: augmented samples have the same canonical
+    inputs and labels, so augmentation turns scans, winds, labels and masks consistently."""
+    recipe, out, _ = tiny
+    fields = fields_from_store(out / "sweep.zarr", maps=[0])
+    s = DecoderDataset(fields, 16, size=9).materialize()
+    batch = (s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed)
+    turned = _augment(batch, np.random.default_rng(0))
+    arch = make_architecture("d4-film", 9)
+    fa, fb = arch.features(*batch[:3]), arch.features(*turned[:3])
+    for k in ("channels", "winds", "scale", "w_robot"):
+        np.testing.assert_allclose(fa[k], fb[k], rtol=1e-6, atol=1e-6)
+    la = arch.model_labels(s.labels.reshape(-1, 2, 81), s.free.reshape(-1, 81), fa)
+    lb = arch.model_labels(turned[3].reshape(-1, 2, 81), turned[4].reshape(-1, 81), fb)
+    np.testing.assert_array_equal(la[1], lb[1])
+    np.testing.assert_allclose(la[0], lb[0], atol=1e-6)
+
+
+def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
+    from windnav.commands import train_decoder as decoder
+
+    recipe, out, h = tiny
+    parser = argparse.ArgumentParser()
+    decoder.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["train-decoder", "--config", str(RECIPES / "tiny.toml"),
+                              "--out", str(out), "--no-progress", "--backend", "serial",
+                              "--json", str(out / "run.json")])
+    assert args.func(args) == 0
+    text = capsys.readouterr().out
+    assert "12/12 simulations done (0 now" in text and str(out / "model.npz") in text
+    doc = json.loads((out / "run.json").read_text())
+    assert doc["command"] == "windnav train-decoder"
+    assert doc["history"]["best_epoch"] == h["best_epoch"]
+    # the recipe copy is written by fresh runs only, never over an existing checkpoint's
+    assert not (out / "recipe.toml").exists()
+
+
+def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection():
+    import torch
+
+    label = torch.tensor([[[3.0, 0.0, 5.0], [4.0, 1.0, 0.0]]])  # (1, 2, 3): three cells
+    free = torch.tensor([[1.0, 1.0, 0.0]])
+    speed = torch.tensor([5.0])
+    assert float(_loss(label, label, free, speed, 1.0, 0.5)) == pytest.approx(0.0, abs=1e-5)
+    pred = label.clone()
+    pred[0, :, 0] = torch.tensor([-3.0, -4.0])  # reversed in cell 0: error 10 m/s, cos -1
+    pred[0, :, 2] = 100.0  # a building cell does not count
+    mse = 100.0 / 25.0 * (5.0 / 10.0) / 2  # |err|^2 / U^2 * (U / 10)^p, mean over 2 cells
+    assert float(_loss(pred, label, free, speed, 1.0, 0.0)) == pytest.approx(mse, rel=1e-6)
+    assert float(_loss(pred, label, free, speed, 1.0, 0.5)) == pytest.approx(
+        mse + 0.5 * 2.0 / 2, rel=1e-5)
+    # the direction term does not pull on the predicted speed
+    scaled = (2.0 * label).requires_grad_(True)
+    _loss(scaled, label, free, speed, 1.0, 0.0).backward()
+    mse_grad = scaled.grad.clone()
+    scaled.grad = None
+    _loss(scaled, label, free, speed, 1.0, 0.5).backward()
+    torch.testing.assert_close(scaled.grad, mse_grad, atol=1e-5, rtol=0)
+
+
+@pytest.mark.parametrize(("change", "match"), [
+    ({"trian": {}}, "unknown key 'trian'"),
+    ({"train": {"epochs": 0}}, "train.epochs"),
+    ({"train": {"optimizer": "sgd"}}, "train.optimizer"),
+    ({"data": {"validation_maps": []}}, "data.validation_maps"),
+    ({"model": {"architecture": "resnet"}}, "'name' parameter of make_architecture"),
+    ({"model": {"hyperparameters": {"pool": 4}}}, "'pool' hyperparameter"),
+    ({"sweep": {"maps": [{"name": "a", "kind": "forest"}]}}, "sweep.maps"),
+])
+def test_bad_recipes_are_refused(change, match):
+    base = {"data": {"validation_maps": ["holdout-0"]}}
+    for key, value in change.items():
+        base[key] = {**base.get(key, {}), **value}
+    with pytest.raises(ValueError, match=match):
+        load_recipe(base)
+
+
+def test_recipe_files_are_checked(tmp_path):
+    with pytest.raises(ValueError, match="'config' parameter of load_recipe.*does not exist"):
+        load_recipe(tmp_path / "none.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[train\nepochs = 3\n")
+    with pytest.raises(ValueError, match="not valid TOML"):
+        load_recipe(bad)
+
+
+@pytest.mark.parametrize("name", ["default", "tiny"])
+def test_shipped_recipes_are_complete(name):
+    recipe = load_recipe(RECIPES / f"{name}.toml")
+    names = [group["name"] for group in recipe["sweep"]["maps"]]
+    assert len(set(names)) == len(names)
+    counts = {g["name"]: g.get("count", 1) for g in recipe["sweep"]["maps"]}
+    maps = [f"{n}-{i}" for n in names for i in range(counts[n])]
+    assert set(recipe["data"]["validation_maps"]) < set(maps)
+    assert recipe["data"]["size"] == 25
