@@ -16,7 +16,7 @@ from windnav.cli import COMMAND_MODULES, build_parser, main
 from windnav.experiments import results as res
 
 SEEDED = {"fly", "wind", "wind-sweep", "flow-validate", "ukf-montecarlo", "calibrate", "demo",
-          "navigate", "benchmark-nav"}
+          "navigate", "benchmark-nav", "evaluate-decoder", "predict"}
 """Commands that draw random numbers; ``power-curve`` draws none (no sensors, steady wind)."""
 
 

@@ -32,6 +32,8 @@ COMMAND_MODULES = (
     "demo",
     "benchmark_nav",
     "train_decoder",
+    "evaluate_decoder",
+    "predict",
 )
 
 EXIT_ERROR = 2

@@ -1,0 +1,177 @@
+"""Benchmark: wind flow decoder inference with NumPy on one CPU thread, beside the thesis MLP.
+
+Ours: the d4-film decoder (the given ``--model``, else the shipped model, else the default
+recipe's d4-film with random weights: inference time does not depend on the weights' values).
+Reference, in the same run: the thesis MLP at the thesis's size (364 -> 3 x 2048 -> 2 x 625,
+11.7 M parameters) with random weights, through the same ``Decoder`` class. Both predict the
+same inputs: one sample, and a batch of 1024 (street scans are not needed for timing: ranges
+uniform in [0.25, 100] m, inlets at random directions, so the d4-film's batch mixes all eight
+canonical frames as flight data would). BLAS is held to one thread (OMP/OPENBLAS/MKL set before
+NumPy is imported). Reports the median and the minimum over ``--repeats``; issue 9's targets
+are <= 1 ms for one sample and <= 20 ms for 1024.
+
+    .venv/bin/python benchmarks/bench_decoder.py [--model FILE] [--repeats 200] [--json FILE]
+                                                 [--record]
+
+Prints a Markdown table; ``--record`` appends it to docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
+             "NUMEXPR_NUM_THREADS", "VECLIB_MAXIMUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import tomllib  # noqa: E402
+
+TARGETS_MS = {1: 1.0, 1024: 20.0}
+"""Issue 9's latency targets for the decoder, ms per call."""
+THESIS_MLP = {"width": 2048, "depth": 3}
+
+
+def random_decoder(architecture: str, size: int = 25, *, seed: int = 0, **hp):
+    """A Decoder of ``architecture`` with He-scaled random weights (for timing only)."""
+    from windnav.predict.decoder import Decoder, make_architecture
+
+    arch = make_architecture(architecture, size, **hp)
+    rng = np.random.default_rng(seed)
+    weights = {}
+    for name, shape in arch.shapes().items():
+        fan_in = int(np.prod(shape[1:])) if len(shape) > 1 else 1
+        scale = np.sqrt(2.0 / fan_in) if len(shape) > 1 else 0.0
+        weights[name] = (scale * rng.standard_normal(shape)).astype(np.float32)
+    meta = {"architecture": architecture, "hyperparameters": dict(arch.hp), "spacing": 1.0,
+            "note": "random weights (benchmark)"}
+    return Decoder(weights, meta)
+
+
+def default_recipe_d4():
+    """The default recipe's d4-film with random weights."""
+    import windnav.predict as wp
+
+    path = Path(wp.__file__).resolve().parent / "recipes" / "default.toml"
+    recipe = tomllib.loads(path.read_text())
+    return random_decoder(recipe["model"]["architecture"],
+                          recipe["data"].get("size", 25),
+                          **recipe["model"].get("hyperparameters", {}))
+
+
+def inputs(batch: int, rng: np.random.Generator):
+    """Scans (B, 360) m, W_up and W_robot (B, 2) m/s."""
+    scans = rng.uniform(0.25, 100.0, size=(batch, 360)).astype(np.float32)
+    a = rng.uniform(0, 2 * np.pi, size=batch)
+    u = rng.uniform(2.0, 10.0, size=batch)
+    w_up = np.stack([u * np.cos(a), u * np.sin(a)], axis=1).astype(np.float32)
+    w_robot = (w_up * rng.uniform(0.0, 1.5, size=(batch, 1))).astype(np.float32)
+    return scans, w_up, w_robot
+
+
+def time_predict(decoder, batch: int, repeats: int, *, seed: int = 0) -> dict:
+    """Median and minimum wall time of ``decoder.predict`` on a batch, ms (after a warm-up)."""
+    x = inputs(batch, np.random.default_rng(seed))
+    for _ in range(min(3, repeats)):
+        decoder.predict(*x)
+    times = np.empty(repeats)
+    for i in range(repeats):
+        t0 = time.perf_counter()
+        decoder.predict(*x)
+        times[i] = time.perf_counter() - t0
+    return {"batch": batch, "repeats": repeats, "median_ms": 1e3 * float(np.median(times)),
+            "min_ms": 1e3 * float(times.min())}
+
+
+def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
+        seed: int = 0) -> dict:
+    """Time the decoder and the thesis MLP; returns a JSON-ready dict."""
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    if model is not None:
+        dec, source = load_decoder(model), str(model)
+    elif DEFAULT_MODEL.is_file():
+        dec, source = load_decoder(), "shipped model"
+    else:
+        dec, source = default_recipe_d4(), "default recipe d4-film, random weights"
+    mlp = random_decoder("thesis-mlp", dec.size, **THESIS_MLP)
+    rb = repeats_batch if repeats_batch is not None else max(3, repeats // 10)
+    out = {"threads": 1, "numpy": np.__version__, "models": {}}
+    for name, d, src in (("decoder", dec, source),
+                         ("thesis-mlp", mlp, "thesis size, random weights")):
+        out["models"][name] = {
+            "source": src, "architecture": d.architecture, "size": d.size,
+            "n_parameters": d.n_parameters,
+            "one": time_predict(d, 1, repeats, seed=seed),
+            "batch": time_predict(d, 1024, rb, seed=seed)}
+    o, t = out["models"]["decoder"], out["models"]["thesis-mlp"]
+    out["speedup"] = {k: t[k]["median_ms"] / o[k]["median_ms"] for k in ("one", "batch")}
+    out["meets_target"] = {"one": o["one"]["median_ms"] <= TARGETS_MS[1],
+                           "batch": o["batch"]["median_ms"] <= TARGETS_MS[1024]}
+    return out
+
+
+def rows(res: dict) -> list[str]:
+    """The Markdown table of a :func:`run` result."""
+    o, t = res["models"]["decoder"], res["models"]["thesis-mlp"]
+
+    def cell(m, k):
+        return f"{m[k]['median_ms']:.3f} (min {m[k]['min_ms']:.3f})"
+
+    met = {k: "met" if v else "NOT met" for k, v in res["meets_target"].items()}
+    return [
+        f"NumPy {res['numpy']}, 1 thread; decoder: {o['architecture']} ({o['source']}, "
+        f"{o['n_parameters']:,} parameters, H = {o['size']}); reference: thesis MLP "
+        f"364 -> 3 x 2048 -> 2 x {o['size'] ** 2} ({t['n_parameters']:,} parameters, random "
+        f"weights); ms per call, median (min) over {o['one']['repeats']} / "
+        f"{o['batch']['repeats']} repeats.",
+        "",
+        "| model | 1 sample, ms | 1024 samples, ms |",
+        "|---|---|---|",
+        f"| {o['architecture']} (ours) | {cell(o, 'one')} | {cell(o, 'batch')} |",
+        f"| thesis MLP (reference) | {cell(t, 'one')} | {cell(t, 'batch')} |",
+        f"| ratio (reference / ours) | {res['speedup']['one']:.1f}x | "
+        f"{res['speedup']['batch']:.1f}x |",
+        "",
+        f"Targets (issue 9): <= 1 ms for one sample ({met['one']}), <= 20 ms for 1024 "
+        f"({met['batch']}).",
+    ]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--model", type=Path, default=None, help="decoder file (default: shipped)")
+    ap.add_argument("--repeats", type=int, default=200, help="timed calls for one sample")
+    ap.add_argument("--repeats-batch", type=int, default=None,
+                    help="timed calls for the batch of 1024 (default repeats / 10)")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
+    ap.add_argument("--record", action="store_true", help="append to docs/benchmarks.md")
+    args = ap.parse_args(argv)
+    if args.repeats < 1 or (args.repeats_batch is not None and args.repeats_batch < 1):
+        ap.error("--repeats and --repeats-batch must be >= 1")
+    res = run(args.model, repeats=args.repeats, repeats_batch=args.repeats_batch,
+              seed=args.seed)
+    table = rows(res)
+    print("\n".join(table))
+    if args.json is not None:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(res, indent=1) + "\n")
+    if args.record:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from _record import append_record
+
+        append_record("Wind flow decoder inference (windnav.predict, NumPy, 1 thread)", table,
+                      command="python benchmarks/bench_decoder.py " + " ".join(argv or []))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))

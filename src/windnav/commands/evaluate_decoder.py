@@ -1,0 +1,107 @@
+"""``windnav evaluate-decoder``: the wind flow decoder against its baselines (JSON + figure).
+
+::
+
+    windnav evaluate-decoder --out runs/eval --json eval.json --seed 0          # 20 min budget
+    windnav evaluate-decoder --model runs/default/model.npz --maps 3 --inlets 8 --budget-min 5
+
+Simulates the mean flow of dense 1.2 km evaluation maps (never trained on) and of the windinet
+1.1 km layout at random inlets (speed U[2, 10] m/s, direction U[0, 360) deg), draws samples
+from each field and reports the speed, direction and vector errors of the decoder, the Local
+baseline (uniform W_robot) and the Upstream baseline (uniform W_up), per (map, inlet) and
+pooled, with the improvements over each baseline and issue 9's acceptance checks. Inlets are
+added, map by map, while they fit in the budget. The harness is
+:mod:`windnav.experiments.decoder_eval`, the figure :mod:`windnav.viz.decoder`.
+
+Writes into ``--out``: ``decoder_eval.json`` and ``decoder_eval.png``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from windnav._validate import positive_float, positive_int
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
+
+PRODUCTS = ("decoder_eval.json", "decoder_eval.png")
+"""What a run writes into ``--out``."""
+
+
+def register(subparsers) -> None:
+    """Add the ``evaluate-decoder`` subcommand."""
+    p = subparsers.add_parser(
+        "evaluate-decoder",
+        help="score the wind flow decoder and its baselines on simulated evaluation maps",
+        description=__doc__.splitlines()[0],
+    )
+    p.add_argument("--model", type=Path, default=None, metavar="FILE",
+                   help="decoder file (default: the shipped model)")
+    p.add_argument("--maps", type=int, default=3, metavar="N",
+                   help="dense 1.2 km evaluation maps (default 3; 0: only windinet)")
+    p.add_argument("--inlets", type=int, default=8, metavar="N",
+                   help="random inlets per map at most (default 8; the budget may stop earlier)")
+    p.add_argument("--samples", type=int, default=2048, metavar="N",
+                   help="samples per (map, inlet) (default 2048)")
+    p.add_argument("--budget-min", type=float, default=20.0, metavar="MIN",
+                   help="wall-clock budget in minutes (default 20): no inlet starts that would "
+                        "end past it")
+    p.add_argument("--windinet", action=argparse.BooleanOptionalAction, default=True,
+                   help="also evaluate the third-party windinet 1.1 km layout (default: yes)")
+    p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder (JSON, figure)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the inlets and the samples")
+    p.add_argument("--no-progress", action="store_true", help="hide the per-inlet lines")
+    add_output_arguments(p)
+    p.set_defaults(func=run)
+
+
+def run(args, simulate=None, flow_settings=None) -> int:
+    """Run ``windnav evaluate-decoder``; returns 0."""
+    from windnav.experiments.decoder_eval import evaluate_decoder
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.viz.decoder import plot_evaluation
+
+    name = where(args)
+    seed(args)
+    positive_int(args.inlets, "--inlets", name)
+    positive_int(args.samples, "--samples", name)
+    budget = positive_float(args.budget_min, "--budget-min", name)
+    positive_float(args.dx, "--dx", name)
+    if isinstance(args.maps, bool) or args.maps < 0 or (args.maps == 0 and not args.windinet):
+        raise ValueError(f"The '--maps' parameter of {name} must be an integer >= 0 (>= 1 with "
+                         f"--no-windinet). Got {args.maps!r} instead.")
+    if args.model is not None and not Path(args.model).is_file():
+        raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
+                         f"{str(args.model)!r} instead, which does not exist.")
+    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet,
+                           n_inlets=args.inlets, samples_per_inlet=args.samples,
+                           seed=args.seed, budget_s=60.0 * budget, dx=args.dx,
+                           flow_settings=flow_settings, progress=not args.no_progress,
+                           simulate=simulate)
+    with out.writing() as stage:
+        plot_evaluation(res, stage.dir / "decoder_eval.png")
+        doc = document("evaluate-decoder", res, args)
+        write_json(doc, stage.dir / "decoder_eval.json")
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    summary = {g: {m: {k: p[m][k] for k in ("speed_error", "direction_error_deg")}
+                   for m in ("decoder", "local", "upstream")}
+               | {"improvement_pct": p["improvement_pct"], "acceptance": p["acceptance"],
+                  "n_slots": p["n_slots"]}
+               for g, p in res["pooled"].items()}
+    print(json.dumps(json_ready({"pooled": summary, "n_slots_run": res["n_slots_run"],
+                      "stopped_by_budget": res["stopped_by_budget"],
+                      "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 0

@@ -1,0 +1,355 @@
+"""Evaluation of the wind flow decoder against its baselines (issue 9, items 6 and 7).
+
+:func:`evaluate_decoder` simulates the mean flow of evaluation maps at random inlets and
+scores the decoder, the Local baseline (uniform ``W_robot``) and the Upstream baseline (uniform
+``W_up``) on samples drawn from each field, with the metrics of :mod:`windnav.predict.metrics`
+(defined once there). :func:`predict_at` is one prediction at one point of a map, with its
+truth, for ``windnav predict``.
+
+The protocol (the thesis's evaluation, ch. 4, on our maps):
+
+- **Maps.** ``dense-i``: :func:`windnav.city.dense_map` (1.2 km, >= 200 buildings) drawn from
+  child ``i`` of ``numpy.random.SeedSequence(EVAL_MAP_SEED)`` (:func:`generated_maps`); the
+  default recipe trains on seeds 1001-1005, so these maps are never trained on. ``windinet``:
+  the third-party 1.1 km layout ``/work/shared/data/windinet/example_layout.json``
+  (Weihao-Li-2001/windinet, Apache-2.0).
+- **Inlets.** Speed ``U[2, 10]`` m/s and direction ``U[0, 360)`` deg, drawn from ``seed`` for
+  every (map, inlet) slot before anything runs (:func:`inlet_slots`), and the samples of each
+  slot from its own stream (:func:`slot_rng`), so a slot does not depend on the budget.
+- **Flow.** :func:`windnav.flow.simulate` with the thesis protocol (100 spin-up steps, mean over
+  200) at ``dx`` (1 m: the decoder's training resolution) and the training sweep's time step
+  (:func:`windnav.experiments.wind_sweep.auto_dt`: 0.25 s, shortened to ``U dt / dx <= 1``).
+- **Samples.** :func:`windnav.predict.draw_samples`: scan noise 0.35 m, no ``W_robot`` noise,
+  robots >= 1 m from walls and within 40 m of a building, on the decoder's grid.
+- **Budget.** Slots run inlet by inlet, each inlet over every map in turn (so the maps share the
+  time); before a slot starts, its cost is estimated from the slots done (seconds per grid cell
+  times its cells) and the run stops when it would end past ``budget_s``. The first slot always
+  runs.
+
+Pooled errors weigh cells equally (:func:`windnav.predict.pooled_errors`); improvements are
+``1 - model / baseline`` (:func:`windnav.predict.improvement`), in percent.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from windnav._validate import positive_float, positive_int
+
+__all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
+           "check_point", "inlet_slots", "predict_at", "slot_rng"]
+
+EVAL_MAP_SEED = 2000
+"""Seed of the dense evaluation maps (the default recipe's training maps use 1001-1005)."""
+WINDINET_LAYOUT = Path("/work/shared/data/windinet/example_layout.json")
+"""The third-party 1.1 km urban layout (Weihao-Li-2001/windinet, Apache-2.0)."""
+MODELS = ("decoder", "local", "upstream")
+"""The predictors scored, in report order."""
+SPEED_RANGE = (2.0, 10.0)
+"""Inlet speeds, m/s (uniform)."""
+PROTOCOL = {"spinup_steps": 100, "steps": 200}
+"""The thesis's averaging protocol (steps)."""
+ACCEPTANCE = {"speed_error": 0.6, "direction_error_deg": 12.0, "vs_local": 35.0,
+              "vs_upstream": 75.0}
+"""Issue 9's accuracy targets at H = 25: errors (m/s, deg) and improvements (%)."""
+_IMPROVED = ("speed_error", "direction_error_deg", "direction_error_masked_deg", "vector_error")
+
+
+def _improvement_pct(model: float, baseline: float) -> float:
+    from windnav.predict import improvement
+
+    if not (np.isfinite(model) and np.isfinite(baseline) and baseline > 0 and model >= 0):
+        return float("nan")
+    return 100.0 * improvement(model, baseline)
+
+
+def _summary(errors: dict) -> dict:
+    """Per-model errors plus the decoder's improvement (%) over each baseline."""
+    out = {m: errors[m] for m in MODELS}
+    out["improvement_pct"] = {
+        base: {k: _improvement_pct(errors["decoder"][k], errors[base][k]) for k in _IMPROVED}
+        for base in ("local", "upstream")}
+    return out
+
+
+def _acceptance(summary: dict) -> dict:
+    d, imp = summary["decoder"], summary["improvement_pct"]
+    checks = {
+        "speed_error": d["speed_error"] <= ACCEPTANCE["speed_error"],
+        "direction_error_deg": d["direction_error_deg"] <= ACCEPTANCE["direction_error_deg"],
+        "vs_local": all(imp["local"][k] >= ACCEPTANCE["vs_local"]
+                        for k in ("speed_error", "direction_error_deg")),
+        "vs_upstream": all(imp["upstream"][k] >= ACCEPTANCE["vs_upstream"]
+                           for k in ("speed_error", "direction_error_deg")),
+    }
+    return {**{k: bool(v) for k, v in checks.items()}, "all": bool(all(checks.values()))}
+
+
+def inlet_slots(n_maps: int, n_inlets: int, seed: int) -> np.ndarray:
+    """The inlets of every (map, inlet) slot: ``(n_maps, n_inlets, 2)`` of (speed m/s,
+    direction deg), drawn from ``seed`` (map-major; slot (i, j) does not depend on how many
+    slots run)."""
+    out = np.empty((n_maps, n_inlets, 2))
+    for i in range(n_maps):
+        child = np.random.default_rng(np.random.SeedSequence([seed, 2, i]))
+        out[i, :, 0] = child.uniform(*SPEED_RANGE, size=n_inlets)
+        out[i, :, 1] = child.uniform(0.0, 360.0, size=n_inlets)
+    return out
+
+
+def slot_rng(seed: int, map_index: int, inlet_index: int) -> np.random.Generator:
+    """The random source of the samples of slot (``map_index``, ``inlet_index``)."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), 3, map_index, inlet_index]))
+
+
+def _evaluation_maps(maps, windinet, where):
+    """``[(name, group, City)]``: the dense maps, then the windinet layout."""
+    from windnav.city import City, read_rotorpy_json
+
+    out = []
+    if isinstance(maps, int | np.integer) and not isinstance(maps, bool):
+        if maps > 0:
+            from windnav.experiments.maps import generated_maps
+
+            out += [(name, "dense", c) for name, _, c in
+                    generated_maps(int(maps), "dense", seed=EVAL_MAP_SEED)]
+        elif maps < 0:
+            raise ValueError(f"The 'maps' parameter of {where} must be an integer >= 0 or a "
+                             f"list of (name, City). Got {maps!r} instead.")
+    else:
+        for item in maps:
+            name, c = item
+            if not isinstance(c, City):
+                raise ValueError(f"The 'maps' parameter of {where} must be an integer >= 0 or "
+                                 f"a list of (name, City). Got {type(c).__name__} instead.")
+            out.append((str(name), "dense", c))
+    if windinet:
+        path = WINDINET_LAYOUT if windinet is True else Path(windinet)
+        out.append(("windinet", "windinet", read_rotorpy_json(path)))
+    if not out:
+        raise ValueError(f"The 'maps' parameter of {where} must give at least one map (or "
+                         "windinet=True). Got no map instead.")
+    return out
+
+
+def _score(decoder, batch, size, spacing) -> tuple[dict, dict]:
+    """Errors (pooled, and per sample) of the decoder and both baselines on one batch."""
+    from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
+
+    predictors = {"decoder": decoder, "local": LocalBaseline(size=size, spacing=spacing),
+                  "upstream": UpstreamBaseline(size=size, spacing=spacing)}
+    errors, per_sample = {}, {}
+    for name, model in predictors.items():
+        pred = model.predict(batch.scans, batch.w_up, batch.w_robot)
+        e = field_errors(pred, batch.labels, batch.free, batch.inlet_speed, per_sample=True)
+        per_sample[name] = e.pop("per_sample")
+        errors[name] = e
+    return errors, per_sample
+
+
+def _pool(per_sample_list: list[dict]) -> dict:
+    from windnav.predict import pooled_errors
+
+    joined = {k: np.concatenate([p[k] for p in per_sample_list]) for k in per_sample_list[0]}
+    return pooled_errors(joined)
+
+
+def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 8,
+                     samples_per_inlet: int = 2048, seed: int = 0, budget_s: float = 1200.0,
+                     dx: float = 1.0, flow_settings: dict | None = None, decoder=None,
+                     progress: bool = False, simulate=None) -> dict:
+    """Score the decoder and its baselines on simulated evaluation fields (module doc).
+
+    Parameters
+    ----------
+    model_path : str or path-like, optional
+        A decoder file; default the shipped model (``windnav.predict.load_decoder``).
+    maps : int or list of (str, City)
+        The number of dense evaluation maps (``dense-i``, see the module doc), or the maps.
+    windinet : bool or path
+        Also evaluate the third-party windinet layout (or the RotorPy JSON at this path).
+    n_inlets : int
+        Random inlets per map, >= 1 (at most; the budget may stop earlier).
+    samples_per_inlet : int
+        Samples drawn per (map, inlet), >= 1.
+    seed : int
+        Seed of the inlets and the samples.
+    budget_s : float
+        Wall-clock budget, s (> 0); no slot starts that would end past it.
+    dx : float
+        Solver cell size, m (the decoder was trained at 1 m).
+    flow_settings : dict, optional
+        Override ``spinup_steps``, ``steps`` and ``dt`` (s) of the thesis protocol (tests).
+    decoder : Decoder, optional
+        Use this decoder instead of loading ``model_path``.
+    progress : bool
+        Print one line per slot.
+    simulate : callable, optional
+        Replaces :func:`windnav.flow.simulate` (same signature; tests).
+
+    Returns
+    -------
+    dict
+        ``config`` (the protocol), ``decoder`` (its file and architecture), ``records`` (one
+        per (map, inlet) slot run: map, group, speed, direction_deg, seconds, errors of each
+        model, improvement_pct), ``failed`` (slots whose flow failed, with the error),
+        ``pooled`` (``{"dense": ..., "windinet": ..., "all": ...}``: errors per model,
+        improvement_pct and ``acceptance``), ``n_slots_run``, ``n_slots_planned``,
+        ``stopped_by_budget``, ``elapsed_s``.
+    """
+    from windnav.experiments.wind_sweep import auto_dt
+    from windnav.flow import simulate as flow_simulate
+    from windnav.flow.solver import FlowDivergedError
+    from windnav.predict import draw_samples, field_from_solution, load_decoder
+
+    where = "evaluate_decoder"
+    t_start = time.perf_counter()
+    n_inlets = positive_int(n_inlets, "n_inlets", where)
+    samples = positive_int(samples_per_inlet, "samples_per_inlet", where)
+    budget_s = positive_float(budget_s, "budget_s", where)
+    dx = positive_float(dx, "dx", where)
+    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
+        raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. "
+                         f"Got {seed!r} instead.")
+    settings = {**PROTOCOL, **(flow_settings or {})}
+    unknown = sorted(set(settings) - {"spinup_steps", "steps", "dt"})
+    if unknown:
+        raise ValueError(f"The 'flow_settings' parameter of {where} must only set "
+                         f"spinup_steps, steps, dt. Got {unknown} instead.")
+    dec = decoder if decoder is not None else load_decoder(model_path)
+    sim = simulate or flow_simulate
+    cities = _evaluation_maps(maps, windinet, where)
+    inlets = inlet_slots(len(cities), n_inlets, int(seed))
+    slots = [(i, j) for j in range(n_inlets) for i in range(len(cities))]
+
+    records, failed, per_sample = [], [], []
+    seconds_per_cell = None  # the cost of the slots done, s per grid cell
+    spent_s, spent_cells = 0.0, 0
+    stopped = False
+    for i, j in slots:
+        name, group, city = cities[i]
+        speed, direction = inlets[i, j]
+        cells = np.prod([len(a) for a in city.grid(dx)])
+        elapsed = time.perf_counter() - t_start
+        if seconds_per_cell is not None and elapsed + seconds_per_cell * cells > budget_s:
+            stopped = True
+            break
+        t0 = time.perf_counter()
+        dt = settings.get("dt") or auto_dt(dx, speed)
+        try:
+            sol = sim(city, speed=float(speed), direction_deg=float(direction), dx=dx, dt=dt,
+                      spinup_steps=settings["spinup_steps"], steps=settings["steps"])
+        except FlowDivergedError as exc:
+            failed.append({"map": name, "group": group, "inlet": j, "speed": speed,
+                           "direction_deg": direction, "error": str(exc)})
+            continue
+        t_flow = time.perf_counter() - t0
+        field = field_from_solution(city, sol, name=f"{name}/{j}")
+        batch = draw_samples(field, samples, slot_rng(seed, i, j), size=dec.size,
+                             spacing=dec.spacing, scan_noise=0.35, w_robot_noise=0.0)
+        errors, ps = _score(dec, batch, dec.size, dec.spacing)
+        seconds = time.perf_counter() - t0
+        spent_s, spent_cells = spent_s + seconds, spent_cells + int(cells)
+        seconds_per_cell = spent_s / spent_cells
+        rec = {"map": name, "group": group, "inlet": j, "speed": float(speed),
+               "direction_deg": float(direction), "dt": float(dt), "cells": int(cells),
+               "n_samples": int(batch.scans.shape[0]), "flow_seconds": t_flow,
+               "seconds": seconds, **_summary(errors)}
+        records.append(rec)
+        per_sample.append((group, ps))
+        if progress:
+            d, lo = errors["decoder"], errors["local"]
+            print(f"{name} inlet {j}: {speed:.2f} m/s {direction:.0f} deg; decoder speed "
+                  f"{d['speed_error']:.3f} m/s dir {d['direction_error_deg']:.1f} deg (Local "
+                  f"{lo['speed_error']:.3f}, {lo['direction_error_deg']:.1f}); flow "
+                  f"{t_flow:.0f} s, total {seconds:.0f} s", flush=True)
+
+    pooled = {}
+    for group in ("dense", "windinet", "all"):
+        chosen = [ps for g, ps in per_sample if group in ("all", g)]
+        if not chosen:
+            continue
+        summary = _summary({m: _pool([ps[m] for ps in chosen]) for m in MODELS})
+        summary["n_slots"] = len(chosen)
+        summary["acceptance"] = _acceptance(summary)
+        pooled[group] = summary
+    return {
+        "config": {"maps": [n for n, _, _ in cities], "map_seed": EVAL_MAP_SEED,
+                   "windinet_layout": str(WINDINET_LAYOUT) if windinet is True else
+                   (str(windinet) if windinet else None),
+                   "n_inlets": n_inlets, "samples_per_inlet": samples, "seed": int(seed),
+                   "budget_s": budget_s, "dx": dx, **settings,
+                   "dt_rule": "0.25 s, shortened to U dt / dx <= 1" if "dt" not in
+                   (flow_settings or {}) else "given",
+                   "speed_range": SPEED_RANGE, "direction_range_deg": (0.0, 360.0),
+                   "scan_noise": 0.35, "w_robot_noise": 0.0, "acceptance": ACCEPTANCE},
+        "decoder": {"path": str(model_path) if model_path is not None else "default",
+                    "architecture": dec.architecture, "size": dec.size,
+                    "spacing": dec.spacing, "n_parameters": dec.n_parameters},
+        "records": records, "failed": failed, "pooled": pooled,
+        "n_slots_run": len(records) + len(failed), "n_slots_planned": len(slots),
+        "stopped_by_budget": stopped, "elapsed_s": time.perf_counter() - t_start,
+    }
+
+
+def check_point(city, at, flag: str = "at", where: str = "predict_at") -> np.ndarray:
+    """``at`` as an (2,) array inside the map and outside every building, else ValueError."""
+    p = np.asarray(at, dtype=np.float64)
+    if p.shape != (2,) or not np.all(np.isfinite(p)):
+        raise ValueError(f"The {flag!r} parameter of {where} must be two finite numbers X Y, "
+                         f"m. Got {at!r} instead.")
+    x0, x1, y0, y1 = city.bounds
+    if not (x0 < p[0] < x1 and y0 < p[1] < y1):
+        raise ValueError(f"The {flag!r} parameter of {where} must be a point inside the map "
+                         f"[{x0:g}, {x1:g}] x [{y0:g}, {y1:g}] m. Got ({p[0]:g}, {p[1]:g}) "
+                         "instead, which is outside the map.")
+    if bool(city.contains(p[None])[0]):
+        raise ValueError(f"The {flag!r} parameter of {where} must be a point outside every "
+                         f"building. Got ({p[0]:g}, {p[1]:g}) instead, which is inside a "
+                         "building.")
+    return p
+
+
+def predict_at(decoder, field, at, *, scan_noise: float = 0.0, rng=None) -> dict:
+    """One prediction at one point of a mean field, with its truth and the baselines' errors.
+
+    Parameters
+    ----------
+    decoder : Decoder
+    field : MeanField
+        The map's mean flow (:func:`windnav.predict.field_from_solution`).
+    at : array_like of shape (2,)
+        The robot's position, m, world frame (inside the map, outside every building).
+    scan_noise : float
+        Standard deviation of the LiDAR range noise, m (0: noise-free).
+    rng : numpy.random.Generator, int or None
+        Source of the scan noise.
+
+    Returns
+    -------
+    dict
+        ``position``, ``w_up``, ``w_robot`` (m/s), ``offsets`` (H,), ``scan`` (360,),
+        ``truth``, ``prediction`` (2, H, H), ``free`` (H, H), and ``metrics``: the errors of
+        the decoder and both baselines with the improvement (%).
+    """
+    from windnav.predict import SCAN_MAX, SCAN_MIN, SampleBatch
+
+    p = check_point(field.city, at)
+    noise = positive_float(scan_noise, "scan_noise", "predict_at", allow_zero=True)
+    scan = field.city.lidar(p[None], n_rays=decoder.n_rays, max_range=SCAN_MAX,
+                            noise_std=noise, rng=rng)
+    scan = np.clip(scan, SCAN_MIN, SCAN_MAX)
+    w_robot = field.interpolate(p)
+    w_up = np.asarray(field.w_up, dtype=np.float64)[None]
+    truth, free = field.grid_values(p, decoder.offsets, dtype=np.float32)
+
+    batch = SampleBatch(scan, w_up, w_robot, truth, free, p[None],
+                        np.array([field.inlet_speed]))
+    errors, _ = _score(decoder, batch, decoder.size, decoder.spacing)
+    prediction = decoder.predict(scan, w_up, w_robot)
+    return {"position": p, "w_up": w_up[0], "w_robot": w_robot[0], "offsets": decoder.offsets,
+            "scan": scan[0], "truth": truth[0], "prediction": prediction[0], "free": free[0],
+            "metrics": _summary(errors)}

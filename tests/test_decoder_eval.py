@@ -1,0 +1,204 @@
+"""The decoder evaluation harness, ``windnav predict`` and the decoder benchmark.
+
+Tiny maps (120 m, 4 buildings), tiny flows (2 m cells, 10 + 10 steps) and a tiny d4-film with
+random weights: the numbers are checked against the metrics computed by hand, not for accuracy.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import windnav.cli as cli
+from windnav.city import training_map
+from windnav.experiments.decoder_eval import (
+    MODELS,
+    check_point,
+    evaluate_decoder,
+    inlet_slots,
+    slot_rng,
+)
+from windnav.predict import draw_samples, field_errors, field_from_solution
+from windnav.predict.decoder import Decoder, make_architecture
+
+ROOT = Path(__file__).resolve().parents[1]
+TINY_FLOW = {"spinup_steps": 10, "steps": 10}
+HP = {"conv_channels": 2, "embed": 8, "film_hidden": 4, "width": 8, "depth": 1, "modes": 4}
+
+
+def tiny_decoder(seed: int = 0) -> Decoder:
+    arch = make_architecture("d4-film", 25, **HP)
+    rng = np.random.default_rng(seed)
+    weights = {k: (0.1 * rng.standard_normal(s)).astype(np.float32)
+               for k, s in arch.shapes().items()}
+    return Decoder(weights, {"architecture": "d4-film", "hyperparameters": dict(arch.hp),
+                             "spacing": 1.0})
+
+
+def tiny_maps(k: int = 2):
+    return [(f"tiny-{i}", training_map(rng=50 + i, size=120.0, n_buildings=4,
+                                       side_range=(10.0, 30.0))) for i in range(k)]
+
+
+@pytest.fixture(scope="module")
+def evaluation():
+    maps = tiny_maps()
+    res = evaluate_decoder(maps=maps, windinet=False, n_inlets=2, samples_per_inlet=48,
+                           seed=3, dx=2.0, flow_settings=TINY_FLOW, decoder=tiny_decoder())
+    return maps, res
+
+
+def test_evaluation_reports_every_slot_and_the_documented_keys(evaluation):
+    _, res = evaluation
+    assert res["n_slots_run"] == res["n_slots_planned"] == 4 and not res["stopped_by_budget"]
+    assert not res["failed"] and set(res["pooled"]) == {"dense", "all"}
+    for rec in res["records"]:
+        assert set(MODELS) <= set(rec) and rec["n_samples"] == 48
+        assert 2.0 <= rec["speed"] <= 10.0 and 0.0 <= rec["direction_deg"] < 360.0
+        for model in MODELS:
+            assert {"speed_error", "direction_error_deg", "direction_error_masked_deg",
+                    "vector_error", "n_free"} <= set(rec[model])
+    pooled = res["pooled"]["all"]
+    assert set(pooled["acceptance"]) == {"speed_error", "direction_error_deg", "vs_local",
+                                         "vs_upstream", "all"}
+    # inlets are drawn per slot from the seed, whatever the budget
+    slots = inlet_slots(2, 2, 3)
+    got = {(r["map"], r["inlet"]): (r["speed"], r["direction_deg"]) for r in res["records"]}
+    assert got[("tiny-1", 1)] == pytest.approx(tuple(slots[1, 1]))
+
+
+def test_local_baseline_error_equals_the_metric_of_uniform_w_robot_by_hand(evaluation):
+    from windnav.flow import simulate
+
+    maps, res = evaluation
+    rec = next(r for r in res["records"] if r["map"] == "tiny-1" and r["inlet"] == 0)
+    city = maps[1][1]
+    sol = simulate(city, speed=rec["speed"], direction_deg=rec["direction_deg"], dx=2.0,
+                   dt=rec["dt"], **TINY_FLOW)
+    batch = draw_samples(field_from_solution(city, sol), 48, slot_rng(3, 1, 0), size=25)
+    # Local: W_robot in every cell; speed error = mean over free cells of ||W_robot| - |u||
+    speed_true = np.hypot(batch.labels[:, 0], batch.labels[:, 1])
+    speed_local = np.hypot(*batch.w_robot.T)[:, None, None]
+    by_hand = np.abs(speed_local - speed_true)[batch.free].mean()
+    assert rec["local"]["speed_error"] == pytest.approx(by_hand, rel=1e-5)
+    uniform = np.broadcast_to(batch.w_up[:, :, None, None], batch.labels.shape)
+    up = field_errors(uniform, batch.labels, batch.free, batch.inlet_speed)
+    assert rec["upstream"]["vector_error"] == pytest.approx(up["vector_error"], rel=1e-5)
+    assert rec["improvement_pct"]["local"]["speed_error"] == pytest.approx(
+        100 * (1 - rec["decoder"]["speed_error"] / rec["local"]["speed_error"]))
+
+
+def test_pooled_errors_weigh_cells_equally_over_slots(evaluation):
+    _, res = evaluation
+    recs, pooled = res["records"], res["pooled"]["all"]
+    for model in MODELS:
+        n = np.array([r[model]["n_free"] for r in recs])
+        e = np.array([r[model]["speed_error"] for r in recs])
+        assert pooled[model]["speed_error"] == pytest.approx((n * e).sum() / n.sum())
+        assert pooled[model]["n_free"] == n.sum()
+
+
+def test_the_budget_stops_adding_inlets():
+    res = evaluate_decoder(maps=tiny_maps(1), windinet=False, n_inlets=3, samples_per_inlet=8,
+                           seed=0, dx=2.0, flow_settings=TINY_FLOW, decoder=tiny_decoder(),
+                           budget_s=1e-3)
+    assert res["n_slots_run"] == 1 and res["n_slots_planned"] == 3 and res["stopped_by_budget"]
+
+
+def test_a_point_inside_a_building_or_outside_the_map_is_refused():
+    city = tiny_maps(1)[0][1]
+    x0, x1, y0, y1 = city.footprints[0]
+    with pytest.raises(ValueError, match="'--at'.*inside a building"):
+        check_point(city, ((x0 + x1) / 2, (y0 + y1) / 2), "--at", "windnav predict")
+    with pytest.raises(ValueError, match="'--at'.*outside the map"):
+        check_point(city, (-5.0, 10.0), "--at", "windnav predict")
+
+
+def main(argv):
+    """``windnav ARGV``, with this module's commands registered (as cli.COMMAND_MODULES will)."""
+    mp = pytest.MonkeyPatch()
+    mp.setattr(cli, "COMMAND_MODULES",
+               tuple(dict.fromkeys(cli.COMMAND_MODULES + ("evaluate_decoder", "predict"))))
+    try:
+        return cli.main(argv)
+    finally:
+        mp.undo()
+
+
+@pytest.fixture(scope="module")
+def map_and_model(tmp_path_factory):
+    d = tmp_path_factory.mktemp("predict")
+    city = tiny_maps(1)[0][1]
+    city.to_rotorpy_json(d / "map.json")
+    tiny_decoder().save(d / "model.npz")
+    return d, city
+
+
+def test_predict_writes_its_figure_and_json(map_and_model, capsys):
+    d, city = map_and_model
+    rng = np.random.default_rng(0)
+    pts = rng.uniform(20.0, 100.0, size=(200, 2))
+    at = pts[~city.contains(pts)][0]
+    out = d / "run"
+    rc = main(["predict", "--map", str(d / "map.json"), "--at", str(at[0]), str(at[1]),
+               "--speed", "5", "--direction-deg", "30", "--dx", "2", "--model",
+               str(d / "model.npz"), "--out", str(out), "--no-progress"])
+    assert rc == 0
+    assert (out / "predict.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    doc = json.loads((out / "predict.json").read_text())
+    assert doc["command"] == "windnav predict"
+    assert set(doc["metrics"]) == {"decoder", "local", "upstream", "improvement_pct"}
+    assert doc["metrics"]["upstream"]["n_free"] > 0
+
+
+def test_predict_rejects_a_point_inside_a_building(map_and_model, capsys):
+    d, city = map_and_model
+    x0, x1, y0, y1 = city.footprints[0]
+    rc = main(["predict", "--map", str(d / "map.json"), "--at", str((x0 + x1) / 2),
+               str((y0 + y1) / 2), "--speed", "5", "--direction-deg", "30", "--model",
+               str(d / "model.npz"), "--out", str(d / "bad")])
+    assert rc == 2
+    assert "'--at'" in capsys.readouterr().err
+    assert not (d / "bad").exists()
+
+
+def test_evaluate_decoder_command_writes_json_and_figure(map_and_model, monkeypatch, capsys):
+    import windnav.commands.evaluate_decoder as cmd
+
+    d, city = map_and_model
+    monkeypatch.setattr("windnav.experiments.decoder_eval._evaluation_maps",
+                        lambda maps, windinet, where: [("tiny-0", "dense", city)])
+    run = cmd.run
+    monkeypatch.setattr(cmd, "run", lambda args: run(args, flow_settings=TINY_FLOW))
+    out = d / "eval"
+    rc = main(["evaluate-decoder", "--model", str(d / "model.npz"), "--maps", "1",
+               "--inlets", "1", "--samples", "16", "--dx", "2", "--out", str(out),
+               "--json", str(d / "eval.json"), "--seed", "1", "--no-progress"])
+    assert rc == 0
+    assert (out / "decoder_eval.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    doc = json.loads((d / "eval.json").read_text())
+    assert doc == json.loads((out / "decoder_eval.json").read_text())
+    assert doc["n_slots_run"] == 1 and doc["arguments"]["seed"] == 1
+    assert doc["records"][0]["decoder"]["n_free"] > 0
+
+
+def test_bench_decoder_runs_with_tiny_repeats(map_and_model, tmp_path):
+    d, _ = map_and_model
+    out = tmp_path / "bench.json"
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / "bench_decoder.py"), "--model",
+         str(d / "model.npz"), "--repeats", "2", "--repeats-batch", "1", "--json", str(out)],
+        capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads(out.read_text())
+    assert res["models"]["thesis-mlp"]["n_parameters"] == 11_701_474
+    for model in ("decoder", "thesis-mlp"):
+        for k in ("one", "batch"):
+            t = res["models"][model][k]
+            assert 0 < t["min_ms"] <= t["median_ms"]
+    assert "| thesis MLP (reference) |" in proc.stdout
