@@ -229,7 +229,7 @@ def test_recipe_files_are_checked(tmp_path):
         load_recipe(bad)
 
 
-@pytest.mark.parametrize("name", ["default", "tiny"])
+@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp"])
 def test_shipped_recipes_are_complete(name):
     recipe = load_recipe(RECIPES / f"{name}.toml")
     names = [group["name"] for group in recipe["sweep"]["maps"]]
