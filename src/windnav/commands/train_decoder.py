@@ -82,12 +82,13 @@ def run(args, simulate=None) -> int:
     if args.overwrite:
         for product in TRAINING_PRODUCTS:
             path = out_dir / product
+            if not path.exists():
+                continue
             if path.is_dir():
                 shutil.rmtree(path)
-                print(f"removed {path} (from an earlier run)")
-            elif path.exists():
+            else:
                 path.unlink()
-                print(f"removed {path} (from an earlier run)")
+            print(f"removed {path} (from an earlier run)")
     out_dir.mkdir(parents=True, exist_ok=True)
     copy = out_dir / "recipe.toml"
     if not (out_dir / "checkpoint.pt").exists() and args.config.resolve() != copy.resolve():

@@ -83,7 +83,24 @@ class _UniformBaseline:
         """Cell-centre offsets ``(H,)``, m, the same along x and y."""
         return grid_offsets(self.size, self.spacing)
 
-    def _uniform(self, wind: np.ndarray) -> np.ndarray:
+    _wind = 1  # which of check_inputs' (scans, w_up, w_robot) fills every cell
+
+    def predict(self, scans, w_up, w_robot) -> np.ndarray:
+        """Predict the local mean wind.
+
+        Parameters
+        ----------
+        scans : array_like of shape (B, 360)
+            LiDAR ranges, m (checked, otherwise unused).
+        w_up, w_robot : array_like of shape (B, 2)
+            Inlet wind and wind at the robot, m/s, world frame.
+
+        Returns
+        -------
+        ndarray of float32, shape (B, 2, H, H)
+            ``[u, v]`` = the baseline's wind in every cell, m/s, indexed ``[b, :, iy, ix]``.
+        """
+        wind = check_inputs(scans, w_up, w_robot, f"{type(self).__name__}.predict")[self._wind]
         h = self.size
         return np.broadcast_to(wind.astype(np.float32)[:, :, None, None],
                                (wind.shape[0], 2, h, h)).copy()
@@ -101,23 +118,7 @@ class UpstreamBaseline(_UniformBaseline):
         Cell size, m, > 0.
     """
 
-    def predict(self, scans, w_up, w_robot) -> np.ndarray:
-        """Predict the local mean wind.
-
-        Parameters
-        ----------
-        scans : array_like of shape (B, 360)
-            LiDAR ranges, m (checked, otherwise unused).
-        w_up, w_robot : array_like of shape (B, 2)
-            Inlet wind and wind at the robot, m/s, world frame.
-
-        Returns
-        -------
-        ndarray of float32, shape (B, 2, H, H)
-            ``[u, v]`` = ``w_up`` in every cell, m/s, indexed ``[b, :, iy, ix]``.
-        """
-        _, w_up, _ = check_inputs(scans, w_up, w_robot, "UpstreamBaseline.predict")
-        return self._uniform(w_up)
+    _wind = 1
 
 
 @dataclass(frozen=True)
@@ -132,20 +133,4 @@ class LocalBaseline(_UniformBaseline):
         Cell size, m, > 0.
     """
 
-    def predict(self, scans, w_up, w_robot) -> np.ndarray:
-        """Predict the local mean wind.
-
-        Parameters
-        ----------
-        scans : array_like of shape (B, 360)
-            LiDAR ranges, m (checked, otherwise unused).
-        w_up, w_robot : array_like of shape (B, 2)
-            Inlet wind and wind at the robot, m/s, world frame.
-
-        Returns
-        -------
-        ndarray of float32, shape (B, 2, H, H)
-            ``[u, v]`` = ``w_robot`` in every cell, m/s, indexed ``[b, :, iy, ix]``.
-        """
-        _, _, w_robot = check_inputs(scans, w_up, w_robot, "LocalBaseline.predict")
-        return self._uniform(w_robot)
+    _wind = 2
