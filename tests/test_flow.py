@@ -95,6 +95,30 @@ def test_orderings_give_the_same_projection():
         np.testing.assert_allclose(got[1], ref[1], atol=1e-11)
 
 
+def test_cholmod_and_superlu_backends_agree_for_one_and_many_fields():
+    """The default CHOLMOD factor and SuperLU's give the same projection, for one field and
+    for several fields projected together (one multi-right-hand-side solve)."""
+    domain = _domain(37.0)
+    rng = np.random.default_rng(3)
+    fields = []
+    for _ in range(3):
+        u = np.where(domain.u_code > 0, rng.standard_normal(domain.u_code.shape), domain.u_fixed)
+        v = np.where(domain.v_code > 0, rng.standard_normal(domain.v_code.shape), domain.v_fixed)
+        fields.append((u, v))
+    chol = make_exact_projection(domain)
+    slu = make_exact_projection(domain, backend="superlu")
+    outs = [(np.empty_like(u), np.empty_like(v)) for u, v in fields]
+    chol.into_many(*zip(*fields, strict=True), *zip(*outs, strict=True))
+    for (u, v), (ou, ov) in zip(fields, outs, strict=True):
+        ref = slu(u, v)
+        np.testing.assert_allclose(chol(u, v)[0], ref[0], atol=1e-11)
+        np.testing.assert_allclose(ou, ref[0], atol=1e-11)
+        np.testing.assert_allclose(ov, ref[1], atol=1e-11)
+        assert np.abs(divergence(domain, ou, ov)).max() <= 1e-10
+    with pytest.raises(ValueError, match="'backend'"):
+        make_exact_projection(domain, backend="umfpack")
+
+
 def test_factor_cache_is_explicit_and_shared():
     """No module-level cache: a caller-owned FactorCache shares one factorisation between
     projections of the same face classification, and projecting is pure (no captured

@@ -13,8 +13,8 @@ fluid region touches an outflow face; a region that does not (a closed box) gets
 pinned in one cell, which is exact because its right-hand side sums to zero.
 
 The exact solver eliminates the red cells (``i + j`` even, coupled only to black ones) in
-closed form and factorises the Schur complement on the black cells once with SuperLU
-(``scipy.sparse.linalg.splu``, symmetric mode, MMD ordering), see :class:`RedBlackFactor`;
+closed form and factorises the Schur complement on the black cells once, by CHOLMOD's sparse
+Cholesky (default) or SuperLU, see :class:`RedBlackFactor`;
 a :class:`FactorCache` owned by the caller (e.g. one per :func:`~windnav.flow.simulate_batch`
 call, shared by its inlet speeds) reuses factors keyed by the face classification (mask +
 grid + boundary kinds); there is no module-level state.
@@ -37,6 +37,7 @@ from scipy.sparse.linalg import splu
 from windnav.flow.grid import FACE_INTERIOR, FACE_OUTFLOW, FlowDomain
 
 ORDERINGS = ("red_black", "nested_dissection", "MMD_AT_PLUS_A", "COLAMD")
+FACTOR_BACKENDS = ("cholmod", "superlu")
 
 
 @numba.njit(cache=True)
@@ -199,9 +200,9 @@ def _pinned_cells(domain: FlowDomain, idx: np.ndarray) -> np.ndarray:
     return np.array(pinned, dtype=np.int64)
 
 
-def _factor_key(domain: FlowDomain, ordering: str) -> str:
+def _factor_key(domain: FlowDomain, ordering: str, backend: str) -> str:
     h = hashlib.sha1()
-    h.update(repr((domain.grid.shape, ordering)).encode())
+    h.update(repr((domain.grid.shape, ordering, backend)).encode())
     h.update(domain.u_code.tobytes())
     h.update(domain.v_code.tobytes())
     return h.hexdigest()
@@ -216,48 +217,68 @@ class RedBlackFactor:
         S q_B = b_B - A_BR D_R^-1 b_R,     q_R = D_R^-1 (b_R - A_RB q_B),
 
     where the Schur complement ``S = A_BB - A_BR D_R^-1 A_RB`` (SPD, a 9-point stencil on half
-    the cells) is factorised by SuperLU (symmetric mode, no pivoting, multiple minimum degree
-    on S + S^T). This is cyclic reduction's first level (Buzbee, Golub & Nielson 1970) in
-    front of a sparse direct solve: the factor of S has fewer nonzeros than that of A under
-    any ordering SuperLU offers, and half the columns.
+    the cells) is factorised once. This is cyclic reduction's first level (Buzbee, Golub &
+    Nielson 1970) in front of a sparse direct solve: the factor of S has fewer nonzeros than
+    that of A under any ordering SuperLU offers, and half the columns.
+
+    ``backend``: ``"cholmod"`` (default) is the supernodal sparse Cholesky factor ``S = L L^T``
+    of CHOLMOD (Chen, Davis, Hager & Rajamanickam 2008), through the ``cholespy`` wheel; its
+    solves with several right-hand sides are dense block operations on the supernodes, and it
+    stores only ``L``. ``"superlu"`` is SuperLU's LU (symmetric mode, no pivoting, multiple
+    minimum degree on S + S^T), about half as fast per solve on a 500^2 map (see
+    docs/benchmarks.md).
     """
 
-    def __init__(self, A, n_red: int):
+    def __init__(self, A, n_red: int, backend: str = "cholmod"):
+        if backend not in FACTOR_BACKENDS:
+            raise ValueError(
+                f"The 'backend' parameter of RedBlackFactor must be one of {FACTOR_BACKENDS}. "
+                f"Got {backend!r} instead."
+            )
         A = A.tocsr()
         self.shape = A.shape
+        self.backend = backend
         self._nr = n_red
         d = A.diagonal()
         self._dinv_r = 1.0 / d[:n_red]
         self._a_rb = A[:n_red, n_red:].tocsr()
         self._a_br = A[n_red:, :n_red].tocsr()
         schur = A[n_red:, n_red:] - self._a_br @ sp.diags(self._dinv_r) @ self._a_rb
-        self._lu = _splu_spd(schur.tocsc(), "MMD_AT_PLUS_A") if schur.shape[0] else None
-        self.nnz = self._lu.nnz if self._lu is not None else 0
+        self._schur_solve = None
+        if schur.shape[0]:
+            self._schur_solve = (_cholmod_solver(schur) if backend == "cholmod"
+                                 else _splu_spd(schur.tocsc(), "MMD_AT_PLUS_A").solve)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
         """``A^-1 b`` for ``b`` of shape (n,) or (n, k) (k right-hand sides at once: one
-        multi-right-hand-side triangular solve, the sparse products column by column)."""
+        multi-right-hand-side solve of the Schur complement, each sparse product one call)."""
+        b = np.ascontiguousarray(b, dtype=float)
         nr = self._nr
-        if b.ndim == 1:
-            x = np.empty(self.shape[0])
-            br = b[:nr]
-            x[:nr] = br * self._dinv_r
-            if self._lu is not None:
-                x[nr:] = self._lu.solve(b[nr:] - self._a_br @ x[:nr])
-                x[:nr] = (br - self._a_rb @ x[nr:]) * self._dinv_r
-            return x
-        x = np.empty(b.shape, order="F")
-        k = b.shape[1]
-        for c in range(k):
-            x[:nr, c] = b[:nr, c] * self._dinv_r
-        if self._lu is not None:
-            rhs = np.empty((self.shape[0] - nr, k), order="F")
-            for c in range(k):
-                rhs[:, c] = b[nr:, c] - self._a_br @ x[:nr, c]
-            x[nr:] = self._lu.solve(rhs)
-            for c in range(k):
-                x[:nr, c] = (b[:nr, c] - self._a_rb @ x[nr:, c]) * self._dinv_r
+        dinv = self._dinv_r if b.ndim == 1 else self._dinv_r[:, None]
+        x = np.empty(b.shape)
+        br = b[:nr]
+        x[:nr] = br * dinv
+        if self._schur_solve is not None:
+            x[nr:] = self._schur_solve(b[nr:] - self._a_br @ x[:nr])
+            x[:nr] = (br - self._a_rb @ x[nr:]) * dinv
         return x
+
+
+def _cholmod_solver(schur):
+    """``solve(b) -> S^-1 b`` (b: (m,) or (m, k)) by CHOLMOD's Cholesky factor of SPD ``S``."""
+    from cholespy import CholeskySolverD, MatrixType
+
+    coo = sp.coo_matrix(schur)
+    chol = CholeskySolverD(coo.shape[0], coo.row.astype(np.int32), coo.col.astype(np.int32),
+                           np.ascontiguousarray(coo.data, dtype=float), MatrixType.COO)
+
+    def solve(b):
+        b = np.ascontiguousarray(b)
+        x = np.empty_like(b)
+        chol.solve(b, x)
+        return x
+
+    return solve
 
 
 def _splu_spd(A, permc: str):
@@ -301,7 +322,13 @@ class FactorCache:
             self._items.popitem(last=False)
 
 
-def factorize(domain: FlowDomain, ordering: str = "red_black", *, cache: FactorCache | None = None):
+def factorize(
+    domain: FlowDomain,
+    ordering: str = "red_black",
+    *,
+    cache: FactorCache | None = None,
+    backend: str = "cholmod",
+):
     """Factors of the domain's Poisson matrix (from ``cache`` when it holds them).
 
     Parameters
@@ -314,6 +341,9 @@ def factorize(domain: FlowDomain, ordering: str = "red_black", *, cache: FactorC
     cache : FactorCache, optional
         Where to look the factors up and store them (keyed by the face classification);
         None (default): factorise afresh.
+    backend : {"cholmod", "superlu"}
+        The factorisation of the ``red_black`` ordering's Schur complement, see
+        :class:`RedBlackFactor` (the other orderings always use SuperLU).
 
     Returns
     -------
@@ -329,7 +359,7 @@ def factorize(domain: FlowDomain, ordering: str = "red_black", *, cache: FactorC
             f"The 'ordering' parameter of factorize must be one of {ORDERINGS}. "
             f"Got {ordering!r} instead."
         )
-    key = _factor_key(domain, ordering) if cache is not None else None
+    key = _factor_key(domain, ordering, backend) if cache is not None else None
     if cache is not None and (hit := cache.get(key)) is not None:
         return hit
     idx, n = _cell_index(domain, ordering)
@@ -338,7 +368,7 @@ def factorize(domain: FlowDomain, ordering: str = "red_black", *, cache: FactorC
         ny, nx = domain.grid.shape
         jj, ii = np.mgrid[0:ny, 0:nx]
         n_red = int(np.count_nonzero(~domain.solid & ((jj + ii) % 2 == 0)))
-        factor = RedBlackFactor(A, n_red)
+        factor = RedBlackFactor(A, n_red, backend)
     else:
         permc = "MMD_AT_PLUS_A" if ordering == "nested_dissection" else ordering
         factor = _splu_spd(A, permc)
@@ -417,7 +447,11 @@ class Projection:
 
 
 def make_exact_projection(
-    domain: FlowDomain, ordering: str = "red_black", *, cache: FactorCache | None = None
+    domain: FlowDomain,
+    ordering: str = "red_black",
+    *,
+    cache: FactorCache | None = None,
+    backend: str = "cholmod",
 ) -> Projection:
     """Build the projection solving the masked Poisson problem exactly (sparse direct).
 
@@ -431,8 +465,10 @@ def make_exact_projection(
         Elimination order of the unknowns, see :func:`factorize`.
     cache : FactorCache, optional
         Factor cache owned by the caller (default: none, factorise here).
+    backend : {"cholmod", "superlu"}
+        Factorisation of the ``red_black`` Schur complement, see :func:`factorize`.
     """
-    lu, idx, pinned = factorize(domain, ordering, cache=cache)
+    lu, idx, pinned = factorize(domain, ordering, cache=cache, backend=backend)
     n = lu.shape[0]
 
     def solve_q(u, v):
@@ -442,11 +478,11 @@ def make_exact_projection(
         return lu.solve(b)
 
     def solve_many(us, vs):
-        bm = np.empty((n, len(us)), order="F")
+        bm = np.empty((n, len(us)))  # row-major: what the Cholesky solve takes without a copy
         for c, (u, v) in enumerate(zip(us, vs, strict=True)):
             _rhs(u, v, idx, bm[:, c])
         bm[pinned] = 0.0
-        return np.asfortranarray(lu.solve(bm))
+        return lu.solve(bm)
 
     return Projection(domain, solve_q, idx, solve_many)
 
