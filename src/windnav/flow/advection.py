@@ -27,6 +27,13 @@ Viscous diffusion (optional, kinematic viscosity ``nu``): explicit Euler substep
 mirrors (``-u``: no slip on the wall half a cell away), a fixed face gives its value (0 on a
 building's face, the inlet value on an inlet), beyond an inflow side the inlet value, beyond
 a wall or outflow side the face itself (free slip, zero gradient).
+
+Implementation: the floating-point operations of plain whole-field passes, in the same order
+(so the same bits), arranged for speed on one core. Each semi-Lagrangian pass works a row of
+faces at a time (trace, sample points, samples), so its loops without data-dependent branches
+vectorise; the building test of a trace is skipped where the trace is too short to reach a
+building (a clearance precomputed per face); the diffusion substeps run in one sweep over the
+rows, the few rows that each substep still needs kept in small ring buffers.
 """
 
 from __future__ import annotations
@@ -35,11 +42,26 @@ import math
 
 import numba
 import numpy as np
+from scipy import ndimage
 
 from windnav.flow.grid import FlowDomain
 
 SCHEMES = ("semi_lagrangian", "maccormack")
 MAX_DIFFUSION_SUBSTEPS = 3
+_SL, _FORWARD, _BACK = 0, 1, 2  # modes of _advect_pass
+
+
+@numba.njit(cache=True)
+def _fill_ghosts(fp, sides, inflow_val):
+    """Fill the ghost layer of the padded face field ``fp`` from its interior: the inlet
+    value beyond an inflow side (``sides[k] == 0``), the edge value beyond any other."""
+    nyf, nxf = fp.shape[0] - 2, fp.shape[1] - 2
+    for i in range(1, nxf + 1):
+        fp[0, i] = inflow_val if sides[2] == 0 else fp[1, i]
+        fp[nyf + 1, i] = inflow_val if sides[3] == 0 else fp[nyf, i]
+    for j in range(nyf + 2):
+        fp[j, 0] = inflow_val if sides[0] == 0 else fp[j, 1]
+        fp[j, nxf + 1] = inflow_val if sides[1] == 0 else fp[j, nxf]
 
 
 @numba.njit(cache=True)
@@ -47,100 +69,171 @@ def _pad(f, sides, inflow_val, out):
     """Copy ``f`` into ``out[1:-1, 1:-1]`` and fill one ghost layer implementing the sides."""
     nyf, nxf = f.shape
     out[1 : nyf + 1, 1 : nxf + 1] = f
-    for i in range(1, nxf + 1):
-        out[0, i] = inflow_val if sides[2] == 0 else f[0, i - 1]
-        out[nyf + 1, i] = inflow_val if sides[3] == 0 else f[nyf - 1, i - 1]
-    for j in range(nyf + 2):
-        out[j, 0] = inflow_val if sides[0] == 0 else out[j, 1]
-        out[j, nxf + 1] = inflow_val if sides[1] == 0 else out[j, nxf]
+    _fill_ghosts(out, sides, inflow_val)
+
+
+def _trace_clearance(solid):
+    """How long a trace must be to possibly end in a building, per u and per v face (uint8).
+
+    A trace of face ``(j, i)`` with both components shorter than ``clear[j, i] - 2.25`` cells
+    ends in a fluid or ghost cell, so its building test can be skipped (same result, less
+    work). ``clear`` is the chessboard distance ``d`` from the face's cell (``(j, i)``; the
+    last one on the far edge) to the nearest building cell (capped at 255): the square of
+    half-side ``d - 1`` cells around that cell is free of buildings, and it holds every cell
+    that a trace shorter than ``d - 2.25`` can end in (a face lies on its cell's edge; 0.25
+    cells of margin absorb the rounding of the end point).
+    """
+    ny, nx = solid.shape
+    if solid.any():
+        d = np.minimum(ndimage.distance_transform_cdt(~solid, metric="chessboard"), 255)
+    else:
+        d = np.full((ny, nx), 255)
+    d = d.astype(np.uint8)
+    clear_u = d[:, np.minimum(np.arange(nx + 1), nx - 1)]
+    clear_v = d[np.minimum(np.arange(ny + 1), ny - 1), :]
+    return np.ascontiguousarray(clear_u), np.ascontiguousarray(clear_v)
+
+
+@numba.njit(cache=True, inline="always")
+def _cell(p, n):
+    """Index in a padded array (one ghost layer) of the cell holding position ``p`` (cell
+    units, clamped to the ghost layer; ``n`` cells). The outer ``max`` changes nothing but
+    tells the compiler the index is not negative (no wraparound code)."""
+    return max(int(min(max(p + 1.0, 0.0), n + 1.0)), 0)
 
 
 @numba.njit(cache=True)
-def _trace(u, v, solid_p, c, is_u, dxs, dys):
-    """Displacement ``-c * velocity`` (cell units) of every face, halved then zeroed when
-    its end point falls in a building cell (``c < 0`` gives the forward, reverse trace)."""
-    nyf, nxf = dxs.shape
+def _trace_row(u, v, c, solid_p, clear, is_u, j, dxs, dys, near):
+    """Displacements ``-c * velocity`` (cell units) of the faces of row ``j`` into ``dxs``,
+    ``dys``, halved then zeroed where the end point falls in a building cell (``c < 0``
+    gives the reverse trace); ``near`` is scratch.
+
+    The velocity at a face is its own component and the mean of the 4 nearest faces of the
+    other one (clamped at the edges). The building test is only made where the trace is not
+    shorter than the face's clearance (:func:`_trace_clearance`); the other loops vectorise.
+    """
+    nxf = dxs.size
     ny, nx = solid_p.shape[0] - 2, solid_p.shape[1] - 2
-    ox = 0.0 if is_u else 0.5
-    oy = 0.5 if is_u else 0.0
-    for j in range(nyf):
-        jl = max(j - 1, 0)
-        jr = min(j, ny - 1)
+    if is_u:
+        for i in range(1, nxf - 1):
+            dxs[i] = -c * u[j, i]
+            dys[i] = -c * (0.25 * (v[j, i - 1] + v[j, i] + v[j + 1, i - 1] + v[j + 1, i]))
+        for i in (0, nxf - 1):
+            il, ir = max(i - 1, 0), min(i, nx - 1)
+            dxs[i] = -c * u[j, i]
+            dys[i] = -c * (0.25 * (v[j, il] + v[j, ir] + v[j + 1, il] + v[j + 1, ir]))
+    else:
+        jl, jr = max(j - 1, 0), min(j, ny - 1)
         for i in range(nxf):
-            if is_u:
-                il = max(i - 1, 0)
-                ir = min(i, nx - 1)
-                uu = u[j, i]
-                vv = 0.25 * (v[j, il] + v[j, ir] + v[j + 1, il] + v[j + 1, ir])
-            else:
-                uu = 0.25 * (u[jl, i] + u[jl, i + 1] + u[jr, i] + u[jr, i + 1])
-                vv = v[j, i]
-            dX = -c * uu
-            dY = -c * vv
-            for scale in (0.5, 0.0):
-                ci = int(min(max(i + ox + dX + 1.0, 0.0), nx + 1.0))
-                cj = int(min(max(j + oy + dY + 1.0, 0.0), ny + 1.0))
-                s = solid_p[cj, ci]
-                dX = scale * dX if s else dX
-                dY = scale * dY if s else dY
-            dxs[j, i] = dX
-            dys[j, i] = dY
+            dxs[i] = -c * (0.25 * (u[jl, i] + u[jl, i + 1] + u[jr, i] + u[jr, i + 1]))
+            dys[i] = -c * v[j, i]
+    for i in range(nxf):
+        free = clear[j, i] - 2.25
+        near[i] = 0.0 if (abs(dxs[i]) < free) & (abs(dys[i]) < free) else 1.0
+    x0 = 0.0 if is_u else 0.5  # face position in cell units: (i + x0, j + y0)
+    y0 = 0.5 if is_u else 0.0
+    for i in range(nxf):
+        if near[i] == 0.0:
+            continue
+        dX, dY = dxs[i], dys[i]
+        if solid_p[_cell(j + y0 + dY, ny), _cell(i + x0 + dX, nx)]:
+            dX = 0.5 * dX
+            dY = 0.5 * dY
+            if solid_p[_cell(j + y0 + dY, ny), _cell(i + x0 + dX, nx)]:
+                dX = 0.0 * dX
+                dY = 0.0 * dY
+            dxs[i] = dX
+            dys[i] = dY
 
 
 @numba.njit(cache=True)
-def _sample_all(fp, code, fixed_src, dxs, dys, out, los, his, want_range):
-    """out = bilinear sample of padded ``fp`` at face + displacement; fixed faces copy
-    ``fixed_src``; ``los``/``his`` get the extrema of the 4 values (when ``want_range``)."""
-    nyf, nxf = out.shape
-    for j in range(nyf):
-        for i in range(nxf):
-            # index in the padded field: position - offset + 1 ghost layer
-            fi = min(max(i + dxs[j, i] + 1.0, 0.0), nxf + 1.0)
-            fj = min(max(j + dys[j, i] + 1.0, 0.0), nyf + 1.0)
-            i0 = min(int(fi), nxf)
-            j0 = min(int(fj), nyf)
-            a = fi - i0
-            b = fj - j0
-            f00 = fp[j0, i0]
-            f01 = fp[j0, i0 + 1]
-            f10 = fp[j0 + 1, i0]
-            f11 = fp[j0 + 1, i0 + 1]
-            val = (1.0 - b) * ((1.0 - a) * f00 + a * f01) + b * ((1.0 - a) * f10 + a * f11)
-            fixed = code[j, i] == 0
-            out[j, i] = fixed_src[j, i] if fixed else val
-            if want_range:
-                los[j, i] = min(min(f00, f01), min(f10, f11))
-                his[j, i] = max(max(f00, f01), max(f10, f11))
+def _sample_points(nyf, j, dxs, dys, aa, bb, kk):
+    """Where the faces of row ``j`` (``nyf`` rows) displaced by ``dxs``, ``dys`` sample a
+    padded face field: the bilinear weights ``aa`` (x), ``bb`` (y) and the flat index ``kk``
+    (as float64, exact) of the lower-left of the 4 values."""
+    nxf = dxs.size
+    w = nxf + 2
+    for i in range(nxf):
+        # index in the padded field: position - offset + 1 ghost layer
+        fi = min(max(i + dxs[i] + 1.0, 0.0), nxf + 1.0)
+        fj = min(max(j + dys[i] + 1.0, 0.0), nyf + 1.0)
+        i0 = min(np.floor(fi), float(nxf))  # = min(int(fi), nxf), as fi >= 0
+        j0 = min(np.floor(fj), float(nyf))
+        aa[i] = fi - i0
+        bb[i] = fj - j0
+        kk[i] = j0 * w + i0
 
 
 @numba.njit(cache=True)
-def _maccormack_correct(f, fhat, fback, los, his, code, out):
-    nyf, nxf = f.shape
-    for j in range(nyf):
-        for i in range(nxf):
-            val = fhat[j, i] + 0.5 * (f[j, i] - fback[j, i])
+def _sample_row(src_p, f, code, j, mode, aa, bb, kk, los, his, out, off):
+    """Row ``j`` of a pass of :func:`_advect_pass`: the samples of the padded ``src_p`` at
+    the points of :func:`_sample_points`, used as ``mode`` says (fixed faces keep ``f``)."""
+    flat = src_p.reshape(-1)
+    w = src_p.shape[1]
+    for i in range(aa.size):
+        a, b = aa[i], bb[i]
+        k = max(int(kk[i]), 0)  # max: as in _cell
+        f00 = flat[k]
+        f01 = flat[k + 1]
+        f10 = flat[k + w]
+        f11 = flat[k + w + 1]
+        val = (1.0 - b) * ((1.0 - a) * f00 + a * f01) + b * ((1.0 - a) * f10 + a * f11)
+        if mode == _FORWARD:
+            los[j, i] = min(min(f00, f01), min(f10, f11))
+            his[j, i] = max(max(f00, f01), max(f10, f11))
+        if mode == _BACK:
+            f_ij = f[j, i]
+            val = src_p[j + 1, i + 1] + 0.5 * (f_ij - val)
             val = min(max(val, los[j, i]), his[j, i])
-            out[j, i] = f[j, i] if code[j, i] == 0 else val
+        else:
+            f_ij = src_p[j + 1, i + 1]  # src_p is the padded f (one array less to read)
+        out[j + off, i + off] = f_ij if code[j, i] == 0 else val
+
+
+@numba.njit(cache=True)
+def _advect_pass(src_p, f, code, u, v, c, solid_p, clear, is_u, mode, los, his, out, off, rows):
+    """One semi-Lagrangian pass over face field ``f``, row by row (fixed faces, ``code ==
+    0``, keep ``f``).
+
+    Every face ``(j, i)`` is traced by ``-c * velocity`` (:func:`_trace_row`; ``c < 0`` gives
+    the reverse trace) and the padded field ``src_p`` sampled bilinearly at the end point
+    (:func:`_sample_points`, :func:`_sample_row`). ``mode``:
+
+    * ``_SL``: the sample into ``out[j + off, i + off]``;
+    * ``_FORWARD``: the same, and the extrema of the 4 values it interpolated into
+      ``los``/``his`` (``phi_hat`` of MacCormack);
+    * ``_BACK`` (``src_p`` the padded ``phi_hat``): the sample is ``phi_back``; the clamped
+      correction ``phi_hat + (f - phi_back) / 2`` goes into ``out``.
+
+    ``rows`` (6, nxf) is scratch. Working on a row at a time lets the loops without data-
+    dependent branches vectorise.
+    """
+    nyf = f.shape[0]
+    dxs, dys, near, aa, bb, kk = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5]
+    for j in range(nyf):
+        _trace_row(u, v, c, solid_p, clear, is_u, j, dxs, dys, near)
+        _sample_points(nyf, j, dxs, dys, aa, bb, kk)
+        _sample_row(src_p, f, code, j, mode, aa, bb, kk, los, his, out, off)
 
 
 @numba.njit(cache=True)
 def _advect_component(f, code, u, v, c, solid_p, sides, inflow_val, is_u, maccormack, ws, res):
-    """Advect face field ``f`` into ``res``; ``ws`` is a tuple of scratch arrays.
+    """Advect face field ``f`` into ``res``; ``ws`` is the field's workspace
+    (:meth:`Advection._scratch`).
 
-    ``ws``: displacement x, y, forward value, range lo, hi, reverse value (face-shaped) and
-    the field padded with its ghost layer.
+    ``ws``: the field and ``phi_hat`` padded with their ghost layer, the range lo and hi of
+    ``phi_hat`` (face-shaped), the row scratch of :func:`_advect_pass`, two arrays of the
+    diffusion, and the trace clearance of the field's faces (:func:`_trace_clearance`).
     """
-    dxs, dys, fhat, los, his, back, fp = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6]
-    _trace(u, v, solid_p, c, is_u, dxs, dys)
+    fp, fhat_p, los, his, rows, clear = ws[0], ws[1], ws[2], ws[3], ws[4], ws[7]
     _pad(f, sides, inflow_val, fp)
     if not maccormack:
-        _sample_all(fp, code, f, dxs, dys, res, los, his, False)
+        _advect_pass(fp, f, code, u, v, c, solid_p, clear, is_u, _SL, los, his, res, 0, rows)
         return
-    _sample_all(fp, code, f, dxs, dys, fhat, los, his, True)
-    _trace(u, v, solid_p, -c, is_u, dxs, dys)
-    _pad(fhat, sides, inflow_val, fp)
-    _sample_all(fp, code, f, dxs, dys, back, los, his, False)
-    _maccormack_correct(f, fhat, back, los, his, code, res)
+    _advect_pass(fp, f, code, u, v, c, solid_p, clear, is_u, _FORWARD, los, his, fhat_p, 1,
+                 rows)
+    _fill_ghosts(fhat_p, sides, inflow_val)
+    _advect_pass(fhat_p, f, code, u, v, -c, solid_p, clear, is_u, _BACK, los, his, res, 0, rows)
 
 
 @numba.njit(cache=True)
@@ -155,11 +248,12 @@ def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, corner, out):
     ny, nx = solid.shape
     for jc in range(ny + 1):
         ja, jb = max(jc - 1, 0), min(jc, ny - 1)
-        for ic in range(nx + 1):
-            ia, ib = max(ic - 1, 0), min(ic, nx - 1)
+        for ic in range(1, nx):
             duy = (u[jb, ic] - u[ja, ic]) * inv_dx if jb > ja else 0.0
-            dvx = (v[jc, ib] - v[jc, ia]) * inv_dx if ib > ia else 0.0
-            corner[jc, ic] = duy + dvx
+            corner[jc, ic] = duy + (v[jc, ic] - v[jc, ic - 1]) * inv_dx
+        for ic in (0, nx):  # the x edges: dv/dx = 0 (kept apart: the loop above vectorises)
+            duy = (u[jb, ic] - u[ja, ic]) * inv_dx if jb > ja else 0.0
+            corner[jc, ic] = duy + 0.0
     top = nu0
     for j in range(ny):
         for i in range(nx):
@@ -168,9 +262,9 @@ def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, corner, out):
             shear = 0.25 * (corner[j, i] + corner[j, i + 1] + corner[j + 1, i]
                             + corner[j + 1, i + 1])
             nu = nu0 + cs_delta2 * math.sqrt(2.0 * (ux * ux + vy * vy) + shear * shear)
-            nu = nu0 if solid[j, i] else nu
-            out[j, i] = nu
-            top = max(top, nu)
+            out[j, i] = nu0 if solid[j, i] else nu
+        for i in range(nx):  # the maximum apart, so the loop above vectorises
+            top = max(top, out[j, i])
     return top
 
 
@@ -181,19 +275,19 @@ def _face_viscosity(nu_c, solid, is_u, out):
     nyf, nxf = out.shape[0] - 2, out.shape[1] - 2
     ny, nx = solid.shape
     for j in range(nyf):
-        for i in range(nxf):
-            if is_u:
-                ja, ia, jb, ib = j, max(i - 1, 0), j, min(i, nx - 1)
-            else:
-                ja, ia, jb, ib = max(j - 1, 0), i, min(j, ny - 1), i
-            fa, fb = not solid[ja, ia], not solid[jb, ib]
-            if fa and fb:
-                val = 0.5 * (nu_c[ja, ia] + nu_c[jb, ib])
-            elif fa:
-                val = nu_c[ja, ia]
-            else:
-                val = nu_c[jb, ib]
-            out[j + 1, i + 1] = val
+        if is_u:
+            for i in range(1, nxf - 1):  # vectorises; the edge faces (one cell) below
+                out[j + 1, i + 1] = _face_mean(nu_c[j, i - 1], nu_c[j, i], solid[j, i - 1],
+                                               solid[j, i])
+            for i in (0, nxf - 1):
+                ia, ib = max(i - 1, 0), min(i, nx - 1)
+                out[j + 1, i + 1] = _face_mean(nu_c[j, ia], nu_c[j, ib], solid[j, ia],
+                                               solid[j, ib])
+        else:
+            ja, jb = max(j - 1, 0), min(j, ny - 1)
+            for i in range(nxf):
+                out[j + 1, i + 1] = _face_mean(nu_c[ja, i], nu_c[jb, i], solid[ja, i],
+                                               solid[jb, i])
     for i in range(1, nxf + 1):
         out[0, i] = out[1, i]
         out[nyf + 1, i] = out[nyf, i]
@@ -202,18 +296,28 @@ def _face_viscosity(nu_c, solid, is_u, out):
         out[j, nxf + 1] = out[j, nxf]
 
 
-def _diffusion_weights(code, solid_p, sides, is_u):
-    """Per free face: weights (E, W, N, S) of the neighbour fluxes and the count of neighbours
-    inside a building (no-slip mirror), as float arrays of the face shape.
+@numba.njit(cache=True, inline="always")
+def _face_mean(nu_a, nu_b, solid_a, solid_b):
+    """The viscosity of a face between cells a and b: the mean of the fluid cells' values
+    (``nu_b`` when both are solid)."""
+    one = nu_a if solid_b else 0.5 * (nu_a + nu_b)
+    return nu_b if solid_a else one
 
-    A neighbour across an inflow side reads the inlet value (weight 1, from the ghost layer);
-    across a wall or outflow side it is the face itself (weight 0: zero gradient); a neighbour
-    face between two building cells mirrors (``-u``: no slip on the wall half a cell away);
-    any other neighbour (fluid, or a fixed face with its prescribed value) has weight 1.
+
+def _diffusion_weights(code, solid_p, sides, is_u):
+    """Per face: which neighbour fluxes count and how many neighbours are mirrored, packed
+    in one uint8 array of the face shape (0 on the fixed faces).
+
+    Bits 0-3: weight 1 (else 0) of the (E, W, N, S) neighbour; bits 4-6: the count of
+    neighbours inside a building (no-slip mirror). A neighbour across an inflow side reads
+    the inlet value (weight 1, from the ghost layer); across a wall or outflow side it is the
+    face itself (weight 0: zero gradient); a neighbour face between two building cells mirrors
+    (``-u``: no slip on the wall half a cell away); any other neighbour (fluid, or a fixed
+    face with its prescribed value) has weight 1.
     """
     nyf, nxf = code.shape
-    w = np.zeros((4, nyf, nxf))
-    mirror = np.zeros((nyf, nxf))
+    mask = np.zeros((nyf, nxf), dtype=np.uint8)
+    mirror = np.zeros((nyf, nxf), dtype=np.uint8)
     free = code != 0
     for k, (dj, di) in enumerate(((0, 1), (0, -1), (1, 0), (-1, 0))):
         jj = np.arange(nyf)[:, None] + dj + np.zeros((1, nxf), dtype=np.int64)
@@ -227,41 +331,119 @@ def _diffusion_weights(code, solid_p, sides, is_u):
         else:
             inside = solid_p[jc, ic + 1] & solid_p[jc + 1, ic + 1]
         inside &= ~outside
-        w[k] = np.where(free & (ghost_inflow | (~outside & ~inside)), 1.0, 0.0)
-        mirror += np.where(free & inside, 1.0, 0.0)
-    return w, mirror
+        mask |= np.where(free & (ghost_inflow | (~outside & ~inside)), 1 << k, 0).astype(np.uint8)
+        mirror += (free & inside).astype(np.uint8)
+    return mask | (mirror << 4)
 
 
 @numba.njit(cache=True)
-def _diffuse_component(fp, w, mirror, nu_p, c, out):
-    """``out = f + c * div(nu grad f)`` on the free faces (``c = dt / dx^2``, others keep f).
+def _diffusion_row_weights(j, mask, nu_p, c, wts):
+    """The flux weights of the faces of row ``j`` into ``wts``: ``a_k = w_k (nu + nu_k)`` of
+    the (E, W, N, S) neighbours and the total weight ``s = c (sum(a_k) / 2 + 2 nu m)``.
 
-    ``fp`` and ``nu_p`` are the field and its face viscosity (m^2/s) padded by one ghost layer
-    (the inlet value beyond an inflow side); ``w`` (4, nyf, nxf) the neighbour weights (E, W,
-    N, S) and ``mirror`` the count of mirrored neighbours of :func:`_diffusion_weights`. The
-    viscosity between two neighbouring faces is the mean of theirs.
+    ``nu_p`` is the face viscosity (m^2/s) padded by one ghost layer, ``mask`` holds the
+    neighbour weights ``w_k`` and the mirror count ``m`` of :func:`_diffusion_weights`; the
+    viscosity between two neighbouring faces is the mean of theirs. ``c = dt / dx^2``.
+    """
+    for i in range(mask.shape[1]):
+        m = mask[j, i]
+        nu = nu_p[j + 1, i + 1]
+        # weight (0.0 or 1.0) times the summed viscosities, as with a float weight array
+        a0 = (1.0 if m & 1 else 0.0) * (nu + nu_p[j + 1, i + 2])
+        a1 = (1.0 if m & 2 else 0.0) * (nu + nu_p[j + 1, i])
+        a2 = (1.0 if m & 4 else 0.0) * (nu + nu_p[j + 2, i + 1])
+        a3 = (1.0 if m & 8 else 0.0) * (nu + nu_p[j, i + 1])
+        wts[0, i], wts[1, i], wts[2, i], wts[3, i] = a0, a1, a2, a3
+        wts[4, i] = 0.5 * c * (a0 + a1 + a2 + a3) + 2.0 * c * nu * float(m >> 4)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _diffuse_row(src, j, wts, c, dst, rd, off):
+    """Row ``j`` of ``f + c * div(nu grad f)`` on the free faces (``c = dt / dx^2``; the
+    fixed faces have zero weights and keep f) into ``dst[rd, i + off]``.
+
+    ``src`` holds the field's padded rows ``j, j + 1, j + 2`` (one ghost layer; the inlet
+    value beyond an inflow side) at ``src[r % 4]``, ``wts`` the row's flux weights
+    (:func:`_diffusion_row_weights`).
 
     Explicit where that is a convex combination of the face and its neighbours (total weight
     ``s = c sum(nu_k) <= 1``); where the eddy viscosity is so large that it is not, the face is
     updated point-implicitly, ``(f + c sum(nu_k g_k)) / (1 + s)`` (still convex), so the update
     is stable for any viscosity.
     """
-    nyf, nxf = out.shape
-    for j in range(nyf):
-        for i in range(nxf):
-            f = fp[j + 1, i + 1]
-            nu = nu_p[j + 1, i + 1]
-            a0 = w[0, j, i] * (nu + nu_p[j + 1, i + 2])
-            a1 = w[1, j, i] * (nu + nu_p[j + 1, i])
-            a2 = w[2, j, i] * (nu + nu_p[j + 2, i + 1])
-            a3 = w[3, j, i] * (nu + nu_p[j, i + 1])
-            pull = a0 * fp[j + 1, i + 2] + a1 * fp[j + 1, i] + a2 * fp[j + 2, i + 1]
-            pull = 0.5 * c * (pull + a3 * fp[j, i + 1])
-            total = 0.5 * c * (a0 + a1 + a2 + a3) + 2.0 * c * nu * mirror[j, i]
-            if total <= 1.0:
-                out[j, i] = f + pull - total * f
+    rs, rm, rn = j % 4, (j + 1) % 4, (j + 2) % 4
+    for i in range(wts.shape[1]):
+        f = src[rm, i + 1]
+        pull = wts[0, i] * src[rm, i + 2] + wts[1, i] * src[rm, i] + wts[2, i] * src[rn, i + 1]
+        pull = 0.5 * c * (pull + wts[3, i] * src[rs, i + 1])
+        total = wts[4, i]
+        # both computed, then selected: branch-free, so the loop vectorises (with the numpy
+        # error model: no zero-division check, and 1 + total > 0 anyway)
+        explicit = f + pull - total * f
+        implicit = (f + pull) / (1.0 + total)
+        dst[rd, i + off] = explicit if total <= 1.0 else implicit
+
+
+@numba.njit(cache=True)
+def _row_ghosts(row, sides, inflow_val):
+    """The ghost ends of one padded row, as :func:`_fill_ghosts`."""
+    n = row.size - 2
+    row[0] = inflow_val if sides[0] == 0 else row[1]
+    row[n + 1] = inflow_val if sides[1] == 0 else row[n]
+
+
+@numba.njit(cache=True)
+def _ghost_row(ghost, edge, side, sides, inflow_val):
+    """The padded ghost row beyond y side ``side`` (2 or 3) from the padded edge row, as
+    :func:`_fill_ghosts`."""
+    for i in range(1, ghost.size - 1):
+        ghost[i] = inflow_val if sides[side] == 0 else edge[i]
+    _row_ghosts(ghost, sides, inflow_val)
+
+
+@numba.njit(cache=True)
+def _diffuse_substeps(f, mask, nu_p, c, substeps, sides, inflow_val, rings, wts):
+    """``substeps`` explicit diffusion steps of face field ``f`` in place, in one sweep.
+
+    Substep ``s`` of row ``j`` needs substep ``s - 1`` of rows ``j - 1 .. j + 1``: at sweep
+    step ``t`` row ``t`` of ``f`` is loaded (substep 0) and row ``t - s`` of every substep
+    ``s`` computed (:func:`_diffuse_row`), the last one into ``f``. The rows still needed
+    stay in ``rings[s]`` (padded row ``r`` at ``r % 4``, with its ghost ends, and the ghost
+    rows once the edge rows are there), the flux weights of row ``j`` (the same in every
+    substep) in ``wts[j % 4]``: the same values as substeps over the whole padded field, from
+    a few rows that stay in cache.
+    """
+    nyf, nxf = f.shape
+    for t in range(nyf + substeps):
+        for s in range(substeps + 1):
+            j = t - s
+            if j < 0 or j >= nyf:
+                continue
+            if s == 1:
+                _diffusion_row_weights(j, mask, nu_p, c, wts[j % 4])
+            if s == substeps:
+                _diffuse_row(rings[s - 1], j, wts[j % 4], c, f, j, 0)
+                continue
+            ring = rings[s]
+            if s == 0:
+                ring[(j + 1) % 4, 1 : nxf + 1] = f[j]
             else:
-                out[j, i] = (f + pull) / (1.0 + total)
+                _diffuse_row(rings[s - 1], j, wts[j % 4], c, ring, (j + 1) % 4, 1)
+            _row_ghosts(ring[(j + 1) % 4], sides, inflow_val)
+            if j == 0:
+                _ghost_row(ring[0], ring[1], 2, sides, inflow_val)
+            if j == nyf - 1:
+                _ghost_row(ring[(nyf + 1) % 4], ring[nyf % 4], 3, sides, inflow_val)
+
+
+def _scratch_shapes(shape):
+    """The scratch arrays of a face field of ``shape`` (nyf, nxf): the field and ``phi_hat``
+    padded, the range lo and hi of ``phi_hat``, the advection's row scratch, the diffusion's
+    row rings and flux weights."""
+    nyf, nxf = shape
+    padded = (nyf + 2, nxf + 2)
+    rings = (MAX_DIFFUSION_SUBSTEPS, 4, nxf + 2)
+    return padded, padded, shape, shape, (6, nxf), rings, (4, 5, nxf)
 
 
 class Advection:
@@ -293,9 +475,12 @@ class Advection:
         self._solid_p = np.pad(domain.solid, 1)
         self._sides = domain.side_codes
         self._mac = scheme == "maccormack"
-        self._ws = {}
-        self._cs_delta2 = (self.smagorinsky * self.filter_width) ** 2
         ny, nx = domain.grid.shape
+        face_shapes = ((ny, nx + 1), (ny + 1, nx))
+        self._clear = dict(zip(face_shapes, _trace_clearance(domain.solid), strict=True))
+        self._ws = {}
+        self._bufs = []
+        self._cs_delta2 = (self.smagorinsky * self.filter_width) ** 2
         self._nu_c = np.full((ny, nx), self.viscosity)
         self._corner = np.zeros((ny + 1, nx + 1))
         self._nu_u = np.full((ny + 2, nx + 3), self.viscosity)
@@ -311,10 +496,19 @@ class Advection:
         return self.viscosity > 0.0 or self._cs_delta2 > 0.0
 
     def _scratch(self, shape):
+        """The workspace of the u or v field (by its ``shape``): the scratch arrays of
+        :func:`_scratch_shapes` (views of buffers that the two fields share, one at a time, so
+        a step touches less memory) and the field's trace clearance."""
         if shape not in self._ws:
-            bufs = [np.zeros(shape) for _ in range(6)]
-            bufs.append(np.zeros((shape[0] + 2, shape[1] + 2)))
-            self._ws[shape] = tuple(bufs)
+            clear = self._clear[shape]
+            if not self._bufs:
+                both = zip(*(_scratch_shapes(s) for s in self._clear), strict=True)
+                self._bufs = [np.zeros(max(math.prod(a), math.prod(b))) for a, b in both]
+            views = tuple(
+                buf[: math.prod(s)].reshape(s)
+                for buf, s in zip(self._bufs, _scratch_shapes(shape), strict=True)
+            )
+            self._ws[shape] = (*views, clear)
         return self._ws[shape]
 
     def into(self, u, v, out_u, out_v):
@@ -345,14 +539,11 @@ class Advection:
         r = nu_max * self.dt * inv_dx**2
         substeps = min(max(int(math.ceil(r / 0.2)), 1), MAX_DIFFUSION_SUBSTEPS)
         c = self.dt * inv_dx**2 / substeps
-        pu = self._scratch(out_u.shape)[6]
-        pv = self._scratch(out_v.shape)[6]
-        for _ in range(substeps):
-            # Jacobi-style: both components from the same old field
-            _pad(out_u, self._sides, ux, pu)
-            _pad(out_v, self._sides, uy, pv)
-            _diffuse_component(pu, *self._w_u, self._nu_u, c, out_u)
-            _diffuse_component(pv, *self._w_v, self._nu_v, c, out_v)
+        # the components do not interact: all substeps of u, then all of v
+        ws_u, ws_v = self._scratch(out_u.shape), self._scratch(out_v.shape)
+        sides = self._sides
+        _diffuse_substeps(out_u, self._w_u, self._nu_u, c, substeps, sides, ux, *ws_u[5:7])
+        _diffuse_substeps(out_v, self._w_v, self._nu_v, c, substeps, sides, uy, *ws_v[5:7])
 
     def __call__(self, u, v):
         return self.into(u, v, np.empty_like(u), np.empty_like(v))
