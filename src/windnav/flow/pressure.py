@@ -70,29 +70,28 @@ def _rhs(u, v, idx, b):
 
 
 @numba.njit(cache=True)
-def _subtract_gradient(q, idx, u_code, v_code, u, v):
-    """In place: ``u -= grad q``, ``v -= grad q`` on the open faces; ``q`` indexed by ``idx``."""
+def _subtract_gradient(q, idx, u_code, v_code, u_in, v_in, u, v):
+    """``u = u_in - grad q``, ``v = v_in - grad q`` on the open faces, the other faces copied
+    (``u`` may be ``u_in``); ``q`` indexed by ``idx``."""
     ny, nx = idx.shape
     for j in range(ny):
         for i in range(nx + 1):
             c = u_code[j, i]
+            g = 0.0
             if c == FACE_INTERIOR:
-                u[j, i] -= q[idx[j, i]] - q[idx[j, i - 1]]
+                g = q[idx[j, i]] - q[idx[j, i - 1]]
             elif c == FACE_OUTFLOW:
-                if i == 0:
-                    u[j, i] -= 2.0 * q[idx[j, 0]]
-                else:
-                    u[j, i] += 2.0 * q[idx[j, nx - 1]]
+                g = 2.0 * q[idx[j, 0]] if i == 0 else -2.0 * q[idx[j, nx - 1]]
+            u[j, i] = u_in[j, i] - g if c == FACE_INTERIOR or c == FACE_OUTFLOW else u_in[j, i]
     for j in range(ny + 1):
         for i in range(nx):
             c = v_code[j, i]
+            g = 0.0
             if c == FACE_INTERIOR:
-                v[j, i] -= q[idx[j, i]] - q[idx[j - 1, i]]
+                g = q[idx[j, i]] - q[idx[j - 1, i]]
             elif c == FACE_OUTFLOW:
-                if j == 0:
-                    v[j, i] -= 2.0 * q[idx[0, i]]
-                else:
-                    v[j, i] += 2.0 * q[idx[ny - 1, i]]
+                g = 2.0 * q[idx[0, i]] if j == 0 else -2.0 * q[idx[ny - 1, i]]
+            v[j, i] = v_in[j, i] - g if c == FACE_INTERIOR or c == FACE_OUTFLOW else v_in[j, i]
 
 
 def _nested_dissection(ny: int, nx: int, leaf: int = 16) -> np.ndarray:
@@ -256,11 +255,15 @@ class RedBlackFactor:
         nr = self._nr
         dinv = self._dinv_r if b.ndim == 1 else self._dinv_r[:, None]
         x = np.empty(b.shape)
-        br = b[:nr]
-        x[:nr] = br * dinv
+        br, xr = b[:nr], x[:nr]
+        np.multiply(br, dinv, out=xr)
         if self._schur_solve is not None:
-            x[nr:] = self._schur_solve(b[nr:] - self._a_br @ x[:nr])
-            x[:nr] = (br - self._a_rb @ x[nr:]) * dinv
+            rhs = self._a_br @ xr
+            np.subtract(b[nr:], rhs, out=rhs)
+            x[nr:] = self._schur_solve(rhs)
+            t = self._a_rb @ x[nr:]
+            np.subtract(br, t, out=t)
+            np.multiply(t, dinv, out=xr)
         return x
 
 
@@ -417,11 +420,7 @@ class Projection:
         q = self._solve_many(us, vs)
         d = self.domain
         for c, (u, v, ou, ov) in enumerate(zip(us, vs, outs_u, outs_v, strict=True)):
-            if ou is not u:
-                np.copyto(ou, u)
-            if ov is not v:
-                np.copyto(ov, v)
-            _subtract_gradient(q[:, c], self._idx, d.u_code, d.v_code, ou, ov)
+            _subtract_gradient(q[:, c], self._idx, d.u_code, d.v_code, u, v, ou, ov)
 
     def solve(self, u, v) -> np.ndarray:
         """The potential ``q`` (indexed by the cell numbering) that removes div of (u, v)."""
@@ -435,11 +434,7 @@ class Projection:
             fluid = self._idx >= 0
             q_cells[fluid] = q[self._idx[fluid]]
         d = self.domain
-        if out_u is not u:
-            np.copyto(out_u, u)
-        if out_v is not v:
-            np.copyto(out_v, v)
-        _subtract_gradient(q, self._idx, d.u_code, d.v_code, out_u, out_v)
+        _subtract_gradient(q, self._idx, d.u_code, d.v_code, u, v, out_u, out_v)
         return out_u, out_v
 
     def __call__(self, u, v):
