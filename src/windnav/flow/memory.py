@@ -23,6 +23,9 @@ frames; the JIT warmed first):
   faster than ``N log N``, so extrapolating far beyond 2e6 cells is an estimate, not a bound.
 - ``BYTES_PER_FACTOR_NNZ``: the factor kept (values, indices, supernode structure) plus the
   matrices it is built from and SuperLU's transient workspace came to 15 to 22 B per nonzero.
+  The calibration used SuperLU; CHOLMOD (the default since) keeps only ``L``: at 1200^2 the
+  peak fell from 1850 to 1291 MiB, so the estimate now errs further on the side of refusing
+  (tests/test_memory_estimate.py still finds it within 1.5x of the measured peak).
 - ``BYTES_PER_RUN_CELL``: each additional speed added 222 to 225 B per cell (velocity faces and
   their copies, advection and diffusion scratch, eddy viscosity, diffusion weights, the
   half-window means, the solution's arrays).
