@@ -385,8 +385,8 @@ def run_benchmark(
 def replay(spec, scenario_id: str, variant: str, *, navigate_fn: Callable | None = None) -> dict:
     """Re-fly one scenario from its id (its map, wind, pair and seed) and return its record.
 
-    The wind is simulated again (about a minute for a 600 m map) exactly as a run does, so the
-    record equals the recorded one in :data:`REPLAY_FIELDS` (see :func:`compare_records`).
+    The wind is simulated again (35-45 s for a 600 m map on one core) exactly as a run does,
+    so the record equals the recorded one in :data:`REPLAY_FIELDS` (see :func:`compare_records`).
 
     Raises
     ------

@@ -23,15 +23,15 @@ frames; the JIT warmed first):
   faster than ``N log N``, so extrapolating far beyond 2e6 cells is an estimate, not a bound.
 - ``BYTES_PER_FACTOR_NNZ``: the factor kept (values, indices, supernode structure) plus the
   matrices it is built from and SuperLU's transient workspace came to 15 to 22 B per nonzero.
-  The calibration used SuperLU; CHOLMOD (the default since) keeps only ``L``: at 1200^2 the
-  peak fell from 1850 to 1291 MiB, so the estimate now errs further on the side of refusing
-  (tests/test_memory_estimate.py still finds it within 1.5x of the measured peak).
+  That was SuperLU's LU. CHOLMOD's Cholesky (the default since) keeps only ``L``: recalibrated
+  on 2026-11-23 at 200^2, 300^2, 500^2 and 800^2 (one speed) the factor part came to 8 to 11 B
+  per estimated nonzero, so the constant is now 12 (the estimate is 1.05 to 1.39 times the
+  measured peak over those maps and the 250^2, 2-speed, 10-frame case of the tests).
 - ``BYTES_PER_RUN_CELL``: each additional speed added 222 to 225 B per cell (velocity faces and
   their copies, advection and diffusion scratch, eddy viscosity, diffusion weights, the
   half-window means, the solution's arrays).
-- 500 x 500 cells (92 % fluid), one speed: measured 279.5 MB, estimated 329 MB. Over the
-  calibration set the estimate was 1.01 to 1.38 times the measured peak: it errs on the side
-  of refusing.
+- 500 x 500 cells, one speed, with CHOLMOD: measured 189 MB, estimated 240 MB (SuperLU's LU:
+  279.5 MB measured). The estimate errs on the side of refusing.
 
 The default limit is :data:`DEFAULT_FRACTION` of the machine's memory (the smaller of the
 physical memory and a cgroup limit), or the ``WINDNAV_MEMORY_LIMIT`` environment variable
@@ -64,7 +64,7 @@ __all__ = [
     "parse_bytes",
 ]
 
-BYTES_PER_FACTOR_NNZ = 18
+BYTES_PER_FACTOR_NNZ = 12
 """Bytes per estimated nonzero of the pressure factor (see the module docstring)."""
 BYTES_PER_RUN_CELL = 250
 """Bytes per cell of each inlet speed's fields and scratch (see the module docstring)."""
