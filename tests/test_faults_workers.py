@@ -97,8 +97,11 @@ def start_parent(tmp_path):
     folder = tmp_path / "pids"
     folder.mkdir()
     script = PARENT.format(here=str(HERE), folder=str(folder))
+    # a test runner started in the background (``cmd &``) ignores SIGINT, and its children
+    # would inherit that: give the parent the default disposition, as a terminal would
     proc = subprocess.Popen([sys.executable, "-c", script], start_new_session=True,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # the first task finished and both workers are busy with a long one
     started = wait_for(lambda: (folder / "done-0").exists()
                        and len({p.name.split("-")[1] for p in folder.glob("pid-*")}) == 2
