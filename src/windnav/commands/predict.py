@@ -60,7 +60,7 @@ def register(subparsers) -> None:
 
 def run(args, flow_settings=None) -> int:
     """Run ``windnav predict``; returns 0."""
-    from windnav.city import read_rotorpy_json
+    from windnav.commands.wind import load_city
     from windnav.experiments.decoder_eval import PROTOCOL, check_point, predict_at
     from windnav.experiments.results import json_ready, write_json
     from windnav.experiments.wind_sweep import auto_dt
@@ -73,10 +73,7 @@ def run(args, flow_settings=None) -> int:
     speed = positive_float(args.speed, "--speed", name)
     dx = positive_float(args.dx, "--dx", name)
     noise = positive_float(args.scan_noise, "--scan-noise", name, allow_zero=True)
-    if not Path(args.map).is_file():
-        raise ValueError(f"The '--map' parameter of {name} must be a RotorPy world JSON file. "
-                         f"Got {str(args.map)!r} instead, which does not exist.")
-    city = read_rotorpy_json(args.map)
+    city = load_city(args.map, "--map", name)
     at = check_point(city, args.at, "--at", name)
     try:
         dec = load_decoder(args.model)
