@@ -28,7 +28,10 @@ def test_thesis_hyperparameters_and_variants(config):
     table = {k: (v.planner, v.energy_weight, v.use_wind) for k, v in VARIANTS.items()}
     assert table == {"mppi": ("mppi", 0.0, False), "mppi-w": ("mppi", 0.0, True),
                      "ea-mppi": ("mppi", 3.0, False), "ea-mppi-w": ("mppi", 5.0, True),
-                     "gs": ("gs", 0.0, False), "gs-w": ("gs", 0.0, True)}
+                     "gs": ("gs", 0.0, False), "gs-w": ("gs", 0.0, True),
+                     "ea-mppi-w-hat": ("mppi", 5.0, True)}
+    # the thesis's six take the ground-truth wind; EA-MPPI+W-hat the onboard estimate
+    assert {k for k, v in VARIANTS.items() if v.wind_source == "onboard"} == {"ea-mppi-w-hat"}
     assert (config.energy_weight, config.use_wind) == (5.0, True)
     mppi = with_variant(config, "mppi")
     assert (mppi.energy_weight, mppi.use_wind) == (0.0, False)

@@ -10,6 +10,12 @@ the termination rules and the two energies). The wind is simulated first (25 s o
 100 s of recorded frames on a 1 m grid; ``--spinup-s``, ``--record-s``), which takes about a
 minute for a 600 m map. Writes ``summary.json``, ``series.npz`` (the time series) and two
 figures: the path over the mean wind, and airspeed, power and energy against time.
+
+``--variant ea-mppi-w-hat`` (EA-MPPI+Ŵ) flies the onboard wind stack of
+:mod:`windnav.experiments.onboard` (Wind UKF on the thesis-level simulated sensors at 100 Hz,
+decoder at 50 Hz, planner at 10 Hz); its JSON adds the per-stage median times
+(``stage_ms_median``), the real-time load (``real_time_fraction``) and the UKF's RMS wind error
+(``ukf_wind_rms_mps``), and ``series.npz`` the UKF's estimate (``wind_estimate``).
 """
 
 from __future__ import annotations
@@ -52,7 +58,7 @@ def register(sub) -> None:
     p.add_argument("--variant", choices=tuple(VARIANTS), default="ea-mppi-w")
     p.add_argument("--horizon", type=float, default=math.inf,
                    help="side H of the window in which the -w MPPI variants know the wind, m "
-                        "(default: inf, the whole map)")
+                        "(default: inf, the whole map; ea-mppi-w-hat: the decoder's 25 m grid)")
     p.add_argument("--altitude", type=float, default=10.0, help="flight altitude, m")
     p.add_argument("--tilt-max-deg", type=float, default=55.0,
                    help="tilt cap of the acceleration commands, deg (%(default)s)")
@@ -110,19 +116,22 @@ def run(args) -> int:
     doc = document("navigate", summary, args)
     with out.writing() as stage:
         write_json(doc, stage.dir / "summary.json")
+        extra = ({} if result.wind_estimate is None
+                 else {"wind_estimate": result.wind_estimate})
         np.savez_compressed(stage.dir / "series.npz", t=result.t, position=result.position,
                             velocity=result.velocity, wind=result.wind,
                             airspeed=result.airspeed, accel_cmd=result.accel_cmd,
                             power=result.power, rotor_power=result.rotor_power,
-                            energy=result.energy, rotor_energy=result.rotor_energy)
+                            energy=result.energy, rotor_energy=result.rotor_energy, **extra)
         if not args.no_plots:
             from windnav.viz.navigate import plot_navigation
 
             plot_navigation(result, city, flow, stage.dir)
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
-    print(json.dumps(json_ready({k: summary[k] for k in (
-        "outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "distance_m",
-        "mean_cmd_accel", "planner_ms_median", "fallbacks")}), indent=2))
+    keys = ("outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "distance_m",
+            "mean_cmd_accel", "planner_ms_median", "fallbacks", "stage_ms_median",
+            "real_time_fraction", "ukf_wind_rms_mps")
+    print(json.dumps(json_ready({k: summary[k] for k in keys if k in summary}), indent=2))
     print_written(out)
     return 0

@@ -61,6 +61,7 @@ from windnav.experiments.nav_suite import (
 )
 
 __all__ = [
+    "ONBOARD_FIELDS",
     "RECORD_FIELDS",
     "SUITES",
     "CorruptRecordError",
@@ -91,6 +92,12 @@ RECORD_FIELDS = (
     "final_distance_to_goal_m", "arrival_time_s", "wall_s", "loop_wall_s", "flow_s", "error",
 )
 """The fields of a flight record, in order (metrics in SI units: J, s, m, m/s^2, ms)."""
+
+ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",
+                  "ukf_wind_rms_xy_mps")
+"""Fields appended to the record of a flight with the onboard wind stack (``ea-mppi-w-hat``,
+:mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s) and
+the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`RECORD_FIELDS`."""
 
 _METRICS = ("energy_J", "rotor_energy_J", "time_s", "distance_m", "mean_cmd_accel",
             "planner_ms_median", "fallbacks", "planner_updates", "final_distance_to_goal_m",
@@ -175,7 +182,8 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
     Returns
     -------
     dict
-        :data:`RECORD_FIELDS`. When anything raised, ``outcome`` is ``"error"``, the metrics
+        :data:`RECORD_FIELDS` (then :data:`ONBOARD_FIELDS` for the onboard stack). When
+        anything raised, ``outcome`` is ``"error"``, the metrics
         are None and ``error`` holds ``"Type: message"`` and the traceback.
     """
     t0 = time.perf_counter()
@@ -196,6 +204,7 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
         rec["outcome"] = summary["outcome"]
         rec.update({k: summary.get(k) for k in _METRICS})
         rec["loop_wall_s"] = summary.get("wall_s")
+        rec.update({k: summary[k] for k in ONBOARD_FIELDS if k in summary})
     except Exception as exc:  # one failing flight must not stop the suite
         rec["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
     rec["wall_s"] = time.perf_counter() - t0

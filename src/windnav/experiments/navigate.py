@@ -27,6 +27,13 @@ The loop
   ``D_max = 100`` m, noise 0.14 m; :meth:`City.lidar`) and, in the ``-w`` variants, the
   ground-truth wind averaged over the 100 s record, noise-free, on the solver's 1 m grid inside
   the window ``L_t`` of side ``H = horizon`` (``inf``: the whole map).
+* **EA-MPPI+Ŵ** (``ea-mppi-w-hat``, our addition, issue 11). EA-MPPI+W's planner whose wind
+  inside ``L_t`` comes from the onboard stack of :mod:`windnav.experiments.onboard` instead of
+  the truth: the Wind UKF on simulated sensors at thesis-level noise every control step
+  (100 Hz), the wind flow decoder on a fresh LiDAR scan, the inlet wind and the UKF's estimate
+  at 50 Hz; ``L_t`` is the decoder's grid (``H = 25`` m), and the result carries the UKF's error
+  and the per-stage timings (:class:`~windnav.experiments.onboard.OnboardReport`). The stack
+  draws from its own streams, so the other variants' flights are unchanged.
 * **GS / GS+W.** :func:`windnav.plan.energy_route` is computed once before take-off, with full
   knowledge of the buildings and (GS+W) the mean wind, and flown by a path follower in the same
   acceleration mode: a reference point moves along the route's samples at the route's planned
@@ -162,6 +169,15 @@ class NavigationResult:
         The GS route's samples, m (None for MPPI).
     wall_s : float
         Wall time of the closed loop (flow simulation and route search excluded), s.
+    settings : dict
+        The flight's settings (inlet, altitude, window, rates, ...).
+    wind_estimate : ndarray of shape (T, 3) or None
+        The onboard Wind UKF's world-frame wind at each control step, m/s (``ea-mppi-w-hat``;
+        None for the other variants); NaN at the last step, where the flight ended before the
+        stack ran.
+    onboard : OnboardReport or None
+        The onboard stack's errors and stage timings (``ea-mppi-w-hat``; see
+        :mod:`windnav.experiments.onboard`), else None.
     """
 
     outcome: str
@@ -190,6 +206,8 @@ class NavigationResult:
     route: np.ndarray | None = None
     wall_s: float = float("nan")
     settings: dict = field(default_factory=dict)
+    wind_estimate: np.ndarray | None = None
+    onboard: object = None
 
     def arrival(self) -> dict:
         """``arrival_time_s`` and ``arrival_energy_J``, ``arrival_rotor_energy_J``: when the
@@ -206,7 +224,11 @@ class NavigationResult:
                 "arrival_rotor_energy_J": float(self.rotor_energy[k])}
 
     def summary(self) -> dict:
-        """The scalars, JSON-ready (what ``windnav navigate --json`` writes)."""
+        """The scalars, JSON-ready (what ``windnav navigate --json`` writes); with the onboard
+        stack also ``stage_ms_median``, ``stage_ms_mean``, ``stage_updates``,
+        ``stage_rate_hz``, ``real_time_fraction``, ``ukf_wind_rms_mps``,
+        ``ukf_wind_rms_xy_mps`` and ``onboard`` (:meth:`OnboardReport.summary`)."""
+        extra = {} if self.onboard is None else self.onboard.summary()
         return {
             "outcome": self.outcome, "variant": self.variant,
             "energy_J": self.energy_J, "rotor_energy_J": self.rotor_energy_J,
@@ -219,7 +241,7 @@ class NavigationResult:
             "final_position": self.position[-1].tolist(),
             "final_distance_to_goal_m": float(np.hypot(*(self.position[-1, :2] - self.goal))),
             **self.arrival(),
-            "wall_s": self.wall_s, "settings": dict(self.settings),
+            "wall_s": self.wall_s, "settings": dict(self.settings), **extra,
         }
 
 
@@ -424,6 +446,8 @@ def navigate(
     route_clearance: float = 6.0,
     planner_overrides: dict | None = None,
     capture_radius: float = 10.0,
+    decoder=None,
+    onboard=None,
 ) -> NavigationResult:
     """Fly from ``start_xy`` to ``goal_xy`` through ``city`` in its urban wind (closed loop).
 
@@ -446,7 +470,9 @@ def navigate(
     altitude : float
         Flight altitude held by the controller, m.
     horizon : float
-        ``H``, side of the window inside which the ``-w`` MPPI variants know the wind, m.
+        ``H``, side of the window inside which the ``-w`` MPPI variants know the wind, m. For
+        ``ea-mppi-w-hat`` the window is the decoder's grid (``H Delta = 25`` m); a smaller
+        finite ``horizon`` shrinks it.
     vehicle : MultirotorParams, optional
         Default: the Hummingbird.
     config : PlannerConfig, optional
@@ -469,6 +495,13 @@ def navigate(
         Hand over to a position hold at the goal once within this distance of it, m (see the
         module docstring; our addition, the same for every variant). 0 keeps the planner
         flying until the flight ends.
+    decoder : object, optional
+        ``ea-mppi-w-hat`` only: the wind flow decoder (``offsets``, ``predict``); default the
+        shipped one (:func:`windnav.experiments.onboard.default_decoder`).
+    onboard : OnboardOptions or dict, optional
+        ``ea-mppi-w-hat`` only: settings of the onboard stack (UKF conditions, default
+        ``"thesis"``; decoder rate, default 50 Hz; ...), see
+        :class:`windnav.experiments.onboard.OnboardOptions`.
 
     Returns
     -------
@@ -478,7 +511,8 @@ def navigate(
     ------
     ValueError
         On a start or goal outside the map or inside a building, an unknown variant, a flow that
-        does not match, or invalid rates.
+        does not match, invalid rates, or (``ea-mppi-w-hat``) a ``config`` whose window is wider
+        than the decoder's grid.
     """
     from windnav.control import SE3Controller
     from windnav.plan import VARIANTS, MPPIPlanner, energy_route, planner_config
@@ -517,11 +551,27 @@ def navigate(
 
     params = _default_params() if vehicle is None else vehicle
     a_cap = GRAVITY * math.tan(math.radians(tilt))
+    model = Multirotor(params)
+    controller = SE3Controller(params)
+    n_max = int(math.floor(end / control_dt + 1e-9)) + 1
+    onboard_stack = None
+    if VARIANTS[variant].wind_source == "onboard":
+        from windnav.experiments.onboard import OnboardOptions, OnboardStack
+
+        onboard_stack = OnboardStack(
+            city, model, params, speed=speed, direction_deg=direction_deg,
+            control_rate_hz=1.0 / control_dt, plan_rate_hz=plan_rate_hz, n_max=n_max, rng=gen,
+            decoder=decoder, options=OnboardOptions.coerce(onboard, _WHERE))
+        window = onboard_stack.window
+        if config is not None and not config.horizon <= window + 1e-9:
+            raise ValueError(f"The 'config' parameter of {_WHERE} must have a horizon of at "
+                             f"most the decoder's window {window:g} m for {variant!r}. Got "
+                             f"{config.horizon!r} instead.")
+        if isinstance(horizon, (int, float)) and horizon > 0:  # else planner_config names it
+            horizon = min(horizon, window)
     if config is None:
         overrides = {"a_max": a_cap / math.sqrt(2.0), **(planner_overrides or {})}
         config = planner_config(params, variant, horizon=horizon, **overrides)
-    model = Multirotor(params)
-    controller = SE3Controller(params)
     kp_xy, kd_xy = controller.gains.kp_pos[0], controller.gains.kd_pos[0]
     kp_z, kd_z = controller.gains.kp_pos[2], controller.gains.kd_pos[2]
     az_cap = 0.5 * GRAVITY
@@ -529,7 +579,8 @@ def navigate(
     # the planner, or the GS route and its follower
     follower, route, plan_ms = None, None, []
     use_wind = bool(VARIANTS[variant].use_wind)
-    mean_uv = np.ascontiguousarray(np.stack([flow.mean_u, flow.mean_v])) if use_wind else None
+    mean_uv = (np.ascontiguousarray(np.stack([flow.mean_u, flow.mean_v]))
+               if use_wind and onboard_stack is None else None)
     if planner is None and VARIANTS[variant].planner == "gs":
         gs_config = config if config.planner == "gs" else planner_config(params, variant)
         t0 = time.perf_counter()
@@ -541,7 +592,6 @@ def navigate(
         planner = MPPIPlanner(config, goal, rng=planner_rng)
 
     # the loop -------------------------------------------------------------------------------
-    n_max = int(math.floor(end / control_dt + 1e-9)) + 1
     x = model.hover_state(np.array([start[0], start[1], altitude])).to_array()
     out = np.empty_like(x)
     N = model.n_rotors
@@ -563,6 +613,7 @@ def navigate(
     fx0, fx1, fy0, fy1 = (np.ascontiguousarray(c) for c in city.footprints.T)
     loop_fallbacks = 0
     goal_since = hover_since = holding = None
+    cmd = None
     outcome = "timeout"
     n = n_max
     wall0 = time.perf_counter()
@@ -604,6 +655,9 @@ def navigate(
             n = k + 1
             T_acc[k] = a_xy
             break
+        # onboard wind stack (ea-mppi-w-hat): sensors and UKF at 100 Hz, decoder at 50 Hz ----
+        if onboard_stack is not None:
+            onboard_stack.step(k, x, w[0], cmd)
         # planning, 10 Hz -----------------------------------------------------------------
         if holding is not None:
             a_xy = kp_xy * (goal - pos[:2]) - kd_xy * vel[:2]
@@ -612,8 +666,11 @@ def navigate(
         elif k % plan_every == 0:
             scan = city.lidar(pos[None, :2], n_rays=LIDAR_RAYS, max_range=LIDAR_RANGE,
                               noise_std=LIDAR_NOISE, rng=lidar_rng)[0]
-            known = (local_wind(flow, pos[:2], config.horizon, uv=mean_uv) if use_wind
-                     else None)
+            if onboard_stack is not None:
+                known = onboard_stack.local_wind(pos[:2])
+            else:
+                known = (local_wind(flow, pos[:2], config.horizon, uv=mean_uv) if use_wind
+                         else None)
             a_new = np.asarray(planner.update(np.array([px, py, vel[0], vel[1]]), scan, known),
                                dtype=np.float64).reshape(-1)
             if a_new.shape != (2,) or not np.all(np.isfinite(a_new)):
@@ -627,9 +684,13 @@ def navigate(
         a_cmd[0, 1] = a_xy[1] * scale
         a_cmd[0, 2] = min(max(kp_z * (altitude - pos[2]) - kd_z * vel[2], -az_cap), az_cap)
         T_acc[k] = a_cmd[0, :2]
+        if onboard_stack is not None:
+            t_ctl = time.perf_counter()
         cmd, _ = controller.accelerate(x, a_cmd, yaw, yaw_rate)
         np.minimum(cmd, hi, out=cmd)
         np.maximum(cmd, lo, out=cmd)
+        if onboard_stack is not None:
+            onboard_stack.add_time("control", 1e3 * (time.perf_counter() - t_ctl))
         com[0] = w[0]
         model.step_packed(x, cmd, com, hub, control_dt, out)
         x, out = out, x
@@ -667,6 +728,7 @@ def navigate(
     if route is not None:
         settings.update(route_energy_J=route.energy, route_time_s=route.time,
                         route_length_m=route.length)
+    report = None if onboard_stack is None else onboard_stack.report(n, plan_ms)
     return NavigationResult(
         outcome=outcome, variant=variant,
         energy_J=float(e[-1]), rotor_energy_J=float(e_rot[-1]), time_s=float(t[-1]),
@@ -680,6 +742,7 @@ def navigate(
         energy=e, rotor_energy=e_rot,
         route=None if route is None else np.asarray(route.samples).copy(),
         wall_s=wall, settings=settings,
+        wind_estimate=None if report is None else report.wind_estimate, onboard=report,
     )
 
 

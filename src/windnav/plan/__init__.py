@@ -3,6 +3,7 @@
 Public API::
 
     planner_config, PlannerConfig, VARIANTS, Variant     configuration derived from a vehicle
+    WIND_SOURCES                                          where a variant's wind comes from
     MPPIPlanner, mppi_step, rollout, ...                  the MPPI planner and its parts
     LocalWind                                             the wind the planner knows
     obstacle_field, ObstacleField, obstacle_cost, scan_points   obstacles from a LiDAR scan
@@ -13,6 +14,7 @@ Public API::
 from windnav.plan.config import (
     SAMPLING,
     VARIANTS,
+    WIND_SOURCES,
     PlannerConfig,
     Variant,
     acceleration_limit,
@@ -43,6 +45,7 @@ __all__ = [
     "EnergyRoute",
     "SAMPLING",
     "VARIANTS",
+    "WIND_SOURCES",
     "LocalWind",
     "MPPIPlanner",
     "ObstacleField",

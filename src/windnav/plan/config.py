@@ -48,6 +48,7 @@ from windnav.vehicle.power import PowerCurve
 __all__ = [
     "SAMPLING",
     "VARIANTS",
+    "WIND_SOURCES",
     "PlannerConfig",
     "Variant",
     "acceleration_limit",
@@ -69,12 +70,24 @@ MAX_COEFFICIENTS = 8
 """Most power-curve coefficients a PlannerConfig takes (degree 7)."""
 
 
+WIND_SOURCES = ("truth", "onboard")
+"""Where a variant's wind comes from: the ground-truth mean wind, or the onboard estimate."""
+
+
 class Variant(NamedTuple):
-    """A planner variant: which planner, its energy weight ``Q_E`` and whether it uses wind."""
+    """A planner variant: which planner, its energy weight ``Q_E``, whether it uses wind, and
+    where that wind comes from (:data:`WIND_SOURCES`).
+
+    ``wind_source="truth"``: the ground-truth mean wind inside ``L_t`` (the thesis's ``-w``
+    variants); ``"onboard"``: the onboard estimate, the wind flow decoder fed by the LiDAR scan,
+    the inlet wind and the Wind UKF (wired by :mod:`windnav.experiments.onboard`; the planner
+    itself only sees a :class:`~windnav.plan.LocalWind` either way).
+    """
 
     planner: str
     energy_weight: float
     use_wind: bool
+    wind_source: str = "truth"
 
 
 VARIANTS = {
@@ -84,8 +97,11 @@ VARIANTS = {
     "ea-mppi-w": Variant("mppi", 5.0, True),
     "gs": Variant("gs", 0.0, False),
     "gs-w": Variant("gs", 0.0, True),
+    "ea-mppi-w-hat": Variant("mppi", 5.0, True, "onboard"),
 }
-"""The six navigation variants of the thesis (``gs``: global graph search, energy-optimal)."""
+"""The six navigation variants of the thesis (``gs``: global graph search, energy-optimal) and
+``ea-mppi-w-hat`` (EA-MPPI+Ŵ): EA-MPPI+W's planner whose wind inside ``L_t`` is the onboard
+estimate instead of the truth (issue 11)."""
 
 
 def _fail(name, rule, got, where="PlannerConfig"):

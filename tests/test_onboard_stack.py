@@ -1,0 +1,286 @@
+"""EA-MPPI+Ŵ: the planner flies on the onboard wind stack (Wind UKF + decoder), issue 11.
+
+The small map and weak wind of ``tests/test_navigate.py`` (140 m x 120 m, one building, 2 m/s,
+10 s spin-up, 40 s recorded) serve every test.
+"""
+
+import argparse
+import functools
+import json
+import math
+
+import numpy as np
+import pytest
+
+import windnav.commands.navigate as nav_cmd
+from windnav.city import City
+from windnav.experiments.nav_benchmark import (
+    ONBOARD_FIELDS,
+    RECORD_FIELDS,
+    check_variants,
+    fly_scenario,
+)
+from windnav.experiments.nav_suite import Scenario, SuiteSpec
+from windnav.experiments.navigate import navigate, simulate_flow
+from windnav.experiments.onboard import STAGES, OnboardOptions, default_decoder
+from windnav.plan import VARIANTS, LocalWind, planner_config
+from windnav.vehicle import params
+
+START = (10.0, 60.0)
+GOAL = (110.0, 60.0)
+BUILDING = (35.0, 45.0, 45.0, 75.0)
+SPEED = 2.0
+VARIANT = "ea-mppi-w-hat"
+
+# what summary() held for every variant before the onboard stack (it must not change for them)
+SUMMARY_KEYS = {"outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "distance_m",
+                "mean_cmd_accel", "planner_ms_median", "fallbacks", "fallback_reasons",
+                "planner_updates", "start", "goal", "final_position", "final_distance_to_goal_m",
+                "arrival_time_s", "arrival_energy_J", "arrival_rotor_energy_J", "wall_s",
+                "settings"}
+
+
+@pytest.fixture(scope="module")
+def city():
+    return City((0.0, 140.0, 0.0, 120.0), np.array([BUILDING]), np.array([20.0]))
+
+
+@pytest.fixture(scope="module")
+def flow(city):
+    return simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
+
+
+def fly(city, flow, variant=VARIANT, **kw):
+    kw.setdefault("rng", 0)
+    return navigate(city, START, GOAL, speed=SPEED, direction_deg=0.0, variant=variant,
+                    flow=flow, **kw)
+
+
+class Recording:
+    """The shipped decoder, recording every call's inputs and output."""
+
+    def __init__(self, inner=None, fill=None):
+        self.inner = default_decoder() if inner is None else inner
+        self.offsets = self.inner.offsets
+        self.n_rays = self.inner.n_rays
+        self.fill = fill
+        self.calls = []
+
+    def predict(self, scans, w_up, w_robot):
+        out = self.inner.predict(scans, w_up, w_robot)
+        if self.fill is not None:
+            out = np.full_like(out, self.fill)
+        self.calls.append((np.array(scans), np.array(w_up), np.array(w_robot), out.copy()))
+        return out
+
+
+class WindSpy:
+    """A planner that records the wind it is given and flies a constant command."""
+
+    def __init__(self, accel=(1.0, 0.0)):
+        self.accel = np.asarray(accel, dtype=float)
+        self.winds = []
+
+    def update(self, state, scan=None, wind=None):
+        self.winds.append(wind)
+        return self.accel.copy()
+
+
+@pytest.fixture(scope="module")
+def flight(city, flow):
+    dec = Recording()
+    return fly(city, flow, decoder=dec), dec
+
+
+# ---------------------------------------------------------------------------- the variant
+
+
+def test_the_variant_is_ea_mppi_w_with_the_onboard_wind():
+    ours, truth = VARIANTS[VARIANT], VARIANTS["ea-mppi-w"]
+    assert (ours.planner, ours.energy_weight, ours.use_wind) == (truth.planner,
+                                                                   truth.energy_weight, True)
+    assert (ours.wind_source, truth.wind_source) == ("onboard", "truth")
+    assert check_variants(f"ea-mppi-w,{VARIANT}", "test") == ("ea-mppi-w", VARIANT)
+    p = argparse.ArgumentParser()
+    nav_cmd.register(p.add_subparsers(dest="command"))
+    args = p.parse_args(["navigate", "--map", "m.json", "--start", "1", "1", "--goal", "2", "2",
+                         "--speed", "2", "--variant", VARIANT])
+    assert args.variant == VARIANT
+
+
+def test_flies_to_the_goal_on_the_decoder_wind_inside_25_m(flight, city):
+    res, dec = flight
+    assert res.outcome == "success" and res.variant == VARIANT
+    assert np.hypot(*(res.position[-1, :2] - res.goal)) < 5.0
+    assert not city.contains(res.position[:, :2]).any()
+    assert res.fallbacks == 0
+    # the planner knows the wind inside the decoder's grid only: H = 25 cells of 1 m
+    assert res.settings["horizon"] == pytest.approx(25.0)
+    assert res.onboard.settings["window_m"] == pytest.approx(25.0)
+    assert res.onboard.settings["conditions"] == "thesis"
+
+
+def test_the_decoder_runs_at_50_hz_on_the_inlet_and_the_ukf_estimate(flight):
+    res, dec = flight
+    n = res.t.size
+    # steps 0 .. n-2 ran the stack (the last one ended the flight); every 2nd one decoded
+    decoded = [k for k in range(n - 1) if k % 2 == 0]
+    assert len(dec.calls) == len(decoded) == res.onboard.stage_updates["decoder"]
+    assert len(dec.calls) / (res.t[n - 2] + 0.01) == pytest.approx(50.0, rel=0.01)
+    for (scans, w_up, w_robot, _), k in zip(dec.calls, decoded, strict=True):
+        assert scans.shape == (1, 360) and np.all((scans >= 0.25) & (scans <= 100.0))
+        np.testing.assert_array_equal(w_up, [[SPEED, 0.0]])
+        np.testing.assert_array_equal(w_robot, res.wind_estimate[k:k + 1, :2])
+    # the UKF stepped at every control step after the first, at 100 Hz
+    assert res.onboard.stage_updates["ukf"] == n - 2
+    assert res.onboard.stage_updates["planner"] == res.planner_updates
+
+
+def test_the_planner_gets_the_latest_field_on_the_decoder_grid(city, flow):
+    dec, spy = Recording(), WindSpy()
+    res = fly(city, flow, decoder=dec, planner=spy, duration=3.0)
+    assert len(spy.winds) == res.planner_updates == 30
+    for j, wind in enumerate(spy.winds):
+        assert isinstance(wind, LocalWind)
+        # planning step 10 j is decoding step 10 j / 2: same position, no shift
+        np.testing.assert_array_equal(wind.x, dec.offsets)
+        np.testing.assert_array_equal(wind.y, dec.offsets)
+        np.testing.assert_array_equal(wind.uv, dec.calls[5 * j][3][0])
+
+
+def test_a_field_from_an_earlier_step_is_shifted_to_the_planning_position(city, flow):
+    # at 25 Hz the decoder runs every 4th control step: planning step 10 uses step 8's field
+    dec, spy = Recording(), WindSpy(accel=(2.0, 1.0))
+    res = fly(city, flow, decoder=dec, planner=spy, duration=2.0,
+              onboard={"decoder_rate_hz": 25.0})
+    assert len(dec.calls) == 50 and res.onboard.stage_rate_hz["decoder"] == 25.0
+    for j in range(1, len(spy.winds)):
+        k, k_dec = 10 * j, 4 * ((10 * j) // 4)
+        shift = res.position[k_dec, :2] - res.position[k, :2]
+        if k % 4 and j >= 10:  # two steps apart, moving at > 1 m/s after 1 s
+            assert np.hypot(*shift) > 0.02
+        np.testing.assert_allclose(spy.winds[j].x, dec.offsets + shift[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(spy.winds[j].y, dec.offsets + shift[1], rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(spy.winds[j].uv, dec.calls[k_dec // 4][3][0])
+
+
+def test_the_ukf_tracks_the_true_wind_at_the_vehicle(flight):
+    res, _ = flight
+    est = res.wind_estimate
+    assert est.shape == (res.t.size, 3) and np.all(np.isfinite(est[:-1]))
+    # the reported RMS is the error against the true wind at the vehicle after 2 s
+    keep = (res.t >= 2.0)[:-1]
+    err = est[:-1][keep, :2] - res.wind[:-1][keep]
+    rms_xy = math.sqrt(np.mean(np.sum(err**2, axis=1)))
+    assert res.onboard.ukf_wind_rms_xy_mps == pytest.approx(rms_xy, rel=1e-12)
+    assert res.onboard.ukf_wind_rms_mps >= res.onboard.ukf_wind_rms_xy_mps
+    # far better than knowing nothing (a zero estimate) and well below the inlet speed
+    zero = math.sqrt(np.mean(np.sum(res.wind[:-1][keep] ** 2, axis=1)))
+    assert zero > 1.0
+    assert rms_xy < 0.5 * zero and rms_xy < 0.5 * SPEED
+    assert res.onboard.settings["ukf_repairs"] == 0
+
+
+def test_stage_timings_are_reported_and_add_up_to_the_load(flight):
+    res, _ = flight
+    rep = res.onboard
+    assert set(rep.stage_ms_median) == set(STAGES)
+    for s in STAGES:
+        assert rep.stage_ms_median[s] > 0 and math.isfinite(rep.stage_ms_median[s])
+        assert rep.stage_ms_mean[s] > 0 and rep.stage_updates[s] > 0
+    assert rep.stage_rate_hz == {"ukf": 100.0, "decoder": 50.0, "planner": 10.0,
+                                 "control": 100.0}
+    load = sum(rep.stage_rate_hz[s] * rep.stage_ms_median[s] / 1e3 for s in STAGES)
+    assert rep.real_time_fraction == pytest.approx(load, rel=1e-12)
+    assert rep.stage_ms_median["planner"] == pytest.approx(res.planner_ms_median)
+    summary = json.loads(json.dumps(res.summary()))
+    assert set(summary) - SUMMARY_KEYS == {
+        "stage_ms_median", "stage_ms_mean", "stage_updates", "stage_rate_hz",
+        "real_time_fraction", "ukf_wind_rms_mps", "ukf_wind_rms_xy_mps", "onboard"}
+
+
+# ------------------------------------------------------------------------ determinism
+
+
+def test_same_seed_same_flight_other_seed_other_flight(city, flow):
+    a = fly(city, flow, rng=3, duration=6.0)
+    b = fly(city, flow, rng=3, duration=6.0)
+    c = fly(city, flow, rng=4, duration=6.0)
+    for name in ("position", "velocity", "accel_cmd", "energy", "wind_estimate"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.onboard.ukf_wind_rms_mps == b.onboard.ukf_wind_rms_mps
+    assert not np.array_equal(a.wind_estimate, c.wind_estimate)
+
+
+def test_the_other_variants_are_untouched(city, flow):
+    a = fly(city, flow, "ea-mppi-w", rng=3, duration=5.0)
+    fly(city, flow, rng=3, duration=5.0)  # the onboard stack in between shares nothing
+    b = fly(city, flow, "ea-mppi-w", rng=3, duration=5.0, decoder=Recording(),
+            onboard={"conditions": "thesis-0.038"})  # ignored by a ground-truth variant
+    for name in ("position", "velocity", "accel_cmd", "energy", "rotor_energy"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.onboard is None and a.wind_estimate is None
+    assert set(a.summary()) == SUMMARY_KEYS
+
+
+def test_a_non_finite_field_makes_the_planner_brake_not_raise(city, flow):
+    res = fly(city, flow, decoder=Recording(fill=np.nan), duration=2.0)
+    assert res.outcome == "timeout"
+    assert res.fallback_reasons == {"wind": res.planner_updates} and res.planner_updates == 20
+
+
+def test_benchmark_records_carry_the_onboard_fields(city, flow):
+    spec = SuiteSpec("t")
+    sc = Scenario("t/m00/w00/p0", 0, 0, 0, "tailwind", SPEED, 0.0, START, GOAL, 5)
+    short = functools.partial(navigate, duration=3.0)
+    ours = fly_scenario(spec, sc, VARIANT, city=city, flow=flow, navigate_fn=short)
+    theirs = fly_scenario(spec, sc, "ea-mppi-w", city=city, flow=flow, navigate_fn=short)
+    assert ours["error"] is None and theirs["error"] is None
+    assert list(ours) == list(RECORD_FIELDS) + list(ONBOARD_FIELDS)
+    assert list(theirs) == list(RECORD_FIELDS)
+    assert ours["real_time_fraction"] > 0 and set(ours["stage_ms_median"]) == set(STAGES)
+
+
+# ---------------------------------------------------------------------------- bad input
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"onboard": {"conditions": "windnav"}}, "'conditions'.*bias random walk"),
+    ({"onboard": {"conditions": "nope"}}, "'conditions'"),
+    ({"onboard": {"decoder_rate_hz": 30.0}}, "'decoder_rate_hz'.*divide"),
+    ({"onboard": {"scan_noise": -1.0}}, "'scan_noise'"),
+    ({"onboard": "fast"}, "'onboard'"),
+    ({"onboard": {"rate_hz": 20.0}}, "'onboard'.*fields"),
+    ({"decoder": object()}, "'decoder'"),
+])
+def test_bad_onboard_input_is_named(city, flow, kw, match):
+    with pytest.raises(ValueError, match=match):
+        fly(city, flow, duration=1.0, **kw)
+
+
+def test_a_config_wider_than_the_decoder_grid_is_refused(city, flow):
+    cfg = planner_config(params("hummingbird"), VARIANT)  # horizon inf
+    with pytest.raises(ValueError, match="'config'.*25"):
+        fly(city, flow, config=cfg, duration=1.0)
+    assert OnboardOptions().conditions.name == "thesis"
+
+
+# ------------------------------------------------------------------------------ command
+
+
+def test_command_json_carries_the_stage_timings(city, tmp_path):
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    p = argparse.ArgumentParser()
+    nav_cmd.register(p.add_subparsers(dest="command"))
+    args = p.parse_args(["navigate", "--map", str(path), "--start", "10", "60", "--goal", "110",
+                         "60", "--speed", "2", "--variant", VARIANT, "--spinup-s", "5",
+                         "--record-s", "8", "--no-plots", "--out", str(tmp_path / "out"),
+                         "--json", str(tmp_path / "nav.json")])
+    assert args.func(args) == 0
+    doc = json.loads((tmp_path / "nav.json").read_text())
+    assert doc["variant"] == VARIANT and doc["arguments"]["variant"] == VARIANT
+    assert set(doc["stage_ms_median"]) == set(STAGES)
+    assert all(v > 0 for v in doc["stage_ms_median"].values())
+    assert 0 < doc["real_time_fraction"] and doc["ukf_wind_rms_mps"] >= 0
+    series = np.load(tmp_path / "out" / "series.npz")
+    assert series["wind_estimate"].shape == (series["t"].size, 3)
