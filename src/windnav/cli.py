@@ -33,6 +33,7 @@ COMMAND_MODULES = (
     "benchmark_nav",
     "train_decoder",
     "evaluate_decoder",
+    "decoder_study",
     "predict",
 )
 

@@ -12,7 +12,9 @@ Architectures
 ``thesis-mlp``
     The thesis's MLP, 364 -> depth x width (ReLU) -> 2 H^2 (11.7 M parameters at width 2048,
     depth 3, H = 25). Inputs ``[D / 100 m, W_up / 10 m/s, W_robot / 10 m/s]``; outputs are
-    multiplied by the same 10 m/s. About 23 MFLOP per sample.
+    multiplied by the same 10 m/s. About 23 MFLOP per sample. The ``winds`` hyperparameter
+    (default ``"both"``; ``"up"``, ``"robot"``, ``"none"``) holds the winds not given at
+    0: the inputs ablation of :mod:`windnav.experiments.decoder_studies`.
 
 ``d4-film`` (designed for a CPU)
     The same mapping with the symmetries and scales of the problem built in, so that the
@@ -331,7 +333,7 @@ class ThesisMLPArchitecture:
 
     name = "thesis-mlp"
     defaults = {"n_rays": 360, "width": 2048, "depth": 3, "range_scale": 100.0,
-                "wind_scale": 10.0}
+                "wind_scale": 10.0, "winds": "both"}
 
     def __init__(self, hp: dict):
         self.hp = hp
@@ -348,6 +350,12 @@ class ThesisMLPArchitecture:
     def features(self, scans, w_up, w_robot) -> dict:
         rs, ws = np.float32(self.hp["range_scale"]), np.float32(self.hp["wind_scale"])
         x = np.concatenate([np.minimum(scans, rs) / rs, w_up / ws, w_robot / ws], axis=1)
+        # the winds ablation (hyperparameter "winds"): a wind not given is an input held at 0
+        n = scans.shape[1]
+        if self.hp.get("winds", "both") in ("none", "robot"):
+            x[:, n:n + 2] = 0.0
+        if self.hp.get("winds", "both") in ("none", "up"):
+            x[:, n + 2:n + 4] = 0.0
         return {"x": x.astype(np.float32, copy=False)}
 
     def network(self, w: dict, f: dict) -> np.ndarray:
@@ -531,6 +539,10 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
 ARCHITECTURES = {a.name: a for a in (ThesisMLPArchitecture, D4FilmArchitecture)}
 """Architecture name -> its class (see :class:`ThesisMLPArchitecture` for the parts)."""
 
+WIND_INPUTS = ("both", "up", "robot", "none")
+"""The ``winds`` hyperparameter of ``thesis-mlp``: the winds given to the network (``up``:
+``W_up`` only, ``robot``: ``W_robot`` only); the others are inputs held at 0 (the ablation)."""
+
 _INT_HP = ("n_rays", "width", "depth", "pool", "conv_channels", "kernel", "embed",
            "film_hidden", "modes", "size")
 
@@ -575,6 +587,9 @@ def make_architecture(name: str, size: int, **overrides):
                              f"number. Got {hp[key]!r} instead.")
         if key in hp:
             hp[key] = float(hp[key])
+    if "winds" in hp and hp["winds"] not in WIND_INPUTS:
+        raise ValueError(f"The 'winds' hyperparameter of {where} must be one of {WIND_INPUTS}. "
+                         f"Got {hp['winds']!r} instead.")
     if name == "d4-film":
         p, n = hp["pool"], hp["n_rays"]
         if p % 2 == 0 or n % p or (n // p) % 4:

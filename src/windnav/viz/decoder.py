@@ -4,6 +4,9 @@
   group), and each (map, inlet) slot's decoder error against the Local baseline's (scatter).
 - :func:`plot_prediction`: truth, prediction, speed error and direction error on the decoder's
   ``H x H`` grid around one robot (speed colour, quiver, buildings masked).
+- The studies of :mod:`windnav.experiments.decoder_studies`: :func:`plot_eigenflows`,
+  :func:`plot_gradients`, :func:`plot_mosaic`, :func:`plot_winds_ablation`,
+  :func:`plot_size_study`.
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
-__all__ = ["plot_evaluation", "plot_prediction"]
+__all__ = ["plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
+           "plot_prediction", "plot_size_study", "plot_winds_ablation"]
 
 _MODELS = ("decoder", "local", "upstream")
 _COLOURS = {"decoder": "C0", "local": "C1", "upstream": "C2"}
@@ -137,9 +141,228 @@ def plot_prediction(pred: dict, path, *, title: str = "") -> Path:
     return _save(fig, path)
 
 
-def _save(fig, path) -> Path:
+def _save(fig, path, dpi: int = 110, palette: bool = False) -> Path:
     path = Path(path)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    if palette:
+        # 128 colours (PIL's median cut): the whole-map fields stay a few hundred kB
+        import io
+
+        from PIL import Image
+
+        buf = io.BytesIO()
+        fig.savefig(buf, dpi=dpi, format="png")
+        plt.close(fig)
+        buf.seek(0)
+        Image.open(buf).convert("RGB").quantize(128).save(path, format="PNG", optimize=True)
+        return path
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
+
+
+# ------------------------------------------------------------------------------- studies
+
+
+def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
+    """Cumulative explained variance of the eigenflows (both frames) and the first modes.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.eigenflow_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    n_show : int
+        Modes drawn (speed of the mode as colour, its vectors as arrows).
+    """
+    world, canon = result["world"], result["canonical"]
+    n_show = min(n_show, world["modes"].shape[0])
+    cols = max(4, (n_show + 1) // 2 + 1)
+    fig = plt.figure(figsize=(3.0 * cols, 7.0))
+    grid = fig.add_gridspec(2, cols)
+    ax = fig.add_subplot(grid[:, 0])
+    for res, label, colour in ((world, "world frame", "C0"), (canon, "canonical D4 frame", "C1")):
+        cum = np.asarray(res["cumulative"])
+        k = np.arange(1, cum.size + 1)
+        ax.plot(k, 100 * cum, color=colour, label=label)
+        n98 = res["n_modes"]["0.98"]
+        ax.plot(n98, 100 * cum[n98 - 1], "o", color=colour)
+        ax.annotate(f"98 %: {n98}", (n98, 100 * cum[n98 - 1]), textcoords="offset points",
+                    xytext=(6, -12 if colour == "C0" else 4), fontsize=8, color=colour)
+    ax.axhline(98, color="k", ls=":", lw=0.8)
+    ax.axvline(16, color="0.5", ls="--", lw=0.8, label="16 modes (thesis: >= 98 %)")
+    ax.set_xscale("log")
+    ax.set_ylim(max(0.0, 100 * min(world["cumulative"][0], canon["cumulative"][0]) - 5), 100.5)
+    ax.set_xlabel("number of eigenflows")
+    ax.set_ylabel("cumulative explained variance (%)")
+    ax.legend(fontsize=8, loc="lower right")
+    h = result["size"]
+    o = (np.arange(h) - (h - 1) / 2) * result["spacing"]
+    ratio = world["explained_variance_ratio"]
+    for m in range(n_show):
+        a = fig.add_subplot(grid[m // (cols - 1), 1 + m % (cols - 1)])
+        mode = world["modes"][m]
+        sp = np.hypot(mode[0], mode[1])
+        a.pcolormesh(o, o, sp, shading="nearest", cmap="viridis")
+        step = max(1, h // 9)
+        a.quiver(o[::step], o[::step], mode[0][::step, ::step], mode[1][::step, ::step],
+                 color="w", width=0.006)
+        a.set_title(f"mode {m + 1}: {100 * ratio[m]:.1f} %", fontsize=9)
+        a.set_aspect("equal")
+        a.set_xticks([])
+        a.set_yticks([])
+    fig.suptitle(f"Eigenflows of {result['n_fields']} local label fields (H = {h}, divided by "
+                 f"the inlet speed); modes in the world frame", fontsize=11)
+    return _save(fig, path, dpi=80, palette=True)
+
+
+def plot_gradients(result: dict, path) -> Path:
+    """Predicted against true wind gradients at the robot, one panel per component.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.gradient_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    names = ("du/dx", "du/dy", "dv/dx", "dv/dy")
+    res = result["decoder"]
+    fig, axes = plt.subplots(1, 4, figsize=(16, 4.4))
+    for k, (ax, name) in enumerate(zip(axes, names, strict=True)):
+        t, p = res["true"][:, k], res["pred"][:, k]
+        lim = float(np.quantile(np.abs(np.concatenate([t, p])), 0.995)) if t.size else 1.0
+        ax.hexbin(t, p, gridsize=60, extent=(-lim, lim, -lim, lim), bins="log", cmap="viridis",
+                  mincnt=1)
+        ax.plot([-lim, lim], [-lim, lim], "r:", lw=1)
+        ax.set_xlim(-lim, lim)
+        ax.set_ylim(-lim, lim)
+        ax.set_aspect("equal")
+        ax.set_xlabel(f"true {name} (1/s)")
+        ax.set_ylabel(f"predicted {name} (1/s)")
+        ax.set_title(f"{name}: R² {res['r2'][name]:.2f}, r {res['pearson_r'][name]:.2f} "
+                     f"(per U: R² {result['decoder_per_U']['r2'][name]:.2f})", fontsize=9)
+    fig.suptitle(f"Wind gradients at the robot by central differences: decoder vs mean field "
+                 f"({res['n_samples']} samples with the 5 centre cells free)", fontsize=11)
+    return _save(fig, path, palette=True)
+
+
+def plot_mosaic(result: dict, path) -> Path:
+    """Truth, mosaic prediction, speed error and direction error over a whole map.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.mosaic`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    x, y = result["x"], result["y"]
+    truth = np.asarray(result["truth"], float)
+    pred = np.asarray(result["prediction"], float)
+    ok = result["free"] & result["covered"]
+    st, sp = np.hypot(*truth), np.hypot(*pred)
+    vmax = float(np.quantile(st[result["free"]], 0.995)) if result["free"].any() else 1.0
+    cos = (truth * pred).sum(0) / np.maximum(st * sp, 1e-18)
+    angle = np.degrees(np.arccos(np.clip(cos, -1, 1)))
+    err = np.abs(sp - st)
+    fig, axes = plt.subplots(2, 2, figsize=(13, 12))
+    panels = (
+        (axes[0, 0], np.where(result["free"], st, np.nan), "viridis", 0, vmax, "speed (m/s)",
+         "truth (mean solver field)"),
+        (axes[0, 1], np.where(ok, sp, np.nan), "viridis", 0, vmax, "speed (m/s)",
+         f"decoder mosaic ({result['n_robots']} robots, H = {result['size']}; white: free "
+         "cells no robot reaches)"),
+        (axes[1, 0], np.where(ok, err, np.nan), "magma", 0,
+         float(np.quantile(err[ok], 0.99)) if ok.any() else 1.0, "| |û| - |u| | (m/s)",
+         "speed error"),
+        (axes[1, 1], np.where(ok, angle, np.nan), "magma", 0, 90, "direction error (deg)",
+         "direction error"))
+    for ax, data, cmap, lo, hi, label, title in panels:
+        im = ax.imshow(data, origin="lower", extent=(x[0], x[-1], y[0], y[-1]), cmap=cmap,
+                       vmin=lo, vmax=hi, interpolation="nearest")
+        ax.imshow(np.where(result["free"], np.nan, 1.0), origin="lower",
+                  extent=(x[0], x[-1], y[0], y[-1]), cmap=ListedColormap(["0.3"]),
+                  interpolation="nearest")
+        plt.colorbar(im, ax=ax, label=label, fraction=0.046, pad=0.04)
+        ax.set_title(title, fontsize=10)
+        ax.set_xlabel("x east (m)")
+        ax.set_ylabel("y north (m)")
+    r = result["robots"]
+    axes[0, 1].plot(r[:, 0], r[:, 1], "r.", ms=1.0)
+    m = result["metrics"]
+    d, lo, up = m["decoder"], m["local"], m["upstream"]
+    w = result["w_up"]
+    fig.suptitle(
+        f"{result['name']}: W_up ({w[0]:.2f}, {w[1]:.2f}) m/s; map-wide over "
+        f"{100 * result['coverage']:.1f} % of the free cells: decoder speed "
+        f"{d['speed_error']:.2f} m/s, direction {d['direction_error_deg']:.1f} deg; Local "
+        f"{lo['speed_error']:.2f} m/s, {lo['direction_error_deg']:.1f} deg; Upstream "
+        f"{up['speed_error']:.2f} m/s, {up['direction_error_deg']:.1f} deg", fontsize=10)
+    return _save(fig, path, dpi=72, palette=True)
+
+
+def _variant_bars(ax, names, result, metric, label):
+    model = [result["variants"][n]["errors"]["model"][metric] for n in names]
+    ax.bar(np.arange(len(names)), model, color="C0", label="model")
+    for base, colour in (("local", "C1"), ("upstream", "C2")):
+        ax.axhline(result["variants"][names[0]]["errors"][base][metric], color=colour, ls="--",
+                   label=f"{base} baseline")
+    ax.set_xticks(np.arange(len(names)), names)
+    ax.set_ylabel(label)
+
+
+def plot_winds_ablation(result: dict, path) -> Path:
+    """Test errors of the models given no wind, W_up, W_robot or both, with the baselines.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.winds_ablation`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    names = list(result["variants"])
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+    for ax, (metric, label) in zip(axes, (_METRICS[0], _METRICS[1], _METRICS[3]), strict=True):
+        _variant_bars(ax, names, result, metric, label)
+        ax.set_xlabel("winds given to the model")
+    axes[0].legend(fontsize=8)
+    s = result["schedule"]
+    fig.suptitle(f"Winds ablation: {s['architecture']} {s['hyperparameters']}, {s['epochs']} "
+                 f"epochs x {result['variants'][names[0]]['n_train_samples']} samples; test "
+                 f"samples of a held-out map", fontsize=10)
+    return _save(fig, path)
+
+
+def plot_size_study(result: dict, path) -> Path:
+    """Test errors of the models trained at each H against ``A_pred / A_total``.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.size_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    names = list(result["variants"])
+    frac = [100 * result["variants"][n]["area_fraction"] for n in names]
+    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
+    for ax, (metric, label) in zip(axes, (_METRICS[0], _METRICS[1], _METRICS[3]), strict=True):
+        for who, colour, marker in (("model", "C0", "o"), ("local", "C1", "s"),
+                                    ("upstream", "C2", "^")):
+            ax.plot(frac, [result["variants"][n]["errors"][who][metric] for n in names],
+                    marker=marker, color=colour,
+                    label="d4-film" if who == "model" else f"{who} baseline")
+        for f, n in zip(frac, names, strict=True):
+            ax.annotate(n.replace("H", "H="), (f, result["variants"][n]["errors"]["model"][
+                metric]), textcoords="offset points", xytext=(3, 5), fontsize=7)
+        ax.set_xscale("log")
+        ax.set_xlabel("A_pred / A_total = (1/π)(H / D_max)² (%)")
+        ax.set_ylabel(label)
+    axes[0].legend(fontsize=8)
+    s = result["schedule"]
+    fig.suptitle(f"Size study: d4-film, {s['epochs']} epochs; test samples of a held-out map",
+                 fontsize=10)
+    return _save(fig, path)

@@ -1,0 +1,211 @@
+"""``windnav decoder-study``: one study of the wind flow decoder, its figure and its JSON.
+
+::
+
+    windnav decoder-study eigenflows --out runs/studies --flow-cache runs/flows   # (e)
+    windnav decoder-study gradients  --out runs/studies --flow-cache runs/flows   # (c)
+    windnav decoder-study mosaic     --out runs/studies --flow-cache runs/flows   # (d)
+    windnav decoder-study winds      --out runs/studies --runs runs/decoder_studies  # (a)
+    windnav decoder-study size       --out runs/studies --runs runs/decoder_studies  # (b)
+    windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
+
+``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
+mean flow of dense 1.2 km evaluation maps at random inlets (the protocol of ``windnav
+evaluate-decoder``); ``--flow-cache`` keeps the flows, so the three share them. ``winds`` and
+``size`` train models on a reduced copy of the default recipe (resumable, in ``--runs``; their
+schedule is printed and recorded). ``--quick``: a 150 m map and short flows, or the tiny
+recipe's sweep and models. The harness is :mod:`windnav.experiments.decoder_studies`, the
+figures :mod:`windnav.viz.decoder`.
+
+Writes into ``--out``: ``decoder_<study>.json`` and ``decoder_<study>.png``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from windnav._validate import positive_int
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    outputs,
+    print_written,
+    seed,
+    where,
+)
+
+STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size")
+"""The studies, as named on the command line."""
+QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
+"""The ``--quick`` flow protocol (steps), on 2 m cells."""
+
+
+def register(subparsers) -> None:
+    """Add the ``decoder-study`` subcommand."""
+    p = subparsers.add_parser(
+        "decoder-study",
+        help="a study of the wind flow decoder (eigenflows, gradients, mosaic, winds, size)",
+        description=__doc__.splitlines()[0],
+    )
+    p.add_argument("study", choices=STUDIES, help="which study")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder (JSON, figure)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the inlets and the samples")
+    p.add_argument("--quick", action="store_true",
+                   help="a tiny run (tests): small map and short flows, or the tiny recipe")
+    p.add_argument("--model", type=Path, default=None, metavar="FILE",
+                   help="decoder file for eigenflows/gradients/mosaic (default: the shipped "
+                        "model)")
+    p.add_argument("--maps", type=int, default=1, metavar="N",
+                   help="dense 1.2 km evaluation maps (default 1; the mosaic uses the first)")
+    p.add_argument("--inlets", type=int, default=2, metavar="N",
+                   help="random inlets per map (default 2; the mosaic uses the first)")
+    p.add_argument("--samples", type=int, default=2048, metavar="N",
+                   help="samples per (map, inlet) for eigenflows and gradients (default 2048)")
+    p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
+                   help="keep the flow solutions here and reuse them")
+    p.add_argument("--runs", type=Path, default=None, metavar="DIR",
+                   help="winds/size: the sweep store and trained models (default "
+                        "runs/decoder_studies, or runs/decoder_studies_quick)")
+    p.add_argument("--epochs", type=int, default=None,
+                   help="winds/size: training epochs per model (default 20 for winds, 12 for "
+                        "size; quick 2)")
+    p.add_argument("--samples-per-field", type=int, default=None, metavar="N",
+                   help="winds/size: training samples per mean field (default 384)")
+    p.add_argument("--sizes", type=int, nargs="+", default=None, metavar="H",
+                   help="size: the grid sizes (default 5 15 25 35 45; quick 5 15 25)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
+    add_output_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _fields(args, name, simulate, progress):
+    from windnav.experiments.decoder_studies import evaluation_fields
+
+    first = 1 if args.study == "mosaic" else None  # the mosaic maps the first flow only
+
+    if args.quick:
+        from windnav.city import dense_map
+
+        maps = [("quick-0", dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4))]
+        return evaluation_fields(maps, 1, seed=args.seed, dx=2.0, flow_settings=QUICK_FLOW,
+                                 cache_dir=args.flow_cache, simulate=simulate,
+                                 max_fields=first, progress=progress)
+    positive_int(args.maps, "--maps", name)
+    positive_int(args.inlets, "--inlets", name)
+    return evaluation_fields(args.maps, args.inlets, seed=args.seed,
+                             cache_dir=args.flow_cache, simulate=simulate, max_fields=first,
+                             progress=progress)
+
+
+def _summary(study: str, res: dict) -> dict:
+    """What the command prints."""
+    if study == "eigenflows":
+        return {f: {"n_modes": res[f]["n_modes"],
+                    "explained_16": float(res[f]["cumulative"][15])
+                    if res[f]["cumulative"].size >= 16 else None}
+                for f in ("world", "canonical")} | {"n_fields": res["n_fields"]}
+    if study == "gradients":
+        return {k: {"r2": res[k]["r2"], "pearson_r": res[k].get("pearson_r"),
+                    "n_samples": res[k]["n_samples"]} for k in ("decoder", "decoder_per_U")}
+    if study == "mosaic":
+        return {"metrics": {m: {k: res["metrics"][m][k] for k in
+                                ("speed_error", "direction_error_deg", "vector_error")}
+                            for m in ("decoder", "local", "upstream")},
+                "improvement_pct": res["metrics"]["improvement_pct"],
+                "coverage": res["coverage"], "n_robots": res["n_robots"],
+                "n_moved": res["n_moved"]}
+    return {"schedule": res["schedule"], "variants": {
+        n: {"model": {k: v["errors"]["model"][k] for k in ("speed_error",
+                                                             "direction_error_deg")},
+            "local": {k: v["errors"]["local"][k] for k in ("speed_error",
+                                                             "direction_error_deg")},
+            "train_seconds": v["train_seconds"]}
+        for n, v in res["variants"].items()}}
+
+
+def run(args, simulate=None) -> int:
+    """Run ``windnav decoder-study``; returns 0."""
+    from windnav.experiments import decoder_studies as ds
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.predict import load_decoder
+    from windnav.viz import decoder as figures
+
+    name = where(args)
+    seed(args)
+    study = args.study
+    progress = not args.no_progress
+    for flag, value in (("--samples", args.samples), ("--epochs", args.epochs),
+                        ("--samples-per-field", args.samples_per_field)):
+        if value is not None:
+            positive_int(value, flag, name)
+    if args.model is not None and not Path(args.model).is_file():
+        raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
+                         f"{str(args.model)!r} instead, which does not exist.")
+    products = (f"decoder_{study}.json", f"decoder_{study}.png")
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    samples = 64 if args.quick else args.samples
+    flows = None
+    if study in ("eigenflows", "gradients", "mosaic"):
+        flows = _fields(args, name, simulate, progress)
+        fields = flows["fields"]
+        dec = load_decoder(args.model)
+        if study == "eigenflows":
+            res = ds.eigenflow_study(fields, samples, seed=args.seed, size=dec.size,
+                                     spacing=dec.spacing)
+            plot = figures.plot_eigenflows
+        elif study == "gradients":
+            res = ds.gradient_study(dec, fields, samples, seed=args.seed)
+            plot = figures.plot_gradients
+        else:
+            res = ds.mosaic(dec, fields[0], rng=args.seed, progress=progress)
+            plot = figures.plot_mosaic
+        res["flows"] = {k: v for k, v in flows.items() if k != "fields"}
+        res["model"] = {"path": str(args.model) if args.model else "default",
+                          "architecture": dec.architecture, "size": dec.size}
+    else:
+        runs = args.runs or Path("runs/decoder_studies" + ("_quick" if args.quick else ""))
+        kw = dict(quick=args.quick, epochs=args.epochs, samples_per_field=args.samples_per_field,
+                  progress=progress, seed=args.seed)
+        if study == "winds":
+            res = ds.winds_ablation(runs, **kw)
+            plot = figures.plot_winds_ablation
+        else:
+            sizes = args.sizes or ((5, 15, 25) if args.quick else ds.SIZES)
+            res = ds.size_study(runs, sizes=sizes, **kw)
+            plot = figures.plot_size_study
+        res["runs"] = str(runs)
+    res["elapsed_s"] = time.perf_counter() - t0
+    res["quick"] = bool(args.quick)
+    with out.writing() as stage:
+        plot(res, stage.dir / products[1])
+        doc = document("decoder-study", {"study": study, **_drop_bulk(study, res)}, args)
+        write_json(doc, stage.dir / products[0])
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    print(json.dumps(json_ready({"study": study, **_summary(study, res),
+                                 "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 0
+
+
+def _drop_bulk(study: str, res: dict) -> dict:
+    """The result without its per-cell and per-sample arrays (kept small in the JSON)."""
+    out = dict(res)
+    if study == "eigenflows":
+        out = {**out, **{f: {k: v for k, v in res[f].items() if k not in ("modes", "mean")}
+                         for f in ("world", "canonical")}}
+        for f in ("world", "canonical"):
+            out[f]["explained_variance_ratio"] = res[f]["explained_variance_ratio"][:200]
+            out[f]["cumulative"] = res[f]["cumulative"][:200]
+    elif study == "gradients":
+        out = {**out, **{k: {kk: vv for kk, vv in res[k].items() if kk not in ("pred", "true")}
+                         for k in ("decoder", "decoder_per_U")}}
+    elif study == "mosaic":
+        out = {k: v for k, v in res.items()
+               if k not in ("truth", "prediction", "local", "free", "covered", "x", "y",
+                            "robots")}
+    return out

@@ -1,0 +1,735 @@
+"""Studies of the wind flow decoder (issue 9, "Studies, each one command, each writing a figure").
+
+Each study is a function returning a results dict; ``windnav decoder-study`` runs one and draws
+its figure (:mod:`windnav.viz.decoder`). The metrics are :mod:`windnav.predict.metrics`'s and
+the samples :func:`windnav.predict.draw_samples`'s, never re-implemented here.
+
+Studies of the shipped model on simulated evaluation fields (:func:`evaluation_fields`: the
+dense 1.2 km maps of :mod:`windnav.experiments.decoder_eval`, its random inlets and its
+thesis flow protocol):
+
+- :func:`eigenflows` (e): principal components ("eigenflows") of local label fields
+  ``X (N, 2 H^2)``, centred: ``X - mean = U S V^T``; mode ``k`` explains
+  ``S_k^2 / sum S^2`` of the variance (the thesis: 16 modes explain >= 98 %).
+- :func:`gradient_r2` (c): the gradients at the robot by central differences
+  (:func:`windnav.predict.central_gradients`), predicted against true, with
+  ``R^2 = 1 - sum (g_pred - g_true)^2 / sum (g_true - mean g_true)^2`` per component.
+- :func:`mosaic` (d): one map tiled with predictions at robot positions on a grid of spacing
+  ``H Delta`` (``W_robot`` the true mean wind there, ``W_up`` the inlet, the scan from the map).
+
+Studies that train models (:func:`train_variants` over a reduced copy of the default recipe,
+:func:`study_recipe`, sharing one sweep store):
+
+- :func:`winds_ablation` (a): the thesis MLP given no wind, ``W_up`` only, ``W_robot`` only or
+  both (hyperparameter ``winds`` of ``thesis-mlp``).
+- :func:`size_study` (b): the d4-film at ``H`` in {5, 15, 25, 35, 45}, against the fraction of
+  the LiDAR disc it predicts, ``A_pred / A_total = (H Delta)^2 / (pi D_max^2)``, D_max = 100 m.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import time
+from pathlib import Path
+
+import numpy as np
+
+from windnav._validate import positive_float, positive_int
+
+__all__ = ["GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS", "area_fraction",
+           "eigenflow_study", "eigenflows", "evaluation_fields", "gradient_r2",
+           "gradient_study", "mosaic", "size_study", "study_recipe", "train_variants",
+           "winds_ablation"]
+
+THRESHOLDS = (0.90, 0.95, 0.98, 0.99)
+"""Explained-variance levels reported by :func:`eigenflows`."""
+GRADIENT_COMPONENTS = ("du/dx", "du/dy", "dv/dx", "dv/dy")
+"""The columns of :func:`windnav.predict.central_gradients`."""
+WIND_VARIANTS = ("none", "up", "robot", "both")
+"""The winds ablation's configurations (``thesis-mlp`` hyperparameter ``winds``)."""
+SIZES = (5, 15, 25, 35, 45)
+"""The size study's grids H (cells per side)."""
+D_MAX = 100.0
+"""LiDAR range, m (``windnav.predict.SCAN_MAX``): the radius of the sensed disc."""
+
+
+def _seed(seed, where: str) -> int:
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. "
+                         f"Got {seed!r} instead.")
+    return int(seed)
+
+
+# --------------------------------------------------------------------------- the fields
+
+
+def _cache_name(name: str, city, speed: float, direction: float, dx: float, settings: dict,
+                dt: float) -> str:
+    key = hashlib.sha256(np.ascontiguousarray(city.footprints).tobytes()
+                         + repr((speed, direction, dx, dt, sorted(settings.items()))).encode())
+    safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in name)
+    return f"{safe}-{key.hexdigest()[:16]}.zarr"
+
+
+def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1.0,
+                      flow_settings: dict | None = None, cache_dir=None, simulate=None,
+                      max_fields: int | None = None, progress: bool = False) -> dict:
+    """Mean fields of evaluation maps at random inlets (the protocol of
+    :mod:`windnav.experiments.decoder_eval`).
+
+    Parameters
+    ----------
+    maps : int or list of (str, City)
+        The number of dense 1.2 km evaluation maps (``dense-i``, never trained on), or maps.
+    n_inlets : int
+        Inlets per map, >= 1: speed U[2, 10] m/s, direction U[0, 360) deg, drawn from ``seed``
+        (:func:`windnav.experiments.decoder_eval.inlet_slots`).
+    seed : int
+        Seed of the inlets.
+    dx : float
+        Solver cell size, m (the decoder was trained at 1 m).
+    flow_settings : dict, optional
+        Override ``spinup_steps``, ``steps`` (the thesis: 100 and 200) and ``dt`` (s; default
+        0.25 s shortened to ``U dt / dx <= 1``).
+    cache_dir : str or path-like, optional
+        Keep each solution there (:func:`windnav.flow.save_flow`) and reuse it when the same
+        map, inlet and settings come again (the studies share their flows).
+    simulate : callable, optional
+        Replaces :func:`windnav.flow.simulate` (tests).
+    max_fields : int, optional
+        Stop after this many fields (the mosaic needs one); the inlets stay those of
+        ``n_inlets`` (:func:`inlet_slots` draws them together).
+    progress : bool
+        Show a tqdm bar.
+
+    Returns
+    -------
+    dict
+        ``fields`` (list of MeanField), ``slots`` (map, inlet, speed m/s, direction_deg, dt s,
+        seconds, cached), ``failed`` (slots whose flow diverged, with the error) and
+        ``config``.
+    """
+    from tqdm.auto import tqdm
+
+    from windnav.experiments.decoder_eval import PROTOCOL, _evaluation_maps, inlet_slots
+    from windnav.experiments.wind_sweep import auto_dt
+    from windnav.flow import load_flow, save_flow
+    from windnav.flow import simulate as flow_simulate
+    from windnav.flow.solver import FlowDivergedError
+    from windnav.predict import field_from_solution
+
+    where = "evaluation_fields"
+    n_inlets = positive_int(n_inlets, "n_inlets", where)
+    seed = _seed(seed, where)
+    dx = positive_float(dx, "dx", where)
+    settings = {**PROTOCOL, **(flow_settings or {})}
+    unknown = sorted(set(settings) - {"spinup_steps", "steps", "dt"})
+    if unknown:
+        raise ValueError(f"The 'flow_settings' parameter of {where} must only set "
+                         f"spinup_steps, steps, dt. Got {unknown} instead.")
+    cities = _evaluation_maps(maps, False, where)
+    inlets = inlet_slots(len(cities), n_inlets, seed)
+    cache = Path(cache_dir) if cache_dir is not None else None
+    if cache is not None:
+        cache.mkdir(parents=True, exist_ok=True)
+    sim = simulate or flow_simulate
+    fields, slots, failed = [], [], []
+    todo = [(i, j) for i in range(len(cities)) for j in range(n_inlets)]
+    if max_fields is not None:
+        todo = todo[:positive_int(max_fields, "max_fields", where)]
+    for i, j in tqdm(todo, desc="flows", disable=not progress, unit="flow"):
+        name, _, city = cities[i]
+        speed, direction = (float(v) for v in inlets[i, j])
+        dt = float(settings.get("dt") or auto_dt(dx, speed))
+        steps = {k: settings[k] for k in ("spinup_steps", "steps")}
+        t0 = time.perf_counter()
+        path = cache / _cache_name(name, city, speed, direction, dx, steps, dt) \
+            if cache is not None else None
+        cached = path is not None and path.is_dir()
+        if cached:
+            sol = load_flow(path)
+        else:
+            try:
+                sol = sim(city, speed=speed, direction_deg=direction, dx=dx, dt=dt, **steps)
+            except FlowDivergedError as exc:
+                failed.append({"map": name, "inlet": j, "speed": speed,
+                               "direction_deg": direction, "error": str(exc)})
+                continue
+            if path is not None:
+                save_flow(sol, path, config={"map": name, "inlet": j})
+        fields.append(field_from_solution(city, sol, name=f"{name}/{j}"))
+        slots.append({"map": name, "inlet": j, "speed": speed, "direction_deg": direction,
+                      "dt": dt, "seconds": time.perf_counter() - t0, "cached": cached})
+    if not fields:
+        raise ValueError(f"{where}: every flow failed ({failed[0]['error'] if failed else ''}).")
+    return {"fields": fields, "slots": slots, "failed": failed,
+            "config": {"maps": [n for n, _, _ in cities], "n_inlets": n_inlets, "seed": seed,
+                       "dx": dx, **settings,
+                       "dt_rule": "given" if "dt" in (flow_settings or {}) else
+                       "0.25 s, shortened to U dt / dx <= 1"}}
+
+
+def _draw(fields, samples_per_field: int, seed: int, size: int, spacing: float, where: str):
+    """Samples of every field (field ``k`` from ``default_rng([seed, 4, k])``), joined."""
+    from windnav.predict import SampleBatch, draw_samples
+
+    n = positive_int(samples_per_field, "samples_per_field", where)
+    parts = [draw_samples(f, n, np.random.default_rng([seed, 4, k]), size=size,
+                          spacing=spacing) for k, f in enumerate(fields)]
+    return SampleBatch(*(np.concatenate(a) for a in zip(*parts, strict=True)))
+
+
+# ------------------------------------------------------------------------- (e) eigenflows
+
+
+def eigenflows(fields, *, thresholds=THRESHOLDS, n_keep: int = 16) -> dict:
+    """Principal components of local wind fields and the variance each explains.
+
+    Parameters
+    ----------
+    fields : array_like of shape (N, 2, H, H)
+        ``[u, v]`` on the label grid (any unit, e.g. m/s or divided by the inlet speed),
+        N >= 2, finite, not all equal.
+    thresholds : sequence of float
+        Explained-variance levels in (0, 1] for which to report the number of modes needed.
+    n_keep : int
+        Modes returned (the leading ones), >= 1.
+
+    Returns
+    -------
+    dict
+        ``explained_variance_ratio`` (K,) non-increasing, summing to 1; ``cumulative`` (K,);
+        ``n_modes`` ``{level: smallest k with cumulative[k - 1] >= level}``; ``modes``
+        (n_keep, 2, H, H) unit-norm components; ``mean`` (2, H, H); ``n_fields``.
+    """
+    where = "eigenflows"
+    x = np.asarray(fields, dtype=np.float64)
+    if x.ndim != 4 or x.shape[1] != 2 or x.shape[2] != x.shape[3] or x.shape[0] < 2:
+        raise ValueError(f"The 'fields' parameter of {where} must be an array of shape "
+                         f"(N, 2, H, H) with N >= 2. Got shape {x.shape} instead.")
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"The 'fields' parameter of {where} must be finite. Got non-finite "
+                         "values instead.")
+    levels = [float(t) for t in thresholds]
+    if not levels or any(not 0 < t <= 1 for t in levels):
+        raise ValueError(f"The 'thresholds' parameter of {where} must be levels in (0, 1]. "
+                         f"Got {thresholds!r} instead.")
+    n_keep = positive_int(n_keep, "n_keep", where)
+    n, _, h, _ = x.shape
+    flat = x.reshape(n, -1)
+    mean = flat.mean(axis=0)
+    _, s, vt = np.linalg.svd(flat - mean, full_matrices=False)
+    var = s**2
+    if var.sum() <= 0:
+        raise ValueError(f"The 'fields' parameter of {where} must vary. Got {n} equal fields "
+                         "instead.")
+    ratio = var / var.sum()
+    cumulative = np.cumsum(ratio)
+    # a level counts as reached within rounding (an exact k-mode set gives 1 - 1e-16)
+    n_modes = {f"{t:g}": int(np.searchsorted(cumulative, t - 1e-12) + 1) for t in levels}
+    k = min(n_keep, vt.shape[0])
+    return {"explained_variance_ratio": ratio, "cumulative": cumulative, "n_modes": n_modes,
+            "modes": vt[:k].reshape(k, 2, h, h), "mean": mean.reshape(2, h, h),
+            "n_fields": int(n)}
+
+
+def eigenflow_study(fields, samples_per_field: int = 2048, *, seed: int = 0, size: int = 25,
+                    spacing: float = 1.0, n_keep: int = 16) -> dict:
+    """Eigenflows of the label fields drawn from mean fields, in two frames.
+
+    The labels (0 in buildings) are divided by the inlet speed (the solver's mean field scales
+    with it) and decomposed as they are (``world``: the thesis's set-up) and turned into the
+    canonical D4 frame of the inlet direction (``canonical``: the frame of the d4-film's
+    basis, :func:`windnav.predict.decoder.canonicalize_field`).
+
+    Parameters
+    ----------
+    fields : sequence of MeanField
+    samples_per_field : int
+        Label fields drawn per mean field (:func:`windnav.predict.draw_samples`).
+    seed : int
+        Seed of the samples.
+    size, spacing
+        The label grid: H cells per side of ``spacing`` m.
+    n_keep : int
+        Modes kept per frame.
+
+    Returns
+    -------
+    dict
+        ``world`` and ``canonical``: :func:`eigenflows` results; ``n_fields``, ``size``,
+        ``spacing``.
+    """
+    from windnav.predict.decoder import canonical_elements, canonicalize_field
+
+    where = "eigenflow_study"
+    batch = _draw(fields, samples_per_field, _seed(seed, where), size, spacing, where)
+    labels = batch.labels.astype(np.float64) / batch.inlet_speed[:, None, None, None]
+    b, h = labels.shape[0], labels.shape[-1]
+    canon = canonicalize_field(labels.reshape(b, 2, -1),
+                               canonical_elements(batch.w_up)).reshape(b, 2, h, h)
+    return {"world": eigenflows(labels, n_keep=n_keep),
+            "canonical": eigenflows(canon, n_keep=n_keep), "n_fields": int(b),
+            "size": int(h), "spacing": float(spacing)}
+
+
+# -------------------------------------------------------------------------- (c) gradients
+
+
+def gradient_r2(pred, true, free, spacing: float) -> dict:
+    """R^2 of the predicted wind gradients at the robot (the centre cell) against the true ones.
+
+    Parameters
+    ----------
+    pred, true : array_like of shape (B, 2, H, H)
+        Predicted and true ``[u, v]``, m/s, indexed ``[b, :, iy, ix]``; ``H`` odd >= 3.
+    free : array_like of bool, shape (B, H, H)
+        Free cells; a sample counts only when the centre and its four neighbours are free (a
+        difference across a wall is no gradient).
+    spacing : float
+        Grid spacing, m.
+
+    Returns
+    -------
+    dict
+        ``r2`` and ``pearson_r`` ``{component: float}`` over the samples that count (NaN when
+        the true component does not vary), ``n_samples``, ``n_excluded``, and ``pred``,
+        ``true`` (n, 4): the gradients in 1/s (columns :data:`GRADIENT_COMPONENTS`).
+    """
+    from windnav.predict import central_gradients
+
+    where = "gradient_r2"
+    true = np.asarray(true, dtype=np.float64)
+    pred = np.asarray(pred, dtype=np.float64)
+    if pred.shape != true.shape:
+        raise ValueError(f"The 'pred' parameter of {where} must have the shape of 'true' "
+                         f"{true.shape}. Got shape {pred.shape} instead.")
+    gt = central_gradients(true, spacing)
+    gp = central_gradients(pred, spacing)
+    b, h = true.shape[0], true.shape[-1]
+    free = np.asarray(free)
+    if free.shape != (b, h, h) or free.dtype != bool:
+        raise ValueError(f"The 'free' parameter of {where} must be a boolean array of shape "
+                         f"{(b, h, h)}. Got {free.dtype} of shape {free.shape} instead.")
+    c = (h - 1) // 2
+    ok = (free[:, c, c] & free[:, c, c - 1] & free[:, c, c + 1] & free[:, c - 1, c]
+          & free[:, c + 1, c])
+    gt, gp = gt[ok], gp[ok]
+    r2, r = {}, {}
+    for k, name in enumerate(GRADIENT_COMPONENTS):
+        ss_tot = float(np.sum((gt[:, k] - gt[:, k].mean()) ** 2)) if gt.shape[0] else 0.0
+        ss_res = float(np.sum((gp[:, k] - gt[:, k]) ** 2))
+        r2[name] = 1.0 - ss_res / ss_tot if ss_tot > 0 else float("nan")
+        sp = float(np.std(gp[:, k])) if gt.shape[0] else 0.0
+        r[name] = float(np.corrcoef(gp[:, k], gt[:, k])[0, 1]) if ss_tot > 0 and sp > 0 \
+            else float("nan")
+    return {"r2": r2, "pearson_r": r, "n_samples": int(ok.sum()),
+            "n_excluded": int(b - ok.sum()), "pred": gp, "true": gt}
+
+
+def gradient_study(decoder, fields, samples_per_field: int = 2048, *, seed: int = 0) -> dict:
+    """Gradients at the robot: the decoder (and the Local baseline, whose are 0) against the
+    mean field, on samples drawn from ``fields``.
+
+    Returns
+    -------
+    dict
+        ``decoder``: :func:`gradient_r2` on the gradients in 1/s; ``decoder_per_U``: the same
+        with every field divided by its inlet speed (1/m: the pooled inlet speeds do not inflate
+        the R^2); ``local``: the Local baseline's R^2 (uniform field: zero gradients);
+        ``n_samples_drawn``.
+    """
+    from windnav.predict import LocalBaseline
+
+    where = "gradient_study"
+    batch = _draw(fields, samples_per_field, _seed(seed, where), decoder.size,
+                  decoder.spacing, where)
+    pred = decoder.predict(batch.scans, batch.w_up, batch.w_robot)
+    local = LocalBaseline(size=decoder.size, spacing=decoder.spacing).predict(
+        batch.scans, batch.w_up, batch.w_robot)
+    u = batch.inlet_speed.astype(np.float64)[:, None, None, None]
+    return {"decoder": gradient_r2(pred, batch.labels, batch.free, decoder.spacing),
+            "decoder_per_U": gradient_r2(pred / u, batch.labels / u, batch.free,
+                                         decoder.spacing),
+            "local": {k: v for k, v in gradient_r2(local, batch.labels, batch.free,
+                                                   decoder.spacing).items()
+                      if k in ("r2", "n_samples")},
+            "n_samples_drawn": int(batch.scans.shape[0])}
+
+
+# ----------------------------------------------------------------------------- (d) mosaic
+
+
+def _tiles_to_map(tiles: np.ndarray, nty: int, ntx: int) -> np.ndarray:
+    """``(nty ntx, ..., H, H)`` tiles, row-major over (ty, tx), as one ``(..., nty H, ntx H)``."""
+    h = tiles.shape[-1]
+    lead = tiles.shape[1:-2]
+    t = tiles.reshape(nty, ntx, *lead, h, h)
+    t = np.moveaxis(t, (0, 1), (-4, -2))  # (..., nty, H, ntx, H)
+    return t.reshape(*lead, nty * h, ntx * h)
+
+
+def mosaic(decoder, field, *, scan_noise: float = 0.35, rng=None, batch_size: int = 1024,
+           progress: bool = False) -> dict:
+    """Reconstruct a whole map's mean wind from decoder predictions on a grid of robots.
+
+    The map's cells (``decoder.spacing`` m) are cut into ``H x H`` tiles; each tile is
+    predicted by one robot at its centre cell (``W_robot`` = the mean wind there, ``W_up`` =
+    the inlet, the scan from the map with ``scan_noise``). When the centre cell or one of its 8
+    neighbours is not free (a building, the solver's pockets), the robot moves to the tile's
+    nearest cell whose 3 x 3 block is free, and its prediction, shifted by whole cells, covers
+    the tile less the strip it no longer reaches; a tile with no such cell is not predicted.
+    The truth is :meth:`MeanField.grid_values` on the same cells, and the metrics are
+    :func:`windnav.predict.field_errors` over the free, covered cells of every tile.
+
+    Parameters
+    ----------
+    decoder : Decoder
+        With odd H.
+    field : MeanField
+    scan_noise : float
+        LiDAR range noise, m (returns only, clipped to [0.25, 100] m as in training).
+    rng : numpy.random.Generator, int or None
+        Source of the scan noise.
+    batch_size : int
+        Robots per decoder call.
+    progress : bool
+        Show a tqdm bar.
+
+    Returns
+    -------
+    dict
+        ``x`` (nx,), ``y`` (ny,) cell centres, m; ``truth``, ``prediction``, ``local``
+        (2, ny, nx) m/s (``local``: the Local baseline's uniform tiles); ``free``,
+        ``covered`` (ny, nx) bool; ``robots`` (n, 2) m; ``n_tiles``, ``n_robots``,
+        ``n_moved``; ``coverage`` (covered free cells / free cells); ``metrics``: errors of
+        ``decoder``, ``local``, ``upstream`` and ``improvement_pct`` over each baseline.
+    """
+    from tqdm.auto import tqdm
+
+    from windnav.experiments.decoder_eval import _summary
+    from windnav.predict import (
+        SCAN_MAX,
+        SCAN_MIN,
+        LocalBaseline,
+        MeanField,
+        UpstreamBaseline,
+        field_errors,
+    )
+
+    where = "mosaic"
+    if not isinstance(field, MeanField):
+        raise ValueError(f"The 'field' parameter of {where} must be a MeanField. Got "
+                         f"{type(field).__name__} instead.")
+    h, dx = int(decoder.size), float(decoder.spacing)
+    if h % 2 == 0 or h < 3:
+        raise ValueError(f"The 'decoder' parameter of {where} must predict an odd grid H >= 3. "
+                         f"Got H = {h} instead.")
+    noise = positive_float(scan_noise, "scan_noise", where, allow_zero=True)
+    batch_size = positive_int(batch_size, "batch_size", where)
+    rng = np.random.default_rng(rng)
+    x0, x1, y0, y1 = field.city.bounds
+    nx, ny = int(round((x1 - x0) / dx)), int(round((y1 - y0) / dx))
+    ntx, nty = -(-nx // h), -(-ny // h)
+    c = (h - 1) // 2
+    # tile centres, row-major over (ty, tx)
+    cx = x0 + (np.arange(ntx) * h + c + 0.5) * dx
+    cy = y0 + (np.arange(nty) * h + c + 0.5) * dx
+    centres = np.stack(np.meshgrid(cx, cy), axis=-1).reshape(-1, 2)
+    truth, free = field.grid_values(centres, decoder.offsets, dtype=np.float32)
+    # a robot cell needs its 3 x 3 block free: >= about one cell from any wall
+    pad = np.pad(free, ((0, 0), (1, 1), (1, 1)))
+    block = np.ones_like(free)
+    for dy in range(3):
+        for dxx in range(3):
+            block &= pad[:, dy:dy + h, dxx:dxx + h]
+    k = np.arange(h) - c
+    dist = k[None, :] ** 2 + k[:, None] ** 2  # [iy, ix]
+    cost = np.where(block, dist[None], np.iinfo(np.int64).max)
+    has = block.any(axis=(1, 2))
+    best = cost.reshape(cost.shape[0], -1).argmin(axis=1)
+    shift = np.stack([best % h - c, best // h - c], axis=1)  # (sx, sy) cells
+    tiles = np.flatnonzero(has)
+    robots = centres[tiles] + shift[tiles] * dx
+    s = shift[tiles]
+
+    w_up = np.broadcast_to(field.w_up, (tiles.size, 2)).astype(np.float64)
+    w_robot = field.interpolate(robots) if tiles.size else np.zeros((0, 2))
+    pred = np.zeros((tiles.size, 2, h, h), dtype=np.float32)
+    for a in tqdm(range(0, tiles.size, batch_size), desc="mosaic", disable=not progress,
+                  unit="batch"):
+        sl = slice(a, a + batch_size)
+        scan = field.city.lidar(robots[sl], n_rays=decoder.n_rays, max_range=SCAN_MAX,
+                                noise_std=noise, rng=rng)
+        pred[sl] = decoder.predict(np.clip(scan, SCAN_MIN, SCAN_MAX), w_up[sl], w_robot[sl])
+    # tile cell (iy, ix) is cell (iy - sy, ix - sx) of the moved robot's grid
+    iy = np.arange(h)[None, :] - s[:, 1:2]
+    ix = np.arange(h)[None, :] - s[:, 0:1]
+    reach = ((iy >= 0) & (iy < h))[:, :, None] & ((ix >= 0) & (ix < h))[:, None, :]
+    b = np.arange(tiles.size)[:, None, None, None]
+    comp = np.arange(2)[None, :, None, None]
+    shifted = pred[b, comp, np.clip(iy, 0, h - 1)[:, None, :, None],
+                   np.clip(ix, 0, h - 1)[:, None, None, :]]
+    covered_t = np.zeros_like(free)
+    covered_t[tiles] = reach
+    pred_t = np.zeros_like(truth)
+    pred_t[tiles] = np.where(reach[:, None], shifted, 0.0)
+
+    speed = np.full(tiles.size, field.inlet_speed)
+    mask = free[tiles] & reach
+    errors = {}
+    base = {"decoder": pred_t[tiles],
+            "local": LocalBaseline(size=h, spacing=dx).predict(
+                np.zeros((tiles.size, decoder.n_rays)), w_up, w_robot),
+            "upstream": UpstreamBaseline(size=h, spacing=dx).predict(
+                np.zeros((tiles.size, decoder.n_rays)), w_up, w_robot)}
+    for name, p in base.items():
+        e = field_errors(p, truth[tiles], mask, speed)
+        errors[name] = e
+    local_t = np.zeros_like(truth)
+    local_t[tiles] = base["local"]
+    n_free = int(free.sum())
+
+    def crop(a):
+        return _tiles_to_map(a, nty, ntx)[..., :ny, :nx]
+
+    return {"x": x0 + (np.arange(nx) + 0.5) * dx, "y": y0 + (np.arange(ny) + 0.5) * dx,
+            "truth": crop(truth), "prediction": crop(pred_t), "local": crop(local_t),
+            "free": crop(free), "covered": crop(covered_t), "robots": robots,
+            "n_tiles": int(centres.shape[0]), "n_robots": int(tiles.size),
+            "n_moved": int(np.any(s != 0, axis=1).sum()),
+            "coverage": float(mask.sum() / n_free) if n_free else float("nan"),
+            "metrics": _summary(errors), "w_up": np.asarray(field.w_up, float),
+            "name": field.name, "size": h, "spacing": dx}
+
+
+# ---------------------------------------------------------------- (a), (b) trained models
+
+
+def area_fraction(size, spacing: float = 1.0, d_max: float = D_MAX):
+    """The fraction of the LiDAR disc a grid covers: ``(H spacing)^2 / (pi d_max^2)``
+    (the thesis's ``A_pred / A_total = (1 / pi) (H / D_max)^2`` at 1 m cells)."""
+    h = np.asarray(size, dtype=np.float64)
+    return (h * spacing) ** 2 / (np.pi * d_max**2)
+
+
+STUDY_SCHEDULE = {"winds": {"epochs": 20, "samples_per_field": 384, "learning_rate": 3e-4},
+                  "size": {"epochs": 12, "samples_per_field": 384}}
+"""The studies' reduced training schedules (the default recipe: 40 epochs x 768 samples per
+field over 264 fields). The thesis MLP's learning rate is 3e-4, not the thesis's 1e-3: at 1e-3
+the models given no ``W_robot`` stopped learning in the first epoch (every ReLU unit dead: a
+constant output), at 3e-4 they learn."""
+
+
+def study_recipe(study: str, *, quick: bool = False, epochs: int | None = None,
+                 samples_per_field: int | None = None) -> dict:
+    """The reduced recipe a training study starts from (its variants change the model).
+
+    Both studies share one sweep (so one store): the default recipe's six inlet directions at
+    6 m/s on the thesis protocol, but over 11 maps of 300 m instead of 45 (8 dense, 2 of the
+    thesis's sparse maps, and 1 dense map held out for the test samples); one model thread.
+    ``winds``: the thesis MLP at width 256 (depth 3), trained as the thesis (Adam,
+    lambda = 0.002, MSE; but a learning rate of 3e-4, see :data:`STUDY_SCHEDULE`) with D4 and
+    speed (2-10 m/s) augmentation, so that speed is not known without a wind. ``size``: the
+    default d4-film. ``quick``: the tiny recipe's sweep and models (tests).
+
+    Parameters
+    ----------
+    study : {"winds", "size"}
+    quick : bool
+    epochs, samples_per_field : int, optional
+        Override :data:`STUDY_SCHEDULE` (quick: 2 epochs, the tiny recipe's samples).
+    """
+    from windnav.predict.train import RECIPES, load_recipe
+
+    where = "study_recipe"
+    if study not in ("winds", "size"):
+        raise ValueError(f"The 'study' parameter of {where} must be 'winds' or 'size'. Got "
+                         f"{study!r} instead.")
+    if quick:
+        r = load_recipe(RECIPES / "tiny.toml")
+        r["train"]["epochs"] = 2
+    else:
+        r = load_recipe(RECIPES / "default.toml")
+        r["name"] = "decoder-studies"
+        r["sweep"]["backend"] = "serial"
+        r["sweep"]["workers"] = 1
+        r["sweep"]["maps"] = [
+            {"name": "dense", "kind": "dense", "count": 8, "seed": 1001, "size": 300.0,
+             "lots_per_side": 4},
+            {"name": "sparse", "kind": "training", "count": 2, "seed": 1003, "size": 300.0},
+            {"name": "holdout", "kind": "dense", "count": 1, "seed": 1005, "size": 300.0,
+             "lots_per_side": 4}]
+        r["data"]["validation_maps"] = ["holdout-0"]
+        r["data"]["validation_samples_per_field"] = 512
+        r["train"].update(epochs=STUDY_SCHEDULE[study]["epochs"], resample_every=0, threads=1)
+        r["data"]["samples_per_field"] = STUDY_SCHEDULE[study]["samples_per_field"]
+    if epochs is not None:
+        r["train"]["epochs"] = positive_int(epochs, "epochs", where)
+    if samples_per_field is not None:
+        r["data"]["samples_per_field"] = positive_int(samples_per_field, "samples_per_field",
+                                                      where)
+    r["train"]["tensorboard"] = False
+    if study == "winds":
+        width = 32 if quick else 256
+        r["model"] = {"architecture": "thesis-mlp",
+                      "hyperparameters": {"width": width, "depth": 1 if quick else 3}}
+        r["train"].update(optimizer="adam", weight_decay=0.002,
+                          learning_rate=1e-3 if quick else STUDY_SCHEDULE[study]["learning_rate"],
+                          loss_speed_power=2.0, direction_loss_weight=0.0, augment_d4=True,
+                          augment_speed=[2.0, 10.0])
+    return load_recipe({k: v for k, v in r.items() if k != "source"})
+
+
+def _sweep(recipe: dict, store: Path, progress: bool) -> dict:
+    from windnav.experiments.wind_sweep import sweep
+    from windnav.predict.train import recipe_maps
+
+    sw = recipe["sweep"]
+    t0 = time.perf_counter()
+    st, results = sweep(recipe_maps(recipe), store, speeds=sw["speeds"],
+                        directions_deg=sw["directions_deg"], settings=sw["settings"],
+                        backend=sw["backend"], workers=sw["workers"], seed=sw["seed"],
+                        progress=progress)
+    failed = [{"map": r.task.map_index, "direction_deg": r.task.direction_deg,
+               "error": (r.error or "").splitlines()[0]} for r in results if not r.ok]
+    return {"store": str(store), "n_simulations": st.n_maps * st.n_cases,
+            "seconds": time.perf_counter() - t0, "failed": failed}
+
+
+def train_variants(recipe: dict, variants: dict, runs_dir, *, progress: bool = False,
+                   test_seed: int = 0) -> dict:
+    """Run the recipe's sweep (resumable) into ``runs_dir/sweep.zarr``, train one model per
+    variant (resumable) and score each on fresh test samples of the held-out maps.
+
+    Parameters
+    ----------
+    recipe : dict
+        A complete recipe (:func:`study_recipe`).
+    variants : dict of str to dict
+        ``name -> {dotted key: value}``, e.g. ``{"data.size": 15}``: set in a copy of the
+        recipe.
+    runs_dir : str or path-like
+        The store and one folder per variant (named with the schedule, so another schedule
+        trains anew instead of refusing the checkpoint).
+    progress : bool
+        Progress bars (sweep, epochs).
+    test_seed : int
+        The test samples are ``DecoderDataset(held-out fields, validation_samples_per_field,
+        seed = data.seed + 101 + test_seed)``: other robot positions and noise than the
+        validation samples that chose each model's best epoch.
+
+    Returns
+    -------
+    dict
+        ``sweep`` (store, seconds, failed), ``schedule`` (epochs, samples per field, training
+        samples), and ``variants``: per name, ``errors`` of the model and of the Local and
+        Upstream baselines on the test samples, ``train_seconds``, ``best_epoch``,
+        ``n_parameters``, ``n_test_samples``, ``model`` (path).
+    """
+    from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors, load_decoder
+    from windnav.predict.train import _dataset, _split_fields, train_decoder
+
+    runs = Path(runs_dir)
+    runs.mkdir(parents=True, exist_ok=True)
+    store = runs / "sweep.zarr"
+    sweep_info = _sweep(recipe, store, progress)
+    out = {"sweep": sweep_info, "variants": {}}
+    tr, data = recipe["train"], recipe["data"]
+    for name, changes in variants.items():
+        r = copy.deepcopy(recipe)
+        for key, value in changes.items():
+            *parents, last = key.split(".")
+            table = r
+            for part in parents:
+                table = table[part]
+            table[last] = value
+        tag = f"{name}-e{r['train']['epochs']}-n{r['data']['samples_per_field']}"
+        t0 = time.perf_counter()
+        hist = train_decoder(r, store=store, out_dir=runs / tag, progress=progress, log=None)
+        seconds = time.perf_counter() - t0
+        dec = load_decoder(runs / tag / "model.npz")
+        _, fields_val, _, _ = _split_fields(store, r["data"]["validation_maps"],
+                                            "train_variants")
+        test = _dataset(fields_val, r["data"]["validation_samples_per_field"], r["data"],
+                        101 + int(test_seed)).materialize()
+        errors = {}
+        for model_name, model in (("model", dec),
+                                  ("local", LocalBaseline(size=dec.size, spacing=dec.spacing)),
+                                  ("upstream", UpstreamBaseline(size=dec.size,
+                                                                spacing=dec.spacing))):
+            p = model.predict(test.scans, test.w_up, test.w_robot)
+            errors[model_name] = field_errors(p, test.labels, test.free, test.inlet_speed)
+        out["variants"][name] = {
+            "errors": errors, "size": dec.size, "train_seconds": seconds,
+            "trained_seconds": sum(e["seconds"] for e in hist["epochs"]),
+            "best_epoch": hist["best_epoch"], "n_parameters": dec.n_parameters,
+            "n_train_samples": hist["n_train_samples"], "n_test_samples":
+            int(test.scans.shape[0]), "model": str(runs / tag / "model.npz"),
+            "hyperparameters": r["model"]["hyperparameters"]}
+    out["schedule"] = {"epochs": tr["epochs"], "samples_per_field": data["samples_per_field"],
+                       "resample_every": tr["resample_every"], "threads": tr["threads"],
+                       "architecture": recipe["model"]["architecture"],
+                       "hyperparameters": recipe["model"]["hyperparameters"],
+                       "sweep_maps": [m["name"] + f" x{m.get('count', 1)}"
+                                      for m in recipe["sweep"]["maps"]],
+                       "directions_deg": recipe["sweep"]["directions_deg"],
+                       "speeds": recipe["sweep"]["speeds"],
+                       "solver": recipe["sweep"]["settings"]}
+    return out
+
+
+def winds_ablation(runs_dir, *, quick: bool = False, epochs: int | None = None,
+                   samples_per_field: int | None = None, variants=WIND_VARIANTS,
+                   progress: bool = False, seed: int = 0) -> dict:
+    """(a) The thesis MLP trained with no wind, ``W_up`` only, ``W_robot`` only and both.
+
+    Returns
+    -------
+    dict
+        :func:`train_variants`'s result, each variant named by the winds given; ``ratio_to_both``
+        ``{variant: {speed_error, direction_error_deg}}``: its error over the model given both.
+    """
+    where = "winds_ablation"
+    bad = [v for v in variants if v not in WIND_VARIANTS]
+    if bad or not variants:
+        raise ValueError(f"The 'variants' parameter of {where} must be among {WIND_VARIANTS}. "
+                         f"Got {list(variants)!r} instead.")
+    recipe = study_recipe("winds", quick=quick, epochs=epochs,
+                          samples_per_field=samples_per_field)
+    res = train_variants(recipe, {v: {"model.hyperparameters.winds": v} for v in variants},
+                         runs_dir, progress=progress, test_seed=_seed(seed, where))
+    if "both" in res["variants"]:
+        ref = res["variants"]["both"]["errors"]["model"]
+        res["ratio_to_both"] = {v: {k: r["errors"]["model"][k] / ref[k]
+                                    for k in ("speed_error", "direction_error_deg")}
+                                for v, r in res["variants"].items()}
+    return res
+
+
+def size_study(runs_dir, *, sizes=SIZES, quick: bool = False, epochs: int | None = None,
+               samples_per_field: int | None = None, progress: bool = False,
+               seed: int = 0) -> dict:
+    """(b) The d4-film trained at each grid size H, against ``A_pred / A_total``.
+
+    Returns
+    -------
+    dict
+        :func:`train_variants`'s result, variants named ``"H<size>"``, each with
+        ``area_fraction``; ``sizes``.
+    """
+    where = "size_study"
+    sizes = [positive_int(h, "sizes", where) for h in sizes]
+    if not sizes or any(h % 2 == 0 or h < 3 for h in sizes):
+        raise ValueError(f"The 'sizes' parameter of {where} must be odd integers >= 3. Got "
+                         f"{sizes!r} instead.")
+    recipe = study_recipe("size", quick=quick, epochs=epochs,
+                          samples_per_field=samples_per_field)
+    res = train_variants(recipe, {f"H{h}": {"data.size": h} for h in sizes}, runs_dir,
+                         progress=progress, test_seed=_seed(seed, where))
+    for h in sizes:
+        res["variants"][f"H{h}"]["area_fraction"] = float(
+            area_fraction(h, recipe["data"]["spacing"]))
+    res["sizes"] = sizes
+    return res

@@ -1,0 +1,236 @@
+"""The decoder studies (issue 9): eigenflows, gradient R^2, the map mosaic, the winds ablation
+and the size study, on tiny data whose answers are known, and ``windnav decoder-study``.
+
+Tiny maps (120-150 m), tiny flows (2 m cells, 10-20 steps), a tiny d4-film with random weights
+(the numbers are checked against closed forms and the metrics of windnav.predict, not for
+accuracy), and the tiny recipe's sweep for the trained studies.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import windnav.cli as cli
+from windnav.city import training_map
+from windnav.experiments.decoder_studies import (
+    GRADIENT_COMPONENTS,
+    area_fraction,
+    eigenflows,
+    evaluation_fields,
+    gradient_r2,
+    mosaic,
+)
+from windnav.predict import field_errors, grid_offsets
+from windnav.predict.decoder import Decoder, make_architecture
+
+HP = {"conv_channels": 2, "embed": 8, "film_hidden": 4, "width": 8, "depth": 1, "modes": 4}
+
+
+def tiny_decoder(size: int = 25, seed: int = 0) -> Decoder:
+    arch = make_architecture("d4-film", size, **HP)
+    rng = np.random.default_rng(seed)
+    weights = {k: (0.1 * rng.standard_normal(s)).astype(np.float32)
+               for k, s in arch.shapes().items()}
+    return Decoder(weights, {"architecture": "d4-film", "hyperparameters": dict(arch.hp),
+                             "spacing": 1.0})
+
+
+@pytest.fixture(scope="module")
+def tiny_field():
+    city = training_map(rng=50, size=120.0, n_buildings=4, side_range=(10.0, 30.0))
+    res = evaluation_fields([("tiny", city)], 1, seed=1, dx=2.0,
+                            flow_settings={"spinup_steps": 10, "steps": 10})
+    return res["fields"][0]
+
+
+# ---------------------------------------------------------------------------- eigenflows
+
+
+def test_fields_made_of_three_modes_need_exactly_three_eigenflows():
+    rng = np.random.default_rng(0)
+    h = 7
+    basis, _ = np.linalg.qr(rng.standard_normal((2 * h * h, 3)))  # orthonormal columns
+    coeff = rng.standard_normal((200, 3)) * np.array([3.0, 2.0, 1.5])
+    fields = (coeff @ basis.T).reshape(200, 2, h, h) + 3.0  # plus a constant mean
+    res = eigenflows(fields, n_keep=5)
+    ratio = res["explained_variance_ratio"]
+    assert np.isclose(ratio.sum(), 1.0) and np.all(np.diff(ratio) <= 1e-15)
+    assert res["cumulative"][2] == pytest.approx(1.0, abs=1e-12)
+    assert ratio[3:].max() < 1e-20
+    assert all(k == 3 for k in res["n_modes"].values()), res["n_modes"]
+    # the three modes span the known ones
+    modes = res["modes"][:3].reshape(3, -1)
+    assert np.allclose(np.linalg.norm(basis.T @ modes.T, axis=0), 1.0)
+    assert np.allclose(res["mean"].ravel(), 3.0 + basis @ coeff.mean(axis=0))
+
+
+def test_eigenflows_of_random_fields_need_many_modes_and_bad_input_is_refused():
+    rng = np.random.default_rng(1)
+    res = eigenflows(rng.standard_normal((400, 2, 5, 5)))
+    assert res["n_modes"]["0.9"] > 30  # white noise: no low-dimensional structure
+    with pytest.raises(ValueError, match="'fields' parameter of eigenflows"):
+        eigenflows(np.zeros((3, 2, 5, 4)))
+    with pytest.raises(ValueError, match="must vary"):
+        eigenflows(np.ones((3, 2, 5, 5)))
+    with pytest.raises(ValueError, match="'thresholds'"):
+        eigenflows(rng.standard_normal((3, 2, 5, 5)), thresholds=(1.5,))
+
+
+# ----------------------------------------------------------------------------- gradients
+
+
+def linear_fields(b: int, h: int, rng):
+    """``u = a0 + a1 x + a2 y``, ``v = b0 + b1 x + b2 y`` on the grid: (B, 2, H, H) and the
+    gradients (B, 4)."""
+    o = grid_offsets(h, 1.0)
+    x, y = np.meshgrid(o, o)  # [iy, ix]
+    a = rng.standard_normal((b, 2, 3))
+    uv = a[:, :, :1, None] + a[:, :, 1:2, None] * x + a[:, :, 2:3, None] * y
+    return uv, np.stack([a[:, 0, 1], a[:, 0, 2], a[:, 1, 1], a[:, 1, 2]], axis=1)
+
+
+def test_gradient_of_linear_fields_is_exact_and_a_perfect_prediction_has_r2_one():
+    rng = np.random.default_rng(2)
+    true, grads = linear_fields(50, 5, rng)
+    free = np.ones((50, 5, 5), dtype=bool)
+    res = gradient_r2(true, true, free, 1.0)
+    assert np.allclose(res["true"], grads, atol=1e-12)
+    assert all(res["r2"][k] == pytest.approx(1.0) for k in GRADIENT_COMPONENTS)
+    # a wrong prediction: another linear field
+    other, _ = linear_fields(50, 5, rng)
+    bad = gradient_r2(other, true, free, 1.0)
+    assert all(bad["r2"][k] < 0.5 for k in GRADIENT_COMPONENTS)
+
+
+def test_gradient_samples_with_a_wall_next_to_the_robot_are_left_out():
+    rng = np.random.default_rng(3)
+    true, _ = linear_fields(10, 5, rng)
+    free = np.ones((10, 5, 5), dtype=bool)
+    free[:4, 2, 3] = False  # a building cell right of the robot
+    res = gradient_r2(true + 1.0, true, free, 1.0)  # a uniform offset: same gradients
+    assert res["n_samples"] == 6 and res["n_excluded"] == 4
+    assert res["r2"]["du/dx"] == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="'free' parameter of gradient_r2"):
+        gradient_r2(true, true, free[:, :4], 1.0)
+
+
+# -------------------------------------------------------------------------------- mosaic
+
+
+def test_mosaic_tiles_the_map_with_the_truth_and_scores_with_field_errors(tiny_field):
+    dec = tiny_decoder()
+    res = mosaic(dec, tiny_field, scan_noise=0.0, rng=0)
+    ny, nx = res["free"].shape
+    assert (ny, nx) == (120, 120) and res["n_tiles"] == 25
+    assert np.allclose(res["x"], np.arange(120) + 0.5)
+    # the truth is the mean field at every free cell centre
+    iy, ix = np.nonzero(res["free"])
+    pts = np.stack([res["x"][ix], res["y"][iy]], axis=1)
+    assert np.allclose(res["truth"][:, iy, ix].T, tiny_field.interpolate(pts), atol=1e-5)
+    # every free cell not covered lies in a tile whose robot moved
+    ok = res["free"] & res["covered"]
+    assert res["coverage"] == pytest.approx(ok.sum() / res["free"].sum())
+    if res["n_moved"] == 0:
+        assert res["coverage"] == 1.0
+    assert res["coverage"] > 0.8
+    # the map-wide metrics are field_errors on the same cells of the assembled map
+    whole = field_errors(res["prediction"][None], res["truth"][None], ok[None],
+                         [tiny_field.inlet_speed])
+    for k in ("speed_error", "direction_error_deg", "vector_error", "n_free"):
+        assert res["metrics"]["decoder"][k] == pytest.approx(whole[k], rel=1e-6)
+    # an unmoved robot's tile is its own prediction
+    robot = res["robots"][0]
+    c = (dec.size - 1) // 2
+    jy, jx = int(robot[1] - 0.5), int(robot[0] - 0.5)
+    if c <= jy < ny - c and c <= jx < nx - c and np.allclose((robot - 0.5) % 25, c):
+        scan = tiny_field.city.lidar(robot[None], max_range=100.0)
+        p = dec.predict(np.clip(scan, 0.25, 100.0), tiny_field.w_up[None],
+                        tiny_field.interpolate(robot))[0]
+        tile = res["prediction"][:, jy - c:jy + c + 1, jx - c:jx + c + 1]
+        cover = res["covered"][jy - c:jy + c + 1, jx - c:jx + c + 1]
+        assert np.allclose(tile[:, cover], p[:, cover], atol=1e-5)
+
+
+def test_mosaic_refuses_an_even_grid(tiny_field):
+    with pytest.raises(ValueError, match="'decoder' parameter of mosaic"):
+        mosaic(tiny_decoder(size=4), tiny_field)
+
+
+# ------------------------------------------------------------------------ trained studies
+
+
+def test_area_fraction_is_the_thesis_formula():
+    assert area_fraction(25) == pytest.approx((25 / 100) ** 2 / np.pi)
+    assert np.allclose(area_fraction([5, 45]), np.array([5, 45]) ** 2 / (np.pi * 1e4))
+
+
+def test_thesis_mlp_winds_hyperparameter_holds_the_winds_not_given_at_zero():
+    rng = np.random.default_rng(4)
+    scans = rng.uniform(1, 100, (3, 360)).astype(np.float32)
+    w_up, w_rob = rng.standard_normal((2, 3, 2)).astype(np.float32)
+    both = make_architecture("thesis-mlp", 5, width=4, depth=1).features(scans, w_up, w_rob)
+    assert np.allclose(both["x"][:, 360:], np.concatenate([w_up, w_rob], 1) / 10.0)
+    for winds, up, rob in (("up", True, False), ("robot", False, True), ("none", False, False)):
+        x = make_architecture("thesis-mlp", 5, width=4, depth=1, winds=winds).features(
+            scans, w_up, w_rob)["x"]
+        assert np.array_equal(x[:, :360], both["x"][:, :360])
+        assert np.any(x[:, 360:362] != 0) == up and np.any(x[:, 362:] != 0) == rob
+    with pytest.raises(ValueError, match="'winds' hyperparameter"):
+        make_architecture("thesis-mlp", 5, winds="left")
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """One folder for the trained studies: they share the tiny recipe's sweep."""
+    pytest.importorskip("torch")
+    return tmp_path_factory.mktemp("runs")
+
+
+def test_decoder_study_winds_quick_trains_the_four_configurations(runs, tmp_path, capsys):
+    out = tmp_path / "out"
+    code = cli.main(["decoder-study", "winds", "--quick", "--out", str(out), "--runs",
+                     str(runs), "--json", str(tmp_path / "w.json"), "--no-progress"])
+    assert code == 0
+    doc = json.loads((tmp_path / "w.json").read_text())
+    assert doc["study"] == "winds" and doc["schedule"]["epochs"] == 2
+    variants = doc["variants"]
+    assert list(variants) == ["none", "up", "robot", "both"]
+    for v in variants.values():
+        for model in ("model", "local", "upstream"):
+            assert np.isfinite(v["errors"][model]["speed_error"])
+            assert np.isfinite(v["errors"][model]["direction_error_deg"])
+    # the baselines do not depend on the model: the same test samples for every variant
+    assert len({v["errors"]["local"]["speed_error"] for v in variants.values()}) == 1
+    assert (out / "decoder_winds.png").stat().st_size > 10_000
+    assert "wrote" in capsys.readouterr().out
+
+
+def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "eigenflows", "--quick", "--out", str(out),
+                     "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_eigenflows.json").read_text())
+    text = json.dumps(doc)
+    assert '"n_modes"' in text and '"canonical"' in text
+    assert (out / "decoder_eigenflows.png").stat().st_size > 10_000
+    # a second run refuses to overwrite without --overwrite
+    assert cli.main(["decoder-study", "eigenflows", "--quick", "--out", str(out),
+                     "--no-progress"]) == 2
+    assert "--overwrite" in capsys.readouterr().err
+
+
+def test_decoder_study_size_quick_trains_one_model_per_grid_size(runs, tmp_path):
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "size", "--quick", "--sizes", "5", "15", "--out",
+                     str(out), "--runs", str(runs), "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_size.json").read_text())
+    assert doc["sizes"] == [5, 15] and list(doc["variants"]) == ["H5", "H15"]
+    for h in (5, 15):
+        v = doc["variants"][f"H{h}"]
+        assert v["size"] == h and v["area_fraction"] == pytest.approx(h**2 / (np.pi * 1e4))
+        assert np.isfinite(v["errors"]["model"]["speed_error"])
+        assert v["n_parameters"] > 0
+    assert (out / "decoder_size.png").stat().st_size > 10_000
