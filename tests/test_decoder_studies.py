@@ -234,3 +234,46 @@ def test_decoder_study_size_quick_trains_one_model_per_grid_size(runs, tmp_path)
         assert np.isfinite(v["errors"]["model"]["speed_error"])
         assert v["n_parameters"] > 0
     assert (out / "decoder_size.png").stat().st_size > 10_000
+
+
+def _averaging_city():
+    from windnav.city import dense_map
+
+    return dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4)
+
+
+def test_averaging_study_label_noise_is_the_difference_of_the_two_means():
+    from windnav.experiments.decoder_studies import averaging_study
+    from windnav.flow import simulate
+
+    city = _averaging_city()
+    dec = tiny_decoder()
+    same = averaging_study(dec, city, dx=2.0, samples=32, protocols={"a": (10, 20),
+                                                                      "b": (10, 20)})
+    # the same protocol twice: the same mean, so no label noise and the same scores
+    assert same["label_noise"]["rms_mps"] == 0.0
+    assert same["protocols"]["a"]["errors"] == same["protocols"]["b"]["errors"]
+    res = averaging_study(dec, city, dx=2.0, samples=32, protocols={"short": (10, 20),
+                                                                     "long": (20, 60)})
+    a = simulate(city, speed=6.0, direction_deg=3.75, dx=2.0, dt=res["dt"], spinup_steps=10,
+                 steps=20)
+    b = simulate(city, speed=6.0, direction_deg=3.75, dx=2.0, dt=res["dt"], spinup_steps=20,
+                 steps=60)
+    fluid = ~a.solid
+    d = np.hypot(a.mean_u - b.mean_u, a.mean_v - b.mean_v)[fluid]
+    assert res["label_noise"]["rms_mps"] == pytest.approx(np.sqrt(np.mean(d**2)), rel=1e-12)
+    assert res["label_noise"]["rms_mps"] > 0.0
+    assert res["dt"] == 0.25  # auto_dt: 0.25 s (U dt / dx = 0.75 <= 1 at 6 m/s, 2 m cells)
+    assert np.isnan(res["difference"][a.solid]).all()
+    with pytest.raises(ValueError, match="'protocols'"):
+        averaging_study(dec, city, dx=2.0, samples=8, protocols={"a": (1, 2)})
+
+
+def test_decoder_study_averaging_quick_writes_figure_and_json(tmp_path):
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "averaging", "--quick", "--out", str(out),
+                     "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_averaging.json").read_text())
+    assert set(doc["protocols"]) == {"thesis", "long"} and "difference" not in doc
+    assert doc["label_noise"]["rms_mps"] > 0.0
+    assert (out / "decoder_averaging.png").stat().st_size > 10_000

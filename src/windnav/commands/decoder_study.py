@@ -7,13 +7,17 @@
     windnav decoder-study mosaic     --out runs/studies --flow-cache runs/flows   # (d)
     windnav decoder-study winds      --out runs/studies --runs runs/decoder_studies  # (a)
     windnav decoder-study size       --out runs/studies --runs runs/decoder_studies  # (b)
+    windnav decoder-study averaging  --out runs/studies                           # label noise
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
 mean flow of dense 1.2 km evaluation maps at random inlets (the protocol of ``windnav
 evaluate-decoder``); ``--flow-cache`` keeps the flows, so the three share them. ``winds`` and
 ``size`` train models on a reduced copy of the default recipe (resumable, in ``--runs``; their
-schedule is printed and recorded). ``--quick``: a 150 m map and short flows, or the tiny
+schedule is printed and recorded). ``averaging`` scores the shipped decoder and its baselines
+against the mean of the thesis's short average and of a long one, on the default recipe's
+held-out 600 m district (never trained on) at 6 m/s (``--speed``, ``--direction-deg``): is the
+error the label noise of the short average? ``--quick``: a 150 m map and short flows, or the tiny
 recipe's sweep and models. The harness is :mod:`windnav.experiments.decoder_studies`, the
 figures :mod:`windnav.viz.decoder`.
 
@@ -36,7 +40,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size")
+STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging")
 """The studies, as named on the command line."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
@@ -76,6 +80,10 @@ def register(subparsers) -> None:
                    help="winds/size: training samples per mean field (default 384)")
     p.add_argument("--sizes", type=int, nargs="+", default=None, metavar="H",
                    help="size: the grid sizes (default 5 15 25 35 45; quick 5 15 25)")
+    p.add_argument("--speed", type=float, default=6.0,
+                   help="averaging: inlet speed, m/s (%(default)s)")
+    p.add_argument("--direction-deg", type=float, default=3.75,
+                   help="averaging: inlet direction, deg toward (%(default)s)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -100,8 +108,31 @@ def _fields(args, name, simulate, progress):
                              progress=progress)
 
 
+def _averaging_map(args):
+    """The averaging study's map, its name and protocol overrides (``--quick``: small)."""
+    if args.quick:
+        from windnav.city import dense_map
+
+        return (dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4), "quick-0",
+                {"dx": 2.0, "protocols": {"thesis": (10, 20), "long": (20, 80)}})
+    from windnav.predict.train import RECIPES, load_recipe, recipe_maps
+
+    maps = recipe_maps(load_recipe(RECIPES / "default.toml"))
+    name, _, city = next(m for m in maps if m[0] == "holdout-0")
+    return city, name, {}
+
+
 def _summary(study: str, res: dict) -> dict:
     """What the command prints."""
+    if study == "averaging":
+        return {"label_noise": res["label_noise"], "mean_speed": res["mean_speed"],
+                "protocols": {k: {"steps": (p["spinup_steps"], p["steps"]),
+                                  "half_window_difference":
+                                      p["diagnostics"]["half_window_difference"],
+                                  **{m: {e: p["errors"][m][e] for e in
+                                         ("speed_error", "direction_error_deg")}
+                                     for m in ("decoder", "local", "upstream")}}
+                              for k, p in res["protocols"].items()}}
     if study == "eigenflows":
         return {f: {"n_modes": res[f]["n_modes"],
                     "explained_16": float(res[f]["cumulative"][15])
@@ -166,6 +197,13 @@ def run(args, simulate=None) -> int:
         res["flows"] = {k: v for k, v in flows.items() if k != "fields"}
         res["model"] = {"path": str(args.model) if args.model else "default",
                           "architecture": dec.architecture, "size": dec.size}
+    elif study == "averaging":
+        dec = load_decoder(args.model)
+        city, map_name, kw = _averaging_map(args)
+        res = ds.averaging_study(dec, city, speed=args.speed, direction_deg=args.direction_deg,
+                                 samples=samples, seed=args.seed, simulate=simulate,
+                                 name=map_name, **kw)
+        plot = figures.plot_averaging
     else:
         runs = args.runs or Path("runs/decoder_studies" + ("_quick" if args.quick else ""))
         kw = dict(quick=args.quick, epochs=args.epochs, samples_per_field=args.samples_per_field,
@@ -204,6 +242,8 @@ def _drop_bulk(study: str, res: dict) -> dict:
     elif study == "gradients":
         out = {**out, **{k: {kk: vv for kk, vv in res[k].items() if kk not in ("pred", "true")}
                          for k in ("decoder", "decoder_per_U")}}
+    elif study == "averaging":
+        out = {k: v for k, v in res.items() if k != "difference"}
     elif study == "mosaic":
         out = {k: v for k, v in res.items()
                if k not in ("truth", "prediction", "local", "free", "covered", "x", "y",

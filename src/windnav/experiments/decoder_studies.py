@@ -17,6 +17,14 @@ thesis flow protocol):
 - :func:`mosaic` (d): one map tiled with predictions at robot positions on a grid of spacing
   ``H Delta`` (``W_robot`` the true mean wind there, ``W_up`` the inlet, the scan from the map).
 
+A study of the labels themselves:
+
+- :func:`averaging_study`: is the decoder's error the noise of the thesis's short average? The
+  same map and inlet averaged with the thesis protocol (100 + 200 steps, a fraction of a
+  flow-through) and with a long one (spin-up of about one flow-through, mean over several), the
+  decoder and its baselines scored at the same robot positions against each mean, and the
+  difference of the two means (the label noise of the short protocol).
+
 Studies that train models (:func:`train_variants` over a reduced copy of the default recipe,
 :func:`study_recipe`, sharing one sweep store):
 
@@ -37,7 +45,8 @@ import numpy as np
 
 from windnav._validate import positive_float, positive_int
 
-__all__ = ["GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS", "area_fraction",
+__all__ = ["AVERAGING_PROTOCOLS", "GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS",
+           "area_fraction", "averaging_study",
            "eigenflow_study", "eigenflows", "evaluation_fields", "gradient_r2",
            "gradient_study", "mosaic", "size_study", "study_recipe", "train_variants",
            "winds_ablation"]
@@ -52,6 +61,10 @@ SIZES = (5, 15, 25, 35, 45)
 """The size study's grids H (cells per side)."""
 D_MAX = 100.0
 """LiDAR range, m (``windnav.predict.SCAN_MAX``): the radius of the sensed disc."""
+AVERAGING_PROTOCOLS = {"thesis": (100, 200), "long": (600, 3000)}
+"""The two averaging protocols of :func:`averaging_study`, (spin-up steps, averaged steps):
+the thesis's, and one with about one flow-through of spin-up and five of averaging on the
+600 m held-out district at 6 m/s (dt = 1/6 s)."""
 
 
 def _seed(seed, where: str) -> int:
@@ -733,3 +746,86 @@ def size_study(runs_dir, *, sizes=SIZES, quick: bool = False, epochs: int | None
             area_fraction(h, recipe["data"]["spacing"]))
     res["sizes"] = sizes
     return res
+
+
+# ----------------------------------------------------------------- averaging (label noise)
+
+
+def averaging_study(decoder, city, *, speed: float = 6.0, direction_deg: float = 3.75,
+                    dx: float = 1.0, dt: float | None = None, protocols=None,
+                    samples: int = 4096, seed: int = 0, simulate=None,
+                    name: str = "map") -> dict:
+    """Score the decoder and its baselines against the mean of a short and of a long average.
+
+    Parameters
+    ----------
+    decoder : Decoder
+    city : windnav.city.City
+    speed : float
+        Inlet speed, m/s.
+    direction_deg : float
+        Inlet direction, deg (where the wind blows toward).
+    dx : float
+        Cell size, m.
+    dt : float, optional
+        Time step, s (default :func:`windnav.experiments.wind_sweep.auto_dt`, as the sweeps).
+    protocols : dict, optional
+        ``{label: (spinup_steps, steps)}``, default :data:`AVERAGING_PROTOCOLS`.
+    samples : int
+        Robot samples, the same positions for every protocol.
+    seed : int
+        Seed of the samples (positions and scan noise).
+    simulate : callable, optional
+        Replaces :func:`windnav.flow.simulate` (tests).
+
+    Returns
+    -------
+    dict
+        ``protocols``: per label its steps, ``diagnostics`` (flow-throughs, half-window
+        difference), ``errors`` (per model, :func:`windnav.predict.metrics` fields) and
+        ``seconds``; ``label_noise``: the RMS and mean over the fluid cells of
+        ``|mean_a - mean_b|`` between the first two protocols (m/s, and over ``speed``), and
+        ``mean_speed`` (m/s) of the last protocol's mean over the fluid; ``difference``
+        (ny, nx) ``|mean_a - mean_b| / speed`` for the figure; the inlet and the map.
+    """
+    from windnav.experiments.decoder_eval import _score
+    from windnav.experiments.wind_sweep import auto_dt
+    from windnav.flow import simulate as flow_simulate
+    from windnav.predict import draw_samples, field_from_solution
+
+    where = "averaging_study"
+    speed = positive_float(speed, "speed", where)
+    dx = positive_float(dx, "dx", where)
+    samples = positive_int(samples, "samples", where)
+    seed = _seed(seed, where)
+    dt = auto_dt(dx, speed) if dt is None else positive_float(dt, "dt", where)
+    protocols = dict(AVERAGING_PROTOCOLS if protocols is None else protocols)
+    if len(protocols) < 2:
+        raise ValueError(f"The 'protocols' parameter of {where} must name at least two "
+                         f"protocols. Got {protocols!r} instead.")
+    sim = simulate or flow_simulate
+    out, means = {}, []
+    for label, (spinup, steps) in protocols.items():
+        t0 = time.perf_counter()
+        sol = sim(city, speed=speed, direction_deg=float(direction_deg), dx=dx, dt=dt,
+                  spinup_steps=int(spinup), steps=int(steps))
+        field = field_from_solution(city, sol, name=f"{name}/{label}")
+        batch = draw_samples(field, samples, np.random.default_rng([seed, 7]),
+                             size=decoder.size, spacing=decoder.spacing, scan_noise=0.35,
+                             w_robot_noise=0.0)
+        errors, _ = _score(decoder, batch, decoder.size, decoder.spacing)
+        out[label] = {"spinup_steps": int(spinup), "steps": int(steps),
+                      "diagnostics": sol.diagnostics, "errors": errors,
+                      "seconds": time.perf_counter() - t0}
+        means.append((sol.mean_u, sol.mean_v, ~np.asarray(sol.solid, dtype=bool)))
+    (ua, va, fluid), (ub, vb, _) = means[0], means[1]
+    diff = np.hypot(ua - ub, va - vb)
+    d = diff[fluid]
+    noise = {"rms_mps": float(np.sqrt(np.mean(d ** 2))), "mean_mps": float(np.mean(d)),
+             "rms_over_U": float(np.sqrt(np.mean(d ** 2)) / speed)}
+    ul, vl, _ = means[-1]
+    return {"map": name, "speed": speed, "direction_deg": float(direction_deg), "dx": dx,
+            "dt": dt, "samples": samples, "seed": seed, "protocols": out,
+            "label_noise": noise,
+            "mean_speed": float(np.hypot(ul, vl)[fluid].mean()),
+            "difference": np.where(fluid, diff / speed, np.nan)}

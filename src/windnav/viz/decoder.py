@@ -366,3 +366,42 @@ def plot_size_study(result: dict, path) -> Path:
     fig.suptitle(f"Size study: d4-film, {s['epochs']} epochs; test samples of a held-out map",
                  fontsize=10)
     return _save(fig, path)
+
+
+def plot_averaging(result: dict, path) -> Path:
+    """The decoder and its baselines scored against a short and a long average, and the map of
+    the difference between the two means.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.averaging_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    labels = list(result["protocols"])
+    models = ("decoder", "local", "upstream")
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    width = 0.8 / len(labels)
+    for ax, (metric, name) in zip(axes[:2], (_METRICS[0], _METRICS[1]), strict=True):
+        for k, label in enumerate(labels):
+            p = result["protocols"][label]
+            vals = [p["errors"][m][metric] for m in models]
+            ax.bar(np.arange(len(models)) + (k - (len(labels) - 1) / 2) * width, vals, width,
+                   label=f"{label}: {p['spinup_steps']} + {p['steps']} steps "
+                         f"({p['diagnostics']['flow_throughs_average']:.2f} flow-throughs, "
+                         f"halves differ {p['diagnostics']['half_window_difference']:.2f} U)")
+        ax.set_xticks(np.arange(len(models)), models)
+        ax.set_ylabel(name)
+    axes[0].legend(fontsize=7)
+    im = axes[2].imshow(result["difference"], origin="lower", cmap="magma", vmin=0.0,
+                        vmax=1.0)
+    fig.colorbar(im, ax=axes[2], label="|mean(short) - mean(long)| / U")
+    axes[2].set_title(f"label noise: RMS {result['label_noise']['rms_mps']:.2f} m/s "
+                      f"({result['label_noise']['rms_over_U']:.2f} U)", fontsize=9)
+    axes[2].set_xticks([])
+    axes[2].set_yticks([])
+    fig.suptitle(f"{result['map']}: inlet {result['speed']:g} m/s toward "
+                 f"{result['direction_deg']:g} deg, {result['samples']} robots at the same "
+                 "positions for both means", fontsize=10)
+    return _save(fig, path)
