@@ -29,9 +29,12 @@ def test_thesis_hyperparameters_and_variants(config):
     assert table == {"mppi": ("mppi", 0.0, False), "mppi-w": ("mppi", 0.0, True),
                      "ea-mppi": ("mppi", 3.0, False), "ea-mppi-w": ("mppi", 5.0, True),
                      "gs": ("gs", 0.0, False), "gs-w": ("gs", 0.0, True),
-                     "ea-mppi-w-hat": ("mppi", 5.0, True)}
+                     "ea-mppi-w-hat": ("mppi", 5.0, True),
+                     "ea-mppi-w-esc": ("mppi", 5.0, True)}
     # the thesis's six take the ground-truth wind; EA-MPPI+W-hat the onboard estimate
     assert {k for k, v in VARIANTS.items() if v.wind_source == "onboard"} == {"ea-mppi-w-hat"}
+    # only EA-MPPI+W+esc adds the progress monitor and the GS+W route escape
+    assert {k for k, v in VARIANTS.items() if v.escape} == {"ea-mppi-w-esc"}
     assert (config.energy_weight, config.use_wind) == (5.0, True)
     mppi = with_variant(config, "mppi")
     assert (mppi.energy_weight, mppi.use_wind) == (0.0, False)

@@ -16,6 +16,9 @@ figures: the path over the mean wind, and airspeed, power and energy against tim
 decoder at 50 Hz, planner at 10 Hz); its JSON adds the per-stage median times
 (``stage_ms_median``), the real-time load (``real_time_fraction``) and the UKF's RMS wind error
 (``ukf_wind_rms_mps``), and ``series.npz`` the UKF's estimate (``wind_estimate``).
+
+``--variant ea-mppi-w-esc`` (EA-MPPI+W+esc) is EA-MPPI+W with the progress monitor and GS+W
+route escape of :mod:`windnav.plan.escape`; its JSON's ``settings.escapes`` lists the escapes.
 """
 
 from __future__ import annotations

@@ -53,7 +53,8 @@ VARIANTS = ("mppi", "ea-mppi-w")
 """The baseline and the energy-aware, wind-aware planner the demo compares."""
 
 LABELS = {"mppi": "MPPI", "mppi-w": "MPPI+W", "ea-mppi": "EA-MPPI", "ea-mppi-w": "EA-MPPI+W",
-          "gs": "GS", "gs-w": "GS+W", "ea-mppi-w-hat": "EA-MPPI+Ŵ"}
+          "gs": "GS", "gs-w": "GS+W", "ea-mppi-w-hat": "EA-MPPI+Ŵ",
+          "ea-mppi-w-esc": "EA-MPPI+W+esc"}
 """Display names of the variants."""
 
 RECORD_KEYS = ("outcome", "energy_J", "rotor_energy_J", "time_s", "distance_m",

@@ -34,6 +34,11 @@ The loop
   at 50 Hz; ``L_t`` is the decoder's grid (``H = 25`` m), and the result carries the UKF's error
   and the per-stage timings (:class:`~windnav.experiments.onboard.OnboardReport`). The stack
   draws from its own streams, so the other variants' flights are unchanged.
+* **EA-MPPI+W+esc** (``ea-mppi-w-esc``, our addition, issue 11). EA-MPPI+W plus a progress
+  monitor (:mod:`windnav.plan.escape`): the GS+W route (below) is computed once before take-off;
+  when the distance to the goal has not shrunk by 2 m in 3 s, the route follower (below) flies
+  the next 60 m of the route from the vehicle's projection onto it, then MPPI takes over again
+  (its warm start reset). The other variants never build the route or the monitor.
 * **GS / GS+W.** :func:`windnav.plan.energy_route` is computed once before take-off, with full
   knowledge of the buildings and (GS+W) the mean wind, and flown by a path follower in the same
   acceleration mode: a reference point moves along the route's samples at the route's planned
@@ -166,7 +171,8 @@ class NavigationResult:
     energy, rotor_energy : ndarray of shape (T,)
         Their running integrals, J.
     route : ndarray of shape (M, 2) or None
-        The GS route's samples, m (None for MPPI).
+        The GS route's samples, m (GS, GS+W, and the GS+W route of the escape variants; None
+        for the other MPPI variants).
     wall_s : float
         Wall time of the closed loop (flow simulation and route search excluded), s.
     settings : dict
@@ -390,6 +396,23 @@ class _RouteFollower:
         return a
 
 
+class _EscapeFollower(_RouteFollower):
+    """The route follower of an escape (``ea-mppi-w-esc``): its reference starts at, and never
+    falls behind, the vehicle's projection onto the route, so a vehicle that joins the route
+    ahead of the reference is not held back by it (the plain follower waits for a vehicle more
+    than ``LAG`` behind, which deadlocks when the vehicle is ahead)."""
+
+    def __init__(self, route, kp: float, kd: float, s_from: float):
+        super().__init__(route, kp, kd)
+        self.s = s_from
+
+    def command(self, pos: np.ndarray, vel: np.ndarray, dt: float) -> np.ndarray:
+        from windnav.plan import route_projection
+
+        self.s = max(self.s, route_projection(self.samples, pos)[0])
+        return super().command(pos, vel, dt)
+
+
 class _FastWind:
     """``GriddedWind.velocity`` for one position per call without its per-call checks (the
     loop's positions are finite (1, 3) float64 arrays): the frame bracket by bisection, then
@@ -448,6 +471,7 @@ def navigate(
     capture_radius: float = 10.0,
     decoder=None,
     onboard=None,
+    escape=None,
 ) -> NavigationResult:
     """Fly from ``start_xy`` to ``goal_xy`` through ``city`` in its urban wind (closed loop).
 
@@ -502,6 +526,11 @@ def navigate(
         ``ea-mppi-w-hat`` only: settings of the onboard stack (UKF conditions, default
         ``"thesis"``; decoder rate, default 50 Hz; ...), see
         :class:`windnav.experiments.onboard.OnboardOptions`.
+    escape : EscapeConfig, optional
+        Variants with a route escape (``ea-mppi-w-esc``) only: the progress monitor's window and
+        threshold and the escape's length (:class:`windnav.plan.EscapeConfig`; default its
+        defaults). The result's ``settings["escapes"]`` lists every escape as
+        ``(t_s, s_from_m, s_to_m)``.
 
     Returns
     -------
@@ -515,7 +544,14 @@ def navigate(
         than the decoder's grid.
     """
     from windnav.control import SE3Controller
-    from windnav.plan import VARIANTS, MPPIPlanner, energy_route, planner_config
+    from windnav.plan import (
+        VARIANTS,
+        EscapeConfig,
+        MPPIPlanner,
+        RouteEscape,
+        energy_route,
+        planner_config,
+    )
     from windnav.vehicle import Multirotor
     from windnav.vehicle.params import GRAVITY
 
@@ -590,6 +626,17 @@ def navigate(
         follower = _RouteFollower(route, kp_xy, kd_xy)
     elif planner is None:
         planner = MPPIPlanner(config, goal, rng=planner_rng)
+    escape_guide = escape_follower = None
+    if escape is not None and not isinstance(escape, EscapeConfig):
+        raise ValueError(f"The 'escape' parameter of {_WHERE} must be an EscapeConfig or None. "
+                         f"Got {type(escape).__name__} instead.")
+    if VARIANTS[variant].escape and follower is None:
+        t0 = time.perf_counter()
+        route = energy_route(city, start, goal, planner_config(params, "gs-w"),
+                             wind=flow.wind_field(), dx=route_dx, clearance=route_clearance,
+                             altitude=altitude)
+        escape_ms = 1e3 * (time.perf_counter() - t0)
+        escape_guide = RouteEscape(route.samples, goal, escape)
 
     # the loop -------------------------------------------------------------------------------
     x = model.hover_state(np.array([start[0], start[1], altitude])).to_array()
@@ -663,6 +710,15 @@ def navigate(
             a_xy = kp_xy * (goal - pos[:2]) - kd_xy * vel[:2]
         elif follower is not None:
             a_xy = follower.command(pos[:2], vel[:2], control_dt)
+        elif escape_follower is not None or (escape_guide is not None and k % plan_every == 0
+                                             and escape_guide.update(t, pos[:2]) is not None):
+            if escape_follower is None:  # an escape begins: fly the route from the projection
+                escape_follower = _EscapeFollower(route, kp_xy, kd_xy, escape_guide.active[0])
+            a_xy = escape_follower.command(pos[:2], vel[:2], control_dt)
+            if k % plan_every == plan_every - 1 and escape_guide.update(t, pos[:2]) is None:
+                escape_follower = None  # the escape ended: MPPI from a fresh warm start
+                if hasattr(planner, "reset"):
+                    planner.reset()
         elif k % plan_every == 0:
             scan = city.lidar(pos[None, :2], n_rays=LIDAR_RAYS, max_range=LIDAR_RANGE,
                               noise_std=LIDAR_NOISE, rng=lidar_rng)[0]
@@ -728,6 +784,9 @@ def navigate(
     if route is not None:
         settings.update(route_energy_J=route.energy, route_time_s=route.time,
                         route_length_m=route.length)
+    if escape_guide is not None:
+        settings.update(escapes=[list(e) for e in escape_guide.escapes],
+                        route_ms=escape_ms)
     report = None if onboard_stack is None else onboard_stack.report(n, plan_ms)
     return NavigationResult(
         outcome=outcome, variant=variant,

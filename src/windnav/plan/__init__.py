@@ -8,6 +8,7 @@ Public API::
     LocalWind                                             the wind the planner knows
     obstacle_field, ObstacleField, obstacle_cost, scan_points   obstacles from a LiDAR scan
     energy_route, EnergyRoute                             GS / GS+W: energy-optimal routes
+    EscapeConfig, ProgressMonitor, RouteEscape            stall detection, GS+W route escape
     free_space, grid_route                                shortest-distance routes
 """
 
@@ -23,6 +24,7 @@ from windnav.plan.config import (
     with_variant,
 )
 from windnav.plan.energy_search import MOVES, EnergyRoute, energy_route
+from windnav.plan.escape import EscapeConfig, ProgressMonitor, RouteEscape, route_projection
 from windnav.plan.graph_search import free_space, grid_route
 from windnav.plan.local_wind import LocalWind
 from windnav.plan.mppi import (
@@ -43,6 +45,7 @@ from windnav.plan.obstacles import ObstacleField, obstacle_cost, obstacle_field,
 __all__ = [
     "MOVES",
     "EnergyRoute",
+    "EscapeConfig",
     "SAMPLING",
     "VARIANTS",
     "WIND_SOURCES",
@@ -52,7 +55,9 @@ __all__ = [
     "PlanResult",
     "PlannerConfig",
     "PlannerStats",
+    "ProgressMonitor",
     "Problem",
+    "RouteEscape",
     "Variant",
     "acceleration_limit",
     "energy_route",
@@ -64,6 +69,7 @@ __all__ = [
     "obstacle_field",
     "planner_config",
     "rollout",
+    "route_projection",
     "sample_controls",
     "scan_points",
     "shift_controls",

@@ -75,8 +75,9 @@ WIND_SOURCES = ("truth", "onboard")
 
 
 class Variant(NamedTuple):
-    """A planner variant: which planner, its energy weight ``Q_E``, whether it uses wind, and
-    where that wind comes from (:data:`WIND_SOURCES`).
+    """A planner variant: which planner, its energy weight ``Q_E``, whether it uses wind,
+    where that wind comes from (:data:`WIND_SOURCES`), and whether the closed loop adds the
+    progress monitor and GS+W route escape of :mod:`windnav.plan.escape` (``escape``).
 
     ``wind_source="truth"``: the ground-truth mean wind inside ``L_t`` (the thesis's ``-w``
     variants); ``"onboard"``: the onboard estimate, the wind flow decoder fed by the LiDAR scan,
@@ -88,6 +89,7 @@ class Variant(NamedTuple):
     energy_weight: float
     use_wind: bool
     wind_source: str = "truth"
+    escape: bool = False
 
 
 VARIANTS = {
@@ -98,10 +100,13 @@ VARIANTS = {
     "gs": Variant("gs", 0.0, False),
     "gs-w": Variant("gs", 0.0, True),
     "ea-mppi-w-hat": Variant("mppi", 5.0, True, "onboard"),
+    "ea-mppi-w-esc": Variant("mppi", 5.0, True, "truth", escape=True),
 }
-"""The six navigation variants of the thesis (``gs``: global graph search, energy-optimal) and
+"""The six navigation variants of the thesis (``gs``: global graph search, energy-optimal),
 ``ea-mppi-w-hat`` (EA-MPPI+Ŵ): EA-MPPI+W's planner whose wind inside ``L_t`` is the onboard
-estimate instead of the truth (issue 11)."""
+estimate instead of the truth (issue 11), and ``ea-mppi-w-esc`` (EA-MPPI+W+esc): EA-MPPI+W plus
+a progress monitor that hands a stalled vehicle to the GS+W route for a stretch
+(:mod:`windnav.plan.escape`, issue 11)."""
 
 
 def _fail(name, rule, got, where="PlannerConfig"):

@@ -1,0 +1,197 @@
+"""Progress monitor and route escape: the mechanism of the ``ea-mppi-w-esc`` variant (ours).
+
+EA-MPPI+W fails mostly by stalling: in a local minimum of its cost (a building pocket, or the
+rest point that the obstacle cost ``Q_O (D_max / d)^2`` pushes away from a goal near buildings)
+or into a headwind its point-mass model underestimates. The mechanism watches the distance to
+the goal and, when it has not shrunk for a while, hands the vehicle to the energy-optimal GS+W
+route (:func:`windnav.plan.energy_route`, computed once before take-off with the map and the mean
+wind, as the ``gs-w`` variant does) for a stretch of that route, then gives it back to MPPI.
+
+The monitor (:class:`ProgressMonitor`), checked at every planner tick ``t``::
+
+    stalled  <=>  t - t_ref >= window_s  and  d(t_ref) - d(t) < min_progress_m
+
+where ``d`` is the horizontal distance to the goal and ``t_ref`` the start of the current window:
+the window restarts (``t_ref = t``) whenever the vehicle got ``min_progress_m`` closer than at
+``t_ref``. So it fires ``window_s`` after the last ``min_progress_m`` of progress (the mean
+closing speed over the window fell below ``min_progress_m / window_s``), never before.
+
+The escape (:class:`RouteEscape`): the arc length ``s`` of the vehicle's projection onto the
+route, then an escape ``[s, min(s + length_m, L)]`` along it (``L`` the route's length; the loop
+flies it with its route follower). It ends when the vehicle's projection passes its end; the
+monitor then restarts, so a vehicle that stalls again escapes again. An escape that reaches the
+route's end (the goal) does not end: the loop's goal capture takes over from it. (MPPI's own
+rest point near a goal close to buildings lies 10-30 m from it, where the goal itself is the
+route's nearest point.)
+
+Defaults: ``window_s = 3`` s, ``min_progress_m = 2`` m (a mean closing speed below 0.67 m/s, and
+it fires before the 5 s of ``|v| <= 1`` m/s that the loop counts as a hover failure),
+``length_m = 60`` m (more than the sides of the 600 m maps' building blocks and gaps, so an
+escape leaves a pocket or a goal-side rest point behind it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from windnav._validate import batch_array, finite_float, positive_float
+
+__all__ = ["EscapeConfig", "ProgressMonitor", "RouteEscape", "route_projection"]
+
+
+@dataclass(frozen=True)
+class EscapeConfig:
+    """Settings of the progress monitor and the route escape.
+
+    Attributes
+    ----------
+    window_s : float
+        How long the distance to the goal may fail to shrink by ``min_progress_m`` before the
+        monitor fires, s (> 0).
+    min_progress_m : float
+        Progress toward the goal that restarts the window, m (> 0).
+    length_m : float
+        Arc length of the GS+W route flown per escape, from the vehicle's projection, m (> 0).
+    """
+
+    window_s: float = 3.0
+    min_progress_m: float = 2.0
+    length_m: float = 60.0
+
+    def __post_init__(self):
+        for name in ("window_s", "min_progress_m", "length_m"):
+            object.__setattr__(self, name, positive_float(getattr(self, name), name,
+                                                          "EscapeConfig"))
+
+
+class ProgressMonitor:
+    """Fires when the distance to ``goal_xy`` has not shrunk by ``min_progress_m`` in
+    ``window_s`` (see the module docstring).
+
+    Parameters
+    ----------
+    goal_xy : array_like of shape (2,)
+        Goal, m, world.
+    config : EscapeConfig, optional
+    """
+
+    def __init__(self, goal_xy, config: EscapeConfig | None = None):
+        self.goal = batch_array(goal_xy, "goal_xy", "ProgressMonitor", (2,), batch=1)[0].copy()
+        self.config = EscapeConfig() if config is None else config
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the window: the next :meth:`update` starts a new one."""
+        self._t_ref = None
+        self._d_ref = math.inf
+
+    def update(self, t: float, position_xy) -> bool:
+        """Feed the vehicle's position at time ``t`` (s, non-decreasing); True when stalled.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        position_xy : array_like of shape (2,)
+            Position, m, world.
+        """
+        t = finite_float(t, "t", "ProgressMonitor.update")
+        p = np.asarray(position_xy, dtype=np.float64).reshape(-1)
+        if p.shape != (2,) or not np.all(np.isfinite(p)):
+            raise ValueError("The 'position_xy' parameter of ProgressMonitor.update must be 2 "
+                             f"finite numbers. Got {position_xy!r} instead.")
+        d = math.hypot(p[0] - self.goal[0], p[1] - self.goal[1])
+        if self._t_ref is None or self._d_ref - d >= self.config.min_progress_m:
+            self._t_ref, self._d_ref = t, d
+            return False
+        return t - self._t_ref >= self.config.window_s - 1e-9
+
+
+def route_projection(samples, position_xy) -> tuple[float, np.ndarray]:
+    """Arc length and point of the polyline ``samples`` nearest ``position_xy``.
+
+    Parameters
+    ----------
+    samples : ndarray of shape (M, 2)
+        The route's points, m (M >= 1).
+    position_xy : array_like of shape (2,)
+        m.
+
+    Returns
+    -------
+    s : float
+        Arc length from ``samples[0]`` to the nearest point, m.
+    point : ndarray of shape (2,)
+        The nearest point, m.
+    """
+    q = np.asarray(samples, dtype=np.float64)
+    p = np.asarray(position_xy, dtype=np.float64).reshape(2)
+    if q.shape[0] == 1:
+        return 0.0, q[0].copy()
+    a, seg = q[:-1], np.diff(q, axis=0)
+    length2 = np.einsum("ij,ij->i", seg, seg)
+    c = np.clip(np.einsum("ij,ij->i", p - a, seg) / np.maximum(length2, 1e-300), 0.0, 1.0)
+    near = a + c[:, None] * seg
+    k = int(np.argmin(np.einsum("ij,ij->i", near - p, near - p)))
+    knots = np.concatenate([[0.0], np.cumsum(np.sqrt(length2))])
+    return float(knots[k] + c[k] * math.sqrt(length2[k])), near[k]
+
+
+class RouteEscape:
+    """The progress monitor and the escape along a route: which stretch of the route, if any,
+    the vehicle should fly now.
+
+    Parameters
+    ----------
+    samples : ndarray of shape (M, 2)
+        The route (e.g. :attr:`EnergyRoute.samples`), from the start to ``goal_xy``, m.
+    goal_xy : array_like of shape (2,)
+        m.
+    config : EscapeConfig, optional
+
+    Attributes
+    ----------
+    escapes : list of (float, float, float)
+        ``(t, s_from, s_to)`` of every escape begun: time, s; route arc lengths, m.
+    active : tuple of (float, float) or None
+        ``(s_from, s_to)`` of the escape in progress.
+    """
+
+    def __init__(self, samples, goal_xy, config: EscapeConfig | None = None):
+        q = np.asarray(samples, dtype=np.float64)
+        if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 1 or not np.all(np.isfinite(q)):
+            raise ValueError("The 'samples' parameter of RouteEscape must be an (M, 2) array of "
+                             f"finite points, M >= 1. Got shape {q.shape} instead.")
+        self.samples = q
+        self.length = float(np.sum(np.hypot(*np.diff(q, axis=0).T))) if q.shape[0] > 1 else 0.0
+        self.config = EscapeConfig() if config is None else config
+        self.monitor = ProgressMonitor(goal_xy, self.config)
+        self.escapes: list = []
+        self.active = None
+
+    def update(self, t: float, position_xy) -> tuple | None:
+        """Advance the monitor and the escape to time ``t`` (s) at ``position_xy`` (m).
+
+        Returns
+        -------
+        tuple of (float, float) or None
+            ``(s_from, s_to)`` while an escape is in progress (a new one starts at the vehicle's
+            projection onto the route), None while MPPI flies.
+        """
+        if self.active is not None:
+            if self.active[1] >= self.length - 1e-9:  # an escape into the goal does not end
+                return self.active
+            s, _ = route_projection(self.samples, position_xy)
+            if s < self.active[1] - 1e-9:
+                return self.active
+            self.active = None
+            self.monitor.reset()
+        if self.monitor.update(t, position_xy):
+            s, _ = route_projection(self.samples, position_xy)
+            self.active = (s, min(s + self.config.length_m, self.length))
+            self.escapes.append((float(t), *self.active))
+            self.monitor.reset()
+        return self.active

@@ -1,0 +1,195 @@
+"""EA-MPPI+W+esc: the progress monitor and GS+W route escape (issue 11, "Beyond the thesis").
+
+The unit tests feed the monitor and the escape hand-made positions; the closed-loop tests use
+the small map and weak wind of ``tests/test_navigate.py`` (140 m x 120 m, one building, 2 m/s,
+10 s spin-up, 40 s recorded).
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from windnav.city import City
+from windnav.experiments.nav_demo import LABELS
+from windnav.experiments.navigate import navigate, simulate_flow
+from windnav.plan import (
+    VARIANTS,
+    EscapeConfig,
+    ProgressMonitor,
+    RouteEscape,
+    energy_route,
+    planner_config,
+    route_projection,
+)
+from windnav.vehicle import params
+
+START = (10.0, 60.0)
+GOAL = (110.0, 60.0)
+BUILDING = (35.0, 45.0, 45.0, 75.0)
+SPEED = 2.0
+VARIANT = "ea-mppi-w-esc"
+
+
+@pytest.fixture(scope="module")
+def city():
+    return City((0.0, 140.0, 0.0, 120.0), np.array([BUILDING]), np.array([20.0]))
+
+
+@pytest.fixture(scope="module")
+def flow(city):
+    return simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
+
+
+@pytest.fixture(scope="module")
+def route(city, flow):
+    return energy_route(city, START, GOAL, planner_config(params("hummingbird"), "gs-w"),
+                        wind=flow.wind_field())
+
+
+def fly(city, flow, variant=VARIANT, **kw):
+    kw.setdefault("rng", 0)
+    return navigate(city, START, GOAL, speed=SPEED, direction_deg=0.0, variant=variant,
+                    flow=flow, **kw)
+
+
+class Brake:
+    """A planner that brakes, ``a = -4 v``: the vehicle stops wherever it is (a stall)."""
+
+    def __init__(self):
+        self.resets = 0
+
+    def update(self, state, scan=None, wind=None):
+        return -4.0 * np.asarray(state[2:4], dtype=float)
+
+    def reset(self):
+        self.resets += 1
+
+
+# ------------------------------------------------------------------------------- the monitor
+
+
+def test_monitor_fires_after_the_window_without_progress_and_not_before():
+    mon = ProgressMonitor(GOAL, EscapeConfig(window_s=3.0, min_progress_m=2.0))
+    # 1.9 m closer over 3 s is not progress: fires at 3 s, not at 2.9 s
+    times = np.arange(0.0, 3.05, 0.1)
+    fired = [mon.update(t, (10.0 + 1.9 * t / 3.0, 60.0)) for t in times]
+    assert not any(fired[:-1]) and fired[-1]
+    assert times[-1] == pytest.approx(3.0)
+
+
+def test_monitor_window_restarts_on_progress():
+    mon = ProgressMonitor(GOAL, EscapeConfig(window_s=3.0, min_progress_m=2.0))
+    # 1 m/s toward the goal: every 2 m of progress restarts the window, so it never fires
+    assert not any(mon.update(t, (10.0 + t, 60.0)) for t in np.arange(0.0, 20.0, 0.1))
+    # then it stops: fires 3 s after the last restart (at most 2 s before the stop), not before
+    stop = 20.0
+    t_fire = next(t for t in np.arange(stop, stop + 10.0, 0.1) if mon.update(t, (30.0, 60.0)))
+    assert stop + 1.0 - 1e-6 <= t_fire <= stop + 3.0 + 1e-6
+    # moving away from the goal is no progress either
+    mon.reset()
+    fired = [mon.update(t, (30.0 - t, 60.0)) for t in np.arange(0.0, 3.5, 0.1)]
+    assert fired.index(True) == 30
+
+
+def test_escape_config_and_inputs_are_validated():
+    for name, bad in (("window_s", 0.0), ("min_progress_m", -1.0), ("length_m", math.nan)):
+        with pytest.raises(ValueError, match=name):
+            EscapeConfig(**{name: bad})
+    with pytest.raises(ValueError, match="position_xy"):
+        ProgressMonitor(GOAL).update(0.0, (math.nan, 1.0))
+    with pytest.raises(ValueError, match="goal_xy"):
+        ProgressMonitor((1.0, 2.0, 3.0))
+    with pytest.raises(ValueError, match="samples"):
+        RouteEscape(np.zeros((3, 3)), GOAL)
+
+
+# ---------------------------------------------------------------------------- the escape
+
+
+def test_route_projection_on_a_polyline():
+    poly = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
+    s, p = route_projection(poly, (4.0, -3.0))
+    assert s == pytest.approx(4.0) and p == pytest.approx([4.0, 0.0])
+    s, p = route_projection(poly, (13.0, 6.0))
+    assert s == pytest.approx(16.0) and p == pytest.approx([10.0, 6.0])
+    s, _ = route_projection(poly, (-5.0, -5.0))
+    assert s == 0.0
+
+
+def test_escape_starts_on_the_route_ahead_and_releases_past_its_end(city, route):
+    cfg = EscapeConfig(window_s=3.0, min_progress_m=2.0, length_m=30.0)
+    esc = RouteEscape(route.samples, GOAL, cfg)
+    here = np.array([30.0, 55.0])  # stalled just before the building
+    assert all(esc.update(t, here) is None for t in np.arange(0.0, 2.95, 0.1))
+    s_from, s_to = esc.update(3.0, here)
+    assert s_from == pytest.approx(route_projection(route.samples, here)[0])
+    assert s_to == pytest.approx(s_from + 30.0)
+    # the stretch to fly lies on the route, ahead of the vehicle, outside (and clear of) the
+    # building
+    knots = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(route.samples, axis=0).T))])
+    stretch = route.samples[(knots >= s_from) & (knots <= s_to)]
+    assert stretch.shape[0] > 5
+    assert not city.contains(stretch).any()
+    ahead = np.hypot(*(stretch - GOAL).T)
+    assert ahead[-1] < np.hypot(*(here - GOAL)) - 5.0  # around the building: 30 m for 7 m
+    # still active until the vehicle's projection passes s_to, then released
+    mid = route.samples[np.searchsorted(knots, 0.5 * (s_from + s_to))]
+    assert esc.update(4.0, mid) == (s_from, s_to)
+    end = route.samples[np.searchsorted(knots, s_to + 1.0)]
+    assert esc.update(5.0, end) is None and esc.active is None
+    # the monitor restarted at release: no new escape for the next 3 s at the same place
+    assert all(esc.update(t, end) is None for t in np.arange(5.1, 7.95, 0.1))
+    assert esc.update(8.0, end) is not None
+    assert len(esc.escapes) == 2
+
+
+# --------------------------------------------------------------------------- closed loop
+
+
+def test_variant_is_registered():
+    assert VARIANTS[VARIANT] == VARIANTS["ea-mppi-w"]._replace(escape=True)
+    assert LABELS[VARIANT] == "EA-MPPI+W+esc"
+
+
+def test_escape_turns_a_stall_into_a_success(city, flow):
+    # the same stalling planner: without the mechanism a hover failure, with it the vehicle is
+    # carried along the GS+W route, one 60 m escape at a time, into the goal capture
+    base = fly(city, flow, "ea-mppi-w", planner=Brake(), duration=40.0)
+    assert base.outcome == "hover"
+    brake = Brake()
+    res = fly(city, flow, planner=brake, duration=40.0)
+    assert res.outcome == "success", res.summary()
+    escapes = res.settings["escapes"]
+    assert len(escapes) >= 2 and brake.resets >= 1
+    # each escape began after 3 s without progress, and the first at the start
+    assert escapes[0][0] == pytest.approx(3.0, abs=0.11)
+    assert all(b[0] - a[0] >= 3.0 - 1e-9 for a, b in zip(escapes, escapes[1:], strict=False))
+    # it went around the building along the route and never hit it
+    assert not city.contains(res.position[:, :2]).any()
+    abreast = (res.position[:, 0] > BUILDING[0]) & (res.position[:, 0] < BUILDING[1])
+    y = res.position[abreast, 1]
+    assert y.size and np.all((y < BUILDING[2]) | (y > BUILDING[3]))
+
+
+def test_same_seed_same_flight_and_the_monitor_is_the_only_difference(city, flow):
+    a = fly(city, flow, rng=3, duration=15.0)
+    b = fly(city, flow, rng=3, duration=15.0)
+    assert a.energy_J == b.energy_J and np.array_equal(a.position, b.position)
+    assert a.settings["escapes"] == b.settings["escapes"]
+    # with a monitor that never fires the variant flies exactly as EA-MPPI+W
+    never = fly(city, flow, rng=3, duration=15.0, escape=EscapeConfig(window_s=1e6))
+    base = fly(city, flow, "ea-mppi-w", rng=3, duration=15.0)
+    assert never.settings["escapes"] == []
+    assert never.energy_J == base.energy_J and np.array_equal(never.position, base.position)
+
+
+def test_existing_variants_ignore_the_mechanism(city, flow):
+    for v in ("mppi", "ea-mppi-w"):
+        a = fly(city, flow, v, rng=1, duration=10.0)
+        b = fly(city, flow, v, rng=1, duration=10.0,
+                escape=EscapeConfig(window_s=0.1, min_progress_m=50.0))
+        assert a.energy_J == b.energy_J and np.array_equal(a.position, b.position)
+        assert "escapes" not in a.settings and a.route is None
+    with pytest.raises(ValueError, match="'escape'"):
+        fly(city, flow, rng=1, duration=1.0, escape={"window_s": 3.0})
