@@ -179,6 +179,29 @@ def test_a_killed_run_resumes_without_duplicates(tmp_path, no_wind):
     assert len(keys(s)) == 8
 
 
+def test_a_part_of_the_maps_now_the_rest_later_into_the_same_store(tmp_path, no_wind):
+    two = replace(TINY, maps=(0, 1))
+    store = tmp_path / "store"
+    part = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                            navigate_fn=Fake(), maps=[1])
+    assert (part["maps"], part["scenarios"], part["now"], part["pending"]) == ([1], 4, 4, 0)
+    s = NavStore(store, two)
+    assert {sid.split("/")[1] for sid, _ in keys(s)} == {"m01"}
+    # the same scenarios (ids, pairs, seeds) as in the whole suite
+    whole = {sc.scenario_id: sc for sc in make_suite(two)}
+    assert all(r["seed"] == whole[r["scenario_id"]].seed for r in s.load())
+    rest = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                            navigate_fn=Fake())
+    assert (rest["maps"], rest["already"], rest["now"], rest["total"]) == ([0, 1], 4, 4, 8)
+    for bad in ([2], [0, 0], [], ["a"]):
+        with pytest.raises(ValueError, match="'maps' parameter of run_benchmark"):
+            nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                             navigate_fn=Fake(), maps=bad)
+    assert bench_cmd._maps("0-2,5", "x") == [0, 1, 2, 5] and bench_cmd._maps(None, "x") is None
+    with pytest.raises(ValueError, match="'--maps' parameter of x"):
+        bench_cmd._maps("0-a", "x")
+
+
 def test_a_failed_flight_is_recorded_with_its_traceback_and_the_run_goes_on(tmp_path, no_wind):
     victim = make_suite(TINY)[1]
     fake = Fake(fail_on=(victim.start, "ea-mppi-w"))
@@ -426,6 +449,9 @@ def test_command_errors_are_named(tmp_path, tiny_suite):
         command(["--replay", "quick/m00/w00/p0"])
     with pytest.raises(ValueError, match="'--replay' parameter of windnav benchmark-nav"):
         command(["--replay", "quick/m09/w00/p0", "--variant", "mppi"])
+    with pytest.raises(ValueError, match="'--maps' parameter of windnav benchmark-nav.*"
+                                         r"among \[0\]"):
+        command(["--suite", "quick", "--maps", "1,9", "--out", tmp_path / "d"])
 
 
 def test_command_ctrl_c_keeps_the_finished_flights(tmp_path, tiny_suite, monkeypatch, capsys):

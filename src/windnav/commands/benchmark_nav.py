@@ -62,6 +62,9 @@ def register(subparsers) -> None:
                    help="the store folder (manifest.json, records.jsonl)")
     p.add_argument("--seed", type=int, default=None,
                    help="suite seed (default: the store's own, else 0)")
+    p.add_argument("--maps", default=None, metavar="LIST",
+                   help="fly only these maps of the suite, e.g. 0,1 or 0-3 (default: all); "
+                        "the rest can be flown later into the same store")
     p.add_argument("--retry-errors", action="store_true",
                    help="also re-fly the flights whose harness failed in an earlier run")
     p.add_argument("--table", action="store_true",
@@ -129,6 +132,21 @@ def _variants(args, name: str) -> tuple[str, ...]:
         raise ValueError(str(exc).replace("'variants'", "'--variants'")) from None
 
 
+def _maps(text, name: str):
+    """``--maps``: comma-separated map indices and ranges ``a-b`` (inclusive), or None."""
+    if text is None:
+        return None
+    out = []
+    try:
+        for part in str(text).split(","):
+            lo, sep, hi = part.strip().partition("-")
+            out += list(range(int(lo), int(hi) + 1)) if sep else [int(lo)]
+    except ValueError:
+        raise ValueError(f"The '--maps' parameter of {name} must be map indices and ranges, "
+                         f"e.g. 0,1 or 0-3. Got {text!r} instead.") from None
+    return out
+
+
 def _print_table(records, variants, reference) -> dict:
     from windnav.experiments.nav_records import benchmark_table, render_table
 
@@ -149,10 +167,18 @@ def _run(args, name: str) -> int:
     spec = _spec(args, name)
     out = outputs(args)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    maps = _maps(args.maps, name)
+    if maps is not None:
+        from windnav.experiments.nav_benchmark import check_maps
+
+        try:
+            check_maps(spec, maps, name)
+        except ValueError as exc:
+            raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
     try:
         summary = run_benchmark(spec, variants, args.out, executor=args.executor,
                                 workers=workers, progress=not args.no_progress,
-                                retry_errors=args.retry_errors)
+                                retry_errors=args.retry_errors, maps=maps)
     except KeyboardInterrupt:
         try:
             n = len(NavStore(args.out, spec, create=False).latest())
@@ -162,7 +188,9 @@ def _run(args, name: str) -> int:
               "command to resume.", file=sys.stderr)
         return 130
     records = NavStore(args.out, spec, create=False).load()
-    print(f"{summary['store']}: suite {spec.name} (seed {spec.seed}), "
+    part = ("" if len(summary["maps"]) == len(spec.maps)
+            else f", maps {','.join(map(str, summary['maps']))} of {len(spec.maps)}")
+    print(f"{summary['store']}: suite {spec.name} (seed {spec.seed}{part}), "
           f"{summary['total'] - summary['pending']}/{summary['total']} flights recorded "
           f"({summary['now']} now, {summary['already']} already, {summary['errors_now']} "
           f"harness errors now) in {summary['wall_s']:.0f} s")

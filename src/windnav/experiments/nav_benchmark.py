@@ -162,6 +162,22 @@ def check_variants(variants, where: str) -> tuple[str, ...]:
     return variants
 
 
+def check_maps(spec: SuiteSpec, maps, where: str) -> tuple[int, ...]:
+    """``maps`` (map indices of the suite, ``spec.maps``; None: all) checked: distinct, of the
+    suite, at least one; returned sorted."""
+    if maps is None:
+        return tuple(spec.maps)
+    try:
+        got = [int(m) for m in maps]
+        ok = all(int(m) == m for m in maps)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or not got or len(set(got)) != len(got) or not set(got) <= set(spec.maps):
+        raise ValueError(f"The 'maps' parameter of {where} must be distinct map indices of the "
+                         f"{spec.name} suite, among {list(spec.maps)}. Got {maps!r} instead.")
+    return tuple(sorted(got))
+
+
 def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None, flow=None,
                  navigate_fn: Callable | None = None) -> dict:
     """Fly one scenario with one variant and return its record (never raises an Exception).
@@ -293,6 +309,7 @@ def run_benchmark(
     progress: bool = True,
     retry_errors: bool = False,
     navigate_fn: Callable | None = None,
+    maps: Sequence[int] | None = None,
 ) -> dict:
     """Fly (or resume) every pending (scenario, variant) of the suite into ``store``.
 
@@ -316,11 +333,15 @@ def run_benchmark(
         Also re-fly the flights whose recorded harness failed (``outcome == "error"``).
     navigate_fn : callable, optional
         See :func:`fly_scenario`.
+    maps : sequence of int, optional
+        Fly only the scenarios of these maps (map indices of ``spec.maps``; default all): a part
+        of the suite, run now and completed later into the same store.
 
     Returns
     -------
     dict
-        ``suite``, ``seed``, ``store``, ``variants``, ``scenarios`` (per variant), ``total``
+        ``suite``, ``seed``, ``store``, ``variants``, ``maps`` (the indices flown),
+        ``scenarios`` (per variant, of those maps), ``total``
         (flights of the run's variants), ``already`` (recorded before), ``now`` (recorded by
         this run), ``errors_now`` (of those, harness failures), ``pending`` (left: 0 unless
         a task was lost), ``failed_tasks`` (``map_index``, ``wind_index``, first line of the
@@ -342,6 +363,7 @@ def run_benchmark(
     if executor not in BACKENDS:
         raise ValueError(f"The 'executor' parameter of {where} must be one of {BACKENDS}. "
                          f"Got {executor!r} instead.")
+    maps = check_maps(spec, maps, where)
     t0 = time.perf_counter()
     nav_store = NavStore(store, spec)
     done = nav_store.latest()
@@ -350,7 +372,7 @@ def run_benchmark(
         rec = done.get(key)
         return rec is not None and not (retry_errors and rec["outcome"] == ERROR)
 
-    scenarios = make_suite(spec)
+    scenarios = make_suite(dataclasses.replace(spec, maps=maps))  # the same ids and seeds
     groups: dict[tuple[int, int], list] = {}
     for sc in scenarios:
         for v in variants:
@@ -381,7 +403,7 @@ def run_benchmark(
     final = nav_store.latest()
     now = [final[k] for k in pending_keys if k in final and final[k] != done.get(k)]
     return {"suite": spec.name, "seed": spec.seed, "store": str(nav_store.path),
-            "variants": list(variants), "scenarios": len(scenarios),
+            "variants": list(variants), "maps": list(maps), "scenarios": len(scenarios),
             "total": len(scenarios) * len(variants), "already": already, "now": len(now),
             "errors_now": sum(r["outcome"] == ERROR for r in now),
             "pending": len(pending_keys) - len(now), "failed_tasks": failed_tasks,
