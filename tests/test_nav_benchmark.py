@@ -202,6 +202,39 @@ def test_a_part_of_the_maps_now_the_rest_later_into_the_same_store(tmp_path, no_
         bench_cmd._maps("0-a", "x")
 
 
+def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind):
+    assert nb.parse_variant("ea-mppi-w") == ("ea-mppi-w", {})
+    assert nb.parse_variant("ea-mppi-w@qe=2") == (
+        "ea-mppi-w", {"planner_overrides": {"energy_weight": 2.0}})
+    assert nb.parse_variant("ea-mppi-w@h=inf@qe=0.5") == (
+        "ea-mppi-w", {"horizon": math.inf, "planner_overrides": {"energy_weight": 0.5}})
+    assert nb.parse_variant("ea-mppi-w@h=0") == (
+        "ea-mppi-w", {"planner_overrides": {"use_wind": False}})
+    for bad in ("bogus@qe=1", "gs-w@qe=1", "ea-mppi-w@qe=-1", "ea-mppi-w@qe=inf",
+                "ea-mppi-w@x=1", "ea-mppi-w@qe=1@qe=2", "ea-mppi-w@qe", "ea-mppi-w@h=nan",
+                "ea-mppi-w@qe=abc"):
+        with pytest.raises(ValueError, match="'variants' parameter of parse_variant"):
+            nb.parse_variant(bad)
+    seen = []
+
+    def record(city, start, goal, **kw):
+        seen.append((kw["variant"], kw.get("horizon"), kw.get("planner_overrides")))
+        return Fake()(city, start, goal, **kw)
+
+    spec = replace(TINY, winds=(0,), pairs=(0,),
+                   navigate_options={"planner_overrides": {"lam": 0.5}})
+    labels = ["ea-mppi-w", "ea-mppi-w@qe=2", "ea-mppi-w@h=50"]
+    nb.run_benchmark(spec, labels, tmp_path / "s", executor="serial", progress=False,
+                     navigate_fn=record)
+    assert seen == [("ea-mppi-w", None, {"lam": 0.5}),
+                    ("ea-mppi-w", None, {"lam": 0.5, "energy_weight": 2.0}),
+                    ("ea-mppi-w", 50.0, {"lam": 0.5})]
+    assert {r["variant"] for r in NavStore(tmp_path / "s", spec).load()} == set(labels)
+    with pytest.raises(ValueError, match="'variants' parameter of run_benchmark"):
+        nb.run_benchmark(spec, ["ea-mppi-w@qe=x"], tmp_path / "s", executor="serial",
+                         progress=False, navigate_fn=record)
+
+
 def test_a_failed_flight_is_recorded_with_its_traceback_and_the_run_goes_on(tmp_path, no_wind):
     victim = make_suite(TINY)[1]
     fake = Fake(fail_on=(victim.start, "ea-mppi-w"))

@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     "navigate",
     "demo",
     "benchmark_nav",
+    "nav_study",
     "train_decoder",
     "evaluate_decoder",
     "decoder_study",

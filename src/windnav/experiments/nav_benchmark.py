@@ -62,6 +62,7 @@ from windnav.experiments.nav_suite import (
 
 __all__ = [
     "ONBOARD_FIELDS",
+    "PARAMETERS",
     "RECORD_FIELDS",
     "SUITES",
     "CorruptRecordError",
@@ -78,6 +79,7 @@ __all__ = [
     "fly_scenario",
     "get_suite",
     "make_suite",
+    "parse_variant",
     "render_table",
     "replay",
     "run_benchmark",
@@ -146,19 +148,87 @@ def suite_flow(spec: SuiteSpec, city, speed: float, direction_deg: float) -> Sha
 # ------------------------------------------------------------------------------- one flight
 
 
+PARAMETERS = {"qe": "energy_weight", "h": "horizon"}
+"""Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
+energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
+map; ``0``: no wind)."""
+
+_PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
+
+
+def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
+    """A variant label: a key of :data:`windnav.plan.VARIANTS`, or one of the MPPI variants with
+    study parameters, ``"ea-mppi-w@qe=2"``, ``"ea-mppi-w@h=50"``, ``"ea-mppi-w@qe=3@h=90"``
+    (:data:`PARAMETERS`; the Q_E and H sweeps of the thesis).
+
+    Returns
+    -------
+    base : str
+        The variant of :data:`windnav.plan.VARIANTS`.
+    options : dict
+        Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
+        ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``) and
+        ``horizon``.
+
+    Raises
+    ------
+    ValueError
+        An unknown base variant or parameter, a parameter given twice, or a value that is not a
+        number >= 0 (``h`` may be ``inf``).
+    """
+    from windnav.plan import VARIANTS
+
+    label = str(label)
+    base, *params = label.split("@")
+
+    def fail(why):
+        return ValueError(f"The 'variants' parameter of {where} must be distinct names among "
+                          f"{list(VARIANTS)}, or one of {list(_PARAMETRIC)} with parameters "
+                          f"'@qe=Q_E' and/or '@h=H' (m, inf, or 0 for no wind): {why}. Got "
+                          f"{label!r} instead.")
+
+    if base not in VARIANTS:
+        raise fail(f"unknown variant {base!r}")
+    if not params:
+        return base, {}
+    if base not in _PARAMETRIC:
+        raise fail(f"{base!r} takes no parameters")
+    options, overrides = {}, {}
+    for item in params:
+        key, sep, text = item.partition("=")
+        if not sep or key not in PARAMETERS or PARAMETERS[key] in {**options, **overrides}:
+            raise fail(f"bad or repeated parameter {item!r}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise fail(f"{text!r} is not a number") from None
+        if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
+            raise fail(f"{key} must be >= 0")
+        if key == "qe":
+            overrides["energy_weight"] = value
+        elif value == 0.0:
+            overrides["use_wind"] = False
+        else:
+            options["horizon"] = value
+    if overrides:
+        options["planner_overrides"] = overrides
+    return base, options
+
+
 def check_variants(variants, where: str) -> tuple[str, ...]:
-    """``variants`` (a sequence, or one comma-separated string) checked against
-    :data:`windnav.plan.VARIANTS`: known, distinct, at least one."""
+    """``variants`` (a sequence, or one comma-separated string) checked: each a key of
+    :data:`windnav.plan.VARIANTS` or a label with study parameters (:func:`parse_variant`),
+    distinct, at least one."""
     from windnav.plan import VARIANTS
 
     if isinstance(variants, str):
         variants = [v.strip() for v in variants.split(",") if v.strip()]
     variants = tuple(variants)
-    unknown = [v for v in variants if v not in VARIANTS]
-    if not variants or unknown or len(set(variants)) != len(variants):
-        got = unknown[0] if unknown else list(variants)
+    if not variants or len(set(variants)) != len(variants):
         raise ValueError(f"The 'variants' parameter of {where} must be distinct names among "
-                         f"{list(VARIANTS)}. Got {got!r} instead.")
+                         f"{list(VARIANTS)}. Got {list(variants)!r} instead.")
+    for v in variants:
+        parse_variant(v, where)
     return variants
 
 
@@ -187,7 +257,8 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
     spec : SuiteSpec
     scenario : Scenario
     variant : str
-        A key of :data:`windnav.plan.VARIANTS`.
+        A key of :data:`windnav.plan.VARIANTS`, or a label with study parameters
+        (:func:`parse_variant`, e.g. ``"ea-mppi-w@qe=2"``).
     city, flow : optional
         The scenario's map (:func:`suite_map`) and wind (:func:`suite_flow`), when already
         built; otherwise built here.
@@ -213,9 +284,14 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
             t_flow = time.perf_counter()
             flow = suite_flow(spec, city, scenario.speed, scenario.direction_deg)
             rec["flow_s"] = time.perf_counter() - t_flow
+        base, options = parse_variant(variant, "fly_scenario")
+        kwargs = {**spec.navigate_options, **options}
+        if "planner_overrides" in options and spec.navigate_options.get("planner_overrides"):
+            kwargs["planner_overrides"] = {**spec.navigate_options["planner_overrides"],
+                                           **options["planner_overrides"]}
         result = navigate_fn(city, scenario.start, scenario.goal, speed=scenario.speed,
-                             direction_deg=scenario.direction_deg, variant=variant,
-                             rng=scenario.seed, flow=flow, **spec.navigate_options)
+                             direction_deg=scenario.direction_deg, variant=base,
+                             rng=scenario.seed, flow=flow, **kwargs)
         summary = result.summary()
         rec["outcome"] = summary["outcome"]
         rec.update({k: summary.get(k) for k in _METRICS})

@@ -1,0 +1,122 @@
+"""``windnav nav-study``: the navigation benchmark's studies, each one command writing a figure and
+JSON into ``--out``.
+
+::
+
+    windnav nav-study qe    --store runs/thesis --maps 0-1 --out docs/navigation   # Q_E sweep
+    windnav nav-study h     --store runs/thesis --maps 0-1 --out docs/navigation   # H sweep
+
+``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
+5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
+benchmark store ``--store`` (:func:`windnav.experiments.nav_benchmark.run_benchmark`: resumable,
+one wind per map and inlet, shared with whatever the store already holds; values that are
+thesis variants fly under their names), then plot the paired energy reduction against MPPI per
+value, overall and per inlet speed, with the failure rate
+(:mod:`windnav.experiments.nav_sweeps`). A rerun flies nothing already recorded.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+from windnav._validate import positive_int
+from windnav.commands._common import (
+    add_output_arguments,
+    check_output_path,
+    document,
+    outputs,
+    print_written,
+    where,
+)
+
+STUDIES = ("qe", "h")
+"""The studies, as named on the command line."""
+
+
+def register(subparsers) -> None:
+    """Add the ``nav-study`` subcommand."""
+    from windnav.experiments.executor import BACKENDS
+    from windnav.experiments.nav_suite import SUITES
+
+    p = subparsers.add_parser(
+        "nav-study",
+        help="the navigation benchmark's studies (Q_E and H sweeps)",
+        description="The navigation benchmark's studies: the Q_E and H sweeps of EA-MPPI+W "
+                    "against MPPI, flown into a benchmark store; each writes a figure and JSON.",
+    )
+    p.add_argument("study", choices=STUDIES)
+    p.add_argument("--out", type=Path, required=True, help="output folder (figure, JSON)")
+    p.add_argument("--store", type=Path, required=True,
+                   help="the benchmark store the flights go to (created or resumed)")
+    p.add_argument("--suite", choices=tuple(SUITES), default="thesis",
+                   help="the suite (%(default)s)")
+    p.add_argument("--maps", default=None, metavar="LIST",
+                   help="the suite's maps to fly, e.g. 0-1 (default: all)")
+    p.add_argument("--values", type=float, nargs="+", default=None,
+                   help="the values swept (default: qe 0 0.5 1 2 3 4 5 6; h 0 25 50 100 200 "
+                        "inf)")
+    p.add_argument("--executor", choices=BACKENDS, default="process",
+                   help="where the flights run (%(default)s)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker processes (default: all cores); each holds one 600 m wind, "
+                        "2.3 GB")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_output_arguments(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    """Run ``windnav nav-study``; 0 when every flight flew, 1 when some harness failed."""
+    from windnav.commands.benchmark_nav import _maps
+    from windnav.experiments import nav_sweeps
+    from windnav.experiments.nav_benchmark import NavStore, check_maps, run_benchmark
+    from windnav.experiments.nav_suite import get_suite
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.viz.nav_sweeps import plot_sweep
+
+    name = where(args)
+    study = args.study
+    check_output_path(args.store, "--store", name, kind="dir")
+    spec = get_suite(args.suite)
+    maps = _maps(args.maps, name)
+    try:
+        maps = check_maps(spec, maps, name)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
+    workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    try:
+        labels = nav_sweeps.sweep_labels(study, args.values)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'values' parameter of sweep_labels",
+                                          f"'--values' parameter of {name}")) from None
+    products = (f"nav_sweep_{study}.json", f"nav_sweep_{study}.png")
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    variants = [nav_sweeps.REFERENCE, *dict.fromkeys(labels.values())]
+    summary = run_benchmark(spec, variants, args.store, executor=args.executor,
+                            workers=workers, progress=not args.no_progress, maps=maps)
+    records = [r for r in NavStore(args.store, spec, create=False).load()
+               if r["map_index"] in maps]
+    res = nav_sweeps.sweep_table(records, labels)
+    sweep = nav_sweeps.SWEEPS[study]
+    res.update(study=study, suite=spec.name, maps=list(maps), store=str(args.store),
+               flights_now=summary["now"], errors_now=summary["errors_now"],
+               elapsed_s=time.perf_counter() - t0)
+    with out.writing() as stage:
+        plot_sweep(res, stage.dir / products[1], name=sweep["name"], unit=sweep["unit"])
+        doc = document("nav-study", res, args)
+        write_json(doc, stage.dir / products[0])
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    brief = {f"{v:g}": {"label": r["label"], "failure_pct": r["failure_pct"],
+                        "paired_reduction": r["paired_reduction"]["mean"],
+                        "pairs": r["paired_reduction"]["n"]}
+             for v, r in res["rows"].items()}
+    print(json.dumps(json_ready({"study": study, "reference_failure_pct":
+                                 res["reference_failure_pct"], "values": brief,
+                                 "flights_now": summary["now"],
+                                 "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 1 if summary["errors_now"] or summary["pending"] else 0

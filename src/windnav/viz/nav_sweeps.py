@@ -1,0 +1,81 @@
+"""The figure of the Q_E and H sweeps (:mod:`windnav.experiments.nav_sweeps`): EA-MPPI+W's
+paired energy reduction against MPPI for each value, overall (with its 95 % interval) and per
+inlet speed, and the failure rate beside MPPI's."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["plot_sweep"]
+
+
+def _positions(values):
+    """x positions: the values themselves, ``inf`` one step past the largest finite value."""
+    finite = [v for v in values if math.isfinite(v)]
+    top = max(finite) if finite else 0.0
+    step = (top - min(finite)) / max(len(finite) - 1, 1) if len(finite) > 1 else 1.0
+    return np.array([v if math.isfinite(v) else top + 1.5 * step for v in values])
+
+
+def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path:
+    """Paired energy reduction (%) and failure rate (%) against the swept value.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.nav_sweeps.sweep_table`'s result.
+    path : str or path-like
+        The PNG to write.
+    name, unit : str
+        The swept parameter's name and unit, for the axis.
+    """
+    values = result["values"]
+    x = _positions(values)
+    rows = [result["rows"][v] for v in values]
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 4.4))
+    cmap = plt.get_cmap("viridis")
+    speeds = result["speeds"]
+    for k, s in enumerate(speeds):
+        y = [100 * r["by_speed"][s]["mean"] if s in r["by_speed"]
+             and r["by_speed"][s]["mean"] is not None else np.nan for r in rows]
+        ax.plot(x, y, "o-", color=cmap(k / max(len(speeds) - 1, 1)), lw=1.2, ms=4,
+                label=f"{s} m/s")
+    mean = np.array([100 * r["paired_reduction"]["mean"] if r["paired_reduction"]["mean"]
+                     is not None else np.nan for r in rows])
+    lo = np.array([100 * r["paired_reduction"]["ci95"][0] if r["paired_reduction"]["ci95"]
+                   else np.nan for r in rows])
+    hi = np.array([100 * r["paired_reduction"]["ci95"][1] if r["paired_reduction"]["ci95"]
+                   else np.nan for r in rows])
+    ax.fill_between(x, lo, hi, color="k", alpha=0.12, lw=0)
+    ax.plot(x, mean, "ks-", lw=2, ms=5, label="all (95 % CI)")
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.set_ylabel(f"paired energy reduction vs {result['reference']} (%)")
+    ax.legend(fontsize=8, title="inlet", title_fontsize=8)
+    bx.plot(x, [r["failure_pct"] for r in rows], "o-", color="#c0392b", label="EA-MPPI+W")
+    if result.get("reference_failure_pct") is not None:
+        bx.axhline(result["reference_failure_pct"], color="0.3", ls="--",
+                   label=result["reference"])
+    bx.set_ylabel("failure (%)")
+    bx.set_ylim(0, 100)
+    bx.legend(fontsize=8)
+    labels = ["∞" if not math.isfinite(v) else f"{v:g}" for v in values]
+    for a in (ax, bx):
+        a.set_xticks(x, labels)
+        a.set_xlabel(f"{name} ({unit})" if unit else name)
+        a.grid(alpha=0.3)
+    n = [r["paired_reduction"]["n"] for r in rows]
+    fig.suptitle(f"EA-MPPI+W against {result['reference']}, sweeping {name}: "
+                 f"{result['reference_flights']} scenarios, {min(n)}-{max(n)} pairs where "
+                 "neither failed", fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,123 @@
+"""The Q_E and H sweeps of the navigation benchmark: labels, the table, the command.
+
+Flights and winds are stand-ins (``tests/test_nav_benchmark.py``'s ``Fake`` and tiny suite), so
+that the tests check the bookkeeping in milliseconds; the flights themselves are the benchmark's.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from test_nav_benchmark import TINY, Fake, fake_flow
+
+import windnav.experiments.nav_benchmark as nb
+from windnav import cli
+from windnav.experiments.nav_records import NavStore
+from windnav.experiments.nav_suite import SUITES
+from windnav.experiments.nav_sweeps import sweep_labels, sweep_table
+
+REAL_FLY = nb.fly_scenario
+
+
+def test_labels_name_the_thesis_variants_they_are():
+    qe = sweep_labels("qe")
+    assert qe[0.0] == "mppi-w" and qe[5.0] == "ea-mppi-w" and qe[2.0] == "ea-mppi-w@qe=2"
+    assert list(qe) == sorted(qe) and len(qe) == 8
+    h = sweep_labels("h", [math.inf, 0, 50])
+    assert h == {0.0: "ea-mppi-w@h=0", 50.0: "ea-mppi-w@h=50", math.inf: "ea-mppi-w"}
+    for bad in ([-1.0], [1.0, 1.0], [], ["x"]):
+        with pytest.raises(ValueError, match="'values' parameter of sweep_labels"):
+            sweep_labels("qe", bad)
+    with pytest.raises(ValueError, match="'kind' parameter of sweep_labels"):
+        sweep_labels("lambda")
+
+
+def rec(sid, variant, outcome, energy, speed):
+    return {"scenario_id": sid, "variant": variant, "outcome": outcome, "energy_J": energy,
+            "rotor_energy_J": energy, "time_s": 10.0, "distance_m": 100.0,
+            "mean_cmd_accel": 1.0, "speed": speed}
+
+
+def test_table_is_the_paired_reduction_per_value_and_per_speed():
+    labels = {1.0: "ea-mppi-w@qe=1", 5.0: "ea-mppi-w", 6.0: "ea-mppi-w@qe=6"}
+    recs = [rec("a", "mppi", "success", 100.0, 2.0), rec("b", "mppi", "success", 200.0, 5.0),
+            rec("c", "mppi", "hover", 50.0, 5.0),
+            rec("a", "ea-mppi-w@qe=1", "success", 90.0, 2.0),
+            rec("b", "ea-mppi-w@qe=1", "success", 220.0, 5.0),
+            rec("c", "ea-mppi-w@qe=1", "success", 10.0, 5.0),  # MPPI failed: not paired
+            rec("a", "ea-mppi-w", "collision", 10.0, 2.0),
+            rec("b", "ea-mppi-w", "success", 100.0, 5.0)]
+    t = sweep_table(recs, labels)
+    assert t["values"] == [1.0, 5.0]  # qe=6 was not flown
+    r1 = t["rows"][1.0]
+    assert r1["paired_reduction"]["n"] == 2
+    assert r1["paired_reduction"]["mean"] == pytest.approx(np.mean([0.1, -0.1]))
+    assert r1["by_speed"]["2"]["mean"] == pytest.approx(0.1)
+    assert r1["by_speed"]["5"]["mean"] == pytest.approx(-0.1)
+    assert r1["failure_pct"] == 0.0
+    r5 = t["rows"][5.0]
+    assert r5["paired_reduction"]["mean"] == pytest.approx(0.5) and r5["failure_pct"] == 50.0
+    assert t["reference_failure_pct"] == pytest.approx(100 / 3) and t["speeds"] == ["2", "5"]
+    with pytest.raises(ValueError, match="reference 'mppi'"):
+        sweep_table(recs[3:], labels)
+
+
+@pytest.fixture
+def quick_is_tiny(monkeypatch):
+    monkeypatch.setitem(SUITES, "quick", TINY.__class__(**{**TINY.__dict__, "name": "quick"}))
+    monkeypatch.setattr(nb, "suite_flow", fake_flow)
+    monkeypatch.setattr(nb, "fly_scenario", lambda spec, sc, v, **kw: REAL_FLY(
+        spec, sc, v, city=kw.get("city"), flow=kw.get("flow"), navigate_fn=Fake()))
+
+
+def study(tmp_path, kind, values, *extra):
+    return ["nav-study", kind, "--suite", "quick", "--store", str(tmp_path / "store"),
+            "--values", *values, "--executor", "serial", "--out", str(tmp_path / kind),
+            "--no-progress", *extra]
+
+
+def test_command_flies_the_sweep_into_the_store_and_plots_it(tmp_path, quick_is_tiny, capsys):
+    assert cli.main(study(tmp_path, "qe", ["0", "2", "5"])) == 0
+    doc = json.loads((tmp_path / "qe" / "nav_sweep_qe.json").read_text())
+    assert doc["values"] == [0.0, 2.0, 5.0] and doc["flights_now"] == 16  # 4 scenarios x 4
+    assert [doc["rows"][k]["label"] for k in ("0.0", "2.0", "5.0")] == [
+        "mppi-w", "ea-mppi-w@qe=2", "ea-mppi-w"]
+    assert (tmp_path / "qe" / "nav_sweep_qe.png").stat().st_size > 10_000
+    store = NavStore(tmp_path / "store", SUITES["quick"], create=False)
+    assert {r["variant"] for r in store.load()} == {"mppi", "mppi-w", "ea-mppi-w@qe=2",
+                                                    "ea-mppi-w"}
+    capsys.readouterr()
+    # an H sweep reuses EA-MPPI+W's flights (H = inf) and MPPI's
+    assert cli.main(study(tmp_path, "h", ["0", "inf"])) == 0
+    assert '"flights_now": 4' in capsys.readouterr().out  # only ea-mppi-w@h=0 is new
+    assert (tmp_path / "h" / "nav_sweep_h.png").stat().st_size > 10_000
+    assert cli.main(study(tmp_path, "qe", ["0", "2", "5"])) == 2  # outputs exist
+    capsys.readouterr()
+    assert cli.main(study(tmp_path, "qe", ["0", "2", "5"], "--overwrite")) == 0
+    assert '"flights_now": 0' in capsys.readouterr().out  # a rerun flies nothing
+    assert cli.main(study(tmp_path, "qe", ["0"], "--maps", "7", "--overwrite")) == 2
+    assert cli.main(study(tmp_path, "qe", ["-1"], "--overwrite")) == 2
+
+
+def test_qe_zero_with_wind_is_mppi_w_and_qe_five_is_ea_mppi_w():
+    """The labels that name a thesis variant fly that variant's flight (real flights, 15 s on
+    the small map of ``tests/test_escape_variant.py``)."""
+    from windnav.city import City
+    from windnav.experiments.navigate import navigate, simulate_flow
+
+    city = City((0.0, 140.0, 0.0, 120.0), np.array([(35.0, 45.0, 45.0, 75.0)]),
+                np.array([20.0]))
+    flow = simulate_flow(city, 2.0, 0.0, spinup_s=5.0, record_s=20.0)
+
+    def fly(label):
+        base, options = nb.parse_variant(label)
+        return navigate(city, (10.0, 60.0), (110.0, 60.0), speed=2.0, direction_deg=0.0,
+                        variant=base, flow=flow, rng=3, duration=15.0, **options).summary()
+
+    for label, same in (("ea-mppi-w@qe=0", "mppi-w"), ("ea-mppi-w@qe=5@h=inf", "ea-mppi-w")):
+        a, b = fly(label), fly(same)
+        assert (a["energy_J"], a["distance_m"]) == (b["energy_J"], b["distance_m"])
+    assert fly("ea-mppi-w@qe=1")["energy_J"] != fly("ea-mppi-w")["energy_J"]
