@@ -121,3 +121,43 @@ def test_qe_zero_with_wind_is_mppi_w_and_qe_five_is_ea_mppi_w():
         a, b = fly(label), fly(same)
         assert (a["energy_J"], a["distance_m"]) == (b["energy_J"], b["distance_m"])
     assert fly("ea-mppi-w@qe=1")["energy_J"] != fly("ea-mppi-w")["energy_J"]
+
+
+@pytest.fixture
+def quick_is_tiny_real(monkeypatch):
+    monkeypatch.setitem(SUITES, "quick", TINY.__class__(**{**TINY.__dict__, "name": "quick"}))
+
+
+def test_command_cases_reflies_the_best_and_worst_and_winds_draws_a_map(tmp_path,
+                                                                         quick_is_tiny_real,
+                                                                         capsys):
+    spec = SUITES["quick"]
+    store = NavStore(tmp_path / "store", spec)
+    energies = {"quick/m00/w00/p0": (1000.0, 700.0), "quick/m00/w01/p1": (1000.0, 1300.0),
+                "quick/m00/w01/p0": (1000.0, 900.0)}
+    for sid, (e_ref, e) in energies.items():
+        for v, energy in (("mppi", e_ref), ("ea-mppi-w", e)):
+            store.append({**rec(sid, v, "success", energy, 3.0), "seed": 0})
+    out = tmp_path / "cases"
+    assert cli.main(["nav-study", "cases", "--suite", "quick", "--store", str(store.path),
+                     "--out", str(out), "--no-progress"]) == 0
+    doc = json.loads((out / "nav_cases.json").read_text())
+    assert doc["n"] == 3
+    assert doc["best"]["scenario_id"] == "quick/m00/w00/p0"
+    assert doc["best"]["reduction"] == pytest.approx(0.3)
+    assert doc["worst"]["scenario_id"] == "quick/m00/w01/p1"
+    assert set(doc["reflown_energy_J"]["best"]) == {"mppi", "ea-mppi-w"}
+    for t in ("best", "worst"):
+        for k in ("paths", "energy"):
+            assert (out / f"{t}_{k}.png").stat().st_size > 10_000
+    assert cli.main(["nav-study", "winds", "--suite", "quick", "--out", str(tmp_path / "w"),
+                     "--no-progress"]) == 0
+    doc = json.loads((tmp_path / "w" / "nav_winds.json").read_text())
+    assert [w["wind_index"] for w in doc["winds"]] == [1]
+    assert len(doc["winds"][0]["pairs"]) == 2
+    assert (tmp_path / "w" / "nav_winds.png").stat().st_size > 10_000
+    capsys.readouterr()
+    assert cli.main(["nav-study", "winds", "--suite", "quick", "--map", "3", "--out",
+                     str(tmp_path / "x")]) == 2
+    assert "'--map' parameter" in capsys.readouterr().err
+    assert cli.main(["nav-study", "cases", "--suite", "quick", "--out", str(tmp_path / "y")]) == 2

@@ -5,6 +5,8 @@ JSON into ``--out``.
 
     windnav nav-study qe    --store runs/thesis --maps 0-1 --out docs/navigation   # Q_E sweep
     windnav nav-study h     --store runs/thesis --maps 0-1 --out docs/navigation   # H sweep
+    windnav nav-study cases --store runs/thesis --out docs/navigation    # best and worst cases
+    windnav nav-study winds --map 0 --out docs/navigation                # 4 winds of one map
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -13,6 +15,13 @@ one wind per map and inlet, shared with whatever the store already holds; values
 thesis variants fly under their names), then plot the paired energy reduction against MPPI per
 value, overall and per inlet speed, with the failure rate
 (:mod:`windnav.experiments.nav_sweeps`). A rerun flies nothing already recorded.
+
+``cases`` ranks the store's scenarios where neither MPPI nor EA-MPPI+W (``--variant``) failed
+by the paired energy reduction, re-flies the best and the worst with both (their winds simulated
+again, so the flights are the recorded ones) and draws each: the paths over the mean wind, and
+airspeed, power and energy against time (:mod:`windnav.experiments.nav_cases`). ``winds`` draws
+4 of a map's 16 winds (one per inlet speed and incidence: w01, w06, w11, w12) with the start and
+goal of each pair.
 """
 
 from __future__ import annotations
@@ -31,7 +40,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h")
+STUDIES = ("qe", "h", "cases", "winds")
 """The studies, as named on the command line."""
 
 
@@ -42,14 +51,17 @@ def register(subparsers) -> None:
 
     p = subparsers.add_parser(
         "nav-study",
-        help="the navigation benchmark's studies (Q_E and H sweeps)",
+        help="the navigation benchmark's studies (Q_E and H sweeps, best and worst cases, "
+             "wind scenarios)",
         description="The navigation benchmark's studies: the Q_E and H sweeps of EA-MPPI+W "
-                    "against MPPI, flown into a benchmark store; each writes a figure and JSON.",
+                    "against MPPI flown into a benchmark store, the best and worst cases of a "
+                    "store, the wind scenarios of a map; each writes figures and JSON.",
     )
     p.add_argument("study", choices=STUDIES)
     p.add_argument("--out", type=Path, required=True, help="output folder (figure, JSON)")
-    p.add_argument("--store", type=Path, required=True,
-                   help="the benchmark store the flights go to (created or resumed)")
+    p.add_argument("--store", type=Path, default=None,
+                   help="qe, h: the benchmark store the flights go to (created or resumed); "
+                        "cases: the store whose records are ranked")
     p.add_argument("--suite", choices=tuple(SUITES), default="thesis",
                    help="the suite (%(default)s)")
     p.add_argument("--maps", default=None, metavar="LIST",
@@ -57,6 +69,9 @@ def register(subparsers) -> None:
     p.add_argument("--values", type=float, nargs="+", default=None,
                    help="the values swept (default: qe 0 0.5 1 2 3 4 5 6; h 0 25 50 100 200 "
                         "inf)")
+    p.add_argument("--variant", default="ea-mppi-w",
+                   help="cases: the variant compared with MPPI (%(default)s)")
+    p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the flights run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -78,8 +93,15 @@ def run(args) -> int:
 
     name = where(args)
     study = args.study
-    check_output_path(args.store, "--store", name, kind="dir")
     spec = get_suite(args.suite)
+    if study == "winds":
+        return _winds(args, name, spec)
+    if args.store is None:
+        raise ValueError(f"The '--store' parameter of {name} must name a benchmark store for "
+                         f"the {study} study. Got None instead.")
+    check_output_path(args.store, "--store", name, kind="dir")
+    if study == "cases":
+        return _cases(args, name, spec)
     maps = _maps(args.maps, name)
     try:
         maps = check_maps(spec, maps, name)
@@ -120,3 +142,72 @@ def run(args) -> int:
                                  "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 1 if summary["errors_now"] or summary["pending"] else 0
+
+
+def _cases(args, name: str, spec) -> int:
+    from windnav.experiments.nav_benchmark import NavStore, check_variants
+    from windnav.experiments.nav_cases import best_worst, fly_cases
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.viz.nav_studies import plot_cases
+
+    if not (args.store / "manifest.json").is_file():
+        raise ValueError(f"The '--store' parameter of {name} must name a benchmark store (with "
+                         f"manifest.json). Got {str(args.store)!r} instead.")
+    (variant,) = check_variants([args.variant], name)
+    tags = ("best", "worst")
+    products = ("nav_cases.json", *(f"{t}_{k}.png" for t in tags for k in ("paths", "energy")))
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    ranked = best_worst(NavStore(args.store, spec, create=False).load(), variant=variant)
+    ids = {t: ranked[t]["scenario_id"] for t in tags}
+    variants = ["mppi", variant]
+    cases = fly_cases(spec, list(dict.fromkeys(ids.values())), variants,
+                      progress=not args.no_progress)
+    flown = {t: {v: cases[sid]["results"][v].summary()["energy_J"] for v in variants}
+             for t, sid in ids.items()}
+    res = {"variant": variant, "reference": "mppi", "store": str(args.store), "n": ranked["n"],
+           "best": ranked["best"], "worst": ranked["worst"], "reflown_energy_J": flown,
+           "ranked": ranked["ranked"], "elapsed_s": time.perf_counter() - t0}
+    with out.writing() as stage:
+        plot_cases(cases, stage.dir, tags=ids)
+        doc = document("nav-study", {"study": "cases", **res}, args)
+        write_json(doc, stage.dir / products[0])
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    print(json.dumps(json_ready({"study": "cases", "pairs": ranked["n"],
+                                 **{t: ranked[t] for t in tags}, "reflown_energy_J": flown,
+                                 "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 0
+
+
+def _winds(args, name: str, spec) -> int:
+    from windnav.experiments.nav_cases import wind_scenarios
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.viz.nav_studies import plot_wind_scenarios
+
+    if args.map not in spec.maps:
+        raise ValueError(f"The '--map' parameter of {name} must be a map of the {spec.name} "
+                         f"suite, among {list(spec.maps)}. Got {args.map!r} instead.")
+    products = ("nav_winds.json", "nav_winds.png")
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    res = wind_scenarios(spec, args.map, progress=not args.no_progress)
+    summary = {"suite": spec.name, "map_index": args.map,
+               "winds": [{"wind_index": w["wind_index"], "speed": w["speed"],
+                          "direction_deg": w["direction_deg"],
+                          "pairs": [{"scenario_id": sc.scenario_id, "kind": sc.kind,
+                                     "start": sc.start, "goal": sc.goal}
+                                    for sc in w["scenarios"]]} for w in res["winds"]],
+               "elapsed_s": time.perf_counter() - t0}
+    with out.writing() as stage:
+        plot_wind_scenarios(res, stage.dir / products[1])
+        doc = document("nav-study", {"study": "winds", **summary}, args)
+        write_json(doc, stage.dir / products[0])
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    print(json.dumps(json_ready({"study": "winds", "map_index": args.map,
+                                 "winds": [w["wind_index"] for w in summary["winds"]],
+                                 "elapsed_s": round(summary["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 0
