@@ -5,7 +5,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.windnav-installed
 
-.PHONY: venv demo test lint bench clean
+.PHONY: venv demo test quick-suite lint bench clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -23,6 +23,11 @@ lint: $(STAMP)
 
 test: lint
 	$(PY) -m pytest -q
+
+# the navigation benchmark's quick suite (4 variants x 8 scenarios, real winds and flights):
+# a few minutes on 2 cores, so CI runs it after `make test` rather than inside it
+quick-suite: $(STAMP)
+	WINDNAV_QUICK_SUITE=1 $(PY) -m pytest -q tests/test_nav_benchmark.py -k quick_suite
 
 bench-venv: $(STAMP)
 	$(PY) -m pip install -q -e '.[bench]'

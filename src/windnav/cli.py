@@ -32,6 +32,7 @@ COMMAND_MODULES = (
     "demo",
     "benchmark_nav",
     "nav_study",
+    "tune_mppi",
     "train_decoder",
     "evaluate_decoder",
     "decoder_study",
