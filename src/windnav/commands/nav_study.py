@@ -7,6 +7,7 @@ JSON into ``--out``.
     windnav nav-study h     --store runs/thesis --maps 0-1 --out docs/navigation   # H sweep
     windnav nav-study cases --store runs/thesis --out docs/navigation    # best and worst cases
     windnav nav-study winds --map 0 --out docs/navigation                # 4 winds of one map
+    windnav nav-study gs    --out docs/navigation                        # cases against GS
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -21,7 +22,9 @@ by the paired energy reduction, re-flies the best and the worst with both (their
 again, so the flights are the recorded ones) and draws each: the paths over the mean wind, and
 airspeed, power and energy against time (:mod:`windnav.experiments.nav_cases`). ``winds`` draws
 4 of a map's 16 winds (one per inlet speed and incidence: w01, w06, w11, w12) with the start and
-goal of each pair.
+goal of each pair. ``gs`` flies MPPI, EA-MPPI+W (``Q_E = 3``, ``H = 90`` m), GS and GS+W on
+the three case studies of :mod:`windnav.experiments.gs_cases` (an intersection, a single
+building, a scenario of the thesis suite; ``--case`` picks one) and draws each.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h", "cases", "winds")
+STUDIES = ("qe", "h", "cases", "winds", "gs")
 """The studies, as named on the command line."""
 
 
@@ -52,7 +55,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "nav-study",
         help="the navigation benchmark's studies (Q_E and H sweeps, best and worst cases, "
-             "wind scenarios)",
+             "wind scenarios, cases against GS)",
         description="The navigation benchmark's studies: the Q_E and H sweeps of EA-MPPI+W "
                     "against MPPI flown into a benchmark store, the best and worst cases of a "
                     "store, the wind scenarios of a map; each writes figures and JSON.",
@@ -72,6 +75,10 @@ def register(subparsers) -> None:
     p.add_argument("--variant", default="ea-mppi-w",
                    help="cases: the variant compared with MPPI (%(default)s)")
     p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
+    p.add_argument("--case", default=None,
+                   help="gs: one case (intersection, single-building, evaluation-map; default "
+                        "all)")
+    p.add_argument("--seed", type=int, default=0, help="gs: the flights' seed (%(default)s)")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the flights run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -96,6 +103,8 @@ def run(args) -> int:
     spec = get_suite(args.suite)
     if study == "winds":
         return _winds(args, name, spec)
+    if study == "gs":
+        return _gs(args, name)
     if args.store is None:
         raise ValueError(f"The '--store' parameter of {name} must name a benchmark store for "
                          f"the {study} study. Got None instead.")
@@ -209,5 +218,36 @@ def _winds(args, name: str, spec) -> int:
     print(json.dumps(json_ready({"study": "winds", "map_index": args.map,
                                  "winds": [w["wind_index"] for w in summary["winds"]],
                                  "elapsed_s": round(summary["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 0
+
+
+def _gs(args, name: str) -> int:
+    from windnav.experiments.gs_cases import CASES, case_summary, run_case
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.viz.gs_cases import plot_gs_case, plot_gs_case_energy
+
+    if args.case is not None and args.case not in CASES:
+        raise ValueError(f"The '--case' parameter of {name} must be one of {list(CASES)}. Got "
+                         f"{args.case!r} instead.")
+    names = [args.case] if args.case else list(CASES)
+    products = ("nav_gs.json", *(f"gs_{c}{k}.png" for c in names for k in ("", "_energy")))
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    cases = {c: run_case(c, seed=args.seed, progress=not args.no_progress) for c in names}
+    summary = {c: case_summary(case) for c, case in cases.items()}
+    with out.writing() as stage:
+        for c, case in cases.items():
+            plot_gs_case(case, stage.dir / f"gs_{c}.png")
+            plot_gs_case_energy(case, stage.dir / f"gs_{c}_energy.png")
+        doc = document("nav-study", {"study": "gs", "seed": args.seed, "cases": summary,
+                                     "elapsed_s": time.perf_counter() - t0}, args)
+        write_json(doc, stage.dir / products[0])
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    brief = {c: {v: {k: s[k] for k in ("outcome", "energy_J", "time_s")}
+                 for v, s in case_summary(cases[c])["variants"].items()} for c in names}
+    print(json.dumps(json_ready({"study": "gs", "cases": brief,
+                                 "elapsed_s": round(time.perf_counter() - t0, 1)}), indent=1))
     print_written(out)
     return 0

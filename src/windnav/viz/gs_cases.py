@@ -1,0 +1,111 @@
+"""Figures of the case studies against the global graph search (thesis ch. 5).
+
+:func:`plot_gs_case`: a case of :func:`windnav.experiments.gs_cases.run_case` in one PNG, the
+four flown paths (and the GS routes as planned, dashed) over the mean wind, beside bars of each
+variant's energy (kJ) and flight time (s) labelled with its outcome.
+:func:`plot_gs_case_energy`: its airspeed, power and energy against time
+(:func:`windnav.viz.nav_compare.plot_energy`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from windnav.viz.nav_compare import COLORS, OUTLINE, plot_energy, wind_background  # noqa: E402
+
+__all__ = ["plot_gs_case", "plot_gs_case_energy"]
+
+_BAR_COLORS = ("tab:red", "tab:gray", "tab:orange", "tab:blue")
+"""Bar colours, in the order of the flights (the paths' colours, readable on white)."""
+
+
+def _title(case: Mapping) -> str:
+    return (f"{case['name']}: inlet {case['speed']:g} m/s toward {case['direction_deg']:g}°, "
+            f"seed {case.get('seed', '?')}")
+
+
+def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
+    """One case in one PNG: paths over the mean wind, and energy and time per variant.
+
+    The left panel draws the mean wind speed, its streamlines and the buildings
+    (:func:`~windnav.viz.nav_compare.wind_background`), each flown path in the colours of
+    :data:`~windnav.viz.nav_compare.COLORS` (in the order of ``case["results"]``), the route
+    GS and GS+W planned before take-off (thin, dashed), the start (circle) and goal (star).
+    The right panels are bars of ``energy_J`` (airspeed power curve, kJ; the rotor energy of
+    the 6-DoF simulator as a black tick) and ``time_s`` (s), each labelled with its outcome.
+
+    Parameters
+    ----------
+    case : dict
+        :func:`windnav.experiments.gs_cases.run_case`'s result (``city``, ``flow``,
+        ``results``; ``name``, ``speed``, ``direction_deg`` for the title).
+    path : str or Path
+        The PNG to write (about 0.3-0.6 MB).
+    title : str, optional
+        Default: the case, its inlet and seed.
+
+    Returns
+    -------
+    Path
+    """
+    results = case["results"]
+    labels = list(results)
+    fig = plt.figure(figsize=(12.5, 6.2))
+    grid = fig.add_gridspec(2, 2, width_ratios=(1.9, 1.0))
+    ax = fig.add_subplot(grid[:, 0])
+    im = wind_background(ax, case["city"], case["flow"])
+    fig.colorbar(im, ax=ax, label="mean wind speed (m/s)", shrink=0.85)
+    for i, (label, r) in enumerate(results.items()):
+        c = COLORS[i % len(COLORS)]
+        if r.route is not None:
+            ax.plot(*np.asarray(r.route).T, "--", color=c, lw=0.9, zorder=4)
+        ax.plot(*r.position[:, :2].T, color=c, lw=2.0, zorder=5, path_effects=OUTLINE,
+                label=label)
+    first = next(iter(results.values()))
+    ax.plot(*first.start, "o", color="w", mec="k", ms=8, zorder=6, label="start")
+    ax.plot(*first.goal, "*", color="w", mec="k", ms=14, zorder=6, label="goal")
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.75)
+
+    energy = [results[k].energy_J / 1e3 for k in labels]
+    rotor = [results[k].rotor_energy_J / 1e3 for k in labels]
+    times = [results[k].time_s for k in labels]
+    outcomes = [results[k].outcome for k in labels]
+    colors = [_BAR_COLORS[i % len(_BAR_COLORS)] for i in range(len(labels))]
+    pos = np.arange(len(labels))
+    ax_e = fig.add_subplot(grid[0, 1])
+    ax_t = fig.add_subplot(grid[1, 1], sharex=ax_e)
+    ax_e.bar(pos, energy, color=colors)
+    ax_e.plot(pos, rotor, "_", color="k", ms=22, mew=2, label="rotor energy")
+    ax_t.bar(pos, times, color=colors)
+    tops = (np.maximum(energy, rotor), times)  # labels above the bar and the rotor tick
+    for axis, values, top, fmt in ((ax_e, energy, tops[0], "{:.2f} kJ"),
+                                   (ax_t, times, tops[1], "{:.0f} s")):
+        for p, v, y, o in zip(pos, values, top, outcomes, strict=True):
+            axis.annotate(f"{fmt.format(v)}\n{o}", (p, y), xytext=(0, 4),
+                          textcoords="offset points", ha="center", va="bottom", fontsize=7.5)
+        axis.set_ylim(0.0, 1.35 * max(max(top), 1e-9))
+        axis.grid(axis="y", alpha=0.3)
+    ax_e.set_ylabel("energy P(|v - w|) (kJ)")
+    ax_e.legend(fontsize=7.5, loc="upper right")
+    ax_t.set_ylabel("flight time (s)")
+    ax_t.set_xticks(pos, labels, fontsize=8.5)
+    plt.setp(ax_e.get_xticklabels(), visible=False)
+    fig.suptitle(title or _title(case))
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def plot_gs_case_energy(case: Mapping, path, *, title: str | None = None) -> Path:
+    """Airspeed, power and cumulative energy against time of every flight of ``case``
+    (:func:`~windnav.viz.nav_compare.plot_energy`); returns the PNG's path."""
+    return plot_energy(dict(case["results"]), path, title=title or _title(case))
