@@ -165,8 +165,16 @@ def test_command_writes_json_and_figure_and_refuses_to_overwrite(tmp_path, capsy
     assert (out / "tune_mppi.json").read_bytes() == before
     with pytest.raises(ValueError, match="'--trials' parameter of windnav tune-mppi"):
         command(["--trials", 0, "--out", tmp_path / "other"])
-    assert command(["--trials", 1, "--out", out, "--overwrite", "--no-progress"]) == 0
-    assert len(json.loads((out / "tune_mppi.json").read_text())["trials"]) == 1
+    assert command(["--trials", 1, "--out", out, "--overwrite", "--no-progress",
+                    "--flight-seeds", 1, "--holdout", 1]) == 0
+    doc = json.loads((out / "tune_mppi.json").read_text())
+    assert len(doc["trials"]) == 1 and doc["seeds"] == [0]
+    # the held-out check flies seed 1, the first the study never saw
+    assert doc["holdout"]["seeds"] == [1]
+    assert doc["holdout"]["defaults"]["cost"] == pytest.approx(
+        tm.evaluate(tm.thesis_defaults(), seeds=[1])["cost"])
+    with pytest.raises(ValueError, match="'--flight-seeds' parameter"):
+        command(["--trials", 1, "--flight-seeds", 0, "--out", tmp_path / "x"])
 
 
 def test_command_without_optuna_says_how_to_install_it(tmp_path, monkeypatch):

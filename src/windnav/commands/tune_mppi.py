@@ -45,6 +45,12 @@ def register(subparsers) -> None:
     )
     p.add_argument("--trials", type=int, default=20, help="Optuna trials (%(default)s)")
     p.add_argument("--seed", type=int, default=0, help="seed of the TPE sampler (%(default)s)")
+    p.add_argument("--flight-seeds", type=int, default=3,
+                   help="flights per trial, seeds 0..N-1 (%(default)s)")
+    p.add_argument("--holdout", type=int, default=0,
+                   help="then fly the best and the default parameters on N further seeds "
+                        "(N..): the tuned parameters checked on flights the study never saw "
+                        "(%(default)s)")
     p.add_argument("--out", type=Path, required=True, help="output folder (JSON, figure)")
     p.add_argument("--no-progress", action="store_true", help="hide the per-trial lines")
     add_output_arguments(p)
@@ -59,9 +65,19 @@ def run(args) -> int:
     name = where(args)
     tune_mppi.require_optuna()  # a missing extra is reported before anything is written
     trials = positive_int(args.trials, "--trials", name)
+    n_seeds = positive_int(args.flight_seeds, "--flight-seeds", name)
+    holdout = 0 if args.holdout == 0 else positive_int(args.holdout, "--holdout", name)
     sampler_seed = seed(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    res = tune_mppi.tune(trials, seed=sampler_seed, progress=not args.no_progress)
+    res = tune_mppi.tune(trials, seed=sampler_seed, seeds=range(n_seeds),
+                         progress=not args.no_progress)
+    if holdout:
+        fresh = range(n_seeds, n_seeds + holdout)
+        res["holdout"] = {"seeds": list(fresh), **{
+            k: {"cost": e["cost"], "successes": sum(f["outcome"] == "success"
+                                                    for f in e["flights"])}
+            for k, e in (("best", tune_mppi.evaluate(res["best_params"], seeds=fresh)),
+                         ("defaults", tune_mppi.evaluate(res["defaults"], seeds=fresh)))}}
     from windnav.viz.tune import plot_tuning
 
     with out.writing() as stage:
@@ -74,6 +90,7 @@ def run(args) -> int:
         "best_params": res["best_params"], "best_cost_s": res["best_cost"],
         "best_trial": res["best_trial"], "defaults": res["defaults"],
         "defaults_cost_s": res["defaults_cost"], "trials": res["n_trials"],
+        "holdout": res.get("holdout"),
         "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 0
