@@ -196,3 +196,25 @@ def test_one_grid_rule_for_solver_and_sweep_store(extent, dx):
     # the one rule (windnav.city.grid_shape): the grid covers the map
     assert grid.nx == math.ceil(extent / dx - 1e-9)
     assert (grid.ny, grid.nx) == City.grid(city, dx)[1].shape + City.grid(city, dx)[0].shape
+
+
+def test_recorded_frames_are_adopted_by_the_wind_field_without_a_copy():
+    from windnav.wind import GriddedWind
+
+    city = City((0.0, 60.0, 0.0, 40.0), np.array([(20.0, 28.0, 16.0, 24.0)]), np.array([10.0]))
+    sol = simulate(city, 3.0, 20.0, dx=2.0, dt=0.25, spinup_steps=2, steps=6, record_every=2)
+    assert sol.frames_u.shape == (3, *sol.solid.shape)
+    field = sol.wind_field(unsteady=True)
+    assert np.shares_memory(field.u, sol.frames_u) and np.shares_memory(field.v, sol.frames_v)
+    # the same field as from separate copies of the frames
+    copied = GriddedWind(sol.x, sol.y, sol.frames_u.copy(), sol.frames_v.copy(), t=sol.t,
+                         solid=sol.solid)
+    assert not np.shares_memory(copied.u, sol.frames_u)
+    np.testing.assert_array_equal(copied.u, field.u)
+    np.testing.assert_array_equal(copied.v, field.v)
+    xyz = np.array([[5.0, 7.0, 10.0], [41.3, 30.2, 10.0]])
+    np.testing.assert_array_equal(copied.velocity(0.9, xyz), field.velocity(0.9, xyz))
+    # u and v swapped, or frames of another array, are copied
+    swapped = GriddedWind(sol.x, sol.y, sol.frames_v, sol.frames_u, t=sol.t)
+    assert not np.shares_memory(swapped.u, sol.frames_v)
+    np.testing.assert_array_equal(swapped.u, sol.frames_v)

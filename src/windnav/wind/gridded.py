@@ -82,6 +82,21 @@ def _interpolate(x, y, frames, k0, k1, c, xyz, out):  # pragma: no cover - numba
         out[p, 2] = 0.0
 
 
+def _interleaved(u, v) -> np.ndarray | None:
+    """The C-contiguous float64 (T, ny, nx, 2) array whose ``[..., 0]`` and ``[..., 1]`` are
+    the views ``u`` and ``v``, or None when they are not such views."""
+    if not (isinstance(u, np.ndarray) and isinstance(v, np.ndarray)) or u.ndim != 3:
+        return None
+    base = u.base
+    if (not isinstance(base, np.ndarray) or v.base is not base or base.dtype != np.float64
+            or base.shape != (*u.shape, 2) or not base.flags.c_contiguous
+            or u.strides != base.strides[:3] or v.strides != base.strides[:3]
+            or u.ctypes.data != base.ctypes.data
+            or v.ctypes.data != base.ctypes.data + base.itemsize):
+        return None
+    return base
+
+
 class GriddedWind:
     """Horizontal wind field on a rectilinear grid of cell centres (steady or unsteady).
 
@@ -158,8 +173,11 @@ class GriddedWind:
             if np.any(np.diff(t_arr) <= 0):
                 raise ValueError(f"The 't' parameter of {where} must be strictly increasing.")
             self.t = t_arr
-        # (T, ny, nx, 2) so one gather fetches both components
-        self._frames = np.ascontiguousarray(np.stack(comps, axis=-1))
+        # (T, ny, nx, 2) so one gather fetches both components; frames already laid out so
+        # (the solver records them that way) are adopted, not copied
+        self._frames = _interleaved(u, v)
+        if self._frames is None:
+            self._frames = np.ascontiguousarray(np.stack(comps, axis=-1))
         if solid is None:
             self.solid = None
         else:
