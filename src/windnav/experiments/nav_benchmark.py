@@ -11,10 +11,10 @@ How a run is organised
   :func:`windnav.experiments.executor.run_tasks` (``serial``, ``process`` or ``ray``) simulates
   that wind once (:func:`windnav.experiments.navigate.simulate_flow`: ``spinup_s`` of spin-up,
   then ``record_s`` of frames every ``dt`` on a ``dx`` grid) and flies every pending
-  (pair, variant) of it in that wind. The gridded wind field (frames stacked as
-  ``(T, ny, nx, 2)``) is built once per task and shared by its flights
-  (:class:`SharedFlow`); the solver's own frame arrays are released first, so a task holds one
-  copy of the frames (2.3 GB for 600 m x 600 m x 400 frames in float64).
+  (pair, variant) of it in that wind. The gridded wind field (frames ``(T, ny, nx, 2)``, the
+  layout the solver records them in, so the field adopts them without a copy) is built once
+  per task and shared by its flights (:class:`SharedFlow`): a task holds one copy of the frames
+  (2.3 GB for 600 m x 600 m x 400 frames in float64; peak 2.8 GB per worker).
 * **Flows are recomputed, not stored.** A 600 m wind of 125 s at ``dx = 1`` m is 2.3 GB of
   float64 frames (1.2 GB in float32): the thesis suite's 256 winds would need ~300 GB, so a
   task recomputes its wind (deterministic: same map, inlet and settings, same frames) and the
@@ -116,11 +116,11 @@ class SharedFlow:
     """A :class:`~windnav.flow.FlowSolution` whose unsteady wind field is built once.
 
     :func:`~windnav.experiments.navigate.navigate` asks its ``flow`` for
-    ``wind_field(unsteady=True)`` on every flight, which stacks the frames anew (2.3 GB for a
-    600 m map); this wrapper builds that field once, keeps the solution's ``frames_u`` and
-    ``frames_v`` as views into it (so the solver's arrays can be freed) and answers every other
-    attribute from the solution. The field's values are the solution's, so a flight on it is
-    the flight on the solution itself.
+    ``wind_field(unsteady=True)`` on every flight; this wrapper builds that field once (it adopts
+    the solver's ``(T, ny, nx, 2)`` frames, 2.3 GB for a 600 m map, and copies only frames laid
+    out otherwise), keeps the solution's ``frames_u`` and ``frames_v`` as views into it and
+    answers every other attribute from the solution. The field's values are the solution's, so
+    a flight on it is the flight on the solution itself.
     """
 
     def __init__(self, flow):
@@ -402,7 +402,7 @@ def run_benchmark(
         the workers append to the store, so it must be on a filesystem they share).
     workers : int, optional
         Worker processes (default: every core, at most one per task). Each holds one wind
-        (about 2.3 GB for a 600 m map, 4.6 GB while it is being built).
+        (about 2.3 GB for a 600 m map; a worker peaks at 2.8 GB).
     progress : bool
         A progress bar over the tasks, on stderr.
     retry_errors : bool
