@@ -16,8 +16,8 @@ blows toward, counter-clockwise from +x (DESIGN.md).
     ground surrounds the blocks. Start ``(60, 150)`` on the axis of the east-west street's
     west arm, 20 m inside it; goal ``(150, 210)`` on the axis of the north-south street's north
     arm, 15 m from its end; each 15 m from the nearest wall, so the route turns the corner.
-    Wind 5 m/s toward 0 deg, along the east-west street, which channels it to a mean of about
-    11 m/s (13 m/s at most) while the north-south arms stay sheltered (about 1.5 m/s). At
+    Wind 5 m/s toward 0 deg, along the east-west street, which channels it to a mean of 9.3 m/s
+    between the walls (15.7 m/s at most) while the north arm stays sheltered (1.6 m/s). At
     7 m/s the street's jet reaches 16-18 m/s, beyond the 13 m/s airspeed of the Hummingbird's
     power curve, and every variant is blown out of the map. The blocks are longer along the
     wind than across it so that they block 40 % of the inlet (the side boundaries hold the
