@@ -30,6 +30,7 @@ import math
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
+from windnav.experiments.nav_records import latest_records
 from windnav.experiments.nav_suite import (
     Scenario,
     SuiteSpec,
@@ -102,9 +103,7 @@ def best_worst(records: Iterable[Mapping], *, variant: str = "ea-mppi-w",
     if variant == reference:
         raise ValueError(f"The 'variant' parameter of {where} must differ from the reference "
                          f"{reference!r}. Got {variant!r} instead.")
-    latest: dict[tuple[str, str], Mapping] = {}
-    for rec in records:
-        latest[(rec["scenario_id"], rec["variant"])] = rec
+    latest = latest_records(records)
     energies: dict[str, dict[str, float]] = {}
     for (sid, v), rec in latest.items():
         e = _energy(rec)

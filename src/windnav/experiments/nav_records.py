@@ -45,6 +45,7 @@ __all__ = [
     "NavStore",
     "SuiteMismatchError",
     "benchmark_table",
+    "latest_records",
     "render_table",
 ]
 
@@ -181,7 +182,7 @@ class NavStore:
 
     def latest(self) -> dict[tuple[str, str], dict]:
         """The last record of each ``(scenario_id, variant)``."""
-        return {(r["scenario_id"], r["variant"]): r for r in self.load()}
+        return latest_records(self.load())
 
     # ----------------------------------------------------------------------------- writing
 
@@ -297,6 +298,12 @@ def _energies(recs, field):
             and math.isfinite(_num(r.get(field)))]
 
 
+def latest_records(records: Iterable[Mapping]) -> dict[tuple[str, str], Mapping]:
+    """The last of the ``records`` of each ``(scenario_id, variant)`` (a flight recorded again,
+    e.g. by ``--retry-errors``, counts once, as its latest record)."""
+    return {(r["scenario_id"], r["variant"]): r for r in records}
+
+
 def benchmark_table(
     records: Iterable[Mapping],
     *,
@@ -340,11 +347,8 @@ def benchmark_table(
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"The 'confidence' parameter of benchmark_table must be in (0, 1). "
                          f"Got {confidence!r} instead.")
-    latest: dict[tuple[str, str], Mapping] = {}
-    for r in records:
-        latest[(r["scenario_id"], r["variant"])] = r
     by_variant: dict[str, dict[str, Mapping]] = {}
-    for (sid, v), r in latest.items():
+    for (sid, v), r in latest_records(records).items():
         by_variant.setdefault(v, {})[sid] = r
     if variants is None:
         variants = sorted(by_variant, key=lambda v: (v != reference, v))
