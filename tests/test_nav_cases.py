@@ -116,6 +116,12 @@ def test_fly_cases_shares_a_wind_per_map_and_wind_and_flies_as_the_benchmark(mon
         assert [c[1:] for c in calls if c[0] == sc.start] == [
             (v, sc.seed, sc.direction_deg, {"capture_radius": 7.0}) for v in ("mppi", "ea-mppi-w")]
     assert cases[P0]["city"] is cases[P1]["city"] and cases[P0]["flow"] is cases[P1]["flow"]
+    # a variant label with study parameters flies as the benchmark flies it
+    calls.clear()
+    cases = fly_cases(spec, [P0], ["ea-mppi-w@qe=2"], navigate_fn=fake_navigate)
+    assert list(cases[P0]["results"]) == ["ea-mppi-w@qe=2"]
+    assert [c[1] for c in calls] == ["ea-mppi-w"]
+    assert calls[0][4] == {"capture_radius": 7.0, "planner_overrides": {"energy_weight": 2.0}}
     with pytest.raises(ValueError, match="'scenario_ids' parameter of fly_cases.*'quick/m00"):
         fly_cases(spec, [P0, "quick/m00/w04/p0"], ["mppi"], navigate_fn=fake_navigate)
     with pytest.raises(ValueError, match="'scenario_ids' parameter of fly_cases"):

@@ -76,6 +76,7 @@ __all__ = [
     "check_variants",
     "compare_records",
     "error_record",
+    "fly",
     "fly_scenario",
     "get_suite",
     "make_suite",
@@ -248,6 +249,30 @@ def check_maps(spec: SuiteSpec, maps, where: str) -> tuple[int, ...]:
     return tuple(sorted(got))
 
 
+def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
+        navigate_fn: Callable | None = None):
+    """The flight of one scenario with one variant, as the benchmark flies it: ``navigate``
+    from the scenario's start to its goal with its seed, in ``flow``, with the suite's
+    ``navigate_options`` and the variant label's study parameters (:func:`parse_variant`;
+    ``planner_overrides`` of both are merged, the label's win).
+
+    Returns
+    -------
+    NavigationResult
+        (or whatever ``navigate_fn`` returns). Raises whatever the flight raises.
+    """
+    if navigate_fn is None:
+        from windnav.experiments.navigate import navigate as navigate_fn
+    base, options = parse_variant(variant, "fly")
+    kwargs = {**spec.navigate_options, **options}
+    if "planner_overrides" in options and spec.navigate_options.get("planner_overrides"):
+        kwargs["planner_overrides"] = {**spec.navigate_options["planner_overrides"],
+                                       **options["planner_overrides"]}
+    return navigate_fn(city, scenario.start, scenario.goal, speed=scenario.speed,
+                       direction_deg=scenario.direction_deg, variant=base, rng=scenario.seed,
+                       flow=flow, **kwargs)
+
+
 def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None, flow=None,
                  navigate_fn: Callable | None = None) -> dict:
     """Fly one scenario with one variant and return its record (never raises an Exception).
@@ -276,22 +301,13 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
     t0 = time.perf_counter()
     rec = error_record(scenario, variant, None)
     try:
-        if navigate_fn is None:
-            from windnav.experiments.navigate import navigate as navigate_fn
         if city is None:
             city = suite_map(spec, scenario.map_index)
         if flow is None:
             t_flow = time.perf_counter()
             flow = suite_flow(spec, city, scenario.speed, scenario.direction_deg)
             rec["flow_s"] = time.perf_counter() - t_flow
-        base, options = parse_variant(variant, "fly_scenario")
-        kwargs = {**spec.navigate_options, **options}
-        if "planner_overrides" in options and spec.navigate_options.get("planner_overrides"):
-            kwargs["planner_overrides"] = {**spec.navigate_options["planner_overrides"],
-                                           **options["planner_overrides"]}
-        result = navigate_fn(city, scenario.start, scenario.goal, speed=scenario.speed,
-                             direction_deg=scenario.direction_deg, variant=base,
-                             rng=scenario.seed, flow=flow, **kwargs)
+        result = fly(spec, scenario, variant, city=city, flow=flow, navigate_fn=navigate_fn)
         summary = result.summary()
         rec["outcome"] = summary["outcome"]
         rec.update({k: summary.get(k) for k in _METRICS})

@@ -172,9 +172,8 @@ def fly_cases(spec, scenario_ids: Sequence[str] | str, variants: Sequence[str] |
     Each scenario's map (:func:`suite_map`) and wind
     (:func:`~windnav.experiments.nav_benchmark.suite_flow`: ``spinup_s`` of spin-up, then
     ``record_s`` of frames) are built once, shared by scenarios of the same map and wind, and
-    every variant flies :func:`~windnav.experiments.navigate.navigate` from the scenario's
-    start to its goal with the scenario's seed and the suite's ``navigate_options``: the call of
-    :func:`~windnav.experiments.nav_benchmark.fly_scenario`, so the flights are the recorded
+    every variant flies it with :func:`~windnav.experiments.nav_benchmark.fly` (the call of
+    :func:`~windnav.experiments.nav_benchmark.fly_scenario`), so the flights are the recorded
     ones (a 600 m wind takes 25-40 s of one core to simulate).
 
     Parameters
@@ -184,7 +183,8 @@ def fly_cases(spec, scenario_ids: Sequence[str] | str, variants: Sequence[str] |
     scenario_ids : sequence of str, or one str
         Distinct ids of the suite's scenarios (``"thesis/m03/w07/p2"``).
     variants : sequence of str, or a comma-separated str
-        Keys of :data:`windnav.plan.VARIANTS`, flown in this order.
+        Keys of :data:`windnav.plan.VARIANTS` or labels with study parameters
+        (:func:`~windnav.experiments.nav_benchmark.parse_variant`), flown in this order.
     progress : bool
         A line per wind and per flight on stderr.
     keep_frames : bool
@@ -212,8 +212,6 @@ def fly_cases(spec, scenario_ids: Sequence[str] | str, variants: Sequence[str] |
     spec = check_suite_spec(spec, where)
     variants = nav_benchmark.check_variants(variants, where)
     scenarios = _check_ids(spec, scenario_ids, where)
-    if navigate_fn is None:
-        from windnav.experiments.navigate import navigate as navigate_fn
     cities: dict[int, object] = {}
     cases: dict[str, dict] = {}
     groups: dict[tuple[int, int], list[Scenario]] = {}
@@ -230,9 +228,8 @@ def fly_cases(spec, scenario_ids: Sequence[str] | str, variants: Sequence[str] |
         for sc in members:
             results = {}
             for v in variants:
-                results[v] = navigate_fn(city, sc.start, sc.goal, speed=sc.speed,
-                                         direction_deg=sc.direction_deg, variant=v,
-                                         rng=sc.seed, flow=flow, **spec.navigate_options)
+                results[v] = nav_benchmark.fly(spec, sc, v, city=city, flow=flow,
+                                               navigate_fn=navigate_fn)
                 _say(progress, f"fly_cases: {sc.scenario_id} {v}: {results[v].outcome}, "
                                f"{results[v].energy_J / 1e3:.2f} kJ")
             cases[sc.scenario_id] = {"scenario": sc, "city": city, "results": results,
