@@ -48,11 +48,12 @@ scenario with the scenario's own seed (``Scenario.seed``, 504508306); :func:`run
 from __future__ import annotations
 
 import math
-import sys
 import time
 from collections.abc import Callable, Mapping
 
 import numpy as np
+
+from windnav.experiments.results import say
 
 __all__ = [
     "CASES",
@@ -129,11 +130,6 @@ CASES: dict[str, Callable] = {
 """Case name -> a function returning ``(City, start_xy, goal_xy, speed m/s, direction_deg)``."""
 
 
-def _say(progress: bool, message: str) -> None:
-    if progress:
-        print(message, file=sys.stderr, flush=True)
-
-
 def _check_flow_settings(flow_settings, where: str) -> dict:
     if flow_settings is None:
         return dict(THESIS_FLOW)
@@ -185,7 +181,7 @@ def run_case(name: str, *, seed: int = 0, progress: bool = False,
                          f"{name!r} instead.")
     settings = _check_flow_settings(flow_settings, where)
     city, start, goal, speed, direction = CASES[name]()
-    _say(progress, f"gs_cases: wind of {name} ({speed:g} m/s toward {direction:g} deg)")
+    say(progress, f"gs_cases: wind of {name} ({speed:g} m/s toward {direction:g} deg)")
     t0 = time.perf_counter()
     flow = simulate_flow(city, speed, direction, **settings)
     flow_s = time.perf_counter() - t0
@@ -194,7 +190,7 @@ def run_case(name: str, *, seed: int = 0, progress: bool = False,
         results[label] = navigate(city, start, goal, speed=speed, direction_deg=direction,
                                   variant=variant, rng=seed, flow=flow, **options)
         r = results[label]
-        _say(progress, f"gs_cases: {name} {label}: {r.outcome}, {r.energy_J / 1e3:.2f} kJ, "
+        say(progress, f"gs_cases: {name} {label}: {r.outcome}, {r.energy_J / 1e3:.2f} kJ, "
                        f"{r.time_s:.1f} s")
     if not keep_frames:
         flow = mean_flow(flow)

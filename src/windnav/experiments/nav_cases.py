@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 
 from windnav.experiments.nav_records import latest_records
@@ -39,17 +38,13 @@ from windnav.experiments.nav_suite import (
     parse_scenario_id,
     suite_map,
 )
+from windnav.experiments.results import say
 
 __all__ = ["SUCCESS", "best_worst", "default_winds", "fly_cases", "mean_flow",
            "wind_scenarios"]
 
 SUCCESS = "success"
 """The outcome of a flight that reached and held its goal."""
-
-
-def _say(progress: bool, message: str) -> None:
-    if progress:
-        print(message, file=sys.stderr, flush=True)
 
 
 # ------------------------------------------------------------------------------- ranking
@@ -222,7 +217,7 @@ def fly_cases(spec, scenario_ids: Sequence[str] | str, variants: Sequence[str] |
         if city is None:
             city = cities[m] = suite_map(spec, m)
         first = members[0]
-        _say(progress, f"fly_cases: wind of {first.scenario_id} ({first.speed:g} m/s toward "
+        say(progress, f"fly_cases: wind of {first.scenario_id} ({first.speed:g} m/s toward "
                        f"{first.direction_deg:g} deg)")
         flow = nav_benchmark.suite_flow(spec, city, first.speed, first.direction_deg)
         for sc in members:
@@ -230,7 +225,7 @@ def fly_cases(spec, scenario_ids: Sequence[str] | str, variants: Sequence[str] |
             for v in variants:
                 results[v] = nav_benchmark.fly(spec, sc, v, city=city, flow=flow,
                                                navigate_fn=navigate_fn)
-                _say(progress, f"fly_cases: {sc.scenario_id} {v}: {results[v].outcome}, "
+                say(progress, f"fly_cases: {sc.scenario_id} {v}: {results[v].outcome}, "
                                f"{results[v].energy_J / 1e3:.2f} kJ")
             cases[sc.scenario_id] = {"scenario": sc, "city": city, "results": results,
                                      "flow": flow if keep_frames else None}
@@ -325,7 +320,7 @@ def wind_scenarios(spec, map_index: int, winds: Sequence[int] | None = None, *,
     out = []
     for w in ws:
         speed, direction = spec.wind(w)
-        _say(progress, f"wind_scenarios: m{m:02d}/w{w:02d} ({speed:g} m/s toward "
+        say(progress, f"wind_scenarios: m{m:02d}/w{w:02d} ({speed:g} m/s toward "
                        f"{direction:g} deg)")
         flow = mean_flow(nav_benchmark.suite_flow(spec, city, speed, direction))
         scenarios = (make_suite(dataclasses.replace(spec, maps=(m,), winds=(w,)),

@@ -39,13 +39,13 @@ every case tried where both succeeded, and the summary says so rather than hidin
 from __future__ import annotations
 
 import math
-import sys
 import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from windnav._validate import finite_float, positive_float
+from windnav.experiments.results import say
 
 __all__ = ["LABELS", "RECORD_KEYS", "VARIANTS", "NavDemoConfig", "describe", "run_nav_demo"]
 
@@ -125,11 +125,6 @@ class NavDemoConfig:
                              f"{self.map_size / 20:g} m. Got {self.dx!r} instead.")
 
 
-def _say(progress: bool, message: str) -> None:
-    if progress:
-        print(message, file=sys.stderr, flush=True)
-
-
 def _city(cfg: NavDemoConfig):
     """The seed's planning map, with a message naming the config when it cannot be drawn."""
     from windnav.city import planning_map
@@ -199,7 +194,7 @@ def run_nav_demo(cfg: NavDemoConfig = NavDemoConfig(), *, progress: bool = False
     start, goal = _endpoints(city, cfg)
     timings["city"] = time.perf_counter() - t0
 
-    _say(progress, f"simulating the wind of a {cfg.map_size:g} m city "
+    say(progress, f"simulating the wind of a {cfg.map_size:g} m city "
                    f"({np.unique(city.building_labels()).size} buildings): "
                    f"{cfg.wind_speed:g} m/s toward {cfg.direction_deg:g} deg, "
                    f"{cfg.spinup_s:g} s spin-up + {cfg.record_s:g} s recorded on {cfg.dx:g} m "
@@ -211,7 +206,7 @@ def run_nav_demo(cfg: NavDemoConfig = NavDemoConfig(), *, progress: bool = False
 
     results, records = {}, {}
     for v in VARIANTS:
-        _say(progress, f"flying {LABELS[v]} from {np.round(start).tolist()} to "
+        say(progress, f"flying {LABELS[v]} from {np.round(start).tolist()} to "
                        f"{np.round(goal).tolist()} m")
         t0 = time.perf_counter()
         res = navigate(city, start, goal, speed=cfg.wind_speed, direction_deg=cfg.direction_deg,

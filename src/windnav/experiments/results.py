@@ -24,6 +24,7 @@ import json
 import math
 import os
 import shutil
+import sys
 import uuid
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
@@ -40,6 +41,7 @@ __all__ = [
     "check_output_path",
     "document",
     "json_ready",
+    "say",
     "write_json",
 ]
 
@@ -60,6 +62,12 @@ class RecordMismatchError(ValueError):
 
 
 # ------------------------------------------------------------------------------- JSON
+
+
+def say(progress: bool, message: str) -> None:
+    """One progress line on stderr when ``progress`` (the studies' per-step messages)."""
+    if progress:
+        print(message, file=sys.stderr, flush=True)
 
 
 def json_ready(obj, *, keep_nonfinite: bool = False):
