@@ -172,6 +172,7 @@ def run_case(name: str, *, seed: int = 0, progress: bool = False,
     ValueError
         An unknown case or bad ``flow_settings``; whatever the wind or a flight raises.
     """
+    from windnav.experiments.nav_benchmark import SharedFlow
     from windnav.experiments.nav_cases import mean_flow
     from windnav.experiments.navigate import navigate, simulate_flow
 
@@ -183,7 +184,7 @@ def run_case(name: str, *, seed: int = 0, progress: bool = False,
     city, start, goal, speed, direction = CASES[name]()
     say(progress, f"gs_cases: wind of {name} ({speed:g} m/s toward {direction:g} deg)")
     t0 = time.perf_counter()
-    flow = simulate_flow(city, speed, direction, **settings)
+    flow = SharedFlow(simulate_flow(city, speed, direction, **settings))  # one field, 4 flights
     flow_s = time.perf_counter() - t0
     results = {}
     for label, (variant, options) in VARIANTS.items():
@@ -192,8 +193,7 @@ def run_case(name: str, *, seed: int = 0, progress: bool = False,
         r = results[label]
         say(progress, f"gs_cases: {name} {label}: {r.outcome}, {r.energy_J / 1e3:.2f} kJ, "
                        f"{r.time_s:.1f} s")
-    if not keep_frames:
-        flow = mean_flow(flow)
+    flow = flow.solution if keep_frames else mean_flow(flow)
     return {"name": name, "city": city, "flow": flow,
             "start": np.asarray(start, dtype=np.float64),
             "goal": np.asarray(goal, dtype=np.float64), "speed": float(speed),

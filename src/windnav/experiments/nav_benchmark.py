@@ -128,6 +128,11 @@ class SharedFlow:
         self._field = flow.wind_field(unsteady=True)
         self._flow = dataclasses.replace(flow, frames_u=self._field.u, frames_v=self._field.v)
 
+    @property
+    def solution(self):
+        """The :class:`~windnav.flow.FlowSolution` (its frames views into the shared field)."""
+        return self._flow
+
     def wind_field(self, unsteady: bool = False):
         """The shared unsteady field, or the steady mean field (as ``FlowSolution``)."""
         return self._field if unsteady else self._flow.wind_field()

@@ -136,7 +136,9 @@ def mean_flow(flow):
     :class:`~windnav.experiments.nav_benchmark.SharedFlow` (whose solution is unwrapped, so the
     2.3 GB of a 600 m wind's frames can be freed). Anything else is returned as it is.
     """
-    base = getattr(flow, "_flow", flow)  # SharedFlow keeps its FlowSolution here
+    from windnav.experiments.nav_benchmark import SharedFlow
+
+    base = flow.solution if isinstance(flow, SharedFlow) else flow
     if dataclasses.is_dataclass(base) and hasattr(base, "frames_u"):
         return dataclasses.replace(base, frames_u=None, frames_v=None)
     return base
