@@ -197,9 +197,13 @@ def test_a_part_of_the_maps_now_the_rest_later_into_the_same_store(tmp_path, no_
         with pytest.raises(ValueError, match="'maps' parameter of run_benchmark"):
             nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
                              navigate_fn=Fake(), maps=bad)
-    assert bench_cmd._maps("0-2,5", "x") == [0, 1, 2, 5] and bench_cmd._maps(None, "x") is None
-    with pytest.raises(ValueError, match="'--maps' parameter of x"):
-        bench_cmd._maps("0-a", "x")
+    thesis = SUITES["thesis"]
+    assert bench_cmd.suite_maps("0-2,5", thesis, "x") == (0, 1, 2, 5)
+    assert bench_cmd.suite_maps(None, thesis, "x") == tuple(range(16))
+    with pytest.raises(ValueError, match="'--maps' parameter of x must be map indices"):
+        bench_cmd.suite_maps("0-a", thesis, "x")
+    with pytest.raises(ValueError, match="'--maps' parameter of x must be distinct"):
+        bench_cmd.suite_maps("1,16", thesis, "x")
 
 
 def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind):

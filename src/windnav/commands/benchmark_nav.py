@@ -132,19 +132,26 @@ def _variants(args, name: str) -> tuple[str, ...]:
         raise ValueError(str(exc).replace("'variants'", "'--variants'")) from None
 
 
-def _maps(text, name: str):
-    """``--maps``: comma-separated map indices and ranges ``a-b`` (inclusive), or None."""
-    if text is None:
-        return None
-    out = []
+def suite_maps(text, spec, name: str) -> tuple[int, ...]:
+    """``--maps`` of ``spec``: comma-separated map indices and ranges ``a-b`` (inclusive),
+    checked against the suite (:func:`~windnav.experiments.nav_benchmark.check_maps`); None:
+    every map of the suite."""
+    from windnav.experiments.nav_benchmark import check_maps
+
+    out = None
+    if text is not None:
+        out = []
+        try:
+            for part in str(text).split(","):
+                lo, sep, hi = part.strip().partition("-")
+                out += list(range(int(lo), int(hi) + 1)) if sep else [int(lo)]
+        except ValueError:
+            raise ValueError(f"The '--maps' parameter of {name} must be map indices and "
+                             f"ranges, e.g. 0,1 or 0-3. Got {text!r} instead.") from None
     try:
-        for part in str(text).split(","):
-            lo, sep, hi = part.strip().partition("-")
-            out += list(range(int(lo), int(hi) + 1)) if sep else [int(lo)]
-    except ValueError:
-        raise ValueError(f"The '--maps' parameter of {name} must be map indices and ranges, "
-                         f"e.g. 0,1 or 0-3. Got {text!r} instead.") from None
-    return out
+        return check_maps(spec, out, name)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
 
 
 def _print_table(records, variants, reference) -> dict:
@@ -167,14 +174,7 @@ def _run(args, name: str) -> int:
     spec = _spec(args, name)
     out = outputs(args)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
-    maps = _maps(args.maps, name)
-    if maps is not None:
-        from windnav.experiments.nav_benchmark import check_maps
-
-        try:
-            check_maps(spec, maps, name)
-        except ValueError as exc:
-            raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
+    maps = suite_maps(args.maps, spec, name)
     try:
         summary = run_benchmark(spec, variants, args.out, executor=args.executor,
                                 workers=workers, progress=not args.no_progress,

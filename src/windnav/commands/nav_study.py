@@ -91,9 +91,9 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     """Run ``windnav nav-study``; 0 when every flight flew, 1 when some harness failed."""
-    from windnav.commands.benchmark_nav import _maps
+    from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments import nav_sweeps
-    from windnav.experiments.nav_benchmark import NavStore, check_maps, run_benchmark
+    from windnav.experiments.nav_benchmark import NavStore, run_benchmark
     from windnav.experiments.nav_suite import get_suite
     from windnav.experiments.results import json_ready, write_json
     from windnav.viz.nav_sweeps import plot_sweep
@@ -111,11 +111,7 @@ def run(args) -> int:
     check_output_path(args.store, "--store", name, kind="dir")
     if study == "cases":
         return _cases(args, name, spec)
-    maps = _maps(args.maps, name)
-    try:
-        maps = check_maps(spec, maps, name)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
+    maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     try:
         labels = nav_sweeps.sweep_labels(study, args.values)
