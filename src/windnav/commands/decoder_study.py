@@ -89,15 +89,20 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def _quick_map():
+    """The ``--quick`` studies' map: a 150 m dense district of 4 buildings."""
+    from windnav.city import dense_map
+
+    return dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4)
+
+
 def _fields(args, name, simulate, progress):
     from windnav.experiments.decoder_studies import evaluation_fields
 
     first = 1 if args.study == "mosaic" else None  # the mosaic maps the first flow only
 
     if args.quick:
-        from windnav.city import dense_map
-
-        maps = [("quick-0", dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4))]
+        maps = [("quick-0", _quick_map())]
         return evaluation_fields(maps, 1, seed=args.seed, dx=2.0, flow_settings=QUICK_FLOW,
                                  cache_dir=args.flow_cache, simulate=simulate,
                                  max_fields=first, progress=progress)
@@ -111,9 +116,7 @@ def _fields(args, name, simulate, progress):
 def _averaging_map(args):
     """The averaging study's map, its name and protocol overrides (``--quick``: small)."""
     if args.quick:
-        from windnav.city import dense_map
-
-        return (dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4), "quick-0",
+        return (_quick_map(), "quick-0",
                 {"dx": 2.0, "protocols": {"thesis": (10, 20), "long": (20, 80)}})
     from windnav.predict.train import RECIPES, load_recipe, recipe_maps
 

@@ -50,7 +50,6 @@ def sweep_labels(kind: str, values: Sequence[float] | None = None) -> dict[float
         ``value -> label``: ``"ea-mppi-w@qe=2"``, or the thesis variant that is that value
         (``Q_E = 0``: ``"mppi-w"``; ``Q_E = 5``, ``H = inf``: ``"ea-mppi-w"``).
     """
-    from windnav.experiments.nav_benchmark import parse_variant
     from windnav.plan import VARIANTS
 
     where = "sweep_labels"
@@ -78,7 +77,6 @@ def sweep_labels(kind: str, values: Sequence[float] | None = None) -> dict[float
             label = "mppi-w"
         else:
             label = f"{BASE}@{kind}={v:g}"
-        parse_variant(label, where)
         out[v] = label
     return out
 
