@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from windnav.viz.nav_compare import COLORS, OUTLINE, plot_energy, wind_background  # noqa: E402
+from windnav.viz.nav_compare import draw_paths, plot_energy  # noqa: E402
 
 __all__ = ["plot_gs_case", "plot_gs_case_energy"]
 
@@ -35,7 +35,7 @@ def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
     """One case in one PNG: paths over the mean wind, and energy and time per variant.
 
     The left panel draws the mean wind speed, its streamlines and the buildings
-    (:func:`~windnav.viz.nav_compare.wind_background`), each flown path in the colours of
+    (:func:`~windnav.viz.nav_compare.draw_paths`), each flown path in the colours of
     :data:`~windnav.viz.nav_compare.COLORS` (in the order of ``case["results"]``), the route
     GS and GS+W planned before take-off (thin, dashed), the start (circle) and goal (star).
     The right panels are bars of ``energy_J`` (airspeed power curve, kJ; the rotor energy of
@@ -60,18 +60,7 @@ def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
     fig = plt.figure(figsize=(12.5, 6.2))
     grid = fig.add_gridspec(2, 2, width_ratios=(1.9, 1.0))
     ax = fig.add_subplot(grid[:, 0])
-    im = wind_background(ax, case["city"], case["flow"])
-    fig.colorbar(im, ax=ax, label="mean wind speed (m/s)", shrink=0.85)
-    for i, (label, r) in enumerate(results.items()):
-        c = COLORS[i % len(COLORS)]
-        if r.route is not None:
-            ax.plot(*np.asarray(r.route).T, "--", color=c, lw=0.9, zorder=4)
-        ax.plot(*r.position[:, :2].T, color=c, lw=2.0, zorder=5, path_effects=OUTLINE,
-                label=label)
-    first = next(iter(results.values()))
-    ax.plot(*first.start, "o", color="w", mec="k", ms=8, zorder=6, label="start")
-    ax.plot(*first.goal, "*", color="w", mec="k", ms=14, zorder=6, label="goal")
-    ax.legend(loc="upper left", fontsize=8, framealpha=0.75)
+    draw_paths(fig, ax, results, case["city"], case["flow"], detail=False, routes=True)
 
     energy = [results[k].energy_J / 1e3 for k in labels]
     rotor = [results[k].rotor_energy_J / 1e3 for k in labels]

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Rectangle  # noqa: E402
 
-__all__ = ["COLORS", "plot_energy", "plot_paths", "wind_background"]
+__all__ = ["COLORS", "draw_paths", "plot_energy", "plot_paths", "wind_background"]
 
 COLORS = ("#ff2d55", "#ffffff", "#ff9500", "#5ac8fa")
 """Line colours of the flights, in order (drawn with a black outline over the wind)."""
@@ -95,17 +95,29 @@ def plot_paths(results: dict, city, flow, path, *, title: str | None = None) -> 
     Path
     """
     fig, ax = plt.subplots(figsize=(7.2, 6.2))
+    draw_paths(fig, ax, results, city, flow)
+    ax.set_title(title or "Flown paths over the mean wind")
+    return _save(fig, path)
+
+
+def draw_paths(fig, ax, results: dict, city, flow, *, detail: bool = True,
+               routes: bool = False) -> None:
+    """The panel of :func:`plot_paths` on ``ax``: the mean wind with its colour bar, every
+    flight's path in :data:`COLORS`, the start and goal of the first, a legend. ``detail``:
+    each legend entry adds the outcome, energy and time; ``routes``: the routes planned before
+    take-off (``NavigationResult.route``, GS and GS+W) as thin dashed lines."""
     im = wind_background(ax, city, flow)
     fig.colorbar(im, ax=ax, label="mean wind speed (m/s)", shrink=0.85)
     for i, (name, r) in enumerate(results.items()):
         c = COLORS[i % len(COLORS)]
+        if routes and r.route is not None:
+            ax.plot(*np.asarray(r.route).T, "--", color=c, lw=0.9, zorder=4)
+        label = (f"{name}: {r.outcome}, {r.energy_J / 1e3:.2f} kJ, {r.time_s:.0f} s" if detail
+                 else name)
         ax.plot(*r.position[:, :2].T, color=c, lw=2.0, zorder=5, path_effects=OUTLINE,
-                label=f"{name}: {r.outcome}, {r.energy_J / 1e3:.2f} kJ, {r.time_s:.0f} s")
-    first = next(iter(results.values()))
-    _endpoints(ax, first)
+                label=label)
+    _endpoints(ax, next(iter(results.values())))
     ax.legend(loc="upper left", fontsize=8, framealpha=0.75)
-    ax.set_title(title or "Flown paths over the mean wind")
-    return _save(fig, path)
 
 
 def plot_energy(results: dict, path, *, title: str | None = None) -> Path:
