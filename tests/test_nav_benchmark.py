@@ -117,7 +117,7 @@ def test_suite_settings_are_validated_and_hashed():
 # ----------------------------------------------------------------------------- stand-ins
 
 
-def fake_flow(spec, city, speed, direction_deg):
+def fake_flow(spec, city, speed, direction_deg, **reuse):
     return SimpleNamespace(speed=speed, direction_deg=direction_deg)
 
 
@@ -261,7 +261,7 @@ def test_a_failed_flight_is_recorded_with_its_traceback_and_the_run_goes_on(tmp_
 
 
 def test_a_wind_that_cannot_be_simulated_fails_its_flights_only(tmp_path, monkeypatch):
-    def flow(spec, city, speed, direction_deg):
+    def flow(spec, city, speed, direction_deg, **reuse):
         if direction_deg == 90.0:
             raise RuntimeError("the flow diverged")
         return fake_flow(spec, city, speed, direction_deg)

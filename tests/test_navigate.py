@@ -215,3 +215,16 @@ def test_command_names_a_start_inside_a_building_before_simulating(city, tmp_pat
                   "--goal", "100", "30", "--speed", "2", "--out", str(tmp_path / "out")])
     with pytest.raises(ValueError, match="'--map'"):
         args.func(args)
+
+
+def test_a_non_finite_known_wind_makes_every_planner_update_fall_back(city, flow):
+    """The +W variants check the mean wind once per flight, not at every update; a NaN in it
+    still reaches the planner's wind fallback at every update."""
+    import dataclasses
+
+    mean_u = flow.mean_u.copy()
+    mean_u[60, 100] = np.nan  # far from the path: only the H = inf window holds it
+    res = fly(city, dataclasses.replace(flow, mean_u=mean_u), "mppi-w", duration=2.0)
+    assert res.planner_updates > 0 and res.fallbacks == res.planner_updates
+    assert res.fallback_reasons == {"wind": res.fallbacks}
+    assert fly(city, flow, "mppi-w", duration=2.0).fallbacks == 0

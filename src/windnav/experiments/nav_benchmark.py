@@ -141,14 +141,46 @@ class SharedFlow:
         return getattr(self._flow, name)
 
 
-def suite_flow(spec: SuiteSpec, city, speed: float, direction_deg: float) -> SharedFlow:
+def suite_flow(spec: SuiteSpec, city, speed: float, direction_deg: float, *,
+               reuse: WorkerReuse | None = None) -> SharedFlow:
     """The suite's wind for one inlet: :func:`~windnav.experiments.navigate.simulate_flow`
-    with the suite's spin-up, record, ``dx`` and ``dt``, wrapped in :class:`SharedFlow`."""
+    with the suite's spin-up, record, ``dx`` and ``dt``, wrapped in :class:`SharedFlow`.
+    ``reuse``: a worker's factorisations and frame memory, kept from its earlier winds (the
+    same wind to the bit, faster)."""
     from windnav.experiments.navigate import simulate_flow
 
+    kw = {} if reuse is None else {"factor_cache": reuse.factors,
+                                   "frame_buffers": reuse.frames}
     flow = simulate_flow(city, speed, direction_deg, spinup_s=spec.spinup_s,
-                         record_s=spec.record_s, dx=spec.dx, dt=spec.dt)
+                         record_s=spec.record_s, dx=spec.dx, dt=spec.dt, **kw)
     return SharedFlow(flow)
+
+
+class WorkerReuse:
+    """What a benchmark worker keeps from one wind to the next: the pressure factorisations
+    (keyed by map and inlet sides: the 15, 30 and 45 deg winds of a map share one, and every
+    speed of an incidence) and the memory of the recorded frames (2.3 GB per 600 m wind, whose
+    first write would otherwise page-fault: :class:`~windnav.flow.FrameBuffers`). Neither
+    changes a value: a flight in a reused wind is bitwise the flight in a fresh one."""
+
+    def __init__(self, max_factors: int = 2):
+        from windnav.flow import FactorCache, FrameBuffers
+
+        self.factors = FactorCache(maxsize=max_factors)
+        self.frames = FrameBuffers()
+
+
+_WORKER_REUSE: WorkerReuse | None = None
+"""This process's :class:`WorkerReuse` (made on its first task; each worker process has its
+own, so nothing is shared between processes)."""
+
+
+def worker_reuse() -> WorkerReuse:
+    """This process's :class:`WorkerReuse`, made on first use."""
+    global _WORKER_REUSE
+    if _WORKER_REUSE is None:
+        _WORKER_REUSE = WorkerReuse()
+    return _WORKER_REUSE
 
 
 # ------------------------------------------------------------------------------- one flight
@@ -371,7 +403,7 @@ def run_group(task: GroupTask) -> dict:
     city = suite_map(spec, task.map_index)
     speed, direction = spec.wind(task.wind_index)
     t0 = time.perf_counter()
-    flow = suite_flow(spec, city, speed, direction)
+    flow = suite_flow(spec, city, speed, direction, reuse=worker_reuse())
     flow_s = time.perf_counter() - t0
     errors = 0
     for scenario, variant in task.flights:

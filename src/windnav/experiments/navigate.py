@@ -256,9 +256,11 @@ class NavigationResult:
 
 def simulate_flow(city, speed: float, direction_deg: float, *, spinup_s: float = 25.0,
                   record_s: float = 100.0, dx: float = 1.0, dt: float = 0.25,
-                  progress: bool = False):
+                  progress: bool = False, factor_cache=None, frame_buffers=None):
     """The unsteady wind of the thesis setup: ``spinup_s`` of spin-up, then ``record_s`` of
-    frames every ``dt`` (defaults: 25 s, 100 s, 0.25 s, on a 1 m grid).
+    frames every ``dt`` (defaults: 25 s, 100 s, 0.25 s, on a 1 m grid). ``factor_cache`` and
+    ``frame_buffers``: a caller's reusable factorisations and frame memory
+    (:func:`windnav.flow.simulate`).
 
     Returns
     -------
@@ -272,10 +274,11 @@ def simulate_flow(city, speed: float, direction_deg: float, *, spinup_s: float =
     spin = int(round(positive_float(spinup_s, "spinup_s", where, allow_zero=True) / dt))
     steps = max(2, int(round(positive_float(record_s, "record_s", where) / dt)))
     return simulate(city, speed, direction_deg, dx=dx, dt=dt, spinup_steps=spin, steps=steps,
-                    record_every=1, progress=progress)
+                    record_every=1, progress=progress, factor_cache=factor_cache,
+                    frame_buffers=frame_buffers)
 
 
-def local_wind(flow, position_xy, horizon: float, *, uv=None):
+def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool = False):
     """The mean wind the ``-w`` planners know: ``flow``'s time average inside ``L_t``.
 
     Parameters
@@ -287,6 +290,8 @@ def local_wind(flow, position_xy, horizon: float, *, uv=None):
         ``H``, side of the window, m (``inf``: the whole map).
     uv : ndarray of shape (2, ny, nx), optional
         ``[flow.mean_u, flow.mean_v]``, stacked once by a caller that queries many times.
+    known_finite : bool
+        The caller checked ``uv`` finite once (:attr:`windnav.plan.LocalWind.known_finite`).
 
     Returns
     -------
@@ -307,7 +312,7 @@ def local_wind(flow, position_xy, horizon: float, *, uv=None):
         i0, j0 = min(i0, x.size - 2), min(j0, y.size - 2)
         i1, j1 = max(i1, i0 + 2), max(j1, j0 + 2)
         uv, x, y = uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1]
-    return LocalWind.grid(uv, x - px, y - py)
+    return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite)
 
 
 # ------------------------------------------------------------------------------- checks
@@ -617,6 +622,8 @@ def navigate(
     use_wind = bool(VARIANTS[variant].use_wind)
     mean_uv = (np.ascontiguousarray(np.stack([flow.mean_u, flow.mean_v]))
                if use_wind and onboard_stack is None else None)
+    # checked once here, not at each update (every window of a finite field is finite)
+    mean_finite = mean_uv is not None and bool(np.all(np.isfinite(mean_uv)))
     if planner is None and VARIANTS[variant].planner == "gs":
         gs_config = config if config.planner == "gs" else planner_config(params, variant)
         t0 = time.perf_counter()
@@ -725,8 +732,8 @@ def navigate(
             if onboard_stack is not None:
                 known = onboard_stack.local_wind(pos[:2])
             else:
-                known = (local_wind(flow, pos[:2], config.horizon, uv=mean_uv) if use_wind
-                         else None)
+                known = (local_wind(flow, pos[:2], config.horizon, uv=mean_uv,
+                                    known_finite=mean_finite) if use_wind else None)
             a_new = np.asarray(planner.update(np.array([px, py, vel[0], vel[1]]), scan, known),
                                dtype=np.float64).reshape(-1)
             if a_new.shape != (2,) or not np.all(np.isfinite(a_new)):

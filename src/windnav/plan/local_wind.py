@@ -10,7 +10,7 @@ the outermost cell centres and the window's edge the grid is clamped to its edge
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -49,6 +49,9 @@ class LocalWind:
     uv: np.ndarray
     x: np.ndarray
     y: np.ndarray
+    known_finite: bool = field(default=False, repr=False)
+    """True when the caller has checked every value finite (a window of a field it checked
+    once): :attr:`finite` then skips the check (0.4 ms on a 600 m map per update)."""
 
     @classmethod
     def uniform(cls, wind_xy) -> LocalWind:
@@ -60,11 +63,11 @@ class LocalWind:
         return cls(w.reshape(2, 1, 1).copy(), np.zeros(0), np.zeros(0))
 
     @classmethod
-    def grid(cls, uv, offsets, offsets_y=None) -> LocalWind:
+    def grid(cls, uv, offsets, offsets_y=None, *, known_finite: bool = False) -> LocalWind:
         """A gridded wind ``uv`` (2, ny, nx) (m/s) on cell centres ``offsets`` (m).
 
         ``offsets`` are the x offsets and, unless ``offsets_y`` is given, the y offsets too
-        (the decoder's ``dec.offsets``).
+        (the decoder's ``dec.offsets``). ``known_finite``: see the attribute.
         """
         arr = np.asarray(uv, dtype=np.float64)
         x = _offsets(offsets, "offsets")
@@ -72,7 +75,7 @@ class LocalWind:
         if arr.shape != (2, y.size, x.size):
             raise ValueError(f"The 'uv' parameter of {_WHERE}.grid must have shape "
                              f"(2, {y.size}, {x.size}). Got shape {arr.shape} instead.")
-        return cls(np.ascontiguousarray(arr), x, y)
+        return cls(np.ascontiguousarray(arr), x, y, bool(known_finite))
 
     @property
     def is_uniform(self) -> bool:
@@ -82,7 +85,7 @@ class LocalWind:
     @property
     def finite(self) -> bool:
         """True when every value is finite."""
-        return bool(np.all(np.isfinite(self.uv)))
+        return self.known_finite or bool(np.all(np.isfinite(self.uv)))
 
     def pack(self, horizon: float) -> tuple[int, np.ndarray, np.ndarray]:
         """``(mode, grid, meta)`` for the kernels, with the window side ``H = horizon`` (m)."""

@@ -13,6 +13,8 @@ The flow solver (``windnav.flow``) returns its velocities on a rectilinear grid 
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 
@@ -84,17 +86,22 @@ def _interpolate(x, y, frames, k0, k1, c, xyz, out):  # pragma: no cover - numba
 
 def _interleaved(u, v) -> np.ndarray | None:
     """The C-contiguous float64 (T, ny, nx, 2) array whose ``[..., 0]`` and ``[..., 1]`` are
-    the views ``u`` and ``v``, or None when they are not such views."""
+    the views ``u`` and ``v``, or None when they are not such views. Their common ``base``
+    may be that array or any C-contiguous float64 block of its size (the solver's reusable
+    frame memory, :class:`~windnav.flow.FrameBuffers`); the result is then a view of it."""
     if not (isinstance(u, np.ndarray) and isinstance(v, np.ndarray)) or u.ndim != 3:
         return None
     base = u.base
+    shape = (*u.shape, 2)
     if (not isinstance(base, np.ndarray) or v.base is not base or base.dtype != np.float64
-            or base.shape != (*u.shape, 2) or not base.flags.c_contiguous
-            or u.strides != base.strides[:3] or v.strides != base.strides[:3]
-            or u.ctypes.data != base.ctypes.data
-            or v.ctypes.data != base.ctypes.data + base.itemsize):
+            or base.size != math.prod(shape) or not base.flags.c_contiguous):
         return None
-    return base
+    frames = base.reshape(shape)  # no copy: base is C-contiguous
+    if (u.strides != frames.strides[:3] or v.strides != frames.strides[:3]
+            or u.ctypes.data != frames.ctypes.data
+            or v.ctypes.data != frames.ctypes.data + frames.itemsize):
+        return None
+    return frames
 
 
 class GriddedWind:
