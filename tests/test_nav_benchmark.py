@@ -368,13 +368,41 @@ def test_table_counts_means_and_both_energy_measures():
     assert pr["n"] == 4 and pr["mean"] == pytest.approx(np.mean(paired))
     assert pr["by_speed"]["5"]["n"] == 2 and pr["by_speed"]["10"]["n"] == 2
     assert pr["by_speed"]["10"]["mean"] == pytest.approx(np.mean(paired[2:]))
+    assert pr["less"] == 3  # all but 5500 J against 5000 J
+    assert ref["failure_by"]["speed"] == {"5": {"pct": 0.0, "n": 3},
+                                          "10": {"pct": pytest.approx(100 / 3), "n": 3}}
+    assert ea["failure_by"]["speed"]["5"] == {"pct": pytest.approx(100 / 3), "n": 3}
+    assert ea["failure_by"]["kind"] == {} and "onboard" not in ea
     rot = ea["vs_reference"]["rotor_energy_J"]["paired_reduction"]
     assert rot["mean"] == pytest.approx(np.mean(paired))  # rotor = 2 x airspeed here
     md = render_table(t)
-    assert md.count("\n| mppi |") == 2 and md.count("| ea-mppi-w |") == 4
+    assert md.count("\n| mppi |") == 3 and md.count("| ea-mppi-w |") == 5
     assert "3.00 ± 1.58" in md and "16.7 (16.7, 0.0, 0.0, 0.0)" in md
     assert "6 (+1 errors)" in md and f"{100 * (1 - mean_ea / 3000):.1f}%" in md
     assert f"{100 * np.mean(paired):.1f}%" in md
+    assert "| 3 of 4 |" in md and "| ea-mppi-w | 33.3 (3) | 0.0 (3) |" in md
+
+
+def test_table_reports_failure_by_kind_and_the_onboard_stack_timings():
+    recs = []
+    for i, (kind, outcome, ms) in enumerate([("headwind", "hover", 1.0),
+                                             ("headwind", "success", 2.0),
+                                             ("tailwind", "success", 4.0)]):
+        recs.append({"scenario_id": f"s/m00/w00/p{i}", "variant": "ea-mppi-w-hat",
+                     "outcome": outcome, "speed": 5.0, "kind": kind, "energy_J": 1000.0,
+                     "stage_ms_median": {"ukf": 0.1 * ms, "planner": ms},
+                     "real_time_fraction": 0.01 * ms, "ukf_wind_rms_xy_mps": ms})
+    row = benchmark_table(recs)["rows"]["ea-mppi-w-hat"]
+    assert row["failure_by"]["kind"] == {"headwind": {"pct": 50.0, "n": 2},
+                                         "tailwind": {"pct": 0.0, "n": 1}}
+    ob = row["onboard"]
+    assert ob["stage_ms"]["planner"] == {"median": 2.0, "min": 1.0, "max": 4.0, "n": 3}
+    assert ob["stage_ms"]["ukf"]["median"] == pytest.approx(0.2)
+    assert ob["real_time_fraction"]["max"] == pytest.approx(0.04)
+    md = render_table(benchmark_table(recs))
+    assert "| ea-mppi-w-hat | 33.3 (3) | 50.0 (2) | 0.0 (1) |" in md
+    assert "| planner (ms per update) | 2.000 | 1.000 | 4.000 |" in md
+    assert "| compute per second of flight (% of one core) | 2.0 | 1.0 | 4.0 |" in md
 
 
 def test_table_without_reference_or_flights():
@@ -546,7 +574,8 @@ def test_quick_suite_table_structure(quick_table):
                 d = row["vs_reference"][e]
                 assert set(d) == {"table_ratio", "paired_reduction"}
                 assert d["table_ratio"]["n_reference"] == table["rows"]["mppi"]["success"]
-    assert render_table(table).count("| ea-mppi-w |") == 4
+    # the table, its intervals, the two energy measures and the failure by speed and kind
+    assert render_table(table).count("| ea-mppi-w |") == 5
 
 
 @needs_quick

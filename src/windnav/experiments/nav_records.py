@@ -342,7 +342,11 @@ def benchmark_table(
         and, for variants other than the reference when it has records, ``vs_reference``
         {``energy_J`` and ``rotor_energy_J``: {``table_ratio`` {``value``, ``ci95``,
         ``n_variant``, ``n_reference``}, ``paired_reduction`` {``mean``, ``std``, ``n``,
-        ``ci95``, ``by_speed`` {speed: {``mean``, ``std``, ``n``}}}}} (fractions, not %).
+        ``ci95``, ``by_speed`` {speed: {``mean``, ``std``, ``n``}}, ``less`` (pairs where
+        the variant used less energy)}}} (fractions, not %); ``failure_by`` {``speed`` and
+        ``kind``: {group: {``pct``, ``n``}}}; for the onboard stack's records ``onboard``
+        {``stage_ms`` {stage: {``median``, ``min``, ``max``, ``n``}}, ``real_time_fraction``,
+        ``ukf_wind_rms_xy_mps``} over its flights.
     """
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"The 'confidence' parameter of benchmark_table must be in (0, 1). "
@@ -374,6 +378,10 @@ def benchmark_table(
             "metrics": {name: _describe([scale * _num(r.get(key)) for r in succ], confidence)
                         for name, key, scale in METRICS},
         }
+        row["failure_by"] = _failure_by(valid)
+        onboard = _onboard(valid)
+        if onboard:
+            row["onboard"] = onboard
         if v != reference and ref:
             row["vs_reference"] = {
                 e: _versus(by_variant.get(v, {}), ref, e, confidence, n_boot, gen)
@@ -381,6 +389,44 @@ def benchmark_table(
         rows[v] = row
     return {"reference": reference, "confidence": confidence, "variants": list(variants),
             "rows": rows}
+
+
+def _failure_by(valid: Sequence[Mapping]) -> dict:
+    """Failure % of the flights ``valid`` grouped by inlet speed and by pair kind."""
+    out = {}
+    for key, label in (("speed", lambda x: f"{_num(x):g}"), ("kind", str)):
+        groups: dict[str, list[bool]] = {}
+        for r in valid:
+            if r.get(key) is not None:
+                groups.setdefault(label(r[key]), []).append(r["outcome"] != "success")
+        order = (sorted(groups, key=float) if key == "speed" else sorted(groups))
+        out[key] = {g: {"pct": 100.0 * sum(groups[g]) / len(groups[g]), "n": len(groups[g])}
+                    for g in order}
+    return out
+
+
+def _onboard(valid: Sequence[Mapping]) -> dict:
+    """The onboard stack's per-flight timings and UKF errors (records of ``ea-mppi-w-hat``):
+    median, min and max over the flights of each flight's median time per update (ms), of the
+    compute per second of flight (s/s) and of the UKF's horizontal wind RMS error (m/s)."""
+    stages: dict[str, list[float]] = {}
+    series: dict[str, list[float]] = {"real_time_fraction": [], "ukf_wind_rms_xy_mps": []}
+    for r in valid:
+        for stage, ms in (r.get("stage_ms_median") or {}).items():
+            if ms is not None and math.isfinite(_num(ms)):
+                stages.setdefault(stage, []).append(_num(ms))
+        for name, values in series.items():
+            if r.get(name) is not None and math.isfinite(_num(r[name])):
+                values.append(_num(r[name]))
+    if not stages:
+        return {}
+
+    def summary(values):
+        return {"median": float(np.median(values)), "min": float(np.min(values)),
+                "max": float(np.max(values)), "n": len(values)}
+
+    return {"stage_ms": {k: summary(v) for k, v in stages.items()},
+            **{k: summary(v) for k, v in series.items() if v}}
 
 
 def _versus(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, gen) -> dict:
@@ -401,6 +447,7 @@ def _versus(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, gen) ->
         d = _describe([p for p, sp in zip(paired, speeds, strict=True) if sp == s], confidence)
         by_speed[f"{s:g}"] = {k: d[k] for k in ("mean", "std", "n")}
     red["by_speed"] = by_speed
+    red["less"] = sum(p > 0.0 for p in paired)  # pairs where the variant used less energy
     return {"table_ratio": ratio, "paired_reduction": red}
 
 
@@ -464,7 +511,7 @@ def render_table(table: Mapping) -> str:
                 "variant's successful flights, bootstrap interval; paired reduction: mean of "
                 f"1 - E/E_{ref} over the scenarios where neither failed, t interval):", "",
                 "| variant | energy | table ratio | paired reduction | n (variant, ref; "
-                "pairs) |", "|---|---|---|---|---|"]
+                f"pairs) | pairs where it used less than {ref} |", "|---|---|---|---|---|---|"]
         for v in others:
             for e, label in (("energy_J", "airspeed model"), ("rotor_energy_J", "rotor")):
                 d = rows[v]["vs_reference"][e]
@@ -474,5 +521,48 @@ def render_table(table: Mapping) -> str:
                 pr_s = (f"{_pct(pr['mean'])} {_ci(pr['ci95'], 1, 100.0, '%')}"
                         if pr["mean"] is not None else "-")
                 out.append(f"| {v} | {label} | {tr_s} | {pr_s} | {tr['n_variant']}, "
-                           f"{tr['n_reference']}; {pr['n']} |")
+                           f"{tr['n_reference']}; {pr['n']} | {pr['less']} of {pr['n']} |")
+    out += _render_failure_by(rows, variants)
+    out += _render_onboard(rows, variants)
     return "\n".join(out) + "\n"
+
+
+def _render_failure_by(rows: Mapping, variants: Sequence[str]) -> list[str]:
+    groups = {key: sorted({g for v in variants for g in rows[v]["failure_by"][key]},
+                          key=float if key == "speed" else str) for key in ("speed", "kind")}
+    if not any(groups.values()):
+        return []
+    heads = [f"{g} m/s" for g in groups["speed"]] + list(groups["kind"])
+    out = ["", "Failure % by inlet speed and by pair kind (flights in each group in "
+           "parentheses):", "", "| variant | " + " | ".join(heads) + " |",
+           "|" + "---|" * (len(heads) + 1)]
+    for v in variants:
+        by = rows[v]["failure_by"]
+        cells = [(f"{by[key][g]['pct']:.1f} ({by[key][g]['n']})" if g in by[key] else "-")
+                 for key in ("speed", "kind") for g in groups[key]]
+        out.append(f"| {v} | " + " | ".join(cells) + " |")
+    return out
+
+
+def _render_onboard(rows: Mapping, variants: Sequence[str]) -> list[str]:
+    out = []
+    for v in variants:
+        ob = rows[v].get("onboard")
+        if not ob:
+            continue
+        out += ["", f"Onboard stack of {v}, over its flights (median [min, max] of each "
+                "flight's median time per update; compute per second of flight; the Wind "
+                "UKF's horizontal wind RMS error):", "",
+                "| quantity | median | min | max |", "|---|---|---|---|"]
+        for stage, d in ob["stage_ms"].items():
+            out.append(f"| {stage} (ms per update) | {d['median']:.3f} | {d['min']:.3f} | "
+                       f"{d['max']:.3f} |")
+        if "real_time_fraction" in ob:
+            d = ob["real_time_fraction"]
+            out.append(f"| compute per second of flight (% of one core) | "
+                       f"{100 * d['median']:.1f} | {100 * d['min']:.1f} | {100 * d['max']:.1f} |")
+        if "ukf_wind_rms_xy_mps" in ob:
+            d = ob["ukf_wind_rms_xy_mps"]
+            out.append(f"| UKF horizontal wind RMS error (m/s) | {d['median']:.2f} | "
+                       f"{d['min']:.2f} | {d['max']:.2f} |")
+    return out
