@@ -259,7 +259,13 @@ class FrameBuffers:
             if attempt == 0:
                 gc.collect()  # a solution kept alive only by a reference cycle
         self._blocks = [e for e in self._blocks if len(e[0]) == nbytes or not self._is_free(e)]
-        self._blocks.append([mmap.mmap(-1, nbytes), None])
+        # private anonymous memory (Python's default on Unix, shared, is shmem: no huge pages)
+        private = ({"flags": mmap.MAP_PRIVATE | getattr(mmap, "MAP_ANONYMOUS", 0)}
+                   if hasattr(mmap, "MAP_PRIVATE") else {})
+        block = mmap.mmap(-1, nbytes, **private)
+        if hasattr(mmap, "MADV_HUGEPAGE"):  # as NumPy asks for its large arrays (Linux)
+            block.madvise(mmap.MADV_HUGEPAGE)
+        self._blocks.append([block, None])
         return self._hand_out(self._blocks[-1], shape)
 
     @staticmethod
