@@ -581,7 +581,7 @@ def test_quick_suite_table_structure(quick_table):
 @needs_quick
 @pytest.mark.xfail(strict=False, reason=(
     "EA-MPPI+W uses more energy than MPPI on average with the simulated Hummingbird "
-    "(docs/navigation.md: paired -24.8 % over the 64 scenarios of the thesis suite's maps 0-3 "
+    "(docs/navigation.md: paired -29.7 % over the 219 of the thesis suite's 1,024 scenarios "
     "where neither failed, 2026-11-26). Measured on the quick suite (seed 0, 2026-11-23): "
     "airspeed-model energy "
     "table ratio -35.2 % (3 EA-MPPI+W successes, 2 MPPI successes of 8) and paired reduction "
