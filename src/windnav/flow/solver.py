@@ -277,9 +277,9 @@ class FrameBuffers:
 
 def cell_centred(domain: FlowDomain, u, v) -> tuple[np.ndarray, np.ndarray]:
     """Average the face fields to the cell centres, (ny, nx) each, m/s; 0 in buildings."""
-    cu = np.zeros(domain.grid.shape)
-    cv = np.zeros(domain.grid.shape)
-    _to_centres(u, v, domain.solid, cu, cv, 1.0)
+    cu = np.empty(domain.grid.shape)
+    cv = np.empty(domain.grid.shape)
+    _centres_into(u, v, domain.solid, cu, cv)
     return cu, cv
 
 
