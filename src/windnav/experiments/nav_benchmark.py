@@ -35,6 +35,7 @@ same records (up to the wall times): :func:`replay` re-flies one record.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time
 import traceback
@@ -170,17 +171,11 @@ class WorkerReuse:
         self.frames = FrameBuffers()
 
 
-_WORKER_REUSE: WorkerReuse | None = None
-"""This process's :class:`WorkerReuse` (made on its first task; each worker process has its
-own, so nothing is shared between processes)."""
-
-
+@functools.cache
 def worker_reuse() -> WorkerReuse:
-    """This process's :class:`WorkerReuse`, made on first use."""
-    global _WORKER_REUSE
-    if _WORKER_REUSE is None:
-        _WORKER_REUSE = WorkerReuse()
-    return _WORKER_REUSE
+    """This process's :class:`WorkerReuse`, made on first use (each worker process has its
+    own, so nothing is shared between processes)."""
+    return WorkerReuse()
 
 
 # ------------------------------------------------------------------------------- one flight
