@@ -391,17 +391,20 @@ def benchmark_table(
             "rows": rows}
 
 
+_FAILURE_GROUPS = {"speed": (lambda x: f"{_num(x):g}", float), "kind": (str, str)}
+"""Record fields the failure % is grouped by: (group label of a value, sort key of a label)."""
+
+
 def _failure_by(valid: Sequence[Mapping]) -> dict:
     """Failure % of the flights ``valid`` grouped by inlet speed and by pair kind."""
     out = {}
-    for key, label in (("speed", lambda x: f"{_num(x):g}"), ("kind", str)):
+    for key, (label, order) in _FAILURE_GROUPS.items():
         groups: dict[str, list[bool]] = {}
         for r in valid:
             if r.get(key) is not None:
                 groups.setdefault(label(r[key]), []).append(r["outcome"] != "success")
-        order = (sorted(groups, key=float) if key == "speed" else sorted(groups))
         out[key] = {g: {"pct": 100.0 * sum(groups[g]) / len(groups[g]), "n": len(groups[g])}
-                    for g in order}
+                    for g in sorted(groups, key=order)}
     return out
 
 
@@ -528,8 +531,8 @@ def render_table(table: Mapping) -> str:
 
 
 def _render_failure_by(rows: Mapping, variants: Sequence[str]) -> list[str]:
-    groups = {key: sorted({g for v in variants for g in rows[v]["failure_by"][key]},
-                          key=float if key == "speed" else str) for key in ("speed", "kind")}
+    groups = {key: sorted({g for v in variants for g in rows[v]["failure_by"][key]}, key=order)
+              for key, (_, order) in _FAILURE_GROUPS.items()}
     if not any(groups.values()):
         return []
     heads = [f"{g} m/s" for g in groups["speed"]] + list(groups["kind"])
@@ -539,7 +542,7 @@ def _render_failure_by(rows: Mapping, variants: Sequence[str]) -> list[str]:
     for v in variants:
         by = rows[v]["failure_by"]
         cells = [(f"{by[key][g]['pct']:.1f} ({by[key][g]['n']})" if g in by[key] else "-")
-                 for key in ("speed", "kind") for g in groups[key]]
+                 for key in _FAILURE_GROUPS for g in groups[key]]
         out.append(f"| {v} | " + " | ".join(cells) + " |")
     return out
 
