@@ -25,6 +25,7 @@ for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MK
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import gc  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
@@ -54,8 +55,8 @@ def main(argv=None) -> int:
     spec = get_suite("thesis")
     city = suite_map(spec, args.map)
     winds = [int(w) for w in args.winds.split(",")]
-    # compile the kernels outside the timings
-    suite_flow(dataclass_replace_record(spec), city, 5.0, 0.0)
+    # compile the kernels outside the timings: the suite's wind with a 2-step record
+    suite_flow(dataclasses.replace(spec, spinup_s=0.25, record_s=0.5), city, 5.0, 0.0)
     reuse = WorkerReuse()
     times = {"fresh": [], "reused": []}
     for w in winds:
@@ -102,13 +103,6 @@ def main(argv=None) -> int:
         append_record("Navigation benchmark wind: worker reuse of frame memory and "
                       "factorisations (bench_nav_wind.py)", rows)
     return 0
-
-
-def dataclass_replace_record(spec):
-    """The suite with a 2-step record (to compile the kernels in a second)."""
-    import dataclasses
-
-    return dataclasses.replace(spec, spinup_s=0.25, record_s=0.5)
 
 
 if __name__ == "__main__":
