@@ -214,9 +214,12 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
         "ea-mppi-w", {"horizon": math.inf, "planner_overrides": {"energy_weight": 0.5}})
     assert nb.parse_variant("ea-mppi-w@h=0") == (
         "ea-mppi-w", {"planner_overrides": {"use_wind": False}})
+    assert nb.parse_variant("mppi@power=crazyflie@qe=1") == (
+        "mppi", {"power_shape": "crazyflie", "planner_overrides": {"energy_weight": 1.0}})
     for bad in ("bogus@qe=1", "gs-w@qe=1", "ea-mppi-w@qe=-1", "ea-mppi-w@qe=inf",
                 "ea-mppi-w@x=1", "ea-mppi-w@qe=1@qe=2", "ea-mppi-w@qe", "ea-mppi-w@h=nan",
-                "ea-mppi-w@qe=abc"):
+                "ea-mppi-w@qe=abc", "mppi@power=bucket", "mppi@power=crazyflie@power=crazyflie",
+                "gs-w@power=crazyflie"):
         with pytest.raises(ValueError, match="'variants' parameter of parse_variant"):
             nb.parse_variant(bad)
     seen = []

@@ -181,10 +181,11 @@ def worker_reuse() -> WorkerReuse:
 # ------------------------------------------------------------------------------- one flight
 
 
-PARAMETERS = {"qe": "energy_weight", "h": "horizon"}
+PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
-map; ``0``: no wind)."""
+map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
+use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
 
@@ -192,7 +193,8 @@ _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
 def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     """A variant label: a key of :data:`windnav.plan.VARIANTS`, or one of the MPPI variants with
     study parameters, ``"ea-mppi-w@qe=2"``, ``"ea-mppi-w@h=50"``, ``"ea-mppi-w@qe=3@h=90"``
-    (:data:`PARAMETERS`; the Q_E and H sweeps of the thesis).
+    (:data:`PARAMETERS`; the Q_E and H sweeps of the thesis), ``"mppi@power=crazyflie"`` (the
+    power-curve counterfactual).
 
     Returns
     -------
@@ -200,8 +202,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         The variant of :data:`windnav.plan.VARIANTS`.
     options : dict
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
-        ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``) and
-        ``horizon``.
+        ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
+        ``horizon`` and ``power_shape``.
 
     Raises
     ------
@@ -209,6 +211,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         An unknown base variant or parameter, a parameter given twice, or a value that is not a
         number >= 0 (``h`` may be ``inf``).
     """
+    from windnav.experiments.navigate import POWER_SHAPES
     from windnav.plan import VARIANTS
 
     label = str(label)
@@ -217,7 +220,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     def fail(why):
         return ValueError(f"The 'variants' parameter of {where} must be distinct names among "
                           f"{list(VARIANTS)}, or one of {list(_PARAMETRIC)} with parameters "
-                          f"'@qe=Q_E' and/or '@h=H' (m, inf, or 0 for no wind): {why}. Got "
+                          f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
+                          f"'@power=SHAPE' (one of {list(POWER_SHAPES)}): {why}. Got "
                           f"{label!r} instead.")
 
     if base not in VARIANTS:
@@ -231,6 +235,11 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         key, sep, text = item.partition("=")
         if not sep or key not in PARAMETERS or PARAMETERS[key] in {**options, **overrides}:
             raise fail(f"bad or repeated parameter {item!r}")
+        if key == "power":
+            if text not in POWER_SHAPES:
+                raise fail(f"unknown power shape {text!r}")
+            options["power_shape"] = text
+            continue
         try:
             value = float(text)
         except ValueError:

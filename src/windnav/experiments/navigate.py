@@ -77,7 +77,10 @@ end of the recorded wind. ``time_s`` is the time the flight ended (for success, 
 Energy is reported twice: ``energy_J`` integrates the planner's steady-flight power curve at the
 true horizontal airspeed, ``P(|v_xy - w_xy|)`` (as the thesis does), and ``rotor_energy_J``
 the 6-DoF simulator's rotor power ``sum_i k_m eta_i^3 / efficiency``, both by the trapezoid rule
-over the control steps.
+over the control steps. ``power_shape="crazyflie"`` is a counterfactual for studies: the
+planner's curve, and with it ``energy_J``, take the shape of the thesis's Crazyflie cubic
+(:meth:`windnav.vehicle.PowerCurve.crazyflie`) scaled to this vehicle's hover power, while the
+6-DoF dynamics, and ``rotor_energy_J``, stay the vehicle's.
 
 A planner update that returns a non-finite acceleration is replaced by hover (zero horizontal
 acceleration) and counted in ``fallbacks`` (reason ``"nan"``), next to the planner's own
@@ -124,6 +127,11 @@ LIDAR_RANGE = 100.0
 LIDAR_NOISE = 0.14
 
 _WHERE = "navigate"
+
+POWER_SHAPES = ("crazyflie",)
+"""Counterfactual power-curve shapes of :func:`navigate` (``power_shape``): ``"crazyflie"``, the
+thesis's Crazyflie cubic times ``P_hover / 10.56 W`` of the flown vehicle (its bucket at
+4.15 m/s, 0.96 ``P_hover``; 2.6 ``P_hover`` at 12 m/s)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -445,6 +453,20 @@ class _FastWind:
         return self._out
 
 
+def _with_power_shape(config, shape: str):
+    """``config`` with the power curve of :data:`POWER_SHAPES` ``shape``, scaled to its hover
+    power (so ``P_hover``, and the non-dimensional costs' scale, stay the vehicle's)."""
+    from dataclasses import replace
+
+    from windnav.vehicle.power import PowerCurve
+
+    curve = {"crazyflie": PowerCurve.crazyflie}[shape]()
+    c = np.asarray(curve.coefficients, dtype=np.float64)
+    scaled = c * (config.hover_power / c[0])
+    return replace(config, power_coefficients=tuple(float(x) for x in scaled),
+                   power_speed_max=float(curve.speed_max))
+
+
 def _default_params():
     from windnav.vehicle import params
 
@@ -477,6 +499,7 @@ def navigate(
     decoder=None,
     onboard=None,
     escape=None,
+    power_shape: str | None = None,
 ) -> NavigationResult:
     """Fly from ``start_xy`` to ``goal_xy`` through ``city`` in its urban wind (closed loop).
 
@@ -536,6 +559,10 @@ def navigate(
         threshold and the escape's length (:class:`windnav.plan.EscapeConfig`; default its
         defaults). The result's ``settings["escapes"]`` lists every escape as
         ``(t_s, s_from_m, s_to_m)``.
+    power_shape : str, optional
+        A counterfactual power curve (:data:`POWER_SHAPES`) for the planner's ``J_E`` and for
+        ``energy_J``, scaled to the vehicle's hover power; the vehicle flies as before and
+        ``rotor_energy_J`` is its own. Default None: the vehicle's steady-flight sweep.
 
     Returns
     -------
@@ -610,9 +637,14 @@ def navigate(
                              f"{config.horizon!r} instead.")
         if isinstance(horizon, (int, float)) and horizon > 0:  # else planner_config names it
             horizon = min(horizon, window)
+    if power_shape is not None and power_shape not in POWER_SHAPES:
+        raise ValueError(f"The 'power_shape' parameter of {_WHERE} must be None or one of "
+                         f"{list(POWER_SHAPES)}. Got {power_shape!r} instead.")
     if config is None:
         overrides = {"a_max": a_cap / math.sqrt(2.0), **(planner_overrides or {})}
         config = planner_config(params, variant, horizon=horizon, **overrides)
+    if power_shape is not None:
+        config = _with_power_shape(config, power_shape)
     kp_xy, kd_xy = controller.gains.kp_pos[0], controller.gains.kd_pos[0]
     kp_z, kd_z = controller.gains.kp_pos[2], controller.gains.kd_pos[2]
     az_cap = 0.5 * GRAVITY
