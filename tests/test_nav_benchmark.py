@@ -408,6 +408,33 @@ def test_table_reports_failure_by_kind_and_the_onboard_stack_timings():
     assert "| compute per second of flight (% of one core) | 2.0 | 1.0 | 4.0 |" in md
 
 
+def test_goal_clearance_is_derived_from_the_suite_maps_and_banded_in_the_table():
+    spec = get_suite("thesis")
+    goals = {0: [[100.0, 100.0], [300.0, 420.0]], 3: [[50.0, 550.0]]}
+    recs = [{"scenario_id": f"thesis/m{m:02d}/w00/p{i}", "variant": "mppi", "map_index": m,
+             "goal": g, "outcome": "success", "speed": 5.0}
+            for m, gs in goals.items() for i, g in enumerate(gs)]
+    recs.append({"scenario_id": "other", "variant": "mppi", "outcome": "hover"})
+    out = nb.with_goal_clearance(spec, recs)
+    assert "goal_clearance_m" not in recs[0] and "goal_clearance_m" not in out[-1]
+    for m, gs in goals.items():
+        want = clearance_to_buildings(nb.suite_map(spec, m), gs)
+        got = [r["goal_clearance_m"] for r in out if r.get("map_index") == m]
+        np.testing.assert_array_equal(got, want)
+    # the bands: [0, 25), [25, 40), [40, 60), [60, inf) m, each flight in one
+    recs = [{"scenario_id": f"s/m00/w00/p{i}", "variant": "mppi", "goal_clearance_m": d,
+             "outcome": o, "speed": 5.0}
+            for i, (d, o) in enumerate([(15.0, "hover"), (24.9, "success"), (25.0, "timeout"),
+                                        (59.9, "success"), (60.0, "success"), (300.0, "hover")])]
+    by = benchmark_table(recs)["rows"]["mppi"]["failure_by"]["goal_clearance_m"]
+    assert list(by) == ["<25", "25-40", "40-60", ">=60"]
+    assert by == {"<25": {"pct": 50.0, "n": 2}, "25-40": {"pct": 100.0, "n": 1},
+                  "40-60": {"pct": 0.0, "n": 1}, ">=60": {"pct": 50.0, "n": 2}}
+    md = render_table(benchmark_table(recs))
+    assert ("| 5 m/s | goal <25 m | goal 25-40 m | goal 40-60 m | goal >=60 m |" in md
+            and "| mppi | 50.0 (6) | 50.0 (2) | 100.0 (1) | 0.0 (1) | 50.0 (2) |" in md)
+
+
 def test_table_without_reference_or_flights():
     recs = [r for r in synthetic_records() if r["variant"] == "ea-mppi-w"]
     t = benchmark_table(recs, variants=["ea-mppi-w", "mppi"])

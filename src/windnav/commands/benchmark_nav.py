@@ -154,9 +154,11 @@ def suite_maps(text, spec, name: str) -> tuple[int, ...]:
         raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
 
 
-def _print_table(records, variants, reference) -> dict:
+def _print_table(records, variants, reference, spec) -> dict:
+    from windnav.experiments.nav_benchmark import with_goal_clearance
     from windnav.experiments.nav_records import benchmark_table, render_table
 
+    records = with_goal_clearance(spec, records)
     present = {r["variant"] for r in records}
     rows = [v for v in variants if v in present and v != reference]
     if reference in present:
@@ -200,7 +202,7 @@ def _run(args, name: str) -> int:
         print(f"{summary['errors_now']} flights failed in the harness: their tracebacks are in "
               f"{summary['store']}/records.jsonl ('error'); --retry-errors re-flies them")
     print()
-    table = _print_table(records, variants, args.reference)
+    table = _print_table(records, variants, args.reference, spec)
     if args.json is not None:
         with out.writing() as stage:
             write_json(document("benchmark-nav", {"summary": summary, "table": table}, args),
@@ -224,7 +226,7 @@ def _table(args, name: str) -> int:
     from windnav.experiments.nav_benchmark import check_variants
 
     variants = check_variants(asked, name) if asked else ()
-    table = _print_table(records, variants, args.reference)
+    table = _print_table(records, variants, args.reference, spec)
     if args.json is not None:
         with out.writing() as stage:
             write_json(document("benchmark-nav", {"table": table}, args), stage.file("--json"))

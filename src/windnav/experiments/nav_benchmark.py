@@ -55,6 +55,7 @@ from windnav.experiments.nav_suite import (
     Scenario,
     SuiteSpec,
     check_suite_spec,
+    clearance_to_buildings,
     get_suite,
     make_suite,
     parse_scenario_id,
@@ -87,6 +88,7 @@ __all__ = [
     "run_benchmark",
     "run_group",
     "suite_flow",
+    "with_goal_clearance",
 ]
 
 RECORD_FIELDS = (
@@ -176,6 +178,22 @@ def worker_reuse() -> WorkerReuse:
     """This process's :class:`WorkerReuse`, made on first use (each worker process has its
     own, so nothing is shared between processes)."""
     return WorkerReuse()
+
+
+def with_goal_clearance(spec: SuiteSpec, records: Sequence[dict]) -> list[dict]:
+    """``records`` with ``goal_clearance_m``: the distance, m, from each flight's goal to the
+    nearest building of its map (the suite's :func:`suite_map`), derived for the table's
+    failure bands (records that have no ``goal`` or ``map_index`` are returned unchanged)."""
+    by_map: dict[int, list[int]] = {}
+    out = [dict(r) for r in records]
+    for k, r in enumerate(out):
+        if r.get("goal") is not None and r.get("map_index") is not None:
+            by_map.setdefault(int(r["map_index"]), []).append(k)
+    for m, ks in by_map.items():
+        goals = [out[k]["goal"] for k in ks]
+        for k, d in zip(ks, clearance_to_buildings(suite_map(spec, m), goals), strict=True):
+            out[k]["goal_clearance_m"] = float(d)
+    return out
 
 
 # ------------------------------------------------------------------------------- one flight

@@ -343,8 +343,10 @@ def benchmark_table(
         {``energy_J`` and ``rotor_energy_J``: {``table_ratio`` {``value``, ``ci95``,
         ``n_variant``, ``n_reference``}, ``paired_reduction`` {``mean``, ``std``, ``n``,
         ``ci95``, ``by_speed`` {speed: {``mean``, ``std``, ``n``}}, ``less`` (pairs where
-        the variant used less energy)}}} (fractions, not %); ``failure_by`` {``speed`` and
-        ``kind``: {group: {``pct``, ``n``}}}; for the onboard stack's records ``onboard``
+        the variant used less energy)}}} (fractions, not %); ``failure_by`` {``speed``,
+        ``kind`` and ``goal_clearance_m`` (bands of :data:`GOAL_CLEARANCE_BANDS`, for records
+        that have the field): {group: {``pct``, ``n``}}}; for the onboard stack's records
+        ``onboard``
         {``stage_ms`` {stage: {``median``, ``min``, ``max``, ``n``}}, ``real_time_fraction``,
         ``ukf_wind_rms_xy_mps``} over its flights.
     """
@@ -391,14 +393,40 @@ def benchmark_table(
             "rows": rows}
 
 
-_FAILURE_GROUPS = {"speed": (lambda x: f"{_num(x):g}", float), "kind": (str, str)}
-"""Record fields the failure % is grouped by: (group label of a value, sort key of a label)."""
+GOAL_CLEARANCE_BANDS = (25.0, 40.0, 60.0)
+"""Edges (m) of the bands of ``goal_clearance_m`` (the goal's distance to the nearest building)
+by which the failure % is grouped: the thesis's progress and obstacle costs balance
+``Q_O D_max^4 / (N_k d^3)`` from a goal ``d`` from a building (``docs/planner.md``)."""
+
+
+def _clearance_band(value) -> str:
+    d = _num(value)
+    edges = GOAL_CLEARANCE_BANDS
+    k = sum(d >= e for e in edges)
+    if k == 0:
+        return f"<{edges[0]:g}"
+    return f">={edges[-1]:g}" if k == len(edges) else f"{edges[k - 1]:g}-{edges[k]:g}"
+
+
+def _band_order(label: str) -> float:
+    return -1.0 if label.startswith("<") else float(label.lstrip(">=").split("-")[0])
+
+
+_FAILURE_GROUPS = {
+    "speed": (lambda x: f"{_num(x):g}", float, "{} m/s"),
+    "kind": (str, str, "{}"),
+    "goal_clearance_m": (_clearance_band, _band_order, "goal {} m"),
+}
+"""Record fields the failure % is grouped by: (group label of a value, sort key of a label,
+column head of a label). ``goal_clearance_m`` is derived, not recorded
+(:func:`~windnav.experiments.nav_benchmark.with_goal_clearance`)."""
 
 
 def _failure_by(valid: Sequence[Mapping]) -> dict:
-    """Failure % of the flights ``valid`` grouped by inlet speed and by pair kind."""
+    """Failure % of the flights ``valid`` grouped by inlet speed, by pair kind and (records
+    that have it) by the goal's clearance band."""
     out = {}
-    for key, (label, order) in _FAILURE_GROUPS.items():
+    for key, (label, order, _) in _FAILURE_GROUPS.items():
         groups: dict[str, list[bool]] = {}
         for r in valid:
             if r.get(key) is not None:
@@ -531,18 +559,21 @@ def render_table(table: Mapping) -> str:
 
 
 def _render_failure_by(rows: Mapping, variants: Sequence[str]) -> list[str]:
-    groups = {key: sorted({g for v in variants for g in rows[v]["failure_by"][key]}, key=order)
-              for key, (_, order) in _FAILURE_GROUPS.items()}
+    groups = {key: sorted({g for v in variants for g in rows[v]["failure_by"].get(key, {})},
+                          key=order)
+              for key, (_, order, _) in _FAILURE_GROUPS.items()}
     if not any(groups.values()):
         return []
-    heads = [f"{g} m/s" for g in groups["speed"]] + list(groups["kind"])
-    out = ["", "Failure % by inlet speed and by pair kind (flights in each group in "
-           "parentheses):", "", "| variant | " + " | ".join(heads) + " |",
+    heads = [head.format(g) for key, (_, _, head) in _FAILURE_GROUPS.items()
+             for g in groups[key]]
+    out = ["", "Failure % by inlet speed, by pair kind and by the goal's distance to the nearest "
+           "building (flights in each group in parentheses):", "",
+           "| variant | " + " | ".join(heads) + " |",
            "|" + "---|" * (len(heads) + 1)]
     for v in variants:
         by = rows[v]["failure_by"]
-        cells = [(f"{by[key][g]['pct']:.1f} ({by[key][g]['n']})" if g in by[key] else "-")
-                 for key in _FAILURE_GROUPS for g in groups[key]]
+        cells = [(f"{by[key][g]['pct']:.1f} ({by[key][g]['n']})" if g in by.get(key, {})
+                  else "-") for key in _FAILURE_GROUPS for g in groups[key]]
         out.append(f"| {v} | " + " | ".join(cells) + " |")
     return out
 
