@@ -372,6 +372,11 @@ def test_table_counts_means_and_both_energy_measures():
     assert pr["by_speed"]["5"]["n"] == 2 and pr["by_speed"]["10"]["n"] == 2
     assert pr["by_speed"]["10"]["mean"] == pytest.approx(np.mean(paired[2:]))
     assert pr["less"] == 3  # all but 5500 J against 5000 J
+    # the same pairs, split into time and mean power (equal times here: the power ratio is the
+    # energy ratio)
+    pace = ea["vs_reference"]["pace"]
+    assert pace["time_ratio"]["n"] == 4 and pace["time_ratio"]["mean"] == pytest.approx(1.0)
+    assert pace["power_ratio"]["mean"] == pytest.approx(1.0 - np.mean(paired))
     assert ref["failure_by"]["speed"] == {"5": {"pct": 0.0, "n": 3},
                                           "10": {"pct": pytest.approx(100 / 3), "n": 3}}
     assert ea["failure_by"]["speed"]["5"] == {"pct": pytest.approx(100 / 3), "n": 3}
@@ -379,11 +384,12 @@ def test_table_counts_means_and_both_energy_measures():
     rot = ea["vs_reference"]["rotor_energy_J"]["paired_reduction"]
     assert rot["mean"] == pytest.approx(np.mean(paired))  # rotor = 2 x airspeed here
     md = render_table(t)
-    assert md.count("\n| mppi |") == 3 and md.count("| ea-mppi-w |") == 5
+    assert md.count("\n| mppi |") == 3 and md.count("| ea-mppi-w |") == 6
     assert "3.00 ± 1.58" in md and "16.7 (16.7, 0.0, 0.0, 0.0)" in md
     assert "6 (+1 errors)" in md and f"{100 * (1 - mean_ea / 3000):.1f}%" in md
     assert f"{100 * np.mean(paired):.1f}%" in md
     assert "| 3 of 4 |" in md and "| ea-mppi-w | 33.3 (3) | 0.0 (3) |" in md
+    assert f"| ea-mppi-w | 1.000 [1.000, 1.000] | {1 - np.mean(paired):.3f} [" in md
 
 
 def test_table_reports_failure_by_kind_and_the_onboard_stack_timings():
@@ -604,8 +610,8 @@ def test_quick_suite_table_structure(quick_table):
                 d = row["vs_reference"][e]
                 assert set(d) == {"table_ratio", "paired_reduction"}
                 assert d["table_ratio"]["n_reference"] == table["rows"]["mppi"]["success"]
-    # the table, its intervals, the two energy measures and the failure by speed and kind
-    assert render_table(table).count("| ea-mppi-w |") == 5
+    # the table, its intervals, the two energy measures, time and power, the failure groups
+    assert render_table(table).count("| ea-mppi-w |") == 6
 
 
 @needs_quick

@@ -343,10 +343,11 @@ def benchmark_table(
         {``energy_J`` and ``rotor_energy_J``: {``table_ratio`` {``value``, ``ci95``,
         ``n_variant``, ``n_reference``}, ``paired_reduction`` {``mean``, ``std``, ``n``,
         ``ci95``, ``by_speed`` {speed: {``mean``, ``std``, ``n``}}, ``less`` (pairs where
-        the variant used less energy)}}} (fractions, not %); ``failure_by`` {``speed``,
-        ``kind`` and ``goal_clearance_m`` (bands of :data:`GOAL_CLEARANCE_BANDS`, for records
-        that have the field): {group: {``pct``, ``n``}}}; for the onboard stack's records
-        ``onboard``
+        the variant used less energy)}} and ``pace`` {``time_ratio``, ``power_ratio``: {``mean``,
+        ``std``, ``n``, ``ci95``}} over the same pairs} (fractions, not %); ``failure_by``
+        {``speed``, ``kind`` and ``goal_clearance_m`` (bands of :data:`GOAL_CLEARANCE_BANDS`,
+        for records that have the field): {group: {``pct``, ``n``}}}; for the onboard stack's
+        records ``onboard``
         {``stage_ms`` {stage: {``median``, ``min``, ``max``, ``n``}}, ``real_time_fraction``,
         ``ukf_wind_rms_xy_mps``} over its flights.
     """
@@ -388,6 +389,7 @@ def benchmark_table(
             row["vs_reference"] = {
                 e: _versus(by_variant.get(v, {}), ref, e, confidence, n_boot, gen)
                 for e in ENERGIES}
+            row["vs_reference"]["pace"] = _pace(by_variant.get(v, {}), ref, confidence)
         rows[v] = row
     return {"reference": reference, "confidence": confidence, "variants": list(variants),
             "rows": rows}
@@ -482,6 +484,24 @@ def _versus(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, gen) ->
     return {"table_ratio": ratio, "paired_reduction": red}
 
 
+def _pace(mine: Mapping, ref: Mapping, confidence) -> dict:
+    """Over the scenarios where neither failed: the time ratio ``T / T_ref`` and the mean-power
+    ratio ``(E / T) / (E_ref / T_ref)`` (airspeed-model energy), whose product is
+    ``E / E_ref``: whether a variant saves energy by drawing less power or by arriving sooner."""
+    times, powers = [], []
+    for sid, r in mine.items():
+        q = ref.get(sid)
+        if q is None or r["outcome"] != "success" or q["outcome"] != "success":
+            continue
+        t, t_ref = _num(r.get("time_s")), _num(q.get("time_s"))
+        e, e_ref = _num(r.get("energy_J")), _num(q.get("energy_J"))
+        if all(math.isfinite(x) and x > 0 for x in (t, t_ref, e, e_ref)):
+            times.append(t / t_ref)
+            powers.append((e / t) / (e_ref / t_ref))
+    return {"time_ratio": _describe(times, confidence),
+            "power_ratio": _describe(powers, confidence)}
+
+
 # ------------------------------------------------------------------------------- Markdown
 
 
@@ -553,6 +573,16 @@ def render_table(table: Mapping) -> str:
                         if pr["mean"] is not None else "-")
                 out.append(f"| {v} | {label} | {tr_s} | {pr_s} | {tr['n_variant']}, "
                            f"{tr['n_reference']}; {pr['n']} | {pr['less']} of {pr['n']} |")
+        out += ["", f"Time and mean power against {ref} over the same pairs (time ratio "
+                f"T/T_{ref}; mean-power ratio (E/T)/(E_{ref}/T_{ref}), airspeed model; their "
+                "product is the energy ratio; t intervals):", "",
+                "| variant | time ratio | mean-power ratio | pairs |", "|---|---|---|---|"]
+        for v in others:
+            pace = rows[v]["vs_reference"]["pace"]
+            tr, pw = pace["time_ratio"], pace["power_ratio"]
+            cells = [("-" if d["mean"] is None else f"{d['mean']:.3f} {_ci(d['ci95'], 3)}")
+                     for d in (tr, pw)]
+            out.append(f"| {v} | {cells[0]} | {cells[1]} | {tr['n']} |")
     out += _render_failure_by(rows, variants)
     out += _render_onboard(rows, variants)
     return "\n".join(out) + "\n"
