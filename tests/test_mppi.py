@@ -3,6 +3,7 @@ and bad input."""
 
 import dataclasses
 
+import numba
 import numpy as np
 import pytest
 
@@ -99,6 +100,38 @@ def test_fused_kernel_matches_the_numpy_reference(base, kind):
     np.testing.assert_allclose(pos[:, 1:], ref_pos, rtol=1e-10, atol=1e-10)
     np.testing.assert_allclose(parts[:, 3], np.sqrt(
         ((ref_pos[:, :, None] - pts[None, None]) ** 2).sum(-1)).min((1, 2)), rtol=1e-9)
+
+
+# the lookups as the rollout kernel compiles them (inlined, with its fastmath flags)
+@numba.njit(fastmath={"contract", "arcp"})
+def _winds_one_at_a_time(px, py, wmode, wgrid, wmeta, wx, wy):
+    for s in range(px.size):
+        wx[s], wy[s] = _kernels.wind_at(px[s], py[s], wmode, wgrid, wmeta)
+
+
+@numba.njit(fastmath={"contract", "arcp"})
+def _winds_batched(px, py, wmode, wgrid, wmeta, wx, wy):
+    _kernels._winds(px, py, wmode, wgrid, wmeta, wx, wy)
+
+
+@pytest.mark.parametrize("spacing, half", [(1.0, np.inf), (25 / 24, 12.5), (0.7, 14.0)])
+def test_the_batched_wind_lookup_is_the_one_at_a_time_lookup_to_the_bit(spacing, half):
+    # the batch reads the window once; its divisions by the spacing must stay divisions (a
+    # multiplication by the reciprocal differs in the last bit for spacings like 25/24)
+    rng = np.random.default_rng(3)
+    n = 30
+    wgrid = rng.standard_normal((2, n, n))
+    x0 = -0.5 * (n - 1) * spacing + 0.123
+    wmeta = np.array([x0, x0 - 0.31, spacing, spacing, half])
+    r = (half if np.isfinite(half) else 0.5 * n * spacing) + 3.0
+    px, py = rng.uniform(-r, r, (2, 5000))
+    for mode in (1, 2):
+        got = np.empty((2, px.size))
+        want = np.empty((2, px.size))
+        _winds_batched(px, py, mode, wgrid, wmeta, got[0], got[1])
+        _winds_one_at_a_time(px, py, mode, wgrid, wmeta, want[0], want[1])
+        assert got.tobytes() == want.tobytes()
+    assert np.any(got[0] == 0.0) == np.isfinite(half)  # samples outside the window: no wind
 
 
 def test_rollout_reaches_the_terminal_speed_of_the_drag(base):

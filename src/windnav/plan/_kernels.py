@@ -76,19 +76,15 @@ def power_bar_array(v: np.ndarray, ptab: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True, inline="always")
-def wind_at(px, py, wmode, wgrid, wmeta):  # pragma: no cover - numba
-    """Wind (u, v) at local position (px, py), m/s."""
-    if wmode == 0:
-        return 0.0, 0.0
-    half = wmeta[4]
+def _bilinear(px, py, half, x0, y0, nx, ny, wgrid, wmeta):  # pragma: no cover - numba
+    """Mode 2 of :func:`wind_at` with the window and grid read once by the caller: ``half``,
+    ``x0``, ``y0`` from ``wmeta`` and the grid's ``nx``, ``ny``. The spacings stay reads of
+    ``wmeta`` at the division: a divisor the compiler sees as loop-invariant would let the
+    callers' ``arcp`` turn the division into a multiplication by its reciprocal (other bits)."""
     if abs(px) > half or abs(py) > half:
         return 0.0, 0.0
-    if wmode == 1:
-        return wgrid[0, 0, 0], wgrid[1, 0, 0]
-    ny = wgrid.shape[1]
-    nx = wgrid.shape[2]
-    fx = (px - wmeta[0]) / wmeta[2]
-    fy = (py - wmeta[1]) / wmeta[3]
+    fx = (px - x0) / wmeta[2]
+    fy = (py - y0) / wmeta[3]
     fx = min(max(fx, 0.0), nx - 1.0)
     fy = min(max(fy, 0.0), ny - 1.0)
     i = min(int(fx), nx - 2)
@@ -104,6 +100,20 @@ def wind_at(px, py, wmode, wgrid, wmeta):  # pragma: no cover - numba
     v = (w00 * wgrid[1, j, i] + w10 * wgrid[1, j, i + 1] + w01 * wgrid[1, j + 1, i]
          + w11 * wgrid[1, j + 1, i + 1])
     return u, v
+
+
+@numba.njit(cache=True, inline="always")
+def wind_at(px, py, wmode, wgrid, wmeta):  # pragma: no cover - numba
+    """Wind (u, v) at local position (px, py), m/s."""
+    if wmode == 0:
+        return 0.0, 0.0
+    half = wmeta[4]
+    if wmode == 1:
+        if abs(px) > half or abs(py) > half:
+            return 0.0, 0.0
+        return wgrid[0, 0, 0], wgrid[1, 0, 0]
+    return _bilinear(px, py, half, wmeta[0], wmeta[1], wgrid.shape[2], wgrid.shape[1], wgrid,
+                     wmeta)
 
 
 @numba.njit(cache=True, inline="always")
@@ -336,8 +346,9 @@ def _winds(px, py, wmode, wgrid, wmeta, wx, wy):  # pragma: no cover - numba
     (branch-free, so the loop vectorises) or bilinear on the grid."""
     half = wmeta[4]
     if wmode == 2:
+        x0, y0, nx, ny = wmeta[0], wmeta[1], wgrid.shape[2], wgrid.shape[1]
         for s in range(px.size):
-            wx[s], wy[s] = wind_at(px[s], py[s], wmode, wgrid, wmeta)
+            wx[s], wy[s] = _bilinear(px[s], py[s], half, x0, y0, nx, ny, wgrid, wmeta)
     elif wmode == 1:
         w0x = wgrid[0, 0, 0]
         w0y = wgrid[1, 0, 0]
