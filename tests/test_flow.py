@@ -26,7 +26,7 @@ from windnav.flow import (
     square_cylinder_strouhal,
     strouhal_number,
 )
-from windnav.flow.solver import check_finite
+from windnav.flow.solver import _max_abs, check_finite
 
 
 def _city():
@@ -320,6 +320,20 @@ def test_blowup_is_reported_with_the_step_number():
     v[2, 1] = 11.0
     with pytest.raises(FlowDivergedError, match="step 8"):
         check_finite(u, v, 10.0, 8)
+
+
+def test_the_blowup_check_finds_the_exact_largest_magnitude_or_inf():
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal((40, 41)) * 10.0 ** rng.integers(-300, 300, (40, 41))
+    a[3, 4] = 5e-324  # subnormal
+    a[7, 8] = -0.0
+    for x in (a, a[:, ::3], -a.T, np.zeros((3, 3)), np.full((2, 2), -0.0)):
+        assert _max_abs(x) == np.max(np.abs(x))  # the value itself, not an approximation
+    for bad in (np.nan, np.inf, -np.inf):
+        for where in ((0, 0), (20, 17), (39, 40)):
+            b = a.copy()
+            b[where] = bad
+            assert _max_abs(b) == np.inf
 
 
 def test_mac_grid_is_a_checked_value():

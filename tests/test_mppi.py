@@ -306,5 +306,9 @@ def test_bad_planner_arguments_raise_named_errors(base):
     planner.set_goal((10, 0))
     with pytest.raises(ValueError, match="'state' parameter of MPPIPlanner.update"):
         planner.update([0, 0, 0])
-    with pytest.raises(ValueError, match="'offsets' parameter of LocalWind"):
-        LocalWind.grid(np.zeros((2, 3, 3)), [0.0, 1.0, 3.0])
+    for bad in ([0.0, 1.0, 3.0], [2.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, np.nan, 2.0],
+                [0.0, 1.0, np.inf], [0.0, 1.0, 2.00001]):
+        with pytest.raises(ValueError, match="'offsets' parameter of LocalWind"):
+            LocalWind.grid(np.zeros((2, 3, 3)), bad)
+    even = -12.0 + 25 / 24 * np.arange(25)  # steps equal to rounding
+    assert LocalWind.grid(np.zeros((2, 25, 25)), even).x is not None

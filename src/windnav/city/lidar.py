@@ -23,6 +23,7 @@ An origin inside or on the edge of a footprint is blocked: all its rays read ``m
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numba
@@ -54,6 +55,16 @@ def ray_directions(n_rays: int) -> np.ndarray:
     quarter = (4 * k[axis]) // n_rays
     d[axis] = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])[quarter % 4]
     return d
+
+
+@functools.lru_cache(maxsize=8)
+def _ray_components(n_rays: int) -> tuple[np.ndarray, np.ndarray]:
+    """The x and y components of :func:`ray_directions` as contiguous read-only arrays, made
+    once per ray count (a scan at 10 Hz would otherwise rebuild them every time)."""
+    d = ray_directions(n_rays)
+    cos_a, sin_a = d[:, 0].copy(), d[:, 1].copy()
+    cos_a.flags.writeable = sin_a.flags.writeable = False
+    return cos_a, sin_a
 
 
 def lidar_scan(
@@ -115,12 +126,12 @@ def lidar_scan(
             )
         rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
 
-    d = ray_directions(n_rays)
+    cos_a, sin_a = _ray_components(n_rays)
     ranges = np.empty((origins.shape[0], n_rays))
     hit = np.empty((origins.shape[0], n_rays), dtype=np.bool_)
     blocked = np.empty(origins.shape[0], dtype=np.bool_)
     _scan(np.ascontiguousarray(origins), np.ascontiguousarray(city.footprints),
-          d[:, 0].copy(), d[:, 1].copy(), max_range, ranges, hit, blocked)
+          cos_a, sin_a, max_range, ranges, hit, blocked)
     if noise_std > 0.0:
         noise = rng.standard_normal(size=ranges.shape)
         noise *= noise_std

@@ -75,6 +75,25 @@ def power_bar_array(v: np.ndarray, ptab: np.ndarray) -> np.ndarray:
     return out.reshape(v.shape)
 
 
+@numba.njit(cache=True)
+def evenly_increasing(a):  # pragma: no cover - numba
+    """Whether the finite 1-D ``a`` (>= 2 values, all finite) increases in steps equal to
+    ``1e-6`` of the first (the check of a wind grid's cell-centre offsets), in one pass:
+    ``all(diff(a) > 0)`` and ``ptp(diff(a)) <= 1e-6 diff(a)[0]``."""
+    for x in a:
+        if not math.isfinite(x):
+            return False
+    first = a[1] - a[0]
+    lo = hi = first
+    for i in range(1, a.size):
+        d = a[i] - a[i - 1]
+        if not d > 0.0:
+            return False
+        lo = min(lo, d)
+        hi = max(hi, d)
+    return hi - lo <= 1e-6 * first
+
+
 @numba.njit(cache=True, inline="always")
 def _bilinear(px, py, half, x0, y0, nx, ny, wgrid, wmeta):  # pragma: no cover - numba
     """Mode 2 of :func:`wind_at` with the window and grid read once by the caller: ``half``,

@@ -14,13 +14,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from windnav.plan._kernels import evenly_increasing
+
 __all__ = ["LocalWind"]
 
 _WHERE = "LocalWind"
 
 
 def _offsets(values, name: str) -> np.ndarray:
-    a = np.asarray(values, dtype=np.float64).reshape(-1)
+    a = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
+    if a.size >= 2 and evenly_increasing(a):  # one compiled pass: checked at every update
+        return a
     if a.size < 2 or not np.all(np.isfinite(a)):
         raise ValueError(f"The {name!r} parameter of {_WHERE} must be a finite 1-D array of at "
                          f"least 2 offsets. Got shape {a.shape} instead.")
