@@ -95,11 +95,13 @@ def evenly_increasing(a):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, inline="always")
-def _bilinear(px, py, half, x0, y0, nx, ny, wgrid, wmeta):  # pragma: no cover - numba
+def _bilinear(px, py, half, x0, y0, wmeta, nx, ny, wgrid):  # pragma: no cover - numba
     """Mode 2 of :func:`wind_at` with the window and grid read once by the caller: ``half``,
     ``x0``, ``y0`` from ``wmeta`` and the grid's ``nx``, ``ny``. The spacings stay reads of
     ``wmeta`` at the division: a divisor the compiler sees as loop-invariant would let the
-    callers' ``arcp`` turn the division into a multiplication by its reciprocal (other bits)."""
+    callers' ``arcp`` turn the division into a multiplication by its reciprocal (other bits).
+    The argument order is measured, not cosmetic: with ``wgrid`` last the 100 x 187 lookups of
+    a rollout take 0.16 ms inside it, with ``wmeta`` last 0.54 ms (same values)."""
     if abs(px) > half or abs(py) > half:
         return 0.0, 0.0
     fx = (px - x0) / wmeta[2]
@@ -131,8 +133,8 @@ def wind_at(px, py, wmode, wgrid, wmeta):  # pragma: no cover - numba
         if abs(px) > half or abs(py) > half:
             return 0.0, 0.0
         return wgrid[0, 0, 0], wgrid[1, 0, 0]
-    return _bilinear(px, py, half, wmeta[0], wmeta[1], wgrid.shape[2], wgrid.shape[1], wgrid,
-                     wmeta)
+    return _bilinear(px, py, half, wmeta[0], wmeta[1], wmeta, wgrid.shape[2], wgrid.shape[1],
+                     wgrid)
 
 
 @numba.njit(cache=True, inline="always")
@@ -367,7 +369,7 @@ def _winds(px, py, wmode, wgrid, wmeta, wx, wy):  # pragma: no cover - numba
     if wmode == 2:
         x0, y0, nx, ny = wmeta[0], wmeta[1], wgrid.shape[2], wgrid.shape[1]
         for s in range(px.size):
-            wx[s], wy[s] = _bilinear(px[s], py[s], half, x0, y0, nx, ny, wgrid, wmeta)
+            wx[s], wy[s] = _bilinear(px[s], py[s], half, x0, y0, wmeta, nx, ny, wgrid)
     elif wmode == 1:
         w0x = wgrid[0, 0, 0]
         w0y = wgrid[1, 0, 0]
