@@ -8,6 +8,7 @@ JSON into ``--out``.
     windnav nav-study cases --store runs/thesis --out docs/navigation    # best and worst cases
     windnav nav-study winds --map 0 --out docs/navigation                # 4 winds of one map
     windnav nav-study gs    --out docs/navigation                        # cases against GS
+    windnav nav-study pace  --store runs/thesis --out docs/navigation    # time and power
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -24,7 +25,10 @@ airspeed, power and energy against time (:mod:`windnav.experiments.nav_cases`). 
 4 of a map's 16 winds (one per inlet speed and incidence: w01, w06, w11, w12) with the start and
 goal of each pair. ``gs`` flies MPPI, EA-MPPI+W (``Q_E = 3``, ``H = 90`` m), GS and GS+W on
 the three case studies of :mod:`windnav.experiments.gs_cases` (an intersection, a single
-building, a scenario of the thesis suite; ``--case`` picks one) and draws each.
+building, a scenario of the thesis suite; ``--case`` picks one) and draws each. ``pace``
+splits the energy ratio of ``--variant`` to MPPI over the store's pairs into a time ratio and a
+mean-power ratio, with the vehicle's power curve and the ``@power=crazyflie`` counterfactual
+where the store has it (:mod:`windnav.experiments.nav_pace`); it flies nothing.
 """
 
 from __future__ import annotations
@@ -43,7 +47,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h", "cases", "winds", "gs")
+STUDIES = ("qe", "h", "cases", "winds", "gs", "pace")
 """The studies, as named on the command line."""
 
 
@@ -64,7 +68,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", type=Path, required=True, help="output folder (figure, JSON)")
     p.add_argument("--store", type=Path, default=None,
                    help="qe, h: the benchmark store the flights go to (created or resumed); "
-                        "cases: the store whose records are ranked")
+                        "cases, pace: the store whose records are read")
     p.add_argument("--suite", choices=tuple(SUITES), default="thesis",
                    help="the suite (%(default)s)")
     p.add_argument("--maps", default=None, metavar="LIST",
@@ -73,7 +77,7 @@ def register(subparsers) -> None:
                    help="the values swept (default: qe 0 0.5 1 2 3 4 5 6; h 0 25 50 100 200 "
                         "inf)")
     p.add_argument("--variant", default="ea-mppi-w",
-                   help="cases: the variant compared with MPPI (%(default)s)")
+                   help="cases, pace: the variant compared with MPPI (%(default)s)")
     p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
@@ -111,6 +115,8 @@ def run(args) -> int:
     check_output_path(args.store, "--store", name, kind="dir")
     if study == "cases":
         return _cases(args, name, spec)
+    if study == "pace":
+        return _pace(args, name, spec)
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     try:
@@ -182,6 +188,44 @@ def _cases(args, name: str, spec) -> int:
     print(json.dumps(json_ready({"study": "cases", "pairs": ranked["n"],
                                  **{t: ranked[t] for t in tags}, "reflown_energy_J": flown,
                                  "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 0
+
+
+def _pace(args, name: str, spec) -> int:
+    from windnav.commands.benchmark_nav import suite_maps
+    from windnav.experiments.nav_benchmark import NavStore, check_variants
+    from windnav.experiments.nav_pace import pace_study
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.viz.nav_sweeps import plot_pace
+
+    if not (args.store / "manifest.json").is_file():
+        raise ValueError(f"The '--store' parameter of {name} must name a benchmark store (with "
+                         f"manifest.json). Got {str(args.store)!r} instead.")
+    (variant,) = check_variants([args.variant], name)
+    maps = suite_maps(args.maps, spec, name)
+    products = ("nav_pace.json", "nav_pace.png")
+    out = outputs(args, out=("--out", args.out, products))
+    records = [r for r in NavStore(args.store, spec, create=False).load()
+               if r.get("map_index") in maps]
+    try:
+        res = pace_study(records, variant)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'records' parameter of pace_study",
+                                          f"'--store' parameter of {name}")) from None
+    res.update(store=str(args.store), maps=list(maps))
+    with out.writing() as stage:
+        plot_pace(res, stage.dir / products[1])
+        doc = document("nav-study", {"study": "pace", **res}, args)
+        write_json(doc, stage.dir / products[0])
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    brief = {k: {"pairs": c["time_ratio"]["n"], "time_ratio": c["time_ratio"]["mean"],
+                 "power_ratio": c["power_ratio"]["mean"],
+                 "energy_ratio": c["energy_ratio"]["mean"], "power_floor": c["power_floor"]}
+             for k, c in res["curves"].items()}
+    print(json.dumps(json_ready({"study": "pace", "variant": variant, "curves": brief,
+                                 "thesis": res["thesis"]}), indent=1))
     print_written(out)
     return 0
 

@@ -46,6 +46,7 @@ __all__ = [
     "SuiteMismatchError",
     "benchmark_table",
     "latest_records",
+    "paired_pace",
     "render_table",
 ]
 
@@ -484,11 +485,20 @@ def _versus(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, gen) ->
     return {"table_ratio": ratio, "paired_reduction": red}
 
 
-def _pace(mine: Mapping, ref: Mapping, confidence) -> dict:
-    """Over the scenarios where neither failed: the time ratio ``T / T_ref`` and the mean-power
-    ratio ``(E / T) / (E_ref / T_ref)`` (airspeed-model energy), whose product is
-    ``E / E_ref``: whether a variant saves energy by drawing less power or by arriving sooner."""
-    times, powers = [], []
+def paired_pace(mine: Mapping, ref: Mapping) -> dict:
+    """Per scenario where neither failed (``mine`` and ``ref``: scenario id -> record): the
+    time ratio ``T / T_ref`` and the mean-power ratio ``(E / T) / (E_ref / T_ref)``
+    (airspeed-model energy ``energy_J``, ``time_s``), whose product is ``E / E_ref``: whether a
+    variant saves energy by drawing less power or by arriving sooner.
+
+    Returns
+    -------
+    dict
+        ``scenario_id``, ``speed`` (inlet, m/s), ``time_ratio``, ``power_ratio`` and
+        ``reference_power_W`` (``E_ref / T_ref``): lists, one entry per pair.
+    """
+    out = {k: [] for k in ("scenario_id", "speed", "time_ratio", "power_ratio",
+                           "reference_power_W")}
     for sid, r in mine.items():
         q = ref.get(sid)
         if q is None or r["outcome"] != "success" or q["outcome"] != "success":
@@ -496,10 +506,19 @@ def _pace(mine: Mapping, ref: Mapping, confidence) -> dict:
         t, t_ref = _num(r.get("time_s")), _num(q.get("time_s"))
         e, e_ref = _num(r.get("energy_J")), _num(q.get("energy_J"))
         if all(math.isfinite(x) and x > 0 for x in (t, t_ref, e, e_ref)):
-            times.append(t / t_ref)
-            powers.append((e / t) / (e_ref / t_ref))
-    return {"time_ratio": _describe(times, confidence),
-            "power_ratio": _describe(powers, confidence)}
+            out["scenario_id"].append(sid)
+            out["speed"].append(_num(r.get("speed")))
+            out["time_ratio"].append(t / t_ref)
+            out["power_ratio"].append((e / t) / (e_ref / t_ref))
+            out["reference_power_W"].append(e_ref / t_ref)
+    return out
+
+
+def _pace(mine: Mapping, ref: Mapping, confidence) -> dict:
+    """:func:`paired_pace`'s two ratios summarised (mean, std, n, t interval)."""
+    pairs = paired_pace(mine, ref)
+    return {"time_ratio": _describe(pairs["time_ratio"], confidence),
+            "power_ratio": _describe(pairs["power_ratio"], confidence)}
 
 
 # ------------------------------------------------------------------------------- Markdown

@@ -1,6 +1,7 @@
 """The figure of the Q_E and H sweeps (:mod:`windnav.experiments.nav_sweeps`): EA-MPPI+W's
 paired energy reduction against MPPI for each value, overall (with its 95 % interval) and per
-inlet speed, and the failure rate beside MPPI's."""
+inlet speed, and the failure rate beside MPPI's; and the figure of the pace study
+(:mod:`windnav.experiments.nav_pace`): time and mean-power ratios per pair."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-__all__ = ["plot_sweep"]
+__all__ = ["plot_pace", "plot_sweep"]
 
 
 def _positions(values):
@@ -74,6 +75,52 @@ def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path
     fig.suptitle(f"EA-MPPI+W against {result['reference']}, sweeping {name}: "
                  f"{result['reference_flights']} scenarios, {min(n)}-{max(n)} pairs where "
                  "neither failed", fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+_PACE_COLORS = {"vehicle": "#1f77b4", "crazyflie": "#d62728"}
+_PACE_NAMES = {"vehicle": "the Hummingbird's curve", "crazyflie": "the thesis's Crazyflie shape"}
+
+
+def plot_pace(result: dict, path) -> Path:
+    """Per pair, the mean-power ratio against the time ratio of a variant to MPPI
+    (:func:`windnav.experiments.nav_pace.pace_study`), each curve's means and power floor, the
+    thesis's means, and the lines of equal energy and of the thesis's 14.1 % paired saving
+    (``power ratio = energy ratio / time ratio``)."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.6))
+    t_all = [result["thesis"]["time_ratio"]]
+    for name, c in result["curves"].items():
+        t, p = np.asarray(c["pairs"]["time_ratio"]), np.asarray(c["pairs"]["power_ratio"])
+        t_all += list(t)
+        color = _PACE_COLORS.get(name, "0.4")
+        e = c["energy_ratio"]["mean"]
+        ax.scatter(t, p, s=10, alpha=0.45, color=color, lw=0,
+                   label=f"{_PACE_NAMES.get(name, name)}: {c['variant']} / {c['reference']}, "
+                         f"{len(t)} pairs (energy x{e:.2f})")
+        if c["time_ratio"]["mean"] is not None:
+            ax.plot(c["time_ratio"]["mean"], c["power_ratio"]["mean"], "o", ms=11, mfc=color,
+                    mec="k", mew=1.2, zorder=5)
+        if c["power_floor"] is not None:
+            ax.axhline(c["power_floor"], color=color, ls=":", lw=1.2)
+            ax.text(0.99, c["power_floor"], f"least power / MPPI's ({name})", color=color,
+                    fontsize=7, ha="right", va="bottom", transform=ax.get_yaxis_transform())
+    th = result["thesis"]
+    ax.plot(th["time_ratio"], th["power_ratio"], "*", ms=16, mfc="gold", mec="k", zorder=6,
+            label=f"the thesis's means (energy x{th['time_ratio'] * th['power_ratio']:.2f})")
+    lo, hi = 0.8 * min(t_all), 1.1 * max(t_all)
+    tt = np.linspace(max(lo, 0.05), hi, 200)
+    ax.plot(tt, 1.0 / tt, "k--", lw=1, label="the same energy as MPPI")
+    ax.plot(tt, 0.859 / tt, "k:", lw=1, label="14.1 % less (the thesis's paired saving)")
+    ax.set_xlim(lo, hi)
+    ax.set_xlabel("time ratio  T / T_MPPI")
+    ax.set_ylabel("mean-power ratio  (E/T) / (E_MPPI/T_MPPI)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper right")
+    ax.set_title("Energy = mean power x time: scenarios where neither failed", fontsize=10)
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=110)
