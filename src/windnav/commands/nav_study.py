@@ -93,13 +93,27 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def _write(out, args, payload: dict, json_name: str, draw) -> None:
+    """Write a study's outputs together: its figures (``draw(folder)``) and its JSON
+    (``payload`` as a ``nav-study`` document) into the output folder, the JSON also to
+    ``--json``."""
+    from windnav.experiments.results import write_json
+
+    with out.writing() as stage:
+        draw(stage.dir)
+        doc = document("nav-study", payload, args)
+        write_json(doc, stage.dir / json_name)
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+
+
 def run(args) -> int:
     """Run ``windnav nav-study``; 0 when every flight flew, 1 when some harness failed."""
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments import nav_sweeps
     from windnav.experiments.nav_benchmark import NavStore, run_benchmark
     from windnav.experiments.nav_suite import get_suite
-    from windnav.experiments.results import json_ready, write_json
+    from windnav.experiments.results import json_ready
     from windnav.viz.nav_sweeps import plot_sweep
 
     name = where(args)
@@ -137,12 +151,8 @@ def run(args) -> int:
     res.update(study=study, suite=spec.name, maps=list(maps), store=str(args.store),
                flights_now=summary["now"], errors_now=summary["errors_now"],
                elapsed_s=time.perf_counter() - t0)
-    with out.writing() as stage:
-        plot_sweep(res, stage.dir / products[1], name=sweep["name"], unit=sweep["unit"])
-        doc = document("nav-study", res, args)
-        write_json(doc, stage.dir / products[0])
-        if stage.file("--json") is not None:
-            write_json(doc, stage.file("--json"))
+    _write(out, args, res, products[0], lambda folder: plot_sweep(
+        res, folder / products[1], name=sweep["name"], unit=sweep["unit"]))
     brief = {f"{v:g}": {"label": r["label"], "failure_pct": r["failure_pct"],
                         "paired_reduction": r["paired_reduction"]["mean"],
                         "pairs": r["paired_reduction"]["n"]}
@@ -158,7 +168,7 @@ def run(args) -> int:
 def _cases(args, name: str, spec) -> int:
     from windnav.experiments.nav_benchmark import NavStore, check_variants
     from windnav.experiments.nav_cases import best_worst, fly_cases
-    from windnav.experiments.results import json_ready, write_json
+    from windnav.experiments.results import json_ready
     from windnav.viz.nav_studies import plot_cases
 
     if not (args.store / "manifest.json").is_file():
@@ -179,12 +189,8 @@ def _cases(args, name: str, spec) -> int:
     res = {"variant": variant, "reference": "mppi", "store": str(args.store), "n": ranked["n"],
            "best": ranked["best"], "worst": ranked["worst"], "reflown_energy_J": flown,
            "ranked": ranked["ranked"], "elapsed_s": time.perf_counter() - t0}
-    with out.writing() as stage:
-        plot_cases(cases, stage.dir, tags=ids)
-        doc = document("nav-study", {"study": "cases", **res}, args)
-        write_json(doc, stage.dir / products[0])
-        if stage.file("--json") is not None:
-            write_json(doc, stage.file("--json"))
+    _write(out, args, {"study": "cases", **res}, products[0],
+           lambda folder: plot_cases(cases, folder, tags=ids))
     print(json.dumps(json_ready({"study": "cases", "pairs": ranked["n"],
                                  **{t: ranked[t] for t in tags}, "reflown_energy_J": flown,
                                  "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
@@ -196,7 +202,7 @@ def _pace(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments.nav_benchmark import NavStore, check_variants
     from windnav.experiments.nav_pace import pace_study
-    from windnav.experiments.results import json_ready, write_json
+    from windnav.experiments.results import json_ready
     from windnav.viz.nav_sweeps import plot_pace
 
     if not (args.store / "manifest.json").is_file():
@@ -214,12 +220,8 @@ def _pace(args, name: str, spec) -> int:
         raise ValueError(str(exc).replace("'records' parameter of pace_study",
                                           f"'--store' parameter of {name}")) from None
     res.update(store=str(args.store), maps=list(maps))
-    with out.writing() as stage:
-        plot_pace(res, stage.dir / products[1])
-        doc = document("nav-study", {"study": "pace", **res}, args)
-        write_json(doc, stage.dir / products[0])
-        if stage.file("--json") is not None:
-            write_json(doc, stage.file("--json"))
+    _write(out, args, {"study": "pace", **res}, products[0],
+           lambda folder: plot_pace(res, folder / products[1]))
     brief = {k: {"pairs": c["time_ratio"]["n"], "time_ratio": c["time_ratio"]["mean"],
                  "power_ratio": c["power_ratio"]["mean"],
                  "energy_ratio": c["energy_ratio"]["mean"], "power_floor": c["power_floor"]}
@@ -232,7 +234,7 @@ def _pace(args, name: str, spec) -> int:
 
 def _winds(args, name: str, spec) -> int:
     from windnav.experiments.nav_cases import wind_scenarios
-    from windnav.experiments.results import json_ready, write_json
+    from windnav.experiments.results import json_ready
     from windnav.viz.nav_studies import plot_wind_scenarios
 
     if args.map not in spec.maps:
@@ -249,12 +251,8 @@ def _winds(args, name: str, spec) -> int:
                                      "start": sc.start, "goal": sc.goal}
                                     for sc in w["scenarios"]]} for w in res["winds"]],
                "elapsed_s": time.perf_counter() - t0}
-    with out.writing() as stage:
-        plot_wind_scenarios(res, stage.dir / products[1])
-        doc = document("nav-study", {"study": "winds", **summary}, args)
-        write_json(doc, stage.dir / products[0])
-        if stage.file("--json") is not None:
-            write_json(doc, stage.file("--json"))
+    _write(out, args, {"study": "winds", **summary}, products[0],
+           lambda folder: plot_wind_scenarios(res, folder / products[1]))
     print(json.dumps(json_ready({"study": "winds", "map_index": args.map,
                                  "winds": [w["wind_index"] for w in summary["winds"]],
                                  "elapsed_s": round(summary["elapsed_s"], 1)}), indent=1))
@@ -264,7 +262,7 @@ def _winds(args, name: str, spec) -> int:
 
 def _gs(args, name: str) -> int:
     from windnav.experiments.gs_cases import CASES, case_summary, run_case
-    from windnav.experiments.results import json_ready, write_json
+    from windnav.experiments.results import json_ready
     from windnav.viz.gs_cases import plot_gs_case, plot_gs_case_energy
 
     if args.case is not None and args.case not in CASES:
@@ -276,15 +274,13 @@ def _gs(args, name: str) -> int:
     t0 = time.perf_counter()
     cases = {c: run_case(c, seed=args.seed, progress=not args.no_progress) for c in names}
     summary = {c: case_summary(case) for c, case in cases.items()}
-    with out.writing() as stage:
+    def draw(folder):
         for c, case in cases.items():
-            plot_gs_case(case, stage.dir / f"gs_{c}.png")
-            plot_gs_case_energy(case, stage.dir / f"gs_{c}_energy.png")
-        doc = document("nav-study", {"study": "gs", "seed": args.seed, "cases": summary,
-                                     "elapsed_s": time.perf_counter() - t0}, args)
-        write_json(doc, stage.dir / products[0])
-        if stage.file("--json") is not None:
-            write_json(doc, stage.file("--json"))
+            plot_gs_case(case, folder / f"gs_{c}.png")
+            plot_gs_case_energy(case, folder / f"gs_{c}_energy.png")
+
+    _write(out, args, {"study": "gs", "seed": args.seed, "cases": summary,
+                       "elapsed_s": time.perf_counter() - t0}, products[0], draw)
     brief = {c: {v: {k: s[k] for k in ("outcome", "energy_J", "time_s")}
                  for v, s in case_summary(cases[c])["variants"].items()} for c in names}
     print(json.dumps(json_ready({"study": "gs", "cases": brief,
