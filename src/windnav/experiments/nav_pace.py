@@ -41,13 +41,13 @@ nav_benchmark.parse_variant`)."""
 def _min_power(shape: str, reference: str) -> float:
     """The least power (W) of the benchmark vehicle's curve (the Hummingbird's, or its
     counterfactual shape) over 0-20 m/s of airspeed."""
-    from windnav.experiments.navigate import _with_power_shape
+    from windnav.experiments.navigate import with_power_shape
     from windnav.plan import planner_config
     from windnav.vehicle import params
 
     config = planner_config(params("hummingbird"), reference.split("@")[0])
     if shape != "vehicle":
-        config = _with_power_shape(config, shape)
+        config = with_power_shape(config, shape)
     return float(np.min(config.power(np.linspace(0.0, 20.0, 2001))))
 
 

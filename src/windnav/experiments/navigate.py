@@ -108,6 +108,7 @@ __all__ = [
     "local_wind",
     "navigate",
     "simulate_flow",
+    "with_power_shape",
 ]
 
 OUTCOMES = ("success", "hover", "collision", "left_map", "timeout")
@@ -453,7 +454,7 @@ class _FastWind:
         return self._out
 
 
-def _with_power_shape(config, shape: str):
+def with_power_shape(config, shape: str):
     """``config`` with the power curve of :data:`POWER_SHAPES` ``shape``, scaled to its hover
     power (so ``P_hover``, and the non-dimensional costs' scale, stay the vehicle's)."""
     from dataclasses import replace
@@ -644,7 +645,7 @@ def navigate(
         overrides = {"a_max": a_cap / math.sqrt(2.0), **(planner_overrides or {})}
         config = planner_config(params, variant, horizon=horizon, **overrides)
     if power_shape is not None:
-        config = _with_power_shape(config, power_shape)
+        config = with_power_shape(config, power_shape)
     kp_xy, kd_xy = controller.gains.kp_pos[0], controller.gains.kd_pos[0]
     kp_z, kd_z = controller.gains.kp_pos[2], controller.gains.kd_pos[2]
     az_cap = 0.5 * GRAVITY
