@@ -21,7 +21,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from windnav.experiments.nav_records import _describe, latest_records, paired_pace
+from windnav.experiments.nav_records import _describe, paired_pace, records_by_variant
 
 __all__ = ["THESIS", "pace_study"]
 
@@ -71,9 +71,7 @@ def pace_study(records: Iterable[Mapping], variant: str = "ea-mppi-w",
     ValueError
         When no curve has records of both variants.
     """
-    by_variant: dict[str, dict[str, Mapping]] = {}
-    for (sid, v), r in latest_records(records).items():
-        by_variant.setdefault(v, {})[sid] = r
+    by_variant = records_by_variant(records)
     curves = {}
     for name, suffix in CURVES.items():
         mine, ref = variant + suffix, reference + suffix

@@ -47,6 +47,7 @@ __all__ = [
     "benchmark_table",
     "latest_records",
     "paired_pace",
+    "records_by_variant",
     "render_table",
 ]
 
@@ -305,6 +306,23 @@ def latest_records(records: Iterable[Mapping]) -> dict[tuple[str, str], Mapping]
     return {(r["scenario_id"], r["variant"]): r for r in records}
 
 
+def records_by_variant(records: Iterable[Mapping]) -> dict[str, dict[str, Mapping]]:
+    """``variant -> {scenario_id -> record}`` of the latest records (:func:`latest_records`)."""
+    out: dict[str, dict[str, Mapping]] = {}
+    for (sid, v), r in latest_records(records).items():
+        out.setdefault(v, {})[sid] = r
+    return out
+
+
+def _both_succeeded(mine: Mapping, ref: Mapping):
+    """``(record, reference record)`` of every scenario where neither failed (``mine`` and
+    ``ref``: scenario id -> record), in ``mine``'s order."""
+    for sid, r in mine.items():
+        q = ref.get(sid)
+        if q is not None and r["outcome"] == "success" and q["outcome"] == "success":
+            yield r, q
+
+
 def benchmark_table(
     records: Iterable[Mapping],
     *,
@@ -355,9 +373,7 @@ def benchmark_table(
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"The 'confidence' parameter of benchmark_table must be in (0, 1). "
                          f"Got {confidence!r} instead.")
-    by_variant: dict[str, dict[str, Mapping]] = {}
-    for (sid, v), r in latest_records(records).items():
-        by_variant.setdefault(v, {})[sid] = r
+    by_variant = records_by_variant(records)
     if variants is None:
         variants = sorted(by_variant, key=lambda v: (v != reference, v))
     gen = np.random.default_rng(rng)
@@ -467,10 +483,7 @@ def _versus(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, gen) ->
     ratio = _table_ratio(_energies(mine.values(), field), _energies(ref.values(), field),
                          confidence, n_boot, gen)
     paired, speeds = [], []
-    for sid, r in mine.items():
-        q = ref.get(sid)
-        if q is None or r["outcome"] != "success" or q["outcome"] != "success":
-            continue
+    for r, q in _both_succeeded(mine, ref):
         e, e_ref = _num(r.get(field)), _num(q.get(field))
         if math.isfinite(e) and math.isfinite(e_ref) and e_ref > 0:
             paired.append(1.0 - e / e_ref)
@@ -499,14 +512,11 @@ def paired_pace(mine: Mapping, ref: Mapping) -> dict:
     """
     out = {k: [] for k in ("scenario_id", "speed", "time_ratio", "power_ratio",
                            "reference_power_W")}
-    for sid, r in mine.items():
-        q = ref.get(sid)
-        if q is None or r["outcome"] != "success" or q["outcome"] != "success":
-            continue
+    for r, q in _both_succeeded(mine, ref):
         t, t_ref = _num(r.get("time_s")), _num(q.get("time_s"))
         e, e_ref = _num(r.get("energy_J")), _num(q.get("energy_J"))
         if all(math.isfinite(x) and x > 0 for x in (t, t_ref, e, e_ref)):
-            out["scenario_id"].append(sid)
+            out["scenario_id"].append(r["scenario_id"])
             out["speed"].append(_num(r.get("speed")))
             out["time_ratio"].append(t / t_ref)
             out["power_ratio"].append((e / t) / (e_ref / t_ref))
