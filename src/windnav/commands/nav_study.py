@@ -93,6 +93,13 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def _check_store(store: Path, name: str) -> None:
+    """``--store`` names an existing benchmark store (the studies that only read one)."""
+    if not (store / "manifest.json").is_file():
+        raise ValueError(f"The '--store' parameter of {name} must name a benchmark store (with "
+                         f"manifest.json). Got {str(store)!r} instead.")
+
+
 def _write(out, args, payload: dict, json_name: str, draw) -> None:
     """Write a study's outputs together: its figures (``draw(folder)``) and its JSON
     (``payload`` as a ``nav-study`` document) into the output folder, the JSON also to
@@ -171,9 +178,7 @@ def _cases(args, name: str, spec) -> int:
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_studies import plot_cases
 
-    if not (args.store / "manifest.json").is_file():
-        raise ValueError(f"The '--store' parameter of {name} must name a benchmark store (with "
-                         f"manifest.json). Got {str(args.store)!r} instead.")
+    _check_store(args.store, name)
     (variant,) = check_variants([args.variant], name)
     tags = ("best", "worst")
     products = ("nav_cases.json", *(f"{t}_{k}.png" for t in tags for k in ("paths", "energy")))
@@ -205,9 +210,7 @@ def _pace(args, name: str, spec) -> int:
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_sweeps import plot_pace
 
-    if not (args.store / "manifest.json").is_file():
-        raise ValueError(f"The '--store' parameter of {name} must name a benchmark store (with "
-                         f"manifest.json). Got {str(args.store)!r} instead.")
+    _check_store(args.store, name)
     (variant,) = check_variants([args.variant], name)
     maps = suite_maps(args.maps, spec, name)
     products = ("nav_pace.json", "nav_pace.png")
