@@ -242,6 +242,41 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
                          progress=False, navigate_fn=record)
 
 
+def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
+    """The committed EA-MPPI+W-hat flights were flown with the 2026-11-23 model; the benchmark
+    keeps flying that file (its bytes are checked) so they replay after the default changes."""
+    import hashlib
+
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    pinned = DEFAULT_MODEL.parent / nb.BENCHMARK_DECODER
+    assert hashlib.sha256(pinned.read_bytes()).hexdigest() == (
+        "75ea65022f6507f4acba63f9380724804d0c2f1c5cc3ca4ef92dec884a8a02e3")
+    seen = {}
+
+    def record(city, start, goal, **kw):
+        seen[kw["variant"]] = kw.get("decoder")
+        return "flown"
+
+    scenario = make_suite(TINY)[0]
+    for label in ("ea-mppi-w-hat", "ea-mppi-w"):
+        assert nb.fly(TINY, scenario, label, city=None, flow=None, navigate_fn=record) == "flown"
+    assert seen["ea-mppi-w"] is None
+    dec = seen["ea-mppi-w-hat"]
+    assert dec is nb.benchmark_decoder()
+    probe = np.random.default_rng(0)
+    scans = probe.uniform(5.0, 100.0, (2, 360))
+    w = np.array([[3.0, 1.0], [-2.0, 4.0]])
+    from windnav.predict import load_decoder
+
+    again = load_decoder(pinned).predict(scans, w, w)
+    np.testing.assert_array_equal(dec.predict(scans, w, w), again)
+    # a suite that names its own decoder keeps it
+    own = replace(TINY, navigate_options={"decoder": "mine"})
+    nb.fly(own, scenario, "ea-mppi-w-hat", city=None, flow=None, navigate_fn=record)
+    assert seen["ea-mppi-w-hat"] == "mine"
+
+
 def test_a_failed_flight_is_recorded_with_its_traceback_and_the_run_goes_on(tmp_path, no_wind):
     victim = make_suite(TINY)[1]
     fake = Fake(fail_on=(victim.start, "ea-mppi-w"))

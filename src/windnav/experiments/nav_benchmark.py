@@ -29,7 +29,9 @@ How a run is organised
 
 The flight's seed (:attr:`Scenario.seed`) seeds the planner's sampling and the LiDAR noise and
 is the same for every variant, so that variants fly paired scenarios. Same suite, same seed,
-same records (up to the wall times): :func:`replay` re-flies one record.
+same records (up to the wall times): :func:`replay` re-flies one record. The onboard-stack
+variant (``ea-mppi-w-hat``) flies a pinned decoder file, :data:`BENCHMARK_DECODER`, not whatever
+model windnav ships as its default, so that its records replay after the default changes.
 """
 
 from __future__ import annotations
@@ -63,6 +65,7 @@ from windnav.experiments.nav_suite import (
 )
 
 __all__ = [
+    "BENCHMARK_DECODER",
     "ONBOARD_FIELDS",
     "PARAMETERS",
     "RECORD_FIELDS",
@@ -77,6 +80,7 @@ __all__ = [
     "benchmark_table",
     "check_variants",
     "compare_records",
+    "benchmark_decoder",
     "error_record",
     "fly",
     "fly_scenario",
@@ -199,6 +203,22 @@ def with_goal_clearance(spec: SuiteSpec, records: Sequence[dict]) -> list[dict]:
 # ------------------------------------------------------------------------------- one flight
 
 
+BENCHMARK_DECODER = "decoder_2026-11-23.npz"
+"""The decoder file (in ``windnav/predict/data``) that the benchmark's onboard stack
+(``ea-mppi-w-hat``) flies: the model its committed flights (``docs/navigation/``) were flown
+with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26;
+pinning the benchmark's model keeps every recorded flight replayable to the bit."""
+
+
+@functools.lru_cache(maxsize=1)
+def benchmark_decoder():
+    """The decoder of :data:`BENCHMARK_DECODER`, loaded once per process."""
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    return load_decoder(DEFAULT_MODEL.parent / BENCHMARK_DECODER)
+
+
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
@@ -313,7 +333,8 @@ def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
     """The flight of one scenario with one variant, as the benchmark flies it: ``navigate``
     from the scenario's start to its goal with its seed, in ``flow``, with the suite's
     ``navigate_options`` and the variant label's study parameters (:func:`parse_variant`;
-    ``planner_overrides`` of both are merged, the label's win).
+    ``planner_overrides`` of both are merged, the label's win). The onboard-stack variant flies
+    :func:`benchmark_decoder` unless the suite names a ``decoder``.
 
     Returns
     -------
@@ -322,8 +343,12 @@ def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
     """
     if navigate_fn is None:
         from windnav.experiments.navigate import navigate as navigate_fn
+    from windnav.plan import VARIANTS
+
     base, options = parse_variant(variant, "fly")
     kwargs = {**spec.navigate_options, **options}
+    if VARIANTS[base].wind_source == "onboard" and "decoder" not in kwargs:
+        kwargs["decoder"] = benchmark_decoder()
     if "planner_overrides" in options and spec.navigate_options.get("planner_overrides"):
         kwargs["planner_overrides"] = {**spec.navigate_options["planner_overrides"],
                                        **options["planner_overrides"]}
