@@ -8,6 +8,7 @@ accuracy), and the tiny recipe's sweep for the trained studies.
 
 from __future__ import annotations
 
+import argparse
 import json
 
 import numpy as np
@@ -277,3 +278,18 @@ def test_decoder_study_averaging_quick_writes_figure_and_json(tmp_path):
     assert set(doc["protocols"]) == {"thesis", "long"} and "difference" not in doc
     assert doc["label_noise"]["rms_mps"] > 0.0
     assert (out / "decoder_averaging.png").stat().st_size > 10_000
+
+
+def test_decoder_study_averaging_windinet_uses_the_third_party_layout():
+    from windnav.city import read_rotorpy_json
+    from windnav.commands.decoder_study import _averaging_map
+    from windnav.experiments.decoder_eval import WINDINET_LAYOUT
+
+    if not WINDINET_LAYOUT.is_file():
+        pytest.skip("the windinet layout is not on this machine")
+    args = argparse.Namespace(quick=False, windinet=True)
+    city, name, kw = _averaging_map(args)
+    assert name == "windinet" and kw == {}
+    np.testing.assert_array_equal(city.footprints, read_rotorpy_json(WINDINET_LAYOUT).footprints)
+    _, name, _ = _averaging_map(argparse.Namespace(quick=False, windinet=False))
+    assert name == "holdout-0"

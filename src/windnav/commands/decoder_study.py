@@ -8,6 +8,7 @@
     windnav decoder-study winds      --out runs/studies --runs runs/decoder_studies  # (a)
     windnav decoder-study size       --out runs/studies --runs runs/decoder_studies  # (b)
     windnav decoder-study averaging  --out runs/studies                           # label noise
+    windnav decoder-study averaging  --out runs/studies_windinet --windinet       # ... windinet
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
@@ -16,8 +17,9 @@ evaluate-decoder``); ``--flow-cache`` keeps the flows, so the three share them. 
 ``size`` train models on a reduced copy of the default recipe (resumable, in ``--runs``; their
 schedule is printed and recorded). ``averaging`` scores the shipped decoder and its baselines
 against the mean of the thesis's short average and of a long one, on the default recipe's
-held-out 600 m district (never trained on) at 6 m/s (``--speed``, ``--direction-deg``): is the
-error the label noise of the short average? ``--quick``: a 150 m map and short flows, or the tiny
+held-out 600 m district (never trained on), or with ``--windinet`` on the third-party 1.1 km
+layout, at 6 m/s (``--speed``, ``--direction-deg``): is the error the label noise of the short
+average? ``--quick``: a 150 m map and short flows, or the tiny
 recipe's sweep and models. The harness is :mod:`windnav.experiments.decoder_studies`, the
 figures :mod:`windnav.viz.decoder`.
 
@@ -84,6 +86,9 @@ def register(subparsers) -> None:
                    help="averaging: inlet speed, m/s (%(default)s)")
     p.add_argument("--direction-deg", type=float, default=3.75,
                    help="averaging: inlet direction, deg toward (%(default)s)")
+    p.add_argument("--windinet", action="store_true",
+                   help="averaging: the third-party windinet 1.1 km layout instead of the "
+                        "default recipe's held-out district")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -118,6 +123,11 @@ def _averaging_map(args):
     if args.quick:
         return (_quick_map(), "quick-0",
                 {"dx": 2.0, "protocols": {"thesis": (10, 20), "long": (20, 80)}})
+    if args.windinet:
+        from windnav.city import read_rotorpy_json
+        from windnav.experiments.decoder_eval import WINDINET_LAYOUT
+
+        return read_rotorpy_json(WINDINET_LAYOUT), "windinet", {}
     from windnav.predict.train import RECIPES, load_recipe, recipe_maps
 
     maps = recipe_maps(load_recipe(RECIPES / "default.toml"))
