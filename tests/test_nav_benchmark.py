@@ -244,37 +244,66 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
 
 def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
     """The committed EA-MPPI+W-hat flights were flown with the 2026-11-23 model; the benchmark
-    keeps flying that file (its bytes are checked) so they replay after the default changes."""
+    keeps flying that file (its bytes are checked) so they replay after the default changes;
+    ``@decoder=DATE`` flies another dated model."""
     import hashlib
 
+    from windnav.predict import load_decoder
     from windnav.predict.decoder import DEFAULT_MODEL
 
-    pinned = DEFAULT_MODEL.parent / nb.BENCHMARK_DECODER
-    assert hashlib.sha256(pinned.read_bytes()).hexdigest() == (
-        "75ea65022f6507f4acba63f9380724804d0c2f1c5cc3ca4ef92dec884a8a02e3")
+    assert nb.BENCHMARK_DECODER == "2026-11-23"
+    for file, sha in nb.DECODERS.values():
+        assert hashlib.sha256((DEFAULT_MODEL.parent / file).read_bytes()).hexdigest() == sha
     seen = {}
 
     def record(city, start, goal, **kw):
         seen[kw["variant"]] = kw.get("decoder")
         return "flown"
 
-    scenario = make_suite(TINY)[0]
-    for label in ("ea-mppi-w-hat", "ea-mppi-w"):
-        assert nb.fly(TINY, scenario, label, city=None, flow=None, navigate_fn=record) == "flown"
-    assert seen["ea-mppi-w"] is None
-    dec = seen["ea-mppi-w-hat"]
-    assert dec is nb.benchmark_decoder()
-    probe = np.random.default_rng(0)
-    scans = probe.uniform(5.0, 100.0, (2, 360))
-    w = np.array([[3.0, 1.0], [-2.0, 4.0]])
-    from windnav.predict import load_decoder
+    def decoder_of(label, spec=TINY):
+        assert nb.fly(spec, scenario, label, city=None, flow=None, navigate_fn=record) == "flown"
+        return seen[nb.parse_variant(label)[0]]
 
-    again = load_decoder(pinned).predict(scans, w, w)
-    np.testing.assert_array_equal(dec.predict(scans, w, w), again)
-    # a suite that names its own decoder keeps it
+    scenario = make_suite(TINY)[0]
+    assert decoder_of("ea-mppi-w") is None
+    scans = np.random.default_rng(0).uniform(5.0, 100.0, (2, 360))
+    w = np.array([[3.0, 1.0], [-2.0, 4.0]])
+    pinned = nb.benchmark_decoder()
+    assert decoder_of("ea-mppi-w-hat") is pinned
+    np.testing.assert_array_equal(
+        pinned.predict(scans, w, w),
+        load_decoder(DEFAULT_MODEL.parent / "decoder_2026-11-23.npz").predict(scans, w, w))
+    newer = decoder_of("ea-mppi-w-hat@decoder=2026-11-26")
+    np.testing.assert_array_equal(newer.predict(scans, w, w),
+                                  load_decoder().predict(scans, w, w))
+    assert not np.array_equal(newer.predict(scans, w, w), pinned.predict(scans, w, w))
+    assert nb.parse_variant("ea-mppi-w-hat@decoder=2026-11-26") == (
+        "ea-mppi-w-hat", {"decoder": "2026-11-26"})
+    # a suite that names its own decoder keeps it, unless the label names one
     own = replace(TINY, navigate_options={"decoder": "mine"})
-    nb.fly(own, scenario, "ea-mppi-w-hat", city=None, flow=None, navigate_fn=record)
-    assert seen["ea-mppi-w-hat"] == "mine"
+    assert decoder_of("ea-mppi-w-hat", own) == "mine"
+    assert decoder_of("ea-mppi-w-hat@decoder=2026-11-23", own) is pinned
+    for bad, why in (("ea-mppi-w-hat@decoder=2020-01-01", "unknown decoder"),
+                     ("ea-mppi-w@decoder=2026-11-23", "takes no parameter 'decoder'"),
+                     ("ea-mppi-w-hat@qe=2", "takes no parameter 'qe'"),
+                     ("gs@h=25", "takes no parameters")):
+        with pytest.raises(ValueError, match=why):
+            nb.parse_variant(bad)
+    with pytest.raises(ValueError, match="one of"):
+        nb.benchmark_decoder("tomorrow")
+
+
+def test_a_dated_decoder_whose_file_changed_is_refused(tmp_path, monkeypatch):
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    fake = tmp_path / "decoder_default.npz"
+    fake.write_bytes(b"not the model")
+    monkeypatch.setattr("windnav.predict.decoder.DEFAULT_MODEL", fake)
+    monkeypatch.setitem(nb.DECODERS, "9999-01-01",
+                        ("decoder_default.npz", nb.DECODERS["2026-11-26"][1]))
+    with pytest.raises(ValueError, match="would not replay"):
+        nb.benchmark_decoder("9999-01-01")
+    assert DEFAULT_MODEL.is_file()
 
 
 def test_a_failed_flight_is_recorded_with_its_traceback_and_the_run_goes_on(tmp_path, no_wind):

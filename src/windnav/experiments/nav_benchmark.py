@@ -30,8 +30,9 @@ How a run is organised
 The flight's seed (:attr:`Scenario.seed`) seeds the planner's sampling and the LiDAR noise and
 is the same for every variant, so that variants fly paired scenarios. Same suite, same seed,
 same records (up to the wall times): :func:`replay` re-flies one record. The onboard-stack
-variant (``ea-mppi-w-hat``) flies a pinned decoder file, :data:`BENCHMARK_DECODER`, not whatever
-model windnav ships as its default, so that its records replay after the default changes.
+variant (``ea-mppi-w-hat``) flies a pinned decoder, :data:`BENCHMARK_DECODER` of
+:data:`DECODERS` (files checked by hash), not whatever model windnav ships as its default, so
+that its records replay after the default changes; ``ea-mppi-w-hat@decoder=DATE`` flies another.
 """
 
 from __future__ import annotations
@@ -66,6 +67,7 @@ from windnav.experiments.nav_suite import (
 
 __all__ = [
     "BENCHMARK_DECODER",
+    "DECODERS",
     "ONBOARD_FIELDS",
     "PARAMETERS",
     "RECORD_FIELDS",
@@ -203,27 +205,62 @@ def with_goal_clearance(spec: SuiteSpec, records: Sequence[dict]) -> list[dict]:
 # ------------------------------------------------------------------------------- one flight
 
 
-BENCHMARK_DECODER = "decoder_2026-11-23.npz"
-"""The decoder file (in ``windnav/predict/data``) that the benchmark's onboard stack
+DECODERS = {
+    "2026-11-23": ("decoder_2026-11-23.npz",
+                   "75ea65022f6507f4acba63f9380724804d0c2f1c5cc3ca4ef92dec884a8a02e3"),
+    "2026-11-26": ("decoder_default.npz",
+                   "5dd14faf5598ee6d56593089d1157f0a017bd94184330c1914b7a34423d427e5"),
+}
+"""The decoders the onboard stack can fly in the benchmark, by the date they were trained: the
+file in ``windnav/predict/data`` and its SHA-256. A model keeps its date when the shipped
+default is retrained (its file is then copied under its date), so a label names the same
+weights for good; a file whose bytes differ is refused."""
+
+BENCHMARK_DECODER = "2026-11-23"
+"""The decoder (a key of :data:`DECODERS`) that the benchmark's onboard stack
 (``ea-mppi-w-hat``) flies: the model its committed flights (``docs/navigation/``) were flown
-with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26;
-pinning the benchmark's model keeps every recorded flight replayable to the bit."""
+with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26
+(``ea-mppi-w-hat@decoder=2026-11-26`` flies it); pinning the benchmark's model keeps every
+recorded flight replayable to the bit."""
 
 
-@functools.lru_cache(maxsize=1)
-def benchmark_decoder():
-    """The decoder of :data:`BENCHMARK_DECODER`, loaded once per process."""
+def benchmark_decoder(name: str = BENCHMARK_DECODER):
+    """The decoder :data:`DECODERS` ``[name]``, its file's hash checked, loaded once per process.
+
+    Raises
+    ------
+    ValueError
+        An unknown name, or a file whose SHA-256 is not the recorded one.
+    """
+    return _dated_decoder(str(name))
+
+
+@functools.lru_cache(maxsize=None)
+def _dated_decoder(name: str):
+    import hashlib
+
     from windnav.predict import load_decoder
     from windnav.predict.decoder import DEFAULT_MODEL
 
-    return load_decoder(DEFAULT_MODEL.parent / BENCHMARK_DECODER)
+    if name not in DECODERS:
+        raise ValueError(f"The 'decoder' parameter of benchmark_decoder must be one of "
+                         f"{list(DECODERS)}. Got {name!r} instead.")
+    file, sha = DECODERS[name]
+    path = DEFAULT_MODEL.parent / file
+    if not path.is_file() or hashlib.sha256(path.read_bytes()).hexdigest() != sha:
+        raise ValueError(f"The 'decoder' parameter of benchmark_decoder names {name!r}, whose "
+                         f"file {str(path)!r} is missing or not the model of that date "
+                         f"(SHA-256 {sha[:12]}...): its flights would not replay.")
+    return load_decoder(path)
 
 
-PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape"}
+PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
+              "decoder": "decoder"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
-use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual)."""
+use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual); and, for
+``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
 
@@ -232,7 +269,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     """A variant label: a key of :data:`windnav.plan.VARIANTS`, or one of the MPPI variants with
     study parameters, ``"ea-mppi-w@qe=2"``, ``"ea-mppi-w@h=50"``, ``"ea-mppi-w@qe=3@h=90"``
     (:data:`PARAMETERS`; the Q_E and H sweeps of the thesis), ``"mppi@power=crazyflie"`` (the
-    power-curve counterfactual).
+    power-curve counterfactual), ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder).
 
     Returns
     -------
@@ -241,7 +278,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     options : dict
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
         ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
-        ``horizon`` and ``power_shape``.
+        ``horizon``, ``power_shape`` and ``decoder`` (a key of :data:`DECODERS`, which
+        :func:`fly` loads).
 
     Raises
     ------
@@ -259,20 +297,29 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         return ValueError(f"The 'variants' parameter of {where} must be distinct names among "
                           f"{list(VARIANTS)}, or one of {list(_PARAMETRIC)} with parameters "
                           f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
-                          f"'@power=SHAPE' (one of {list(POWER_SHAPES)}): {why}. Got "
+                          f"'@power=SHAPE' (one of {list(POWER_SHAPES)}), or "
+                          f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}): {why}. Got "
                           f"{label!r} instead.")
 
     if base not in VARIANTS:
         raise fail(f"unknown variant {base!r}")
     if not params:
         return base, {}
-    if base not in _PARAMETRIC:
+    onboard = VARIANTS[base].wind_source == "onboard"
+    if base not in _PARAMETRIC and not onboard:
         raise fail(f"{base!r} takes no parameters")
     options, overrides = {}, {}
     for item in params:
         key, sep, text = item.partition("=")
         if not sep or key not in PARAMETERS or PARAMETERS[key] in {**options, **overrides}:
             raise fail(f"bad or repeated parameter {item!r}")
+        if (key == "decoder") != onboard:
+            raise fail(f"{base!r} takes no parameter {key!r}")
+        if key == "decoder":
+            if text not in DECODERS:
+                raise fail(f"unknown decoder {text!r}")
+            options["decoder"] = text
+            continue
         if key == "power":
             if text not in POWER_SHAPES:
                 raise fail(f"unknown power shape {text!r}")
@@ -334,7 +381,8 @@ def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
     from the scenario's start to its goal with its seed, in ``flow``, with the suite's
     ``navigate_options`` and the variant label's study parameters (:func:`parse_variant`;
     ``planner_overrides`` of both are merged, the label's win). The onboard-stack variant flies
-    :func:`benchmark_decoder` unless the suite names a ``decoder``.
+    :func:`benchmark_decoder` (:data:`BENCHMARK_DECODER`, or the label's ``@decoder=``) unless
+    the suite names a ``decoder`` object.
 
     Returns
     -------
@@ -347,8 +395,11 @@ def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
 
     base, options = parse_variant(variant, "fly")
     kwargs = {**spec.navigate_options, **options}
-    if VARIANTS[base].wind_source == "onboard" and "decoder" not in kwargs:
-        kwargs["decoder"] = benchmark_decoder()
+    if VARIANTS[base].wind_source == "onboard":
+        if "decoder" in options:
+            kwargs["decoder"] = benchmark_decoder(options["decoder"])
+        elif "decoder" not in kwargs:
+            kwargs["decoder"] = benchmark_decoder()
     if "planner_overrides" in options and spec.navigate_options.get("planner_overrides"):
         kwargs["planner_overrides"] = {**spec.navigate_options["planner_overrides"],
                                        **options["planner_overrides"]}
