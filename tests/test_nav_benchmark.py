@@ -602,6 +602,23 @@ def test_command_runs_resumes_prints_the_table_and_writes_json(tmp_path, tiny_su
         "mppi", "ea-mppi-w"]
 
 
+def test_command_table_keeps_only_the_maps_asked_for(tmp_path, monkeypatch, no_wind, capsys):
+    two = TINY.__class__(**{**TINY.__dict__, "name": "quick", "maps": (0, 1), "winds": (0,),
+                            "pairs": (0,)})
+    monkeypatch.setitem(SUITES, "quick", two)
+    monkeypatch.setattr(nb, "fly_scenario", fake_fly)
+    store = tmp_path / "store"
+    assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial",
+                    "--out", store, "--no-progress"]) == 0
+    capsys.readouterr()
+    assert command(["--out", store, "--table"]) == 0
+    assert "| mppi | 2 |" in capsys.readouterr().out
+    assert command(["--out", store, "--table", "--maps", "1"]) == 0
+    assert "| mppi | 1 |" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="'--maps' parameter"):
+        command(["--out", store, "--table", "--maps", "7"])
+
+
 def test_command_errors_are_named(tmp_path, tiny_suite):
     with pytest.raises(ValueError, match="'--variants' parameter of windnav benchmark-nav.*"
                                          "'bogus'"):

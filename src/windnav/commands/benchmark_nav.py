@@ -64,7 +64,8 @@ def register(subparsers) -> None:
                    help="suite seed (default: the store's own, else 0)")
     p.add_argument("--maps", default=None, metavar="LIST",
                    help="fly only these maps of the suite, e.g. 0,1 or 0-3 (default: all); "
-                        "the rest can be flown later into the same store")
+                        "the rest can be flown later into the same store; with --table, "
+                        "tabulate only these maps' flights")
     p.add_argument("--retry-errors", action="store_true",
                    help="also re-fly the flights whose harness failed in an earlier run")
     p.add_argument("--table", action="store_true",
@@ -221,6 +222,9 @@ def _table(args, name: str) -> int:
     spec = _spec(args, name)
     out = outputs(args)
     records = NavStore(args.out, spec, create=False).load()
+    if args.maps is not None:
+        maps = set(suite_maps(args.maps, spec, name))
+        records = [r for r in records if r.get("map_index") in maps]
     present = sorted({r["variant"] for r in records})
     asked = args.variants if args.variants != DEFAULT_VARIANTS else ",".join(present)
     from windnav.experiments.nav_benchmark import check_variants
