@@ -238,3 +238,45 @@ def test_shipped_recipes_are_complete(name):
     maps = [f"{n}-{i}" for n in names for i in range(counts[n])]
     assert set(recipe["data"]["validation_maps"]) < set(maps)
     assert recipe["data"]["size"] == 25
+
+
+def test_flush_subnormals_zeroes_parameters_and_optimizer_state_and_only_them():
+    import torch
+
+    from windnav.predict.train import _fingerprint, flush_subnormals
+
+    tiny = torch.finfo(torch.float32).tiny
+    model = torch.nn.Linear(3, 2)
+    opt = torch.optim.Adam(model.parameters(), lr=1e-3)
+    model(torch.ones(1, 3)).sum().backward()
+    opt.step()
+    with torch.no_grad():
+        model.weight[0, 0] = tiny / 4
+        model.weight[1, 2] = -tiny / 8
+        model.bias[0] = tiny  # the smallest normal number stays
+    state = opt.state[model.weight]["exp_avg_sq"]
+    state[0, 1] = tiny / 2
+    before = model.weight.detach().clone()
+    assert flush_subnormals(model, opt) == 3
+    assert model.weight[0, 0] == 0 and model.weight[1, 2] == 0 and state[0, 1] == 0
+    assert model.bias[0] == tiny
+    keep = torch.ones_like(before, dtype=torch.bool)
+    keep[0, 0] = keep[1, 2] = False
+    assert torch.equal(model.weight.detach()[keep], before[keep])
+    assert flush_subnormals(model, opt) == 0
+    # off by default, and then it does not change a recipe's fingerprint
+    recipe = load_recipe(RECIPES / "tiny.toml")
+    assert recipe["train"]["flush_subnormals"] is False
+    on = {**recipe, "train": {**recipe["train"], "flush_subnormals": True}}
+    off = {**recipe, "train": {k: v for k, v in recipe["train"].items()
+                                if k != "flush_subnormals"}}
+    assert _fingerprint(recipe) == _fingerprint(off) != _fingerprint(on)
+    assert load_recipe(RECIPES / "thesis_mlp.toml")["train"]["flush_subnormals"] is True
+
+
+def test_flush_subnormals_must_be_a_boolean(tmp_path):
+    bad = tmp_path / "bad.toml"
+    text = (RECIPES / "tiny.toml").read_text()
+    bad.write_text(text.replace("[train]", "[train]\nflush_subnormals = 1", 1))
+    with pytest.raises(ValueError, match="train.flush_subnormals"):
+        load_recipe(bad)
