@@ -63,8 +63,7 @@ from windnav.predict.decoder import (
 )
 from windnav.predict.metrics import field_errors
 
-__all__ = ["DEFAULTS", "flush_subnormals", "load_recipe", "recipe_maps", "resolve_paths",
-           "train_decoder"]
+__all__ = ["DEFAULTS", "load_recipe", "recipe_maps", "resolve_paths", "train_decoder"]
 
 RECIPES = Path(__file__).resolve().parent / "recipes"
 """Folder of the recipes shipped with windnav (``default.toml``, ``tiny.toml``, ...)."""
@@ -115,7 +114,6 @@ DEFAULTS = {
         "eval_batch_size": 4096,
         "train_eval_samples": 4096,
         "tensorboard": True,
-        "flush_subnormals": False,
     },
 }
 """Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
@@ -219,8 +217,6 @@ def _check_recipe(r: dict, where: str) -> None:
             fail(f"train.{key}", "a number >= 0 (a fraction <= 1)", t[key])
     if t["optimizer"] not in ("adam", "adamw"):
         fail("train.optimizer", "'adam' or 'adamw'", t["optimizer"])
-    if not isinstance(t["flush_subnormals"], bool):
-        fail("train.flush_subnormals", "true or false", t["flush_subnormals"])
     sp = t["augment_speed"]
     if not isinstance(sp, list) or (sp and (len(sp) != 2 or not all(
             isinstance(v, (int, float)) and v > 0 for v in sp) or sp[0] > sp[1])):
@@ -270,39 +266,12 @@ def resolve_paths(recipe: dict, out_dir=None) -> tuple[Path, Path]:
     return out, store if store.is_absolute() else out / store
 
 
-def flush_subnormals(model, optimizer=None) -> int:
-    """Set the subnormal values of ``model``'s parameters and of ``optimizer``'s state to 0.
-
-    An L2 term drives weights toward 0; once many are subnormal (below ~1.2e-38 in float32),
-    CPU arithmetic on them slows about 10 x (the thesis MLP: 2.2 % of its weights after 3
-    epochs made a forward pass 499 ms instead of 46 ms). ``torch.set_flush_denormal`` would
-    set only the calling thread, not the worker threads of a multi-threaded run, so the values
-    are zeroed instead: a change of < 1.2e-38 each. Returns how many were zeroed.
-    """
-    import torch
-
-    n = 0
-    with torch.no_grad():
-        tensors = [p for p in model.parameters()]
-        if optimizer is not None:
-            tensors += [v for st in optimizer.state.values() for v in st.values()
-                        if torch.is_tensor(v) and v.is_floating_point() and v.dim() > 0]
-        for t in tensors:
-            sub = (t != 0) & (t.abs() < torch.finfo(t.dtype).tiny)
-            k = int(sub.sum())
-            if k:
-                t.masked_fill_(sub, 0.0)
-                n += k
-    return n
-
-
 def _fingerprint(recipe: dict) -> str:
     """What must not change between a run and its resumption (not paths or workers)."""
     sweep = {k: v for k, v in recipe["sweep"].items() if k not in ("store", "backend", "workers")}
     keep = {"sweep": sweep, "data": recipe["data"], "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
-                      if k not in ("threads", "device", "tensorboard", "eval_batch_size")
-                      and not (k == "flush_subnormals" and v is False)}}
+                      if k not in ("threads", "device", "tensorboard", "eval_batch_size")}}
     return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -732,8 +701,6 @@ class _Run:
             self.opt.zero_grad(set_to_none=True)
             loss.backward()
             self.opt.step()
-            if tr["flush_subnormals"]:
-                flush_subnormals(model, self.opt)
             self.sched.step()
             total += float(loss.detach()) * labels.shape[0]
             count += labels.shape[0]
