@@ -9,6 +9,7 @@ JSON into ``--out``.
     windnav nav-study winds --map 0 --out docs/navigation                # 4 winds of one map
     windnav nav-study gs    --out docs/navigation                        # cases against GS
     windnav nav-study pace  --store runs/thesis --out docs/navigation    # time and power
+    windnav nav-study feasibility --store runs/thesis --out docs/navigation  # reachable?
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -29,6 +30,10 @@ building, a scenario of the thesis suite; ``--case`` picks one) and draws each. 
 splits the energy ratio of ``--variant`` to MPPI over the store's pairs into a time ratio and a
 mean-power ratio, with the vehicle's power curve and the ``@power=crazyflie`` counterfactual
 where the store has it (:mod:`windnav.experiments.nav_pace`); it flies nothing.
+``feasibility`` simulates the winds of ``--maps`` (cached in ``--cache``, resumable) and bounds
+from below the time any planner needs to reach each scenario's goal within the vehicle's
+airspeed envelope (:mod:`windnav.experiments.nav_feasibility`), then sets the failures of the
+flights in ``--store`` (optional) against which scenarios are reachable at all.
 """
 
 from __future__ import annotations
@@ -47,7 +52,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h", "cases", "winds", "gs", "pace")
+STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility")
 """The studies, as named on the command line."""
 
 
@@ -83,6 +88,13 @@ def register(subparsers) -> None:
                    help="gs: one case (intersection, single-building, evaluation-map; default "
                         "all)")
     p.add_argument("--seed", type=int, default=0, help="gs: the flights' seed (%(default)s)")
+    p.add_argument("--cache", type=Path, default=Path("runs/reach"),
+                   help="feasibility: folder of the per-scenario reach records (created or "
+                        "resumed; %(default)s)")
+    p.add_argument("--airspeeds", type=float, nargs="+", default=None,
+                   help="feasibility: the airspeed limits searched, m/s (default: 10, the "
+                        "Hummingbird's envelope limit 13.45, 16); the figure and table use the "
+                        "envelope limit")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the flights run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -130,6 +142,8 @@ def run(args) -> int:
         return _winds(args, name, spec)
     if study == "gs":
         return _gs(args, name)
+    if study == "feasibility":
+        return _feasibility(args, name, spec)
     if args.store is None:
         raise ValueError(f"The '--store' parameter of {name} must name a benchmark store for "
                          f"the {study} study. Got None instead.")
@@ -288,5 +302,52 @@ def _gs(args, name: str) -> int:
                  for v, s in case_summary(cases[c])["variants"].items()} for c in names}
     print(json.dumps(json_ready({"study": "gs", "cases": brief,
                                  "elapsed_s": round(time.perf_counter() - t0, 1)}), indent=1))
+    print_written(out)
+    return 0
+
+
+def _feasibility(args, name: str, spec) -> int:
+    from windnav.commands.benchmark_nav import suite_maps
+    from windnav.experiments.nav_benchmark import NavStore
+    from windnav.experiments.nav_feasibility import reach_scenarios, reach_table
+    from windnav.experiments.results import json_ready
+    from windnav.vehicle import params
+    from windnav.viz.nav_studies import plot_reach
+
+    limit = params("hummingbird").airspeed_limit
+    airspeeds = [10.0, limit, 16.0] if args.airspeeds is None else list(args.airspeeds)
+    for a in airspeeds:
+        if not a > 0:
+            raise ValueError(f"The '--airspeeds' parameter of {name} must be positive speeds. "
+                             f"Got {a!r} instead.")
+    if limit not in airspeeds:
+        airspeeds.append(limit)
+    maps = suite_maps(args.maps, spec, name)
+    workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    if args.store is not None:
+        _check_store(args.store, name)
+    check_output_path(args.cache, "--cache", name, kind="dir")
+    products = ("nav_feasibility.json", "nav_feasibility.png")
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    reach = reach_scenarios(spec, args.cache, maps=maps, airspeeds=airspeeds,
+                            executor=args.executor, workers=workers,
+                            progress=not args.no_progress)
+    flights = ([] if args.store is None else
+               [r for r in NavStore(args.store, spec, create=False).load()
+                if r.get("map_index") in maps])
+    tables = {f"{a:g}": reach_table(reach, flights, airspeed=a) for a in airspeeds}
+    res = {"study": "feasibility", "suite": spec.name, "maps": list(maps),
+           "airspeed_limit": limit, "store": None if args.store is None else str(args.store),
+           "cache": str(args.cache), "tables": tables, "elapsed_s": time.perf_counter() - t0}
+    _write(out, args, res, products[0],
+           lambda folder: plot_reach(reach, tables[f"{limit:g}"], folder / products[1]))
+    brief = {k: {"reachable": t["reachable"], "n": t["n"],
+                 "failures_reachable_pct": {
+                     v: round(100 * c["failures_reachable"] / max(c["reachable"], 1), 1)
+                     for v, c in t["variants"].items() if "@" not in v}}
+             for k, t in tables.items()}
+    print(json.dumps(json_ready({"study": "feasibility", "airspeeds": brief,
+                                 "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 0

@@ -204,3 +204,164 @@ def prune(path, prefix, free, x0, y0, dx, wind, speeds, ptab, keep):  # pragma: 
         n += 1
         k = nxt
     return n
+
+
+# ------------------------------------------------------------------ least time (reach.py)
+
+
+@numba.njit(cache=True)
+def resample_frames(frames, i0, a, j0, b, out):  # pragma: no cover - numba
+    """``out[k, j, i] = `` bilinear of ``frames[k]`` (T, ny_w, nx_w, 2) between columns
+    ``i0[i], i0[i] + 1`` (weight ``a[i]`` on the second) and rows ``j0[j], j0[j] + 1``
+    (weight ``b[j]``)."""
+    for k in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            jj = j0[j]
+            bb = b[j]
+            for i in range(out.shape[2]):
+                ii = i0[i]
+                aa = a[i]
+                for c in range(2):
+                    out[k, j, i, c] = ((1 - bb) * ((1 - aa) * frames[k, jj, ii, c]
+                                                   + aa * frames[k, jj, ii + 1, c])
+                                       + bb * ((1 - aa) * frames[k, jj + 1, ii, c]
+                                               + aa * frames[k, jj + 1, ii + 1, c]))
+
+
+@numba.njit(cache=True, inline="always")
+def max_ground_speed(ex, ey, wx, wy, airspeed_max):  # pragma: no cover - numba
+    """Largest ground speed ``v >= 0`` along the unit vector ``e`` with ``|v e - w| <=
+    airspeed_max`` in the wind ``w`` (m/s): ``w.e + sqrt(A^2 - (w x e)^2)``, or 0 when no
+    such ``v > 0`` exists (the crosswind exceeds ``A``, or the headwind does)."""
+    along = wx * ex + wy * ey
+    cross = wx * ey - wy * ex
+    disc = airspeed_max * airspeed_max - cross * cross
+    if disc < 0.0:
+        return 0.0
+    v = along + math.sqrt(disc)
+    return v if v > 0.0 else 0.0
+
+
+@numba.njit(cache=True, inline="always")
+def _heap_push(keys, nodes, n, key, node):  # pragma: no cover - numba
+    k = n
+    keys[k] = key
+    nodes[k] = node
+    while k > 0:
+        parent = (k - 1) >> 1
+        if keys[parent] <= keys[k]:
+            break
+        keys[parent], keys[k] = keys[k], keys[parent]
+        nodes[parent], nodes[k] = nodes[k], nodes[parent]
+        k = parent
+    return n + 1
+
+
+@numba.njit(cache=True, inline="always")
+def _heap_pop(keys, nodes, n):  # pragma: no cover - numba
+    key = keys[0]
+    node = nodes[0]
+    n -= 1
+    keys[0] = keys[n]
+    nodes[0] = nodes[n]
+    k = 0
+    while True:
+        c = 2 * k + 1
+        if c >= n:
+            break
+        if c + 1 < n and keys[c + 1] < keys[c]:
+            c += 1
+        if keys[k] <= keys[c]:
+            break
+        keys[k], keys[c] = keys[c], keys[k]
+        nodes[k], nodes[c] = nodes[c], nodes[k]
+        k = c
+    return key, node, n
+
+
+@numba.njit(cache=True)
+def earliest_arrival(free, frames, t0_frames, dt_frames, moves, guards, dx, airspeed_max,
+                     source, t_start, t_end, target, arrival, pred):  # pragma: no cover - numba
+    """Earliest arrival time at every lattice cell from ``source`` leaving at ``t_start`` (s),
+    flying every move at its largest ground speed within ``airspeed_max`` (m/s).
+
+    ``frames`` (T, ny, nx, 2): the wind at the lattice cells, m/s, frame ``k`` at time
+    ``t0_frames + k dt_frames`` (linear in time between frames, the first and last held
+    outside; ``T = 1``: a steady wind). A move's wind is the mean of its two cells' at the
+    departure time; when the move cannot be flown then (:func:`max_ground_speed` is 0), the
+    vehicle waits at the cell a frame at a time (unsteady winds only). Moves and their guard
+    cells as in :func:`edge_weights`. Label-setting (Dijkstra) on the arrival times; cells
+    reached after ``t_end`` are not expanded, and the search stops once ``target`` (a flat
+    index, or -1 for none) is settled. ``arrival`` (ny * nx) receives the times (inf: not
+    reached), ``pred`` the predecessor cell (-1 at the source and unreached cells).
+    """
+    ny, nx = free.shape
+    T = frames.shape[0]
+    n_cells = ny * nx
+    arrival[:] = np.inf
+    pred[:] = -1
+    keys = np.empty(n_cells * moves.shape[0] + 1)
+    nodes = np.empty(n_cells * moves.shape[0] + 1, np.int64)
+    arrival[source] = t_start
+    n = _heap_push(keys, nodes, 0, t_start, source)
+    while n > 0:
+        tau, k, n = _heap_pop(keys, nodes, n)
+        if tau > arrival[k]:
+            continue
+        if k == target or tau > t_end:
+            break
+        j = k // nx
+        i = k - j * nx
+        for m in range(moves.shape[0]):
+            di = moves[m, 0]
+            dj = moves[m, 1]
+            i2 = i + di
+            j2 = j + dj
+            if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny or not free[j2, i2]:
+                continue
+            ok = True
+            for g in range(guards.shape[1]):
+                if not free[j + guards[m, g, 1], i + guards[m, g, 0]]:
+                    ok = False
+                    break
+            if not ok:
+                continue
+            length = dx * math.sqrt(di * di + dj * dj)
+            ex = di * dx / length
+            ey = dj * dx / length
+            dep = tau
+            arr = np.inf
+            while True:
+                if T == 1:
+                    f0 = 0
+                    f1 = 0
+                    c = 0.0
+                else:
+                    s = (dep - t0_frames) / dt_frames
+                    if s <= 0.0:
+                        f0 = 0
+                        c = 0.0
+                    elif s >= T - 1:
+                        f0 = T - 2
+                        c = 1.0
+                    else:
+                        f0 = int(s)
+                        c = s - f0
+                    f1 = f0 + 1
+                wx = 0.5 * ((1 - c) * (frames[f0, j, i, 0] + frames[f0, j2, i2, 0])
+                            + c * (frames[f1, j, i, 0] + frames[f1, j2, i2, 0]))
+                wy = 0.5 * ((1 - c) * (frames[f0, j, i, 1] + frames[f0, j2, i2, 1])
+                            + c * (frames[f1, j, i, 1] + frames[f1, j2, i2, 1]))
+                v = max_ground_speed(ex, ey, wx, wy, airspeed_max)
+                if v > 0.0:
+                    arr = dep + length / v
+                    break
+                if T == 1 or dep > t_end:
+                    break
+                dep += dt_frames
+            k2 = j2 * nx + i2
+            if arr < arrival[k2]:
+                arrival[k2] = arr
+                pred[k2] = k
+                n = _heap_push(keys, nodes, n, arr, k2)
+    return arrival[target] if target >= 0 else np.inf

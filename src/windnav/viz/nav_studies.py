@@ -6,6 +6,8 @@
 airspeed, power and energy (:mod:`windnav.viz.nav_compare`). :func:`plot_wind_scenarios`: the
 wind-scenario figure, a panel per inlet of :func:`~windnav.experiments.nav_cases.wind_scenarios`
 with the mean wind speed, its streamlines, the buildings and the suite's start/goal pairs.
+:func:`plot_reach`: the least times of :mod:`windnav.experiments.nav_feasibility` per inlet
+speed and pair kind, and each variant's failures among the reachable scenarios.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from matplotlib.lines import Line2D  # noqa: E402
 
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background  # noqa: E402
 
-__all__ = ["KIND_COLORS", "plot_cases", "plot_wind_scenarios"]
+__all__ = ["KIND_COLORS", "plot_cases", "plot_reach", "plot_wind_scenarios"]
 
 KIND_COLORS = {"tailwind": "#ff9500", "headwind": "#ff2d55"}
 """Marker colours of the start/goal pairs, by kind (drawn with a black edge over the wind)."""
@@ -165,6 +167,83 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
     fig.suptitle(title or f"{result['suite']} suite, map m{result['map_index']:02d}: mean wind "
                           f"of {n} inlet{'s' if n > 1 else ''}")
     fig.tight_layout(rect=(0, 0.04, 1, 1))
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path:
+    """The reachability figure: least time to the goal per scenario, and failures.
+
+    Left: each scenario's least time in its recorded wind within the airspeed limit
+    (:func:`~windnav.experiments.nav_feasibility.reach_table`'s ``airspeed``), grouped by inlet
+    speed and pair kind (jittered points, in :data:`KIND_COLORS`); unreachable scenarios as
+    crosses above the record's end; the dashed line is the last arrival that leaves the 5 s
+    hold. Right: per variant of ``table``, the failure rate over all its flights and over the
+    flights in reachable scenarios.
+
+    Parameters
+    ----------
+    reach : iterable of dict
+        Reach records (:func:`~windnav.experiments.nav_feasibility.reach_scenarios`).
+    table : dict
+        :func:`~windnav.experiments.nav_feasibility.reach_table` of those records.
+    path : str or Path
+        The PNG to write.
+    title : str, optional
+
+    Returns
+    -------
+    Path
+    """
+    import numpy as np
+
+    key = f"{table['airspeed']:g}"
+    reach = list(reach)
+    groups = list(table["groups"])
+    rng = np.random.default_rng(0)
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5.0),
+                                 gridspec_kw={"width_ratios": [1.6, 1]})
+    record_s = max(r["record_s"] for r in reach)
+    hold_s = max(r["hold_s"] for r in reach)
+    for g, name in enumerate(groups):
+        speed, kind = name.split("/")
+        rows = [r for r in reach if f"{r['speed']:g}/{r['kind']}" == name]
+        t = np.array([r["limits"][key]["recorded_time_s"]
+                      if r["limits"][key]["reachable"] else np.nan for r in rows], float)
+        jit = g + rng.uniform(-0.3, 0.3, t.size)
+        c = KIND_COLORS.get(kind, "0.5")
+        ax.plot(jit[np.isfinite(t)], t[np.isfinite(t)], "o", ms=3, color=c, alpha=0.7)
+        bad = ~np.isfinite(t)
+        ax.plot(jit[bad], np.full(bad.sum(), record_s + 4), "x", ms=5, color="k")
+        info = table["groups"][name]
+        ax.annotate(f"{info['reachable']}/{info['n']}", (g, record_s + 9), ha="center",
+                    fontsize=8)
+    ax.axhline(record_s - hold_s, ls="--", color="k", lw=1)
+    ax.text(len(groups) - 0.5, record_s - hold_s - 1, "last arrival with the 5 s hold",
+            ha="right", va="top", fontsize=8)
+    ax.set_xticks(range(len(groups)))
+    ax.set_xticklabels([n.replace("/", " m/s\n") for n in groups], fontsize=8)
+    ax.set_ylim(0, record_s + 13)
+    ax.set_ylabel("least time to the goal, recorded wind (s)")
+    ax.set_title(f"least time within {table['airspeed']:.2f} m/s of airspeed "
+                 f"(x: not reachable; n reachable/n)", fontsize=10)
+    names = list(table["variants"])
+    ys = np.arange(len(names))
+    v = table["variants"]
+    fail = [100 * v[n]["failures"] / max(v[n]["flights"], 1) for n in names]
+    fail_r = [100 * v[n]["failures_reachable"] / max(v[n]["reachable"], 1) for n in names]
+    bx.barh(ys + 0.2, fail, height=0.4, color="0.6", label="all flights")
+    bx.barh(ys - 0.2, fail_r, height=0.4, color="#007aff", label="reachable scenarios")
+    bx.set_yticks(ys)
+    bx.set_yticklabels(names, fontsize=8)
+    bx.invert_yaxis()
+    bx.set_xlabel("failure (%)")
+    bx.legend(fontsize=8, loc="lower right")
+    bx.set_title(f"{table['reachable']} of {table['n']} scenarios reachable", fontsize=10)
+    fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
+    fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=110)
     plt.close(fig)

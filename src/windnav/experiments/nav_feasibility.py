@@ -1,0 +1,229 @@
+"""Which benchmark scenarios can be flown at all within the vehicle's airspeed envelope?
+
+For every scenario of a suite, :func:`reach_scenarios` bounds from below the time any planner
+needs to reach the goal (:func:`windnav.plan.reach.least_time`): the vehicle turns and
+accelerates instantly and flies every move at the largest ground speed its airspeed limit
+allows in the wind, on the 2 m lattice of the GS baseline with 1 m of clearance. It does so in
+the scenario's recorded (unsteady) wind, where it may also wait for a lull, and in the mean
+wind the ``+W`` planners know.
+
+A scenario is **reachable** when the goal is reached in the recorded wind by
+``record_s - hold_s`` (100 - 5 s: success needs 5 s of hold at the goal before the record ends)
+and the wind at the goal then allows the hold: some ``hold_s`` window after arrival in which
+the wind at the goal cell never exceeds the airspeed limit plus the 2 m/s of drift the success
+criterion allows. A scenario that is not reachable cannot be a success of any planner whose
+vehicle stays inside the envelope; a reachable one may still be out of reach of a real vehicle.
+
+Each (map, wind) is one task: its wind is simulated once (as the benchmark does, with the same
+worker reuse, so it is the benchmark's wind to the bit) and its pairs are searched at each
+airspeed limit. Results are appended to ``reach.jsonl`` in the output folder as tasks finish;
+a rerun computes only what is missing.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["ReachTask", "reach_scenarios", "reach_table", "reach_task"]
+
+
+RECORDS = "reach.jsonl"
+
+
+@dataclass(frozen=True)
+class ReachTask:
+    """One (map, wind) of a suite, searched at each airspeed limit. Picklable."""
+
+    spec: object
+    map_index: int
+    wind_index: int
+    airspeeds: tuple
+    dx: float = 2.0
+    clearance: float = 1.0
+
+
+def _hold_ok(goal_wind_speed: np.ndarray, t: np.ndarray, arrival: float, t_end: float,
+             hold_s: float, limit: float) -> bool:
+    """Whether some ``hold_s`` window in ``[arrival, t_end]`` keeps the wind at the goal
+    (``goal_wind_speed`` at the frame times ``t``) within ``limit``."""
+    calm = goal_wind_speed <= limit
+    start = None
+    for k in range(t.size):
+        if t[k] < arrival - 1e-9 or not calm[k]:
+            start = None
+            continue
+        if start is None:
+            start = max(t[k], arrival)
+        if min(t[k], t_end) - start >= hold_s - 1e-9:
+            return True
+    return False
+
+
+def reach_task(task: ReachTask) -> list[dict]:
+    """The reach records of one (map, wind): one per pair, with the least times (s; inf: not
+    reached by the end of the record) in the recorded and the mean wind at each airspeed."""
+    from windnav.experiments.nav_benchmark import suite_flow, worker_reuse
+    from windnav.experiments.nav_suite import parse_scenario_id, suite_map
+    from windnav.experiments.navigate import GOAL_RADIUS, GOAL_SPEED, HOLD_S
+    from windnav.plan.reach import least_time, reach_lattice
+
+    spec = task.spec
+    city = suite_map(spec, task.map_index)
+    speed, direction = spec.wind(task.wind_index)
+    t0 = time.perf_counter()
+    flow = suite_flow(spec, city, speed, direction, reuse=worker_reuse())
+    flow_s = time.perf_counter() - t0
+    sol = flow.solution
+    t_end = float(spec.record_s)
+    hold_s = HOLD_S
+    lattices = {"recorded": reach_lattice(city, sol.wind_field(unsteady=True), dx=task.dx,
+                                          clearance=task.clearance),
+                "mean": reach_lattice(city, sol.wind_field(), dx=task.dx,
+                                      clearance=task.clearance)}
+    lat = lattices["recorded"]
+    t_frames = lat.t0 + lat.dt_frames * np.arange(lat.frames.shape[0])
+    out = []
+    for p in spec.pairs:
+        sc = parse_scenario_id(spec, f"{spec.name}/m{task.map_index:02d}/"
+                                     f"w{task.wind_index:02d}/p{p}")
+        gi = int(np.clip(np.round((sc.goal[0] - lat.x[0]) / lat.dx), 0, lat.x.size - 1))
+        gj = int(np.clip(np.round((sc.goal[1] - lat.y[0]) / lat.dx), 0, lat.y.size - 1))
+        goal_wind = np.hypot(*lat.frames[:, gj, gi].T)
+        rec = {"scenario_id": sc.scenario_id, "map_index": sc.map_index,
+               "wind_index": sc.wind_index, "pair_index": sc.pair_index, "kind": sc.kind,
+               "speed": sc.speed, "direction_deg": sc.direction_deg,
+               "straight_m": float(math.dist(sc.start, sc.goal)),
+               "goal_wind_mean_mps": float(goal_wind.mean()),
+               "goal_wind_max_mps": float(goal_wind.max()),
+               "record_s": t_end, "hold_s": hold_s, "dx": task.dx,
+               "clearance": task.clearance, "flow_s": flow_s, "limits": {}}
+        for a in task.airspeeds:
+            row = {}
+            for name, lattice in lattices.items():
+                r = least_time(lattice, sc.start, sc.goal, airspeed_max=a, t_end=t_end,
+                               goal_radius=GOAL_RADIUS)
+                row[f"{name}_time_s"] = r.time_s if r.reached else None
+                row[f"{name}_length_m"] = r.length_m if r.reached else None
+            arrival = row["recorded_time_s"]
+            row["hold_ok"] = bool(arrival is not None and _hold_ok(
+                goal_wind, t_frames, arrival, t_end, hold_s, a + GOAL_SPEED))
+            row["reachable"] = bool(row["hold_ok"] and arrival + hold_s <= t_end)
+            rec["limits"][f"{a:g}"] = row
+        out.append(rec)
+    return out
+
+
+def _done(path: Path) -> list[dict]:
+    if not path.is_file():
+        return []
+    out = []
+    with path.open() as fh:
+        for line in fh:
+            if line.strip():
+                out.append(json.loads(line))
+    return out
+
+
+def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
+                    airspeeds: Sequence[float], executor: str = "process",
+                    workers: int | None = None, progress: bool = True) -> list[dict]:
+    """Reach records of the suite's scenarios on ``maps`` (default all), computed where
+    ``out/reach.jsonl`` lacks them (appended as each wind finishes) and returned with the ones
+    it had. Records computed with other ``airspeeds`` are recomputed.
+
+    Returns
+    -------
+    list of dict
+        One per scenario (:func:`reach_task`), ordered by scenario id.
+    """
+    from windnav.experiments.executor import run_tasks
+    from windnav.experiments.results import json_ready
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / RECORDS
+    maps = tuple(spec.maps if maps is None else maps)
+    keys = {f"{a:g}" for a in airspeeds}
+    have = {r["scenario_id"]: r for r in _done(path) if set(r["limits"]) == keys}
+    tasks = [ReachTask(spec, m, w, tuple(float(a) for a in airspeeds))
+             for m in maps for w in spec.winds
+             if any(f"{spec.name}/m{m:02d}/w{w:02d}/p{p}" not in have for p in spec.pairs)]
+
+    def on_result(res):
+        if res.ok:
+            with path.open("a") as fh:
+                for rec in res.value:
+                    fh.write(json.dumps(json_ready(rec)) + "\n")
+
+    failed = []
+    for res in run_tasks(reach_task, tasks, executor, workers=workers, progress=progress,
+                         desc="winds", on_result=on_result):
+        if res.ok:
+            have.update({r["scenario_id"]: r for r in res.value})
+        else:
+            failed.append(res.error)
+    if failed:
+        raise RuntimeError(f"{len(failed)} of {len(tasks)} winds failed; the first:\n"
+                           f"{failed[0]}")
+    wanted = {f"{spec.name}/m{m:02d}/w{w:02d}/p{p}" for m in maps for w in spec.winds
+              for p in spec.pairs}
+    return [have[k] for k in sorted(wanted)]
+
+
+def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
+                airspeed: float) -> dict:
+    """Reachability by inlet speed and pair kind at one airspeed limit, and, for each
+    variant of ``records`` (benchmark flights), its failures among the reachable scenarios and
+    its successes among the unreachable ones.
+
+    Returns
+    -------
+    dict
+        ``airspeed``, ``n``, ``reachable`` (count), ``groups``: per ``"<speed>/<kind>"`` the
+        count, the reachable count and the median least time (recorded wind) of the reachable
+        ones, s; ``variants``: per variant, ``flights``, ``failures``, ``failures_reachable``
+        (failures in reachable scenarios), ``reachable`` (its flights in reachable scenarios)
+        and ``success_unreachable``.
+    """
+    key = f"{airspeed:g}"
+    reach = {r["scenario_id"]: r for r in reach}
+    rows = {sid: r["limits"][key] for sid, r in reach.items()}
+    groups = {}
+    for sid, r in reach.items():
+        g = groups.setdefault(f"{r['speed']:g}/{r['kind']}", {"n": 0, "reachable": 0,
+                                                              "times": []})
+        g["n"] += 1
+        if rows[sid]["reachable"]:
+            g["reachable"] += 1
+            g["times"].append(rows[sid]["recorded_time_s"])
+    for g in groups.values():
+        times = g.pop("times")
+        g["median_time_s"] = float(np.median(times)) if times else None
+    variants = {}
+    for rec in records:
+        row = rows.get(rec["scenario_id"])
+        if row is None:
+            continue
+        v = variants.setdefault(rec["variant"], {"flights": 0, "failures": 0, "reachable": 0,
+                                                 "failures_reachable": 0,
+                                                 "success_unreachable": 0})
+        ok = rec["outcome"] == "success"
+        v["flights"] += 1
+        v["failures"] += not ok
+        if row["reachable"]:
+            v["reachable"] += 1
+            v["failures_reachable"] += not ok
+        else:
+            v["success_unreachable"] += ok
+    return {"airspeed": airspeed, "n": len(rows),
+            "reachable": sum(r["reachable"] for r in rows.values()),
+            "groups": dict(sorted(groups.items(), key=lambda kv: (float(kv[0].split("/")[0]),
+                                                                   kv[0]))),
+            "variants": variants}

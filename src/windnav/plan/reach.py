@@ -1,0 +1,265 @@
+"""Reachability: the least time in which any vehicle whose airspeed stays within a limit can
+reach a goal through a city's wind.
+
+A scenario of the navigation benchmark can only be flown if some path gets from the start to
+the goal before the recorded wind ends while the vehicle's airspeed stays inside the envelope
+where its aerodynamic model is trusted (:attr:`windnav.vehicle.MultirotorParams.airspeed_limit`,
+13.4 m/s for the Hummingbird). :func:`least_time` bounds that from below, for any planner:
+
+- Flying ``dL`` metres along the unit vector ``e`` in the wind ``w`` with airspeed at most
+  ``A``, the ground speed is at most ``v_max = w.e + sqrt(A^2 - (w x e)^2)``
+  (:func:`max_ground_speed`); none when the crosswind ``|w x e|`` exceeds ``A`` or the
+  headwind exceeds the rest.
+- The map is the lattice of :func:`windnav.plan.energy_route` (cells of ``dx``, buildings
+  inflated by ``clearance``, the 16 moves of :data:`~windnav.plan.MOVES`, which follow straight
+  lines within 3 degrees) and each move is flown at its ``v_max`` in the mean of its two cells'
+  winds.
+- The wind is either steady (e.g. the mean field the ``+W`` planners know) or the recorded
+  frames, linear in time: then a move takes the wind at its departure time, and where no
+  airspeed within ``A`` makes headway the vehicle may wait for the wind to change.
+- Earliest arrival times are label-set by Dijkstra (exact for the steady wind; for the unsteady
+  one, exact when the arrival time of a move never decreases with its departure time).
+
+Nothing else limits the vehicle: it turns and accelerates instantly, and hovering is free. So a
+goal that this search cannot reach before ``t_end`` cannot be reached by the 6-DoF vehicle
+within the envelope either, whatever its planner; a goal it can reach may still be out of reach
+of a real vehicle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from windnav._validate import batch_array, finite_float, positive_float
+from windnav.plan import _search_kernels as SK
+from windnav.plan.energy_search import MOVES, _guards
+from windnav.plan.graph_search import cell_path, free_cell, free_space
+
+__all__ = ["ReachLattice", "ReachResult", "least_time", "max_ground_speed", "reach_lattice"]
+
+
+def max_ground_speed(direction, wind, airspeed_max) -> np.ndarray:
+    """Largest ground speed along ``direction`` with airspeed at most ``airspeed_max``.
+
+    Parameters
+    ----------
+    direction : array_like of shape (B, 2)
+        Unit vectors of the track (normalised here), world frame.
+    wind : array_like of shape (B, 2)
+        Horizontal wind, m/s, world frame.
+    airspeed_max : float
+        Largest airspeed, m/s (> 0).
+
+    Returns
+    -------
+    ndarray of shape (B,)
+        ``w.e + sqrt(A^2 - (w x e)^2)``, m/s; 0 where no ground speed > 0 is possible.
+    """
+    where = "max_ground_speed"
+    e = batch_array(direction, "direction", where, (2,))
+    w = batch_array(wind, "wind", where, (2,), batch=e.shape[0])
+    a = positive_float(airspeed_max, "airspeed_max", where)
+    norm = np.hypot(e[:, 0], e[:, 1])
+    if not np.all(norm > 0):
+        raise ValueError(f"The 'direction' parameter of {where} must hold non-zero vectors. "
+                         f"Got a zero vector instead.")
+    e = e / norm[:, None]
+    return np.array([SK.max_ground_speed(ex, ey, wx, wy, a)
+                     for (ex, ey), (wx, wy) in zip(e, w, strict=True)])
+
+
+@dataclass(frozen=True, eq=False)
+class ReachResult:
+    """The least time to a goal (:func:`least_time`).
+
+    Attributes
+    ----------
+    time_s : float
+        Earliest arrival at the goal's cell, s from the wind's time 0 (inf: not reached by
+        ``t_end``).
+    path : ndarray of shape (K, 2)
+        Cell centres of the fastest route, start and goal included, m (empty when not reached).
+    length_m : float
+        Length of ``path``, m (inf when not reached).
+    airspeed_max : float
+        The airspeed limit used, m/s.
+    unsteady : bool
+        Whether the wind was the recorded frames (else steady).
+    """
+
+    time_s: float
+    path: np.ndarray
+    length_m: float
+    airspeed_max: float
+    unsteady: bool
+
+    @property
+    def reached(self) -> bool:
+        """Whether the goal was reached by ``t_end``."""
+        return bool(np.isfinite(self.time_s))
+
+
+def _bracket(axis: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower index (clamped to [0, n-2]) and weight in [0, 1] of each ``q`` on ``axis``."""
+    q = np.clip(q, axis[0], axis[-1])
+    i = np.clip(np.searchsorted(axis, q, side="right") - 1, 0, axis.size - 2)
+    return i, (q - axis[i]) / (axis[i + 1] - axis[i])
+
+
+@dataclass(frozen=True, eq=False)
+class ReachLattice:
+    """A city and its wind on the search lattice of :func:`least_time` (:func:`reach_lattice`).
+
+    Attributes
+    ----------
+    x, y : ndarray of shape (nx,), (ny,)
+        Cell centres, m.
+    free : ndarray of shape (ny, nx) of bool
+        Cells farther than ``clearance`` from every building.
+    frames : ndarray of shape (T, ny, nx, 2)
+        The wind at the cells, m/s, world frame (``T = 1``: steady).
+    t0, dt_frames : float
+        Time of the first frame and the spacing of the frames, s.
+    dx, clearance : float
+        Lattice spacing and building clearance, m.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    free: np.ndarray
+    frames: np.ndarray
+    t0: float
+    dt_frames: float
+    dx: float
+    clearance: float
+
+    @property
+    def unsteady(self) -> bool:
+        """Whether the wind has more than one frame."""
+        return self.frames.shape[0] > 1
+
+
+def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0) -> ReachLattice:
+    """Rasterise ``city`` and sample ``wind`` on the lattice of :func:`least_time`.
+
+    Parameters
+    ----------
+    city : windnav.city.City
+    wind : FlowSolution, GriddedWind or array_like of shape (2,)
+        A :class:`~windnav.flow.FlowSolution` (its recorded frames when it has them, else its
+        mean field), a :class:`~windnav.wind.GriddedWind` (steady, or unsteady with evenly
+        spaced frames; resampled bilinearly at the cells), or a uniform wind, m/s.
+    dx : float
+        Lattice spacing, m.
+    clearance : float
+        Distance kept from every building, m (the vehicle's size).
+
+    Returns
+    -------
+    ReachLattice
+    """
+    from windnav.wind.gridded import GriddedWind
+
+    where = "reach_lattice"
+    dx = positive_float(dx, "dx", where)
+    clearance = positive_float(clearance, "clearance", where, allow_zero=True)
+    x, y, free = free_space(city, dx, clearance)
+    if hasattr(wind, "frames_u") and hasattr(wind, "mean_u"):  # a FlowSolution
+        wind = wind.wind_field(unsteady=wind.frames_u is not None)
+    t0, dt_frames = 0.0, 1.0
+    if isinstance(wind, GriddedWind):
+        i0, a = _bracket(wind.x, x)
+        j0, b = _bracket(wind.y, y)
+        src = wind._frames
+        frames = np.empty((src.shape[0], y.size, x.size, 2))
+        SK.resample_frames(src, i0, a, j0, b, frames)
+        if wind.t is not None:
+            steps = np.diff(wind.t)
+            if steps.size and np.ptp(steps) > 1e-9 * steps[0]:
+                raise ValueError(f"The 'wind' parameter of {where} must have evenly spaced "
+                                 f"frames. Got steps from {steps.min()} to {steps.max()} s "
+                                 "instead.")
+            t0, dt_frames = float(wind.t[0]), float(steps[0]) if steps.size else 1.0
+    else:
+        w = batch_array(wind, "wind", where, (2,), batch=1)[0]
+        frames = np.broadcast_to(w, (1, y.size, x.size, 2)).copy()
+    return ReachLattice(x=x, y=y, free=np.ascontiguousarray(free), frames=frames, t0=t0,
+                        dt_frames=dt_frames, dx=dx, clearance=clearance)
+
+
+def least_time(
+    lattice: ReachLattice,
+    start_xy,
+    goal_xy,
+    *,
+    airspeed_max: float,
+    t_start: float = 0.0,
+    t_end: float = np.inf,
+    goal_radius: float = 0.0,
+) -> ReachResult:
+    """Earliest arrival at ``goal_xy`` (or within ``goal_radius`` of it) from ``start_xy``
+    within an airspeed limit.
+
+    Parameters
+    ----------
+    lattice : ReachLattice
+        The city and its wind (:func:`reach_lattice`).
+    start_xy, goal_xy : array_like of shape (2,)
+        m, world.
+    airspeed_max : float
+        Largest airspeed, m/s, e.g. the vehicle's ``airspeed_limit``.
+    t_start : float
+        Departure time in the wind's clock, s.
+    t_end : float
+        Arrivals after this time count as not reached, s (the end of a recorded wind).
+    goal_radius : float
+        Arriving at any free cell whose centre lies within this distance of the goal counts,
+        m (0: the goal's cell).
+
+    Returns
+    -------
+    ReachResult
+
+    Raises
+    ------
+    ValueError
+        On invalid arguments, or a start or goal inside a building's clearance.
+    """
+    where = "least_time"
+    if not isinstance(lattice, ReachLattice):
+        raise ValueError(f"The 'lattice' parameter of {where} must be a ReachLattice (from "
+                         f"reach_lattice). Got {type(lattice).__name__} instead.")
+    a_max = positive_float(airspeed_max, "airspeed_max", where)
+    t_start = finite_float(t_start, "t_start", where)
+    t_end = float(t_end)
+    if not t_end > t_start:
+        raise ValueError(f"The 't_end' parameter of {where} must be greater than t_start "
+                         f"({t_start}). Got {t_end!r} instead.")
+    radius = positive_float(goal_radius, "goal_radius", where, allow_zero=True)
+    start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
+    goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
+    lat = lattice
+    s = free_cell(start, "start_xy", lat.x, lat.y, lat.free, lat.dx, lat.clearance, where)
+    g = free_cell(goal, "goal_xy", lat.x, lat.y, lat.free, lat.dx, lat.clearance, where)
+    arrival = np.empty(lat.free.size)
+    pred = np.empty(lat.free.size, np.int64)
+    SK.earliest_arrival(lat.free, lat.frames, lat.t0, lat.dt_frames, MOVES, _guards(MOVES),
+                        lat.dx, a_max, s, t_start, t_end, -1 if radius > 0 else g, arrival,
+                        pred)
+    if radius > 0:  # the first cell reached inside the goal's disk
+        gx, gy = np.meshgrid(lat.x, lat.y)
+        near = np.flatnonzero((np.hypot(gx - goal[0], gy - goal[1]) <= radius).ravel()
+                              & lat.free.ravel())
+        near = np.append(near, g)
+        g = int(near[np.argmin(arrival[near])])
+        goal = np.array([lat.x[g % lat.x.size], lat.y[g // lat.x.size]])
+    t_goal = arrival[g]
+    if not (np.isfinite(t_goal) and t_goal <= t_end):
+        return ReachResult(time_s=float("inf"), path=np.zeros((0, 2)), length_m=float("inf"),
+                           airspeed_max=a_max, unsteady=lat.unsteady)
+    path = cell_path(pred, s, g, lat.x, lat.y, start, goal)
+    return ReachResult(time_s=float(t_goal), path=path,
+                       length_m=float(np.hypot(*np.diff(path, axis=0).T).sum()),
+                       airspeed_max=a_max, unsteady=lat.unsteady)

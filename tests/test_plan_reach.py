@@ -1,0 +1,210 @@
+"""The least-time search within an airspeed limit (windnav.plan.reach), against closed forms."""
+
+import math
+
+import numpy as np
+import pytest
+
+from windnav.city import City
+from windnav.experiments.nav_feasibility import _hold_ok, reach_table
+from windnav.plan.reach import least_time, max_ground_speed, reach_lattice
+from windnav.wind.gridded import GriddedWind
+
+EMPTY = City((0, 200, 0, 200), np.zeros((0, 4)), np.zeros(0))
+
+
+def test_max_ground_speed_closed_form():
+    e = [[1, 0], [1, 0], [1, 0], [1, 0], [3, 4]]
+    w = [[-5, 0], [0, 5], [-14, 0], [0, 14], [3, 4]]
+    v = max_ground_speed(e, w, 13.0)
+    # headwind: A - 5; crosswind: sqrt(A^2 - 25); headwind or crosswind past A: none;
+    # tailwind along a non-axis direction: A + |w|
+    np.testing.assert_allclose(v, [8.0, 12.0, 0.0, 0.0, 18.0], rtol=1e-12)
+
+
+def test_max_ground_speed_keeps_airspeed_at_the_limit():
+    rng = np.random.default_rng(0)
+    e = rng.normal(size=(200, 2))
+    e /= np.hypot(*e.T)[:, None]
+    w = rng.uniform(-10, 10, size=(200, 2))
+    v = max_ground_speed(e, w, 12.0)
+    air = np.hypot(*(v[:, None] * e - w).T)
+    moving = v > 0
+    np.testing.assert_allclose(air[moving], 12.0, rtol=1e-9)
+    # a slightly faster ground speed would exceed the limit
+    faster = np.hypot(*((v[:, None] + 1e-3) * e - w).T)
+    assert np.all(faster[moving] > 12.0)
+
+
+def test_max_ground_speed_rejects_bad_input():
+    with pytest.raises(ValueError, match="'direction'"):
+        max_ground_speed([[0, 0]], [[1, 0]], 10.0)
+    with pytest.raises(ValueError, match="'airspeed_max'"):
+        max_ground_speed([[1, 0]], [[1, 0]], -1.0)
+
+
+@pytest.mark.parametrize("wind", [(0.0, 0.0), (-6.0, 0.0), (4.0, 3.0), (0.0, 8.0)])
+def test_uniform_wind_straight_line(wind):
+    """Open map, uniform wind: the straight line at v_max (the lattice's 16 moves follow a
+    line within 3 degrees, so the time is within 0.5 % for this axis-aligned leg)."""
+    lat = reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0)
+    r = least_time(lat, (20, 100), (180, 100), airspeed_max=10.0)
+    v = max_ground_speed([[1, 0]], [wind], 10.0)[0]
+    assert r.reached and not r.unsteady
+    assert r.time_s == pytest.approx(160.0 / v, rel=5e-3)
+    assert r.length_m == pytest.approx(160.0, rel=5e-3)
+
+
+def test_diagonal_leg_within_lattice_error():
+    lat = reach_lattice(EMPTY, (0.0, 0.0), dx=2.0, clearance=0.0)
+    r = least_time(lat, (20, 20), (180, 120), airspeed_max=10.0)
+    straight = math.dist((20, 20), (180, 120))
+    # the 16-move lattice's worst stretch is 1 / cos(atan(1/2) / 2)... < 1.027
+    assert straight / 10.0 <= r.time_s <= 1.03 * straight / 10.0
+
+
+def test_headwind_beyond_the_limit_is_unreachable_but_not_around_it():
+    """A 12 m/s wind toward -x below y = 140, calm above, A = 10: from inside the band the
+    vehicle can only make headway downwind-ish (north-west), so it reaches a goal up and to
+    the east by leaving the band first."""
+    x = y = np.arange(0.5, 200.0, 1.0)
+    u = np.where(y[:, None] < 140, -12.0, 0.0) * np.ones((1, x.size))
+    wind = GriddedWind(x, y, u, np.zeros_like(u))
+    lat = reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0)
+    r = least_time(lat, (100, 100), (180, 170), airspeed_max=10.0)
+    assert r.reached
+    assert r.path[:, 0].min() < 100 and r.path[:, 1].max() >= 139
+    assert not least_time(lat, (100, 100), (180, 170), airspeed_max=10.0,
+                          t_end=r.time_s - 1.0).reached
+    # a goal east in the band itself cannot be reached at all
+    blocked = least_time(lat, (100, 100), (180, 100), airspeed_max=10.0)
+    assert not blocked.reached and math.isinf(blocked.time_s) and blocked.path.shape == (0, 2)
+    assert math.isinf(blocked.length_m)
+
+
+def test_unsteady_wind_waits_for_the_lull():
+    """A 20 m/s headwind until t = 10 s, then calm: with A = 10 the vehicle waits, then flies
+    160 m at 10 m/s, arriving at 26 s (to the frame spacing)."""
+    x = y = np.arange(0.5, 200.0, 1.0)
+    t = np.arange(0.0, 60.0, 0.25)
+    u = np.where(t < 10.0, -20.0, 0.0)[:, None, None] * np.ones((1, y.size, x.size))
+    wind = GriddedWind(x, y, u, np.zeros_like(u), t=t)
+    lat = reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0)
+    assert lat.unsteady
+    r = least_time(lat, (20, 100), (180, 100), airspeed_max=10.0)
+    assert r.unsteady
+    assert r.time_s == pytest.approx(26.0, abs=0.3)
+    late = least_time(lat, (20, 100), (180, 100), airspeed_max=10.0, t_start=30.0)
+    assert late.time_s == pytest.approx(46.0, rel=5e-3)
+
+
+def test_building_detour_and_goal_radius():
+    city = City((0, 200, 0, 200), [[95, 105, 0, 170]], [20])  # a wall with a gap at the top
+    lat = reach_lattice(city, (0.0, 0.0), dx=2.0, clearance=1.0)
+    r = least_time(lat, (50, 100), (150, 100), airspeed_max=10.0)
+    # up to the wall's near corner, along its 10 m end, down: with 1 m of clearance
+    around = 2 * math.hypot(44, 71) + 12
+    assert r.length_m == pytest.approx(around, rel=0.03)
+    assert r.time_s == pytest.approx(r.length_m / 10.0, rel=0.02)  # ends snapped to cells
+    near = least_time(lat, (50, 100), (150, 100), airspeed_max=10.0, goal_radius=5.0)
+    assert r.time_s - 0.6 <= near.time_s < r.time_s
+    assert math.dist(near.path[-1], (150, 100)) <= 5.0
+    with pytest.raises(ValueError, match="'goal_xy'"):
+        least_time(lat, (50, 100), (100, 100), airspeed_max=10.0)
+    with pytest.raises(ValueError, match="'lattice'"):
+        least_time(city, (50, 100), (150, 100), airspeed_max=10.0)
+    with pytest.raises(ValueError, match="'t_end'"):
+        least_time(lat, (50, 100), (150, 100), airspeed_max=10.0, t_end=0.0)
+
+
+def test_hold_window():
+    t = np.arange(0.25, 100.01, 0.25)
+    calm = np.full(t.size, 5.0)
+    assert _hold_ok(calm, t, 90.0, 100.0, 5.0, 10.0)
+    assert not _hold_ok(calm, t, 96.0, 100.0, 5.0, 10.0)  # too late to hold 5 s
+    gusty = np.where((t > 50) & (t < 98), 20.0, 5.0)
+    assert not _hold_ok(gusty, t, 60.0, 100.0, 5.0, 10.0)
+    assert _hold_ok(gusty, t, 40.0, 100.0, 5.0, 10.0)
+
+
+def test_reach_table_counts():
+    def rec(sid, speed, kind, reachable, time):
+        return {"scenario_id": sid, "speed": speed, "kind": kind,
+                "limits": {"13": {"reachable": reachable, "recorded_time_s": time}}}
+
+    reach = [rec("a", 10.0, "headwind", True, 40.0), rec("b", 10.0, "headwind", False, None),
+             rec("c", 2.0, "tailwind", True, 20.0)]
+    flights = [{"scenario_id": "a", "variant": "v", "outcome": "timeout"},
+               {"scenario_id": "b", "variant": "v", "outcome": "success"},
+               {"scenario_id": "c", "variant": "v", "outcome": "success"},
+               {"scenario_id": "zz", "variant": "v", "outcome": "success"}]
+    table = reach_table(reach, flights, airspeed=13.0)
+    assert table["n"] == 3 and table["reachable"] == 2
+    assert table["groups"]["10/headwind"] == {"n": 2, "reachable": 1, "median_time_s": 40.0}
+    assert list(table["groups"]) == ["2/tailwind", "10/headwind"]
+    assert table["variants"]["v"] == {"flights": 3, "failures": 1, "reachable": 2,
+                                      "failures_reachable": 1, "success_unreachable": 1}
+
+
+def test_reach_scenarios_on_a_tiny_suite_resumes_and_bounds_the_flights(tmp_path):
+    from windnav.experiments.nav_feasibility import RECORDS, reach_scenarios
+    from windnav.experiments.nav_suite import SuiteSpec
+
+    spec = SuiteSpec(
+        "tiny", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,),
+        incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1, pair_distance=100.0,
+        clearance=25.0, edge=15.0, map_size=200.0,
+        map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+    reach = reach_scenarios(spec, tmp_path, airspeeds=(2.0, 13.0), executor="serial",
+                            progress=False)
+    assert [r["scenario_id"] for r in reach] == [f"tiny/m00/w0{w}/p{p}" for w in (0, 1)
+                                                 for p in (0, 1)]
+    for r in reach:
+        fast, slow = r["limits"]["13"], r["limits"]["2"]
+        # 100 m in a 3 m/s wind: at 13 m/s of airspeed at least 100 / 16 s, and reachable
+        assert fast["reachable"] and fast["recorded_time_s"] >= 95.0 / 16.0
+        assert fast["mean_time_s"] >= 95.0 / 16.0
+        # a 2 m/s limit cannot make headway into the 3 m/s inlet
+        if r["kind"] == "headwind":
+            assert not slow["reachable"]
+        assert slow["recorded_time_s"] is None or slow["recorded_time_s"] > fast[
+            "recorded_time_s"]
+    lines = (tmp_path / RECORDS).read_text().splitlines()
+    assert len(lines) == 4
+    again = reach_scenarios(spec, tmp_path, airspeeds=(2.0, 13.0), executor="serial",
+                            progress=False)
+    assert again == reach and len((tmp_path / RECORDS).read_text().splitlines()) == 4
+
+
+def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, capsys):
+    import json
+
+    from windnav import cli
+    from windnav.experiments.nav_benchmark import NavStore
+    from windnav.experiments.nav_suite import SUITES, SuiteSpec
+
+    spec = SuiteSpec(
+        "quick", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,),
+        incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1, pair_distance=100.0,
+        clearance=25.0, edge=15.0, map_size=200.0,
+        map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+    monkeypatch.setitem(SUITES, "quick", spec)
+    store = NavStore(tmp_path / "store", spec, create=True)
+    for w, outcome in ((0, "success"), (1, "timeout")):
+        store.append({"scenario_id": f"quick/m00/w0{w}/p0", "variant": "mppi", "map_index": 0,
+                      "outcome": outcome})
+    args = ["nav-study", "feasibility", "--suite", "quick", "--store", str(store.path),
+            "--cache", str(tmp_path / "reach"), "--airspeeds", "2", "--executor", "serial",
+            "--out", str(tmp_path / "out"), "--no-progress"]
+    assert cli.main(args) == 0
+    doc = json.loads((tmp_path / "out" / "nav_feasibility.json").read_text())
+    assert set(doc["tables"]) == {"2", f"{doc['airspeed_limit']:g}"}  # the limit is added
+    limit = doc["tables"][f"{doc['airspeed_limit']:g}"]
+    assert limit["n"] == 4 and limit["reachable"] == 4
+    assert limit["variants"]["mppi"] == {"flights": 2, "failures": 1, "reachable": 2,
+                                         "failures_reachable": 1, "success_unreachable": 0}
+    assert (tmp_path / "out" / "nav_feasibility.png").stat().st_size > 10_000
+    capsys.readouterr()
+    args[args.index("--airspeeds") + 1] = "-1"
+    assert cli.main([*args, "--overwrite"]) == 2
+    assert "'--airspeeds' parameter" in capsys.readouterr().err
