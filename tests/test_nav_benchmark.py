@@ -216,7 +216,13 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
         "ea-mppi-w", {"planner_overrides": {"use_wind": False}})
     assert nb.parse_variant("mppi@power=crazyflie@qe=1") == (
         "mppi", {"power_shape": "crazyflie", "planner_overrides": {"energy_weight": 1.0}})
-    for bad in ("bogus@qe=1", "gs-w@qe=1", "ea-mppi-w@qe=-1", "ea-mppi-w@qe=inf",
+    from windnav.plan import EscapeConfig
+
+    assert nb.parse_variant("ea-mppi-w-esc@esc=1000") == (
+        "ea-mppi-w-esc", {"escape": EscapeConfig(length_m=1000.0)})
+    for bad in ("ea-mppi-w@esc=100", "ea-mppi-w-esc@esc=0", "ea-mppi-w-esc@esc=inf",
+                "ea-mppi-w-esc@esc=100@esc=200", "bogus@qe=1", "gs-w@qe=1", "ea-mppi-w@qe=-1",
+                "ea-mppi-w@qe=inf",
                 "ea-mppi-w@x=1", "ea-mppi-w@qe=1@qe=2", "ea-mppi-w@qe", "ea-mppi-w@h=nan",
                 "ea-mppi-w@qe=abc", "mppi@power=bucket", "mppi@power=crazyflie@power=crazyflie",
                 "gs-w@power=crazyflie"):

@@ -255,12 +255,15 @@ def _dated_decoder(name: str):
 
 
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
-              "decoder": "decoder"}
+              "decoder": "decoder", "esc": "escape"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
-use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual); and, for
-``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`)."""
+use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual); for
+``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`); and for
+``ea-mppi-w-esc`` only, ``esc`` the length of route an escape flies, m (finite, > 0;
+:class:`windnav.plan.EscapeConfig` ``length_m``, default 60 m: longer than any route means that
+the first stall hands the flight to the route for good)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
 
@@ -278,8 +281,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     options : dict
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
         ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
-        ``horizon``, ``power_shape`` and ``decoder`` (a key of :data:`DECODERS`, which
-        :func:`fly` loads).
+        ``horizon``, ``power_shape``, ``decoder`` (a key of :data:`DECODERS`, which
+        :func:`fly` loads) and ``escape`` (an :class:`~windnav.plan.EscapeConfig`).
 
     Raises
     ------
@@ -297,9 +300,10 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         return ValueError(f"The 'variants' parameter of {where} must be distinct names among "
                           f"{list(VARIANTS)}, or one of {list(_PARAMETRIC)} with parameters "
                           f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
-                          f"'@power=SHAPE' (one of {list(POWER_SHAPES)}), or "
-                          f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}): {why}. Got "
-                          f"{label!r} instead.")
+                          f"'@power=SHAPE' (one of {list(POWER_SHAPES)}), "
+                          f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
+                          f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0): {why}. Got {label!r} "
+                          "instead.")
 
     if base not in VARIANTS:
         raise fail(f"unknown variant {base!r}")
@@ -313,7 +317,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         key, sep, text = item.partition("=")
         if not sep or key not in PARAMETERS or PARAMETERS[key] in {**options, **overrides}:
             raise fail(f"bad or repeated parameter {item!r}")
-        if (key == "decoder") != onboard:
+        if (key == "decoder") != onboard or (key == "esc" and not VARIANTS[base].escape):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "decoder":
             if text not in DECODERS:
@@ -331,7 +335,13 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"{text!r} is not a number") from None
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
-        if key == "qe":
+        if key == "esc":
+            if not (0.0 < value < math.inf):
+                raise fail("esc must be finite and > 0")
+            from windnav.plan import EscapeConfig
+
+            options["escape"] = EscapeConfig(length_m=value)
+        elif key == "qe":
             overrides["energy_weight"] = value
         elif value == 0.0:
             overrides["use_wind"] = False
