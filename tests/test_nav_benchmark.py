@@ -535,7 +535,7 @@ def test_tiny_suite_flies_every_flight_once_per_wind(tiny_store):
     assert (out["now"], out["errors_now"], out["pending"]) == (8, 0, 0)
     recs = NavStore(path, TINY).load()
     assert [r["error"] for r in recs] == [None] * 8
-    assert list(recs[0]) == list(nb.RECORD_FIELDS)
+    assert list(recs[0]) == list(nb.RECORD_FIELDS) + list(nb.ENVELOPE_FIELDS)
     # one wind simulation per (map, wind): every flight of a wind reports the same flow time
     for w in (0, 1):
         assert len({r["flow_s"] for r in recs if r["wind_index"] == w}) == 1

@@ -104,6 +104,27 @@ def test_energies_agree_with_each_other_and_with_hover_power(city, flow):
         np.sum(np.hypot(*np.diff(res.position[:, :2], axis=0).T)))
 
 
+def test_the_envelope_report_counts_time_above_each_limit(city, flow):
+    """The summary says how long the flight spent above the Hummingbird's trusted airspeed
+    (13.4 m/s) and above the power curve's last valid one (13 m/s)."""
+    import dataclasses
+
+    res = fly(city, flow, "mppi", duration=10.0)
+    env = res.envelope()
+    assert res.settings["airspeed_limit"] == pytest.approx(13.4485, abs=1e-3)
+    assert res.settings["power_speed_max"] == 13.0
+    assert env["airspeed_max_mps"] == pytest.approx(res.airspeed.max())
+    assert {k: res.summary()[k] for k in env} == env
+    n = res.t.size
+    air = np.where(np.arange(n) < n // 4, 13.2, 5.0)  # a quarter of the flight at 13.2 m/s
+    air[:10] = 14.0  # 10 steps above both limits
+    fast = dataclasses.replace(res, airspeed=air).envelope()
+    dt = res.t[1] - res.t[0]
+    assert fast["outside_envelope_s"] == pytest.approx(10 * dt)
+    assert fast["power_extrapolated_s"] == pytest.approx((n // 4) * dt)
+    assert fast["airspeed_max_mps"] == 14.0
+
+
 def test_the_power_counterfactual_changes_the_airspeed_energy_not_the_flight(city, flow):
     a = fly(city, flow, "mppi", duration=12.0)
     b = fly(city, flow, "mppi", duration=12.0, power_shape="crazyflie")

@@ -15,6 +15,7 @@ import pytest
 import windnav.commands.navigate as nav_cmd
 from windnav.city import City
 from windnav.experiments.nav_benchmark import (
+    ENVELOPE_FIELDS,
     ONBOARD_FIELDS,
     RECORD_FIELDS,
     check_variants,
@@ -32,11 +33,12 @@ BUILDING = (35.0, 45.0, 45.0, 75.0)
 SPEED = 2.0
 VARIANT = "ea-mppi-w-hat"
 
-# what summary() held for every variant before the onboard stack (it must not change for them)
+# what summary() holds for every variant (the onboard stack adds its own keys)
 SUMMARY_KEYS = {"outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "distance_m",
                 "mean_cmd_accel", "planner_ms_median", "fallbacks", "fallback_reasons",
                 "planner_updates", "start", "goal", "final_position", "final_distance_to_goal_m",
                 "arrival_time_s", "arrival_energy_J", "arrival_rotor_energy_J", "wall_s",
+                "airspeed_max_mps", "outside_envelope_s", "power_extrapolated_s",
                 "settings"}
 
 
@@ -236,8 +238,9 @@ def test_benchmark_records_carry_the_onboard_fields(city, flow):
     ours = fly_scenario(spec, sc, VARIANT, city=city, flow=flow, navigate_fn=short)
     theirs = fly_scenario(spec, sc, "ea-mppi-w", city=city, flow=flow, navigate_fn=short)
     assert ours["error"] is None and theirs["error"] is None
-    assert list(ours) == list(RECORD_FIELDS) + list(ONBOARD_FIELDS)
-    assert list(theirs) == list(RECORD_FIELDS)
+    assert list(ours) == list(RECORD_FIELDS) + list(ENVELOPE_FIELDS) + list(ONBOARD_FIELDS)
+    assert list(theirs) == list(RECORD_FIELDS) + list(ENVELOPE_FIELDS)
+    assert 0 < theirs["airspeed_max_mps"] and theirs["outside_envelope_s"] >= 0
     assert ours["real_time_fraction"] > 0 and set(ours["stage_ms_median"]) == set(STAGES)
 
 

@@ -68,6 +68,7 @@ from windnav.experiments.nav_suite import (
 __all__ = [
     "BENCHMARK_DECODER",
     "DECODERS",
+    "ENVELOPE_FIELDS",
     "ONBOARD_FIELDS",
     "PARAMETERS",
     "RECORD_FIELDS",
@@ -105,11 +106,18 @@ RECORD_FIELDS = (
 )
 """The fields of a flight record, in order (metrics in SI units: J, s, m, m/s^2, ms)."""
 
+ENVELOPE_FIELDS = ("airspeed_max_mps", "outside_envelope_s", "power_extrapolated_s")
+"""Fields after :data:`RECORD_FIELDS` in every record flown since 2026-11-26 (the records before
+lack them): the largest airspeed (m/s), the time above the vehicle's trusted airspeed and the
+time above the power curve's valid range (s)
+(:meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
+
 ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",
                   "ukf_wind_rms_xy_mps")
 """Fields appended to the record of a flight with the onboard wind stack (``ea-mppi-w-hat``,
 :mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s) and
-the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`RECORD_FIELDS`."""
+the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`RECORD_FIELDS` and
+:data:`ENVELOPE_FIELDS`."""
 
 _METRICS = ("energy_J", "rotor_energy_J", "time_s", "distance_m", "mean_cmd_accel",
             "planner_ms_median", "fallbacks", "planner_updates", "final_distance_to_goal_m",
@@ -457,6 +465,7 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
         rec["outcome"] = summary["outcome"]
         rec.update({k: summary.get(k) for k in _METRICS})
         rec["loop_wall_s"] = summary.get("wall_s")
+        rec.update({k: summary.get(k) for k in ENVELOPE_FIELDS})
         rec.update({k: summary[k] for k in ONBOARD_FIELDS if k in summary})
     except Exception as exc:  # one failing flight must not stop the suite
         rec["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
@@ -527,7 +536,7 @@ def run_group(task: GroupTask) -> dict:
 def error_record(scenario: Scenario, variant: str, error: str | None) -> dict:
     """The record of a flight that did not fly: ``outcome = "error"``, no metrics, ``error``
     (the traceback). Also the skeleton every record starts from (:data:`RECORD_FIELDS`)."""
-    rec = dict.fromkeys(RECORD_FIELDS)
+    rec = dict.fromkeys(RECORD_FIELDS + ENVELOPE_FIELDS)
     rec.update(scenario_id=scenario.scenario_id, variant=variant, seed=scenario.seed,
                outcome=ERROR, kind=scenario.kind, speed=scenario.speed,
                direction_deg=scenario.direction_deg, map_index=scenario.map_index,

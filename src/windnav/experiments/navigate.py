@@ -224,6 +224,20 @@ class NavigationResult:
     wind_estimate: np.ndarray | None = None
     onboard: object = None
 
+    def envelope(self) -> dict:
+        """Where the flight left the envelope of its models: ``airspeed_max_mps`` (the largest
+        horizontal airspeed, m/s), ``outside_envelope_s`` (time above the vehicle's
+        ``airspeed_limit``, where its aerodynamic model is not trusted, s) and
+        ``power_extrapolated_s`` (time above the power curve's last valid airspeed, where
+        ``energy_J`` uses the curve's continuation, s). The limits are in ``settings``."""
+        dt = float(self.t[1] - self.t[0]) if self.t.size > 1 else 0.0
+        air = self.airspeed
+        limit = self.settings.get("airspeed_limit", float("inf"))
+        p_max = self.settings.get("power_speed_max", float("inf"))
+        return {"airspeed_max_mps": float(air.max()) if air.size else 0.0,
+                "outside_envelope_s": dt * int(np.count_nonzero(air > limit)),
+                "power_extrapolated_s": dt * int(np.count_nonzero(air > p_max))}
+
     def arrival(self) -> dict:
         """``arrival_time_s`` and ``arrival_energy_J``, ``arrival_rotor_energy_J``: when the
         vehicle first came within :data:`GOAL_RADIUS` of the goal and the energies used until
@@ -255,7 +269,7 @@ class NavigationResult:
             "start": self.start.tolist(), "goal": self.goal.tolist(),
             "final_position": self.position[-1].tolist(),
             "final_distance_to_goal_m": float(np.hypot(*(self.position[-1, :2] - self.goal))),
-            **self.arrival(),
+            **self.arrival(), **self.envelope(),
             "wall_s": self.wall_s, "settings": dict(self.settings), **extra,
         }
 
@@ -820,7 +834,9 @@ def navigate(
                 "horizon": config.horizon, "tilt_max_deg": tilt, "a_max": config.a_max,
                 "control_rate_hz": 1.0 / control_dt, "plan_rate_hz": plan_rate_hz,
                 "duration_max_s": end, "vehicle": getattr(params, "name", ""),
-                "capture_radius": capture, "hold_started_s": holding}
+                "capture_radius": capture, "hold_started_s": holding,
+                "airspeed_limit": float(getattr(params, "airspeed_limit", math.inf)),
+                "power_speed_max": float(config.power_speed_max)}
     if route is not None:
         settings.update(route_energy_J=route.energy, route_time_s=route.time,
                         route_length_m=route.length)
