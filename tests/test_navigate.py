@@ -104,7 +104,7 @@ def test_energies_agree_with_each_other_and_with_hover_power(city, flow):
         np.sum(np.hypot(*np.diff(res.position[:, :2], axis=0).T)))
 
 
-def test_the_envelope_report_counts_time_above_each_limit(city, flow):
+def test_the_envelope_report_counts_time_above_each_limit(city, flow, capsys):
     """The summary says how long the flight spent above the Hummingbird's trusted airspeed
     (13.4 m/s) and above the power curve's last valid one (13 m/s)."""
     import dataclasses
@@ -123,6 +123,13 @@ def test_the_envelope_report_counts_time_above_each_limit(city, flow):
     assert fast["outside_envelope_s"] == pytest.approx(10 * dt)
     assert fast["power_extrapolated_s"] == pytest.approx((n // 4) * dt)
     assert fast["airspeed_max_mps"] == 14.0
+    from windnav.commands.navigate import warn_envelope
+
+    warn_envelope(res.summary())
+    assert capsys.readouterr().err == ""  # a 2 m/s wind: inside the envelope
+    warn_envelope({**res.summary(), **fast})
+    err = capsys.readouterr().err
+    assert err.startswith("warning:") and "0.10 s above the vehicle's trusted airspeed" in err
 
 
 def test_the_power_counterfactual_changes_the_airspeed_energy_not_the_flight(city, flow):

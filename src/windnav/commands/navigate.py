@@ -134,7 +134,25 @@ def run(args) -> int:
             write_json(doc, stage.file("--json"))
     keys = ("outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "distance_m",
             "mean_cmd_accel", "planner_ms_median", "fallbacks", "stage_ms_median",
-            "real_time_fraction", "ukf_wind_rms_mps")
+            "real_time_fraction", "ukf_wind_rms_mps", "airspeed_max_mps", "outside_envelope_s")
     print(json.dumps(json_ready({k: summary[k] for k in keys if k in summary}), indent=2))
+    warn_envelope(summary)
     print_written(out)
     return 0
+
+
+def warn_envelope(summary: dict) -> None:
+    """Say on stderr when the flight left the models' envelope (the summary's
+    :meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
+    import sys
+
+    out_s = summary.get("outside_envelope_s") or 0.0
+    extra_s = summary.get("power_extrapolated_s") or 0.0
+    if out_s > 0 or extra_s > 0:
+        settings = summary.get("settings", {})
+        print(f"warning: the flight spent {out_s:.2f} s above the vehicle's trusted airspeed "
+              f"({settings.get('airspeed_limit', float('nan')):.2f} m/s; largest "
+              f"{summary['airspeed_max_mps']:.2f} m/s), where its aerodynamic model is not "
+              f"validated, and {extra_s:.2f} s above the power curve's valid range "
+              f"({settings.get('power_speed_max', float('nan')):g} m/s), where energy_J "
+              "extrapolates it", file=sys.stderr)
