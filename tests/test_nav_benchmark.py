@@ -484,6 +484,23 @@ def test_table_reports_failure_by_kind_and_the_onboard_stack_timings():
     assert "| compute per second of flight (% of one core) | 2.0 | 1.0 | 4.0 |" in md
 
 
+def test_the_table_counts_flights_outside_the_envelope_where_records_report_it():
+    old = [{"scenario_id": f"s/m00/w00/p{i}", "variant": "mppi", "outcome": "success",
+            "speed": 5.0, "energy_J": 1.0} for i in range(2)]
+    new = [{"scenario_id": f"s/m00/w00/p{i}", "variant": "ea-mppi-w-esc@esc=1000",
+            "outcome": o, "speed": 5.0, "energy_J": 1.0, "outside_envelope_s": t,
+            "power_extrapolated_s": 2 * t}
+           for i, (o, t) in enumerate([("success", 0.0), ("success", 3.0), ("timeout", 6.0)])]
+    rows = benchmark_table(old + new)["rows"]
+    assert "envelope" not in rows["mppi"]
+    assert rows["ea-mppi-w-esc@esc=1000"]["envelope"] == {
+        "n": 3, "outside": 2, "successes": 2, "successes_outside": 1,
+        "mean_outside_s": 3.0, "mean_power_extrapolated_s": 6.0}
+    md = render_table(benchmark_table(old + new))
+    assert "| ea-mppi-w-esc@esc=1000 | 2 of 3 | 1 of 2 | 3.00 | 6.00 |" in md
+    assert "| mppi | 2 of" not in md
+
+
 def test_goal_clearance_is_derived_from_the_suite_maps_and_banded_in_the_table():
     spec = get_suite("thesis")
     goals = {0: [[100.0, 100.0], [300.0, 420.0]], 3: [[50.0, 550.0]]}

@@ -368,7 +368,8 @@ def benchmark_table(
         for records that have the field): {group: {``pct``, ``n``}}}; for the onboard stack's
         records ``onboard``
         {``stage_ms`` {stage: {``median``, ``min``, ``max``, ``n``}}, ``real_time_fraction``,
-        ``ukf_wind_rms_xy_mps``} over its flights.
+        ``ukf_wind_rms_xy_mps``} over its flights; for variants whose records report the
+        envelope (flown since 2026-11-26) ``envelope`` (:func:`_envelope`).
     """
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"The 'confidence' parameter of benchmark_table must be in (0, 1). "
@@ -402,6 +403,9 @@ def benchmark_table(
         onboard = _onboard(valid)
         if onboard:
             row["onboard"] = onboard
+        envelope = _envelope(valid)
+        if envelope:
+            row["envelope"] = envelope
         if v != reference and ref:
             row["vs_reference"] = {
                 e: _versus(by_variant.get(v, {}), ref, e, confidence, n_boot, gen)
@@ -453,6 +457,23 @@ def _failure_by(valid: Sequence[Mapping]) -> dict:
         out[key] = {g: {"pct": 100.0 * sum(groups[g]) / len(groups[g]), "n": len(groups[g])}
                     for g in sorted(groups, key=order)}
     return out
+
+
+def _envelope(valid: Sequence[Mapping]) -> dict:
+    """How many of the flights ``valid`` left the models' envelope (records with
+    ``outside_envelope_s``): ``n`` (such records), ``outside`` (flights with any time above
+    the trusted airspeed), ``successes`` and ``successes_outside``, and the mean time above it
+    and above the power curve's valid range over all of them, s."""
+    rec = [r for r in valid if r.get("outside_envelope_s") is not None]
+    if not rec:
+        return {}
+    out = [_num(r["outside_envelope_s"]) for r in rec]
+    succ = [r for r in rec if r["outcome"] == "success"]
+    return {"n": len(rec), "outside": sum(t > 0 for t in out), "successes": len(succ),
+            "successes_outside": sum(_num(r["outside_envelope_s"]) > 0 for r in succ),
+            "mean_outside_s": float(np.mean(out)),
+            "mean_power_extrapolated_s": float(np.mean(
+                [_num(r.get("power_extrapolated_s")) for r in rec]))}
 
 
 def _onboard(valid: Sequence[Mapping]) -> dict:
@@ -613,6 +634,7 @@ def render_table(table: Mapping) -> str:
                      for d in (tr, pw)]
             out.append(f"| {v} | {cells[0]} | {cells[1]} | {tr['n']} |")
     out += _render_failure_by(rows, variants)
+    out += _render_envelope(rows, variants)
     out += _render_onboard(rows, variants)
     return "\n".join(out) + "\n"
 
@@ -634,6 +656,24 @@ def _render_failure_by(rows: Mapping, variants: Sequence[str]) -> list[str]:
         cells = [(f"{by[key][g]['pct']:.1f} ({by[key][g]['n']})" if g in by.get(key, {})
                   else "-") for key in _FAILURE_GROUPS for g in groups[key]]
         out.append(f"| {v} | " + " | ".join(cells) + " |")
+    return out
+
+
+def _render_envelope(rows: Mapping, variants: Sequence[str]) -> list[str]:
+    mine = [v for v in variants if rows[v].get("envelope")]
+    if not mine:
+        return []
+    out = ["", "Outside the envelope (records flown since 2026-11-26): flights with any time "
+           "above the vehicle's trusted airspeed (13.45 m/s for the Hummingbird), and the mean "
+           "time above it and above the power curve's valid range (13 m/s), where energy_J "
+           "extrapolates:", "",
+           "| variant | flights outside | successes outside | mean s above the airspeed limit "
+           "| mean s above the power curve |", "|---|---|---|---|---|"]
+    for v in mine:
+        e = rows[v]["envelope"]
+        out.append(f"| {v} | {e['outside']} of {e['n']} | {e['successes_outside']} of "
+                   f"{e['successes']} | {e['mean_outside_s']:.2f} | "
+                   f"{e['mean_power_extrapolated_s']:.2f} |")
     return out
 
 
