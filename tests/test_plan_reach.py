@@ -208,3 +208,35 @@ def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, cap
     args[args.index("--airspeeds") + 1] = "-1"
     assert cli.main([*args, "--overwrite"]) == 2
     assert "'--airspeeds' parameter" in capsys.readouterr().err
+    assert cli.main(["nav-study", "feasibility", "--suite", "quick", "--fly", "mppi",
+                     "--out", str(tmp_path / "o2")]) == 2
+    assert "'--store' parameter" in capsys.readouterr().err
+
+
+def test_feasibility_flies_pending_flights_in_the_same_winds(tmp_path):
+    from windnav.experiments.nav_benchmark import NavStore
+    from windnav.experiments.nav_feasibility import reach_scenarios
+    from windnav.experiments.nav_suite import SuiteSpec
+
+    spec = SuiteSpec(
+        "tiny", maps=(0,), winds=(0,), pairs=(0, 1), speeds=(3.0,),
+        incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1, pair_distance=100.0,
+        clearance=25.0, edge=15.0, map_size=200.0,
+        map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+    store = tmp_path / "store"
+    reach_scenarios(spec, tmp_path / "reach", airspeeds=(13.0,), executor="serial",
+                    progress=False, fly=["mppi"], store=store)
+    recs = NavStore(store, spec, create=False).load()
+    assert sorted(r["scenario_id"] for r in recs) == ["tiny/m00/w00/p0", "tiny/m00/w00/p1"]
+    assert all(r["variant"] == "mppi" and r["error"] is None and r["flow_s"] > 0
+               and r["outside_envelope_s"] is not None for r in recs)
+    # nothing pending, nothing missing: a rerun simulates no wind and flies nothing
+    reach_scenarios(spec, tmp_path / "reach", airspeeds=(13.0,), executor="serial",
+                    progress=False, fly=["mppi"], store=store)
+    assert len(NavStore(store, spec, create=False).load()) == 2
+    assert len((tmp_path / "reach" / "reach.jsonl").read_text().splitlines()) == 2
+    with pytest.raises(ValueError, match="'store' parameter"):
+        reach_scenarios(spec, tmp_path / "reach", airspeeds=(13.0,), fly=["mppi"])
+    with pytest.raises(ValueError, match="'variants' parameter"):
+        reach_scenarios(spec, tmp_path / "reach", airspeeds=(13.0,), fly=["bogus"],
+                        store=store)

@@ -33,7 +33,8 @@ where the store has it (:mod:`windnav.experiments.nav_pace`); it flies nothing.
 ``feasibility`` simulates the winds of ``--maps`` (cached in ``--cache``, resumable) and bounds
 from below the time any planner needs to reach each scenario's goal within the vehicle's
 airspeed envelope (:mod:`windnav.experiments.nav_feasibility`), then sets the failures of the
-flights in ``--store`` (optional) against which scenarios are reachable at all.
+flights in ``--store`` (optional) against which scenarios are reachable at all; ``--fly
+VARIANTS`` also flies those variants' pending flights into ``--store`` in the same winds.
 """
 
 from __future__ import annotations
@@ -95,6 +96,9 @@ def register(subparsers) -> None:
                    help="feasibility: the airspeed limits searched, m/s (default: 10, the "
                         "Hummingbird's envelope limit 13.45, 16); the figure and table use the "
                         "envelope limit")
+    p.add_argument("--fly", default=None, metavar="VARIANTS",
+                   help="feasibility: also fly these variants' pending flights (comma-separated "
+                        "labels) into --store, in the same winds")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the flights run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -324,15 +328,23 @@ def _feasibility(args, name: str, spec) -> int:
         airspeeds.append(limit)
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
-    if args.store is not None:
+    fly = [v for v in (args.fly or "").split(",") if v]
+    if fly and args.store is None:
+        raise ValueError(f"The '--store' parameter of {name} must name the benchmark store the "
+                         f"--fly flights go to. Got None instead.")
+    if args.store is not None and not fly:
         _check_store(args.store, name)
     check_output_path(args.cache, "--cache", name, kind="dir")
     products = ("nav_feasibility.json", "nav_feasibility.png")
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
-    reach = reach_scenarios(spec, args.cache, maps=maps, airspeeds=airspeeds,
-                            executor=args.executor, workers=workers,
-                            progress=not args.no_progress)
+    try:
+        reach = reach_scenarios(spec, args.cache, maps=maps, airspeeds=airspeeds,
+                                executor=args.executor, workers=workers,
+                                progress=not args.no_progress, fly=fly, store=args.store)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'variants' parameter of reach_scenarios",
+                                          f"'--fly' parameter of {name}")) from None
     flights = ([] if args.store is None else
                [r for r in NavStore(args.store, spec, create=False).load()
                 if r.get("map_index") in maps])

@@ -85,6 +85,7 @@ __all__ = [
     "check_variants",
     "compare_records",
     "error_record",
+    "fly_group",
     "fly",
     "fly_scenario",
     "get_suite",
@@ -516,21 +517,31 @@ def run_group(task: GroupTask) -> dict:
         flight of the task).
     """
     spec = task.spec
-    store = NavStore(task.store, spec, create=False)
     city = suite_map(spec, task.map_index)
     speed, direction = spec.wind(task.wind_index)
     t0 = time.perf_counter()
     flow = suite_flow(spec, city, speed, direction, reuse=worker_reuse())
     flow_s = time.perf_counter() - t0
-    errors = 0
-    for scenario, variant in task.flights:
-        rec = fly_scenario(spec, scenario, variant, city=city, flow=flow,
-                           navigate_fn=task.navigate_fn)
-        rec["flow_s"] = flow_s
-        store.append(rec)
-        errors += rec["error"] is not None
+    errors = fly_group(spec, task.store, task.flights, city=city, flow=flow, flow_s=flow_s,
+                       navigate_fn=task.navigate_fn)
     return {"map_index": task.map_index, "wind_index": task.wind_index,
             "flights": len(task.flights), "errors": errors, "flow_s": flow_s}
+
+
+def fly_group(spec: SuiteSpec, store, flights, *, city, flow, flow_s: float | None = None,
+              navigate_fn: Callable | None = None) -> int:
+    """Fly ``flights`` (``(Scenario, variant)`` pairs of one map and wind) in the wind
+    ``flow`` already simulated, appending each record to the store at ``store`` as it lands
+    (with ``flow_s``, the wind's simulation time, s). Returns the number of harness errors."""
+    nav_store = NavStore(store, spec, create=False)
+    errors = 0
+    for scenario, variant in flights:
+        rec = fly_scenario(spec, scenario, variant, city=city, flow=flow,
+                           navigate_fn=navigate_fn)
+        rec["flow_s"] = flow_s
+        nav_store.append(rec)
+        errors += rec["error"] is not None
+    return errors
 
 
 def error_record(scenario: Scenario, variant: str, error: str | None) -> dict:

@@ -17,11 +17,15 @@ vehicle stays inside the envelope; a reachable one may still be out of reach of 
 Each (map, wind) is one task: its wind is simulated once (as the benchmark does, with the same
 worker reuse, so it is the benchmark's wind to the bit) and its pairs are searched at each
 airspeed limit. Results are appended to ``reach.jsonl`` in the output folder as tasks finish;
-a rerun computes only what is missing.
+a rerun computes only what is missing. ``fly`` (variant labels) and ``store`` (a benchmark
+store) also fly those variants' pending flights in the same winds, as
+:func:`~windnav.experiments.nav_benchmark.run_benchmark` would, so that one pass over the
+suite's winds serves both.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import time
@@ -47,6 +51,8 @@ class ReachTask:
     airspeeds: tuple
     dx: float = 2.0
     clearance: float = 1.0
+    store: str | None = None
+    flights: tuple = ()
 
 
 def _hold_ok(goal_wind_speed: np.ndarray, t: np.ndarray, arrival: float, t_end: float,
@@ -67,9 +73,10 @@ def _hold_ok(goal_wind_speed: np.ndarray, t: np.ndarray, arrival: float, t_end: 
 
 
 def reach_task(task: ReachTask) -> list[dict]:
-    """The reach records of one (map, wind): one per pair, with the least times (s; inf: not
-    reached by the end of the record) in the recorded and the mean wind at each airspeed."""
-    from windnav.experiments.nav_benchmark import suite_flow, worker_reuse
+    """The reach records of one (map, wind): one per pair, with the least times (s; None: not
+    reached by the end of the record) in the recorded and the mean wind at each airspeed.
+    Then the task's ``flights`` are flown in the same wind into ``store``."""
+    from windnav.experiments.nav_benchmark import fly_group, suite_flow, worker_reuse
     from windnav.experiments.nav_suite import parse_scenario_id, suite_map
     from windnav.experiments.navigate import GOAL_RADIUS, GOAL_SPEED, HOLD_S
     from windnav.plan.reach import least_time, reach_lattice
@@ -117,6 +124,8 @@ def reach_task(task: ReachTask) -> list[dict]:
             row["reachable"] = bool(row["hold_ok"] and arrival + hold_s <= t_end)
             rec["limits"][f"{a:g}"] = row
         out.append(rec)
+    if task.flights:
+        fly_group(spec, task.store, task.flights, city=city, flow=flow, flow_s=flow_s)
     return out
 
 
@@ -133,10 +142,15 @@ def _done(path: Path) -> list[dict]:
 
 def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
                     airspeeds: Sequence[float], executor: str = "process",
-                    workers: int | None = None, progress: bool = True) -> list[dict]:
+                    workers: int | None = None, progress: bool = True,
+                    fly: Sequence[str] = (), store=None) -> list[dict]:
     """Reach records of the suite's scenarios on ``maps`` (default all), computed where
     ``out/reach.jsonl`` lacks them (appended as each wind finishes) and returned with the ones
     it had. Records computed with other ``airspeeds`` are recomputed.
+
+    ``fly``: variant labels whose flights not yet in the benchmark store ``store`` (created
+    if need be) are flown in the same winds (a wind with pending flights is simulated even
+    when its reach records exist).
 
     Returns
     -------
@@ -144,23 +158,42 @@ def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
         One per scenario (:func:`reach_task`), ordered by scenario id.
     """
     from windnav.experiments.executor import run_tasks
+    from windnav.experiments.nav_benchmark import NavStore, check_variants
+    from windnav.experiments.nav_suite import make_suite
     from windnav.experiments.results import json_ready
 
+    where = "reach_scenarios"
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / RECORDS
     maps = tuple(spec.maps if maps is None else maps)
     keys = {f"{a:g}" for a in airspeeds}
     have = {r["scenario_id"]: r for r in _done(path) if set(r["limits"]) == keys}
-    tasks = [ReachTask(spec, m, w, tuple(float(a) for a in airspeeds))
+    pending: dict[tuple[int, int], list] = {}
+    if fly:
+        if store is None:
+            raise ValueError(f"The 'store' parameter of {where} must name a benchmark store "
+                             f"when 'fly' names variants. Got None instead.")
+        variants = check_variants(fly, where)
+        nav_store = NavStore(store, spec)
+        done = nav_store.latest()
+        for sc in make_suite(dataclasses.replace(spec, maps=maps)):
+            for v in variants:
+                if (sc.scenario_id, v) not in done:
+                    pending.setdefault((sc.map_index, sc.wind_index), []).append((sc, v))
+        store = str(nav_store.path)
+    tasks = [ReachTask(spec, m, w, tuple(float(a) for a in airspeeds), store=store,
+                       flights=tuple(pending.get((m, w), ())))
              for m in maps for w in spec.winds
-             if any(f"{spec.name}/m{m:02d}/w{w:02d}/p{p}" not in have for p in spec.pairs)]
+             if (m, w) in pending or any(f"{spec.name}/m{m:02d}/w{w:02d}/p{p}" not in have
+                                         for p in spec.pairs)]
 
     def on_result(res):
         if res.ok:
             with path.open("a") as fh:
                 for rec in res.value:
-                    fh.write(json.dumps(json_ready(rec)) + "\n")
+                    if rec["scenario_id"] not in have:
+                        fh.write(json.dumps(json_ready(rec)) + "\n")
 
     failed = []
     for res in run_tasks(reach_task, tasks, executor, workers=workers, progress=progress,
