@@ -20,10 +20,11 @@ where its aerodynamic model is trusted (:attr:`windnav.vehicle.MultirotorParams.
 - Earliest arrival times are label-set by Dijkstra (exact for the steady wind; for the unsteady
   one, exact when the arrival time of a move never decreases with its departure time).
 
-Nothing else limits the vehicle: it turns and accelerates instantly, and hovering is free. So a
-goal that this search cannot reach before ``t_end`` cannot be reached by the 6-DoF vehicle
-within the envelope either, whatever its planner; a goal it can reach may still be out of reach
-of a real vehicle.
+Nothing else limits the vehicle: it turns and accelerates instantly, and hovering is free. So,
+up to the lattice's discretisation (directions within 3 degrees, 2 m cells, the wind of a move
+taken at its two ends, waits in whole frames), a goal that this search cannot reach before
+``t_end`` cannot be reached by the 6-DoF vehicle within the envelope either, whatever its
+planner; a goal it can reach may still be out of reach of a real vehicle.
 """
 
 from __future__ import annotations
