@@ -180,8 +180,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     (:func:`~windnav.experiments.nav_feasibility.reach_table`'s ``airspeed``), grouped by inlet
     speed and pair kind (jittered points, in :data:`KIND_COLORS`); unreachable scenarios as
     crosses above the record's end; the dashed line is the last arrival that leaves the 5 s
-    hold. Right: per variant of ``table``, the failure rate over all its flights and over the
-    flights in reachable scenarios.
+    hold. Right: per variant of ``table`` flown on all its scenarios, the failure rate over all
+    its flights and over the flights in reachable scenarios.
 
     Parameters
     ----------
@@ -229,9 +229,11 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     ax.set_ylabel("least time to the goal, recorded wind (s)")
     ax.set_title(f"least time within {table['airspeed']:.2f} m/s of airspeed "
                  f"(x: not reachable; n reachable/n)", fontsize=10)
-    names = list(table["variants"])
-    ys = np.arange(len(names))
     v = table["variants"]
+    # the variants flown on every scenario of the table (studies flown on a part of the suite
+    # would compare failure rates over other scenario sets); all when none is
+    names = [n for n in v if v[n]["flights"] == table["n"]] or list(v)
+    ys = np.arange(len(names))
     fail = [100 * v[n]["failures"] / max(v[n]["flights"], 1) for n in names]
     fail_r = [100 * v[n]["failures_reachable"] / max(v[n]["reachable"], 1) for n in names]
     bx.barh(ys + 0.2, fail, height=0.4, color="0.6", label="all flights")
