@@ -714,8 +714,11 @@ def test_quick_suite_table_structure(quick_table):
                 d = row["vs_reference"][e]
                 assert set(d) == {"table_ratio", "paired_reduction"}
                 assert d["table_ratio"]["n_reference"] == table["rows"]["mppi"]["success"]
-    # the table, its intervals, the two energy measures, time and power, the failure groups
-    assert render_table(table).count("| ea-mppi-w |") == 6
+    # the table, its intervals, the two energy measures, time and power, the failure groups,
+    # the time outside the envelope (every record flown now reports it)
+    md = render_table(table)
+    assert md.count("| ea-mppi-w |") == 7
+    assert all(table["rows"][v]["envelope"]["n"] == 8 for v in table["rows"])
 
 
 @needs_quick
