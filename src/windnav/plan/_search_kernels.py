@@ -65,6 +65,21 @@ def best_speed(ex, ey, wx, wy, speeds, ptab):  # pragma: no cover - numba
     return speeds[j], e
 
 
+@numba.njit(cache=True, inline="always")
+def move_ok(free, i, j, m, moves, guards):  # pragma: no cover - numba
+    """Whether move ``m`` from cell ``(i, j)`` stays on the grid, ends in a free cell and passes
+    only free guard cells (the cells the straight move crosses besides its ends)."""
+    ny, nx = free.shape
+    i2 = i + moves[m, 0]
+    j2 = j + moves[m, 1]
+    if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny or not free[j2, i2]:
+        return False
+    for g in range(guards.shape[1]):
+        if not free[j + guards[m, g, 1], i + guards[m, g, 0]]:
+            return False
+    return True
+
+
 @numba.njit(cache=True)
 def edge_weights(free, wind, moves, guards, dx, speeds, ptab, rows, cols, weights,
                  levels):  # pragma: no cover - numba
@@ -82,21 +97,12 @@ def edge_weights(free, wind, moves, guards, dx, speeds, ptab, rows, cols, weight
             if not free[j, i]:
                 continue
             for m in range(moves.shape[0]):
+                if not move_ok(free, i, j, m, moves, guards):
+                    continue
                 di = moves[m, 0]
                 dj = moves[m, 1]
                 i2 = i + di
                 j2 = j + dj
-                if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny or not free[j2, i2]:
-                    continue
-                ok = True
-                for g in range(guards.shape[1]):
-                    gi = i + guards[m, g, 0]
-                    gj = j + guards[m, g, 1]
-                    if not free[gj, gi]:
-                        ok = False
-                        break
-                if not ok:
-                    continue
                 length = dx * math.sqrt(di * di + dj * dj)
                 ex = di * dx / length
                 ey = dj * dx / length
@@ -313,19 +319,12 @@ def earliest_arrival(free, frames, t0_frames, dt_frames, moves, guards, dx, airs
         j = k // nx
         i = k - j * nx
         for m in range(moves.shape[0]):
+            if not move_ok(free, i, j, m, moves, guards):
+                continue
             di = moves[m, 0]
             dj = moves[m, 1]
             i2 = i + di
             j2 = j + dj
-            if i2 < 0 or j2 < 0 or i2 >= nx or j2 >= ny or not free[j2, i2]:
-                continue
-            ok = True
-            for g in range(guards.shape[1]):
-                if not free[j + guards[m, g, 1], i + guards[m, g, 0]]:
-                    ok = False
-                    break
-            if not ok:
-                continue
             length = dx * math.sqrt(di * di + dj * dj)
             ex = di * dx / length
             ey = dj * dx / length

@@ -102,13 +102,6 @@ class ReachResult:
         return bool(np.isfinite(self.time_s))
 
 
-def _bracket(axis: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Lower index (clamped to [0, n-2]) and weight in [0, 1] of each ``q`` on ``axis``."""
-    q = np.clip(q, axis[0], axis[-1])
-    i = np.clip(np.searchsorted(axis, q, side="right") - 1, 0, axis.size - 2)
-    return i, (q - axis[i]) / (axis[i + 1] - axis[i])
-
-
 @dataclass(frozen=True, eq=False)
 class ReachLattice:
     """A city and its wind on the search lattice of :func:`least_time` (:func:`reach_lattice`).
@@ -161,7 +154,7 @@ def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0) -> Rea
     -------
     ReachLattice
     """
-    from windnav.wind.gridded import GriddedWind
+    from windnav.wind.gridded import GriddedWind, _bracket
 
     where = "reach_lattice"
     dx = positive_float(dx, "dx", where)
