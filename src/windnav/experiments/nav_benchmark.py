@@ -85,10 +85,11 @@ __all__ = [
     "check_variants",
     "compare_records",
     "error_record",
-    "fly_group",
     "fly",
+    "fly_group",
     "fly_scenario",
     "get_suite",
+    "group_wind",
     "make_suite",
     "parse_variant",
     "render_table",
@@ -517,15 +518,21 @@ def run_group(task: GroupTask) -> dict:
         flight of the task).
     """
     spec = task.spec
-    city = suite_map(spec, task.map_index)
-    speed, direction = spec.wind(task.wind_index)
-    t0 = time.perf_counter()
-    flow = suite_flow(spec, city, speed, direction, reuse=worker_reuse())
-    flow_s = time.perf_counter() - t0
+    city, flow, flow_s = group_wind(spec, task.map_index, task.wind_index)
     errors = fly_group(spec, task.store, task.flights, city=city, flow=flow, flow_s=flow_s,
                        navigate_fn=task.navigate_fn)
     return {"map_index": task.map_index, "wind_index": task.wind_index,
             "flights": len(task.flights), "errors": errors, "flow_s": flow_s}
+
+
+def group_wind(spec: SuiteSpec, map_index: int, wind_index: int):
+    """The map and the wind of one (map, wind) of the suite, simulated in this worker with its
+    :func:`worker_reuse`: ``(city, flow, flow_s)``, ``flow_s`` the simulation's wall time, s."""
+    city = suite_map(spec, map_index)
+    speed, direction = spec.wind(wind_index)
+    t0 = time.perf_counter()
+    flow = suite_flow(spec, city, speed, direction, reuse=worker_reuse())
+    return city, flow, time.perf_counter() - t0
 
 
 def fly_group(spec: SuiteSpec, store, flights, *, city, flow, flow_s: float | None = None,

@@ -28,7 +28,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -76,17 +75,13 @@ def reach_task(task: ReachTask) -> list[dict]:
     """The reach records of one (map, wind): one per pair, with the least times (s; None: not
     reached by the end of the record) in the recorded and the mean wind at each airspeed.
     Then the task's ``flights`` are flown in the same wind into ``store``."""
-    from windnav.experiments.nav_benchmark import fly_group, suite_flow, worker_reuse
-    from windnav.experiments.nav_suite import parse_scenario_id, suite_map
+    from windnav.experiments.nav_benchmark import fly_group, group_wind
+    from windnav.experiments.nav_suite import parse_scenario_id
     from windnav.experiments.navigate import GOAL_RADIUS, GOAL_SPEED, HOLD_S
     from windnav.plan.reach import least_time, reach_lattice
 
     spec = task.spec
-    city = suite_map(spec, task.map_index)
-    speed, direction = spec.wind(task.wind_index)
-    t0 = time.perf_counter()
-    flow = suite_flow(spec, city, speed, direction, reuse=worker_reuse())
-    flow_s = time.perf_counter() - t0
+    city, flow, flow_s = group_wind(spec, task.map_index, task.wind_index)
     sol = flow.solution
     t_end = float(spec.record_s)
     hold_s = HOLD_S
