@@ -134,7 +134,8 @@ def test_reach_table_counts():
 
     reach = [rec("a", 10.0, "headwind", True, 40.0), rec("b", 10.0, "headwind", False, None),
              rec("c", 2.0, "tailwind", True, 20.0)]
-    flights = [{"scenario_id": "a", "variant": "v", "outcome": "timeout"},
+    flights = [{"scenario_id": "a", "variant": "v", "outcome": "error"},  # re-flown below
+               {"scenario_id": "a", "variant": "v", "outcome": "timeout"},
                {"scenario_id": "b", "variant": "v", "outcome": "success"},
                {"scenario_id": "c", "variant": "v", "outcome": "success"},
                {"scenario_id": "zz", "variant": "v", "outcome": "success"}]

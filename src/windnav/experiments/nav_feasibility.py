@@ -208,8 +208,8 @@ def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
 def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
                 airspeed: float) -> dict:
     """Reachability by inlet speed and pair kind at one airspeed limit, and, for each
-    variant of ``records`` (benchmark flights), its failures among the reachable scenarios and
-    its successes among the unreachable ones.
+    variant of ``records`` (benchmark flights, the latest of each), its failures among the
+    reachable scenarios and its successes among the unreachable ones.
 
     Returns
     -------
@@ -234,8 +234,10 @@ def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
     for g in groups.values():
         times = g.pop("times")
         g["median_time_s"] = float(np.median(times)) if times else None
+    from windnav.experiments.nav_records import latest_records
+
     variants = {}
-    for rec in records:
+    for rec in latest_records(records).values():  # a re-flown flight counts once, as the table
         row = rows.get(rec["scenario_id"])
         if row is None:
             continue
