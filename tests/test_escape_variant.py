@@ -16,6 +16,7 @@ from windnav.experiments.navigate import navigate, simulate_flow
 from windnav.plan import (
     VARIANTS,
     EscapeConfig,
+    FastestEscape,
     ProgressMonitor,
     RouteEscape,
     energy_route,
@@ -193,3 +194,66 @@ def test_existing_variants_ignore_the_mechanism(city, flow):
         assert "escapes" not in a.settings and a.route is None
     with pytest.raises(ValueError, match="'escape'"):
         fly(city, flow, rng=1, duration=1.0, escape={"window_s": 3.0})
+
+
+# ------------------------------------------------------------------- the least-time escape
+
+
+class Straight:
+    """A route_fn: the straight line from the position to GOAL at 5 m/s (None when asked to
+    fail), counting its calls."""
+
+    def __init__(self, fail=False):
+        self.calls, self.fail = [], fail
+
+    def __call__(self, p):
+        self.calls.append(tuple(p))
+        if self.fail:
+            return None
+        return type("R", (), {"samples": np.array([p, GOAL]), "speeds": np.array([5.0])})()
+
+
+def test_fastest_escape_begins_at_the_first_stall_and_lasts_to_the_goal():
+    fn = Straight()
+    esc = FastestEscape(fn, GOAL, EscapeConfig(airspeed_mps=10.0))
+    assert esc.update(0.0, (10, 60)) is None and esc.update(2.9, (11, 60)) is None
+    active = esc.update(3.0, (11, 60))
+    assert active == (0.0, pytest.approx(99.0)) and fn.calls == [(11.0, 60.0)]
+    assert esc.route.samples[0].tolist() == [11.0, 60.0]
+    # it never ends, wherever the vehicle goes, and the route is asked for once
+    assert esc.update(50.0, (0, 0)) == active and len(fn.calls) == 1
+    assert esc.escapes == [(3.0, 0.0, pytest.approx(99.0))]
+
+
+def test_fastest_escape_without_a_route_lets_mppi_go_on():
+    fn = Straight(fail=True)
+    esc = FastestEscape(fn, GOAL, EscapeConfig(airspeed_mps=10.0))
+    esc.update(0.0, (10, 60))
+    assert esc.update(3.0, (10, 60)) is None and esc.route is None
+    # the window restarts at the next update
+    assert esc.update(3.1, (10, 60)) is None and esc.update(6.0, (10, 60)) is None
+    assert len(fn.calls) == 1
+    assert esc.update(6.1, (10, 60)) is None and len(fn.calls) == 2
+    assert [e[0] for e in esc.escapes] == [3.0, 6.1] and math.isnan(esc.escapes[0][2])
+    with pytest.raises(ValueError, match="'route_fn'"):
+        FastestEscape(None, GOAL, EscapeConfig())
+    with pytest.raises(ValueError, match="'airspeed_mps'"):
+        EscapeConfig(airspeed_mps=0.0)
+
+
+def test_least_time_escape_turns_a_stall_into_a_success(city, flow):
+    brake = Brake()
+    res = fly(city, flow, planner=brake, duration=40.0, escape=EscapeConfig(airspeed_mps=8.0))
+    assert res.outcome == "success", res.summary()
+    (escape,) = res.settings["escapes"]  # one escape, at the first stall, into the goal
+    assert escape[0] == pytest.approx(3.0, abs=0.11)
+    assert escape[2] == pytest.approx(res.settings["route_length_m"])
+    assert np.array_equal(res.route[0], res.position[int(round(escape[0] / 0.01)), :2])
+    assert not city.contains(res.position[:, :2]).any()
+    abreast = (res.position[:, 0] > BUILDING[0]) & (res.position[:, 0] < BUILDING[1])
+    y = res.position[abreast, 1]
+    assert y.size and np.all((y < BUILDING[2]) | (y > BUILDING[3]))
+    # the route was flown near its planned ground speeds (2 m/s of wind, 8 m/s of airspeed)
+    assert res.settings["route_time_s"] == pytest.approx(res.settings["route_length_m"] / 8.0,
+                                                         rel=0.35)
+    assert res.settings["route_ms"] > 0

@@ -128,12 +128,14 @@ def test_hold_window():
 
 
 def test_reach_table_counts():
-    def rec(sid, speed, kind, reachable, time):
+    def rec(sid, speed, kind, reachable, time, mean_time):
         return {"scenario_id": sid, "speed": speed, "kind": kind,
-                "limits": {"13": {"reachable": reachable, "recorded_time_s": time}}}
+                "limits": {"13": {"reachable": reachable, "recorded_time_s": time,
+                                  "mean_time_s": mean_time}}}
 
-    reach = [rec("a", 10.0, "headwind", True, 40.0), rec("b", 10.0, "headwind", False, None),
-             rec("c", 2.0, "tailwind", True, 20.0)]
+    reach = [rec("a", 10.0, "headwind", True, 40.0, 55.0),
+             rec("b", 10.0, "headwind", False, None, None),
+             rec("c", 2.0, "tailwind", True, 20.0, 30.0)]
     flights = [{"scenario_id": "a", "variant": "v", "outcome": "error"},  # re-flown below
                {"scenario_id": "a", "variant": "v", "outcome": "timeout"},
                {"scenario_id": "b", "variant": "v", "outcome": "success"},
@@ -143,8 +145,13 @@ def test_reach_table_counts():
     assert table["n"] == 3 and table["reachable"] == 2
     assert table["groups"]["10/headwind"] == {"n": 2, "reachable": 1, "median_time_s": 40.0}
     assert list(table["groups"]) == ["2/tailwind", "10/headwind"]
-    assert table["variants"]["v"] == {"flights": 3, "failures": 1, "reachable": 2,
-                                      "failures_reachable": 1, "success_unreachable": 1}
+    v = table["variants"]["v"]
+    bins = v.pop("by_mean_time")
+    assert v == {"flights": 3, "failures": 1, "reachable": 2, "failures_reachable": 1,
+                 "success_unreachable": 1}
+    # 30 s falls in the first bin (upper edges inclusive), 55 s in 50-60, no route in "none"
+    assert bins == {"0-30": [1, 0], "30-40": [0, 0], "40-50": [0, 0], "50-60": [1, 1],
+                    "60-95": [0, 0], "none": [1, 0]}
 
 
 def test_reach_scenarios_on_a_tiny_suite_resumes_and_bounds_the_flights(tmp_path):
@@ -202,8 +209,10 @@ def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, cap
     assert set(doc["tables"]) == {"2", f"{doc['airspeed_limit']:g}"}  # the limit is added
     limit = doc["tables"][f"{doc['airspeed_limit']:g}"]
     assert limit["n"] == 4 and limit["reachable"] == 4
-    assert limit["variants"]["mppi"] == {"flights": 2, "failures": 1, "reachable": 2,
-                                         "failures_reachable": 1, "success_unreachable": 0}
+    mppi = limit["variants"]["mppi"]
+    assert sum(n for n, _ in mppi.pop("by_mean_time").values()) == 2
+    assert mppi == {"flights": 2, "failures": 1, "reachable": 2, "failures_reachable": 1,
+                    "success_unreachable": 0}
     assert (tmp_path / "out" / "nav_feasibility.png").stat().st_size > 10_000
     capsys.readouterr()
     args[args.index("--airspeeds") + 1] = "-1"
@@ -241,3 +250,51 @@ def test_feasibility_flies_pending_flights_in_the_same_winds(tmp_path):
     with pytest.raises(ValueError, match="'variants' parameter"):
         reach_scenarios(spec, tmp_path / "reach", airspeeds=(13.0,), fly=["bogus"],
                         store=store)
+
+
+# ------------------------------------------------------------------ the least-time route to fly
+
+
+def test_fastest_route_speeds_keep_the_airspeed_at_the_limit():
+    from windnav.plan.reach import fastest_route
+
+    wind = (-4.0, 3.0)
+    lat = reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0)
+    r = fastest_route(lat, (20, 100), (180, 100), airspeed_max=10.0)
+    pieces = np.diff(r.samples, axis=0)
+    e = pieces / np.hypot(*pieces.T)[:, None]
+    air = np.hypot(*(r.speeds[:, None] * e - np.asarray(wind)).T)
+    np.testing.assert_allclose(air, 10.0, rtol=1e-9)
+    assert r.time_s == pytest.approx(least_time(lat, (20, 100), (180, 100),
+                                                airspeed_max=10.0).time_s, rel=5e-3)
+    assert r.length_m == pytest.approx(160.0, rel=5e-3)
+    assert tuple(r.samples[0]) == (20, 100) and tuple(r.samples[-1]) == (180, 100)
+    # a tailwind leg flown at most at speed_max
+    fast = fastest_route(lat, (180, 100), (20, 100), airspeed_max=10.0, speed_max=7.0)
+    assert np.all(fast.speeds == 7.0) and fast.time_s == pytest.approx(160.0 / 7.0, rel=5e-3)
+
+
+def test_fastest_route_leaves_a_building_clearance_and_says_when_there_is_none():
+    from windnav.plan.reach import fastest_route, nearest_free_cell
+
+    city = City((0, 200, 0, 200), [[95, 105, 0, 170]], [20])
+    lat = reach_lattice(city, (0.0, 0.0), dx=2.0, clearance=6.0)
+    beside = (92.0, 100.0)  # 3 m from the wall, inside its 6 m clearance
+    entry = nearest_free_cell(lat, beside)
+    assert 95.0 - entry[0] >= 6.0 and math.dist(entry, beside) <= 6.0
+    r = fastest_route(lat, beside, (150, 100), airspeed_max=10.0)
+    assert tuple(r.samples[0]) == beside and tuple(r.samples[1]) == tuple(entry)
+    assert r.speeds[0] == 2.0 and not city.contains(r.samples).any()
+    assert fastest_route(lat, beside, (150, 100), airspeed_max=10.0, snap_m=1.0) is None
+    # a 12 m/s wall of wind along the wall's gap: no route within 10 m/s of airspeed
+    x = y = np.arange(0.5, 200.0, 1.0)
+    u = np.where(y[:, None] > 150, -12.0, 0.0) * np.ones((1, x.size))
+    from windnav.wind.gridded import GriddedWind
+
+    blocked = reach_lattice(city, GriddedWind(x, y, u, np.zeros_like(u)), dx=2.0, clearance=6.0)
+    assert fastest_route(blocked, (50, 100), (150, 100), airspeed_max=10.0) is None
+    assert fastest_route(blocked, (50, 100), (150, 100), airspeed_max=13.0) is not None
+    unsteady = reach_lattice(EMPTY, GriddedWind(x, y, u[None].repeat(2, 0),
+                                                np.zeros((2,) + u.shape), t=[0.0, 1.0]))
+    with pytest.raises(ValueError, match="steady ReachLattice"):
+        fastest_route(unsteady, (50, 100), (150, 100), airspeed_max=10.0)

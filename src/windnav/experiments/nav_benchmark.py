@@ -265,7 +265,7 @@ def _dated_decoder(name: str):
 
 
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
-              "decoder": "decoder", "esc": "escape"}
+              "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -273,7 +273,10 @@ use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactu
 ``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`); and for
 ``ea-mppi-w-esc`` only, ``esc`` the length of route an escape flies, m (finite, > 0;
 :class:`windnav.plan.EscapeConfig` ``length_m``, default 60 m: longer than any route means that
-the first stall hands the flight to the route for good)."""
+the first stall hands the flight to the route for good) and ``escair`` the airspeed of a
+least-time escape, m/s (finite, > 0; ``EscapeConfig.airspeed_mps``: the first stall hands the
+flight to the least-time route to the goal in the mean wind, see
+:class:`windnav.plan.FastestEscape`)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
 
@@ -312,7 +315,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
                           f"'@power=SHAPE' (one of {list(POWER_SHAPES)}), "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
-                          f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0): {why}. Got {label!r} "
+                          f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
+                          f"'@escair=AIRSPEED' (m/s, finite, > 0): {why}. Got {label!r} "
                           "instead.")
 
     if base not in VARIANTS:
@@ -322,12 +326,14 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     onboard = VARIANTS[base].wind_source == "onboard"
     if base not in _PARAMETRIC and not onboard:
         raise fail(f"{base!r} takes no parameters")
-    options, overrides = {}, {}
+    options, overrides, escape = {}, {}, {}
     for item in params:
         key, sep, text = item.partition("=")
-        if not sep or key not in PARAMETERS or PARAMETERS[key] in {**options, **overrides}:
+        if (not sep or key not in PARAMETERS
+                or PARAMETERS[key] in {**options, **overrides, **escape}):
             raise fail(f"bad or repeated parameter {item!r}")
-        if (key == "decoder") != onboard or (key == "esc" and not VARIANTS[base].escape):
+        if (key == "decoder") != onboard or (key in ("esc", "escair")
+                                              and not VARIANTS[base].escape):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "decoder":
             if text not in DECODERS:
@@ -345,12 +351,10 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"{text!r} is not a number") from None
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
-        if key == "esc":
+        if key in ("esc", "escair"):
             if not (0.0 < value < math.inf):
-                raise fail("esc must be finite and > 0")
-            from windnav.plan import EscapeConfig
-
-            options["escape"] = EscapeConfig(length_m=value)
+                raise fail(f"{key} must be finite and > 0")
+            escape[PARAMETERS[key]] = value
         elif key == "qe":
             overrides["energy_weight"] = value
         elif value == 0.0:
@@ -359,6 +363,11 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             options["horizon"] = value
     if overrides:
         options["planner_overrides"] = overrides
+    if escape:
+        from windnav.plan import EscapeConfig
+
+        options["escape"] = EscapeConfig(length_m=escape.get("escape", 60.0),
+                                         airspeed_mps=escape.get("escape_airspeed"))
     return base, options
 
 

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["ReachTask", "reach_scenarios", "reach_table", "reach_task"]
+__all__ = ["MEAN_TIME_BINS", "ReachTask", "reach_scenarios", "reach_table", "reach_task"]
 
 
 RECORDS = "reach.jsonl"
@@ -205,6 +205,23 @@ def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
     return [have[k] for k in sorted(wanted)]
 
 
+MEAN_TIME_BINS = (30.0, 40.0, 50.0, 60.0, 95.0)
+"""Upper edges of the bins of least time in the mean wind, s, by which :func:`reach_table`
+splits each variant's failures (then one bin for no route by 95 s)."""
+
+
+def _bin_labels() -> list[str]:
+    edges = (0.0, *MEAN_TIME_BINS)
+    return [f"{a:g}-{b:g}" for a, b in zip(edges, edges[1:], strict=False)] + ["none"]
+
+
+def _mean_time_bin(t) -> str:
+    labels = _bin_labels()
+    if t is None or not np.isfinite(t) or t > MEAN_TIME_BINS[-1]:
+        return labels[-1]
+    return labels[int(np.searchsorted(MEAN_TIME_BINS, t))]
+
+
 def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
                 airspeed: float) -> dict:
     """Reachability by inlet speed and pair kind at one airspeed limit, and, for each
@@ -217,8 +234,10 @@ def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
         ``airspeed``, ``n``, ``reachable`` (count), ``groups``: per ``"<speed>/<kind>"`` the
         count, the reachable count and the median least time (recorded wind) of the reachable
         ones, s; ``variants``: per variant, ``flights``, ``failures``, ``failures_reachable``
-        (failures in reachable scenarios), ``reachable`` (its flights in reachable scenarios)
-        and ``success_unreachable``.
+        (failures in reachable scenarios), ``reachable`` (its flights in reachable scenarios),
+        ``success_unreachable`` and ``by_mean_time``: per bin of the least time in the *mean*
+        wind (:data:`MEAN_TIME_BINS`, s; the wind the ``+W`` planners know),
+        ``[flights, failures]``.
     """
     key = f"{airspeed:g}"
     reach = {r["scenario_id"]: r for r in reach}
@@ -241,12 +260,15 @@ def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
         row = rows.get(rec["scenario_id"])
         if row is None:
             continue
-        v = variants.setdefault(rec["variant"], {"flights": 0, "failures": 0, "reachable": 0,
-                                                 "failures_reachable": 0,
-                                                 "success_unreachable": 0})
+        v = variants.setdefault(rec["variant"], {
+            "flights": 0, "failures": 0, "reachable": 0, "failures_reachable": 0,
+            "success_unreachable": 0, "by_mean_time": {b: [0, 0] for b in _bin_labels()}})
         ok = rec["outcome"] == "success"
         v["flights"] += 1
         v["failures"] += not ok
+        cell = v["by_mean_time"][_mean_time_bin(row.get("mean_time_s"))]
+        cell[0] += 1
+        cell[1] += not ok
         if row["reachable"]:
             v["reachable"] += 1
             v["failures_reachable"] += not ok

@@ -38,7 +38,12 @@ The loop
   monitor (:mod:`windnav.plan.escape`): the GS+W route (below) is computed once before take-off;
   when the distance to the goal has not shrunk by 2 m in 3 s, the route follower (below) flies
   the next 60 m of the route from the vehicle's projection onto it, then MPPI takes over again
-  (its warm start reset). The other variants never build the route or the monitor.
+  (its warm start reset). The other variants never build the route or the monitor. With
+  ``EscapeConfig.airspeed_mps`` set (label ``@escair=A``) the first stall instead hands the
+  vehicle, for the rest of the flight, to the least-time route from where it stalled to the goal
+  in the mean wind with the airspeed at most ``A`` (:func:`windnav.plan.reach.fastest_route`, on
+  the GS lattice with the GS clearance), flown by the same follower at the route's ground
+  speeds.
 * **GS / GS+W.** :func:`windnav.plan.energy_route` is computed once before take-off, with full
   knowledge of the buildings and (GS+W) the mean wind, and flown by a path follower in the same
   acceleration mode: a reference point moves along the route's samples at the route's planned
@@ -441,6 +446,32 @@ class _EscapeFollower(_RouteFollower):
         return super().command(pos, vel, dt)
 
 
+class _fastest_route_fn:  # noqa: N801 (a callable, named as the function it stands for)
+    """``route_fn`` of :class:`~windnav.plan.FastestEscape`: the least-time route from a
+    position to ``goal`` in the mean wind of ``flow`` on the GS lattice (spacing ``dx``,
+    ``clearance`` from buildings), airspeed at most ``airspeed``; the lattice is built here,
+    once, and ``ms`` lists the build's and each search's wall time, ms."""
+
+    speed_max = 20.0  # m/s, the GS routes' largest ground speed
+
+    def __init__(self, city, flow, goal, airspeed: float, dx: float, clearance: float):
+        from windnav.plan.reach import reach_lattice
+
+        t0 = time.perf_counter()
+        self.lattice = reach_lattice(city, flow.wind_field(), dx=dx, clearance=clearance)
+        self.goal, self.airspeed = goal, airspeed
+        self.ms = [1e3 * (time.perf_counter() - t0)]
+
+    def __call__(self, position_xy):
+        from windnav.plan.reach import fastest_route
+
+        t0 = time.perf_counter()
+        route = fastest_route(self.lattice, position_xy, self.goal,
+                              airspeed_max=self.airspeed, speed_max=self.speed_max)
+        self.ms.append(1e3 * (time.perf_counter() - t0))
+        return route
+
+
 class _FastWind:
     """``GriddedWind.velocity`` for one position per call without its per-call checks (the
     loop's positions are finite (1, 3) float64 arrays): the frame bracket by bisection, then
@@ -594,11 +625,13 @@ def navigate(
     from windnav.plan import (
         VARIANTS,
         EscapeConfig,
+        FastestEscape,
         MPPIPlanner,
         RouteEscape,
         energy_route,
         planner_config,
     )
+    from windnav.plan.reach import FastestRoute
     from windnav.vehicle import Multirotor
     from windnav.vehicle.params import GRAVITY
 
@@ -686,11 +719,16 @@ def navigate(
                          f"Got {type(escape).__name__} instead.")
     if VARIANTS[variant].escape and follower is None:
         t0 = time.perf_counter()
-        route = energy_route(city, start, goal, planner_config(params, "gs-w"),
-                             wind=flow.wind_field(), dx=route_dx, clearance=route_clearance,
-                             altitude=altitude)
+        if escape is not None and escape.airspeed_mps is not None:
+            escape_guide = FastestEscape(
+                _fastest_route_fn(city, flow, goal, escape.airspeed_mps, route_dx,
+                                  route_clearance), goal, escape)
+        else:
+            route = energy_route(city, start, goal, planner_config(params, "gs-w"),
+                                 wind=flow.wind_field(), dx=route_dx, clearance=route_clearance,
+                                 altitude=altitude)
+            escape_guide = RouteEscape(route.samples, goal, escape)
         escape_ms = 1e3 * (time.perf_counter() - t0)
-        escape_guide = RouteEscape(route.samples, goal, escape)
 
     # the loop -------------------------------------------------------------------------------
     x = model.hover_state(np.array([start[0], start[1], altitude])).to_array()
@@ -767,6 +805,8 @@ def navigate(
         elif escape_follower is not None or (escape_guide is not None and k % plan_every == 0
                                              and escape_guide.update(t, pos[:2]) is not None):
             if escape_follower is None:  # an escape begins: fly the route from the projection
+                if isinstance(escape_guide, FastestEscape):
+                    route = escape_guide.route
                 escape_follower = _EscapeFollower(route, kp_xy, kd_xy, escape_guide.active[0])
             a_xy = escape_follower.command(pos[:2], vel[:2], control_dt)
             if k % plan_every == plan_every - 1 and escape_guide.update(t, pos[:2]) is None:
@@ -837,9 +877,13 @@ def navigate(
                 "capture_radius": capture, "hold_started_s": holding,
                 "airspeed_limit": float(getattr(params, "airspeed_limit", math.inf)),
                 "power_speed_max": float(config.power_speed_max)}
-    if route is not None:
+    if isinstance(route, FastestRoute):
+        settings.update(route_time_s=route.time_s, route_length_m=route.length_m)
+    elif route is not None:
         settings.update(route_energy_J=route.energy, route_time_s=route.time,
                         route_length_m=route.length)
+    if isinstance(escape_guide, FastestEscape):
+        escape_ms += sum(escape_guide.route_fn.ms)
     if escape_guide is not None:
         settings.update(escapes=[list(e) for e in escape_guide.escapes],
                         route_ms=escape_ms)

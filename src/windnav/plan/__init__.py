@@ -9,6 +9,7 @@ Public API::
     obstacle_field, ObstacleField, obstacle_cost, scan_points   obstacles from a LiDAR scan
     energy_route, EnergyRoute                             GS / GS+W: energy-optimal routes
     EscapeConfig, ProgressMonitor, RouteEscape            stall detection, GS+W route escape
+    FastestEscape                                          stall detection, least-time escape
     free_space, grid_route                                shortest-distance routes
 """
 
@@ -24,7 +25,13 @@ from windnav.plan.config import (
     with_variant,
 )
 from windnav.plan.energy_search import MOVES, EnergyRoute, energy_route
-from windnav.plan.escape import EscapeConfig, ProgressMonitor, RouteEscape, route_projection
+from windnav.plan.escape import (
+    EscapeConfig,
+    FastestEscape,
+    ProgressMonitor,
+    RouteEscape,
+    route_projection,
+)
 from windnav.plan.graph_search import free_space, grid_route
 from windnav.plan.local_wind import LocalWind
 from windnav.plan.mppi import (
@@ -46,6 +53,7 @@ __all__ = [
     "MOVES",
     "EnergyRoute",
     "EscapeConfig",
+    "FastestEscape",
     "SAMPLING",
     "VARIANTS",
     "WIND_SOURCES",

@@ -38,7 +38,16 @@ from windnav.plan import _search_kernels as SK
 from windnav.plan.energy_search import MOVES, _guards
 from windnav.plan.graph_search import cell_path, free_cell, free_space
 
-__all__ = ["ReachLattice", "ReachResult", "least_time", "max_ground_speed", "reach_lattice"]
+__all__ = [
+    "FastestRoute",
+    "ReachLattice",
+    "ReachResult",
+    "fastest_route",
+    "least_time",
+    "max_ground_speed",
+    "nearest_free_cell",
+    "reach_lattice",
+]
 
 
 def max_ground_speed(direction, wind, airspeed_max) -> np.ndarray:
@@ -257,3 +266,111 @@ def least_time(
     return ReachResult(time_s=float(t_goal), path=path,
                        length_m=float(np.hypot(*np.diff(path, axis=0).T).sum()),
                        airspeed_max=a_max, unsteady=lat.unsteady)
+
+
+@dataclass(frozen=True, eq=False)
+class FastestRoute:
+    """The least-time route of :func:`fastest_route` and the ground speeds to fly it.
+
+    Attributes
+    ----------
+    samples : ndarray of shape (M, 2)
+        The route's points, from the start to the goal, m (world).
+    speeds : ndarray of shape (M - 1,)
+        Ground speed of each piece, m/s: the largest whose airspeed in the lattice's (steady)
+        wind stays within ``airspeed_max`` (:func:`max_ground_speed`), at most ``speed_max``.
+    time_s : float
+        Flight time at ``speeds``, s.
+    length_m : float
+        m.
+    airspeed_max : float
+        m/s.
+    """
+
+    samples: np.ndarray
+    speeds: np.ndarray
+    time_s: float
+    length_m: float
+    airspeed_max: float
+
+
+def nearest_free_cell(lattice: ReachLattice, point_xy, max_distance: float = np.inf):
+    """Centre (2,) of the free cell of ``lattice`` nearest ``point_xy``, m; None when none lies
+    within ``max_distance`` (m)."""
+    p = np.asarray(point_xy, dtype=np.float64).reshape(2)
+    j, i = np.nonzero(lattice.free)
+    if i.size == 0:
+        return None
+    d2 = (lattice.x[i] - p[0]) ** 2 + (lattice.y[j] - p[1]) ** 2
+    k = int(np.argmin(d2))
+    if d2[k] > max_distance**2:
+        return None
+    return np.array([lattice.x[i[k]], lattice.y[j[k]]])
+
+
+def fastest_route(lattice: ReachLattice, start_xy, goal_xy, *, airspeed_max: float,
+                  speed_max: float = 20.0, snap_m: float = 20.0) -> FastestRoute | None:
+    """The least-time route from ``start_xy`` to ``goal_xy`` in a steady wind, with the ground
+    speed of each piece (:func:`least_time`, then :func:`max_ground_speed` in the mean of the
+    wind at the piece's two end cells).
+
+    A start inside the clearance of a building (a vehicle stalled beside one) joins the lattice
+    at the nearest free cell within ``snap_m``, flown straight at 2 m/s.
+
+    Parameters
+    ----------
+    lattice : ReachLattice
+        Steady (one frame).
+    start_xy, goal_xy : array_like of shape (2,)
+        m, world; the goal must lie in a free cell.
+    airspeed_max : float
+        m/s (> 0).
+    speed_max : float
+        Largest ground speed flown, m/s (> 0).
+    snap_m : float
+        How far a start may lie from the nearest free cell, m (>= 0).
+
+    Returns
+    -------
+    FastestRoute or None
+        None when the goal cannot be reached within ``airspeed_max``, or the start lies
+        farther than ``snap_m`` from every free cell.
+    """
+    where = "fastest_route"
+    if not isinstance(lattice, ReachLattice) or lattice.unsteady:
+        raise ValueError(f"The 'lattice' parameter of {where} must be a steady ReachLattice. "
+                         f"Got {type(lattice).__name__} instead.")
+    a_max = positive_float(airspeed_max, "airspeed_max", where)
+    v_cap = positive_float(speed_max, "speed_max", where)
+    snap = positive_float(snap_m, "snap_m", where, allow_zero=True)
+    start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
+    goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
+    nx = lattice.x.size
+    i = int(np.clip(np.round((start[0] - lattice.x[0]) / lattice.dx), 0, nx - 1))
+    j = int(np.clip(np.round((start[1] - lattice.y[0]) / lattice.dx), 0, lattice.y.size - 1))
+    entry = start if lattice.free[j, i] else nearest_free_cell(lattice, start, snap)
+    if entry is None:
+        return None
+    result = least_time(lattice, entry, goal, airspeed_max=a_max)
+    if not result.reached:
+        return None
+    path = result.path if entry is start else np.vstack([start, result.path])
+    pieces = np.diff(path, axis=0)
+    keep = np.hypot(pieces[:, 0], pieces[:, 1]) > 1e-9
+    path = np.vstack([path[:1], path[1:][keep]])
+    pieces = pieces[keep]
+    lengths = np.hypot(pieces[:, 0], pieces[:, 1])
+    if lengths.size == 0:
+        return FastestRoute(samples=path, speeds=np.zeros(0), time_s=0.0, length_m=0.0,
+                            airspeed_max=a_max)
+    ci = np.clip(np.round((path[:, 0] - lattice.x[0]) / lattice.dx), 0, nx - 1).astype(int)
+    cj = np.clip(np.round((path[:, 1] - lattice.y[0]) / lattice.dx), 0,
+                 lattice.y.size - 1).astype(int)
+    w_cells = lattice.frames[0, cj, ci]
+    wind = 0.5 * (w_cells[:-1] + w_cells[1:])
+    speeds = np.minimum(max_ground_speed(pieces, wind, a_max), v_cap)
+    if entry is not start:  # the way out of the clearance
+        speeds[0] = min(2.0, v_cap)
+    speeds = np.maximum(speeds, 0.5)
+    return FastestRoute(samples=path, speeds=speeds, time_s=float(np.sum(lengths / speeds)),
+                        length_m=float(lengths.sum()), airspeed_max=a_max)
