@@ -257,3 +257,21 @@ def test_least_time_escape_turns_a_stall_into_a_success(city, flow):
     assert res.settings["route_time_s"] == pytest.approx(res.settings["route_length_m"] / 8.0,
                                                          rel=0.35)
     assert res.settings["route_ms"] > 0
+
+
+def test_fastest_escape_edge_guard_begins_the_escape_near_the_map_edge():
+    fn = Straight()
+    config = EscapeConfig(airspeed_mps=10.0, edge_m=15.0)
+    esc = FastestEscape(fn, GOAL, config, bounds=(0.0, 140.0, 0.0, 120.0))
+    # moving fast (no stall), 15 m or more from every edge: MPPI flies
+    assert esc.update(0.0, (20, 60)) is None and esc.update(0.1, (15, 60)) is None
+    # within 15 m of the left edge: the escape begins at once
+    assert esc.update(0.2, (14.9, 60)) is not None and fn.calls == [(14.9, 60.0)]
+    assert FastestEscape(Straight(), GOAL, EscapeConfig(airspeed_mps=10.0)).update(
+        0.0, (1, 1)) is None  # no guard by default
+    with pytest.raises(ValueError, match="'bounds'"):
+        FastestEscape(fn, GOAL, config)
+    with pytest.raises(ValueError, match="'edge_m'"):
+        EscapeConfig(edge_m=10.0)
+    with pytest.raises(ValueError, match="'edge_m'"):
+        EscapeConfig(airspeed_mps=10.0, edge_m=-1.0)

@@ -265,7 +265,8 @@ def _dated_decoder(name: str):
 
 
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
-              "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed"}
+              "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
+              "edge": "escape_edge"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -316,8 +317,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'@power=SHAPE' (one of {list(POWER_SHAPES)}), "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
-                          f"'@escair=AIRSPEED' (m/s, finite, > 0): {why}. Got {label!r} "
-                          "instead.")
+                          f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0): "
+                          f"{why}. Got {label!r} instead.")
 
     if base not in VARIANTS:
         raise fail(f"unknown variant {base!r}")
@@ -332,7 +333,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         if (not sep or key not in PARAMETERS
                 or PARAMETERS[key] in {**options, **overrides, **escape}):
             raise fail(f"bad or repeated parameter {item!r}")
-        if (key == "decoder") != onboard or (key in ("esc", "escair")
+        if (key == "decoder") != onboard or (key in ("esc", "escair", "edge")
                                               and not VARIANTS[base].escape):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "decoder":
@@ -351,7 +352,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"{text!r} is not a number") from None
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
-        if key in ("esc", "escair"):
+        if key in ("esc", "escair", "edge"):
             if not (0.0 < value < math.inf):
                 raise fail(f"{key} must be finite and > 0")
             escape[PARAMETERS[key]] = value
@@ -366,8 +367,11 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     if escape:
         from windnav.plan import EscapeConfig
 
+        if "escape_edge" in escape and "escape_airspeed" not in escape:
+            raise fail("edge needs escair")
         options["escape"] = EscapeConfig(length_m=escape.get("escape", 60.0),
-                                         airspeed_mps=escape.get("escape_airspeed"))
+                                         airspeed_mps=escape.get("escape_airspeed"),
+                                         edge_m=escape.get("escape_edge", 0.0))
     return base, options
 
 

@@ -95,6 +95,7 @@ fallbacks (:attr:`windnav.plan.MPPIPlanner.stats`).
 from __future__ import annotations
 
 import bisect
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -454,11 +455,19 @@ class _fastest_route_fn:  # noqa: N801 (a callable, named as the function it sta
 
     speed_max = 20.0  # m/s, the GS routes' largest ground speed
 
-    def __init__(self, city, flow, goal, airspeed: float, dx: float, clearance: float):
+    def __init__(self, city, flow, goal, airspeed: float, dx: float, clearance: float,
+                 edge_m: float = 0.0):
         from windnav.plan.reach import reach_lattice
 
         t0 = time.perf_counter()
-        self.lattice = reach_lattice(city, flow.wind_field(), dx=dx, clearance=clearance)
+        lattice = reach_lattice(city, flow.wind_field(), dx=dx, clearance=clearance)
+        if edge_m > 0:  # the edge guard's band is no place for the route either
+            x0, x1, y0, y1 = city.bounds
+            inside_x = (lattice.x >= x0 + edge_m) & (lattice.x <= x1 - edge_m)
+            inside_y = (lattice.y >= y0 + edge_m) & (lattice.y <= y1 - edge_m)
+            lattice = dataclasses.replace(
+                lattice, free=lattice.free & inside_y[:, None] & inside_x[None, :])
+        self.lattice = lattice
         self.goal, self.airspeed = goal, airspeed
         self.ms = [1e3 * (time.perf_counter() - t0)]
 
@@ -722,7 +731,8 @@ def navigate(
         if escape is not None and escape.airspeed_mps is not None:
             escape_guide = FastestEscape(
                 _fastest_route_fn(city, flow, goal, escape.airspeed_mps, route_dx,
-                                  route_clearance), goal, escape)
+                                  route_clearance, escape.edge_m), goal, escape,
+                bounds=city.bounds)
         else:
             route = energy_route(city, start, goal, planner_config(params, "gs-w"),
                                  wind=flow.wind_field(), dx=route_dx, clearance=route_clearance,

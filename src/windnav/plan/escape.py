@@ -73,12 +73,17 @@ class EscapeConfig:
         hands the vehicle to the least-time route from where it stalled to the goal, in the
         mean wind with the airspeed at most this (m/s, > 0), for the rest of the flight
         (:class:`FastestEscape`; ``length_m`` is then unused).
+    edge_m : float
+        With ``airspeed_mps`` set: the escape also begins when the vehicle comes within this
+        distance of the map's edge (m, >= 0; 0: never), where the wind would carry it off
+        the map before any stall; and the route keeps out of that band.
     """
 
     window_s: float = 3.0
     min_progress_m: float = 2.0
     length_m: float = 60.0
     airspeed_mps: float | None = None
+    edge_m: float = 0.0
 
     def __post_init__(self):
         for name in ("window_s", "min_progress_m", "length_m"):
@@ -87,6 +92,12 @@ class EscapeConfig:
         if self.airspeed_mps is not None:
             object.__setattr__(self, "airspeed_mps", positive_float(
                 self.airspeed_mps, "airspeed_mps", "EscapeConfig"))
+        object.__setattr__(self, "edge_m", positive_float(self.edge_m, "edge_m",
+                                                          "EscapeConfig", allow_zero=True))
+        if self.edge_m > 0 and self.airspeed_mps is None:
+            raise ValueError("The 'edge_m' parameter of EscapeConfig needs airspeed_mps (the "
+                             "edge guard begins the least-time escape). Got edge_m="
+                             f"{self.edge_m} with airspeed_mps=None instead.")
 
 
 class ProgressMonitor:
@@ -233,6 +244,9 @@ class FastestEscape:
     goal_xy : array_like of shape (2,)
         m.
     config : EscapeConfig
+    bounds : tuple of 4 floats, optional
+        The map's ``(x0, x1, y0, y1)``, m: with ``config.edge_m > 0`` the escape also begins
+        within ``edge_m`` of them.
 
     Attributes
     ----------
@@ -245,10 +259,14 @@ class FastestEscape:
         ``(0, L)`` once the escape has begun.
     """
 
-    def __init__(self, route_fn, goal_xy, config: EscapeConfig):
+    def __init__(self, route_fn, goal_xy, config: EscapeConfig, bounds=None):
         if not callable(route_fn):
             raise ValueError("The 'route_fn' parameter of FastestEscape must be callable. Got "
                              f"{type(route_fn).__name__} instead.")
+        if config.edge_m > 0 and bounds is None:
+            raise ValueError("The 'bounds' parameter of FastestEscape must be the map's "
+                             "(x0, x1, y0, y1) when config.edge_m > 0. Got None instead.")
+        self.bounds = None if bounds is None else tuple(float(b) for b in bounds)
         self.route_fn = route_fn
         self.config = config
         self.monitor = ProgressMonitor(goal_xy, config)
@@ -261,7 +279,8 @@ class FastestEscape:
         escape has begun (it lasts to the goal), None while MPPI flies."""
         if self.active is not None:
             return self.active
-        if self.monitor.update(t, position_xy):
+        stalled = self.monitor.update(t, position_xy)
+        if stalled or self._near_edge(position_xy):
             self.monitor.reset()
             route = self.route_fn(np.asarray(position_xy, dtype=np.float64).reshape(2))
             if route is None:
@@ -272,3 +291,10 @@ class FastestEscape:
             self.route, self.active = route, (0.0, length)
             self.escapes.append((float(t), 0.0, length))
         return self.active
+
+    def _near_edge(self, position_xy) -> bool:
+        if self.config.edge_m <= 0:
+            return False
+        x0, x1, y0, y1 = self.bounds
+        x, y = float(position_xy[0]), float(position_xy[1])
+        return min(x - x0, x1 - x, y - y0, y1 - y) < self.config.edge_m

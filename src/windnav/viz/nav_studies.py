@@ -180,8 +180,10 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     (:func:`~windnav.experiments.nav_feasibility.reach_table`'s ``airspeed``), grouped by inlet
     speed and pair kind (jittered points, in :data:`KIND_COLORS`); unreachable scenarios as
     crosses above the record's end; the dashed line is the last arrival that leaves the 5 s
-    hold. Right: per variant of ``table`` flown on all its scenarios, the failure rate over all
-    its flights and over the flights in reachable scenarios.
+    hold. Middle: per variant of ``table`` flown on all its scenarios, the failure rate over all
+    its flights and over the flights in reachable scenarios. Right: the same variants' failure
+    rates by the scenario's least time in the mean wind (``by_mean_time``; the number of
+    scenarios of each bin on top).
 
     Parameters
     ----------
@@ -203,8 +205,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     reach = list(reach)
     groups = list(table["groups"])
     rng = np.random.default_rng(0)
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(13, 5.0),
-                                 gridspec_kw={"width_ratios": [1.6, 1]})
+    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(18, 5.0),
+                                     gridspec_kw={"width_ratios": [1.5, 1, 1]})
     record_s = max(r["record_s"] for r in reach)
     hold_s = max(r["hold_s"] for r in reach)
     for g, name in enumerate(groups):
@@ -244,6 +246,23 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     bx.set_xlabel("failure (%)")
     bx.legend(fontsize=8, loc="lower right")
     bx.set_title(f"{table['reachable']} of {table['n']} scenarios reachable", fontsize=10)
+    bins = [b for b in next(iter(v.values()))["by_mean_time"]] if v else []
+    counts = [v[names[0]]["by_mean_time"][b][0] for b in bins] if names else []
+    shown = [i for i, c in enumerate(counts) if c > 0]
+    for n in names:
+        cells = v[n]["by_mean_time"]
+        rate = [100 * cells[bins[i]][1] / cells[bins[i]][0] for i in shown]
+        cx.plot(range(len(shown)), rate, "o-", ms=4, label=n)
+    for j, i in enumerate(shown):
+        cx.annotate(f"n={counts[i]}", (j, 103), ha="center", fontsize=8)
+    cx.set_xticks(range(len(shown)))
+    cx.set_xticklabels([bins[i] for i in shown], fontsize=8)
+    cx.set_xlim(-0.5, len(shown) - 0.5)
+    cx.set_ylim(0, 108)
+    cx.set_xlabel("least time in the mean wind (s)")
+    cx.set_ylabel("failure (%)")
+    cx.legend(fontsize=7, loc="lower right")
+    cx.set_title("failures by the least time in the known (mean) wind", fontsize=10)
     fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
     fig.tight_layout()
     path = Path(path)
