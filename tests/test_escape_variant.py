@@ -275,3 +275,29 @@ def test_fastest_escape_edge_guard_begins_the_escape_near_the_map_edge():
         EscapeConfig(edge_m=10.0)
     with pytest.raises(ValueError, match="'edge_m'"):
         EscapeConfig(airspeed_mps=10.0, edge_m=-1.0)
+
+
+class Drift:
+    """A planner that flies at (6, 6) m/s: over the building and off the map's top edge
+    (y = 120 m) at x = 70 m."""
+
+    def update(self, state, scan=None, wind=None):
+        return 2.0 * (np.array([6.0, 6.0]) - np.asarray(state[2:4], dtype=float))
+
+    def reset(self):
+        pass
+
+
+def test_edge_guard_turns_a_drift_off_the_map_into_a_success(city, flow):
+    # the stall monitor switched off (a 1e6 s window): only the guard can begin an escape
+    base = fly(city, flow, planner=Drift(), duration=40.0,
+               escape=EscapeConfig(airspeed_mps=8.0, window_s=1e6))
+    assert base.outcome == "left_map" and base.settings["escapes"] == []
+    res = fly(city, flow, planner=Drift(), duration=40.0,
+              escape=EscapeConfig(airspeed_mps=8.0, window_s=1e6, edge_m=8.0))
+    assert res.outcome == "success", res.summary()
+    (escape,) = res.settings["escapes"]
+    k = int(round(escape[0] / 0.01))
+    assert 112.0 <= res.position[k, 1] < 112.0 + 2.0  # began on crossing y = 120 - 8
+    # the route runs outside the 8 m band, after the way out of it
+    assert np.all(res.route[1:, 1] <= 112.0) and np.all(res.route[1:, 0] >= 8.0)
