@@ -447,7 +447,7 @@ class _EscapeFollower(_RouteFollower):
         return super().command(pos, vel, dt)
 
 
-class _fastest_route_fn:  # noqa: N801 (a callable, named as the function it stands for)
+class _FastestRouteFn:
     """``route_fn`` of :class:`~windnav.plan.FastestEscape`: the least-time route from a
     position to ``goal`` in the mean wind of ``flow`` on the GS lattice (spacing ``dx``,
     ``clearance`` from buildings), airspeed at most ``airspeed``; the lattice is built here,
@@ -730,7 +730,7 @@ def navigate(
         t0 = time.perf_counter()
         if escape is not None and escape.airspeed_mps is not None:
             escape_guide = FastestEscape(
-                _fastest_route_fn(city, flow, goal, escape.airspeed_mps, route_dx,
+                _FastestRouteFn(city, flow, goal, escape.airspeed_mps, route_dx,
                                   route_clearance, escape.edge_m), goal, escape,
                 bounds=city.bounds)
         else:
