@@ -422,6 +422,19 @@ def synthetic_records():
     return recs
 
 
+def test_table_ratio_interval_does_not_depend_on_the_other_rows():
+    recs = synthetic_records()
+    recs += [{**r, "variant": "ea-mppi"} for r in recs if r["variant"] == "ea-mppi-w"]
+    alone = benchmark_table(recs, variants=["mppi", "ea-mppi-w"], n_boot=300)
+    both = benchmark_table(recs, variants=["mppi", "ea-mppi", "ea-mppi-w"], n_boot=300)
+    ci = [t["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]["table_ratio"]["ci95"]
+          for t in (alone, both)]
+    assert ci[0] == ci[1]
+    # another seed draws other resamples
+    other = benchmark_table(recs, variants=["mppi", "ea-mppi-w"], n_boot=300, rng=1)
+    assert other["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]["table_ratio"]["ci95"] != ci[0]
+
+
 def test_table_counts_means_and_both_energy_measures():
     t = benchmark_table(synthetic_records(), n_boot=500)
     assert t["variants"] == ["mppi", "ea-mppi-w"] and t["reference"] == "mppi"

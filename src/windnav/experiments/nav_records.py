@@ -34,6 +34,7 @@ import contextlib
 import json
 import math
 import os
+import zlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
@@ -348,7 +349,8 @@ def benchmark_table(
     n_boot : int
         Bootstrap resamples of the table ratio's interval (0: none).
     rng : int
-        Seed of the bootstrap.
+        Seed of the bootstrap; each row draws from its own stream (the seed and its label), so
+        its interval is the same whichever other rows are asked for.
 
     Returns
     -------
@@ -377,7 +379,6 @@ def benchmark_table(
     by_variant = records_by_variant(records)
     if variants is None:
         variants = sorted(by_variant, key=lambda v: (v != reference, v))
-    gen = np.random.default_rng(rng)
     ref = by_variant.get(reference, {})
     rows = {}
     for v in variants:
@@ -407,6 +408,9 @@ def benchmark_table(
         if envelope:
             row["envelope"] = envelope
         if v != reference and ref:
+            # One stream per row, keyed by its label: a row's intervals do not depend on
+            # which other rows the table shows.
+            gen = np.random.default_rng([rng, zlib.crc32(v.encode())])
             row["vs_reference"] = {
                 e: _versus(by_variant.get(v, {}), ref, e, confidence, n_boot, gen)
                 for e in ENERGIES}
