@@ -277,6 +277,45 @@ def test_fastest_escape_edge_guard_begins_the_escape_near_the_map_edge():
         EscapeConfig(airspeed_mps=10.0, edge_m=-1.0)
 
 
+def test_fastest_escape_pace_trigger_begins_the_escape_when_time_would_run_out():
+    config = EscapeConfig(airspeed_mps=10.0, pace_margin_s=10.0)  # 10 s pace window
+    # 100 m from the goal closing at 1 m/s (above the stall monitor's 0.67 m/s): at that pace
+    # it arrives 100 s after each moment, later than deadline 95 s - 10 s whenever t > -15 s
+    fn = Straight()
+    esc = FastestEscape(fn, GOAL, config, deadline_s=95.0)
+    x = GOAL[0] - 100.0
+    fired = None
+    for k in range(200):
+        t = 0.1 * k
+        if esc.update(t, (x + 0.1 * k, GOAL[1])) is not None:
+            fired = t
+            break
+    assert fired == pytest.approx(10.0)  # the first moment a whole window has passed
+    assert fn.calls == [(pytest.approx(x + 10.0), GOAL[1])]
+    # the same approach at 5 m/s from 300 m: arrival 60 s + t, never later than 85 s before
+    # t = 25 s; at t = 30 s the closing speed drops to 1 m/s, and the 10 s window sees it as
+    # soon as the projected arrival passes 85 s
+    fn = Straight()
+    esc = FastestEscape(fn, GOAL, config, deadline_s=95.0)
+    d, fired = 300.0, None
+    for k in range(600):
+        t = 0.1 * k
+        if esc.update(t, (GOAL[0] - d, GOAL[1])) is not None:
+            fired = t
+            break
+        d -= 0.1 * (5.0 if t < 30.0 else 1.0)
+    # for 30 < t < 40 s: d = 180 - t, the window's closing speed (170 - 4 t) / 10, and the
+    # projected arrival t + d / closing passes 85 s at the root of t^2 - 125 t + 3162.5,
+    # t = 35.23 s: the next 0.1 s tick
+    assert fired == pytest.approx(35.3, abs=0.01)
+    with pytest.raises(ValueError, match="'deadline_s'"):
+        FastestEscape(Straight(), GOAL, config)
+    with pytest.raises(ValueError, match="'pace_margin_s'"):
+        EscapeConfig(pace_margin_s=10.0)
+    with pytest.raises(ValueError, match="'pace_window_s'"):
+        EscapeConfig(airspeed_mps=10.0, pace_margin_s=10.0, pace_window_s=0.0)
+
+
 class Drift:
     """A planner that flies at (6, 6) m/s: over the building and off the map's top edge
     (y = 120 m) at x = 70 m."""
@@ -301,3 +340,30 @@ def test_edge_guard_turns_a_drift_off_the_map_into_a_success(city, flow):
     assert 112.0 <= res.position[k, 1] < 112.0 + 2.0  # began on crossing y = 120 - 8
     # the route runs outside the 8 m band, after the way out of it
     assert np.all(res.route[1:, 1] <= 112.0) and np.all(res.route[1:, 0] >= 8.0)
+
+
+class Crawl:
+    """A planner that flies toward the goal at 1.5 m/s, flying north around the building:
+    faster than the stall monitor's 0.67 m/s and the hover rule's 1 m/s, too slow to arrive."""
+
+    def update(self, state, scan=None, wind=None):
+        p, v = np.asarray(state[:2], dtype=float), np.asarray(state[2:4], dtype=float)
+        aim = np.array([40.0, 85.0]) if p[0] < 40.0 and p[1] < 80.0 else np.asarray(GOAL)
+        e = (aim - p) / max(np.hypot(*(aim - p)), 1e-9)
+        return 2.0 * (1.5 * e - v)
+
+    def reset(self):
+        pass
+
+
+def test_pace_trigger_turns_a_crawl_that_runs_out_of_time_into_a_success(city, flow):
+    # 40 s of flight: the goal hold must begin by 35 s; at 1.5 m/s the crawl cannot make it
+    base = fly(city, flow, planner=Crawl(), duration=40.0, escape=EscapeConfig(airspeed_mps=8.0))
+    assert base.outcome == "timeout" and base.settings["escapes"] == []
+    res = fly(city, flow, planner=Crawl(), duration=40.0,
+              escape=EscapeConfig(airspeed_mps=8.0, pace_margin_s=5.0))
+    assert res.outcome == "success", res.summary()
+    (escape,) = res.settings["escapes"]
+    # one pace window (10 s) must pass before the trigger may judge the pace, which by then
+    # projects an arrival long after 40 - 5 - 5 s
+    assert escape[0] == pytest.approx(10.0, abs=0.11)

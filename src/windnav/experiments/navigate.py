@@ -732,7 +732,7 @@ def navigate(
             escape_guide = FastestEscape(
                 _FastestRouteFn(city, flow, goal, escape.airspeed_mps, route_dx,
                                   route_clearance, escape.edge_m), goal, escape,
-                bounds=city.bounds)
+                bounds=city.bounds, deadline_s=end - HOLD_S)
         else:
             route = energy_route(city, start, goal, planner_config(params, "gs-w"),
                                  wind=flow.wind_field(), dx=route_dx, clearance=route_clearance,

@@ -31,6 +31,14 @@ route in the mean wind with the airspeed at most ``A`` (:func:`windnav.plan.reac
 and flown to the goal at its ground speeds. In the 10 m/s headwinds of the benchmark the
 energy-optimal GS+W route is too slow: its least time is what runs out.
 
+Two more triggers begin the least-time escape: the edge guard (``edge_m``: within that distance
+of the map's edge, which MPPI's cost does not see) and the pace trigger (``pace_margin_s``: the
+closing speed over the last ``pace_window_s``, ``(d(t - W) - d(t)) / W``, would bring the
+vehicle to the goal after ``deadline_s - pace_margin_s``, where ``deadline_s`` is the latest
+arrival that still leaves the goal hold inside the flight). The pace trigger catches the slow
+approaches into a headwind that keep just above the monitor's closing speed until time or the
+hover rule runs out.
+
 Defaults: ``window_s = 3`` s, ``min_progress_m = 2`` m (a mean closing speed below 0.67 m/s, and
 it fires before the 5 s of ``|v| <= 1`` m/s that the loop counts as a hover failure),
 ``length_m = 60`` m (more than the sides of the 600 m maps' building blocks and gaps, so an
@@ -40,6 +48,7 @@ escape leaves a pocket or a goal-side rest point behind it).
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -77,6 +86,14 @@ class EscapeConfig:
         With ``airspeed_mps`` set: the escape also begins when the vehicle comes within this
         distance of the map's edge (m, >= 0; 0: never), where the wind would carry it off
         the map before any stall; and the route keeps out of that band.
+    pace_margin_s : float
+        With ``airspeed_mps`` set: the escape also begins when, at its closing speed over the
+        last ``pace_window_s``, the vehicle would reach the goal later than ``pace_margin_s``
+        before the flight's deadline (s, >= 0; 0: never). Catches the slow approaches that
+        keep just above the monitor's ``min_progress_m / window_s`` until time runs out.
+    pace_window_s : float
+        The window of that closing speed, s (> 0); the pace is not judged before one window
+        has passed.
     """
 
     window_s: float = 3.0
@@ -84,20 +101,23 @@ class EscapeConfig:
     length_m: float = 60.0
     airspeed_mps: float | None = None
     edge_m: float = 0.0
+    pace_margin_s: float = 0.0
+    pace_window_s: float = 10.0
 
     def __post_init__(self):
-        for name in ("window_s", "min_progress_m", "length_m"):
+        for name in ("window_s", "min_progress_m", "length_m", "pace_window_s"):
             object.__setattr__(self, name, positive_float(getattr(self, name), name,
                                                           "EscapeConfig"))
         if self.airspeed_mps is not None:
             object.__setattr__(self, "airspeed_mps", positive_float(
                 self.airspeed_mps, "airspeed_mps", "EscapeConfig"))
-        object.__setattr__(self, "edge_m", positive_float(self.edge_m, "edge_m",
+        for name in ("edge_m", "pace_margin_s"):
+            object.__setattr__(self, name, positive_float(getattr(self, name), name,
                                                           "EscapeConfig", allow_zero=True))
-        if self.edge_m > 0 and self.airspeed_mps is None:
-            raise ValueError("The 'edge_m' parameter of EscapeConfig needs airspeed_mps (the "
-                             "edge guard begins the least-time escape). Got edge_m="
-                             f"{self.edge_m} with airspeed_mps=None instead.")
+            if getattr(self, name) > 0 and self.airspeed_mps is None:
+                raise ValueError(f"The '{name}' parameter of EscapeConfig needs airspeed_mps "
+                                 f"(it begins the least-time escape). Got {name}="
+                                 f"{getattr(self, name)} with airspeed_mps=None instead.")
 
 
 class ProgressMonitor:
@@ -247,6 +267,10 @@ class FastestEscape:
     bounds : tuple of 4 floats, optional
         The map's ``(x0, x1, y0, y1)``, m: with ``config.edge_m > 0`` the escape also begins
         within ``edge_m`` of them.
+    deadline_s : float, optional
+        The latest arrival at the goal that can still succeed, s (the record's end less the
+        goal hold): with ``config.pace_margin_s > 0`` the escape also begins when the pace
+        of the last ``pace_window_s`` would arrive after ``deadline_s - pace_margin_s``.
 
     Attributes
     ----------
@@ -259,14 +283,23 @@ class FastestEscape:
         ``(0, L)`` once the escape has begun.
     """
 
-    def __init__(self, route_fn, goal_xy, config: EscapeConfig, bounds=None):
+    def __init__(self, route_fn, goal_xy, config: EscapeConfig, bounds=None,
+                 deadline_s: float | None = None):
         if not callable(route_fn):
             raise ValueError("The 'route_fn' parameter of FastestEscape must be callable. Got "
                              f"{type(route_fn).__name__} instead.")
         if config.edge_m > 0 and bounds is None:
             raise ValueError("The 'bounds' parameter of FastestEscape must be the map's "
                              "(x0, x1, y0, y1) when config.edge_m > 0. Got None instead.")
+        if config.pace_margin_s > 0 and deadline_s is None:
+            raise ValueError("The 'deadline_s' parameter of FastestEscape must be the latest "
+                             "useful arrival, s, when config.pace_margin_s > 0. Got None "
+                             "instead.")
         self.bounds = None if bounds is None else tuple(float(b) for b in bounds)
+        self.deadline_s = None if deadline_s is None else finite_float(
+            deadline_s, "deadline_s", "FastestEscape")
+        self._pace = deque()  # (t, distance to the goal) over the last pace window
+        self.goal = np.asarray(goal_xy, dtype=np.float64).reshape(2)
         self.route_fn = route_fn
         self.config = config
         self.monitor = ProgressMonitor(goal_xy, config)
@@ -280,8 +313,9 @@ class FastestEscape:
         if self.active is not None:
             return self.active
         stalled = self.monitor.update(t, position_xy)
-        if stalled or self._near_edge(position_xy):
+        if stalled or self._near_edge(position_xy) or self._late(t, position_xy):
             self.monitor.reset()
+            self._pace.clear()
             route = self.route_fn(np.asarray(position_xy, dtype=np.float64).reshape(2))
             if route is None:
                 self.escapes.append((float(t), 0.0, math.nan))
@@ -291,6 +325,24 @@ class FastestEscape:
             self.route, self.active = route, (0.0, length)
             self.escapes.append((float(t), 0.0, length))
         return self.active
+
+    def _late(self, t: float, position_xy) -> bool:
+        """True when the closing speed over the last pace window would reach the goal after
+        ``deadline_s - pace_margin_s`` (never before one window of samples)."""
+        if self.config.pace_margin_s <= 0:
+            return False
+        d = math.hypot(float(position_xy[0]) - self.goal[0], float(position_xy[1]) - self.goal[1])
+        pace = self._pace
+        pace.append((float(t), d))
+        window = self.config.pace_window_s
+        while len(pace) > 1 and t - pace[1][0] >= window - 1e-9:
+            pace.popleft()
+        t0, d0 = pace[0]
+        if t - t0 < window - 1e-9:
+            return False
+        closing = (d0 - d) / (t - t0)
+        arrival = t + d / closing if closing > 0 else math.inf
+        return arrival > self.deadline_s - self.config.pace_margin_s
 
     def _near_edge(self, position_xy) -> bool:
         if self.config.edge_m <= 0:
