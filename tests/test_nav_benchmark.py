@@ -230,6 +230,8 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
     assert nb.parse_variant("ea-mppi-w-esc@escair=12@edge=20@pace=10") == (
         "ea-mppi-w-esc", {"escape": EscapeConfig(airspeed_mps=12.0, edge_m=20.0,
                                                  pace_margin_s=10.0)})
+    assert nb.parse_variant("ea-mppi-w-esc@escair=12@regain=25") == (
+        "ea-mppi-w-esc", {"escape": EscapeConfig(airspeed_mps=12.0, regain_m=25.0)})
     for bad in ("ea-mppi-w@esc=100", "ea-mppi-w-esc@esc=0", "ea-mppi-w-esc@esc=inf",
                 "ea-mppi-w-esc@esc=100@esc=200", "ea-mppi-w@escair=12",
                 "ea-mppi-w-esc@escair=0", "ea-mppi-w-esc@escair=inf",
@@ -237,6 +239,8 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
                 "ea-mppi-w-esc@escair=12@edge=0", "ea-mppi-w@edge=20", "bogus@qe=1",
                 "ea-mppi-w-esc@pace=10", "ea-mppi-w-esc@escair=12@pace=0",
                 "ea-mppi-w-esc@escair=12@pace=10@pace=20", "ea-mppi-w@pace=10",
+                "ea-mppi-w-esc@regain=25", "ea-mppi-w-esc@escair=12@regain=0",
+                "ea-mppi-w@regain=25",
                 "gs-w@qe=1", "ea-mppi-w@qe=-1",
                 "ea-mppi-w@qe=inf",
                 "ea-mppi-w@x=1", "ea-mppi-w@qe=1@qe=2", "ea-mppi-w@qe", "ea-mppi-w@h=nan",

@@ -266,7 +266,7 @@ def _dated_decoder(name: str):
 
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
-              "edge": "escape_edge", "pace": "escape_pace"}
+              "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -280,7 +280,8 @@ flight to the least-time route to the goal in the mean wind, see
 :class:`windnav.plan.FastestEscape`), with ``edge`` (m: the escape also begins that near the
 map's edge, ``EscapeConfig.edge_m``) and ``pace`` (s: the escape also begins when the closing
 speed of the last 10 s would arrive later than that before the deadline,
-``EscapeConfig.pace_margin_s``)."""
+``EscapeConfig.pace_margin_s``) and ``regain`` (m: a vehicle blown that far off the goal it holds
+flies a new least-time route back, ``EscapeConfig.regain_m``)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
 
@@ -321,7 +322,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
-                          f"'@pace=S' (s, > 0): "
+                          f"'@pace=S' (s, > 0) and/or '@regain=D' (m, > 10): "
                           f"{why}. Got {label!r} instead.")
 
     if base not in VARIANTS:
@@ -337,7 +338,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         if (not sep or key not in PARAMETERS
                 or PARAMETERS[key] in {**options, **overrides, **escape}):
             raise fail(f"bad or repeated parameter {item!r}")
-        if (key == "decoder") != onboard or (key in ("esc", "escair", "edge", "pace")
+        if (key == "decoder") != onboard or (key in ("esc", "escair", "edge", "pace", "regain")
                                               and not VARIANTS[base].escape):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "decoder":
@@ -356,7 +357,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"{text!r} is not a number") from None
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
-        if key in ("esc", "escair", "edge", "pace"):
+        if key in ("esc", "escair", "edge", "pace", "regain"):
             if not (0.0 < value < math.inf):
                 raise fail(f"{key} must be finite and > 0")
             escape[PARAMETERS[key]] = value
@@ -371,13 +372,14 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     if escape:
         from windnav.plan import EscapeConfig
 
-        for name in ("edge", "pace"):
+        for name in ("edge", "pace", "regain"):
             if PARAMETERS[name] in escape and "escape_airspeed" not in escape:
                 raise fail(f"{name} needs escair")
         options["escape"] = EscapeConfig(length_m=escape.get("escape", 60.0),
                                          airspeed_mps=escape.get("escape_airspeed"),
                                          edge_m=escape.get("escape_edge", 0.0),
-                                         pace_margin_s=escape.get("escape_pace", 0.0))
+                                         pace_margin_s=escape.get("escape_pace", 0.0),
+                                         regain_m=escape.get("escape_regain", 0.0))
     return base, options
 
 

@@ -70,6 +70,9 @@ not let MPPI settle there:
 
 The capture is the same for every variant, its energy (including the 5 s hold) is counted, and
 ``capture_radius=0`` flies the planner to the end.
+The one exception is ours and optional: the sixth variant with ``EscapeConfig.regain_m`` leaves
+the hold when blown farther than that from the goal and flies a new least-time route back
+(:class:`windnav.plan.FastestEscape`).
 
 Termination (checked every control step)
 ----------------------------------------
@@ -739,6 +742,14 @@ def navigate(
                                  altitude=altitude)
             escape_guide = RouteEscape(route.samples, goal, escape)
         escape_ms = 1e3 * (time.perf_counter() - t0)
+    regain = 0.0  # the hold is released beyond this distance from the goal (0: never), m
+    if isinstance(escape_guide, FastestEscape) and escape.regain_m > 0:
+        if not escape.regain_m > capture:
+            raise ValueError(f"The 'escape' parameter of {_WHERE} must have regain_m larger "
+                             f"than capture_radius={capture:g} m (the hold begins within it). "
+                             f"Got regain_m={escape.regain_m:g} instead.")
+        regain = escape.regain_m
+    regain_after = -math.inf  # no new route searched before this time after a failed one, s
 
     # the loop -------------------------------------------------------------------------------
     x = model.hover_state(np.array([start[0], start[1], altitude])).to_array()
@@ -788,6 +799,12 @@ def navigate(
             at_goal = d_goal <= GOAL_RADIUS
             if holding is None and d_goal <= capture:
                 holding = t
+            elif (regain > 0 and holding is not None and d_goal > regain and t >= regain_after
+                  and k % plan_every == 0):  # blown off the goal: a new least-time route
+                if escape_guide.restart(t, pos[:2]) is None:
+                    regain_after = t + escape.window_s
+                else:
+                    holding, escape_follower = None, None
             if at_goal and v_norm <= GOAL_SPEED:
                 goal_since = t if goal_since is None else goal_since
             else:

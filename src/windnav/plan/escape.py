@@ -39,6 +39,11 @@ arrival that still leaves the goal hold inside the flight). The pace trigger cat
 approaches into a headwind that keep just above the monitor's closing speed until time or the
 hover rule runs out.
 
+A third option acts after the goal capture: with ``regain_m``, a vehicle that the wind blows
+farther than that from the goal it holds (the street jets of the strongest winds do) leaves the
+hold and flies a new least-time route back (:meth:`FastestEscape.restart`), instead of the
+hold's straight pull against the jet.
+
 Defaults: ``window_s = 3`` s, ``min_progress_m = 2`` m (a mean closing speed below 0.67 m/s, and
 it fires before the 5 s of ``|v| <= 1`` m/s that the loop counts as a hover failure),
 ``length_m = 60`` m (more than the sides of the 600 m maps' building blocks and gaps, so an
@@ -94,6 +99,11 @@ class EscapeConfig:
     pace_window_s : float
         The window of that closing speed, s (> 0); the pace is not judged before one window
         has passed.
+    regain_m : float
+        With ``airspeed_mps`` set: once the closed loop holds the goal, a vehicle blown
+        farther than this from it (m, >= 0; 0: never; more than the loop's capture radius)
+        leaves the hold and flies a new least-time route from where it is back to the goal
+        (:meth:`FastestEscape.restart`), until the next capture.
     """
 
     window_s: float = 3.0
@@ -103,6 +113,7 @@ class EscapeConfig:
     edge_m: float = 0.0
     pace_margin_s: float = 0.0
     pace_window_s: float = 10.0
+    regain_m: float = 0.0
 
     def __post_init__(self):
         for name in ("window_s", "min_progress_m", "length_m", "pace_window_s"):
@@ -111,7 +122,7 @@ class EscapeConfig:
         if self.airspeed_mps is not None:
             object.__setattr__(self, "airspeed_mps", positive_float(
                 self.airspeed_mps, "airspeed_mps", "EscapeConfig"))
-        for name in ("edge_m", "pace_margin_s"):
+        for name in ("edge_m", "pace_margin_s", "regain_m"):
             object.__setattr__(self, name, positive_float(getattr(self, name), name,
                                                           "EscapeConfig", allow_zero=True))
             if getattr(self, name) > 0 and self.airspeed_mps is None:
@@ -316,14 +327,22 @@ class FastestEscape:
         if stalled or self._near_edge(position_xy) or self._late(t, position_xy):
             self.monitor.reset()
             self._pace.clear()
-            route = self.route_fn(np.asarray(position_xy, dtype=np.float64).reshape(2))
-            if route is None:
-                self.escapes.append((float(t), 0.0, math.nan))
-                return None
-            q = np.asarray(route.samples, dtype=np.float64)
-            length = float(np.sum(np.hypot(*np.diff(q, axis=0).T))) if len(q) > 1 else 0.0
-            self.route, self.active = route, (0.0, length)
-            self.escapes.append((float(t), 0.0, length))
+            self.restart(t, position_xy)
+        return self.active
+
+    def restart(self, t: float, position_xy) -> tuple | None:
+        """Plan the least-time route from ``position_xy`` (m) to the goal at time ``t`` (s) and
+        make it the escape being flown: ``(0, L)``, or None (and nothing changes) when there is
+        no route. The closed loop calls it once the vehicle has been blown off a goal it held
+        (``config.regain_m``); every call is listed in :attr:`escapes`."""
+        route = self.route_fn(np.asarray(position_xy, dtype=np.float64).reshape(2))
+        if route is None:
+            self.escapes.append((float(t), 0.0, math.nan))
+            return None
+        q = np.asarray(route.samples, dtype=np.float64)
+        length = float(np.sum(np.hypot(*np.diff(q, axis=0).T))) if len(q) > 1 else 0.0
+        self.route, self.active = route, (0.0, length)
+        self.escapes.append((float(t), 0.0, length))
         return self.active
 
     def _late(self, t: float, position_xy) -> bool:
