@@ -205,7 +205,7 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     reach = list(reach)
     groups = list(table["groups"])
     rng = np.random.default_rng(0)
-    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(18, 5.0),
+    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(21, 5.0),
                                      gridspec_kw={"width_ratios": [1.5, 1, 1]})
     record_s = max(r["record_s"] for r in reach)
     hold_s = max(r["hold_s"] for r in reach)
@@ -249,10 +249,11 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     bins = [b for b in next(iter(v.values()))["by_mean_time"]] if v else []
     counts = [v[names[0]]["by_mean_time"][b][0] for b in bins] if names else []
     shown = [i for i, c in enumerate(counts) if c > 0]
-    for n in names:
+    for k, n in enumerate(names):  # ten colours, then the same with another line style
         cells = v[n]["by_mean_time"]
         rate = [100 * cells[bins[i]][1] / cells[bins[i]][0] for i in shown]
-        cx.plot(range(len(shown)), rate, "o-", ms=4, label=n)
+        cx.plot(range(len(shown)), rate, "o", ms=4, label=n, color=f"C{k % 10}",
+                ls=("-", "--", ":")[(k // 10) % 3])
     for j, i in enumerate(shown):
         cx.annotate(f"n={counts[i]}", (j, 103), ha="center", fontsize=8)
     cx.set_xticks(range(len(shown)))
@@ -261,8 +262,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     cx.set_ylim(0, 108)
     cx.set_xlabel("least time in the mean wind (s)")
     cx.set_ylabel("failure (%)")
-    cx.legend(fontsize=7, loc="lower right")
-    cx.set_title("failures by the least time in the known (mean) wind", fontsize=10)
+    cx.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
+    cx.set_title("failures by the least time in the mean wind", fontsize=10)
     fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
     fig.tight_layout()
     path = Path(path)
