@@ -398,8 +398,7 @@ def gust_at_goal(flow, t0, t1, v_mps):
     near = (np.abs(flow.x[None, :] - GOAL[0]) <= 40.0) & (np.abs(flow.y[:, None] - GOAL[1]) <= 40.0)
     when = (flow.t >= t0) & (flow.t < t1)
     frames_v = flow.frames_v.copy()
-    frames_v[np.ix_(when, *np.nonzero(near))] -= v_mps
-    frames_v = np.where(flow.solid[None], 0.0, frames_v)
+    frames_v[when] -= v_mps * (near & ~flow.solid)
     return dataclasses.replace(flow, frames_v=frames_v)
 
 

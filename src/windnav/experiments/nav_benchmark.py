@@ -284,6 +284,10 @@ speed of the last 10 s would arrive later than that before the deadline,
 flies a new least-time route back, ``EscapeConfig.regain_m``)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
+_ESCAPE_KEYS = ("esc", "escair", "edge", "pace", "regain")
+"""The label parameters of the escape variants (:class:`windnav.plan.EscapeConfig`)."""
+_NEEDS_ESCAIR = ("edge", "pace", "regain")
+"""Those that act only on a least-time escape (``escair``)."""
 
 
 def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
@@ -338,8 +342,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         if (not sep or key not in PARAMETERS
                 or PARAMETERS[key] in {**options, **overrides, **escape}):
             raise fail(f"bad or repeated parameter {item!r}")
-        if (key == "decoder") != onboard or (key in ("esc", "escair", "edge", "pace", "regain")
-                                              and not VARIANTS[base].escape):
+        if (key == "decoder") != onboard or (key in _ESCAPE_KEYS and not VARIANTS[base].escape):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "decoder":
             if text not in DECODERS:
@@ -357,7 +360,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"{text!r} is not a number") from None
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
-        if key in ("esc", "escair", "edge", "pace", "regain"):
+        if key in _ESCAPE_KEYS:
             if not (0.0 < value < math.inf):
                 raise fail(f"{key} must be finite and > 0")
             escape[PARAMETERS[key]] = value
@@ -372,7 +375,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     if escape:
         from windnav.plan import EscapeConfig
 
-        for name in ("edge", "pace", "regain"):
+        for name in _NEEDS_ESCAIR:
             if PARAMETERS[name] in escape and "escape_airspeed" not in escape:
                 raise fail(f"{name} needs escair")
         options["escape"] = EscapeConfig(length_m=escape.get("escape", 60.0),
