@@ -210,7 +210,9 @@ class Straight:
         self.calls.append(tuple(p))
         if self.fail:
             return None
-        return type("R", (), {"samples": np.array([p, GOAL]), "speeds": np.array([5.0])})()
+        d = math.hypot(GOAL[0] - p[0], GOAL[1] - p[1])
+        return type("R", (), {"samples": np.array([p, GOAL]), "speeds": np.array([5.0]),
+                              "time_s": d / 5.0})()
 
 
 def test_fastest_escape_begins_at_the_first_stall_and_lasts_to_the_goal():
@@ -367,6 +369,44 @@ def test_pace_trigger_turns_a_crawl_that_runs_out_of_time_into_a_success(city, f
     # one pace window (10 s) must pass before the trigger may judge the pace, which by then
     # projects an arrival long after 40 - 5 - 5 s
     assert escape[0] == pytest.approx(10.0, abs=0.11)
+
+
+def test_fastest_escape_launch_begins_at_take_off_only_when_the_least_time_is_long():
+    # from (10, 60): 100 m at 5 m/s, 20 s in the mean wind
+    fn = Straight()
+    esc = FastestEscape(fn, GOAL, EscapeConfig(airspeed_mps=10.0, launch_s=15.0))
+    assert esc.update(0.0, (10, 60)) == (0.0, pytest.approx(100.0))
+    assert esc.escapes == [(0.0, 0.0, pytest.approx(100.0))] and len(fn.calls) == 1
+    # 20 s is not longer than 25 s: asked once at take-off, then the monitor as usual
+    fn = Straight()
+    esc = FastestEscape(fn, GOAL, EscapeConfig(airspeed_mps=10.0, launch_s=25.0))
+    assert esc.update(0.0, (10, 60)) is None and esc.update(2.9, (10, 60)) is None
+    assert len(fn.calls) == 1 and esc.escapes == []
+    assert esc.update(3.0, (10, 60)) is not None and len(fn.calls) == 2
+    assert esc.escapes == [(3.0, 0.0, pytest.approx(100.0))]
+    # no route at take-off: MPPI flies, nothing is listed
+    fn = Straight(fail=True)
+    esc = FastestEscape(fn, GOAL, EscapeConfig(airspeed_mps=10.0, launch_s=1.0))
+    assert esc.update(0.0, (10, 60)) is None and esc.escapes == [] and len(fn.calls) == 1
+    with pytest.raises(ValueError, match="'launch_s'"):
+        EscapeConfig(launch_s=30.0)
+    with pytest.raises(ValueError, match="'launch_s'"):
+        EscapeConfig(airspeed_mps=10.0, launch_s=-1.0)
+
+
+def test_launch_flies_the_least_time_route_from_the_start(city, flow):
+    base = fly(city, flow, planner=Crawl(), duration=40.0, escape=EscapeConfig(airspeed_mps=8.0))
+    # a least time longer than the threshold: never launched, the same flight to the bit
+    late = fly(city, flow, planner=Crawl(), duration=40.0,
+               escape=EscapeConfig(airspeed_mps=8.0, launch_s=1000.0))
+    assert late.settings["escapes"] == [] and np.array_equal(late.position, base.position)
+    res = fly(city, flow, planner=Crawl(), duration=40.0,
+              escape=EscapeConfig(airspeed_mps=8.0, launch_s=5.0))
+    assert base.outcome == "timeout" and res.outcome == "success", res.summary()
+    (escape,) = res.settings["escapes"]
+    assert escape[0] == 0.0 and np.array_equal(res.route[0], np.asarray(START))
+    # about 100 m at 8 m/s of airspeed in 2 m/s of wind: longer than 5 s, so it launched
+    assert res.settings["route_time_s"] > 5.0
 
 
 def test_fastest_escape_restart_replaces_the_route_from_where_the_vehicle_is():

@@ -232,6 +232,8 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
                                                  pace_margin_s=10.0)})
     assert nb.parse_variant("ea-mppi-w-esc@escair=12@regain=25") == (
         "ea-mppi-w-esc", {"escape": EscapeConfig(airspeed_mps=12.0, regain_m=25.0)})
+    assert nb.parse_variant("ea-mppi-w-esc@escair=12@launch=40") == (
+        "ea-mppi-w-esc", {"escape": EscapeConfig(airspeed_mps=12.0, launch_s=40.0)})
     for bad in ("ea-mppi-w@esc=100", "ea-mppi-w-esc@esc=0", "ea-mppi-w-esc@esc=inf",
                 "ea-mppi-w-esc@esc=100@esc=200", "ea-mppi-w@escair=12",
                 "ea-mppi-w-esc@escair=0", "ea-mppi-w-esc@escair=inf",
@@ -240,7 +242,8 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
                 "ea-mppi-w-esc@pace=10", "ea-mppi-w-esc@escair=12@pace=0",
                 "ea-mppi-w-esc@escair=12@pace=10@pace=20", "ea-mppi-w@pace=10",
                 "ea-mppi-w-esc@regain=25", "ea-mppi-w-esc@escair=12@regain=0",
-                "ea-mppi-w@regain=25",
+                "ea-mppi-w@regain=25", "ea-mppi-w-esc@launch=40",
+                "ea-mppi-w-esc@escair=12@launch=0", "ea-mppi-w@launch=40",
                 "gs-w@qe=1", "ea-mppi-w@qe=-1",
                 "ea-mppi-w@qe=inf",
                 "ea-mppi-w@x=1", "ea-mppi-w@qe=1@qe=2", "ea-mppi-w@qe", "ea-mppi-w@h=nan",

@@ -266,7 +266,8 @@ def _dated_decoder(name: str):
 
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
-              "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain"}
+              "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
+              "launch": "escape_launch"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -280,13 +281,15 @@ flight to the least-time route to the goal in the mean wind, see
 :class:`windnav.plan.FastestEscape`), with ``edge`` (m: the escape also begins that near the
 map's edge, ``EscapeConfig.edge_m``) and ``pace`` (s: the escape also begins when the closing
 speed of the last 10 s would arrive later than that before the deadline,
-``EscapeConfig.pace_margin_s``) and ``regain`` (m: a vehicle blown that far off the goal it holds
-flies a new least-time route back, ``EscapeConfig.regain_m``)."""
+``EscapeConfig.pace_margin_s``), ``regain`` (m: a vehicle blown that far off the goal it holds
+flies a new least-time route back, ``EscapeConfig.regain_m``) and ``launch`` (s: the escape
+begins at take-off when the least time to the goal in the mean wind is longer than that,
+``EscapeConfig.launch_s``)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
-_ESCAPE_KEYS = ("esc", "escair", "edge", "pace", "regain")
+_ESCAPE_KEYS = ("esc", "escair", "edge", "pace", "regain", "launch")
 """The label parameters of the escape variants (:class:`windnav.plan.EscapeConfig`)."""
-_NEEDS_ESCAIR = ("edge", "pace", "regain")
+_NEEDS_ESCAIR = ("edge", "pace", "regain", "launch")
 """Those that act only on a least-time escape (``escair``)."""
 
 
@@ -382,7 +385,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                                          airspeed_mps=escape.get("escape_airspeed"),
                                          edge_m=escape.get("escape_edge", 0.0),
                                          pace_margin_s=escape.get("escape_pace", 0.0),
-                                         regain_m=escape.get("escape_regain", 0.0))
+                                         regain_m=escape.get("escape_regain", 0.0),
+                                         launch_s=escape.get("escape_launch", 0.0))
     return base, options
 
 

@@ -39,7 +39,13 @@ arrival that still leaves the goal hold inside the flight). The pace trigger cat
 approaches into a headwind that keep just above the monitor's closing speed until time or the
 hover rule runs out.
 
-A third option acts after the goal capture: with ``regain_m``, a vehicle that the wind blows
+A take-off trigger (``launch_s``) begins it before MPPI flies at all, when the least time to the
+goal in the mean wind is longer than ``launch_s``: the flights whose budget is tight. The
+energy-aware planner approaches more slowly than the least time (that is what it trades for
+energy), and in a flight whose least time is 60 of its 95 s the seconds MPPI spends before the
+pace trigger can judge it are the ones that run out.
+
+A further option acts after the goal capture: with ``regain_m``, a vehicle that the wind blows
 farther than that from the goal it holds (the street jets of the strongest winds do) leaves the
 hold and flies a new least-time route back (:meth:`FastestEscape.restart`), instead of the
 hold's straight pull against the jet.
@@ -99,6 +105,10 @@ class EscapeConfig:
     pace_window_s : float
         The window of that closing speed, s (> 0); the pace is not judged before one window
         has passed.
+    launch_s : float
+        With ``airspeed_mps`` set: at take-off, the least-time route from the start is planned,
+        and flown from the first tick when its time in the mean wind is longer than this (s,
+        >= 0; 0: never). Otherwise MPPI flies and the other triggers apply.
     regain_m : float
         With ``airspeed_mps`` set: once the closed loop holds the goal, a vehicle blown
         farther than this from it (m, >= 0; 0: never; more than the loop's capture radius)
@@ -114,6 +124,7 @@ class EscapeConfig:
     pace_margin_s: float = 0.0
     pace_window_s: float = 10.0
     regain_m: float = 0.0
+    launch_s: float = 0.0
 
     def __post_init__(self):
         for name in ("window_s", "min_progress_m", "length_m", "pace_window_s"):
@@ -122,7 +133,7 @@ class EscapeConfig:
         if self.airspeed_mps is not None:
             object.__setattr__(self, "airspeed_mps", positive_float(
                 self.airspeed_mps, "airspeed_mps", "EscapeConfig"))
-        for name in ("edge_m", "pace_margin_s", "regain_m"):
+        for name in ("edge_m", "pace_margin_s", "regain_m", "launch_s"):
             object.__setattr__(self, name, positive_float(getattr(self, name), name,
                                                           "EscapeConfig", allow_zero=True))
             if getattr(self, name) > 0 and self.airspeed_mps is None:
@@ -269,7 +280,7 @@ class FastestEscape:
     ----------
     route_fn : callable
         ``route_fn(position_xy)``: a route from ``position_xy`` to the goal with ``samples``
-        (M, 2) and ``speeds`` (M - 1,), or None when there is none (then MPPI goes on and the
+        (M, 2), ``speeds`` (M - 1,) and ``time_s`` (its time in the mean wind, s), or None when there is none (then MPPI goes on and the
         monitor restarts). E.g. :func:`windnav.plan.reach.fastest_route` on the map's lattice in
         the mean wind.
     goal_xy : array_like of shape (2,)
@@ -317,12 +328,18 @@ class FastestEscape:
         self.route = None
         self.escapes: list = []
         self.active = None
+        self._launch_checked = config.launch_s <= 0
 
     def update(self, t: float, position_xy) -> tuple | None:
         """Advance the monitor to time ``t`` (s) at ``position_xy`` (m); ``(0, L)`` once the
         escape has begun (it lasts to the goal), None while MPPI flies."""
         if self.active is not None:
             return self.active
+        if not self._launch_checked:  # the first call: the take-off trigger
+            self._launch_checked = True
+            route = self.route_fn(np.asarray(position_xy, dtype=np.float64).reshape(2))
+            if route is not None and route.time_s > self.config.launch_s:
+                return self._begin(t, route)
         stalled = self.monitor.update(t, position_xy)
         if stalled or self._near_edge(position_xy) or self._late(t, position_xy):
             self.monitor.reset()
@@ -339,6 +356,10 @@ class FastestEscape:
         if route is None:
             self.escapes.append((float(t), 0.0, math.nan))
             return None
+        return self._begin(t, route)
+
+    def _begin(self, t: float, route) -> tuple:
+        """Make ``route`` the escape being flown from time ``t`` (s): ``(0, L)``."""
         q = np.asarray(route.samples, dtype=np.float64)
         length = float(np.sum(np.hypot(*np.diff(q, axis=0).T))) if len(q) > 1 else 0.0
         self.route, self.active = route, (0.0, length)
