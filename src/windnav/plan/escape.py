@@ -280,9 +280,9 @@ class FastestEscape:
     ----------
     route_fn : callable
         ``route_fn(position_xy)``: a route from ``position_xy`` to the goal with ``samples``
-        (M, 2), ``speeds`` (M - 1,) and ``time_s`` (its time in the mean wind, s), or None when there is none (then MPPI goes on and the
-        monitor restarts). E.g. :func:`windnav.plan.reach.fastest_route` on the map's lattice in
-        the mean wind.
+        (M, 2), ``speeds`` (M - 1,) and ``time_s`` (its time in the mean wind, s), or None
+        when there is none (then MPPI goes on and the monitor restarts). E.g.
+        :func:`windnav.plan.reach.fastest_route` on the map's lattice in the mean wind.
     goal_xy : array_like of shape (2,)
         m.
     config : EscapeConfig
