@@ -678,6 +678,48 @@ def test_command_table_keeps_only_the_maps_asked_for(tmp_path, monkeypatch, no_w
         command(["--out", store, "--table", "--maps", "7"])
 
 
+def test_chosen_scenarios_are_flown_with_the_suites_seeds_and_the_rest_later(tmp_path,
+                                                                             no_wind):
+    two = replace(TINY, maps=(0, 1))
+    store = tmp_path / "store"
+    ids = ["tiny/m01/w00/p1", "tiny/m00/w01/p0"]
+    part = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                            navigate_fn=Fake(), scenario_ids=ids)
+    assert (part["scenarios"], part["now"], part["pending"]) == (2, 2, 0)
+    s = NavStore(store, two)
+    assert {sid for sid, _ in keys(s)} == set(ids)
+    whole = {sc.scenario_id: sc for sc in make_suite(two)}
+    assert all(r["seed"] == whole[r["scenario_id"]].seed for r in s.load())
+    # with maps: those of the chosen on these maps; then the whole suite resumes around them
+    only = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                            navigate_fn=Fake(), scenario_ids=ids, maps=[0])
+    assert (only["scenarios"], only["already"], only["now"]) == (1, 1, 0)
+    rest = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                            navigate_fn=Fake())
+    assert (rest["already"], rest["now"], rest["total"]) == (2, 6, 8)
+    for bad in ([], ["tiny/m02/w00/p0"], ["thesis/m00/w00/p0"], ["m00"]):
+        with pytest.raises(ValueError, match="'scenario_ids' parameter of run_benchmark"):
+            nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                             navigate_fn=Fake(), scenario_ids=bad)
+    listed = tmp_path / "ids.txt"
+    listed.write_text("# the pilot\ntiny/m01/w00/p1\n\ntiny/m00/w01/p0  # a tailwind\n")
+    assert bench_cmd.scenario_ids(str(listed), two, "x") == frozenset(ids)
+    assert bench_cmd.scenario_ids(",".join(ids), two, "x") == frozenset(ids)
+    assert bench_cmd.scenario_ids(None, two, "x") is None
+    with pytest.raises(ValueError, match="'--scenarios' parameter of x"):
+        bench_cmd.scenario_ids("tiny/m00/w09/p0", two, "x")
+
+
+def test_a_regain_inside_the_capture_radius_fails_before_any_flight(tmp_path, no_wind):
+    fake = Fake()
+    with pytest.raises(ValueError, match="regain larger than the suite's capture radius, 10 m"):
+        nb.run_benchmark(TINY, ["ea-mppi-w-esc@escair=12@regain=10"], tmp_path / "s",
+                         executor="serial", progress=False, navigate_fn=fake)
+    assert fake.calls == 0 and not (tmp_path / "s").exists()
+    wide = replace(TINY, navigate_options={**TINY.navigate_options, "capture_radius": 5.0})
+    nb.check_against_suite(wide, ["ea-mppi-w-esc@escair=12@regain=10"], "x")  # 10 > 5: fine
+
+
 def test_command_errors_are_named(tmp_path, tiny_suite):
     with pytest.raises(ValueError, match="'--variants' parameter of windnav benchmark-nav.*"
                                          "'bogus'"):

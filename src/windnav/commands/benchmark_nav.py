@@ -66,6 +66,11 @@ def register(subparsers) -> None:
                    help="fly only these maps of the suite, e.g. 0,1 or 0-3 (default: all); "
                         "the rest can be flown later into the same store; with --table, "
                         "tabulate only these maps' flights")
+    p.add_argument("--scenarios", default=None, metavar="IDS",
+                   help="fly only these scenarios: a file with one id per line, or ids "
+                        "separated by commas (e.g. thesis/m03/w07/p2,thesis/m03/w07/p3); a "
+                        "pilot whose records are the suite's own; with --table, tabulate "
+                        "only their flights")
     p.add_argument("--retry-errors", action="store_true",
                    help="also re-fly the flights whose harness failed in an earlier run")
     p.add_argument("--table", action="store_true",
@@ -155,6 +160,26 @@ def suite_maps(text, spec, name: str) -> tuple[int, ...]:
         raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
 
 
+def scenario_ids(text, spec, name: str) -> frozenset | None:
+    """``--scenarios``: the ids in the file ``text`` (one per line; blank lines and ``#``
+    comments skipped) or, when no such file exists, separated by commas; checked against
+    ``spec``. None: every scenario."""
+    from windnav.experiments.nav_benchmark import check_scenario_ids
+
+    if text is None:
+        return None
+    path = Path(text)
+    if path.is_file():
+        lines = (line.split("#", 1)[0].strip() for line in path.read_text().splitlines())
+        ids = [line for line in lines if line]
+    else:
+        ids = [part.strip() for part in str(text).split(",") if part.strip()]
+    try:
+        return check_scenario_ids(spec, ids, name)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'scenario_ids'", "'--scenarios'")) from None
+
+
 def _print_table(records, variants, reference, spec) -> dict:
     from windnav.experiments.nav_benchmark import with_goal_clearance
     from windnav.experiments.nav_records import benchmark_table, render_table
@@ -178,10 +203,12 @@ def _run(args, name: str) -> int:
     out = outputs(args)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     maps = suite_maps(args.maps, spec, name)
+    chosen = scenario_ids(args.scenarios, spec, name)
     try:
         summary = run_benchmark(spec, variants, args.out, executor=args.executor,
                                 workers=workers, progress=not args.no_progress,
-                                retry_errors=args.retry_errors, maps=maps)
+                                retry_errors=args.retry_errors, maps=maps,
+                                scenario_ids=None if chosen is None else sorted(chosen))
     except KeyboardInterrupt:
         try:
             n = len(NavStore(args.out, spec, create=False).latest())
@@ -191,8 +218,12 @@ def _run(args, name: str) -> int:
               "command to resume.", file=sys.stderr)
         return 130
     records = NavStore(args.out, spec, create=False).load()
+    if chosen is not None:
+        records = [r for r in records if r.get("scenario_id") in chosen]
     part = ("" if len(summary["maps"]) == len(spec.maps)
             else f", maps {','.join(map(str, summary['maps']))} of {len(spec.maps)}")
+    if chosen is not None:
+        part += f", {summary['scenarios']} chosen scenarios"
     print(f"{summary['store']}: suite {spec.name} (seed {spec.seed}{part}), "
           f"{summary['total'] - summary['pending']}/{summary['total']} flights recorded "
           f"({summary['now']} now, {summary['already']} already, {summary['errors_now']} "
@@ -225,6 +256,9 @@ def _table(args, name: str) -> int:
     if args.maps is not None:
         maps = set(suite_maps(args.maps, spec, name))
         records = [r for r in records if r.get("map_index") in maps]
+    chosen = scenario_ids(args.scenarios, spec, name)
+    if chosen is not None:
+        records = [r for r in records if r.get("scenario_id") in chosen]
     present = sorted({r["variant"] for r in records})
     asked = args.variants if args.variants != DEFAULT_VARIANTS else ",".join(present)
     from windnav.experiments.nav_benchmark import check_variants

@@ -82,6 +82,8 @@ __all__ = [
     "SuiteSpec",
     "benchmark_decoder",
     "benchmark_table",
+    "check_against_suite",
+    "check_scenario_ids",
     "check_variants",
     "compare_records",
     "error_record",
@@ -423,6 +425,42 @@ def check_maps(spec: SuiteSpec, maps, where: str) -> tuple[int, ...]:
     return tuple(sorted(got))
 
 
+def check_scenario_ids(spec: SuiteSpec, scenario_ids, where: str) -> frozenset | None:
+    """``scenario_ids`` (a sequence of ids of ``spec``, at least one) as a set, each checked
+    with :func:`~windnav.experiments.nav_suite.parse_scenario_id`; None stays None (every
+    scenario)."""
+    if scenario_ids is None:
+        return None
+    ids = [scenario_ids] if isinstance(scenario_ids, str) else list(scenario_ids)
+    if not ids:
+        raise ValueError(f"The 'scenario_ids' parameter of {where} must name at least one "
+                         "scenario. Got none instead.")
+    for sid in ids:
+        try:
+            parse_scenario_id(spec, sid)
+        except ValueError as exc:
+            raise ValueError(str(exc).replace("'scenario_id' parameter of parse_scenario_id",
+                                              f"'scenario_ids' parameter of {where}")) from None
+    return frozenset(ids)
+
+
+def check_against_suite(spec: SuiteSpec, variants, where: str) -> None:
+    """Raise before any flight for label parameters the suite's settings make invalid: a
+    ``@regain`` no larger than the suite's capture radius (each flight would fail)."""
+    import inspect
+
+    from windnav.experiments.navigate import navigate
+
+    default = inspect.signature(navigate).parameters["capture_radius"].default
+    capture = float(spec.navigate_options.get("capture_radius", default))
+    for label in variants:
+        escape = parse_variant(label, where)[1].get("escape")
+        if escape is not None and 0 < escape.regain_m <= capture:
+            raise ValueError(f"The 'variants' parameter of {where} must give regain larger "
+                             f"than the suite's capture radius, {capture:g} m (the hold "
+                             f"begins within it). Got {label!r} instead.")
+
+
 def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
         navigate_fn: Callable | None = None):
     """The flight of one scenario with one variant, as the benchmark flies it: ``navigate``
@@ -602,6 +640,7 @@ def run_benchmark(
     retry_errors: bool = False,
     navigate_fn: Callable | None = None,
     maps: Sequence[int] | None = None,
+    scenario_ids: Sequence[str] | None = None,
 ) -> dict:
     """Fly (or resume) every pending (scenario, variant) of the suite into ``store``.
 
@@ -628,6 +667,10 @@ def run_benchmark(
     maps : sequence of int, optional
         Fly only the scenarios of these maps (map indices of ``spec.maps``; default all): a part
         of the suite, run now and completed later into the same store.
+    scenario_ids : sequence of str, optional
+        Fly only these scenarios (ids of the suite, e.g. ``"thesis/m03/w07/p2"``; with
+        ``maps``, those of them on these maps): a pilot on a chosen subset, whose records are
+        the suite's own (the same ids, seeds and winds).
 
     Returns
     -------
@@ -656,6 +699,8 @@ def run_benchmark(
         raise ValueError(f"The 'executor' parameter of {where} must be one of {BACKENDS}. "
                          f"Got {executor!r} instead.")
     maps = check_maps(spec, maps, where)
+    chosen = check_scenario_ids(spec, scenario_ids, where)
+    check_against_suite(spec, variants, where)
     t0 = time.perf_counter()
     nav_store = NavStore(store, spec)
     done = nav_store.latest()
@@ -665,6 +710,8 @@ def run_benchmark(
         return rec is not None and not (retry_errors and rec["outcome"] == ERROR)
 
     scenarios = make_suite(dataclasses.replace(spec, maps=maps))  # the same ids and seeds
+    if chosen is not None:
+        scenarios = [sc for sc in scenarios if sc.scenario_id in chosen]
     groups: dict[tuple[int, int], list] = {}
     for sc in scenarios:
         for v in variants:
