@@ -43,7 +43,9 @@ The loop
   vehicle, for the rest of the flight, to the least-time route from where it stalled to the goal
   in the mean wind with the airspeed at most ``A`` (:func:`windnav.plan.reach.fastest_route`, on
   the GS lattice with the GS clearance), flown by the same follower at the route's ground
-  speeds.
+  speeds. More triggers of that route (``EscapeConfig.edge_m``, ``pace_margin_s``,
+  ``launch_s``: near the map's edge, a pace too slow, a least time too long at take-off) and
+  the release of the goal hold (``regain_m``) are described in :mod:`windnav.plan.escape`.
 * **GS / GS+W.** :func:`windnav.plan.energy_route` is computed once before take-off, with full
   knowledge of the buildings and (GS+W) the mean wind, and flown by a path follower in the same
   acceleration mode: a reference point moves along the route's samples at the route's planned
