@@ -176,14 +176,14 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
 def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path:
     """The reachability figure: least time to the goal per scenario, and failures.
 
-    Left: each scenario's least time in its recorded wind within the airspeed limit
+    Top: each scenario's least time in its recorded wind within the airspeed limit
     (:func:`~windnav.experiments.nav_feasibility.reach_table`'s ``airspeed``), grouped by inlet
     speed and pair kind (jittered points, in :data:`KIND_COLORS`); unreachable scenarios as
     crosses above the record's end; the dashed line is the last arrival that leaves the 5 s
-    hold. Middle: per variant of ``table`` flown on all its scenarios, the failure rate over all
-    its flights and over the flights in reachable scenarios. Right: the same variants' failure
-    rates by the scenario's least time in the mean wind (``by_mean_time``; the number of
-    scenarios of each bin on top).
+    hold. Bottom left: per variant of ``table`` flown on all its scenarios, the failure rate over
+    all its flights and over the flights in reachable scenarios. Bottom right: the same variants'
+    failure rates by the scenario's least time in the mean wind (``by_mean_time``; the number of
+    scenarios of each bin on top; the legend below it).
 
     Parameters
     ----------
@@ -205,8 +205,12 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     reach = list(reach)
     groups = list(table["groups"])
     rng = np.random.default_rng(0)
-    fig, (ax, bx, cx) = plt.subplots(1, 3, figsize=(21, 5.0),
-                                     gridspec_kw={"width_ratios": [1.5, 1, 1]})
+    # the scatter across the top; the two failure panels below it, whose variant labels (long
+    # label parameters of the sixth variant) need the width
+    fig = plt.figure(figsize=(16, 10.5))
+    grid = fig.add_gridspec(2, 2, width_ratios=[1, 1.15], height_ratios=[1, 1.1])
+    ax = fig.add_subplot(grid[0, :])
+    bx, cx = fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])
     record_s = max(r["record_s"] for r in reach)
     hold_s = max(r["hold_s"] for r in reach)
     for g, name in enumerate(groups):
@@ -226,7 +230,7 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     ax.text(len(groups) - 0.5, record_s - hold_s - 1, "last arrival with the 5 s hold",
             ha="right", va="top", fontsize=8)
     ax.set_xticks(range(len(groups)))
-    ax.set_xticklabels([n.replace("/", " m/s\n") for n in groups], fontsize=8)
+    ax.set_xticklabels([n.replace("/", " m/s\n") for n in groups], fontsize=9)
     ax.set_ylim(0, record_s + 13)
     ax.set_ylabel("least time to the goal, recorded wind (s)")
     ax.set_title(f"least time within {table['airspeed']:.2f} m/s of airspeed "
@@ -262,11 +266,11 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     cx.set_ylim(0, 108)
     cx.set_xlabel("least time in the mean wind (s)")
     cx.set_ylabel("failure (%)")
-    cx.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
     cx.set_title("failures by the least time in the mean wind", fontsize=10)
     fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
     fig.tight_layout()
+    cx.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
