@@ -661,7 +661,8 @@ def test_command_runs_resumes_prints_the_table_and_writes_json(tmp_path, tiny_su
         "mppi", "ea-mppi-w"]
 
 
-def test_command_table_keeps_only_the_maps_asked_for(tmp_path, monkeypatch, no_wind, capsys):
+def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_path, monkeypatch,
+                                                                         no_wind, capsys):
     two = TINY.__class__(**{**TINY.__dict__, "name": "quick", "maps": (0, 1), "winds": (0,),
                             "pairs": (0,)})
     monkeypatch.setitem(SUITES, "quick", two)
@@ -676,6 +677,16 @@ def test_command_table_keeps_only_the_maps_asked_for(tmp_path, monkeypatch, no_w
     assert "| mppi | 1 |" in capsys.readouterr().out
     with pytest.raises(ValueError, match="'--maps' parameter"):
         command(["--out", store, "--table", "--maps", "7"])
+    # the chosen scenarios: flown alone into a new store, then tabulated alone
+    chosen = tmp_path / "chosen"
+    assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial",
+                    "--out", chosen, "--no-progress", "--scenarios", "quick/m01/w00/p0"]) == 0
+    assert "1 chosen scenarios" in capsys.readouterr().out
+    assert [r["scenario_id"] for r in NavStore(chosen, two).load()] == ["quick/m01/w00/p0"]
+    assert command(["--out", store, "--table", "--scenarios", "quick/m00/w00/p0"]) == 0
+    assert "| mppi | 1 |" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="'--scenarios' parameter"):
+        command(["--out", store, "--table", "--scenarios", "quick/m07/w00/p0"])
 
 
 def test_chosen_scenarios_are_flown_with_the_suites_seeds_and_the_rest_later(tmp_path,
