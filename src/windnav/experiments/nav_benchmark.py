@@ -447,15 +447,12 @@ def check_scenario_ids(spec: SuiteSpec, scenario_ids, where: str) -> frozenset |
 def check_against_suite(spec: SuiteSpec, variants, where: str) -> None:
     """Raise before any flight for label parameters the suite's settings make invalid: a
     ``@regain`` no larger than the suite's capture radius (each flight would fail)."""
-    import inspect
+    from windnav.experiments.navigate import CAPTURE_RADIUS
 
-    from windnav.experiments.navigate import navigate
-
-    default = inspect.signature(navigate).parameters["capture_radius"].default
-    capture = float(spec.navigate_options.get("capture_radius", default))
+    capture = float(spec.navigate_options.get("capture_radius", CAPTURE_RADIUS))
     for label in variants:
         escape = parse_variant(label, where)[1].get("escape")
-        if escape is not None and 0 < escape.regain_m <= capture:
+        if escape is not None and escape.regain_inside(capture):
             raise ValueError(f"The 'variants' parameter of {where} must give regain larger "
                              f"than the suite's capture radius, {capture:g} m (the hold "
                              f"begins within it). Got {label!r} instead.")

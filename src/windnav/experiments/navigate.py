@@ -127,6 +127,8 @@ OUTCOMES = ("success", "hover", "collision", "left_map", "timeout")
 
 GOAL_RADIUS = 5.0
 """Success radius around the goal, m."""
+CAPTURE_RADIUS = 10.0
+"""Default distance from the goal at which the loop stops planning and holds it, m."""
 GOAL_SPEED = 2.0
 """Largest speed that counts as stopped at the goal, m/s."""
 HOVER_SPEED = 1.0
@@ -555,7 +557,7 @@ def navigate(
     route_dx: float = 2.0,
     route_clearance: float = 6.0,
     planner_overrides: dict | None = None,
-    capture_radius: float = 10.0,
+    capture_radius: float = CAPTURE_RADIUS,
     decoder=None,
     onboard=None,
     escape=None,
@@ -746,7 +748,7 @@ def navigate(
         escape_ms = 1e3 * (time.perf_counter() - t0)
     regain = 0.0  # the hold is released beyond this distance from the goal (0: never), m
     if isinstance(escape_guide, FastestEscape) and escape.regain_m > 0:
-        if not escape.regain_m > capture:
+        if escape.regain_inside(capture):
             raise ValueError(f"The 'escape' parameter of {_WHERE} must have regain_m larger "
                              f"than capture_radius={capture:g} m (the hold begins within it). "
                              f"Got regain_m={escape.regain_m:g} instead.")

@@ -143,6 +143,12 @@ class EscapeConfig:
                                  f"(it begins the least-time escape). Got {name}="
                                  f"{getattr(self, name)} with airspeed_mps=None instead.")
 
+    def regain_inside(self, capture_radius_m: float) -> bool:
+        """True when ``regain_m`` is set but no larger than the closed loop's capture radius,
+        m: the hold begins within that radius, so such a regain would be meaningless (the
+        closed loop and the benchmark both refuse it)."""
+        return 0.0 < self.regain_m <= capture_radius_m
+
 
 class ProgressMonitor:
     """Fires when the distance to ``goal_xy`` has not shrunk by ``min_progress_m`` in
