@@ -359,3 +359,31 @@ def test_wind_field_matches_the_solution_at_cell_centres():
     np.testing.assert_allclose(steady[:, 1], sol.mean_v[4:8, 3:9].ravel(), atol=1e-12)
     unsteady = sol.wind_field(unsteady=True).velocity(sol.t[1], xyz)
     np.testing.assert_allclose(unsteady[:, 0], sol.frames_u[1, 4:8, 3:9].ravel(), atol=1e-12)
+
+
+def test_the_solvers_frames_skip_the_finite_scan_and_any_other_frames_do_not(monkeypatch):
+    import dataclasses
+
+    import windnav.wind.gridded as gridded
+
+    sol = wn.flow.simulate(_city(), speed=2.0, direction_deg=10.0, dt=0.3, spinup_steps=5,
+                           steps=6, record_every=2)
+    scans = []
+    real = gridded._all_finite
+    monkeypatch.setattr(gridded, "_all_finite", lambda a: scans.append(a.shape) or real(a))
+    field = sol.wind_field(unsteady=True)
+    assert scans == []                                   # finite by construction: no scan
+    checked = gridded.GriddedWind(sol.x, sol.y, sol.frames_u, sol.frames_v, t=sol.t)
+    assert len(scans) == 2                               # the same frames, scanned
+    np.testing.assert_array_equal(field.u, checked.u)    # and the same field
+    np.testing.assert_array_equal(field.v, checked.v)
+    # a solution made from it (other frames) is scanned again, and NaN is caught
+    bad = np.array(sol.frames_u)
+    bad[1, 2, 3] = np.nan
+    other = dataclasses.replace(sol, frames_u=bad)
+    with pytest.raises(ValueError, match="'u'.*must be finite"):
+        other.wind_field(unsteady=True)
+    # the steady mean is scanned as before
+    scans.clear()
+    sol.wind_field()
+    assert len(scans) == 2

@@ -367,7 +367,10 @@ class FlowSolution:
                 "The 'unsteady' parameter of FlowSolution.wind_field needs recorded frames; "
                 "run simulate with record_every > 0."
             )
-        return GriddedWind(self.x, self.y, self.frames_u, self.frames_v, t=self.t, solid=self.solid)
+        # the solver's own frames are finite by construction (see _Run.solution); any other
+        # solution (loaded, or made with dataclasses.replace) is scanned
+        return GriddedWind(self.x, self.y, self.frames_u, self.frames_v, t=self.t,
+                           solid=self.solid, known_finite=getattr(self, "_frames_finite", False))
 
 
 def city_domain(city, speed: float, direction_deg: float, dx: float) -> FlowDomain:
@@ -733,7 +736,7 @@ class _Run:
             half_diff = float("nan") if not self.n_first else 0.0
         length = flow_length(d)
         n_frames, dt = self.n_frames, self.step.dt
-        return FlowSolution(
+        solution = FlowSolution(
             x=d.grid.x,
             y=d.grid.y,
             solid=np.array(d.solid),
@@ -751,6 +754,11 @@ class _Run:
             half_window_difference=half_diff,
             **closure,
         )
+        # every step passed check_finite (|u|, |v| <= BLOWUP_FACTOR x speed) before it was
+        # recorded, and a frame is the mean of two such faces: finite. Not a dataclass field,
+        # so dataclasses.replace (which may swap the frames) drops it.
+        object.__setattr__(solution, "_frames_finite", n_frames > 0)
+        return solution
 
 
 def _nonneg_float(value, name, where) -> float:

@@ -135,6 +135,11 @@ class GriddedWind:
     solid : array_like of bool, shape (ny, nx), optional
         Cells inside buildings. Carried for consumers (see :meth:`is_solid`); it does not
         change the interpolation (the solver already sets the wind in solid cells).
+    known_finite : bool
+        The caller vouches that ``u`` and ``v`` are finite, and the scan of every value is
+        skipped (0.23 s per component of a 600 m map's 400 frames). Only for a solver's own
+        output (:meth:`windnav.flow.FlowSolution.wind_field` passes it for the frames of
+        :func:`windnav.flow.simulate`, checked at every step); default False.
 
     Examples
     --------
@@ -145,7 +150,7 @@ class GriddedWind:
     array([[1.5, 0. , 0. ]])
     """
 
-    def __init__(self, x, y, u, v, t=None, solid=None):
+    def __init__(self, x, y, u, v, t=None, solid=None, *, known_finite: bool = False):
         where = "GriddedWind"
         self.x = _axis(x, "x", where)
         self.y = _axis(y, "y", where)
@@ -160,7 +165,7 @@ class GriddedWind:
                     f"The {name!r} parameter of {where} must have shape (ny, nx) = {grid} or "
                     f"(T, ny, nx). Got shape {arr.shape} instead."
                 )
-            if not _all_finite(arr):
+            if not known_finite and not _all_finite(arr):
                 raise ValueError(f"The {name!r} parameter of {where} must be finite.")
             comps.append(arr)
         if comps[0].shape != comps[1].shape:
