@@ -137,7 +137,7 @@ class GriddedWind:
         change the interpolation (the solver already sets the wind in solid cells).
     known_finite : bool
         The caller vouches that ``u`` and ``v`` are finite, and the scan of every value is
-        skipped (0.23 s per component of a 600 m map's 400 frames). Only for a solver's own
+        skipped (0.25-0.45 s for a 600 m map's 400 frames). Only for a solver's own
         output (:meth:`windnav.flow.FlowSolution.wind_field` passes it for the frames of
         :func:`windnav.flow.simulate`, checked at every step); default False.
 
