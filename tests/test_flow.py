@@ -371,6 +371,8 @@ def test_the_solvers_frames_skip_the_finite_scan_and_any_other_frames_do_not(mon
     scans = []
     real = gridded._all_finite
     monkeypatch.setattr(gridded, "_all_finite", lambda a: scans.append(a.shape) or real(a))
+    with pytest.raises(ValueError, match="read-only"):  # and they stay so: no writes
+        sol.frames_u[0, 0, 0] = np.nan
     field = sol.wind_field(unsteady=True)
     assert scans == []                                   # finite by construction: no scan
     checked = gridded.GriddedWind(sol.x, sol.y, sol.frames_u, sol.frames_v, t=sol.t)

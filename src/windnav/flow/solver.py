@@ -755,8 +755,12 @@ class _Run:
             **closure,
         )
         # every step passed check_finite (|u|, |v| <= BLOWUP_FACTOR x speed) before it was
-        # recorded, and a frame is the mean of two such faces: finite. Not a dataclass field,
-        # so dataclasses.replace (which may swap the frames) drops it.
+        # recorded, and a frame is the mean of two such faces: finite. The frames are made
+        # read-only so that it stays true (a wind field of them makes them so anyway), and the
+        # flag is not a dataclass field, so dataclasses.replace (which may swap them) drops it.
+        if n_frames:
+            for arr in (self.frames, self.frames_u, self.frames_v):
+                arr.setflags(write=False)
         object.__setattr__(solution, "_frames_finite", n_frames > 0)
         return solution
 
