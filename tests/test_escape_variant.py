@@ -407,6 +407,11 @@ def test_launch_flies_the_least_time_route_from_the_start(city, flow):
     assert escape[0] == 0.0 and np.array_equal(res.route[0], np.asarray(START))
     # about 100 m at 8 m/s of airspeed in 2 m/s of wind: longer than 5 s, so it launched
     assert res.settings["route_time_s"] > 5.0
+    # with a gust margin the route may go around the wake's gusts: no faster in the mean wind
+    gusty = fly(city, flow, planner=Crawl(), duration=40.0,
+                escape=EscapeConfig(airspeed_mps=8.0, launch_s=5.0, gust_k=1.0))
+    assert gusty.settings["escapes"][0][0] == 0.0
+    assert gusty.settings["route_time_s"] >= res.settings["route_time_s"] - 1e-9
 
 
 def test_fastest_escape_restart_replaces_the_route_from_where_the_vehicle_is():

@@ -234,7 +234,11 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
         "ea-mppi-w-esc", {"escape": EscapeConfig(airspeed_mps=12.0, regain_m=25.0)})
     assert nb.parse_variant("ea-mppi-w-esc@escair=12@launch=40") == (
         "ea-mppi-w-esc", {"escape": EscapeConfig(airspeed_mps=12.0, launch_s=40.0)})
-    for bad in ("ea-mppi-w@esc=100", "ea-mppi-w-esc@esc=0", "ea-mppi-w-esc@esc=inf",
+    assert nb.parse_variant("ea-mppi-w-esc@escair=12@gust=0.5") == (
+        "ea-mppi-w-esc", {"escape": EscapeConfig(airspeed_mps=12.0, gust_k=0.5)})
+    for bad in ("ea-mppi-w-esc@gust=1", "ea-mppi-w-esc@escair=12@gust=0",
+                "ea-mppi-w@gust=1", "ea-mppi-w-esc@escair=12@gust=1@gust=2",
+"ea-mppi-w@esc=100", "ea-mppi-w-esc@esc=0", "ea-mppi-w-esc@esc=inf",
                 "ea-mppi-w-esc@esc=100@esc=200", "ea-mppi-w@escair=12",
                 "ea-mppi-w-esc@escair=0", "ea-mppi-w-esc@escair=inf",
                 "ea-mppi-w-esc@escair=12@escair=13", "ea-mppi-w-esc@edge=20",

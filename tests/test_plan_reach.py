@@ -298,3 +298,107 @@ def test_fastest_route_leaves_a_building_clearance_and_says_when_there_is_none()
                                                 np.zeros((2,) + u.shape), t=[0.0, 1.0]))
     with pytest.raises(ValueError, match="steady ReachLattice"):
         fastest_route(unsteady, (50, 100), (150, 100), airspeed_max=10.0)
+
+
+# ------------------------------------------------------------------------- the gust margin
+
+
+def _gusty(sigma_u, sigma_v=0.0, cov_uv=0.0, mean=(0.0, 0.0), shape=(200, 200)):
+    """A uniform mean wind on 1 m cells and a uniform covariance of the wind there."""
+    x = y = np.arange(0.5, 200.0, 1.0)
+    u = np.full(shape, mean[0])
+    v = np.full(shape, mean[1])
+    gust = np.empty(shape + (3,))
+    gust[...] = (sigma_u**2, cov_uv, sigma_v**2)
+    return GriddedWind(x, y, u, v), gust
+
+
+def test_wind_covariance_equals_numpy_over_the_strided_frames():
+    from types import SimpleNamespace
+
+    from windnav.plan.reach import wind_covariance
+
+    rng = np.random.default_rng(3)
+    fu = rng.normal(2.0, 1.5, size=(41, 6, 7))
+    fv = 0.5 * fu + rng.normal(-1.0, 0.7, size=fu.shape)
+    cov = wind_covariance(SimpleNamespace(frames_u=fu, frames_v=fv), every=4)
+    a, b = fu[::4], fv[::4]
+    np.testing.assert_allclose(cov[..., 0], a.var(0), rtol=1e-12)
+    np.testing.assert_allclose(cov[..., 1], ((a - a.mean(0)) * (b - b.mean(0))).mean(0),
+                               rtol=1e-10)
+    np.testing.assert_allclose(cov[..., 2], b.var(0), rtol=1e-12)
+    with pytest.raises(ValueError, match="'every'"):
+        wind_covariance(SimpleNamespace(frames_u=fu, frames_v=fv), every=0)
+    with pytest.raises(ValueError, match="'solution'.*recorded frames"):
+        wind_covariance(SimpleNamespace(frames_u=None, frames_v=None))
+
+
+@pytest.mark.parametrize("k", [0.5, 1.0, 2.0])
+def test_gust_margin_lowers_the_ground_speed_by_k_deviations_along_the_track(k):
+    """Open map, a 3 m/s tailwind along +x with a 2 m/s deviation in every direction: the leg
+    along +x is flown at A + 3 - 2k, the crosswind leg along +y at sqrt(A^2 - 3^2) - 2k."""
+    wind, gust = _gusty(2.0, 2.0, mean=(3.0, 0.0))
+    lat = reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0, gust=gust)
+    np.testing.assert_allclose(lat.gust[..., 0], 4.0)
+    along_x = least_time(lat, (20, 100), (180, 100), airspeed_max=10.0, gust_k=k)
+    assert along_x.time_s == pytest.approx(160.0 / (13.0 - 2.0 * k), rel=5e-3)
+    along_y = least_time(lat, (100, 20), (100, 180), airspeed_max=10.0, gust_k=k)
+    v_y = math.sqrt(100.0 - 9.0) - 2.0 * k
+    assert along_y.time_s == pytest.approx(160.0 / v_y, rel=5e-3)
+
+
+def test_gust_margin_zero_is_the_mean_wind_search_to_the_bit():
+    from windnav.plan.reach import fastest_route
+
+    city = City((0, 200, 0, 200), [[60, 80, 40, 120], [120, 150, 90, 170]], [20, 20])
+    x = y = np.arange(0.5, 200.0, 1.0)
+    u = -3.0 + 0.02 * y[:, None] * np.ones((1, x.size))
+    v = 1.5 * np.sin(x[None, :] / 30.0) * np.ones((y.size, 1))
+    wind = GriddedWind(x, y, u, v)
+    gust = np.random.default_rng(0).uniform(0.0, 9.0, size=(y.size, x.size, 3))
+    plain = reach_lattice(city, wind, dx=2.0, clearance=2.0)
+    gusty = reach_lattice(city, wind, dx=2.0, clearance=2.0, gust=gust)
+    a = least_time(plain, (20, 100), (180, 120), airspeed_max=9.0)
+    b = least_time(gusty, (20, 100), (180, 120), airspeed_max=9.0, gust_k=0.0)
+    assert a.time_s == b.time_s and np.array_equal(a.path, b.path)
+    ra = fastest_route(plain, (20, 100), (180, 120), airspeed_max=9.0)
+    rb = fastest_route(gusty, (20, 100), (180, 120), airspeed_max=9.0, gust_k=0.0)
+    assert np.array_equal(ra.speeds, rb.speeds) and ra.time_s == rb.time_s
+
+
+def test_gust_margin_takes_the_calm_street_around_a_gusty_one():
+    """A wall with two gaps, the same calm mean wind in both: with no margin the route takes
+    the near gap; a 9.5 m/s deviation in every direction inside the near gap (0.5 m/s of
+    ground speed left through it at k = 1) sends the gust-aware route over the far one. Its
+    pieces are flown at the mean wind's speeds, the full airspeed in this calm."""
+    from windnav.plan.reach import fastest_route
+
+    city = City((0, 200, 0, 200), [[95, 105, 0, 90], [95, 105, 110, 170]], [20, 20])
+    x = y = np.arange(0.5, 200.0, 1.0)
+    wind = GriddedWind(x, y, np.zeros((200, 200)), np.zeros((200, 200)))
+    gust = np.zeros((200, 200, 3))
+    in_gap = ((y >= 88) & (y <= 112))[:, None] & ((x >= 90) & (x <= 110))[None, :]
+    gust[in_gap, 0] = gust[in_gap, 2] = 9.5**2
+    lat = reach_lattice(city, wind, dx=2.0, clearance=2.0, gust=gust)
+    plain = least_time(lat, (50, 100), (150, 100), airspeed_max=10.0)
+    assert plain.path[:, 1].max() < 115  # through the near gap
+    careful = fastest_route(lat, (50, 100), (150, 100), airspeed_max=10.0, gust_k=1.0)
+    assert careful.samples[:, 1].max() > 170  # over the far gap
+    np.testing.assert_allclose(careful.speeds, 10.0)
+    assert careful.time_s == pytest.approx(careful.length_m / 10.0)
+    assert careful.length_m > plain.length_m + 50.0
+
+
+def test_gust_margin_rejects_what_it_cannot_use():
+    from windnav.plan.reach import fastest_route
+
+    wind, gust = _gusty(1.0)
+    plain = reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0)
+    with pytest.raises(ValueError, match="'gust_k'.*no gust"):
+        least_time(plain, (20, 100), (180, 100), airspeed_max=10.0, gust_k=1.0)
+    with pytest.raises(ValueError, match="'gust_k'"):
+        fastest_route(plain, (20, 100), (180, 100), airspeed_max=10.0, gust_k=-1.0)
+    with pytest.raises(ValueError, match="'gust'.*shape"):
+        reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0, gust=gust[:-1])
+    with pytest.raises(ValueError, match="'gust'.*gridded wind"):
+        reach_lattice(EMPTY, (1.0, 0.0), dx=2.0, clearance=0.0, gust=gust)

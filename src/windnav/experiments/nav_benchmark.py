@@ -269,7 +269,7 @@ def _dated_decoder(name: str):
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
               "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
-              "launch": "escape_launch"}
+              "launch": "escape_launch", "gust": "escape_gust"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -286,12 +286,14 @@ speed of the last 10 s would arrive later than that before the deadline,
 ``EscapeConfig.pace_margin_s``), ``regain`` (m: a vehicle blown that far off the goal it holds
 flies a new least-time route back, ``EscapeConfig.regain_m``) and ``launch`` (s: the escape
 begins at take-off when the least time to the goal in the mean wind is longer than that,
-``EscapeConfig.launch_s``)."""
+``EscapeConfig.launch_s``) and ``gust`` (standard deviations: the least-time routes are
+searched with each move's ground speed lowered by that many deviations of the recorded wind
+along it, and flown at the mean wind's speeds, ``EscapeConfig.gust_k``)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
-_ESCAPE_KEYS = ("esc", "escair", "edge", "pace", "regain", "launch")
+_ESCAPE_KEYS = ("esc", "escair", "edge", "pace", "regain", "launch", "gust")
 """The label parameters of the escape variants (:class:`windnav.plan.EscapeConfig`)."""
-_NEEDS_ESCAIR = ("edge", "pace", "regain", "launch")
+_NEEDS_ESCAIR = ("edge", "pace", "regain", "launch", "gust")
 """Those that act only on a least-time escape (``escair``)."""
 
 
@@ -331,7 +333,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
-                          f"'@pace=S' (s, > 0) and/or '@regain=D' (m, > 10): "
+                          f"'@pace=S' (s, > 0) and/or '@regain=D' (m, > 10) and/or "
+                          f"'@launch=T' (s, > 0) and/or '@gust=K' (deviations, > 0): "
                           f"{why}. Got {label!r} instead.")
 
     if base not in VARIANTS:
@@ -388,7 +391,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                                          edge_m=escape.get("escape_edge", 0.0),
                                          pace_margin_s=escape.get("escape_pace", 0.0),
                                          regain_m=escape.get("escape_regain", 0.0),
-                                         launch_s=escape.get("escape_launch", 0.0))
+                                         launch_s=escape.get("escape_launch", 0.0),
+                                         gust_k=escape.get("escape_gust", 0.0))
     return base, options
 
 

@@ -463,11 +463,12 @@ class _FastestRouteFn:
     speed_max = 20.0  # m/s, the GS routes' largest ground speed
 
     def __init__(self, city, flow, goal, airspeed: float, dx: float, clearance: float,
-                 edge_m: float = 0.0):
-        from windnav.plan.reach import reach_lattice
+                 edge_m: float = 0.0, gust_k: float = 0.0):
+        from windnav.plan.reach import reach_lattice, wind_covariance
 
         t0 = time.perf_counter()
-        lattice = reach_lattice(city, flow.wind_field(), dx=dx, clearance=clearance)
+        gust = wind_covariance(flow) if gust_k > 0 else None
+        lattice = reach_lattice(city, flow.wind_field(), dx=dx, clearance=clearance, gust=gust)
         if edge_m > 0:  # the edge guard's band is no place for the route either
             x0, x1, y0, y1 = city.bounds
             inside_x = (lattice.x >= x0 + edge_m) & (lattice.x <= x1 - edge_m)
@@ -475,7 +476,7 @@ class _FastestRouteFn:
             lattice = dataclasses.replace(
                 lattice, free=lattice.free & inside_y[:, None] & inside_x[None, :])
         self.lattice = lattice
-        self.goal, self.airspeed = goal, airspeed
+        self.goal, self.airspeed, self.gust_k = goal, airspeed, gust_k
         self.ms = [1e3 * (time.perf_counter() - t0)]
 
     def __call__(self, position_xy):
@@ -483,7 +484,8 @@ class _FastestRouteFn:
 
         t0 = time.perf_counter()
         route = fastest_route(self.lattice, position_xy, self.goal,
-                              airspeed_max=self.airspeed, speed_max=self.speed_max)
+                              airspeed_max=self.airspeed, speed_max=self.speed_max,
+                              gust_k=self.gust_k)
         self.ms.append(1e3 * (time.perf_counter() - t0))
         return route
 
@@ -738,7 +740,7 @@ def navigate(
         if escape is not None and escape.airspeed_mps is not None:
             escape_guide = FastestEscape(
                 _FastestRouteFn(city, flow, goal, escape.airspeed_mps, route_dx,
-                                  route_clearance, escape.edge_m), goal, escape,
+                                  route_clearance, escape.edge_m, escape.gust_k), goal, escape,
                 bounds=city.bounds, deadline_s=end - HOLD_S)
         else:
             route = energy_route(city, start, goal, planner_config(params, "gs-w"),

@@ -249,6 +249,51 @@ def max_ground_speed(ex, ey, wx, wy, airspeed_max):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, inline="always")
+def gust_ground_speed(ex, ey, wx, wy, suu, suv, svv, airspeed_max, gust_k):  # pragma: no cover
+    """:func:`max_ground_speed` less ``gust_k`` standard deviations of the wind along ``e``
+    (``e^T S e``, ``S = [[suu, suv], [suv, svv]]`` the wind's covariance, m^2/s^2), or 0: the
+    ground speed kept when the along-track wind is ``gust_k`` deviations more adverse than its
+    mean. ``gust_k = 0`` is :func:`max_ground_speed` exactly."""
+    v = max_ground_speed(ex, ey, wx, wy, airspeed_max)
+    if gust_k > 0.0 and v > 0.0:
+        var = ex * ex * suu + 2.0 * ex * ey * suv + ey * ey * svv
+        v -= gust_k * math.sqrt(var if var > 0.0 else 0.0)
+        if v < 0.0:
+            v = 0.0
+    return v
+
+
+@numba.njit(cache=True)
+def frame_covariance(frames_u, frames_v, every, out):  # pragma: no cover - numba
+    """Covariance over frames ``0, every, 2 every, ...`` of the wind at each cell: ``out``
+    (ny, nx, 3) receives ``(var u, cov uv, var v)``, m^2/s^2 (population, about the frames'
+    own mean)."""
+    T, ny, nx = frames_u.shape
+    su = np.zeros((ny, nx))
+    sv = np.zeros((ny, nx))
+    out[:] = 0.0
+    n = 0
+    for k in range(0, T, every):
+        n += 1
+        for j in range(ny):
+            for i in range(nx):
+                u = frames_u[k, j, i]
+                v = frames_v[k, j, i]
+                su[j, i] += u
+                sv[j, i] += v
+                out[j, i, 0] += u * u
+                out[j, i, 1] += u * v
+                out[j, i, 2] += v * v
+    for j in range(ny):
+        for i in range(nx):
+            mu = su[j, i] / n
+            mv = sv[j, i] / n
+            out[j, i, 0] = max(out[j, i, 0] / n - mu * mu, 0.0)
+            out[j, i, 1] = out[j, i, 1] / n - mu * mv
+            out[j, i, 2] = max(out[j, i, 2] / n - mv * mv, 0.0)
+
+
+@numba.njit(cache=True, inline="always")
 def _heap_push(keys, nodes, n, key, node):  # pragma: no cover - numba
     k = n
     keys[k] = key
@@ -287,7 +332,8 @@ def _heap_pop(keys, nodes, n):  # pragma: no cover - numba
 
 @numba.njit(cache=True)
 def earliest_arrival(free, frames, t0_frames, dt_frames, moves, guards, dx, airspeed_max,
-                     source, t_start, t_end, target, arrival, pred):  # pragma: no cover - numba
+                     source, t_start, t_end, target, arrival, pred, gust,
+                     gust_k):  # pragma: no cover - numba
     """Earliest arrival time at every lattice cell from ``source`` leaving at ``t_start`` (s),
     flying every move at its largest ground speed within ``airspeed_max`` (m/s).
 
@@ -300,6 +346,10 @@ def earliest_arrival(free, frames, t0_frames, dt_frames, moves, guards, dx, airs
     reached after ``t_end`` are not expanded, and the search stops once ``target`` (a flat
     index, or -1 for none) is settled. ``arrival`` (ny * nx) receives the times (inf: not
     reached), ``pred`` the predecessor cell (-1 at the source and unreached cells).
+
+    ``gust`` (ny, nx, 3): the covariance of the wind at the cells (:func:`frame_covariance`);
+    with ``gust_k > 0`` (steady winds only) a move is flown at :func:`gust_ground_speed` in the
+    mean of its two cells' covariances; ``gust_k = 0`` leaves ``gust`` unread.
     """
     ny, nx = free.shape
     T = frames.shape[0]
@@ -351,7 +401,14 @@ def earliest_arrival(free, frames, t0_frames, dt_frames, moves, guards, dx, airs
                             + c * (frames[f1, j, i, 0] + frames[f1, j2, i2, 0]))
                 wy = 0.5 * ((1 - c) * (frames[f0, j, i, 1] + frames[f0, j2, i2, 1])
                             + c * (frames[f1, j, i, 1] + frames[f1, j2, i2, 1]))
-                v = max_ground_speed(ex, ey, wx, wy, airspeed_max)
+                if gust_k > 0.0:
+                    v = gust_ground_speed(ex, ey, wx, wy,
+                                          0.5 * (gust[j, i, 0] + gust[j2, i2, 0]),
+                                          0.5 * (gust[j, i, 1] + gust[j2, i2, 1]),
+                                          0.5 * (gust[j, i, 2] + gust[j2, i2, 2]),
+                                          airspeed_max, gust_k)
+                else:
+                    v = max_ground_speed(ex, ey, wx, wy, airspeed_max)
                 if v > 0.0:
                     arr = dep + length / v
                     break

@@ -116,6 +116,12 @@ class EscapeConfig:
         farther than this from it (m, >= 0; 0: never; more than the loop's capture radius)
         leaves the hold and flies a new least-time route from where it is back to the goal
         (:meth:`FastestEscape.restart`), until the next capture.
+    gust_k : float
+        With ``airspeed_mps`` set: the least-time routes are searched with each move's ground
+        speed lowered by ``gust_k`` standard deviations of the recorded wind along it
+        (:func:`windnav.plan.reach.least_time`; >= 0; 0: the mean wind alone), so that they
+        keep out of the streets whose gusts stop the vehicle; they are flown, and their time
+        judged by ``launch_s``, at the mean wind's speeds.
     """
 
     window_s: float = 3.0
@@ -127,6 +133,7 @@ class EscapeConfig:
     pace_window_s: float = 10.0
     regain_m: float = 0.0
     launch_s: float = 0.0
+    gust_k: float = 0.0
 
     def __post_init__(self):
         for name in ("window_s", "min_progress_m", "length_m", "pace_window_s"):
@@ -135,7 +142,7 @@ class EscapeConfig:
         if self.airspeed_mps is not None:
             object.__setattr__(self, "airspeed_mps", positive_float(
                 self.airspeed_mps, "airspeed_mps", "EscapeConfig"))
-        for name in ("edge_m", "pace_margin_s", "regain_m", "launch_s"):
+        for name in ("edge_m", "pace_margin_s", "regain_m", "launch_s", "gust_k"):
             object.__setattr__(self, name, positive_float(getattr(self, name), name,
                                                           "EscapeConfig", allow_zero=True))
             if getattr(self, name) > 0 and self.airspeed_mps is None:

@@ -47,6 +47,7 @@ __all__ = [
     "max_ground_speed",
     "nearest_free_cell",
     "reach_lattice",
+    "wind_covariance",
 ]
 
 
@@ -127,6 +128,10 @@ class ReachLattice:
         Time of the first frame and the spacing of the frames, s.
     dx, clearance : float
         Lattice spacing and building clearance, m.
+    gust : ndarray of shape (ny, nx, 3) or None
+        The covariance of the wind at the cells, ``(var u, cov uv, var v)``, m^2/s^2
+        (:func:`wind_covariance`), for the gust-aware searches (``gust_k > 0``); None: not
+        known.
     """
 
     x: np.ndarray
@@ -137,6 +142,7 @@ class ReachLattice:
     dt_frames: float
     dx: float
     clearance: float
+    gust: np.ndarray | None = None
 
     @property
     def unsteady(self) -> bool:
@@ -144,7 +150,43 @@ class ReachLattice:
         return self.frames.shape[0] > 1
 
 
-def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0) -> ReachLattice:
+def wind_covariance(solution, every: int = 4) -> np.ndarray:
+    """The covariance of a recorded wind at each of its cells, over every ``every``-th frame.
+
+    Parameters
+    ----------
+    solution : FlowSolution
+        With recorded frames (``frames_u``, ``frames_v`` of shape (T, ny, nx)).
+    every : int
+        Frame stride (>= 1): at the suite's 0.25 s frames, 4 takes one frame a second, whose
+        statistics are those of all frames to within the eddies' own sampling error at a
+        quarter of the cost.
+
+    Returns
+    -------
+    ndarray of shape (ny, nx, 3)
+        ``(var u, cov uv, var v)`` about the frames' own mean, m^2/s^2, on the solution's
+        grid (``reach_lattice(..., gust=)``).
+    """
+    where = "wind_covariance"
+    fu = getattr(solution, "frames_u", None)
+    fv = getattr(solution, "frames_v", None)
+    if fu is None or fv is None:
+        raise ValueError(f"The 'solution' parameter of {where} must have recorded frames "
+                         f"(simulate with record_every > 0). Got {type(solution).__name__} "
+                         "without them instead.")
+    if isinstance(every, bool) or not isinstance(every, (int, np.integer)) or every < 1:
+        raise ValueError(f"The 'every' parameter of {where} must be an integer >= 1. Got "
+                         f"{every!r} instead.")
+    fu = np.asarray(fu, dtype=np.float64)
+    fv = np.asarray(fv, dtype=np.float64)
+    out = np.empty(fu.shape[1:] + (3,))
+    SK.frame_covariance(fu, fv, int(every), out)
+    return out
+
+
+def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0,
+                  gust=None) -> ReachLattice:
     """Rasterise ``city`` and sample ``wind`` on the lattice of :func:`least_time`.
 
     Parameters
@@ -158,6 +200,10 @@ def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0) -> Rea
         Lattice spacing, m.
     clearance : float
         Distance kept from every building, m (the vehicle's size).
+    gust : ndarray of shape (ny_w, nx_w, 3), optional
+        The wind's covariance on the grid of ``wind`` (a GriddedWind, or a FlowSolution's)
+        (:func:`wind_covariance`), resampled bilinearly at the cells into
+        :attr:`ReachLattice.gust`.
 
     Returns
     -------
@@ -172,12 +218,27 @@ def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0) -> Rea
     if hasattr(wind, "frames_u") and hasattr(wind, "mean_u"):  # a FlowSolution
         wind = wind.wind_field(unsteady=wind.frames_u is not None)
     t0, dt_frames = 0.0, 1.0
+    gust_cells = None
+    if gust is not None:
+        if not isinstance(wind, GriddedWind):
+            raise ValueError(f"The 'gust' parameter of {where} needs a gridded wind (a "
+                             f"GriddedWind or FlowSolution). Got a {type(wind).__name__} "
+                             "instead.")
+        gust = np.asarray(gust, dtype=np.float64)
+        if gust.shape != (wind.y.size, wind.x.size, 3) or not np.all(np.isfinite(gust)):
+            raise ValueError(f"The 'gust' parameter of {where} must be a finite covariance of "
+                             f"shape {(wind.y.size, wind.x.size, 3)} (the wind's grid). Got "
+                             f"shape {gust.shape} instead.")
     if isinstance(wind, GriddedWind):
         i0, a = _bracket(wind.x, x)
         j0, b = _bracket(wind.y, y)
         src = wind._frames
         frames = np.empty((src.shape[0], y.size, x.size, 2))
         SK.resample_frames(src, i0, a, j0, b, frames)
+        if gust is not None:
+            pairs = np.empty((2, y.size, x.size, 2))
+            SK.resample_frames(np.stack([gust[..., :2], gust[..., 1:]]), i0, a, j0, b, pairs)
+            gust_cells = np.ascontiguousarray(np.dstack([pairs[0], pairs[1, ..., 1]]))
         if wind.t is not None:
             steps = np.diff(wind.t)
             if steps.size and np.ptp(steps) > 1e-9 * steps[0]:
@@ -189,7 +250,17 @@ def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0) -> Rea
         w = batch_array(wind, "wind", where, (2,), batch=1)[0]
         frames = np.broadcast_to(w, (1, y.size, x.size, 2)).copy()
     return ReachLattice(x=x, y=y, free=np.ascontiguousarray(free), frames=frames, t0=t0,
-                        dt_frames=dt_frames, dx=dx, clearance=clearance)
+                        dt_frames=dt_frames, dx=dx, clearance=clearance, gust=gust_cells)
+
+
+def _gust_k(lattice: ReachLattice, gust_k, where: str) -> float:
+    """``gust_k`` checked (>= 0; > 0 needs a steady lattice with :attr:`~ReachLattice.gust`)."""
+    k = positive_float(gust_k, "gust_k", where, allow_zero=True)
+    if k > 0 and (lattice.gust is None or lattice.unsteady):
+        raise ValueError(f"The 'gust_k' parameter of {where} needs a steady lattice built with "
+                         f"reach_lattice(..., gust=). Got gust_k={k!r} with "
+                         f"{'an unsteady' if lattice.unsteady else 'no gust'} lattice instead.")
+    return k
 
 
 def least_time(
@@ -201,6 +272,7 @@ def least_time(
     t_start: float = 0.0,
     t_end: float = np.inf,
     goal_radius: float = 0.0,
+    gust_k: float = 0.0,
 ) -> ReachResult:
     """Earliest arrival at ``goal_xy`` (or within ``goal_radius`` of it) from ``start_xy``
     within an airspeed limit.
@@ -220,6 +292,11 @@ def least_time(
     goal_radius : float
         Arriving at any free cell whose centre lies within this distance of the goal counts,
         m (0: the goal's cell).
+    gust_k : float
+        Gust margin (>= 0): each move's ground speed is lowered by ``gust_k`` standard
+        deviations of the wind along it (the lattice's :attr:`~ReachLattice.gust`), so that
+        routes avoid the streets whose gusts stop the vehicle more than their mean wind says.
+        0: the mean wind alone. Steady lattices only.
 
     Returns
     -------
@@ -241,16 +318,18 @@ def least_time(
         raise ValueError(f"The 't_end' parameter of {where} must be greater than t_start "
                          f"({t_start}). Got {t_end!r} instead.")
     radius = positive_float(goal_radius, "goal_radius", where, allow_zero=True)
+    k = _gust_k(lattice, gust_k, where)
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
     goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
     lat = lattice
+    gust = lat.gust if k > 0 else np.zeros((1, 1, 3))
     s = free_cell(start, "start_xy", lat.x, lat.y, lat.free, lat.dx, lat.clearance, where)
     g = free_cell(goal, "goal_xy", lat.x, lat.y, lat.free, lat.dx, lat.clearance, where)
     arrival = np.empty(lat.free.size)
     pred = np.empty(lat.free.size, np.int64)
     SK.earliest_arrival(lat.free, lat.frames, lat.t0, lat.dt_frames, MOVES, _guards(MOVES),
                         lat.dx, a_max, s, t_start, t_end, -1 if radius > 0 else g, arrival,
-                        pred)
+                        pred, gust, k)
     if radius > 0:  # the first cell reached inside the goal's disk
         gx, gy = np.meshgrid(lat.x, lat.y)
         near = np.flatnonzero((np.hypot(gx - goal[0], gy - goal[1]) <= radius).ravel()
@@ -309,10 +388,11 @@ def nearest_free_cell(lattice: ReachLattice, point_xy, max_distance: float = np.
 
 
 def fastest_route(lattice: ReachLattice, start_xy, goal_xy, *, airspeed_max: float,
-                  speed_max: float = 20.0, snap_m: float = 20.0) -> FastestRoute | None:
+                  speed_max: float = 20.0, snap_m: float = 20.0,
+                  gust_k: float = 0.0) -> FastestRoute | None:
     """The least-time route from ``start_xy`` to ``goal_xy`` in a steady wind, with the ground
     speed of each piece (:func:`least_time`, then :func:`max_ground_speed` in the mean of the
-    wind at the piece's two end cells).
+    wind at the piece's two end cells; with ``gust_k > 0`` the search weighs the gusts).
 
     A start inside the clearance of a building (a vehicle stalled beside one) joins the lattice
     at the nearest free cell within ``snap_m``, flown straight at 2 m/s.
@@ -329,6 +409,11 @@ def fastest_route(lattice: ReachLattice, start_xy, goal_xy, *, airspeed_max: flo
         Largest ground speed flown, m/s (> 0).
     snap_m : float
         How far a start may lie from the nearest free cell, m (>= 0).
+    gust_k : float
+        Gust margin of the search (:func:`least_time`), >= 0: the route keeps out of the
+        streets whose gusts would slow it; its pieces' ``speeds`` and ``time_s`` are still
+        those of the mean wind (lowering them as well was tried in the benchmark and lost
+        flights: docs/navigation.md).
 
     Returns
     -------
@@ -343,6 +428,7 @@ def fastest_route(lattice: ReachLattice, start_xy, goal_xy, *, airspeed_max: flo
     a_max = positive_float(airspeed_max, "airspeed_max", where)
     v_cap = positive_float(speed_max, "speed_max", where)
     snap = positive_float(snap_m, "snap_m", where, allow_zero=True)
+    k = _gust_k(lattice, gust_k, where)
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
     goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
     nx = lattice.x.size
@@ -351,7 +437,7 @@ def fastest_route(lattice: ReachLattice, start_xy, goal_xy, *, airspeed_max: flo
     entry = start if lattice.free[j, i] else nearest_free_cell(lattice, start, snap)
     if entry is None:
         return None
-    result = least_time(lattice, entry, goal, airspeed_max=a_max)
+    result = least_time(lattice, entry, goal, airspeed_max=a_max, gust_k=k)
     if not result.reached:
         return None
     path = result.path if entry is start else np.vstack([start, result.path])
