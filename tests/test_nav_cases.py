@@ -197,3 +197,32 @@ def test_wind_scenarios_figure(tmp_path):
     for bad in ((0, 0), (2,), ()):
         with pytest.raises(ValueError, match="'winds' parameter of wind_scenarios"):
             wind_scenarios(TINY, 0, bad)
+
+
+# ----------------------------------------------------------------------------- gusts
+
+
+def test_gust_routes_flies_both_settings_as_the_benchmark_and_draws_them(tmp_path):
+    from windnav.experiments.nav_gusts import gust_routes
+    from windnav.viz.nav_studies import plot_gust_routes
+
+    base = "ea-mppi-w-esc@escair=8@launch=1"  # every flight flies its least-time route
+    out = gust_routes(TINY, P1, base=base, gust_k=0.5)
+    assert out["variants"] == [base, base + "@gust=0.5"]
+    flow, sigma = out["flow"], out["sigma_along"]
+    assert flow.frames_u is None and sigma.shape == flow.solid.shape
+    assert np.all(sigma >= 0) and sigma[~flow.solid].max() > 0  # the buildings' wakes gust
+    for v in out["variants"]:
+        route = out["routes"][v]
+        assert route["begun_s"] == 0.0 and route["time_s"] > 1.0
+        np.testing.assert_allclose(route["samples"][-1], out["scenario"].goal, atol=2.0)
+    # the flights are the benchmark's
+    again = nb.fly_scenario(TINY, out["scenario"], out["variants"][1])
+    res = out["flights"][out["variants"][1]]
+    assert again["outcome"] == res.outcome and again["energy_J"] == res.energy_J
+    assert plot_gust_routes(out, tmp_path / "g.png").stat().st_size > 10_000
+    for bad in ("ea-mppi-w", "ea-mppi-w-esc", base + "@gust=1"):
+        with pytest.raises(ValueError, match="'base' parameter of gust_routes"):
+            gust_routes(TINY, P1, base=bad)
+    with pytest.raises(ValueError, match="'gust_k' parameter of gust_routes"):
+        gust_routes(TINY, P1, base=base, gust_k=0.0)

@@ -10,6 +10,7 @@ JSON into ``--out``.
     windnav nav-study gs    --out docs/navigation                        # cases against GS
     windnav nav-study pace  --store runs/thesis --out docs/navigation    # time and power
     windnav nav-study feasibility --store runs/thesis --out docs/navigation  # reachable?
+    windnav nav-study gusts --out docs/navigation                        # gust-aware routes
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -35,6 +36,10 @@ from below the time any planner needs to reach each scenario's goal within the v
 airspeed envelope (:mod:`windnav.experiments.nav_feasibility`), then sets the failures of the
 flights in ``--store`` (optional) against which scenarios are reachable at all; ``--fly
 VARIANTS`` also flies those variants' pending flights into ``--store`` in the same winds.
+``gusts`` re-flies one scenario (``--scenario``) with the sixth variant's setting ``--base``
+and with ``--base@gust=K`` (``--gust-k``) and draws the mean wind and the gust map (the
+standard deviation of the wind along the inlet) with the least-time routes each flew
+(:mod:`windnav.experiments.nav_gusts`).
 """
 
 from __future__ import annotations
@@ -53,7 +58,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility")
+STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts")
 """The studies, as named on the command line."""
 
 
@@ -99,6 +104,13 @@ def register(subparsers) -> None:
     p.add_argument("--fly", default=None, metavar="VARIANTS",
                    help="feasibility: also fly these variants' pending flights (comma-separated "
                         "labels) into --store, in the same winds")
+    p.add_argument("--scenario", default=None,
+                   help="gusts: the scenario re-flown (default thesis/m01/w14/p1)")
+    p.add_argument("--base", default=None,
+                   help="gusts: the sixth variant's setting, without @gust (default "
+                        "ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40)")
+    p.add_argument("--gust-k", type=float, default=0.5,
+                   help="gusts: the gust margin, standard deviations (%(default)s)")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the flights run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -148,6 +160,8 @@ def run(args) -> int:
         return _gs(args, name)
     if study == "feasibility":
         return _feasibility(args, name, spec)
+    if study == "gusts":
+        return _gusts(args, name, spec)
     if args.store is None:
         raise ValueError(f"The '--store' parameter of {name} must name a benchmark store for "
                          f"the {study} study. Got None instead.")
@@ -306,6 +320,53 @@ def _gs(args, name: str) -> int:
                  for v, s in case_summary(cases[c])["variants"].items()} for c in names}
     print(json.dumps(json_ready({"study": "gs", "cases": brief,
                                  "elapsed_s": round(time.perf_counter() - t0, 1)}), indent=1))
+    print_written(out)
+    return 0
+
+
+def _gusts(args, name: str, spec) -> int:
+    import numpy as np
+
+    from windnav.experiments import nav_gusts
+    from windnav.experiments.nav_benchmark import check_scenario_ids
+    from windnav.experiments.results import json_ready
+    from windnav.viz.nav_studies import plot_gust_routes
+
+    scenario = args.scenario or nav_gusts.DEFAULT_SCENARIO
+    try:
+        check_scenario_ids(spec, [scenario], name)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'scenario_ids'", "'--scenario'")) from None
+    base = args.base or nav_gusts.DEFAULT_BASE
+    products = ("nav_gusts.json", "nav_gusts.png")
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    try:
+        res = nav_gusts.gust_routes(spec, scenario, base=base, gust_k=args.gust_k,
+                                    progress=not args.no_progress)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'base' parameter of gust_routes",
+                                          f"'--base' parameter of {name}").replace(
+            "'gust_k' parameter of gust_routes", f"'--gust-k' parameter of {name}")) from None
+    sigma = res["sigma_along"][~res["flow"].solid]
+    summary = {"scenario_id": scenario, "gust_k": res["gust_k"],
+               "sigma_along_mps": {"median": float(np.median(sigma)),
+                                   "p90": float(np.percentile(sigma, 90)),
+                                   "max": float(sigma.max())},
+               "flights": {v: {k: r.summary()[k] for k in ("outcome", "energy_J", "time_s",
+                                                          "arrival_time_s")}
+                           for v, r in res["flights"].items()},
+               "routes": {v: None if r is None else {"begun_s": r["begun_s"],
+                                                      "time_s": r["time_s"],
+                                                      "samples": r["samples"].tolist()}
+                          for v, r in res["routes"].items()},
+               "elapsed_s": time.perf_counter() - t0}
+    _write(out, args, {"study": "gusts", **summary}, products[0],
+           lambda folder: plot_gust_routes(res, folder / products[1]))
+    print(json.dumps(json_ready({"study": "gusts", "scenario_id": scenario,
+                                 "sigma_along_mps": summary["sigma_along_mps"],
+                                 "flights": summary["flights"],
+                                 "elapsed_s": round(summary["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 0
 

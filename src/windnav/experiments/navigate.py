@@ -457,8 +457,10 @@ class _EscapeFollower(_RouteFollower):
 class _FastestRouteFn:
     """``route_fn`` of :class:`~windnav.plan.FastestEscape`: the least-time route from a
     position to ``goal`` in the mean wind of ``flow`` on the GS lattice (spacing ``dx``,
-    ``clearance`` from buildings), airspeed at most ``airspeed``; the lattice is built here,
-    once, and ``ms`` lists the build's and each search's wall time, ms."""
+    ``clearance`` from buildings), airspeed at most ``airspeed``, the search weighing
+    ``gust_k`` deviations of the recorded wind (:func:`windnav.plan.reach.wind_covariance`)
+    when > 0; the lattice is built here, once, and ``ms`` lists the build's and each search's
+    wall time, ms."""
 
     speed_max = 20.0  # m/s, the GS routes' largest ground speed
 

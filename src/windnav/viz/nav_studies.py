@@ -8,6 +8,8 @@ wind-scenario figure, a panel per inlet of :func:`~windnav.experiments.nav_cases
 with the mean wind speed, its streamlines, the buildings and the suite's start/goal pairs.
 :func:`plot_reach`: the least times of :mod:`windnav.experiments.nav_feasibility` per inlet
 speed and pair kind, and each variant's failures among the reachable scenarios.
+:func:`plot_gust_routes`: one scenario's mean wind and gust map with the least-time routes
+flown with and without the gust margin (:func:`windnav.experiments.nav_gusts.gust_routes`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from matplotlib.lines import Line2D  # noqa: E402
 
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background  # noqa: E402
 
-__all__ = ["KIND_COLORS", "plot_cases", "plot_reach", "plot_wind_scenarios"]
+__all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_reach",
+           "plot_wind_scenarios"]
 
 KIND_COLORS = {"tailwind": "#ff9500", "headwind": "#ff2d55"}
 """Marker colours of the start/goal pairs, by kind (drawn with a black edge over the wind)."""
@@ -272,5 +275,66 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     cx.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
     path = Path(path)
     fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path:
+    """One scenario's mean wind (left) and gust map (right), with each flight's path.
+
+    Both panels draw the buildings, the start (circle) and goal (star), and for each of the two
+    flights of :func:`~windnav.experiments.nav_gusts.gust_routes` (without, then with the gust
+    margin) its last least-time route (dashed) and its flown path (solid), labelled with its
+    outcome. The right panel's colour is the standard deviation of the wind along the inlet's
+    direction, m/s.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`~windnav.experiments.nav_gusts.gust_routes`'s result.
+    path : str or Path
+        The PNG to write.
+    title : str, optional
+        Default: the scenario, its inlet and the gust margin.
+
+    Returns
+    -------
+    Path
+    """
+    sc, city, flow = result["scenario"], result["city"], result["flow"]
+    colors = ("#34c759", "#5ac8fa")
+    fig, axes = plt.subplots(1, 2, figsize=(12.4, 5.6))
+    panels = ((None, "mean wind speed (m/s)", True),
+              (result["sigma_along"], "std of the wind along the inlet (m/s)", False))
+    handles = []
+    for ax, (field, label, stream) in zip(axes, panels, strict=True):
+        im = wind_background(ax, city, flow, field, streamlines=stream)
+        fig.colorbar(im, ax=ax, label=label, shrink=0.85)
+        for (v, res), c in zip(result["flights"].items(), colors, strict=True):
+            route = result["routes"].get(v)
+            if route is not None:
+                q = route["samples"]
+                ax.plot(q[:, 0], q[:, 1], "--", color=c, lw=1.3, zorder=5)
+            p = res.position
+            (line,) = ax.plot(p[:, 0], p[:, 1], "-", color=c, lw=1.8, zorder=6,
+                              path_effects=[pe.withStroke(linewidth=3, foreground="k")])
+            if ax is axes[0]:
+                tag = "with the gust margin" if "@gust=" in v else "mean wind only"
+                arrival = res.summary().get("arrival_time_s")
+                when = (f", arrived at {arrival:.1f} s"
+                        if arrival is not None and math.isfinite(arrival) else "")
+                handles.append(Line2D([], [], color=c, lw=1.8,
+                                      label=f"{tag}: {res.outcome}{when}"))
+        (sx, sy), (gx, gy) = sc.start, sc.goal
+        ax.plot(sx, sy, "o", color="w", mec="k", ms=9, zorder=7)
+        ax.plot(gx, gy, "*", color="w", mec="k", ms=15, zorder=7)
+    handles.append(Line2D([], [], ls="--", color="0.5", label="least-time route flown"))
+    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9,
+               frameon=False)
+    fig.suptitle(title or f"{sc.scenario_id} ({sc.kind}): {sc.speed:g} m/s toward "
+                          f"{sc.direction_deg:g}°, gust margin K = {result['gust_k']:g}")
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    path = Path(path)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
