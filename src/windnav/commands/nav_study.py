@@ -105,7 +105,7 @@ def register(subparsers) -> None:
                    help="feasibility: also fly these variants' pending flights (comma-separated "
                         "labels) into --store, in the same winds")
     p.add_argument("--scenario", default=None,
-                   help="gusts: the scenario re-flown (default thesis/m01/w14/p1)")
+                   help="gusts: the scenario re-flown (default thesis/m12/w14/p2)")
     p.add_argument("--base", default=None,
                    help="gusts: the sixth variant's setting, without @gust (default "
                         "ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40)")

@@ -158,9 +158,10 @@ def wind_covariance(solution, every: int = 4) -> np.ndarray:
     solution : FlowSolution
         With recorded frames (``frames_u``, ``frames_v`` of shape (T, ny, nx)).
     every : int
-        Frame stride (>= 1): at the suite's 0.25 s frames, 4 takes one frame a second, whose
-        statistics are those of all frames to within the eddies' own sampling error at a
-        quarter of the cost.
+        Frame stride (>= 1): at the suite's 0.25 s frames, 4 takes one frame a second. On a
+        10 m/s suite wind (``thesis/m12/w14``, 400 frames) the standard deviation along the
+        inlet then differs from all frames' by 0.013 m/s on average (0.45 % of its 2.96 m/s
+        mean over the fluid), in 0.064 s instead of 0.25 s.
 
     Returns
     -------

@@ -165,11 +165,18 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
                       label="goal")]
     handles += [Line2D([], [], ls="--", color=c, label=f"{kind} pair")
                 for kind, c in KIND_COLORS.items()]
+    return _finish(fig, handles, title or f"{result['suite']} suite, map "
+                   f"m{result['map_index']:02d}: mean wind of {n} inlet{'s' if n > 1 else ''}",
+                   path, bottom=0.04)
+
+
+def _finish(fig, handles, title: str, path, *, bottom: float) -> Path:
+    """The legend of ``handles`` in a row below the panels (``bottom`` of the figure), the
+    title, and the figure written to ``path`` (PNG) and closed."""
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9,
                frameon=False)
-    fig.suptitle(title or f"{result['suite']} suite, map m{result['map_index']:02d}: mean wind "
-                          f"of {n} inlet{'s' if n > 1 else ''}")
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0, bottom, 1, 1))
     path = Path(path)
     fig.savefig(path, dpi=110)
     plt.close(fig)
@@ -314,10 +321,11 @@ def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path
             route = result["routes"].get(v)
             if route is not None:
                 q = route["samples"]
-                ax.plot(q[:, 0], q[:, 1], "--", color=c, lw=1.3, zorder=5)
+                ax.plot(q[:, 0], q[:, 1], "--", color=c, lw=1.4, zorder=7,
+                        path_effects=[pe.withStroke(linewidth=2.6, foreground="w")])
             p = res.position
-            (line,) = ax.plot(p[:, 0], p[:, 1], "-", color=c, lw=1.8, zorder=6,
-                              path_effects=[pe.withStroke(linewidth=3, foreground="k")])
+            ax.plot(p[:, 0], p[:, 1], "-", color=c, lw=1.6, zorder=6,
+                    path_effects=[pe.withStroke(linewidth=2.8, foreground="k")])
             if ax is axes[0]:
                 tag = "with the gust margin" if "@gust=" in v else "mean wind only"
                 arrival = res.summary().get("arrival_time_s")
@@ -328,13 +336,7 @@ def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path
         (sx, sy), (gx, gy) = sc.start, sc.goal
         ax.plot(sx, sy, "o", color="w", mec="k", ms=9, zorder=7)
         ax.plot(gx, gy, "*", color="w", mec="k", ms=15, zorder=7)
-    handles.append(Line2D([], [], ls="--", color="0.5", label="least-time route flown"))
-    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9,
-               frameon=False)
-    fig.suptitle(title or f"{sc.scenario_id} ({sc.kind}): {sc.speed:g} m/s toward "
-                          f"{sc.direction_deg:g}°, gust margin K = {result['gust_k']:g}")
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    handles.append(Line2D([], [], ls="--", color="0.5", label="last least-time route flown"))
+    return _finish(fig, handles, title or f"{sc.scenario_id} ({sc.kind}): {sc.speed:g} m/s "
+                   f"toward {sc.direction_deg:g}°, gust margin K = {result['gust_k']:g}",
+                   path, bottom=0.07)
