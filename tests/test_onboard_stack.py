@@ -287,3 +287,48 @@ def test_command_json_carries_the_stage_timings(city, tmp_path):
     assert 0 < doc["real_time_fraction"] and doc["ukf_wind_rms_mps"] >= 0
     series = np.load(tmp_path / "out" / "series.npz")
     assert series["wind_estimate"].shape == (series["t"].size, 3)
+
+
+def test_the_stacks_sensor_samples_are_the_sensor_models(city):
+    """OnboardStack._measure (one compiled sample a step from a block-drawn stream) gives what
+    IMU.measure, Odometry.measure and RotorSpeedSensor.measure give from a twin generator,
+    to the bit, step after step (the rotor speeds from the second step on)."""
+    from scipy.spatial.transform import Rotation
+
+    from windnav.experiments.onboard import OnboardStack
+    from windnav.vehicle import Multirotor, layout
+
+    p = params("hummingbird")
+    stack = OnboardStack(city, Multirotor(p), p, speed=SPEED, direction_deg=0.0,
+                         control_rate_hz=100.0, plan_rate_hz=10.0, n_max=50,
+                         rng=np.random.default_rng(3), decoder=default_decoder())
+    twin = np.random.default_rng(3).spawn(3)[0]  # the stack's sensor stream
+    s = stack.sensors
+    gen = np.random.default_rng(9)
+    x = np.zeros((1, 13 + p.n_rotors))
+    for k in range(40):
+        x[0, :13] = gen.normal(size=13)
+        x[0, layout.ATTITUDE] /= np.linalg.norm(x[0, layout.ATTITUDE])
+        x[0, 13:] = gen.uniform(400.0, 700.0, p.n_rotors)
+        wind = gen.normal(size=3)
+        cmd = None if k == 0 else gen.uniform(300.0, 900.0, (1, p.n_rotors))
+        meas, euler = stack._measure(x, wind, cmd)
+        com = wind[None]
+        hub = np.broadcast_to(com[:, None], (1, p.n_rotors, 3))
+        sf = stack.model.derivatives_packed(x, com, hub)["specific_force_body"]
+        accel, gyro, _ = s.imu.measure(sf[None], x[None, :, layout.BODY_RATES], twin,
+                                       bias0=np.zeros((1, 6)))
+        _, vel, att = s.odometry.measure(x[None, :, layout.POSITION],
+                                         x[None, :, layout.VELOCITY],
+                                         x[None, :, layout.ATTITUDE], twin)
+        want_euler = Rotation.from_quat(att[0, 0]).as_euler("ZYX")
+        assert np.array_equal(meas["accel"], accel[0, 0])
+        assert np.array_equal(meas["gyro"], gyro[0, 0])
+        assert np.array_equal(meas["odom"], np.r_[vel[0, 0], want_euler])
+        assert np.array_equal(euler, want_euler)
+        if cmd is None:
+            assert "rotor_speeds" not in meas
+        else:
+            eta = s.rotor_speeds.measure(cmd, twin)[0]
+            assert np.array_equal(meas["rotor_speeds"],
+                                  np.clip(eta, stack._rotor_lo, stack._rotor_hi))

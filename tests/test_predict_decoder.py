@@ -300,3 +300,40 @@ def test_inference_does_not_import_torch(tmp_path):
             "assert out.shape == (3, 2, 5, 5)\n"
             "assert 'torch' not in sys.modules, 'inference imported torch'\n")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+def test_d4film_features_equal_the_two_step_reference_for_every_element():
+    """features() pools the canonical sectors in one gather and keeps the inlet wind's part
+    between calls; both give the values of the documented two-step recipe, to the bit."""
+    from windnav.predict.decoder import (
+        _D4,
+        canonical_elements,
+        centred_min_pool,
+        make_architecture,
+        range_channels,
+        wind_features,
+    )
+
+    arch = make_architecture("d4-film", 9)
+    hp = arch.hp
+    rng = np.random.default_rng(4)
+    b = 64
+    scans = rng.uniform(0.3, 120.0, size=(b, hp["n_rays"])).astype(np.float32)
+    ang = rng.uniform(0, 2 * np.pi, b)
+    ang[:8] = np.radians(np.arange(8) * 45.0)  # sector edges
+    w_up = (rng.uniform(0, 10, b)[:, None] * np.c_[np.cos(ang), np.sin(ang)]).astype(np.float32)
+    w_up[8] = 0.0
+    for _ in range(2):  # the second call reuses the inlet wind's part
+        w_robot = rng.normal(scale=4.0, size=(b, 2)).astype(np.float32)
+        f = arch.features(scans, w_up, w_robot)
+        g = canonical_elements(w_up)
+        assert set(g.tolist()) == set(range(8))
+        pooled = np.take_along_axis(centred_min_pool(scans, hp["pool"]), arch._bins[g], axis=1)
+        w_up_c = np.einsum("bij,bj->bi", _D4[g], w_up)
+        w_robot_c = np.einsum("bij,bj->bi", _D4[g], w_robot).astype(np.float32)
+        winds, scale = wind_features(w_up_c, w_robot_c, hp["speed_floor"])
+        want = {"g": g, "channels": range_channels(pooled, hp["range_scale"], hp["range_min"]),
+                "winds": winds, "scale": scale, "w_robot": w_robot_c}
+        for k, v in want.items():
+            assert f[k].dtype == v.dtype and np.array_equal(f[k], v), k
+    f["scale"][:] = -1.0  # callers own what they get
+    assert np.all(arch.features(scans, w_up, w_robot)["scale"] > 0)

@@ -68,6 +68,6 @@ def batch_array(
         raise _fail(name, where, f"an array of shape {want} or {trailing}", f"shape {arr.shape}")
     if batch is not None and arr.shape[0] != batch:
         raise _fail(name, where, f"a batch of {batch}", f"a batch of {arr.shape[0]}")
-    if finite and not np.all(np.isfinite(arr)):
+    if finite and not np.isfinite(arr).all():
         raise _fail(name, where, "finite (no NaN or inf)", "non-finite entries")
     return arr

@@ -508,7 +508,7 @@ class UKF:
             if z.shape != (m,):
                 raise ValueError(f"The 'measurements[{name!r}]' parameter of UKF.update must "
                                  f"have shape ({m},). Got shape {np.shape(z)} instead.")
-            if not np.all(np.isfinite(z)):
+            if not np.isfinite(z).all():
                 self.rejected[name] += 1
                 continue
             names.append(name)

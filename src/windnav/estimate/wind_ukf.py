@@ -376,7 +376,7 @@ class WindUKF:
         """
         N = self.params.n_rotors
         u = batch_array(u_cmd, "u_cmd", "WindUKF.step", (N,))[0]
-        u = np.clip(u, self._u_lo, self._u_hi)
+        u = np.minimum(np.maximum(u, self._u_lo), self._u_hi)  # np.clip, without its wrapper
         self.ukf.predict(self.dt, u)
         self._steps_since_odom += 1
         meas = dict(measurements)
@@ -386,7 +386,7 @@ class WindUKF:
             odom = meas.get("odom")
             if odom is not None:
                 odom = np.asarray(odom, dtype=np.float64)
-                if odom.shape == (6,) and np.all(np.isfinite(odom)):
+                if odom.shape == (6,) and np.isfinite(odom).all():
                     meas["accel"], r_accel = self._accel_from_odom(odom)
                     if r_accel is not None:
                         noise["accel"] = r_accel

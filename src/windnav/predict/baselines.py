@@ -56,7 +56,7 @@ def check_inputs(scans, w_up, w_robot, where: str):
         NaN or inf wind, a wrongly shaped wind, or a batch size different from the scans'.
     """
     scans = batch_array(_array(scans, "scans", where), "scans", where, (N_RAYS,))
-    if np.any(scans < 0):
+    if (scans < 0).any():
         bad = int(np.flatnonzero((scans < 0).any(axis=1))[0])
         raise ValueError(f"The 'scans' parameter of {where} must hold ranges >= 0, m. "
                          f"Got a negative range in scan {bad} instead.")

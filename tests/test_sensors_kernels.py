@@ -1,0 +1,38 @@
+"""The compiled one-sample sensor arithmetic equals the batched NumPy models to the bit."""
+
+import numpy as np
+import pytest
+
+from windnav.sensors import IMU, Odometry
+from windnav.sensors._kernels import N_NORMALS, NormalStream, imu_odometry_sample
+
+
+def _models(imu, odo, sf, rates, vel, att, rng):
+    accel, gyro, _ = imu.measure(sf[None, None], rates[None, None], rng, bias0=np.zeros((1, 6)))
+    _, v, q = odo.measure(np.zeros((1, 1, 3)), vel[None, None], att[None, None], rng)
+    return accel[0, 0], gyro[0, 0], v[0, 0], q[0, 0]
+
+
+@pytest.mark.parametrize("attitude_std", [0.0035, 1e-9, 0.3])
+def test_imu_odometry_sample_equals_the_models_bitwise(attitude_std):
+    imu = IMU(rate_hz=100.0, accel_noise_density=0.1021, gyro_noise_density=7.07e-5,
+              accel_bias_walk=0.0, gyro_bias_walk=0.0)
+    odo = Odometry(rate_hz=100.0, velocity_std=0.0354, attitude_std=attitude_std)
+    scales = np.array([imu.accel_std, imu.gyro_std, odo.velocity_std, odo.attitude_std])
+    gen = np.random.default_rng(7)
+    ref_rng, stream = np.random.default_rng(11), NormalStream(np.random.default_rng(11), 50)
+    out = [np.empty(3), np.empty(3), np.empty(3), np.empty(4)]
+    for _ in range(3000):
+        sf, rates, vel = gen.normal(scale=[5.0, 1.0, 3.0], size=(3, 3))
+        att = gen.normal(size=4)
+        att /= np.linalg.norm(att)
+        want = _models(imu, odo, sf, rates, vel, att, ref_rng)
+        imu_odometry_sample(sf, rates, vel, att, stream.take(N_NORMALS), scales, *out)
+        for a, b in zip(out, want, strict=True):
+            assert np.array_equal(a, b)
+
+
+def test_normal_stream_hands_out_the_generators_sequence():
+    stream = NormalStream(np.random.default_rng(3), block=7)
+    got = np.concatenate([stream.take(n).copy() for n in (3, 5, 1, 9, 4, 20)])
+    assert np.array_equal(got, np.random.default_rng(3).standard_normal(got.size))
