@@ -67,6 +67,7 @@ except ImportError:  # pragma: no cover
 
 from windnav._validate import positive_float
 from windnav.predict.dataset import SCAN_MAX, SCAN_MIN, SCAN_NOISE
+from windnav.sensors._kernels import N_NORMALS, NormalStream, imu_odometry_sample
 
 __all__ = [
     "CALIBRATION_SEED",
@@ -315,11 +316,8 @@ class OnboardStack:
         c = self._com
         self._hub = np.ndarray((1, self.n_rotors, 3), np.float64, c, 0,
                                (c.strides[0], 0, c.strides[1]))
-        self._bias = np.zeros((1, 6))
         self._rotor_lo = float(believed.rotor_speed_min)
         self._rotor_hi = float(believed.rotor_speed_max)
-        from windnav.sensors._kernels import NormalStream
-
         imu, odo = self.sensors.imu, self.sensors.odometry
         self._normals = NormalStream(self.sensor_rng)
         self._sensor_scales = np.array([imu.accel_std, imu.gyro_std, odo.velocity_std,
@@ -336,7 +334,6 @@ class OnboardStack:
         The values of ``IMU.measure``, ``Odometry.measure`` and ``RotorSpeedSensor.measure``
         with the sensor stream, computed one sample at a time
         (:func:`windnav.sensors._kernels.imu_odometry_sample`; equal to the bit)."""
-        from windnav.sensors._kernels import N_NORMALS, imu_odometry_sample
         from windnav.vehicle import layout
 
         self._com[0] = wind_com
