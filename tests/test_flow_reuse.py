@@ -8,7 +8,7 @@ import numpy as np
 
 from windnav.city import City
 from windnav.flow import FactorCache, FrameBuffers, simulate
-from windnav.flow.solver import _centres_into, _to_centres
+from windnav.flow.solver import _centres_into, _to_centres, _to_centres_recording
 
 
 def _city():
@@ -38,6 +38,23 @@ def test_frames_written_whole_equal_the_accumulated_frames_bitwise_signed_zeros_
     _centres_into(u, v, solid, out_u, out_v)
     assert _same(out_u, ref_u) and _same(out_v, ref_v)
     assert not np.signbit(out_u[2, 3])
+
+
+def test_the_one_pass_accumulate_and_record_is_the_two_kernels_bitwise():
+    rng = np.random.default_rng(1)
+    ny, nx = 8, 11
+    u, v = rng.standard_normal((ny, nx + 1)), rng.standard_normal((ny + 1, nx))
+    u[2, 3] = u[2, 4] = -0.0
+    solid = rng.random((ny, nx)) < 0.3
+    mean_u, mean_v = rng.standard_normal((2, ny, nx))
+    ref_mu, ref_mv = mean_u.copy(), mean_v.copy()
+    _to_centres(u, v, solid, ref_mu, ref_mv, 1.0 / 3.0)
+    ref_fu, ref_fv = np.empty((ny, nx)), np.empty((ny, nx))
+    _centres_into(u, v, solid, ref_fu, ref_fv)
+    fu, fv = np.full((ny, nx), np.nan), np.full((ny, nx), np.nan)
+    _to_centres_recording(u, v, solid, mean_u, mean_v, 1.0 / 3.0, fu, fv)
+    for got, ref in ((mean_u, ref_mu), (mean_v, ref_mv), (fu, ref_fu), (fv, ref_fv)):
+        assert _same(got, ref)
 
 
 def test_a_block_is_handed_out_again_only_once_nothing_refers_to_it():

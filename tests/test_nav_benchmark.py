@@ -36,6 +36,7 @@ from windnav.experiments.nav_suite import (
     parse_scenario_id,
     suite_map,
 )
+from windnav.flow.solver import BITWISE_BATCH
 
 TINY = SuiteSpec(
     "tiny", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,), incidences_deg=(0.0, 90.0),
@@ -121,6 +122,10 @@ def fake_flow(spec, city, speed, direction_deg, **reuse):
     return SimpleNamespace(speed=speed, direction_deg=direction_deg)
 
 
+def fake_flows(spec, city, winds, **reuse):
+    return [fake_flow(spec, city, s, d) for s, d in winds]
+
+
 class Fake:
     """A stand-in for ``navigate``: a deterministic 'flight' from the seed, no physics."""
 
@@ -145,7 +150,7 @@ class Fake:
 
 @pytest.fixture
 def no_wind(monkeypatch):
-    monkeypatch.setattr(nb, "suite_flow", fake_flow)
+    monkeypatch.setattr(nb, "suite_flows", fake_flows)
 
 
 def keys(store):
@@ -361,16 +366,16 @@ def test_a_failed_flight_is_recorded_with_its_traceback_and_the_run_goes_on(tmp_
 
 
 def test_a_wind_that_cannot_be_simulated_fails_its_flights_only(tmp_path, monkeypatch):
-    def flow(spec, city, speed, direction_deg, **reuse):
-        if direction_deg == 90.0:
+    def flows(spec, city, winds, **reuse):
+        if any(d == 90.0 for _, d in winds):
             raise RuntimeError("the flow diverged")
-        return fake_flow(spec, city, speed, direction_deg)
+        return fake_flows(spec, city, winds)
 
-    monkeypatch.setattr(nb, "suite_flow", flow)
+    monkeypatch.setattr(nb, "suite_flows", flows)
     out = nb.run_benchmark(TINY, ["mppi"], tmp_path, executor="serial", progress=False,
                            navigate_fn=Fake())
     assert out["now"] == 4 and out["errors_now"] == 2
-    assert [t["wind_index"] for t in out["failed_tasks"]] == [1]
+    assert [t["wind_indices"] for t in out["failed_tasks"]] == [[1]]
     recs = NavStore(tmp_path, TINY).load()
     failed = [r for r in recs if r["outcome"] == "error"]
     assert {r["wind_index"] for r in failed} == {1}
@@ -621,6 +626,46 @@ def test_replay_reproduces_a_recorded_flight(tiny_store):
         nb.replay(TINY, "tiny/m00/w01/p0", "mppi-x")
 
 
+# A map whose three winds share their inlet sides (west and south): one batch of three
+TRIO = replace(TINY, name="trio", winds=(0, 1, 2), incidences_deg=(15.0, 30.0, 45.0))
+
+
+def test_the_thesis_winds_are_batched_by_inlet_sides():
+    spec = get_suite("thesis")
+    groups = [(m, w) for m in (0, 1) for w in range(16)]
+    three = nb.wind_batches(spec, groups, 3)
+    assert three[:6] == [(0, (0, 4)), (0, (1, 2, 3)), (0, (5, 6, 7)), (0, (8, 12)),
+                         (0, (9, 10, 11)), (0, (13, 14, 15))]
+    assert len(three) == 12 and sorted(w for _, ws in three for w in ws) == sorted(
+        w for _, w in groups)
+    for _, ws in three:  # one incidence family per batch
+        assert len({spec.wind(w)[1] == 0.0 for w in ws}) == 1
+    assert nb.wind_batches(spec, groups, 1) == [(m, (w,)) for m, w in groups]
+    assert nb.wind_batches(spec, [(0, 1), (0, 2), (0, 3), (0, 5)], 3) == [(0, (1, 2)),
+                                                                         (0, (3, 5))]
+    assert nb.WIND_BATCH == BITWISE_BATCH
+    for bad in (0, 4, True, 2.0, "3"):
+        with pytest.raises(ValueError, match="'wind_batch'"):
+            nb.run_benchmark(TINY, ["mppi"], "unused", wind_batch=bad)
+
+
+def test_winds_simulated_together_fly_every_flight_to_the_bit(tmp_path):
+    """The same flights with the winds of a map simulated three at a time and one at a time:
+    every field of every record equal but the wall times."""
+    out = {}
+    for batch in (3, 1):
+        run = nb.run_benchmark(TRIO, ["mppi"], tmp_path / str(batch), executor="serial",
+                               progress=False, wind_batch=batch)
+        assert (run["now"], run["errors_now"]) == (6, 0)
+        out[batch] = NavStore(tmp_path / str(batch), TRIO).latest()
+    assert out[3].keys() == out[1].keys()
+    timing = {"wall_s", "loop_wall_s", "flow_s", "planner_ms_median"}
+    for key, rec in out[3].items():
+        assert {k: v for k, v in rec.items() if k not in timing} == {
+            k: v for k, v in out[1][key].items() if k not in timing}, key
+    assert len({r["flow_s"] for r in out[3].values()}) == 1  # one simulation, its share each
+
+
 # ----------------------------------------------------------------------------- the command
 
 
@@ -750,6 +795,8 @@ def test_command_errors_are_named(tmp_path, tiny_suite):
     with pytest.raises(ValueError, match="'--maps' parameter of windnav benchmark-nav.*"
                                          r"among \[0\]"):
         command(["--suite", "quick", "--maps", "1,9", "--out", tmp_path / "d"])
+    with pytest.raises(ValueError, match="'--wind-batch' parameter of windnav benchmark-nav"):
+        command(["--suite", "quick", "--wind-batch", "4", "--out", tmp_path / "e"])
 
 
 def test_command_ctrl_c_keeps_the_finished_flights(tmp_path, tiny_suite, monkeypatch, capsys):

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from test_nav_benchmark import TINY, Fake, fake_flow
+from test_nav_benchmark import TINY, Fake, fake_flows
 
 import windnav.experiments.nav_benchmark as nb
 from windnav import cli
@@ -68,7 +68,7 @@ def test_table_is_the_paired_reduction_per_value_and_per_speed():
 @pytest.fixture
 def quick_is_tiny(monkeypatch):
     monkeypatch.setitem(SUITES, "quick", TINY.__class__(**{**TINY.__dict__, "name": "quick"}))
-    monkeypatch.setattr(nb, "suite_flow", fake_flow)
+    monkeypatch.setattr(nb, "suite_flows", fake_flows)
     monkeypatch.setattr(nb, "fly_scenario", lambda spec, sc, v, **kw: REAL_FLY(
         spec, sc, v, city=kw.get("city"), flow=kw.get("flow"), navigate_fn=Fake()))
 

@@ -7,14 +7,19 @@ x 16 winds x 4 start/goal pairs = 1,024 per variant); the flight is the closed l
 
 How a run is organised
 ----------------------
-* **One wind per task.** The flights of a suite are grouped by (map, wind); one task of
-  :func:`windnav.experiments.executor.run_tasks` (``serial``, ``process`` or ``ray``) simulates
-  that wind once (:func:`windnav.experiments.navigate.simulate_flow`: ``spinup_s`` of spin-up,
-  then ``record_s`` of frames every ``dt`` on a ``dx`` grid) and flies every pending
-  (pair, variant) of it in that wind. The gridded wind field (frames ``(T, ny, nx, 2)``, the
-  layout the solver records them in, so the field adopts them without a copy) is built once
-  per task and shared by its flights (:class:`SharedFlow`): a task holds one copy of the frames
-  (2.3 GB for 600 m x 600 m x 400 frames in float64; peak 2.8 GB per worker).
+* **A few winds per task.** The flights of a suite are grouped by (map, wind), and the winds
+  of a map whose inlets are the same sides (the 0 deg winds; the 15, 30 and 45 deg winds) in
+  batches of up to ``wind_batch`` (:func:`wind_batches`). One task of
+  :func:`windnav.experiments.executor.run_tasks` (``serial``, ``process`` or ``ray``)
+  simulates its winds once, together (:func:`windnav.experiments.navigate.simulate_flows`:
+  ``spinup_s`` of spin-up, then ``record_s`` of frames every ``dt`` on a ``dx`` grid; one
+  pressure solve with a column per wind at each step, each wind to the bit as if simulated
+  alone: :data:`windnav.flow.solver.BITWISE_BATCH`), then flies every pending (pair, variant)
+  of each wind in it. The gridded wind field (frames ``(T, ny, nx, 2)``, the layout the
+  solver records them in, so the field adopts them without a copy) is built once per wind
+  and shared by its flights (:class:`SharedFlow`): a task holds one copy of the frames of
+  each of its winds (2.3 GB for 600 m x 600 m x 400 frames in float64; with 3 winds a worker
+  peaks at 7.6 GB).
 * **Flows are recomputed, not stored.** A 600 m wind of 125 s at ``dx = 1`` m is 2.3 GB of
   float64 frames (1.2 GB in float32): the thesis suite's 256 winds would need ~300 GB, so a
   task recomputes its wind (deterministic: same map, inlet and settings, same frames) and the
@@ -40,6 +45,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+import numbers
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -92,6 +98,7 @@ __all__ = [
     "fly_scenario",
     "get_suite",
     "group_wind",
+    "group_winds",
     "make_suite",
     "parse_variant",
     "render_table",
@@ -99,8 +106,14 @@ __all__ = [
     "run_benchmark",
     "run_group",
     "suite_flow",
+    "suite_flows",
+    "wind_batches",
     "with_goal_clearance",
 ]
+
+WIND_BATCH = 3
+"""Default most winds a benchmark task simulates together: ``windnav.flow.solver.BITWISE_BATCH``
+(not imported here, to keep the solver out of this module's import; a test checks they agree)."""
 
 RECORD_FIELDS = (
     "scenario_id", "variant", "seed", "outcome", "energy_J", "rotor_energy_J", "time_s",
@@ -168,13 +181,43 @@ def suite_flow(spec: SuiteSpec, city, speed: float, direction_deg: float, *,
     with the suite's spin-up, record, ``dx`` and ``dt``, wrapped in :class:`SharedFlow`.
     ``reuse``: a worker's factorisations and frame memory, kept from its earlier winds (the
     same wind to the bit, faster)."""
-    from windnav.experiments.navigate import simulate_flow
+    return suite_flows(spec, city, [(speed, direction_deg)], reuse=reuse)[0]
+
+
+def suite_flows(spec: SuiteSpec, city, winds, *, reuse: WorkerReuse | None = None
+                ) -> list[SharedFlow]:
+    """:func:`suite_flow` for several ``(speed, direction_deg)`` winds of one map whose inlets
+    are the same sides, simulated together
+    (:func:`~windnav.experiments.navigate.simulate_flows`); each equals its
+    :func:`suite_flow` to the bit for up to :data:`~windnav.flow.solver.BITWISE_BATCH` winds."""
+    from windnav.experiments.navigate import simulate_flows
 
     kw = {} if reuse is None else {"factor_cache": reuse.factors,
                                    "frame_buffers": reuse.frames}
-    flow = simulate_flow(city, speed, direction_deg, spinup_s=spec.spinup_s,
-                         record_s=spec.record_s, dx=spec.dx, dt=spec.dt, **kw)
-    return SharedFlow(flow)
+    flows = simulate_flows(city, winds, spinup_s=spec.spinup_s, record_s=spec.record_s,
+                           dx=spec.dx, dt=spec.dt, **kw)
+    return [SharedFlow(f) for f in flows]
+
+
+def wind_batches(spec: SuiteSpec, groups, size: int) -> list[tuple[int, tuple[int, ...]]]:
+    """The ``(map_index, wind_indices)`` batches of the ``(map_index, wind_index)`` pairs in
+    ``groups``: the winds of one map whose inlets are the same sides
+    (:meth:`~windnav.flow.BoundaryConditions.for_wind`), in wind order, split into
+    ``ceil(n / size)`` batches of as even sizes as possible (the thesis suite with ``size`` 3:
+    per map, the 0 deg winds in two pairs and the 15, 30 and 45 deg winds of each speed in a
+    triple). Sorted by map and first wind."""
+    from windnav.flow import BoundaryConditions
+
+    families: dict[tuple, list[int]] = {}
+    for m, w in sorted(groups):
+        sides = BoundaryConditions.for_wind(*spec.wind(w)).sides
+        families.setdefault((m, sides), []).append(w)
+    batches = []
+    for (m, _), ws in families.items():
+        n = math.ceil(len(ws) / size)
+        cuts = [round(k * len(ws) / n) for k in range(n + 1)]
+        batches += [(m, tuple(ws[a:b])) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
+    return sorted(batches)
 
 
 class WorkerReuse:
@@ -448,6 +491,20 @@ def check_scenario_ids(spec: SuiteSpec, scenario_ids, where: str) -> frozenset |
     return frozenset(ids)
 
 
+def check_wind_batch(wind_batch, where: str) -> int:
+    """``wind_batch`` as an int in 1 .. :data:`~windnav.flow.solver.BITWISE_BATCH` (a larger
+    batch would change the winds at round-off, and so every flight, against a replay)."""
+    from windnav.flow.solver import BITWISE_BATCH
+
+    if (isinstance(wind_batch, bool) or not isinstance(wind_batch, numbers.Integral)
+            or not 1 <= wind_batch <= BITWISE_BATCH):
+        raise ValueError(
+            f"The 'wind_batch' parameter of {where} must be an integer from 1 to "
+            f"{BITWISE_BATCH} (larger batches change the winds at round-off). "
+            f"Got {wind_batch!r} instead.")
+    return int(wind_batch)
+
+
 def check_against_suite(spec: SuiteSpec, variants, where: str) -> None:
     """Raise before any flight for label parameters the suite's settings make invalid: a
     ``@regain`` no larger than the suite's capture radius (each flight would fail)."""
@@ -547,16 +604,19 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
 
 @dataclass(frozen=True)
 class GroupTask:
-    """The pending flights of one (map, wind): one task, one wind simulation. Picklable.
+    """The pending flights of a few winds of one map (:func:`wind_batches`): one task, one
+    simulation of its winds together. Picklable.
 
     Attributes
     ----------
     spec : SuiteSpec
     store : str
         Path of the store the worker appends its records to.
-    map_index, wind_index : int
+    map_index : int
+    wind_indices : tuple of int
+        The winds, whose inlets are the same sides.
     flights : tuple of (Scenario, str)
-        The scenarios (of this map and wind) and variants to fly, in order.
+        The scenarios (of this map and these winds) and variants to fly, in order.
     navigate_fn : callable or None
         See :func:`fly_scenario` (module-level, to pickle).
     """
@@ -564,19 +624,20 @@ class GroupTask:
     spec: SuiteSpec
     store: str
     map_index: int
-    wind_index: int
+    wind_indices: tuple
     flights: tuple
     navigate_fn: Callable | None = None
 
 
 def run_group(task: GroupTask) -> dict:
-    """Simulate the task's wind once, fly its flights in it, append each record to the store.
+    """Simulate the task's winds once, fly each wind's flights in it, append each record to
+    the store.
 
     Returns
     -------
     dict
-        ``map_index``, ``wind_index``, ``flights`` (flown), ``errors`` (flights whose harness
-        failed), ``flow_s`` (the wind simulation's wall time, s).
+        ``map_index``, ``wind_indices``, ``flights`` (flown), ``errors`` (flights whose harness
+        failed), ``flow_s`` (each wind's share of the simulation's wall time, s).
 
     Raises
     ------
@@ -585,21 +646,34 @@ def run_group(task: GroupTask) -> dict:
         flight of the task).
     """
     spec = task.spec
-    city, flow, flow_s = group_wind(spec, task.map_index, task.wind_index)
-    errors = fly_group(spec, task.store, task.flights, city=city, flow=flow, flow_s=flow_s,
-                       navigate_fn=task.navigate_fn)
-    return {"map_index": task.map_index, "wind_index": task.wind_index,
+    city, flows, flow_s = group_winds(spec, task.map_index, task.wind_indices)
+    errors = 0
+    for w in task.wind_indices:
+        flow = flows.pop(0)  # dropped after its flights: its frames go back to the pool
+        flights = tuple(f for f in task.flights if f[0].wind_index == w)
+        errors += fly_group(spec, task.store, flights, city=city, flow=flow, flow_s=flow_s,
+                            navigate_fn=task.navigate_fn)
+        del flow
+    return {"map_index": task.map_index, "wind_indices": list(task.wind_indices),
             "flights": len(task.flights), "errors": errors, "flow_s": flow_s}
 
 
 def group_wind(spec: SuiteSpec, map_index: int, wind_index: int):
     """The map and the wind of one (map, wind) of the suite, simulated in this worker with its
     :func:`worker_reuse`: ``(city, flow, flow_s)``, ``flow_s`` the simulation's wall time, s."""
+    city, flows, flow_s = group_winds(spec, map_index, (wind_index,))
+    return city, flows[0], flow_s
+
+
+def group_winds(spec: SuiteSpec, map_index: int, wind_indices: Sequence[int]):
+    """:func:`group_wind` for a batch of winds of one map whose inlets are the same sides
+    (:func:`wind_batches`), simulated together: ``(city, flows, flow_s)``, ``flows`` a list
+    in the order of ``wind_indices``, ``flow_s`` each wind's share of the wall time, s."""
     city = suite_map(spec, map_index)
-    speed, direction = spec.wind(wind_index)
+    winds = [spec.wind(w) for w in wind_indices]
     t0 = time.perf_counter()
-    flow = suite_flow(spec, city, speed, direction, reuse=worker_reuse())
-    return city, flow, time.perf_counter() - t0
+    flows = suite_flows(spec, city, winds, reuse=worker_reuse())
+    return city, flows, (time.perf_counter() - t0) / len(winds)
 
 
 def fly_group(spec: SuiteSpec, store, flights, *, city, flow, flow_s: float | None = None,
@@ -642,6 +716,7 @@ def run_benchmark(
     navigate_fn: Callable | None = None,
     maps: Sequence[int] | None = None,
     scenario_ids: Sequence[str] | None = None,
+    wind_batch: int = WIND_BATCH,
 ) -> dict:
     """Fly (or resume) every pending (scenario, variant) of the suite into ``store``.
 
@@ -654,11 +729,13 @@ def run_benchmark(
     store : str or path-like
         The store folder (created with its manifest; resumed when it holds this suite).
     executor : {"serial", "process", "ray"}
-        Backend of :func:`~windnav.experiments.executor.run_tasks` (one task per map and wind;
-        the workers append to the store, so it must be on a filesystem they share).
+        Backend of :func:`~windnav.experiments.executor.run_tasks` (one task per batch of
+        winds of a map, :func:`wind_batches`; the workers append to the store, so it must be on
+        a filesystem they share).
     workers : int, optional
-        Worker processes (default: every core, at most one per task). Each holds one wind
-        (about 2.3 GB for a 600 m map; a worker peaks at 2.8 GB).
+        Worker processes (default: every core, at most one per task). Each holds the winds of
+        its task (about 2.3 GB each for a 600 m map; a worker peaks at 2.8 GB with one wind,
+        7.6 GB with three).
     progress : bool
         A progress bar over the tasks, on stderr.
     retry_errors : bool
@@ -672,6 +749,11 @@ def run_benchmark(
         Fly only these scenarios (ids of the suite, e.g. ``"thesis/m03/w07/p2"``; with
         ``maps``, those of them on these maps): a pilot on a chosen subset, whose records are
         the suite's own (the same ids, seeds and winds).
+    wind_batch : int
+        Most winds a task simulates together, 1 to :data:`~windnav.flow.solver.BITWISE_BATCH`
+        (default 3): one multi-column pressure solve per step instead of one per wind, 2.2 x
+        less solve time per wind at 3 on the thesis maps, and every wind, so every record,
+        the same to the bit as with 1 (which needs a third of the memory).
 
     Returns
     -------
@@ -680,8 +762,8 @@ def run_benchmark(
         ``scenarios`` (per variant, of those maps), ``total``
         (flights of the run's variants), ``already`` (recorded before), ``now`` (recorded by
         this run), ``errors_now`` (of those, harness failures), ``pending`` (left: 0 unless
-        a task was lost), ``failed_tasks`` (``map_index``, ``wind_index``, first line of the
-        error) and ``wall_s``.
+        a task was lost), ``failed_tasks`` (``map_index``, ``wind_indices``, first line of
+        the error) and ``wall_s``.
 
     Raises
     ------
@@ -701,6 +783,7 @@ def run_benchmark(
                          f"Got {executor!r} instead.")
     maps = check_maps(spec, maps, where)
     chosen = check_scenario_ids(spec, scenario_ids, where)
+    wind_batch = check_wind_batch(wind_batch, where)
     check_against_suite(spec, variants, where)
     t0 = time.perf_counter()
     nav_store = NavStore(store, spec)
@@ -719,8 +802,9 @@ def run_benchmark(
             if not finished((sc.scenario_id, v)):
                 groups.setdefault(sc.group, []).append((sc, v))
     already = len(scenarios) * len(variants) - sum(len(f) for f in groups.values())
-    tasks = [GroupTask(spec, str(nav_store.path), m, w, tuple(f), navigate_fn)
-             for (m, w), f in sorted(groups.items())]
+    tasks = [GroupTask(spec, str(nav_store.path), m, ws,
+                       tuple(f for w in ws for f in groups[(m, w)]), navigate_fn)
+             for m, ws in wind_batches(spec, groups, wind_batch)]
     failed_tasks = []
 
     def on_result(result) -> None:
@@ -732,7 +816,8 @@ def run_benchmark(
             key = (sc.scenario_id, v)
             if recorded.get(key) is None or recorded[key] == done.get(key):
                 nav_store.append(error_record(sc, v, result.error or "task lost"))
-        failed_tasks.append({"map_index": task.map_index, "wind_index": task.wind_index,
+        failed_tasks.append({"map_index": task.map_index,
+                             "wind_indices": list(task.wind_indices),
                              "error": (result.error or "").splitlines()[0] if result.error
                              else "task lost"})
 

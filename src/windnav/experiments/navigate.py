@@ -119,6 +119,7 @@ __all__ = [
     "local_wind",
     "navigate",
     "simulate_flow",
+    "simulate_flows",
     "with_power_shape",
 ]
 
@@ -303,15 +304,34 @@ def simulate_flow(city, speed: float, direction_deg: float, *, spinup_s: float =
     windnav.flow.FlowSolution
         With ``frames_u, frames_v`` (T, ny, nx) and the mean over the record.
     """
-    from windnav.flow import simulate
+    return simulate_flows(city, [(speed, direction_deg)], spinup_s=spinup_s,
+                          record_s=record_s, dx=dx, dt=dt, progress=progress,
+                          factor_cache=factor_cache, frame_buffers=frame_buffers,
+                          _where="simulate_flow")[0]
 
-    where = "simulate_flow"
+
+def simulate_flows(city, winds, *, spinup_s: float = 25.0, record_s: float = 100.0,
+                   dx: float = 1.0, dt: float = 0.25, progress: bool = False,
+                   factor_cache=None, frame_buffers=None, _where: str = "simulate_flows"):
+    """:func:`simulate_flow` for several ``(speed, direction_deg)`` winds (m/s, degrees) whose
+    inlets are the same sides, stepped together (:func:`windnav.flow.simulate_batch`: each
+    equal to its own :func:`simulate_flow` to the bit for up to
+    :data:`windnav.flow.solver.BITWISE_BATCH` winds). Returns a list of
+    :class:`windnav.flow.FlowSolution` in the order of ``winds``."""
+    from windnav.flow import simulate_batch
+
+    where = _where
     dt = positive_float(dt, "dt", where)
     spin = int(round(positive_float(spinup_s, "spinup_s", where, allow_zero=True) / dt))
     steps = max(2, int(round(positive_float(record_s, "record_s", where) / dt)))
-    return simulate(city, speed, direction_deg, dx=dx, dt=dt, spinup_steps=spin, steps=steps,
-                    record_every=1, progress=progress, factor_cache=factor_cache,
-                    frame_buffers=frame_buffers)
+    winds = [tuple(w) for w in winds]
+    if not winds or any(len(w) != 2 for w in winds):
+        raise ValueError(f"The 'winds' parameter of {where} must be a non-empty sequence of "
+                         f"(speed, direction_deg) pairs. Got {winds!r} instead.")
+    return simulate_batch(city, [w[0] for w in winds], [w[1] for w in winds], dx=dx, dt=dt,
+                          spinup_steps=spin, steps=steps, record_every=1, progress=progress,
+                          factor_cache=factor_cache, frame_buffers=frame_buffers,
+                          _where="simulate" if where == "simulate_flow" else "simulate_batch")
 
 
 def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool = False):

@@ -67,6 +67,11 @@ DIAGNOSTICS = (
 )
 BLOWUP_FACTOR = 10.0
 PRESSURE_SOLVERS = ("exact", "jacobi")
+BITWISE_BATCH = 3
+"""Most runs of one :func:`simulate_batch` that equal :func:`simulate` run by run to the bit:
+the exact projection's CHOLMOD factor (``cholespy``, pinned) solves one, two or three
+right-hand sides with the same arithmetic per column, four or more with kernels that sum in
+another order (measured on the thesis suite's 600 m maps; tests/test_flow_closure.py)."""
 
 
 class FlowDivergedError(RuntimeError):
@@ -228,6 +233,26 @@ def _centres_into(u, v, solid, out_u, out_v):
             else:
                 out_u[j, i] = 0.0 + 0.5 * (u[j, i] + u[j, i + 1])
                 out_v[j, i] = 0.0 + 0.5 * (v[j, i] + v[j + 1, i])
+
+
+@numba.njit(cache=True)
+def _to_centres_recording(u, v, solid, out_u, out_v, weight, frame_u, frame_v):
+    """:func:`_to_centres` and :func:`_centres_into` (into ``frame_u, frame_v``) in one pass
+    over the faces, each value bitwise theirs (the face sum is formed once; both kernels
+    scale that same sum)."""
+    ny, nx = solid.shape
+    for j in range(ny):
+        for i in range(nx):
+            if solid[j, i]:
+                frame_u[j, i] = 0.0
+                frame_v[j, i] = 0.0
+            else:
+                su = u[j, i] + u[j, i + 1]
+                sv = v[j, i] + v[j + 1, i]
+                out_u[j, i] += weight * 0.5 * su
+                out_v[j, i] += weight * 0.5 * sv
+                frame_u[j, i] = 0.0 + 0.5 * su
+                frame_v[j, i] = 0.0 + 0.5 * sv
 
 
 class FrameBuffers:
@@ -604,12 +629,17 @@ def simulate_batch(
     frame_buffers: FrameBuffers | None = None,
     _where: str = "simulate_batch",
 ) -> list[FlowSolution]:
-    """:func:`simulate` for several inlet speeds of one direction, stepped together.
+    """:func:`simulate` for several inlet speeds (and directions), stepped together.
 
-    The runs share the map, the direction and so the boundary kinds: one factorisation, and
-    one multi-right-hand-side pressure solve per step for all speeds. Each result equals
-    :func:`simulate` with that speed (to round-off: the solves differ only in summation
-    order). Parameters as in :func:`simulate`, with ``speeds`` a sequence of m/s (> 0), and
+    The runs share the map and the boundary kinds (which sides are inlets: one direction, or
+    directions such as 15, 30 and 45 deg whose inlets are the same two sides): one
+    factorisation, and one multi-right-hand-side pressure solve per step for all runs.
+    Batches of up to :data:`BITWISE_BATCH` runs equal :func:`simulate` run by run to the bit
+    (CHOLMOD solves up to three right-hand sides with the arithmetic of one; from four on its
+    kernels differ in summation order, so larger batches equal it to round-off only;
+    tests/test_flow_closure.py). Parameters as in :func:`simulate`, with ``speeds`` a
+    sequence of m/s (> 0), ``direction_deg`` one direction for every run or one per speed
+    (degrees; runs whose boundary kinds differ raise ValueError), and
     ``memory_limit`` (bytes, default :func:`windnav.flow.memory.default_memory_limit`): a run
     whose estimated memory is above it is refused with
     :class:`~windnav.flow.memory.MemoryEstimateError` before anything is allocated.
@@ -626,7 +656,7 @@ def simulate_batch(
               for sp in np.atleast_1d(np.asarray(speeds, dtype=object))]
     if not speeds:
         raise ValueError(f"The 'speeds' parameter of {where} must not be empty.")
-    direction_deg = finite_float(direction_deg, "direction_deg", where)
+    directions = _directions(direction_deg, len(speeds), where)
     dx = positive_float(dx, "dx", where)
     dt = positive_float(dt, "dt", where)
     spinup_steps = _nonneg_int(spinup_steps, "spinup_steps", where)
@@ -653,7 +683,14 @@ def simulate_batch(
                       pressure=pressure, memory_limit=memory_limit, where=where)
     # a dx at which a building covers no cell would let the flow pass through it
     city.check_resolution(dx, where)
-    domains = [city_domain(city, sp, direction_deg, dx) for sp in speeds]
+    domains = [city_domain(city, sp, dd, dx) for sp, dd in zip(speeds, directions, strict=True)]
+    for d, dd in zip(domains[1:], directions[1:], strict=True):
+        if d.bc.sides != domains[0].bc.sides:
+            raise ValueError(
+                f"The 'direction_deg' parameter of {where} must give every run the same boundary "
+                f"kinds: {directions[0]:g} deg has inlets {domains[0].bc.sides} and {dd:g} deg "
+                f"{d.bc.sides}. Simulate them in separate batches."
+            )
     # the speeds share one face classification; a caller's cache also shares it across runs
     factors = FactorCache(maxsize=1) if factor_cache is None else factor_cache
     if frame_buffers is None:
@@ -665,8 +702,8 @@ def simulate_batch(
     ]
     project = flow_steps[0].project
     runs = [
-        _Run(d, st, sp, direction_deg, symmetry_break, steps, record_every, frame_buffers)
-        for d, st, sp in zip(domains, flow_steps, speeds, strict=True)
+        _Run(d, st, sp, dd, symmetry_break, steps, record_every, frame_buffers)
+        for d, st, sp, dd in zip(domains, flow_steps, speeds, directions, strict=True)
     ]
     iterator = range(1, spinup_steps + steps + 1)
     if progress:
@@ -686,6 +723,20 @@ def simulate_batch(
                 r.accumulate(n - spinup_steps)
     closure = {"smagorinsky": smagorinsky, "filter_width": filter_width, "viscosity": viscosity}
     return [r.solution(spinup_steps, closure) for r in runs]
+
+
+def _directions(direction_deg, n: int, where: str) -> list[float]:
+    """``direction_deg`` (one float, or one per run) as ``n`` floats, degrees."""
+    if np.ndim(direction_deg) == 0:
+        return [finite_float(direction_deg, "direction_deg", where)] * n
+    values = [finite_float(d, "direction_deg", where) for d in np.asarray(direction_deg,
+                                                                          dtype=object).ravel()]
+    if len(values) != n:
+        raise ValueError(
+            f"The 'direction_deg' parameter of {where} must be one direction or one per speed "
+            f"({n}). Got {len(values)} directions instead."
+        )
+    return values
 
 
 class _Run:
@@ -715,13 +766,16 @@ class _Run:
         """Add averaged step ``k`` (1-based) to its half-window mean (and record a frame)."""
         h, solid = self.halves, self.domain.solid
         if k <= self.n_first:
-            _to_centres(self.u, self.v, solid, h[0], h[1], 1.0 / self.n_first)
+            mean_u, mean_v, weight = h[0], h[1], 1.0 / self.n_first
         else:
-            _to_centres(self.u, self.v, solid, h[2], h[3], 1.0 / (self.steps - self.n_first))
+            mean_u, mean_v, weight = h[2], h[3], 1.0 / (self.steps - self.n_first)
         re = self.record_every
         if re and k % re == 0 and k // re <= self.n_frames:
             f = k // re - 1
-            _centres_into(self.u, self.v, solid, self.frames_u[f], self.frames_v[f])
+            _to_centres_recording(self.u, self.v, solid, mean_u, mean_v, weight,
+                                  self.frames_u[f], self.frames_v[f])
+        else:
+            _to_centres(self.u, self.v, solid, mean_u, mean_v, weight)
 
     def solution(self, spinup_steps: int, closure: dict) -> FlowSolution:
         d, h, steps, speed = self.domain, self.halves, self.steps, self.speed
