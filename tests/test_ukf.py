@@ -146,6 +146,15 @@ def test_missing_and_nonfinite_blocks_are_skipped():
     assert b.update({"sin": np.inf, "prod": None}) is None   # nothing fused: state unchanged
     np.testing.assert_array_equal(b.x, x_before)
     assert b.rejected["sin"] == 1
+    # a bad first block, a good second one: the second alone is fused, to the bit
+    c, d = _two_block_filter(), _two_block_filter()
+    c.update({"sin": np.nan, "prod": 0.3})
+    d.update({"prod": 0.3})
+    np.testing.assert_array_equal(c.x, d.x)
+    np.testing.assert_array_equal(c.P, d.P)
+    assert c.rejected == {"sin": 1, "prod": 0}
+    assert c.update({"sin": np.nan, "prod": [np.inf]}) is None
+    assert c.rejected == {"sin": 2, "prod": 1}
 
 
 def test_bad_input_raises_named_errors():

@@ -137,7 +137,8 @@ def lidar_scan(
         noise *= noise_std
         noise *= hit  # rays without a return keep max_range exactly
         ranges += noise
-    np.clip(ranges, min_range, max_range, out=ranges)
+    # np.clip's values (bounds > 0: no signed-zero tie), without its wrapper's cost
+    np.minimum(np.maximum(ranges, min_range, out=ranges), max_range, out=ranges)
     ranges[blocked] = min_range
     return ranges
 

@@ -508,11 +508,16 @@ class UKF:
             if z.shape != (m,):
                 raise ValueError(f"The 'measurements[{name!r}]' parameter of UKF.update must "
                                  f"have shape ({m},). Got shape {np.shape(z)} instead.")
-            if not np.isfinite(z).all():
-                self.rejected[name] += 1
-                continue
             names.append(name)
             zs.append(z)
+        z = zs[0] if len(zs) == 1 else np.concatenate(zs) if zs else None
+        if z is not None and not np.isfinite(z).all():  # one check for all, then by block
+            kept = [(name, zb) for name, zb in zip(names, zs, strict=True)
+                    if np.isfinite(zb).all()]
+            for name in set(names) - {name for name, _ in kept}:
+                self.rejected[name] += 1
+            names, zs = [name for name, _ in kept], [zb for _, zb in kept]
+            z = zs[0] if len(zs) == 1 else np.concatenate(zs) if zs else None
         if not names:
             return None
         unknown = set(noise or ()) - set(self.blocks)
@@ -531,7 +536,6 @@ class UKF:
                                          f"have shape ({m}, {m}). Got shape {block.shape} "
                                          "instead.")
                     R[o:o + m, o:o + m] = block  # not positive definite: S fails below
-        z = zs[0] if len(zs) == 1 else np.concatenate(zs)
         res = ukf_update(self.x, self.P, z, hx, R, self.weights, wrap)
         self.x, self.P = res.x, res.P
         self._note_repair(res.repaired)

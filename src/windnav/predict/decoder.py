@@ -286,7 +286,8 @@ def centred_min_pool(scans: np.ndarray, pool: int) -> np.ndarray:
 def range_channels(ranges: np.ndarray, range_scale: float, range_min: float) -> np.ndarray:
     """Ranges ``(B, N)`` m as two channels ``(B, 2, N)`` in [0, 1]: ``r / range_scale`` and
     ``log(r / range_min) / log(range_scale / range_min)``, ``r`` clipped to the scan's range."""
-    r = np.clip(ranges, np.float32(range_min), np.float32(range_scale))
+    # np.clip's values (bounds > 0: no signed-zero tie), without its wrapper's cost
+    r = np.minimum(np.maximum(ranges, np.float32(range_min)), np.float32(range_scale))
     span = np.float32(math.log(range_scale / range_min))
     return np.stack([r / np.float32(range_scale), np.log(r / np.float32(range_min)) / span],
                     axis=1)
@@ -319,7 +320,7 @@ def robot_features(up: np.ndarray, w_robot_c: np.ndarray, scale: np.ndarray) -> 
     """The five features of :func:`wind_features` from its upstream part
     (:func:`upstream_features`) and the canonical ``W_robot`` (B, 2), float32."""
     w_robot_c = np.asarray(w_robot_c, dtype=np.float32)
-    rob = np.clip(w_robot_c / scale[:, None], -4.0, 4.0)
+    rob = np.minimum(np.maximum(w_robot_c / scale[:, None], -4.0), 4.0)  # np.clip's values
     rob_speed = np.minimum(np.hypot(w_robot_c[:, 0], w_robot_c[:, 1]) / scale, 4.0)
     feats = np.concatenate([up, rob, rob_speed[:, None]], axis=1)
     return feats.astype(np.float32, copy=False)
