@@ -649,6 +649,29 @@ def test_the_thesis_winds_are_batched_by_inlet_sides():
             nb.run_benchmark(TINY, ["mppi"], "unused", wind_batch=bad)
 
 
+def test_the_batch_is_lowered_to_what_the_memory_limit_holds_for_the_workers(monkeypatch,
+                                                                            tmp_path):
+    from windnav.flow import memory
+
+    spec = get_suite("thesis")
+    one = memory.estimate_flow_memory((600, 600), 1, 400)
+    three = memory.estimate_flow_memory((600, 600), 3, 400)
+    monkeypatch.setattr(memory, "default_memory_limit", lambda: None)
+    assert nb.fit_wind_batch(spec, 3, 2) == 3
+    monkeypatch.setattr(memory, "default_memory_limit", lambda: 2 * three)
+    assert nb.fit_wind_batch(spec, 3, 2) == 3 and nb.fit_wind_batch(spec, 2, 2) == 2
+    two = memory.estimate_flow_memory((600, 600), 2, 400)
+    monkeypatch.setattr(memory, "default_memory_limit", lambda: 3 * two)
+    assert nb.fit_wind_batch(spec, 3, 3) == 2 and nb.fit_wind_batch(spec, 3, 2) == 3
+    monkeypatch.setattr(memory, "default_memory_limit", lambda: one)
+    assert nb.fit_wind_batch(spec, 3, 2) == 1
+    # the run reports the batch it used; the fake winds make the flights cheap
+    monkeypatch.setattr(nb, "suite_flows", fake_flows)
+    trio = nb.run_benchmark(TRIO, ["mppi"], tmp_path, executor="serial", progress=False,
+                            navigate_fn=Fake(), wind_batch=3)
+    assert trio["wind_batch"] == 3  # a 200 m map's three winds fit in one 600 m wind's room
+
+
 def test_winds_simulated_together_fly_every_flight_to_the_bit(tmp_path):
     """The same flights with the winds of a map simulated three at a time and one at a time:
     every field of every record equal but the wall times."""

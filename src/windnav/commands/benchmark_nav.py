@@ -237,6 +237,10 @@ def _run(args, name: str) -> int:
           f"{summary['total'] - summary['pending']}/{summary['total']} flights recorded "
           f"({summary['now']} now, {summary['already']} already, {summary['errors_now']} "
           f"harness errors now) in {summary['wall_s']:.0f} s")
+    if summary["wind_batch"] < wind_batch:
+        print(f"winds simulated {summary['wind_batch']} at a time, not {wind_batch}: the "
+              "memory limit (WINDNAV_MEMORY_LIMIT, or 3/4 of the machine's) holds no more for "
+              "the workers at once")
     for t in summary["failed_tasks"]:
         winds = ",".join(map(str, t["wind_indices"]))
         print(f"failed: map {t['map_index']} winds {winds}: {t['error']}")

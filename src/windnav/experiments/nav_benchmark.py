@@ -46,6 +46,7 @@ import dataclasses
 import functools
 import math
 import numbers
+import os
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -218,6 +219,26 @@ def wind_batches(spec: SuiteSpec, groups, size: int) -> list[tuple[int, tuple[in
         cuts = [round(k * len(ws) / n) for k in range(n + 1)]
         batches += [(m, tuple(ws[a:b])) for a, b in zip(cuts[:-1], cuts[1:], strict=True)]
     return sorted(batches)
+
+
+def fit_wind_batch(spec: SuiteSpec, wind_batch: int, processes: int) -> int:
+    """The largest batch of at most ``wind_batch`` winds whose simulation in ``processes``
+    workers at once fits the memory limit (:func:`windnav.flow.memory.default_memory_limit`)
+    by :func:`~windnav.flow.memory.estimate_flow_memory` (the suite's grid and frames, the map
+    counted open, the conservative case); 1 when none does (the solver's own check then
+    decides). A smaller batch changes no value, only the time."""
+    from windnav.city import grid_shape
+    from windnav.flow.memory import default_memory_limit, estimate_flow_memory
+
+    limit = default_memory_limit()
+    if limit is None:
+        return wind_batch
+    shape = grid_shape((0.0, spec.map_size, 0.0, spec.map_size), spec.dx)
+    frames = max(2, int(round(spec.record_s / spec.dt)))
+    for batch in range(wind_batch, 1, -1):
+        if processes * estimate_flow_memory(shape, batch, frames) <= limit:
+            return batch
+    return 1
 
 
 class WorkerReuse:
@@ -753,7 +774,9 @@ def run_benchmark(
         Most winds a task simulates together, 1 to :data:`~windnav.flow.solver.BITWISE_BATCH`
         (default 3): one multi-column pressure solve per step instead of one per wind, 2.2 x
         less solve time per wind at 3 on the thesis maps, and every wind, so every record,
-        the same to the bit as with 1 (which needs a third of the memory).
+        the same to the bit as with 1 (which needs a third of the memory). Lowered to what
+        the memory limit allows the workers at once (:func:`fit_wind_batch`; not with
+        ``ray``).
 
     Returns
     -------
@@ -763,7 +786,8 @@ def run_benchmark(
         (flights of the run's variants), ``already`` (recorded before), ``now`` (recorded by
         this run), ``errors_now`` (of those, harness failures), ``pending`` (left: 0 unless
         a task was lost), ``failed_tasks`` (``map_index``, ``wind_indices``, first line of
-        the error) and ``wall_s``.
+        the error), ``wind_batch`` (the batch used: ``wind_batch`` or less, as the memory
+        limit allows the workers, :func:`fit_wind_batch`) and ``wall_s``.
 
     Raises
     ------
@@ -802,6 +826,11 @@ def run_benchmark(
             if not finished((sc.scenario_id, v)):
                 groups.setdefault(sc.group, []).append((sc, v))
     already = len(scenarios) * len(variants) - sum(len(f) for f in groups.values())
+    if executor != "ray":  # ray's workers may be other machines
+        batches = wind_batches(spec, groups, wind_batch)
+        processes = 1 if executor == "serial" else min(workers or os.cpu_count() or 1,
+                                                       max(len(batches), 1))
+        wind_batch = fit_wind_batch(spec, wind_batch, processes)
     tasks = [GroupTask(spec, str(nav_store.path), m, ws,
                        tuple(f for w in ws for f in groups[(m, w)]), navigate_fn)
              for m, ws in wind_batches(spec, groups, wind_batch)]
@@ -832,7 +861,7 @@ def run_benchmark(
             "total": len(scenarios) * len(variants), "already": already, "now": len(now),
             "errors_now": sum(r["outcome"] == ERROR for r in now),
             "pending": len(pending_keys) - len(now), "failed_tasks": failed_tasks,
-            "wall_s": time.perf_counter() - t0}
+            "wind_batch": wind_batch, "wall_s": time.perf_counter() - t0}
 
 
 # ------------------------------------------------------------------------------- replay
