@@ -1,7 +1,7 @@
 """The navigation benchmark's winds simulated three at a time against one at a time, A/B.
 
 Run: ``.venv/bin/python benchmarks/bench_wind_batch.py`` (about 4 minutes on one core; peak
-memory about 7.5 GB, three winds' frames).
+memory about 7.5 GB: three winds' frames).
 
 Every task of ``windnav benchmark-nav --suite thesis`` starts by simulating its winds (600 m,
 25 s + 100 s at dt 0.25 s, dx 1 m; 2.3 GB of frames each). Since 2026-11-27 a task simulates

@@ -19,7 +19,7 @@ How a run is organised
   solver records them in, so the field adopts them without a copy) is built once per wind
   and shared by its flights (:class:`SharedFlow`): a task holds one copy of the frames of
   each of its winds (2.3 GB for 600 m x 600 m x 400 frames in float64; with 3 winds a worker
-  peaks at 7.6 GB).
+  peaks at 7.8 GB, against 3.2 GB with one: the whole-suite runs of EA-MPPI+Ŵ).
 * **Flows are recomputed, not stored.** A 600 m wind of 125 s at ``dx = 1`` m is 2.3 GB of
   float64 frames (1.2 GB in float32): the thesis suite's 256 winds would need ~300 GB, so a
   task recomputes its wind (deterministic: same map, inlet and settings, same frames) and the
@@ -755,8 +755,8 @@ def run_benchmark(
         a filesystem they share).
     workers : int, optional
         Worker processes (default: every core, at most one per task). Each holds the winds of
-        its task (about 2.3 GB each for a 600 m map; a worker peaks at 2.8 GB with one wind,
-        7.6 GB with three).
+        its task (about 2.3 GB each for a 600 m map; EA-MPPI+Ŵ's workers peaked at 3.2 GB
+        with one wind, 7.8 GB with three).
     progress : bool
         A progress bar over the tasks, on stderr.
     retry_errors : bool
@@ -773,10 +773,10 @@ def run_benchmark(
     wind_batch : int
         Most winds a task simulates together, 1 to :data:`~windnav.flow.solver.BITWISE_BATCH`
         (default 3): one multi-column pressure solve per step instead of one per wind, 2.2 x
-        less solve time per wind at 3 on the thesis maps, and every wind, so every record,
-        the same to the bit as with 1 (which needs a third of the memory). Lowered to what
-        the memory limit allows the workers at once (:func:`fit_wind_batch`; not with
-        ``ray``).
+        less solve time per wind at 3 on the thesis maps (1.34 x less wind time), and every
+        wind, so every record, the same to the bit as with 1 (which needs less memory: 3.2
+        against 7.8 GB per worker). Lowered to what the memory limit allows the workers at
+        once (:func:`fit_wind_batch`; not with ``ray``).
 
     Returns
     -------
