@@ -11,6 +11,7 @@ JSON into ``--out``.
     windnav nav-study pace  --store runs/thesis --out docs/navigation    # time and power
     windnav nav-study feasibility --store runs/thesis --out docs/navigation  # reachable?
     windnav nav-study gusts --out docs/navigation                        # gust-aware routes
+    windnav nav-study bound --store runs/thesis --out docs/navigation    # energy bound
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -39,7 +40,11 @@ VARIANTS`` also flies those variants' pending flights into ``--store`` in the sa
 ``gusts`` re-flies one scenario (``--scenario``) with the sixth variant's setting ``--base``
 and with ``--base@gust=K`` (``--gust-k``) and draws the mean wind and the gust map (the
 standard deviation of the wind along the inlet) with the least-time routes each flew
-(:mod:`windnav.experiments.nav_gusts`).
+(:mod:`windnav.experiments.nav_gusts`). ``bound`` reads the store's GS+W flights (each records the
+energy-optimal route it planned in the mean wind) and sets every variant flown on the same
+scenarios (but the ``@power=`` counterfactuals, whose energies use another curve) against the
+largest table ratio and paired reduction any planner could reach
+(:mod:`windnav.experiments.nav_bound`); it flies nothing.
 """
 
 from __future__ import annotations
@@ -58,7 +63,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts")
+STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "bound")
 """The studies, as named on the command line."""
 
 
@@ -79,7 +84,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", type=Path, required=True, help="output folder (figure, JSON)")
     p.add_argument("--store", type=Path, default=None,
                    help="qe, h: the benchmark store the flights go to (created or resumed); "
-                        "cases, pace: the store whose records are read")
+                        "cases, pace, bound: the store whose records are read")
     p.add_argument("--suite", choices=tuple(SUITES), default="thesis",
                    help="the suite (%(default)s)")
     p.add_argument("--maps", default=None, metavar="LIST",
@@ -170,6 +175,8 @@ def run(args) -> int:
         return _cases(args, name, spec)
     if study == "pace":
         return _pace(args, name, spec)
+    if study == "bound":
+        return _bound(args, name, spec)
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     try:
@@ -263,6 +270,45 @@ def _pace(args, name: str, spec) -> int:
              for k, c in res["curves"].items()}
     print(json.dumps(json_ready({"study": "pace", "variant": variant, "curves": brief,
                                  "thesis": res["thesis"]}), indent=1))
+    print_written(out)
+    return 0
+
+
+def _bound(args, name: str, spec) -> int:
+    from windnav.commands.benchmark_nav import suite_maps
+    from windnav.experiments.nav_benchmark import NavStore
+    from windnav.experiments.nav_bound import bound_study
+    from windnav.experiments.nav_records import records_by_variant
+    from windnav.experiments.results import json_ready
+    from windnav.viz.nav_sweeps import plot_bound
+
+    _check_store(args.store, name)
+    maps = suite_maps(args.maps, spec, name)
+    products = ("nav_bound.json", "nav_bound.png")
+    out = outputs(args, out=("--out", args.out, products))
+    records = [r for r in NavStore(args.store, spec, create=False).load()
+               if r.get("map_index") in maps]
+    by_variant = records_by_variant(records)
+    scenarios = set(by_variant.get("gs-w", {}))
+    variants = [v for v, recs in by_variant.items()
+                if "@power=" not in v and scenarios and scenarios <= set(recs)]
+    try:
+        res = bound_study(records, variants=variants)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'records' parameter of bound_study",
+                                          f"'--store' parameter of {name}")) from None
+    res.update(store=str(args.store), maps=list(maps))
+    _write(out, args, {"study": "bound", **res}, products[0],
+           lambda folder: plot_bound(res, folder / products[1]))
+    brief = {"scenarios": res["n"], "no_route": res["no_route"],
+             "ideal_mean_J": res["ideal_mean_J"], "reference_mean_J": res["reference_mean_J"],
+             "targets": res["targets"],
+             "ideal_paired": {k: res["ideal_paired"][k] for k in ("mean", "n", "ci95")},
+             "variants": {v: {"failure_pct": r["failure_pct"], "table_ratio": r["table_ratio"],
+                              "paired": r["paired"]["mean"], "below_bound": r["below_bound"],
+                              "successes": r["successes"]}
+                          for v, r in res["variants"].items()}}
+    print(json.dumps(json_ready({"study": "bound", **brief}), indent=1))
     print_written(out)
     return 0
 

@@ -79,6 +79,7 @@ __all__ = [
     "ONBOARD_FIELDS",
     "PARAMETERS",
     "RECORD_FIELDS",
+    "ROUTE_FIELDS",
     "SUITES",
     "CorruptRecordError",
     "GroupTask",
@@ -136,6 +137,14 @@ ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",
 :mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s) and
 the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`RECORD_FIELDS` and
 :data:`ENVELOPE_FIELDS`."""
+
+ROUTE_FIELDS = ("route_energy_J", "route_hold_energy_J", "route_time_s", "route_length_m")
+"""Fields appended to the record of a GS or GS+W flight (after :data:`ENVELOPE_FIELDS`): the
+planned route's energy in the wind it was planned in (the mean wind for GS+W; steady flight at
+each piece's optimal speed, no acceleration, no gusts; airspeed power curve, J), the goal hold
+it leaves out (``HOLD_S`` at rest in that wind at the goal, J), its time (s) and its length
+(m): what the energy-optimal route promises before it is flown
+(:func:`windnav.plan.energy_route`)."""
 
 _METRICS = ("energy_J", "rotor_energy_J", "time_s", "distance_m", "mean_cmd_accel",
             "planner_ms_median", "fallbacks", "planner_updates", "final_distance_to_goal_m",
@@ -594,7 +603,8 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
     Returns
     -------
     dict
-        :data:`RECORD_FIELDS` (then :data:`ONBOARD_FIELDS` for the onboard stack). When
+        :data:`RECORD_FIELDS` and :data:`ENVELOPE_FIELDS` (then :data:`ONBOARD_FIELDS` for
+        the onboard stack, :data:`ROUTE_FIELDS` for GS and GS+W). When
         anything raised, ``outcome`` is ``"error"``, the metrics
         are None and ``error`` holds ``"Type: message"`` and the traceback.
     """
@@ -614,6 +624,9 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
         rec["loop_wall_s"] = summary.get("wall_s")
         rec.update({k: summary.get(k) for k in ENVELOPE_FIELDS})
         rec.update({k: summary[k] for k in ONBOARD_FIELDS if k in summary})
+        settings = summary.get("settings") or {}
+        if "route_hold_energy_J" in settings:  # GS and GS+W
+            rec.update({k: settings[k] for k in ROUTE_FIELDS})
     except Exception as exc:  # one failing flight must not stop the suite
         rec["error"] = f"{type(exc).__name__}: {exc}\n{traceback.format_exc()}"
     rec["wall_s"] = time.perf_counter() - t0

@@ -738,7 +738,7 @@ def navigate(
     az_cap = 0.5 * GRAVITY
 
     # the planner, or the GS route and its follower
-    follower, route, plan_ms = None, None, []
+    follower, route, plan_ms, route_hold_J = None, None, [], None
     use_wind = bool(VARIANTS[variant].use_wind)
     mean_uv = (np.ascontiguousarray(np.stack([flow.mean_u, flow.mean_v]))
                if use_wind and onboard_stack is None else None)
@@ -751,6 +751,10 @@ def navigate(
                              dx=route_dx, clearance=route_clearance, altitude=altitude)
         plan_ms.append(1e3 * (time.perf_counter() - t0))
         follower = _RouteFollower(route, kp_xy, kd_xy)
+        # the goal hold the route leaves out: HOLD_S at rest in the wind it was planned in
+        w_goal = (np.asarray(flow.wind_field().velocity(0.0, np.array([[*goal, altitude]])))
+                  [0, :2] if gs_config.use_wind else np.zeros(2))
+        route_hold_J = float(gs_config.power(math.hypot(*w_goal))) * HOLD_S
     elif planner is None:
         planner = MPPIPlanner(config, goal, rng=planner_rng)
     escape_guide = escape_follower = None
@@ -937,6 +941,8 @@ def navigate(
     elif route is not None:
         settings.update(route_energy_J=route.energy, route_time_s=route.time,
                         route_length_m=route.length)
+    if route_hold_J is not None:
+        settings.update(route_hold_energy_J=route_hold_J)
     if isinstance(escape_guide, FastestEscape):
         escape_ms += sum(escape_guide.route_fn.ms)
     if escape_guide is not None:

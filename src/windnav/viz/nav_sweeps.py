@@ -1,7 +1,8 @@
 """The figure of the Q_E and H sweeps (:mod:`windnav.experiments.nav_sweeps`): EA-MPPI+W's
 paired energy reduction against MPPI for each value, overall (with its 95 % interval) and per
 inlet speed, and the failure rate beside MPPI's; and the figure of the pace study
-(:mod:`windnav.experiments.nav_pace`): time and mean-power ratios per pair."""
+(:mod:`windnav.experiments.nav_pace`): time and mean-power ratios per pair; and the figure of
+the energy bound (:mod:`windnav.experiments.nav_bound`)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-__all__ = ["plot_pace", "plot_sweep"]
+__all__ = ["plot_bound", "plot_pace", "plot_sweep"]
 
 
 def _positions(values):
@@ -121,6 +122,55 @@ def plot_pace(result: dict, path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper right")
     ax.set_title("Energy = mean power x time: scenarios where neither failed", fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def _short(label: str) -> str:
+    """A variant label short enough for a figure: the sixth variant's settings abridged."""
+    if label.startswith("ea-mppi-w-esc@"):
+        return "esc: " + label.rsplit("@", 1)[-1]
+    return label
+
+
+def plot_bound(result: dict, path) -> Path:
+    """The largest table ratio any planner could reach at each failure rate, from the GS+W
+    bound (:func:`windnav.experiments.nav_bound.bound_study`), with the issue's targets and
+    each variant's measured failure rate and table ratio."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.4))
+    c = result["curve"]
+    f, r = np.asarray(c["failure_pct"]), 100.0 * np.asarray(c["table_ratio"])
+    ax.plot(f, r, "k-", lw=1.6, label=f"bound: the cheapest GS+W routes ({result['n']} "
+                                       "scenarios)")
+    ax.fill_between(f, r, 100.0, color="0.85", label="out of reach of any planner")
+    for t in result["targets"]:
+        ax.plot(t["failure_pct"], 100.0 * t["table_ratio"], "*", ms=15, mfc="gold", mec="k",
+                zorder=6)
+        ax.annotate(f"target, {t['whose']}\n(bound {100.0 * t['ideal_table_ratio']:.1f} %)",
+                    (t["failure_pct"], 100.0 * t["table_ratio"]), fontsize=7,
+                    xytext=(6, 4), textcoords="offset points")
+    for v, row in result["variants"].items():
+        if row["table_ratio"] is None:
+            continue
+        y = 100.0 * row["table_ratio"]
+        ax.plot(row["failure_pct"], y, "o", ms=5, color="C0" if v != result["route_variant"]
+                else "C3")
+        ax.annotate(_short(v), (row["failure_pct"], y), fontsize=6, xytext=(4, -8),
+                    textcoords="offset points")
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.set_xlim(0.0, 100.0)
+    lows = [100.0 * row["table_ratio"] for row in result["variants"].values()
+            if row["table_ratio"] is not None]
+    ax.set_ylim(min([*lows, float(r.min())]) - 5.0, max(60.0, float(r.max()) + 5.0))
+    ax.set_xlabel("failure rate, % of the scenarios")
+    ax.set_ylabel(f"table ratio against {result['reference']}, %  (1 - mean E / mean E_ref)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, loc="upper left")
+    ax.set_title("The table ratio any planner could reach, and the measured variants",
+                 fontsize=10)
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=110)

@@ -1,0 +1,156 @@
+"""How much energy could any planner save against MPPI? The energy-optimal route as a bound.
+
+A GS+W flight of the benchmark records the route it planned before take-off
+(:data:`~windnav.experiments.nav_benchmark.ROUTE_FIELDS`): the energy-optimal route through the
+whole known map in the mean wind, each piece flown at its best ground speed (the maximum-range
+speed ``V_R(W)``), plus the 5 s goal hold at rest in the mean wind at the goal. Its energy ::
+
+    E*(scenario) = route_energy_J + route_hold_energy_J        (J, airspeed power curve)
+
+is what the vehicle would use on the cheapest route it can find, in steady flight, with no
+acceleration, no gusts and no time limit. It is not a proven lower bound (the lattice's optimum
+is a discretisation's, and a flight in the unsteady wind could in principle draw on its gusts)
+but :func:`bound_study` measures how often a flown flight used less (``below_bound``).
+
+What it bounds:
+
+- **the paired reduction** against MPPI: over MPPI's successes, no planner can save more than
+  ``1 - E* / E_MPPI`` on a scenario (``ideal_paired``);
+- **the table ratio** ``1 - mean(E) / mean(E_MPPI)`` at a failure rate ``f``: a variant that
+  fails at most ``f`` of the ``N`` scenarios succeeds on at least ``N - floor(f N)`` of them,
+  and its mean energy over them is at least the mean of the cheapest that many ``E*``
+  (:func:`ideal_table_ratio`). A scenario without a route counts with ``E* = 0``, so the bound
+  stays an upper bound on the ratio.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from windnav.experiments.nav_records import _describe, _energies, records_by_variant
+
+__all__ = ["TARGETS", "bound_study", "ideal_energy", "ideal_table_ratio"]
+
+TARGETS = (("EA-MPPI+W", 15.8, 0.206), ("the sixth variant", 8.0, 0.25))
+"""The table-ratio targets of the benchmark issue: (whose, failure % at most, table ratio at
+least)."""
+
+
+def ideal_energy(route_records: Mapping[str, Mapping]) -> dict[str, float]:
+    """``E*`` per scenario id (J) from GS+W records (scenario id -> record): the planned route's
+    energy plus its goal hold; NaN where the record has no route (a harness error)."""
+    out = {}
+    for sid, r in route_records.items():
+        e, hold = r.get("route_energy_J"), r.get("route_hold_energy_J")
+        out[sid] = (float(e) + float(hold)) if e is not None and hold is not None else math.nan
+    return out
+
+
+def ideal_table_ratio(ideal: Sequence[float], reference_mean_J: float,
+                      failure_pct) -> np.ndarray:
+    """The largest table ratio a variant failing at most ``failure_pct`` (%, scalar or array) of
+    the scenarios could reach: ``1 - mean(cheapest N - floor(f N) of ideal) / reference_mean_J``.
+    ``ideal``: ``E*`` of every scenario (J; NaN, no route, counts as 0)."""
+    e = np.sort(np.nan_to_num(np.asarray(ideal, dtype=np.float64), nan=0.0))
+    n = e.size
+    if n == 0 or not reference_mean_J > 0:
+        raise ValueError("The 'ideal' parameter of ideal_table_ratio must hold at least one "
+                         "energy, and 'reference_mean_J' must be > 0. Got "
+                         f"{n} energies and {reference_mean_J!r} instead.")
+    f = np.asarray(failure_pct, dtype=np.float64)
+    keep = np.maximum(n - np.floor(f / 100.0 * n + 1e-9).astype(np.int64), 1)
+    prefix = np.concatenate([[0.0], np.cumsum(e)])
+    return 1.0 - prefix[keep] / keep / reference_mean_J
+
+
+def bound_study(records: Iterable[Mapping], *, route_variant: str = "gs-w",
+                reference: str = "mppi", variants: Sequence[str] | None = None,
+                confidence: float = 0.95) -> dict:
+    """The GS+W bound against the measured variants of a benchmark store.
+
+    Parameters
+    ----------
+    records : iterable of dict
+        The store's records; they must hold ``route_variant``'s flights (with
+        :data:`~windnav.experiments.nav_benchmark.ROUTE_FIELDS`) and ``reference``'s.
+    route_variant, reference : str
+        Variant labels.
+    variants : sequence of str, optional
+        The variants set against the bound (default: every other variant of the records).
+
+    Returns
+    -------
+    dict
+        ``n`` (scenarios with a ``route_variant`` flight), ``no_route``, ``ideal_mean_J``,
+        ``reference_mean_J`` (over the reference's successes), ``curve`` (``failure_pct`` 0-100
+        and the ideal ``table_ratio`` at each), ``targets`` (:data:`TARGETS` with the ideal
+        ratio at each failure rate and ``reachable``), ``ideal_paired`` (``1 - E*/E_ref`` over
+        the reference's successes: mean, std, n, interval; ``by_speed``), and per variant in
+        ``variants`` (the route variant and the reference included): its ``failure_pct``,
+        ``table_ratio``, ``paired`` reduction against the reference and ``below_bound`` (its
+        successes with ``energy_J < E*``) of ``successes``.
+
+    Raises
+    ------
+    ValueError
+        When the records lack the route variant's planned routes or the reference's flights.
+    """
+    by_variant = records_by_variant(records)
+    routes = by_variant.get(route_variant, {})
+    if not any(r.get("route_energy_J") is not None for r in routes.values()):
+        raise ValueError(f"The 'records' parameter of bound_study must hold {route_variant!r} "
+                         f"flights with planned routes (route_energy_J). Got variants "
+                         f"{sorted(by_variant)} instead.")
+    if reference not in by_variant:
+        raise ValueError(f"The 'records' parameter of bound_study must hold {reference!r} "
+                         f"flights. Got variants {sorted(by_variant)} instead.")
+    ideal = ideal_energy(routes)
+    ref = {sid: r for sid, r in by_variant[reference].items() if sid in ideal}
+    ref_e = _energies(ref.values(), "energy_J")
+    ref_mean = float(np.mean(ref_e))
+    e_star = list(ideal.values())
+    grid = np.arange(0.0, 100.0 + 1e-9, 0.5)
+    curve = ideal_table_ratio(e_star, ref_mean, grid)
+    targets = [{"whose": who, "failure_pct": f, "table_ratio": t,
+                "ideal_table_ratio": float(ideal_table_ratio(e_star, ref_mean, f)),
+                "reachable": bool(ideal_table_ratio(e_star, ref_mean, f) >= t)}
+               for who, f, t in TARGETS]
+    paired, speeds = [], []
+    for sid, q in ref.items():
+        if q["outcome"] == "success" and math.isfinite(ideal[sid]):
+            paired.append(1.0 - ideal[sid] / float(q["energy_J"]))
+            speeds.append(float(q["speed"]))
+    ideal_paired = _describe(paired, confidence)
+    ideal_paired["by_speed"] = {
+        f"{s:g}": _describe([p for p, sp in zip(paired, speeds, strict=True) if sp == s],
+                            confidence) for s in sorted(set(speeds))}
+    names = list(variants) if variants is not None else sorted(by_variant)
+    rows = {}
+    for v in names:
+        recs = {sid: r for sid, r in by_variant.get(v, {}).items() if sid in ideal}
+        if not recs:
+            continue
+        ok = [r for r in recs.values() if r["outcome"] == "success"]
+        e = _energies(ok, "energy_J")
+        pairs = [1.0 - float(r["energy_J"]) / float(ref[sid]["energy_J"])
+                 for sid, r in recs.items() if r["outcome"] == "success"
+                 and ref.get(sid, {}).get("outcome") == "success"]
+        rows[v] = {
+            "flights": len(recs), "successes": len(ok),
+            "failure_pct": 100.0 * (1.0 - len(ok) / len(recs)),
+            "table_ratio": float(1.0 - np.mean(e) / ref_mean) if e else None,
+            "paired": _describe(pairs, confidence),
+            "below_bound": sum(float(r["energy_J"]) < ideal[r["scenario_id"]] for r in ok
+                               if math.isfinite(ideal[r["scenario_id"]])),
+        }
+    return {
+        "route_variant": route_variant, "reference": reference, "n": len(ideal),
+        "no_route": sum(not math.isfinite(x) for x in e_star),
+        "ideal_mean_J": float(np.nanmean(e_star)), "reference_mean_J": ref_mean,
+        "reference_successes": len(ref_e),
+        "curve": {"failure_pct": grid.tolist(), "table_ratio": curve.tolist()},
+        "targets": targets, "ideal_paired": ideal_paired, "variants": rows,
+    }
