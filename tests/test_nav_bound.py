@@ -76,6 +76,14 @@ def test_the_bound_study_on_known_records():
     assert ea["table_ratio"] == pytest.approx(1 - 1950 / 3000)
     assert ea["paired"]["mean"] == pytest.approx((0.55 - 0.2) / 2)
     assert res["variants"]["gs-w"]["below_bound"] == 0
+    # 7 successes with a route (gs-w 3, mppi 2, ea-mppi-w 2); the largest shortfall flown
+    # (900 J against 1000) lowers every route by 10 % in the
+    # curve drawn with the slack: at 0 % failure 1 - 0.9 * 1500 / 3000
+    sf = res["shortfall"]
+    assert (sf["n"], sf["below"]) == (7, 1) and sf["min_ratio"] == pytest.approx(0.9)
+    assert sf["slack"] == pytest.approx(0.9)
+    assert res["curve"]["table_ratio_with_slack"][0] == pytest.approx(1 - 0.9 * 1500 / 3000)
+    assert t["EA-MPPI+W"]["ideal_table_ratio_with_slack"] == pytest.approx(0.55)
     with pytest.raises(ValueError, match="planned routes"):
         bound_study([r for r in synthetic() if r["variant"] != "gs-w"])
     with pytest.raises(ValueError, match="'mppi' flights"):

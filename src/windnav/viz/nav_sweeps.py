@@ -129,13 +129,6 @@ def plot_pace(result: dict, path) -> Path:
     return path
 
 
-def _short(label: str) -> str:
-    """A variant label short enough for a figure: the sixth variant's settings abridged."""
-    if label.startswith("ea-mppi-w-esc@"):
-        return "esc: " + label.rsplit("@", 1)[-1]
-    return label
-
-
 def plot_bound(result: dict, path) -> Path:
     """The largest table ratio any planner could reach at each failure rate, from the GS+W
     bound (:func:`windnav.experiments.nav_bound.bound_study`), with the issue's targets and
@@ -145,20 +138,33 @@ def plot_bound(result: dict, path) -> Path:
     f, r = np.asarray(c["failure_pct"]), 100.0 * np.asarray(c["table_ratio"])
     ax.plot(f, r, "k-", lw=1.6, label=f"bound: the cheapest GS+W routes ({result['n']} "
                                        "scenarios)")
+    slack = result.get("shortfall", {}).get("slack", 1.0)
+    if slack < 1.0:
+        ax.plot(f, 100.0 * np.asarray(c["table_ratio_with_slack"]), "k--", lw=1.0,
+                label=f"the same, every route {100.0 * (1.0 - slack):.1f} % cheaper (the "
+                      "largest shortfall flown)")
+        r = 100.0 * np.asarray(c["table_ratio_with_slack"])
     ax.fill_between(f, r, 100.0, color="0.85", label="out of reach of any planner")
-    for t in result["targets"]:
+    for k, t in enumerate(result["targets"]):
         ax.plot(t["failure_pct"], 100.0 * t["table_ratio"], "*", ms=15, mfc="gold", mec="k",
                 zorder=6)
-        ax.annotate(f"target, {t['whose']}\n(bound {100.0 * t['ideal_table_ratio']:.1f} %)",
+        ax.annotate(f"target, {t['whose']}\n(bound {100.0 * t['ideal_table_ratio']:.1f} %, "
+                    f"{100.0 * t['ideal_table_ratio_with_slack']:.1f} % with the shortfall)",
                     (t["failure_pct"], 100.0 * t["table_ratio"]), fontsize=7,
-                    xytext=(6, 4), textcoords="offset points")
+                    xytext=(10, -24 if k % 2 == 0 else 10), textcoords="offset points")
+    settings = False
     for v, row in result["variants"].items():
         if row["table_ratio"] is None:
             continue
         y = 100.0 * row["table_ratio"]
+        if v.startswith("ea-mppi-w-esc@"):  # the sixth variant's settings: one legend entry
+            ax.plot(row["failure_pct"], y, "o", ms=4, color="C2",
+                    label=None if settings else "the sixth variant's other settings")
+            settings = True
+            continue
         ax.plot(row["failure_pct"], y, "o", ms=5, color="C0" if v != result["route_variant"]
                 else "C3")
-        ax.annotate(_short(v), (row["failure_pct"], y), fontsize=6, xytext=(4, -8),
+        ax.annotate(v, (row["failure_pct"], y), fontsize=6, xytext=(4, -8),
                     textcoords="offset points")
     ax.axhline(0.0, color="0.5", lw=0.8)
     ax.set_xlim(0.0, 100.0)
