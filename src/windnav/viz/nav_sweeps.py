@@ -159,7 +159,7 @@ def plot_bound(result: dict, path) -> Path:
         y = 100.0 * row["table_ratio"]
         if v.startswith("ea-mppi-w-esc@"):  # the sixth variant's settings: one legend entry
             ax.plot(row["failure_pct"], y, "o", ms=4, color="C2",
-                    label=None if settings else "the sixth variant's other settings")
+                    label=None if settings else "ea-mppi-w-esc@... (the sixth variant's settings)")
             settings = True
             continue
         ax.plot(row["failure_pct"], y, "o", ms=5, color="C0" if v != result["route_variant"]
