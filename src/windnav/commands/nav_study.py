@@ -278,7 +278,6 @@ def _bound(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments.nav_benchmark import NavStore
     from windnav.experiments.nav_bound import bound_study
-    from windnav.experiments.nav_records import records_by_variant
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_sweeps import plot_bound
 
@@ -288,12 +287,8 @@ def _bound(args, name: str, spec) -> int:
     out = outputs(args, out=("--out", args.out, products))
     records = [r for r in NavStore(args.store, spec, create=False).load()
                if r.get("map_index") in maps]
-    by_variant = records_by_variant(records)
-    scenarios = set(by_variant.get("gs-w", {}))
-    variants = [v for v, recs in by_variant.items()
-                if "@power=" not in v and scenarios and scenarios <= set(recs)]
     try:
-        res = bound_study(records, variants=variants)
+        res = bound_study(records)
     except ValueError as exc:
         raise ValueError(str(exc).replace("'records' parameter of bound_study",
                                           f"'--store' parameter of {name}")) from None

@@ -33,7 +33,12 @@ from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
-from windnav.experiments.nav_records import _describe, _energies, records_by_variant
+from windnav.experiments.nav_records import (
+    _both_succeeded,
+    _describe,
+    _energies,
+    records_by_variant,
+)
 
 __all__ = ["TARGETS", "bound_study", "ideal_energy", "ideal_table_ratio"]
 
@@ -82,7 +87,9 @@ def bound_study(records: Iterable[Mapping], *, route_variant: str = "gs-w",
     route_variant, reference : str
         Variant labels.
     variants : sequence of str, optional
-        The variants set against the bound (default: every other variant of the records).
+        The variants set against the bound (default: every variant flown on all of the route
+        variant's scenarios, but the ``@power=`` counterfactuals, whose energies use another
+        power curve).
 
     Returns
     -------
@@ -131,30 +138,31 @@ def bound_study(records: Iterable[Mapping], *, route_variant: str = "gs-w",
     ideal_paired["by_speed"] = {
         f"{s:g}": _describe([p for p, sp in zip(paired, speeds, strict=True) if sp == s],
                             confidence) for s in sorted(set(speeds))}
-    names = list(variants) if variants is not None else sorted(by_variant)
-    rows = {}
-    for v in names:
+    if variants is None:
+        variants = [v for v, recs in by_variant.items()
+                    if "@power=" not in v and set(ideal) <= set(recs)]
+    rows, all_ratios = {}, []
+    for v in variants:
         recs = {sid: r for sid, r in by_variant.get(v, {}).items() if sid in ideal}
         if not recs:
             continue
         ok = [r for r in recs.values() if r["outcome"] == "success"]
         e = _energies(ok, "energy_J")
-        pairs = [1.0 - float(r["energy_J"]) / float(ref[sid]["energy_J"])
-                 for sid, r in recs.items() if r["outcome"] == "success"
-                 and ref.get(sid, {}).get("outcome") == "success"]
+        pairs = [1.0 - float(r["energy_J"]) / float(q["energy_J"])
+                 for r, q in _both_succeeded(recs, ref)]
+        # each success's energy over its scenario's E*: how far below the bound it flew
+        ratios = [float(r["energy_J"]) / ideal[r["scenario_id"]] for r in ok
+                  if math.isfinite(ideal[r["scenario_id"]]) and ideal[r["scenario_id"]] > 0]
+        all_ratios += ratios
         rows[v] = {
             "flights": len(recs), "successes": len(ok),
             "failure_pct": 100.0 * (1.0 - len(ok) / len(recs)),
             "table_ratio": float(1.0 - np.mean(e) / ref_mean) if e else None,
             "paired": _describe(pairs, confidence),
-            "below_bound": sum(float(r["energy_J"]) < ideal[r["scenario_id"]] for r in ok
-                               if math.isfinite(ideal[r["scenario_id"]])),
+            "below_bound": sum(x < 1.0 for x in ratios),
         }
-    # how far below E* the flown flights went: the bound again with E* times the least ratio
-    ratios = np.array([float(r["energy_J"]) / ideal[sid] for v in rows
-                       for sid, r in by_variant[v].items()
-                       if r["outcome"] == "success" and math.isfinite(ideal.get(sid, math.nan))
-                       and ideal[sid] > 0])
+    # the bound again with E* times the least ratio flown
+    ratios = np.array(all_ratios)
     slack = float(min(1.0, ratios.min())) if ratios.size else 1.0
     shortfall = {"n": int(ratios.size), "below": int(np.sum(ratios < 1.0)),
                  "min_ratio": float(ratios.min()) if ratios.size else None,

@@ -747,13 +747,14 @@ def navigate(
     if planner is None and VARIANTS[variant].planner == "gs":
         gs_config = config if config.planner == "gs" else planner_config(params, variant)
         t0 = time.perf_counter()
-        route = energy_route(city, start, goal, gs_config, wind=flow.wind_field(),
+        mean_wind = flow.wind_field()
+        route = energy_route(city, start, goal, gs_config, wind=mean_wind,
                              dx=route_dx, clearance=route_clearance, altitude=altitude)
         plan_ms.append(1e3 * (time.perf_counter() - t0))
         follower = _RouteFollower(route, kp_xy, kd_xy)
         # the goal hold the route leaves out: HOLD_S at rest in the wind it was planned in
-        w_goal = (np.asarray(flow.wind_field().velocity(0.0, np.array([[*goal, altitude]])))
-                  [0, :2] if gs_config.use_wind else np.zeros(2))
+        w_goal = (np.asarray(mean_wind.velocity(0.0, np.array([[*goal, altitude]])))[0, :2]
+                  if gs_config.use_wind else np.zeros(2))
         route_hold_J = float(gs_config.power(math.hypot(*w_goal))) * HOLD_S
     elif planner is None:
         planner = MPPIPlanner(config, goal, rng=planner_rng)
