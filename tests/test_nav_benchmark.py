@@ -221,6 +221,8 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
         "ea-mppi-w", {"planner_overrides": {"use_wind": False}})
     assert nb.parse_variant("mppi@power=crazyflie@qe=1") == (
         "mppi", {"power_shape": "crazyflie", "planner_overrides": {"energy_weight": 1.0}})
+    assert nb.parse_variant("ea-mppi-w@tilt=70@qe=3") == (
+        "ea-mppi-w", {"tilt_max_deg": 70.0, "planner_overrides": {"energy_weight": 3.0}})
     from windnav.plan import EscapeConfig
 
     assert nb.parse_variant("ea-mppi-w-esc@esc=1000") == (
@@ -257,23 +259,26 @@ def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind
                 "ea-mppi-w@qe=inf",
                 "ea-mppi-w@x=1", "ea-mppi-w@qe=1@qe=2", "ea-mppi-w@qe", "ea-mppi-w@h=nan",
                 "ea-mppi-w@qe=abc", "mppi@power=bucket", "mppi@power=crazyflie@power=crazyflie",
-                "gs-w@power=crazyflie"):
+                "gs-w@power=crazyflie", "gs-w@tilt=70", "mppi@tilt=0", "mppi@tilt=80",
+                "mppi@tilt=nan", "mppi@tilt=70@tilt=60"):
         with pytest.raises(ValueError, match="'variants' parameter of parse_variant"):
             nb.parse_variant(bad)
     seen = []
 
     def record(city, start, goal, **kw):
-        seen.append((kw["variant"], kw.get("horizon"), kw.get("planner_overrides")))
+        seen.append((kw["variant"], kw.get("horizon"), kw.get("planner_overrides"),
+                     kw.get("tilt_max_deg")))
         return Fake()(city, start, goal, **kw)
 
     spec = replace(TINY, winds=(0,), pairs=(0,),
                    navigate_options={"planner_overrides": {"lam": 0.5}})
-    labels = ["ea-mppi-w", "ea-mppi-w@qe=2", "ea-mppi-w@h=50"]
+    labels = ["ea-mppi-w", "ea-mppi-w@qe=2", "ea-mppi-w@h=50", "mppi@tilt=70"]
     nb.run_benchmark(spec, labels, tmp_path / "s", executor="serial", progress=False,
                      navigate_fn=record)
-    assert seen == [("ea-mppi-w", None, {"lam": 0.5}),
-                    ("ea-mppi-w", None, {"lam": 0.5, "energy_weight": 2.0}),
-                    ("ea-mppi-w", 50.0, {"lam": 0.5})]
+    assert seen == [("ea-mppi-w", None, {"lam": 0.5}, None),
+                    ("ea-mppi-w", None, {"lam": 0.5, "energy_weight": 2.0}, None),
+                    ("ea-mppi-w", 50.0, {"lam": 0.5}, None),
+                    ("mppi", None, {"lam": 0.5}, 70.0)]
     assert {r["variant"] for r in NavStore(tmp_path / "s", spec).load()} == set(labels)
     with pytest.raises(ValueError, match="'variants' parameter of run_benchmark"):
         nb.run_benchmark(spec, ["ea-mppi-w@qe=x"], tmp_path / "s", executor="serial",

@@ -342,11 +342,14 @@ def _dated_decoder(name: str):
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
               "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
-              "launch": "escape_launch", "gust": "escape_gust"}
+              "launch": "escape_launch", "gust": "escape_gust", "tilt": "tilt_max_deg"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
-use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual); for
+use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual), ``tilt``
+the closed loop's tilt cap, degrees (in (0, 80); ``navigate``'s ``tilt_max_deg``, default 55: the
+planner's ``a_max = g tan(tilt) / sqrt 2`` with it; a counterfactual of the vehicle's
+authority); for
 ``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`); and for
 ``ea-mppi-w-esc`` only, ``esc`` the length of route an escape flies, m (finite, > 0;
 :class:`windnav.plan.EscapeConfig` ``length_m``, default 60 m: longer than any route means that
@@ -374,7 +377,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     """A variant label: a key of :data:`windnav.plan.VARIANTS`, or one of the MPPI variants with
     study parameters, ``"ea-mppi-w@qe=2"``, ``"ea-mppi-w@h=50"``, ``"ea-mppi-w@qe=3@h=90"``
     (:data:`PARAMETERS`; the Q_E and H sweeps of the thesis), ``"mppi@power=crazyflie"`` (the
-    power-curve counterfactual), ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder).
+    power-curve counterfactual), ``"ea-mppi-w@tilt=70"`` (the tilt-cap counterfactual),
+    ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder).
 
     Returns
     -------
@@ -383,8 +387,9 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     options : dict
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
         ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
-        ``horizon``, ``power_shape``, ``decoder`` (a key of :data:`DECODERS`, which
-        :func:`fly` loads) and ``escape`` (an :class:`~windnav.plan.EscapeConfig`).
+        ``horizon``, ``power_shape``, ``tilt_max_deg``, ``decoder`` (a key of
+        :data:`DECODERS`, which :func:`fly` loads) and ``escape`` (an
+        :class:`~windnav.plan.EscapeConfig`).
 
     Raises
     ------
@@ -402,7 +407,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         return ValueError(f"The 'variants' parameter of {where} must be distinct names among "
                           f"{list(VARIANTS)}, or one of {list(_PARAMETRIC)} with parameters "
                           f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
-                          f"'@power=SHAPE' (one of {list(POWER_SHAPES)}), "
+                          f"'@power=SHAPE' (one of {list(POWER_SHAPES)}) and/or "
+                          f"'@tilt=DEG' (in (0, 80)), "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
@@ -441,7 +447,11 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"{text!r} is not a number") from None
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
-        if key in _ESCAPE_KEYS:
+        if key == "tilt":
+            if not 0.0 < value < 80.0:
+                raise fail("tilt must be in (0, 80) degrees")
+            options["tilt_max_deg"] = value
+        elif key in _ESCAPE_KEYS:
             if not (0.0 < value < math.inf):
                 raise fail(f"{key} must be finite and > 0")
             escape[PARAMETERS[key]] = value
