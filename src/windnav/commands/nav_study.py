@@ -12,6 +12,7 @@ JSON into ``--out``.
     windnav nav-study feasibility --store runs/thesis --out docs/navigation  # reachable?
     windnav nav-study gusts --out docs/navigation                        # gust-aware routes
     windnav nav-study bound --store runs/thesis --out docs/navigation    # energy bound
+    windnav nav-study tilt  --store runs/thesis --maps 0-1 --out docs/navigation   # tilt cap
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -44,7 +45,11 @@ standard deviation of the wind along the inlet) with the least-time routes each 
 energy-optimal route it planned in the mean wind) and sets every variant flown on the same
 scenarios (but the ``@power=`` counterfactuals, whose energies use another curve) against the
 largest table ratio and paired reduction any planner could reach
-(:mod:`windnav.experiments.nav_bound`); it flies nothing.
+(:mod:`windnav.experiments.nav_bound`); it flies nothing. ``tilt`` flies the thesis's four
+variants at each tilt cap of ``--values`` (degrees, default 55 70 78; 55 is the variants
+themselves, the others ``@tilt=`` labels) through the scenarios of ``--maps`` into ``--store``,
+then sets each cap's variants against its own MPPI: failure, commanded acceleration, paired
+energy (:mod:`windnav.experiments.nav_tilt`).
 """
 
 from __future__ import annotations
@@ -63,7 +68,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "bound")
+STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "bound", "tilt")
 """The studies, as named on the command line."""
 
 
@@ -83,7 +88,8 @@ def register(subparsers) -> None:
     p.add_argument("study", choices=STUDIES)
     p.add_argument("--out", type=Path, required=True, help="output folder (figure, JSON)")
     p.add_argument("--store", type=Path, default=None,
-                   help="qe, h: the benchmark store the flights go to (created or resumed); "
+                   help="qe, h, tilt: the benchmark store the flights go to (created or "
+                        "resumed); "
                         "cases, pace, bound: the store whose records are read")
     p.add_argument("--suite", choices=tuple(SUITES), default="thesis",
                    help="the suite (%(default)s)")
@@ -91,7 +97,7 @@ def register(subparsers) -> None:
                    help="the suite's maps to fly, e.g. 0-1 (default: all)")
     p.add_argument("--values", type=float, nargs="+", default=None,
                    help="the values swept (default: qe 0 0.5 1 2 3 4 5 6; h 0 25 50 100 200 "
-                        "inf)")
+                        "inf; tilt 55 70 78 degrees)")
     p.add_argument("--variant", default="ea-mppi-w",
                    help="cases, pace: the variant compared with MPPI (%(default)s)")
     p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
@@ -177,6 +183,8 @@ def run(args) -> int:
         return _pace(args, name, spec)
     if study == "bound":
         return _bound(args, name, spec)
+    if study == "tilt":
+        return _tilt(args, name, spec)
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     try:
@@ -306,6 +314,45 @@ def _bound(args, name: str, spec) -> int:
     print(json.dumps(json_ready({"study": "bound", **brief}), indent=1))
     print_written(out)
     return 0
+
+
+def _tilt(args, name: str, spec) -> int:
+    from windnav.commands.benchmark_nav import suite_maps
+    from windnav.experiments.nav_benchmark import NavStore, run_benchmark
+    from windnav.experiments.nav_tilt import TILTS, VARIANTS, tilt_label, tilt_study
+    from windnav.experiments.results import json_ready
+    from windnav.viz.nav_sweeps import plot_tilt
+
+    maps = suite_maps(args.maps, spec, name)
+    workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    tilts = TILTS if args.values is None else args.values
+    if any(not 0.0 < t < 80.0 for t in tilts) or len(set(tilts)) != len(tilts):
+        raise ValueError(f"The '--values' parameter of {name} must be distinct tilt caps in "
+                         f"(0, 80) degrees for the tilt study. Got {list(tilts)!r} instead.")
+    products = ("nav_tilt.json", "nav_tilt.png")
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    variants = [tilt_label(v, t) for t in sorted(tilts) for v in VARIANTS]
+    summary = run_benchmark(spec, variants, args.store, executor=args.executor,
+                            workers=workers, progress=not args.no_progress, maps=maps)
+    records = [r for r in NavStore(args.store, spec, create=False).load()
+               if r["map_index"] in maps]
+    res = tilt_study(records, tilts)
+    res.update(study="tilt", suite=spec.name, maps=list(maps), store=str(args.store),
+               flights_now=summary["now"], errors_now=summary["errors_now"],
+               elapsed_s=time.perf_counter() - t0)
+    _write(out, args, res, products[0], lambda folder: plot_tilt(res, folder / products[1]))
+    brief = {f"{t:g}": {v: {"failure_pct": r["failure_pct"]["value"],
+                            "cmd_accel": r["cmd_accel"],
+                            **({"paired": r["paired"]["mean"], "pairs": r["paired"]["n"]}
+                               if "paired" in r else {})}
+                        for v, r in row.items()}
+             for t, row in res["rows"].items()}
+    print(json.dumps(json_ready({"study": "tilt", "scenarios": res["scenarios"], "tilts": brief,
+                                 "flights_now": summary["now"],
+                                 "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 1 if summary["errors_now"] or summary["pending"] else 0
 
 
 def _winds(args, name: str, spec) -> int:

@@ -2,7 +2,8 @@
 paired energy reduction against MPPI for each value, overall (with its 95 % interval) and per
 inlet speed, and the failure rate beside MPPI's; and the figure of the pace study
 (:mod:`windnav.experiments.nav_pace`): time and mean-power ratios per pair; and the figure of
-the energy bound (:mod:`windnav.experiments.nav_bound`)."""
+the energy bound (:mod:`windnav.experiments.nav_bound`); and of the tilt-cap study
+(:mod:`windnav.experiments.nav_tilt`)."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-__all__ = ["plot_bound", "plot_pace", "plot_sweep"]
+__all__ = ["plot_bound", "plot_pace", "plot_sweep", "plot_tilt"]
 
 
 def _positions(values):
@@ -176,6 +177,63 @@ def plot_bound(result: dict, path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper left")
     ax.set_title("The table ratio any planner could reach, and the measured variants",
+                 fontsize=10)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+_TILT_STYLE = {"mppi": ("#7f7f7f", "o"), "mppi-w": ("#1f77b4", "s"),
+               "ea-mppi": ("#ff7f0e", "^"), "ea-mppi-w": ("#d62728", "D")}
+
+
+def plot_tilt(result: dict, path) -> Path:
+    """The thesis's four variants against the tilt cap
+    (:func:`windnav.experiments.nav_tilt.tilt_study`): failure rate, paired energy reduction
+    against MPPI at the same cap (95 % interval), and mean commanded acceleration, each with
+    the thesis's value beside it."""
+    tilts = result["tilts"]
+    fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.4))
+    x = np.asarray(tilts)
+    x_thesis = x[-1] + 0.35 * (x[-1] - x[0] if len(x) > 1 else 10.0)
+    thesis = result["thesis"]
+    ref = result["variants"][0]
+    for v in result["variants"]:
+        color, marker = _TILT_STYLE.get(v, ("0.3", "o"))
+        rows = [result["rows"][t][v] for t in tilts]
+        th = thesis.get(v, {})
+        axes[0].plot(x, [r["failure_pct"]["value"] for r in rows], marker=marker, color=color,
+                     label=v)
+        axes[2].plot(x, [r["cmd_accel"] for r in rows], marker=marker, color=color, label=v)
+        for ax, key in ((axes[0], "failure_pct"), (axes[2], "cmd_accel")):
+            if key in th:
+                ax.plot(x_thesis, th[key], marker=marker, mfc="none", mec=color, ms=9, ls="")
+        if v == ref:
+            continue
+        mean = 100.0 * np.array([r["paired"]["mean"] for r in rows])
+        lo = 100.0 * np.array([r["paired"]["ci95"][0] for r in rows])
+        hi = 100.0 * np.array([r["paired"]["ci95"][1] for r in rows])
+        axes[1].errorbar(x, mean, yerr=[mean - lo, hi - mean], marker=marker, color=color,
+                         capsize=3, label=f"{v} (pairs {min(r['paired']['n'] for r in rows)}-"
+                                          f"{max(r['paired']['n'] for r in rows)})")
+    axes[1].plot(x_thesis, 14.1, marker="D", mfc="none", mec=_TILT_STYLE["ea-mppi-w"][0], ms=9)
+    axes[1].axhline(0.0, color="k", lw=0.8)
+    axes[2].plot(x, [result["a_max"][t] * math.sqrt(2.0) for t in tilts], "k:", lw=1,
+                 label="the cap g tan(tilt)")
+    titles = ("failure %", f"paired energy reduction against {ref} at the same cap, %",
+              "mean commanded acceleration, m/s²")
+    for ax, title in zip(axes, titles, strict=True):
+        ax.set_xticks([*x, x_thesis], [f"{t:g}°" for t in tilts] + ["thesis"])
+        ax.set_xlabel("tilt cap (planner a_max = g tan(tilt) / √2)")
+        ax.set_title(title, fontsize=10)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[1].legend(fontsize=7)
+    axes[2].legend(fontsize=8)
+    fig.suptitle(f"The thesis's variants with more authority: {result['scenarios']} scenarios, "
+                 "each flown by every variant at every cap (open markers: the thesis's table)",
                  fontsize=10)
     fig.tight_layout()
     path = Path(path)
