@@ -6,6 +6,7 @@ that the tests check the bookkeeping in milliseconds; the flights themselves are
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 
@@ -102,20 +103,32 @@ def test_command_flies_the_sweep_into_the_store_and_plots_it(tmp_path, quick_is_
     assert cli.main(study(tmp_path, "qe", ["-1"], "--overwrite")) == 2
 
 
-def test_qe_zero_with_wind_is_mppi_w_and_qe_five_is_ea_mppi_w():
-    """The labels that name a thesis variant fly that variant's flight (real flights, 15 s on
-    the small map of ``tests/test_escape_variant.py``)."""
+@functools.lru_cache(maxsize=1)
+def small_map():
+    """The small map of ``tests/test_escape_variant.py`` (one building) and a 2 m/s wind."""
     from windnav.city import City
-    from windnav.experiments.navigate import navigate, simulate_flow
+    from windnav.experiments.navigate import simulate_flow
 
     city = City((0.0, 140.0, 0.0, 120.0), np.array([(35.0, 45.0, 45.0, 75.0)]),
                 np.array([20.0]))
-    flow = simulate_flow(city, 2.0, 0.0, spinup_s=5.0, record_s=20.0)
+    return city, simulate_flow(city, 2.0, 0.0, spinup_s=5.0, record_s=20.0)
+
+
+def fly_small_map(label: str):
+    """A real 15 s flight of a benchmark variant label across :func:`small_map`."""
+    from windnav.experiments.navigate import navigate
+
+    city, flow = small_map()
+    base, options = nb.parse_variant(label)
+    return navigate(city, (10.0, 60.0), (110.0, 60.0), speed=2.0, direction_deg=0.0,
+                    variant=base, flow=flow, rng=3, duration=15.0, **options)
+
+
+def test_qe_zero_with_wind_is_mppi_w_and_qe_five_is_ea_mppi_w():
+    """The labels that name a thesis variant fly that variant's flight (real flights)."""
 
     def fly(label):
-        base, options = nb.parse_variant(label)
-        return navigate(city, (10.0, 60.0), (110.0, 60.0), speed=2.0, direction_deg=0.0,
-                        variant=base, flow=flow, rng=3, duration=15.0, **options).summary()
+        return fly_small_map(label).summary()
 
     for label, same in (("ea-mppi-w@qe=0", "mppi-w"), ("ea-mppi-w@qe=5@h=inf", "ea-mppi-w")):
         a, b = fly(label), fly(same)

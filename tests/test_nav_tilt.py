@@ -6,17 +6,14 @@ from __future__ import annotations
 import json
 import math
 
-import numpy as np
 import pytest
-from test_nav_benchmark import TINY, Fake, fake_flows
+from test_nav_sweeps import fly_small_map, quick_is_tiny  # noqa: F401 (a fixture)
 
 import windnav.experiments.nav_benchmark as nb
 from windnav import cli
 from windnav.experiments.nav_records import NavStore
 from windnav.experiments.nav_suite import SUITES
 from windnav.experiments.nav_tilt import VARIANTS, tilt_label, tilt_study
-
-REAL_FLY = nb.fly_scenario
 
 
 def test_labels_are_the_variants_at_the_default_cap():
@@ -65,19 +62,7 @@ def test_each_cap_is_compared_with_its_own_mppi():
 def test_a_higher_cap_lets_the_planner_command_more():
     """A real flight (15 s on a small map): the cap sets the planner's ``a_max`` and the
     commands follow it."""
-    from windnav.city import City
-    from windnav.experiments.navigate import navigate, simulate_flow
-
-    city = City((0.0, 140.0, 0.0, 120.0), np.array([(35.0, 45.0, 45.0, 75.0)]),
-                np.array([20.0]))
-    flow = simulate_flow(city, 2.0, 0.0, spinup_s=5.0, record_s=20.0)
-
-    def fly(label):
-        base, options = nb.parse_variant(label)
-        return navigate(city, (10.0, 60.0), (110.0, 60.0), speed=2.0, direction_deg=0.0,
-                        variant=base, flow=flow, rng=3, duration=15.0, **options)
-
-    low, high = fly("mppi"), fly("mppi@tilt=75")
+    low, high = fly_small_map("mppi"), fly_small_map("mppi@tilt=75")
     assert low.settings["a_max"] == pytest.approx(9.81 * math.tan(math.radians(55)) / 2 ** 0.5,
                                                   rel=1e-3)
     assert high.settings["tilt_max_deg"] == 75.0
@@ -86,15 +71,8 @@ def test_a_higher_cap_lets_the_planner_command_more():
     assert high.summary()["mean_cmd_accel"] > low.summary()["mean_cmd_accel"]
 
 
-@pytest.fixture
-def quick_is_tiny(monkeypatch):
-    monkeypatch.setitem(SUITES, "quick", TINY.__class__(**{**TINY.__dict__, "name": "quick"}))
-    monkeypatch.setattr(nb, "suite_flows", fake_flows)
-    monkeypatch.setattr(nb, "fly_scenario", lambda spec, sc, v, **kw: REAL_FLY(
-        spec, sc, v, city=kw.get("city"), flow=kw.get("flow"), navigate_fn=Fake()))
-
-
-def test_command_flies_every_variant_at_every_cap_and_plots_it(tmp_path, quick_is_tiny, capsys):
+@pytest.mark.usefixtures("quick_is_tiny")
+def test_command_flies_every_variant_at_every_cap_and_plots_it(tmp_path, capsys):
     args = ["nav-study", "tilt", "--suite", "quick", "--store", str(tmp_path / "store"),
             "--values", "55", "70", "--executor", "serial", "--out", str(tmp_path / "t"),
             "--no-progress"]

@@ -16,6 +16,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from windnav.viz.navigate import _save  # noqa: E402
+
 __all__ = ["plot_bound", "plot_pace", "plot_sweep", "plot_tilt"]
 
 
@@ -77,11 +79,7 @@ def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path
     fig.suptitle(f"EA-MPPI+W against {result['reference']}, sweeping {name}: "
                  f"{result['reference_flights']} scenarios, {min(n)}-{max(n)} pairs where "
                  "neither failed", fontsize=10)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 _PACE_COLORS = {"vehicle": "#1f77b4", "crazyflie": "#d62728"}
@@ -123,11 +121,7 @@ def plot_pace(result: dict, path) -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7, loc="upper right")
     ax.set_title("Energy = mean power x time: scenarios where neither failed", fontsize=10)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def plot_bound(result: dict, path) -> Path:
@@ -178,11 +172,7 @@ def plot_bound(result: dict, path) -> Path:
     ax.legend(fontsize=7, loc="upper left")
     ax.set_title("The table ratio any planner could reach, and the measured variants",
                  fontsize=10)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 _TILT_STYLE = {"mppi": ("#7f7f7f", "o"), "mppi-w": ("#1f77b4", "s"),
@@ -235,8 +225,4 @@ def plot_tilt(result: dict, path) -> Path:
     fig.suptitle(f"The thesis's variants with more authority: {result['scenarios']} scenarios, "
                  "each flown by every variant at every cap (open markers: the thesis's table)",
                  fontsize=10)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
