@@ -182,10 +182,11 @@ _TILT_STYLE = {"mppi": ("#7f7f7f", "o"), "mppi-w": ("#1f77b4", "s"),
 def plot_tilt(result: dict, path) -> Path:
     """The thesis's four variants against the tilt cap
     (:func:`windnav.experiments.nav_tilt.tilt_study`): failure rate, paired energy reduction
-    against MPPI at the same cap (95 % interval), and mean commanded acceleration, each with
-    the thesis's value beside it."""
+    against MPPI at the same cap (95 % interval) and mean commanded acceleration, each with the
+    thesis's value beside it, and the share of flights that went above the vehicle's trusted
+    airspeed (where the drag and power models extrapolate)."""
     tilts = result["tilts"]
-    fig, axes = plt.subplots(1, 3, figsize=(13.5, 4.4))
+    fig, axes = plt.subplots(1, 4, figsize=(17.5, 4.4))
     x = np.asarray(tilts)
     x_thesis = x[-1] + 0.35 * (x[-1] - x[0] if len(x) > 1 else 10.0)
     thesis = result["thesis"]
@@ -197,6 +198,9 @@ def plot_tilt(result: dict, path) -> Path:
         axes[0].plot(x, [r["failure_pct"]["value"] for r in rows], marker=marker, color=color,
                      label=v)
         axes[2].plot(x, [r["cmd_accel"] for r in rows], marker=marker, color=color, label=v)
+        if all(r["outside_envelope"] is not None for r in rows):
+            axes[3].plot(x, [100.0 * r["outside_envelope"] / r["flights"] for r in rows],
+                         marker=marker, color=color, label=v)
         for ax, key in ((axes[0], "failure_pct"), (axes[2], "cmd_accel")):
             if key in th:
                 ax.plot(x_thesis, th[key], marker=marker, mfc="none", mec=color, ms=9, ls="")
@@ -213,15 +217,18 @@ def plot_tilt(result: dict, path) -> Path:
     axes[2].plot(x, [result["a_max"][t] * math.sqrt(2.0) for t in tilts], "k:", lw=1,
                  label="the cap g tan(tilt)")
     titles = ("failure %", f"paired energy reduction against {ref} at the same cap, %",
-              "mean commanded acceleration, m/s²")
-    for ax, title in zip(axes, titles, strict=True):
-        ax.set_xticks([*x, x_thesis], [f"{t:g}°" for t in tilts] + ["thesis"])
+              "mean commanded acceleration, m/s²",
+              "flights above the trusted airspeed, %")
+    for i, (ax, title) in enumerate(zip(axes, titles, strict=True)):
+        ticks = [*x, x_thesis] if i < 3 else list(x)
+        ax.set_xticks(ticks, [f"{t:g}°" for t in tilts] + (["thesis"] if i < 3 else []))
         ax.set_xlabel("tilt cap (planner a_max = g tan(tilt) / √2)")
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     axes[1].legend(fontsize=7)
     axes[2].legend(fontsize=8)
+    axes[3].set_ylim(bottom=0.0)
     fig.suptitle(f"The thesis's variants with more authority: {result['scenarios']} scenarios, "
                  "each flown by every variant at every cap (open markers: the thesis's table)",
                  fontsize=10)
