@@ -20,6 +20,7 @@ ablation table keeps 55 deg.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 
 from windnav.experiments.nav_records import FAILURES, benchmark_table
@@ -82,8 +83,6 @@ def tilt_study(records: Iterable[Mapping], tilts: Sequence[float] | None = None,
     ValueError
         No scenario flown by every label, or a cap outside (0, 80).
     """
-    import math
-
     tilts = sorted(float(t) for t in (TILTS if tilts is None else tilts))
     if not tilts or any(not 0.0 < t < 80.0 for t in tilts) or len(set(tilts)) != len(tilts):
         raise ValueError(f"The 'tilts' parameter of tilt_study must be distinct caps in (0, 80) "
