@@ -319,20 +319,17 @@ def _bound(args, name: str, spec) -> int:
 def _tilt(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments.nav_benchmark import NavStore, run_benchmark
-    from windnav.experiments.nav_tilt import TILTS, VARIANTS, tilt_label, tilt_study
+    from windnav.experiments.nav_tilt import TILTS, VARIANTS, check_tilts, tilt_label, tilt_study
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_sweeps import plot_tilt
 
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
-    tilts = TILTS if args.values is None else args.values
-    if any(not 0.0 < t < 80.0 for t in tilts) or len(set(tilts)) != len(tilts):
-        raise ValueError(f"The '--values' parameter of {name} must be distinct tilt caps in "
-                         f"(0, 80) degrees for the tilt study. Got {list(tilts)!r} instead.")
+    tilts = check_tilts(TILTS if args.values is None else args.values, "--values", name)
     products = ("nav_tilt.json", "nav_tilt.png")
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
-    variants = [tilt_label(v, t) for t in sorted(tilts) for v in VARIANTS]
+    variants = [tilt_label(v, t) for t in tilts for v in VARIANTS]
     summary = run_benchmark(spec, variants, args.store, executor=args.executor,
                             workers=workers, progress=not args.no_progress, maps=maps)
     records = [r for r in NavStore(args.store, spec, create=False).load()

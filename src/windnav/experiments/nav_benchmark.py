@@ -397,7 +397,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         An unknown base variant or parameter, a parameter given twice, or a value that is not a
         number >= 0 (``h`` may be ``inf``).
     """
-    from windnav.experiments.navigate import POWER_SHAPES
+    from windnav.experiments.navigate import POWER_SHAPES, TILT_LIMIT_DEG
     from windnav.plan import VARIANTS
 
     label = str(label)
@@ -408,7 +408,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"{list(VARIANTS)}, or one of {list(_PARAMETRIC)} with parameters "
                           f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
                           f"'@power=SHAPE' (one of {list(POWER_SHAPES)}) and/or "
-                          f"'@tilt=DEG' (in (0, 80)), "
+                          f"'@tilt=DEG' (in (0, {TILT_LIMIT_DEG:g})), "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
@@ -448,8 +448,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
         if key == "tilt":
-            if not 0.0 < value < 80.0:
-                raise fail("tilt must be in (0, 80) degrees")
+            if not 0.0 < value < TILT_LIMIT_DEG:
+                raise fail(f"tilt must be in (0, {TILT_LIMIT_DEG:g}) degrees")
             options["tilt_max_deg"] = value
         elif key in _ESCAPE_KEYS:
             if not (0.0 < value < math.inf):

@@ -24,12 +24,9 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 
 from windnav.experiments.nav_records import FAILURES, benchmark_table
-from windnav.vehicle.params import GRAVITY
+from windnav.experiments.navigate import TILT_LIMIT_DEG, TILT_MAX_DEG, tilt_accel_cap
 
-__all__ = ["DEFAULT_TILT", "THESIS_ROWS", "TILTS", "tilt_label", "tilt_study"]
-
-DEFAULT_TILT = 55.0
-"""The closed loop's tilt cap, degrees (``navigate``'s ``tilt_max_deg``): the ablation table's."""
+__all__ = ["THESIS_ROWS", "TILTS", "check_tilts", "tilt_label", "tilt_study"]
 
 TILTS = (55.0, 70.0, 78.0)
 """The caps of the study, degrees."""
@@ -48,8 +45,21 @@ THESIS_ROWS = {
 
 def tilt_label(variant: str, tilt: float) -> str:
     """The benchmark label of ``variant`` flown with the tilt cap ``tilt`` (degrees): the variant
-    itself at :data:`DEFAULT_TILT`, else ``"variant@tilt=70"``."""
-    return variant if float(tilt) == DEFAULT_TILT else f"{variant}@tilt={float(tilt):g}"
+    itself at ``navigate``'s default cap (the ablation table's, 55 deg), else
+    ``"variant@tilt=70"``."""
+    return variant if float(tilt) == TILT_MAX_DEG else f"{variant}@tilt={float(tilt):g}"
+
+
+def check_tilts(tilts: Sequence[float], param: str = "tilts",
+                where: str = "check_tilts") -> list[float]:
+    """The caps ``tilts`` (degrees), sorted; a ValueError naming ``param`` of ``where`` unless
+    they are distinct, at least one, each in (0, 80)."""
+    tilts = sorted(float(t) for t in tilts)
+    if (not tilts or any(not 0.0 < t < TILT_LIMIT_DEG for t in tilts)
+            or len(set(tilts)) != len(tilts)):
+        raise ValueError(f"The '{param}' parameter of {where} must be distinct tilt caps in "
+                         f"(0, {TILT_LIMIT_DEG:g}) degrees. Got {tilts!r} instead.")
+    return tilts
 
 
 def tilt_study(records: Iterable[Mapping], tilts: Sequence[float] | None = None, *,
@@ -83,10 +93,7 @@ def tilt_study(records: Iterable[Mapping], tilts: Sequence[float] | None = None,
     ValueError
         No scenario flown by every label, or a cap outside (0, 80).
     """
-    tilts = sorted(float(t) for t in (TILTS if tilts is None else tilts))
-    if not tilts or any(not 0.0 < t < 80.0 for t in tilts) or len(set(tilts)) != len(tilts):
-        raise ValueError(f"The 'tilts' parameter of tilt_study must be distinct caps in (0, 80) "
-                         f"degrees. Got {tilts!r} instead.")
+    tilts = check_tilts(TILTS if tilts is None else tilts, "tilts", "tilt_study")
     labels = {t: {v: tilt_label(v, t) for v in variants} for t in tilts}
     wanted = {lb for row in labels.values() for lb in row.values()}
     records = [r for r in records if r["variant"] in wanted]
@@ -127,5 +134,5 @@ def tilt_study(records: Iterable[Mapping], tilts: Sequence[float] | None = None,
                            power_ratio=row["vs_reference"]["pace"]["power_ratio"]["mean"])
             rows[t][v] = out
     return {"tilts": tilts, "variants": list(variants), "scenarios": len(common),
-            "a_max": {t: GRAVITY * math.tan(math.radians(t)) / math.sqrt(2.0) for t in tilts},
+            "a_max": {t: tilt_accel_cap(t) / math.sqrt(2.0) for t in tilts},
             "thesis": THESIS_ROWS, "rows": rows}

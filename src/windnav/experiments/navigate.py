@@ -120,6 +120,7 @@ __all__ = [
     "navigate",
     "simulate_flow",
     "simulate_flows",
+    "tilt_accel_cap",
     "with_power_shape",
 ]
 
@@ -130,6 +131,10 @@ GOAL_RADIUS = 5.0
 """Success radius around the goal, m."""
 CAPTURE_RADIUS = 10.0
 """Default distance from the goal at which the loop stops planning and holds it, m."""
+TILT_MAX_DEG = 55.0
+"""Default tilt cap of the closed loop, degrees (see the module docstring)."""
+TILT_LIMIT_DEG = 80.0
+"""A tilt cap must lie in (0, TILT_LIMIT_DEG) degrees."""
 GOAL_SPEED = 2.0
 """Largest speed that counts as stopped at the goal, m/s."""
 HOVER_SPEED = 1.0
@@ -559,6 +564,15 @@ def _default_params():
     return params("hummingbird")
 
 
+def tilt_accel_cap(tilt_deg: float) -> float:
+    """The horizontal acceleration at the tilt cap ``tilt_deg`` (degrees) while holding altitude,
+    m/s^2: ``g tan(tilt)``. The closed loop clips commands to this disk; the MPPI planner's
+    per-axis bound is the box inside it, ``tilt_accel_cap(tilt) / sqrt 2``."""
+    from windnav.vehicle.params import GRAVITY
+
+    return GRAVITY * math.tan(math.radians(tilt_deg))
+
+
 def navigate(
     city,
     start_xy,
@@ -574,7 +588,7 @@ def navigate(
     vehicle=None,
     config=None,
     planner=None,
-    tilt_max_deg: float = 55.0,
+    tilt_max_deg: float = TILT_MAX_DEG,
     control_rate_hz: float = 100.0,
     plan_rate_hz: float = 10.0,
     duration: float | None = None,
@@ -685,9 +699,9 @@ def navigate(
     altitude = positive_float(altitude, "altitude", _WHERE)
     capture = positive_float(capture_radius, "capture_radius", _WHERE, allow_zero=True)
     tilt = finite_float(tilt_max_deg, "tilt_max_deg", _WHERE)
-    if not 0.0 < tilt < 80.0:
-        raise ValueError(f"The 'tilt_max_deg' parameter of {_WHERE} must be in (0, 80). Got "
-                         f"{tilt_max_deg!r} instead.")
+    if not 0.0 < tilt < TILT_LIMIT_DEG:
+        raise ValueError(f"The 'tilt_max_deg' parameter of {_WHERE} must be in "
+                         f"(0, {TILT_LIMIT_DEG:g}). Got {tilt_max_deg!r} instead.")
     control_dt = 1.0 / positive_float(control_rate_hz, "control_rate_hz", _WHERE)
     ratio = control_rate_hz / positive_float(plan_rate_hz, "plan_rate_hz", _WHERE)
     plan_every = int(round(ratio))
@@ -706,7 +720,7 @@ def navigate(
     wind_at = _FastWind(flow.wind_field(unsteady=True))
 
     params = _default_params() if vehicle is None else vehicle
-    a_cap = GRAVITY * math.tan(math.radians(tilt))
+    a_cap = tilt_accel_cap(tilt)
     model = Multirotor(params)
     controller = SE3Controller(params)
     n_max = int(math.floor(end / control_dt + 1e-9)) + 1
