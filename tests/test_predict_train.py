@@ -140,7 +140,74 @@ def test_thesis_mlp_trains_with_d4_augmentation(tiny, tmp_path):
     h = train_decoder(mlp, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
                       log=None)
     assert h["epochs"][-1]["train_loss"] < h["epochs"][0]["train_loss"]
+    assert h["flush_denormal"] is None
     assert load_decoder(tmp_path / "model.npz").architecture == "thesis-mlp"
+
+
+# 1e-20 * 1e-20 = 1e-40 is subnormal in float32 unless the thread flushes it to zero; with two
+# threads, each computes part of these products.
+_FLUSH_PROBE = """
+import sys, torch
+from windnav.predict.train import flush_denormals
+if sys.argv[1] == "late":
+    torch.set_num_threads(2)
+    torch.ones(1 << 20) * 2.0  # starts the worker threads
+ok = flush_denormals()
+torch.set_num_threads(2)
+a = torch.full((1 << 20,), 1e-20)
+m = torch.full((256, 256), 1e-20)
+print(ok, int((a * a != 0).sum()), int((m @ m != 0).sum()))
+"""
+
+
+def _flush_probe(when: str) -> list:
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", _FLUSH_PROBE, when], capture_output=True,
+                          text=True, timeout=120, check=True)
+    ok, elementwise, matmul = done.stdout.split()
+    return [ok == "True", int(elementwise), int(matmul)]
+
+
+def test_flush_denormals_reaches_every_thread_when_set_first():
+    assert _flush_probe("first") == [True, 0, 0]
+
+
+def test_flush_denormals_set_late_reaches_the_calling_thread_only_and_says_so():
+    ok, elementwise, _ = _flush_probe("late")
+    assert not ok
+    # the calling thread flushed its part of the product, the started worker did not
+    assert 0 < elementwise < 1 << 20
+
+
+_TRAIN_FLUSHED = """
+import json, sys
+import numpy as np
+from windnav.predict.decoder import load_decoder
+from windnav.predict.train import train_decoder
+recipe, store, out = json.loads(sys.argv[1]), sys.argv[2], sys.argv[3]
+h = train_decoder(recipe, store=store, out_dir=out, progress=False, log=None)
+w = load_decoder(out + "/model.npz")
+print(json.dumps([h["flush_denormal"], w.metadata["training"]["flush_denormal"]]))
+"""
+
+
+def test_thesis_mlp_trains_with_subnormals_flushed_in_a_fresh_process(tiny, tmp_path):
+    import subprocess
+    import sys
+
+    recipe, out, _ = tiny
+    mlp = copy.deepcopy(recipe)
+    mlp["model"] = {"architecture": "thesis-mlp", "hyperparameters": {"width": 64, "depth": 2}}
+    mlp["train"].update(epochs=1, optimizer="adam", weight_decay=0.002, cache=False,
+                        flush_denormal=True, tensorboard=False)
+    done = subprocess.run([sys.executable, "-c", _TRAIN_FLUSHED, json.dumps(mlp),
+                           str(out / "sweep.zarr"), str(tmp_path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    # set before torch's threads start: every thread flushed, and the model file says so
+    assert json.loads(done.stdout.splitlines()[-1]) == [True, True]
 
 
 def test_d4_augmentation_turns_whole_samples(tiny):
@@ -207,6 +274,7 @@ def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection()
     ({"trian": {}}, "unknown key 'trian'"),
     ({"train": {"epochs": 0}}, "train.epochs"),
     ({"train": {"optimizer": "sgd"}}, "train.optimizer"),
+    ({"train": {"flush_denormal": 1}}, "train.flush_denormal"),
     ({"data": {"validation_maps": []}}, "data.validation_maps"),
     ({"model": {"architecture": "resnet"}}, "'name' parameter of make_architecture"),
     ({"model": {"hyperparameters": {"pool": 4}}}, "'pool' hyperparameter"),

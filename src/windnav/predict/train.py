@@ -63,7 +63,8 @@ from windnav.predict.decoder import (
 )
 from windnav.predict.metrics import field_errors
 
-__all__ = ["DEFAULTS", "load_recipe", "recipe_maps", "resolve_paths", "train_decoder"]
+__all__ = ["DEFAULTS", "flush_denormals", "load_recipe", "recipe_maps", "resolve_paths",
+           "train_decoder"]
 
 RECIPES = Path(__file__).resolve().parent / "recipes"
 """Folder of the recipes shipped with windnav (``default.toml``, ``tiny.toml``, ...)."""
@@ -109,6 +110,7 @@ DEFAULTS = {
         "cache": True,
         "resample_every": 0,
         "threads": 2,
+        "flush_denormal": False,
         "device": "auto",
         "seed": 0,
         "eval_batch_size": 4096,
@@ -223,6 +225,8 @@ def _check_recipe(r: dict, where: str) -> None:
         fail("train.augment_speed", "[] or [lo, hi] with 0 < lo <= hi, m/s", sp)
     if t["device"] not in ("auto", "cpu", "cuda"):
         fail("train.device", "'auto', 'cpu' or 'cuda'", t["device"])
+    if not isinstance(t["flush_denormal"], bool):
+        fail("train.flush_denormal", "true or false", t["flush_denormal"])
     if not isinstance(d["validation_maps"], list) or not d["validation_maps"]:
         fail("data.validation_maps", "a non-empty list of store map names (held out)",
              d["validation_maps"])
@@ -271,7 +275,8 @@ def _fingerprint(recipe: dict) -> str:
     sweep = {k: v for k, v in recipe["sweep"].items() if k not in ("store", "backend", "workers")}
     keep = {"sweep": sweep, "data": recipe["data"], "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
-                      if k not in ("threads", "device", "tensorboard", "eval_batch_size")}}
+                      if k not in ("threads", "flush_denormal", "device", "tensorboard",
+                                   "eval_batch_size")}}
     return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -547,12 +552,18 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
         return ckpt["history"]  # finished
 
     tr = recipe["train"]
+    flushed = flush_denormals() if tr["flush_denormal"] else None
+    if flushed is False and log:
+        log(f"{where}: train.flush_denormal could not be set on every thread (torch's worker "
+            "threads had started, or the CPU lacks FTZ/DAZ): subnormal numbers may slow the "
+            "training; run it in a fresh process")
     torch.set_num_threads(tr["threads"])
     run.setup(where)
     if ckpt is not None:
         run.restore(ckpt)
         if log and run.start < tr["epochs"]:
             log(f"{where}: resuming {str(out)!r} after epoch {run.start}")
+    run.history["flush_denormal"] = flushed
     writer = _summary_writer(tr["tensorboard"], out / "tensorboard") \
         if run.start < tr["epochs"] else None
     try:
@@ -575,6 +586,33 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
             writer.close()
     run.finish()
     return run.history
+
+
+def flush_denormals() -> bool:
+    """Flush subnormal floats to zero (FTZ/DAZ) in torch's CPU arithmetic, on every thread.
+
+    Why: with an L2 penalty (the thesis MLP's lambda = 0.002) weights, Adam moments and
+    activations drift into the subnormal range (below 1.2e-38 in float32), where some CPUs
+    take a slow path for each operation: the thesis MLP's epochs slowed 4-10 x from the 4th
+    (docs/decoder.md). The flag is a per-thread CPU register; torch's OpenMP and MKL worker
+    threads copy it from the thread that starts them, when the process first computes in
+    parallel. So it must be set before that: set afterwards it reaches the calling thread only
+    (measured: half of a 2-thread product stayed subnormal).
+
+    Returns
+    -------
+    bool
+        Whether a probe computed on every intra-op thread came out flushed: False when the
+        CPU has no FTZ/DAZ, or when the worker threads had already started.
+    """
+    import torch
+
+    if not torch.set_flush_denormal(True):
+        return False
+    # an elementwise product is split among the threads in chunks of 32,768 elements
+    n = 65536 * max(2, torch.get_num_threads())
+    probe = torch.full((n,), 1e-20) * torch.full((n,), 1e-20)  # 1e-40: subnormal unless flushed
+    return bool((probe == 0).all())
 
 
 def _log_scalars(writer, record: dict) -> None:
@@ -748,6 +786,7 @@ class _Run:
             "training": {"epochs": tr["epochs"], "best_epoch": h["best_epoch"],
                          "seconds": sum(r["seconds"] for r in h["epochs"]),
                          "device": h["device"], "threads": tr["threads"],
+                         "flush_denormal": h.get("flush_denormal"),
                          "n_train_samples": h["n_train_samples"],
                          "n_train_fields": h["n_train_fields"]}}, self.model_path)
         self.save_checkpoint()
