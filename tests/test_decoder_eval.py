@@ -31,13 +31,13 @@ TINY_FLOW = {"spinup_steps": 10, "steps": 10}
 HP = {"conv_channels": 2, "embed": 8, "film_hidden": 4, "width": 8, "depth": 1, "modes": 4}
 
 
-def tiny_decoder(seed: int = 0) -> Decoder:
+def tiny_decoder(seed: int = 0, spacing: float = 1.0) -> Decoder:
     arch = make_architecture("d4-film", 25, **HP)
     rng = np.random.default_rng(seed)
     weights = {k: (0.1 * rng.standard_normal(s)).astype(np.float32)
                for k, s in arch.shapes().items()}
     return Decoder(weights, {"architecture": "d4-film", "hyperparameters": dict(arch.hp),
-                             "spacing": 1.0})
+                             "spacing": spacing})
 
 
 def tiny_maps(k: int = 2):
@@ -101,6 +101,38 @@ def test_pooled_errors_weigh_cells_equally_over_slots(evaluation):
         e = np.array([r[model]["speed_error"] for r in recs])
         assert pooled[model]["speed_error"] == pytest.approx((n * e).sum() / n.sum())
         assert pooled[model]["n_free"] == n.sum()
+
+
+def test_a_compared_model_is_scored_on_the_same_samples_beside_the_decoder(evaluation):
+    maps, res = evaluation
+    # the decoder itself, compared: the same numbers to the bit, so the same samples; another
+    # model: its own numbers; and the decoder's own scores do not change
+    both = evaluate_decoder(maps=maps, windinet=False, n_inlets=2, samples_per_inlet=48,
+                            seed=3, dx=2.0, flow_settings=TINY_FLOW, decoder=tiny_decoder(),
+                            compare={"same": tiny_decoder(), "other": tiny_decoder(1)})
+    assert both["models"] == ["decoder", "same", "other", "local", "upstream"]
+    assert set(both["compared"]) == {"same", "other"}
+    for rec, alone in zip(both["records"], res["records"], strict=True):
+        assert rec["same"] == rec["decoder"] == alone["decoder"]
+        assert rec["other"]["speed_error"] != rec["decoder"]["speed_error"]
+        assert rec["compared_improvement_pct"]["other"]["local"]["speed_error"] == (
+            pytest.approx(100 * (1 - rec["other"]["speed_error"] / rec["local"]["speed_error"])))
+    pooled = both["pooled"]["all"]
+    assert pooled["same"] == pooled["decoder"] == res["pooled"]["all"]["decoder"]
+    assert pooled["compared_improvement_pct"]["same"] == pooled["improvement_pct"]
+    assert "compared_improvement_pct" not in res["pooled"]["all"]
+
+
+@pytest.mark.parametrize(("compare", "match"), [
+    ({"local": tiny_decoder()}, "name each model once"),
+    ([tiny_decoder(), tiny_decoder(1)], "'d4-film' twice"),
+    ({"coarse": tiny_decoder(spacing=2.0)}, "decoder's grid"),
+])
+def test_bad_comparisons_are_refused(compare, match):
+    with pytest.raises(ValueError, match=match):
+        evaluate_decoder(maps=tiny_maps(1), windinet=False, n_inlets=1, samples_per_inlet=8,
+                         dx=2.0, flow_settings=TINY_FLOW, decoder=tiny_decoder(),
+                         compare=compare)
 
 
 def test_the_budget_stops_adding_inlets():
@@ -176,15 +208,37 @@ def test_evaluate_decoder_command_writes_json_and_figure(map_and_model, monkeypa
     run = cmd.run
     monkeypatch.setattr(cmd, "run", lambda args: run(args, flow_settings=TINY_FLOW))
     out = d / "eval"
+    tiny_decoder(1).save(d / "other.npz")
     rc = main(["evaluate-decoder", "--model", str(d / "model.npz"), "--maps", "1",
                "--inlets", "1", "--samples", "16", "--dx", "2", "--out", str(out),
-               "--json", str(d / "eval.json"), "--seed", "1", "--no-progress"])
+               "--json", str(d / "eval.json"), "--seed", "1", "--no-progress",
+               "--compare", f"other={d / 'other.npz'}"])
     assert rc == 0
     assert (out / "decoder_eval.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     doc = json.loads((d / "eval.json").read_text())
     assert doc == json.loads((out / "decoder_eval.json").read_text())
     assert doc["n_slots_run"] == 1 and doc["arguments"]["seed"] == 1
     assert doc["records"][0]["decoder"]["n_free"] > 0
+    assert doc["compared"]["other"]["path"] == str(d / "other.npz")
+    assert doc["records"][0]["other"]["n_free"] == doc["records"][0]["decoder"]["n_free"]
+    assert "other" in json.loads(capsys.readouterr().out.split("\nwrote")[0])["pooled"]["all"]
+
+
+@pytest.mark.parametrize(("compare", "match"), [
+    (["missing.npz"], "'--compare' parameter .* does not exist"),
+    (["a={model}", "{model}"], "name every model or none"),
+])
+def test_evaluate_decoder_command_refuses_bad_comparisons(map_and_model, capsys, compare,
+                                                          match):
+    import re
+
+    d, _ = map_and_model
+    args = [c.format(model=d / "model.npz") for c in compare]
+    rc = main(["evaluate-decoder", "--out", str(d / "refused"), "--no-progress",
+               *[x for a in args for x in ("--compare", a)]])
+    assert rc == 2
+    assert re.search(match, capsys.readouterr().err)
+    assert not (d / "refused").exists()
 
 
 def test_bench_decoder_runs_with_tiny_repeats(map_and_model, tmp_path):

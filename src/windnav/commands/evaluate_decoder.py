@@ -4,12 +4,14 @@
 
     windnav evaluate-decoder --out runs/eval --json eval.json --seed 0          # 20 min budget
     windnav evaluate-decoder --model runs/default/model.npz --maps 3 --inlets 8 --budget-min 5
+    windnav evaluate-decoder --compare thesis-mlp=runs/thesis_mlp/model.npz --out runs/eval
 
 Simulates the mean flow of dense 1.2 km evaluation maps (never trained on) and of the windinet
 1.1 km layout at random inlets (speed U[2, 10] m/s, direction U[0, 360) deg), draws samples
 from each field and reports the speed, direction and vector errors of the decoder, the Local
 baseline (uniform W_robot) and the Upstream baseline (uniform W_up), per (map, inlet) and
-pooled, with the improvements over each baseline and issue 9's acceptance checks. Inlets are
+pooled, with the improvements over each baseline and issue 9's acceptance checks; models given
+with ``--compare`` are scored on the same fields and samples beside it. Inlets are
 added, map by map, while they fit in the budget. The harness is
 :mod:`windnav.experiments.decoder_eval`, the figure :mod:`windnav.viz.decoder`.
 
@@ -45,6 +47,10 @@ def register(subparsers) -> None:
     )
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
                    help="decoder file (default: the shipped model)")
+    p.add_argument("--compare", action="append", default=[], metavar="[NAME=]FILE",
+                   help="another decoder file scored beside the decoder on the same samples "
+                        "(e.g. the thesis MLP trained on the same data); repeatable; NAME "
+                        "defaults to its architecture")
     p.add_argument("--maps", type=int, default=3, metavar="N",
                    help="dense 1.2 km evaluation maps (default 3; 0: only windinet)")
     p.add_argument("--inlets", type=int, default=8, metavar="N",
@@ -83,8 +89,9 @@ def run(args, simulate=None, flow_settings=None) -> int:
     if args.model is not None and not Path(args.model).is_file():
         raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
                          f"{str(args.model)!r} instead, which does not exist.")
+    compare = _compare_files(args.compare, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet,
+    res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet, compare=compare,
                            n_inlets=args.inlets, samples_per_inlet=args.samples,
                            seed=args.seed, budget_s=60.0 * budget, dx=args.dx,
                            flow_settings=flow_settings, progress=not args.no_progress,
@@ -96,7 +103,7 @@ def run(args, simulate=None, flow_settings=None) -> int:
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
     summary = {g: {m: {k: p[m][k] for k in ("speed_error", "direction_error_deg")}
-                   for m in ("decoder", "local", "upstream")}
+                   for m in res["models"]}
                | {"improvement_pct": p["improvement_pct"], "acceptance": p["acceptance"],
                   "n_slots": p["n_slots"]}
                for g, p in res["pooled"].items()}
@@ -105,3 +112,18 @@ def run(args, simulate=None, flow_settings=None) -> int:
                       "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 0
+
+
+def _compare_files(items, name) -> dict | list:
+    """``--compare`` values: ``{NAME: FILE}`` when every one is named, else the files."""
+    pairs = [item.split("=", 1) if "=" in item else (None, item) for item in items]
+    for _, file in pairs:
+        if not Path(file).is_file():
+            raise ValueError(f"The '--compare' parameter of {name} must be a decoder file "
+                             f"([NAME=]FILE). Got {file!r} instead, which does not exist.")
+    if all(n is not None for n, _ in pairs):
+        return {n: Path(f) for n, f in pairs}
+    if any(n is not None for n, _ in pairs):
+        raise ValueError(f"The '--compare' parameter of {name} must name every model or none "
+                         f"(NAME=FILE). Got {items!r} instead.")
+    return [Path(f) for _, f in pairs]

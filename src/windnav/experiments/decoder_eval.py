@@ -47,7 +47,9 @@ EVAL_MAP_SEED = 2000
 WINDINET_LAYOUT = Path("/work/shared/data/windinet/example_layout.json")
 """The third-party 1.1 km urban layout (Weihao-Li-2001/windinet, Apache-2.0)."""
 MODELS = ("decoder", "local", "upstream")
-"""The predictors scored, in report order."""
+"""The predictors always scored, in report order (the compared models, when any, come after
+the decoder)."""
+BASELINES = ("local", "upstream")
 SPEED_RANGE = (2.0, 10.0)
 """Inlet speeds, m/s (uniform)."""
 PROTOCOL = {"spinup_steps": 100, "steps": 200}
@@ -66,12 +68,19 @@ def _improvement_pct(model: float, baseline: float) -> float:
     return 100.0 * improvement(model, baseline)
 
 
+def _improvements(errors: dict, model: str) -> dict:
+    return {base: {k: _improvement_pct(errors[model][k], errors[base][k]) for k in _IMPROVED}
+            for base in BASELINES}
+
+
 def _summary(errors: dict) -> dict:
-    """Per-model errors plus the decoder's improvement (%) over each baseline."""
-    out = {m: errors[m] for m in MODELS}
-    out["improvement_pct"] = {
-        base: {k: _improvement_pct(errors["decoder"][k], errors[base][k]) for k in _IMPROVED}
-        for base in ("local", "upstream")}
+    """Per-model errors plus the decoder's improvement (%) over each baseline
+    (``improvement_pct``), and each compared model's (``compared_improvement_pct``)."""
+    out = dict(errors)
+    out["improvement_pct"] = _improvements(errors, "decoder")
+    compared = [m for m in errors if m not in MODELS]
+    if compared:
+        out["compared_improvement_pct"] = {m: _improvements(errors, m) for m in compared}
     return out
 
 
@@ -135,11 +144,39 @@ def _evaluation_maps(maps, windinet, where):
     return out
 
 
-def _score(decoder, batch, size, spacing) -> tuple[dict, dict]:
-    """Errors (pooled, and per sample) of the decoder and both baselines on one batch."""
+def _compared(compare, dec, where) -> tuple[dict, dict]:
+    """``{name: Decoder}`` and ``{name: file or None}`` from ``compare`` (a mapping of names
+    to decoder files or objects, or a sequence of them, then named by their architecture);
+    each must predict on ``dec``'s grid."""
+    from windnav.predict import load_decoder
+
+    if compare is None:
+        return {}, {}
+    items = compare.items() if isinstance(compare, dict) else [(None, c) for c in compare]
+    out, paths = {}, {}
+    for name, item in items:
+        model = item if hasattr(item, "predict") else load_decoder(item)
+        name = model.architecture if name is None else str(name)
+        if name in MODELS or name in out:
+            raise ValueError(f"The 'compare' parameter of {where} must name each model once, "
+                             f"and none {MODELS}. Got {name!r} twice or reserved instead "
+                             "(give it a name: NAME=FILE).")
+        if (model.size, model.spacing) != (dec.size, dec.spacing):
+            raise ValueError(f"The 'compare' parameter of {where} must hold models on the "
+                             f"decoder's grid ({dec.size} cells of {dec.spacing} m). Got "
+                             f"{name!r} with {model.size} cells of {model.spacing} m instead.")
+        out[name] = model
+        paths[name] = None if hasattr(item, "predict") else str(item)
+    return out, paths
+
+
+def _score(decoder, batch, size, spacing, compared=None) -> tuple[dict, dict]:
+    """Errors (pooled, and per sample) of the decoder, the compared models and both baselines
+    on one batch."""
     from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
 
-    predictors = {"decoder": decoder, "local": LocalBaseline(size=size, spacing=spacing),
+    predictors = {"decoder": decoder, **(compared or {}),
+                  "local": LocalBaseline(size=size, spacing=spacing),
                   "upstream": UpstreamBaseline(size=size, spacing=spacing)}
     errors, per_sample = {}, {}
     for name, model in predictors.items():
@@ -160,7 +197,7 @@ def _pool(per_sample_list: list[dict]) -> dict:
 def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 8,
                      samples_per_inlet: int = 2048, seed: int = 0, budget_s: float = 1200.0,
                      dx: float = 1.0, flow_settings: dict | None = None, decoder=None,
-                     progress: bool = False, simulate=None) -> dict:
+                     compare=None, progress: bool = False, simulate=None) -> dict:
     """Score the decoder and its baselines on simulated evaluation fields (module doc).
 
     Parameters
@@ -185,6 +222,10 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         Override ``spinup_steps``, ``steps`` and ``dt`` (s) of the thesis protocol (tests).
     decoder : Decoder, optional
         Use this decoder instead of loading ``model_path``.
+    compare : dict or sequence, optional
+        Other models scored on the same fields and samples, reported beside the decoder (e.g.
+        the thesis MLP trained on the same data): ``{name: file or Decoder}``, or files or
+        Decoders named by their architecture. Each must predict on the decoder's grid.
     progress : bool
         Print one line per slot.
     simulate : callable, optional
@@ -198,7 +239,9 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         model, improvement_pct), ``failed`` (slots whose flow failed, with the error),
         ``pooled`` (``{"dense": ..., "windinet": ..., "all": ...}``: errors per model,
         improvement_pct and ``acceptance``), ``n_slots_run``, ``n_slots_planned``,
-        ``stopped_by_budget``, ``elapsed_s``.
+        ``stopped_by_budget``, ``elapsed_s``; ``models`` (the names scored, in order) and
+        ``compared`` (each compared model's file and architecture). A compared model's
+        errors sit beside the decoder's, its improvements under ``compared_improvement_pct``.
     """
     from windnav.experiments.wind_sweep import auto_dt
     from windnav.flow import simulate as flow_simulate
@@ -220,6 +263,8 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         raise ValueError(f"The 'flow_settings' parameter of {where} must only set "
                          f"spinup_steps, steps, dt. Got {unknown} instead.")
     dec = decoder if decoder is not None else load_decoder(model_path)
+    compared, compared_paths = _compared(compare, dec, where)
+    models = ("decoder", *compared, *BASELINES)
     sim = simulate or flow_simulate
     cities = _evaluation_maps(maps, windinet, where)
     inlets = inlet_slots(len(cities), n_inlets, int(seed))
@@ -250,7 +295,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         field = field_from_solution(city, sol, name=f"{name}/{j}")
         batch = draw_samples(field, samples, slot_rng(seed, i, j), size=dec.size,
                              spacing=dec.spacing, scan_noise=0.35, w_robot_noise=0.0)
-        errors, ps = _score(dec, batch, dec.size, dec.spacing)
+        errors, ps = _score(dec, batch, dec.size, dec.spacing, compared)
         seconds = time.perf_counter() - t0
         spent_s, spent_cells = spent_s + seconds, spent_cells + int(cells)
         seconds_per_cell = spent_s / spent_cells
@@ -262,9 +307,11 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         per_sample.append((group, ps))
         if progress:
             d, lo = errors["decoder"], errors["local"]
+            others = "".join(f"; {m} {errors[m]['speed_error']:.3f}, "
+                             f"{errors[m]['direction_error_deg']:.1f}" for m in compared)
             print(f"{name} inlet {j}: {speed:.2f} m/s {direction:.0f} deg; decoder speed "
                   f"{d['speed_error']:.3f} m/s dir {d['direction_error_deg']:.1f} deg (Local "
-                  f"{lo['speed_error']:.3f}, {lo['direction_error_deg']:.1f}); flow "
+                  f"{lo['speed_error']:.3f}, {lo['direction_error_deg']:.1f}{others}); flow "
                   f"{t_flow:.0f} s, total {seconds:.0f} s", flush=True)
 
     pooled = {}
@@ -272,7 +319,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         chosen = [ps for g, ps in per_sample if group in ("all", g)]
         if not chosen:
             continue
-        summary = _summary({m: _pool([ps[m] for ps in chosen]) for m in MODELS})
+        summary = _summary({m: _pool([ps[m] for ps in chosen]) for m in models})
         summary["n_slots"] = len(chosen)
         summary["acceptance"] = _acceptance(summary)
         pooled[group] = summary
@@ -286,13 +333,19 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
                    (flow_settings or {}) else "given",
                    "speed_range": SPEED_RANGE, "direction_range_deg": (0.0, 360.0),
                    "scan_noise": 0.35, "w_robot_noise": 0.0, "acceptance": ACCEPTANCE},
-        "decoder": {"path": str(model_path) if model_path is not None else "default",
-                    "architecture": dec.architecture, "size": dec.size,
-                    "spacing": dec.spacing, "n_parameters": dec.n_parameters},
+        "decoder": _describe(dec, model_path if model_path is not None else "default"),
+        "models": list(models),
+        "compared": {m: _describe(c, compared_paths[m]) for m, c in compared.items()},
         "records": records, "failed": failed, "pooled": pooled,
         "n_slots_run": len(records) + len(failed), "n_slots_planned": len(slots),
         "stopped_by_budget": stopped, "elapsed_s": time.perf_counter() - t_start,
     }
+
+
+def _describe(model, path) -> dict:
+    return {"path": str(path) if path is not None else None,
+            "architecture": model.architecture, "size": model.size, "spacing": model.spacing,
+            "n_parameters": model.n_parameters}
 
 
 def check_point(city, at, flag: str = "at", where: str = "predict_at") -> np.ndarray:

@@ -42,13 +42,16 @@ def plot_evaluation(result: dict, path) -> Path:
         The PNG to write.
     """
     groups = [g for g in ("dense", "windinet") if g in result["pooled"]]
+    models = tuple(result.get("models", _MODELS))
+    compared = [m for m in models if m not in _MODELS]
+    colours = {**_COLOURS, **{m: f"C{3 + k}" for k, m in enumerate(compared)}}
     fig, axes = plt.subplots(2, 4, figsize=(15, 7.5))
-    width = 0.8 / len(_MODELS)
+    width = 0.8 / len(models)
     for ax, (metric, label) in zip(axes[0], _METRICS, strict=True):
-        for k, model in enumerate(_MODELS):
+        for k, model in enumerate(models):
             values = [result["pooled"][g][model][metric] for g in groups]
-            ax.bar(np.arange(len(groups)) + (k - 1) * width, values, width,
-                   color=_COLOURS[model], label=model)
+            ax.bar(np.arange(len(groups)) + (k - (len(models) - 1) / 2) * width, values, width,
+                   color=colours[model], label=model)
         ax.set_xticks(np.arange(len(groups)),
                       [f"{g}\n({result['pooled'][g]['n_slots']} inlets)" for g in groups])
         ax.set_title(label, fontsize=10)
@@ -63,13 +66,17 @@ def plot_evaluation(result: dict, path) -> Path:
             sc = ax.scatter(local, dec, c=[r["speed"] for r in recs], cmap="viridis",
                             vmin=2, vmax=10, marker=marker, edgecolors="k", linewidths=0.4,
                             label=group)
+            for model in compared:
+                ax.scatter(local, [r[model][metric] for r in recs], marker=marker,
+                           facecolors="none", edgecolors=colours[model], linewidths=0.8,
+                           label=f"{model}, {group}")
         lim = ax.get_xlim()[1] if result["records"] else 1.0
         lim = max(lim, ax.get_ylim()[1])
         ax.plot([0, lim], [0, lim], "k:", lw=0.8)
         ax.set_xlim(0, lim)
         ax.set_ylim(0, lim)
         ax.set_xlabel(f"Local: {label}", fontsize=9)
-        ax.set_ylabel(f"decoder: {label}", fontsize=9)
+        ax.set_ylabel(f"decoder{' (filled)' if compared else ''}: {label}", fontsize=9)
     if result["records"]:
         fig.colorbar(sc, ax=axes[1, -1], label="inlet speed (m/s)")
         axes[1, 0].legend(fontsize=8)
