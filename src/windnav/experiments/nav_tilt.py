@@ -25,6 +25,7 @@ from collections.abc import Iterable, Mapping, Sequence
 
 from windnav.experiments.nav_records import FAILURES, benchmark_table
 from windnav.experiments.navigate import TILT_LIMIT_DEG, TILT_MAX_DEG, tilt_accel_cap
+from windnav.experiments.thesis_nav import ABLATION
 
 __all__ = ["THESIS_ROWS", "TILTS", "check_tilts", "tilt_label", "tilt_study"]
 
@@ -34,13 +35,10 @@ TILTS = (55.0, 70.0, 78.0)
 VARIANTS = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w")
 """The thesis's four variants."""
 
-THESIS_ROWS = {
-    "mppi": {"failure_pct": 36.3, "cmd_accel": 20.95, "time_s": 28.29, "energy_kJ": 13.61},
-    "mppi-w": {"failure_pct": 28.8, "cmd_accel": 21.35, "time_s": 28.41, "energy_kJ": 14.16},
-    "ea-mppi": {"failure_pct": 18.7, "cmd_accel": 14.15, "time_s": 38.31, "energy_kJ": 11.07},
-    "ea-mppi-w": {"failure_pct": 15.8, "cmd_accel": 14.05, "time_s": 37.94, "energy_kJ": 10.81},
-}
-"""The thesis's ablation table (its vehicle; energies in kJ, not comparable with ours)."""
+THESIS_ROWS = {v: {k: ABLATION[v][k] for k in ("failure_pct", "cmd_accel", "time_s",
+                                                 "energy_kJ")} for v in VARIANTS}
+"""The thesis's ablation table, the columns the study draws (:data:`~windnav.experiments.
+thesis_nav.ABLATION`; its vehicle: energies in kJ, not comparable with ours)."""
 
 
 def tilt_label(variant: str, tilt: float) -> str:

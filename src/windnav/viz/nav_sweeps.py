@@ -16,6 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from windnav.experiments.thesis_nav import PAIRED_SAVING  # noqa: E402
 from windnav.viz.navigate import _save  # noqa: E402
 
 __all__ = ["plot_bound", "plot_pace", "plot_sweep", "plot_tilt"]
@@ -114,7 +115,8 @@ def plot_pace(result: dict, path) -> Path:
     lo, hi = 0.8 * min(t_all), 1.1 * max(t_all)
     tt = np.linspace(max(lo, 0.05), hi, 200)
     ax.plot(tt, 1.0 / tt, "k--", lw=1, label="the same energy as MPPI")
-    ax.plot(tt, 0.859 / tt, "k:", lw=1, label="14.1 % less (the thesis's paired saving)")
+    ax.plot(tt, (1.0 - PAIRED_SAVING) / tt, "k:", lw=1,
+            label=f"{100 * PAIRED_SAVING:.1f} % less (the thesis's paired saving)")
     ax.set_xlim(lo, hi)
     ax.set_xlabel("time ratio  T / T_MPPI")
     ax.set_ylabel("mean-power ratio  (E/T) / (E_MPPI/T_MPPI)")
@@ -212,7 +214,8 @@ def plot_tilt(result: dict, path) -> Path:
         axes[1].errorbar(x, mean, yerr=[mean - lo, hi - mean], marker=marker, color=color,
                          capsize=3, label=f"{v} (pairs {min(r['paired']['n'] for r in rows)}-"
                                           f"{max(r['paired']['n'] for r in rows)})")
-    axes[1].plot(x_thesis, 14.1, marker="D", mfc="none", mec=_TILT_STYLE["ea-mppi-w"][0], ms=9)
+    axes[1].plot(x_thesis, 100.0 * PAIRED_SAVING, marker="D", mfc="none",
+                 mec=_TILT_STYLE["ea-mppi-w"][0], ms=9)
     axes[1].axhline(0.0, color="k", lw=0.8)
     axes[2].plot(x, [result["a_max"][t] * math.sqrt(2.0) for t in tilts], "k:", lw=1,
                  label="the cap g tan(tilt)")
