@@ -322,6 +322,53 @@ def test_blowup_is_reported_with_the_step_number():
         check_finite(u, v, 10.0, 8)
 
 
+def _gap(speed: float = 2.0):
+    # a wall across a 40 m wide stream, with a 3 m gap: the start's jet is 20 x the inlet
+    return City((0.0, 60.0, 0.0, 40.0), [[28.0, 32.0, 0.0, 18.5], [28.0, 32.0, 21.5, 40.0]],
+                [5.0, 5.0])
+
+
+def test_a_narrow_gap_is_no_blowup_but_growth_past_its_start_jet_is(monkeypatch):
+    import windnav.flow.solver as solver
+
+    # the jet through the gap is the flow's own, from the first projection: the run goes on
+    # (with the limit at 10 x the inlet alone, it stopped at step 1)
+    sol = wn.flow.simulate(_gap(), speed=2.0, dt=0.2, dx=1.0, spinup_steps=5, steps=20)
+    assert np.isfinite(sol.mean_u).all() and np.nanmax(np.abs(sol.mean_u)) > 10 * 2.0
+    # the same map whose advection gains 20 % a step blows up past 1.25 x that jet
+    make = solver.make_flow_step
+
+    def gaining(*args, **kwargs):
+        step = make(*args, **kwargs)
+        advect = step.advect
+
+        class Gain:
+            def into(self, u, v, out_u, out_v):
+                advect.into(u, v, out_u, out_v)
+                out_u *= 1.2
+                out_v *= 1.2
+
+        step.advect = Gain()
+        return step
+
+    monkeypatch.setattr(solver, "make_flow_step", gaining)
+    with pytest.raises(FlowDivergedError, match=r"step [2-9].*1.25 x the start's fastest jet, "
+                                                r"2\d.* x the inlet speed"):
+        wn.flow.simulate(_gap(), speed=2.0, dt=0.2, dx=1.0, spinup_steps=5, steps=20)
+
+
+def test_blowup_limit_is_ten_times_the_inlet_unless_the_start_jets_faster():
+    from windnav.flow.solver import START_JET_MARGIN, blowup_limit
+
+    u, v = np.full((4, 5), 3.0), np.zeros((5, 4))
+    assert blowup_limit(2.0, u, v) == (20.0, "10 x the inlet speed")
+    u[1, 2] = -30.0
+    limit, basis = blowup_limit(2.0, u, v)
+    assert limit == START_JET_MARGIN * 30.0 and basis.startswith("1.25 x the start's")
+    u[1, 2] = np.nan  # a start that is not finite sets no limit of its own
+    assert blowup_limit(2.0, u, v)[0] == 20.0
+
+
 def test_the_blowup_check_finds_the_exact_largest_magnitude_or_inf():
     rng = np.random.default_rng(5)
     a = rng.standard_normal((40, 41)) * 10.0 ** rng.integers(-300, 300, (40, 41))
