@@ -71,8 +71,8 @@ START_JET_MARGIN = 1.25
 or ``START_JET_MARGIN`` x the fastest face of its projected start, whichever is larger
 (:func:`blowup_limit`). The start is the uniform inlet flow projected onto the map: the
 potential flow through its gaps, whose jets the impulsive start makes the fastest of the run
-(measured on three 2026-11 cases at 10.0-10.7 x the inlet at step 1, 8.5-8.8 x at most from
-step 5 on). A numerical blow-up grows past both."""
+(measured on three 2026-11 cases at 10.0-10.7 x the inlet at step 1, 8.0-8.8 x at most from
+step 6 on). A numerical blow-up grows past both."""
 PRESSURE_SOLVERS = ("exact", "jacobi")
 BITWISE_BATCH = 3
 """Most runs of one :func:`simulate_batch` that equal :func:`simulate` run by run to the bit:
