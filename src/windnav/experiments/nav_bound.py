@@ -44,7 +44,6 @@ from windnav.experiments.thesis_nav import TARGETS
 __all__ = ["TARGETS", "bound_study", "ideal_energy", "ideal_table_ratio"]
 
 
-
 def ideal_energy(route_records: Mapping[str, Mapping]) -> dict[str, float]:
     """``E*`` per scenario id (J) from GS+W records (scenario id -> record): the planned route's
     energy plus its goal hold; NaN where the record has no route (a harness error)."""

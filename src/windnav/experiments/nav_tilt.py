@@ -51,7 +51,7 @@ def tilt_label(variant: str, tilt: float) -> str:
 def check_tilts(tilts: Sequence[float], param: str = "tilts",
                 where: str = "check_tilts") -> list[float]:
     """The caps ``tilts`` (degrees), sorted; a ValueError naming ``param`` of ``where`` unless
-    they are distinct, at least one, each in (0, 80)."""
+    they are distinct, at least one, each in (0, ``TILT_LIMIT_DEG``) (80)."""
     tilts = sorted(float(t) for t in tilts)
     if (not tilts or any(not 0.0 < t < TILT_LIMIT_DEG for t in tilts)
             or len(set(tilts)) != len(tilts)):

@@ -745,7 +745,7 @@ def simulate_batch(
             [r.v for r in runs],
         )
         for r in runs:
-            check_finite(r.u, r.v, r.limit[0], n, r.limit[1])
+            check_finite(r.u, r.v, r.limit, n, r.limit_basis)
             if n > spinup_steps:
                 r.accumulate(n - spinup_steps)
     closure = {"smagorinsky": smagorinsky, "filter_width": filter_width, "viscosity": viscosity}
@@ -774,7 +774,7 @@ class _Run:
         self.domain, self.step, self.speed = domain, step, speed
         self.direction_deg = direction_deg
         self.u, self.v = step.project(*initial_velocity(domain, symmetry_break * speed))
-        self.limit = blowup_limit(speed, self.u, self.v)
+        self.limit, self.limit_basis = blowup_limit(speed, self.u, self.v)
         self.mid_u, self.mid_v = np.empty_like(self.u), np.empty_like(self.v)
         shape = domain.grid.shape
         self.steps, self.record_every = steps, record_every
@@ -834,7 +834,7 @@ class _Run:
             flow_throughs_spinup=speed * spinup_steps * dt / length,
             flow_throughs_average=speed * steps * dt / length,
             half_window_difference=half_diff,
-            blowup_limit=self.limit[0],
+            blowup_limit=self.limit,
             **closure,
         )
         # every step passed check_finite (|u|, |v| <= blowup_limit, finite) before it was

@@ -22,9 +22,9 @@ import numpy as np
 
 from windnav.flow.grid import BoundaryConditions, MACGrid, make_domain
 from windnav.flow.solver import (
-    BLOWUP_FACTOR,
     FILTER_PER_BUILDING,
     SMAGORINSKY,
+    blowup_limit,
     check_finite,
     make_flow_step,
 )
@@ -153,7 +153,7 @@ def square_cylinder_strouhal(case: SquareCylinderCase = SquareCylinderCase(), pr
     n_spin = int(round(case.spinup_time * D / case.speed / dt))
     n_rec = int(round(case.record_time * D / case.speed / dt))
     probe = np.empty(n_rec)
-    limit = BLOWUP_FACTOR * case.speed
+    limit, basis = blowup_limit(case.speed, u, v)
     iterator = range(n_spin + n_rec)
     if progress:
         from tqdm import tqdm
@@ -163,7 +163,7 @@ def square_cylinder_strouhal(case: SquareCylinderCase = SquareCylinderCase(), pr
     for k in iterator:
         step.advance(u, v, u_next, v_next)
         u, v, u_next, v_next = u_next, v_next, u, v
-        check_finite(u, v, limit, k + 1)
+        check_finite(u, v, limit, k + 1, basis)
         if k >= n_spin:
             probe[k - n_spin] = 0.5 * (v[jp, ip - 1] + v[jp, ip])
     return {
@@ -299,7 +299,7 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     n_rec = int(round(case.record_time * H / case.speed / dt))
     force = np.empty((n_rec, 2))
     q_cells = np.zeros(grid.shape)
-    limit = BLOWUP_FACTOR * case.speed
+    limit, basis = blowup_limit(case.speed, u, v)
     iterator = range(n_spin + n_rec)
     if progress:
         from tqdm import tqdm
@@ -309,7 +309,7 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     for k in iterator:
         step.advance(u, v, u_next, v_next, q_cells if k >= n_spin else None)
         u, v, u_next, v_next = u_next, v_next, u, v
-        check_finite(u, v, limit, k + 1)
+        check_finite(u, v, limit, k + 1, basis)
         if k >= n_spin:
             force[k - n_spin] = body_force(q_cells, faces, dx, dt)
     th = np.deg2rad(case.angle_deg)
