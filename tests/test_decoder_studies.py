@@ -280,6 +280,55 @@ def test_decoder_study_averaging_quick_writes_figure_and_json(tmp_path):
     assert (out / "decoder_averaging.png").stat().st_size > 10_000
 
 
+def test_start_study_pairs_are_the_labels_scored_against_each_other():
+    from windnav.experiments.decoder_studies import FLOOR_METRICS, start_study
+    from windnav.flow import simulate
+    from windnav.predict import draw_samples, field_errors, field_from_solution
+
+    city = _averaging_city()
+    dec = tiny_decoder()
+    kicks = (0.05, -0.05, 0.2)
+    res = start_study(dec, city, dx=2.0, samples=32, spinup_steps=10, steps=20, kicks=kicks)
+    assert [r["kick"] for r in res["kicks"]] == list(kicks) and len(res["pairs"]) == 3
+    # the pair (0.05, 0.2), recomputed from two independent simulations
+    batches = []
+    for k in (0.05, 0.2):
+        sol = simulate(city, speed=6.0, direction_deg=3.75, dx=2.0, dt=res["dt"],
+                       spinup_steps=10, steps=20, symmetry_break=k)
+        batches.append(draw_samples(field_from_solution(city, sol), 32,
+                                    np.random.default_rng([0, 7]), size=dec.size,
+                                    spacing=dec.spacing, scan_noise=0.35))
+    a, b = batches
+    np.testing.assert_array_equal(a.positions, b.positions)  # the same robots for every kick
+    want = field_errors(b.labels, a.labels, a.free, a.inlet_speed)
+    got = next(p for p in res["pairs"] if (p["a"], p["b"]) == (0.05, 0.2))
+    for m in FLOOR_METRICS:
+        assert got[m] == pytest.approx(want[m], rel=1e-12)
+    assert got["speed_error"] > 0.0  # the kicks do change this short flow
+    for m in FLOOR_METRICS:
+        assert res["floor"][m] == pytest.approx(0.5 * max(p[m] for p in res["pairs"]))
+        # the floor's argument: no model is closer than half the disagreement to both labels
+        err = {r["kick"]: r["errors"] for r in res["kicks"]}
+        for p in res["pairs"]:
+            for model in ("decoder", "local", "upstream"):
+                assert err[p["a"]][model][m] + err[p["b"]][model][m] >= p[m] * (1 - 1e-9)
+    assert np.isnan(res["spread"][sol.solid]).all() and np.nanmax(res["spread"]) > 0.0
+    for bad in ((0.05,), (0.05, 0.05), (0.05, float("nan"))):
+        with pytest.raises(ValueError, match="'kicks'"):
+            start_study(dec, city, dx=2.0, samples=8, spinup_steps=1, steps=2, kicks=bad)
+
+
+def test_decoder_study_start_quick_writes_figure_and_json(tmp_path):
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "start", "--quick", "--out", str(out),
+                     "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_start.json").read_text())
+    assert len(doc["kicks"]) == 4 and len(doc["pairs"]) == 6 and "spread" not in doc
+    assert (doc["spinup_steps"], doc["steps"]) == (10, 20)  # the quick protocol
+    assert set(doc["floor"]) == {"speed_error", "direction_error_deg", "vector_error"}
+    assert (out / "decoder_start.png").stat().st_size > 10_000
+
+
 def test_decoder_study_averaging_windinet_uses_the_third_party_layout():
     from windnav.city import read_rotorpy_json
     from windnav.commands.decoder_study import _averaging_map

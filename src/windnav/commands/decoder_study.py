@@ -9,6 +9,7 @@
     windnav decoder-study size       --out runs/studies --runs runs/decoder_studies  # (b)
     windnav decoder-study averaging  --out runs/studies                           # label noise
     windnav decoder-study averaging  --out runs/studies_windinet --windinet       # ... windinet
+    windnav decoder-study start      --out runs/studies                           # label spread
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
@@ -19,9 +20,11 @@ schedule is printed and recorded). ``averaging`` scores the shipped decoder and 
 against the mean of the thesis's short average and of a long one, on the default recipe's
 held-out 600 m district (never trained on), or with ``--windinet`` on the third-party 1.1 km
 layout, at 6 m/s (``--speed``, ``--direction-deg``): is the error the label noise of the short
-average? ``--quick``: a 150 m map and short flows, or the tiny
-recipe's sweep and models. The harness is :mod:`windnav.experiments.decoder_studies`, the
-figures :mod:`windnav.viz.decoder`.
+average? ``start`` starts the same flow (same map and inlet) with four symmetry-breaking kicks
+and averages each with the thesis protocol: how far apart are labels that differ only by an
+arbitrary choice of the solver's start, and so how low can any model's error go? ``--quick``:
+a 150 m map and short flows, or the tiny recipe's sweep and models. The harness is
+:mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
 
 Writes into ``--out``: ``decoder_<study>.json`` and ``decoder_<study>.png``.
 """
@@ -42,7 +45,7 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging")
+STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start")
 """The studies, as named on the command line."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
@@ -83,11 +86,11 @@ def register(subparsers) -> None:
     p.add_argument("--sizes", type=int, nargs="+", default=None, metavar="H",
                    help="size: the grid sizes (default 5 15 25 35 45; quick 5 15 25)")
     p.add_argument("--speed", type=float, default=6.0,
-                   help="averaging: inlet speed, m/s (%(default)s)")
+                   help="averaging, start: inlet speed, m/s (%(default)s)")
     p.add_argument("--direction-deg", type=float, default=3.75,
-                   help="averaging: inlet direction, deg toward (%(default)s)")
+                   help="averaging, start: inlet direction, deg toward (%(default)s)")
     p.add_argument("--windinet", action="store_true",
-                   help="averaging: the third-party windinet 1.1 km layout instead of the "
+                   help="averaging, start: the third-party windinet 1.1 km layout instead of the "
                         "default recipe's held-out district")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
@@ -146,6 +149,14 @@ def _summary(study: str, res: dict) -> dict:
                                          ("speed_error", "direction_error_deg")}
                                      for m in ("decoder", "local", "upstream")}}
                               for k, p in res["protocols"].items()}}
+    if study == "start":
+        return {"floor": res["floor"], "spread_rms_mps": res["spread_rms_mps"],
+                "pairs": [{k: p[k] for k in ("a", "b", "speed_error", "direction_error_deg")}
+                          for p in res["pairs"]],
+                "kicks": {f"{r['kick']:g}": {m: {e: r["errors"][m][e] for e in
+                                                 ("speed_error", "direction_error_deg")}
+                                             for m in ("decoder", "local", "upstream")}
+                          for r in res["kicks"]}}
     if study == "eigenflows":
         return {f: {"n_modes": res[f]["n_modes"],
                     "explained_16": float(res[f]["cumulative"][15])
@@ -217,6 +228,16 @@ def run(args, simulate=None) -> int:
                                  samples=samples, seed=args.seed, simulate=simulate,
                                  name=map_name, **kw)
         plot = figures.plot_averaging
+    elif study == "start":
+        dec = load_decoder(args.model)
+        city, map_name, kw = _averaging_map(args)
+        protocols = kw.pop("protocols", None)
+        if protocols is not None:  # --quick: the short protocol
+            kw["spinup_steps"], kw["steps"] = protocols["thesis"]
+        res = ds.start_study(dec, city, speed=args.speed, direction_deg=args.direction_deg,
+                             samples=samples, seed=args.seed, simulate=simulate,
+                             name=map_name, **kw)
+        plot = figures.plot_start
     else:
         runs = args.runs or Path("runs/decoder_studies" + ("_quick" if args.quick else ""))
         kw = dict(quick=args.quick, epochs=args.epochs, samples_per_field=args.samples_per_field,
@@ -257,6 +278,8 @@ def _drop_bulk(study: str, res: dict) -> dict:
                          for k in ("decoder", "decoder_per_U")}}
     elif study == "averaging":
         out = {k: v for k, v in res.items() if k != "difference"}
+    elif study == "start":
+        out = {k: v for k, v in res.items() if k != "spread"}
     elif study == "mosaic":
         out = {k: v for k, v in res.items()
                if k not in ("truth", "prediction", "local", "free", "covered", "x", "y",

@@ -24,6 +24,11 @@ A study of the labels themselves:
   flow-through) and with a long one (spin-up of about one flow-through, mean over several), the
   decoder and its baselines scored at the same robot positions against each mean, and the
   difference of the two means (the label noise of the short protocol).
+- :func:`start_study`: is the thesis-protocol label a function of the map and the inlet? The
+  same flow started with different symmetry-breaking kicks (an arbitrary choice of the solver's
+  start, :func:`windnav.flow.simulate`'s ``symmetry_break``), each averaged with the thesis
+  protocol; how far apart the labels are bounds from below what any model can reach against
+  them (half the largest pairwise disagreement, by the triangle inequality of each metric).
 
 Studies that train models (:func:`train_variants` over a reduced copy of the default recipe,
 :func:`study_recipe`, sharing one sweep store):
@@ -46,7 +51,7 @@ import numpy as np
 from windnav._validate import positive_float, positive_int
 
 __all__ = ["AVERAGING_PROTOCOLS", "GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS",
-           "area_fraction", "averaging_study",
+           "START_KICKS", "area_fraction", "averaging_study", "start_study",
            "eigenflow_study", "eigenflows", "evaluation_fields", "gradient_r2",
            "gradient_study", "mosaic", "size_study", "study_recipe", "train_variants",
            "winds_ablation"]
@@ -65,6 +70,13 @@ AVERAGING_PROTOCOLS = {"thesis": (100, 200), "long": (600, 3000)}
 """The two averaging protocols of :func:`averaging_study`, (spin-up steps, averaged steps):
 the thesis's, and one with about one flow-through of spin-up and five of averaging on the
 600 m held-out district at 6 m/s (dt = 1/6 s)."""
+START_KICKS = (0.05, -0.05, 0.02, 0.10)
+"""The symmetry-breaking kicks of :func:`start_study`, as fractions of the inlet speed: the
+solver's default (0.05) first, then the other side of each wake, a weaker and a stronger
+one."""
+FLOOR_METRICS = ("speed_error", "direction_error_deg", "vector_error")
+"""The metrics whose per-cell distance obeys the triangle inequality (``| |a| - |b| |``, the
+angle between two vectors, ``|a - b|``): :func:`start_study` bounds them."""
 
 
 def _seed(seed, where: str) -> int:
@@ -788,10 +800,7 @@ def averaging_study(decoder, city, *, speed: float = 6.0, direction_deg: float =
         ``mean_speed`` (m/s) of the last protocol's mean over the fluid; ``difference``
         (ny, nx) ``|mean_a - mean_b| / speed`` for the figure; the inlet and the map.
     """
-    from windnav.experiments.decoder_eval import _score
     from windnav.experiments.wind_sweep import auto_dt
-    from windnav.flow import simulate as flow_simulate
-    from windnav.predict import draw_samples, field_from_solution
 
     where = "averaging_study"
     speed = positive_float(speed, "speed", where)
@@ -803,20 +812,13 @@ def averaging_study(decoder, city, *, speed: float = 6.0, direction_deg: float =
     if len(protocols) < 2:
         raise ValueError(f"The 'protocols' parameter of {where} must name at least two "
                          f"protocols. Got {protocols!r} instead.")
-    sim = simulate or flow_simulate
     out, means = {}, []
     for label, (spinup, steps) in protocols.items():
-        t0 = time.perf_counter()
-        sol = sim(city, speed=speed, direction_deg=float(direction_deg), dx=dx, dt=dt,
-                  spinup_steps=int(spinup), steps=int(steps))
-        field = field_from_solution(city, sol, name=f"{name}/{label}")
-        batch = draw_samples(field, samples, np.random.default_rng([seed, 7]),
-                             size=decoder.size, spacing=decoder.spacing, scan_noise=0.35,
-                             w_robot_noise=0.0)
-        errors, _ = _score(decoder, batch, decoder.size, decoder.spacing)
-        out[label] = {"spinup_steps": int(spinup), "steps": int(steps),
-                      "diagnostics": sol.diagnostics, "errors": errors,
-                      "seconds": time.perf_counter() - t0}
+        entry, _, sol = _simulate_and_score(
+            decoder, city, simulate, speed=speed, direction_deg=direction_deg, dx=dx, dt=dt,
+            spinup_steps=int(spinup), steps=int(steps), samples=samples, seed=seed,
+            name=f"{name}/{label}")
+        out[label] = {"spinup_steps": int(spinup), "steps": int(steps), **entry}
         means.append((sol.mean_u, sol.mean_v, ~np.asarray(sol.solid, dtype=bool)))
     (ua, va, fluid), (ub, vb, _) = means[0], means[1]
     diff = np.hypot(ua - ub, va - vb)
@@ -829,3 +831,117 @@ def averaging_study(decoder, city, *, speed: float = 6.0, direction_deg: float =
             "label_noise": noise,
             "mean_speed": float(np.hypot(ul, vl)[fluid].mean()),
             "difference": np.where(fluid, diff / speed, np.nan)}
+
+
+def _simulate_and_score(decoder, city, simulate, *, speed, direction_deg, dx, dt, spinup_steps,
+                        steps, samples, seed, name, **solver):
+    """One flow of ``city`` with the given protocol, its mean as a field, ``samples`` robot
+    samples at positions fixed by ``seed`` alone (the same for every flow of the same map),
+    and the decoder and its baselines scored on them.
+
+    Returns ``({"diagnostics", "errors", "seconds"}, SampleBatch, FlowSolution)``.
+    """
+    from windnav.experiments.decoder_eval import _score
+    from windnav.flow import simulate as flow_simulate
+    from windnav.predict import draw_samples, field_from_solution
+
+    t0 = time.perf_counter()
+    sol = (simulate or flow_simulate)(city, speed=speed, direction_deg=float(direction_deg),
+                                      dx=dx, dt=dt, spinup_steps=spinup_steps, steps=steps,
+                                      **solver)
+    field = field_from_solution(city, sol, name=name)
+    batch = draw_samples(field, samples, np.random.default_rng([seed, 7]), size=decoder.size,
+                         spacing=decoder.spacing, scan_noise=0.35, w_robot_noise=0.0)
+    errors, _ = _score(decoder, batch, decoder.size, decoder.spacing)
+    return ({"diagnostics": sol.diagnostics, "errors": errors,
+             "seconds": time.perf_counter() - t0}, batch, sol)
+
+
+# ------------------------------------------------------------ start (label determinism)
+
+def start_study(decoder, city, *, speed: float = 6.0, direction_deg: float = 3.75,
+                dx: float = 1.0, dt: float | None = None, kicks=START_KICKS,
+                spinup_steps: int = 100, steps: int = 200, samples: int = 4096, seed: int = 0,
+                simulate=None, name: str = "map") -> dict:
+    """How much of the thesis-protocol label is fixed by the map and the inlet?
+
+    The flow is started with each symmetry-breaking kick in ``kicks`` (the cross-wind velocity
+    the solver gives the near wakes at the start, a fraction of ``speed``: an arbitrary choice
+    that a model cannot know) and averaged with the same protocol. At the same robot positions
+    and scans, each kick's labels are scored against every other's with the decoder's metrics.
+    For any prediction ``p`` and two labels ``a``, ``b`` of the same inputs,
+    ``err(p, a) + err(p, b) >= err(a, b)`` for each metric of :data:`FLOOR_METRICS` (a mean of
+    per-cell distances), so no model can be closer than ``err(a, b) / 2`` to both: half the
+    largest pairwise disagreement is a floor on the error any model can guarantee against these
+    labels. (``W_robot``, the label at the robot, differs between kicks as well; its mean
+    difference is reported, ``w_robot_difference_mps``.)
+
+    Parameters
+    ----------
+    decoder : Decoder
+    city : windnav.city.City
+    speed, direction_deg : float
+        Inlet, m/s and deg (where the wind blows toward).
+    dx, dt : float
+        Cell size, m, and time step, s (default :func:`windnav.experiments.wind_sweep.auto_dt`).
+    kicks : sequence of float
+        At least two distinct symmetry-breaking kicks, fractions of ``speed``.
+    spinup_steps, steps : int
+        The averaging protocol (default the thesis's, 100 + 200).
+    samples, seed : int
+        Robot samples (positions and scan noise from ``seed``, the same for every kick).
+    simulate : callable, optional
+        Replaces :func:`windnav.flow.simulate` (tests).
+
+    Returns
+    -------
+    dict
+        ``kicks``: per kick ``kick``, ``errors`` (decoder, local, upstream), ``diagnostics``,
+        ``seconds``; ``pairs``: per pair of kicks ``a``, ``b``, the metrics of ``b``'s labels
+        against ``a``'s and ``w_robot_difference_mps``; ``floor``: half the largest pairwise
+        value of each of :data:`FLOOR_METRICS`; ``spread`` (ny, nx): the largest
+        ``|mean_a - mean_b|`` over the pairs, over ``speed`` (NaN in buildings), for the
+        figure; ``spread_rms_mps`` over the fluid; the inlet, the protocol and the map.
+    """
+    from windnav.experiments.wind_sweep import auto_dt
+    from windnav.predict.metrics import field_errors
+
+    where = "start_study"
+    speed = positive_float(speed, "speed", where)
+    dx = positive_float(dx, "dx", where)
+    samples = positive_int(samples, "samples", where)
+    steps = positive_int(steps, "steps", where)  # spinup_steps: checked by the solver
+    seed = _seed(seed, where)
+    dt = auto_dt(dx, speed) if dt is None else positive_float(dt, "dt", where)
+    kicks = [float(k) for k in kicks]
+    if len(set(kicks)) < 2 or len(set(kicks)) != len(kicks) or not np.all(np.isfinite(kicks)):
+        raise ValueError(f"The 'kicks' parameter of {where} must hold at least two distinct "
+                         f"finite kicks. Got {kicks!r} instead.")
+    runs, batches, means = [], [], []
+    for kick in kicks:
+        entry, batch, sol = _simulate_and_score(
+            decoder, city, simulate, speed=speed, direction_deg=direction_deg, dx=dx, dt=dt,
+            spinup_steps=spinup_steps, steps=steps, samples=samples, seed=seed,
+            name=f"{name}/kick={kick:g}", symmetry_break=kick)
+        runs.append({"kick": kick, **entry})
+        batches.append(batch)
+        means.append((sol.mean_u, sol.mean_v))
+    fluid = ~np.asarray(sol.solid, dtype=bool)
+    pairs, spread = [], np.zeros(fluid.shape)
+    for i in range(len(kicks)):
+        for j in range(i + 1, len(kicks)):
+            a, b = batches[i], batches[j]
+            errors = field_errors(b.labels, a.labels, a.free, a.inlet_speed)
+            dw = np.hypot(*(a.w_robot.astype(np.float64) - b.w_robot).T)
+            pairs.append({"a": kicks[i], "b": kicks[j],
+                          **{m: errors[m] for m in (*FLOOR_METRICS,
+                                                    "direction_error_masked_deg")},
+                          "w_robot_difference_mps": float(dw.mean())})
+            spread = np.maximum(spread, np.hypot(means[i][0] - means[j][0],
+                                                 means[i][1] - means[j][1]))
+    return {"map": name, "speed": speed, "direction_deg": float(direction_deg), "dx": dx,
+            "dt": dt, "spinup_steps": spinup_steps, "steps": steps, "samples": samples,
+            "seed": seed, "kicks": runs, "pairs": pairs,
+            "floor": {m: 0.5 * max(p[m] for p in pairs) for m in FLOOR_METRICS},
+            "spread_rms_mps": float(np.sqrt(np.mean(spread[fluid] ** 2))),
+            "spread": np.where(fluid, spread / speed, np.nan)}

@@ -20,8 +20,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.colors import ListedColormap  # noqa: E402
 
-__all__ = ["plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
-           "plot_prediction", "plot_size_study", "plot_winds_ablation"]
+__all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
+           "plot_prediction", "plot_size_study", "plot_start", "plot_winds_ablation"]
 
 _MODELS = ("decoder", "local", "upstream")
 _COLOURS = {"decoder": "C0", "local": "C1", "upstream": "C2"}
@@ -412,3 +412,45 @@ def plot_averaging(result: dict, path) -> Path:
                  f"{result['direction_deg']:g} deg, {result['samples']} robots at the same "
                  "positions for both means", fontsize=10)
     return _save(fig, path)
+
+
+def plot_start(result: dict, path) -> Path:
+    """The decoder and its baselines against labels that differ only by the solver's start, the
+    floor that spread sets (half the largest pairwise disagreement), and the map of the spread.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.start_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    runs = result["kicks"]
+    models = ("decoder", "local", "upstream")
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    width = 0.8 / len(runs)
+    for ax, (metric, name) in zip(axes[:2], (_METRICS[0], _METRICS[1]), strict=True):
+        for k, r in enumerate(runs):
+            ax.bar(np.arange(len(models)) + (k - (len(runs) - 1) / 2) * width,
+                   [r["errors"][m][metric] for m in models], width,
+                   label=f"labels started with kick {r['kick']:+g} U")
+        ax.axhline(result["floor"][metric], color="k", ls="--", lw=1,
+                   label=f"floor (half the largest label disagreement): "
+                         f"{result['floor'][metric]:.3g}")
+        ax.set_xticks(np.arange(len(models)), models)
+        ax.set_ylabel(name)
+    axes[0].legend(fontsize=7)
+    spread = result["spread"]
+    im = axes[2].imshow(spread, origin="lower", cmap="magma", vmin=0.0,
+                        vmax=max(0.05, float(np.nanpercentile(spread, 99))))
+    fig.colorbar(im, ax=axes[2], label="largest |mean(kick a) - mean(kick b)| / U")
+    axes[2].set_title(f"label spread over the kicks: RMS {result['spread_rms_mps']:.3f} m/s",
+                      fontsize=9)
+    axes[2].set_xticks([])
+    axes[2].set_yticks([])
+    fig.suptitle(f"{result['map']}: inlet {result['speed']:g} m/s toward "
+                 f"{result['direction_deg']:g} deg, {result['spinup_steps']} + "
+                 f"{result['steps']} steps, {result['samples']} robots at the same positions "
+                 "for every start", fontsize=10)
+    return _save(fig, path)
+
