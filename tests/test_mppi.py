@@ -35,17 +35,19 @@ def base():
 
 # --- a plain NumPy reference of the model and the cost (one step at a time) -------------------
 def _ref_wind(wind: LocalWind | None, horizon, p):
-    """w(p) (S, 2): zero outside |p|_inf <= H/2; uniform, or bilinear clamped at the edges."""
+    """w(p) (S, 2): the fill (zero by default) outside |p|_inf <= H/2; uniform, or bilinear
+    clamped at the edges."""
     if wind is None:
         return np.zeros_like(p)
     inside = np.all(np.abs(p) <= horizon / 2, axis=1)[:, None]
+    fill = np.asarray(wind.fill)
     if wind.is_uniform:
-        return np.where(inside, wind.uv[:, 0, 0], 0.0)
+        return np.where(inside, wind.uv[:, 0, 0], fill)
     from scipy.interpolate import RegularGridInterpolator
     q = np.stack([np.clip(p[:, 1], wind.y[0], wind.y[-1]),
                   np.clip(p[:, 0], wind.x[0], wind.x[-1])], 1)
     w = np.stack([RegularGridInterpolator((wind.y, wind.x), wind.uv[c])(q) for c in (0, 1)], 1)
-    return np.where(inside, w, 0.0)
+    return np.where(inside, w, fill)
 
 
 def _ref_costs(cfg, u, v0, goal, pts, wind):
@@ -70,7 +72,7 @@ def _ref_costs(cfg, u, v0, goal, pts, wind):
     return jp + cfg.obstacle_weight * jo + cfg.energy_weight * je, np.stack([jp, jo, je], 1), pos
 
 
-@pytest.mark.parametrize("kind", ["none", "uniform", "grid"])
+@pytest.mark.parametrize("kind", ["none", "uniform", "grid", "grid-fill"])
 def test_fused_kernel_matches_the_numpy_reference(base, kind):
     rng = np.random.default_rng(3)
     cfg = dataclasses.replace(base, n_samples=64, n_steps=30, horizon=60.0)
@@ -81,7 +83,9 @@ def test_fused_kernel_matches_the_numpy_reference(base, kind):
     else:
         off = np.arange(-20, 21) * 1.5
         X, Y = np.meshgrid(off, off)
-        wind = LocalWind.grid(np.stack([3 + 0.1 * Y, -1 + 0.05 * X]), off)
+        # grid-fill: the onboard stack's option, a uniform wind outside the window
+        wind = LocalWind.grid(np.stack([3 + 0.1 * Y, -1 + 0.05 * X]), off,
+                              fill=(2.5, 1.0) if kind == "grid-fill" else (0.0, 0.0))
     city = wn.city.planning_map(rng=1)
     origin = np.array([300.0, 300.0])
     while city.contains(origin[None])[0]:
@@ -91,7 +95,7 @@ def test_fused_kernel_matches_the_numpy_reference(base, kind):
     v0, goal = np.array([2.0, -1.0]), np.array([80.0, 30.0])
     mode = wind.pack(cfg.horizon) if (wind is not None and cfg.use_wind) else None
     problem = Problem(v0, goal, obstacle_field(pts),
-                      mode or (0, np.zeros((2, 1, 1)), np.array([0, 0, 1, 1, 0.0])))
+                      mode or (0, np.zeros((2, 1, 1)), np.array([0, 0, 1, 1, 0.0, 0.0, 0.0])))
     costs, parts = fused_rollout_cost(cfg, np.ascontiguousarray(u.transpose(1, 2, 0)), problem)
     ref, ref_parts, ref_pos = _ref_costs(cfg, u, v0, goal, pts, wind)
     np.testing.assert_allclose(parts[:, :3], ref_parts, rtol=1e-10)
@@ -114,15 +118,16 @@ def _winds_batched(px, py, wmode, wgrid, wmeta, wx, wy):
     _kernels._winds(px, py, wmode, wgrid, wmeta, wx, wy)
 
 
+@pytest.mark.parametrize("fill", [(0.0, 0.0), (1.5, -0.7)])
 @pytest.mark.parametrize("spacing, half", [(1.0, np.inf), (25 / 24, 12.5), (0.7, 14.0)])
-def test_the_batched_wind_lookup_is_the_one_at_a_time_lookup_to_the_bit(spacing, half):
+def test_the_batched_wind_lookup_is_the_one_at_a_time_lookup_to_the_bit(spacing, half, fill):
     # the batch reads the window once; its divisions by the spacing must stay divisions (a
     # multiplication by the reciprocal differs in the last bit for spacings like 25/24)
     rng = np.random.default_rng(3)
     n = 30
     wgrid = rng.standard_normal((2, n, n))
     x0 = -0.5 * (n - 1) * spacing + 0.123
-    wmeta = np.array([x0, x0 - 0.31, spacing, spacing, half])
+    wmeta = np.array([x0, x0 - 0.31, spacing, spacing, half, *fill])
     r = (half if np.isfinite(half) else 0.5 * n * spacing) + 3.0
     px, py = rng.uniform(-r, r, (2, 5000))
     for mode in (1, 2):
@@ -131,7 +136,10 @@ def test_the_batched_wind_lookup_is_the_one_at_a_time_lookup_to_the_bit(spacing,
         _winds_batched(px, py, mode, wgrid, wmeta, got[0], got[1])
         _winds_one_at_a_time(px, py, mode, wgrid, wmeta, want[0], want[1])
         assert got.tobytes() == want.tobytes()
-    assert np.any(got[0] == 0.0) == np.isfinite(half)  # samples outside the window: no wind
+        outside = (np.abs(px) > half) | (np.abs(py) > half)
+        assert outside.any() == np.isfinite(half)
+        # outside the window: the fill (zero for the thesis's planner)
+        assert np.all(got[0, outside] == fill[0]) and np.all(got[1, outside] == fill[1])
 
 
 def test_rollout_reaches_the_terminal_speed_of_the_drag(base):
@@ -312,3 +320,6 @@ def test_bad_planner_arguments_raise_named_errors(base):
             LocalWind.grid(np.zeros((2, 3, 3)), bad)
     even = -12.0 + 25 / 24 * np.arange(25)  # steps equal to rounding
     assert LocalWind.grid(np.zeros((2, 25, 25)), even).x is not None
+    with pytest.raises(ValueError, match="'fill' parameter of LocalWind.grid"):
+        LocalWind.grid(np.zeros((2, 3, 3)), [-1.0, 0.0, 1.0], fill=(1.0, 2.0, 3.0))
+    assert not LocalWind.grid(np.zeros((2, 3, 3)), [-1.0, 0.0, 1.0], fill=(np.nan, 0.0)).finite

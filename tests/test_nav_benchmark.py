@@ -326,7 +326,16 @@ def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
     own = replace(TINY, navigate_options={"decoder": "mine"})
     assert decoder_of("ea-mppi-w-hat", own) == "mine"
     assert decoder_of("ea-mppi-w-hat@decoder=2026-11-23", own) is pinned
-    for bad, why in (("ea-mppi-w-hat@decoder=2020-01-01", "unknown decoder"),
+    assert nb.parse_variant("ea-mppi-w-hat@outside=robot") == (
+        "ea-mppi-w-hat", {"onboard": {"outside": "robot"}})
+    flown = {}
+    nb.fly(TINY, scenario, "ea-mppi-w-hat@outside=robot", city=None, flow=None,
+           navigate_fn=lambda c, s, g, **kw:
+           flown.update(kw))
+    assert flown["onboard"] == {"outside": "robot"} and flown["decoder"] is pinned
+    for bad, why in (("ea-mppi-w-hat@outside=zero", "outside must be 'robot'"),
+                     ("ea-mppi-w@outside=robot", "takes no parameter 'outside'"),
+                     ("ea-mppi-w-hat@decoder=2020-01-01", "unknown decoder"),
                      ("ea-mppi-w@decoder=2026-11-23", "takes no parameter 'decoder'"),
                      ("ea-mppi-w-hat@qe=2", "takes no parameter 'qe'"),
                      ("gs@h=25", "takes no parameters")):

@@ -150,6 +150,21 @@ def test_the_planner_gets_the_latest_field_on_the_decoder_grid(city, flow):
         np.testing.assert_array_equal(wind.uv, dec.calls[5 * j][3][0])
 
 
+def test_outside_robot_fills_the_window_with_the_decoders_w_robot(city, flow):
+    # the thesis's window: zero wind outside; outside="robot": the W_robot of the same call
+    dec, spy = Recording(), WindSpy()
+    fly(city, flow, decoder=dec, planner=spy, duration=1.0)
+    assert all(w.fill == (0.0, 0.0) for w in spy.winds)
+    dec, spy = Recording(), WindSpy()
+    fly(city, flow, decoder=dec, planner=spy, duration=1.0, onboard={"outside": "robot"})
+    for j, wind in enumerate(spy.winds):
+        call = dec.calls[5 * j]
+        np.testing.assert_array_equal(wind.uv, call[3][0])
+        assert wind.fill == tuple(call[2][0]) and np.hypot(*wind.fill) > 0.0
+    with pytest.raises(ValueError, match="'outside'"):
+        fly(city, flow, duration=1.0, onboard={"outside": "up"})
+
+
 def test_a_field_from_an_earlier_step_is_shifted_to_the_planning_position(city, flow):
     # at 25 Hz the decoder runs every 4th control step: planning step 10 uses step 8's field
     dec, spy = Recording(), WindSpy(accel=(2.0, 1.0))

@@ -342,7 +342,8 @@ def _dated_decoder(name: str):
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
               "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
-              "launch": "escape_launch", "gust": "escape_gust", "tilt": "tilt_max_deg"}
+              "launch": "escape_launch", "gust": "escape_gust", "tilt": "tilt_max_deg",
+              "outside": "onboard"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -350,7 +351,10 @@ use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactu
 the closed loop's tilt cap, degrees (in (0, 80); ``navigate``'s ``tilt_max_deg``, default 55: the
 planner's ``a_max = g tan(tilt) / sqrt 2`` with it; a counterfactual of the vehicle's
 authority); for
-``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`); and for
+``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`) and
+``outside=robot`` (the planner's wind outside the decoder's window is the uniform ``W_robot``
+the decoder was given instead of zero: :attr:`windnav.experiments.onboard.OnboardOptions.outside`,
+ours, not the thesis's); and for
 ``ea-mppi-w-esc`` only, ``esc`` the length of route an escape flies, m (finite, > 0;
 :class:`windnav.plan.EscapeConfig` ``length_m``, default 60 m: longer than any route means that
 the first stall hands the flight to the route for good) and ``escair`` the airspeed of a
@@ -378,7 +382,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     study parameters, ``"ea-mppi-w@qe=2"``, ``"ea-mppi-w@h=50"``, ``"ea-mppi-w@qe=3@h=90"``
     (:data:`PARAMETERS`; the Q_E and H sweeps of the thesis), ``"mppi@power=crazyflie"`` (the
     power-curve counterfactual), ``"ea-mppi-w@tilt=70"`` (the tilt-cap counterfactual),
-    ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder).
+    ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder), ``"ea-mppi-w-hat@outside=robot"``
+    (the onboard stack's ``W_robot`` outside the decoder's window).
 
     Returns
     -------
@@ -388,8 +393,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
         ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
         ``horizon``, ``power_shape``, ``tilt_max_deg``, ``decoder`` (a key of
-        :data:`DECODERS`, which :func:`fly` loads) and ``escape`` (an
-        :class:`~windnav.plan.EscapeConfig`).
+        :data:`DECODERS`, which :func:`fly` loads), ``onboard`` (``{"outside": "robot"}``) and
+        ``escape`` (an :class:`~windnav.plan.EscapeConfig`).
 
     Raises
     ------
@@ -409,7 +414,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
                           f"'@power=SHAPE' (one of {list(POWER_SHAPES)}) and/or "
                           f"'@tilt=DEG' (in (0, {TILT_LIMIT_DEG:g})), "
-                          f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}), or "
+                          f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}) and/or "
+                          f"'@outside=robot', or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
                           f"'@pace=S' (s, > 0) and/or '@regain=D' (m, > 10) and/or "
@@ -429,8 +435,14 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         if (not sep or key not in PARAMETERS
                 or PARAMETERS[key] in {**options, **overrides, **escape}):
             raise fail(f"bad or repeated parameter {item!r}")
-        if (key == "decoder") != onboard or (key in _ESCAPE_KEYS and not VARIANTS[base].escape):
+        if (key in ("decoder", "outside")) != onboard or (
+                key in _ESCAPE_KEYS and not VARIANTS[base].escape):
             raise fail(f"{base!r} takes no parameter {key!r}")
+        if key == "outside":
+            if text != "robot":  # zero is the variant without the parameter: one label each
+                raise fail(f"outside must be 'robot' (zero is the default), not {text!r}")
+            options["onboard"] = {"outside": "robot"}
+            continue
         if key == "decoder":
             if text not in DECODERS:
                 raise fail(f"unknown decoder {text!r}")
@@ -584,6 +596,8 @@ def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
             kwargs["decoder"] = benchmark_decoder(options["decoder"])
         elif "decoder" not in kwargs:
             kwargs["decoder"] = benchmark_decoder()
+    if "onboard" in options and isinstance(spec.navigate_options.get("onboard"), dict):
+        kwargs["onboard"] = {**spec.navigate_options["onboard"], **options["onboard"]}
     if "planner_overrides" in options and spec.navigate_options.get("planner_overrides"):
         kwargs["planner_overrides"] = {**spec.navigate_options["planner_overrides"],
                                        **options["planner_overrides"]}

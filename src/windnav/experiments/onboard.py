@@ -29,10 +29,11 @@ the vehicle could know on board (Folk 2026, ch. 4-6):
   cell-centre offsets shifted to the vehicle's position at the planning time (the decoder runs
   first on a step where both are due, so with the default rates the shift is 0). The window
   ``L_t`` is the decoder's grid, side ``H Delta = 25`` m; outside it the planner knows no wind,
-  as the ``-w`` variants outside ``L_t`` with ``H = 25``. When the UKF's estimate is not
-  finite the decoder is skipped and the field is NaN (counted in ``decoder_skipped``); a field
-  that is not finite reaches the planner as it is, which brakes and counts a ``"wind"``
-  fallback (nothing raises in the loop).
+  as the ``-w`` variants outside ``L_t`` with ``H = 25`` (or, with ``outside="robot"``, our
+  option beyond the thesis, the uniform ``W_robot`` the decoder was given). When the UKF's
+  estimate is not finite the decoder is skipped and the field is NaN (counted in
+  ``decoder_skipped``); a field that is not finite reaches the planner as it is, which brakes
+  and counts a ``"wind"`` fallback (nothing raises in the loop).
 
 Timing (the thesis's chapter-6 profiling): the wall time of every UKF step (predict, update and
 the world-frame wind), decoder prediction, planner update and control step (SE(3) acceleration
@@ -89,6 +90,8 @@ STAGES = ("ukf", "decoder", "planner", "control")
 """The timed onboard stages."""
 
 _WHERE = "OnboardOptions"
+OUTSIDE = ("zero", "robot")
+"""The planner's wind outside the decoder's window (:attr:`OnboardOptions.outside`)."""
 
 
 @dataclass(frozen=True)
@@ -107,12 +110,17 @@ class OnboardOptions:
         (:data:`windnav.predict.SCAN_NOISE`, the noise the decoder was trained with).
     settle_s : float
         Start of the flight left out of the UKF's RMS error, s (>= 0), default 2.
+    outside : {"zero", "robot"}
+        The planner's wind outside the decoder's window: ``"zero"`` (default, the thesis's
+        ``L_t``) or ``"robot"``, the ``W_robot`` the decoder was given (the UKF's horizontal
+        estimate at the last prediction), uniform: the Local baseline beyond the field.
     """
 
     conditions: object = ONBOARD_CONDITIONS
     decoder_rate_hz: float = 50.0
     scan_noise: float = SCAN_NOISE
     settle_s: float = 2.0
+    outside: str = "zero"
 
     def __post_init__(self):
         from windnav.estimate import CONDITIONS, ukf_conditions
@@ -136,6 +144,9 @@ class OnboardOptions:
                            positive_float(self.scan_noise, "scan_noise", _WHERE, allow_zero=True))
         object.__setattr__(self, "settle_s",
                            positive_float(self.settle_s, "settle_s", _WHERE, allow_zero=True))
+        if self.outside not in OUTSIDE:
+            raise ValueError(f"The 'outside' parameter of {_WHERE} must be one of {OUTSIDE}. "
+                             f"Got {self.outside!r} instead.")
 
     @classmethod
     def coerce(cls, value, where: str) -> OnboardOptions:
@@ -309,6 +320,7 @@ class OnboardStack:
         self.wind_true = np.full((n_max, 3), np.nan)
         self.field = None
         self.centre = np.zeros(2)
+        self.fill = (0.0, 0.0)
         self.skipped = 0
         self.ms = {s: [] for s in STAGES}
         self._com = np.zeros((1, 3))
@@ -399,6 +411,7 @@ class OnboardStack:
             self.skipped += 1
             self.field = np.full((2, self.offsets.size, self.offsets.size), np.nan)
             self.centre = pos_xy.copy()
+            self.fill = (np.nan, np.nan)
             return
         scan = self.city.lidar(pos_xy[None], n_rays=self.n_rays, max_range=SCAN_MAX,
                                min_range=SCAN_MIN, noise_std=self.options.scan_noise,
@@ -408,6 +421,8 @@ class OnboardStack:
         self.ms["decoder"].append(1e3 * (time.perf_counter() - t0))
         self.field = np.asarray(field, dtype=np.float64)[0]
         self.centre = pos_xy.copy()
+        if self.options.outside == "robot":
+            self.fill = (float(w_robot[0]), float(w_robot[1]))
 
     def local_wind(self, pos_xy: np.ndarray):
         """The latest field as the planner's :class:`~windnav.plan.LocalWind`, offsets relative
@@ -415,7 +430,8 @@ class OnboardStack:
         from windnav.plan import LocalWind
 
         dx, dy = self.centre - pos_xy
-        return LocalWind.grid(self.field, self.offsets + dx, self.offsets + dy)
+        fill = self.fill if self.options.outside == "robot" else (0.0, 0.0)
+        return LocalWind.grid(self.field, self.offsets + dx, self.offsets + dy, fill=fill)
 
     def add_time(self, stage: str, ms: float) -> None:
         """Record ``ms`` (ms) for ``stage`` (the loop times the control and the planner)."""

@@ -16,10 +16,11 @@ degree 7 so that the kernels unroll it)::
 
 ``wmeta`` (local wind grid ``wgrid`` (2, ny, nx), [u, v] on cell centres)::
 
-    [x_0, y_0, dx, dy, H/2]
+    [x_0, y_0, dx, dy, H/2, fill_u, fill_v]
 
 with ``wmode`` 0 (no wind), 1 (uniform ``wgrid[:, 0, 0]``), 2 (bilinear, clamped at the edge
-cells). In modes 1 and 2 the wind is zero outside the window ``|x|, |y| <= H/2``.
+cells). In modes 1 and 2 the wind outside the window ``|x|, |y| <= H/2`` is ``(fill_u,
+fill_v)``: zero (the thesis's planner), or a uniform estimate (the onboard stack's option).
 
 ``fmeta`` (obstacle field: ``node`` (ny, nx, 3) holds, at the nodes ``(x_0 + i h, y_0 + j h)``,
 the exact distance to the nearest of the sites ``(sx, sy)`` (P,) and that site's x and y)::
@@ -103,7 +104,7 @@ def _bilinear(px, py, half, x0, y0, wmeta, nx, ny, wgrid):  # pragma: no cover -
     The argument order is measured, not cosmetic: with ``wgrid`` last the 100 x 187 lookups of
     a rollout take 0.16 ms inside it, with ``wmeta`` last 0.54 ms (same values)."""
     if abs(px) > half or abs(py) > half:
-        return 0.0, 0.0
+        return wmeta[5], wmeta[6]
     fx = (px - x0) / wmeta[2]
     fy = (py - y0) / wmeta[3]
     fx = min(max(fx, 0.0), nx - 1.0)
@@ -131,7 +132,7 @@ def wind_at(px, py, wmode, wgrid, wmeta):  # pragma: no cover - numba
     half = wmeta[4]
     if wmode == 1:
         if abs(px) > half or abs(py) > half:
-            return 0.0, 0.0
+            return wmeta[5], wmeta[6]
         return wgrid[0, 0, 0], wgrid[1, 0, 0]
     return _bilinear(px, py, half, wmeta[0], wmeta[1], wmeta, wgrid.shape[2], wgrid.shape[1],
                      wgrid)
@@ -363,8 +364,8 @@ def field_distance(points, node, fmeta, sx, sy, bstart, bmeta, out):  # pragma: 
 
 @numba.njit(cache=True, inline="always")
 def _winds(px, py, wmode, wgrid, wmeta, wx, wy):  # pragma: no cover - numba
-    """Wind at every sample's position into ``wx, wy`` (S,): zero outside the window, uniform
-    (branch-free, so the loop vectorises) or bilinear on the grid."""
+    """Wind at every sample's position into ``wx, wy`` (S,): the fill outside the window,
+    uniform (branch-free, so the loop vectorises) or bilinear on the grid."""
     half = wmeta[4]
     if wmode == 2:
         x0, y0, nx, ny = wmeta[0], wmeta[1], wgrid.shape[2], wgrid.shape[1]
@@ -373,10 +374,12 @@ def _winds(px, py, wmode, wgrid, wmeta, wx, wy):  # pragma: no cover - numba
     elif wmode == 1:
         w0x = wgrid[0, 0, 0]
         w0y = wgrid[1, 0, 0]
+        fx = wmeta[5]
+        fy = wmeta[6]
         for s in range(px.size):
             inside = (abs(px[s]) <= half) & (abs(py[s]) <= half)
-            wx[s] = w0x if inside else 0.0
-            wy[s] = w0y if inside else 0.0
+            wx[s] = w0x if inside else fx
+            wy[s] = w0y if inside else fy
 
 
 @numba.njit(cache=True, fastmath={"contract", "arcp"})

@@ -5,7 +5,9 @@ vehicle: the Wind UKF's uniform estimate, or the decoder's field ``(2, H, H)`` (
 indexed ``[iy, ix]`` on cell-centre offsets, as :meth:`windnav.predict` returns it). It is
 known only inside the window ``L_t = {|p~|_inf <= H/2}`` around the start of the planning
 period and is zero outside (Folk 2026, ch. 5); ``H`` is :attr:`PlannerConfig.horizon`. Between
-the outermost cell centres and the window's edge the grid is clamped to its edge cells.
+the outermost cell centres and the window's edge the grid is clamped to its edge cells. A
+:attr:`LocalWind.fill` other than zero replaces the zero outside the window (not the thesis's
+planner: an option of the onboard stack, which may fill with its uniform local estimate).
 """
 
 from __future__ import annotations
@@ -56,6 +58,8 @@ class LocalWind:
     known_finite: bool = field(default=False, repr=False)
     """True when the caller has checked every value finite (a window of a field it checked
     once): :attr:`finite` then skips the check (0.4 ms on a 600 m map per update)."""
+    fill: tuple = (0.0, 0.0)
+    """``(u, v)`` wind outside the window, m/s, world frame (default zero, the thesis's)."""
 
     @classmethod
     def uniform(cls, wind_xy) -> LocalWind:
@@ -67,11 +71,12 @@ class LocalWind:
         return cls(w.reshape(2, 1, 1).copy(), np.zeros(0), np.zeros(0))
 
     @classmethod
-    def grid(cls, uv, offsets, offsets_y=None, *, known_finite: bool = False) -> LocalWind:
+    def grid(cls, uv, offsets, offsets_y=None, *, known_finite: bool = False,
+             fill=(0.0, 0.0)) -> LocalWind:
         """A gridded wind ``uv`` (2, ny, nx) (m/s) on cell centres ``offsets`` (m).
 
         ``offsets`` are the x offsets and, unless ``offsets_y`` is given, the y offsets too
-        (the decoder's ``dec.offsets``). ``known_finite``: see the attribute.
+        (the decoder's ``dec.offsets``). ``known_finite``, ``fill``: see the attributes.
         """
         arr = np.asarray(uv, dtype=np.float64)
         x = _offsets(offsets, "offsets")
@@ -79,7 +84,12 @@ class LocalWind:
         if arr.shape != (2, y.size, x.size):
             raise ValueError(f"The 'uv' parameter of {_WHERE}.grid must have shape "
                              f"(2, {y.size}, {x.size}). Got shape {arr.shape} instead.")
-        return cls(np.ascontiguousarray(arr), x, y, bool(known_finite))
+        f = np.asarray(fill, dtype=np.float64).reshape(-1)
+        if f.shape != (2,):
+            raise ValueError(f"The 'fill' parameter of {_WHERE}.grid must have shape (2,). "
+                             f"Got shape {np.shape(fill)} instead.")
+        return cls(np.ascontiguousarray(arr), x, y, bool(known_finite),
+                   (float(f[0]), float(f[1])))
 
     @property
     def is_uniform(self) -> bool:
@@ -89,17 +99,18 @@ class LocalWind:
     @property
     def finite(self) -> bool:
         """True when every value is finite."""
-        return self.known_finite or bool(np.all(np.isfinite(self.uv)))
+        return ((self.known_finite or bool(np.all(np.isfinite(self.uv))))
+                and all(np.isfinite(self.fill)))
 
     def pack(self, horizon: float) -> tuple[int, np.ndarray, np.ndarray]:
         """``(mode, grid, meta)`` for the kernels, with the window side ``H = horizon`` (m)."""
         half = 0.5 * float(horizon)
         if self.is_uniform:
-            return 1, self.uv, np.array([0.0, 0.0, 1.0, 1.0, half])
+            return 1, self.uv, np.array([0.0, 0.0, 1.0, 1.0, half, *self.fill])
         meta = np.array([self.x[0], self.y[0], self.x[1] - self.x[0], self.y[1] - self.y[0],
-                         half])
+                         half, *self.fill])
         return 2, self.uv, meta
 
 
-NO_WIND = (0, np.zeros((2, 1, 1)), np.array([0.0, 0.0, 1.0, 1.0, 0.0]))
+NO_WIND = (0, np.zeros((2, 1, 1)), np.array([0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0]))
 """Packed kernel arguments of the variants without wind."""
