@@ -800,14 +800,8 @@ def averaging_study(decoder, city, *, speed: float = 6.0, direction_deg: float =
         ``mean_speed`` (m/s) of the last protocol's mean over the fluid; ``difference``
         (ny, nx) ``|mean_a - mean_b| / speed`` for the figure; the inlet and the map.
     """
-    from windnav.experiments.wind_sweep import auto_dt
-
     where = "averaging_study"
-    speed = positive_float(speed, "speed", where)
-    dx = positive_float(dx, "dx", where)
-    samples = positive_int(samples, "samples", where)
-    seed = _seed(seed, where)
-    dt = auto_dt(dx, speed) if dt is None else positive_float(dt, "dt", where)
+    speed, dx, dt, samples, seed = _flow_arguments(speed, dx, dt, samples, seed, where)
     protocols = dict(AVERAGING_PROTOCOLS if protocols is None else protocols)
     if len(protocols) < 2:
         raise ValueError(f"The 'protocols' parameter of {where} must name at least two "
@@ -831,6 +825,17 @@ def averaging_study(decoder, city, *, speed: float = 6.0, direction_deg: float =
             "label_noise": noise,
             "mean_speed": float(np.hypot(ul, vl)[fluid].mean()),
             "difference": np.where(fluid, diff / speed, np.nan)}
+
+
+def _flow_arguments(speed, dx, dt, samples, seed, where: str) -> tuple:
+    """The label studies' common arguments checked: ``(speed, dx, dt, samples, seed)``, ``dt``
+    by default :func:`windnav.experiments.wind_sweep.auto_dt` (as the sweeps)."""
+    from windnav.experiments.wind_sweep import auto_dt
+
+    speed = positive_float(speed, "speed", where)
+    dx = positive_float(dx, "dx", where)
+    dt = auto_dt(dx, speed) if dt is None else positive_float(dt, "dt", where)
+    return speed, dx, dt, positive_int(samples, "samples", where), _seed(seed, where)
 
 
 def _simulate_and_score(decoder, city, simulate, *, speed, direction_deg, dx, dt, spinup_steps,
@@ -903,16 +908,11 @@ def start_study(decoder, city, *, speed: float = 6.0, direction_deg: float = 3.7
         ``|mean_a - mean_b|`` over the pairs, over ``speed`` (NaN in buildings), for the
         figure; ``spread_rms_mps`` over the fluid; the inlet, the protocol and the map.
     """
-    from windnav.experiments.wind_sweep import auto_dt
     from windnav.predict.metrics import field_errors
 
     where = "start_study"
-    speed = positive_float(speed, "speed", where)
-    dx = positive_float(dx, "dx", where)
-    samples = positive_int(samples, "samples", where)
+    speed, dx, dt, samples, seed = _flow_arguments(speed, dx, dt, samples, seed, where)
     steps = positive_int(steps, "steps", where)  # spinup_steps: checked by the solver
-    seed = _seed(seed, where)
-    dt = auto_dt(dx, speed) if dt is None else positive_float(dt, "dt", where)
     kicks = [float(k) for k in kicks]
     if len(set(kicks)) < 2 or len(set(kicks)) != len(kicks) or not np.all(np.isfinite(kicks)):
         raise ValueError(f"The 'kicks' parameter of {where} must hold at least two distinct "

@@ -320,7 +320,7 @@ class OnboardStack:
         self.wind_true = np.full((n_max, 3), np.nan)
         self.field = None
         self.centre = np.zeros(2)
-        self.fill = (0.0, 0.0)
+        self.fill = (0.0, 0.0)  # the planner's wind outside the window (options.outside)
         self.skipped = 0
         self.ms = {s: [] for s in STAGES}
         self._com = np.zeros((1, 3))
@@ -407,11 +407,12 @@ class OnboardStack:
             self._decode(x[0, :2], est[:2])
 
     def _decode(self, pos_xy: np.ndarray, w_robot: np.ndarray) -> None:
+        if self.options.outside == "robot":  # (not finite when the filter diverged, as the field)
+            self.fill = (float(w_robot[0]), float(w_robot[1]))
         if not np.isfinite(w_robot).all():  # a diverged filter: no field, the planner brakes
             self.skipped += 1
             self.field = np.full((2, self.offsets.size, self.offsets.size), np.nan)
             self.centre = pos_xy.copy()
-            self.fill = (np.nan, np.nan)
             return
         scan = self.city.lidar(pos_xy[None], n_rays=self.n_rays, max_range=SCAN_MAX,
                                min_range=SCAN_MIN, noise_std=self.options.scan_noise,
@@ -421,8 +422,6 @@ class OnboardStack:
         self.ms["decoder"].append(1e3 * (time.perf_counter() - t0))
         self.field = np.asarray(field, dtype=np.float64)[0]
         self.centre = pos_xy.copy()
-        if self.options.outside == "robot":
-            self.fill = (float(w_robot[0]), float(w_robot[1]))
 
     def local_wind(self, pos_xy: np.ndarray):
         """The latest field as the planner's :class:`~windnav.plan.LocalWind`, offsets relative
@@ -430,8 +429,7 @@ class OnboardStack:
         from windnav.plan import LocalWind
 
         dx, dy = self.centre - pos_xy
-        fill = self.fill if self.options.outside == "robot" else (0.0, 0.0)
-        return LocalWind.grid(self.field, self.offsets + dx, self.offsets + dy, fill=fill)
+        return LocalWind.grid(self.field, self.offsets + dx, self.offsets + dy, fill=self.fill)
 
     def add_time(self, stage: str, ms: float) -> None:
         """Record ``ms`` (ms) for ``stage`` (the loop times the control and the planner)."""

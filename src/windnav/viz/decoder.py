@@ -375,6 +375,27 @@ def plot_size_study(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+def _label_study_figure(groups, image, *, vmax: float, colorbar_label: str, title: str):
+    """The figure of the label studies (:func:`plot_averaging`, :func:`plot_start`): for the
+    speed and the direction error, one bar per model and per group ``(label, errors)``
+    (``errors[model][metric]``); then ``image`` (a map over U, NaN in buildings) with its colour
+    bar. Returns ``(fig, axes)``; the caller adds its legend and title."""
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    width = 0.8 / len(groups)
+    for ax, (metric, name) in zip(axes[:2], _METRICS[:2], strict=True):
+        for k, (label, errors) in enumerate(groups):
+            ax.bar(np.arange(len(_MODELS)) + (k - (len(groups) - 1) / 2) * width,
+                   [errors[m][metric] for m in _MODELS], width, label=label)
+        ax.set_xticks(np.arange(len(_MODELS)), _MODELS)
+        ax.set_ylabel(name)
+    im = axes[2].imshow(image, origin="lower", cmap="magma", vmin=0.0, vmax=vmax)
+    fig.colorbar(im, ax=axes[2], label=colorbar_label)
+    axes[2].set_title(title, fontsize=9)
+    axes[2].set_xticks([])
+    axes[2].set_yticks([])
+    return fig, axes
+
+
 def plot_averaging(result: dict, path) -> Path:
     """The decoder and its baselines scored against a short and a long average, and the map of
     the difference between the two means.
@@ -386,28 +407,15 @@ def plot_averaging(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
-    labels = list(result["protocols"])
-    models = ("decoder", "local", "upstream")
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
-    width = 0.8 / len(labels)
-    for ax, (metric, name) in zip(axes[:2], (_METRICS[0], _METRICS[1]), strict=True):
-        for k, label in enumerate(labels):
-            p = result["protocols"][label]
-            vals = [p["errors"][m][metric] for m in models]
-            ax.bar(np.arange(len(models)) + (k - (len(labels) - 1) / 2) * width, vals, width,
-                   label=f"{label}: {p['spinup_steps']} + {p['steps']} steps "
-                         f"({p['diagnostics']['flow_throughs_average']:.2f} flow-throughs, "
-                         f"halves differ {p['diagnostics']['half_window_difference']:.2f} U)")
-        ax.set_xticks(np.arange(len(models)), models)
-        ax.set_ylabel(name)
+    groups = [(f"{label}: {p['spinup_steps']} + {p['steps']} steps "
+               f"({p['diagnostics']['flow_throughs_average']:.2f} flow-throughs, "
+               f"halves differ {p['diagnostics']['half_window_difference']:.2f} U)", p["errors"])
+              for label, p in result["protocols"].items()]
+    noise = result["label_noise"]
+    fig, axes = _label_study_figure(
+        groups, result["difference"], vmax=1.0, colorbar_label="|mean(short) - mean(long)| / U",
+        title=f"label noise: RMS {noise['rms_mps']:.2f} m/s ({noise['rms_over_U']:.2f} U)")
     axes[0].legend(fontsize=7)
-    im = axes[2].imshow(result["difference"], origin="lower", cmap="magma", vmin=0.0,
-                        vmax=1.0)
-    fig.colorbar(im, ax=axes[2], label="|mean(short) - mean(long)| / U")
-    axes[2].set_title(f"label noise: RMS {result['label_noise']['rms_mps']:.2f} m/s "
-                      f"({result['label_noise']['rms_over_U']:.2f} U)", fontsize=9)
-    axes[2].set_xticks([])
-    axes[2].set_yticks([])
     fig.suptitle(f"{result['map']}: inlet {result['speed']:g} m/s toward "
                  f"{result['direction_deg']:g} deg, {result['samples']} robots at the same "
                  "positions for both means", fontsize=10)
@@ -425,32 +433,20 @@ def plot_start(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
-    runs = result["kicks"]
-    models = ("decoder", "local", "upstream")
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
-    width = 0.8 / len(runs)
-    for ax, (metric, name) in zip(axes[:2], (_METRICS[0], _METRICS[1]), strict=True):
-        for k, r in enumerate(runs):
-            ax.bar(np.arange(len(models)) + (k - (len(runs) - 1) / 2) * width,
-                   [r["errors"][m][metric] for m in models], width,
-                   label=f"labels started with kick {r['kick']:+g} U")
+    groups = [(f"labels started with kick {r['kick']:+g} U", r["errors"])
+              for r in result["kicks"]]
+    spread = result["spread"]
+    fig, axes = _label_study_figure(
+        groups, spread, vmax=max(0.05, float(np.nanpercentile(spread, 99))),
+        colorbar_label="largest |mean(kick a) - mean(kick b)| / U",
+        title=f"label spread over the kicks: RMS {result['spread_rms_mps']:.3f} m/s")
+    for ax, (metric, _) in zip(axes[:2], _METRICS[:2], strict=True):
         ax.axhline(result["floor"][metric], color="k", ls="--", lw=1,
                    label=f"floor (half the largest label disagreement): "
                          f"{result['floor'][metric]:.3g}")
-        ax.set_xticks(np.arange(len(models)), models)
-        ax.set_ylabel(name)
     axes[0].legend(fontsize=7)
-    spread = result["spread"]
-    im = axes[2].imshow(spread, origin="lower", cmap="magma", vmin=0.0,
-                        vmax=max(0.05, float(np.nanpercentile(spread, 99))))
-    fig.colorbar(im, ax=axes[2], label="largest |mean(kick a) - mean(kick b)| / U")
-    axes[2].set_title(f"label spread over the kicks: RMS {result['spread_rms_mps']:.3f} m/s",
-                      fontsize=9)
-    axes[2].set_xticks([])
-    axes[2].set_yticks([])
     fig.suptitle(f"{result['map']}: inlet {result['speed']:g} m/s toward "
                  f"{result['direction_deg']:g} deg, {result['spinup_steps']} + "
                  f"{result['steps']} steps, {result['samples']} robots at the same positions "
                  "for every start", fontsize=10)
     return _save(fig, path)
-
