@@ -237,6 +237,62 @@ def test_decoder_study_size_quick_trains_one_model_per_grid_size(runs, tmp_path)
     assert (out / "decoder_size.png").stat().st_size > 10_000
 
 
+def test_map_subset_keeps_every_kind_of_map_in_proportion():
+    from windnav.experiments.decoder_studies import map_subset
+    from windnav.predict.train import RECIPES, load_recipe
+
+    recipe = load_recipe(RECIPES / "default.toml")
+    assert map_subset(recipe, 1.0) == []
+    left_out = map_subset(recipe, 0.25)
+    counts = {g["name"]: g["count"] for g in recipe["sweep"]["maps"]}
+    kept = {name: sum(1 for i in range(n) if f"{name}-{i}" not in left_out)
+            for name, n in counts.items()}
+    # 20 dense, 8 dense12, 12 sparse, 4 districts, 16 scattered: a quarter of each; the
+    # held-out district stays (it is not a training map)
+    assert kept == {"dense": 5, "dense12": 2, "sparse": 3, "district": 1, "holdout": 1,
+                    "scattered": 4}
+    assert "holdout-0" not in left_out and "dense-0" not in left_out and "dense-5" in left_out
+    assert len(map_subset(recipe, 0.5)) == 30
+    for bad in (0, 1.5, "half"):
+        with pytest.raises(ValueError, match="'fraction' parameter of map_subset"):
+            map_subset(recipe, bad)
+
+
+def test_decoder_study_scaling_quick_trains_on_fewer_maps_and_a_wider_model(runs, tmp_path):
+    from windnav.experiments.decoder_studies import scaling_study
+    from windnav.predict.train import RECIPES, load_recipe, train_decoder
+
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "scaling", "--quick", "--out", str(out), "--runs",
+                     str(runs), "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_scaling.json").read_text())
+    v = doc["variants"]
+    # the tiny recipe has 2 training maps: a quarter keeps one (a half, the same one: dropped)
+    assert list(v) == ["maps-0.25", "maps-1", "wide"] and doc["fractions"] == [0.25, 1.0]
+    assert [v[n]["n_train_maps"] for n in v] == [1, 2, 2]
+    # as many training samples per epoch for every fraction
+    assert len({v[n]["n_train_samples"] for n in v}) == 1
+    assert v["wide"]["n_parameters"] > v["maps-1"]["n_parameters"]
+    for n in v:
+        assert len(v[n]["val_curve"]) == 2
+        assert np.isfinite(v[n]["train_errors"]["decoder"]["speed_error"])
+    step = doc["per_doubling"][0]
+    assert step["maps"] == [1, 2] and step["speed_error"] == pytest.approx(
+        v["maps-1"]["errors"]["model"]["speed_error"]
+        / v["maps-0.25"]["errors"]["model"]["speed_error"])
+    assert (out / "decoder_scaling.png").stat().st_size > 10_000
+    # the full-sweep arm is the recipe itself: its folder is a finished run of the recipe
+    recipe = load_recipe(RECIPES / "tiny.toml")
+    recipe["train"].update(epochs=2, tensorboard=False)
+    again = train_decoder(recipe, store=runs / "sweep.zarr",
+                          out_dir=runs / "maps-1-e2-n256", progress=False, log=None)
+    assert [e["val"]["speed_error"] for e in again["epochs"]] == [
+        e["speed_error"] for e in v["maps-1"]["val_curve"]]
+    assert again["best_epoch"] == v["maps-1"]["best_epoch"]
+    with pytest.raises(ValueError, match="'fractions' parameter of scaling_study"):
+        scaling_study(runs, fractions=(), quick=True)
+
+
 def _averaging_city():
     from windnav.city import dense_map
 

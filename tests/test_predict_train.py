@@ -22,7 +22,9 @@ from windnav.predict.metrics import field_errors  # noqa: E402
 from windnav.predict.train import (  # noqa: E402
     RECIPES,
     _augment,
+    _fingerprint,
     _loss,
+    _split_fields,
     load_recipe,
     recipe_maps,
     train_decoder,
@@ -129,6 +131,27 @@ def test_another_recipe_does_not_resume_a_checkpoint(tiny):
     changed["train"]["learning_rate"] = 1e-2
     with pytest.raises(ValueError, match="'config' parameter of train_decoder differs"):
         train_decoder(changed, store=out / "sweep.zarr", out_dir=out, progress=False, log=None)
+
+
+def test_excluded_maps_are_left_out_of_training_only(tiny):
+    recipe, out, h = tiny
+    store = out / "sweep.zarr"
+    full, val, n_train, n_val = _split_fields(store, ["holdout-0"], "here")
+    part, val2, n_part, _ = _split_fields(store, ["holdout-0"], "here", ["train-1"])
+    assert (n_train, n_val, n_part) == (2, 1, 1)
+    assert len(part) == len(full) // 2 == h["n_train_fields"] // 2 and len(val2) == len(val)
+    # the fields kept are those of train-0, in the same order, bit for bit
+    for a, b in zip(part, full[:len(part)], strict=True):
+        np.testing.assert_array_equal(a.u, b.u)
+    with pytest.raises(ValueError, match="excluded maps of the store"):
+        _split_fields(store, ["holdout-0"], "here", ["train-7"])
+    # an empty exclusion keeps the fingerprint of recipes written before the option existed
+    older = copy.deepcopy(recipe)
+    del older["data"]["exclude_maps"]
+    assert _fingerprint(older) == _fingerprint(recipe)
+    changed = copy.deepcopy(recipe)
+    changed["data"]["exclude_maps"] = ["train-1"]
+    assert _fingerprint(changed) != _fingerprint(recipe)
 
 
 def test_thesis_mlp_trains_with_d4_augmentation(tiny, tmp_path):
@@ -276,6 +299,8 @@ def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection()
     ({"train": {"optimizer": "sgd"}}, "train.optimizer"),
     ({"train": {"flush_denormal": 1}}, "train.flush_denormal"),
     ({"data": {"validation_maps": []}}, "data.validation_maps"),
+    ({"data": {"exclude_maps": "train-1"}}, "data.exclude_maps"),
+    ({"data": {"exclude_maps": ["holdout-0"]}}, "data.exclude_maps"),
     ({"model": {"architecture": "resnet"}}, "'name' parameter of make_architecture"),
     ({"model": {"hyperparameters": {"pool": 4}}}, "'pool' hyperparameter"),
     ({"sweep": {"maps": [{"name": "a", "kind": "forest"}]}}, "sweep.maps"),

@@ -10,6 +10,7 @@
     windnav decoder-study averaging  --out runs/studies                           # label noise
     windnav decoder-study averaging  --out runs/studies_windinet --windinet       # ... windinet
     windnav decoder-study start      --out runs/studies                           # label spread
+    windnav decoder-study scaling    --out runs/studies --runs runs/scaling           # maps, size
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
@@ -22,7 +23,11 @@ held-out 600 m district (never trained on), or with ``--windinet`` on the third-
 layout, at 6 m/s (``--speed``, ``--direction-deg``): is the error the label noise of the short
 average? ``start`` starts the same flow (same map and inlet) with four symmetry-breaking kicks
 and averages each with the thesis protocol: how far apart are labels that differ only by an
-arbitrary choice of the solver's start, and so how low can any model's error go? ``--quick``:
+arbitrary choice of the solver's start, and so how low can any model's error go? ``scaling``
+trains the default recipe on a quarter, a half and all of its training maps (as many samples
+per epoch) and a wider model on all of them (in ``--runs``, resumable; a ``maps-1-e40-n768``
+folder there that holds a finished default-recipe run is reused): does the error fall with
+more maps or with a bigger model? ``--quick``:
 a 150 m map and short flows, or the tiny recipe's sweep and models. The harness is
 :mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
 
@@ -45,7 +50,8 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start")
+STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
+           "scaling")
 """The studies, as named on the command line."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
@@ -55,7 +61,8 @@ def register(subparsers) -> None:
     """Add the ``decoder-study`` subcommand."""
     p = subparsers.add_parser(
         "decoder-study",
-        help="a study of the wind flow decoder (eigenflows, gradients, mosaic, winds, size)",
+        help="a study of the wind flow decoder (eigenflows, gradients, mosaic, winds, size, "
+             "averaging, start, scaling)",
         description=__doc__.splitlines()[0],
     )
     p.add_argument("study", choices=STUDIES, help="which study")
@@ -76,8 +83,8 @@ def register(subparsers) -> None:
     p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
                    help="keep the flow solutions here and reuse them")
     p.add_argument("--runs", type=Path, default=None, metavar="DIR",
-                   help="winds/size: the sweep store and trained models (default "
-                        "runs/decoder_studies, or runs/decoder_studies_quick)")
+                   help="winds/size/scaling: the sweep store and trained models (default "
+                        "runs/decoder_studies, runs/scaling, or with --quick ..._quick)")
     p.add_argument("--epochs", type=int, default=None,
                    help="winds/size: training epochs per model (default 20 for winds, 12 for "
                         "size; quick 2)")
@@ -172,6 +179,14 @@ def _summary(study: str, res: dict) -> dict:
                 "improvement_pct": res["metrics"]["improvement_pct"],
                 "coverage": res["coverage"], "n_robots": res["n_robots"],
                 "n_moved": res["n_moved"]}
+    if study == "scaling":
+        return {"per_doubling": res["per_doubling"], "variants": {
+            n: {"maps": v["n_train_maps"], "parameters": v["n_parameters"],
+                **{f"{who}_{k}": (v["errors"]["model"] if who == "test" else
+                                  v["train_errors"]["decoder"])[k]
+                   for who in ("test", "train") for k in ("speed_error",
+                                                          "direction_error_deg")},
+                "train_seconds": v["train_seconds"]} for n, v in res["variants"].items()}}
     return {"schedule": res["schedule"], "variants": {
         n: {"model": {k: v["errors"]["model"][k] for k in ("speed_error",
                                                              "direction_error_deg")},
@@ -238,6 +253,11 @@ def run(args, simulate=None) -> int:
                              samples=samples, seed=args.seed, simulate=simulate,
                              name=map_name, **kw)
         plot = figures.plot_start
+    elif study == "scaling":
+        runs = args.runs or Path("runs/scaling" + ("_quick" if args.quick else ""))
+        res = ds.scaling_study(runs, quick=args.quick, progress=progress, seed=args.seed)
+        res["runs"] = str(runs)
+        plot = figures.plot_scaling
     else:
         runs = args.runs or Path("runs/decoder_studies" + ("_quick" if args.quick else ""))
         kw = dict(quick=args.quick, epochs=args.epochs, samples_per_field=args.samples_per_field,

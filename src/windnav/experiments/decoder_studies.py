@@ -692,7 +692,10 @@ def train_variants(recipe: dict, variants: dict, runs_dir, *, progress: bool = F
             "best_epoch": hist["best_epoch"], "n_parameters": dec.n_parameters,
             "n_train_samples": hist["n_train_samples"], "n_test_samples":
             int(test.scans.shape[0]), "model": str(runs / tag / "model.npz"),
-            "hyperparameters": r["model"]["hyperparameters"]}
+            "hyperparameters": r["model"]["hyperparameters"],
+            "n_train_maps": hist["n_train_maps"], "n_train_fields": hist["n_train_fields"],
+            "train_errors": hist.get("train_metrics"),
+            "val_curve": [{k: e["val"][k] for k in FLOOR_METRICS} for e in hist["epochs"]]}
     out["schedule"] = {"epochs": tr["epochs"], "samples_per_field": data["samples_per_field"],
                        "resample_every": tr["resample_every"], "threads": tr["threads"],
                        "architecture": recipe["model"]["architecture"],
@@ -757,6 +760,128 @@ def size_study(runs_dir, *, sizes=SIZES, quick: bool = False, epochs: int | None
         res["variants"][f"H{h}"]["area_fraction"] = float(
             area_fraction(h, recipe["data"]["spacing"]))
     res["sizes"] = sizes
+    return res
+
+
+SCALING_FRACTIONS = (0.25, 0.5, 1.0)
+"""The scaling study's fractions of the default recipe's training maps."""
+WIDE = {"pool": 3, "conv_channels": 16, "embed": 256, "width": 256, "depth": 3, "modes": 64}
+"""The scaling study's wider d4-film (the default recipe's other hyperparameters): about 4 x
+the parameters of the shipped model."""
+
+
+def map_subset(recipe: dict, fraction: float) -> list[str]:
+    """The training maps a fraction of a recipe's sweep leaves out (``data.exclude_maps``).
+
+    Each ``[[sweep.maps]]`` group keeps its first ``max(1, round(fraction x count))`` maps, so
+    every kind of map stays in the mix in its proportion; validation maps are never left out.
+
+    Parameters
+    ----------
+    recipe : dict
+        A complete recipe.
+    fraction : float
+        In (0, 1].
+
+    Returns
+    -------
+    list of str
+        The names of the maps left out, ``"<group>-<i>"``.
+    """
+    where = "map_subset"
+    if not isinstance(fraction, (int, float)) or not 0 < fraction <= 1:
+        raise ValueError(f"The 'fraction' parameter of {where} must be in (0, 1]. Got "
+                         f"{fraction!r} instead.")
+    held = set(recipe["data"]["validation_maps"])
+    out = []
+    for group in recipe["sweep"]["maps"]:
+        names = [f"{group['name']}-{i}" for i in range(int(group.get("count", 1)))]
+        names = [n for n in names if n not in held]
+        if names:
+            out += names[max(1, round(fraction * len(names))):]
+    return out
+
+
+def scaling_study(runs_dir, *, fractions=SCALING_FRACTIONS, wide: bool = True,
+                  quick: bool = False, progress: bool = False, seed: int = 0) -> dict:
+    """What limits the decoder: the number of training maps, or the model's size?
+
+    The default recipe (sweep, samples, 40-epoch schedule) trained on a fraction of its
+    training maps (:func:`map_subset`), each fraction with its samples per field scaled up so
+    that every model sees as many training samples per epoch, and the same number of steps; and
+    at the full sweep a wider d4-film (:data:`WIDE`). The full-sweep arm is the default recipe
+    itself (so a ``maps-1`` folder linked to a finished ``windnav train-decoder`` run of it is
+    reused). Scored on fresh test samples of the held-out map, with the training-set errors
+    (the gap between the two is what more maps can close; the training error, what a bigger
+    model can).
+
+    Parameters
+    ----------
+    runs_dir : str or path-like
+        The store (``sweep.zarr``) and one folder per model, resumable.
+    fractions : sequence of float
+        Fractions of the training maps, in (0, 1].
+    wide : bool
+        Also train :data:`WIDE` on the full sweep.
+    quick : bool
+        The tiny recipe (2 training maps), 2 epochs, a wide model of 2 x its widths (tests).
+        A fraction that keeps the same maps as a smaller one is dropped.
+    progress : bool
+    seed : int
+        The test samples' seed offset.
+
+    Returns
+    -------
+    dict
+        :func:`train_variants`'s result, variants ``"maps-<fraction>"`` (and ``"wide"``) each
+        with ``fraction``; ``fractions``; ``per_doubling``: for each pair of successive
+        fractions, the ratio of the test errors per doubling of the maps,
+        ``(e2 / e1) ** (1 / log2(n2 / n1))``.
+    """
+    from windnav.predict.train import RECIPES, load_recipe
+
+    where = "scaling_study"
+    fractions = sorted({float(f) for f in fractions})
+    if not fractions:
+        raise ValueError(f"The 'fractions' parameter of {where} must list at least one "
+                         "fraction. Got none.")
+    if quick:
+        r = load_recipe(RECIPES / "tiny.toml")
+        r["train"]["epochs"] = 2
+        hp = r["model"]["hyperparameters"]
+        wide_hp = {**hp, **{k: 2 * hp[k] for k in ("embed", "width")}}
+    else:
+        r = load_recipe(RECIPES / "default.toml")
+        wide_hp = {**r["model"]["hyperparameters"], **WIDE}
+    r["train"]["tensorboard"] = False
+    base = r["data"]["samples_per_field"]
+    n_all = sum(int(g.get("count", 1)) for g in r["sweep"]["maps"]) - len(
+        r["data"]["validation_maps"])
+    variants, kept = {}, {}
+    for f in list(fractions):
+        excluded = map_subset(r, f)
+        if n_all - len(excluded) in kept.values():  # the same maps as a smaller fraction
+            fractions.remove(f)
+            continue
+        kept[f] = n_all - len(excluded)
+        variants[f"maps-{f:g}"] = {"data.exclude_maps": excluded,
+                                   "data.samples_per_field": round(base * n_all / kept[f])}
+    if wide:
+        variants["wide"] = {"model.hyperparameters": wide_hp}
+    res = train_variants(r, variants, runs_dir, progress=progress,
+                         test_seed=_seed(seed, where))
+    for f in fractions:
+        res["variants"][f"maps-{f:g}"]["fraction"] = f
+    if wide:
+        res["variants"]["wide"]["fraction"] = 1.0
+    res["fractions"] = fractions
+    res["per_doubling"] = []
+    for f1, f2 in zip(fractions[:-1], fractions[1:], strict=True):
+        e1 = res["variants"][f"maps-{f1:g}"]["errors"]["model"]
+        e2 = res["variants"][f"maps-{f2:g}"]["errors"]["model"]
+        doublings = np.log2(kept[f2] / kept[f1])
+        res["per_doubling"].append({"from": f1, "to": f2, "maps": [kept[f1], kept[f2]], **{
+            k: float((e2[k] / e1[k]) ** (1.0 / doublings)) for k in FLOOR_METRICS}})
     return res
 
 

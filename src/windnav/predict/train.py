@@ -7,7 +7,8 @@ from it (:class:`windnav.predict.dataset.DecoderDataset`), the architecture and 
 schedule. :func:`train_decoder` then
 
 - splits the store's fields into training and validation by map (``data.validation_maps``:
-  whole maps held out);
+  whole maps held out; ``data.exclude_maps`` leaves further maps out of training, for learning
+  curves on a subset of a sweep);
 - draws the training samples (kept in memory with ``train.cache``), new ones every
   ``train.resample_every`` epochs (fresh robot positions and noise), and the validation
   samples once; optionally turns each training sample by a random D4 element
@@ -86,6 +87,7 @@ DEFAULTS = {
         "spacing": 1.0,
         "samples_per_field": 512,
         "validation_maps": [],
+        "exclude_maps": [],
         "validation_samples_per_field": 256,
         "scan_noise": 0.35,
         "w_robot_noise": 0.0,
@@ -230,6 +232,11 @@ def _check_recipe(r: dict, where: str) -> None:
     if not isinstance(d["validation_maps"], list) or not d["validation_maps"]:
         fail("data.validation_maps", "a non-empty list of store map names (held out)",
              d["validation_maps"])
+    ex = d["exclude_maps"]
+    if not isinstance(ex, list) or not all(isinstance(m, str) for m in ex) or set(ex) & set(
+            d["validation_maps"]):
+        fail("data.exclude_maps", "a list of store map names left out of training (not "
+             "validation maps)", ex)
     # the architecture and its hyperparameters
     make_architecture(r["model"]["architecture"], d["size"], **r["model"]["hyperparameters"])
     for i, group in enumerate(r["sweep"]["maps"]):
@@ -273,7 +280,9 @@ def resolve_paths(recipe: dict, out_dir=None) -> tuple[Path, Path]:
 def _fingerprint(recipe: dict) -> str:
     """What must not change between a run and its resumption (not paths or workers)."""
     sweep = {k: v for k, v in recipe["sweep"].items() if k not in ("store", "backend", "workers")}
-    keep = {"sweep": sweep, "data": recipe["data"], "model": recipe["model"],
+    # an empty exclude_maps (added later) leaves the fingerprints of earlier runs as they were
+    data = {k: v for k, v in recipe["data"].items() if k != "exclude_maps" or v}
+    keep = {"sweep": sweep, "data": data, "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
                       if k not in ("threads", "flush_denormal", "device", "tensorboard",
                                    "eval_batch_size")}}
@@ -283,18 +292,21 @@ def _fingerprint(recipe: dict) -> str:
 # ------------------------------------------------------------------------------- data
 
 
-def _split_fields(store_path, validation_maps, where):
+def _split_fields(store_path, validation_maps, where, exclude_maps=()):
+    """The store's fields split by map: validation maps, and training maps (all the others
+    but ``exclude_maps``, which learning-curve studies leave out)."""
     from windnav.flow.sweep_store import SweepStore
 
     store = SweepStore(store_path)
     names = [str(store.map_attrs(k).get("name", k)) for k in range(store.n_maps)]
-    missing = [m for m in validation_maps if m not in names]
-    if missing:
-        raise ValueError(f"The 'config' parameter of {where} must name validation maps of the "
-                         f"store {str(store_path)!r}. Got {missing} instead (the store holds "
-                         f"{names}).")
+    for what, listed in (("validation", validation_maps), ("excluded", exclude_maps)):
+        missing = [m for m in listed if m not in names]
+        if missing:
+            raise ValueError(f"The 'config' parameter of {where} must name {what} maps of the "
+                             f"store {str(store_path)!r}. Got {missing} instead (the store "
+                             f"holds {names}).")
     val = [k for k, n in enumerate(names) if n in validation_maps]
-    train = [k for k in range(store.n_maps) if k not in val]
+    train = [k for k, n in enumerate(names) if k not in val and n not in exclude_maps]
     if not train:
         raise ValueError(f"The 'config' parameter of {where} holds out every map of the store "
                          f"{str(store_path)!r}; keep at least one for training.")
@@ -661,7 +673,7 @@ class _Run:
         data, tr, mdl = self.data, self.tr, self.mdl
         self.device = _device(tr["device"])
         self.fields_train, fields_val, n_train_maps, n_val_maps = _split_fields(
-            self.store, data["validation_maps"], where)
+            self.store, data["validation_maps"], where, data["exclude_maps"])
         self.val = _dataset(fields_val, data["validation_samples_per_field"], data,
                             1).materialize()
         self.arch = make_architecture(mdl["architecture"], data["size"],

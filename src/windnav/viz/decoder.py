@@ -375,6 +375,53 @@ def plot_size_study(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+def plot_scaling(result: dict, path) -> Path:
+    """Test and training errors of the models trained on fractions of the sweep's maps (and of
+    the wider model), against the number of training maps; and each model's validation speed
+    error per epoch.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.scaling_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    v = result["variants"]
+    arms = [n for n in v if n != "wide"]
+    maps = [v[n]["n_train_maps"] for n in arms]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.4))
+    for ax, (metric, label) in zip(axes[:2], _METRICS[:2], strict=True):
+        ax.plot(maps, [v[n]["errors"]["model"][metric] for n in arms], "o-", color="C0",
+                label="d4-film, test (held-out map)")
+        ax.plot(maps, [v[n]["train_errors"]["decoder"][metric] for n in arms], "o--",
+                color="C0", alpha=0.5, label="d4-film, training maps")
+        if "wide" in v:
+            ax.plot([v["wide"]["n_train_maps"]], [v["wide"]["errors"]["model"][metric]], "D",
+                    color="C3", label=f"wide d4-film ({v['wide']['n_parameters']:,} par.), test")
+            ax.plot([v["wide"]["n_train_maps"]], [v["wide"]["train_errors"]["decoder"][metric]],
+                    "D", color="C3", alpha=0.4, label="wide, training maps")
+        ax.axhline(v[arms[-1]]["errors"]["local"][metric], color="C1", lw=1,
+                   label="Local baseline, test")
+        ax.set_xscale("log", base=2)
+        ax.set_xticks(maps, [str(m) for m in maps])
+        ax.set_xlabel(f"training maps (x {v[arms[-1]]['n_train_fields'] // maps[-1]} inlets)")
+        ax.set_ylabel(label)
+        ax.set_ylim(bottom=0)
+    axes[0].legend(fontsize=7)
+    for k, n in enumerate(v):
+        curve = [e["speed_error"] for e in v[n]["val_curve"]]
+        axes[2].plot(np.arange(1, len(curve) + 1), curve, color="C3" if n == "wide" else
+                     f"C{[0, 4, 5, 6, 7][k % 5]}", label=n)
+    axes[2].set_xlabel("epoch")
+    axes[2].set_ylabel("validation speed error (m/s)")
+    axes[2].legend(fontsize=7)
+    s = result["schedule"]
+    fig.suptitle(f"Scaling study: d4-film, {s['epochs']} epochs, as many samples per epoch "
+                 "for every fraction of the maps", fontsize=10)
+    return _save(fig, path)
+
+
 def _label_study_figure(groups, image, *, vmax: float, colorbar_label: str, title: str):
     """The figure of the label studies (:func:`plot_averaging`, :func:`plot_start`): for the
     speed and the direction error, one bar per model and per group ``(label, errors)``
