@@ -237,6 +237,58 @@ def test_decoder_study_size_quick_trains_one_model_per_grid_size(runs, tmp_path)
     assert (out / "decoder_size.png").stat().st_size > 10_000
 
 
+def test_noise_study_gives_every_model_the_same_noisy_w_robot(tiny_field):
+    from windnav.experiments.decoder_studies import _draw, _seed, noise_study
+
+    decs = {"a": tiny_decoder(seed=0), "b": tiny_decoder(seed=1)}
+    res = noise_study(decs, [tiny_field], 48, levels=(0.0, 0.1, 0.2), seed=3)
+    assert res["levels"] == [0.0, 0.1, 0.2] and res["n_samples"] == 48
+    assert list(res["errors"]) == ["a", "b", "local", "upstream"]
+    # recomputed by hand at 0.2 U: the same samples, the same draw of z
+    seed = _seed(3, "noise_study")
+    batch = _draw([tiny_field], 48, seed, 25, 1.0, "test")
+    z = np.random.default_rng([seed, 5]).standard_normal(batch.w_robot.shape)
+    u = batch.inlet_speed.astype(np.float64)[:, None]
+    w = (batch.w_robot + 0.2 * u * z).astype(batch.w_robot.dtype)
+    for name, dec in decs.items():
+        want = field_errors(dec.predict(batch.scans, batch.w_up, w), batch.labels, batch.free,
+                            batch.inlet_speed)
+        assert res["errors"][name][2]["speed_error"] == pytest.approx(want["speed_error"],
+                                                                       rel=1e-12)
+        clean = field_errors(dec.predict(batch.scans, batch.w_up, batch.w_robot), batch.labels,
+                             batch.free, batch.inlet_speed)
+        assert res["errors"][name][0]["speed_error"] == pytest.approx(clean["speed_error"],
+                                                                       rel=1e-12)
+    # Upstream does not read W_robot; the error given grows in proportion to the level
+    assert len({e["speed_error"] for e in res["errors"]["upstream"]}) == 1
+    g = res["w_robot_error_mps"]
+    assert g[0] == 0.0 and g[2] == pytest.approx(2 * g[1], rel=1e-5)
+    assert res["errors"]["local"][2]["speed_error"] > res["errors"]["local"][0]["speed_error"]
+    with pytest.raises(ValueError, match="'decoders' parameter of noise_study"):
+        noise_study({}, [tiny_field])
+    with pytest.raises(ValueError, match="one grid size"):
+        noise_study({"a": tiny_decoder(), "b": tiny_decoder(size=15)}, [tiny_field])
+    with pytest.raises(ValueError, match="'levels' parameter of noise_study"):
+        noise_study(decs, [tiny_field], levels=(0.1, -0.1))
+
+
+def test_decoder_study_noise_quick_compares_named_models(tmp_path, capsys):
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "noise", "--quick", "--out", str(out), "--compare",
+                     f"other={DEFAULT_MODEL}", "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_noise.json").read_text())
+    assert list(doc["errors"]) == ["decoder", "other", "local", "upstream"]
+    # the same file under two names: the same numbers at every level
+    assert doc["errors"]["decoder"] == doc["errors"]["other"]
+    assert (out / "decoder_noise.png").stat().st_size > 10_000
+    assert cli.main(["decoder-study", "eigenflows", "--quick", "--out", str(tmp_path / "e"),
+                     "--compare", f"x={DEFAULT_MODEL}", "--no-progress"]) == 2
+    assert "'--compare' parameter of windnav decoder-study is for the noise study" in \
+        capsys.readouterr().err
+
+
 def test_map_subset_keeps_every_kind_of_map_in_proportion():
     from windnav.experiments.decoder_studies import map_subset
     from windnav.predict.train import RECIPES, load_recipe

@@ -11,6 +11,8 @@
     windnav decoder-study averaging  --out runs/studies_windinet --windinet       # ... windinet
     windnav decoder-study start      --out runs/studies                           # label spread
     windnav decoder-study scaling    --out runs/studies --runs runs/scaling           # maps, size
+    windnav decoder-study noise      --out runs/studies --flow-cache runs/flows \
+        --compare wrobot-noise=src/windnav/predict/data/decoder_wrobot_noise.npz     # noisy W_robot
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
@@ -27,7 +29,9 @@ arbitrary choice of the solver's start, and so how low can any model's error go?
 trains the default recipe on a quarter, a half and all of its training maps (as many samples
 per epoch) and a wider model on all of them (in ``--runs``, resumable; a ``maps-1-e40-n768``
 folder there that holds a finished default-recipe run is reused): does the error fall with
-more maps or with a bigger model? ``--quick``:
+more maps or with a bigger model? ``noise`` gives the decoder (and each ``--compare`` model)
+a ``W_robot`` with noise of 0-0.2 U per component, as the Wind UKF gives it in flight, on the
+flows of ``eigenflows``. ``--quick``:
 a 150 m map and short flows, or the tiny recipe's sweep and models. The harness is
 :mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
 
@@ -51,7 +55,7 @@ from windnav.commands._common import (
 )
 
 STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
-           "scaling")
+           "scaling", "noise")
 """The studies, as named on the command line."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
@@ -62,7 +66,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "decoder-study",
         help="a study of the wind flow decoder (eigenflows, gradients, mosaic, winds, size, "
-             "averaging, start, scaling)",
+             "averaging, start, scaling, noise)",
         description=__doc__.splitlines()[0],
     )
     p.add_argument("study", choices=STUDIES, help="which study")
@@ -74,6 +78,9 @@ def register(subparsers) -> None:
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
                    help="decoder file for eigenflows/gradients/mosaic (default: the shipped "
                         "model)")
+    p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
+                   help="noise: another decoder scored beside --model on the same samples "
+                        "(repeatable)")
     p.add_argument("--maps", type=int, default=1, metavar="N",
                    help="dense 1.2 km evaluation maps (default 1; the mosaic uses the first)")
     p.add_argument("--inlets", type=int, default=2, metavar="N",
@@ -179,6 +186,10 @@ def _summary(study: str, res: dict) -> dict:
                 "improvement_pct": res["metrics"]["improvement_pct"],
                 "coverage": res["coverage"], "n_robots": res["n_robots"],
                 "n_moved": res["n_moved"]}
+    if study == "noise":
+        return {"levels": res["levels"], "w_robot_error_mps": res["w_robot_error_mps"],
+                "errors": {m: [{k: e[k] for k in ("speed_error", "direction_error_deg")}
+                               for e in errs] for m, errs in res["errors"].items()}}
     if study == "scaling":
         return {"per_doubling": res["per_doubling"], "variants": {
             n: {"maps": v["n_train_maps"], "parameters": v["n_parameters"],
@@ -219,7 +230,25 @@ def run(args, simulate=None) -> int:
     t0 = time.perf_counter()
     samples = 64 if args.quick else args.samples
     flows = None
-    if study in ("eigenflows", "gradients", "mosaic"):
+    if study != "noise" and args.compare:
+        raise ValueError(f"The '--compare' parameter of {name} is for the noise study. Got "
+                         f"{args.compare!r} for {study!r} instead.")
+    if study == "noise":
+        from windnav.commands.evaluate_decoder import _compare_files
+
+        compare = _compare_files(args.compare, name) if args.compare else {}
+        if isinstance(compare, list):
+            raise ValueError(f"The '--compare' parameter of {name} must name every model "
+                             f"(NAME=FILE). Got {args.compare!r} instead.")
+        flows = _fields(args, name, simulate, progress)
+        decoders = {"decoder": load_decoder(args.model),
+                    **{n: load_decoder(f) for n, f in compare.items()}}
+        res = ds.noise_study(decoders, flows["fields"], samples, seed=args.seed)
+        res["flows"] = {k: v for k, v in flows.items() if k != "fields"}
+        res["models"] = {"decoder": str(args.model) if args.model else "default",
+                         **{n: str(f) for n, f in compare.items()}}
+        plot = figures.plot_noise
+    elif study in ("eigenflows", "gradients", "mosaic"):
         flows = _fields(args, name, simulate, progress)
         fields = flows["fields"]
         dec = load_decoder(args.model)

@@ -383,6 +383,74 @@ def gradient_study(decoder, fields, samples_per_field: int = 2048, *, seed: int 
             "n_samples_drawn": int(batch.scans.shape[0])}
 
 
+# ------------------------------------------------------------------ noise on W_robot
+
+
+NOISE_LEVELS = (0.0, 0.05, 0.1, 0.15, 0.2)
+"""The noise study's standard deviations of ``W_robot``'s error per component, as fractions of
+the inlet speed (0.14 per component is an RMS vector error of 0.2 U, about the Wind UKF's in
+the navigation benchmark's flights)."""
+
+
+def noise_study(decoders: dict, fields, samples_per_field: int = 2048, *,
+                levels=NOISE_LEVELS, seed: int = 0) -> dict:
+    """The decoders and the baselines given a noisy ``W_robot``, as the onboard stack gives it.
+
+    The samples are drawn once without noise; at each level ``s`` every model gets
+    ``W_robot + s U z`` with the same standard normal ``z`` (per sample and component, one draw
+    for all levels and models), and is scored against the same labels.
+
+    Parameters
+    ----------
+    decoders : dict of str to Decoder
+        The models to compare (same grid size and spacing).
+    fields : sequence of MeanField
+    samples_per_field : int
+    levels : sequence of float
+        Noise standard deviations per component, fractions of the inlet speed, >= 0.
+    seed : int
+
+    Returns
+    -------
+    dict
+        ``levels``; ``errors[model][k]``: :func:`windnav.predict.field_errors` at ``levels[k]``,
+        models the decoders' names and ``local``, ``upstream``; ``w_robot_error_mps[k]``: the
+        mean ``|error|`` given at each level; ``n_samples``.
+    """
+    from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
+
+    where = "noise_study"
+    if not decoders:
+        raise ValueError(f"The 'decoders' parameter of {where} must name at least one decoder. "
+                         "Got none.")
+    first = next(iter(decoders.values()))
+    if any((d.size, d.spacing) != (first.size, first.spacing) for d in decoders.values()):
+        got = [(n, d.size, d.spacing) for n, d in decoders.items()]
+        raise ValueError(f"The 'decoders' parameter of {where} must hold decoders of one grid "
+                         f"size and spacing. Got {got} instead.")
+    levels = [positive_float(v, "levels", where, allow_zero=True) for v in levels]
+    if not levels:
+        raise ValueError(f"The 'levels' parameter of {where} must list at least one level. Got "
+                         "none.")
+    seed = _seed(seed, where)
+    batch = _draw(fields, samples_per_field, seed, first.size, first.spacing, where)
+    z = np.random.default_rng([seed, 5]).standard_normal(batch.w_robot.shape)
+    u = batch.inlet_speed.astype(np.float64)[:, None]
+    models = {**decoders, "local": LocalBaseline(size=first.size, spacing=first.spacing),
+              "upstream": UpstreamBaseline(size=first.size, spacing=first.spacing)}
+    errors = {name: [] for name in models}
+    given = []
+    for level in levels:
+        w_robot = (batch.w_robot + level * u * z).astype(batch.w_robot.dtype)
+        given.append(float(np.mean(np.linalg.norm(w_robot - batch.w_robot, axis=1))))
+        for name, model in models.items():
+            pred = model.predict(batch.scans, batch.w_up, w_robot)
+            errors[name].append(field_errors(pred, batch.labels, batch.free,
+                                             batch.inlet_speed))
+    return {"levels": levels, "errors": errors, "w_robot_error_mps": given,
+            "n_samples": int(batch.scans.shape[0])}
+
+
 # ----------------------------------------------------------------------------- (d) mosaic
 
 

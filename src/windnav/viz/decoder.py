@@ -375,6 +375,35 @@ def plot_size_study(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+def plot_noise(result: dict, path) -> Path:
+    """Each model's errors against the noise on ``W_robot`` (fraction of the inlet speed).
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.noise_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    levels = result["levels"]
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    others = [m for m in result["errors"] if m not in ("local", "upstream")]
+    styles = {m: (f"C{[0, 3, 4, 5, 6][k % 5]}", "o") for k, m in enumerate(others)}
+    styles.update(local=("C1", "s"), upstream=("C2", "^"))
+    for ax, (metric, label) in zip(axes, _METRICS[:2], strict=True):
+        for m, errs in result["errors"].items():
+            colour, marker = styles[m]
+            ax.plot(levels, [e[metric] for e in errs], marker=marker, color=colour,
+                    label=m if m in others else f"{m} baseline")
+        ax.set_xlabel("noise on W_robot per component (fraction of the inlet speed)")
+        ax.set_ylabel(label)
+        ax.set_ylim(bottom=0)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"W_robot noise study: {result['n_samples']:,} samples, the same noise draw "
+                 "for every model", fontsize=10)
+    return _save(fig, path)
+
+
 def plot_scaling(result: dict, path) -> Path:
     """Test and training errors of the models trained on fractions of the sweep's maps (and of
     the wider model), against the number of training maps; and each model's validation speed
