@@ -322,7 +322,7 @@ def test_recipe_files_are_checked(tmp_path):
         load_recipe(bad)
 
 
-@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp"])
+@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise"])
 def test_shipped_recipes_are_complete(name):
     recipe = load_recipe(RECIPES / f"{name}.toml")
     names = [group["name"] for group in recipe["sweep"]["maps"]]
@@ -331,3 +331,11 @@ def test_shipped_recipes_are_complete(name):
     maps = [f"{n}-{i}" for n in names for i in range(counts[n])]
     assert set(recipe["data"]["validation_maps"]) < set(maps)
     assert recipe["data"]["size"] == 25
+
+
+def test_wrobot_noise_recipe_is_the_default_but_for_the_noise():
+    noisy = load_recipe(RECIPES / "wrobot_noise.toml")
+    default = load_recipe(RECIPES / "default.toml")
+    assert noisy["data"].pop("w_robot_noise") == 0.85 and default["data"].pop("w_robot_noise") == 0
+    for key in ("sweep", "data", "model", "train"):
+        assert noisy[key] == default[key], key
