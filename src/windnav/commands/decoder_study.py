@@ -12,7 +12,7 @@
     windnav decoder-study start      --out runs/studies                           # label spread
     windnav decoder-study scaling    --out runs/studies --runs runs/scaling           # maps, size
     windnav decoder-study noise      --out runs/studies --flow-cache runs/flows \
-        --compare wrobot-noise=src/windnav/predict/data/decoder_wrobot_noise.npz     # noisy W_robot
+        --compare wrobot-noise=runs/wrobot_noise/model.npz                         # noisy W_robot
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
