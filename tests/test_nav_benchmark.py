@@ -333,8 +333,21 @@ def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
            navigate_fn=lambda c, s, g, **kw:
            flown.update(kw))
     assert flown["onboard"] == {"outside": "robot"} and flown["decoder"] is pinned
+    assert nb.parse_variant("ea-mppi-w@h=25@outside=truth") == (
+        "ea-mppi-w", {"horizon": 25.0, "outside": "truth"})
+    flown.clear()
+    nb.fly(TINY, scenario, "mppi-w@h=40@outside=truth", city=None, flow=None,
+           navigate_fn=lambda c, s, g, **kw: flown.update(kw))
+    assert (flown["variant"], flown["horizon"], flown["outside"]) == ("mppi-w", 40.0, "truth")
     for bad, why in (("ea-mppi-w-hat@outside=zero", "outside must be 'robot'"),
-                     ("ea-mppi-w@outside=robot", "takes no parameter 'outside'"),
+                     ("ea-mppi-w-hat@outside=truth", "outside must be 'robot'"),
+                     ("ea-mppi-w@h=25@outside=robot", "outside must be 'truth'"),
+                     ("ea-mppi-w@outside=truth", "needs a finite h"),
+                     ("ea-mppi-w@h=inf@outside=truth", "needs a finite h"),
+                     ("ea-mppi-w@h=25@outside=truth@outside=truth", "repeated"),
+                     ("ea-mppi-w-hat@outside=robot@outside=robot", "repeated"),
+                     ("mppi@h=25@outside=truth", "takes no parameter 'outside'"),
+                     ("ea-mppi-w-esc@outside=truth", "takes no parameter 'outside'"),
                      ("ea-mppi-w-hat@decoder=2020-01-01", "unknown decoder"),
                      ("ea-mppi-w@decoder=2026-11-23", "takes no parameter 'decoder'"),
                      ("ea-mppi-w-hat@qe=2", "takes no parameter 'qe'"),

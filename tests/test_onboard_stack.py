@@ -165,6 +165,39 @@ def test_outside_robot_fills_the_window_with_the_decoders_w_robot(city, flow):
         fly(city, flow, duration=1.0, onboard={"outside": "up"})
 
 
+def test_outside_truth_fills_the_window_with_the_true_mean_wind_at_the_vehicle(city, flow):
+    # ea-mppi-w with a finite window: zero outside (the thesis's), or with outside="truth" the
+    # mean wind at the planning position, checked against SciPy's bilinear interpolation on the
+    # whole grid (the variant's fill takes it from the window it crops)
+    from scipy.interpolate import RegularGridInterpolator
+
+    class StateSpy(WindSpy):
+        def __init__(self):
+            super().__init__(accel=(2.0, 0.5))
+            self.states = []
+
+        def update(self, state, scan=None, wind=None):
+            self.states.append(np.array(state[:2]))
+            return super().update(state, scan, wind)
+
+    zero, truth = StateSpy(), StateSpy()
+    fly(city, flow, "ea-mppi-w", planner=zero, duration=3.0, horizon=25.0)
+    fly(city, flow, "ea-mppi-w", planner=truth, duration=3.0, horizon=25.0, outside="truth")
+    assert len(truth.winds) == len(zero.winds) == 30
+    interp = [RegularGridInterpolator((flow.y, flow.x), f) for f in (flow.mean_u, flow.mean_v)]
+    for a, b, p in zip(zero.winds, truth.winds, truth.states, strict=True):
+        assert a.fill == (0.0, 0.0)
+        np.testing.assert_array_equal(a.uv, b.uv)  # same flight, same window: only the fill
+        want = [float(f([[p[1], p[0]]])[0]) for f in interp]
+        np.testing.assert_allclose(b.fill, want, rtol=0, atol=1e-12)
+        assert np.hypot(*b.fill) > 0.5  # a 2 m/s inlet
+    for variant, kw in (("ea-mppi-w", {}), ("mppi", {"horizon": 25.0}),
+                        (VARIANT, {"decoder": Recording()}),
+                        ("ea-mppi-w", {"horizon": 25.0, "outside": "robot"})):
+        with pytest.raises(ValueError, match="'outside'"):
+            fly(city, flow, variant, duration=1.0, **{"outside": "truth", **kw})
+
+
 def test_a_field_from_an_earlier_step_is_shifted_to_the_planning_position(city, flow):
     # at 25 Hz the decoder runs every 4th control step: planning step 10 uses step 8's field
     dec, spy = Recording(), WindSpy(accel=(2.0, 1.0))

@@ -343,7 +343,7 @@ PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
               "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
               "launch": "escape_launch", "gust": "escape_gust", "tilt": "tilt_max_deg",
-              "outside": "onboard"}
+              "outside": "outside"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -354,7 +354,10 @@ authority); for
 ``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`) and
 ``outside=robot`` (the planner's wind outside the decoder's window is the uniform ``W_robot``
 the decoder was given instead of zero: :attr:`windnav.experiments.onboard.OnboardOptions.outside`,
-ours, not the thesis's); and for
+ours, not the thesis's); for ``mppi-w`` and ``ea-mppi-w`` with a finite ``h``, ``outside=truth``
+(outside ``L_t`` the planner gets the true mean wind at the vehicle instead of zero:
+:func:`windnav.experiments.navigate.local_wind`, ours: the onboard option with a perfect
+estimate); and for
 ``ea-mppi-w-esc`` only, ``esc`` the length of route an escape flies, m (finite, > 0;
 :class:`windnav.plan.EscapeConfig` ``length_m``, default 60 m: longer than any route means that
 the first stall hands the flight to the route for good) and ``escair`` the airspeed of a
@@ -371,6 +374,8 @@ searched with each move's ground speed lowered by that many deviations of the re
 along it, and flown at the mean wind's speeds, ``EscapeConfig.gust_k``)."""
 
 _PARAMETRIC = ("mppi", "mppi-w", "ea-mppi", "ea-mppi-w", "ea-mppi-w-esc")
+_TRUTH_FILL = ("mppi-w", "ea-mppi-w")
+"""The variants that take ``outside=truth`` (with a finite ``h``)."""
 _ESCAPE_KEYS = ("esc", "escair", "edge", "pace", "regain", "launch", "gust")
 """The label parameters of the escape variants (:class:`windnav.plan.EscapeConfig`)."""
 _NEEDS_ESCAIR = ("edge", "pace", "regain", "launch", "gust")
@@ -383,7 +388,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     (:data:`PARAMETERS`; the Q_E and H sweeps of the thesis), ``"mppi@power=crazyflie"`` (the
     power-curve counterfactual), ``"ea-mppi-w@tilt=70"`` (the tilt-cap counterfactual),
     ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder), ``"ea-mppi-w-hat@outside=robot"``
-    (the onboard stack's ``W_robot`` outside the decoder's window).
+    (the onboard stack's ``W_robot`` outside the decoder's window),
+    ``"ea-mppi-w@h=25@outside=truth"`` (the true mean wind at the vehicle outside the window).
 
     Returns
     -------
@@ -393,8 +399,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
         ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
         ``horizon``, ``power_shape``, ``tilt_max_deg``, ``decoder`` (a key of
-        :data:`DECODERS`, which :func:`fly` loads), ``onboard`` (``{"outside": "robot"}``) and
-        ``escape`` (an :class:`~windnav.plan.EscapeConfig`).
+        :data:`DECODERS`, which :func:`fly` loads), ``onboard`` (``{"outside": "robot"}``),
+        ``outside`` (``"truth"``) and ``escape`` (an :class:`~windnav.plan.EscapeConfig`).
 
     Raises
     ------
@@ -415,7 +421,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'@power=SHAPE' (one of {list(POWER_SHAPES)}) and/or "
                           f"'@tilt=DEG' (in (0, {TILT_LIMIT_DEG:g})), "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}) and/or "
-                          f"'@outside=robot', or "
+                          f"'@outside=robot', "
+                          f"'mppi-w' or 'ea-mppi-w' with '@h=H' and '@outside=truth', or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
                           f"'@pace=S' (s, > 0) and/or '@regain=D' (m, > 10) and/or "
@@ -429,19 +436,25 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     onboard = VARIANTS[base].wind_source == "onboard"
     if base not in _PARAMETRIC and not onboard:
         raise fail(f"{base!r} takes no parameters")
-    options, overrides, escape = {}, {}, {}
+    options, overrides, escape, seen = {}, {}, {}, set()
     for item in params:
         key, sep, text = item.partition("=")
-        if (not sep or key not in PARAMETERS
+        if (not sep or key not in PARAMETERS or key in seen
                 or PARAMETERS[key] in {**options, **overrides, **escape}):
             raise fail(f"bad or repeated parameter {item!r}")
-        if (key in ("decoder", "outside")) != onboard or (
-                key in _ESCAPE_KEYS and not VARIANTS[base].escape):
+        seen.add(key)
+        if ((key == "decoder" or (key == "outside" and base not in _TRUTH_FILL)) != onboard
+                or (key in _ESCAPE_KEYS and not VARIANTS[base].escape)):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "outside":
-            if text != "robot":  # zero is the variant without the parameter: one label each
-                raise fail(f"outside must be 'robot' (zero is the default), not {text!r}")
-            options["onboard"] = {"outside": "robot"}
+            want = "robot" if onboard else "truth"
+            if text != want:  # zero is the variant without the parameter: one label each
+                raise fail(f"outside must be {want!r} for {base!r} (zero is the default), "
+                           f"not {text!r}")
+            if onboard:
+                options["onboard"] = {"outside": "robot"}
+            else:
+                options["outside"] = "truth"
             continue
         if key == "decoder":
             if text not in DECODERS:
@@ -473,6 +486,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             overrides["use_wind"] = False
         else:
             options["horizon"] = value
+    if options.get("outside") == "truth" and not (0 < options.get("horizon", math.inf) < math.inf):
+        raise fail("outside=truth needs a finite h > 0 (the wind window it fills around)")
     if overrides:
         options["planner_overrides"] = overrides
     if escape:

@@ -117,6 +117,7 @@ __all__ = [
     "compare_variants",
     "free_point",
     "local_wind",
+    "mean_wind_at",
     "navigate",
     "simulate_flow",
     "simulate_flows",
@@ -339,7 +340,8 @@ def simulate_flows(city, winds, *, spinup_s: float = 25.0, record_s: float = 100
                           _where="simulate" if where == "simulate_flow" else "simulate_batch")
 
 
-def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool = False):
+def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool = False,
+               outside: str = "zero"):
     """The mean wind the ``-w`` planners know: ``flow``'s time average inside ``L_t``.
 
     Parameters
@@ -353,12 +355,16 @@ def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool
         ``[flow.mean_u, flow.mean_v]``, stacked once by a caller that queries many times.
     known_finite : bool
         The caller checked ``uv`` finite once (:attr:`windnav.plan.LocalWind.known_finite`).
+    outside : {"zero", "truth"}
+        The planner's wind outside the window: zero (the thesis's planner), or the mean wind at
+        ``position_xy`` (:func:`mean_wind_at`; ours: the ideal of the onboard stack's
+        ``outside="robot"``, a perfect ``W_robot``). Ignored when ``horizon`` is infinite.
 
     Returns
     -------
     windnav.plan.LocalWind
-        On the solver's cell centres, offsets relative to ``position_xy`` (the planner zeroes
-        it outside the window).
+        On the solver's cell centres, offsets relative to ``position_xy``, with
+        :attr:`~windnav.plan.LocalWind.fill` per ``outside``.
     """
     from windnav.plan import LocalWind
 
@@ -372,8 +378,38 @@ def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool
         j0, j1 = np.searchsorted(y, [py - half, py + half])
         i0, j0 = min(i0, x.size - 2), min(j0, y.size - 2)
         i1, j1 = max(i1, i0 + 2), max(j1, j0 + 2)
+        fill = ((0.0, 0.0) if outside == "zero"
+                else tuple(mean_wind_at(uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1], px, py)))
         uv, x, y = uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1]
+        return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite, fill=fill)
     return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite)
+
+
+def mean_wind_at(uv, x, y, px: float, py: float) -> np.ndarray:
+    """The field ``uv`` at the point ``(px, py)``, bilinear between cell centres.
+
+    Parameters
+    ----------
+    uv : ndarray of shape (2, ny, nx)
+        Wind components on the cell centres, m/s (0 in solid cells).
+    x : ndarray of shape (nx,)
+    y : ndarray of shape (ny,)
+        Cell-centre coordinates, m, increasing, at least 2 each.
+    px, py : float
+        The point, m; clamped to the grid's extent.
+
+    Returns
+    -------
+    ndarray of shape (2,)
+        ``(u, v)``, m/s.
+    """
+    i = int(np.clip(np.searchsorted(x, px) - 1, 0, x.size - 2))
+    j = int(np.clip(np.searchsorted(y, py) - 1, 0, y.size - 2))
+    tx = min(max((px - x[i]) / (x[i + 1] - x[i]), 0.0), 1.0)
+    ty = min(max((py - y[j]) / (y[j + 1] - y[j]), 0.0), 1.0)
+    c = uv[:, j:j + 2, i:i + 2]
+    return ((1 - ty) * ((1 - tx) * c[:, 0, 0] + tx * c[:, 0, 1])
+            + ty * ((1 - tx) * c[:, 1, 0] + tx * c[:, 1, 1]))
 
 
 # ------------------------------------------------------------------------------- checks
@@ -600,6 +636,7 @@ def navigate(
     onboard=None,
     escape=None,
     power_shape: str | None = None,
+    outside: str = "zero",
 ) -> NavigationResult:
     """Fly from ``start_xy`` to ``goal_xy`` through ``city`` in its urban wind (closed loop).
 
@@ -663,6 +700,11 @@ def navigate(
         A counterfactual power curve (:data:`POWER_SHAPES`) for the planner's ``J_E`` and for
         ``energy_J``, scaled to the vehicle's hover power; the vehicle flies as before and
         ``rotor_energy_J`` is its own. Default None: the vehicle's steady-flight sweep.
+    outside : {"zero", "truth"}
+        The ``-w`` MPPI variants with a finite ``horizon`` only: the planner's wind outside
+        ``L_t``, zero (the thesis's) or the true mean wind at the vehicle at each planning step
+        (ours, :func:`local_wind`: the onboard stack's ``outside="robot"`` with a perfect
+        estimate, which separates the fill's effect from the estimate's).
 
     Returns
     -------
@@ -739,6 +781,12 @@ def navigate(
                              f"{config.horizon!r} instead.")
         if isinstance(horizon, (int, float)) and horizon > 0:  # else planner_config names it
             horizon = min(horizon, window)
+    if outside not in ("zero", "truth") or (outside == "truth" and not (
+            VARIANTS[variant].use_wind and VARIANTS[variant].wind_source == "truth"
+            and VARIANTS[variant].planner != "gs" and 0 < horizon < math.inf)):
+        raise ValueError(f"The 'outside' parameter of {_WHERE} must be 'zero', or 'truth' for "
+                         f"an MPPI variant with the true wind and a finite horizon > 0. Got "
+                         f"{outside!r} for {variant!r} with horizon {horizon!r} instead.")
     if power_shape is not None and power_shape not in POWER_SHAPES:
         raise ValueError(f"The 'power_shape' parameter of {_WHERE} must be None or one of "
                          f"{list(POWER_SHAPES)}. Got {power_shape!r} instead.")
@@ -894,7 +942,8 @@ def navigate(
                 known = onboard_stack.local_wind(pos[:2])
             else:
                 known = (local_wind(flow, pos[:2], config.horizon, uv=mean_uv,
-                                    known_finite=mean_finite) if use_wind else None)
+                                    known_finite=mean_finite, outside=outside)
+                         if use_wind else None)
             a_new = np.asarray(planner.update(np.array([px, py, vel[0], vel[1]]), scan, known),
                                dtype=np.float64).reshape(-1)
             if a_new.shape != (2,) or not np.all(np.isfinite(a_new)):
