@@ -13,6 +13,7 @@ JSON into ``--out``.
     windnav nav-study gusts --out docs/navigation                        # gust-aware routes
     windnav nav-study bound --store runs/thesis --out docs/navigation    # energy bound
     windnav nav-study tilt  --store runs/thesis --maps 0-1 --out docs/navigation   # tilt cap
+    windnav nav-study inflight --maps 0-3 --out docs/navigation   # the decoder in flight
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -49,7 +50,11 @@ largest table ratio and paired reduction any planner could reach
 variants at each tilt cap of ``--values`` (degrees, default 55 70 78; 55 is the variants
 themselves, the others ``@tilt=`` labels) through the scenarios of ``--maps`` into ``--store``,
 then sets each cap's variants against its own MPPI: failure, commanded acceleration, paired
-energy (:mod:`windnav.experiments.nav_tilt`).
+energy (:mod:`windnav.experiments.nav_tilt`). ``inflight`` re-flies the scenarios of ``--maps``
+(pairs ``--pairs``, default one tailwind and one headwind, 0 and 2) with the onboard stack
+(``--variant``, default ``ea-mppi-w-hat@outside=robot``) and scores the decoder and the
+baselines along the paths against the mean field, given the UKF's, the mean and the true
+instantaneous ``W_robot`` (:mod:`windnav.experiments.nav_inflight`); it needs no store.
 """
 
 from __future__ import annotations
@@ -68,7 +73,8 @@ from windnav.commands._common import (
     where,
 )
 
-STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "bound", "tilt")
+STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "bound", "tilt",
+           "inflight")
 """The studies, as named on the command line."""
 
 
@@ -98,8 +104,15 @@ def register(subparsers) -> None:
     p.add_argument("--values", type=float, nargs="+", default=None,
                    help="the values swept (default: qe 0 0.5 1 2 3 4 5 6; h 0 25 50 100 200 "
                         "inf; tilt 55 70 78 degrees)")
-    p.add_argument("--variant", default="ea-mppi-w",
-                   help="cases, pace: the variant compared with MPPI (%(default)s)")
+    p.add_argument("--variant", default=None,
+                   help="cases, pace: the variant compared with MPPI (default ea-mppi-w); "
+                        "inflight: the onboard-stack variant re-flown (default "
+                        "ea-mppi-w-hat@outside=robot)")
+    p.add_argument("--pairs", default="0,2", metavar="LIST",
+                   help="inflight: the pairs of each wind flown (%(default)s: one tailwind, "
+                        "one headwind)")
+    p.add_argument("--every", type=float, default=0.5,
+                   help="inflight: seconds between samples along a flight (%(default)s)")
     p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
@@ -173,6 +186,10 @@ def run(args) -> int:
         return _feasibility(args, name, spec)
     if study == "gusts":
         return _gusts(args, name, spec)
+    if study == "inflight":
+        return _inflight(args, name, spec)
+    if args.variant is None:
+        args.variant = "ea-mppi-w"
     if args.store is None:
         raise ValueError(f"The '--store' parameter of {name} must name a benchmark store for "
                          f"the {study} study. Got None instead.")
@@ -350,6 +367,47 @@ def _tilt(args, name: str, spec) -> int:
                                  "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 1 if summary["errors_now"] or summary["pending"] else 0
+
+
+def _inflight(args, name: str, spec) -> int:
+    from windnav.commands.benchmark_nav import suite_maps
+    from windnav.experiments import nav_inflight
+    from windnav.experiments.results import json_ready
+    from windnav.viz.nav_studies import plot_inflight
+
+    maps = suite_maps(args.maps, spec, name)
+    workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    try:
+        pairs = sorted({int(p) for p in str(args.pairs).split(",") if p.strip()})
+    except ValueError:
+        pairs = []
+    if not pairs or any(p not in spec.pairs for p in pairs):
+        raise ValueError(f"The '--pairs' parameter of {name} must be comma-separated pair "
+                         f"indices of the {spec.name} suite, among {list(spec.pairs)}. Got "
+                         f"{args.pairs!r} instead.")
+    ids = [f"{spec.name}/m{m:02d}/w{w:02d}/p{p}" for m in maps for w in spec.winds
+           for p in pairs]  # the suite's id scheme (nav_suite.Scenario), in its order
+    products = ("nav_inflight.json", "nav_inflight.png")
+    out = outputs(args, out=("--out", args.out, products))
+    t0 = time.perf_counter()
+    try:
+        res = nav_inflight.inflight_study(
+            spec, ids, variant=args.variant or nav_inflight.INFLIGHT_VARIANT,
+            every_s=args.every, executor=args.executor, workers=workers,
+            progress=not args.no_progress)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'variant' parameter of inflight_study",
+                                          f"'--variant' parameter of {name}").replace(
+            "'every_s' parameter of inflight_study", f"'--every' parameter of {name}")) from None
+    res.update(study="inflight", suite=spec.name, seed=spec.seed, maps=list(maps),
+               pairs=pairs, elapsed_s=time.perf_counter() - t0)
+    _write(out, args, res, products[0], lambda folder: plot_inflight(res, folder / products[1]))
+    print("\n".join(nav_inflight.summarize_inflight(res)))
+    print(json.dumps(json_ready({"study": "inflight", "flights": len(res["flights"]),
+                                 "errors": len(res["errors"]),
+                                 "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
+    print_written(out)
+    return 1 if res["errors"] else 0
 
 
 def _winds(args, name: str, spec) -> int:

@@ -10,6 +10,9 @@ with the mean wind speed, its streamlines, the buildings and the suite's start/g
 speed and pair kind, and each variant's failures among the reachable scenarios.
 :func:`plot_gust_routes`: one scenario's mean wind and gust map with the least-time routes
 flown with and without the gust margin (:func:`windnav.experiments.nav_gusts.gust_routes`).
+:func:`plot_inflight`: the onboard stack's wind in flight by inlet speed, the input errors of
+``W_robot`` and the decoder's and the baselines' errors against the mean field
+(:func:`windnav.experiments.nav_inflight.inflight_study`).
 """
 
 from __future__ import annotations
@@ -340,3 +343,48 @@ def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path
     return _finish(fig, handles, title or f"{sc.scenario_id} ({sc.kind}): {sc.speed:g} m/s "
                    f"toward {sc.direction_deg:g}°, gust margin K = {result['gust_k']:g}",
                    path, bottom=0.07)
+
+
+_INFLIGHT_INPUTS = {"ukf_vs_mean": ("UKF vs mean (what the decoder gets)", "tab:red", "-"),
+                    "inst_vs_mean": ("instantaneous vs mean (the flow's unsteadiness)",
+                                     "tab:purple", "--"),
+                    "ukf_vs_inst": ("UKF vs instantaneous (the UKF's own error)", "tab:gray", ":")}
+_INFLIGHT_MODELS = {"decoder_ukf": ("decoder, W_robot from the UKF (flown)", "tab:blue", "-", "o"),
+                    "decoder_mean": ("decoder, mean W_robot (as trained)", "tab:blue", "--", "s"),
+                    "decoder_inst": ("decoder, true instantaneous W_robot", "tab:blue", ":", "^"),
+                    "local_ukf": ("Local, UKF", "tab:orange", "-", "o"),
+                    "local_mean": ("Local, mean", "tab:orange", "--", "s"),
+                    "upstream": ("Upstream", "tab:green", "-", "D")}
+
+
+def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
+    """The decoder in flight (:func:`~windnav.experiments.nav_inflight.inflight_study`): per
+    inlet speed, the RMS input errors of ``W_robot`` (left), and the speed and direction errors
+    against the mean field in the decoder's window of the decoder and the baselines given each
+    ``W_robot`` (middle, right). Written to ``path`` (PNG)."""
+    rows = result["by_speed"]
+    speeds = [float(s) for s in rows]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    for key, (label, color, ls) in _INFLIGHT_INPUTS.items():
+        axes[0].plot(speeds, [r["inputs"][key] for r in rows.values()], color=color, ls=ls,
+                     marker="o", label=label)
+    axes[0].set_ylabel("RMS |difference| at the vehicle (m/s)")
+    axes[0].legend(fontsize=8, loc="upper left")
+    handles = []
+    for ax, metric, unit in ((axes[1], "speed_error", "speed error (m/s)"),
+                             (axes[2], "direction_error_deg", "direction error (deg)")):
+        for key, (label, color, ls, marker) in _INFLIGHT_MODELS.items():
+            line, = ax.plot(speeds, [r["errors"][key][metric] for r in rows.values()],
+                            color=color, ls=ls, marker=marker, label=label)
+            if ax is axes[1]:
+                handles.append(line)
+        ax.set_ylabel(unit)
+    for ax in axes:
+        ax.set_xlabel("inlet speed (m/s)")
+        ax.set_xticks(speeds)
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+    n = sum(r["flights"] for r in rows.values())
+    return _finish(fig, handles, title or f"The onboard stack's wind in flight ({n} flights of "
+                   f"{result['variant']}, a sample every {result['every_s']:g} s), against "
+                   "the mean field in the decoder's window", path, bottom=0.1)

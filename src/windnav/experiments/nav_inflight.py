@@ -1,0 +1,284 @@
+"""The decoder in flight: what the onboard stack's wind is worth where the vehicle flies.
+
+The decoder is trained with ``W_robot`` = the *mean* wind at the robot (its labels are mean
+fields), and its offline studies perturb that mean with noise
+(:func:`windnav.experiments.decoder_studies.noise_study`). In flight the onboard stack gives it
+the Wind UKF's estimate, which tracks the *instantaneous* wind at the vehicle; in the urban
+winds of the navigation benchmark the instantaneous wind can be far from the mean. This study
+re-flies benchmark scenarios with the onboard-stack variant and, every ``every_s`` seconds of
+each flight, scores against the flow's mean field in the decoder's window (the wind the
+``-w`` planners are given, and the decoder's label):
+
+- the decoder given the UKF's ``W_robot`` (what the planner got in flight), the mean wind at
+  the vehicle (what it was trained with), and the true instantaneous wind (a perfect UKF);
+- the Local baseline with each of those, and the Upstream baseline;
+
+and reports the input errors, RMS over the samples: ``|w_ukf - w_mean|``, ``|w - w_mean|``
+(the flow's unsteadiness at the vehicle) and ``|w_ukf - w|`` (the UKF's own error). Everything
+is grouped by inlet speed. The scans are drawn afresh at the sampled positions with the
+decoder's training noise (the flight's own scans are not kept; their noise is independent
+draws of the same law).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from windnav._validate import positive_float
+
+__all__ = ["INFLIGHT_VARIANT", "MODELS", "inflight_errors", "inflight_samples",
+           "inflight_study", "summarize_inflight"]
+
+INFLIGHT_VARIANT = "ea-mppi-w-hat@outside=robot"
+"""The variant re-flown: the onboard stack with ``W_robot`` outside the decoder's window."""
+
+MODELS = ("decoder_ukf", "decoder_mean", "decoder_inst", "local_ukf", "local_mean",
+          "local_inst", "upstream")
+"""The predictions scored: model and the ``W_robot`` it is given (``ukf``: the onboard UKF's
+horizontal estimate, ``mean``: the mean wind at the vehicle, ``inst``: the true instantaneous
+wind at the vehicle)."""
+
+INPUTS = {"ukf_vs_mean": ("ukf", "mean"), "inst_vs_mean": ("inst", "mean"),
+          "ukf_vs_inst": ("ukf", "inst")}
+"""The input errors reported, as pairs of winds at the vehicle."""
+
+
+def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
+                     settle_s: float = 2.0, rng=None) -> dict:
+    """Decoder inputs and labels along one flown path.
+
+    Parameters
+    ----------
+    result : NavigationResult
+        A flight of an onboard-stack variant (its ``wind_estimate`` is used).
+    city : City
+        The map flown.
+    flow : FlowSolution
+        The wind flown in (its mean field gives the labels).
+    offsets : array_like of shape (H,)
+        The decoder's cell-centre offsets, m.
+    every_s : float
+        Time between samples, s (> 0).
+    settle_s : float
+        Samples begin this long after take-off (the UKF's start), s (>= 0).
+    rng : numpy.random.Generator, int or None
+        The scans' noise.
+
+    Returns
+    -------
+    dict
+        ``t`` (N,) s, ``position`` (N, 2) m, ``scans`` (N, 360) m, ``w_up`` (N, 2),
+        ``ukf``, ``inst``, ``mean`` (N, 2) m/s (the winds at the vehicle), ``labels``
+        (N, 2, H, H) m/s and ``free`` (N, H, H) of the mean field, ``speed`` (N,) inlet speed.
+        Samples where the UKF's estimate is not finite are left out.
+    """
+    from windnav.predict.dataset import N_RAYS, SCAN_MAX, SCAN_MIN, SCAN_NOISE, field_from_solution
+
+    where = "inflight_samples"
+    every = positive_float(every_s, "every_s", where)
+    settle = positive_float(settle_s, "settle_s", where, allow_zero=True)
+    if result.wind_estimate is None:
+        raise ValueError(f"The 'result' parameter of {where} must be a flight of an onboard-"
+                         f"stack variant (with a wind_estimate). Got one of "
+                         f"{result.variant!r} instead.")
+    t = np.asarray(result.t, dtype=np.float64)
+    dt = float(t[1] - t[0]) if t.size > 1 else 1.0
+    step = max(1, int(round(every / dt)))
+    k = np.arange(0, t.size, step)
+    k = k[t[k] >= settle - 1e-9]
+    ukf = np.asarray(result.wind_estimate, dtype=np.float64)[k, :2]
+    k, ukf = k[np.isfinite(ukf).all(axis=1)], ukf[np.isfinite(ukf).all(axis=1)]
+    solution = getattr(flow, "solution", flow)
+    field = field_from_solution(city, solution)
+    pos = np.asarray(result.position, dtype=np.float64)[k, :2]
+    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    scans = city.lidar(pos, n_rays=N_RAYS, max_range=SCAN_MAX, noise_std=SCAN_NOISE, rng=gen)
+    np.clip(scans, SCAN_MIN, SCAN_MAX, out=scans)
+    labels, free = field.grid_values(pos, offsets)
+    n = k.size
+    return {"t": t[k], "position": pos, "scans": scans,
+            "w_up": np.broadcast_to(field.w_up, (n, 2)).copy(), "ukf": ukf,
+            "inst": np.asarray(result.wind, dtype=np.float64)[k, :2],
+            "mean": field.interpolate(pos), "labels": labels, "free": free,
+            "speed": np.full(n, field.inlet_speed)}
+
+
+def _concat(groups: Sequence[Mapping]) -> dict:
+    return {key: np.concatenate([g[key] for g in groups]) for key in groups[0]}
+
+
+def inflight_errors(samples: Mapping, decoder) -> dict:
+    """The decoder's and the baselines' errors on in-flight samples, and the input errors.
+
+    Parameters
+    ----------
+    samples : mapping
+        :func:`inflight_samples`'s arrays (several flights concatenated), at least one sample.
+    decoder : Decoder
+        With ``offsets`` matching the labels and ``predict(scans, w_up, w_robot)``.
+
+    Returns
+    -------
+    dict
+        ``errors[model]``: :func:`windnav.predict.field_errors` for each of :data:`MODELS`;
+        ``inputs[name]``: RMS of the horizontal difference, m/s, for each of :data:`INPUTS`;
+        ``n_samples``.
+    """
+    from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
+
+    where = "inflight_errors"
+    n = int(np.asarray(samples["scans"]).shape[0])
+    if n < 1:
+        raise ValueError(f"The 'samples' parameter of {where} must hold at least one sample. "
+                         "Got none.")
+    offsets = np.asarray(decoder.offsets, dtype=np.float64)
+    size = offsets.size
+    spacing = float(offsets[1] - offsets[0]) if size > 1 else 1.0
+    local = LocalBaseline(size, spacing)
+    args = (samples["labels"], samples["free"], samples["speed"])
+    errors = {}
+    for wind in ("ukf", "mean", "inst"):
+        errors[f"decoder_{wind}"] = field_errors(
+            decoder.predict(samples["scans"], samples["w_up"], samples[wind]), *args)
+        errors[f"local_{wind}"] = field_errors(
+            local.predict(samples["scans"], samples["w_up"], samples[wind]), *args)
+    errors["upstream"] = field_errors(
+        UpstreamBaseline(size, spacing).predict(samples["scans"], samples["w_up"],
+                                                samples["mean"]), *args)
+    inputs = {name: float(np.sqrt(np.mean(np.sum((samples[a] - samples[b]) ** 2, axis=1))))
+              for name, (a, b) in INPUTS.items()}
+    return {"errors": {m: errors[m] for m in MODELS}, "inputs": inputs, "n_samples": n}
+
+
+def _decoder(variant: str):
+    """The decoder ``fly`` gives the onboard stack of ``variant`` (the benchmark's pinned one,
+    or the label's ``@decoder=``)."""
+    from windnav.experiments.nav_benchmark import benchmark_decoder, parse_variant
+
+    name = parse_variant(variant)[1].get("decoder")
+    return benchmark_decoder() if name is None else benchmark_decoder(name)
+
+
+def _fly_wind(task):
+    """Worker: one wind of the suite, each of its scenarios flown with the onboard stack and
+    sampled (:func:`inflight_samples`)."""
+    spec, scenario_ids, variant, every_s = task
+    from windnav.experiments.nav_benchmark import fly, suite_flow
+    from windnav.experiments.nav_suite import parse_scenario_id, suite_map
+
+    scenarios = [parse_scenario_id(spec, sid) for sid in scenario_ids]
+    first = scenarios[0]
+    city = suite_map(spec, first.map_index)
+    flow = suite_flow(spec, city, first.speed, first.direction_deg)
+    offsets = _decoder(variant).offsets
+    out = []
+    for sc in scenarios:
+        res = fly(spec, sc, variant, city=city, flow=flow)
+        samples = inflight_samples(res, city, flow, offsets, every_s=every_s,
+                                   rng=np.random.default_rng([sc.seed, 7]))
+        samples = {k: (v.astype(np.float32) if k in ("scans", "labels") else v)
+                   for k, v in samples.items()}
+        out.append({"scenario_id": sc.scenario_id, "speed": sc.speed, "outcome": res.outcome,
+                    "time_s": res.time_s, "samples": samples})
+    return out
+
+
+def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT_VARIANT,
+                   every_s: float = 0.5, executor: str = "process", workers: int | None = None,
+                   progress: bool = True) -> dict:
+    """Re-fly ``scenario_ids`` with the onboard stack and score its wind along the paths.
+
+    Parameters
+    ----------
+    spec : SuiteSpec
+        The suite (a :data:`~windnav.experiments.nav_suite.SUITES` name and seed).
+    scenario_ids : sequence of str
+        Scenarios of ``spec``, at least one.
+    variant : str
+        An onboard-stack label (``ea-mppi-w-hat`` with its parameters).
+    every_s : float
+        Time between samples along each flight, s.
+    executor, workers, progress
+        :func:`windnav.experiments.executor.run_tasks`.
+
+    Returns
+    -------
+    dict
+        ``by_speed[speed]``: :func:`inflight_errors` of that inlet speed's samples, with
+        ``flights`` and ``failed`` (non-success outcomes); ``all``: the same over every
+        sample; ``flights``: per scenario its outcome, time and sample count; ``variant``,
+        ``every_s``, ``errors`` (harness errors, scenario id to message; a wind that fails
+        fails all its scenarios).
+    """
+    from windnav.experiments.executor import run_tasks
+    from windnav.experiments.nav_benchmark import check_scenario_ids, parse_variant
+    from windnav.experiments.nav_suite import parse_scenario_id
+    from windnav.plan import VARIANTS
+
+    where = "inflight_study"
+    base, options = parse_variant(variant, where)
+    if VARIANTS[base].wind_source != "onboard":
+        raise ValueError(f"The 'variant' parameter of {where} must be an onboard-stack variant "
+                         f"(ea-mppi-w-hat, with parameters). Got {variant!r} instead.")
+    ids = list(scenario_ids)
+    check_scenario_ids(spec, ids, where)
+    every = positive_float(every_s, "every_s", where)
+    decoder = _decoder(variant)
+    winds = {}
+    for sid in ids:
+        sc = parse_scenario_id(spec, sid)
+        winds.setdefault((sc.map_index, sc.wind_index), []).append(sid)
+    tasks = [(spec, group, variant, every) for group in winds.values()]
+    flown, errors = [], {}
+    for res in run_tasks(_fly_wind, tasks, executor, workers=workers, progress=progress,
+                         desc="in-flight decoder (winds)"):
+        if res.error is not None:
+            errors.update({sid: str(res.error) for sid in res.task[1]})
+        else:
+            flown.extend(res.value)
+    flown.sort(key=lambda f: ids.index(f["scenario_id"]))
+    by_speed = {}
+    for speed in sorted({f["speed"] for f in flown}):
+        group = [f for f in flown if f["speed"] == speed and f["samples"]["t"].size]
+        if not group:
+            continue
+        by_speed[speed] = {**inflight_errors(_concat([f["samples"] for f in group]), decoder),
+                           "flights": len(group),
+                           "failed": sum(f["outcome"] != "success" for f in group)}
+    usable = [f["samples"] for f in flown if f["samples"]["t"].size]
+    return {"variant": variant, "every_s": every,
+            "by_speed": by_speed,
+            "all": inflight_errors(_concat(usable), decoder) if usable else None,
+            "flights": {f["scenario_id"]: {"speed": f["speed"], "outcome": f["outcome"],
+                                           "time_s": f["time_s"],
+                                           "samples": int(f["samples"]["t"].size)}
+                        for f in flown},
+            "errors": errors}
+
+
+def summarize_inflight(result: Mapping) -> list[str]:
+    """Markdown table lines of :func:`inflight_study`'s result: per inlet speed the input
+    errors and the speed / direction errors of each model."""
+    lines = ["| inlet (m/s) | flights (failed) | samples | |w_ukf - w_mean| | |w - w_mean| "
+             "| |w_ukf - w| | decoder, UKF | decoder, mean | decoder, inst. | Local, UKF "
+             "| Local, mean | Upstream |",
+             "|---" * 12 + "|"]
+    rows = [(f"{s:g}", r) for s, r in result["by_speed"].items()]
+    if result.get("all"):
+        rows.append(("all", {**result["all"],
+                             "flights": sum(r["flights"] for r in result["by_speed"].values()),
+                             "failed": sum(r["failed"] for r in result["by_speed"].values())}))
+    for label, r in rows:
+        e, i = r["errors"], r["inputs"]
+
+        def cell(m, e=e):
+            return f"{e[m]['speed_error']:.2f} / {e[m]['direction_error_deg']:.1f}"
+
+        lines.append(f"| {label} | {r['flights']} ({r['failed']}) | {r['n_samples']} | "
+                     f"{i['ukf_vs_mean']:.2f} | {i['inst_vs_mean']:.2f} | "
+                     f"{i['ukf_vs_inst']:.2f} | {cell('decoder_ukf')} | {cell('decoder_mean')} | "
+                     f"{cell('decoder_inst')} | {cell('local_ukf')} | {cell('local_mean')} | "
+                     f"{cell('upstream')} |")
+    return lines

@@ -1,0 +1,153 @@
+"""The decoder in flight (windnav.experiments.nav_inflight): samples along a flown path, scored
+against the flow's mean field, and the input errors of the onboard W_robot."""
+
+import numpy as np
+import pytest
+from scipy.interpolate import RegularGridInterpolator
+
+from windnav.city import City
+from windnav.experiments import nav_inflight as ni
+from windnav.experiments.nav_suite import SuiteSpec, make_suite
+from windnav.experiments.navigate import navigate, simulate_flow
+from windnav.predict import LocalBaseline, field_errors
+from windnav.predict.dataset import field_from_solution
+
+START, GOAL = (10.0, 60.0), (110.0, 60.0)
+TINY = SuiteSpec(
+    "tiny", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,), incidences_deg=(0.0, 90.0),
+    n_tailwind=1, n_headwind=1, pair_distance=100.0, clearance=25.0, edge=15.0, map_size=200.0,
+    map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+
+
+@pytest.fixture(scope="module")
+def city():
+    return City((0.0, 140.0, 0.0, 120.0), np.array([(35.0, 45.0, 45.0, 75.0)]),
+                np.array([20.0]))
+
+
+@pytest.fixture(scope="module")
+def flow(city):
+    return simulate_flow(city, 2.0, 0.0, spinup_s=10.0, record_s=40.0)
+
+
+@pytest.fixture(scope="module")
+def flight(city, flow):
+    return navigate(city, START, GOAL, speed=2.0, direction_deg=0.0, variant="ea-mppi-w-hat",
+                    flow=flow, rng=0, duration=12.0)
+
+
+class Oracle:
+    """A 'decoder' that returns the labels it is keyed to (exact), on the default grid."""
+
+    def __init__(self, samples):
+        self.offsets = np.arange(-12.0, 13.0)
+        self.samples = samples
+
+    def predict(self, scans, w_up, w_robot):
+        return self.samples["labels"].copy()
+
+
+def test_samples_follow_the_flight_and_the_mean_field(city, flow, flight):
+    offsets = np.arange(-12.0, 13.0)
+    s = ni.inflight_samples(flight, city, flow, offsets, every_s=0.5, settle_s=2.0, rng=0)
+    n = s["t"].size
+    assert n == 20  # 2.0, 2.5, ..., 11.5 s: at 12.0 s (the last step) the UKF had not run
+    np.testing.assert_allclose(s["t"], 2.0 + 0.5 * np.arange(n), atol=1e-9)
+    k = np.rint(s["t"] / (flight.t[1] - flight.t[0])).astype(int)
+    np.testing.assert_array_equal(s["position"], flight.position[k, :2])
+    np.testing.assert_array_equal(s["inst"], flight.wind[k, :2])
+    np.testing.assert_array_equal(s["ukf"], flight.wind_estimate[k, :2])
+    # the mean wind at the vehicle, against SciPy's bilinear interpolation of the mean field
+    for comp, f in enumerate((flow.mean_u, flow.mean_v)):
+        want = RegularGridInterpolator((flow.y, flow.x), f)(s["position"][:, ::-1])
+        np.testing.assert_allclose(s["mean"][:, comp], want, rtol=0, atol=1e-12)
+    labels, free = field_from_solution(city, flow).grid_values(s["position"], offsets)
+    np.testing.assert_array_equal(s["labels"], labels)
+    np.testing.assert_array_equal(s["free"], free)
+    assert s["scans"].shape == (n, 360) and np.all(s["scans"] >= 0.25)
+    np.testing.assert_array_equal(s["w_up"], np.tile([2.0, 0.0], (n, 1)))
+    # the same seed, the same scans
+    again = ni.inflight_samples(flight, city, flow, offsets, every_s=0.5, settle_s=2.0, rng=0)
+    np.testing.assert_array_equal(again["scans"], s["scans"])
+
+
+def test_errors_against_independent_arithmetic(city, flow, flight):
+    s = ni.inflight_samples(flight, city, flow, np.arange(-12.0, 13.0), rng=1)
+    s["ukf"] = s["mean"] + np.array([3.0, 4.0])  # 5 m/s off the mean, everywhere
+    out = ni.inflight_errors(s, Oracle(s))
+    assert out["n_samples"] == s["t"].size
+    assert out["inputs"]["ukf_vs_mean"] == pytest.approx(5.0, abs=1e-12)
+    d = s["inst"] - s["mean"]
+    assert out["inputs"]["inst_vs_mean"] == pytest.approx(
+        np.sqrt(np.mean(d[:, 0] ** 2 + d[:, 1] ** 2)), rel=1e-12)
+    for wind in ("ukf", "mean", "inst"):
+        assert out["errors"][f"decoder_{wind}"]["speed_error"] == 0.0
+    # Local with the mean wind: a uniform field, scored by hand
+    uniform = np.broadcast_to(s["mean"][:, :, None, None], s["labels"].shape)
+    free = s["free"]
+    speed_true = np.hypot(s["labels"][:, 0], s["labels"][:, 1])
+    speed_pred = np.hypot(uniform[:, 0], uniform[:, 1])
+    want = np.abs(speed_pred - speed_true)[free].mean()
+    assert out["errors"]["local_mean"]["speed_error"] == pytest.approx(want, rel=1e-6)
+    ref = field_errors(LocalBaseline().predict(s["scans"], s["w_up"], s["ukf"]), s["labels"],
+                       free, s["speed"])
+    assert out["errors"]["local_ukf"] == ref
+    assert set(out["errors"]) == set(ni.MODELS)
+
+
+def test_bad_input_is_refused(city, flow, flight):
+    other = navigate(city, START, GOAL, speed=2.0, direction_deg=0.0, variant="ea-mppi-w",
+                     flow=flow, rng=0, duration=2.0)
+    with pytest.raises(ValueError, match="'result'.*onboard"):
+        ni.inflight_samples(other, city, flow, np.arange(-12.0, 13.0))
+    with pytest.raises(ValueError, match="'every_s'"):
+        ni.inflight_samples(flight, city, flow, np.arange(-12.0, 13.0), every_s=0.0)
+    with pytest.raises(ValueError, match="'variant'.*onboard"):
+        ni.inflight_study(TINY, ["tiny/m00/w00/p0"], variant="ea-mppi-w")
+    with pytest.raises(ValueError, match="scenario"):
+        ni.inflight_study(TINY, ["tiny/m07/w00/p0"])
+
+
+def test_the_study_flies_and_groups_by_speed():
+    ids = [sc.scenario_id for sc in make_suite(TINY)][:2]  # the two pairs of one wind
+    assert ids == ["tiny/m00/w00/p0", "tiny/m00/w00/p1"]
+    res = ni.inflight_study(TINY, ids, every_s=1.0, executor="serial", progress=False)
+    assert res["errors"] == {} and list(res["flights"]) == ids
+    assert list(res["by_speed"]) == [3.0] and res["by_speed"][3.0]["flights"] == 2
+    n = sum(f["samples"] for f in res["flights"].values())
+    assert res["by_speed"][3.0]["n_samples"] == res["all"]["n_samples"] == n > 0
+    lines = ni.summarize_inflight(res)
+    assert len(lines) == 4 and lines[2].startswith("| 3 | 2 (")
+
+
+def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, capsys):
+    import json
+
+    from windnav import cli
+
+    real, asked = ni.inflight_study, {}
+
+    def on_tiny(spec, ids, **kw):  # the command's plumbing, on the tiny suite's flights
+        asked.update(spec=spec.name, ids=list(ids), **kw)
+        return real(TINY, ["tiny/m00/w00/p0", "tiny/m00/w01/p0"], **{**kw, "executor": "serial"})
+
+    monkeypatch.setattr(ni, "inflight_study", on_tiny)
+    out = tmp_path / "inflight"
+    assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0", "--pairs", "0",
+                     "--every", "1", "--out", str(out), "--no-progress"]) == 0
+    assert asked["spec"] == "quick" and asked["every_s"] == 1.0
+    assert asked["variant"] == ni.INFLIGHT_VARIANT
+    assert asked["ids"] and all(i.startswith("quick/m00/") and i.endswith("/p0")
+                                for i in asked["ids"])
+    doc = json.loads((out / "nav_inflight.json").read_text())
+    assert doc["study"] == "inflight" and doc["pairs"] == [0] and doc["maps"] == [0]
+    assert doc["by_speed"]["3.0"]["flights"] == 2
+    assert (out / "nav_inflight.png").stat().st_size > 10_000
+    assert "| 3 | 2 (" in capsys.readouterr().out
+    for bad, why in ((["--pairs", "7"], "'--pairs' parameter"),
+                     (["--variant", "ea-mppi-w"], "'--variant' parameter"),
+                     (["--every", "0"], "'--every' parameter")):
+        monkeypatch.setattr(ni, "inflight_study", real)
+        assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0",
+                         "--out", str(tmp_path / "bad"), *bad]) == 2
+        assert why in capsys.readouterr().err
