@@ -93,6 +93,21 @@ def test_errors_against_independent_arithmetic(city, flow, flight):
                        free, s["speed"])
     assert out["errors"]["local_ukf"] == ref
     assert set(out["errors"]) == set(ni.MODELS)
+    # a compared decoder that predicts calm air: its speed error is the mean label speed
+    calm = Oracle(s)
+    calm.predict = lambda scans, w_up, w_robot: np.zeros_like(s["labels"])
+    more = ni.inflight_errors(s, Oracle(s), compare={"calm": calm})
+    assert list(more["errors"]) == [*ni.MODELS, "calm_ukf", "calm_mean", "calm_inst"]
+    for wind in ("ukf", "mean", "inst"):
+        assert more["errors"][f"calm_{wind}"]["speed_error"] == pytest.approx(
+            speed_true[free].mean(), rel=1e-6)
+    assert {m: more["errors"][m] for m in ni.MODELS} == out["errors"]
+    with pytest.raises(ValueError, match="'compare'.*identifier"):
+        ni.inflight_errors(s, Oracle(s), compare={"local": calm})
+    coarse = Oracle(s)
+    coarse.offsets = np.arange(-12.0, 13.0, 2.0)
+    with pytest.raises(ValueError, match="'compare'.*same cells"):
+        ni.inflight_errors(s, Oracle(s), compare={"coarse": coarse})
 
 
 def test_bad_input_is_refused(city, flow, flight):
@@ -144,10 +159,25 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
     assert doc["by_speed"]["3.0"]["flights"] == 2
     assert (out / "nav_inflight.png").stat().st_size > 10_000
     assert "| 3 | 2 (" in capsys.readouterr().out
+    # another decoder scored on the same samples: the shipped default, beside the pinned one
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    out2 = tmp_path / "inflight2"
+    assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0", "--pairs", "0",
+                     "--every", "1", "--out", str(out2), "--no-progress",
+                     "--compare", f"shipped={DEFAULT_MODEL}"]) == 0
+    doc2 = json.loads((out2 / "nav_inflight.json").read_text())
+    assert doc2["compare"] == ["shipped"] and doc2["models"] == {"shipped": str(DEFAULT_MODEL)}
+    assert "shipped_ukf" in doc2["all"]["errors"]
+    assert "| inlet (m/s) | decoder, UKF |" in capsys.readouterr().out
     for bad, why in ((["--pairs", "7"], "'--pairs' parameter"),
                      (["--variant", "ea-mppi-w"], "'--variant' parameter"),
-                     (["--every", "0"], "'--every' parameter")):
+                     (["--every", "0"], "'--every' parameter"),
+                     (["--compare", str(tmp_path / "none.npz")], "'--compare' parameter")):
         monkeypatch.setattr(ni, "inflight_study", real)
         assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0",
                          "--out", str(tmp_path / "bad"), *bad]) == 2
         assert why in capsys.readouterr().err
+    assert cli.main(["nav-study", "bound", "--out", str(tmp_path / "b"), "--store",
+                     str(tmp_path / "s"), "--compare", "x=y.npz"]) == 2
+    assert "'--compare' parameter" in capsys.readouterr().err

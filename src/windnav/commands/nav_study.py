@@ -13,7 +13,7 @@ JSON into ``--out``.
     windnav nav-study gusts --out docs/navigation                        # gust-aware routes
     windnav nav-study bound --store runs/thesis --out docs/navigation    # energy bound
     windnav nav-study tilt  --store runs/thesis --maps 0-1 --out docs/navigation   # tilt cap
-    windnav nav-study inflight --maps 0-3 --out docs/navigation   # the decoder in flight
+    windnav nav-study inflight --maps 0-3 --out docs/img/navigation   # the decoder in flight
 
 ``qe`` and ``h`` fly MPPI and EA-MPPI+W at each value of ``Q_E`` (default 0, 0.5, 1, 2, 3, 4,
 5, 6) or ``H`` (0, 25, 50, 100, 200, inf m) through the suite's scenarios of ``--maps`` into the
@@ -113,6 +113,9 @@ def register(subparsers) -> None:
                         "one headwind)")
     p.add_argument("--every", type=float, default=0.5,
                    help="inflight: seconds between samples along a flight (%(default)s)")
+    p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
+                   help="inflight: another decoder scored on the same samples (repeatable; it "
+                        "does not fly)")
     p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
@@ -178,6 +181,9 @@ def run(args) -> int:
     name = where(args)
     study = args.study
     spec = get_suite(args.suite)
+    if study != "inflight" and args.compare:
+        raise ValueError(f"The '--compare' parameter of {name} is for the inflight study. Got "
+                         f"{args.compare!r} for {study!r} instead.")
     if study == "winds":
         return _winds(args, name, spec)
     if study == "gs":
@@ -371,8 +377,10 @@ def _tilt(args, name: str, spec) -> int:
 
 def _inflight(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
+    from windnav.commands.evaluate_decoder import _compare_files
     from windnav.experiments import nav_inflight
     from windnav.experiments.results import json_ready
+    from windnav.predict import load_decoder
     from windnav.viz.nav_studies import plot_inflight
 
     maps = suite_maps(args.maps, spec, name)
@@ -389,18 +397,24 @@ def _inflight(args, name: str, spec) -> int:
            for p in pairs]  # the suite's id scheme (nav_suite.Scenario), in its order
     products = ("nav_inflight.json", "nav_inflight.png")
     out = outputs(args, out=("--out", args.out, products))
+    compare = _compare_files(args.compare, name) if args.compare else {}
+    if isinstance(compare, list):
+        raise ValueError(f"The '--compare' parameter of {name} must name every model "
+                         f"(NAME=FILE). Got {args.compare!r} instead.")
     t0 = time.perf_counter()
     try:
         res = nav_inflight.inflight_study(
             spec, ids, variant=args.variant or nav_inflight.INFLIGHT_VARIANT,
-            every_s=args.every, executor=args.executor, workers=workers,
-            progress=not args.no_progress)
+            every_s=args.every, compare={n: load_decoder(f) for n, f in compare.items()},
+            executor=args.executor, workers=workers, progress=not args.no_progress)
     except ValueError as exc:
         raise ValueError(str(exc).replace("'variant' parameter of inflight_study",
                                           f"'--variant' parameter of {name}").replace(
-            "'every_s' parameter of inflight_study", f"'--every' parameter of {name}")) from None
+            "'every_s' parameter of inflight_study", f"'--every' parameter of {name}").replace(
+            "'compare' parameter of inflight_study", f"'--compare' parameter of {name}")) from None
     res.update(study="inflight", suite=spec.name, seed=spec.seed, maps=list(maps),
-               pairs=pairs, elapsed_s=time.perf_counter() - t0)
+               pairs=pairs, models={n: str(f) for n, f in compare.items()},
+               elapsed_s=time.perf_counter() - t0)
     _write(out, args, res, products[0], lambda folder: plot_inflight(res, folder / products[1]))
     print("\n".join(nav_inflight.summarize_inflight(res)))
     print(json.dumps(json_ready({"study": "inflight", "flights": len(res["flights"]),

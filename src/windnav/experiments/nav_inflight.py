@@ -109,7 +109,7 @@ def _concat(groups: Sequence[Mapping]) -> dict:
     return {key: np.concatenate([g[key] for g in groups]) for key in groups[0]}
 
 
-def inflight_errors(samples: Mapping, decoder) -> dict:
+def inflight_errors(samples: Mapping, decoder, compare: Mapping | None = None) -> dict:
     """The decoder's and the baselines' errors on in-flight samples, and the input errors.
 
     Parameters
@@ -118,13 +118,16 @@ def inflight_errors(samples: Mapping, decoder) -> dict:
         :func:`inflight_samples`'s arrays (several flights concatenated), at least one sample.
     decoder : Decoder
         With ``offsets`` matching the labels and ``predict(scans, w_up, w_robot)``.
+    compare : mapping of str to Decoder, optional
+        Other decoders scored on the same samples (same ``offsets``), each given the three
+        ``W_robot``: models ``NAME_ukf``, ``NAME_mean`` and ``NAME_inst``.
 
     Returns
     -------
     dict
-        ``errors[model]``: :func:`windnav.predict.field_errors` for each of :data:`MODELS`;
-        ``inputs[name]``: RMS of the horizontal difference, m/s, for each of :data:`INPUTS`;
-        ``n_samples``.
+        ``errors[model]``: :func:`windnav.predict.field_errors` for each of :data:`MODELS`
+        (then the compared decoders'); ``inputs[name]``: RMS of the horizontal difference,
+        m/s, for each of :data:`INPUTS`; ``n_samples``.
     """
     from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
 
@@ -134,6 +137,7 @@ def inflight_errors(samples: Mapping, decoder) -> dict:
         raise ValueError(f"The 'samples' parameter of {where} must hold at least one sample. "
                          "Got none.")
     offsets = np.asarray(decoder.offsets, dtype=np.float64)
+    compare = _check_compare(compare, offsets, where)
     size = offsets.size
     spacing = float(offsets[1] - offsets[0]) if size > 1 else 1.0
     local = LocalBaseline(size, spacing)
@@ -147,9 +151,31 @@ def inflight_errors(samples: Mapping, decoder) -> dict:
     errors["upstream"] = field_errors(
         UpstreamBaseline(size, spacing).predict(samples["scans"], samples["w_up"],
                                                 samples["mean"]), *args)
+    ordered = {m: errors[m] for m in MODELS}
+    for name, other in compare.items():
+        for wind in ("ukf", "mean", "inst"):
+            ordered[f"{name}_{wind}"] = field_errors(
+                other.predict(samples["scans"], samples["w_up"], samples[wind]), *args)
     inputs = {name: float(np.sqrt(np.mean(np.sum((samples[a] - samples[b]) ** 2, axis=1))))
               for name, (a, b) in INPUTS.items()}
-    return {"errors": {m: errors[m] for m in MODELS}, "inputs": inputs, "n_samples": n}
+    return {"errors": ordered, "inputs": inputs, "n_samples": n}
+
+
+def _check_compare(compare, offsets, where: str) -> dict:
+    """``compare`` as a dict, its names free of the built-in models' and its decoders' cells
+    the same as ``offsets``."""
+    compare = dict(compare or {})
+    taken = {m.rsplit("_", 1)[0] for m in MODELS}
+    for name, other in compare.items():
+        if not isinstance(name, str) or not name.isidentifier() or name in taken:
+            raise ValueError(f"The 'compare' parameter of {where} must name each decoder with "
+                             f"an identifier other than {sorted(taken)}. Got {name!r} instead.")
+        cells = np.asarray(getattr(other, "offsets", ()), dtype=np.float64)
+        if cells.shape != offsets.shape or not np.allclose(cells, offsets):
+            raise ValueError(f"The 'compare' parameter of {where} must hold decoders with the "
+                             f"same cells as the flown one ({offsets.size} offsets from "
+                             f"{offsets[0]:g} m). Got {name!r} with other cells.")
+    return compare
 
 
 def _decoder(variant: str):
@@ -186,7 +212,8 @@ def _fly_wind(task):
 
 
 def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT_VARIANT,
-                   every_s: float = 0.5, executor: str = "process", workers: int | None = None,
+                   every_s: float = 0.5, compare: Mapping | None = None,
+                   executor: str = "process", workers: int | None = None,
                    progress: bool = True) -> dict:
     """Re-fly ``scenario_ids`` with the onboard stack and score its wind along the paths.
 
@@ -200,6 +227,8 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
         An onboard-stack label (``ea-mppi-w-hat`` with its parameters).
     every_s : float
         Time between samples along each flight, s.
+    compare : mapping of str to Decoder, optional
+        Other decoders scored on the same samples (:func:`inflight_errors`); they do not fly.
     executor, workers, progress
         :func:`windnav.experiments.executor.run_tasks`.
 
@@ -209,8 +238,8 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
         ``by_speed[speed]``: :func:`inflight_errors` of that inlet speed's samples, with
         ``flights`` and ``failed`` (non-success outcomes); ``all``: the same over every
         sample; ``flights``: per scenario its outcome, time and sample count; ``variant``,
-        ``every_s``, ``errors`` (harness errors, scenario id to message; a wind that fails
-        fails all its scenarios).
+        ``every_s``, ``compare`` (the compared decoders' names), ``errors`` (harness errors,
+        scenario id to message; a wind that fails fails all its scenarios).
     """
     from windnav.experiments.executor import run_tasks
     from windnav.experiments.nav_benchmark import check_scenario_ids, parse_variant
@@ -226,6 +255,7 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
     check_scenario_ids(spec, ids, where)
     every = positive_float(every_s, "every_s", where)
     decoder = _decoder(variant)
+    compare = _check_compare(compare, np.asarray(decoder.offsets, dtype=np.float64), where)
     winds = {}
     for sid in ids:
         sc = parse_scenario_id(spec, sid)
@@ -244,13 +274,15 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
         group = [f for f in flown if f["speed"] == speed and f["samples"]["t"].size]
         if not group:
             continue
-        by_speed[speed] = {**inflight_errors(_concat([f["samples"] for f in group]), decoder),
+        by_speed[speed] = {**inflight_errors(_concat([f["samples"] for f in group]), decoder,
+                                             compare),
                            "flights": len(group),
                            "failed": sum(f["outcome"] != "success" for f in group)}
     usable = [f["samples"] for f in flown if f["samples"]["t"].size]
     return {"variant": variant, "every_s": every,
             "by_speed": by_speed,
-            "all": inflight_errors(_concat(usable), decoder) if usable else None,
+            "all": inflight_errors(_concat(usable), decoder, compare) if usable else None,
+            "compare": sorted(compare),
             "flights": {f["scenario_id"]: {"speed": f["speed"], "outcome": f["outcome"],
                                            "time_s": f["time_s"],
                                            "samples": int(f["samples"]["t"].size)}
@@ -281,4 +313,14 @@ def summarize_inflight(result: Mapping) -> list[str]:
                      f"{i['ukf_vs_inst']:.2f} | {cell('decoder_ukf')} | {cell('decoder_mean')} | "
                      f"{cell('decoder_inst')} | {cell('local_ukf')} | {cell('local_mean')} | "
                      f"{cell('upstream')} |")
+    names = result.get("compare") or []
+    if names:
+        lines += ["", "| inlet (m/s) | " + " | ".join(
+            f"{n}, {w}" for n in ["decoder", *names] for w in ("UKF", "mean", "inst."))
+            + " |", "|---" * (1 + 3 * (1 + len(names))) + "|"]
+        for label, r in rows:
+            e = r["errors"]
+            lines.append(f"| {label} | " + " | ".join(
+                f"{e[f'{n}_{w}']['speed_error']:.2f} / {e[f'{n}_{w}']['direction_error_deg']:.1f}"
+                for n in ["decoder", *names] for w in ("ukf", "mean", "inst")) + " |")
     return lines

@@ -371,9 +371,14 @@ def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
     axes[0].set_ylabel("RMS |difference| at the vehicle (m/s)")
     axes[0].legend(fontsize=8, loc="upper left")
     handles = []
+    models = dict(_INFLIGHT_MODELS)
+    for name, color in zip(result.get("compare") or [], ("tab:red", "tab:purple", "tab:brown",
+                                                          "tab:pink", "tab:olive"), strict=False):
+        models[f"{name}_ukf"] = (f"{name}, W_robot from the UKF", color, "-", "v")
+        models[f"{name}_mean"] = (f"{name}, mean W_robot", color, "--", "s")
     for ax, metric, unit in ((axes[1], "speed_error", "speed error (m/s)"),
                              (axes[2], "direction_error_deg", "direction error (deg)")):
-        for key, (label, color, ls, marker) in _INFLIGHT_MODELS.items():
+        for key, (label, color, ls, marker) in models.items():
             line, = ax.plot(speeds, [r["errors"][key][metric] for r in rows.values()],
                             color=color, ls=ls, marker=marker, label=label)
             if ax is axes[1]:
