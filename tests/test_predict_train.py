@@ -322,7 +322,7 @@ def test_recipe_files_are_checked(tmp_path):
         load_recipe(bad)
 
 
-@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise"])
+@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise", "wrobot_flight"])
 def test_shipped_recipes_are_complete(name):
     recipe = load_recipe(RECIPES / f"{name}.toml")
     names = [group["name"] for group in recipe["sweep"]["maps"]]
@@ -333,9 +333,11 @@ def test_shipped_recipes_are_complete(name):
     assert recipe["data"]["size"] == 25
 
 
-def test_wrobot_noise_recipe_is_the_default_but_for_the_noise():
-    noisy = load_recipe(RECIPES / "wrobot_noise.toml")
+@pytest.mark.parametrize(("name", "noise"), [("wrobot_noise", 0.85), ("wrobot_flight", 2.7)])
+def test_wrobot_recipes_are_the_default_but_for_the_noise(name, noise):
+    noisy = load_recipe(RECIPES / f"{name}.toml")
     default = load_recipe(RECIPES / "default.toml")
-    assert noisy["data"].pop("w_robot_noise") == 0.85 and default["data"].pop("w_robot_noise") == 0
+    assert noisy["name"] == name
+    assert noisy["data"].pop("w_robot_noise") == noise and default["data"].pop("w_robot_noise") == 0
     for key in ("sweep", "data", "model", "train"):
         assert noisy[key] == default[key], key
