@@ -295,11 +295,15 @@ DECODERS = {
                    "75ea65022f6507f4acba63f9380724804d0c2f1c5cc3ca4ef92dec884a8a02e3"),
     "2026-11-26": ("decoder_default.npz",
                    "5dd14faf5598ee6d56593089d1157f0a017bd94184330c1914b7a34423d427e5"),
+    "2026-11-29-flight": ("decoder_2026-11-29-flight.npz",
+                          "5c1fcadb03ad19b08326fcc1238a4851b725d35548b6340e72782a9461cda14e"),
 }
 """The decoders the onboard stack can fly in the benchmark, by the date they were trained: the
 file in ``windnav/predict/data`` and its SHA-256. A model keeps its date when the shipped
 default is retrained (its file is then copied under its date), so a label names the same
-weights for good; a file whose bytes differ is refused."""
+weights for good; a file whose bytes differ is refused. ``2026-11-29-flight`` is not a
+default: the recipe ``wrobot_flight.toml`` (the default's with 0.45 U of noise on
+``W_robot``, the in-flight error of the onboard estimate against the mean wind)."""
 
 BENCHMARK_DECODER = "2026-11-23"
 """The decoder (a key of :data:`DECODERS`) that the benchmark's onboard stack

@@ -173,10 +173,11 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
                    path, bottom=0.04)
 
 
-def _finish(fig, handles, title: str, path, *, bottom: float) -> Path:
-    """The legend of ``handles`` in a row below the panels (``bottom`` of the figure), the
-    title, and the figure written to ``path`` (PNG) and closed."""
-    fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=9,
+def _finish(fig, handles, title: str, path, *, bottom: float, ncol: int | None = None) -> Path:
+    """The legend of ``handles`` in rows of ``ncol`` (default: one row) below the panels
+    (``bottom`` of the figure), the title, and the figure written to ``path`` (PNG) and
+    closed."""
+    fig.legend(handles=handles, loc="lower center", ncol=ncol or len(handles), fontsize=9,
                frameon=False)
     fig.suptitle(title)
     fig.tight_layout(rect=(0, bottom, 1, 1))
@@ -364,7 +365,7 @@ def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
     ``W_robot`` (middle, right). Written to ``path`` (PNG)."""
     rows = result["by_speed"]
     speeds = [float(s) for s in rows]
-    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6 + 0.5 * bool(result.get("compare"))))
     for key, (label, color, ls) in _INFLIGHT_INPUTS.items():
         axes[0].plot(speeds, [r["inputs"][key] for r in rows.values()], color=color, ls=ls,
                      marker="o", label=label)
@@ -390,6 +391,9 @@ def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
     n = sum(r["flights"] for r in rows.values())
+    ncol = min(len(handles), 6)
+    rows_of_legend = -(-len(handles) // ncol)
     return _finish(fig, handles, title or f"The onboard stack's wind in flight ({n} flights of "
                    f"{result['variant']}, a sample every {result['every_s']:g} s), against "
-                   "the mean field in the decoder's window", path, bottom=0.1)
+                   "the mean field in the decoder's window", path,
+                   bottom=0.1 + 0.05 * (rows_of_legend - 1), ncol=ncol)
