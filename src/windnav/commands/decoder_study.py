@@ -234,12 +234,9 @@ def run(args, simulate=None) -> int:
         raise ValueError(f"The '--compare' parameter of {name} is for the noise study. Got "
                          f"{args.compare!r} for {study!r} instead.")
     if study == "noise":
-        from windnav.commands.evaluate_decoder import _compare_files
+        from windnav.commands.evaluate_decoder import _named_compare_files
 
-        compare = _compare_files(args.compare, name) if args.compare else {}
-        if isinstance(compare, list):
-            raise ValueError(f"The '--compare' parameter of {name} must name every model "
-                             f"(NAME=FILE). Got {args.compare!r} instead.")
+        compare = _named_compare_files(args.compare, name)
         flows = _fields(args, name, simulate, progress)
         decoders = {"decoder": load_decoder(args.model),
                     **{n: load_decoder(f) for n, f in compare.items()}}

@@ -127,3 +127,12 @@ def _compare_files(items, name) -> dict | list:
         raise ValueError(f"The '--compare' parameter of {name} must name every model or none "
                          f"(NAME=FILE). Got {items!r} instead.")
     return [Path(f) for _, f in pairs]
+
+
+def _named_compare_files(items, name) -> dict:
+    """``--compare`` values that must all be named: ``{NAME: FILE}`` (empty for none)."""
+    compare = _compare_files(items, name) if items else {}
+    if isinstance(compare, list):
+        raise ValueError(f"The '--compare' parameter of {name} must name every model "
+                         f"(NAME=FILE). Got {items!r} instead.")
+    return compare

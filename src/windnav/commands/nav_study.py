@@ -377,7 +377,7 @@ def _tilt(args, name: str, spec) -> int:
 
 def _inflight(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
-    from windnav.commands.evaluate_decoder import _compare_files
+    from windnav.commands.evaluate_decoder import _named_compare_files
     from windnav.experiments import nav_inflight
     from windnav.experiments.results import json_ready
     from windnav.predict import load_decoder
@@ -397,10 +397,7 @@ def _inflight(args, name: str, spec) -> int:
            for p in pairs]  # the suite's id scheme (nav_suite.Scenario), in its order
     products = ("nav_inflight.json", "nav_inflight.png")
     out = outputs(args, out=("--out", args.out, products))
-    compare = _compare_files(args.compare, name) if args.compare else {}
-    if isinstance(compare, list):
-        raise ValueError(f"The '--compare' parameter of {name} must name every model "
-                         f"(NAME=FILE). Got {args.compare!r} instead.")
+    compare = _named_compare_files(args.compare, name)
     t0 = time.perf_counter()
     try:
         res = nav_inflight.inflight_study(

@@ -143,22 +143,17 @@ def inflight_errors(samples: Mapping, decoder, compare: Mapping | None = None) -
     local = LocalBaseline(size, spacing)
     args = (samples["labels"], samples["free"], samples["speed"])
     errors = {}
-    for wind in ("ukf", "mean", "inst"):
-        errors[f"decoder_{wind}"] = field_errors(
-            decoder.predict(samples["scans"], samples["w_up"], samples[wind]), *args)
-        errors[f"local_{wind}"] = field_errors(
-            local.predict(samples["scans"], samples["w_up"], samples[wind]), *args)
+    for name, model in {"decoder": decoder, "local": local, **compare}.items():
+        for wind in ("ukf", "mean", "inst"):
+            errors[f"{name}_{wind}"] = field_errors(
+                model.predict(samples["scans"], samples["w_up"], samples[wind]), *args)
     errors["upstream"] = field_errors(
         UpstreamBaseline(size, spacing).predict(samples["scans"], samples["w_up"],
                                                 samples["mean"]), *args)
-    ordered = {m: errors[m] for m in MODELS}
-    for name, other in compare.items():
-        for wind in ("ukf", "mean", "inst"):
-            ordered[f"{name}_{wind}"] = field_errors(
-                other.predict(samples["scans"], samples["w_up"], samples[wind]), *args)
     inputs = {name: float(np.sqrt(np.mean(np.sum((samples[a] - samples[b]) ** 2, axis=1))))
               for name, (a, b) in INPUTS.items()}
-    return {"errors": ordered, "inputs": inputs, "n_samples": n}
+    order = [*MODELS, *(f"{name}_{wind}" for name in compare for wind in ("ukf", "mean", "inst"))]
+    return {"errors": {m: errors[m] for m in order}, "inputs": inputs, "n_samples": n}
 
 
 def _check_compare(compare, offsets, where: str) -> dict:
