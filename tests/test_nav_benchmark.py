@@ -339,7 +339,15 @@ def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
     nb.fly(TINY, scenario, "mppi-w@h=40@outside=truth", city=None, flow=None,
            navigate_fn=lambda c, s, g, **kw: flown.update(kw))
     assert (flown["variant"], flown["horizon"], flown["outside"]) == ("mppi-w", 40.0, "truth")
-    for bad, why in (("ea-mppi-w-hat@outside=zero", "outside must be 'robot'"),
+    assert nb.parse_variant("ea-mppi-w@energy=mission") == (
+        "ea-mppi-w", {"planner_overrides": {"energy_mode": "mission"}})
+    assert nb.parse_variant("ea-mppi-w-hat@outside=robot@energy=mission") == (
+        "ea-mppi-w-hat", {"onboard": {"outside": "robot"},
+                          "planner_overrides": {"energy_mode": "mission"}})
+    for bad, why in (("ea-mppi-w@energy=horizon", "energy must be 'mission'"),
+                     ("ea-mppi-w@energy=mission@energy=mission", "repeated"),
+                     ("gs-w@energy=mission", "takes no parameters"),
+                     ("ea-mppi-w-hat@outside=zero", "outside must be 'robot'"),
                      ("ea-mppi-w-hat@outside=truth", "outside must be 'robot'"),
                      ("ea-mppi-w@h=25@outside=robot", "outside must be 'truth'"),
                      ("ea-mppi-w@outside=truth", "needs a finite h"),

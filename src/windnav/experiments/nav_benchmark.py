@@ -347,14 +347,15 @@ PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
               "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
               "launch": "escape_launch", "gust": "escape_gust", "tilt": "tilt_max_deg",
-              "outside": "outside"}
+              "outside": "outside", "energy": "energy_mode"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
 use (a name of :data:`windnav.experiments.navigate.POWER_SHAPES`; a counterfactual), ``tilt``
 the closed loop's tilt cap, degrees (in (0, 80); ``navigate``'s ``tilt_max_deg``, default 55: the
 planner's ``a_max = g tan(tilt) / sqrt 2`` with it; a counterfactual of the vehicle's
-authority); for
+authority), ``energy=mission`` (``J_E`` is the energy of the mission instead of the horizon's,
+:attr:`windnav.plan.PlannerConfig.energy_mode`, ours; also for ``ea-mppi-w-hat``); for
 ``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`) and
 ``outside=robot`` (the planner's wind outside the decoder's window is the uniform ``W_robot``
 the decoder was given instead of zero: :attr:`windnav.experiments.onboard.OnboardOptions.outside`,
@@ -393,7 +394,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     power-curve counterfactual), ``"ea-mppi-w@tilt=70"`` (the tilt-cap counterfactual),
     ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder), ``"ea-mppi-w-hat@outside=robot"``
     (the onboard stack's ``W_robot`` outside the decoder's window),
-    ``"ea-mppi-w@h=25@outside=truth"`` (the true mean wind at the vehicle outside the window).
+    ``"ea-mppi-w@h=25@outside=truth"`` (the true mean wind at the vehicle outside the window),
+    ``"ea-mppi-w@energy=mission"`` (the mission's energy as ``J_E``).
 
     Returns
     -------
@@ -423,7 +425,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"{list(VARIANTS)}, or one of {list(_PARAMETRIC)} with parameters "
                           f"'@qe=Q_E', '@h=H' (m, inf, or 0 for no wind) and/or "
                           f"'@power=SHAPE' (one of {list(POWER_SHAPES)}) and/or "
-                          f"'@tilt=DEG' (in (0, {TILT_LIMIT_DEG:g})), "
+                          f"'@tilt=DEG' (in (0, {TILT_LIMIT_DEG:g})) and/or "
+                          f"'@energy=mission', "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}) and/or "
                           f"'@outside=robot', "
                           f"'mppi-w' or 'ea-mppi-w' with '@h=H' and '@outside=truth', or "
@@ -447,7 +450,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                 or PARAMETERS[key] in {**options, **overrides, **escape}):
             raise fail(f"bad or repeated parameter {item!r}")
         seen.add(key)
-        if ((key == "decoder" or (key == "outside" and base not in _TRUTH_FILL)) != onboard
+        if ((key != "energy"
+             and (key == "decoder" or (key == "outside" and base not in _TRUTH_FILL)) != onboard)
                 or (key in _ESCAPE_KEYS and not VARIANTS[base].escape)):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "outside":
@@ -459,6 +463,12 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                 options["onboard"] = {"outside": "robot"}
             else:
                 options["outside"] = "truth"
+            continue
+        if key == "energy":
+            if text != "mission":  # the horizon's energy is the default: one label each
+                raise fail(f"energy must be 'mission' (the horizon's is the default), "
+                           f"not {text!r}")
+            overrides["energy_mode"] = "mission"
             continue
         if key == "decoder":
             if text not in DECODERS:

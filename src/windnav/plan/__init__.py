@@ -3,6 +3,7 @@
 Public API::
 
     planner_config, PlannerConfig, VARIANTS, Variant     configuration derived from a vehicle
+    ENERGY_MODES                                          J_E over the horizon or the mission
     WIND_SOURCES                                          where a variant's wind comes from
     MPPIPlanner, mppi_step, rollout, ...                  the MPPI planner and its parts
     LocalWind                                             the wind the planner knows
@@ -14,6 +15,7 @@ Public API::
 """
 
 from windnav.plan.config import (
+    ENERGY_MODES,
     SAMPLING,
     VARIANTS,
     WIND_SOURCES,
@@ -40,6 +42,7 @@ from windnav.plan.mppi import (
     PlanResult,
     Problem,
     fused_rollout_cost,
+    mission_terms,
     mppi_step,
     rollout,
     sample_controls,
@@ -50,6 +53,7 @@ from windnav.plan.mppi import (
 from windnav.plan.obstacles import ObstacleField, obstacle_cost, obstacle_field, scan_points
 
 __all__ = [
+    "ENERGY_MODES",
     "MOVES",
     "EnergyRoute",
     "EscapeConfig",
@@ -72,6 +76,7 @@ __all__ = [
     "free_space",
     "fused_rollout_cost",
     "grid_route",
+    "mission_terms",
     "mppi_step",
     "obstacle_cost",
     "obstacle_field",

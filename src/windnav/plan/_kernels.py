@@ -383,7 +383,7 @@ def _winds(px, py, wmode, wgrid, wmeta, wx, wy):  # pragma: no cover - numba
 
 
 @numba.njit(cache=True, fastmath={"contract", "arcp"})
-def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab,
+def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab, mission,
                  wmode, wgrid, wmeta, has_obs, node, fmeta, sx, sy, bstart, bmeta,
                  costs, parts):  # pragma: no cover - numba
     """Roll out every control sequence and accumulate its cost, in one pass over time.
@@ -396,6 +396,11 @@ def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab,
         Ground velocity at the start, m/s; the start position is the origin.
     goal : ndarray of shape (2,)
         Goal relative to the start, m (already capped at ``D_max``).
+    mission : ndarray of shape (5,)
+        ``[on, g_x, g_y, r, e_R]``: when ``on > 0``, ``J_E`` is the mission's energy
+        (``PlannerConfig.energy_mode``): the power is summed only until the rollout first comes
+        within ``r`` (m) of the uncapped goal ``g`` (m, relative to the start), and a rollout
+        that never does adds ``e_R (|p_K - g| - r)`` (``e_R`` in s/m).
     costs : ndarray of shape (S,)
         Out: ``J = J_prog + Q_O J_obs + Q_E J_E`` (inf where not finite).
     parts : ndarray of shape (S, 4)
@@ -404,7 +409,7 @@ def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab,
     Forward Euler, for k = 0 .. K-1::
 
         v_a = v_k - w(p_k)
-        J_E += P(|v_a|) / P_hover * dt
+        J_E += P(|v_a|) / P_hover * dt        (mission: while |p_k - g| > r)
         p_{k+1} = p_k + dt v_k
         v_{k+1} = v_k + dt (u_k - C |v_a| v_a)
         J_prog += |(p_{k+1} - goal) / D_max|^2
@@ -433,6 +438,11 @@ def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab,
     wy = np.zeros(S)
     jp = np.zeros(S)
     je = np.zeros(S)
+    on = mission[0] > 0.0
+    mx = mission[1]
+    my = mission[2]
+    r2 = mission[3] * mission[3]
+    live = np.ones(S)   # 1 until the rollout reaches the goal (mission energy), then 0
     ub2 = np.full(S, np.inf)
     n_obs = K if has_obs else 1
     qx = np.empty((n_obs, S))
@@ -452,10 +462,16 @@ def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab,
             va = math.sqrt(ax * ax + ay * ay)
             w = min(va, vm)
             e = max(va - vm, 0.0)
-            je[s] += ((((((c7 * w + c6) * w + c5) * w + c4) * w + c3) * w + c2) * w + c1) * w \
+            p = ((((((c7 * w + c6) * w + c5) * w + c4) * w + c3) * w + c2) * w + c1) * w \
                 + c0 + e * (e1 + e * e2)
             x += dt * bx
             y += dt * by
+            if on:
+                je[s] += p * live[s]
+                if (x - mx) * (x - mx) + (y - my) * (y - my) <= r2:
+                    live[s] = 0.0
+            else:
+                je[s] += p
             px[s] = x
             py[s] = y
             vx[s] = bx + dt * (min(max(ux[s], a_lo), a_hi) - drag * va * ax)
@@ -482,6 +498,10 @@ def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab,
                         ub2[s] = exact_d2(qx[k, s], qy[k, s], ub2[s], sx, sy, bstart, bmeta)
     for s in range(S):
         e = je[s] * dt
+        if on and live[s] > 0.0:
+            dx = px[s] - mx
+            dy = py[s] - my
+            e += mission[4] * max(math.sqrt(dx * dx + dy * dy) - mission[3], 0.0)
         if has_obs:
             d_min = math.sqrt(ub2[s])
             jo = d_max2 / max(ub2[s], _MIN_D2)

@@ -46,6 +46,7 @@ from windnav.vehicle.params import GRAVITY, MultirotorParams
 from windnav.vehicle.power import PowerCurve
 
 __all__ = [
+    "ENERGY_MODES",
     "SAMPLING",
     "VARIANTS",
     "WIND_SOURCES",
@@ -59,6 +60,11 @@ __all__ = [
 
 SAMPLING = ("gaussian", "uniform")
 """Sampling modes: perturb-clip-smooth around the previous plan, or uniform in the bounds."""
+
+ENERGY_MODES = ("horizon", "mission")
+"""What ``J_E`` measures: the energy over the planning horizon (the thesis), or the energy of
+the mission, the horizon's energy until the goal is reached plus the energy to fly the rest
+at the max-range speed (ours; :class:`PlannerConfig` ``energy_mode``)."""
 
 SWEEP_SPEEDS = np.linspace(0.0, 20.0, 41)
 """Airspeeds of the steady-flight sweep behind the power curve and the drag fit, m/s."""
@@ -161,6 +167,19 @@ class PlannerConfig:
         ``D_max``, the range that non-dimensionalises positions and caps the goal, m.
     obstacle_resolution : float
         Node spacing of the obstacle field built from each scan, m.
+    energy_mode : {"horizon", "mission"}
+        ``"horizon"`` (the thesis): ``J_E`` is the energy of the whole rollout,
+        ``sum_k P(|v_a|) / P_hover dt``. Over a fixed horizon that is least for the least
+        power, so it rewards flying slowly even where that costs more energy per metre.
+        ``"mission"`` (ours): the rollout's energy until it first comes within
+        ``goal_radius`` of the (uncapped) goal, plus the energy to fly the rest of the way,
+        ``e_R max(|p_K - g| - goal_radius, 0)``, where ``e_R = min_V P(|V g^ - w_0|) /
+        (P_hover V)`` (s/m) is the least energy per metre of ground towards the goal in the
+        wind at the vehicle (zero for the variants without wind): the energy of the mission
+        the rollout starts, whose minimum over a straight flight is at the max-range speed.
+    goal_radius : float
+        ``"mission"`` only: the distance to the goal at which the mission's energy stops, m
+        (> 0; the closed loop's success radius).
     vehicle : str
         Name of the vehicle the constants were derived from.
     derivation : dict
@@ -188,6 +207,8 @@ class PlannerConfig:
     obstacle_weight: float = 1.25
     lidar_range: float = 100.0
     obstacle_resolution: float = 1.0
+    energy_mode: str = "horizon"
+    goal_radius: float = 5.0
     vehicle: str = ""
     derivation: dict = field(default_factory=dict)
 
@@ -230,12 +251,14 @@ class PlannerConfig:
         for name in ("n_samples", "n_steps"):
             set_(self, name, positive_int(getattr(self, name), name, where))
         for name in ("dt", "rate_hz", "temperature", "sigma_u", "lidar_range",
-                     "obstacle_resolution"):
+                     "obstacle_resolution", "goal_radius"):
             set_(self, name, positive_float(getattr(self, name), name, where))
         for name in ("sigma_gf", "obstacle_weight"):
             set_(self, name, positive_float(getattr(self, name), name, where, allow_zero=True))
         if self.sampling not in SAMPLING:
             raise _fail("sampling", f"one of {list(SAMPLING)}", self.sampling)
+        if self.energy_mode not in ENERGY_MODES:
+            raise _fail("energy_mode", f"one of {list(ENERGY_MODES)}", self.energy_mode)
         # forward Euler of v' = a - C |v| v is stable while dt C |v| < 2; the fastest steady
         # speed is the terminal speed at full acceleration, sqrt(|a|_max / C)
         a_top = math.hypot(max(abs(self.a_min), self.a_max), max(abs(self.a_min), self.a_max))
@@ -275,6 +298,18 @@ class PlannerConfig:
         beyond ``power_speed_max`` the planner uses."""
         v = np.asarray(airspeed, dtype=np.float64)
         return power_bar_array(v, self.power_table()) * self.hover_power
+
+    def energy_per_metre(self, direction, wind=(0.0, 0.0), *, speed_range=(0.5, 25.0)
+                         ) -> float:
+        """``e_R = min_V P(|V d - w|) / (P_hover V)``: the least energy per metre of ground
+        flown along the unit vector ``d`` (2,) in the uniform wind ``w`` (2,), m/s, over ground
+        speeds ``V`` in ``speed_range``, m/s; in s/m (energy divided by ``P_hover``). In still
+        air it is ``P(V_R) / (P_hover V_R)``, with ``V_R`` the max-range speed."""
+        d = np.asarray(direction, dtype=np.float64).reshape(2)
+        d = d / max(float(np.hypot(*d)), 1e-12)
+        v = np.linspace(*speed_range, 981)
+        air = np.hypot(v * d[0] - float(wind[0]), v * d[1] - float(wind[1]))
+        return float(np.min(power_bar_array(air, self.power_table()) / v))
 
     def max_range_speed(self, wind_along: float = 0.0, *, speed_range=(0.5, 20.0)) -> float:
         """``V_R(W) = argmin_V P(|V - W|) / V`` over ground speeds in ``speed_range``, m/s."""

@@ -13,6 +13,11 @@ Cost, non-dimensionalised by the LiDAR range ``D_max`` and the hover power ``P_h
     J_E    = sum_k P(|v_k - w_k|) / P_hover dt        (steady-flight power curve, config.py)
     J      = J_prog + Q_O J_obs + Q_E J_E
 
+``PlannerConfig.energy_mode = "mission"`` (ours) makes ``J_E`` the energy of the mission the
+rollout starts: the sum stops once the rollout is within ``goal_radius`` of the uncapped goal,
+and a rollout that does not get there adds the least energy to fly the rest of the way in the
+wind at the vehicle, ``e_R (|p~_K - g| - goal_radius)`` (:meth:`PlannerConfig.energy_per_metre`).
+
 Update (one call of :meth:`MPPIPlanner.update`, :func:`mppi_step`):
 
 1. sample ``N_tau`` sequences: ``"gaussian"`` perturbs the previous optimal sequence with
@@ -55,7 +60,9 @@ __all__ = [
     "PlanResult",
     "PlannerStats",
     "Problem",
+    "NO_MISSION",
     "fused_rollout_cost",
+    "mission_terms",
     "mppi_step",
     "rollout",
     "sample_controls",
@@ -78,12 +85,21 @@ class Problem(NamedTuple):
         Obstacle points of the scan.
     wind : tuple
         Packed wind ``(mode, grid, meta)`` (see ``_kernels``).
+    mission : ndarray of shape (5,)
+        ``[on, g_x, g_y, goal_radius, e_R]`` for ``energy_mode="mission"``: the uncapped goal,
+        m, and the energy per metre to go, s/m (:data:`NO_MISSION`: the thesis's ``J_E``).
     """
 
     velocity: np.ndarray
     goal: np.ndarray
     field: ObstacleField
     wind: tuple
+    mission: np.ndarray = None  # None: NO_MISSION
+
+
+NO_MISSION = np.zeros(5)
+NO_MISSION.setflags(write=False)
+"""``Problem.mission`` of the thesis's horizon energy."""
 
 
 RolloutCost = Callable[[PlannerConfig, np.ndarray, Problem], tuple[np.ndarray, np.ndarray]]
@@ -192,7 +208,9 @@ def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Pro
     f = problem.field
     K.rollout_cost(controls, problem.velocity, problem.goal, config.dt, config.drag,
                    1.0 / config.lidar_range, config.a_min, config.a_max, config.obstacle_weight,
-                   config.energy_weight, config.power_table(), mode, grid, meta, not f.empty,
+                   config.energy_weight, config.power_table(),
+                   NO_MISSION if problem.mission is None else problem.mission,
+                   mode, grid, meta, not f.empty,
                    *f.kernel_args(), costs, parts)
     return costs, parts
 
@@ -229,6 +247,16 @@ def rollout(config: PlannerConfig, controls, velocity, wind: LocalWind | None = 
     K.rollout_states(u, v0, config.dt, config.drag, config.a_min, config.a_max, mode, grid,
                      meta, pos, vel)
     return pos, vel
+
+
+def mission_terms(config: PlannerConfig, goal: np.ndarray, packed_wind: tuple) -> np.ndarray:
+    """``Problem.mission`` for ``energy_mode="mission"``: ``[1, g_x, g_y, goal_radius, e_R]``
+    with ``goal`` (2,) the uncapped goal relative to the vehicle, m, and ``e_R`` the least
+    energy per metre towards it in the packed wind at the vehicle (``(0, 0)`` is the vehicle),
+    s/m (:meth:`PlannerConfig.energy_per_metre`)."""
+    w0 = K.wind_at(0.0, 0.0, *packed_wind)
+    e_r = config.energy_per_metre(goal, w0) if np.any(goal) else 0.0
+    return np.array([1.0, goal[0], goal[1], config.goal_radius, e_r])
 
 
 def _pack_wind(config: PlannerConfig, wind: LocalWind | None) -> tuple:
@@ -437,11 +465,13 @@ class MPPIPlanner:
             return self._fallback("wind", self._brake(vel), t0)
         goal = self.goal - pos
         dist = float(np.hypot(*goal))
+        packed = _pack_wind(cfg, wind)
+        mission = mission_terms(cfg, goal, packed) if cfg.energy_mode == "mission" else None
         if dist > cfg.lidar_range:
             goal *= cfg.lidar_range / dist
         field_ = obstacle_field(points, resolution=cfg.obstacle_resolution)
         t1 = time.perf_counter()
-        problem = Problem(vel, goal, field_, _pack_wind(cfg, wind))
+        problem = Problem(vel, goal, field_, packed, mission)
         prof: dict = {}
         out = mppi_step(cfg, self.mean, problem, self.rng, rollout_cost=self.rollout_cost,
                         workspace=self._work, profile=prof)
