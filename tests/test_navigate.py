@@ -279,3 +279,29 @@ def test_a_non_finite_known_wind_makes_every_planner_update_fall_back(city, flow
     assert res.planner_updates > 0 and res.fallbacks == res.planner_updates
     assert res.fallback_reasons == {"wind": res.fallbacks}
     assert fly(city, flow, "mppi-w", duration=2.0).fallbacks == 0
+
+
+def test_command_passes_the_energy_mode_to_the_planner(city, tmp_path, monkeypatch):
+    import windnav.experiments.navigate as nav
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake_navigate(*a, **kw):
+        seen.update(kw)
+        raise Stop
+
+    monkeypatch.setattr(nav, "simulate_flow", lambda *a, **kw: None)
+    monkeypatch.setattr(nav, "navigate", fake_navigate)
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    base = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+            "--speed", "2", "--out", str(tmp_path / "out")]
+    for extra, want in (([], None), (["--energy", "mission"], {"energy_mode": "mission"})):
+        args = parse(base + extra)
+        with pytest.raises(Stop):
+            args.func(args)
+        assert seen["planner_overrides"] == want
+    with pytest.raises(SystemExit):
+        parse(base + ["--energy", "trip"])

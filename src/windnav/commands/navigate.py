@@ -42,7 +42,7 @@ PRODUCTS = ("summary.json", "series.npz", "navigate_*.png")
 
 
 def register(sub) -> None:
-    from windnav.plan import VARIANTS
+    from windnav.plan import ENERGY_MODES, VARIANTS
 
     p = sub.add_parser("navigate", help="fly a planner through a city's urban wind",
                        description="Simulate the map's unsteady wind, then fly the 6-DoF "
@@ -62,6 +62,10 @@ def register(sub) -> None:
     p.add_argument("--horizon", type=float, default=math.inf,
                    help="side H of the window in which the -w MPPI variants know the wind, m "
                         "(default: inf, the whole map; ea-mppi-w-hat: the decoder's 25 m grid)")
+    p.add_argument("--energy", choices=ENERGY_MODES, default="horizon",
+                   help="what the energy-aware variants' J_E measures: the planning horizon's "
+                        "energy (the thesis) or the mission's, which is least at the "
+                        "max-range speed (ours) (%(default)s)")
     p.add_argument("--altitude", type=float, default=10.0, help="flight altitude, m")
     p.add_argument("--tilt-max-deg", type=float, default=55.0,
                    help="tilt cap of the acceleration commands, deg (%(default)s)")
@@ -114,7 +118,9 @@ def run(args) -> int:
     flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record)
     result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                       variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
-                      horizon=horizon, tilt_max_deg=args.tilt_max_deg)
+                      horizon=horizon, tilt_max_deg=args.tilt_max_deg,
+                      planner_overrides=({"energy_mode": args.energy}
+                                         if args.energy != "horizon" else None))
     summary = {"map": str(args.map), "seed": args.seed, **result.summary()}
     doc = document("navigate", summary, args)
     with out.writing() as stage:
