@@ -341,3 +341,42 @@ def test_wrobot_recipes_are_the_default_but_for_the_noise(name, noise):
     assert noisy["data"].pop("w_robot_noise") == noise and default["data"].pop("w_robot_noise") == 0
     for key in ("sweep", "data", "model", "train"):
         assert noisy[key] == default[key], key
+
+
+def test_a_recipe_starts_from_its_base(tmp_path):
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "a.toml").write_text(   # a chain: b -> a -> tiny (an absolute path)
+        f'base = "{(RECIPES / "tiny.toml").as_posix()}"\n'
+        'name = "a"\n[data]\nsize = 15\nscan_noise = 0.2\n'
+        '[model]\narchitecture = "d4-film"\nhyperparameters = { pool = 3, modes = 8 }\n')
+    (tmp_path / "sub" / "b.toml").write_text(
+        'base = "../a.toml"\nname = "b"\n[data]\nscan_noise = 0.5\n'
+        '[model]\nhyperparameters = { width = 64 }\n')
+    b = load_recipe(tmp_path / "sub" / "b.toml")
+    a = load_recipe(tmp_path / "a.toml")
+    assert b["name"] == "b" and b["source"] == str(tmp_path / "sub" / "b.toml")
+    assert b["data"]["size"] == 15 and b["data"]["scan_noise"] == 0.5   # merged key by key
+    assert b["model"]["hyperparameters"] == {"width": 64}                # replaced whole
+    tiny = load_recipe(RECIPES / "tiny.toml")
+    for key in ("sweep", "train"):
+        assert b[key] == a[key] == tiny[key]
+    assert a["model"]["hyperparameters"] == {"pool": 3, "modes": 8}
+    # the shipped recipes that start from default.toml resolve to it but for what they set
+    thesis = load_recipe(RECIPES / "thesis_mlp.toml")
+    default = load_recipe(RECIPES / "default.toml")
+    assert thesis["model"]["hyperparameters"] == {"width": 2048, "depth": 3}
+    assert thesis["sweep"]["maps"] == default["sweep"]["maps"]
+    assert thesis["sweep"]["store"] == "../default/sweep.zarr"
+
+
+def test_a_recipe_base_is_checked(tmp_path):
+    (tmp_path / "x.toml").write_text('base = "y.toml"\n')
+    (tmp_path / "y.toml").write_text('base = "x.toml"\n')
+    with pytest.raises(ValueError, match="'config' parameter of load_recipe.*cycle"):
+        load_recipe(tmp_path / "x.toml")
+    (tmp_path / "z.toml").write_text('base = "missing.toml"\n')
+    with pytest.raises(ValueError, match="missing.toml.*has base.*does not exist"):
+        load_recipe(tmp_path / "z.toml")
+    (tmp_path / "w.toml").write_text('base = 3\n')
+    with pytest.raises(ValueError, match="must have base.*a recipe file name. Got 3"):
+        load_recipe(tmp_path / "w.toml")

@@ -138,6 +138,10 @@ def _read_toml(path: Path) -> dict:
         return tomllib.load(fh)
 
 
+_WHOLE_TABLES = ("hyperparameters", "settings")
+"""Tables of a recipe that are values, replaced whole (not merged key by key)."""
+
+
 def _merge(defaults: dict, given: dict, where: str, prefix: str = "") -> dict:
     out = copy.deepcopy(defaults)
     for key, value in given.items():
@@ -145,7 +149,7 @@ def _merge(defaults: dict, given: dict, where: str, prefix: str = "") -> dict:
             raise ValueError(f"The 'config' parameter of {where} must hold only known keys. "
                              f"Got unknown key {prefix + key!r} instead (known: "
                              f"{sorted(defaults)}).")
-        if isinstance(defaults[key], dict) and key != "hyperparameters" and key != "settings":
+        if isinstance(defaults[key], dict) and key not in _WHOLE_TABLES:
             if not isinstance(value, dict):
                 raise ValueError(f"The 'config' parameter of {where} must hold a table at "
                                  f"{prefix + key!r}. Got {value!r} instead.")
@@ -155,13 +159,53 @@ def _merge(defaults: dict, given: dict, where: str, prefix: str = "") -> dict:
     return out
 
 
+def _overlay(base: dict, given: dict) -> dict:
+    """``given`` over ``base``: tables merged key by key, anything else (lists included,
+    such as ``sweep.maps``, and the tables of :data:`_WHOLE_TABLES`) replaced."""
+    out = copy.deepcopy(base)
+    for key, value in given.items():
+        if (isinstance(value, dict) and isinstance(out.get(key), dict)
+                and key not in _WHOLE_TABLES):
+            out[key] = _overlay(out[key], value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def _read_recipe(source: Path, where: str, chain: tuple = ()) -> dict:
+    """The TOML recipe ``source`` with its ``base`` recipes (relative to its folder) under it."""
+    if source.resolve() in {p.resolve() for p in chain}:
+        raise ValueError(f"The 'config' parameter of {where} names recipes whose 'base' keys "
+                         f"form a cycle: {' -> '.join(str(p) for p in (*chain, source))}.")
+    if not source.is_file():
+        what = "names" if not chain else f"has base (in {str(chain[-1])!r})"
+        raise ValueError(f"The 'config' parameter of {where} must name a TOML recipe file. "
+                         f"Got {str(source)!r} instead ({what}), which does not exist.")
+    try:
+        config = _read_toml(source)
+    except Exception as exc:  # tomllib.TOMLDecodeError, UnicodeDecodeError, OSError
+        raise ValueError(f"The 'config' parameter of {where} names {str(source)!r}, which "
+                         f"is not valid TOML: {exc}") from exc
+    base = config.pop("base", None)
+    if base is None:
+        return config
+    if not isinstance(base, str) or not base:
+        raise ValueError(f"The 'config' parameter of {where} must have base, in "
+                         f"{str(source)!r}, a recipe file name. Got {base!r} instead.")
+    under = _read_recipe(source.parent / base, where, (*chain, source))
+    return _overlay(under, config)
+
+
 def load_recipe(config) -> dict:
     """A complete, checked recipe from a dict or a TOML file.
 
     Parameters
     ----------
     config : dict, str or path-like
-        The recipe, or the path of its TOML file; missing keys take :data:`DEFAULTS`.
+        The recipe, or the path of its TOML file; missing keys take :data:`DEFAULTS`. A file
+        may start from another with ``base = "default.toml"`` (a path relative to its own
+        folder): its tables are merged over the base's key by key, and anything else it sets
+        (a list such as ``sweep.maps`` included) replaces the base's.
 
     Returns
     -------
@@ -178,14 +222,7 @@ def load_recipe(config) -> dict:
     source = None
     if not isinstance(config, dict):
         source = Path(config)
-        if not source.is_file():
-            raise ValueError(f"The 'config' parameter of {where} must name a TOML recipe file. "
-                             f"Got {str(source)!r} instead, which does not exist.")
-        try:
-            config = _read_toml(source)
-        except Exception as exc:  # tomllib.TOMLDecodeError, UnicodeDecodeError, OSError
-            raise ValueError(f"The 'config' parameter of {where} names {str(source)!r}, which "
-                             f"is not valid TOML: {exc}") from exc
+        config = _read_recipe(source, where)
     config = {k: v for k, v in config.items() if k != "source"}
     recipe = _merge(DEFAULTS, config, where)
     _check_recipe(recipe, where)
