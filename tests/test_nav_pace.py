@@ -60,6 +60,15 @@ def test_pairs_split_the_energy_ratio_into_time_and_mean_power():
                                                                       rel=2e-3)
     assert c["power_floor"] == pytest.approx(np.mean([c["min_power_W"] / 60.0,
                                                       c["min_power_W"] / 50.0]))
+    # the mission's energy: that variant against the reference as it is (no suffix)
+    mission = [dict(r, variant="ea-mppi-w@energy=mission", energy_J=0.5 * r["energy_J"])
+               for r in recs if r["variant"] == "ea-mppi-w"]
+    res = pace_study(recs + mission)
+    assert set(res["curves"]) == {"vehicle", "mission"}
+    m = res["curves"]["mission"]
+    assert (m["variant"], m["reference"]) == ("ea-mppi-w@energy=mission", "mppi")
+    assert m["energy_ratio"]["mean"] == pytest.approx(0.5 * c["energy_ratio"]["mean"])
+    assert m["min_power_W"] == c["min_power_W"]
     # the thesis's own means: 1.34 x the time at 0.59 x the power, a 20.6 % saving
     assert THESIS["time_ratio"] * THESIS["power_ratio"] == pytest.approx(1 - 0.206, abs=1e-3)
 

@@ -35,9 +35,14 @@ THESIS = {
 against 28.29 s, energy 10.81 kJ against 13.61 kJ): 1.34 times the time at 0.59 times the mean
 power (285 W against 481 W), a 20.6 % saving."""
 
-CURVES = {"vehicle": "", "crazyflie": "@power=crazyflie"}
-"""The power curves compared: the label suffix of each (:func:`~windnav.experiments.
-nav_benchmark.parse_variant`)."""
+CURVES = {"vehicle": ("", "", "vehicle"),
+          "crazyflie": ("@power=crazyflie", "@power=crazyflie", "crazyflie"),
+          "mission": ("@energy=mission", "", "vehicle")}
+"""The comparisons: per name, the label suffixes of the variant and of the reference
+(:func:`~windnav.experiments.nav_benchmark.parse_variant`) and the power curve both fly on:
+the vehicle's curve, the Crazyflie shape (both variants on it), and the variant with the
+mission's energy as ``J_E`` (:attr:`windnav.plan.PlannerConfig.energy_mode`) against the
+reference as it is."""
 
 
 def _min_power(shape: str, reference: str) -> float:
@@ -56,7 +61,8 @@ def _min_power(shape: str, reference: str) -> float:
 def pace_study(records: Iterable[Mapping], variant: str = "ea-mppi-w",
                reference: str = "mppi", *, confidence: float = 0.95) -> dict:
     """Time and mean-power ratios of ``variant`` against ``reference`` per pair, for each
-    power curve of :data:`CURVES` whose two variants the ``records`` hold.
+    comparison of :data:`CURVES` (power curve, energy cost) whose two variants the ``records``
+    hold.
 
     Returns
     -------
@@ -75,13 +81,13 @@ def pace_study(records: Iterable[Mapping], variant: str = "ea-mppi-w",
     """
     by_variant = records_by_variant(records)
     curves = {}
-    for name, suffix in CURVES.items():
-        mine, ref = variant + suffix, reference + suffix
+    for name, (suffix, ref_suffix, shape) in CURVES.items():
+        mine, ref = variant + suffix, reference + ref_suffix
         if mine not in by_variant or ref not in by_variant:
             continue
         pairs = paired_pace(by_variant[mine], by_variant[ref])
         t, p = np.asarray(pairs["time_ratio"]), np.asarray(pairs["power_ratio"])
-        p_min = _min_power(name, reference)
+        p_min = _min_power(shape, reference)
         floors = p_min / np.asarray(pairs["reference_power_W"])
         curves[name] = {
             "variant": mine, "reference": ref, "pairs": pairs,
@@ -92,7 +98,8 @@ def pace_study(records: Iterable[Mapping], variant: str = "ea-mppi-w",
             "power_floor": float(floors.mean()) if floors.size else None,
         }
     if not curves:
-        labels = [variant + s for s in CURVES.values()] + [reference + s for s in CURVES.values()]
+        labels = sorted({variant + c[0] for c in CURVES.values()}
+                        | {reference + c[1] for c in CURVES.values()})
         raise ValueError(f"The 'records' parameter of pace_study must hold flights of "
                          f"{variant!r} and {reference!r} (or of their @power=crazyflie "
                          f"counterfactuals, {labels}). Got variants "

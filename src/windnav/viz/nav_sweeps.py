@@ -83,8 +83,9 @@ def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path
     return _save(fig, path)
 
 
-_PACE_COLORS = {"vehicle": "#1f77b4", "crazyflie": "#d62728"}
-_PACE_NAMES = {"vehicle": "the Hummingbird's curve", "crazyflie": "the thesis's Crazyflie shape"}
+_PACE_COLORS = {"vehicle": "#1f77b4", "crazyflie": "#d62728", "mission": "#2ca02c"}
+_PACE_NAMES = {"vehicle": "the Hummingbird's curve", "crazyflie": "the thesis's Crazyflie shape",
+               "mission": "the mission's energy as J_E"}
 
 
 def plot_pace(result: dict, path) -> Path:
