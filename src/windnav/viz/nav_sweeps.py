@@ -95,9 +95,12 @@ def plot_pace(result: dict, path) -> Path:
     (``power ratio = energy ratio / time ratio``)."""
     fig, ax = plt.subplots(figsize=(7.5, 5.6))
     t_all = [result["thesis"]["time_ratio"]]
+    p_all = [result["thesis"]["power_ratio"], 1.3]
+    floors = set()
     for name, c in result["curves"].items():
         t, p = np.asarray(c["pairs"]["time_ratio"]), np.asarray(c["pairs"]["power_ratio"])
         t_all += list(t)
+        p_all += list(p)
         color = _PACE_COLORS.get(name, "0.4")
         e = c["energy_ratio"]["mean"]
         ax.scatter(t, p, s=10, alpha=0.45, color=color, lw=0,
@@ -106,7 +109,9 @@ def plot_pace(result: dict, path) -> Path:
         if c["time_ratio"]["mean"] is not None:
             ax.plot(c["time_ratio"]["mean"], c["power_ratio"]["mean"], "o", ms=11, mfc=color,
                     mec="k", mew=1.2, zorder=5)
-        if c["power_floor"] is not None:
+        # one floor line per power curve (the mission's energy flies on the vehicle's)
+        if c["power_floor"] is not None and round(c["min_power_W"], 6) not in floors:
+            floors.add(round(c["min_power_W"], 6))
             ax.axhline(c["power_floor"], color=color, ls=":", lw=1.2)
             ax.text(0.99, c["power_floor"], f"least power / MPPI's ({name})", color=color,
                     fontsize=7, ha="right", va="bottom", transform=ax.get_yaxis_transform())
@@ -119,6 +124,7 @@ def plot_pace(result: dict, path) -> Path:
     ax.plot(tt, (1.0 - PAIRED_SAVING) / tt, "k:", lw=1,
             label=f"{100 * PAIRED_SAVING:.1f} % less (the thesis's paired saving)")
     ax.set_xlim(lo, hi)
+    ax.set_ylim(0.0, 1.05 * max(p_all))
     ax.set_xlabel("time ratio  T / T_MPPI")
     ax.set_ylabel("mean-power ratio  (E/T) / (E_MPPI/T_MPPI)")
     ax.grid(alpha=0.3)
