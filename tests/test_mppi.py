@@ -10,6 +10,7 @@ import pytest
 import windnav as wn
 from windnav.city import City
 from windnav.plan import (
+    NO_MISSION,
     LocalWind,
     MPPIPlanner,
     Problem,
@@ -176,7 +177,7 @@ def test_mission_energy_is_least_at_the_max_range_speed(base):
         prob = problem._replace(velocity=np.array([speeds[s], 0.0]))
         uu = np.ascontiguousarray(u[:, :, s:s + 1])
         e_mission.append(fused_rollout_cost(cfg, uu, prob)[1][0, 2])
-        e_horizon.append(fused_rollout_cost(thesis, uu, prob._replace(mission=None))[1][0, 2])
+        e_horizon.append(fused_rollout_cost(thesis, uu, prob._replace(mission=NO_MISSION))[1][0, 2])
     best = speeds[int(np.argmin(e_mission))]
     assert best == pytest.approx(cfg.max_range_speed(), abs=0.15)
     least_power = speeds[int(np.argmin(cfg.power(speeds)))]

@@ -37,6 +37,7 @@ from windnav.plan.escape import (
 from windnav.plan.graph_search import free_space, grid_route
 from windnav.plan.local_wind import LocalWind
 from windnav.plan.mppi import (
+    NO_MISSION,
     MPPIPlanner,
     PlannerStats,
     PlanResult,
@@ -55,6 +56,7 @@ from windnav.plan.obstacles import ObstacleField, obstacle_cost, obstacle_field,
 __all__ = [
     "ENERGY_MODES",
     "MOVES",
+    "NO_MISSION",
     "EnergyRoute",
     "EscapeConfig",
     "FastestEscape",

@@ -72,6 +72,11 @@ __all__ = [
 ]
 
 
+NO_MISSION = np.zeros(5)
+NO_MISSION.setflags(write=False)
+"""``Problem.mission`` of the thesis's horizon energy."""
+
+
 class Problem(NamedTuple):
     """What one update plans against (all relative to the vehicle's current position).
 
@@ -94,12 +99,7 @@ class Problem(NamedTuple):
     goal: np.ndarray
     field: ObstacleField
     wind: tuple
-    mission: np.ndarray = None  # None: NO_MISSION
-
-
-NO_MISSION = np.zeros(5)
-NO_MISSION.setflags(write=False)
-"""``Problem.mission`` of the thesis's horizon energy."""
+    mission: np.ndarray = NO_MISSION
 
 
 RolloutCost = Callable[[PlannerConfig, np.ndarray, Problem], tuple[np.ndarray, np.ndarray]]
@@ -208,8 +208,7 @@ def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Pro
     f = problem.field
     K.rollout_cost(controls, problem.velocity, problem.goal, config.dt, config.drag,
                    1.0 / config.lidar_range, config.a_min, config.a_max, config.obstacle_weight,
-                   config.energy_weight, config.power_table(),
-                   NO_MISSION if problem.mission is None else problem.mission,
+                   config.energy_weight, config.power_table(), problem.mission,
                    mode, grid, meta, not f.empty,
                    *f.kernel_args(), costs, parts)
     return costs, parts
@@ -466,7 +465,8 @@ class MPPIPlanner:
         goal = self.goal - pos
         dist = float(np.hypot(*goal))
         packed = _pack_wind(cfg, wind)
-        mission = mission_terms(cfg, goal, packed) if cfg.energy_mode == "mission" else None
+        mission = (mission_terms(cfg, goal, packed) if cfg.energy_mode == "mission"
+                   else NO_MISSION)
         if dist > cfg.lidar_range:
             goal *= cfg.lidar_range / dist
         field_ = obstacle_field(points, resolution=cfg.obstacle_resolution)
