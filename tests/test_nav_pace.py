@@ -66,7 +66,8 @@ def test_pairs_split_the_energy_ratio_into_time_and_mean_power():
     res = pace_study(recs + mission)
     assert set(res["curves"]) == {"vehicle", "mission"}
     m = res["curves"]["mission"]
-    assert (m["variant"], m["reference"]) == ("ea-mppi-w@energy=mission", "mppi")
+    assert (m["variant"], m["reference"], m["shape"]) == ("ea-mppi-w@energy=mission", "mppi",
+                                                         "vehicle")
     assert m["energy_ratio"]["mean"] == pytest.approx(0.5 * c["energy_ratio"]["mean"])
     assert m["min_power_W"] == c["min_power_W"]
     # the thesis's own means: 1.34 x the time at 0.59 x the power, a 20.6 % saving

@@ -70,7 +70,8 @@ def pace_study(records: Iterable[Mapping], variant: str = "ea-mppi-w",
         ``variant``, ``reference``, ``thesis`` (:data:`THESIS`) and ``curves``: per curve
         name, the two labels, ``pairs`` (:func:`~windnav.experiments.nav_records.paired_pace`),
         ``time_ratio``, ``power_ratio`` and ``energy_ratio`` (mean, std, n, t interval),
-        ``min_power_W`` (the curve's least power) and ``power_floor``: ``min_power_W`` over the
+        ``shape`` (the power curve both fly on), ``min_power_W`` (the curve's least power)
+        and ``power_floor``: ``min_power_W`` over the
         reference's mean power, averaged over the pairs (no pair's power ratio can be lower
         than its own floor).
 
@@ -90,7 +91,7 @@ def pace_study(records: Iterable[Mapping], variant: str = "ea-mppi-w",
         p_min = _min_power(shape, reference)
         floors = p_min / np.asarray(pairs["reference_power_W"])
         curves[name] = {
-            "variant": mine, "reference": ref, "pairs": pairs,
+            "variant": mine, "reference": ref, "shape": shape, "pairs": pairs,
             "time_ratio": _describe(t.tolist(), confidence),
             "power_ratio": _describe(p.tolist(), confidence),
             "energy_ratio": _describe((t * p).tolist(), confidence),

@@ -110,8 +110,8 @@ def plot_pace(result: dict, path) -> Path:
             ax.plot(c["time_ratio"]["mean"], c["power_ratio"]["mean"], "o", ms=11, mfc=color,
                     mec="k", mew=1.2, zorder=5)
         # one floor line per power curve (the mission's energy flies on the vehicle's)
-        if c["power_floor"] is not None and round(c["min_power_W"], 6) not in floors:
-            floors.add(round(c["min_power_W"], 6))
+        if c["power_floor"] is not None and c["shape"] not in floors:
+            floors.add(c["shape"])
             ax.axhline(c["power_floor"], color=color, ls=":", lw=1.2)
             ax.text(0.99, c["power_floor"], f"least power / MPPI's ({name})", color=color,
                     fontsize=7, ha="right", va="bottom", transform=ax.get_yaxis_transform())
