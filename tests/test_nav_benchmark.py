@@ -344,7 +344,17 @@ def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
     assert nb.parse_variant("ea-mppi-w-hat@outside=robot@energy=mission") == (
         "ea-mppi-w-hat", {"onboard": {"outside": "robot"},
                           "planner_overrides": {"energy_mode": "mission"}})
+    assert nb.parse_variant("ea-mppi-w-hat@outside=robot@tau=5@energy=mission") == (
+        "ea-mppi-w-hat", {"onboard": {"outside": "robot", "wrobot_tau_s": 5.0},
+                          "planner_overrides": {"energy_mode": "mission"}})
+    assert nb.parse_variant("ea-mppi-w-hat@tau=0.5") == (
+        "ea-mppi-w-hat", {"onboard": {"wrobot_tau_s": 0.5}})
     for bad, why in (("ea-mppi-w@energy=horizon", "energy must be 'mission'"),
+                     ("ea-mppi-w@tau=5", "takes no parameter 'tau'"),
+                     ("ea-mppi-w-esc@tau=5", "takes no parameter 'tau'"),
+                     ("ea-mppi-w-hat@tau=0", "tau must be finite and > 0"),
+                     ("ea-mppi-w-hat@tau=inf", "tau must be finite and > 0"),
+                     ("ea-mppi-w-hat@tau=2@tau=3", "repeated"),
                      ("ea-mppi-w@energy=mission@energy=mission", "repeated"),
                      ("gs-w@energy=mission", "takes no parameters"),
                      ("ea-mppi-w-hat@outside=zero", "outside must be 'robot'"),

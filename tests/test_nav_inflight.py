@@ -9,6 +9,7 @@ from windnav.city import City
 from windnav.experiments import nav_inflight as ni
 from windnav.experiments.nav_suite import SuiteSpec, make_suite
 from windnav.experiments.navigate import navigate, simulate_flow
+from windnav.experiments.onboard import smooth_wind
 from windnav.predict import LocalBaseline, field_errors
 from windnav.predict.dataset import field_from_solution
 
@@ -69,6 +70,17 @@ def test_samples_follow_the_flight_and_the_mean_field(city, flow, flight):
     # the same seed, the same scans
     again = ni.inflight_samples(flight, city, flow, offsets, every_s=0.5, settle_s=2.0, rng=0)
     np.testing.assert_array_equal(again["scans"], s["scans"])
+    assert not any(key.startswith("ukf_tau") for key in s)
+    # averaged estimates: the whole flight's estimate smoothed, then sampled at the same steps
+    avg = ni.inflight_samples(flight, city, flow, offsets, every_s=0.5, settle_s=2.0, rng=0,
+                              taus=(1.0, 4.0))
+    for tau in (1.0, 4.0):
+        want = smooth_wind(flight.wind_estimate[:, :2], flight.t[1] - flight.t[0], tau)[k]
+        np.testing.assert_array_equal(avg[ni.smoothed_key(tau)], want)
+    assert ni.smoothed_key(4.0) == "ukf_tau4" and ni.smoothed_key(0.5) == "ukf_tau0.5"
+    assert np.abs(avg["ukf_tau4"] - s["ukf"]).max() > 0.0
+    with pytest.raises(ValueError, match="'taus'"):
+        ni.inflight_samples(flight, city, flow, offsets, taus=(0.0,))
 
 
 def test_errors_against_independent_arithmetic(city, flow, flight):
@@ -102,6 +114,15 @@ def test_errors_against_independent_arithmetic(city, flow, flight):
         assert more["errors"][f"calm_{wind}"]["speed_error"] == pytest.approx(
             speed_true[free].mean(), rel=1e-6)
     assert {m: more["errors"][m] for m in ni.MODELS} == out["errors"]
+    # an averaged estimate: its input error, and the decoder and Local given it
+    s["ukf_tau2"] = s["mean"] + np.array([0.0, 2.0])
+    avg = ni.inflight_errors(s, Oracle(s))
+    assert list(avg["errors"]) == [*ni.MODELS, "decoder_ukf_tau2", "local_ukf_tau2"]
+    assert avg["inputs"]["ukf_tau2_vs_mean"] == pytest.approx(2.0, abs=1e-12)
+    assert avg["errors"]["local_ukf_tau2"] == field_errors(
+        LocalBaseline().predict(s["scans"], s["w_up"], s["ukf_tau2"]), s["labels"], free,
+        s["speed"])
+    del s["ukf_tau2"]
     with pytest.raises(ValueError, match="'compare'.*identifier"):
         ni.inflight_errors(s, Oracle(s), compare={"local": calm})
     coarse = Oracle(s)
@@ -126,13 +147,17 @@ def test_bad_input_is_refused(city, flow, flight):
 def test_the_study_flies_and_groups_by_speed():
     ids = [sc.scenario_id for sc in make_suite(TINY)][:2]  # the two pairs of one wind
     assert ids == ["tiny/m00/w00/p0", "tiny/m00/w00/p1"]
-    res = ni.inflight_study(TINY, ids, every_s=1.0, executor="serial", progress=False)
+    res = ni.inflight_study(TINY, ids, every_s=1.0, executor="serial", progress=False,
+                            taus=(3.0, 1.0))
     assert res["errors"] == {} and list(res["flights"]) == ids
     assert list(res["by_speed"]) == [3.0] and res["by_speed"][3.0]["flights"] == 2
     n = sum(f["samples"] for f in res["flights"].values())
     assert res["by_speed"][3.0]["n_samples"] == res["all"]["n_samples"] == n > 0
+    assert res["taus"] == [1.0, 3.0]
+    assert {"ukf_tau1_vs_mean", "ukf_tau3_vs_mean"} <= set(res["all"]["inputs"])
     lines = ni.summarize_inflight(res)
-    assert len(lines) == 4 and lines[2].startswith("| 3 | 2 (")
+    assert len(lines) == 9 and lines[2].startswith("| 3 | 2 (")
+    assert lines[5].startswith("| inlet (m/s) | tau = 0 s:") and "tau = 3 s" in lines[5]
 
 
 def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, capsys):
@@ -165,14 +190,16 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
     out2 = tmp_path / "inflight2"
     assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0", "--pairs", "0",
                      "--every", "1", "--out", str(out2), "--no-progress",
-                     "--compare", f"shipped={DEFAULT_MODEL}"]) == 0
+                     "--compare", f"shipped={DEFAULT_MODEL}", "--tau", "2"]) == 0
     doc2 = json.loads((out2 / "nav_inflight.json").read_text())
+    assert doc2["taus"] == [2.0] and "decoder_ukf_tau2" in doc2["all"]["errors"]
     assert doc2["compare"] == ["shipped"] and doc2["models"] == {"shipped": str(DEFAULT_MODEL)}
     assert "shipped_ukf" in doc2["all"]["errors"]
     assert "| inlet (m/s) | decoder, UKF |" in capsys.readouterr().out
     for bad, why in ((["--pairs", "7"], "'--pairs' parameter"),
                      (["--variant", "ea-mppi-w"], "'--variant' parameter"),
                      (["--every", "0"], "'--every' parameter"),
+                     (["--tau", "0"], "'--tau' parameter"),
                      (["--compare", str(tmp_path / "none.npz")], "'--compare' parameter")):
         monkeypatch.setattr(ni, "inflight_study", real)
         assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0",

@@ -23,7 +23,7 @@ from windnav.experiments.nav_benchmark import (
 )
 from windnav.experiments.nav_suite import Scenario, SuiteSpec
 from windnav.experiments.navigate import navigate, simulate_flow
-from windnav.experiments.onboard import STAGES, OnboardOptions, default_decoder
+from windnav.experiments.onboard import STAGES, OnboardOptions, default_decoder, smooth_wind
 from windnav.plan import VARIANTS, LocalWind, planner_config
 from windnav.vehicle import params
 
@@ -163,6 +163,56 @@ def test_outside_robot_fills_the_window_with_the_decoders_w_robot(city, flow):
         assert wind.fill == tuple(call[2][0]) and np.hypot(*wind.fill) > 0.0
     with pytest.raises(ValueError, match="'outside'"):
         fly(city, flow, duration=1.0, onboard={"outside": "up"})
+
+
+def test_an_averaged_w_robot_is_the_ukf_estimate_smoothed_at_100_hz(city, flow):
+    # wrobot_tau_s > 0: the decoder and the fill get smooth_wind of the UKF's estimate (every
+    # control step), not the estimate of the decoding step; the estimate itself is unchanged
+    dec, spy = Recording(), WindSpy()
+    res = fly(city, flow, decoder=dec, planner=spy, duration=4.0,
+              onboard={"outside": "robot", "wrobot_tau_s": 2.0})
+    assert res.onboard.settings["wrobot_tau_s"] == 2.0
+    est = res.wind_estimate[:, :2]
+    avg = smooth_wind(est[:-1], 0.01, 2.0)  # the last step ended the flight
+    for j, (_, _, w_robot, _) in enumerate(dec.calls):
+        np.testing.assert_allclose(w_robot[0], avg[2 * j], rtol=1e-12, atol=1e-12)
+    got = np.array([c[2][0] for c in dec.calls])
+    assert np.abs(got - est[:-1:2][: len(got)]).max() > 0.05  # it is not the raw estimate
+    for j, wind in enumerate(spy.winds):
+        assert wind.fill == tuple(dec.calls[5 * j][2][0])
+    with pytest.raises(ValueError, match="'wrobot_tau_s'"):
+        fly(city, flow, duration=1.0, onboard={"wrobot_tau_s": -1.0})
+
+
+def test_smooth_wind_is_a_first_order_low_pass():
+    dt, tau = 0.01, 0.5
+    step = np.r_[np.zeros(1), np.ones(400)][:, None] * [3.0, -1.0]
+    out = smooth_wind(step, dt, tau)
+    # the step response of a first-order lag: 1 - exp(-t / tau), t counted from the step
+    t = np.arange(400) * dt
+    np.testing.assert_allclose(out[1:], (1.0 - np.exp(-(t + dt) / tau))[:, None] * [3.0, -1.0],
+                               rtol=1e-12, atol=1e-12)
+    # equal to the recursion, written out
+    rng = np.random.default_rng(0)
+    w = rng.normal(size=(300, 2))
+    a = 1.0 - math.exp(-dt / tau)
+    ref, m = np.empty_like(w), w[0].copy()
+    for k in range(w.shape[0]):
+        m = m + a * (w[k] - m)
+        ref[k] = m
+    np.testing.assert_allclose(smooth_wind(w, dt, tau), ref, rtol=1e-12, atol=1e-12)
+    # tau = 0 is the series itself; a non-finite sample gives NaN and restarts the average
+    np.testing.assert_array_equal(smooth_wind(w, dt, 0.0), w)
+    w[100, 1] = np.nan
+    got = smooth_wind(w, dt, tau)
+    assert np.isnan(got[100]).all()
+    np.testing.assert_allclose(got[:100], ref[:100], rtol=1e-12)
+    np.testing.assert_allclose(got[101:], smooth_wind(w[101:], dt, tau), rtol=1e-12)
+    assert got[101, 0] == w[101, 0]
+    for args, match in [((w, 0.0, tau), "'dt'"), ((w, dt, -1.0), "'tau_s'"),
+                        ((w, dt, math.inf), "'tau_s'"), ((1.0, dt, tau), "'wind'")]:
+        with pytest.raises(ValueError, match=match):
+            smooth_wind(*args)
 
 
 def test_outside_truth_fills_the_window_with_the_true_mean_wind_at_the_vehicle(city, flow):

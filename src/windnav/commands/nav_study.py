@@ -54,7 +54,8 @@ energy (:mod:`windnav.experiments.nav_tilt`). ``inflight`` re-flies the scenario
 (pairs ``--pairs``, default one tailwind and one headwind, 0 and 2) with the onboard stack
 (``--variant``, default ``ea-mppi-w-hat@outside=robot``) and scores the decoder and the
 baselines along the paths against the mean field, given the UKF's, the mean and the true
-instantaneous ``W_robot`` (:mod:`windnav.experiments.nav_inflight`); it needs no store.
+instantaneous ``W_robot`` (and, with ``--tau``, the UKF's estimate averaged over time)
+(:mod:`windnav.experiments.nav_inflight`); it needs no store.
 """
 
 from __future__ import annotations
@@ -116,6 +117,10 @@ def register(subparsers) -> None:
     p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
                    help="inflight: another decoder scored on the same samples (repeatable; it "
                         "does not fly)")
+    p.add_argument("--tau", type=float, nargs="+", default=[], metavar="S",
+                   help="inflight: also score the decoder and Local given the UKF's estimate "
+                        "averaged over time with each time constant, s (> 0; the onboard "
+                        "stack's '@tau=S'); nothing flies differently")
     p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
@@ -184,6 +189,9 @@ def run(args) -> int:
     if study != "inflight" and args.compare:
         raise ValueError(f"The '--compare' parameter of {name} is for the inflight study. Got "
                          f"{args.compare!r} for {study!r} instead.")
+    if study != "inflight" and args.tau:
+        raise ValueError(f"The '--tau' parameter of {name} is for the inflight study. Got "
+                         f"{args.tau!r} for {study!r} instead.")
     if study == "winds":
         return _winds(args, name, spec)
     if study == "gs":
@@ -403,12 +411,14 @@ def _inflight(args, name: str, spec) -> int:
         res = nav_inflight.inflight_study(
             spec, ids, variant=args.variant or nav_inflight.INFLIGHT_VARIANT,
             every_s=args.every, compare={n: load_decoder(f) for n, f in compare.items()},
-            executor=args.executor, workers=workers, progress=not args.no_progress)
+            taus=args.tau, executor=args.executor, workers=workers,
+            progress=not args.no_progress)
     except ValueError as exc:
         raise ValueError(str(exc).replace("'variant' parameter of inflight_study",
                                           f"'--variant' parameter of {name}").replace(
             "'every_s' parameter of inflight_study", f"'--every' parameter of {name}").replace(
-            "'compare' parameter of inflight_study", f"'--compare' parameter of {name}")) from None
+            "'compare' parameter of inflight_study", f"'--compare' parameter of {name}").replace(
+            "'taus' parameter of inflight_study", f"'--tau' parameter of {name}")) from None
     res.update(study="inflight", suite=spec.name, seed=spec.seed, maps=list(maps),
                pairs=pairs, models={n: str(f) for n, f in compare.items()},
                elapsed_s=time.perf_counter() - t0)

@@ -347,7 +347,7 @@ PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
               "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
               "launch": "escape_launch", "gust": "escape_gust", "tilt": "tilt_max_deg",
-              "outside": "outside", "energy": "energy_mode"}
+              "outside": "outside", "energy": "energy_mode", "tau": "wrobot_tau_s"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -359,7 +359,9 @@ authority), ``energy=mission`` (``J_E`` is the energy of the mission instead of 
 ``ea-mppi-w-hat`` only, ``decoder`` the onboard decoder (a key of :data:`DECODERS`) and
 ``outside=robot`` (the planner's wind outside the decoder's window is the uniform ``W_robot``
 the decoder was given instead of zero: :attr:`windnav.experiments.onboard.OnboardOptions.outside`,
-ours, not the thesis's); for ``mppi-w`` and ``ea-mppi-w`` with a finite ``h``, ``outside=truth``
+ours, not the thesis's) and ``tau`` (s, finite, > 0: ``W_robot`` is the UKF's estimate averaged
+with that time constant, :attr:`~windnav.experiments.onboard.OnboardOptions.wrobot_tau_s`,
+ours); for ``mppi-w`` and ``ea-mppi-w`` with a finite ``h``, ``outside=truth``
 (outside ``L_t`` the planner gets the true mean wind at the vehicle instead of zero:
 :func:`windnav.experiments.navigate.local_wind`, ours: the onboard option with a perfect
 estimate); and for
@@ -394,6 +396,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     power-curve counterfactual), ``"ea-mppi-w@tilt=70"`` (the tilt-cap counterfactual),
     ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder), ``"ea-mppi-w-hat@outside=robot"``
     (the onboard stack's ``W_robot`` outside the decoder's window),
+    ``"ea-mppi-w-hat@outside=robot@tau=5"`` (and its ``W_robot`` averaged over 5 s),
     ``"ea-mppi-w@h=25@outside=truth"`` (the true mean wind at the vehicle outside the window),
     ``"ea-mppi-w@energy=mission"`` (the mission's energy as ``J_E``).
 
@@ -405,7 +408,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
         ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
         ``horizon``, ``power_shape``, ``tilt_max_deg``, ``decoder`` (a key of
-        :data:`DECODERS`, which :func:`fly` loads), ``onboard`` (``{"outside": "robot"}``),
+        :data:`DECODERS`, which :func:`fly` loads), ``onboard`` (fields of
+        :class:`~windnav.experiments.onboard.OnboardOptions`: ``outside``, ``wrobot_tau_s``),
         ``outside`` (``"truth"``) and ``escape`` (an :class:`~windnav.plan.EscapeConfig`).
 
     Raises
@@ -428,7 +432,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'@tilt=DEG' (in (0, {TILT_LIMIT_DEG:g})) and/or "
                           f"'@energy=mission', "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}) and/or "
-                          f"'@outside=robot', "
+                          f"'@outside=robot' and/or '@tau=S' (s, finite, > 0), "
                           f"'mppi-w' or 'ea-mppi-w' with '@h=H' and '@outside=truth', or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
@@ -451,7 +455,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"bad or repeated parameter {item!r}")
         seen.add(key)
         if ((key != "energy"
-             and (key == "decoder" or (key == "outside" and base not in _TRUTH_FILL)) != onboard)
+             and (key in ("decoder", "tau") or (key == "outside" and base not in _TRUTH_FILL))
+             != onboard)
                 or (key in _ESCAPE_KEYS and not VARIANTS[base].escape)):
             raise fail(f"{base!r} takes no parameter {key!r}")
         if key == "outside":
@@ -460,7 +465,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                 raise fail(f"outside must be {want!r} for {base!r} (zero is the default), "
                            f"not {text!r}")
             if onboard:
-                options["onboard"] = {"outside": "robot"}
+                options.setdefault("onboard", {})["outside"] = "robot"
             else:
                 options["outside"] = "truth"
             continue
@@ -490,10 +495,13 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             if not 0.0 < value < TILT_LIMIT_DEG:
                 raise fail(f"tilt must be in (0, {TILT_LIMIT_DEG:g}) degrees")
             options["tilt_max_deg"] = value
-        elif key in _ESCAPE_KEYS:
+        elif key in _ESCAPE_KEYS or key == "tau":
             if not (0.0 < value < math.inf):
                 raise fail(f"{key} must be finite and > 0")
-            escape[PARAMETERS[key]] = value
+            if key == "tau":
+                options.setdefault("onboard", {})["wrobot_tau_s"] = value
+            else:
+                escape[PARAMETERS[key]] = value
         elif key == "qe":
             overrides["energy_weight"] = value
         elif value == 0.0:

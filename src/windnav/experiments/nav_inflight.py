@@ -14,9 +14,12 @@ each flight, scores against the flow's mean field in the decoder's window (the w
 - the Local baseline with each of those, and the Upstream baseline;
 
 and reports the input errors, RMS over the samples: ``|w_ukf - w_mean|``, ``|w - w_mean|``
-(the flow's unsteadiness at the vehicle) and ``|w_ukf - w|`` (the UKF's own error). Everything
-is grouped by inlet speed. The scans are drawn afresh at the sampled positions with the
-decoder's training noise (the flight's own scans are not kept; their noise is independent
+(the flow's unsteadiness at the vehicle) and ``|w_ukf - w|`` (the UKF's own error). With
+``taus``, also the UKF's estimate averaged over time
+(:func:`windnav.experiments.onboard.smooth_wind` with each time constant, the onboard stack's
+``wrobot_tau_s``): its distance to the mean, and the decoder's and Local's errors given it.
+Everything is grouped by inlet speed. The scans are drawn afresh at the sampled positions with
+the decoder's training noise (the flight's own scans are not kept; their noise is independent
 draws of the same law).
 """
 
@@ -29,7 +32,7 @@ import numpy as np
 from windnav._validate import positive_float
 
 __all__ = ["INFLIGHT_VARIANT", "MODELS", "inflight_errors", "inflight_samples",
-           "inflight_study", "summarize_inflight"]
+           "inflight_study", "smoothed_key", "summarize_inflight"]
 
 INFLIGHT_VARIANT = "ea-mppi-w-hat@outside=robot"
 """The variant re-flown: the onboard stack with ``W_robot`` outside the decoder's window."""
@@ -45,8 +48,13 @@ INPUTS = {"ukf_vs_mean": ("ukf", "mean"), "inst_vs_mean": ("inst", "mean"),
 """The input errors reported, as pairs of winds at the vehicle."""
 
 
+def smoothed_key(tau_s: float) -> str:
+    """The samples' key of the UKF's estimate averaged with time constant ``tau_s`` (s)."""
+    return f"ukf_tau{float(tau_s):g}"
+
+
 def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
-                     settle_s: float = 2.0, rng=None) -> dict:
+                     settle_s: float = 2.0, rng=None, taus: Sequence[float] = ()) -> dict:
     """Decoder inputs and labels along one flown path.
 
     Parameters
@@ -65,15 +73,20 @@ def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
         Samples begin this long after take-off (the UKF's start), s (>= 0).
     rng : numpy.random.Generator, int or None
         The scans' noise.
+    taus : sequence of float
+        Time constants (s, > 0) of averages of the UKF's estimate to sample as well.
 
     Returns
     -------
     dict
         ``t`` (N,) s, ``position`` (N, 2) m, ``scans`` (N, 360) m, ``w_up`` (N, 2),
         ``ukf``, ``inst``, ``mean`` (N, 2) m/s (the winds at the vehicle), ``labels``
-        (N, 2, H, H) m/s and ``free`` (N, H, H) of the mean field, ``speed`` (N,) inlet speed.
+        (N, 2, H, H) m/s and ``free`` (N, H, H) of the mean field, ``speed`` (N,) inlet speed;
+        for each of ``taus``, :func:`smoothed_key` (N, 2) m/s: the estimate averaged over the
+        flight at every control step (:func:`windnav.experiments.onboard.smooth_wind`), sampled.
         Samples where the UKF's estimate is not finite are left out.
     """
+    from windnav.experiments.onboard import smooth_wind
     from windnav.predict.dataset import N_RAYS, SCAN_MAX, SCAN_MIN, SCAN_NOISE, field_from_solution
 
     where = "inflight_samples"
@@ -86,10 +99,13 @@ def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
     t = np.asarray(result.t, dtype=np.float64)
     dt = float(t[1] - t[0]) if t.size > 1 else 1.0
     step = max(1, int(round(every / dt)))
+    taus = [positive_float(tau, "taus", where) for tau in taus]
     k = np.arange(0, t.size, step)
     k = k[t[k] >= settle - 1e-9]
-    ukf = np.asarray(result.wind_estimate, dtype=np.float64)[k, :2]
+    estimate = np.asarray(result.wind_estimate, dtype=np.float64)[:, :2]
+    ukf = estimate[k]
     k, ukf = k[np.isfinite(ukf).all(axis=1)], ukf[np.isfinite(ukf).all(axis=1)]
+    smoothed = {smoothed_key(tau): smooth_wind(estimate, dt, tau)[k] for tau in taus}
     solution = getattr(flow, "solution", flow)
     field = field_from_solution(city, solution)
     pos = np.asarray(result.position, dtype=np.float64)[k, :2]
@@ -102,7 +118,7 @@ def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
             "w_up": np.broadcast_to(field.w_up, (n, 2)).copy(), "ukf": ukf,
             "inst": np.asarray(result.wind, dtype=np.float64)[k, :2],
             "mean": field.interpolate(pos), "labels": labels, "free": free,
-            "speed": np.full(n, field.inlet_speed)}
+            "speed": np.full(n, field.inlet_speed), **smoothed}
 
 
 def _concat(groups: Sequence[Mapping]) -> dict:
@@ -126,8 +142,10 @@ def inflight_errors(samples: Mapping, decoder, compare: Mapping | None = None) -
     -------
     dict
         ``errors[model]``: :func:`windnav.predict.field_errors` for each of :data:`MODELS`
-        (then the compared decoders'); ``inputs[name]``: RMS of the horizontal difference,
-        m/s, for each of :data:`INPUTS`; ``n_samples``.
+        (then the compared decoders', then ``decoder_KEY`` and ``local_KEY`` for each averaged
+        estimate ``KEY`` of the samples, :func:`smoothed_key`); ``inputs[name]``: RMS of the
+        horizontal difference, m/s, for each of :data:`INPUTS` (then ``KEY_vs_mean``);
+        ``n_samples``.
     """
     from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
 
@@ -150,9 +168,17 @@ def inflight_errors(samples: Mapping, decoder, compare: Mapping | None = None) -
     errors["upstream"] = field_errors(
         UpstreamBaseline(size, spacing).predict(samples["scans"], samples["w_up"],
                                                 samples["mean"]), *args)
+    smoothed = sorted((key for key in samples if key.startswith("ukf_tau")),
+                      key=lambda key: float(key[len("ukf_tau"):]))
+    for key in smoothed:
+        for name, model in (("decoder", decoder), ("local", local)):
+            errors[f"{name}_{key}"] = field_errors(
+                model.predict(samples["scans"], samples["w_up"], samples[key]), *args)
+    pairs = {**INPUTS, **{f"{key}_vs_mean": (key, "mean") for key in smoothed}}
     inputs = {name: float(np.sqrt(np.mean(np.sum((samples[a] - samples[b]) ** 2, axis=1))))
-              for name, (a, b) in INPUTS.items()}
-    order = [*MODELS, *(f"{name}_{wind}" for name in compare for wind in ("ukf", "mean", "inst"))]
+              for name, (a, b) in pairs.items()}
+    order = [*MODELS, *(f"{name}_{wind}" for name in compare for wind in ("ukf", "mean", "inst")),
+             *(f"{name}_{key}" for key in smoothed for name in ("decoder", "local"))]
     return {"errors": {m: errors[m] for m in order}, "inputs": inputs, "n_samples": n}
 
 
@@ -185,7 +211,7 @@ def _decoder(variant: str):
 def _fly_wind(task):
     """Worker: one wind of the suite, each of its scenarios flown with the onboard stack and
     sampled (:func:`inflight_samples`)."""
-    spec, scenario_ids, variant, every_s = task
+    spec, scenario_ids, variant, every_s, taus = task
     from windnav.experiments.nav_benchmark import fly, suite_flow
     from windnav.experiments.nav_suite import parse_scenario_id, suite_map
 
@@ -198,7 +224,7 @@ def _fly_wind(task):
     for sc in scenarios:
         res = fly(spec, sc, variant, city=city, flow=flow)
         samples = inflight_samples(res, city, flow, offsets, every_s=every_s,
-                                   rng=np.random.default_rng([sc.seed, 7]))
+                                   rng=np.random.default_rng([sc.seed, 7]), taus=taus)
         samples = {k: (v.astype(np.float32) if k in ("scans", "labels") else v)
                    for k, v in samples.items()}
         out.append({"scenario_id": sc.scenario_id, "speed": sc.speed, "outcome": res.outcome,
@@ -208,8 +234,8 @@ def _fly_wind(task):
 
 def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT_VARIANT,
                    every_s: float = 0.5, compare: Mapping | None = None,
-                   executor: str = "process", workers: int | None = None,
-                   progress: bool = True) -> dict:
+                   taus: Sequence[float] = (), executor: str = "process",
+                   workers: int | None = None, progress: bool = True) -> dict:
     """Re-fly ``scenario_ids`` with the onboard stack and score its wind along the paths.
 
     Parameters
@@ -224,6 +250,9 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
         Time between samples along each flight, s.
     compare : mapping of str to Decoder, optional
         Other decoders scored on the same samples (:func:`inflight_errors`); they do not fly.
+    taus : sequence of float
+        Time constants, s (> 0): the decoder and Local are also scored given the UKF's
+        estimate averaged with each (:func:`inflight_samples`); nothing flies differently.
     executor, workers, progress
         :func:`windnav.experiments.executor.run_tasks`.
 
@@ -233,8 +262,8 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
         ``by_speed[speed]``: :func:`inflight_errors` of that inlet speed's samples, with
         ``flights`` and ``failed`` (non-success outcomes); ``all``: the same over every
         sample; ``flights``: per scenario its outcome, time and sample count; ``variant``,
-        ``every_s``, ``compare`` (the compared decoders' names), ``errors`` (harness errors,
-        scenario id to message; a wind that fails fails all its scenarios).
+        ``every_s``, ``taus``, ``compare`` (the compared decoders' names), ``errors`` (harness
+        errors, scenario id to message; a wind that fails fails all its scenarios).
     """
     from windnav.experiments.executor import run_tasks
     from windnav.experiments.nav_benchmark import check_scenario_ids, parse_variant
@@ -249,13 +278,14 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
     ids = list(scenario_ids)
     check_scenario_ids(spec, ids, where)
     every = positive_float(every_s, "every_s", where)
+    taus = tuple(sorted({positive_float(tau, "taus", where) for tau in taus}))
     decoder = _decoder(variant)
     compare = _check_compare(compare, np.asarray(decoder.offsets, dtype=np.float64), where)
     winds = {}
     for sid in ids:
         sc = parse_scenario_id(spec, sid)
         winds.setdefault((sc.map_index, sc.wind_index), []).append(sid)
-    tasks = [(spec, group, variant, every) for group in winds.values()]
+    tasks = [(spec, group, variant, every, taus) for group in winds.values()]
     flown, errors = [], {}
     for res in run_tasks(_fly_wind, tasks, executor, workers=workers, progress=progress,
                          desc="in-flight decoder (winds)"):
@@ -274,7 +304,7 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
                            "flights": len(group),
                            "failed": sum(f["outcome"] != "success" for f in group)}
     usable = [f["samples"] for f in flown if f["samples"]["t"].size]
-    return {"variant": variant, "every_s": every,
+    return {"variant": variant, "every_s": every, "taus": list(taus),
             "by_speed": by_speed,
             "all": inflight_errors(_concat(usable), decoder, compare) if usable else None,
             "compare": sorted(compare),
@@ -308,6 +338,23 @@ def summarize_inflight(result: Mapping) -> list[str]:
                      f"{i['ukf_vs_inst']:.2f} | {cell('decoder_ukf')} | {cell('decoder_mean')} | "
                      f"{cell('decoder_inst')} | {cell('local_ukf')} | {cell('local_mean')} | "
                      f"{cell('upstream')} |")
+    taus = result.get("taus") or []
+    if taus:
+        keys = [smoothed_key(tau) for tau in taus]
+        lines += ["", "| inlet (m/s) | " + " | ".join(
+            f"tau = {tau:g} s: |w_avg - w_mean|, decoder, Local" for tau in [0.0, *taus])
+            + " |", "|---" * (2 + len(taus)) + "|"]
+        for label, r in rows:
+            e, i = r["errors"], r["inputs"]
+            cells = [f"{i['ukf_vs_mean']:.2f}, {e['decoder_ukf']['speed_error']:.2f} / "
+                     f"{e['decoder_ukf']['direction_error_deg']:.1f}, "
+                     f"{e['local_ukf']['speed_error']:.2f} / "
+                     f"{e['local_ukf']['direction_error_deg']:.1f}"]
+            cells += [f"{i[f'{k}_vs_mean']:.2f}, {e[f'decoder_{k}']['speed_error']:.2f} / "
+                      f"{e[f'decoder_{k}']['direction_error_deg']:.1f}, "
+                      f"{e[f'local_{k}']['speed_error']:.2f} / "
+                      f"{e[f'local_{k}']['direction_error_deg']:.1f}" for k in keys]
+            lines.append(f"| {label} | " + " | ".join(cells) + " |")
     names = result.get("compare") or []
     if names:
         lines += ["", "| inlet (m/s) | " + " | ".join(

@@ -78,6 +78,7 @@ __all__ = [
     "OnboardStack",
     "STAGES",
     "default_decoder",
+    "smooth_wind",
 ]
 
 ONBOARD_CONDITIONS = "thesis"
@@ -114,6 +115,12 @@ class OnboardOptions:
         The planner's wind outside the decoder's window: ``"zero"`` (default, the thesis's
         ``L_t``) or ``"robot"``, the ``W_robot`` the decoder was given (the UKF's horizontal
         estimate at the last prediction), uniform: the Local baseline beyond the field.
+    wrobot_tau_s : float
+        Time constant of the exponential average of the UKF's horizontal estimate that is given
+        as ``W_robot``, s (>= 0; :func:`smooth_wind` at the UKF's rate). Default 0: the
+        estimate itself, the thesis's. Ours: the decoder is trained with the *mean* wind at the
+        robot, and the UKF tracks the instantaneous wind, which in the benchmark's unsteady
+        urban flows is several m/s from the mean (``windnav nav-study inflight``).
     """
 
     conditions: object = ONBOARD_CONDITIONS
@@ -121,6 +128,7 @@ class OnboardOptions:
     scan_noise: float = SCAN_NOISE
     settle_s: float = 2.0
     outside: str = "zero"
+    wrobot_tau_s: float = 0.0
 
     def __post_init__(self):
         from windnav.estimate import CONDITIONS, ukf_conditions
@@ -147,6 +155,11 @@ class OnboardOptions:
         if self.outside not in OUTSIDE:
             raise ValueError(f"The 'outside' parameter of {_WHERE} must be one of {OUTSIDE}. "
                              f"Got {self.outside!r} instead.")
+        tau = positive_float(self.wrobot_tau_s, "wrobot_tau_s", _WHERE, allow_zero=True)
+        if not math.isfinite(tau):
+            raise ValueError(f"The 'wrobot_tau_s' parameter of {_WHERE} must be finite. "
+                             f"Got {self.wrobot_tau_s!r} instead.")
+        object.__setattr__(self, "wrobot_tau_s", tau)
 
     @classmethod
     def coerce(cls, value, where: str) -> OnboardOptions:
@@ -164,6 +177,48 @@ class OnboardOptions:
             return cls(**value)
         raise ValueError(f"The 'onboard' parameter of {where} must be None, a dict or "
                          f"OnboardOptions. Got {type(value).__name__} instead.")
+
+
+def smooth_wind(wind: np.ndarray, dt: float, tau_s: float) -> np.ndarray:
+    """Exponential moving average of a wind time series, the onboard stack's ``W_robot``.
+
+    ``m_0 = w_0`` and ``m_k = m_(k-1) + a (w_k - m_(k-1))`` with ``a = 1 - exp(-dt / tau_s)``:
+    a first-order low-pass of time constant ``tau_s``. A sample that is not finite (a diverged
+    filter) gives NaN and restarts the average at the next finite sample.
+
+    Parameters
+    ----------
+    wind : array_like of shape (T, ...)
+        The series along axis 0 (e.g. (T, 2) horizontal winds, m/s).
+    dt : float
+        Time between samples, s (> 0).
+    tau_s : float
+        Time constant, s (>= 0; 0 returns a copy of ``wind``).
+
+    Returns
+    -------
+    ndarray of the shape of ``wind``, float64
+    """
+    where = "smooth_wind"
+    w = np.array(wind, dtype=np.float64)
+    step = positive_float(dt, "dt", where)
+    tau = positive_float(tau_s, "tau_s", where, allow_zero=True)
+    if w.ndim < 1:
+        raise ValueError(f"The 'wind' parameter of {where} must be a series along axis 0. "
+                         f"Got a {w.ndim}-D array instead.")
+    if tau == 0.0 or w.shape[0] == 0:
+        return w
+    from scipy.signal import lfilter
+
+    a = -math.expm1(-step / tau)
+    ok = np.isfinite(w.reshape(w.shape[0], -1)).all(axis=1)
+    out = np.full_like(w, np.nan)
+    edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(np.int8), 0]))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        run = w[start:stop]
+        out[start:stop] = lfilter([a], [1.0, a - 1.0], run, axis=0,
+                                  zi=((1.0 - a) * run[:1]))[0]
+    return out
 
 
 @lru_cache(maxsize=1)
@@ -321,6 +376,10 @@ class OnboardStack:
         self.field = None
         self.centre = np.zeros(2)
         self.fill = (0.0, 0.0)  # the planner's wind outside the window (options.outside)
+        # W_robot: the UKF's horizontal estimate, averaged (options.wrobot_tau_s; smooth_wind)
+        tau = opt.wrobot_tau_s
+        self._w_gain = -math.expm1(-self.dt / tau) if tau > 0.0 else 1.0
+        self._w_robot = np.full(2, np.nan)
         self.skipped = 0
         self.ms = {s: [] for s in STAGES}
         self._com = np.zeros((1, 3))
@@ -403,8 +462,13 @@ class OnboardStack:
             self.ms["ukf"].append(1e3 * (time.perf_counter() - t0))
         self.wind_est[k] = est
         self.wind_true[k] = wind_com
+        w = self._w_robot
+        if not np.isfinite(w).all() or self._w_gain == 1.0:  # (re)start, or no averaging
+            w[:] = est[:2]
+        else:  # a non-finite estimate makes w NaN: the average restarts at the next finite one
+            w += self._w_gain * (est[:2] - w)
         if k % self.decode_every == 0:
-            self._decode(x[0, :2], est[:2])
+            self._decode(x[0, :2], w.copy())
 
     def _decode(self, pos_xy: np.ndarray, w_robot: np.ndarray) -> None:
         if self.options.outside == "robot":  # (not finite when the filter diverged, as the field)
@@ -451,6 +515,7 @@ class OnboardStack:
         cond = self.options.conditions
         settings = {"conditions": cond.name, "scan_noise_m": self.options.scan_noise,
                     "settle_s": self.options.settle_s, "window_m": self.window,
+                    "outside": self.options.outside, "wrobot_tau_s": self.options.wrobot_tau_s,
                     "decoder": repr(self.decoder), "calibrated": bool(cond.calibrate),
                     "parameter_errors": dict(self.parameter_errors),
                     "ukf_repairs": 0 if self.ukf is None else int(self.ukf.repairs),
