@@ -193,6 +193,8 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
                      "--compare", f"shipped={DEFAULT_MODEL}", "--tau", "2"]) == 0
     doc2 = json.loads((out2 / "nav_inflight.json").read_text())
     assert doc2["taus"] == [2.0] and "decoder_ukf_tau2" in doc2["all"]["errors"]
+    assert (out2 / "nav_inflight_tau.png").stat().st_size > 10_000
+    assert not (out / "nav_inflight_tau.png").exists()
     assert doc2["compare"] == ["shipped"] and doc2["models"] == {"shipped": str(DEFAULT_MODEL)}
     assert "shipped_ukf" in doc2["all"]["errors"]
     assert "| inlet (m/s) | decoder, UKF |" in capsys.readouterr().out

@@ -389,7 +389,7 @@ def _inflight(args, name: str, spec) -> int:
     from windnav.experiments import nav_inflight
     from windnav.experiments.results import json_ready
     from windnav.predict import load_decoder
-    from windnav.viz.nav_studies import plot_inflight
+    from windnav.viz.nav_studies import plot_inflight, plot_inflight_tau
 
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
@@ -403,7 +403,8 @@ def _inflight(args, name: str, spec) -> int:
                          f"{args.pairs!r} instead.")
     ids = [f"{spec.name}/m{m:02d}/w{w:02d}/p{p}" for m in maps for w in spec.winds
            for p in pairs]  # the suite's id scheme (nav_suite.Scenario), in its order
-    products = ("nav_inflight.json", "nav_inflight.png")
+    products = ("nav_inflight.json", "nav_inflight.png",
+                *(("nav_inflight_tau.png",) if args.tau else ()))
     out = outputs(args, out=("--out", args.out, products))
     compare = _named_compare_files(args.compare, name)
     t0 = time.perf_counter()
@@ -422,7 +423,13 @@ def _inflight(args, name: str, spec) -> int:
     res.update(study="inflight", suite=spec.name, seed=spec.seed, maps=list(maps),
                pairs=pairs, models={n: str(f) for n, f in compare.items()},
                elapsed_s=time.perf_counter() - t0)
-    _write(out, args, res, products[0], lambda folder: plot_inflight(res, folder / products[1]))
+
+    def draw(folder):
+        plot_inflight(res, folder / products[1])
+        if res["taus"]:
+            plot_inflight_tau(res, folder / products[2])
+
+    _write(out, args, res, products[0], draw)
     print("\n".join(nav_inflight.summarize_inflight(res)))
     print(json.dumps(json_ready({"study": "inflight", "flights": len(res["flights"]),
                                  "errors": len(res["errors"]),

@@ -23,6 +23,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.patheffects as pe  # noqa: E402
@@ -31,8 +32,8 @@ from matplotlib.lines import Line2D  # noqa: E402
 
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background  # noqa: E402
 
-__all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_reach",
-           "plot_wind_scenarios"]
+__all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
+           "plot_inflight_tau", "plot_reach", "plot_wind_scenarios"]
 
 KIND_COLORS = {"tailwind": "#ff9500", "headwind": "#ff2d55"}
 """Marker colours of the start/goal pairs, by kind (drawn with a black edge over the wind)."""
@@ -397,3 +398,45 @@ def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
                    f"{result['variant']}, a sample every {result['every_s']:g} s), against "
                    "the mean field in the decoder's window", path,
                    bottom=0.1 + 0.05 * (rows_of_legend - 1), ncol=ncol)
+
+
+def plot_inflight_tau(result: Mapping, path, *, title: str | None = None) -> Path:
+    """The in-flight study's averaged ``W_robot`` (its ``taus``): against the averaging time
+    constant (0: the UKF's estimate itself), one line per inlet speed, the RMS distance of the
+    averaged estimate to the mean wind at the vehicle (left) and the decoder's speed and
+    direction errors given it (middle, right); dotted, the decoder given the mean wind itself.
+    Written to ``path`` (PNG)."""
+    from windnav.experiments.nav_inflight import smoothed_key
+
+    taus = [float(t) for t in result["taus"]]
+    if not taus:
+        raise ValueError("The 'result' parameter of plot_inflight_tau must hold an in-flight "
+                         "study run with taus. Got one without.")
+    x = [0.0, *taus]
+    keys = [smoothed_key(t) for t in taus]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    rows = {**{f"{float(s):g} m/s": r for s, r in result["by_speed"].items()},
+            **({"all": result["all"]} if result.get("all") else {})}
+    colors = plt.cm.viridis(np.linspace(0.0, 0.85, max(len(rows) - 1, 1)))
+    handles = []
+    for (label, r), color in zip(rows.items(), [*colors, "black"], strict=False):
+        lw = 2.5 if label == "all" else 1.5
+        inp = [r["inputs"]["ukf_vs_mean"], *(r["inputs"][f"{k}_vs_mean"] for k in keys)]
+        line, = axes[0].plot(x, inp, color=color, marker="o", lw=lw, label=label)
+        handles.append(line)
+        for ax, metric in ((axes[1], "speed_error"), (axes[2], "direction_error_deg")):
+            err = [r["errors"]["decoder_ukf"][metric],
+                   *(r["errors"][f"decoder_{k}"][metric] for k in keys)]
+            ax.plot(x, err, color=color, marker="o", lw=lw)
+            ax.axhline(r["errors"]["decoder_mean"][metric], color=color, ls=":", lw=1)
+    axes[0].set_ylabel("RMS |averaged UKF estimate - mean wind| (m/s)")
+    axes[1].set_ylabel("decoder speed error (m/s)")
+    axes[2].set_ylabel("decoder direction error (deg)")
+    for ax in axes:
+        ax.set_xlabel("averaging time constant tau (s; 0: the estimate itself)")
+        ax.set_ylim(bottom=0)
+        ax.grid(alpha=0.3)
+    n = sum(r["flights"] for r in result["by_speed"].values())
+    return _finish(fig, handles, title or f"W_robot averaged over time in flight ({n} flights "
+                   f"of {result['variant']}); dotted: the decoder given the mean wind", path,
+                   bottom=0.1)
