@@ -23,7 +23,10 @@ the vehicle could know on board (Folk 2026, ch. 4-6):
   decoder was trained with, :data:`windnav.predict.SCAN_NOISE`; the planner's own 10 Hz scan,
   0.14 m, is unchanged) goes into :meth:`windnav.predict.Decoder.predict` with
   ``W_up = speed [cos d, sin d]`` (the inlet wind) and ``W_robot`` = the UKF's horizontal
-  world-frame estimate. The field ``(2, H, H)`` (H = 25 cells of 1 m) is centred on the vehicle
+  world-frame estimate (with ``wrobot_tau_s > 0``, our option beyond the thesis, its
+  exponential average over the flight, :func:`smooth_wind`: the decoder was trained with the
+  mean wind at the robot, the UKF tracks the instantaneous one). The field ``(2, H, H)``
+  (H = 25 cells of 1 m) is centred on the vehicle
   at the decode time.
 * **Planner, 10 Hz.** The planner's :class:`~windnav.plan.LocalWind` is the latest field, its
   cell-centre offsets shifted to the vehicle's position at the planning time (the decoder runs
