@@ -30,6 +30,18 @@ def _pid(_task):
     return os.getpid()
 
 
+def _dies(task, folder, always):
+    """Task ``(i, value)``: the worker process dies at task ``i == 2`` (the first time only,
+    unless ``always``), as under the out-of-memory killer; else ``value`` squared."""
+    i, value = task
+    marker = Path(folder) / "died"
+    if i == 2 and (always or not marker.exists()):
+        marker.touch()
+        os._exit(1)
+    time.sleep(0.05)
+    return value * value
+
+
 TASKS = [(s, 1000) for s in range(6)] + [(99, -1)] + [(s, 10) for s in range(6, 9)]
 
 
@@ -164,3 +176,26 @@ def test_a_failing_on_result_or_an_abandoned_stream_stops_the_workers_at_once(tm
     pids = _worker_pids(tmp_path)
     assert pids and _gone(pids)
     assert [p.name for p in tmp_path.glob("end-*")] == ["end-0"]
+
+
+def test_a_dead_worker_costs_no_other_task(tmp_path, capsys):
+    # a dead worker breaks its pool: the unfinished tasks run again in a fresh pool
+    tasks = [(i, float(i)) for i in range(6)]
+    fn = functools.partial(_dies, folder=str(tmp_path), always=False)
+    results = _by_index(run_tasks(fn, tasks, backend="process", workers=2, progress=False))
+    assert [r.index for r in results] == list(range(6))
+    assert all(r.ok for r in results) and [r.value for r in results] == [i * i for i in range(6)]
+    assert (tmp_path / "died").exists()
+    assert "starting a fresh pool" in capsys.readouterr().err
+
+
+def test_a_task_that_always_kills_its_worker_is_lost_after_the_restarts(tmp_path, monkeypatch):
+    import windnav.experiments.executor as ex
+
+    monkeypatch.setattr(ex, "POOL_RESTARTS", 1)
+    tasks = [(i, float(i)) for i in range(4)]
+    fn = functools.partial(_dies, folder=str(tmp_path), always=True)
+    results = _by_index(run_tasks(fn, tasks, backend="process", workers=1, progress=False))
+    assert [r.index for r in results] == list(range(4))
+    assert results[0].ok and results[1].ok and not results[2].ok
+    assert "BrokenProcessPool" in results[2].error and "pool broke 2 times" in results[2].error

@@ -30,7 +30,10 @@ iterating -- queued tasks are cancelled and the workers are terminated at once, 
 traceback from the workers; the ``KeyboardInterrupt`` then reaches the caller. A worker also
 dies with its parent if the parent is killed outright (SIGKILL, the out-of-memory killer): on
 Linux through ``prctl(PR_SET_PDEATHSIG, SIGKILL)``, elsewhere through a thread that watches the
-parent's pid. The multiprocessing resource tracker exits once the workers are gone. (Linux
+parent's pid. The multiprocessing resource tracker exits once the workers are gone. A worker
+that dies on its own (the out-of-memory killer, a crash in compiled code) breaks its whole
+pool; the unfinished tasks then run again in a fresh pool, at most :data:`POOL_RESTARTS` times,
+after which they are reported lost. (Linux
 sends that signal when the *thread* that started a worker exits; workers are started by the
 thread that iterates the stream, so iterate one stream from one thread.)
 
@@ -52,6 +55,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,6 +65,11 @@ from windnav._validate import positive_int
 
 BACKENDS = ("serial", "process", "ray")
 PARENT_POLL_S = 0.5
+POOL_RESTARTS = 2
+"""How many times the ``process`` backend starts a fresh pool for the unfinished tasks after a
+worker died (the out-of-memory killer, a crash in compiled code): a dead worker breaks the whole
+pool, and without a restart every task still queued in it would be lost with the one that
+died. After that many restarts the unfinished tasks are reported lost."""
 """How often a worker without ``PR_SET_PDEATHSIG`` checks that its parent is alive, s."""
 _PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
 
@@ -114,7 +123,9 @@ def _call(fn: Callable, index: int, task) -> TaskResult:
 
 def _lost(index: int, task, exc: BaseException) -> TaskResult:
     """Status record for a task whose worker died (killed, out of memory, unpicklable value)."""
-    return TaskResult(index, task, False, None, f"{type(exc).__name__}: {exc}", 0.0)
+    hint = (f" (its pool broke {POOL_RESTARTS + 1} times: a worker process died; out of "
+            "memory? fewer workers need less)" if isinstance(exc, BrokenProcessPool) else "")
+    return TaskResult(index, task, False, None, f"{type(exc).__name__}: {exc}{hint}", 0.0)
 
 
 def _serial(fn, tasks, workers) -> Iterator[TaskResult]:
@@ -183,20 +194,41 @@ def _stop_pool(pool: ProcessPoolExecutor, pending) -> None:
 
 
 def _process(fn, tasks, workers) -> Iterator[TaskResult]:
+    todo = list(enumerate(tasks))
+    for restart in range(POOL_RESTARTS + 1):
+        broken = []
+        yield from _process_pool(fn, todo, workers, broken, last=restart == POOL_RESTARTS)
+        if not broken:
+            return
+        todo = sorted(broken, key=lambda it: it[0])
+        print(f"run_tasks: a worker process died (BrokenProcessPool: killed, perhaps by the "
+              f"out-of-memory killer, or crashed); starting a fresh pool for the "
+              f"{len(todo)} unfinished tasks (restart {restart + 1} of {POOL_RESTARTS}).",
+              file=sys.stderr, flush=True)
+
+
+def _process_pool(fn, todo, workers, broken: list, last: bool) -> Iterator[TaskResult]:
+    """One pool over the ``(index, task)`` pairs of ``todo``; the pairs lost to a broken pool
+    are appended to ``broken`` (reported lost instead when ``last``)."""
     ctx = multiprocessing.get_context("spawn")
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init,
-                               initargs=(os.getpid(),))
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx,
+                               initializer=_worker_init, initargs=(os.getpid(),))
     pending: dict = {}
     finished = False
     try:
-        pending = {pool.submit(_call, fn, i, t): (i, t) for i, t in enumerate(tasks)}
+        pending = {pool.submit(_call, fn, i, t): (i, t) for i, t in todo}
         while pending:
             done, _ = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
                 i, t = pending.pop(fut)
                 try:
                     result = fut.result()
-                except Exception as exc:  # BrokenProcessPool, pickling errors
+                except BrokenProcessPool as exc:
+                    if not last:
+                        broken.append((i, t))
+                        continue
+                    result = _lost(i, t, exc)
+                except Exception as exc:  # pickling errors
                     result = _lost(i, t, exc)
                 yield result
         finished = True
