@@ -65,12 +65,12 @@ from windnav._validate import positive_int
 
 BACKENDS = ("serial", "process", "ray")
 PARENT_POLL_S = 0.5
+"""How often a worker without ``PR_SET_PDEATHSIG`` checks that its parent is alive, s."""
 POOL_RESTARTS = 2
 """How many times the ``process`` backend starts a fresh pool for the unfinished tasks after a
 worker died (the out-of-memory killer, a crash in compiled code): a dead worker breaks the whole
 pool, and without a restart every task still queued in it would be lost with the one that
 died. After that many restarts the unfinished tasks are reported lost."""
-"""How often a worker without ``PR_SET_PDEATHSIG`` checks that its parent is alive, s."""
 _PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
 
 

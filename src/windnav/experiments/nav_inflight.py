@@ -48,9 +48,12 @@ INPUTS = {"ukf_vs_mean": ("ukf", "mean"), "inst_vs_mean": ("inst", "mean"),
 """The input errors reported, as pairs of winds at the vehicle."""
 
 
+_SMOOTHED = "ukf_tau"
+
+
 def smoothed_key(tau_s: float) -> str:
     """The samples' key of the UKF's estimate averaged with time constant ``tau_s`` (s)."""
-    return f"ukf_tau{float(tau_s):g}"
+    return f"{_SMOOTHED}{float(tau_s):g}"
 
 
 def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
@@ -168,8 +171,8 @@ def inflight_errors(samples: Mapping, decoder, compare: Mapping | None = None) -
     errors["upstream"] = field_errors(
         UpstreamBaseline(size, spacing).predict(samples["scans"], samples["w_up"],
                                                 samples["mean"]), *args)
-    smoothed = sorted((key for key in samples if key.startswith("ukf_tau")),
-                      key=lambda key: float(key[len("ukf_tau"):]))
+    smoothed = sorted((key for key in samples if key.startswith(_SMOOTHED)),
+                      key=lambda key: float(key[len(_SMOOTHED):]))
     for key in smoothed:
         for name, model in (("decoder", decoder), ("local", local)):
             errors[f"{name}_{key}"] = field_errors(
@@ -331,7 +334,7 @@ def summarize_inflight(result: Mapping) -> list[str]:
         e, i = r["errors"], r["inputs"]
 
         def cell(m, e=e):
-            return f"{e[m]['speed_error']:.2f} / {e[m]['direction_error_deg']:.1f}"
+            return _cell(e[m])
 
         lines.append(f"| {label} | {r['flights']} ({r['failed']}) | {r['n_samples']} | "
                      f"{i['ukf_vs_mean']:.2f} | {i['inst_vs_mean']:.2f} | "
@@ -346,15 +349,9 @@ def summarize_inflight(result: Mapping) -> list[str]:
             + " |", "|---" * (2 + len(taus)) + "|"]
         for label, r in rows:
             e, i = r["errors"], r["inputs"]
-            cells = [f"{i['ukf_vs_mean']:.2f}, {e['decoder_ukf']['speed_error']:.2f} / "
-                     f"{e['decoder_ukf']['direction_error_deg']:.1f}, "
-                     f"{e['local_ukf']['speed_error']:.2f} / "
-                     f"{e['local_ukf']['direction_error_deg']:.1f}"]
-            cells += [f"{i[f'{k}_vs_mean']:.2f}, {e[f'decoder_{k}']['speed_error']:.2f} / "
-                      f"{e[f'decoder_{k}']['direction_error_deg']:.1f}, "
-                      f"{e[f'local_{k}']['speed_error']:.2f} / "
-                      f"{e[f'local_{k}']['direction_error_deg']:.1f}" for k in keys]
-            lines.append(f"| {label} | " + " | ".join(cells) + " |")
+            lines.append(f"| {label} | " + " | ".join(
+                f"{i[f'{k}_vs_mean']:.2f}, {_cell(e[f'decoder_{k}'])}, {_cell(e[f'local_{k}'])}"
+                for k in ["ukf", *keys]) + " |")
     names = result.get("compare") or []
     if names:
         lines += ["", "| inlet (m/s) | " + " | ".join(
@@ -363,6 +360,11 @@ def summarize_inflight(result: Mapping) -> list[str]:
         for label, r in rows:
             e = r["errors"]
             lines.append(f"| {label} | " + " | ".join(
-                f"{e[f'{n}_{w}']['speed_error']:.2f} / {e[f'{n}_{w}']['direction_error_deg']:.1f}"
-                for n in ["decoder", *names] for w in ("ukf", "mean", "inst")) + " |")
+                _cell(e[f"{n}_{w}"]) for n in ["decoder", *names] for w in ("ukf", "mean", "inst"))
+                + " |")
     return lines
+
+
+def _cell(errors: Mapping) -> str:
+    """``speed / direction`` error of one model, as the tables print it (m/s / deg)."""
+    return f"{errors['speed_error']:.2f} / {errors['direction_error_deg']:.1f}"

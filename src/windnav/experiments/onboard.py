@@ -158,11 +158,8 @@ class OnboardOptions:
         if self.outside not in OUTSIDE:
             raise ValueError(f"The 'outside' parameter of {_WHERE} must be one of {OUTSIDE}. "
                              f"Got {self.outside!r} instead.")
-        tau = positive_float(self.wrobot_tau_s, "wrobot_tau_s", _WHERE, allow_zero=True)
-        if not math.isfinite(tau):
-            raise ValueError(f"The 'wrobot_tau_s' parameter of {_WHERE} must be finite. "
-                             f"Got {self.wrobot_tau_s!r} instead.")
-        object.__setattr__(self, "wrobot_tau_s", tau)
+        object.__setattr__(self, "wrobot_tau_s", positive_float(  # finite, >= 0
+            self.wrobot_tau_s, "wrobot_tau_s", _WHERE, allow_zero=True))
 
     @classmethod
     def coerce(cls, value, where: str) -> OnboardOptions:
@@ -180,6 +177,11 @@ class OnboardOptions:
             return cls(**value)
         raise ValueError(f"The 'onboard' parameter of {where} must be None, a dict or "
                          f"OnboardOptions. Got {type(value).__name__} instead.")
+
+
+def _smoothing_gain(dt: float, tau_s: float) -> float:
+    """The gain ``a = 1 - exp(-dt / tau_s)`` of :func:`smooth_wind` (1 for ``tau_s = 0``)."""
+    return -math.expm1(-dt / tau_s) if tau_s > 0.0 else 1.0
 
 
 def smooth_wind(wind: np.ndarray, dt: float, tau_s: float) -> np.ndarray:
@@ -213,7 +215,7 @@ def smooth_wind(wind: np.ndarray, dt: float, tau_s: float) -> np.ndarray:
         return w
     from scipy.signal import lfilter
 
-    a = -math.expm1(-step / tau)
+    a = _smoothing_gain(step, tau)
     ok = np.isfinite(w.reshape(w.shape[0], -1)).all(axis=1)
     out = np.full_like(w, np.nan)
     edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(np.int8), 0]))
@@ -380,8 +382,7 @@ class OnboardStack:
         self.centre = np.zeros(2)
         self.fill = (0.0, 0.0)  # the planner's wind outside the window (options.outside)
         # W_robot: the UKF's horizontal estimate, averaged (options.wrobot_tau_s; smooth_wind)
-        tau = opt.wrobot_tau_s
-        self._w_gain = -math.expm1(-self.dt / tau) if tau > 0.0 else 1.0
+        self._w_gain = _smoothing_gain(self.dt, opt.wrobot_tau_s)
         self._w_robot = np.full(2, np.nan)
         self.skipped = 0
         self.ms = {s: [] for s in STAGES}
