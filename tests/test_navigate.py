@@ -305,3 +305,43 @@ def test_command_passes_the_energy_mode_to_the_planner(city, tmp_path, monkeypat
         assert seen["planner_overrides"] == want
     with pytest.raises(SystemExit):
         parse(base + ["--energy", "trip"])
+
+
+def test_command_passes_the_onboard_settings_only_to_the_onboard_stack(city, tmp_path,
+                                                                      monkeypatch):
+    import windnav.experiments.navigate as nav
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake_navigate(*a, **kw):
+        seen.update(kw)
+        raise Stop
+
+    monkeypatch.setattr(nav, "simulate_flow", lambda *a, **kw: None)
+    monkeypatch.setattr(nav, "navigate", fake_navigate)
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    base = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+            "--speed", "2", "--out", str(tmp_path / "out")]
+    hat = ["--variant", "ea-mppi-w-hat"]
+    for extra, want in (([], None), (hat, None),
+                        (hat + ["--outside", "robot"], {"outside": "robot"}),
+                        (hat + ["--wrobot-tau", "8"], {"wrobot_tau_s": 8.0}),
+                        (hat + ["--outside", "robot", "--wrobot-tau", "8"],
+                         {"outside": "robot", "wrobot_tau_s": 8.0})):
+        args = parse(base + extra)
+        with pytest.raises(Stop):
+            args.func(args)
+        assert seen["onboard"] == want
+    for extra, match in ((["--outside", "robot"], "--outside parameter.*onboard stack"),
+                         (["--variant", "ea-mppi-w", "--wrobot-tau", "8"],
+                          "--wrobot-tau parameter.*ea-mppi-w'"),
+                         (hat + ["--wrobot-tau", "-1"], "--wrobot-tau"),
+                         (hat + ["--wrobot-tau", "inf"], "--wrobot-tau")):
+        args = parse(base + extra)
+        with pytest.raises(ValueError, match=match):
+            args.func(args)
+    with pytest.raises(SystemExit):
+        parse(base + hat + ["--outside", "truth"])

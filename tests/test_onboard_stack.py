@@ -376,10 +376,13 @@ def test_command_json_carries_the_stage_timings(city, tmp_path):
     args = p.parse_args(["navigate", "--map", str(path), "--start", "10", "60", "--goal", "110",
                          "60", "--speed", "2", "--variant", VARIANT, "--spinup-s", "5",
                          "--record-s", "8", "--no-plots", "--out", str(tmp_path / "out"),
-                         "--json", str(tmp_path / "nav.json")])
+                         "--json", str(tmp_path / "nav.json"), "--outside", "robot",
+                         "--wrobot-tau", "8"])
     assert args.func(args) == 0
     doc = json.loads((tmp_path / "nav.json").read_text())
     assert doc["variant"] == VARIANT and doc["arguments"]["variant"] == VARIANT
+    assert doc["onboard"]["outside"] == "robot"
+    assert doc["onboard"]["wrobot_tau_s"] == 8.0
     assert set(doc["stage_ms_median"]) == set(STAGES)
     assert all(v > 0 for v in doc["stage_ms_median"].values())
     assert 0 < doc["real_time_fraction"] and doc["ukf_wind_rms_mps"] >= 0

@@ -15,7 +15,11 @@ figures: the path over the mean wind, and airspeed, power and energy against tim
 :mod:`windnav.experiments.onboard` (Wind UKF on the thesis-level simulated sensors at 100 Hz,
 decoder at 50 Hz, planner at 10 Hz); its JSON adds the per-stage median times
 (``stage_ms_median``), the real-time load (``real_time_fraction``) and the UKF's RMS wind error
-(``ukf_wind_rms_mps``), and ``series.npz`` the UKF's estimate (``wind_estimate``).
+(``ukf_wind_rms_mps``), and ``series.npz`` the UKF's estimate (``wind_estimate``). Two of its
+settings are ours (:class:`~windnav.experiments.onboard.OnboardOptions`): ``--outside robot``
+gives the planner the decoder's ``W_robot`` outside the decoder's window instead of zero, and
+``--wrobot-tau S`` averages the UKF's estimate over ``S`` seconds before it becomes ``W_robot``
+(the benchmark's ``ea-mppi-w-hat@outside=robot@tau=8``).
 
 ``--variant ea-mppi-w-esc`` (EA-MPPI+W+esc) is EA-MPPI+W with the progress monitor and GS+W
 route escape of :mod:`windnav.plan.escape`; its JSON's ``settings.escapes`` lists the escapes.
@@ -66,6 +70,13 @@ def register(sub) -> None:
                    help="what the energy-aware variants' J_E measures: the planning horizon's "
                         "energy (the thesis) or the mission's, which is least at the "
                         "max-range speed (ours) (%(default)s)")
+    p.add_argument("--outside", choices=("zero", "robot"), default="zero",
+                   help="ea-mppi-w-hat only: the planner's wind outside the decoder's window, "
+                        "zero (the thesis) or the decoder's W_robot (ours) (%(default)s)")
+    p.add_argument("--wrobot-tau", type=float, default=0.0, metavar="S",
+                   help="ea-mppi-w-hat only: time constant of the average of the Wind UKF's "
+                        "estimate given as W_robot, s; 0 is the estimate itself, the thesis's "
+                        "(%(default)s)")
     p.add_argument("--altitude", type=float, default=10.0, help="flight altitude, m")
     p.add_argument("--tilt-max-deg", type=float, default=55.0,
                    help="tilt cap of the acceleration commands, deg (%(default)s)")
@@ -88,6 +99,21 @@ def _city(path: Path, name: str):
     return City.from_rotorpy_json(path)
 
 
+def _onboard(args, name: str) -> dict | None:
+    """The onboard stack's settings from ``--outside`` and ``--wrobot-tau`` (None: defaults)."""
+    from windnav.plan import VARIANTS
+
+    tau = positive_float(args.wrobot_tau, "--wrobot-tau", name, allow_zero=True)
+    settings = {k: v for k, v in (("outside", args.outside), ("wrobot_tau_s", tau))
+                if v not in ("zero", 0.0)}
+    if settings and VARIANTS[args.variant].wind_source != "onboard":
+        flags = ", ".join({"outside": "--outside", "wrobot_tau_s": "--wrobot-tau"}[k]
+                          for k in settings)
+        raise ValueError(f"The {flags} parameter of {name} applies only to the onboard stack "
+                         f"(--variant ea-mppi-w-hat). Got --variant {args.variant!r} instead.")
+    return settings or None
+
+
 def run(args) -> int:
     import numpy as np
 
@@ -104,6 +130,7 @@ def run(args) -> int:
         raise ValueError(f"The '--horizon' parameter of {name} must be > 0 (inf allowed). "
                          f"Got {args.horizon!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
+    onboard = _onboard(args, name)
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
     goal = [finite_float(v, "--goal", name) for v in args.goal]
@@ -118,7 +145,7 @@ def run(args) -> int:
     flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record)
     result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                       variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
-                      horizon=horizon, tilt_max_deg=args.tilt_max_deg,
+                      horizon=horizon, tilt_max_deg=args.tilt_max_deg, onboard=onboard,
                       planner_overrides=({"energy_mode": args.energy}
                                          if args.energy != "horizon" else None))
     summary = {"map": str(args.map), "seed": args.seed, **result.summary()}
