@@ -130,6 +130,32 @@ def test_the_envelope_report_counts_time_above_each_limit(city, flow, capsys):
     warn_envelope({**res.summary(), **fast})
     err = capsys.readouterr().err
     assert err.startswith("warning:") and "0.10 s above the vehicle's trusted airspeed" in err
+    assert "tilt cap" not in err
+
+
+def test_the_envelope_report_counts_time_holding_the_goal_at_the_tilt_cap(city, flow, capsys):
+    """Only steps within the capture radius with the command at the tilt cap count."""
+    import dataclasses
+
+    from windnav.commands.navigate import warn_envelope
+    from windnav.experiments.navigate import tilt_accel_cap
+
+    res = fly(city, flow, "mppi", duration=10.0)
+    assert res.envelope()["goal_hold_at_cap_s"] == 0.0  # never near the goal
+    dt = res.t[1] - res.t[0]
+    cap = tilt_accel_cap(res.settings["tilt_max_deg"])
+    pos, acc = res.position.copy(), res.accel_cmd.copy()
+    pos[-7:, :2] = res.goal + [3.0, 0.0]  # 7 steps near the goal at the cap ...
+    acc[-7:] = [0.0, cap]
+    acc[-12:-7] = [cap, 0.0]  # ... 5 at the cap away from it
+    pos[-20:-12, :2] = res.goal  # ... and 8 near it below the cap
+    acc[-20:-12] = [0.5 * cap, 0.0]
+    held = dataclasses.replace(res, position=pos, accel_cmd=acc)
+    assert held.envelope()["goal_hold_at_cap_s"] == pytest.approx(7 * dt)
+    assert held.summary()["goal_hold_at_cap_s"] == pytest.approx(7 * dt)
+    warn_envelope(held.summary())
+    err = capsys.readouterr().err
+    assert "for 0.07 s near the goal (within 10 m)" in err and "55 deg tilt cap" in err
 
 
 def test_the_power_counterfactual_changes_the_airspeed_energy_not_the_flight(city, flow):

@@ -175,8 +175,8 @@ def run(args) -> int:
 
 
 def warn_envelope(summary: dict) -> None:
-    """Say on stderr when the flight left the models' envelope (the summary's
-    :meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
+    """Say on stderr when the flight left the models' envelope, and when it held the goal at its
+    tilt cap (the summary's :meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
     import sys
 
     out_s = summary.get("outside_envelope_s") or 0.0
@@ -189,3 +189,10 @@ def warn_envelope(summary: dict) -> None:
               f"validated, and {extra_s:.2f} s above the power curve's valid range "
               f"({settings.get('power_speed_max', float('nan')):g} m/s), where energy_J "
               "extrapolates it", file=sys.stderr)
+    capped_s = summary.get("goal_hold_at_cap_s") or 0.0
+    if capped_s > 0:
+        settings = summary.get("settings", {})
+        print(f"warning: for {capped_s:.2f} s near the goal (within "
+              f"{settings.get('capture_radius', float('nan')):g} m) the hold's command was at "
+              f"the {settings.get('tilt_max_deg', float('nan')):g} deg tilt cap: the wind there "
+              "was more than the vehicle can hold against", file=sys.stderr)

@@ -125,10 +125,12 @@ RECORD_FIELDS = (
 )
 """The fields of a flight record, in order (metrics in SI units: J, s, m, m/s^2, ms)."""
 
-ENVELOPE_FIELDS = ("airspeed_max_mps", "outside_envelope_s", "power_extrapolated_s")
+ENVELOPE_FIELDS = ("airspeed_max_mps", "outside_envelope_s", "power_extrapolated_s",
+                   "goal_hold_at_cap_s")
 """Fields after :data:`RECORD_FIELDS` in every record flown since 2026-11-26 (the records before
 lack them): the largest airspeed (m/s), the time above the vehicle's trusted airspeed and the
-time above the power curve's valid range (s)
+time above the power curve's valid range (s); since 2026-11-29 also the time spent holding the
+goal with the command at the tilt cap (s)
 (:meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
 
 ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",

@@ -249,14 +249,28 @@ class NavigationResult:
         horizontal airspeed, m/s), ``outside_envelope_s`` (time above the vehicle's
         ``airspeed_limit``, where its aerodynamic model is not trusted, s) and
         ``power_extrapolated_s`` (time above the power curve's last valid airspeed, where
-        ``energy_J`` uses the curve's continuation, s). The limits are in ``settings``."""
+        ``energy_J`` uses the curve's continuation, s). The limits are in ``settings``.
+
+        And where it reached the limit of its authority at the goal: ``goal_hold_at_cap_s``,
+        the time within ``capture_radius`` of the goal (where the loop holds it) with the
+        command at the tilt cap, s. Time there means the wind at the goal was, for that long,
+        more than the vehicle can hold against at its tilt cap (at 55 deg the Hummingbird's
+        steady limit lies near its 13.45 m/s trusted airspeed)."""
         dt = float(self.t[1] - self.t[0]) if self.t.size > 1 else 0.0
         air = self.airspeed
         limit = self.settings.get("airspeed_limit", float("inf"))
         p_max = self.settings.get("power_speed_max", float("inf"))
+        capture = self.settings.get("capture_radius", 0.0)
+        tilt = self.settings.get("tilt_max_deg")
+        at_cap_s = 0.0
+        if capture > 0 and tilt is not None and self.accel_cmd.size:
+            near = np.hypot(*(self.position[:, :2] - self.goal).T) <= capture
+            capped = np.hypot(*self.accel_cmd.T) >= tilt_accel_cap(tilt) * (1.0 - 1e-9)
+            at_cap_s = dt * int(np.count_nonzero(near & capped))
         return {"airspeed_max_mps": float(air.max()) if air.size else 0.0,
                 "outside_envelope_s": dt * int(np.count_nonzero(air > limit)),
-                "power_extrapolated_s": dt * int(np.count_nonzero(air > p_max))}
+                "power_extrapolated_s": dt * int(np.count_nonzero(air > p_max)),
+                "goal_hold_at_cap_s": at_cap_s}
 
     def arrival(self) -> dict:
         """``arrival_time_s`` and ``arrival_energy_J``, ``arrival_rotor_energy_J``: when the
