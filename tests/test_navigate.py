@@ -307,50 +307,44 @@ def test_a_non_finite_known_wind_makes_every_planner_update_fall_back(city, flow
     assert fly(city, flow, "mppi-w", duration=2.0).fallbacks == 0
 
 
-def test_command_passes_the_energy_mode_to_the_planner(city, tmp_path, monkeypatch):
+class _Stop(Exception):
+    """Raised by the stand-in for ``navigate`` once it has seen its arguments."""
+
+
+@pytest.fixture
+def command_kwargs(city, tmp_path, monkeypatch):
+    """``(seen, base)``: ``windnav navigate`` with the flow and the flight replaced, so that a
+    run raises :class:`_Stop` after ``seen`` has taken ``navigate``'s keyword arguments;
+    ``base`` is a valid command line to extend."""
     import windnav.experiments.navigate as nav
 
     seen = {}
 
-    class Stop(Exception):
-        pass
-
     def fake_navigate(*a, **kw):
         seen.update(kw)
-        raise Stop
+        raise _Stop
 
     monkeypatch.setattr(nav, "simulate_flow", lambda *a, **kw: None)
     monkeypatch.setattr(nav, "navigate", fake_navigate)
     path = city.to_rotorpy_json(tmp_path / "city.json")
     base = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
             "--speed", "2", "--out", str(tmp_path / "out")]
+    return seen, base
+
+
+def test_command_passes_the_energy_mode_to_the_planner(command_kwargs):
+    seen, base = command_kwargs
     for extra, want in (([], None), (["--energy", "mission"], {"energy_mode": "mission"})):
         args = parse(base + extra)
-        with pytest.raises(Stop):
+        with pytest.raises(_Stop):
             args.func(args)
         assert seen["planner_overrides"] == want
     with pytest.raises(SystemExit):
         parse(base + ["--energy", "trip"])
 
 
-def test_command_passes_the_onboard_settings_only_to_the_onboard_stack(city, tmp_path,
-                                                                      monkeypatch):
-    import windnav.experiments.navigate as nav
-
-    seen = {}
-
-    class Stop(Exception):
-        pass
-
-    def fake_navigate(*a, **kw):
-        seen.update(kw)
-        raise Stop
-
-    monkeypatch.setattr(nav, "simulate_flow", lambda *a, **kw: None)
-    monkeypatch.setattr(nav, "navigate", fake_navigate)
-    path = city.to_rotorpy_json(tmp_path / "city.json")
-    base = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
-            "--speed", "2", "--out", str(tmp_path / "out")]
+def test_command_passes_the_onboard_settings_only_to_the_onboard_stack(command_kwargs):
+    seen, base = command_kwargs
     hat = ["--variant", "ea-mppi-w-hat"]
     for extra, want in (([], None), (hat, None),
                         (hat + ["--outside", "robot"], {"outside": "robot"}),
@@ -358,7 +352,7 @@ def test_command_passes_the_onboard_settings_only_to_the_onboard_stack(city, tmp
                         (hat + ["--outside", "robot", "--wrobot-tau", "8"],
                          {"outside": "robot", "wrobot_tau_s": 8.0})):
         args = parse(base + extra)
-        with pytest.raises(Stop):
+        with pytest.raises(_Stop):
             args.func(args)
         assert seen["onboard"] == want
     for extra, match in ((["--outside", "robot"], "--outside parameter.*onboard stack"),

@@ -332,15 +332,11 @@ def summarize_inflight(result: Mapping) -> list[str]:
                              "failed": sum(r["failed"] for r in result["by_speed"].values())}))
     for label, r in rows:
         e, i = r["errors"], r["inputs"]
-
-        def cell(m, e=e):
-            return _cell(e[m])
-
+        cells = " | ".join(_cell(e[m]) for m in ("decoder_ukf", "decoder_mean", "decoder_inst",
+                                                  "local_ukf", "local_mean", "upstream"))
         lines.append(f"| {label} | {r['flights']} ({r['failed']}) | {r['n_samples']} | "
                      f"{i['ukf_vs_mean']:.2f} | {i['inst_vs_mean']:.2f} | "
-                     f"{i['ukf_vs_inst']:.2f} | {cell('decoder_ukf')} | {cell('decoder_mean')} | "
-                     f"{cell('decoder_inst')} | {cell('local_ukf')} | {cell('local_mean')} | "
-                     f"{cell('upstream')} |")
+                     f"{i['ukf_vs_inst']:.2f} | {cells} |")
     taus = result.get("taus") or []
     if taus:
         keys = [smoothed_key(tau) for tau in taus]
