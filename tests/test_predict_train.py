@@ -322,8 +322,7 @@ def test_recipe_files_are_checked(tmp_path):
         load_recipe(bad)
 
 
-@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise", "wrobot_flight",
-                                  "cluster"])
+@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise", "wrobot_flight"])
 def test_shipped_recipes_are_complete(name):
     recipe = load_recipe(RECIPES / f"{name}.toml")
     names = [group["name"] for group in recipe["sweep"]["maps"]]
@@ -344,15 +343,9 @@ def test_wrobot_recipes_are_the_default_but_for_the_noise(name, noise):
         assert noisy[key] == default[key], key
 
 
-def test_cluster_recipe_is_the_default_plus_windinet_like_clusters():
-    cluster = load_recipe(RECIPES / "cluster.toml")
+def test_default_recipe_has_windinet_like_clusters():
     default = load_recipe(RECIPES / "default.toml")
-    assert cluster["sweep"]["maps"][:-2] == default["sweep"]["maps"]
-    for key in ("data", "model", "train"):
-        assert cluster[key] == default[key], key
-    assert {k: v for k, v in cluster["sweep"].items() if k != "maps"} == \
-        {k: v for k, v in default["sweep"].items() if k != "maps"}
-    extra = [(name, city) for name, _, city in recipe_maps(cluster)
+    extra = [(name, city) for name, _, city in recipe_maps(default)
              if name.startswith("cluster")]
     assert [name for name, _ in extra] == ["cluster-0", "cluster-1", "cluster-stacked-0",
                                            "cluster-stacked-1"]
@@ -361,6 +354,7 @@ def test_cluster_recipe_is_the_default_plus_windinet_like_clusters():
         assert city.bounds == (0.0, 1100.0, 0.0, 1100.0)
         assert f[:, [0, 2]].min() >= 300.0 and f[:, [1, 3]].max() <= 800.0, name
     assert len(extra[0][1].footprints) == 52   # single blocks, as many as windinet's
+    assert len(recipe_maps(default)) == 65
 
 
 def test_a_recipe_starts_from_its_base(tmp_path):

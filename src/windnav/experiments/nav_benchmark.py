@@ -295,8 +295,10 @@ def with_goal_clearance(spec: SuiteSpec, records: Sequence[dict]) -> list[dict]:
 DECODERS = {
     "2026-11-23": ("decoder_2026-11-23.npz",
                    "75ea65022f6507f4acba63f9380724804d0c2f1c5cc3ca4ef92dec884a8a02e3"),
-    "2026-11-26": ("decoder_default.npz",
+    "2026-11-26": ("decoder_2026-11-26.npz",
                    "5dd14faf5598ee6d56593089d1157f0a017bd94184330c1914b7a34423d427e5"),
+    "2026-11-29": ("decoder_default.npz",
+                   "835e7c7b3f1995e144fc647baceaf6d8d2480c611f03fca2b0f2522b684dff09"),
     "2026-11-29-flight": ("decoder_2026-11-29-flight.npz",
                           "5c1fcadb03ad19b08326fcc1238a4851b725d35548b6340e72782a9461cda14e"),
 }
@@ -311,8 +313,8 @@ BENCHMARK_DECODER = "2026-11-23"
 """The decoder (a key of :data:`DECODERS`) that the benchmark's onboard stack
 (``ea-mppi-w-hat``) flies: the model its committed flights (``docs/navigation/``) were flown
 with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26
-(``ea-mppi-w-hat@decoder=2026-11-26`` flies it); pinning the benchmark's model keeps every
-recorded flight replayable to the bit."""
+and again on 2026-11-29 (``ea-mppi-w-hat@decoder=2026-11-26`` and ``@decoder=2026-11-29`` fly
+them); pinning the benchmark's model keeps every recorded flight replayable to the bit."""
 
 
 def benchmark_decoder(name: str = BENCHMARK_DECODER):
