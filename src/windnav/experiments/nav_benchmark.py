@@ -298,7 +298,7 @@ DECODERS = {
     "2026-11-26": ("decoder_2026-11-26.npz",
                    "5dd14faf5598ee6d56593089d1157f0a017bd94184330c1914b7a34423d427e5"),
     "2026-11-29": ("decoder_default.npz",
-                   "835e7c7b3f1995e144fc647baceaf6d8d2480c611f03fca2b0f2522b684dff09"),
+                   "5e3220601fab717a55bb88e0a9f12c54a14dd13a268f286d2582d2c434d61874"),
     "2026-11-29-flight": ("decoder_2026-11-29-flight.npz",
                           "5c1fcadb03ad19b08326fcc1238a4851b725d35548b6340e72782a9461cda14e"),
 }
