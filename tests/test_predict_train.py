@@ -154,6 +154,33 @@ def test_excluded_maps_are_left_out_of_training_only(tiny):
     assert _fingerprint(changed) != _fingerprint(recipe)
 
 
+def test_map_weights_repeat_a_groups_training_fields(tiny):
+    recipe, out, h = tiny
+    store = out / "sweep.zarr"
+    full, val, n_train, _ = _split_fields(store, ["holdout-0"], "here")
+    heavy, val2, n_heavy, _ = _split_fields(store, ["holdout-0"], "here", (), {"train": 3})
+    assert n_heavy == n_train == 2 and len(heavy) == 3 * len(full) and len(val2) == len(val)
+    # each map's fields, in order, three times over; the held-out map is never repeated
+    per_map = len(full) // n_train
+    for k in range(n_train):
+        block = heavy[3 * per_map * k:3 * per_map * (k + 1)]
+        for rep in range(3):
+            for a, b in zip(block[rep * per_map:(rep + 1) * per_map],
+                            full[per_map * k:per_map * (k + 1)], strict=True):
+                np.testing.assert_array_equal(a.u, b.u)
+    # each repeat draws its own robot positions
+    ds = DecoderDataset(heavy[:per_map + 1], 4, seed=0)
+    first, again = ds.samples(np.arange(4)), ds.samples(np.arange(4 * per_map, 4 * per_map + 4))
+    assert not np.allclose(first.w_robot, again.w_robot)
+    # no weights keep the fingerprints of recipes written before the option existed
+    older = copy.deepcopy(recipe)
+    del older["data"]["map_weights"]
+    assert _fingerprint(older) == _fingerprint(recipe)
+    changed = copy.deepcopy(recipe)
+    changed["data"]["map_weights"] = {"train": 2}
+    assert _fingerprint(changed) != _fingerprint(recipe)
+
+
 def test_thesis_mlp_trains_with_d4_augmentation(tiny, tmp_path):
     recipe, out, _ = tiny
     mlp = copy.deepcopy(recipe)
@@ -301,6 +328,11 @@ def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection()
     ({"data": {"validation_maps": []}}, "data.validation_maps"),
     ({"data": {"exclude_maps": "train-1"}}, "data.exclude_maps"),
     ({"data": {"exclude_maps": ["holdout-0"]}}, "data.exclude_maps"),
+    ({"data": {"map_weights": {"nowhere": 2}}}, "data.map_weights"),
+    ({"sweep": {"maps": [{"name": "train", "kind": "training"}]},
+      "data": {"map_weights": {"train": 0}}}, "data.map_weights"),
+    ({"sweep": {"maps": [{"name": "train", "kind": "training"}]},
+      "data": {"map_weights": {"train": 1.5}}}, "data.map_weights"),
     ({"model": {"architecture": "resnet"}}, "'name' parameter of make_architecture"),
     ({"model": {"hyperparameters": {"pool": 4}}}, "'pool' hyperparameter"),
     ({"sweep": {"maps": [{"name": "a", "kind": "forest"}]}}, "sweep.maps"),

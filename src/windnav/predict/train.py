@@ -88,6 +88,7 @@ DEFAULTS = {
         "samples_per_field": 512,
         "validation_maps": [],
         "exclude_maps": [],
+        "map_weights": {},
         "validation_samples_per_field": 256,
         "scan_noise": 0.35,
         "w_robot_noise": 0.0,
@@ -138,7 +139,7 @@ def _read_toml(path: Path) -> dict:
         return tomllib.load(fh)
 
 
-_WHOLE_TABLES = ("hyperparameters", "settings")
+_WHOLE_TABLES = ("hyperparameters", "settings", "map_weights")
 """Tables of a recipe that are values, replaced whole (not merged key by key)."""
 
 
@@ -274,6 +275,13 @@ def _check_recipe(r: dict, where: str) -> None:
             d["validation_maps"]):
         fail("data.exclude_maps", "a list of store map names left out of training (not "
              "validation maps)", ex)
+    groups = [g.get("name") for g in r["sweep"]["maps"] if isinstance(g, dict)]
+    mw = d["map_weights"]
+    if not isinstance(mw, dict) or not all(
+            k in groups and isinstance(v, int) and not isinstance(v, bool) and v >= 1
+            for k, v in mw.items()):
+        fail("data.map_weights", "a table of sweep.maps group names to integers >= 1 (each "
+             "training field of the group is drawn that many times over)", mw)
     # the architecture and its hyperparameters
     make_architecture(r["model"]["architecture"], d["size"], **r["model"]["hyperparameters"])
     for i, group in enumerate(r["sweep"]["maps"]):
@@ -317,8 +325,10 @@ def resolve_paths(recipe: dict, out_dir=None) -> tuple[Path, Path]:
 def _fingerprint(recipe: dict) -> str:
     """What must not change between a run and its resumption (not paths or workers)."""
     sweep = {k: v for k, v in recipe["sweep"].items() if k not in ("store", "backend", "workers")}
-    # an empty exclude_maps (added later) leaves the fingerprints of earlier runs as they were
-    data = {k: v for k, v in recipe["data"].items() if k != "exclude_maps" or v}
+    # an empty exclude_maps or map_weights (added later) leaves the fingerprints of earlier runs
+    # as they were
+    data = {k: v for k, v in recipe["data"].items()
+            if k not in ("exclude_maps", "map_weights") or v}
     keep = {"sweep": sweep, "data": data, "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
                       if k not in ("threads", "flush_denormal", "device", "tensorboard",
@@ -329,9 +339,13 @@ def _fingerprint(recipe: dict) -> str:
 # ------------------------------------------------------------------------------- data
 
 
-def _split_fields(store_path, validation_maps, where, exclude_maps=()):
+def _split_fields(store_path, validation_maps, where, exclude_maps=(), map_weights=None):
     """The store's fields split by map: validation maps, and training maps (all the others
-    but ``exclude_maps``, which learning-curve studies leave out)."""
+    but ``exclude_maps``, which learning-curve studies leave out).
+
+    ``map_weights`` maps a sweep group's name to an integer ``w``: each training field of its
+    maps (named ``<group>-<i>``) is listed ``w`` times, so that it gets ``w`` times the samples
+    (each repeat draws its own robot positions and noise)."""
     from windnav.flow.sweep_store import SweepStore
 
     store = SweepStore(store_path)
@@ -347,7 +361,14 @@ def _split_fields(store_path, validation_maps, where, exclude_maps=()):
     if not train:
         raise ValueError(f"The 'config' parameter of {where} holds out every map of the store "
                          f"{str(store_path)!r}; keep at least one for training.")
-    fields_train = fields_from_store(store, maps=train)
+    weights = dict(map_weights or {})
+    if weights:
+        fields_train = []
+        for k in train:
+            fields_train += fields_from_store(store, maps=[k]) * weights.get(
+                names[k].rsplit("-", 1)[0], 1)
+    else:
+        fields_train = fields_from_store(store, maps=train)
     fields_val = fields_from_store(store, maps=val)
     if not fields_train or not fields_val:
         raise ValueError(f"{where}: the store {str(store_path)!r} has no finished simulation "
@@ -710,7 +731,8 @@ class _Run:
         data, tr, mdl = self.data, self.tr, self.mdl
         self.device = _device(tr["device"])
         self.fields_train, fields_val, n_train_maps, n_val_maps = _split_fields(
-            self.store, data["validation_maps"], where, data["exclude_maps"])
+            self.store, data["validation_maps"], where, data["exclude_maps"],
+            data["map_weights"])
         self.val = _dataset(fields_val, data["validation_samples_per_field"], data,
                             1).materialize()
         self.arch = make_architecture(mdl["architecture"], data["size"],
