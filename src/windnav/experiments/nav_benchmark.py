@@ -297,24 +297,30 @@ DECODERS = {
                    "75ea65022f6507f4acba63f9380724804d0c2f1c5cc3ca4ef92dec884a8a02e3"),
     "2026-11-26": ("decoder_2026-11-26.npz",
                    "5dd14faf5598ee6d56593089d1157f0a017bd94184330c1914b7a34423d427e5"),
-    "2026-11-29": ("decoder_default.npz",
+    "2026-11-29": ("decoder_2026-11-29.npz",
                    "5e3220601fab717a55bb88e0a9f12c54a14dd13a268f286d2582d2c434d61874"),
+    "2026-11-29-area": ("decoder_default.npz",
+                        "6ef284457b032a2787e63b68888abee5576e8bb57480d914e42b4b8385ad21cd"),
     "2026-11-29-flight": ("decoder_2026-11-29-flight.npz",
                           "5c1fcadb03ad19b08326fcc1238a4851b725d35548b6340e72782a9461cda14e"),
 }
 """The decoders the onboard stack can fly in the benchmark, by the date they were trained: the
 file in ``windnav/predict/data`` and its SHA-256. A model keeps its date when the shipped
 default is retrained (its file is then copied under its date), so a label names the same
-weights for good; a file whose bytes differ is refused. ``2026-11-29-flight`` is not a
-default: the recipe ``wrobot_flight.toml`` (the default's with 0.45 U of noise on
-``W_robot``, the in-flight error of the onboard estimate against the mean wind)."""
+weights for good; a file whose bytes differ is refused. ``2026-11-29-area``, the default since
+the evening of 2026-11-29, is the second model trained that day: samples drawn in proportion
+to the area around buildings and six 1.1 km clusters (``docs/decoder.md``).
+``2026-11-29-flight`` is not a default: the recipe ``wrobot_flight.toml`` (the default's with
+0.45 U of noise on ``W_robot``, the in-flight error of the onboard estimate against the mean
+wind)."""
 
 BENCHMARK_DECODER = "2026-11-23"
 """The decoder (a key of :data:`DECODERS`) that the benchmark's onboard stack
 (``ea-mppi-w-hat``) flies: the model its committed flights (``docs/navigation/``) were flown
 with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26
-and again on 2026-11-29 (``ea-mppi-w-hat@decoder=2026-11-26`` and ``@decoder=2026-11-29`` fly
-them); pinning the benchmark's model keeps every recorded flight replayable to the bit."""
+and twice on 2026-11-29 (``ea-mppi-w-hat@decoder=2026-11-26``, ``@decoder=2026-11-29`` and
+``@decoder=2026-11-29-area`` fly them); pinning the benchmark's model keeps every recorded
+flight replayable to the bit."""
 
 
 def benchmark_decoder(name: str = BENCHMARK_DECODER):
