@@ -838,6 +838,16 @@ WIDE = {"pool": 3, "conv_channels": 16, "embed": 256, "width": 256, "depth": 3, 
 the parameters of the shipped model."""
 
 
+def _training_draws(recipe: dict, excluded=()) -> int:
+    """The recipe's training maps but ``excluded``, each counted as often as its group's
+    ``data.map_weights`` draws its fields (so that samples per field scaled by the ratio of
+    two counts give as many training samples per epoch)."""
+    weights = recipe["data"]["map_weights"]
+    left_out = set(recipe["data"]["validation_maps"]) | set(excluded)
+    return sum(weights.get(g["name"], 1) for g in recipe["sweep"]["maps"]
+               for i in range(int(g.get("count", 1))) if f"{g['name']}-{i}" not in left_out)
+
+
 def map_subset(recipe: dict, fraction: float) -> list[str]:
     """The training maps a fraction of a recipe's sweep leaves out (``data.exclude_maps``).
 
@@ -923,15 +933,15 @@ def scaling_study(runs_dir, *, fractions=SCALING_FRACTIONS, wide: bool = True,
         wide_hp = {**r["model"]["hyperparameters"], **WIDE}
     r["train"]["tensorboard"] = False
     base = r["data"]["samples_per_field"]
-    n_all = sum(int(g.get("count", 1)) for g in r["sweep"]["maps"]) - len(
-        r["data"]["validation_maps"])
+    n_all = _training_draws(r)
     variants, kept = {}, {}
     for f in list(fractions):
         excluded = map_subset(r, f)
-        if n_all - len(excluded) in kept.values():  # the same maps as a smaller fraction
+        draws = _training_draws(r, excluded)
+        if draws in kept.values():  # the same maps as a smaller fraction
             fractions.remove(f)
             continue
-        kept[f] = n_all - len(excluded)
+        kept[f] = draws
         variants[f"maps-{f:g}"] = {"data.exclude_maps": excluded,
                                    "data.samples_per_field": round(base * n_all / kept[f])}
     if wide:

@@ -361,14 +361,9 @@ def _split_fields(store_path, validation_maps, where, exclude_maps=(), map_weigh
     if not train:
         raise ValueError(f"The 'config' parameter of {where} holds out every map of the store "
                          f"{str(store_path)!r}; keep at least one for training.")
-    weights = dict(map_weights or {})
-    if weights:
-        fields_train = []
-        for k in train:
-            fields_train += fields_from_store(store, maps=[k]) * weights.get(
-                names[k].rsplit("-", 1)[0], 1)
-    else:
-        fields_train = fields_from_store(store, maps=train)
+    weights = map_weights or {}
+    fields_train = [f for k in train for f in fields_from_store(store, maps=[k])
+                    * weights.get(names[k].rsplit("-", 1)[0], 1)]
     fields_val = fields_from_store(store, maps=val)
     if not fields_train or not fields_val:
         raise ValueError(f"{where}: the store {str(store_path)!r} has no finished simulation "
