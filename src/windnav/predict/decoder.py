@@ -415,6 +415,10 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         # bins[g, i], rays pool * bins[g, i] - h ... + h, h = (pool - 1) / 2 (circularly)
         pool, h = hp["pool"], (hp["pool"] - 1) // 2
         self._sector_rays = (pool * self._bins[:, :, None] + np.arange(pool) - h) % hp["n_rays"]
+        # the same rays offset-major, (8, pool * sectors): ray j of every sector together, so
+        # that the pool's minimum is pool - 1 elementwise minima of contiguous rows (a
+        # reduction over a trailing axis of 5 cost 5 x as much)
+        self._pooled_rays = self._sector_rays.transpose(0, 2, 1).reshape(8, -1)
         self._upstream_memo = None
 
     def shapes(self) -> dict:
@@ -446,7 +450,13 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         g, up, scale = self._upstream(w_up)
         # centred_min_pool, then the sectors into the canonical frame: one gather of each
         # canonical sector's rays (the same minimum of the same ranges)
-        pooled = scans[np.arange(scans.shape[0])[:, None, None], self._sector_rays[g]].min(axis=2)
+        b, n_rays = scans.shape
+        rays = self._pooled_rays[g]
+        rays += (np.arange(b) * n_rays)[:, None]
+        gathered = np.ascontiguousarray(scans).ravel().take(rays).reshape(b, hp["pool"], -1)
+        pooled = gathered[:, 0].copy()
+        for j in range(1, hp["pool"]):  # min is exact: the same values in any order
+            np.minimum(pooled, gathered[:, j], out=pooled)
         w_robot_c = np.einsum("bij,bj->bi", _D4[g], w_robot).astype(np.float32)
         return {"g": g, "channels": range_channels(pooled, hp["range_scale"], hp["range_min"]),
                 "winds": robot_features(up, w_robot_c, scale), "scale": scale,
