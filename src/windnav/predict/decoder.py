@@ -277,9 +277,18 @@ def centred_min_pool(scans: np.ndarray, pool: int) -> np.ndarray:
     h = (pool - 1) // 2
     n = scans.shape[1]
     shifted = np.concatenate([scans[:, n - h:], scans[:, :n - h]], axis=1) if h else scans
-    out = shifted[:, 0::pool].copy()
+    return _run_min(shifted, pool)
+
+
+def _run_min(values: np.ndarray, pool: int) -> np.ndarray:
+    """The minimum of each run of ``pool`` consecutive columns: ``(B, pool n) -> (B, n)``.
+
+    ``pool - 1`` elementwise minima of strided columns, not a reduction over a trailing axis of
+    ``pool``, which costs several times as much; the minimum is exact in any order.
+    """
+    out = values[:, 0::pool].copy()
     for j in range(1, pool):
-        np.minimum(out, shifted[:, j::pool], out=out)
+        np.minimum(out, values[:, j::pool], out=out)
     return out
 
 
@@ -412,13 +421,11 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         self._perm = d4_grid_permutation(hp["size"])
         self._inverse = np.argsort(self._perm, axis=1)
         # the rays pooled into canonical sector i for element g: centred_min_pool's sector
-        # bins[g, i], rays pool * bins[g, i] - h ... + h, h = (pool - 1) / 2 (circularly)
+        # bins[g, i], rays pool * bins[g, i] - h ... + h, h = (pool - 1) / 2 (circularly);
+        # (8, sectors * pool), each sector's rays consecutive
         pool, h = hp["pool"], (hp["pool"] - 1) // 2
-        self._sector_rays = (pool * self._bins[:, :, None] + np.arange(pool) - h) % hp["n_rays"]
-        # the same rays offset-major, (8, pool * sectors): ray j of every sector together, so
-        # that the pool's minimum is pool - 1 elementwise minima of contiguous rows (a
-        # reduction over a trailing axis of 5 cost 5 x as much)
-        self._pooled_rays = self._sector_rays.transpose(0, 2, 1).reshape(8, -1)
+        self._sector_rays = ((pool * self._bins[:, :, None] + np.arange(pool) - h)
+                             % hp["n_rays"]).reshape(8, -1)
         self._upstream_memo = None
 
     def shapes(self) -> dict:
@@ -451,12 +458,9 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         # centred_min_pool, then the sectors into the canonical frame: one gather of each
         # canonical sector's rays (the same minimum of the same ranges)
         b, n_rays = scans.shape
-        rays = self._pooled_rays[g]
+        rays = self._sector_rays[g]
         rays += (np.arange(b) * n_rays)[:, None]
-        gathered = np.ascontiguousarray(scans).ravel().take(rays).reshape(b, hp["pool"], -1)
-        pooled = gathered[:, 0].copy()
-        for j in range(1, hp["pool"]):  # min is exact: the same values in any order
-            np.minimum(pooled, gathered[:, j], out=pooled)
+        pooled = _run_min(np.ascontiguousarray(scans).ravel().take(rays), hp["pool"])
         w_robot_c = np.einsum("bij,bj->bi", _D4[g], w_robot).astype(np.float32)
         return {"g": g, "channels": range_channels(pooled, hp["range_scale"], hp["range_min"]),
                 "winds": robot_features(up, w_robot_c, scale), "scale": scale,
