@@ -320,10 +320,62 @@ def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection()
     torch.testing.assert_close(scaled.grad, mse_grad, atol=1e-5, rtol=0)
 
 
+def test_norm_and_speed_loss_terms_are_the_metrics_own_forms():
+    import torch
+
+    from windnav.predict.metrics import field_errors
+
+    rng = np.random.default_rng(3)
+    label = torch.tensor(rng.normal(0, 4, (2, 2, 9)), dtype=torch.float32)
+    pred = torch.tensor(rng.normal(0, 4, (2, 2, 9)), dtype=torch.float32)
+    free = torch.tensor(rng.random((2, 9)) > 0.3, dtype=torch.float32)
+    speed = torch.tensor([5.0, 5.0])
+    scale = (5.0 / 10.0) / 5.0  # (U / 10)^p / U at p = 1
+    # the vector and speed errors of windnav.predict.metrics, on the same cells
+    lab = label.numpy().reshape(2, 2, 3, 3)
+    prd = pred.numpy().reshape(2, 2, 3, 3)
+    m = field_errors(prd, lab, free.numpy().reshape(2, 3, 3).astype(bool), [5.0, 5.0])
+    norm = float(_loss(pred, label, free, speed, 1.0, 0.0, "norm"))
+    assert norm == pytest.approx(scale * m["vector_error"], rel=1e-4)
+    both = float(_loss(pred, label, free, speed, 1.0, 0.0, "norm", 2.0))
+    assert both - norm == pytest.approx(2.0 * scale * m["speed_error"], rel=1e-4)
+    # the squared form is the default and the speed term is off by default
+    assert float(_loss(pred, label, free, speed, 1.0, 0.5)) == float(
+        _loss(pred, label, free, speed, 1.0, 0.5, "squared", 0.0))
+    # the speed term pulls only on the predicted speed, never on the direction
+    p = pred.clone().requires_grad_(True)
+    _loss(p, label, free, speed, 1.0, 0.0, "norm", 1.0).backward()
+    g_both = p.grad.clone()
+    p.grad = None
+    _loss(p, label, free, speed, 1.0, 0.0, "norm", 0.0).backward()
+    g_speed = (g_both - p.grad).numpy()
+    radial = g_speed * pred.numpy() / np.linalg.norm(pred.numpy(), axis=1, keepdims=True)
+    tangential = g_speed - radial.sum(axis=1, keepdims=True) * (
+        pred.numpy() / np.linalg.norm(pred.numpy(), axis=1, keepdims=True))
+    np.testing.assert_allclose(tangential, 0.0, atol=1e-6)
+    # finite gradients where the prediction and the label are both zero
+    zero = torch.zeros_like(label).requires_grad_(True)
+    _loss(zero, torch.zeros_like(label), free, speed, 1.0, 0.0, "norm", 1.0).backward()
+    assert torch.isfinite(zero.grad).all()
+
+
+def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
+    recipe = load_recipe({"data": {"validation_maps": ["holdout-0"]}})
+    older = copy.deepcopy(recipe)
+    del older["train"]["vector_loss"], older["train"]["speed_loss_weight"]
+    assert _fingerprint(older) == _fingerprint(recipe)
+    for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0)):
+        changed = copy.deepcopy(recipe)
+        changed["train"][key] = value
+        assert _fingerprint(changed) != _fingerprint(recipe)
+
+
 @pytest.mark.parametrize(("change", "match"), [
     ({"trian": {}}, "unknown key 'trian'"),
     ({"train": {"epochs": 0}}, "train.epochs"),
     ({"train": {"optimizer": "sgd"}}, "train.optimizer"),
+    ({"train": {"vector_loss": "huber"}}, "train.vector_loss"),
+    ({"train": {"speed_loss_weight": -1.0}}, "train.speed_loss_weight"),
     ({"train": {"flush_denormal": 1}}, "train.flush_denormal"),
     ({"data": {"validation_maps": []}}, "data.validation_maps"),
     ({"data": {"exclude_maps": "train-1"}}, "data.exclude_maps"),

@@ -106,6 +106,8 @@ DEFAULTS = {
         "warmup_fraction": 0.03,
         "final_lr_fraction": 0.02,
         "loss_speed_power": 1.0,
+        "vector_loss": "squared",
+        "speed_loss_weight": 0.0,
         "direction_loss_weight": 0.0,
         "augment_d4": False,
         "augment_speed": [],
@@ -253,10 +255,13 @@ def _check_recipe(r: dict, where: str) -> None:
         if not isinstance(t[key], (int, float)) or not 0 < t[key] < math.inf:
             fail(f"train.{key}", "a positive number", t[key])
     for key in ("weight_decay", "warmup_fraction", "final_lr_fraction",
-                "direction_loss_weight"):
+                "direction_loss_weight", "speed_loss_weight"):
         top = 1 if key in ("warmup_fraction", "final_lr_fraction") else math.inf
         if not isinstance(t[key], (int, float)) or not 0 <= t[key] <= top:
             fail(f"train.{key}", "a number >= 0 (a fraction <= 1)", t[key])
+    if t["vector_loss"] not in ("squared", "norm"):
+        fail("train.vector_loss", "'squared' (|pred - label|^2 / U^2) or 'norm' "
+             "(|pred - label| / U)", t["vector_loss"])
     if t["optimizer"] not in ("adam", "adamw"):
         fail("train.optimizer", "'adam' or 'adamw'", t["optimizer"])
     sp = t["augment_speed"]
@@ -329,10 +334,12 @@ def _fingerprint(recipe: dict) -> str:
     # as they were
     data = {k: v for k, v in recipe["data"].items()
             if k not in ("exclude_maps", "map_weights") or v}
+    # the loss keys added on 2026-11-30 likewise, at their defaults
+    added = {"vector_loss": "squared", "speed_loss_weight": 0.0}
     keep = {"sweep": sweep, "data": data, "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
                       if k not in ("threads", "flush_denormal", "device", "tensorboard",
-                                   "eval_batch_size")}}
+                                   "eval_batch_size") and not (k in added and v == added[k])}}
     return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -485,21 +492,38 @@ def _tensor_batch(arch, batch, device):
     return to_tensors(f, arch.name, device), to(lab), to(fr), to(np.asarray(speed, np.float32))
 
 
-def _loss(pred, labels, free, speed, power: float, direction_weight: float):
-    """``mean_free((U / 10)^p |pred - label|^2 / U^2) + direction_weight * mean_free(c (1 -
-    cos(pred, label)))``.
+def _loss(pred, labels, free, speed, power: float, direction_weight: float,
+          vector: str = "squared", speed_weight: float = 0.0):
+    """The training loss, a mean over free cells of three terms:
 
-    The cosine is scale-invariant (its gradient never pulls on the predicted speed), softened
-    only by ``1e-6 U^2`` against 0 / 0; ``c = min(1, |label| / (0.1 U))`` fades out cells
-    whose true direction is barely defined.
+    - the vector term, ``vector = "squared"``: ``(U / 10)^p |pred - label|^2 / U^2`` (the MSE);
+      ``"norm"``: ``(U / 10)^p |pred - label| / U``, the vector-error metric's own form, whose
+      minimiser is a median, not a mean (the squared error pulls a prediction towards the
+      average of the fields a scan leaves possible, which is slower than each of them);
+    - ``speed_weight * (U / 10)^p ||pred| - |label|| / U``, the speed-error metric's own form;
+    - ``direction_weight * c (1 - cos(pred, label))``. The cosine is scale-invariant (its
+      gradient never pulls on the predicted speed), softened only by ``1e-6 U^2`` against
+      0 / 0; ``c = min(1, |label| / (0.1 U))`` fades out cells whose true direction is barely
+      defined.
+
+    The norms are softened by ``1e-3 U`` so that their gradients stay finite at 0.
     """
     import torch
 
     u = torch.clamp(speed, min=0.1)
-    w = (u / SPEED_REF) ** power / (u * u)
     n_free = torch.clamp(free.sum(), min=1.0)
-    err = ((pred - labels) ** 2).sum(dim=1) * free  # (B, H^2)
-    loss = (err * w[:, None]).sum() / n_free
+    sq = ((pred - labels) ** 2).sum(dim=1)  # (B, H^2)
+    if vector == "squared":
+        err, w = sq, (u / SPEED_REF) ** power / (u * u)
+    else:
+        err, w = torch.sqrt(sq + (1e-3 * u[:, None]) ** 2), (u / SPEED_REF) ** power / u
+    loss = (err * free * w[:, None]).sum() / n_free
+    if speed_weight > 0:
+        soft = (1e-3 * u[:, None]) ** 2
+        speed_err = (torch.sqrt((pred ** 2).sum(dim=1) + soft)
+                     - torch.sqrt((labels ** 2).sum(dim=1) + soft)).abs()
+        wn = (u / SPEED_REF) ** power / u
+        loss = loss + speed_weight * (speed_err * free * wn[:, None]).sum() / n_free
     if direction_weight > 0:
         norm_p = torch.sqrt((pred ** 2).sum(dim=1))
         norm_l = torch.sqrt((labels ** 2).sum(dim=1))
@@ -801,7 +825,8 @@ class _Run:
                 batch = _augment(batch, rng)
             inputs, labels, free, speed = _tensor_batch(self.arch, batch, self.device)
             loss = _loss(model(inputs), labels, free, speed, tr["loss_speed_power"],
-                         tr["direction_loss_weight"])
+                         tr["direction_loss_weight"], tr["vector_loss"],
+                         tr["speed_loss_weight"])
             self.opt.zero_grad(set_to_none=True)
             loss.backward()
             self.opt.step()
