@@ -359,12 +359,43 @@ def test_norm_and_speed_loss_terms_are_the_metrics_own_forms():
     assert torch.isfinite(zero.grad).all()
 
 
+def test_angle_direction_loss_is_the_direction_errors_own_form():
+    import torch
+
+    from windnav.predict.metrics import field_errors
+
+    rng = np.random.default_rng(4)
+    label = torch.tensor(rng.normal(0, 4, (2, 2, 9)) + 3.0, dtype=torch.float32)
+    pred = torch.tensor(rng.normal(0, 4, (2, 2, 9)) + 3.0, dtype=torch.float32)
+    free = torch.tensor(rng.random((2, 9)) > 0.3, dtype=torch.float32)
+    speed = torch.tensor([0.2, 0.2])  # c = 1 wherever |label| >= 0.02 m/s: every cell here
+    m = field_errors(pred.numpy().reshape(2, 2, 3, 3), label.numpy().reshape(2, 2, 3, 3),
+                     free.numpy().reshape(2, 3, 3).astype(bool), [0.2, 0.2])
+    vec = float(_loss(pred, label, free, speed, 1.0, 0.0, "norm"))
+    ang = float(_loss(pred, label, free, speed, 1.0, 0.7, "norm", 0.0, "angle")) - vec
+    assert ang == pytest.approx(0.7 * np.radians(m["direction_error_deg"]), rel=1e-4)
+    # it never pulls on the predicted speed: its gradient is tangential
+    p = pred.clone().requires_grad_(True)
+    _loss(p, label, free, speed, 1.0, 1.0, "norm", 0.0, "angle").backward()
+    g_dir = p.grad.clone()
+    p.grad = None
+    _loss(p, label, free, speed, 1.0, 0.0, "norm").backward()
+    g = (g_dir - p.grad).numpy()
+    np.testing.assert_allclose((g * pred.numpy()).sum(axis=1), 0.0, atol=1e-5)
+    # and stays finite where prediction and label agree
+    q = label.clone().requires_grad_(True)
+    _loss(q, label, free, speed, 1.0, 1.0, "norm", 0.0, "angle").backward()
+    assert torch.isfinite(q.grad).all()
+
+
 def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     recipe = load_recipe({"data": {"validation_maps": ["holdout-0"]}})
     older = copy.deepcopy(recipe)
-    del older["train"]["vector_loss"], older["train"]["speed_loss_weight"]
+    for key in ("vector_loss", "speed_loss_weight", "direction_loss"):
+        del older["train"][key]
     assert _fingerprint(older) == _fingerprint(recipe)
-    for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0)):
+    for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0),
+                       ("direction_loss", "angle")):
         changed = copy.deepcopy(recipe)
         changed["train"][key] = value
         assert _fingerprint(changed) != _fingerprint(recipe)
@@ -375,6 +406,7 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"train": {"epochs": 0}}, "train.epochs"),
     ({"train": {"optimizer": "sgd"}}, "train.optimizer"),
     ({"train": {"vector_loss": "huber"}}, "train.vector_loss"),
+    ({"train": {"direction_loss": "sine"}}, "train.direction_loss"),
     ({"train": {"speed_loss_weight": -1.0}}, "train.speed_loss_weight"),
     ({"train": {"flush_denormal": 1}}, "train.flush_denormal"),
     ({"data": {"validation_maps": []}}, "data.validation_maps"),

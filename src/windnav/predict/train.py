@@ -109,6 +109,7 @@ DEFAULTS = {
         "vector_loss": "squared",
         "speed_loss_weight": 0.0,
         "direction_loss_weight": 0.0,
+        "direction_loss": "cosine",
         "augment_d4": False,
         "augment_speed": [],
         "pca_samples": 8192,
@@ -259,6 +260,9 @@ def _check_recipe(r: dict, where: str) -> None:
         top = 1 if key in ("warmup_fraction", "final_lr_fraction") else math.inf
         if not isinstance(t[key], (int, float)) or not 0 <= t[key] <= top:
             fail(f"train.{key}", "a number >= 0 (a fraction <= 1)", t[key])
+    if t["direction_loss"] not in ("cosine", "angle"):
+        fail("train.direction_loss", "'cosine' (1 - cos) or 'angle' (the angle, rad)",
+             t["direction_loss"])
     if t["vector_loss"] not in ("squared", "norm"):
         fail("train.vector_loss", "'squared' (|pred - label|^2 / U^2) or 'norm' "
              "(|pred - label| / U)", t["vector_loss"])
@@ -335,7 +339,7 @@ def _fingerprint(recipe: dict) -> str:
     data = {k: v for k, v in recipe["data"].items()
             if k not in ("exclude_maps", "map_weights") or v}
     # the loss keys added on 2026-11-30 likewise, at their defaults
-    added = {"vector_loss": "squared", "speed_loss_weight": 0.0}
+    added = {"vector_loss": "squared", "speed_loss_weight": 0.0, "direction_loss": "cosine"}
     keep = {"sweep": sweep, "data": data, "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
                       if k not in ("threads", "flush_denormal", "device", "tensorboard",
@@ -493,7 +497,7 @@ def _tensor_batch(arch, batch, device):
 
 
 def _loss(pred, labels, free, speed, power: float, direction_weight: float,
-          vector: str = "squared", speed_weight: float = 0.0):
+          vector: str = "squared", speed_weight: float = 0.0, direction: str = "cosine"):
     """The training loss, a mean over free cells of three terms:
 
     - the vector term, ``vector = "squared"``: ``(U / 10)^p |pred - label|^2 / U^2`` (the MSE);
@@ -501,10 +505,13 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
       minimiser is a median, not a mean (the squared error pulls a prediction towards the
       average of the fields a scan leaves possible, which is slower than each of them);
     - ``speed_weight * (U / 10)^p ||pred| - |label|| / U``, the speed-error metric's own form;
-    - ``direction_weight * c (1 - cos(pred, label))``. The cosine is scale-invariant (its
-      gradient never pulls on the predicted speed), softened only by ``1e-6 U^2`` against
-      0 / 0; ``c = min(1, |label| / (0.1 U))`` fades out cells whose true direction is barely
-      defined.
+    - ``direction_weight * c (1 - cos(pred, label))`` (``direction = "cosine"``), or ``c``
+      times the angle between them in radians (``"angle"``, the direction error's own form,
+      ``atan2(|pred x label|, pred . label)``: its gradient does not vanish for small angles
+      as that of ``1 - cos ~ angle^2 / 2`` does). Both are scale-invariant (their gradients
+      never pull on the predicted speed); the cosine is softened only by ``1e-6 U^2`` against
+      0 / 0, the cross product by ``1e-3 U^2``; ``c = min(1, |label| / (0.1 U))`` fades out
+      cells whose true direction is barely defined.
 
     The norms are softened by ``1e-3 U`` so that their gradients stay finite at 0.
     """
@@ -525,11 +532,17 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
         wn = (u / SPEED_REF) ** power / u
         loss = loss + speed_weight * (speed_err * free * wn[:, None]).sum() / n_free
     if direction_weight > 0:
-        norm_p = torch.sqrt((pred ** 2).sum(dim=1))
         norm_l = torch.sqrt((labels ** 2).sum(dim=1))
-        cos = (pred * labels).sum(dim=1) / (norm_p * norm_l + 1e-6 * (u * u)[:, None])
         c = torch.clamp(norm_l / (0.1 * u[:, None]), max=1.0)
-        loss = loss + direction_weight * ((1.0 - cos) * c * free).sum() / n_free
+        if direction == "cosine":
+            norm_p = torch.sqrt((pred ** 2).sum(dim=1))
+            cos = (pred * labels).sum(dim=1) / (norm_p * norm_l + 1e-6 * (u * u)[:, None])
+            miss = 1.0 - cos
+        else:
+            cross = pred[:, 0] * labels[:, 1] - pred[:, 1] * labels[:, 0]
+            dot = (pred * labels).sum(dim=1)
+            miss = torch.atan2(torch.sqrt(cross ** 2 + (1e-3 * (u * u)[:, None]) ** 2), dot)
+        loss = loss + direction_weight * (miss * c * free).sum() / n_free
     return loss
 
 
@@ -826,7 +839,7 @@ class _Run:
             inputs, labels, free, speed = _tensor_batch(self.arch, batch, self.device)
             loss = _loss(model(inputs), labels, free, speed, tr["loss_speed_power"],
                          tr["direction_loss_weight"], tr["vector_loss"],
-                         tr["speed_loss_weight"])
+                         tr["speed_loss_weight"], tr["direction_loss"])
             self.opt.zero_grad(set_to_none=True)
             loss.backward()
             self.opt.step()
