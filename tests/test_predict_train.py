@@ -455,8 +455,20 @@ def test_wrobot_recipes_are_the_default_but_for_the_noise(name, noise):
     default = load_recipe(RECIPES / "default.toml")
     assert noisy["name"] == name
     assert noisy["data"].pop("w_robot_noise") == noise and default["data"].pop("w_robot_noise") == 0
+    # and the squared loss their models were trained with (the default's since 2026-11-30 has
+    # the metrics' own forms)
+    assert (noisy["train"].pop("vector_loss"), noisy["train"].pop("speed_loss_weight")) == (
+        "squared", 0.0)
+    assert (default["train"].pop("vector_loss"), default["train"].pop("speed_loss_weight")) == (
+        "norm", 1.0)
     for key in ("sweep", "data", "model", "train"):
         assert noisy[key] == default[key], key
+
+
+def test_thesis_mlp_recipe_keeps_the_thesis_loss():
+    t = load_recipe(RECIPES / "thesis_mlp.toml")["train"]
+    assert (t["vector_loss"], t["speed_loss_weight"], t["direction_loss_weight"],
+            t["loss_speed_power"], t["weight_decay"]) == ("squared", 0.0, 0.0, 2.0, 0.002)
 
 
 def test_default_recipe_has_windinet_like_clusters():

@@ -299,17 +299,20 @@ DECODERS = {
                    "5dd14faf5598ee6d56593089d1157f0a017bd94184330c1914b7a34423d427e5"),
     "2026-11-29": ("decoder_2026-11-29.npz",
                    "5e3220601fab717a55bb88e0a9f12c54a14dd13a268f286d2582d2c434d61874"),
-    "2026-11-29-area": ("decoder_default.npz",
+    "2026-11-29-area": ("decoder_2026-11-29-area.npz",
                         "6ef284457b032a2787e63b68888abee5576e8bb57480d914e42b4b8385ad21cd"),
+    "2026-11-30": ("decoder_default.npz",
+                   "eef872ceeeb23f606912ff4a4b51c3cda69bce4a48545cb30c6f7c5c023c891d"),
     "2026-11-29-flight": ("decoder_2026-11-29-flight.npz",
                           "5c1fcadb03ad19b08326fcc1238a4851b725d35548b6340e72782a9461cda14e"),
 }
 """The decoders the onboard stack can fly in the benchmark, by the date they were trained: the
 file in ``windnav/predict/data`` and its SHA-256. A model keeps its date when the shipped
 default is retrained (its file is then copied under its date), so a label names the same
-weights for good; a file whose bytes differ is refused. ``2026-11-29-area``, the default since
+weights for good; a file whose bytes differ is refused. ``2026-11-29-area``, the default from
 the evening of 2026-11-29, is the second model trained that day: samples drawn in proportion
-to the area around buildings and six 1.1 km clusters (``docs/decoder.md``).
+to the area around buildings and six 1.1 km clusters (``docs/decoder.md``). ``2026-11-30``,
+the default since, is the same data and model trained with the metrics' own forms as the loss.
 ``2026-11-29-flight`` is not a default: the recipe ``wrobot_flight.toml`` (the default's with
 0.45 U of noise on ``W_robot``, the in-flight error of the onboard estimate against the mean
 wind)."""
@@ -317,10 +320,10 @@ wind)."""
 BENCHMARK_DECODER = "2026-11-23"
 """The decoder (a key of :data:`DECODERS`) that the benchmark's onboard stack
 (``ea-mppi-w-hat``) flies: the model its committed flights (``docs/navigation/``) were flown
-with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26
-and twice on 2026-11-29 (``ea-mppi-w-hat@decoder=2026-11-26``, ``@decoder=2026-11-29`` and
-``@decoder=2026-11-29-area`` fly them); pinning the benchmark's model keeps every recorded
-flight replayable to the bit."""
+with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26,
+twice on 2026-11-29 and on 2026-11-30 (``ea-mppi-w-hat@decoder=2026-11-26``,
+``@decoder=2026-11-29``, ``@decoder=2026-11-29-area`` and ``@decoder=2026-11-30`` fly them);
+pinning the benchmark's model keeps every recorded flight replayable to the bit."""
 
 
 def benchmark_decoder(name: str = BENCHMARK_DECODER):
