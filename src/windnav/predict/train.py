@@ -339,7 +339,8 @@ def _fingerprint(recipe: dict) -> str:
     data = {k: v for k, v in recipe["data"].items()
             if k not in ("exclude_maps", "map_weights") or v}
     # the loss keys added on 2026-11-30 likewise, at their defaults
-    added = {"vector_loss": "squared", "speed_loss_weight": 0.0, "direction_loss": "cosine"}
+    added = {k: DEFAULTS["train"][k] for k in ("vector_loss", "speed_loss_weight",
+                                              "direction_loss")}
     keep = {"sweep": sweep, "data": data, "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
                       if k not in ("threads", "flush_denormal", "device", "tensorboard",
@@ -519,18 +520,18 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
 
     u = torch.clamp(speed, min=0.1)
     n_free = torch.clamp(free.sum(), min=1.0)
+    by_speed = (u / SPEED_REF) ** power
+    soft = (1e-3 * u[:, None]) ** 2  # the norms' softening, (1e-3 U)^2
     sq = ((pred - labels) ** 2).sum(dim=1)  # (B, H^2)
     if vector == "squared":
-        err, w = sq, (u / SPEED_REF) ** power / (u * u)
+        err, w = sq, by_speed / (u * u)
     else:
-        err, w = torch.sqrt(sq + (1e-3 * u[:, None]) ** 2), (u / SPEED_REF) ** power / u
+        err, w = torch.sqrt(sq + soft), by_speed / u
     loss = (err * free * w[:, None]).sum() / n_free
     if speed_weight > 0:
-        soft = (1e-3 * u[:, None]) ** 2
         speed_err = (torch.sqrt((pred ** 2).sum(dim=1) + soft)
                      - torch.sqrt((labels ** 2).sum(dim=1) + soft)).abs()
-        wn = (u / SPEED_REF) ** power / u
-        loss = loss + speed_weight * (speed_err * free * wn[:, None]).sum() / n_free
+        loss = loss + speed_weight * (speed_err * free * (by_speed / u)[:, None]).sum() / n_free
     if direction_weight > 0:
         norm_l = torch.sqrt((labels ** 2).sum(dim=1))
         c = torch.clamp(norm_l / (0.1 * u[:, None]), max=1.0)
