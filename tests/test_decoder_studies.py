@@ -305,10 +305,11 @@ def test_map_subset_keeps_every_kind_of_map_in_proportion():
                     "scattered": 4, "cluster": 1, "cluster-stacked": 1}
     assert "holdout-0" not in left_out and "dense-0" not in left_out and "dense-5" in left_out
     assert len(map_subset(recipe, 0.5)) == 33   # half of each group of the 66 training maps
-    # the scaling study's sample count follows data.map_weights: 56 maps once, 10 four times
+    # the scaling study's sample count follows data.map_weights: 56 maps once, the 4 districts
+    # four times, the 6 clusters eight times
     from windnav.experiments.decoder_studies import _training_draws
-    assert _training_draws(recipe) == 56 + 4 * 10
-    assert _training_draws(recipe, left_out) == 5 + 2 + 3 + 4 + 4 * (1 + 1 + 1)
+    assert _training_draws(recipe) == 56 + 4 * 4 + 8 * 6
+    assert _training_draws(recipe, left_out) == 5 + 2 + 3 + 4 + 4 * 1 + 8 * (1 + 1)
     for bad in (0, 1.5, "half"):
         with pytest.raises(ValueError, match="'fraction' parameter of map_subset"):
             map_subset(recipe, bad)
