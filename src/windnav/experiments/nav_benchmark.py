@@ -314,7 +314,7 @@ default is retrained (its file is then copied under its date), so a label names 
 weights for good; a file whose bytes differ is refused. ``2026-11-29-area``, the default from
 the evening of 2026-11-29, is the second model trained that day: samples drawn in proportion
 to the area around buildings and six 1.1 km clusters (``docs/decoder.md``). ``2026-11-30``,
-the default until the evening of that day, is the same data and model trained with the
+the first default of that day, is the same data and model trained with the
 metrics' own forms as the loss; ``2026-11-30-clusters``, the default since, is that recipe
 with the six 1.1 km clusters drawn twice as often (``map_weights`` 8 instead of 4).
 ``2026-11-29-flight`` is not a default: the recipe ``wrobot_flight.toml`` (the default's with
