@@ -299,17 +299,17 @@ def test_map_subset_keeps_every_kind_of_map_in_proportion():
     counts = {g["name"]: g["count"] for g in recipe["sweep"]["maps"]}
     kept = {name: sum(1 for i in range(n) if f"{name}-{i}" not in left_out)
             for name, n in counts.items()}
-    # 20 dense, 8 dense12, 12 sparse, 4 districts, 16 scattered, 4 + 2 clusters: a quarter of
+    # 20 dense, 8 dense12, 12 sparse, 4 districts, 16 scattered, 6 + 2 clusters: a quarter of
     # each, at least one; the held-out district stays (it is not a training map)
     assert kept == {"dense": 5, "dense12": 2, "sparse": 3, "district": 1, "holdout": 1,
-                    "scattered": 4, "cluster": 1, "cluster-stacked": 1}
+                    "scattered": 4, "cluster": 2, "cluster-stacked": 1}
     assert "holdout-0" not in left_out and "dense-0" not in left_out and "dense-5" in left_out
-    assert len(map_subset(recipe, 0.5)) == 33   # half of each group of the 66 training maps
+    assert len(map_subset(recipe, 0.5)) == 34   # half of each group of the 68 training maps
     # the scaling study's sample count follows data.map_weights: 56 maps once, the 4 districts
-    # four times, the 6 clusters eight times
+    # four times, the 8 clusters six times
     from windnav.experiments.decoder_studies import _training_draws
-    assert _training_draws(recipe) == 56 + 4 * 4 + 8 * 6
-    assert _training_draws(recipe, left_out) == 5 + 2 + 3 + 4 + 4 * 1 + 8 * (1 + 1)
+    assert _training_draws(recipe) == 56 + 4 * 4 + 6 * 8
+    assert _training_draws(recipe, left_out) == 5 + 2 + 3 + 4 + 4 * 1 + 6 * (2 + 1)
     for bad in (0, 1.5, "half"):
         with pytest.raises(ValueError, match="'fraction' parameter of map_subset"):
             map_subset(recipe, bad)
