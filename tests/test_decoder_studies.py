@@ -455,3 +455,42 @@ def test_decoder_study_averaging_windinet_uses_the_third_party_layout():
     np.testing.assert_array_equal(city.footprints, read_rotorpy_json(WINDINET_LAYOUT).footprints)
     _, name, _ = _averaging_map(argparse.Namespace(quick=False, windinet=False))
     assert name == "holdout-0"
+
+
+def test_decoder_study_direction_quick_bins_the_models_direction_errors(tmp_path):
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "direction", "--quick", "--out", str(out),
+                     "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_direction.json").read_text())
+    assert set(doc["models"]) == {"decoder", "local", "upstream"}
+    for res in doc["models"].values():
+        n = np.asarray(res["n"])
+        assert n.sum() == res["n_direction"] > 0
+        assert np.sum(res["by_speed"]["contribution_deg"]) == pytest.approx(
+            res["direction_error_deg"])
+    # the baselines' bins hold the same cells as the decoder's (the same samples)
+    assert doc["models"]["local"]["n"] == doc["models"]["decoder"]["n"]
+    assert (out / "decoder_direction.png").stat().st_size > 10_000
+
+
+def test_decoder_study_direction_windinet_scores_the_third_party_layout(monkeypatch):
+    from windnav.commands import decoder_study as cmd
+    from windnav.experiments import decoder_studies as ds
+    from windnav.experiments.decoder_eval import WINDINET_LAYOUT
+
+    if not WINDINET_LAYOUT.is_file():
+        pytest.skip("the windinet layout is not on this machine")
+    seen = {}
+
+    def fake_fields(maps, n_inlets, **kw):
+        seen["maps"], seen["n_inlets"] = maps, n_inlets
+        return {}
+
+    monkeypatch.setattr(ds, "evaluation_fields", fake_fields)
+    args = argparse.Namespace(quick=False, study="direction", windinet=True, maps=1, inlets=8,
+                              seed=0, flow_cache=None)
+    cmd._fields(args, "decoder-study", None, False)
+    assert [n for n, _ in seen["maps"]] == ["windinet"] and seen["n_inlets"] == 8
+    args.study = "gradients"
+    cmd._fields(args, "decoder-study", None, False)
+    assert seen["maps"] == 1

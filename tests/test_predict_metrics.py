@@ -195,3 +195,65 @@ def test_check_inputs_batches_single_samples():
     assert s.dtype == u.dtype == r.dtype == np.float64
     with pytest.raises(ValueError, match="'scans' parameter of here"):
         check_inputs(scans[0, :10], w_up[0], w_robot[0], "here")
+
+
+# ------------------------------------------------------------- direction error breakdown
+
+
+def test_direction_breakdown_sums_to_field_errors_direction_error():
+    from windnav.predict import direction_error_breakdown
+
+    rng = np.random.default_rng(3)
+    b, h = 40, 9
+    true = rng.standard_normal((b, 2, h, h)) * 3.0
+    pred = true + rng.standard_normal((b, 2, h, h))
+    free = rng.random((b, h, h)) > 0.2
+    true[0, :, 0, 0] = 0.0  # a zero vector: no direction, left out by both
+    inlet = rng.uniform(2.0, 10.0, b)
+    offsets = (np.arange(h) - h // 2) * 1.0
+    ref = field_errors(pred, true, free, inlet)
+    br = direction_error_breakdown(pred, true, free, inlet, offsets)
+    assert br["n_direction"] == ref["n_direction"] == int(br["n"].sum())
+    assert br["direction_error_deg"] == pytest.approx(ref["direction_error_deg"], rel=1e-12)
+    for axis in ("by_speed", "by_radius"):
+        assert np.sum(br[axis]["contribution_deg"]) == pytest.approx(
+            ref["direction_error_deg"], rel=1e-12)
+        assert np.sum(br[axis]["share"]) == pytest.approx(1.0)
+
+
+def test_direction_breakdown_puts_each_cell_in_its_speed_and_radius_bin():
+    from windnav.predict import direction_error_breakdown
+
+    h = 5
+    offsets = np.arange(h) - 2.0
+    true = np.zeros((1, 2, h, h))
+    true[0, 0] = 10.0            # 1.0 U everywhere at U = 10 m/s
+    true[0, 0, 2, 2] = 0.5       # the robot's cell: 0.05 U
+    pred = np.zeros_like(true)
+    pred[0, 1] = 10.0            # 90 deg off everywhere...
+    pred[0, :, 2, 2] = [0.5, 0.0]  # ...but the robot's cell, exact
+    free = np.ones((1, h, h), dtype=bool)
+    br = direction_error_breakdown(pred, true, free, [10.0], offsets,
+                                   speed_edges=(0, 0.1, np.inf), radius_edges=(0, 0.5, np.inf))
+    np.testing.assert_array_equal(br["n"], [[1, 0], [0, 24]])
+    np.testing.assert_allclose(br["by_speed"]["mean_deg"], [0.0, 90.0], atol=1e-6)
+    np.testing.assert_allclose(br["by_radius"]["share"], [1 / 25, 24 / 25])
+    assert br["direction_error_deg"] == pytest.approx(90.0 * 24 / 25)
+
+
+@pytest.mark.parametrize(("kw", "name"), [
+    ({"speed_edges": (0.1, 1.0)}, "speed_edges"),
+    ({"radius_edges": (0.0, 3.0, 2.0)}, "radius_edges"),
+    ({"offsets": np.zeros(4)}, "offsets"),
+    ({"inlet_speed": [0.0]}, "inlet_speed"),
+])
+def test_direction_breakdown_bad_input_names_the_argument(kw, name):
+    from windnav.predict import direction_error_breakdown
+
+    h = 5
+    args = {"pred": np.ones((1, 2, h, h)), "true": np.ones((1, 2, h, h)),
+            "free": np.ones((1, h, h), dtype=bool), "inlet_speed": [5.0],
+            "offsets": np.arange(h) - 2.0}
+    args.update(kw)
+    with pytest.raises(ValueError, match=name):
+        direction_error_breakdown(**args)

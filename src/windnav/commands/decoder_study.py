@@ -13,6 +13,7 @@
     windnav decoder-study scaling    --out runs/studies --runs runs/scaling           # maps, size
     windnav decoder-study noise      --out runs/studies --flow-cache runs/flows \
         --compare wrobot-noise=runs/wrobot_noise/model.npz                         # noisy W_robot
+    windnav decoder-study direction  --out runs/studies_windinet --windinet --inlets 8  # where
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
@@ -31,7 +32,10 @@ per epoch) and a wider model on all of them (in ``--runs``, resumable; a ``maps-
 folder there that holds a finished default-recipe run is reused): does the error fall with
 more maps or with a bigger model? ``noise`` gives the decoder (and each ``--compare`` model)
 a ``W_robot`` with noise of 0-0.2 U per component, as the Wind UKF gives it in flight, on the
-flows of ``eigenflows``. ``--quick``:
+flows of ``eigenflows``. ``direction`` bins the direction error of the decoder and its
+baselines by the true speed over the inlet's and by the distance from the robot, on those
+flows or with ``--windinet`` on the windinet layout at ``--inlets`` inlets (those of
+``windnav evaluate-decoder``). ``--quick``:
 a 150 m map and short flows, or the tiny recipe's sweep and models. The harness is
 :mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
 
@@ -55,7 +59,7 @@ from windnav.commands._common import (
 )
 
 STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
-           "scaling", "noise")
+           "scaling", "noise", "direction")
 """The studies, as named on the command line."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
@@ -66,7 +70,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "decoder-study",
         help="a study of the wind flow decoder (eigenflows, gradients, mosaic, winds, size, "
-             "averaging, start, scaling, noise)",
+             "averaging, start, scaling, noise, direction)",
         description=__doc__.splitlines()[0],
     )
     p.add_argument("study", choices=STUDIES, help="which study")
@@ -105,7 +109,8 @@ def register(subparsers) -> None:
                    help="averaging, start: inlet direction, deg toward (%(default)s)")
     p.add_argument("--windinet", action="store_true",
                    help="averaging, start: the third-party windinet 1.1 km layout instead of the "
-                        "default recipe's held-out district")
+                        "default recipe's held-out district; direction: instead of the dense "
+                        "evaluation maps (--inlets of them)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -130,7 +135,14 @@ def _fields(args, name, simulate, progress):
                                  max_fields=first, progress=progress)
     positive_int(args.maps, "--maps", name)
     positive_int(args.inlets, "--inlets", name)
-    return evaluation_fields(args.maps, args.inlets, seed=args.seed,
+    maps = args.maps
+    if args.windinet and args.study == "direction":
+        from windnav.city import read_rotorpy_json
+        from windnav.experiments.decoder_eval import WINDINET_LAYOUT
+
+        # one map: the inlets of evaluate-decoder's windinet slots, for the same seed
+        maps = [("windinet", read_rotorpy_json(WINDINET_LAYOUT))]
+    return evaluation_fields(maps, args.inlets, seed=args.seed,
                              cache_dir=args.flow_cache, simulate=simulate, max_fields=first,
                              progress=progress)
 
@@ -176,6 +188,12 @@ def _summary(study: str, res: dict) -> dict:
                     "explained_16": float(res[f]["cumulative"][15])
                     if res[f]["cumulative"].size >= 16 else None}
                 for f in ("world", "canonical")} | {"n_fields": res["n_fields"]}
+    if study == "direction":
+        return {m: {"direction_error_deg": r["direction_error_deg"],
+                    **{axis: {k: r[axis][k] for k in ("share", "mean_deg", "contribution_deg")}
+                       for axis in ("by_speed", "by_radius")}}
+                for m, r in res["models"].items()} | {"speed_edges": res["models"]["decoder"][
+                    "speed_edges"], "radius_edges": res["models"]["decoder"]["radius_edges"]}
     if study == "gradients":
         return {k: {"r2": res[k]["r2"], "pearson_r": res[k].get("pearson_r"),
                     "n_samples": res[k]["n_samples"]} for k in ("decoder", "decoder_per_U")}
@@ -245,7 +263,7 @@ def run(args, simulate=None) -> int:
         res["models"] = {"decoder": str(args.model) if args.model else "default",
                          **{n: str(f) for n, f in compare.items()}}
         plot = figures.plot_noise
-    elif study in ("eigenflows", "gradients", "mosaic"):
+    elif study in ("eigenflows", "gradients", "mosaic", "direction"):
         flows = _fields(args, name, simulate, progress)
         fields = flows["fields"]
         dec = load_decoder(args.model)
@@ -256,6 +274,9 @@ def run(args, simulate=None) -> int:
         elif study == "gradients":
             res = ds.gradient_study(dec, fields, samples, seed=args.seed)
             plot = figures.plot_gradients
+        elif study == "direction":
+            res = ds.direction_study(dec, fields, samples, seed=args.seed)
+            plot = figures.plot_direction
         else:
             res = ds.mosaic(dec, fields[0], rng=args.seed, progress=progress)
             plot = figures.plot_mosaic

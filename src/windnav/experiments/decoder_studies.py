@@ -14,6 +14,8 @@ thesis flow protocol):
 - :func:`gradient_r2` (c): the gradients at the robot by central differences
   (:func:`windnav.predict.central_gradients`), predicted against true, with
   ``R^2 = 1 - sum (g_pred - g_true)^2 / sum (g_true - mean g_true)^2`` per component.
+- :func:`direction_study`: where the direction error lies, binned by the true speed over the
+  inlet's and by the distance from the robot (:func:`windnav.predict.direction_error_breakdown`).
 - :func:`mosaic` (d): one map tiled with predictions at robot positions on a grid of spacing
   ``H Delta`` (``W_robot`` the true mean wind there, ``W_up`` the inlet, the scan from the map).
 
@@ -51,7 +53,7 @@ import numpy as np
 from windnav._validate import positive_float, positive_int
 
 __all__ = ["AVERAGING_PROTOCOLS", "GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS",
-           "START_KICKS", "area_fraction", "averaging_study", "start_study",
+           "START_KICKS", "area_fraction", "averaging_study", "direction_study", "start_study",
            "eigenflow_study", "eigenflows", "evaluation_fields", "gradient_r2",
            "gradient_study", "mosaic", "size_study", "study_recipe", "train_variants",
            "winds_ablation"]
@@ -380,6 +382,30 @@ def gradient_study(decoder, fields, samples_per_field: int = 2048, *, seed: int 
             "local": {k: v for k, v in gradient_r2(local, batch.labels, batch.free,
                                                    decoder.spacing).items()
                       if k in ("r2", "n_samples")},
+            "n_samples_drawn": int(batch.scans.shape[0])}
+
+
+def direction_study(decoder, fields, samples_per_field: int = 2048, *, seed: int = 0) -> dict:
+    """Where the direction error lies: the decoder's and both baselines' per-cell angles binned
+    by the true speed over the inlet's and by the distance from the robot
+    (:func:`windnav.predict.direction_error_breakdown`), on samples drawn from ``fields``.
+
+    Returns
+    -------
+    dict
+        ``models``: ``{"decoder", "local", "upstream"}`` -> the breakdown; ``n_samples_drawn``.
+    """
+    from windnav.predict import LocalBaseline, UpstreamBaseline, direction_error_breakdown
+
+    where = "direction_study"
+    batch = _draw(fields, samples_per_field, _seed(seed, where), decoder.size,
+                  decoder.spacing, where)
+    models = {"decoder": decoder,
+              "local": LocalBaseline(size=decoder.size, spacing=decoder.spacing),
+              "upstream": UpstreamBaseline(size=decoder.size, spacing=decoder.spacing)}
+    return {"models": {m: direction_error_breakdown(
+                model.predict(batch.scans, batch.w_up, batch.w_robot), batch.labels,
+                batch.free, batch.inlet_speed, decoder.offsets) for m, model in models.items()},
             "n_samples_drawn": int(batch.scans.shape[0])}
 
 

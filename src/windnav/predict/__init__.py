@@ -32,6 +32,7 @@ from windnav.predict.decoder import ARCHITECTURES, DEFAULT_MODEL, Decoder, load_
 from windnav.predict.metrics import (
     METRICS,
     central_gradients,
+    direction_error_breakdown,
     field_errors,
     improvement,
     pooled_errors,
@@ -54,6 +55,7 @@ __all__ = [
     "central_gradients",
     "check_inputs",
     "draw_samples",
+    "direction_error_breakdown",
     "field_errors",
     "field_from_solution",
     "fields_from_store",

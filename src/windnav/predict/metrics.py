@@ -59,6 +59,15 @@ def _fields(pred, true, free, inlet_speed, where):
     return pred, true, free, speed
 
 
+def _cell_angles(p, t, f):
+    """Per cell: predicted and true speeds, the angle between them (deg), and where the angle
+    counts (free, both speeds >= :data:`ZERO_SPEED`); ``p``, ``t`` float64 (B, 2, H, H)."""
+    sp, st = np.hypot(p[:, 0], p[:, 1]), np.hypot(t[:, 0], t[:, 1])
+    cos = (p[:, 0] * t[:, 0] + p[:, 1] * t[:, 1]) / np.maximum(sp * st, ZERO_SPEED**2)
+    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    return sp, st, angle, f & (sp >= ZERO_SPEED) & (st >= ZERO_SPEED)
+
+
 def field_errors(pred, true, free, inlet_speed, *, min_speed_fraction: float = 0.1,
                  per_sample: bool = False) -> dict:
     """Speed, direction and vector errors of predicted local wind fields (see the module doc).
@@ -101,10 +110,7 @@ def field_errors(pred, true, free, inlet_speed, *, min_speed_fraction: float = 0
         p = pred[s:s + _CHUNK].astype(np.float64)
         t = true[s:s + _CHUNK].astype(np.float64)
         f = free[s:s + _CHUNK]
-        sp, st = np.hypot(p[:, 0], p[:, 1]), np.hypot(t[:, 0], t[:, 1])
-        cos = (p[:, 0] * t[:, 0] + p[:, 1] * t[:, 1]) / np.maximum(sp * st, ZERO_SPEED**2)
-        angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
-        has_dir = f & (sp >= ZERO_SPEED) & (st >= ZERO_SPEED)
+        sp, st, angle, has_dir = _cell_angles(p, t, f)
         masked = has_dir & (st >= frac * speed[s:s + _CHUNK, None, None])
         axes = (1, 2)
         sums["speed_error"][s:s + _CHUNK] = np.where(f, np.abs(sp - st), 0.0).sum(axes)
@@ -129,6 +135,95 @@ def field_errors(pred, true, free, inlet_speed, *, min_speed_fraction: float = 0
         ps.update(counts)
         out["per_sample"] = ps
     return out
+
+
+DIRECTION_SPEED_EDGES = (0.0, 0.1, 0.3, 0.6, 1.0, 1.5, np.inf)
+"""Default bins of the true speed over the inlet speed, ``|u| / U``, for
+:func:`direction_error_breakdown`."""
+DIRECTION_RADIUS_EDGES = (0.0, 3.0, 6.0, 9.0, 12.0, np.inf)
+"""Default bins of a cell's distance from the robot (the grid centre), m."""
+
+
+def _edges(edges, name: str, where: str) -> np.ndarray:
+    e = np.asarray(edges, dtype=np.float64)
+    if e.ndim != 1 or e.size < 2 or np.isnan(e).any() or e[0] != 0 or np.any(np.diff(e) <= 0):
+        raise _fail(name, where, "increasing bin edges starting at 0 (at least two)",
+                    repr(edges))
+    return e
+
+
+def direction_error_breakdown(pred, true, free, inlet_speed, offsets, *,
+                              speed_edges=DIRECTION_SPEED_EDGES,
+                              radius_edges=DIRECTION_RADIUS_EDGES) -> dict:
+    """Where the direction error lies: its per-cell angles binned by the true speed relative to
+    the inlet, ``|u| / U``, and by the cell's distance from the robot.
+
+    The cells and angles are exactly those of :func:`field_errors`'s ``direction_error_deg``
+    (free, both speeds at least :data:`ZERO_SPEED`); with edges that end at ``inf`` (the
+    defaults) every such cell is in one bin of each axis, so the counts sum to its
+    ``n_direction`` and the contributions to its value.
+
+    Parameters
+    ----------
+    pred, true : array_like of shape (B, 2, H, H)
+        Predicted and true ``[u, v]``, m/s, indexed ``[b, :, iy, ix]``.
+    free : ndarray of bool, shape (B, H, H)
+        Cells that count.
+    inlet_speed : array_like of shape (B,)
+        Inlet speed ``U`` of each sample, m/s, > 0.
+    offsets : array_like of shape (H,)
+        Cell-centre offsets from the robot, m (``Decoder.offsets``), the same for x and y.
+    speed_edges, radius_edges : sequence of float
+        Increasing bin edges from 0 (the last may be ``inf``); a cell beyond the last edge is
+        counted in no bin of that axis but still in the totals.
+
+    Returns
+    -------
+    dict
+        ``speed_edges``, ``radius_edges``; ``sum_deg`` and ``n`` (S, R) arrays over the speed
+        and radius bins (cells beyond the last edges in neither); ``direction_error_deg`` (the
+        mean over all counted cells) and ``n_direction``; ``by_speed`` and ``by_radius``:
+        per bin ``share`` (of the counted cells), ``mean_deg`` (NaN for an empty bin) and
+        ``contribution_deg`` (``share * mean_deg``: what the bin adds to the mean).
+    """
+    where = "direction_error_breakdown"
+    pred, true, free, speed = _fields(pred, true, free, inlet_speed, where)
+    if np.any(speed <= 0):
+        raise _fail("inlet_speed", where, "speeds > 0, m/s", "a zero speed")
+    h = true.shape[-1]
+    off = np.asarray(offsets, dtype=np.float64)
+    if off.shape != (h,) or not np.all(np.isfinite(off)):
+        raise _fail("offsets", where, f"finite offsets of shape ({h},), m", f"shape {off.shape}")
+    se = _edges(speed_edges, "speed_edges", where)
+    re = _edges(radius_edges, "radius_edges", where)
+    radius_bin = np.digitize(np.hypot(off[None, :], off[:, None]), re) - 1  # [iy, ix]
+    n_s, n_r = se.size - 1, re.size - 1
+    sums, counts = np.zeros((n_s, n_r)), np.zeros((n_s, n_r), dtype=np.int64)
+    total, n_total = 0.0, 0
+    for s in range(0, true.shape[0], _CHUNK):
+        t = true[s:s + _CHUNK].astype(np.float64)
+        _, st, angle, has_dir = _cell_angles(pred[s:s + _CHUNK].astype(np.float64), t,
+                                             free[s:s + _CHUNK])
+        total += float(angle[has_dir].sum())
+        n_total += int(has_dir.sum())
+        speed_bin = np.digitize(st / speed[s:s + _CHUNK, None, None], se) - 1
+        rb = np.broadcast_to(radius_bin, speed_bin.shape)
+        keep = has_dir & (speed_bin < n_s) & (rb < n_r)
+        np.add.at(sums, (speed_bin[keep], rb[keep]), angle[keep])
+        np.add.at(counts, (speed_bin[keep], rb[keep]), 1)
+
+    def marginal(s_, n_):
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(n_ > 0, s_ / np.maximum(n_, 1), np.nan)
+        share = n_ / n_total if n_total else np.full(n_.shape, np.nan)
+        return {"share": share, "mean_deg": mean,
+                "contribution_deg": s_ / n_total if n_total else np.full(n_.shape, np.nan)}
+
+    return {"speed_edges": se, "radius_edges": re, "sum_deg": sums, "n": counts,
+            "direction_error_deg": total / n_total if n_total else float("nan"),
+            "n_direction": n_total,
+            "by_speed": marginal(sums.sum(1), counts.sum(1)),
+            "by_radius": marginal(sums.sum(0), counts.sum(0))}
 
 
 def pooled_errors(per_sample: dict, select=None) -> dict:

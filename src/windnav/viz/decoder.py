@@ -255,6 +255,53 @@ def plot_gradients(result: dict, path) -> Path:
     return _save(fig, path, palette=True)
 
 
+def _bin_labels(edges, unit: str) -> list[str]:
+    return [f"{a:g}-{b:g}{unit}" if np.isfinite(b) else f">= {a:g}{unit}"
+            for a, b in zip(edges[:-1], edges[1:], strict=True)]
+
+
+def plot_direction(result: dict, path) -> Path:
+    """Mean direction error per bin of the true speed over the inlet's and of the distance
+    from the robot, for the decoder and both baselines, with each bin's share of the cells
+    and its contribution to the decoder's mean.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.direction_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    """
+    models = result["models"]
+    dec = models["decoder"]
+    colours = {"decoder": "C0", "local": "C1", "upstream": "C2"}
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
+    for ax, (axis, edges, unit, xlabel) in zip(axes, (
+            ("by_speed", dec["speed_edges"], " U", "true speed |u| / inlet speed U"),
+            ("by_radius", dec["radius_edges"], " m", "distance of the cell from the robot")),
+            strict=True):
+        labels = _bin_labels(np.asarray(edges, dtype=float), unit)
+        x = np.arange(len(labels))
+        w = 0.8 / len(models)
+        for k, (m, res) in enumerate(models.items()):
+            ax.bar(x + (k - (len(models) - 1) / 2) * w, res[axis]["mean_deg"], w,
+                   color=colours.get(m, f"C{k + 3}"),
+                   label=f"{m}: mean {res['direction_error_deg']:.1f} deg")
+        for xi, share, contrib in zip(x, dec[axis]["share"], dec[axis]["contribution_deg"],
+                                      strict=True):
+            ax.annotate(f"{100 * share:.0f} % of cells\n+{contrib:.1f} deg", (xi, 0),
+                        xytext=(0, -30), textcoords="offset points", ha="center", fontsize=7)
+        ax.set_xticks(x, labels, fontsize=8)
+        ax.set_xlabel(xlabel, labelpad=28)
+        ax.set_ylabel("mean direction error in the bin (deg)")
+        ax.set_ylim(bottom=0)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Where the direction error lies (annotations: the bin's share of the cells and "
+                 f"what it adds to the decoder's mean); {result['n_samples_drawn']:,} samples",
+                 fontsize=10)
+    return _save(fig, path)
+
+
 def plot_mosaic(result: dict, path) -> Path:
     """Truth, mosaic prediction, speed error and direction error over a whole map.
 
