@@ -173,11 +173,10 @@ def _compared(compare, dec, where) -> tuple[dict, dict]:
 def _score(decoder, batch, size, spacing, compared=None) -> tuple[dict, dict]:
     """Errors (pooled, and per sample) of the decoder, the compared models and both baselines
     on one batch."""
-    from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
+    from windnav.predict import field_errors
+    from windnav.predict.baselines import with_baselines
 
-    predictors = {"decoder": decoder, **(compared or {}),
-                  "local": LocalBaseline(size=size, spacing=spacing),
-                  "upstream": UpstreamBaseline(size=size, spacing=spacing)}
+    predictors = with_baselines({"decoder": decoder, **(compared or {})}, size, spacing)
     errors, per_sample = {}, {}
     for name, model in predictors.items():
         pred = model.predict(batch.scans, batch.w_up, batch.w_robot)

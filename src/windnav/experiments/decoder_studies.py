@@ -395,14 +395,13 @@ def direction_study(decoder, fields, samples_per_field: int = 2048, *, seed: int
     dict
         ``models``: ``{"decoder", "local", "upstream"}`` -> the breakdown; ``n_samples_drawn``.
     """
-    from windnav.predict import LocalBaseline, UpstreamBaseline, direction_error_breakdown
+    from windnav.predict import direction_error_breakdown
+    from windnav.predict.baselines import with_baselines
 
     where = "direction_study"
     batch = _draw(fields, samples_per_field, _seed(seed, where), decoder.size,
                   decoder.spacing, where)
-    models = {"decoder": decoder,
-              "local": LocalBaseline(size=decoder.size, spacing=decoder.spacing),
-              "upstream": UpstreamBaseline(size=decoder.size, spacing=decoder.spacing)}
+    models = with_baselines({"decoder": decoder}, decoder.size, decoder.spacing)
     return {"models": {m: direction_error_breakdown(
                 model.predict(batch.scans, batch.w_up, batch.w_robot), batch.labels,
                 batch.free, batch.inlet_speed, decoder.offsets) for m, model in models.items()},
@@ -443,7 +442,8 @@ def noise_study(decoders: dict, fields, samples_per_field: int = 2048, *,
         models the decoders' names and ``local``, ``upstream``; ``w_robot_error_mps[k]``: the
         mean ``|error|`` given at each level; ``n_samples``.
     """
-    from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors
+    from windnav.predict import field_errors
+    from windnav.predict.baselines import with_baselines
 
     where = "noise_study"
     if not decoders:
@@ -462,8 +462,7 @@ def noise_study(decoders: dict, fields, samples_per_field: int = 2048, *,
     batch = _draw(fields, samples_per_field, seed, first.size, first.spacing, where)
     z = np.random.default_rng([seed, 5]).standard_normal(batch.w_robot.shape)
     u = batch.inlet_speed.astype(np.float64)[:, None]
-    models = {**decoders, "local": LocalBaseline(size=first.size, spacing=first.spacing),
-              "upstream": UpstreamBaseline(size=first.size, spacing=first.spacing)}
+    models = with_baselines(decoders, first.size, first.spacing)
     errors = {name: [] for name in models}
     given = []
     for level in levels:
@@ -747,7 +746,8 @@ def train_variants(recipe: dict, variants: dict, runs_dir, *, progress: bool = F
         Upstream baselines on the test samples, ``train_seconds``, ``best_epoch``,
         ``n_parameters``, ``n_test_samples``, ``model`` (path).
     """
-    from windnav.predict import LocalBaseline, UpstreamBaseline, field_errors, load_decoder
+    from windnav.predict import field_errors, load_decoder
+    from windnav.predict.baselines import with_baselines
     from windnav.predict.train import _dataset, _split_fields, train_decoder
 
     runs = Path(runs_dir)
@@ -774,10 +774,8 @@ def train_variants(recipe: dict, variants: dict, runs_dir, *, progress: bool = F
         test = _dataset(fields_val, r["data"]["validation_samples_per_field"], r["data"],
                         101 + int(test_seed)).materialize()
         errors = {}
-        for model_name, model in (("model", dec),
-                                  ("local", LocalBaseline(size=dec.size, spacing=dec.spacing)),
-                                  ("upstream", UpstreamBaseline(size=dec.size,
-                                                                spacing=dec.spacing))):
+        for model_name, model in with_baselines({"model": dec}, dec.size,
+                                                dec.spacing).items():
             p = model.predict(test.scans, test.w_up, test.w_robot)
             errors[model_name] = field_errors(p, test.labels, test.free, test.inlet_speed)
         out["variants"][name] = {

@@ -4,7 +4,9 @@ Every predictor, learned or not, answers ``predict(scans, w_up, w_robot) -> (B, 
 the grid ``offsets`` (:func:`windnav.predict.dataset.grid_offsets`):
 
 - :class:`UpstreamBaseline`: the inlet wind ``W_up`` everywhere;
-- :class:`LocalBaseline`: the wind measured at the robot ``W_robot`` everywhere.
+- :class:`LocalBaseline`: the wind measured at the robot ``W_robot`` everywhere;
+- :func:`with_baselines`: named models followed by both baselines on their grid, the set every
+  comparison scores.
 
 :func:`check_inputs` is the one validation of the inputs, so the learned decoder and the
 baselines refuse the same bad input with the same messages.
@@ -134,3 +136,10 @@ class LocalBaseline(_UniformBaseline):
     """
 
     _wind = 2
+
+
+def with_baselines(models: dict, size: int, spacing: float) -> dict:
+    """``models`` (name -> predictor), followed by ``"local"`` (:class:`LocalBaseline`) and
+    ``"upstream"`` (:class:`UpstreamBaseline`) on the grid of ``size`` cells of ``spacing`` m."""
+    return {**models, "local": LocalBaseline(size=size, spacing=spacing),
+            "upstream": UpstreamBaseline(size=size, spacing=spacing)}
