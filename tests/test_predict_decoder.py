@@ -26,8 +26,10 @@ from windnav.predict.decoder import (
     d4_grid_permutation,
     d4_matrices,
     d4_ring_indices,
+    ensemble_decoder,
     load_decoder,
     make_architecture,
+    member_weights,
     save_decoder,
     uncanonicalize,
 )
@@ -104,6 +106,22 @@ def test_single_sample_is_a_batch_of_one_and_batches_agree():
     assert one.shape == (1, 2, 25, 25)
     np.testing.assert_allclose(one[0], batch[3], atol=1e-5 * np.abs(batch).max())
     assert dec.offsets.shape == (25,) and dec.offsets[12] == 0.0 and dec.offsets[-1] == 12.0
+
+
+def test_a_large_batch_goes_through_in_chunks_with_the_whole_batchs_result():
+    from windnav.predict.decoder import PREDICT_CHUNK
+
+    rng = np.random.default_rng(12)
+    _, dec = random_decoder("d4-film")
+    b = 2 * PREDICT_CHUNK + 37
+    scans, w_up, w_robot = (x.astype(np.float32) for x in random_inputs(b, rng))
+    got = dec.predict(scans, w_up, w_robot)
+    whole = dec.arch.predict(dec.prepared, scans, w_up, w_robot).reshape(got.shape)
+    assert got.shape == (b, 2, 25, 25) and got.dtype == np.float32
+    np.testing.assert_allclose(got, whole, rtol=0, atol=1e-5 * np.abs(whole).max())
+    last = dec.predict(scans[2 * PREDICT_CHUNK:], w_up[2 * PREDICT_CHUNK:],
+                       w_robot[2 * PREDICT_CHUNK:])
+    np.testing.assert_array_equal(got[2 * PREDICT_CHUNK:], last)
 
 
 # ------------------------------------------------------------------------------ D4
@@ -197,6 +215,55 @@ def test_frame_changes_are_inverse_and_exact():
     np.testing.assert_array_equal(arch.world_frame(lab, f), field.reshape(40, 2, 7, 7))
     np.testing.assert_array_equal(fr, np.take_along_axis(
         free, np.argsort(d4_grid_permutation(7), axis=1)[g], axis=1))
+
+
+# ------------------------------------------------------------------------ ensembles
+
+
+def test_an_ensemble_predicts_the_mean_of_its_members_in_one_pass(tmp_path):
+    """The members' modes stacked in one folded basis give the mean of their fields, through
+    the reference path (each member's network) and through Decoder.predict, and survive the
+    file; the ensemble stays equivariant."""
+    rng = np.random.default_rng(21)
+    members = [random_decoder("d4-film", size=9, seed=s)[1] for s in (0, 1, 2)]
+    ens = ensemble_decoder(members)
+    assert ens.hyperparameters["members"] == 3 and ens.size == 9
+    assert ens.n_parameters == sum(m.n_parameters for m in members)
+    for i, m in enumerate(members):
+        assert all(np.array_equal(v, m.weights[k])
+                   for k, v in member_weights(ens.weights, i).items())
+    scans, w_up, w_robot = (x.astype(np.float32) for x in random_inputs(48, rng))
+    mean = np.mean([m.predict(scans, w_up, w_robot) for m in members], axis=0)
+    scale = np.abs(mean).max()
+    np.testing.assert_allclose(ens.predict(scans, w_up, w_robot), mean, rtol=0,
+                               atol=2e-6 * scale)
+    f = ens.arch.features(scans, w_up, w_robot)
+    ref = ens.arch.world_frame(ens.arch.network(ens.prepared, f), f)
+    np.testing.assert_allclose(ref, mean, rtol=0, atol=2e-6 * scale)
+    back = load_decoder(save_decoder(ens.weights, ens.metadata, tmp_path / "e.npz"))
+    np.testing.assert_array_equal(back.predict(scans, w_up, w_robot),
+                                  ens.predict(scans, w_up, w_robot))
+    turned = transform_scenario(3, scans, w_up, w_robot)
+    np.testing.assert_allclose(ens.predict(*turned), transform_field(3, mean), rtol=0,
+                               atol=4e-6 * scale)
+
+
+def test_only_like_single_d4film_members_make_an_ensemble():
+    a = random_decoder("d4-film", size=9)[1]
+    for bad in ([a], [a, random_decoder("d4-film", size=9, width=16)[1]],
+                [a, random_decoder("thesis-mlp", size=9)[1]],
+                [a, ensemble_decoder([a, a])], [a, "model.npz"]):
+        with pytest.raises(ValueError, match="'decoders' parameter of ensemble_decoder"):
+            ensemble_decoder(bad)
+    with pytest.raises(ValueError, match="'members' hyperparameter of build_model"):
+        tm.build_model("d4-film", 9, members=2)
+    with pytest.raises(ValueError, match="'members' hyperparameter of make_architecture"):
+        make_architecture("d4-film", 9, members=0)
+    # a file whose members are missing a parameter is refused as any other
+    ens = ensemble_decoder([a, a])
+    weights = {k: v for k, v in ens.weights.items() if k != "member1.coeff.bias"}
+    with pytest.raises(ValueError, match="missing \\['member1.coeff.bias'\\]"):
+        Decoder(weights, ens.metadata)
 
 
 # ---------------------------------------------------------------------- model files

@@ -125,6 +125,55 @@ class _nothing:
         return False
 
 
+def test_members_train_from_successive_seeds_and_ship_their_mean(tiny, tmp_path, capsys):
+    recipe, out, full = tiny
+    ens = copy.deepcopy(recipe)
+    ens["train"]["members"] = 2
+    lines = []
+    h = train_decoder(ens, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=lines.append)
+    single = load_decoder(out / "model.npz")
+    m0, m1 = (load_decoder(tmp_path / f"member{i}" / "model.npz") for i in range(2))
+    for k in single.weights:   # member 0 is the recipe's own single model, bit for bit
+        np.testing.assert_array_equal(m0.weights[k], single.weights[k])
+    assert m1.metadata["recipe"]["train"]["seed"] == recipe["train"]["seed"] + 1
+    assert not all(np.array_equal(m0.weights[k], m1.weights[k]) for k in m0.weights)
+    dec = load_decoder(tmp_path / "model.npz")
+    assert dec.hyperparameters["members"] == 2 and dec.n_parameters == 2 * single.n_parameters
+    assert dec.metadata["recipe"]["train"]["members"] == 2
+    # the figures recorded are the ensemble's, measured on the same validation samples as the
+    # members': its vector error is at most the members' mean (|mean(p) - u| <= mean|p - u|)
+    assert dec.metadata["metrics"]["validation"] == h["best_val"]
+    members_val = [m["best_val"] for m in h["members"]]
+    assert members_val[0] == full["best_val"]
+    assert h["best_val"]["vector_error"] <= np.mean([v["vector_error"] for v in members_val])
+    assert h["best_val"] not in members_val
+    assert "member 2/2" in " ".join(lines) and "ensemble of 2 members" in lines[-1]
+    # a finished ensemble is not trained again; another recipe in its folder is refused
+    assert train_decoder(ens, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                         log=None) == h
+    three = copy.deepcopy(ens)
+    three["train"]["members"] = 3
+    with pytest.raises(ValueError, match="'config' parameter of train_decoder differs"):
+        train_decoder(three, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None)
+    with pytest.raises(ValueError, match="'config' parameter of train_decoder differs"):
+        train_decoder(ens, store=out / "sweep.zarr", out_dir=out, progress=False, log=None)
+    # the command on the finished ensemble reports the members' best epochs
+    from windnav.commands import train_decoder as command
+
+    (tmp_path / "sweep.zarr").symlink_to(out / "sweep.zarr")
+    cfg = tmp_path / "ens.toml"
+    cfg.write_text(f'base = "{(RECIPES / "tiny.toml").as_posix()}"\n[train]\nmembers = 2\n')
+    parser = argparse.ArgumentParser()
+    command.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["train-decoder", "--config", str(cfg), "--out", str(tmp_path),
+                              "--no-progress", "--backend", "serial"])
+    assert args.func(args) == 0
+    epochs = ", ".join(f"{m['best_epoch']}/{recipe['train']['epochs']}" for m in h["members"])
+    assert f"members' best epochs {epochs}" in capsys.readouterr().out
+
+
 def test_another_recipe_does_not_resume_a_checkpoint(tiny):
     recipe, out, _ = tiny
     changed = copy.deepcopy(recipe)
@@ -390,11 +439,11 @@ def test_angle_direction_loss_is_the_direction_errors_own_form():
 def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     recipe = load_recipe({"data": {"validation_maps": ["holdout-0"]}})
     older = copy.deepcopy(recipe)
-    for key in ("vector_loss", "speed_loss_weight", "direction_loss"):
+    for key in ("vector_loss", "speed_loss_weight", "direction_loss", "members"):
         del older["train"][key]
     assert _fingerprint(older) == _fingerprint(recipe)
     for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0),
-                       ("direction_loss", "angle")):
+                       ("direction_loss", "angle"), ("members", 2)):
         changed = copy.deepcopy(recipe)
         changed["train"][key] = value
         assert _fingerprint(changed) != _fingerprint(recipe)
@@ -418,6 +467,9 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
       "data": {"map_weights": {"train": 1.5}}}, "data.map_weights"),
     ({"model": {"architecture": "resnet"}}, "'name' parameter of make_architecture"),
     ({"model": {"hyperparameters": {"pool": 4}}}, "'pool' hyperparameter"),
+    ({"train": {"members": 0}}, "train.members"),
+    ({"model": {"hyperparameters": {"members": 2}}}, "model.hyperparameters.members"),
+    ({"model": {"architecture": "thesis-mlp"}, "train": {"members": 2}}, "train.members"),
     ({"sweep": {"maps": [{"name": "a", "kind": "forest"}]}}, "sweep.maps"),
 ])
 def test_bad_recipes_are_refused(change, match):
@@ -437,7 +489,8 @@ def test_recipe_files_are_checked(tmp_path):
         load_recipe(bad)
 
 
-@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise", "wrobot_flight"])
+@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise", "wrobot_flight",
+                                  "ensemble"])
 def test_shipped_recipes_are_complete(name):
     recipe = load_recipe(RECIPES / f"{name}.toml")
     names = [group["name"] for group in recipe["sweep"]["maps"]]
@@ -462,6 +515,23 @@ def test_wrobot_recipes_are_the_default_but_for_the_noise(name, noise):
         "norm", 1.0)
     for key in ("sweep", "data", "model", "train"):
         assert noisy[key] == default[key], key
+
+
+def test_ensemble_recipe_is_the_default_in_two_members_of_half_the_epochs():
+    from windnav.predict.train import member_recipe
+
+    ens = load_recipe(RECIPES / "ensemble.toml")
+    default = load_recipe(RECIPES / "default.toml")
+    assert (ens["train"].pop("members"), ens["train"].pop("epochs")) == (2, 20)
+    assert (default["train"].pop("members"), default["train"].pop("epochs")) == (1, 40)
+    for key in ("sweep", "data", "model", "train"):
+        assert ens[key] == default[key], key
+    # its members are the default recipe at 20 epochs from seeds 0 and 1: the same runs
+    ens = load_recipe(RECIPES / "ensemble.toml")
+    for i in range(2):
+        single = load_recipe(RECIPES / "default.toml")
+        single["train"].update(epochs=20, seed=i)
+        assert _fingerprint(member_recipe(ens, i)) == _fingerprint(single)
 
 
 def test_thesis_mlp_recipe_keeps_the_thesis_loss():

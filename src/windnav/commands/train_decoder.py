@@ -11,6 +11,9 @@ the sweep into ``<out>/<sweep.store>`` (:func:`windnav.experiments.wind_sweep.sw
 simulations are kept), then trains with :func:`windnav.predict.train.train_decoder`, which
 resumes from ``<out>/checkpoint.pt`` after an interruption. Rerun the same command to continue
 either step. ``--overwrite`` starts the training over (the sweep store is kept and reused).
+A recipe with ``train.members`` M > 1 trains M models from seeds ``train.seed + i``, each in
+``<out>/member<i>`` with the files above, and writes their ensemble (the mean of their fields)
+to ``<out>/model.npz``.
 
 Writes into ``--out``: ``model.npz`` (the best decoder on the held-out maps; load it with
 ``windnav.predict.load_decoder``), ``history.json``, ``checkpoint.pt``, ``recipe.toml`` (a copy
@@ -80,7 +83,9 @@ def run(args, simulate=None) -> int:
     check_output_path(out_dir, "--out", name, kind="dir")
     out = outputs(args)
     if args.overwrite:
-        for product in TRAINING_PRODUCTS:
+        members = sorted(p.name for p in out_dir.glob("member*") if p.is_dir()) \
+            if out_dir.is_dir() else []
+        for product in (*TRAINING_PRODUCTS, *members):
             path = out_dir / product
             if not path.exists():
                 continue
@@ -135,9 +140,13 @@ def run(args, simulate=None) -> int:
     train_seconds = time.perf_counter() - t1
     best = history["best_val"]
     local = history["baselines"]["local"]
+    if "members" in history:
+        chosen = "members' best epochs " + ", ".join(
+            f"{m['best_epoch']}/{recipe['train']['epochs']}" for m in history["members"])
+    else:
+        chosen = f"best epoch {history['best_epoch']}/{len(history['epochs'])}"
     print(f"model: {out_dir / 'model.npz'} ({recipe['model']['architecture']}, "
-          f"{history['n_parameters']} parameters, best epoch {history['best_epoch']}/"
-          f"{len(history['epochs'])})")
+          f"{history['n_parameters']} parameters, {chosen})")
     print(f"held-out maps: speed error {best['speed_error']:.3f} m/s (Local "
           f"{local['speed_error']:.3f}), direction error {best['direction_error_deg']:.2f} deg "
           f"(Local {local['direction_error_deg']:.2f}); training {train_seconds:.0f} s")

@@ -681,7 +681,8 @@ def study_recipe(study: str, *, quick: bool = False, epochs: int | None = None,
              "lots_per_side": 4}]
         r["data"]["validation_maps"] = ["holdout-0"]
         r["data"]["validation_samples_per_field"] = 512
-        r["train"].update(epochs=STUDY_SCHEDULE[study]["epochs"], resample_every=0, threads=1)
+        r["train"].update(epochs=STUDY_SCHEDULE[study]["epochs"], resample_every=0, threads=1,
+                          members=1)
         r["data"]["samples_per_field"] = STUDY_SCHEDULE[study]["samples_per_field"]
     if epochs is not None:
         r["train"]["epochs"] = positive_int(epochs, "epochs", where)
@@ -954,6 +955,7 @@ def scaling_study(runs_dir, *, fractions=SCALING_FRACTIONS, wide: bool = True,
         wide_hp = {**hp, **{k: 2 * hp[k] for k in ("embed", "width")}}
     else:
         r = load_recipe(RECIPES / "default.toml")
+        r["train"]["members"] = 1   # the study compares single models
         wide_hp = {**r["model"]["hyperparameters"], **WIDE}
     r["train"]["tensorboard"] = False
     base = r["data"]["samples_per_field"]

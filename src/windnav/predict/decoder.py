@@ -64,6 +64,14 @@ Architectures
        the local fields). Training initialises the basis with the principal components of
        the training residuals, so the first step already predicts the mean pattern.
 
+    7. *Members (an ensemble).* With the ``members`` hyperparameter M > 1 the file holds M
+       such models trained from different seeds (``member{i}.<name>``, :func:`ensemble_decoder`)
+       and the prediction is the mean of their fields. Since each field is linear in its mode
+       coefficients, the mean is one product: the members' coefficients side by side against
+       their bases stacked (each divided by M). The members' errors are partly independent,
+       so their mean is closer to the truth than each (never farther in the mean vector
+       error: ``|mean(p) - u| <= mean(|p - u|)``).
+
     The NumPy forward folds the frame change into the basis: for each of the 8 elements it
     keeps the basis with its cells permuted and its components rotated back, so a batch is
     decoded straight into the world frame, group by group (no gather over the output).
@@ -106,8 +114,10 @@ __all__ = [
     "d4_grid_permutation",
     "d4_matrices",
     "d4_ring_indices",
+    "ensemble_decoder",
     "load_decoder",
     "make_architecture",
+    "member_weights",
     "save_decoder",
     "uncanonicalize",
     "wind_features",
@@ -122,6 +132,17 @@ DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "decoder_default.npz"
 DEFAULT_RECIPE = "src/windnav/predict/recipes/default.toml"
 N_WIND_FEATURES = 5
 """Wind features of d4-film (see :func:`wind_features`)."""
+PREDICT_CHUNK = 128
+"""Samples per forward pass in :meth:`Decoder.predict`: a larger batch goes through in chunks
+of this many, each written into the output. Why: one pass over 1,024 samples allocates about
+25 MB of temporaries, more than glibc's malloc keeps between calls, so every call's arrays
+came back as fresh pages from the kernel: 18.8 ms per 1,024 on one thread of the AMD EPYC in
+a fresh process, 9.2 ms only after some large free had raised malloc's thresholds (as the
+thesis MLP's construction did in ``benchmarks/bench_decoder.py``). In chunks of 128 the
+working set is reused: 11.5 ms in both states (2026-12-02, docs/decoder.md; chunks of 64, 96,
+192, 256, 512: 14.3, 12.5-12.9, 10.9-15.7, 10.1-14.9, 16.2-17.8 ms, the first figure in a
+fresh process where they differ). A chunk's rows agree with the whole batch's to float32
+rounding (the matrix products' blocking differs)."""
 
 
 # ------------------------------------------------------------------------------ D4 frames
@@ -413,7 +434,7 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
     name = "d4-film"
     defaults = {"n_rays": 360, "pool": 5, "conv_channels": 8, "kernel": 5, "embed": 128,
                 "film_hidden": 32, "width": 128, "depth": 2, "modes": 48,
-                "range_scale": 100.0, "range_min": 0.25, "speed_floor": 0.1}
+                "range_scale": 100.0, "range_min": 0.25, "speed_floor": 0.1, "members": 1}
 
     def __init__(self, hp: dict):
         super().__init__(hp)
@@ -429,6 +450,14 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         self._upstream_memo = None
 
     def shapes(self) -> dict:
+        """Parameter name -> shape; with ``members`` M > 1, each member's under
+        ``member{i}.`` (:func:`member_weights`)."""
+        one = self._member_shapes()
+        if self.hp["members"] == 1:
+            return one
+        return {f"member{i}.{k}": s for i in range(self.hp["members"]) for k, s in one.items()}
+
+    def _member_shapes(self) -> dict:
         hp = self.hp
         c, k, e, width = hp["conv_channels"], hp["kernel"], hp["embed"], hp["width"]
         n_pooled = hp["n_rays"] // hp["pool"] // 2
@@ -502,7 +531,10 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         return h @ w["coeff.weight"].T + w["coeff.bias"]
 
     def network(self, w: dict, f: dict) -> np.ndarray:
-        """Canonical field ``(B, 2, H^2)``, m/s: ``w_robot + U (coefficients @ basis)``."""
+        """Canonical field ``(B, 2, H^2)``, m/s: ``w_robot + U (coefficients @ basis)``; the
+        mean of the members' fields when there are several."""
+        if "members" in w:
+            return np.mean([self.network(m, f) for m in w["members"]], axis=0)
         a = self.coefficients(w, f)
         r = (a @ w["basis.weight"].T + w["basis.bias"]).reshape(a.shape[0], 2, -1)
         r *= f["scale"][:, None, None]
@@ -522,6 +554,11 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
     def prepare(self, w: dict) -> dict:
         """The weights plus what inference derives from them once.
 
+        With ``members`` M > 1: ``members`` (each member's prepared weights, as below) and one
+        ``basis.folded`` ``(8, M modes + 3, 2 H^2)`` that holds every member's modes divided
+        by M, then the mean of their bias rows and the uniform rows: the mean of the members'
+        fields in one product (the decoder is linear in its mode coefficients).
+
         ``conv.circulant (2 N, N C)`` and ``conv.bias_cols (N C,)``: the circular convolution
         over the ``N`` sectors as a matrix, output columns ordered (parity, position / 2,
         channel). ``basis.folded (8, modes + 3, 2 H^2)``: for each element ``g``, the basis,
@@ -529,6 +566,17 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         in (cells permuted, components multiplied by ``A_g^T``), so that the world field is
         ``[U a, U, W_robot] @ basis.folded[g]``.
         """
+        m = self.hp["members"]
+        if m > 1:
+            parts = [self._prepare_member(member_weights(w, i)) for i in range(m)]
+            k = self.hp["modes"]
+            folded = [p.pop("basis.folded") for p in parts]
+            shared = sum(f[:, k:] for f in folded) / np.float32(m)
+            return {"members": parts, "basis.folded": np.concatenate(
+                [f[:, :k] / np.float32(m) for f in folded] + [shared], axis=1)}
+        return self._prepare_member(w)
+
+    def _prepare_member(self, w: dict) -> dict:
         hp = self.hp
         n = hp["n_rays"] // hp["pool"]
         conv = w["conv.weight"]
@@ -557,7 +605,8 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
 
     def predict(self, w: dict, scans, w_up, w_robot) -> np.ndarray:
         f = self.features(scans, w_up, w_robot)
-        a = self.coefficients(w, f)
+        a = (np.concatenate([self.coefficients(m, f) for m in w["members"]], axis=1)
+             if "members" in w else self.coefficients(w, f))
         b, k = a.shape
         # world field = [U a, U, W_robot] @ folded[g]: scale, bias and residual in one product
         aug = np.empty((b, k + 3), dtype=np.float32)
@@ -589,7 +638,7 @@ WIND_INPUTS = ("both", "up", "robot", "none")
 ``W_up`` only, ``robot``: ``W_robot`` only); the others are inputs held at 0 (the ablation)."""
 
 _INT_HP = ("n_rays", "width", "depth", "pool", "conv_channels", "kernel", "embed",
-           "film_hidden", "modes", "size")
+           "film_hidden", "modes", "size", "members")
 
 
 def make_architecture(name: str, size: int, **overrides):
@@ -645,6 +694,50 @@ def make_architecture(name: str, size: int, **overrides):
             raise ValueError(f"The 'kernel' hyperparameter of {where} must be odd. Got "
                              f"{hp['kernel']!r} instead.")
     return cls(hp)
+
+
+def member_weights(weights: dict, i: int) -> dict:
+    """Member ``i``'s parameters (those named ``member{i}.<name>``), under their own names."""
+    prefix = f"member{i}."
+    return {k[len(prefix):]: v for k, v in weights.items() if k.startswith(prefix)}
+
+
+def ensemble_decoder(decoders, metadata: dict | None = None) -> Decoder:
+    """One decoder whose prediction is the mean of the given ``d4-film`` decoders' (its
+    ``members``), evaluated as one forward pass (:meth:`D4FilmArchitecture.prepare`).
+
+    Parameters
+    ----------
+    decoders : sequence of Decoder
+        At least two single-member ``d4-film`` decoders with the same hyperparameters and grid
+        spacing (members trained from different seeds, ``train.members`` of a recipe).
+    metadata : dict, optional
+        The ensemble's metadata; default the first member's. ``architecture``,
+        ``hyperparameters`` (with ``members``) and ``spacing`` are set here.
+
+    Returns
+    -------
+    Decoder
+    """
+    where = "ensemble_decoder"
+    decoders = list(decoders)
+    if len(decoders) < 2:
+        raise ValueError(f"The 'decoders' parameter of {where} must hold at least 2 decoders. "
+                         f"Got {len(decoders)} instead.")
+    first = decoders[0]
+    for i, d in enumerate(decoders):
+        if not isinstance(d, Decoder) or d.architecture != "d4-film" \
+                or d.hyperparameters != first.hyperparameters or d.spacing != first.spacing \
+                or d.hyperparameters["members"] != 1:
+            raise ValueError(
+                f"The 'decoders' parameter of {where} must hold single-member d4-film decoders "
+                f"with the same hyperparameters and spacing. Got {d!r} at {i} instead "
+                f"(the first: {first!r}).")
+    weights = {f"member{i}.{k}": v for i, d in enumerate(decoders) for k, v in d.weights.items()}
+    hp = {**first.hyperparameters, "members": len(decoders)}
+    meta = {**(first.metadata if metadata is None else metadata), "architecture": "d4-film",
+            "hyperparameters": hp, "spacing": first.spacing}
+    return Decoder(weights, meta)
 
 
 # --------------------------------------------------------------------------- Decoder
@@ -746,10 +839,16 @@ class Decoder:
         if scans.shape[1] != self.n_rays:
             raise ValueError(f"The 'scans' parameter of Decoder.predict must have "
                              f"{self.n_rays} rays per scan. Got shape {scans.shape} instead.")
-        field = self.arch.predict(self.prepared, np.asarray(scans, dtype=np.float32),
-                                  np.asarray(w_up, dtype=np.float32),
-                                  np.asarray(w_robot, dtype=np.float32))
-        return field.reshape(-1, 2, self.size, self.size)
+        b, h = scans.shape[0], self.size
+        out = np.empty((b, 2, h, h), dtype=np.float32)
+        for i in range(0, b, PREDICT_CHUNK):
+            j = min(b, i + PREDICT_CHUNK)
+            out[i:j] = self.arch.predict(self.prepared,
+                                         np.asarray(scans[i:j], dtype=np.float32),
+                                         np.asarray(w_up[i:j], dtype=np.float32),
+                                         np.asarray(w_robot[i:j], dtype=np.float32)
+                                         ).reshape(j - i, 2, h, h)
+        return out
 
     def save(self, path) -> Path:
         """Write this decoder to ``path`` (.npz); see :func:`save_decoder`."""

@@ -95,6 +95,11 @@ def build_model(architecture: str, size: int, **hp) -> nn.Module:
     module's ``hp`` attribute.
     """
     arch = make_architecture(architecture, size, **hp)
+    if arch.hp.get("members", 1) != 1:
+        raise ValueError("The 'members' hyperparameter of build_model must be 1: a torch module "
+                         "is one member (ensembles are assembled from trained members, "
+                         f"windnav.predict.decoder.ensemble_decoder). Got {arch.hp['members']!r} "
+                         "instead.")
     model = MODULES[architecture](arch.hp)
     model.architecture = architecture
     shapes = arch.shapes()

@@ -28,7 +28,12 @@ schedule. :func:`train_decoder` then
   module) on the validation samples with :func:`windnav.predict.metrics.field_errors`, keeps
   the best (lowest mean of the speed and direction errors relative to the Local baseline's) as
   ``model.npz``, writes ``checkpoint.pt`` (model, optimizer, schedule, history, best) and
-  ``history.json``, and logs to TensorBoard when the ``tensorboard`` package is installed.
+  ``history.json``, and logs to TensorBoard when the ``tensorboard`` package is installed;
+- with ``train.members`` M > 1 (``d4-film`` only), does all of the above M times, for seeds
+  ``train.seed + i`` (:func:`member_recipe`; the same samples, another initialisation and
+  order), each in ``<out>/member<i>``, then writes their ensemble (the mean of their fields,
+  :func:`windnav.predict.decoder.ensemble_decoder`) as ``<out>/model.npz``, scored on the same
+  validation and training samples, and an ``history.json`` with each member's summary.
 
 Re-running with the same recipe and out folder continues after the last finished epoch and
 ends with the same model as an uninterrupted run: the sample order of epoch ``e`` and any
@@ -64,8 +69,8 @@ from windnav.predict.decoder import (
 )
 from windnav.predict.metrics import field_errors
 
-__all__ = ["DEFAULTS", "flush_denormals", "load_recipe", "recipe_maps", "resolve_paths",
-           "train_decoder"]
+__all__ = ["DEFAULTS", "flush_denormals", "load_recipe", "member_recipe", "recipe_maps",
+           "resolve_paths", "train_decoder"]
 
 RECIPES = Path(__file__).resolve().parent / "recipes"
 """Folder of the recipes shipped with windnav (``default.toml``, ``tiny.toml``, ...)."""
@@ -122,6 +127,7 @@ DEFAULTS = {
         "eval_batch_size": 4096,
         "train_eval_samples": 4096,
         "tensorboard": True,
+        "members": 1,
     },
 }
 """Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
@@ -241,7 +247,7 @@ def _check_recipe(r: dict, where: str) -> None:
 
     t, d = r["train"], r["data"]
     for key in ("epochs", "batch_size", "threads", "eval_batch_size", "train_eval_samples",
-                "pca_samples"):
+                "pca_samples", "members"):
         v = t[key]
         if isinstance(v, bool) or not isinstance(v, int) or v < 1:
             fail(f"train.{key}", "an integer >= 1", v)
@@ -292,7 +298,14 @@ def _check_recipe(r: dict, where: str) -> None:
         fail("data.map_weights", "a table of sweep.maps group names to integers >= 1 (each "
              "training field of the group is drawn that many times over)", mw)
     # the architecture and its hyperparameters
-    make_architecture(r["model"]["architecture"], d["size"], **r["model"]["hyperparameters"])
+    arch = make_architecture(r["model"]["architecture"], d["size"],
+                             **r["model"]["hyperparameters"])
+    if arch.hp.get("members", 1) != 1:
+        fail("model.hyperparameters.members", "1 (a trained ensemble's members come from "
+             "train.members)", arch.hp["members"])
+    if t["members"] > 1 and r["model"]["architecture"] != "d4-film":
+        fail("train.members", "1 for the thesis-mlp (only d4-film decoders are ensembled)",
+             t["members"])
     for i, group in enumerate(r["sweep"]["maps"]):
         if not isinstance(group, dict) or group.get("kind") not in MAP_KINDS:
             fail(f"sweep.maps[{i}].kind", f"one of {MAP_KINDS}", group)
@@ -340,7 +353,7 @@ def _fingerprint(recipe: dict) -> str:
             if k not in ("exclude_maps", "map_weights") or v}
     # the loss keys added on 2026-11-30 likewise, at their defaults
     added = {k: DEFAULTS["train"][k] for k in ("vector_loss", "speed_loss_weight",
-                                              "direction_loss")}
+                                              "direction_loss", "members")}
     keep = {"sweep": sweep, "data": data, "model": recipe["model"],
             "train": {k: v for k, v in recipe["train"].items()
                       if k not in ("threads", "flush_denormal", "device", "tensorboard",
@@ -649,6 +662,8 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
     out, default_store = resolve_paths(recipe, out_dir)
     store = Path(store) if store is not None else default_store
     out.mkdir(parents=True, exist_ok=True)
+    if recipe["train"]["members"] > 1:
+        return _train_members(recipe, out, store, progress, log, callback, where)
     run = _Run(recipe, out, store)
     ckpt = run.load_checkpoint(where)
     if ckpt is not None and "train_metrics" in ckpt["history"]:
@@ -689,6 +704,90 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
             writer.close()
     run.finish()
     return run.history
+
+
+def member_recipe(recipe: dict, i: int) -> dict:
+    """Member ``i`` of a recipe with ``train.members`` > 1: the same recipe with one member,
+    ``train.seed`` + ``i`` (another initialisation and sample order; the same samples) and the
+    name ``<name>-member<i>``. Member 0 is the recipe's own single model, bit for bit."""
+    r = copy.deepcopy({k: v for k, v in recipe.items() if k != "source"})
+    r["train"].update(members=1, seed=int(recipe["train"]["seed"]) + i)
+    r["name"] = f"{recipe['name']}-member{i}"
+    return r
+
+
+def _train_members(recipe: dict, out: Path, store: Path, progress: bool, log, callback,
+                   where: str) -> dict:
+    """``train.members`` > 1: train each member in ``out/member<i>`` (each resumable as a
+    run of its own), then write their ensemble (:func:`windnav.predict.decoder.ensemble_decoder`,
+    the mean of their fields) to ``out/model.npz``, scored like a single run's best model."""
+    from windnav.predict.decoder import ensemble_decoder
+
+    m = recipe["train"]["members"]
+    fingerprint = _fingerprint(recipe)
+    hist_path, model_path = out / "history.json", out / "model.npz"
+    if (out / "checkpoint.pt").exists():
+        raise ValueError(f"The 'config' parameter of {where} differs from the recipe of the "
+                         f"checkpoint in {str(out)!r} (a single model's; this recipe trains "
+                         f"{m} members); use another out folder, or delete it (`windnav "
+                         "train-decoder --overwrite`) to start over.")
+    if hist_path.is_file():
+        done = json.loads(hist_path.read_text())
+        if done.get("fingerprint") != fingerprint:
+            raise ValueError(f"The 'config' parameter of {where} differs from the recipe of "
+                             f"the ensemble in {str(out)!r}; use another out folder, or delete "
+                             "it (`windnav train-decoder --overwrite`) to start over.")
+        if "train_metrics" in done:
+            return done
+    histories = []
+    for i in range(m):
+        sub = member_recipe(recipe, i)
+        if log:
+            log(f"{where}: member {i + 1}/{m} (train.seed {sub['train']['seed']}) in "
+                f"{str(out / f'member{i}')!r}")
+        histories.append(train_decoder(sub, store=store, out_dir=out / f"member{i}",
+                                       progress=progress, log=log, callback=callback))
+    members = [load_decoder(h["model"]) for h in histories]
+    run = _Run(recipe, out, store)
+    run.load_data(where)
+    data, tr = run.data, run.tr
+    baselines = _baselines(run.val, data["size"], data["spacing"])
+    meta = {"spacing": float(data["spacing"]),
+            "recipe": {k: v for k, v in recipe.items() if k != "source"}}
+    dec = ensemble_decoder(members, {**members[0].metadata, **meta})
+    val = _evaluate(dec, run.val, tr["eval_batch_size"])
+    train_metrics = {"decoder": _evaluate(dec, run.train_subset(), tr["eval_batch_size"]),
+                     **_baselines(run.train_subset(), data["size"], data["spacing"])}
+    seconds = sum(r["seconds"] for h in histories for r in h["epochs"])
+    save_decoder(dec.weights, {**dec.metadata, "metrics": {
+        "validation": val, "validation_baselines": baselines,
+        "training_subset": train_metrics,
+        "members_validation": [h["best_val"] for h in histories]},
+        "training": {"epochs": tr["epochs"], "members": m,
+                     "best_epochs": [h["best_epoch"] for h in histories],
+                     "seconds": seconds, "device": histories[0]["device"],
+                     "threads": tr["threads"],
+                     "flush_denormal": histories[0].get("flush_denormal"),
+                     "n_train_samples": histories[0]["n_train_samples"],
+                     "n_train_fields": histories[0]["n_train_fields"]}}, model_path)
+    history = {
+        "recipe": meta["recipe"], "fingerprint": fingerprint, "store": str(store),
+        "members": [{"out": str(out / f"member{i}"), "seed": recipe["train"]["seed"] + i,
+                     "best_epoch": h["best_epoch"], "best_val": h["best_val"],
+                     "seconds": sum(r["seconds"] for r in h["epochs"])}
+                    for i, h in enumerate(histories)],
+        "baselines": baselines, "best_val": val, "best_score": _score(val, baselines["local"]),
+        "train_metrics": train_metrics, "n_parameters": dec.n_parameters,
+        "n_train_samples": histories[0]["n_train_samples"],
+        "n_val_samples": int(run.val.scans.shape[0]), "device": histories[0]["device"],
+        "threads": tr["threads"], "model": str(model_path)}
+    _atomic_json(history, hist_path)
+    if log:
+        log(f"{where}: ensemble of {m} members, val speed {val['speed_error']:.3f} m/s, "
+            f"direction {val['direction_error_deg']:.2f} deg (members: " + ", ".join(
+                f"{h['best_val']['speed_error']:.3f} m/s / "
+                f"{h['best_val']['direction_error_deg']:.2f} deg" for h in histories) + ")")
+    return history
 
 
 def flush_denormals() -> bool:
@@ -752,6 +851,24 @@ class _Run:
                              "it (`windnav train-decoder --overwrite`) to start over.")
         return ckpt
 
+    def load_data(self, where: str) -> tuple:
+        """``fields_train`` and the validation samples ``val`` from the store; returns the
+        validation fields and the training and validation map counts."""
+        data = self.data
+        self.fields_train, fields_val, n_train_maps, n_val_maps = _split_fields(
+            self.store, data["validation_maps"], where, data["exclude_maps"],
+            data["map_weights"])
+        self.val = _dataset(fields_val, data["validation_samples_per_field"], data,
+                            1).materialize()
+        return fields_val, n_train_maps, n_val_maps
+
+    def train_subset(self):
+        """The training samples the finished model is scored on (of block 0, evenly spaced)."""
+        block0 = self.train_set(0)
+        return block0.samples(np.unique(np.linspace(
+            0, len(block0) - 1, min(self.tr["train_eval_samples"], len(block0))).astype(
+                np.int64)))
+
     def train_set(self, block: int) -> DecoderDataset:
         return _dataset(self.fields_train, self.data["samples_per_field"], self.data,
                         1000 * block)
@@ -763,11 +880,7 @@ class _Run:
 
         data, tr, mdl = self.data, self.tr, self.mdl
         self.device = _device(tr["device"])
-        self.fields_train, fields_val, n_train_maps, n_val_maps = _split_fields(
-            self.store, data["validation_maps"], where, data["exclude_maps"],
-            data["map_weights"])
-        self.val = _dataset(fields_val, data["validation_samples_per_field"], data,
-                            1).materialize()
+        fields_val, n_train_maps, n_val_maps = self.load_data(where)
         self.arch = make_architecture(mdl["architecture"], data["size"],
                                       **mdl["hyperparameters"])
         self.batches = _Batches(self.train_set, tr["cache"], tr["batch_size"],
@@ -881,9 +994,7 @@ class _Run:
         history and the checkpoint (which then marks the run finished)."""
         h, tr = self.history, self.tr
         best = load_decoder(self.model_path)
-        block0 = self.train_set(0)
-        subset = block0.samples(np.unique(np.linspace(
-            0, len(block0) - 1, min(tr["train_eval_samples"], len(block0))).astype(np.int64)))
+        subset = self.train_subset()
         h["train_metrics"] = {"decoder": _evaluate(best, subset, tr["eval_batch_size"]),
                               **_baselines(subset, self.data["size"], self.data["spacing"])}
         save_decoder(best.weights, {**best.metadata, "metrics": {
