@@ -80,8 +80,8 @@ def register(subparsers) -> None:
     p.add_argument("--quick", action="store_true",
                    help="a tiny run (tests): small map and short flows, or the tiny recipe")
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
-                   help="decoder file for eigenflows/gradients/mosaic (default: the shipped "
-                        "model)")
+                   help="decoder file for gradients, mosaic, direction, averaging, start and "
+                        "noise (default: the shipped model; eigenflows uses only its grid)")
     p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
                    help="noise: another decoder scored beside --model on the same samples "
                         "(repeatable)")
