@@ -135,6 +135,39 @@ def test_bad_comparisons_are_refused(compare, match):
                          compare=compare)
 
 
+def test_a_flow_cache_gives_the_same_scores_without_solving_again(evaluation, tmp_path):
+    from windnav.flow import simulate
+
+    maps, res = evaluation
+    calls = []
+
+    def counted(*args, **kwargs):
+        calls.append(kwargs["direction_deg"])
+        return simulate(*args, **kwargs)
+
+    def run():
+        return evaluate_decoder(maps=maps, windinet=False, n_inlets=2, samples_per_inlet=48,
+                                seed=3, dx=2.0, flow_settings=TINY_FLOW,
+                                decoder=tiny_decoder(), simulate=counted,
+                                flow_cache=tmp_path / "flows")
+
+    first = run()
+    assert len(calls) == 4 and len(list((tmp_path / "flows").iterdir())) == 4
+    again = run()
+    assert len(calls) == 4   # every slot read back, none solved
+    assert [r["flow_cached"] for r in first["records"]] == [False] * 4
+    assert [r["flow_cached"] for r in again["records"]] == [True] * 4
+    for a, b, c in zip(res["records"], first["records"], again["records"], strict=True):
+        assert a["decoder"] == b["decoder"] == c["decoder"] and a["local"] == c["local"]
+    assert again["pooled"] == first["pooled"] == res["pooled"]
+    # the studies' fields come from the same cache (same names, same protocol)
+    from windnav.experiments.decoder_studies import evaluation_fields
+
+    fields = evaluation_fields(maps, 2, seed=3, dx=2.0, flow_settings=TINY_FLOW,
+                               cache_dir=tmp_path / "flows", simulate=counted)
+    assert len(calls) == 4 and all(s["cached"] for s in fields["slots"])
+
+
 def test_the_budget_stops_adding_inlets():
     res = evaluate_decoder(maps=tiny_maps(1), windinet=False, n_inlets=3, samples_per_inlet=8,
                            seed=0, dx=2.0, flow_settings=TINY_FLOW, decoder=tiny_decoder(),

@@ -5,6 +5,7 @@
     windnav evaluate-decoder --out runs/eval --json eval.json --seed 0          # 20 min budget
     windnav evaluate-decoder --model runs/default/model.npz --maps 3 --inlets 8 --budget-min 5
     windnav evaluate-decoder --compare thesis-mlp=runs/thesis_mlp/model.npz --out runs/eval
+    windnav evaluate-decoder --maps 0 --out runs/eval_wi --flow-cache runs/flows  # flows reused
 
 Simulates the mean flow of dense 1.2 km evaluation maps (never trained on) and of the windinet
 1.1 km layout at random inlets (speed U[2, 10] m/s, direction U[0, 360) deg), draws samples
@@ -66,6 +67,9 @@ def register(subparsers) -> None:
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder (JSON, figure)")
     p.add_argument("--seed", type=int, default=0, help="seed of the inlets and the samples")
+    p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
+                   help="keep each inlet's flow here and reuse it when the same map, inlet and "
+                        "protocol come again (shared with decoder-study --flow-cache)")
     p.add_argument("--no-progress", action="store_true", help="hide the per-inlet lines")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -95,7 +99,7 @@ def run(args, simulate=None, flow_settings=None) -> int:
                            n_inlets=args.inlets, samples_per_inlet=args.samples,
                            seed=args.seed, budget_s=60.0 * budget, dx=args.dx,
                            flow_settings=flow_settings, progress=not args.no_progress,
-                           simulate=simulate)
+                           simulate=simulate, flow_cache=args.flow_cache)
     with out.writing() as stage:
         plot_evaluation(res, stage.dir / "decoder_eval.png")
         doc = document("evaluate-decoder", res, args)

@@ -32,6 +32,7 @@ Pooled errors weigh cells equally (:func:`windnav.predict.pooled_errors`); impro
 
 from __future__ import annotations
 
+import hashlib
 import time
 from pathlib import Path
 
@@ -40,7 +41,8 @@ import numpy as np
 from windnav._validate import positive_float, positive_int
 
 __all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
-           "check_point", "inlet_slots", "predict_at", "slot_rng"]
+           "check_point", "flow_cache_name", "inlet_slots", "predict_at", "slot_flow",
+           "slot_rng"]
 
 EVAL_MAP_SEED = 2000
 """Seed of the dense evaluation maps (the default recipe's training maps use 1001-1005)."""
@@ -112,6 +114,42 @@ def inlet_slots(n_maps: int, n_inlets: int, seed: int) -> np.ndarray:
 def slot_rng(seed: int, map_index: int, inlet_index: int) -> np.random.Generator:
     """The random source of the samples of slot (``map_index``, ``inlet_index``)."""
     return np.random.default_rng(np.random.SeedSequence([int(seed), 3, map_index, inlet_index]))
+
+
+def flow_cache_name(name: str, city, speed: float, direction: float, dx: float,
+                    settings: dict, dt: float) -> str:
+    """The folder name of one slot's cached solution: the map's name, then a hash of its
+    buildings, the inlet, ``dx``, ``dt`` and the protocol's steps (``settings``)."""
+    key = hashlib.sha256(np.ascontiguousarray(city.footprints).tobytes()
+                         + repr((speed, direction, dx, dt, sorted(settings.items()))).encode())
+    safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in name)
+    return f"{safe}-{key.hexdigest()[:16]}.zarr"
+
+
+def slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, dx: float,
+              dt: float, steps: dict, cache_dir=None, simulate=None) -> tuple:
+    """The thesis-protocol solution of one (map, inlet) slot, and whether it came from the cache.
+
+    With ``cache_dir`` the solution is read from there when the same map, inlet, ``dx``, ``dt``
+    and ``steps`` (``spinup_steps``, ``steps``) were solved before
+    (:func:`windnav.flow.load_flow`), and kept there otherwise (:func:`windnav.flow.save_flow`):
+    the evaluation and the studies share their flows. ``simulate`` replaces
+    :func:`windnav.flow.simulate` (tests). A diverged flow raises
+    :class:`windnav.flow.solver.FlowDivergedError` and is not cached.
+    """
+    from windnav.flow import load_flow, save_flow
+    from windnav.flow import simulate as flow_simulate
+
+    path = Path(cache_dir) / flow_cache_name(name, city, speed, direction, dx, steps, dt) \
+        if cache_dir is not None else None
+    if path is not None and path.is_dir():
+        return load_flow(path), True
+    sol = (simulate or flow_simulate)(city, speed=speed, direction_deg=direction, dx=dx, dt=dt,
+                                      **steps)
+    if path is not None:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        save_flow(sol, path, config={"map": name, "inlet": inlet})
+    return sol, False
 
 
 def _evaluation_maps(maps, windinet, where):
@@ -196,7 +234,8 @@ def _pool(per_sample_list: list[dict]) -> dict:
 def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 8,
                      samples_per_inlet: int = 2048, seed: int = 0, budget_s: float = 1200.0,
                      dx: float = 1.0, flow_settings: dict | None = None, decoder=None,
-                     compare=None, progress: bool = False, simulate=None) -> dict:
+                     compare=None, progress: bool = False, simulate=None,
+                     flow_cache=None) -> dict:
     """Score the decoder and its baselines on simulated evaluation fields (module doc).
 
     Parameters
@@ -229,6 +268,10 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         Print one line per slot.
     simulate : callable, optional
         Replaces :func:`windnav.flow.simulate` (same signature; tests).
+    flow_cache : str or path-like, optional
+        Keep each slot's solution in this folder and reuse it when the same map, inlet and
+        protocol come again (:func:`slot_flow`; shared with ``windnav decoder-study
+        --flow-cache``). The budget counts a cached slot at its own, shorter cost.
 
     Returns
     -------
@@ -243,7 +286,6 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         errors sit beside the decoder's, its improvements under ``compared_improvement_pct``.
     """
     from windnav.experiments.wind_sweep import auto_dt
-    from windnav.flow import simulate as flow_simulate
     from windnav.flow.solver import FlowDivergedError
     from windnav.predict import draw_samples, field_from_solution, load_decoder
 
@@ -264,7 +306,6 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     dec = decoder if decoder is not None else load_decoder(model_path)
     compared, compared_paths = _compared(compare, dec, where)
     models = ("decoder", *compared, *BASELINES)
-    sim = simulate or flow_simulate
     cities = _evaluation_maps(maps, windinet, where)
     inlets = inlet_slots(len(cities), n_inlets, int(seed))
     slots = [(i, j) for j in range(n_inlets) for i in range(len(cities))]
@@ -284,8 +325,10 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         t0 = time.perf_counter()
         dt = settings.get("dt") or auto_dt(dx, speed)
         try:
-            sol = sim(city, speed=float(speed), direction_deg=float(direction), dx=dx, dt=dt,
-                      spinup_steps=settings["spinup_steps"], steps=settings["steps"])
+            sol, cached = slot_flow(city, name, j, float(speed), float(direction), dx=dx,
+                                    dt=float(dt), steps={k: settings[k] for k in
+                                                         ("spinup_steps", "steps")},
+                                    cache_dir=flow_cache, simulate=simulate)
         except FlowDivergedError as exc:
             failed.append({"map": name, "group": group, "inlet": j, "speed": speed,
                            "direction_deg": direction, "error": str(exc)})
@@ -301,6 +344,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         rec = {"map": name, "group": group, "inlet": j, "speed": float(speed),
                "direction_deg": float(direction), "dt": float(dt), "cells": int(cells),
                "n_samples": int(batch.scans.shape[0]), "flow_seconds": t_flow,
+               "flow_cached": cached,
                "seconds": seconds, **_summary(errors)}
         records.append(rec)
         per_sample.append((group, ps))

@@ -44,7 +44,6 @@ Studies that train models (:func:`train_variants` over a reduced copy of the def
 from __future__ import annotations
 
 import copy
-import hashlib
 import time
 from pathlib import Path
 
@@ -91,14 +90,6 @@ def _seed(seed, where: str) -> int:
 # --------------------------------------------------------------------------- the fields
 
 
-def _cache_name(name: str, city, speed: float, direction: float, dx: float, settings: dict,
-                dt: float) -> str:
-    key = hashlib.sha256(np.ascontiguousarray(city.footprints).tobytes()
-                         + repr((speed, direction, dx, dt, sorted(settings.items()))).encode())
-    safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in name)
-    return f"{safe}-{key.hexdigest()[:16]}.zarr"
-
-
 def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1.0,
                       flow_settings: dict | None = None, cache_dir=None, simulate=None,
                       max_fields: int | None = None, progress: bool = False) -> dict:
@@ -139,9 +130,13 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
     """
     from tqdm.auto import tqdm
 
-    from windnav.experiments.decoder_eval import PROTOCOL, _evaluation_maps, inlet_slots
+    from windnav.experiments.decoder_eval import (
+        PROTOCOL,
+        _evaluation_maps,
+        inlet_slots,
+        slot_flow,
+    )
     from windnav.experiments.wind_sweep import auto_dt
-    from windnav.flow import load_flow, save_flow
     from windnav.flow import simulate as flow_simulate
     from windnav.flow.solver import FlowDivergedError
     from windnav.predict import field_from_solution
@@ -171,20 +166,13 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
         dt = float(settings.get("dt") or auto_dt(dx, speed))
         steps = {k: settings[k] for k in ("spinup_steps", "steps")}
         t0 = time.perf_counter()
-        path = cache / _cache_name(name, city, speed, direction, dx, steps, dt) \
-            if cache is not None else None
-        cached = path is not None and path.is_dir()
-        if cached:
-            sol = load_flow(path)
-        else:
-            try:
-                sol = sim(city, speed=speed, direction_deg=direction, dx=dx, dt=dt, **steps)
-            except FlowDivergedError as exc:
-                failed.append({"map": name, "inlet": j, "speed": speed,
-                               "direction_deg": direction, "error": str(exc)})
-                continue
-            if path is not None:
-                save_flow(sol, path, config={"map": name, "inlet": j})
+        try:
+            sol, cached = slot_flow(city, name, j, speed, direction, dx=dx, dt=dt, steps=steps,
+                                    cache_dir=cache, simulate=sim)
+        except FlowDivergedError as exc:
+            failed.append({"map": name, "inlet": j, "speed": speed,
+                           "direction_deg": direction, "error": str(exc)})
+            continue
         fields.append(field_from_solution(city, sol, name=f"{name}/{j}"))
         slots.append({"map": name, "inlet": j, "speed": speed, "direction_deg": direction,
                       "dt": dt, "seconds": time.perf_counter() - t0, "cached": cached})
