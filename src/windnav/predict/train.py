@@ -756,8 +756,9 @@ def _train_members(recipe: dict, out: Path, store: Path, progress: bool, log, ca
             "recipe": {k: v for k, v in recipe.items() if k != "source"}}
     dec = ensemble_decoder(members, {**members[0].metadata, **meta})
     val = _evaluate(dec, run.val, tr["eval_batch_size"])
-    train_metrics = {"decoder": _evaluate(dec, run.train_subset(), tr["eval_batch_size"]),
-                     **_baselines(run.train_subset(), data["size"], data["spacing"])}
+    subset = run.train_subset()
+    train_metrics = {"decoder": _evaluate(dec, subset, tr["eval_batch_size"]),
+                     **_baselines(subset, data["size"], data["spacing"])}
     seconds = sum(r["seconds"] for h in histories for r in h["epochs"])
     save_decoder(dec.weights, {**dec.metadata, "metrics": {
         "validation": val, "validation_baselines": baselines,
