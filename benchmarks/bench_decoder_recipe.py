@@ -9,7 +9,9 @@ into a fresh ``OUT`` (default ``runs/recipe-<date>``), times the whole command a
 then compares the validation metrics of the model it trained (``OUT/model.npz``) with those
 the shipped model records (``windnav/predict/data/decoder_default.npz``): the acceptance is
 that every one is reproduced to within 5 %. ``--log FILE --out DIR`` compares an earlier run
-whose output was saved in ``FILE`` instead of running again. Appends to docs/benchmarks.md.
+whose output was saved in ``FILE`` instead of running again. ``--recipe FILE --reference
+MODEL`` does the same for another recipe and the model it made before (e.g.
+``recipes/ensemble.toml``), also comparing the weights. Appends to docs/benchmarks.md.
 """
 
 from __future__ import annotations
@@ -42,6 +44,13 @@ def model_metrics(path) -> dict:
     return meta["metrics"]["validation"]
 
 
+def same_weights(a, b) -> tuple[int, int]:
+    """How many of ``a``'s parameter arrays ``b`` holds bit for bit, and how many there are."""
+    with np.load(a, allow_pickle=False) as x, np.load(b, allow_pickle=False) as y:
+        names = [k for k in x.files if k != "__metadata__"]
+        return sum(k in y.files and np.array_equal(x[k], y[k]) for k in names), len(names)
+
+
 def sweep_seconds(log: str) -> float | None:
     """The sweep's wall time from train-decoder's output ('... (N now, S s)')."""
     found = re.findall(r"simulations done \(\d+ now, (\d+) s\)", log)
@@ -56,16 +65,21 @@ def main(argv=None) -> int:
                         help="compare the finished run in --out whose output is in this file")
     parser.add_argument("--wall", type=float, default=None,
                         help="with --log: the command's measured wall time, s")
+    parser.add_argument("--recipe", default=RECIPE,
+                        help=f"the recipe, relative to the repository (default {RECIPE})")
+    parser.add_argument("--reference", type=Path, default=None,
+                        help="the model the recipe made before (default: the shipped model)")
     parser.add_argument("--no-record", action="store_true")
     args = parser.parse_args(argv)
     out = args.out or ROOT / "runs" / f"recipe-{dt.date.today().isoformat()}"
-    command = f"windnav train-decoder --config {RECIPE} --out {out}"
+    recipe = args.recipe
+    command = f"windnav train-decoder --config {recipe} --out {out}"
     if args.log is None:
         if out.exists():
             parser.error(f"--out {out} exists: a reproduction starts from nothing")
         t0 = time.perf_counter()
         done = subprocess.run([str(Path(sys.executable).with_name("windnav")), "train-decoder",
-                               "--config", str(ROOT / RECIPE), "--out", str(out),
+                               "--config", str(ROOT / recipe), "--out", str(out),
                                "--no-progress"], cwd=ROOT, capture_output=True, text=True)
         wall = time.perf_counter() - t0
         log = done.stdout + done.stderr
@@ -75,9 +89,12 @@ def main(argv=None) -> int:
             return done.returncode
     else:
         log, wall = args.log.read_text(), args.wall
-    shipped = model_metrics(resources.files("windnav.predict") / "data" / "decoder_default.npz")
+    reference = args.reference or resources.files("windnav.predict") / "data" / \
+        "decoder_default.npz"
+    shipped = model_metrics(reference)
     got = model_metrics(out / "model.npz")
-    rows = ["| metric (held-out map) | shipped model | this run | relative difference |",
+    label = "shipped model" if args.reference is None else f"`{args.reference}`"
+    rows = [f"| metric (held-out map) | {label} | this run | relative difference |",
             "|---|---|---|---|"]
     worst = 0.0
     for name in METRICS:
@@ -92,10 +109,14 @@ def main(argv=None) -> int:
                    f"{(wall - sweep) / 60:.1f} min)" if wall and sweep else ""))
     rows.append(f"- largest difference {100 * worst:.2f} % (tolerance {100 * TOLERANCE:.0f} %): "
                 + ("reproduced" if worst <= TOLERANCE else "NOT reproduced"))
+    same = same_weights(reference, out / "model.npz")
+    rows.append(f"- weights: {same[0]} of {same[1]} arrays bitwise equal to the reference's")
     print("\n".join(rows))
     if not args.no_record:
         append_record("Decoder recipe reproduced from scratch (2 cores)", rows,
-                      command="python benchmarks/bench_decoder_recipe.py")
+                      command="python benchmarks/bench_decoder_recipe.py"
+                      + (f" --recipe {recipe}" if recipe != RECIPE else "")
+                      + (f" --reference {args.reference}" if args.reference else ""))
     return 0 if worst <= TOLERANCE else 1
 
 
