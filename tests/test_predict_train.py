@@ -174,6 +174,33 @@ def test_members_train_from_successive_seeds_and_ship_their_mean(tiny, tmp_path,
     assert f"members' best epochs {epochs}" in capsys.readouterr().out
 
 
+def test_a_finished_run_is_freed_without_waiting_for_the_cycle_collector(tiny, tmp_path,
+                                                                          monkeypatch):
+    """The members of an ensemble train one after the other in one process: each run's
+    training samples (gigabytes in the default recipe) must be gone when the next starts."""
+    import gc
+    import weakref
+
+    from windnav.predict import train as tr
+
+    recipe, out, _ = tiny
+    runs = []
+    init = tr._Run.__init__
+
+    def tracked(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        runs.append(weakref.ref(self))
+
+    monkeypatch.setattr(tr._Run, "__init__", tracked)
+    gc.disable()
+    try:
+        train_decoder(recipe, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None)
+        assert len(runs) == 1 and runs[0]() is None
+    finally:
+        gc.enable()
+
+
 def test_another_recipe_does_not_resume_a_checkpoint(tiny):
     recipe, out, _ = tiny
     changed = copy.deepcopy(recipe)
