@@ -91,16 +91,16 @@ def main(argv=None) -> int:
         log, wall = args.log.read_text(), args.wall
     reference = args.reference or resources.files("windnav.predict") / "data" / \
         "decoder_default.npz"
-    shipped = model_metrics(reference)
+    expected = model_metrics(reference)
     got = model_metrics(out / "model.npz")
     label = "shipped model" if args.reference is None else f"`{args.reference}`"
     rows = [f"| metric (held-out map) | {label} | this run | relative difference |",
             "|---|---|---|---|"]
     worst = 0.0
     for name in METRICS:
-        rel = got[name] / shipped[name] - 1.0
+        rel = got[name] / expected[name] - 1.0
         worst = max(worst, abs(rel))
-        rows.append(f"| {name} | {shipped[name]:.3f} | {got[name]:.3f} | {100 * rel:+.2f} % |")
+        rows.append(f"| {name} | {expected[name]:.3f} | {got[name]:.3f} | {100 * rel:+.2f} % |")
     sweep = sweep_seconds(log)
     rows.append("")
     rows.append(f"- command: `{command}`; wall "

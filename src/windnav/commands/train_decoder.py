@@ -83,8 +83,7 @@ def run(args, simulate=None) -> int:
     check_output_path(out_dir, "--out", name, kind="dir")
     out = outputs(args)
     if args.overwrite:
-        members = sorted(p.name for p in out_dir.glob("member*") if p.is_dir()) \
-            if out_dir.is_dir() else []
+        members = sorted(p.name for p in out_dir.glob("member*") if p.is_dir())
         for product in (*TRAINING_PRODUCTS, *members):
             path = out_dir / product
             if not path.exists():

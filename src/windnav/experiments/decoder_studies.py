@@ -137,7 +137,6 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
         slot_flow,
     )
     from windnav.experiments.wind_sweep import auto_dt
-    from windnav.flow import simulate as flow_simulate
     from windnav.flow.solver import FlowDivergedError
     from windnav.predict import field_from_solution
 
@@ -155,7 +154,6 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
     cache = Path(cache_dir) if cache_dir is not None else None
     if cache is not None:
         cache.mkdir(parents=True, exist_ok=True)
-    sim = simulate or flow_simulate
     fields, slots, failed = [], [], []
     todo = [(i, j) for i in range(len(cities)) for j in range(n_inlets)]
     if max_fields is not None:
@@ -168,7 +166,7 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
         t0 = time.perf_counter()
         try:
             sol, cached = slot_flow(city, name, j, speed, direction, dx=dx, dt=dt, steps=steps,
-                                    cache_dir=cache, simulate=sim)
+                                    cache_dir=cache, simulate=simulate)
         except FlowDivergedError as exc:
             failed.append({"map": name, "inlet": j, "speed": speed,
                            "direction_deg": direction, "error": str(exc)})
