@@ -23,6 +23,7 @@ from windnav.predict.decoder import (
     Decoder,
     canonical_elements,
     canonicalize_field,
+    conv_block,
     d4_grid_permutation,
     d4_matrices,
     d4_ring_indices,
@@ -89,6 +90,23 @@ def test_numpy_inference_matches_torch_forward(name, size):
     scale = np.abs(ref).max()
     np.testing.assert_allclose(out, ref, rtol=0, atol=1e-5 * scale)
     assert dec.n_parameters == sum(p.numel() for p in model.parameters())
+
+
+@pytest.mark.parametrize("pool, kernel", [(1, 3), (9, 7), (15, 5), (45, 9)])
+def test_the_banded_scan_convolution_matches_torch_for_other_pools_and_kernels(pool, kernel):
+    """Blocks of 12, 10, 12 and 8 sectors (of 360, 40, 24 and 8; the last block's window,
+    16 sectors, wraps around the whole ring of 8) against torch's circular convolution."""
+    rng = np.random.default_rng(2)
+    model, dec = random_decoder("d4-film", 6, pool=pool, kernel=kernel)
+    n = 360 // pool
+    assert dec.arch._block == conv_block(n) == {360: 12, 40: 10, 24: 12, 8: 8}[n]
+    scans, w_up, w_robot = random_inputs(37, rng)
+    out = dec.predict(scans, w_up, w_robot)
+    f = dec.arch.features(scans.astype(np.float32), w_up.astype(np.float32),
+                          w_robot.astype(np.float32))
+    with torch.no_grad():
+        ref = dec.arch.world_frame(model(tm.to_tensors(f, "d4-film")).numpy(), f)
+    np.testing.assert_allclose(out, ref, rtol=0, atol=1e-5 * np.abs(ref).max())
 
 
 def test_thesis_mlp_has_the_thesis_size():
