@@ -12,6 +12,9 @@ import argparse
 import json
 import math
 import os
+import platform
+import subprocess
+import sys
 from dataclasses import replace
 from types import SimpleNamespace
 
@@ -900,6 +903,41 @@ def test_command_replay_writes_the_record_and_checks_it(tmp_path, tiny_suite, ca
     doc = json.loads((tmp_path / "r.json").read_text())
     assert doc["scenario_id"] == "quick/m00/w01/p1" and doc["variant"] == "mppi"
     assert set(nb.RECORD_FIELDS) <= set(doc) and doc["check"]["same_outcome"]
+
+
+@pytest.mark.parametrize("scale, noted", [(1.0 + 1e-9, False), (1.01, True)])
+def test_an_onboard_replay_that_differs_names_the_blas_kernels(tmp_path, tiny_suite, capsys,
+                                                               monkeypatch, scale, noted):
+    """An onboard-stack flight (its record has the stage times) that does not replay to 1e-6
+    says why: the BLAS kernels of the record and of the replay; one within 1e-6 says nothing."""
+    command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
+             "--no-progress"])
+    capsys.readouterr()
+    recorded = {(r["scenario_id"], r["variant"]): r
+                for r in NavStore(tmp_path, SUITES["quick"]).load()}
+
+    def onboard_replay(spec, scenario_id, variant):
+        rec = dict(recorded[(scenario_id, variant)])
+        rec.update(energy_J=rec["energy_J"] * scale, stage_ms_median={"ukf": 0.1},
+                   blas_kernel="OpenBLAS Test")
+        return rec
+
+    monkeypatch.setattr(nb, "replay", onboard_replay)
+    assert command(["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path]) == 0
+    err = capsys.readouterr().err
+    assert ("BLAS kernel of the record: not recorded (flown before 2026-12-02); of this replay: "
+            "OpenBLAS Test" in err) is noted
+    assert (nb.KERNEL_SENSITIVE_NOTE in err) is noted
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64" or nb.blas_kernel() is None,
+                    reason="reads OpenBLAS's kernel on x86_64")
+def test_blas_kernel_names_the_kernel_openblas_was_told_to_use():
+    out = subprocess.run(
+        [sys.executable, "-c", "from windnav.experiments.nav_benchmark import blas_kernel; "
+         "print(blas_kernel())"], capture_output=True, text=True, check=True,
+        env={**os.environ, "OPENBLAS_CORETYPE": "Nehalem"})
+    assert out.stdout.strip() == "OpenBLAS Nehalem"
 
 
 # ----------------------------------------------------------------------------- quick suite

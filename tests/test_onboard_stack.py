@@ -18,6 +18,7 @@ from windnav.experiments.nav_benchmark import (
     ENVELOPE_FIELDS,
     ONBOARD_FIELDS,
     RECORD_FIELDS,
+    blas_kernel,
     check_variants,
     fly_scenario,
 )
@@ -340,6 +341,7 @@ def test_benchmark_records_carry_the_onboard_fields(city, flow):
     assert list(theirs) == list(RECORD_FIELDS) + list(ENVELOPE_FIELDS)
     assert 0 < theirs["airspeed_max_mps"] and theirs["outside_envelope_s"] >= 0
     assert ours["real_time_fraction"] > 0 and set(ours["stage_ms_median"]) == set(STAGES)
+    assert ours["blas_kernel"] == blas_kernel()
 
 
 # ---------------------------------------------------------------------------- bad input

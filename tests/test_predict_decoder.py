@@ -95,7 +95,8 @@ def test_numpy_inference_matches_torch_forward(name, size):
 @pytest.mark.parametrize("pool, kernel", [(1, 3), (9, 7), (15, 5), (45, 9)])
 def test_the_banded_scan_convolution_matches_torch_for_other_pools_and_kernels(pool, kernel):
     """Blocks of 12, 10, 12 and 8 sectors (of 360, 40, 24 and 8; the last block's window,
-    16 sectors, wraps around the whole ring of 8) against torch's circular convolution."""
+    16 sectors, wraps around the whole ring of 8) against torch's circular convolution; and
+    the dense circulant product that a single sample takes."""
     rng = np.random.default_rng(2)
     model, dec = random_decoder("d4-film", 6, pool=pool, kernel=kernel)
     n = 360 // pool
@@ -107,6 +108,9 @@ def test_the_banded_scan_convolution_matches_torch_for_other_pools_and_kernels(p
     with torch.no_grad():
         ref = dec.arch.world_frame(model(tm.to_tensors(f, "d4-film")).numpy(), f)
     np.testing.assert_allclose(out, ref, rtol=0, atol=1e-5 * np.abs(ref).max())
+    # one sample takes the dense circulant product (the recorded flights' arithmetic)
+    one = dec.predict(scans[:1], w_up[:1], w_robot[:1])
+    np.testing.assert_allclose(one, ref[:1], rtol=0, atol=1e-5 * np.abs(ref).max())
 
 
 def test_thesis_mlp_has_the_thesis_size():

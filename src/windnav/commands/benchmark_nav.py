@@ -286,10 +286,20 @@ def _table(args, name: str) -> int:
     return 0
 
 
+REPLAY_TOLERANCE = 1e-6
+"""Largest relative difference of a replayed record's fields that counts as reproduced (issue
+11's criterion)."""
+
+
 def _replay(args, name: str) -> int:
     import json
 
-    from windnav.experiments.nav_benchmark import NavStore, compare_records, replay
+    from windnav.experiments.nav_benchmark import (
+        KERNEL_SENSITIVE_NOTE,
+        NavStore,
+        compare_records,
+        replay,
+    )
     from windnav.experiments.results import json_ready, write_json
 
     if args.variant is None:
@@ -325,6 +335,11 @@ def _replay(args, name: str) -> int:
         c = payload["check"]
         print(f"against the record in {args.out}: same outcome {c['same_outcome']}, largest "
               f"relative difference {c['max_relative_difference']:.3g}")
+        if "stage_ms_median" in record and not (
+                c["same_outcome"] and c["max_relative_difference"] <= REPLAY_TOLERANCE):
+            flown = recorded.get("blas_kernel") or "not recorded (flown before 2026-12-02)"
+            print(f"note: {KERNEL_SENSITIVE_NOTE}. BLAS kernel of the record: {flown}; of "
+                  f"this replay: {record.get('blas_kernel')}", file=sys.stderr)
     if record["error"]:
         print(record["error"], file=sys.stderr)
     if args.json is not None:

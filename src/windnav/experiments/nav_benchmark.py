@@ -76,6 +76,7 @@ __all__ = [
     "BENCHMARK_DECODER",
     "DECODERS",
     "ENVELOPE_FIELDS",
+    "KERNEL_SENSITIVE_NOTE",
     "ONBOARD_FIELDS",
     "PARAMETERS",
     "RECORD_FIELDS",
@@ -89,6 +90,7 @@ __all__ = [
     "SuiteMismatchError",
     "SuiteSpec",
     "benchmark_decoder",
+    "blas_kernel",
     "benchmark_table",
     "check_against_suite",
     "check_scenario_ids",
@@ -134,11 +136,48 @@ goal with the command at the tilt cap (s)
 (:meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
 
 ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",
-                  "ukf_wind_rms_xy_mps")
+                  "ukf_wind_rms_xy_mps", "blas_kernel")
 """Fields appended to the record of a flight with the onboard wind stack (``ea-mppi-w-hat``,
-:mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s) and
-the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`RECORD_FIELDS` and
+:mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s),
+the Wind UKF's RMS errors (m/s) and, since 2026-12-02, the BLAS kernel that flew it
+(:func:`blas_kernel`): these flights replay to the bit only with the same kernel (the records
+before lack it). Other variants' records have exactly :data:`RECORD_FIELDS` and
 :data:`ENVELOPE_FIELDS`."""
+
+KERNEL_SENSITIVE_NOTE = (
+    "the onboard stack (Wind UKF, decoder, planner) amplifies the last-bit differences between "
+    "BLAS kernels: its flights replay to the bit only with the kernel that flew them; the "
+    "planner-only variants replay across kernels (docs/navigation.md, 'Replays across CPUs')")
+"""What ``windnav benchmark-nav --replay`` says when an onboard-stack flight does not replay."""
+
+
+def blas_kernel() -> str | None:
+    """The kernel NumPy's BLAS runs on this machine, e.g. ``"OpenBLAS Haswell"``; None when it
+    cannot be read (another BLAS, or OpenBLAS without ``get_corename``).
+
+    OpenBLAS picks its kernels by CPU at load time (``OPENBLAS_CORETYPE`` overrides): an Intel
+    Xeon with AVX-512 and an AMD EPYC with AVX2 round float products differently in the last
+    bits, which the onboard stack's closed loop amplifies (:data:`KERNEL_SENSITIVE_NOTE`).
+    """
+    import ctypes
+    import glob
+
+    import numpy as np
+
+    libs = os.path.join(os.path.dirname(os.path.dirname(np.__file__)), "numpy.libs")
+    for path in sorted(glob.glob(os.path.join(libs, "*openblas*"))):
+        try:
+            lib = ctypes.CDLL(path)
+        except OSError:
+            continue
+        for name in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename",
+                     "openblas_get_corename64_", "openblas_get_corename"):
+            fn = getattr(lib, name, None)
+            if fn is not None:
+                fn.restype = ctypes.c_char_p
+                core = fn()
+                return f"OpenBLAS {core.decode()}" if core else None
+    return None
 
 ROUTE_FIELDS = ("route_energy_J", "route_hold_energy_J", "route_time_s", "route_length_m")
 """Fields appended to the record of a GS or GS+W flight (after :data:`ENVELOPE_FIELDS`): the
@@ -707,6 +746,8 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
         rec["loop_wall_s"] = summary.get("wall_s")
         rec.update({k: summary.get(k) for k in ENVELOPE_FIELDS})
         rec.update({k: summary[k] for k in ONBOARD_FIELDS if k in summary})
+        if "stage_ms_median" in summary:  # the onboard stack: its flight depends on the kernel
+            rec["blas_kernel"] = blas_kernel()
         settings = summary.get("settings") or {}
         if "route_hold_energy_J" in settings:  # GS and GS+W
             rec.update({k: settings[k] for k in ROUTE_FIELDS})
