@@ -653,7 +653,9 @@ def test_tiny_suite_flies_every_flight_once_per_wind(tiny_store):
     assert (out["now"], out["errors_now"], out["pending"]) == (8, 0, 0)
     recs = NavStore(path, TINY).load()
     assert [r["error"] for r in recs] == [None] * 8
-    assert list(recs[0]) == list(nb.RECORD_FIELDS) + list(nb.ENVELOPE_FIELDS)
+    assert list(recs[0]) == (list(nb.RECORD_FIELDS) + list(nb.ENVELOPE_FIELDS)
+                             + list(nb.KERNEL_FIELDS))
+    assert recs[0]["blas_kernel"] == nb.blas_kernel()
     # one wind simulation per (map, wind): every flight of a wind reports the same flow time
     for w in (0, 1):
         assert len({r["flow_s"] for r in recs if r["wind_index"] == w}) == 1
@@ -905,29 +907,37 @@ def test_command_replay_writes_the_record_and_checks_it(tmp_path, tiny_suite, ca
     assert set(nb.RECORD_FIELDS) <= set(doc) and doc["check"]["same_outcome"]
 
 
-@pytest.mark.parametrize("scale, noted", [(1.0 + 1e-9, False), (1.01, True)])
-def test_an_onboard_replay_that_differs_names_the_blas_kernels(tmp_path, tiny_suite, capsys,
-                                                               monkeypatch, scale, noted):
-    """An onboard-stack flight (its record has the stage times) that does not replay to 1e-6
-    says why: the BLAS kernels of the record and of the replay; one within 1e-6 says nothing."""
+@pytest.mark.parametrize("scale, old, noted", [(1.0 + 1e-9, False, None),
+                                                (1.01, False, "recorded"),
+                                                (1.01, True, "old")])
+def test_a_replay_that_differs_names_the_blas_kernels(tmp_path, tiny_suite, capsys,
+                                                      monkeypatch, scale, old, noted):
+    """A flight that does not replay to 1e-6 says why: the BLAS kernels of the record (not
+    recorded before 2026-12-02) and of the replay; one within 1e-6 says nothing."""
     command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
              "--no-progress"])
     capsys.readouterr()
-    recorded = {(r["scenario_id"], r["variant"]): r
-                for r in NavStore(tmp_path, SUITES["quick"]).load()}
+    store = NavStore(tmp_path, SUITES["quick"])
+    recorded = {(r["scenario_id"], r["variant"]): r for r in store.load()}
+    if old:  # the records as flown before 2026-12-02, without the field
+        store.records_path.write_text("".join(
+            json.dumps({k: v for k, v in r.items() if k != "blas_kernel"}) + "\n"
+            for r in recorded.values()))
 
-    def onboard_replay(spec, scenario_id, variant):
+    def other_replay(spec, scenario_id, variant):
         rec = dict(recorded[(scenario_id, variant)])
-        rec.update(energy_J=rec["energy_J"] * scale, stage_ms_median={"ukf": 0.1},
-                   blas_kernel="OpenBLAS Test")
+        rec.update(energy_J=rec["energy_J"] * scale, blas_kernel="OpenBLAS Test")
         return rec
 
-    monkeypatch.setattr(nb, "replay", onboard_replay)
+    monkeypatch.setattr(nb, "replay", other_replay)
     assert command(["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path]) == 0
     err = capsys.readouterr().err
-    assert ("BLAS kernel of the record: not recorded (flown before 2026-12-02); of this replay: "
-            "OpenBLAS Test" in err) is noted
-    assert (nb.KERNEL_SENSITIVE_NOTE in err) is noted
+    kernel = {"recorded": nb.blas_kernel() or "unknown (not OpenBLAS)",
+              "old": "not recorded (flown before 2026-12-02)",
+              None: "-"}[noted]
+    assert (f"BLAS kernel of the record: {kernel}; of this replay: OpenBLAS Test" in err) is (
+        noted is not None)
+    assert (nb.KERNEL_SENSITIVE_NOTE in err) is (noted is not None)
 
 
 @pytest.mark.skipif(platform.machine() != "x86_64" or nb.blas_kernel() is None,

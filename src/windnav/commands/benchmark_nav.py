@@ -335,9 +335,9 @@ def _replay(args, name: str) -> int:
         c = payload["check"]
         print(f"against the record in {args.out}: same outcome {c['same_outcome']}, largest "
               f"relative difference {c['max_relative_difference']:.3g}")
-        if "stage_ms_median" in record and not (
-                c["same_outcome"] and c["max_relative_difference"] <= REPLAY_TOLERANCE):
-            flown = recorded.get("blas_kernel") or "not recorded (flown before 2026-12-02)"
+        if not (c["same_outcome"] and c["max_relative_difference"] <= REPLAY_TOLERANCE):
+            flown = (recorded["blas_kernel"] or "unknown (not OpenBLAS)") \
+                if "blas_kernel" in recorded else "not recorded (flown before 2026-12-02)"
             print(f"note: {KERNEL_SENSITIVE_NOTE}. BLAS kernel of the record: {flown}; of "
                   f"this replay: {record.get('blas_kernel')}", file=sys.stderr)
     if record["error"]:

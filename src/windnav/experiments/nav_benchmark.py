@@ -76,6 +76,7 @@ __all__ = [
     "BENCHMARK_DECODER",
     "DECODERS",
     "ENVELOPE_FIELDS",
+    "KERNEL_FIELDS",
     "KERNEL_SENSITIVE_NOTE",
     "ONBOARD_FIELDS",
     "PARAMETERS",
@@ -135,20 +136,23 @@ time above the power curve's valid range (s); since 2026-11-29 also the time spe
 goal with the command at the tilt cap (s)
 (:meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
 
+KERNEL_FIELDS = ("blas_kernel",)
+"""Field after :data:`ENVELOPE_FIELDS` in every record flown since 2026-12-02 (the records
+before lack it): the BLAS kernel of the machine that flew it (:func:`blas_kernel`). A flight
+replays to 1e-6 only with the same kernel (:data:`KERNEL_SENSITIVE_NOTE`)."""
+
 ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",
-                  "ukf_wind_rms_xy_mps", "blas_kernel")
+                  "ukf_wind_rms_xy_mps")
 """Fields appended to the record of a flight with the onboard wind stack (``ea-mppi-w-hat``,
-:mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s),
-the Wind UKF's RMS errors (m/s) and, since 2026-12-02, the BLAS kernel that flew it
-(:func:`blas_kernel`): these flights replay to the bit only with the same kernel (the records
-before lack it). Other variants' records have exactly :data:`RECORD_FIELDS` and
-:data:`ENVELOPE_FIELDS`."""
+:mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s) and
+the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`RECORD_FIELDS`,
+:data:`ENVELOPE_FIELDS` and :data:`KERNEL_FIELDS`."""
 
 KERNEL_SENSITIVE_NOTE = (
-    "the onboard stack (Wind UKF, decoder, planner) amplifies the last-bit differences between "
-    "BLAS kernels: its flights replay to the bit only with the kernel that flew them; the "
-    "planner-only variants replay across kernels (docs/navigation.md, 'Replays across CPUs')")
-"""What ``windnav benchmark-nav --replay`` says when an onboard-stack flight does not replay."""
+    "a closed-loop flight can amplify the last-bit differences between BLAS kernels (OpenBLAS "
+    "picks them by CPU) into another flight: a record replays to 1e-6 only with the kernel "
+    "that flew it (docs/navigation.md, 'Replays across CPUs')")
+"""What ``windnav benchmark-nav --replay`` says when a flight does not replay."""
 
 
 def blas_kernel() -> str | None:
@@ -157,8 +161,14 @@ def blas_kernel() -> str | None:
 
     OpenBLAS picks its kernels by CPU at load time (``OPENBLAS_CORETYPE`` overrides): an Intel
     Xeon with AVX-512 and an AMD EPYC with AVX2 round float products differently in the last
-    bits, which the onboard stack's closed loop amplifies (:data:`KERNEL_SENSITIVE_NOTE`).
+    bits, which a closed-loop flight can amplify (:data:`KERNEL_SENSITIVE_NOTE`). Read once per
+    process.
     """
+    return _blas_kernel()
+
+
+@functools.cache
+def _blas_kernel() -> str | None:
     import ctypes
     import glob
 
@@ -180,7 +190,7 @@ def blas_kernel() -> str | None:
     return None
 
 ROUTE_FIELDS = ("route_energy_J", "route_hold_energy_J", "route_time_s", "route_length_m")
-"""Fields appended to the record of a GS or GS+W flight (after :data:`ENVELOPE_FIELDS`): the
+"""Fields appended to the record of a GS or GS+W flight (after :data:`KERNEL_FIELDS`): the
 planned route's energy in the wind it was planned in (the mean wind for GS+W; steady flight at
 each piece's optimal speed, no acceleration, no gusts; airspeed power curve, J), the goal hold
 it leaves out (``HOLD_S`` at rest in that wind at the goal, J), its time (s) and its length
@@ -725,7 +735,8 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
     Returns
     -------
     dict
-        :data:`RECORD_FIELDS` and :data:`ENVELOPE_FIELDS` (then :data:`ONBOARD_FIELDS` for
+        :data:`RECORD_FIELDS`, :data:`ENVELOPE_FIELDS` and :data:`KERNEL_FIELDS` (then
+        :data:`ONBOARD_FIELDS` for
         the onboard stack, :data:`ROUTE_FIELDS` for GS and GS+W). When
         anything raised, ``outcome`` is ``"error"``, the metrics
         are None and ``error`` holds ``"Type: message"`` and the traceback.
@@ -746,8 +757,6 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
         rec["loop_wall_s"] = summary.get("wall_s")
         rec.update({k: summary.get(k) for k in ENVELOPE_FIELDS})
         rec.update({k: summary[k] for k in ONBOARD_FIELDS if k in summary})
-        if "stage_ms_median" in summary:  # the onboard stack: its flight depends on the kernel
-            rec["blas_kernel"] = blas_kernel()
         settings = summary.get("settings") or {}
         if "route_hold_energy_J" in settings:  # GS and GS+W
             rec.update({k: settings[k] for k in ROUTE_FIELDS})
@@ -853,12 +862,13 @@ def fly_group(spec: SuiteSpec, store, flights, *, city, flow, flow_s: float | No
 def error_record(scenario: Scenario, variant: str, error: str | None) -> dict:
     """The record of a flight that did not fly: ``outcome = "error"``, no metrics, ``error``
     (the traceback). Also the skeleton every record starts from (:data:`RECORD_FIELDS`)."""
-    rec = dict.fromkeys(RECORD_FIELDS + ENVELOPE_FIELDS)
+    rec = dict.fromkeys(RECORD_FIELDS + ENVELOPE_FIELDS + KERNEL_FIELDS)
     rec.update(scenario_id=scenario.scenario_id, variant=variant, seed=scenario.seed,
                outcome=ERROR, kind=scenario.kind, speed=scenario.speed,
                direction_deg=scenario.direction_deg, map_index=scenario.map_index,
                wind_index=scenario.wind_index, pair_index=scenario.pair_index,
-               start=list(scenario.start), goal=list(scenario.goal), error=error)
+               start=list(scenario.start), goal=list(scenario.goal), error=error,
+               blas_kernel=blas_kernel())
     return rec
 
 
