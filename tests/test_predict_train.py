@@ -17,7 +17,7 @@ pytest.importorskip("torch")
 
 from windnav.experiments.wind_sweep import sweep  # noqa: E402
 from windnav.predict.dataset import DecoderDataset, fields_from_store  # noqa: E402
-from windnav.predict.decoder import load_decoder, make_architecture  # noqa: E402
+from windnav.predict.decoder import load_decoder, make_architecture, save_decoder  # noqa: E402
 from windnav.predict.metrics import field_errors  # noqa: E402
 from windnav.predict.train import (  # noqa: E402
     RECIPES,
@@ -463,10 +463,48 @@ def test_angle_direction_loss_is_the_direction_errors_own_form():
     assert torch.isfinite(q.grad).all()
 
 
+def test_a_teacher_pulls_the_student_towards_its_field(tiny, tmp_path):
+    """Distillation: from another seed, a student with the whole loss on the tiny model's
+    field (weight 1) ends closer to that field than the same seed trained on the labels; the
+    teacher's file, not its path, is in the fingerprint; a teacher on another grid is
+    refused."""
+    recipe, out, full = tiny
+    teacher_path = tmp_path / "teacher.npz"
+    teacher_path.write_bytes((out / "model.npz").read_bytes())
+    teacher = load_decoder(teacher_path)
+    data = recipe["data"]
+    val = DecoderDataset(fields_from_store(out / "sweep.zarr", maps=[2]),
+                         data["validation_samples_per_field"], seed=data["seed"] + 1,
+                         size=data["size"]).materialize()
+    args = (val.scans, val.w_up, val.w_robot)
+    t, free = teacher.predict(*args), val.free.astype(bool)
+    gap = {}
+    for name, train in (("plain", {}), ("taught", {"teacher": str(teacher_path),
+                                                   "teacher_weight": 1.0})):
+        r = copy.deepcopy(recipe)
+        r["train"].update(seed=1, **train)
+        h = train_decoder(r, store=out / "sweep.zarr", out_dir=tmp_path / name,
+                          progress=False, log=None)
+        gap[name] = float(np.abs(load_decoder(h["model"]).predict(*args) - t).sum(axis=1)[
+            free].mean())
+    assert gap["taught"] < 0.85 * gap["plain"]  # 0.43 against 0.56 m/s (2026-12-02)
+    taught = copy.deepcopy(recipe)
+    taught["train"].update(seed=1, teacher=str(teacher_path), teacher_weight=1.0)
+    moved = copy.deepcopy(taught)
+    (tmp_path / "moved.npz").write_bytes(teacher_path.read_bytes())
+    moved["train"]["teacher"] = str(tmp_path / "moved.npz")
+    assert _fingerprint(moved) == _fingerprint(taught) != _fingerprint(recipe)
+    save_decoder(teacher.weights, {**teacher.metadata, "spacing": 2.0}, teacher_path)
+    with pytest.raises(ValueError, match="train.teacher predict on the recipe's grid"):
+        train_decoder(taught, store=out / "sweep.zarr", out_dir=tmp_path / "other",
+                      progress=False, log=None)
+
+
 def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     recipe = load_recipe({"data": {"validation_maps": ["holdout-0"]}})
     older = copy.deepcopy(recipe)
-    for key in ("vector_loss", "speed_loss_weight", "direction_loss", "members"):
+    for key in ("vector_loss", "speed_loss_weight", "direction_loss", "members", "teacher",
+                "teacher_weight"):
         del older["train"][key]
     assert _fingerprint(older) == _fingerprint(recipe)
     for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0),
@@ -498,6 +536,9 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"model": {"hyperparameters": {"members": 2}}}, "model.hyperparameters.members"),
     ({"model": {"architecture": "thesis-mlp"}, "train": {"members": 2}}, "train.members"),
     ({"sweep": {"maps": [{"name": "a", "kind": "forest"}]}}, "sweep.maps"),
+    ({"train": {"teacher_weight": 1.5, "teacher": "t.npz"}}, "train.teacher_weight"),
+    ({"train": {"teacher_weight": 0.5}}, "train.teacher"),
+    ({"train": {"teacher": "t.npz"}}, "train.teacher"),
 ])
 def test_bad_recipes_are_refused(change, match):
     base = {"data": {"validation_maps": ["holdout-0"]}}

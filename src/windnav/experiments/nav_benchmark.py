@@ -156,8 +156,8 @@ KERNEL_SENSITIVE_NOTE = (
 
 
 def blas_kernel() -> str | None:
-    """The kernel NumPy's BLAS runs on this machine, e.g. ``"OpenBLAS Haswell"``; None when it
-    cannot be read (another BLAS, or OpenBLAS without ``get_corename``).
+    """The kernel NumPy's BLAS runs on this machine, e.g. ``"OpenBLAS Haswell"``
+    (:func:`threadpoolctl.threadpool_info`); None when no BLAS is found.
 
     OpenBLAS picks its kernels by CPU at load time (``OPENBLAS_CORETYPE`` overrides): an Intel
     Xeon with AVX-512 and an AMD EPYC with AVX2 round float products differently in the last
@@ -169,24 +169,17 @@ def blas_kernel() -> str | None:
 
 @functools.cache
 def _blas_kernel() -> str | None:
-    import ctypes
-    import glob
-
     import numpy as np
+    from threadpoolctl import threadpool_info
 
     libs = os.path.join(os.path.dirname(os.path.dirname(np.__file__)), "numpy.libs")
-    for path in sorted(glob.glob(os.path.join(libs, "*openblas*"))):
-        try:
-            lib = ctypes.CDLL(path)
-        except OSError:
-            continue
-        for name in ("scipy_openblas_get_corename64_", "scipy_openblas_get_corename",
-                     "openblas_get_corename64_", "openblas_get_corename"):
-            fn = getattr(lib, name, None)
-            if fn is not None:
-                fn.restype = ctypes.c_char_p
-                core = fn()
-                return f"OpenBLAS {core.decode()}" if core else None
+    blas = [lib for lib in threadpool_info() if lib["user_api"] == "blas"]
+    # NumPy's own BLAS (its wheel's), before SciPy's (they may differ), else the first found
+    blas.sort(key=lambda lib: not lib["filepath"].startswith(libs))
+    for lib in blas[:1]:
+        name = {"openblas": "OpenBLAS", "mkl": "MKL", "blis": "BLIS"}.get(
+            lib["internal_api"], lib["internal_api"])
+        return f"{name} {lib.get('architecture') or 'unknown'}"
     return None
 
 ROUTE_FIELDS = ("route_energy_J", "route_hold_energy_J", "route_time_s", "route_length_m")

@@ -29,6 +29,10 @@ schedule. :func:`train_decoder` then
   the best (lowest mean of the speed and direction errors relative to the Local baseline's) as
   ``model.npz``, writes ``checkpoint.pt`` (model, optimizer, schedule, history, best) and
   ``history.json``, and logs to TensorBoard when the ``tensorboard`` package is installed;
+- with ``train.teacher`` (a decoder file) and ``train.teacher_weight`` w > 0, minimises
+  ``(1 - w)`` times that loss plus ``w`` times the same loss against the teacher's field on
+  the same samples (distillation: an ensemble's field, smoother than one label, as a second
+  target for a single model that costs one model's inference);
 - with ``train.members`` M > 1 (``d4-film`` only), does all of the above M times, for seeds
   ``train.seed + i`` (:func:`member_recipe`; the same samples, another initialisation and
   order), each in ``<out>/member<i>``, then writes their ensemble (the mean of their fields,
@@ -43,6 +47,7 @@ state is restored from the checkpoint (bit for bit on one CPU thread count).
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import functools
 import hashlib
@@ -129,6 +134,8 @@ DEFAULTS = {
         "train_eval_samples": 4096,
         "tensorboard": True,
         "members": 1,
+        "teacher": "",
+        "teacher_weight": 0.0,
     },
 }
 """Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
@@ -304,6 +311,13 @@ def _check_recipe(r: dict, where: str) -> None:
     if arch.hp.get("members", 1) != 1:
         fail("model.hyperparameters.members", "1 (a trained ensemble's members come from "
              "train.members)", arch.hp["members"])
+    if not isinstance(t["teacher_weight"], (int, float)) or isinstance(
+            t["teacher_weight"], bool) or not 0 <= t["teacher_weight"] <= 1:
+        fail("train.teacher_weight", "a number in [0, 1] (the teacher's share of the loss)",
+             t["teacher_weight"])
+    if not isinstance(t["teacher"], str) or bool(t["teacher"]) != (t["teacher_weight"] > 0):
+        fail("train.teacher", "a decoder file (.npz) when train.teacher_weight > 0, and \"\" "
+             "when it is 0", t["teacher"])
     if t["members"] > 1 and r["model"]["architecture"] != "d4-film":
         fail("train.members", "1 for the thesis-mlp (only d4-film decoders are ensembled)",
              t["members"])
@@ -354,11 +368,15 @@ def _fingerprint(recipe: dict) -> str:
             if k not in ("exclude_maps", "map_weights") or v}
     # the loss keys added on 2026-11-30 likewise, at their defaults
     added = {k: DEFAULTS["train"][k] for k in ("vector_loss", "speed_loss_weight",
-                                              "direction_loss", "members")}
-    keep = {"sweep": sweep, "data": data, "model": recipe["model"],
-            "train": {k: v for k, v in recipe["train"].items()
-                      if k not in ("threads", "flush_denormal", "device", "tensorboard",
-                                   "eval_batch_size") and not (k in added and v == added[k])}}
+                                              "direction_loss", "members", "teacher",
+                                              "teacher_weight")}
+    train = {k: v for k, v in recipe["train"].items()
+             if k not in ("threads", "flush_denormal", "device", "tensorboard",
+                          "eval_batch_size") and not (k in added and v == added[k])}
+    if train.get("teacher"):  # the teacher's weights, not where its file lies
+        train["teacher"] = hashlib.sha256(Path(train["teacher"]).read_bytes()).hexdigest() \
+            if Path(train["teacher"]).is_file() else train["teacher"]
+    keep = {"sweep": sweep, "data": data, "model": recipe["model"], "train": train}
     return hashlib.sha256(json.dumps(keep, sort_keys=True).encode()).hexdigest()[:16]
 
 
@@ -499,8 +517,9 @@ def _device(name: str):
     return torch.device(name)
 
 
-def _tensor_batch(arch, batch, device):
-    """Network inputs, model-frame labels, free mask and inlet speeds as tensors."""
+def _tensor_batch(arch, batch, device, teacher=None):
+    """Network inputs, model-frame labels, free mask and inlet speeds as tensors; with a
+    ``teacher`` (a :class:`Decoder`), also its fields on the batch in the model frame."""
     import torch
 
     from windnav.predict.torch_models import to_tensors
@@ -513,7 +532,11 @@ def _tensor_batch(arch, batch, device):
     def to(a):
         return torch.from_numpy(np.ascontiguousarray(a)).to(device, torch.float32)
 
-    return to_tensors(f, arch.name, device), to(lab), to(fr), to(np.asarray(speed, np.float32))
+    out = (to_tensors(f, arch.name, device), to(lab), to(fr), to(np.asarray(speed, np.float32)))
+    if teacher is None:
+        return out
+    taught = teacher.predict(scans, w_up, w_robot).reshape(b, 2, -1)
+    return (*out, to(arch.model_labels(taught, free.reshape(b, -1), f)[0]))
 
 
 def _loss(pred, labels, free, speed, power: float, direction_weight: float,
@@ -897,6 +920,14 @@ class _Run:
         torch.manual_seed(tr["seed"])
         self.model = build_model(mdl["architecture"], data["size"],
                                  **mdl["hyperparameters"]).to(self.device)
+        self.teacher = None
+        if tr["teacher_weight"] > 0:
+            self.teacher = load_decoder(tr["teacher"])
+            if self.teacher.size != data["size"] or self.teacher.spacing != data["spacing"]:
+                raise ValueError(
+                    f"The 'config' parameter of {where} must have train.teacher predict on the "
+                    f"recipe's grid ({data['size']} cells of {data['spacing']} m). Got "
+                    f"{self.teacher!r} instead.")
         self.meta = {"spacing": float(data["spacing"]),
                      "recipe": {k: v for k, v in self.recipe.items() if k != "source"}}
         if mdl["architecture"] == "d4-film":
@@ -943,6 +974,7 @@ class _Run:
 
     def epoch(self, e: int, progress: bool) -> dict:
         """Train epoch ``e``, validate, keep the best model; returns the epoch's record."""
+        from threadpoolctl import threadpool_limits
         from tqdm.auto import tqdm
 
         from windnav.predict.torch_models import export_weights
@@ -954,22 +986,33 @@ class _Run:
         total, count = 0.0, 0
         bar = tqdm(self.batches.epoch(e), total=len(self.batches), disable=not progress,
                    desc=f"epoch {e + 1}/{tr['epochs']}", leave=False)
-        for batch in bar:
-            if tr["augment_speed"]:
-                batch = _rescale(batch, rng, *tr["augment_speed"])
-            if tr["augment_d4"]:
-                batch = _augment(batch, rng)
-            inputs, labels, free, speed = _tensor_batch(self.arch, batch, self.device)
-            loss = _loss(model(inputs), labels, free, speed, tr["loss_speed_power"],
-                         tr["direction_loss_weight"], tr["vector_loss"],
-                         tr["speed_loss_weight"], tr["direction_loss"])
-            self.opt.zero_grad(set_to_none=True)
-            loss.backward()
-            self.opt.step()
-            self.sched.step()
-            total += float(loss.detach()) * labels.shape[0]
-            count += labels.shape[0]
-            bar.set_postfix(loss=f"{total / count:.4g}", refresh=False)
+        # the teacher's NumPy products on one BLAS thread: beside torch's threads, two BLAS
+        # threads spin against them (2026-12-02: 26 ms per batch of 256 for the 3-model
+        # teacher instead of 6.7)
+        limit = threadpool_limits(limits=1, user_api="blas") if self.teacher is not None \
+            else contextlib.nullcontext()
+        with limit:
+            for batch in bar:
+                if tr["augment_speed"]:
+                    batch = _rescale(batch, rng, *tr["augment_speed"])
+                if tr["augment_d4"]:
+                    batch = _augment(batch, rng)
+                inputs, labels, free, speed, *taught = _tensor_batch(
+                    self.arch, batch, self.device, self.teacher)
+                pred = model(inputs)
+                terms = (free, speed, tr["loss_speed_power"], tr["direction_loss_weight"],
+                         tr["vector_loss"], tr["speed_loss_weight"], tr["direction_loss"])
+                loss = _loss(pred, labels, *terms)
+                if taught:  # distillation: the teacher's field as a second target
+                    w = tr["teacher_weight"]
+                    loss = (1.0 - w) * loss + w * _loss(pred, taught[0], *terms)
+                self.opt.zero_grad(set_to_none=True)
+                loss.backward()
+                self.opt.step()
+                self.sched.step()
+                total += float(loss.detach()) * labels.shape[0]
+                count += labels.shape[0]
+                bar.set_postfix(loss=f"{total / count:.4g}", refresh=False)
         model.eval()
         decoder = Decoder(export_weights(model), {**self.meta, "architecture": self.arch.name,
                                                   "hyperparameters": self.arch.hp})
