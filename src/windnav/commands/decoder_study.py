@@ -123,6 +123,14 @@ def _quick_map():
     return dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4)
 
 
+def _windinet_map():
+    """The third-party windinet layout (``--windinet``) as a City."""
+    from windnav.city import read_rotorpy_json
+    from windnav.experiments.decoder_eval import WINDINET_LAYOUT
+
+    return read_rotorpy_json(WINDINET_LAYOUT)
+
+
 def _fields(args, name, simulate, progress):
     from windnav.experiments.decoder_studies import evaluation_fields
 
@@ -137,11 +145,8 @@ def _fields(args, name, simulate, progress):
     positive_int(args.inlets, "--inlets", name)
     maps = args.maps
     if args.windinet and args.study == "direction":
-        from windnav.city import read_rotorpy_json
-        from windnav.experiments.decoder_eval import WINDINET_LAYOUT
-
         # one map: the inlets of evaluate-decoder's windinet slots, for the same seed
-        maps = [("windinet", read_rotorpy_json(WINDINET_LAYOUT))]
+        maps = [("windinet", _windinet_map())]
     return evaluation_fields(maps, args.inlets, seed=args.seed,
                              cache_dir=args.flow_cache, simulate=simulate, max_fields=first,
                              progress=progress)
@@ -153,10 +158,7 @@ def _averaging_map(args):
         return (_quick_map(), "quick-0",
                 {"dx": 2.0, "protocols": {"thesis": (10, 20), "long": (20, 80)}})
     if args.windinet:
-        from windnav.city import read_rotorpy_json
-        from windnav.experiments.decoder_eval import WINDINET_LAYOUT
-
-        return read_rotorpy_json(WINDINET_LAYOUT), "windinet", {}
+        return _windinet_map(), "windinet", {}
     from windnav.predict.train import RECIPES, load_recipe, recipe_maps
 
     maps = recipe_maps(load_recipe(RECIPES / "default.toml"))
