@@ -155,6 +155,7 @@ KERNEL_SENSITIVE_NOTE = (
 """What ``windnav benchmark-nav --replay`` says when a flight does not replay."""
 
 
+@functools.cache
 def blas_kernel() -> str | None:
     """The kernel NumPy's BLAS runs on this machine, e.g. ``"OpenBLAS Haswell"``
     (:func:`threadpoolctl.threadpool_info`); None when no BLAS is found.
@@ -164,23 +165,18 @@ def blas_kernel() -> str | None:
     bits, which a closed-loop flight can amplify (:data:`KERNEL_SENSITIVE_NOTE`). Read once per
     process.
     """
-    return _blas_kernel()
-
-
-@functools.cache
-def _blas_kernel() -> str | None:
     import numpy as np
     from threadpoolctl import threadpool_info
 
     libs = os.path.join(os.path.dirname(os.path.dirname(np.__file__)), "numpy.libs")
     blas = [lib for lib in threadpool_info() if lib["user_api"] == "blas"]
     # NumPy's own BLAS (its wheel's), before SciPy's (they may differ), else the first found
-    blas.sort(key=lambda lib: not lib["filepath"].startswith(libs))
-    for lib in blas[:1]:
-        name = {"openblas": "OpenBLAS", "mkl": "MKL", "blis": "BLIS"}.get(
-            lib["internal_api"], lib["internal_api"])
-        return f"{name} {lib.get('architecture') or 'unknown'}"
-    return None
+    if not blas:
+        return None
+    lib = min(blas, key=lambda lib: not lib["filepath"].startswith(libs))
+    name = {"openblas": "OpenBLAS", "mkl": "MKL", "blis": "BLIS"}.get(lib["internal_api"],
+                                                                    lib["internal_api"])
+    return f"{name} {lib.get('architecture') or 'unknown'}"
 
 ROUTE_FIELDS = ("route_energy_J", "route_hold_energy_J", "route_time_s", "route_length_m")
 """Fields appended to the record of a GS or GS+W flight (after :data:`KERNEL_FIELDS`): the

@@ -547,8 +547,8 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
             y = channels.reshape(1, -1) @ w["conv.circulant"] + w["conv.bias_circulant"]
         else:
             windows = channels.reshape(b, -1).take(self._conv_windows, axis=1)
-            y = windows.reshape(b * (len(self._conv_windows) // w["conv.block"].shape[0]),
-                                -1) @ w["conv.block"] + w["conv.bias_cols"]
+            y = windows.reshape(-1, w["conv.block"].shape[0]) @ w["conv.block"] \
+                + w["conv.bias_cols"]
         half = y.shape[1] // 2
         y = np.maximum(y[:, :half], y[:, half:]).reshape(b, -1)
         np.maximum(y, 0.0, out=y)

@@ -991,6 +991,8 @@ class _Run:
         # teacher instead of 6.7)
         limit = threadpool_limits(limits=1, user_api="blas") if self.teacher is not None \
             else contextlib.nullcontext()
+        terms = (tr["loss_speed_power"], tr["direction_loss_weight"], tr["vector_loss"],
+                 tr["speed_loss_weight"], tr["direction_loss"])
         with limit:
             for batch in bar:
                 if tr["augment_speed"]:
@@ -1000,12 +1002,10 @@ class _Run:
                 inputs, labels, free, speed, *taught = _tensor_batch(
                     self.arch, batch, self.device, self.teacher)
                 pred = model(inputs)
-                terms = (free, speed, tr["loss_speed_power"], tr["direction_loss_weight"],
-                         tr["vector_loss"], tr["speed_loss_weight"], tr["direction_loss"])
-                loss = _loss(pred, labels, *terms)
+                loss = _loss(pred, labels, free, speed, *terms)
                 if taught:  # distillation: the teacher's field as a second target
                     w = tr["teacher_weight"]
-                    loss = (1.0 - w) * loss + w * _loss(pred, taught[0], *terms)
+                    loss = (1.0 - w) * loss + w * _loss(pred, taught[0], free, speed, *terms)
                 self.opt.zero_grad(set_to_none=True)
                 loss.backward()
                 self.opt.step()
