@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 import windnav.commands.benchmark_nav as bench_cmd
+import windnav.experiments.arithmetic as ar
 import windnav.experiments.nav_benchmark as nb
 from windnav.experiments.nav_records import (
     CorruptRecordError,
@@ -755,6 +756,7 @@ def command(argv):
     sub = parser.add_subparsers(dest="command", required=True)
     bench_cmd.register(sub)
     args = parser.parse_args(["benchmark-nav", *map(str, argv)])
+    args.argv = ["benchmark-nav", *map(str, argv)]  # as windnav.cli.main sets it
     return args.func(args)
 
 
@@ -910,34 +912,100 @@ def test_command_replay_writes_the_record_and_checks_it(tmp_path, tiny_suite, ca
 @pytest.mark.parametrize("scale, old, noted", [(1.0 + 1e-9, False, None),
                                                 (1.01, False, "recorded"),
                                                 (1.01, True, "old")])
-def test_a_replay_that_differs_names_the_blas_kernels(tmp_path, tiny_suite, capsys,
-                                                      monkeypatch, scale, old, noted):
-    """A flight that does not replay to 1e-6 says why: the BLAS kernels of the record (not
-    recorded before 2026-12-02) and of the replay; one within 1e-6 says nothing."""
+def test_a_replay_that_differs_names_the_arithmetic(tmp_path, tiny_suite, capsys, monkeypatch,
+                                                   scale, old, noted):
+    """A flight that does not replay to 1e-6 says why: the arithmetic (BLAS kernel, NumPy's
+    SIMD loops) of the record (not recorded before 2026-12-02) and of the replay; one within
+    1e-6 says nothing."""
     command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
              "--no-progress"])
     capsys.readouterr()
     store = NavStore(tmp_path, SUITES["quick"])
     recorded = {(r["scenario_id"], r["variant"]): r for r in store.load()}
-    if old:  # the records as flown before 2026-12-02, without the field
+    if old:  # the records as flown before 2026-12-02, without the fields
         store.records_path.write_text("".join(
-            json.dumps({k: v for k, v in r.items() if k != "blas_kernel"}) + "\n"
+            json.dumps({k: v for k, v in r.items() if k not in nb.KERNEL_FIELDS}) + "\n"
             for r in recorded.values()))
 
     def other_replay(spec, scenario_id, variant):
         rec = dict(recorded[(scenario_id, variant)])
-        rec.update(energy_J=rec["energy_J"] * scale, blas_kernel="OpenBLAS Test")
+        rec.update(energy_J=rec["energy_J"] * scale, blas_kernel="OpenBLAS Test",
+                   numpy_simd="TEST")
         return rec
 
     monkeypatch.setattr(nb, "replay", other_replay)
     assert command(["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path]) == 0
     err = capsys.readouterr().err
-    kernel = {"recorded": nb.blas_kernel() or "unknown (not OpenBLAS)",
-              "old": "not recorded (flown before 2026-12-02)",
-              None: "-"}[noted]
-    assert (f"BLAS kernel of the record: {kernel}; of this replay: OpenBLAS Test" in err) is (
-        noted is not None)
+    here = ar.arithmetic()
+    flown = {"recorded": f"BLAS {here['blas_kernel'] or 'unknown (not OpenBLAS)'}, NumPy SIMD "
+                         f"{here['numpy_simd']}",
+             "old": "not recorded (flown before 2026-12-02)", None: "-"}[noted]
+    assert (f"Arithmetic of the record: {flown}; of this replay: BLAS OpenBLAS Test, NumPy SIMD "
+            "TEST" in err) is (noted is not None)
     assert (nb.KERNEL_SENSITIVE_NOTE in err) is (noted is not None)
+    assert "restarting" not in err  # the record's arithmetic is this process's: no pin
+
+
+@pytest.mark.parametrize("native", [False, True])
+def test_a_replay_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, capsys,
+                                                        monkeypatch, native):
+    """A record flown under another arithmetic this machine can run is replayed in a new
+    process under it (unless --native-arithmetic); one it cannot run is replayed here, with a
+    note saying why."""
+    command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
+             "--no-progress"])
+    capsys.readouterr()
+    store = NavStore(tmp_path, SUITES["quick"])
+    store.records_path.write_text("".join(
+        json.dumps({**r, "blas_kernel": "OpenBLAS Older"}) + "\n" for r in store.load()))
+    restarts = []
+    monkeypatch.setattr(bench_cmd, "_restart",
+                        lambda args, env, why: restarts.append((args.argv, env, why)) or 7)
+    pins = {"OpenBLAS Older": ({"OPENBLAS_CORETYPE": "Older"}, "blas_kernel 'OpenBLAS Older'")}
+    monkeypatch.setattr(ar, "pinned_environment",
+                        lambda rec: pins.get(rec["blas_kernel"], (None, "cannot run it")))
+    argv = ["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path]
+    rc = command(argv + ["--native-arithmetic"] * native)
+    if native:
+        assert rc == 0 and restarts == []
+    else:
+        assert rc == 7 and restarts == [(["benchmark-nav", *map(str, argv)],
+                                         {"OPENBLAS_CORETYPE": "Older"},
+                                         "replaying under the record's arithmetic "
+                                         "(blas_kernel 'OpenBLAS Older')")]
+    pins.clear()  # this CPU cannot run it: replayed here, and said so
+    assert command(argv) == 0
+    assert "note: cannot run it; replaying under this machine's own" in capsys.readouterr().err
+
+
+def test_restart_runs_the_command_line_again_in_a_new_process(capsys):
+    """The new process gets the same arguments and the pinned environment, and its exit status
+    is the command's (here an unknown suite: the command's usage error)."""
+    args = argparse.Namespace(argv=["benchmark-nav", "--replay", "nosuite/m00/w00/p0",
+                                    "--variant", "mppi"])
+    assert bench_cmd._restart(args, {"OPENBLAS_CORETYPE": "Haswell"}, "testing") == 2
+    err = capsys.readouterr().err
+    assert "note: testing: restarting with OPENBLAS_CORETYPE='Haswell'" in err
+
+
+def test_portable_restarts_a_run_under_the_portable_arithmetic(tmp_path, tiny_suite, capsys,
+                                                               monkeypatch):
+    restarts = []
+    monkeypatch.setattr(bench_cmd, "_restart",
+                        lambda args, env, why: restarts.append((env, why)) or 0)
+    argv = ["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
+            "--no-progress", "--portable"]
+    monkeypatch.setattr(ar, "portable_environment", lambda: ({"X": "1"}, "the line"))
+    assert command(argv) == 0 and restarts == [
+        ({"X": "1"}, "flying under the portable arithmetic (the line)")]
+    monkeypatch.setattr(ar, "portable_environment", lambda: ({}, "the line"))  # already so
+    assert command(argv) == 0 and len(restarts) == 1
+    assert "4/4 flights recorded" in capsys.readouterr().out
+    monkeypatch.setattr(ar, "portable_environment", lambda: (None, "no AVX2"))
+    with pytest.raises(ValueError, match="'--portable' parameter .* cannot be met: no AVX2"):
+        command(argv)
+    with pytest.raises(ValueError, match="'--portable' parameter .* applies to flying"):
+        command(["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--portable"])
 
 
 @pytest.mark.skipif(platform.machine() != "x86_64" or nb.blas_kernel() is None,

@@ -20,6 +20,7 @@ flight when ``--out`` holds it). The harness is :mod:`windnav.experiments.nav_be
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
@@ -84,6 +85,15 @@ def register(subparsers) -> None:
     p.add_argument("--replay", default=None, metavar="SCENARIO_ID",
                    help="re-fly one scenario (e.g. thesis/m03/w07/p2) with --variant")
     p.add_argument("--variant", default=None, help="the variant of --replay")
+    p.add_argument("--native-arithmetic", action="store_true",
+                   help="replay under this machine's own BLAS kernel and NumPy SIMD loops; by "
+                        "default a replay restarts under the record's when they differ and "
+                        "this CPU can run them (a flight replays to 1e-6 only under the "
+                        "arithmetic that flew it)")
+    p.add_argument("--portable", action="store_true",
+                   help="fly under OpenBLAS's Haswell kernels and NumPy's X86_V3 (AVX2) loops, "
+                        "which every x86-64 CPU with AVX2 can run, so that the records replay "
+                        "on any of them (the command restarts itself under them)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -123,7 +133,19 @@ def run(args) -> int:
     if args.seed is not None:
         seed(args)
     if args.replay is not None:
+        if args.portable:
+            raise ValueError(f"The '--portable' parameter of {name} applies to flying a suite; "
+                             "a replay runs under the arithmetic of its record. Got --portable "
+                             "with --replay instead.")
         return _replay(args, name)
+    if args.portable:
+        from windnav.experiments.arithmetic import PIN_VARIABLE, portable_environment
+
+        env, line = portable_environment()
+        if env is None:
+            raise ValueError(f"The '--portable' parameter of {name} cannot be met: {line}.")
+        if env and PIN_VARIABLE not in os.environ:
+            return _restart(args, env, f"flying under the portable arithmetic ({line})")
     if args.out is None:
         raise ValueError(f"The '--out' parameter of {name} must name the store folder. Got "
                          "None instead.")
@@ -286,6 +308,32 @@ def _table(args, name: str) -> int:
     return 0
 
 
+def _restart(args, env: dict, why: str) -> int:
+    """Run this command line again in a new Python process whose environment adds ``env`` (a
+    pinned arithmetic, :mod:`windnav.experiments.arithmetic`); its exit status."""
+    import subprocess
+
+    from windnav.experiments.arithmetic import PIN_VARIABLE
+
+    print(f"note: {why}: restarting with " + " ".join(f"{k}={v!r}" for k, v in env.items()),
+          file=sys.stderr, flush=True)
+    sys.stdout.flush()
+    proc = subprocess.Popen([sys.executable, "-m", "windnav", *map(str, args.argv)],
+                            env={**os.environ, **env, PIN_VARIABLE: "1"})
+    while True:
+        try:
+            return proc.wait()
+        except KeyboardInterrupt:  # the new process got it too, and stops on its own
+            continue
+
+
+def _arithmetic(record: dict) -> str:
+    if "blas_kernel" not in record:
+        return "not recorded (flown before 2026-12-02)"
+    simd = record.get("numpy_simd", "not recorded")
+    return f"BLAS {record['blas_kernel'] or 'unknown (not OpenBLAS)'}, NumPy SIMD {simd}"
+
+
 REPLAY_TOLERANCE = 1e-6
 """Largest relative difference of a replayed record's fields that counts as reproduced (issue
 11's criterion)."""
@@ -294,6 +342,7 @@ REPLAY_TOLERANCE = 1e-6
 def _replay(args, name: str) -> int:
     import json
 
+    from windnav.experiments.arithmetic import PIN_VARIABLE, pinned_environment
     from windnav.experiments.nav_benchmark import (
         KERNEL_SENSITIVE_NOTE,
         NavStore,
@@ -318,6 +367,12 @@ def _replay(args, name: str) -> int:
     if args.out is not None and _manifest(args.out) is not None:
         recorded = NavStore(args.out, spec, create=False).latest().get(
             (args.replay, args.variant))
+    if recorded is not None and not args.native_arithmetic and PIN_VARIABLE not in os.environ:
+        env, line = pinned_environment(recorded)
+        if env:
+            return _restart(args, env, f"replaying under the record's arithmetic ({line})")
+        if env is None:
+            print(f"note: {line}; replaying under this machine's own", file=sys.stderr)
     try:
         record = replay(spec, args.replay, args.variant)
     except ValueError as exc:
@@ -336,10 +391,9 @@ def _replay(args, name: str) -> int:
         print(f"against the record in {args.out}: same outcome {c['same_outcome']}, largest "
               f"relative difference {c['max_relative_difference']:.3g}")
         if not (c["same_outcome"] and c["max_relative_difference"] <= REPLAY_TOLERANCE):
-            flown = (recorded["blas_kernel"] or "unknown (not OpenBLAS)") \
-                if "blas_kernel" in recorded else "not recorded (flown before 2026-12-02)"
-            print(f"note: {KERNEL_SENSITIVE_NOTE}. BLAS kernel of the record: {flown}; of "
-                  f"this replay: {record.get('blas_kernel')}", file=sys.stderr)
+            print(f"note: {KERNEL_SENSITIVE_NOTE}. Arithmetic of the record: "
+                  f"{_arithmetic(recorded)}; of this replay: {_arithmetic(record)}",
+                  file=sys.stderr)
     if record["error"]:
         print(record["error"], file=sys.stderr)
     if args.json is not None:

@@ -52,6 +52,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from windnav.experiments.arithmetic import arithmetic, blas_kernel
 from windnav.experiments.nav_records import (
     ERROR,
     CorruptRecordError,
@@ -136,10 +137,13 @@ time above the power curve's valid range (s); since 2026-11-29 also the time spe
 goal with the command at the tilt cap (s)
 (:meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
 
-KERNEL_FIELDS = ("blas_kernel",)
-"""Field after :data:`ENVELOPE_FIELDS` in every record flown since 2026-12-02 (the records
-before lack it): the BLAS kernel of the machine that flew it (:func:`blas_kernel`). A flight
-replays to 1e-6 only with the same kernel (:data:`KERNEL_SENSITIVE_NOTE`)."""
+KERNEL_FIELDS = ("blas_kernel", "numpy_simd")
+"""Fields after :data:`ENVELOPE_FIELDS`: the arithmetic of the process that flew the record
+(:func:`windnav.experiments.arithmetic.arithmetic`): NumPy's BLAS kernel and its SIMD dispatch
+targets, in every record flown since 2026-12-02 (the records before lack them; the first of
+that day only name the kernel). A flight replays to 1e-6 only under the same arithmetic
+(:data:`KERNEL_SENSITIVE_NOTE`); ``windnav benchmark-nav --replay`` pins the record's when this
+CPU can run it."""
 
 ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",
                   "ukf_wind_rms_xy_mps")
@@ -149,34 +153,11 @@ the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`REC
 :data:`ENVELOPE_FIELDS` and :data:`KERNEL_FIELDS`."""
 
 KERNEL_SENSITIVE_NOTE = (
-    "a closed-loop flight can amplify the last-bit differences between BLAS kernels (OpenBLAS "
-    "picks them by CPU) into another flight: a record replays to 1e-6 only with the kernel "
-    "that flew it (docs/navigation.md, 'Replays across CPUs')")
+    "a closed-loop flight can amplify the last-bit differences between BLAS kernels and between "
+    "NumPy's SIMD loops (both picked by CPU) into another flight: a record replays to 1e-6 "
+    "only under the arithmetic that flew it (docs/navigation.md, 'Replays across CPUs')")
 """What ``windnav benchmark-nav --replay`` says when a flight does not replay."""
 
-
-@functools.cache
-def blas_kernel() -> str | None:
-    """The kernel NumPy's BLAS runs on this machine, e.g. ``"OpenBLAS Haswell"``
-    (:func:`threadpoolctl.threadpool_info`); None when no BLAS is found.
-
-    OpenBLAS picks its kernels by CPU at load time (``OPENBLAS_CORETYPE`` overrides): an Intel
-    Xeon with AVX-512 and an AMD EPYC with AVX2 round float products differently in the last
-    bits, which a closed-loop flight can amplify (:data:`KERNEL_SENSITIVE_NOTE`). Read once per
-    process.
-    """
-    import numpy as np
-    from threadpoolctl import threadpool_info
-
-    libs = os.path.join(os.path.dirname(os.path.dirname(np.__file__)), "numpy.libs")
-    blas = [lib for lib in threadpool_info() if lib["user_api"] == "blas"]
-    # NumPy's own BLAS (its wheel's), before SciPy's (they may differ), else the first found
-    if not blas:
-        return None
-    lib = min(blas, key=lambda lib: not lib["filepath"].startswith(libs))
-    name = {"openblas": "OpenBLAS", "mkl": "MKL", "blis": "BLIS"}.get(lib["internal_api"],
-                                                                    lib["internal_api"])
-    return f"{name} {lib.get('architecture') or 'unknown'}"
 
 ROUTE_FIELDS = ("route_energy_J", "route_hold_energy_J", "route_time_s", "route_length_m")
 """Fields appended to the record of a GS or GS+W flight (after :data:`KERNEL_FIELDS`): the
@@ -857,7 +838,7 @@ def error_record(scenario: Scenario, variant: str, error: str | None) -> dict:
                direction_deg=scenario.direction_deg, map_index=scenario.map_index,
                wind_index=scenario.wind_index, pair_index=scenario.pair_index,
                start=list(scenario.start), goal=list(scenario.goal), error=error,
-               blas_kernel=blas_kernel())
+               **arithmetic())
     return rec
 
 
