@@ -1006,6 +1006,62 @@ def test_portable_restarts_a_run_under_the_portable_arithmetic(tmp_path, tiny_su
         command(argv)
     with pytest.raises(ValueError, match="'--portable' parameter .* applies to flying"):
         command(["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--portable"])
+    with pytest.raises(ValueError, match="'--portable' parameter .* with --check"):
+        command(["--out", tmp_path, "--check", "all", "--portable"])
+
+
+def test_check_flies_the_records_again_and_names_those_that_differ(tmp_path, tiny_suite, capsys):
+    store = tmp_path / "store"
+    command(["--suite", "quick", "--variants", "mppi,ea-mppi-w", "--executor", "serial",
+             "--out", store, "--no-progress"])
+    capsys.readouterr()
+    before = (store / "records.jsonl").read_text()
+    check = ["--out", store, "--executor", "serial", "--no-progress", "--check"]
+    assert command(check + ["all", "--json", tmp_path / "c.json"]) == 0
+    text = capsys.readouterr().out
+    assert "8 flights of 4 scenarios flown again under BLAS " in text
+    assert ": 8 reproduced (same outcome, every field within 1e-06)" in text
+    assert "| mppi | 4 | 4 | 4 | 0 |" in text and "| ea-mppi-w | 4 | 4 | 4 | 0 |" in text
+    doc = json.loads((tmp_path / "c.json").read_text())
+    assert doc["summary"]["reproduced"] == 8 and len(doc["flights"]) == 8
+    assert all(f["reproduced"] and f["check"]["max_relative_difference"] == 0
+               for f in doc["flights"])
+    assert (store / "records.jsonl").read_text() == before  # the store is not changed
+    # N scenarios drawn at random, of the variants asked for: the same draw every time
+    assert command(check + ["2", "--variants", "mppi"]) == 0
+    first = capsys.readouterr().out
+    assert "2 flights of 2 scenarios" in first and "| ea-mppi-w |" not in first
+    assert command(check + ["2", "--variants", "mppi"]) == 0
+    assert capsys.readouterr().out == first
+    # a record that differs from its flight: named, with the note, and the exit status 1
+    recs = [json.loads(line) for line in before.splitlines()]
+    recs[0]["energy_J"] *= 1.01
+    (store / "records.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs))
+    assert command(check + ["all"]) == 1
+    out, err = capsys.readouterr()
+    assert ": 7 reproduced" in out
+    assert f"differs: {recs[0]['scenario_id']} {recs[0]['variant']}: success" in out
+    assert "(0.0099" in out and nb.KERNEL_SENSITIVE_NOTE in err
+    for bad in ("0", "x"):
+        with pytest.raises(ValueError, match="'--check' parameter"):
+            command(check + [bad])
+
+
+def test_check_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, capsys,
+                                                     monkeypatch):
+    command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
+             "--no-progress"])
+    store = NavStore(tmp_path, SUITES["quick"])
+    store.records_path.write_text("".join(
+        json.dumps({**r, "blas_kernel": "OpenBLAS Older"}) + "\n" for r in store.load()))
+    restarts = []
+    monkeypatch.setattr(bench_cmd, "_restart",
+                        lambda args, env, why: restarts.append((env, why)) or 0)
+    monkeypatch.setattr(ar, "pinned_environment",
+                        lambda rec: ({"OPENBLAS_CORETYPE": "Older"}, "the line"))
+    assert command(["--out", tmp_path, "--check", "all"]) == 0
+    assert restarts == [({"OPENBLAS_CORETYPE": "Older"},
+                         "checking under the records' arithmetic (the line)")]
 
 
 @pytest.mark.skipif(platform.machine() != "x86_64" or nb.blas_kernel() is None,

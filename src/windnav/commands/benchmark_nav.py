@@ -7,6 +7,7 @@
     windnav benchmark-nav --out runs/thesis --table --json table.json
     windnav benchmark-nav --out runs/thesis --replay thesis/m03/w07/p2 --variant ea-mppi-w \\
                           --json replay.json
+    windnav benchmark-nav --out runs/thesis --check 32
 
 A run flies every pending (scenario, variant) of the suite, one task per (map, wind) whose wind
 is simulated once, and appends one JSON line per flight to ``STORE/records.jsonl``; rerun the
@@ -14,6 +15,10 @@ same command after an interruption to resume. At the end it prints the ablation 
 Markdown. ``--table`` prints the table of a store without flying; ``--replay`` re-flies one
 scenario from its id and seed and writes the record's fields (compared with the recorded
 flight when ``--out`` holds it). The harness is :mod:`windnav.experiments.nav_benchmark`.
+``--check N`` flies the records of N random scenarios again and compares them (an audit of
+the store's reproducibility on this machine). A replay and a check restart themselves under the
+records' arithmetic (BLAS kernel, NumPy's SIMD loops) when it differs from this machine's and
+the CPU can run it; ``--portable`` flies a run under the arithmetic every AVX2 CPU can run.
 ``--json`` writes the run's counts and the table as data; the store itself is never replaced
 (``--overwrite`` applies to ``--json`` only).
 """
@@ -85,6 +90,12 @@ def register(subparsers) -> None:
     p.add_argument("--replay", default=None, metavar="SCENARIO_ID",
                    help="re-fly one scenario (e.g. thesis/m03/w07/p2) with --variant")
     p.add_argument("--variant", default=None, help="the variant of --replay")
+    p.add_argument("--check", default=None, metavar="N",
+                   help="audit the store's reproducibility: fly again the recorded flights of "
+                        "N scenarios drawn at random (seed 0; 'all': every one), of --variants "
+                        "(default: every variant recorded), --maps and --scenarios, and compare "
+                        "each with its record (exit status 1 when one differs by more than "
+                        "1e-6 or in outcome); the store is not changed")
     p.add_argument("--native-arithmetic", action="store_true",
                    help="replay under this machine's own BLAS kernel and NumPy SIMD loops; by "
                         "default a replay restarts under the record's when they differ and "
@@ -132,11 +143,11 @@ def run(args) -> int:
     name = where(args)
     if args.seed is not None:
         seed(args)
+    if args.portable and (args.replay is not None or args.check is not None):
+        raise ValueError(f"The '--portable' parameter of {name} applies to flying a suite; a "
+                         "replay or a check runs under the arithmetic of its records. Got "
+                         f"--portable with {'--replay' if args.replay else '--check'} instead.")
     if args.replay is not None:
-        if args.portable:
-            raise ValueError(f"The '--portable' parameter of {name} applies to flying a suite; "
-                             "a replay runs under the arithmetic of its record. Got --portable "
-                             "with --replay instead.")
         return _replay(args, name)
     if args.portable:
         from windnav.experiments.arithmetic import PIN_VARIABLE, portable_environment
@@ -152,6 +163,8 @@ def run(args) -> int:
     check_output_path(args.out, "--out", name, kind="dir")
     if args.table:
         return _table(args, name)
+    if args.check is not None:
+        return _check(args, name)
     return _run(args, name)
 
 
@@ -279,15 +292,15 @@ def _run(args, name: str) -> int:
     return 1 if summary["errors_now"] or summary["pending"] else 0
 
 
-def _table(args, name: str) -> int:
-    from windnav.experiments.nav_benchmark import NavStore
-    from windnav.experiments.results import write_json
+def _stored(args, name: str):
+    """The suite, the store's records of ``--maps`` and ``--scenarios``, and the variants
+    asked for (``--variants``; by default every variant among those records)."""
+    from windnav.experiments.nav_benchmark import NavStore, check_variants
 
     if _manifest(args.out) is None:
         raise ValueError(f"The '--out' parameter of {name} must name a benchmark store (with "
                          f"manifest.json). Got {str(args.out)!r} instead.")
     spec = _spec(args, name)
-    out = outputs(args)
     records = NavStore(args.out, spec, create=False).load()
     if args.maps is not None:
         maps = set(suite_maps(args.maps, spec, name))
@@ -297,9 +310,14 @@ def _table(args, name: str) -> int:
         records = [r for r in records if r.get("scenario_id") in chosen]
     present = sorted({r["variant"] for r in records})
     asked = args.variants if args.variants != DEFAULT_VARIANTS else ",".join(present)
-    from windnav.experiments.nav_benchmark import check_variants
+    return spec, records, (check_variants(asked, name) if asked else ())
 
-    variants = check_variants(asked, name) if asked else ()
+
+def _table(args, name: str) -> int:
+    from windnav.experiments.results import write_json
+
+    spec, records, variants = _stored(args, name)
+    out = outputs(args)
     table = _print_table(records, variants, args.reference, spec)
     if args.json is not None:
         with out.writing() as stage:
@@ -307,6 +325,108 @@ def _table(args, name: str) -> int:
         print_written(out)
     return 0
 
+
+def _check(args, name: str) -> int:
+    import numpy as np
+
+    from windnav.experiments.arithmetic import PIN_VARIABLE, arithmetic, pinned_environment
+    from windnav.experiments.nav_benchmark import (
+        KERNEL_FIELDS,
+        KERNEL_SENSITIVE_NOTE,
+        check_records,
+        check_wind_batch,
+    )
+    from windnav.experiments.nav_records import ERROR, latest_records
+    from windnav.experiments.results import write_json
+
+    text = str(args.check).strip().lower()
+    n = None if text == "all" else positive_int(_int(args.check, "--check", name), "--check",
+                                                 name)
+    spec, records, variants = _stored(args, name)
+    out = outputs(args)
+    workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    try:
+        wind_batch = check_wind_batch(args.wind_batch, name)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace("'wind_batch'", "'--wind-batch'")) from None
+    flights = [r for r in latest_records(records).values()
+               if r["variant"] in variants and r.get("outcome") != ERROR]
+    ids = sorted({r["scenario_id"] for r in flights})
+    if n is not None and n < len(ids):  # the same draw in a process restarted under a pin
+        ids = sorted(ids[i] for i in np.random.default_rng(0).choice(len(ids), n, False))
+    chosen = set(ids)
+    flights = [r for r in flights if r["scenario_id"] in chosen]
+    if not flights:
+        raise ValueError(f"The store {str(args.out)!r} holds no flight of {name}'s --variants, "
+                         "--maps and --scenarios to check.")
+    kinds = {tuple(r.get(k) for k in KERNEL_FIELDS): r for r in flights}  # one record each
+    if not args.native_arithmetic and PIN_VARIABLE not in os.environ and len(kinds) == 1:
+        env, line = pinned_environment(flights[0])
+        if env:
+            return _restart(args, env, f"checking under the records' arithmetic ({line})")
+        if env is None:
+            print(f"note: {line}; checking under this machine's own", file=sys.stderr)
+    elif len(kinds) > 1:
+        print(f"note: the records were flown under {len(kinds)} arithmetics; checking under "
+              "this machine's own", file=sys.stderr)
+    checks = check_records(spec, flights, executor=args.executor, workers=workers,
+                           progress=not args.no_progress, wind_batch=wind_batch)
+    for c in checks:
+        c["reproduced"] = (c["check"] is not None and c["check"]["same_outcome"]
+                           and c["check"]["max_relative_difference"] <= REPLAY_TOLERANCE)
+    bad = [c for c in checks if not c["reproduced"]]
+    print(f"{args.out}: {len(checks)} flights of {len(ids)} scenarios flown again under "
+          f"{_arithmetic(arithmetic())}: {len(checks) - len(bad)} reproduced (same outcome, "
+          f"every field within {REPLAY_TOLERANCE:g})\n")
+    print("| variant | flights | same outcome | within 1e-6 | largest relative difference |")
+    print("|---|---|---|---|---|")
+    rows = {}
+    for c in checks:
+        row = rows.setdefault(c["variant"], [0, 0, 0, 0.0])
+        row[0] += 1
+        if c["check"] is None:
+            row[3] = float("inf")
+            continue
+        row[1] += c["check"]["same_outcome"]
+        row[2] += c["reproduced"]
+        row[3] = max(row[3], c["check"]["max_relative_difference"])
+    for v, (k, same, good, worst) in rows.items():
+        print(f"| {v} | {k} | {same} | {good} | {worst:.3g} |")
+    for c in bad[:10]:
+        if c["check"] is None:
+            print(f"not flown: {c['scenario_id']} {c['variant']}")
+            continue
+        a, b = c["replayed"], c["recorded"]
+        print(f"differs: {c['scenario_id']} {c['variant']}: {a['outcome']}, {_joules(a)} "
+              f"against {b['outcome']}, {_joules(b)} recorded "
+              f"({c['check']['max_relative_difference']:.3g})")
+    if len(bad) > 10:
+        print(f"... and {len(bad) - 10} more (--json lists every flight)")
+    if bad:
+        print(f"note: {KERNEL_SENSITIVE_NOTE}. Arithmetic of the records: "
+              + "; ".join(sorted({_arithmetic(r) for r in kinds.values()})), file=sys.stderr)
+    if args.json is not None:
+        summary = {"flights": len(checks), "scenarios": len(ids),
+                   "reproduced": len(checks) - len(bad), "arithmetic": arithmetic(),
+                   "tolerance": REPLAY_TOLERANCE}
+        with out.writing() as stage:
+            write_json(document("benchmark-nav", {"summary": summary, "flights": checks}, args),
+                       stage.file("--json"))
+        print_written(out)
+    return 0 if not bad else 1
+
+
+def _joules(record: dict) -> str:
+    e = record.get("energy_J")
+    return "no energy" if e is None else f"{e:.1f} J"
+
+
+def _int(text, flag: str, name: str) -> int:
+    try:
+        return int(str(text))
+    except ValueError:
+        raise ValueError(f"The '{flag}' parameter of {name} must be a number of scenarios or "
+                         f"'all'. Got {text!r} instead.") from None
 
 def _restart(args, env: dict, why: str) -> int:
     """Run this command line again in a new Python process whose environment adds ``env`` (a

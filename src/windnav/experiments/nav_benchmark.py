@@ -95,6 +95,7 @@ __all__ = [
     "blas_kernel",
     "benchmark_table",
     "check_against_suite",
+    "check_records",
     "check_scenario_ids",
     "check_variants",
     "compare_records",
@@ -1000,6 +1001,43 @@ def replay(spec, scenario_id: str, variant: str, *, navigate_fn: Callable | None
     (variant,) = check_variants([variant], where)
     scenario = parse_scenario_id(spec, scenario_id)
     return fly_scenario(spec, scenario, variant, navigate_fn=navigate_fn)
+
+
+def check_records(spec, recorded: Sequence[dict], *, executor: str = "process",
+                  workers: int | None = None, progress: bool = True,
+                  wind_batch: int = WIND_BATCH, navigate_fn: Callable | None = None) -> list:
+    """Fly the ``recorded`` flights again, as a run does, and compare each with its record.
+
+    The scenarios of the records are flown with every variant among them (one wind simulation
+    per wind, as :func:`run_benchmark`) into a temporary store that is removed afterwards; a
+    (scenario, variant) flown but not among ``recorded`` is not compared.
+
+    Returns
+    -------
+    list of dict
+        One per record, in its order: ``scenario_id``, ``variant``, ``recorded`` and
+        ``replayed`` (their :data:`REPLAY_FIELDS`; ``replayed`` None when the flight was not
+        flown, e.g. a lost task) and ``check`` (:func:`compare_records`, None then).
+    """
+    import tempfile
+
+    spec = check_suite_spec(spec, "check_records")
+    variants = list(dict.fromkeys(r["variant"] for r in recorded))
+    ids = sorted({r["scenario_id"] for r in recorded})
+    with tempfile.TemporaryDirectory(prefix="windnav-check-") as tmp:
+        if recorded:
+            run_benchmark(spec, variants, tmp, executor=executor, workers=workers,
+                          progress=progress, navigate_fn=navigate_fn, scenario_ids=ids,
+                          wind_batch=wind_batch)
+        flown = NavStore(tmp, spec, create=False).latest() if recorded else {}
+    out = []
+    for rec in recorded:
+        new = flown.get((rec["scenario_id"], rec["variant"]))
+        out.append({"scenario_id": rec["scenario_id"], "variant": rec["variant"],
+                    "recorded": {k: rec.get(k) for k in REPLAY_FIELDS},
+                    "replayed": None if new is None else {k: new.get(k) for k in REPLAY_FIELDS},
+                    "check": None if new is None else compare_records(new, rec)})
+    return out
 
 
 def compare_records(replayed: dict, recorded: dict) -> dict:
