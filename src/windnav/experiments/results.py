@@ -100,7 +100,7 @@ def document(command: str, payload: Mapping, arguments=None) -> dict:
     doc = {"command": f"windnav {command}", "windnav_version": __version__}
     if arguments is not None:
         args = vars(arguments) if not isinstance(arguments, Mapping) else dict(arguments)
-        doc["arguments"] = {k: v for k, v in args.items() if k not in ("func", "command")}
+        doc["arguments"] = {k: v for k, v in args.items() if k not in ("func", "command", "argv")}
     doc.update(payload)
     return json_ready(doc)
 
