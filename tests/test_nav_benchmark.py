@@ -1047,6 +1047,30 @@ def test_check_flies_the_records_again_and_names_those_that_differ(tmp_path, tin
             command(check + [bad])
 
 
+def test_table_against_another_store_compares_the_same_flights(tmp_path, tiny_suite, capsys):
+    a, b = tmp_path / "a", tmp_path / "b"
+    for store in (a, b):
+        command(["--suite", "quick", "--variants", "mppi,ea-mppi-w", "--executor", "serial",
+                 "--out", store, "--no-progress"])
+    recs = [json.loads(line) for line in (b / "records.jsonl").read_text().splitlines()]
+    recs[0]["energy_J"] *= 1.01
+    recs[1]["outcome"] = "hover"
+    (b / "records.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs[:-1]))
+    capsys.readouterr()
+    assert command(["--out", a, "--table", "--against", b, "--json", tmp_path / "t.json"]) == 0
+    text = capsys.readouterr().out
+    assert f"{a} against {b}: 7 flights in both: 5 the same" in text
+    assert f"differs: {recs[0]['scenario_id']} {recs[0]['variant']}: success" in text
+    assert "against hover, " in text and f"J in {b} (" in text
+    doc = json.loads((tmp_path / "t.json").read_text())["against"]
+    assert (doc["flights"], doc["same"], len(doc["checks"])) == (7, 5, 7)
+    assert command(["--out", a, "--table", "--against", b, "--variants", "mppi"]) == 0
+    n = sum(r["variant"] == "mppi" for r in recs[:-1])
+    assert f"{n} flights in both" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="'--against' parameter"):
+        command(["--out", a, "--table", "--against", tmp_path / "none"])
+
+
 def test_check_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, capsys,
                                                      monkeypatch):
     command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,

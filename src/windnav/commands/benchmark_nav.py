@@ -85,6 +85,10 @@ def register(subparsers) -> None:
                    help="also re-fly the flights whose harness failed in an earlier run")
     p.add_argument("--table", action="store_true",
                    help="print the table of the store's records; fly nothing")
+    p.add_argument("--against", type=Path, default=None, metavar="STORE",
+                   help="with --table: also compare each flight with the same flight (scenario "
+                        "and variant) of another store of the same suite, e.g. one flown on "
+                        "another machine: same outcome, every field within 1e-6")
     p.add_argument("--reference", default="mppi",
                    help="the variant the energies are compared with (%(default)s)")
     p.add_argument("--replay", default=None, metavar="SCENARIO_ID",
@@ -314,16 +318,71 @@ def _stored(args, name: str):
 
 
 def _table(args, name: str) -> int:
+    from windnav.experiments.nav_benchmark import NavStore, checked_flight
+    from windnav.experiments.nav_records import ERROR, latest_records
     from windnav.experiments.results import write_json
 
     spec, records, variants = _stored(args, name)
     out = outputs(args)
     table = _print_table(records, variants, args.reference, spec)
+    payload = {"table": table}
+    if args.against is not None:
+        if _manifest(args.against) is None:
+            raise ValueError(f"The '--against' parameter of {name} must name a benchmark store "
+                             f"(with manifest.json). Got {str(args.against)!r} instead.")
+        other = NavStore(args.against, spec, create=False).latest()
+        checks = []
+        for (sid, v), rec in latest_records(records).items():
+            theirs = other.get((sid, v))
+            if v in variants and theirs is not None and ERROR not in (rec["outcome"],
+                                                                       theirs["outcome"]):
+                checks.append(checked_flight(theirs, rec))
+        print()
+        bad = _report(checks, f"{args.out} against {args.against}: {len(checks)} flights in "
+                              "both", "the same", f"in {args.against}")
+        payload["against"] = {"store": args.against, "flights": len(checks),
+                              "same": len(checks) - len(bad), "checks": checks}
     if args.json is not None:
         with out.writing() as stage:
-            write_json(document("benchmark-nav", {"table": table}, args), stage.file("--json"))
+            write_json(document("benchmark-nav", payload, args), stage.file("--json"))
         print_written(out)
     return 0
+
+
+def _report(checks: list, head: str, same: str, other: str) -> list:
+    """Mark each of ``checks`` ``reproduced``, print the summary line, the table per variant and
+    the first flights that differ; returns those."""
+    for c in checks:
+        c["reproduced"] = (c["check"] is not None and c["check"]["same_outcome"]
+                           and c["check"]["max_relative_difference"] <= REPLAY_TOLERANCE)
+    bad = [c for c in checks if not c["reproduced"]]
+    print(f"{head}: {len(checks) - len(bad)} {same} (same outcome, every field within "
+          f"{REPLAY_TOLERANCE:g})\n")
+    print("| variant | flights | same outcome | within 1e-6 | largest relative difference |")
+    print("|---|---|---|---|---|")
+    rows = {}
+    for c in checks:
+        row = rows.setdefault(c["variant"], [0, 0, 0, 0.0])
+        row[0] += 1
+        if c["check"] is None:
+            row[3] = float("inf")
+            continue
+        row[1] += c["check"]["same_outcome"]
+        row[2] += c["reproduced"]
+        row[3] = max(row[3], c["check"]["max_relative_difference"])
+    for v, (k, same_outcome, good, worst) in rows.items():
+        print(f"| {v} | {k} | {same_outcome} | {good} | {worst:.3g} |")
+    for c in bad[:10]:
+        if c["check"] is None:
+            print(f"not flown: {c['scenario_id']} {c['variant']}")
+            continue
+        a, b = c["replayed"], c["recorded"]
+        print(f"differs: {c['scenario_id']} {c['variant']}: {a['outcome']}, {_joules(a)} "
+              f"against {b['outcome']}, {_joules(b)} {other} "
+              f"({c['check']['max_relative_difference']:.3g})")
+    if len(bad) > 10:
+        print(f"... and {len(bad) - 10} more (--json lists every flight)")
+    return bad
 
 
 def _check(args, name: str) -> int:
@@ -371,37 +430,8 @@ def _check(args, name: str) -> int:
               "this machine's own", file=sys.stderr)
     checks = check_records(spec, flights, executor=args.executor, workers=workers,
                            progress=not args.no_progress, wind_batch=wind_batch)
-    for c in checks:
-        c["reproduced"] = (c["check"] is not None and c["check"]["same_outcome"]
-                           and c["check"]["max_relative_difference"] <= REPLAY_TOLERANCE)
-    bad = [c for c in checks if not c["reproduced"]]
-    print(f"{args.out}: {len(checks)} flights of {len(ids)} scenarios flown again under "
-          f"{_arithmetic(arithmetic())}: {len(checks) - len(bad)} reproduced (same outcome, "
-          f"every field within {REPLAY_TOLERANCE:g})\n")
-    print("| variant | flights | same outcome | within 1e-6 | largest relative difference |")
-    print("|---|---|---|---|---|")
-    rows = {}
-    for c in checks:
-        row = rows.setdefault(c["variant"], [0, 0, 0, 0.0])
-        row[0] += 1
-        if c["check"] is None:
-            row[3] = float("inf")
-            continue
-        row[1] += c["check"]["same_outcome"]
-        row[2] += c["reproduced"]
-        row[3] = max(row[3], c["check"]["max_relative_difference"])
-    for v, (k, same, good, worst) in rows.items():
-        print(f"| {v} | {k} | {same} | {good} | {worst:.3g} |")
-    for c in bad[:10]:
-        if c["check"] is None:
-            print(f"not flown: {c['scenario_id']} {c['variant']}")
-            continue
-        a, b = c["replayed"], c["recorded"]
-        print(f"differs: {c['scenario_id']} {c['variant']}: {a['outcome']}, {_joules(a)} "
-              f"against {b['outcome']}, {_joules(b)} recorded "
-              f"({c['check']['max_relative_difference']:.3g})")
-    if len(bad) > 10:
-        print(f"... and {len(bad) - 10} more (--json lists every flight)")
+    bad = _report(checks, f"{args.out}: {len(checks)} flights of {len(ids)} scenarios flown "
+                          f"again under {_arithmetic(arithmetic())}", "reproduced", "recorded")
     if bad:
         print(f"note: {KERNEL_SENSITIVE_NOTE}. Arithmetic of the records: "
               + "; ".join(sorted({_arithmetic(r) for r in kinds.values()})), file=sys.stderr)

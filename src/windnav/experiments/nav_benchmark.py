@@ -96,6 +96,7 @@ __all__ = [
     "benchmark_table",
     "check_against_suite",
     "check_records",
+    "checked_flight",
     "check_scenario_ids",
     "check_variants",
     "compare_records",
@@ -1015,9 +1016,8 @@ def check_records(spec, recorded: Sequence[dict], *, executor: str = "process",
     Returns
     -------
     list of dict
-        One per record, in its order: ``scenario_id``, ``variant``, ``recorded`` and
-        ``replayed`` (their :data:`REPLAY_FIELDS`; ``replayed`` None when the flight was not
-        flown, e.g. a lost task) and ``check`` (:func:`compare_records`, None then).
+        One per record, in its order (:func:`checked_flight`; ``replayed`` None when the
+        flight was not flown, e.g. a lost task).
     """
     import tempfile
 
@@ -1030,14 +1030,18 @@ def check_records(spec, recorded: Sequence[dict], *, executor: str = "process",
                           progress=progress, navigate_fn=navigate_fn, scenario_ids=ids,
                           wind_batch=wind_batch)
         flown = NavStore(tmp, spec, create=False).latest() if recorded else {}
-    out = []
-    for rec in recorded:
-        new = flown.get((rec["scenario_id"], rec["variant"]))
-        out.append({"scenario_id": rec["scenario_id"], "variant": rec["variant"],
-                    "recorded": {k: rec.get(k) for k in REPLAY_FIELDS},
-                    "replayed": None if new is None else {k: new.get(k) for k in REPLAY_FIELDS},
-                    "check": None if new is None else compare_records(new, rec)})
-    return out
+    return [checked_flight(rec, flown.get((rec["scenario_id"], rec["variant"])))
+            for rec in recorded]
+
+
+def checked_flight(recorded: dict, replayed: dict | None) -> dict:
+    """One flight compared with its record: ``scenario_id``, ``variant``, the
+    :data:`REPLAY_FIELDS` of ``recorded`` and ``replayed`` (None when it was not flown) and
+    ``check`` (:func:`compare_records`; None then)."""
+    return {"scenario_id": recorded["scenario_id"], "variant": recorded["variant"],
+            "recorded": {k: recorded.get(k) for k in REPLAY_FIELDS},
+            "replayed": None if replayed is None else {k: replayed.get(k) for k in REPLAY_FIELDS},
+            "check": None if replayed is None else compare_records(replayed, recorded)}
 
 
 def compare_records(replayed: dict, recorded: dict) -> dict:
