@@ -353,8 +353,7 @@ def _report(checks: list, head: str, same: str, other: str) -> list:
     """Mark each of ``checks`` ``reproduced``, print the summary line, the table per variant and
     the first flights that differ; returns those."""
     for c in checks:
-        c["reproduced"] = (c["check"] is not None and c["check"]["same_outcome"]
-                           and c["check"]["max_relative_difference"] <= REPLAY_TOLERANCE)
+        c["reproduced"] = _reproduced(c["check"])
     bad = [c for c in checks if not c["reproduced"]]
     print(f"{head}: {len(checks) - len(bad)} {same} (same outcome, every field within "
           f"{REPLAY_TOLERANCE:g})\n")
@@ -388,7 +387,7 @@ def _report(checks: list, head: str, same: str, other: str) -> list:
 def _check(args, name: str) -> int:
     import numpy as np
 
-    from windnav.experiments.arithmetic import PIN_VARIABLE, arithmetic, pinned_environment
+    from windnav.experiments.arithmetic import arithmetic
     from windnav.experiments.nav_benchmark import (
         KERNEL_FIELDS,
         KERNEL_SENSITIVE_NOTE,
@@ -419,13 +418,11 @@ def _check(args, name: str) -> int:
         raise ValueError(f"The store {str(args.out)!r} holds no flight of {name}'s --variants, "
                          "--maps and --scenarios to check.")
     kinds = {tuple(r.get(k) for k in KERNEL_FIELDS): r for r in flights}  # one record each
-    if not args.native_arithmetic and PIN_VARIABLE not in os.environ and len(kinds) == 1:
-        env, line = pinned_environment(flights[0])
-        if env:
-            return _restart(args, env, f"checking under the records' arithmetic ({line})")
-        if env is None:
-            print(f"note: {line}; checking under this machine's own", file=sys.stderr)
-    elif len(kinds) > 1:
+    if len(kinds) == 1:
+        status = _pinned(args, flights[0], "checking", "the records'")
+        if status is not None:
+            return status
+    else:
         print(f"note: the records were flown under {len(kinds)} arithmetics; checking under "
               "this machine's own", file=sys.stderr)
     checks = check_records(spec, flights, executor=args.executor, workers=workers,
@@ -457,6 +454,30 @@ def _int(text, flag: str, name: str) -> int:
     except ValueError:
         raise ValueError(f"The '{flag}' parameter of {name} must be a number of scenarios or "
                          f"'all'. Got {text!r} instead.") from None
+
+
+def _reproduced(check: dict | None) -> bool:
+    """Whether a flight compared with its record (:func:`compare_records`; None: not flown)
+    reproduced it: the same outcome, every field within :data:`REPLAY_TOLERANCE`."""
+    return (check is not None and check["same_outcome"]
+            and check["max_relative_difference"] <= REPLAY_TOLERANCE)
+
+
+def _pinned(args, record: dict, doing: str, whose: str) -> int | None:
+    """Restart this command under ``record``'s arithmetic when it differs from this machine's
+    and the CPU can run it (not with ``--native-arithmetic``, nor in a process so started):
+    the new process's exit status; None to go on here (with a note when the CPU cannot)."""
+    from windnav.experiments.arithmetic import PIN_VARIABLE, pinned_environment
+
+    if args.native_arithmetic or PIN_VARIABLE in os.environ:
+        return None
+    env, line = pinned_environment(record)
+    if env:
+        return _restart(args, env, f"{doing} under {whose} arithmetic ({line})")
+    if env is None:
+        print(f"note: {line}; {doing} under this machine's own", file=sys.stderr)
+    return None
+
 
 def _restart(args, env: dict, why: str) -> int:
     """Run this command line again in a new Python process whose environment adds ``env`` (a
@@ -492,7 +513,6 @@ REPLAY_TOLERANCE = 1e-6
 def _replay(args, name: str) -> int:
     import json
 
-    from windnav.experiments.arithmetic import PIN_VARIABLE, pinned_environment
     from windnav.experiments.nav_benchmark import (
         KERNEL_SENSITIVE_NOTE,
         NavStore,
@@ -517,12 +537,10 @@ def _replay(args, name: str) -> int:
     if args.out is not None and _manifest(args.out) is not None:
         recorded = NavStore(args.out, spec, create=False).latest().get(
             (args.replay, args.variant))
-    if recorded is not None and not args.native_arithmetic and PIN_VARIABLE not in os.environ:
-        env, line = pinned_environment(recorded)
-        if env:
-            return _restart(args, env, f"replaying under the record's arithmetic ({line})")
-        if env is None:
-            print(f"note: {line}; replaying under this machine's own", file=sys.stderr)
+    if recorded is not None:
+        status = _pinned(args, recorded, "replaying", "the record's")
+        if status is not None:
+            return status
     try:
         record = replay(spec, args.replay, args.variant)
     except ValueError as exc:
@@ -540,7 +558,7 @@ def _replay(args, name: str) -> int:
         c = payload["check"]
         print(f"against the record in {args.out}: same outcome {c['same_outcome']}, largest "
               f"relative difference {c['max_relative_difference']:.3g}")
-        if not (c["same_outcome"] and c["max_relative_difference"] <= REPLAY_TOLERANCE):
+        if not _reproduced(c):
             print(f"note: {KERNEL_SENSITIVE_NOTE}. Arithmetic of the record: "
                   f"{_arithmetic(recorded)}; of this replay: {_arithmetic(record)}",
                   file=sys.stderr)

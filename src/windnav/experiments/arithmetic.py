@@ -36,8 +36,8 @@ __all__ = [
 ]
 
 PIN_VARIABLE = "WINDNAV_ARITHMETIC_PINNED"
-"""Set (to the pinned arithmetic) in a process started by :func:`pinned_environment`'s caller,
-so that it does not start another."""
+"""Set (to ``"1"``) in a process started under a pinned arithmetic, so that it does not start
+another."""
 
 PORTABLE = {"blas_kernel": "OpenBLAS Haswell", "numpy_simd": "X86_V3"}
 """The arithmetic every x86-64 CPU with AVX2 and FMA can run (Intel since 2013, every AMD Zen):

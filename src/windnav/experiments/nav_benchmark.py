@@ -1022,14 +1022,15 @@ def check_records(spec, recorded: Sequence[dict], *, executor: str = "process",
     import tempfile
 
     spec = check_suite_spec(spec, "check_records")
+    if not recorded:
+        return []
     variants = list(dict.fromkeys(r["variant"] for r in recorded))
     ids = sorted({r["scenario_id"] for r in recorded})
     with tempfile.TemporaryDirectory(prefix="windnav-check-") as tmp:
-        if recorded:
-            run_benchmark(spec, variants, tmp, executor=executor, workers=workers,
-                          progress=progress, navigate_fn=navigate_fn, scenario_ids=ids,
-                          wind_batch=wind_batch)
-        flown = NavStore(tmp, spec, create=False).latest() if recorded else {}
+        run_benchmark(spec, variants, tmp, executor=executor, workers=workers,
+                      progress=progress, navigate_fn=navigate_fn, scenario_ids=ids,
+                      wind_batch=wind_batch)
+        flown = NavStore(tmp, spec, create=False).latest()
     return [checked_flight(rec, flown.get((rec["scenario_id"], rec["variant"])))
             for rec in recorded]
 
