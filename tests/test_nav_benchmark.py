@@ -1024,6 +1024,7 @@ def test_check_flies_the_records_again_and_names_those_that_differ(tmp_path, tin
     assert "| mppi | 4 | 4 | 4 | 0 |" in text and "| ea-mppi-w | 4 | 4 | 4 | 0 |" in text
     doc = json.loads((tmp_path / "c.json").read_text())
     assert doc["summary"]["reproduced"] == 8 and len(doc["flights"]) == 8
+    assert sorted(doc["summary"]["variants"]) == ["ea-mppi-w", "mppi"]  # those checked
     assert all(f["reproduced"] and f["check"]["max_relative_difference"] == 0
                for f in doc["flights"])
     assert (store / "records.jsonl").read_text() == before  # the store is not changed

@@ -58,7 +58,8 @@ def register(subparsers) -> None:
     p.add_argument("--suite", choices=tuple(SUITES), default=None,
                    help="the suite (required for a new store; default: the store's own)")
     p.add_argument("--variants", default=DEFAULT_VARIANTS,
-                   help="comma-separated planner variants (%(default)s)")
+                   help="comma-separated planner variants (to fly: %(default)s; with "
+                        "--table or --check: every variant the store holds)")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the tasks run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -434,6 +435,7 @@ def _check(args, name: str) -> int:
               + "; ".join(sorted({_arithmetic(r) for r in kinds.values()})), file=sys.stderr)
     if args.json is not None:
         summary = {"flights": len(checks), "scenarios": len(ids),
+                   "variants": list(dict.fromkeys(r["variant"] for r in flights)),
                    "reproduced": len(checks) - len(bad), "arithmetic": arithmetic(),
                    "tolerance": REPLAY_TOLERANCE}
         with out.writing() as stage:
