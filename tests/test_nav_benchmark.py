@@ -25,10 +25,12 @@ import windnav.commands.benchmark_nav as bench_cmd
 import windnav.experiments.arithmetic as ar
 import windnav.experiments.nav_benchmark as nb
 from windnav.experiments.nav_records import (
+    UNNAMED_ARITHMETIC,
     CorruptRecordError,
     NavStore,
     SuiteMismatchError,
     benchmark_table,
+    record_arithmetic,
     render_table,
 )
 from windnav.experiments.nav_suite import (
@@ -1087,6 +1089,77 @@ def test_check_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, capsy
     assert command(["--out", tmp_path, "--check", "all"]) == 0
     assert restarts == [({"OPENBLAS_CORETYPE": "Older"},
                          "checking under the records' arithmetic (the line)")]
+
+
+def test_record_arithmetic_is_the_records_own_else_the_manifests_declaration():
+    declared = {"suite": "quick", UNNAMED_ARITHMETIC: {
+        "blas_kernel": "OpenBLAS SkylakeX", "numpy_simd": "X86_V3 X86_V4", "found": "audit"}}
+    old = {"scenario_id": "quick/m00/w01/p1", "variant": "mppi", "outcome": "success"}
+    named = {**old, "blas_kernel": "OpenBLAS Haswell", "numpy_simd": "X86_V3"}
+    assert record_arithmetic(named, declared) == {"blas_kernel": "OpenBLAS Haswell",
+                                                   "numpy_simd": "X86_V3"}
+    # the first records of 2026-12-02 name the kernel only: that is what is known of them
+    assert record_arithmetic({**old, "blas_kernel": "OpenBLAS Haswell"}, declared) == {
+        "blas_kernel": "OpenBLAS Haswell"}
+    assert record_arithmetic(old, declared) == {"blas_kernel": "OpenBLAS SkylakeX",
+                                                "numpy_simd": "X86_V3 X86_V4", "declared": True}
+    assert record_arithmetic(old, {"suite": "quick"}) == {} == record_arithmetic(old)
+    for bad in ({"blas_kernel": "OpenBLAS SkylakeX"}, "SkylakeX",
+                {"blas_kernel": "OpenBLAS SkylakeX", "numpy_simd": ""}):
+        with pytest.raises(SuiteMismatchError, match=UNNAMED_ARITHMETIC):
+            record_arithmetic(old, {UNNAMED_ARITHMETIC: bad})
+    assert record_arithmetic(named, {UNNAMED_ARITHMETIC: "SkylakeX"})  # not needed: not read
+
+
+def test_a_store_can_declare_the_arithmetic_of_its_unnamed_records(tmp_path, tiny_suite, capsys,
+                                                                   monkeypatch):
+    """Records flown before they named their arithmetic replay and are checked under the one
+    their store's manifest declares (found by audit), and say so when they differ; without the
+    declaration they are flown under this machine's own."""
+    command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out", tmp_path,
+             "--no-progress"])
+    store = NavStore(tmp_path, SUITES["quick"])
+    store.records_path.write_text("".join(  # as flown before 2026-12-02
+        json.dumps({k: v for k, v in r.items() if k not in nb.KERNEL_FIELDS}) + "\n"
+        for r in store.load()))
+    restarts, pinned = [], []
+    monkeypatch.setattr(bench_cmd, "_restart",
+                        lambda args, env, why: restarts.append((env, why)) or 0)
+
+    def pin(rec):
+        pinned.append(rec)
+        return ({"OPENBLAS_CORETYPE": "Older"}, "the line") if rec else ({}, "")
+
+    monkeypatch.setattr(ar, "pinned_environment", pin)
+    replay_argv = ["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path]
+    check_argv = ["--out", tmp_path, "--check", "2", "--executor", "serial", "--no-progress"]
+    assert command(check_argv) == 0
+    assert command(replay_argv) == 0
+    assert restarts == [] and pinned == [{}, {}]  # nothing known: flown under this machine's
+    man = json.loads((tmp_path / "manifest.json").read_text())
+    man[UNNAMED_ARITHMETIC] = {"blas_kernel": "OpenBLAS Older", "numpy_simd": "OLD"}
+    (tmp_path / "manifest.json").write_text(json.dumps(man))
+    want = {"blas_kernel": "OpenBLAS Older", "numpy_simd": "OLD", "declared": True}
+    assert command(check_argv) == 0
+    assert command(replay_argv) == 0
+    assert pinned[2:] == [want, want] and restarts == [
+        ({"OPENBLAS_CORETYPE": "Older"}, "checking under the records' arithmetic (the line)"),
+        ({"OPENBLAS_CORETYPE": "Older"}, "replaying under the record's arithmetic (the line)")]
+    capsys.readouterr()
+
+    def other_replay(spec, scenario_id, variant):  # the replay in the restarted process differs
+        rec = {**store.latest()[(scenario_id, variant)], **ar.arithmetic()}
+        return {**rec, "energy_J": rec["energy_J"] * 1.01}
+
+    monkeypatch.setattr(nb, "replay", other_replay)
+    monkeypatch.setenv(ar.PIN_VARIABLE, "1")
+    assert command(replay_argv) == 0
+    assert ("Arithmetic of the record: BLAS OpenBLAS Older, NumPy SIMD OLD (not recorded: "
+            "declared by the store's manifest, found by audit)") in capsys.readouterr().err
+    man[UNNAMED_ARITHMETIC] = "Older"
+    (tmp_path / "manifest.json").write_text(json.dumps(man))
+    with pytest.raises(ValueError, match=UNNAMED_ARITHMETIC):
+        command(replay_argv)
 
 
 @pytest.mark.skipif(platform.machine() != "x86_64" or nb.blas_kernel() is None,

@@ -395,7 +395,7 @@ def _check(args, name: str) -> int:
         check_records,
         check_wind_batch,
     )
-    from windnav.experiments.nav_records import ERROR, latest_records
+    from windnav.experiments.nav_records import ERROR, latest_records, record_arithmetic
     from windnav.experiments.results import write_json
 
     text = str(args.check).strip().lower()
@@ -418,9 +418,13 @@ def _check(args, name: str) -> int:
     if not flights:
         raise ValueError(f"The store {str(args.out)!r} holds no flight of {name}'s --variants, "
                          "--maps and --scenarios to check.")
-    kinds = {tuple(r.get(k) for k in KERNEL_FIELDS): r for r in flights}  # one record each
+    man = _manifest(args.out)
+    kinds = {}  # each arithmetic among the records (named, or declared by the manifest)
+    for r in flights:
+        known = record_arithmetic(r, man)
+        kinds.setdefault(tuple(known.get(k) for k in KERNEL_FIELDS), known)
     if len(kinds) == 1:
-        status = _pinned(args, flights[0], "checking", "the records'")
+        status = _pinned(args, next(iter(kinds.values())), "checking", "the records'")
         if status is not None:
             return status
     else:
@@ -501,10 +505,15 @@ def _restart(args, env: dict, why: str) -> int:
 
 
 def _arithmetic(record: dict) -> str:
+    """A record's arithmetic (or :func:`~windnav.experiments.nav_records.record_arithmetic`'s
+    answer for it) in words."""
     if "blas_kernel" not in record:
         return "not recorded (flown before 2026-12-02)"
     simd = record.get("numpy_simd", "not recorded")
-    return f"BLAS {record['blas_kernel'] or 'unknown (not OpenBLAS)'}, NumPy SIMD {simd}"
+    text = f"BLAS {record['blas_kernel'] or 'unknown (not OpenBLAS)'}, NumPy SIMD {simd}"
+    if record.get("declared"):
+        text += " (not recorded: declared by the store's manifest, found by audit)"
+    return text
 
 
 REPLAY_TOLERANCE = 1e-6
@@ -521,6 +530,7 @@ def _replay(args, name: str) -> int:
         compare_records,
         replay,
     )
+    from windnav.experiments.nav_records import record_arithmetic
     from windnav.experiments.results import json_ready, write_json
 
     if args.variant is None:
@@ -535,12 +545,13 @@ def _replay(args, name: str) -> int:
                          "instead.")
     spec = _spec(args, name, prefer=suite)
     out = outputs(args)
-    recorded = None
-    if args.out is not None and _manifest(args.out) is not None:
+    recorded, known, man = None, {}, _manifest(args.out)
+    if man is not None:
         recorded = NavStore(args.out, spec, create=False).latest().get(
             (args.replay, args.variant))
     if recorded is not None:
-        status = _pinned(args, recorded, "replaying", "the record's")
+        known = record_arithmetic(recorded, man)
+        status = _pinned(args, known, "replaying", "the record's")
         if status is not None:
             return status
     try:
@@ -562,7 +573,7 @@ def _replay(args, name: str) -> int:
               f"relative difference {c['max_relative_difference']:.3g}")
         if not _reproduced(c):
             print(f"note: {KERNEL_SENSITIVE_NOTE}. Arithmetic of the record: "
-                  f"{_arithmetic(recorded)}; of this replay: {_arithmetic(record)}",
+                  f"{_arithmetic(known)}; of this replay: {_arithmetic(record)}",
                   file=sys.stderr)
     if record["error"]:
         print(record["error"], file=sys.stderr)

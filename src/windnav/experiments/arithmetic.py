@@ -26,6 +26,7 @@ import subprocess
 import sys
 
 __all__ = [
+    "FIELDS",
     "PIN_VARIABLE",
     "PORTABLE",
     "arithmetic",
@@ -34,6 +35,9 @@ __all__ = [
     "pinned_environment",
     "portable_environment",
 ]
+
+FIELDS = ("blas_kernel", "numpy_simd")
+"""The fields that name an arithmetic, in a flight record and in :func:`arithmetic`."""
 
 PIN_VARIABLE = "WINDNAV_ARITHMETIC_PINNED"
 """Set (to ``"1"``) in a process started under a pinned arithmetic, so that it does not start
@@ -90,7 +94,7 @@ def numpy_simd() -> str | None:
 def arithmetic() -> dict:
     """This process's arithmetic as a flight record stores it: ``blas_kernel`` and
     ``numpy_simd``."""
-    return {"blas_kernel": blas_kernel(), "numpy_simd": numpy_simd()}
+    return dict(zip(FIELDS, (blas_kernel(), numpy_simd()), strict=True))
 
 
 def _targets(simd: str | None) -> set:
@@ -148,7 +152,7 @@ def pinned_environment(recorded: dict) -> tuple[dict | None, str]:
     or flown before ``numpy_simd`` was recorded) pins only what it names. The pin is checked by
     starting a process under it (a second or so).
     """
-    want = {k: recorded.get(k) for k in ("blas_kernel", "numpy_simd")}
+    want = {k: recorded.get(k) for k in FIELDS}
     named = ", ".join(f"{k} {v!r}" for k, v in want.items() if v is not None)
     env, why = _environment(want)
     if why:

@@ -52,7 +52,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from windnav.experiments.arithmetic import arithmetic, blas_kernel
+from windnav.experiments.arithmetic import FIELDS, arithmetic, blas_kernel
 from windnav.experiments.nav_records import (
     ERROR,
     CorruptRecordError,
@@ -139,7 +139,7 @@ time above the power curve's valid range (s); since 2026-11-29 also the time spe
 goal with the command at the tilt cap (s)
 (:meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
 
-KERNEL_FIELDS = ("blas_kernel", "numpy_simd")
+KERNEL_FIELDS = FIELDS
 """Fields after :data:`ENVELOPE_FIELDS`: the arithmetic of the process that flew the record
 (:func:`windnav.experiments.arithmetic.arithmetic`): NumPy's BLAS kernel and its SIMD dispatch
 targets, in every record flown since 2026-12-02 (the records before lack them; the first of

@@ -4,7 +4,9 @@ The store (:class:`NavStore`) is a folder:
 
 * ``manifest.json``: the suite (``suite``, ``seed``, ``settings_hash`` and the full
   ``settings`` of :class:`~windnav.experiments.nav_suite.SuiteSpec`). A store answers only to the
-  suite that created it: any other gives :class:`SuiteMismatchError`.
+  suite that created it: any other gives :class:`SuiteMismatchError`. It may also declare the
+  arithmetic of the records that name none (:data:`UNNAMED_ARITHMETIC`,
+  :func:`record_arithmetic`).
 * ``records.jsonl``: one JSON object per finished flight, appended as each flight ends (by the
   worker that flew it, under an exclusive ``flock`` so that parallel workers never interleave),
   flushed and synced. A kill loses at most the line being written: a last line without its
@@ -48,6 +50,8 @@ __all__ = [
     "benchmark_table",
     "latest_records",
     "paired_pace",
+    "UNNAMED_ARITHMETIC",
+    "record_arithmetic",
     "records_by_variant",
     "render_table",
 ]
@@ -71,6 +75,51 @@ ENERGIES = ("energy_J", "rotor_energy_J")
 
 MANIFEST = "manifest.json"
 RECORDS = "records.jsonl"
+
+UNNAMED_ARITHMETIC = "unnamed_records_arithmetic"
+"""Manifest key: the arithmetic (``blas_kernel``, ``numpy_simd``, as
+:func:`windnav.experiments.arithmetic.arithmetic` names them, and an optional ``found``: how it
+was found) of the store's records that name none, i.e. that were flown before records named
+their arithmetic (2026-12-02). Not known when they were flown: found afterwards by auditing
+the store (``windnav benchmark-nav --check`` under a candidate arithmetic), and declared so
+that replays and checks restart under it (``docs/navigation.md``)."""
+
+
+def record_arithmetic(record: Mapping, manifest: Mapping | None = None) -> dict:
+    """The arithmetic ``record`` was flown under, as far as is known.
+
+    Parameters
+    ----------
+    record : mapping
+        A flight record.
+    manifest : mapping, optional
+        Its store's manifest.
+
+    Returns
+    -------
+    dict
+        The record's own ``blas_kernel`` and ``numpy_simd`` when it names them (either one);
+        for a record that names neither, the manifest's :data:`UNNAMED_ARITHMETIC` with
+        ``declared`` True; else ``{}`` (not known).
+
+    Raises
+    ------
+    SuiteMismatchError
+        When the manifest's declaration is not a table of the two fields as strings.
+    """
+    from windnav.experiments.arithmetic import FIELDS
+
+    own = {k: record[k] for k in FIELDS if k in record}
+    declared = (manifest or {}).get(UNNAMED_ARITHMETIC)
+    if own or declared is None:
+        return own
+    if not (isinstance(declared, Mapping)
+            and all(isinstance(declared.get(k), str) and declared[k] for k in FIELDS)):
+        raise SuiteMismatchError(
+            f"The store manifest's {UNNAMED_ARITHMETIC!r} must be a table with "
+            f"{' and '.join(FIELDS)} as strings, e.g. {{'blas_kernel': 'OpenBLAS Haswell', "
+            f"'numpy_simd': 'X86_V3'}}. Got {declared!r} instead.")
+    return {**{k: declared[k] for k in FIELDS}, "declared": True}
 
 
 class SuiteMismatchError(ValueError):
