@@ -105,7 +105,8 @@ def register(subparsers) -> None:
                    help="replay under this machine's own BLAS kernel and NumPy SIMD loops; by "
                         "default a replay restarts under the record's when they differ and "
                         "this CPU can run them (a flight replays to 1e-6 only under the "
-                        "arithmetic that flew it)")
+                        "arithmetic that flew it; for records that name none, the one the "
+                        "store's manifest declares as unnamed_records_arithmetic)")
     p.add_argument("--portable", action="store_true",
                    help="fly under OpenBLAS's Haswell kernels and NumPy's X86_V3 (AVX2) loops, "
                         "which every x86-64 CPU with AVX2 can run, so that the records replay "
