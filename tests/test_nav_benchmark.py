@@ -1133,9 +1133,11 @@ def test_a_store_can_declare_the_arithmetic_of_its_unnamed_records(tmp_path, tin
     monkeypatch.setattr(ar, "pinned_environment", pin)
     replay_argv = ["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path]
     check_argv = ["--out", tmp_path, "--check", "2", "--executor", "serial", "--no-progress"]
-    assert command(check_argv) == 0
+    assert command(check_argv + ["--json", tmp_path / "c.json"]) == 0
     assert command(replay_argv) == 0
     assert restarts == [] and pinned == [{}, {}]  # nothing known: flown under this machine's
+    summary = json.loads((tmp_path / "c.json").read_text())["summary"]
+    assert summary["records_arithmetic"] == [{}] and summary["reproduced"] == 2
     man = json.loads((tmp_path / "manifest.json").read_text())
     man[UNNAMED_ARITHMETIC] = {"blas_kernel": "OpenBLAS Older", "numpy_simd": "OLD"}
     (tmp_path / "manifest.json").write_text(json.dumps(man))

@@ -442,7 +442,7 @@ def _check(args, name: str) -> int:
         summary = {"flights": len(checks), "scenarios": len(ids),
                    "variants": list(dict.fromkeys(r["variant"] for r in flights)),
                    "reproduced": len(checks) - len(bad), "arithmetic": arithmetic(),
-                   "tolerance": REPLAY_TOLERANCE}
+                   "records_arithmetic": list(kinds.values()), "tolerance": REPLAY_TOLERANCE}
         with out.writing() as stage:
             write_json(document("benchmark-nav", {"summary": summary, "flights": checks}, args),
                        stage.file("--json"))
