@@ -44,13 +44,13 @@ import numpy as np
 
 __all__ = [
     "FAILURES",
+    "UNNAMED_ARITHMETIC",
     "CorruptRecordError",
     "NavStore",
     "SuiteMismatchError",
     "benchmark_table",
     "latest_records",
     "paired_pace",
-    "UNNAMED_ARITHMETIC",
     "record_arithmetic",
     "records_by_variant",
     "render_table",
