@@ -42,6 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
+from windnav.experiments.arithmetic import FIELDS
+
 __all__ = [
     "FAILURES",
     "UNNAMED_ARITHMETIC",
@@ -107,8 +109,6 @@ def record_arithmetic(record: Mapping, manifest: Mapping | None = None) -> dict:
     SuiteMismatchError
         When the manifest's declaration is not a table of the two fields as strings.
     """
-    from windnav.experiments.arithmetic import FIELDS
-
     own = {k: record[k] for k in FIELDS if k in record}
     declared = (manifest or {}).get(UNNAMED_ARITHMETIC)
     if own or declared is None:
