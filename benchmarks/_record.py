@@ -3,24 +3,12 @@
 from __future__ import annotations
 
 import datetime as _dt
-import os
-import platform
 import sys
 from pathlib import Path
 
+from windnav.experiments import results
+
 DOC = Path(__file__).resolve().parents[1] / "docs" / "benchmarks.md"
-
-
-def cpu_model() -> str:
-    """The CPU's model name from /proc/cpuinfo (the platform's processor string elsewhere)."""
-    try:
-        with open("/proc/cpuinfo") as fh:
-            for line in fh:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown CPU"
 
 
 def machine() -> str:
@@ -29,8 +17,8 @@ def machine() -> str:
     The same kind of machine has differed by up to 1.5x in speed from one day to another, so
     compare figures across records by their in-run reference ratios, not their seconds.
     """
-    return (f"{platform.machine()}, {cpu_model()}, {os.cpu_count()} cores, "
-            f"Python {platform.python_version()}")
+    m = results.machine()
+    return f"{m['platform']}, {m['cpu']}, {m['cores']} cores, Python {m['python']}"
 
 
 def append_record(title: str, rows: list[str], *, command: str | None = None) -> None:

@@ -152,6 +152,8 @@ def read_doc(path, command):
     doc = json.loads(path.read_text())
     assert doc["command"] == f"windnav {command}" and doc["windnav_version"]
     assert doc["arguments"]["json"] == str(path)
+    # the machine it ran on: timings and last-bit results depend on it
+    assert doc["machine"]["cores"] >= 1 and doc["machine"]["cpu"] and doc["machine"]["python"]
     return doc
 
 

@@ -11,8 +11,9 @@ Every command writes its results through this module, so they share one contract
   leaves the earlier results as they were and no temporary file behind. With ``overwrite``, the
   files of the earlier run that this run did not write again (a figure of a study not run this
   time) are removed, so a folder never mixes two runs.
-* **One JSON shape.** :func:`document` wraps a payload with the command and its arguments;
-  :func:`json_ready` writes non-finite numbers as ``null``.
+* **One JSON shape.** :func:`document` wraps a payload with the command, its arguments and
+  the machine it ran on (:func:`machine`); :func:`json_ready` writes non-finite numbers as
+  ``null``.
 * **Finished work is kept.** :class:`RecordLog` appends one JSON line per finished trial, so an
   interrupted study resumes where it stopped.
 """
@@ -23,6 +24,7 @@ import contextlib
 import json
 import math
 import os
+import platform
 import shutil
 import sys
 import uuid
@@ -39,8 +41,10 @@ __all__ = [
     "RecordMismatchError",
     "atomic_path",
     "check_output_path",
+    "cpu_model",
     "document",
     "json_ready",
+    "machine",
     "say",
     "write_json",
 ]
@@ -92,12 +96,38 @@ def json_ready(obj, *, keep_nonfinite: bool = False):
     return obj
 
 
+def cpu_model() -> str:
+    """The CPU's model name, e.g. ``"AMD EPYC 9B14"``: from ``/proc/cpuinfo`` on Linux, else
+    the platform's processor string, else ``"unknown CPU"``."""
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown CPU"
+
+
+def machine() -> dict:
+    """The machine a run computes on, as a JSON document records it: ``platform`` (e.g.
+    ``"x86_64"``), ``cpu`` (:func:`cpu_model`), ``cores`` (logical CPUs) and ``python``.
+
+    Timings and last-bit results depend on it (a flight replays to the bit only under the
+    arithmetic that flew it: :mod:`windnav.experiments.arithmetic`), so every document names it.
+    """
+    return {"platform": platform.machine(), "cpu": cpu_model(), "cores": os.cpu_count(),
+            "python": platform.python_version()}
+
+
 def document(command: str, payload: Mapping, arguments=None) -> dict:
-    """The JSON document of one run: ``command``, ``windnav_version``, ``arguments`` (the
-    parsed command line, when given) and the ``payload`` keys."""
+    """The JSON document of one run: ``command``, ``windnav_version``, ``machine``
+    (:func:`machine`), ``arguments`` (the parsed command line, when given) and the ``payload``
+    keys."""
     from windnav import __version__
 
-    doc = {"command": f"windnav {command}", "windnav_version": __version__}
+    doc = {"command": f"windnav {command}", "windnav_version": __version__,
+           "machine": machine()}
     if arguments is not None:
         args = vars(arguments) if not isinstance(arguments, Mapping) else dict(arguments)
         doc["arguments"] = {k: v for k, v in args.items() if k not in ("func", "command", "argv")}
