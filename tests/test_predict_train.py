@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import copy
+import functools
 import importlib.util
 import json
 
@@ -22,9 +23,13 @@ from windnav.predict.metrics import field_errors  # noqa: E402
 from windnav.predict.train import (  # noqa: E402
     RECIPES,
     _augment,
+    _Batches,
     _fingerprint,
     _loss,
+    _model_frame_in_place,
     _split_fields,
+    _tensor_batch,
+    _train_block,
     load_recipe,
     recipe_maps,
     train_decoder,
@@ -352,6 +357,40 @@ def test_d4_augmentation_turns_whole_samples(tiny):
     lb = arch.model_labels(turned[3].reshape(-1, 2, 81), turned[4].reshape(-1, 81), fb)
     np.testing.assert_array_equal(la[1], lb[1])
     np.testing.assert_allclose(la[0], lb[0], atol=1e-6)
+
+
+def test_labels_cached_in_the_model_frame_are_those_each_batch_turned_itself(tiny):
+    """Turning a block's cached labels into the model frame once gives every batch, in every
+    block, the tensors that turning the batch's world-frame labels gave (bit for bit)."""
+    import torch
+
+    recipe, out, _ = tiny
+    fields = fields_from_store(out / "sweep.zarr", maps=[0, 1])
+    arch = make_architecture("d4-film", recipe["data"]["size"],
+                             **recipe["model"]["hyperparameters"])
+    make = functools.partial(_train_block, fields, recipe["data"])
+    world = _Batches(make, True, 100, 2)
+    model = _Batches(make, True, 100, 2, model_frame=arch)
+    assert model.in_model_frame and not world.in_model_frame
+    assert not _Batches(make, False, 100, 2, model_frame=arch).in_model_frame
+    n = 0
+    for e in (0, 1, 2):  # blocks 0 and 1
+        for a, b in zip(world.epoch(e), model.epoch(e), strict=True):
+            ta = _tensor_batch(arch, a, "cpu")
+            tb = _tensor_batch(arch, b, "cpu", in_model_frame=True)
+            assert all(torch.equal(x[k], y[k]) for x, y in [(ta[0], tb[0])] for k in x)
+            assert all(torch.equal(x, y) for x, y in zip(ta[1:], tb[1:], strict=True))
+            n += 1
+    assert n >= 3 * 10
+    # chunk by chunk (a chunk of 7 samples) as in one piece
+    s = make(0).materialize()
+    f = arch.features(s.scans, s.w_up, s.w_robot)
+    lab, fr = arch.model_labels(s.labels.reshape(len(s.scans), 2, -1),
+                                s.free.reshape(len(s.scans), -1), f)
+    got = _model_frame_in_place(arch, s.scans, s.w_up, s.w_robot, s.labels.copy(),
+                                s.free.copy(), chunk=7)
+    np.testing.assert_array_equal(got[0], lab.astype(np.float32))
+    np.testing.assert_array_equal(got[1], fr)
 
 
 def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):

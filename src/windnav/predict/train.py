@@ -461,11 +461,21 @@ class _Batches:
     block ``e // resample_every`` (seed ``data.seed + 1000 * block``; one block when
     ``resample_every`` is 0): fresh robot positions and noise every few epochs, each a
     function of the seed and the epoch. A block's samples are materialized once (``cache``)
-    or regenerated batch by batch."""
+    or regenerated batch by batch.
 
-    def __init__(self, make_dataset, cache: bool, batch_size: int, resample_every: int):
+    With ``model_frame`` (an architecture) and ``cache``, the cached labels and free masks are
+    turned into that architecture's frame once per block, in their own memory
+    (:func:`_model_frame_in_place`): batches then carry labels ``(B, 2, H^2)`` and free
+    ``(B, H^2)`` already in the model frame (``in_model_frame``), the same numbers that
+    ``arch.model_labels`` gave each batch before (its gathers were 5.3 ms of a 256-sample step
+    on an Intel Xeon, 2026-12-03, paid every epoch rather than once a block)."""
+
+    def __init__(self, make_dataset, cache: bool, batch_size: int, resample_every: int,
+                 model_frame=None):
         self.make, self.cache, self.batch_size = make_dataset, cache, batch_size
         self.every = resample_every
+        self.arch = model_frame if cache else None
+        self.in_model_frame = self.arch is not None
         self.block, self.dataset, self.arrays = None, None, None
         self._use(0)
 
@@ -476,7 +486,11 @@ class _Batches:
         self.dataset, self.block = self.make(block), block
         if self.cache:
             s = self.dataset.materialize()
-            self.arrays = (s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed)
+            labels, free = s.labels, s.free
+            if self.arch is not None:
+                labels, free = _model_frame_in_place(self.arch, s.scans, s.w_up, s.w_robot,
+                                                     labels, free)
+            self.arrays = (s.scans, s.w_up, s.w_robot, labels, free, s.inlet_speed)
 
     def __len__(self) -> int:
         return -(-len(self.dataset) // self.batch_size)
@@ -503,6 +517,22 @@ class _Batches:
             yield tuple(a[rows] for a in self.arrays)
 
 
+def _model_frame_in_place(arch, scans, w_up, w_robot, labels, free, chunk: int = 4096):
+    """World-frame ``labels (N, 2, H, H)`` and ``free (N, H, H)`` turned into ``arch``'s
+    frame in their own buffers, ``chunk`` samples at a time (no second copy of the block);
+    returns them as ``(N, 2, H^2)`` and ``(N, H^2)`` views. Sample by sample the numbers are
+    those of ``arch.model_labels`` on any batch holding the sample: a gather and a product by
+    an integer D4 matrix, per sample."""
+    n = labels.shape[0]
+    lab, fr = labels.reshape(n, 2, -1), free.reshape(n, -1)
+    for i in range(0, n, chunk):
+        sl = slice(i, min(i + chunk, n))
+        f = arch.features(np.asarray(scans[sl], np.float32), np.asarray(w_up[sl], np.float32),
+                          np.asarray(w_robot[sl], np.float32))
+        lab[sl], fr[sl] = arch.model_labels(lab[sl], fr[sl], f)
+    return lab, fr
+
+
 # ---------------------------------------------------------------------------- training
 
 
@@ -517,9 +547,11 @@ def _device(name: str):
     return torch.device(name)
 
 
-def _tensor_batch(arch, batch, device, teacher=None):
+def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = False):
     """Network inputs, model-frame labels, free mask and inlet speeds as tensors; with a
-    ``teacher`` (a :class:`Decoder`), also its fields on the batch in the model frame."""
+    ``teacher`` (a :class:`Decoder`), also its fields on the batch in the model frame.
+    ``in_model_frame``: the batch's labels and free mask are already in the model frame
+    (:class:`_Batches` with ``model_frame``)."""
     import torch
 
     from windnav.predict.torch_models import to_tensors
@@ -528,7 +560,10 @@ def _tensor_batch(arch, batch, device, teacher=None):
     f = arch.features(np.asarray(scans, np.float32), np.asarray(w_up, np.float32),
                       np.asarray(w_robot, np.float32))
     b = labels.shape[0]
-    lab, fr = arch.model_labels(labels.reshape(b, 2, -1), free.reshape(b, -1), f)
+    if in_model_frame:
+        lab, fr = labels, free
+    else:
+        lab, fr = arch.model_labels(labels.reshape(b, 2, -1), free.reshape(b, -1), f)
     def to(a):
         return torch.from_numpy(np.ascontiguousarray(a)).to(device, torch.float32)
 
@@ -915,8 +950,12 @@ class _Run:
         # not the bound train_set: the batches would then hold this run, a cycle that keeps
         # its samples (GBs) alive after the run until the cycle collector comes (2026-12-02:
         # 13.8 GB peak for two ensemble members trained in turn, 6.3 GB for one)
+        # labels turned into the model frame once a block, unless an augmentation must turn
+        # the world-frame batches first
+        augmented = tr["augment_d4"] or bool(tr["augment_speed"])
         self.batches = _Batches(functools.partial(_train_block, self.fields_train, data),
-                                tr["cache"], tr["batch_size"], tr["resample_every"])
+                                tr["cache"], tr["batch_size"], tr["resample_every"],
+                                model_frame=None if augmented else self.arch)
         torch.manual_seed(tr["seed"])
         self.model = build_model(mdl["architecture"], data["size"],
                                  **mdl["hyperparameters"]).to(self.device)
@@ -956,8 +995,9 @@ class _Run:
         first = self.batches.spread(self.tr["pca_samples"])
         f = self.arch.features(*first[:3])
         b = first[3].shape[0]
-        lab, fr = self.arch.model_labels(first[3].reshape(b, 2, -1), first[4].reshape(b, -1),
-                                         f)
+        lab, fr = first[3], first[4]
+        if not self.batches.in_model_frame:
+            lab, fr = self.arch.model_labels(lab.reshape(b, 2, -1), fr.reshape(b, -1), f)
         resid = (lab - f["w_robot"][:, :, None]) / f["scale"][:, None, None] * fr[:, None, :]
         explained = init_basis_pca(self.model, resid.reshape(b, -1))
         return [round(float(x), 6) for x in explained]
@@ -1000,7 +1040,7 @@ class _Run:
                 if tr["augment_d4"]:
                     batch = _augment(batch, rng)
                 inputs, labels, free, speed, *taught = _tensor_batch(
-                    self.arch, batch, self.device, self.teacher)
+                    self.arch, batch, self.device, self.teacher, self.batches.in_model_frame)
                 pred = model(inputs)
                 loss = _loss(pred, labels, free, speed, *terms)
                 if taught:  # distillation: the teacher's field as a second target
