@@ -475,9 +475,13 @@ class _Batches:
         self.make, self.cache, self.batch_size = make_dataset, cache, batch_size
         self.every = resample_every
         self.arch = model_frame if cache else None
-        self.in_model_frame = self.arch is not None
         self.block, self.dataset, self.arrays = None, None, None
         self._use(0)
+
+    @property
+    def in_model_frame(self) -> bool:
+        """Whether the batches' labels and free masks are already in the model frame."""
+        return self.arch is not None
 
     def _use(self, block: int) -> None:
         if block == self.block:
@@ -533,6 +537,15 @@ def _model_frame_in_place(arch, scans, w_up, w_robot, labels, free, chunk: int =
     return lab, fr
 
 
+def _labels_in_model_frame(arch, labels, free, f: dict, already: bool):
+    """A batch's labels ``(B, 2, H^2)`` and free mask ``(B, H^2)`` in ``arch``'s frame
+    (``f``: its features); ``already``: they are (:class:`_Batches` with ``model_frame``)."""
+    if already:
+        return labels, free
+    b = labels.shape[0]
+    return arch.model_labels(labels.reshape(b, 2, -1), free.reshape(b, -1), f)
+
+
 # ---------------------------------------------------------------------------- training
 
 
@@ -560,10 +573,7 @@ def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = Fals
     f = arch.features(np.asarray(scans, np.float32), np.asarray(w_up, np.float32),
                       np.asarray(w_robot, np.float32))
     b = labels.shape[0]
-    if in_model_frame:
-        lab, fr = labels, free
-    else:
-        lab, fr = arch.model_labels(labels.reshape(b, 2, -1), free.reshape(b, -1), f)
+    lab, fr = _labels_in_model_frame(arch, labels, free, f, in_model_frame)
     def to(a):
         return torch.from_numpy(np.ascontiguousarray(a)).to(device, torch.float32)
 
@@ -995,9 +1005,8 @@ class _Run:
         first = self.batches.spread(self.tr["pca_samples"])
         f = self.arch.features(*first[:3])
         b = first[3].shape[0]
-        lab, fr = first[3], first[4]
-        if not self.batches.in_model_frame:
-            lab, fr = self.arch.model_labels(lab.reshape(b, 2, -1), fr.reshape(b, -1), f)
+        lab, fr = _labels_in_model_frame(self.arch, first[3], first[4], f,
+                                         self.batches.in_model_frame)
         resid = (lab - f["w_robot"][:, :, None]) / f["scale"][:, None, None] * fr[:, None, :]
         explained = init_basis_pca(self.model, resid.reshape(b, -1))
         return [round(float(x), 6) for x in explained]
