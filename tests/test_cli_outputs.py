@@ -197,7 +197,7 @@ def test_wind_and_wind_sweep_json(tmp_path):
     doc = read_doc(js, "wind-sweep")
     assert doc["summary"]["simulations"] == 2 and doc["summary"]["done"] == 2
     assert [r["ok"] for r in doc["records"]] == [True, True]
-    assert sorted(r["direction_deg"] for r in doc["records"]) == [0.0, 180.0]
+    assert sorted(d for r in doc["records"] for d in r["directions_deg"]) == [0.0, 180.0]
 
 
 def test_flow_validate_json_and_figures(tmp_path, monkeypatch):

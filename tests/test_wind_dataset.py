@@ -310,6 +310,42 @@ def test_thesis_grid_is_the_default():
     assert auto_dt(1.0, 10.0) == pytest.approx(0.1) and auto_dt(1.0, 2.0) == 0.25
 
 
+def test_directions_with_the_same_inlet_sides_are_batched_within_the_bitwise_limit():
+    from windnav.experiments.wind_sweep import direction_batches
+
+    recipe = [3.75, 56.25, 101.25, 198.75, 228.75, 296.25]  # the decoder recipe's six
+    # west+south: 3.75, 56.25; east+south: 101.25; east+north: 198.75, 228.75; west+north
+    assert direction_batches(recipe, 1) == {3.75: 0, 56.25: 0, 101.25: 1, 198.75: 2,
+                                            228.75: 2, 296.25: 3}
+    # two speeds a direction: two directions would be 4 runs, past the bitwise limit of 3
+    assert direction_batches(recipe, 2) == {d: i for i, d in enumerate(recipe)}
+    # the thesis's 8 directions have 8 different inlet sides
+    assert sorted(direction_batches(np.arange(0, 360, 45), 1).values()) == list(range(8))
+    # four with the same sides and one speed: a batch of 3, then one
+    assert direction_batches([15.0, 30.0, 45.0, 60.0], 1) == {15.0: 0, 30.0: 0, 45.0: 0,
+                                                              60.0: 1}
+
+
+def test_sweep_steps_directions_of_the_same_sides_together_bit_for_bit(tmp_path):
+    """10 and 40 deg enter on the west and south sides: one task, one factorisation, each
+    field the same to the bit as its own simulation; 190 deg is a task of its own."""
+    from windnav.flow import simulate
+
+    city = City.from_rotorpy_json(write_tiny_map(tmp_path / "tiny.json"))
+    settings = {"dx": 2.0, "dt": 0.2, "spinup_steps": 6, "steps": 6}
+    store, results = sweep([("tiny", "tiny.json", city)], tmp_path / "s.zarr", speeds=[4.0],
+                           directions_deg=[10.0, 190.0, 40.0], settings=settings,
+                           backend="serial", progress=False)
+    tasks = sorted(r.task.directions_deg for r in results)
+    assert tasks == [(10.0, 40.0), (190.0,)]
+    assert all(r.ok for r in results)
+    for c in range(3):
+        case = store.read_case(0, c)
+        direct = simulate(city, speed=4.0, direction_deg=case["direction_deg"], **settings)
+        np.testing.assert_array_equal(case["mean_u"], direct.mean_u)
+        np.testing.assert_array_equal(case["mean_v"], direct.mean_v)
+
+
 # ----------------------------------------------------------------- the CLI
 
 

@@ -9,8 +9,9 @@
 Default inlet grid (the thesis's training data): speeds 0.1, 2.575, 5.05, 7.525, 10.0 m/s x
 8 directions 0, 45, ..., 315 deg. The harness is :mod:`windnav.experiments.wind_sweep`;
 rerunning the same command after an interruption computes only the simulations not marked done.
-``--json`` writes one record per task run now (a map and direction, its pending speeds) and the
-counts; the store itself is never replaced (``--overwrite`` applies to ``--json`` only).
+``--json`` writes one record per task run now (a map and one direction, or several with the
+same inlet sides; its pending cases, with each case's speed and direction) and the counts; the
+store itself is never replaced (``--overwrite`` applies to ``--json`` only).
 """
 
 from __future__ import annotations
@@ -146,13 +147,14 @@ def run(args, simulate=None) -> int:
         t = r.task
         first = (r.error or "").splitlines()[0]
         print(f"failed: map {t.map_index} cases {list(t.case_indices)} (speeds "
-              f"{', '.join(f'{s:g}' for s in t.speeds)} m/s, direction {t.direction_deg:g} deg): "
-              f"{first}")
+              f"{', '.join(f'{s:g}' for s in t.speeds)} m/s, directions "
+              f"{', '.join(f'{d:g}' for d in t.directions_deg)} deg): {first}")
     print(f"{store.path}: {n_done}/{total} simulations done "
           f"({n_now} now, {total - n_now - n_failed} already, {n_failed} failed)")
     if args.json is not None:
         records = [{"map_index": r.task.map_index, "cases": list(r.task.case_indices),
-                    "speeds": list(r.task.speeds), "direction_deg": r.task.direction_deg,
+                    "speeds": list(r.task.speeds),
+                    "directions_deg": list(r.task.directions_deg),
                     "ok": r.ok, "seconds": r.seconds, "error": r.error}
                    for r in sorted(results, key=lambda r: r.index)]
         summary = {"store": str(store.path), "simulations": total, "done": n_done,

@@ -697,7 +697,7 @@ def _sweep(recipe: dict, store: Path, progress: bool) -> dict:
                         directions_deg=sw["directions_deg"], settings=sw["settings"],
                         backend=sw["backend"], workers=sw["workers"], seed=sw["seed"],
                         progress=progress)
-    failed = [{"map": r.task.map_index, "direction_deg": r.task.direction_deg,
+    failed = [{"map": r.task.map_index, "directions_deg": list(r.task.directions_deg),
                "error": (r.error or "").splitlines()[0]} for r in results if not r.ok]
     return {"store": str(store), "n_simulations": st.n_maps * st.n_cases,
             "seconds": time.perf_counter() - t0, "failed": failed}

@@ -3,10 +3,13 @@
 Default inlet grid (the thesis's training data): speeds 0.1, 2.575, 5.05, 7.525, 10.0 m/s x
 8 directions 0, 45, ..., 315 deg. The simulations of one map and direction form one task of
 :func:`windnav.experiments.executor.run_tasks` (their speeds are stepped together and share
-the factorisation); the task writes its own chunks of the store (layout, completion markers
-and resumption: :mod:`windnav.flow.sweep_store`). Rerunning the same sweep after an
-interruption computes only the simulations not marked done; with ``verify`` it first reads
-back every finished simulation and recomputes exactly those found damaged.
+the factorisation); so do those of several directions whose inlets are the same sides (3.75
+and 56.25 deg: west and south) while the task's runs are at most
+:data:`windnav.flow.solver.BITWISE_BATCH`, the most that equal separate runs to the bit. The
+largest tasks are dispatched first. A task writes its own chunks of the store (layout,
+completion markers and resumption: :mod:`windnav.flow.sweep_store`). Rerunning the same
+sweep after an interruption computes only the simulations not marked done; with ``verify``
+it first reads back every finished simulation and recomputes exactly those found damaged.
 
 Before anything is created or dispatched, each map's task is checked against the memory limit
 (:mod:`windnav.flow.memory`): a map that cannot fit is refused with
@@ -42,11 +45,12 @@ def auto_dt(dx: float, max_speed: float) -> float:
 
 @dataclass(frozen=True)
 class SweepTask:
-    """Simulations of one sweep map and inlet direction: everything a worker needs, picklable.
+    """Simulations of one sweep map and inlet sides: everything a worker needs, picklable.
 
-    The built-in solver steps the speeds of a task together (:func:`windnav.flow.simulate_batch`:
-    one factorisation, one multi-right-hand-side pressure solve per step); a solver override
-    (tests) gets one task per simulation.
+    The built-in solver steps the runs of a task together (:func:`windnav.flow.simulate_batch`:
+    one factorisation, one multi-right-hand-side pressure solve per step): the speeds of one
+    direction, or of several directions with the same inlet sides (:func:`direction_batches`);
+    a solver override (tests) gets one task per simulation.
 
     Attributes
     ----------
@@ -59,8 +63,8 @@ class SweepTask:
     city : City
     speeds : tuple of float
         Inlet speed of each case, m/s.
-    direction_deg : float
-        Inlet direction, deg.
+    directions_deg : tuple of float
+        Inlet direction of each case, deg.
     settings : dict
         Solver settings (dx m, dt s, spinup_steps, steps, record_every).
     seeds : tuple of int
@@ -76,7 +80,7 @@ class SweepTask:
     case_indices: tuple
     city: object
     speeds: tuple
-    direction_deg: float
+    directions_deg: tuple
     settings: dict
     seeds: tuple
     simulate: object = None
@@ -103,13 +107,13 @@ def run_sweep_task(task: SweepTask) -> dict:
     from windnav.flow.sweep_store import SweepStore
 
     if task.simulate is None:
-        sols, seconds = simulate_speeds(task.city, task.speeds, task.direction_deg, task.settings,
-                                        memory_limit=task.memory_limit)
+        sols, seconds = simulate_speeds(task.city, task.speeds, task.directions_deg,
+                                        task.settings, memory_limit=task.memory_limit)
         seconds = [seconds / len(sols)] * len(sols)
     else:
-        pairs = [simulate_case(task.city, sp, task.direction_deg, task.settings, seed,
-                               task.simulate) for sp, seed in zip(task.speeds, task.seeds,
-                                                                  strict=True)]
+        pairs = [simulate_case(task.city, sp, dd, task.settings, seed, task.simulate)
+                 for sp, dd, seed in zip(task.speeds, task.directions_deg, task.seeds,
+                                         strict=True)]
         sols, seconds = [p[0] for p in pairs], [p[1] for p in pairs]
     store = SweepStore(task.store, mode="r+")
     cases = []
@@ -121,11 +125,13 @@ def run_sweep_task(task: SweepTask) -> dict:
     return {"map_index": task.map_index, "cases": cases}
 
 
-def simulate_speeds(city, speeds, direction_deg: float, settings: dict,
+def simulate_speeds(city, speeds, direction_deg, settings: dict,
                     memory_limit: float | None = None):
     """Run the flow for several inlet speeds of one direction together.
 
-    ``memory_limit`` (bytes) is passed to :func:`windnav.flow.simulate_batch`.
+    ``direction_deg`` is one direction (deg) for every speed, or one per speed whose inlets
+    are the same sides; ``memory_limit`` (bytes) is passed to
+    :func:`windnav.flow.simulate_batch`.
 
     Returns
     -------
@@ -136,7 +142,9 @@ def simulate_speeds(city, speeds, direction_deg: float, settings: dict,
     from windnav.flow import simulate_batch
 
     t0 = time.perf_counter()
-    sols = simulate_batch(city, [float(s) for s in speeds], float(direction_deg), **settings,
+    directions = float(direction_deg) if np.ndim(direction_deg) == 0 else \
+        [float(d) for d in direction_deg]
+    sols = simulate_batch(city, [float(s) for s in speeds], directions, **settings,
                           memory_limit=memory_limit)
     return sols, time.perf_counter() - t0
 
@@ -239,7 +247,9 @@ def sweep(
         ``verify``, else None.
     results : list of TaskResult
         One per task run now (finished simulations skipped), in completion order; a task
-        holds the pending speeds of one map and direction (``task.case_indices``).
+        holds the pending cases of one map and one direction, or of several whose inlets are
+        the same sides (:func:`direction_batches`): ``task.case_indices``, ``task.speeds``,
+        ``task.directions_deg``.
 
     Raises
     ------
@@ -270,28 +280,64 @@ def sweep(
         x, y = solver_grid(city, settings["dx"])
         sweep_maps.append(SweepMap(name=name, source=source, city=city, x=x, y=y))
     n_frames = _n_frames(settings)
-    workers = _fit_workers(sweep_maps, settings["dx"], len(speeds) if simulate is None else 1,
-                           n_frames, backend, workers, memory_limit,
-                           len(directions_deg) * len(sweep_maps))
+    batch_of = direction_batches(directions_deg, len(speeds)) if simulate is None else None
+    runs = len(speeds) * max(np.bincount(list(batch_of.values()))) if batch_of else 1
+    workers = _fit_workers(sweep_maps, settings["dx"], runs, n_frames, backend, workers,
+                           memory_limit, len(directions_deg) * len(sweep_maps))
     store = SweepStore.create(out, sweep_maps, speeds, directions_deg, config=settings,
                               n_frames=n_frames, seed=seed)
     if verify:
         store.invalidate(store.verify(progress=progress).damaged)
+    if batch_of:  # the store's own values (float64 either way)
+        batch_of = direction_batches(store.directions_deg, len(speeds))
     groups: dict = {}
     for k, c in store.pending():
-        key = (k, float(store.directions_deg[c])) if simulate is None else (k, c)
+        key = (k, batch_of[float(store.directions_deg[c])]) if batch_of else (k, c)
         groups.setdefault(key, []).append(c)
     tasks = [
         SweepTask(store.path, k, tuple(cases), sweep_maps[k].city,
                   tuple(float(store.speeds[c]) for c in cases),
-                  float(store.directions_deg[cases[0]]),
+                  tuple(float(store.directions_deg[c]) for c in cases),
                   settings, tuple(store.case_seed(k, c) for c in cases), simulate,
                   memory_limit)
         for (k, _), cases in groups.items()
     ]
+    # the largest first, so that no long task is left alone at the end (a stable sort: maps
+    # of one size keep their order)
+    tasks.sort(key=lambda t: -sweep_maps[t.map_index].x.size * sweep_maps[t.map_index].y.size
+               * len(t.case_indices))
     results = list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
                              progress=progress, desc="wind-sweep"))
     return store, results
+
+
+def direction_batches(directions_deg, n_speeds: int) -> dict:
+    """Which inlet directions a sweep simulates together, as ``{direction_deg: batch}``.
+
+    Directions whose inlets are the same sides (:meth:`windnav.flow.BoundaryConditions.for_wind`:
+    3.75 and 56.25 deg both enter on the west and south sides) share the pressure
+    factorisation, so they are stepped together, in their given order, as many as keep a
+    batch's runs (``n_speeds`` each) within :data:`windnav.flow.solver.BITWISE_BATCH`: the
+    most that equal their separate runs to the bit. With that many speeds or more, every
+    direction is a batch of its own. Batches are numbered from 0 in order of first direction.
+    """
+    from windnav.flow.grid import BoundaryConditions
+    from windnav.flow.solver import BITWISE_BATCH
+
+    per_batch = max(1, BITWISE_BATCH // max(int(n_speeds), 1))
+    batch_of: dict = {}
+    open_batch: dict = {}  # sides -> (batch, directions in it)
+    n = 0
+    for d in (float(d) for d in directions_deg):
+        if d in batch_of:
+            continue
+        sides = BoundaryConditions.for_wind(1.0, d).sides
+        b, size = open_batch.get(sides, (None, per_batch))
+        if size >= per_batch:
+            b, size, n = n, 0, n + 1
+        batch_of[d] = b
+        open_batch[sides] = (b, size + 1)
+    return batch_of
 
 
 def solver_grid(city, dx: float) -> tuple[np.ndarray, np.ndarray]:
@@ -303,7 +349,7 @@ def solver_grid(city, dx: float) -> tuple[np.ndarray, np.ndarray]:
     return grid.x, grid.y
 
 
-def _fit_workers(sweep_maps, dx: float, n_speeds: int, n_frames: int, backend: str, workers,
+def _fit_workers(sweep_maps, dx: float, n_runs: int, n_frames: int, backend: str, workers,
                  memory_limit, n_tasks: int):
     """Refuse a map whose task cannot fit in the memory limit; for the process backend, cap
     the workers so that the largest tasks running at once fit too. Returns the workers."""
@@ -322,9 +368,9 @@ def _fit_workers(sweep_maps, dx: float, n_speeds: int, n_frames: int, backend: s
     biggest = 0
     for k, m in enumerate(sweep_maps):
         shape = grid_shape(m.city.bounds, dx)
-        what = (f"map {k} ({m.name!r}, {shape[0]} x {shape[1]} cells), {n_speeds} speed(s) "
-                f"of one direction at once, {n_frames} frame(s) each")
-        need = check_flow_memory(shape, n_speeds, n_frames, fluid_fraction=fluid_fraction(m.city),
+        what = (f"map {k} ({m.name!r}, {shape[0]} x {shape[1]} cells), {n_runs} run(s) "
+                f"at once, {n_frames} frame(s) each")
+        need = check_flow_memory(shape, n_runs, n_frames, fluid_fraction=fluid_fraction(m.city),
                                  memory_limit=memory_limit, where="sweep", what=what)
         # writing a case stacks its frames once more
         biggest = max(biggest, need + BYTES_PER_FRAME_CELL * n_frames * shape[0] * shape[1])
