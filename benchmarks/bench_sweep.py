@@ -19,6 +19,13 @@ docs/benchmarks.md.
 two maps: 80 of the grid's 2,560 simulations, exactly 1/32 of it (one 500 m and one 300 m map
 of the 32 of each), so the full grid takes 32 x its wall time with nothing extrapolated but
 the maps.
+
+``--recipe`` times the decoder recipe's sweep scheme instead (``src/windnav/predict/recipes/
+default.toml``: one speed, 6 m/s, six directions, dt = 1/6 s) on two of its maps, a 1.1 km
+cluster and a 300 m dense map, on 2 workers, twice: directions with the same inlet sides
+stepped together (the default: 3.75 + 56.25 and 198.75 + 228.75 deg, one factorisation and one
+two-right-hand-side pressure solve per step a pair) against one task per direction (the
+reference, the scheme before 2026-12-03); it checks that both give the same fields to the bit.
 """
 
 from __future__ import annotations
@@ -48,6 +55,7 @@ PROTOCOL = {"dx": 1.0, "dt": 0.25, "spinup_steps": 100, "steps": 200, "record_ev
 MAPS_PER_SIZE = 32
 DIRECTIONS = 8
 WORKERS = 2
+RECIPE_MAPS = ("cluster-0", "dense-0")  # --recipe: a 1.1 km cluster and a 300 m dense map
 
 
 def _maps(seed: int):
@@ -88,7 +96,13 @@ def main(argv=None) -> int:
     parser.add_argument("--no-record", action="store_true")
     parser.add_argument("--all-directions", action="store_true",
                         help="run the batched scheme over all 8 directions (1/32 of the grid)")
+    parser.add_argument("--recipe", action="store_true",
+                        help="the decoder recipe's scheme on a cluster and a dense map: "
+                             "directions of the same inlet sides together, against one task "
+                             "per direction")
     args = parser.parse_args(argv)
+    if args.recipe:
+        return _recipe(args)
     settings = dict(PROTOCOL)
     settings["spinup_steps"] = int(round(PROTOCOL["spinup_steps"] * args.steps_scale))
     settings["steps"] = max(1, int(round(PROTOCOL["steps"] * args.steps_scale)))
@@ -171,6 +185,73 @@ def _all_directions(maps, settings: dict, args) -> int:
                           f" --steps-scale {args.steps_scale:g}" if args.steps_scale != 1.0
                           else ""))
     return 0
+
+
+def _recipe(args) -> int:
+    """The decoder recipe's six directions on two of its maps: sides grouped against not."""
+    from windnav.predict.train import load_recipe, recipe_maps
+
+    path = Path(__file__).resolve().parents[1] / "src/windnav/predict/recipes/default.toml"
+    recipe = load_recipe(path)
+    sw = recipe["sweep"]
+    names = RECIPE_MAPS
+    maps = [m for m in recipe_maps(recipe) if m[0] in names]
+    settings = dict(sw["settings"])
+    settings["spinup_steps"] = int(round(settings["spinup_steps"] * args.steps_scale))
+    settings["steps"] = max(1, int(round(settings["steps"] * args.steps_scale)))
+    tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
+    out = {}
+    try:
+        for name, grouped in (("grouped", True), ("per direction", False)):
+            t0 = time.perf_counter()
+            store, results = sweep(maps, tmp / f"{grouped}.zarr", speeds=sw["speeds"],
+                                   directions_deg=sw["directions_deg"], settings=settings,
+                                   backend="process", workers=WORKERS, progress=False,
+                                   group_sides=grouped)
+            wall = time.perf_counter() - t0
+            if not all(r.ok for r in results):
+                raise RuntimeError(next(r.error for r in results if not r.ok))
+            out[name] = {"wall": wall, "tasks": len(results), "store": store,
+                         "map_s": [sum(r.seconds for r in results if r.task.map_index == k)
+                                   for k in range(len(maps))]}
+            print(name, {k: v for k, v in out[name].items() if k != "store"}, flush=True)
+        a, b = out["grouped"]["store"], out["per direction"]["store"]
+        same = all(np.array_equal(a.read_case(k, c)[f], b.read_case(k, c)[f])
+                   for k in range(len(maps)) for c in range(a.n_cases)
+                   for f in ("mean_u", "mean_v"))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    g, r = out["grouped"], out["per direction"]
+    rows = [
+        f"| scheme | wall, s | tasks | {maps[0][0]}, task s | {maps[1][0]}, task s |",
+        "|---|---|---|---|---|",
+    ]
+    for name, x in (("same inlet sides together (default)", g),
+                    ("one task per direction (reference)", r)):
+        rows.append(f"| {name} | {x['wall']:.1f} | {x['tasks']} | {x['map_s'][0]:.1f} | "
+                    f"{x['map_s'][1]:.1f} |")
+    rows += [
+        "",
+        f"- grouped / per direction: wall **{g['wall'] / r['wall']:.3f}x**, task seconds "
+        f"{g['map_s'][0] / r['map_s'][0]:.3f}x on {maps[0][0]} and "
+        f"{g['map_s'][1] / r['map_s'][1]:.3f}x on {maps[1][0]}",
+        f"- mean fields of all {2 * a.n_cases} simulations bit for bit equal between the "
+        f"schemes: {'yes' if same else 'NO'}",
+        f"- the recipe's maps {list(names)}, speeds {sw['speeds']} m/s, directions "
+        f"{sw['directions_deg']} deg, {settings['spinup_steps']} + {settings['steps']} steps, "
+        f"dx = {settings['dx']:g} m, process executor, {WORKERS} workers",
+    ]
+    if args.steps_scale != 1.0:
+        rows.append(f"- step counts scaled by {args.steps_scale:g}")
+    for line in rows:
+        print(line)
+    if not args.no_record:
+        append_record("Wind sweep: the decoder recipe's directions grouped by inlet sides "
+                      "(2 workers)", rows,
+                      command="python benchmarks/bench_sweep.py --recipe" + (
+                          f" --steps-scale {args.steps_scale:g}" if args.steps_scale != 1.0
+                          else ""))
+    return 0 if same else 1
 
 
 if __name__ == "__main__":

@@ -324,6 +324,7 @@ def test_directions_with_the_same_inlet_sides_are_batched_within_the_bitwise_lim
     # four with the same sides and one speed: a batch of 3, then one
     assert direction_batches([15.0, 30.0, 45.0, 60.0], 1) == {15.0: 0, 30.0: 0, 45.0: 0,
                                                               60.0: 1}
+    assert direction_batches(recipe, 1, group_sides=False) == {d: i for i, d in enumerate(recipe)}
 
 
 def test_sweep_steps_directions_of_the_same_sides_together_bit_for_bit(tmp_path):

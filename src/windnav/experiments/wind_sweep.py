@@ -205,6 +205,7 @@ def sweep(
     verify: bool = False,
     simulate=None,
     memory_limit: float | None = None,
+    group_sides: bool = True,
 ):
     """Run (or resume) a sweep of flow simulations into one Zarr store.
 
@@ -238,6 +239,10 @@ def sweep(
         above it is refused before anything is written; the process backend runs at most as
         many workers at once as the limit holds (with a warning when that is fewer than
         asked for); each task's solver gets the same limit.
+    group_sides : bool, default True
+        Step directions whose inlets are the same sides together (:func:`direction_batches`:
+        one factorisation and one pressure solve per step for the pair, the same fields to
+        the bit). False: one task per direction, as before 2026-12-03 (less memory a task).
 
     Returns
     -------
@@ -280,7 +285,8 @@ def sweep(
         x, y = solver_grid(city, settings["dx"])
         sweep_maps.append(SweepMap(name=name, source=source, city=city, x=x, y=y))
     n_frames = _n_frames(settings)
-    batch_of = direction_batches(directions_deg, len(speeds)) if simulate is None else None
+    batch_of = direction_batches(directions_deg, len(speeds), group_sides) \
+        if simulate is None else None
     runs = len(speeds) * max(np.bincount(list(batch_of.values()))) if batch_of else 1
     workers = _fit_workers(sweep_maps, settings["dx"], runs, n_frames, backend, workers,
                            memory_limit, len(directions_deg) * len(sweep_maps))
@@ -289,7 +295,7 @@ def sweep(
     if verify:
         store.invalidate(store.verify(progress=progress).damaged)
     if batch_of:  # the store's own values (float64 either way)
-        batch_of = direction_batches(store.directions_deg, len(speeds))
+        batch_of = direction_batches(store.directions_deg, len(speeds), group_sides)
     groups: dict = {}
     for k, c in store.pending():
         key = (k, batch_of[float(store.directions_deg[c])]) if batch_of else (k, c)
@@ -311,20 +317,21 @@ def sweep(
     return store, results
 
 
-def direction_batches(directions_deg, n_speeds: int) -> dict:
+def direction_batches(directions_deg, n_speeds: int, group_sides: bool = True) -> dict:
     """Which inlet directions a sweep simulates together, as ``{direction_deg: batch}``.
 
     Directions whose inlets are the same sides (:meth:`windnav.flow.BoundaryConditions.for_wind`:
     3.75 and 56.25 deg both enter on the west and south sides) share the pressure
     factorisation, so they are stepped together, in their given order, as many as keep a
     batch's runs (``n_speeds`` each) within :data:`windnav.flow.solver.BITWISE_BATCH`: the
-    most that equal their separate runs to the bit. With that many speeds or more, every
-    direction is a batch of its own. Batches are numbered from 0 in order of first direction.
+    most that equal their separate runs to the bit. When two directions' runs would be more
+    (two speeds or more), every direction is a batch of its own, as with
+    ``group_sides=False``. Batches are numbered from 0 in order of first direction.
     """
     from windnav.flow.grid import BoundaryConditions
     from windnav.flow.solver import BITWISE_BATCH
 
-    per_batch = max(1, BITWISE_BATCH // max(int(n_speeds), 1))
+    per_batch = max(1, BITWISE_BATCH // max(int(n_speeds), 1)) if group_sides else 1
     batch_of: dict = {}
     open_batch: dict = {}  # sides -> (batch, directions in it)
     n = 0
