@@ -58,6 +58,20 @@ WORKERS = 2
 RECIPE_MAPS = ("cluster-0", "dense-0")  # --recipe: a 1.1 km cluster and a 300 m dense map
 
 
+def _scaled(settings: dict, scale: float) -> dict:
+    """``settings`` with the spin-up and averaging step counts scaled by ``--steps-scale``."""
+    out = dict(settings)
+    out["spinup_steps"] = int(round(settings["spinup_steps"] * scale))
+    out["steps"] = max(1, int(round(settings["steps"] * scale)))
+    return out
+
+
+def _command(flags: str, scale: float) -> str:
+    """The command line of a record: this script with ``flags`` and any ``--steps-scale``."""
+    return f"python benchmarks/bench_sweep.py{flags}" + (
+        f" --steps-scale {scale:g}" if scale != 1.0 else "")
+
+
 def _maps(seed: int):
     rng = np.random.default_rng(seed)
     return [(f"training-{int(s)}m", f"training_map(size={s:g})", training_map(rng=rng, size=s))
@@ -103,9 +117,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.recipe:
         return _recipe(args)
-    settings = dict(PROTOCOL)
-    settings["spinup_steps"] = int(round(PROTOCOL["spinup_steps"] * args.steps_scale))
-    settings["steps"] = max(1, int(round(PROTOCOL["steps"] * args.steps_scale)))
+    settings = _scaled(PROTOCOL, args.steps_scale)
     maps = _maps(args.seed)
     if args.all_directions:
         return _all_directions(maps, settings, args)
@@ -144,9 +156,7 @@ def main(argv=None) -> int:
         print(line)
     if not args.no_record:
         append_record("Wind sweep: the thesis training grid extrapolated (2 workers)", rows,
-                      command="python benchmarks/bench_sweep.py" + (
-                          f" --steps-scale {args.steps_scale:g}" if args.steps_scale != 1.0
-                          else ""))
+                      command=_command("", args.steps_scale))
     return 0
 
 
@@ -181,9 +191,7 @@ def _all_directions(maps, settings: dict, args) -> int:
         print(line)
     if not args.no_record:
         append_record("Wind sweep: 1/32 of the thesis training grid run for real (2 workers)",
-                      rows, command="python benchmarks/bench_sweep.py --all-directions" + (
-                          f" --steps-scale {args.steps_scale:g}" if args.steps_scale != 1.0
-                          else ""))
+                      rows, command=_command(" --all-directions", args.steps_scale))
     return 0
 
 
@@ -196,9 +204,7 @@ def _recipe(args) -> int:
     sw = recipe["sweep"]
     names = RECIPE_MAPS
     maps = [m for m in recipe_maps(recipe) if m[0] in names]
-    settings = dict(sw["settings"])
-    settings["spinup_steps"] = int(round(settings["spinup_steps"] * args.steps_scale))
-    settings["steps"] = max(1, int(round(settings["steps"] * args.steps_scale)))
+    settings = _scaled(sw["settings"], args.steps_scale)
     tmp = Path(tempfile.mkdtemp(prefix="bench_sweep_"))
     out = {}
     try:
@@ -248,9 +254,7 @@ def _recipe(args) -> int:
     if not args.no_record:
         append_record("Wind sweep: the decoder recipe's directions grouped by inlet sides "
                       "(2 workers)", rows,
-                      command="python benchmarks/bench_sweep.py --recipe" + (
-                          f" --steps-scale {args.steps_scale:g}" if args.steps_scale != 1.0
-                          else ""))
+                      command=_command(" --recipe", args.steps_scale))
     return 0 if same else 1
 
 

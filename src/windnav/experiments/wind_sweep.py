@@ -294,8 +294,6 @@ def sweep(
                               n_frames=n_frames, seed=seed)
     if verify:
         store.invalidate(store.verify(progress=progress).damaged)
-    if batch_of:  # the store's own values (float64 either way)
-        batch_of = direction_batches(store.directions_deg, len(speeds), group_sides)
     groups: dict = {}
     for k, c in store.pending():
         key = (k, batch_of[float(store.directions_deg[c])]) if batch_of else (k, c)
