@@ -175,7 +175,7 @@ def _wrap(a):
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _scan(origins, rects, cos_k, sin_k, max_range, ranges, hit, blocked):
     """Fill ``ranges`` (B, n) with first-hit distances (``max_range`` if none) and flags."""
     n = cos_k.shape[0]

