@@ -61,6 +61,7 @@ from pathlib import Path
 
 import numpy as np
 
+from windnav.predict._loss import SPEED_REF, fused_loss
 from windnav.predict.baselines import LocalBaseline, UpstreamBaseline
 from windnav.predict.dataset import DecoderDataset, fields_from_store
 from windnav.predict.decoder import (
@@ -141,7 +142,6 @@ DEFAULTS = {
 """Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
 
 MAP_KINDS = ("training", "dense", "planning")
-SPEED_REF = 10.0  # m/s, the reference of the loss weight (U / SPEED_REF)^p
 
 
 # ---------------------------------------------------------------------------- recipes
@@ -587,7 +587,8 @@ def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = Fals
 
 
 def _loss(pred, labels, free, speed, power: float, direction_weight: float,
-          vector: str = "squared", speed_weight: float = 0.0, direction: str = "cosine"):
+          vector: str = "squared", speed_weight: float = 0.0, direction: str = "cosine",
+          fused: bool = True):
     """The training loss, a mean over free cells of three terms:
 
     - the vector term, ``vector = "squared"``: ``(U / 10)^p |pred - label|^2 / U^2`` (the MSE);
@@ -604,9 +605,17 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
       cells whose true direction is barely defined.
 
     The norms are softened by ``1e-3 U`` so that their gradients stay finite at 0.
+
+    With ``fused`` (the default), ``direction = "cosine"`` and CPU tensors, the loss and its
+    gradient come out of one compiled pass (:mod:`windnav.predict._loss`; the same values to
+    float32 rounding, about a third of a training step's time less on 2 cores); otherwise
+    (and as its reference) the torch formula below.
     """
     import torch
 
+    if fused and direction == "cosine" and pred.device.type == "cpu":
+        return fused_loss(pred, labels, free, speed, power, direction_weight, vector,
+                          speed_weight)
     u = torch.clamp(speed, min=0.1)
     n_free = torch.clamp(free.sum(), min=1.0)
     by_speed = (u / SPEED_REF) ** power
@@ -985,8 +994,11 @@ class _Run:
         if mdl["architecture"] == "d4-film":
             self.meta["pca_explained_variance"] = self._init_basis()
         opt_cls = torch.optim.AdamW if tr["optimizer"] == "adamw" else torch.optim.Adam
+        # the fused update (one kernel over all parameters, not a loop of small ops per
+        # tensor): 0.8 ms per step against 2.4 on an Intel Xeon (2026-12-03)
         self.opt = opt_cls(self.model.parameters(), lr=tr["learning_rate"],
-                           weight_decay=tr["weight_decay"])
+                           weight_decay=tr["weight_decay"],
+                           fused=self.device.type in ("cpu", "cuda"))
         self.sched = torch.optim.lr_scheduler.LambdaLR(self.opt, _schedule(
             tr["epochs"] * len(self.batches), tr["warmup_fraction"], tr["final_lr_fraction"]))
         baselines = _baselines(self.val, data["size"], data["spacing"])
