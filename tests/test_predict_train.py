@@ -25,7 +25,6 @@ from windnav.predict.train import (  # noqa: E402
     _augment,
     _Batches,
     _fingerprint,
-    _loss,
     _model_frame_in_place,
     _split_fields,
     _tensor_batch,
@@ -33,6 +32,9 @@ from windnav.predict.train import (  # noqa: E402
     load_recipe,
     recipe_maps,
     train_decoder,
+)
+from windnav.predict.train import (
+    _loss as train_loss,
 )
 
 
@@ -412,8 +414,11 @@ def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
     assert not (out / "recipe.toml").exists()
 
 
-def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection():
+@pytest.mark.parametrize("fused", [True, False])
+def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection(fused):
     import torch
+
+    _loss = functools.partial(train_loss, fused=fused)
 
     label = torch.tensor([[[3.0, 0.0, 5.0], [4.0, 1.0, 0.0]]])  # (1, 2, 3): three cells
     free = torch.tensor([[1.0, 1.0, 0.0]])
@@ -435,11 +440,13 @@ def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection()
     torch.testing.assert_close(scaled.grad, mse_grad, atol=1e-5, rtol=0)
 
 
-def test_norm_and_speed_loss_terms_are_the_metrics_own_forms():
+@pytest.mark.parametrize("fused", [True, False])
+def test_norm_and_speed_loss_terms_are_the_metrics_own_forms(fused):
     import torch
 
     from windnav.predict.metrics import field_errors
 
+    _loss = functools.partial(train_loss, fused=fused)
     rng = np.random.default_rng(3)
     label = torch.tensor(rng.normal(0, 4, (2, 2, 9)), dtype=torch.float32)
     pred = torch.tensor(rng.normal(0, 4, (2, 2, 9)), dtype=torch.float32)
@@ -473,6 +480,42 @@ def test_norm_and_speed_loss_terms_are_the_metrics_own_forms():
     assert torch.isfinite(zero.grad).all()
 
 
+@pytest.mark.parametrize(("power", "vector", "speed_weight", "direction_weight"),
+                         [(1.0, "norm", 1.0, 1.0), (2.0, "squared", 0.0, 0.5),
+                          (0.0, "squared", 1.5, 0.0), (1.0, "norm", 0.0, 2.0)])
+def test_fused_loss_gives_the_torch_formulas_value_and_gradient(power, vector, speed_weight,
+                                                                  direction_weight):
+    """The compiled loss (the default on the CPU) against the torch formula it replaces, on a
+    batch with building cells, zero labels, slow cells and inlets below the 0.1 m/s floor."""
+    import torch
+
+    rng = np.random.default_rng(11)
+    label = torch.tensor(rng.normal(0, 3, (64, 2, 49)), dtype=torch.float32)
+    label[:, :, :5] = 0.0  # calm cells, where the direction term fades out
+    label[:, :, 5:9] *= 0.01
+    pred = label + torch.tensor(rng.normal(0, 1, (64, 2, 49)), dtype=torch.float32)
+    pred[0, :, 0] = 0.0  # a zero prediction on a zero label
+    free = torch.tensor(rng.random((64, 49)) > 0.25, dtype=torch.float32)
+    speed = torch.tensor(rng.uniform(0.02, 12.0, 64), dtype=torch.float32)
+    terms = (power, direction_weight, vector, speed_weight)
+    grads, values = [], []
+    for fused in (True, False):
+        p = pred.clone().requires_grad_(True)
+        loss = train_loss(p, label, free, speed, *terms, fused=fused)
+        loss.backward()
+        values.append(float(loss))
+        grads.append(p.grad.numpy())
+    assert values[0] == pytest.approx(values[1], rel=2e-6)
+    # the torch formula's gradient is NaN at a zero prediction with the direction term on
+    # (the square root's derivative at 0); the compiled one stays finite there, 0 on the cell
+    assert np.isfinite(grads[0]).all()
+    ok = np.isfinite(grads[1])
+    assert ok[1:].all() and ok[0, :, 1:].all()
+    scale = np.abs(grads[1][ok]).max()
+    np.testing.assert_allclose(grads[0][ok], grads[1][ok], rtol=0, atol=2e-6 * scale)
+    assert np.all(grads[0][free.numpy()[:, None, :].repeat(2, 1) == 0] == 0)  # buildings
+
+
 def test_angle_direction_loss_is_the_direction_errors_own_form():
     import torch
 
@@ -485,20 +528,20 @@ def test_angle_direction_loss_is_the_direction_errors_own_form():
     speed = torch.tensor([0.2, 0.2])  # c = 1 wherever |label| >= 0.02 m/s: every cell here
     m = field_errors(pred.numpy().reshape(2, 2, 3, 3), label.numpy().reshape(2, 2, 3, 3),
                      free.numpy().reshape(2, 3, 3).astype(bool), [0.2, 0.2])
-    vec = float(_loss(pred, label, free, speed, 1.0, 0.0, "norm"))
-    ang = float(_loss(pred, label, free, speed, 1.0, 0.7, "norm", 0.0, "angle")) - vec
+    vec = float(train_loss(pred, label, free, speed, 1.0, 0.0, "norm"))
+    ang = float(train_loss(pred, label, free, speed, 1.0, 0.7, "norm", 0.0, "angle")) - vec
     assert ang == pytest.approx(0.7 * np.radians(m["direction_error_deg"]), rel=1e-4)
     # it never pulls on the predicted speed: its gradient is tangential
     p = pred.clone().requires_grad_(True)
-    _loss(p, label, free, speed, 1.0, 1.0, "norm", 0.0, "angle").backward()
+    train_loss(p, label, free, speed, 1.0, 1.0, "norm", 0.0, "angle").backward()
     g_dir = p.grad.clone()
     p.grad = None
-    _loss(p, label, free, speed, 1.0, 0.0, "norm").backward()
+    train_loss(p, label, free, speed, 1.0, 0.0, "norm").backward()
     g = (g_dir - p.grad).numpy()
     np.testing.assert_allclose((g * pred.numpy()).sum(axis=1), 0.0, atol=1e-5)
     # and stays finite where prediction and label agree
     q = label.clone().requires_grad_(True)
-    _loss(q, label, free, speed, 1.0, 1.0, "norm", 0.0, "angle").backward()
+    train_loss(q, label, free, speed, 1.0, 1.0, "norm", 0.0, "angle").backward()
     assert torch.isfinite(q.grad).all()
 
 
