@@ -11,6 +11,7 @@ rounding (tests/test_predict_train.py), not bit for bit.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numba
@@ -91,26 +92,33 @@ def loss_and_grad(pred, labels, free, speed, power, norm, speed_weight, directio
     return total * inv_n
 
 
-def fused_loss(pred, labels, free, speed, power: float, direction_weight: float,
-               vector: str = "squared", speed_weight: float = 0.0):
-    """The loss of :func:`windnav.predict.train._loss` with ``direction = "cosine"``, as a
-    torch scalar whose backward is the gradient computed with it (CPU tensors, float32)."""
+@functools.cache
+def _loss_function():
+    """The torch autograd Function of :func:`fused_loss`, built once (torch is imported only
+    when a model trains)."""
     import torch
 
-    class _Loss(torch.autograd.Function):
+    class FusedLoss(torch.autograd.Function):
         @staticmethod
-        def forward(ctx, p):
+        def forward(ctx, p, labels, free, speed, power, norm, speed_weight, direction_weight):
             arrays = [np.ascontiguousarray(t.detach().numpy(), dtype=np.float32)
                       for t in (p, labels, free, speed)]
             grad = np.empty_like(arrays[0])
-            value = loss_and_grad(*arrays, float(power), vector == "norm", float(speed_weight),
-                                  float(direction_weight), grad)
+            value = loss_and_grad(*arrays, power, norm, speed_weight, direction_weight, grad)
             ctx.save_for_backward(torch.from_numpy(grad))
             return p.new_tensor(value)
 
         @staticmethod
         def backward(ctx, g):
             (grad,) = ctx.saved_tensors
-            return grad * g
+            return grad * g, None, None, None, None, None, None, None
 
-    return _Loss.apply(pred)
+    return FusedLoss
+
+
+def fused_loss(pred, labels, free, speed, power: float, direction_weight: float,
+               vector: str = "squared", speed_weight: float = 0.0):
+    """The loss of :func:`windnav.predict.train._loss` with ``direction = "cosine"``, as a
+    torch scalar whose backward is the gradient computed with it (CPU tensors, float32)."""
+    return _loss_function().apply(pred, labels, free, speed, float(power), vector == "norm",
+                                  float(speed_weight), float(direction_weight))

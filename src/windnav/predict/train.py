@@ -72,6 +72,7 @@ from windnav.predict.decoder import (
     d4_ring_indices,
     load_decoder,
     make_architecture,
+    permute_cells,
     save_decoder,
 )
 from windnav.predict.metrics import field_errors
@@ -439,10 +440,10 @@ def _augment(batch, rng: np.random.Generator):
     b, h = labels.shape[0], labels.shape[-1]
     g = rng.integers(0, 8, size=b)
     mats = d4_matrices()[g]
-    scans = np.take_along_axis(scans, d4_ring_indices(scans.shape[1])[g], axis=1)
+    scans = permute_cells(scans, d4_ring_indices(scans.shape[1]), g)
     labels = canonicalize_field(labels.reshape(b, 2, -1), g).reshape(b, 2, h, h)
-    inverse = np.argsort(d4_grid_permutation(h), axis=1)[g]
-    free = np.take_along_axis(free.reshape(b, -1), inverse, axis=1).reshape(b, h, h)
+    inverse = np.argsort(d4_grid_permutation(h), axis=1)
+    free = permute_cells(free.reshape(b, -1), inverse, g).reshape(b, h, h)
     return (scans, np.einsum("bij,bj->bi", mats, w_up), np.einsum("bij,bj->bi", mats, w_robot),
             labels, free, speed)
 
