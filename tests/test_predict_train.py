@@ -377,11 +377,17 @@ def test_labels_cached_in_the_model_frame_are_those_each_batch_turned_itself(tin
     assert not _Batches(make, False, 100, 2, model_frame=arch).in_model_frame
     n = 0
     for e in (0, 1, 2):  # blocks 0 and 1
-        for a, b in zip(world.epoch(e), model.epoch(e), strict=True):
+        for (a, none), (b, cached) in zip(world.epoch(e, with_features=True),
+                                          model.epoch(e, with_features=True), strict=True):
+            assert none is None and set(cached) == {"channels", "winds", "scale", "w_robot", "g"}
             ta = _tensor_batch(arch, a, "cpu")
-            tb = _tensor_batch(arch, b, "cpu", in_model_frame=True)
-            assert all(torch.equal(x[k], y[k]) for x, y in [(ta[0], tb[0])] for k in x)
-            assert all(torch.equal(x, y) for x, y in zip(ta[1:], tb[1:], strict=True))
+            # the labels turned once per block; and the features cached with them as well
+            for tb in (_tensor_batch(arch, b, "cpu", in_model_frame=True),
+                       _tensor_batch(arch, b, "cpu", in_model_frame=True, features=cached)):
+                assert all(torch.equal(x[k], y[k]) for x, y in [(ta[0], tb[0])] for k in x)
+                assert all(torch.equal(x, y) for x, y in zip(ta[1:], tb[1:], strict=True))
+            g = arch.features(a[0], a[1], a[2])["g"]
+            np.testing.assert_array_equal(cached["g"], g)
             n += 1
     assert n >= 3 * 10
     # chunk by chunk (a chunk of 7 samples) as in one piece
@@ -390,9 +396,11 @@ def test_labels_cached_in_the_model_frame_are_those_each_batch_turned_itself(tin
     lab, fr = arch.model_labels(s.labels.reshape(len(s.scans), 2, -1),
                                 s.free.reshape(len(s.scans), -1), f)
     got = _model_frame_in_place(arch, s.scans, s.w_up, s.w_robot, s.labels.copy(),
-                                s.free.copy(), chunk=7)
+                                s.free.copy(), chunk=7, keep=("channels", "g"))
     np.testing.assert_array_equal(got[0], lab.astype(np.float32))
     np.testing.assert_array_equal(got[1], fr)
+    np.testing.assert_array_equal(got[2]["channels"], f["channels"].astype(np.float32))
+    np.testing.assert_array_equal(got[2]["g"], f["g"])
 
 
 def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
@@ -514,6 +522,36 @@ def test_fused_loss_gives_the_torch_formulas_value_and_gradient(power, vector, s
     scale = np.abs(grads[1][ok]).max()
     np.testing.assert_allclose(grads[0][ok], grads[1][ok], rtol=0, atol=2e-6 * scale)
     assert np.all(grads[0][free.numpy()[:, None, :].repeat(2, 1) == 0] == 0)  # buildings
+
+
+def test_fused_loss_rows_are_independent_and_its_backward_scales_by_the_outer_gradient():
+    """The compiled loss's samples are independent (two runs of rows give the gradient of one,
+    to the bit, and the loss to float64 rounding), and its backward multiplies the gradient
+    by the outer one unless that is 1 (a weighted loss, as in distillation)."""
+    import torch
+
+    from windnav.predict._loss import free_count, loss_and_grad, loss_rows
+
+    rng = np.random.default_rng(12)
+    pred = rng.normal(0, 3, (9, 2, 49)).astype(np.float32)
+    label = rng.normal(0, 3, (9, 2, 49)).astype(np.float32)
+    free = (rng.random((9, 49)) > 0.25).astype(np.float32)
+    speed = rng.uniform(0.5, 10.0, 9).astype(np.float32)
+    whole, parts = np.empty_like(pred), np.empty_like(pred)
+    value = loss_and_grad(pred, label, free, speed, 1.0, True, 1.0, 1.0, whole)
+    inv_n = np.float32(1.0 / free_count(free))
+    split = sum(loss_rows(pred, label, free, speed, 1.0, True, 1.0, 1.0, inv_n, parts, a, b)
+                for a, b in ((0, 4), (4, 9)))
+    assert np.array_equal(whole.view(np.int32), parts.view(np.int32))
+    assert split == pytest.approx(value, rel=1e-12)
+    grads = []
+    for weight in (1.0, 0.25):
+        p = torch.tensor(pred, requires_grad=True)
+        (weight * train_loss(p, torch.tensor(label), torch.tensor(free), torch.tensor(speed),
+                             1.0, 1.0, "norm", 1.0)).backward()
+        grads.append(p.grad.numpy())
+    assert np.array_equal(grads[0], whole)
+    np.testing.assert_array_equal(grads[1], np.float32(0.25) * whole)
 
 
 def test_angle_direction_loss_is_the_direction_errors_own_form():

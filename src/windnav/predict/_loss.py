@@ -20,28 +20,27 @@ import numpy as np
 SPEED_REF = 10.0  # m/s, the reference speed of the loss weight (U / SPEED_REF)^p
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
-def loss_and_grad(pred, labels, free, speed, power, norm, speed_weight, direction_weight,
-                  grad):  # pragma: no cover - numba
-    """The loss of ``pred`` (B, 2, M) against ``labels`` (B, 2, M) over the cells where
-    ``free`` (B, M) is 1, inlet speeds ``speed`` (B,) m/s, all float32; its gradient with
-    respect to ``pred`` into ``grad`` (B, 2, M). ``norm``: the vector term is ``|pred - label|
-    / U`` (softened by ``1e-3 U``), else ``|pred - label|^2 / U^2``. Returns the loss.
-
-    Float32 arithmetic without branches in the loop over cells (every term is computed, a
-    weight of 0 drops it), so that the loop vectorises; the sum over cells is float64.
-    """
-    B, _, M = pred.shape
+@numba.njit(cache=True, nogil=True)
+def free_count(free):  # pragma: no cover - numba
+    """The number of free cells of ``free`` (B, M)."""
     n_free = 0
-    for b in range(B):
-        for m in range(M):
+    for b in range(free.shape[0]):
+        for m in range(free.shape[1]):
             n_free += free[b, m] > 0
-    inv_n = np.float32(1.0 / max(n_free, 1))
+    return n_free
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def loss_rows(pred, labels, free, speed, power, norm, speed_weight, direction_weight, inv_n,
+              grad, b0, b1):  # pragma: no cover - numba
+    """Samples ``b0:b1`` of :func:`loss_and_grad`: their gradient into ``grad`` and their
+    share of the loss, given ``inv_n``, the inverse count of all free cells (float32)."""
+    M = pred.shape[2]
     one = np.float32(1.0)
     tiny = np.float32(1e-30)
     terms = np.empty(M, np.float32)  # the cells' terms, summed after the loop over cells
     total = 0.0
-    for b in range(B):
+    for b in range(b0, b1):
         u = max(float(speed[b]), 0.1)
         by_speed = (u / SPEED_REF) ** power
         soft = np.float32((1e-3 * u) ** 2)
@@ -92,6 +91,27 @@ def loss_and_grad(pred, labels, free, speed, power, norm, speed_weight, directio
     return total * inv_n
 
 
+def loss_and_grad(pred, labels, free, speed, power, norm, speed_weight, direction_weight,
+                  grad):
+    """The loss of ``pred`` (B, 2, M) against ``labels`` (B, 2, M) over the cells where
+    ``free`` (B, M) is 1, inlet speeds ``speed`` (B,) m/s, all float32; its gradient with
+    respect to ``pred`` into ``grad`` (B, 2, M). ``norm``: the vector term is ``|pred - label|
+    / U`` (softened by ``1e-3 U``), else ``|pred - label|^2 / U^2``. Returns the loss.
+
+    Float32 arithmetic without branches in the loop over cells (every term is computed, a
+    weight of 0 drops it), so that the loop vectorises; the sum over cells is float64.
+
+    The count of free cells is its own compiled pass (:func:`free_count`) and the loop over
+    the samples runs between bounds given as arguments (:func:`loss_rows`): written as one
+    function with ``range(B)``, the same arithmetic, to the bit, took 2.6-2.8 ms instead of
+    0.64-0.75 for 256 samples of 625 cells on an Intel Xeon (2026-12-03; LLVM's code for
+    the two loops differs, not the operations).
+    """
+    inv_n = np.float32(1.0 / max(free_count(free), 1))
+    return loss_rows(pred, labels, free, speed, float(power), bool(norm), float(speed_weight),
+                     float(direction_weight), inv_n, grad, 0, pred.shape[0])
+
+
 @functools.cache
 def _loss_function():
     """The torch autograd Function of :func:`fused_loss`, built once (torch is imported only
@@ -111,6 +131,10 @@ def _loss_function():
         @staticmethod
         def backward(ctx, g):
             (grad,) = ctx.saved_tensors
+            # a plain loss's backward starts from g = 1: the gradient itself, not a pass
+            # over the field that multiplies it by 1 (the same bits)
+            if g.numel() == 1 and float(g) == 1.0:
+                return grad, None, None, None, None, None, None, None
             return grad * g, None, None, None, None, None, None, None
 
     return FusedLoss

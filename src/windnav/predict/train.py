@@ -478,7 +478,7 @@ class _Batches:
         self.make, self.cache, self.batch_size = make_dataset, cache, batch_size
         self.every = resample_every
         self.arch = model_frame if cache else None
-        self.block, self.dataset, self.arrays = None, None, None
+        self.block, self.dataset, self.arrays, self.features = None, None, None, None
         self._use(0)
 
     @property
@@ -489,14 +489,17 @@ class _Batches:
     def _use(self, block: int) -> None:
         if block == self.block:
             return
-        self.arrays = None  # free the previous block first
+        self.arrays = self.features = None  # free the previous block first
         self.dataset, self.block = self.make(block), block
         if self.cache:
             s = self.dataset.materialize()
             labels, free = s.labels, s.free
             if self.arch is not None:
-                labels, free = _model_frame_in_place(self.arch, s.scans, s.w_up, s.w_robot,
-                                                     labels, free)
+                from windnav.predict.torch_models import INPUTS
+
+                labels, free, self.features = _model_frame_in_place(
+                    self.arch, s.scans, s.w_up, s.w_robot, labels, free,
+                    keep=(*INPUTS[self.arch.name], "g"))
             self.arrays = (s.scans, s.w_up, s.w_robot, labels, free, s.inlet_speed)
 
     def __len__(self) -> int:
@@ -512,32 +515,49 @@ class _Batches:
         s = self.dataset.samples(rows)
         return s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed
 
-    def epoch(self, e: int):
+    def epoch(self, e: int, with_features: bool = False):
+        """The batches of epoch ``e``; ``with_features``: ``(batch, features)`` pairs, the
+        features (the network's inputs and ``g``, cached with the model-frame labels) of the
+        batch's samples, or None when nothing is cached."""
         self._use(e // self.every if self.every else 0)
         if self.arrays is None:
             for s in self.dataset.epoch(e, self.batch_size):
-                yield s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed
+                batch = s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed
+                yield (batch, None) if with_features else batch
             return
         order = self.dataset.indices(e)
         for i in range(0, order.size, self.batch_size):
             rows = np.sort(order[i:i + self.batch_size])
-            yield tuple(a[rows] for a in self.arrays)
+            batch = tuple(a[rows] for a in self.arrays)
+            if not with_features:
+                yield batch
+                continue
+            yield batch, ({k: a[rows] for k, a in self.features.items()}
+                          if self.features is not None else None)
 
 
-def _model_frame_in_place(arch, scans, w_up, w_robot, labels, free, chunk: int = 4096):
+def _model_frame_in_place(arch, scans, w_up, w_robot, labels, free, chunk: int = 4096,
+                          keep=()):
     """World-frame ``labels (N, 2, H, H)`` and ``free (N, H, H)`` turned into ``arch``'s
     frame in their own buffers, ``chunk`` samples at a time (no second copy of the block);
-    returns them as ``(N, 2, H^2)`` and ``(N, H^2)`` views. Sample by sample the numbers are
-    those of ``arch.model_labels`` on any batch holding the sample: a gather and a product by
-    an integer D4 matrix, per sample."""
+    returns them as ``(N, 2, H^2)`` and ``(N, H^2)`` views, and a dict of the features named
+    in ``keep`` for all N samples (float32; ``g`` as computed). Sample by sample the numbers
+    are those of ``arch.model_labels`` and ``arch.features`` on any batch holding the sample:
+    a gather and a product by an integer D4 matrix, per sample."""
     n = labels.shape[0]
     lab, fr = labels.reshape(n, 2, -1), free.reshape(n, -1)
+    kept = {}
     for i in range(0, n, chunk):
         sl = slice(i, min(i + chunk, n))
         f = arch.features(np.asarray(scans[sl], np.float32), np.asarray(w_up[sl], np.float32),
                           np.asarray(w_robot[sl], np.float32))
         lab[sl], fr[sl] = arch.model_labels(lab[sl], fr[sl], f)
-    return lab, fr
+        for k in keep:
+            a = f[k] if k == "g" else np.asarray(f[k], np.float32)
+            if k not in kept:
+                kept[k] = np.empty((n, *a.shape[1:]), a.dtype)
+            kept[k][sl] = a
+    return lab, fr, kept
 
 
 def _labels_in_model_frame(arch, labels, free, f: dict, already: bool):
@@ -563,18 +583,21 @@ def _device(name: str):
     return torch.device(name)
 
 
-def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = False):
+def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = False,
+                  features: dict | None = None):
     """Network inputs, model-frame labels, free mask and inlet speeds as tensors; with a
     ``teacher`` (a :class:`Decoder`), also its fields on the batch in the model frame.
     ``in_model_frame``: the batch's labels and free mask are already in the model frame
-    (:class:`_Batches` with ``model_frame``)."""
+    (:class:`_Batches` with ``model_frame``); ``features``: the batch's features cached with
+    them (``_Batches.epoch(e, with_features=True)``), else computed here."""
     import torch
 
     from windnav.predict.torch_models import to_tensors
 
     scans, w_up, w_robot, labels, free, speed = batch
-    f = arch.features(np.asarray(scans, np.float32), np.asarray(w_up, np.float32),
-                      np.asarray(w_robot, np.float32))
+    f = features if features is not None else arch.features(
+        np.asarray(scans, np.float32), np.asarray(w_up, np.float32),
+        np.asarray(w_robot, np.float32))
     b = labels.shape[0]
     lab, fr = _labels_in_model_frame(arch, labels, free, f, in_model_frame)
     def to(a):
@@ -1049,7 +1072,8 @@ class _Run:
         model.train()
         rng = np.random.default_rng([int(tr["seed"]), 2, e])
         total, count = 0.0, 0
-        bar = tqdm(self.batches.epoch(e), total=len(self.batches), disable=not progress,
+        bar = tqdm(self.batches.epoch(e, with_features=True), total=len(self.batches),
+                   disable=not progress,
                    desc=f"epoch {e + 1}/{tr['epochs']}", leave=False)
         # the teacher's NumPy products on one BLAS thread: beside torch's threads, two BLAS
         # threads spin against them (2026-12-02: 26 ms per batch of 256 for the 3-model
@@ -1059,13 +1083,14 @@ class _Run:
         terms = (tr["loss_speed_power"], tr["direction_loss_weight"], tr["vector_loss"],
                  tr["speed_loss_weight"], tr["direction_loss"])
         with limit:
-            for batch in bar:
+            for batch, features in bar:
                 if tr["augment_speed"]:
                     batch = _rescale(batch, rng, *tr["augment_speed"])
                 if tr["augment_d4"]:
                     batch = _augment(batch, rng)
                 inputs, labels, free, speed, *taught = _tensor_batch(
-                    self.arch, batch, self.device, self.teacher, self.batches.in_model_frame)
+                    self.arch, batch, self.device, self.teacher, self.batches.in_model_frame,
+                    features)
                 pred = model(inputs)
                 loss = _loss(pred, labels, free, speed, *terms)
                 if taught:  # distillation: the teacher's field as a second target
