@@ -377,8 +377,7 @@ def test_labels_cached_in_the_model_frame_are_those_each_batch_turned_itself(tin
     assert not _Batches(make, False, 100, 2, model_frame=arch).in_model_frame
     n = 0
     for e in (0, 1, 2):  # blocks 0 and 1
-        for (a, none), (b, cached) in zip(world.epoch(e, with_features=True),
-                                          model.epoch(e, with_features=True), strict=True):
+        for (a, none), (b, cached) in zip(world.epoch(e), model.epoch(e), strict=True):
             assert none is None and set(cached) == {"channels", "winds", "scale", "w_robot", "g"}
             ta = _tensor_batch(arch, a, "cpu")
             # the labels turned once per block; and the features cached with them as well

@@ -515,25 +515,21 @@ class _Batches:
         s = self.dataset.samples(rows)
         return s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed
 
-    def epoch(self, e: int, with_features: bool = False):
-        """The batches of epoch ``e``; ``with_features``: ``(batch, features)`` pairs, the
-        features (the network's inputs and ``g``, cached with the model-frame labels) of the
-        batch's samples, or None when nothing is cached."""
+    def epoch(self, e: int):
+        """``(batch, features)`` pairs of epoch ``e``: the features (the network's inputs and
+        ``g``, cached with the model-frame labels) of the batch's samples, or None when
+        nothing is cached."""
         self._use(e // self.every if self.every else 0)
         if self.arrays is None:
             for s in self.dataset.epoch(e, self.batch_size):
-                batch = s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed
-                yield (batch, None) if with_features else batch
+                yield (s.scans, s.w_up, s.w_robot, s.labels, s.free, s.inlet_speed), None
             return
         order = self.dataset.indices(e)
         for i in range(0, order.size, self.batch_size):
             rows = np.sort(order[i:i + self.batch_size])
-            batch = tuple(a[rows] for a in self.arrays)
-            if not with_features:
-                yield batch
-                continue
-            yield batch, ({k: a[rows] for k, a in self.features.items()}
-                          if self.features is not None else None)
+            features = None if self.features is None else \
+                {k: a[rows] for k, a in self.features.items()}
+            yield tuple(a[rows] for a in self.arrays), features
 
 
 def _model_frame_in_place(arch, scans, w_up, w_robot, labels, free, chunk: int = 4096,
@@ -589,7 +585,7 @@ def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = Fals
     ``teacher`` (a :class:`Decoder`), also its fields on the batch in the model frame.
     ``in_model_frame``: the batch's labels and free mask are already in the model frame
     (:class:`_Batches` with ``model_frame``); ``features``: the batch's features cached with
-    them (``_Batches.epoch(e, with_features=True)``), else computed here."""
+    them (:meth:`_Batches.epoch`), else computed here."""
     import torch
 
     from windnav.predict.torch_models import to_tensors
@@ -1072,8 +1068,7 @@ class _Run:
         model.train()
         rng = np.random.default_rng([int(tr["seed"]), 2, e])
         total, count = 0.0, 0
-        bar = tqdm(self.batches.epoch(e, with_features=True), total=len(self.batches),
-                   disable=not progress,
+        bar = tqdm(self.batches.epoch(e), total=len(self.batches), disable=not progress,
                    desc=f"epoch {e + 1}/{tr['epochs']}", leave=False)
         # the teacher's NumPy products on one BLAS thread: beside torch's threads, two BLAS
         # threads spin against them (2026-12-02: 26 ms per batch of 256 for the 3-model
