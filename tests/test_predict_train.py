@@ -24,11 +24,13 @@ from windnav.predict.train import (  # noqa: E402
     RECIPES,
     _augment,
     _Batches,
+    _ema_update,
     _fingerprint,
     _model_frame_in_place,
     _split_fields,
     _tensor_batch,
     _train_block,
+    ema_decay_at,
     load_recipe,
     recipe_maps,
     train_decoder,
@@ -619,15 +621,65 @@ def test_a_teacher_pulls_the_student_towards_its_field(tiny, tmp_path):
                       progress=False, log=None)
 
 
+def test_moving_average_decay_and_update_follow_their_formulas():
+    """``ema_decay_at`` is ``min(d, (1 + t) / (10 + t))``; ``_ema_update`` moves each average
+    by ``1 - d_t`` of its distance to the parameter, step after step."""
+    torch = pytest.importorskip("torch")
+    assert ema_decay_at(0.999, 1) == pytest.approx(2 / 11)
+    assert ema_decay_at(0.999, 8990) == pytest.approx(8991 / 9000)
+    assert ema_decay_at(0.999, 9000) == 0.999
+    rng = np.random.default_rng(0)
+    steps = rng.normal(size=(50, 3, 4))
+    avg = [torch.zeros(3, 4, dtype=torch.float64)]
+    ref = np.zeros((3, 4))
+    for t, p in enumerate(steps, start=1):
+        _ema_update(avg, [torch.from_numpy(p)], 0.9, t)
+        d = min(0.9, (1 + t) / (10 + t))
+        ref = d * ref + (1 - d) * p
+    np.testing.assert_allclose(avg[0].numpy(), ref, rtol=1e-12, atol=1e-14)
+
+
+def test_moving_average_is_the_model_kept_and_resumes(tiny, tmp_path):
+    """With ``train.ema_decay`` the raw weights train exactly as without it (their validation,
+    recorded as ``val_raw``, is the plain run's to the bit), the averaged weights are the
+    ones validated, kept and saved, and an interrupted run resumes to the same average."""
+    recipe, out, plain = tiny
+    ema = copy.deepcopy(recipe)
+    ema["train"]["ema_decay"] = 0.99
+    h = train_decoder(ema, store=out / "sweep.zarr", out_dir=tmp_path / "full", progress=False,
+                      log=None)
+    assert [e["val_raw"] for e in h["epochs"]] == [e["val"] for e in plain["epochs"]]
+    assert [e["train_loss"] for e in h["epochs"]] == [e["train_loss"] for e in plain["epochs"]]
+    assert all(e["val"] != e["val_raw"] for e in h["epochs"])
+    kept = load_decoder(h["model"])
+    assert kept.metadata["metrics"]["validation"] == h["best_val"]
+    raw = load_decoder(out / "model.npz")
+    assert any(not np.array_equal(kept.weights[k], raw.weights[k]) for k in kept.weights)
+
+    def stop_after_two(epoch, record):
+        if epoch == 2:
+            raise Stop
+
+    with pytest.raises(Stop):
+        train_decoder(ema, store=out / "sweep.zarr", out_dir=tmp_path / "resumed",
+                      progress=False, log=None, callback=stop_after_two)
+    again = train_decoder(ema, store=out / "sweep.zarr", out_dir=tmp_path / "resumed",
+                          progress=False, log=None)
+    assert [e["val"] for e in again["epochs"]] == [e["val"] for e in h["epochs"]]
+    b = load_decoder(again["model"])
+    for k in kept.weights:
+        np.testing.assert_array_equal(kept.weights[k], b.weights[k])
+
+
 def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     recipe = load_recipe({"data": {"validation_maps": ["holdout-0"]}})
     older = copy.deepcopy(recipe)
     for key in ("vector_loss", "speed_loss_weight", "direction_loss", "members", "teacher",
-                "teacher_weight"):
+                "teacher_weight", "ema_decay"):
         del older["train"][key]
     assert _fingerprint(older) == _fingerprint(recipe)
     for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0),
-                       ("direction_loss", "angle"), ("members", 2)):
+                       ("direction_loss", "angle"), ("members", 2), ("ema_decay", 0.999)):
         changed = copy.deepcopy(recipe)
         changed["train"][key] = value
         assert _fingerprint(changed) != _fingerprint(recipe)
@@ -658,6 +710,9 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"train": {"teacher_weight": 1.5, "teacher": "t.npz"}}, "train.teacher_weight"),
     ({"train": {"teacher_weight": 0.5}}, "train.teacher"),
     ({"train": {"teacher": "t.npz"}}, "train.teacher"),
+    ({"train": {"ema_decay": 1.0}}, "train.ema_decay"),
+    ({"train": {"ema_decay": -0.1}}, "train.ema_decay"),
+    ({"train": {"ema_decay": True}}, "train.ema_decay"),
 ])
 def test_bad_recipes_are_refused(change, match):
     base = {"data": {"validation_maps": ["holdout-0"]}}
