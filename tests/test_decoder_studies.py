@@ -494,3 +494,91 @@ def test_decoder_study_direction_windinet_scores_the_third_party_layout(monkeypa
     args.study = "gradients"
     cmd._fields(args, "decoder-study", None, False)
     assert seen["maps"] == 1
+
+
+# ----------------------------------------------------------------------- the output basis
+
+
+def test_masked_least_squares_fits_only_the_cells_that_count():
+    from windnav.experiments.decoder_studies import masked_least_squares
+
+    rng = np.random.default_rng(0)
+    basis = rng.standard_normal((40, 5))
+    target = rng.standard_normal((7, 40))
+    mask = (rng.random((7, 40)) > 0.3).astype(np.float64)
+    got = masked_least_squares(basis, target, mask, chunk=3)
+    for i in range(7):
+        rows = mask[i] > 0
+        want, *_ = np.linalg.lstsq(basis[rows], target[i, rows], rcond=None)
+        np.testing.assert_allclose(got[i], want, rtol=1e-10, atol=1e-12)
+    # what the masked cells hold does not matter
+    noisy = np.where(mask > 0, target, 1e6)
+    np.testing.assert_allclose(masked_least_squares(basis, noisy, mask), got, rtol=1e-8)
+
+
+def test_basis_study_recovers_labels_the_decoder_itself_predicts(tiny_field, monkeypatch):
+    from windnav.experiments import decoder_studies as ds
+
+    dec = tiny_decoder(seed=2)
+    real_draw = ds._draw
+
+    def own_labels(*args, **kw):
+        batch = real_draw(*args, **kw)
+        pred = dec.predict(batch.scans, batch.w_up, batch.w_robot)
+        return batch._replace(labels=np.where(batch.free[:, None], pred, 0.0).astype(
+            batch.labels.dtype))
+
+    monkeypatch.setattr(ds, "_draw", own_labels)
+    res = ds.basis_study(dec, [tiny_field], 32, seed=1)
+    assert res["n_modes"] == HP["modes"] and res["n_samples"] == 32
+    assert res["errors"]["decoder"]["speed_error"] < 1e-5
+    assert res["errors"]["basis_oracle"]["speed_error"] < 1e-5
+    assert res["r2_total"] == pytest.approx(1.0, abs=1e-6)
+    assert np.sum(res["modes"]["variance_share"]) == pytest.approx(1.0)
+
+
+def test_basis_study_oracle_beats_the_decoder_on_real_labels(tiny_field):
+    from windnav.experiments.decoder_studies import basis_study
+
+    res = basis_study(tiny_decoder(seed=3), [tiny_field], 48, seed=0, fixed_modes=(1, 2, 5))
+    e = res["errors"]
+    assert set(e) == {"decoder", "basis_oracle", "local", "upstream"}
+    # the oracle minimises the squared error over the free cells: no coefficients of the same
+    # modes, the decoder's included, do better
+    assert e["basis_oracle"]["squared_error"] < e["decoder"]["squared_error"]
+    assert e["local"]["speed_error"] > 0.0
+    m = res["modes"]
+    assert len(m["r2"]) == HP["modes"] and np.all(np.diff(m["variance_share"]) <= 1e-12)
+    assert np.sum(m["error_share"]) == pytest.approx(1.0)
+    # the total R^2 is the variance-weighted mean of the per-mode ones
+    v, r2 = np.asarray(m["variance_share"]), np.asarray(m["r2"])
+    assert res["r2_total"] == pytest.approx(1.0 - np.sum(v * (1.0 - r2)))
+    # every direction fixed is the oracle itself (k is capped at the modes there are)
+    fixed = res["fixed_modes"]
+    assert sorted(fixed) == [1, 2, HP["modes"]]
+    assert fixed[HP["modes"]]["squared_error"] == pytest.approx(e["basis_oracle"][
+        "squared_error"], rel=1e-5)
+    assert fixed[1]["squared_error"] != e["decoder"]["squared_error"]
+
+
+def test_basis_study_needs_a_single_d4_film():
+    from windnav.experiments.decoder_studies import basis_study
+
+    arch = make_architecture("thesis-mlp", 5, width=8, depth=1)
+    weights = {k: np.zeros(s, np.float32) for k, s in arch.shapes().items()}
+    mlp = Decoder(weights, {"architecture": "thesis-mlp", "hyperparameters": dict(arch.hp),
+                            "spacing": 1.0})
+    with pytest.raises(ValueError, match="'decoder' parameter of basis_study must be a "
+                                         "single-model d4-film"):
+        basis_study(mlp, [])
+
+
+def test_decoder_study_basis_quick_writes_its_json_and_figure(tmp_path):
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "basis", "--quick", "--out", str(out),
+                     "--no-progress"]) == 0
+    doc = json.loads((out / "decoder_basis.json").read_text())
+    assert doc["errors"]["basis_oracle"]["speed_error"] < doc["errors"]["decoder"][
+        "speed_error"]
+    assert doc["n_modes"] == 48 and len(doc["modes"]["r2"]) == 48
+    assert (out / "decoder_basis.png").stat().st_size > 10_000

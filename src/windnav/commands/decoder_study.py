@@ -14,6 +14,8 @@
     windnav decoder-study noise      --out runs/studies --flow-cache runs/flows \
         --compare wrobot-noise=runs/wrobot_noise/model.npz                         # noisy W_robot
     windnav decoder-study direction  --out runs/studies_windinet --windinet --inlets 8  # where
+    windnav decoder-study basis      --out runs/studies --flow-cache runs/flows --maps 2 \
+        --inlets 3                                                                 # output modes
     windnav decoder-study eigenflows --out /tmp/s --quick                         # seconds
 
 ``eigenflows``, ``gradients`` and ``mosaic`` use the shipped decoder (or ``--model``) on the
@@ -35,7 +37,10 @@ a ``W_robot`` with noise of 0-0.2 U per component, as the Wind UKF gives it in f
 flows of ``eigenflows``. ``direction`` bins the direction error of the decoder and its
 baselines by the true speed over the inlet's and by the distance from the robot, on those
 flows or with ``--windinet`` on the windinet layout at ``--inlets`` inlets (those of
-``windnav evaluate-decoder``). ``--quick``:
+``windnav evaluate-decoder``). ``basis`` scores the best fields the d4-film's output modes
+can express (each label fitted by least squares) beside the decoder, and the decoder's R^2 on
+each of the labels' eigenflows within those modes, on the same flows (or ``--windinet``): is
+the output basis what limits the decoder? ``--quick``:
 a 150 m map and short flows, or the tiny recipe's sweep and models. The harness is
 :mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
 
@@ -59,7 +64,7 @@ from windnav.commands._common import (
 )
 
 STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
-           "scaling", "noise", "direction")
+           "scaling", "noise", "direction", "basis")
 """The studies, as named on the command line."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
@@ -109,8 +114,8 @@ def register(subparsers) -> None:
                    help="averaging, start: inlet direction, deg toward (%(default)s)")
     p.add_argument("--windinet", action="store_true",
                    help="averaging, start: the third-party windinet 1.1 km layout instead of the "
-                        "default recipe's held-out district; direction: instead of the dense "
-                        "evaluation maps (--inlets of them)")
+                        "default recipe's held-out district; direction, basis: instead of the "
+                        "dense evaluation maps (--inlets of them)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -144,7 +149,7 @@ def _fields(args, name, simulate, progress):
     positive_int(args.maps, "--maps", name)
     positive_int(args.inlets, "--inlets", name)
     maps = args.maps
-    if args.windinet and args.study == "direction":
+    if args.windinet and args.study in ("direction", "basis"):
         # one map: the inlets of evaluate-decoder's windinet slots, for the same seed
         maps = [("windinet", _windinet_map())]
     return evaluation_fields(maps, args.inlets, seed=args.seed,
@@ -196,6 +201,14 @@ def _summary(study: str, res: dict) -> dict:
                        for axis in ("by_speed", "by_radius")}}
                 for m, r in res["models"].items()} | {"speed_edges": res["models"]["decoder"][
                     "speed_edges"], "radius_edges": res["models"]["decoder"]["radius_edges"]}
+    if study == "basis":
+        return {"errors": {m: {k: e[k] for k in ("speed_error", "direction_error_deg")}
+                           for m, e in res["errors"].items()},
+                "r2_total": res["r2_total"],
+                "fixed_modes": {k: {m: e[m] for m in ("speed_error", "direction_error_deg")}
+                                for k, e in res["fixed_modes"].items()},
+                "first_8_modes": {k: [round(float(v), 3) for v in res["modes"][k][:8]]
+                                  for k in ("variance_share", "error_share", "r2")}}
     if study == "gradients":
         return {k: {"r2": res[k]["r2"], "pearson_r": res[k].get("pearson_r"),
                     "n_samples": res[k]["n_samples"]} for k in ("decoder", "decoder_per_U")}
@@ -265,7 +278,7 @@ def run(args, simulate=None) -> int:
         res["models"] = {"decoder": str(args.model) if args.model else "default",
                          **{n: str(f) for n, f in compare.items()}}
         plot = figures.plot_noise
-    elif study in ("eigenflows", "gradients", "mosaic", "direction"):
+    elif study in ("eigenflows", "gradients", "mosaic", "direction", "basis"):
         flows = _fields(args, name, simulate, progress)
         fields = flows["fields"]
         dec = load_decoder(args.model)
@@ -279,6 +292,9 @@ def run(args, simulate=None) -> int:
         elif study == "direction":
             res = ds.direction_study(dec, fields, samples, seed=args.seed)
             plot = figures.plot_direction
+        elif study == "basis":
+            res = ds.basis_study(dec, fields, samples, seed=args.seed)
+            plot = figures.plot_basis
         else:
             res = ds.mosaic(dec, fields[0], rng=args.seed, progress=progress)
             plot = figures.plot_mosaic
@@ -349,6 +365,8 @@ def _drop_bulk(study: str, res: dict) -> dict:
         out = {k: v for k, v in res.items() if k != "difference"}
     elif study == "start":
         out = {k: v for k, v in res.items() if k != "spread"}
+    elif study == "basis":
+        out = {k: v for k, v in res.items() if k != "eigenflow_fields"}
     elif study == "mosaic":
         out = {k: v for k, v in res.items()
                if k not in ("truth", "prediction", "local", "free", "covered", "x", "y",

@@ -16,6 +16,9 @@ thesis flow protocol):
   ``R^2 = 1 - sum (g_pred - g_true)^2 / sum (g_true - mean g_true)^2`` per component.
 - :func:`direction_study`: where the direction error lies, binned by the true speed over the
   inlet's and by the distance from the robot (:func:`windnav.predict.direction_error_breakdown`).
+- :func:`basis_study`: the best fields the d4-film's output modes can express (per-sample
+  least squares on the label, the "basis oracle") beside the decoder's, and the decoder's
+  ``R^2`` on each of the labels' eigenflows within the modes' span.
 - :func:`mosaic` (d): one map tiled with predictions at robot positions on a grid of spacing
   ``H Delta`` (``W_robot`` the true mean wind there, ``W_up`` the inlet, the scan from the map).
 
@@ -52,10 +55,10 @@ import numpy as np
 from windnav._validate import positive_float, positive_int
 
 __all__ = ["AVERAGING_PROTOCOLS", "GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS",
-           "START_KICKS", "area_fraction", "averaging_study", "direction_study", "start_study",
-           "eigenflow_study", "eigenflows", "evaluation_fields", "gradient_r2",
-           "gradient_study", "mosaic", "size_study", "study_recipe", "train_variants",
-           "winds_ablation"]
+           "START_KICKS", "area_fraction", "averaging_study", "basis_study", "direction_study",
+           "start_study", "eigenflow_study", "eigenflows", "evaluation_fields", "gradient_r2",
+           "gradient_study", "masked_least_squares", "mosaic", "size_study", "study_recipe",
+           "train_variants", "winds_ablation"]
 
 THRESHOLDS = (0.90, 0.95, 0.98, 0.99)
 """Explained-variance levels reported by :func:`eigenflows`."""
@@ -392,6 +395,149 @@ def direction_study(decoder, fields, samples_per_field: int = 2048, *, seed: int
                 model.predict(batch.scans, batch.w_up, batch.w_robot), batch.labels,
                 batch.free, batch.inlet_speed, decoder.offsets) for m, model in models.items()},
             "n_samples_drawn": int(batch.scans.shape[0])}
+
+
+# ------------------------------------------------------------------ the output basis
+
+
+FIXED_MODES = (1, 2, 5, 10, 16)
+"""The numbers of leading eigenflows :func:`basis_study` fixes to the oracle's coefficients."""
+N_EIGENFLOW_FIELDS = 4
+"""The leading eigenflows :func:`basis_study` returns as fields (for its figure)."""
+
+
+def masked_least_squares(basis: np.ndarray, target: np.ndarray, mask: np.ndarray, *,
+                         chunk: int = 256) -> np.ndarray:
+    """Per sample, the coefficients ``c`` that minimise ``sum_n m_n (basis c - t)_n^2``.
+
+    Parameters
+    ----------
+    basis : ndarray of shape (N, K)
+        Columns of full rank.
+    target : ndarray of shape (B, N)
+    mask : ndarray of shape (B, N)
+        Weights (1 on the cells that count, 0 elsewhere); every sample must leave the masked
+        columns of ``basis`` of full rank.
+    chunk : int
+        Samples per batched solve.
+
+    Returns
+    -------
+    ndarray of shape (B, K), float64
+        The normal equations ``(A^T M A) c = A^T M t``, solved in batches.
+    """
+    basis = np.asarray(basis, dtype=np.float64)
+    target = np.asarray(target, dtype=np.float64)
+    mask = np.asarray(mask, dtype=np.float64)
+    out = np.empty((target.shape[0], basis.shape[1]))
+    for i in range(0, target.shape[0], chunk):
+        m = mask[i:i + chunk]
+        weighted = m[:, :, None] * basis[None]                      # (b, N, K)
+        gram = np.swapaxes(weighted, 1, 2) @ basis                  # (b, K, K)
+        rhs = np.einsum("bnk,bn->bk", weighted, target[i:i + chunk])
+        out[i:i + chunk] = np.linalg.solve(gram, rhs[:, :, None])[:, :, 0]
+    return out
+
+
+def basis_study(decoder, fields, samples_per_field: int = 2048, *, seed: int = 0,
+                fixed_modes=FIXED_MODES) -> dict:
+    """Is the decoder's output basis what limits it? The best fields its modes can express,
+    against the fields it predicts, and which modes it misses.
+
+    The d4-film predicts ``W_robot + U (basis a + bias)`` in the canonical frame
+    (:class:`windnav.predict.decoder.D4FilmArchitecture`). For every sample the **basis
+    oracle** takes the coefficients that fit the label best (least squares over the free cells,
+    :func:`masked_least_squares`, both components, in units of ``U``) and is scored with the
+    project's metrics beside the decoder and both baselines. Then, in an orthonormal basis of
+    the modes' span ordered by the oracle coefficients' variance (the labels' eigenflows within
+    the span), each direction's share of that variance, its share of the decoder's squared
+    coefficient error, and the decoder's ``R^2 = 1 - error / variance`` on it. Last, the
+    decoder is scored with its coefficients on the first ``k`` of those directions replaced by
+    the oracle's: what predicting the largest eigenflows right would be worth.
+
+    Parameters
+    ----------
+    decoder : Decoder
+        A single-model ``d4-film``.
+    fields : sequence of MeanField
+    samples_per_field : int
+    seed : int
+    fixed_modes : sequence of int
+        The ``k`` (>= 1) of the last part.
+
+    Returns
+    -------
+    dict
+        ``errors``: ``{"decoder", "basis_oracle", "local", "upstream"}`` ->
+        :func:`windnav.predict.field_errors` plus ``squared_error`` (the mean of ``|u_hat -
+        u|^2`` over free cells, m^2/s^2: what the oracle minimises); ``modes``:
+        ``variance_share``, ``error_share``, ``r2`` (one per direction, largest variance first);
+        ``r2_total``; ``fixed_modes``: ``{k: errors}`` of the decoder with its first ``k``
+        directions fixed; ``eigenflow_fields`` ``(4, 2, H, H)``: the first four directions as
+        unit fields in the canonical frame (the inlet wind toward [0, 45] deg), indexed
+        ``[.., iy, ix]``; ``n_modes``; ``n_samples``.
+    """
+    from windnav.predict import field_errors
+    from windnav.predict.baselines import with_baselines
+
+    where = "basis_study"
+    fixed_modes = [positive_int(k, "fixed_modes", where) for k in fixed_modes]
+    if decoder.architecture != "d4-film" or decoder.hyperparameters.get("members", 1) != 1:
+        raise ValueError(f"The 'decoder' parameter of {where} must be a single-model d4-film "
+                         f"(it has an output basis). Got {decoder.architecture!r} with "
+                         f"{decoder.hyperparameters.get('members', 1)} member(s) instead.")
+    batch = _draw(fields, samples_per_field, _seed(seed, where), decoder.size,
+                  decoder.spacing, where)
+    arch, w = decoder.arch, decoder.weights
+    b = batch.scans.shape[0]
+    f = arch.features(*(np.asarray(a, dtype=np.float32)
+                        for a in (batch.scans, batch.w_up, batch.w_robot)))
+    labels_c, free_c = arch.model_labels(batch.labels.reshape(b, 2, -1),
+                                         batch.free.reshape(b, -1), f)
+    scale = f["scale"].astype(np.float64)
+    bias = w["basis.bias"].astype(np.float64)
+    target = ((labels_c - f["w_robot"][:, :, None]) / scale[:, None, None]).reshape(b, -1) - bias
+    q, r = np.linalg.qr(w["basis.weight"].astype(np.float64))      # basis = q r
+    mask = np.concatenate([free_c, free_c], axis=1)
+    c_oracle = masked_least_squares(q, target, mask)
+    c_decoder = arch.coefficients(decoder.prepared, f).astype(np.float64) @ r.T
+
+    def world(c):  # coefficients (in q's coordinates) -> world-frame fields (B, 2, H, H)
+        field_c = ((c @ q.T + bias).reshape(b, 2, -1) * scale[:, None, None]
+                   + f["w_robot"][:, :, None])
+        return arch.world_frame(field_c.astype(np.float32), f)
+
+    free = batch.free.astype(bool)
+
+    def scored(p):
+        return {**field_errors(p, batch.labels, batch.free, batch.inlet_speed),
+                "squared_error": float(np.sum((p.astype(np.float64) - batch.labels) ** 2,
+                                              axis=1)[free].mean())}
+
+    preds = {"decoder": decoder.predict(batch.scans, batch.w_up, batch.w_robot),
+             "basis_oracle": world(c_oracle)}
+    for name, model in with_baselines({}, decoder.size, decoder.spacing).items():
+        preds[name] = model.predict(batch.scans, batch.w_up, batch.w_robot)
+    errors = {name: scored(p) for name, p in preds.items()}
+    centred = c_oracle - c_oracle.mean(axis=0)
+    variance, axes = np.linalg.eigh(centred.T @ centred / b)
+    order = np.argsort(variance)[::-1]
+    variance, axes = variance[order], axes[:, order]
+    error = np.mean(((c_decoder - c_oracle) @ axes) ** 2, axis=0)
+    # the decoder with its first k eigenflows' coefficients replaced by the oracle's
+    fixed = {}
+    for k in sorted({min(k, q.shape[1]) for k in fixed_modes}):
+        a = axes[:, :k]
+        fixed[k] = scored(world(c_decoder + (c_oracle - c_decoder) @ a @ a.T))
+    return {"errors": errors,
+            "modes": {"variance_share": variance / variance.sum(),
+                      "error_share": error / error.sum(),
+                      "r2": 1.0 - error / variance},
+            "r2_total": float(1.0 - error.sum() / variance.sum()),
+            "fixed_modes": fixed,
+            "eigenflow_fields": (q @ axes[:, :N_EIGENFLOW_FIELDS]).T.reshape(
+                -1, 2, decoder.size, decoder.size),
+            "n_modes": int(q.shape[1]), "n_samples": int(b)}
 
 
 # ------------------------------------------------------------------ noise on W_robot

@@ -302,6 +302,100 @@ def plot_direction(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
+    """The basis oracle beside the decoder and the baselines (speed and direction errors),
+    and the decoder's ``R^2`` on each of the labels' eigenflows within its modes' span.
+
+    Parameters
+    ----------
+    result : dict
+        :func:`windnav.experiments.decoder_studies.basis_study`'s result.
+    path : str or path-like
+        The PNG to write.
+    n_show : int
+        Eigenflows shown, largest first.
+    """
+    from windnav.experiments.decoder_eval import ACCEPTANCE
+
+    errors, modes = result["errors"], result["modes"]
+    names = ["upstream", "local", "decoder", "basis_oracle"]
+    colours = ["C2", "C1", "C0", "C3"]
+    eig = result.get("eigenflow_fields")
+    rows = 1 if eig is None else 2
+    fig = plt.figure(figsize=(19, 4.6 * rows))
+    grid = fig.add_gridspec(rows, 4, width_ratios=[1, 1, 2, 1.4])
+    axes = [fig.add_subplot(grid[0, i]) for i in range(4)]
+    for ax, metric, label in ((axes[0], "speed_error", "speed error (m/s)"),
+                              (axes[1], "direction_error_deg", "direction error (deg)")):
+        values = [errors[n][metric] for n in names]
+        ax.bar(names, values, color=colours)
+        for i, v in enumerate(values):
+            ax.annotate(f"{v:.2f}", (i, v), xytext=(0, 2), textcoords="offset points",
+                        ha="center", fontsize=8)
+        ax.axhline(ACCEPTANCE[metric], color="k", ls="--", lw=1,
+                   label=f"issue 9's target {ACCEPTANCE[metric]:g}")
+        ax.legend(fontsize=8)
+        ax.set_ylabel(label)
+        ax.tick_params(axis="x", labelsize=8, rotation=20)
+    k = min(n_show, len(modes["r2"]))
+    x = np.arange(1, k + 1)
+    ax = axes[2]
+    ax.bar(x - 0.2, 100 * np.asarray(modes["variance_share"][:k]), 0.4, color="C7",
+           label="share of the labels' variance")
+    ax.bar(x + 0.2, 100 * np.asarray(modes["error_share"][:k]), 0.4, color="C0",
+           label="share of the decoder's squared error")
+    ax.set_xlabel("eigenflow of the labels within the decoder's modes (largest first)")
+    ax.set_ylabel("%")
+    right = ax.twinx()
+    right.plot(x, modes["r2"][:k], "k.-", label="decoder R^2 on it")
+    right.set_ylim(-0.5, 1.0)
+    right.axhline(0.0, color="k", lw=0.5)
+    right.set_ylabel("R^2")
+    handles = ax.get_legend_handles_labels()
+    extra = right.get_legend_handles_labels()
+    ax.legend(handles[0] + extra[0], handles[1] + extra[1], fontsize=8, loc="center right")
+    # the decoder with its first k eigenflows right: 0 is the decoder, all of them the oracle
+    fixed = {int(n): e for n, e in result.get("fixed_modes", {}).items()}
+    ks = [0, *sorted(fixed), result["n_modes"]]
+    rows = [errors["decoder"], *(fixed[n] for n in sorted(fixed)), errors["basis_oracle"]]
+    ax = axes[3]
+    ax.plot(ks, [e["speed_error"] for e in rows], "o-", color="C0", label="speed error (m/s)")
+    ax.axhline(ACCEPTANCE["speed_error"], color="C0", ls="--", lw=1)
+    ax.set_xscale("symlog", linthresh=1)
+    ax.set_xlabel("leading eigenflows given the oracle's coefficients")
+    ax.set_ylabel("speed error (m/s)", color="C0")
+    right = ax.twinx()
+    right.plot(ks, [e["direction_error_deg"] for e in rows], "s-", color="C3",
+               label="direction error (deg)")
+    right.axhline(ACCEPTANCE["direction_error_deg"], color="C3", ls="--", lw=1)
+    right.set_ylabel("direction error (deg)", color="C3")
+    ax.set_ylim(bottom=0)
+    right.set_ylim(bottom=0)
+    ax.set_title("the decoder with its largest eigenflows right\n(dashed: issue 9's targets)",
+                 fontsize=9)
+    if eig is not None:
+        eig = np.asarray(eig, dtype=float)
+        h = eig.shape[-1]
+        ext = (h - 1) / 2
+        c = np.linspace(-ext, ext, h)
+        sub = grid[1, :].subgridspec(1, eig.shape[0])
+        step = max(1, h // 8)
+        for i, f in enumerate(eig):
+            ax = fig.add_subplot(sub[0, i])
+            ax.imshow(np.hypot(*f), origin="lower", extent=(-ext, ext, -ext, ext),
+                      cmap="viridis")
+            ax.quiver(c[::step], c[::step], f[0][::step, ::step], f[1][::step, ::step])
+            ax.plot(0, 0, "r+")
+            ax.set_title(f"eigenflow {i + 1}: {100 * modes['variance_share'][i]:.0f} % of the "
+                         f"variance, decoder R^2 {modes['r2'][i]:.2f}", fontsize=9)
+            ax.set_xlabel("m from the robot (canonical frame: the inlet toward +x to 45 deg)",
+                          fontsize=8)
+    fig.suptitle(f"The decoder's {result['n_modes']} output modes: the best fit of each label "
+                 f"(basis oracle) against the prediction; R^2 over all {result['n_modes']}: "
+                 f"{result['r2_total']:.2f}; {result['n_samples']:,} samples", fontsize=10)
+    return _save(fig, path)
+
+
 def plot_mosaic(result: dict, path) -> Path:
     """Truth, mosaic prediction, speed error and direction error over a whole map.
 
