@@ -707,6 +707,9 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"model": {"hyperparameters": {"members": 2}}}, "model.hyperparameters.members"),
     ({"model": {"architecture": "thesis-mlp"}, "train": {"members": 2}}, "train.members"),
     ({"sweep": {"maps": [{"name": "a", "kind": "forest"}]}}, "sweep.maps"),
+    ({"sweep": {"maps": [{"name": "mine", "kind": "file"}]}}, r"sweep.maps\[0\]"),
+    ({"sweep": {"maps": [{"name": "mine", "kind": "file", "path": "c.json", "count": 2}]}},
+     r"sweep.maps\[0\].*kind \"file\""),
     ({"train": {"teacher_weight": 1.5, "teacher": "t.npz"}}, "train.teacher_weight"),
     ({"train": {"teacher_weight": 0.5}}, "train.teacher"),
     ({"train": {"teacher": "t.npz"}}, "train.teacher"),
@@ -794,6 +797,26 @@ def test_default_recipe_has_windinet_like_clusters():
     for _, city in extra[:6]:   # single blocks, as many as windinet's
         assert len(city.footprints) == 52
     assert len(maps) == 69
+
+
+def test_a_file_map_is_read_from_its_rotorpy_json(tmp_path):
+    from windnav.city import dense_map, read_rotorpy_json
+
+    city = dense_map(rng=3, size=150.0, lots_per_side=2)
+    path = city.to_rotorpy_json(tmp_path / "mine.json")
+    recipe = load_recipe({"sweep": {"maps": [
+        {"name": "mine", "kind": "file", "path": str(path)},
+        {"name": "holdout", "kind": "dense", "count": 1, "seed": 5, "size": 150.0,
+         "lots_per_side": 2}]}, "data": {"validation_maps": ["holdout-0"]}})
+    maps = recipe_maps(recipe)
+    assert [n for n, _, _ in maps] == ["mine-0", "holdout-0"]
+    name, source, got = maps[0]
+    np.testing.assert_array_equal(got.footprints, read_rotorpy_json(path).footprints)
+    np.testing.assert_array_equal(got.footprints, city.footprints)
+    assert str(path) in source
+    recipe["sweep"]["maps"][0]["path"] = str(tmp_path / "none.json")
+    with pytest.raises(FileNotFoundError):
+        recipe_maps(recipe)
 
 
 def test_a_recipe_starts_from_its_base(tmp_path):

@@ -75,7 +75,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "decoder-study",
         help="a study of the wind flow decoder (eigenflows, gradients, mosaic, winds, size, "
-             "averaging, start, scaling, noise, direction)",
+             "averaging, start, scaling, noise, direction, basis)",
         description=__doc__.splitlines()[0],
     )
     p.add_argument("study", choices=STUDIES, help="which study")

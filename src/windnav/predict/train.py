@@ -147,7 +147,7 @@ DEFAULTS = {
 }
 """Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
 
-MAP_KINDS = ("training", "dense", "planning")
+MAP_KINDS = ("training", "dense", "planning", "file")
 
 
 # ---------------------------------------------------------------------------- recipes
@@ -335,6 +335,11 @@ def _check_recipe(r: dict, where: str) -> None:
             fail(f"sweep.maps[{i}].kind", f"one of {MAP_KINDS}", group)
         if "name" not in group:
             fail(f"sweep.maps[{i}].name", "a name (the map names are '<name>-<i>')", group)
+        if group["kind"] == "file" and (
+                not isinstance(group.get("path"), str) or not group["path"]
+                or set(group) - {"name", "kind", "path"}):
+            fail(f"sweep.maps[{i}]", "for kind \"file\", a name and the path of one RotorPy "
+                 "world JSON file (no count, seed or generator arguments)", group)
 
 
 def recipe_maps(recipe: dict) -> list[tuple]:
@@ -344,12 +349,20 @@ def recipe_maps(recipe: dict) -> list[tuple]:
     ``training``, ``dense``, ``planning``), ``count``, ``seed`` and keyword arguments of the
     generator (``size``, ``lots_per_side``, ...). Map ``i`` of a group is named
     ``"<name>-<i>"`` and drawn from child ``i`` of ``SeedSequence(seed).spawn(count)``.
+    A group of kind ``file`` has ``name`` and ``path``: one map, ``"<name>-0"``, read from that
+    RotorPy world JSON file (:func:`windnav.city.read_rotorpy_json`; a relative path from the
+    working folder), e.g. your own city's layout.
     """
     import windnav.city as city_pkg
 
     recipe = load_recipe(recipe)
     out = []
     for group in recipe["sweep"]["maps"]:
+        if group["kind"] == "file":
+            path = group["path"]
+            out.append((f"{group['name']}-0", f"windnav.city.read_rotorpy_json({path!r})",
+                        city_pkg.read_rotorpy_json(path)))
+            continue
         kw = {k: v for k, v in group.items() if k not in ("name", "kind", "count", "seed")}
         count, seed = int(group.get("count", 1)), int(group.get("seed", 0))
         make = getattr(city_pkg, f"{group['kind']}_map")
