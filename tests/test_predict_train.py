@@ -671,15 +671,44 @@ def test_moving_average_is_the_model_kept_and_resumes(tiny, tmp_path):
         np.testing.assert_array_equal(kept.weights[k], b.weights[k])
 
 
+def test_keep_last_ships_the_last_epoch_and_trains_the_same(tiny, tmp_path, monkeypatch):
+    """``train.keep = "last"`` trains exactly as the default (every epoch's validation to the
+    bit) and keeps the last epoch's weights, whatever epoch validated best."""
+    import windnav.predict.train as train_mod
+
+    recipe, out, plain = tiny
+    last = copy.deepcopy(recipe)
+    last["train"]["keep"] = "last"
+    scores = iter([1.0, 0.5, 0.9, 0.8, 0.7, 0.6])  # the second epoch validates best
+    monkeypatch.setattr(train_mod, "_score", lambda metrics, local: next(scores))
+    h = train_decoder(last, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None)
+    assert [e["val"] for e in h["epochs"]] == [e["val"] for e in plain["epochs"]]
+    assert h["best_epoch"] == 2 < len(h["epochs"])
+    kept = load_decoder(h["model"])
+    n = len(h["epochs"])
+    assert kept.metadata["metrics"]["epoch"] == n
+    assert kept.metadata["metrics"]["validation"] == h["epochs"][-1]["val"]
+    assert kept.metadata["training"]["kept"] == "last"
+    assert load_decoder(plain["model"]).metadata["training"]["kept"] == "best"
+    # the last epoch's weights: those of the checkpoint the run ends with
+    import torch
+
+    state = torch.load(tmp_path / "checkpoint.pt", weights_only=False)["model"]
+    for k, v in kept.weights.items():
+        np.testing.assert_array_equal(v, state[k].numpy())
+
+
 def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     recipe = load_recipe({"data": {"validation_maps": ["holdout-0"]}})
     older = copy.deepcopy(recipe)
     for key in ("vector_loss", "speed_loss_weight", "direction_loss", "members", "teacher",
-                "teacher_weight", "ema_decay"):
+                "teacher_weight", "ema_decay", "keep"):
         del older["train"][key]
     assert _fingerprint(older) == _fingerprint(recipe)
     for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0),
-                       ("direction_loss", "angle"), ("members", 2), ("ema_decay", 0.999)):
+                       ("direction_loss", "angle"), ("members", 2), ("ema_decay", 0.999),
+                       ("keep", "last")):
         changed = copy.deepcopy(recipe)
         changed["train"][key] = value
         assert _fingerprint(changed) != _fingerprint(recipe)
@@ -716,6 +745,7 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"train": {"ema_decay": 1.0}}, "train.ema_decay"),
     ({"train": {"ema_decay": -0.1}}, "train.ema_decay"),
     ({"train": {"ema_decay": True}}, "train.ema_decay"),
+    ({"train": {"keep": "first"}}, "train.keep"),
 ])
 def test_bad_recipes_are_refused(change, match):
     base = {"data": {"validation_maps": ["holdout-0"]}}

@@ -142,6 +142,10 @@ def run(args, simulate=None) -> int:
     if "members" in history:
         chosen = "members' best epochs " + ", ".join(
             f"{m['best_epoch']}/{recipe['train']['epochs']}" for m in history["members"])
+    elif recipe["train"]["keep"] == "last":
+        best = history["epochs"][-1]["val"]
+        chosen = (f"last epoch {len(history['epochs'])} (train.keep), best validation epoch "
+                  f"{history['best_epoch']}")
     else:
         chosen = f"best epoch {history['best_epoch']}/{len(history['epochs'])}"
     print(f"model: {out_dir / 'model.npz'} ({recipe['model']['architecture']}, "

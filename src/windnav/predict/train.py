@@ -143,6 +143,7 @@ DEFAULTS = {
         "teacher": "",
         "teacher_weight": 0.0,
         "ema_decay": 0.0,
+        "keep": "best",
     },
 }
 """Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
@@ -288,6 +289,9 @@ def _check_recipe(r: dict, where: str) -> None:
              "(|pred - label| / U)", t["vector_loss"])
     if t["optimizer"] not in ("adam", "adamw"):
         fail("train.optimizer", "'adam' or 'adamw'", t["optimizer"])
+    if t["keep"] not in ("best", "last"):
+        fail("train.keep", "'best' (the epoch with the best validation score) or 'last' (the "
+             "last epoch's weights)", t["keep"])
     sp = t["augment_speed"]
     if not isinstance(sp, list) or (sp and (len(sp) != 2 or not all(
             isinstance(v, (int, float)) and v > 0 for v in sp) or sp[0] > sp[1])):
@@ -391,7 +395,7 @@ def _fingerprint(recipe: dict) -> str:
     # the loss keys added on 2026-11-30 likewise, at their defaults
     added = {k: DEFAULTS["train"][k] for k in ("vector_loss", "speed_loss_weight",
                                               "direction_loss", "members", "teacher",
-                                              "teacher_weight", "ema_decay")}
+                                              "teacher_weight", "ema_decay", "keep")}
     train = {k: v for k, v in recipe["train"].items()
              if k not in ("threads", "flush_denormal", "device", "tensorboard",
                           "eval_batch_size") and not (k in added and v == added[k])}
@@ -1163,8 +1167,10 @@ class _Run:
         if raw_metrics is not None:
             record["val_raw"] = raw_metrics
         h["epochs"].append(record)
-        if h["best_score"] is None or score < h["best_score"]:
+        best = h["best_score"] is None or score < h["best_score"]
+        if best:
             h.update(best_epoch=e + 1, best_val=metrics, best_score=score)
+        if best or tr["keep"] == "last":
             save_decoder(decoder.weights, {**decoder.metadata, "metrics": {
                 "validation": metrics, "validation_baselines": h["baselines"],
                 "epoch": e + 1}}, self.model_path)
@@ -1203,6 +1209,7 @@ class _Run:
         save_decoder(best.weights, {**best.metadata, "metrics": {
             **best.metadata["metrics"], "training_subset": h["train_metrics"]},
             "training": {"epochs": tr["epochs"], "best_epoch": h["best_epoch"],
+                         "kept": tr["keep"],
                          "seconds": sum(r["seconds"] for r in h["epochs"]),
                          "device": h["device"], "threads": tr["threads"],
                          "flush_denormal": h.get("flush_denormal"),
