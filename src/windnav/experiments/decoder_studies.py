@@ -475,7 +475,7 @@ def basis_study(decoder, fields, samples_per_field: int = 2048, *, seed: int = 0
         ``r2_total``; ``fixed_modes``: ``{k: errors}`` of the decoder with its first ``k``
         directions fixed; ``eigenflow_fields`` ``(4, 2, H, H)``: the first four directions as
         unit fields in the canonical frame (the inlet wind toward [0, 45] deg), indexed
-        ``[.., iy, ix]``; ``n_modes``; ``n_samples``.
+        ``[.., iy, ix]`` at ``offsets`` (m, the decoder's); ``n_modes``; ``n_samples``.
     """
     from windnav.predict import field_errors
     from windnav.predict.baselines import with_baselines
@@ -537,6 +537,7 @@ def basis_study(decoder, fields, samples_per_field: int = 2048, *, seed: int = 0
             "fixed_modes": fixed,
             "eigenflow_fields": (q @ axes[:, :N_EIGENFLOW_FIELDS]).T.reshape(
                 -1, 2, decoder.size, decoder.size),
+            "offsets": decoder.offsets,
             "n_modes": int(q.shape[1]), "n_samples": int(b)}
 
 

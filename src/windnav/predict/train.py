@@ -794,7 +794,8 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
         The history, as in ``history.json``: ``epochs`` (one record per epoch: ``train_loss``,
         ``val`` metrics, ``score``, ``lr``, ``seconds``), ``baselines`` (the validation metrics
         of the Local and Upstream baselines), ``best_epoch``, ``best_val``, ``train_metrics``
-        (the best model on training samples, with the baselines'), ``model`` (path),
+        (the kept model, best or last per ``train.keep``, on training samples, with the
+        baselines'), ``model`` (path),
         ``n_parameters`` and the ``recipe``.
 
     Raises
@@ -1199,8 +1200,8 @@ class _Run:
         _atomic_json(self.history, self.hist_path)
 
     def finish(self) -> None:
-        """The best model on training samples (with the baselines), into its file, the
-        history and the checkpoint (which then marks the run finished)."""
+        """The kept model (``train.keep``) on training samples (with the baselines), into its
+        file, the history and the checkpoint (which then marks the run finished)."""
         h, tr = self.history, self.tr
         best = load_decoder(self.model_path)
         subset = self.train_subset()

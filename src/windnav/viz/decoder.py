@@ -357,15 +357,16 @@ def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
     # the decoder with its first k eigenflows right: 0 is the decoder, all of them the oracle
     fixed = {int(n): e for n, e in result.get("fixed_modes", {}).items()}
     ks = [0, *sorted(fixed), result["n_modes"]]
-    rows = [errors["decoder"], *(fixed[n] for n in sorted(fixed)), errors["basis_oracle"]]
+    series = [errors["decoder"], *(fixed[n] for n in sorted(fixed)), errors["basis_oracle"]]
     ax = axes[3]
-    ax.plot(ks, [e["speed_error"] for e in rows], "o-", color="C0", label="speed error (m/s)")
+    ax.plot(ks, [e["speed_error"] for e in series], "o-", color="C0",
+            label="speed error (m/s)")
     ax.axhline(ACCEPTANCE["speed_error"], color="C0", ls="--", lw=1)
     ax.set_xscale("symlog", linthresh=1)
     ax.set_xlabel("leading eigenflows given the oracle's coefficients")
     ax.set_ylabel("speed error (m/s)", color="C0")
     right = ax.twinx()
-    right.plot(ks, [e["direction_error_deg"] for e in rows], "s-", color="C3",
+    right.plot(ks, [e["direction_error_deg"] for e in series], "s-", color="C3",
                label="direction error (deg)")
     right.axhline(ACCEPTANCE["direction_error_deg"], color="C3", ls="--", lw=1)
     right.set_ylabel("direction error (deg)", color="C3")
@@ -375,15 +376,14 @@ def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
                  fontsize=9)
     if eig is not None:
         eig = np.asarray(eig, dtype=float)
-        h = eig.shape[-1]
-        ext = (h - 1) / 2
-        c = np.linspace(-ext, ext, h)
+        c = np.asarray(result["offsets"], dtype=float)
+        half = (c[1] - c[0]) / 2 if c.size > 1 else 0.5
+        ext = (c[0] - half, c[-1] + half, c[0] - half, c[-1] + half)
         sub = grid[1, :].subgridspec(1, eig.shape[0])
-        step = max(1, h // 8)
+        step = max(1, c.size // 8)
         for i, f in enumerate(eig):
             ax = fig.add_subplot(sub[0, i])
-            ax.imshow(np.hypot(*f), origin="lower", extent=(-ext, ext, -ext, ext),
-                      cmap="viridis")
+            ax.imshow(np.hypot(*f), origin="lower", extent=ext, cmap="viridis")
             ax.quiver(c[::step], c[::step], f[0][::step, ::step], f[1][::step, ::step])
             ax.plot(0, 0, "r+")
             ax.set_title(f"eigenflow {i + 1}: {100 * modes['variance_share'][i]:.0f} % of the "
