@@ -489,11 +489,12 @@ def test_norm_and_speed_loss_terms_are_the_metrics_own_forms(fused):
     assert torch.isfinite(zero.grad).all()
 
 
-@pytest.mark.parametrize(("power", "vector", "speed_weight", "direction_weight"),
-                         [(1.0, "norm", 1.0, 1.0), (2.0, "squared", 0.0, 0.5),
-                          (0.0, "squared", 1.5, 0.0), (1.0, "norm", 0.0, 2.0)])
+@pytest.mark.parametrize(("power", "vector", "speed_weight", "direction_weight", "fade"),
+                         [(1.0, "norm", 1.0, 1.0, 0.1), (2.0, "squared", 0.0, 0.5, 0.1),
+                          (0.0, "squared", 1.5, 0.0, 0.1), (1.0, "norm", 0.0, 2.0, 0.1),
+                          (1.0, "norm", 1.0, 1.0, 0.0), (1.0, "norm", 0.0, 2.0, 0.3)])
 def test_fused_loss_gives_the_torch_formulas_value_and_gradient(power, vector, speed_weight,
-                                                                  direction_weight):
+                                                                  direction_weight, fade):
     """The compiled loss (the default on the CPU) against the torch formula it replaces, on a
     batch with building cells, zero labels, slow cells and inlets below the 0.1 m/s floor."""
     import torch
@@ -506,7 +507,7 @@ def test_fused_loss_gives_the_torch_formulas_value_and_gradient(power, vector, s
     pred[0, :, 0] = 0.0  # a zero prediction on a zero label
     free = torch.tensor(rng.random((64, 49)) > 0.25, dtype=torch.float32)
     speed = torch.tensor(rng.uniform(0.02, 12.0, 64), dtype=torch.float32)
-    terms = (power, direction_weight, vector, speed_weight)
+    terms = (power, direction_weight, vector, speed_weight, "cosine", fade)
     grads, values = [], []
     for fused in (True, False):
         p = pred.clone().requires_grad_(True)
@@ -582,6 +583,29 @@ def test_angle_direction_loss_is_the_direction_errors_own_form():
     q = label.clone().requires_grad_(True)
     train_loss(q, label, free, speed, 1.0, 1.0, "norm", 0.0, "angle").backward()
     assert torch.isfinite(q.grad).all()
+
+
+def test_direction_fade_zero_counts_every_free_cell_as_the_metric_does():
+    """``train.direction_fade = 0``: the direction term weighs slow cells fully, as the
+    direction-error metric counts them; at the default 0.1 cells slower than 0.1 U weigh
+    less. Checked on the ``1 - cos`` term (fused and torch) against NumPy."""
+    import torch
+
+    rng = np.random.default_rng(5)
+    label = rng.normal(0, 2, (2, 2, 9)) + 1.0
+    pred = rng.normal(0, 2, (2, 2, 9)) + 1.0
+    free = rng.random((2, 9)) > 0.3
+    speed = torch.tensor([60.0, 60.0])  # 0.1 U = 6 m/s: every cell here is "slow"
+    # the cosine as the loss softens it: |p| |l| + 1e-6 U^2
+    norms = np.linalg.norm(pred, axis=1) * np.linalg.norm(label, axis=1) + 1e-6 * 60.0 ** 2
+    want = 0.7 * (1.0 - (pred * label).sum(1) / norms)[free].mean()
+    t = [torch.tensor(a, dtype=torch.float32) for a in (pred, label, free)]
+    vec = float(train_loss(*t, speed, 1.0, 0.0, "norm"))
+    for fused in (True, False):
+        full = float(train_loss(*t, speed, 1.0, 0.7, "norm", 0.0, "cosine", 0.0, fused=fused))
+        faded = float(train_loss(*t, speed, 1.0, 0.7, "norm", 0.0, "cosine", fused=fused))
+        assert full - vec == pytest.approx(want, rel=1e-4)
+        assert faded - vec < 0.6 * (full - vec)
 
 
 def test_a_teacher_pulls_the_student_towards_its_field(tiny, tmp_path):
@@ -703,12 +727,12 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     recipe = load_recipe({"data": {"validation_maps": ["holdout-0"]}})
     older = copy.deepcopy(recipe)
     for key in ("vector_loss", "speed_loss_weight", "direction_loss", "members", "teacher",
-                "teacher_weight", "ema_decay", "keep"):
+                "teacher_weight", "ema_decay", "keep", "direction_fade"):
         del older["train"][key]
     assert _fingerprint(older) == _fingerprint(recipe)
     for key, value in (("vector_loss", "norm"), ("speed_loss_weight", 1.0),
                        ("direction_loss", "angle"), ("members", 2), ("ema_decay", 0.999),
-                       ("keep", "last")):
+                       ("keep", "last"), ("direction_fade", 0.0)):
         changed = copy.deepcopy(recipe)
         changed["train"][key] = value
         assert _fingerprint(changed) != _fingerprint(recipe)

@@ -32,7 +32,7 @@ def free_count(free):  # pragma: no cover - numba
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def loss_rows(pred, labels, free, speed, power, norm, speed_weight, direction_weight, inv_n,
-              grad, b0, b1):  # pragma: no cover - numba
+              grad, b0, b1, fade=0.1):  # pragma: no cover - numba
     """Samples ``b0:b1`` of :func:`loss_and_grad`: their gradient into ``grad`` and their
     share of the loss, given ``inv_n``, the inverse count of all free cells (float32)."""
     M = pred.shape[2]
@@ -50,7 +50,8 @@ def loss_rows(pred, labels, free, speed, power, norm, speed_weight, direction_we
         w_speed = np.float32(speed_weight * by_speed / u)
         w_dir = np.float32(direction_weight)
         eps = np.float32(1e-6 * u * u)
-        inv_slow = np.float32(1.0 / (0.1 * u))
+        # the direction term's weight min(1, |label| / (fade U)); fade 0: 1 wherever |label| > 0
+        inv_slow = np.float32(1.0 / (fade * u)) if fade > 0.0 else np.float32(3.0e38)
         p0s, p1s, l0s, l1s = pred[b, 0], pred[b, 1], labels[b, 0], labels[b, 1]
         g0s, g1s, fs = grad[b, 0], grad[b, 1], free[b]
         for m in range(M):
@@ -92,11 +93,13 @@ def loss_rows(pred, labels, free, speed, power, norm, speed_weight, direction_we
 
 
 def loss_and_grad(pred, labels, free, speed, power, norm, speed_weight, direction_weight,
-                  grad):
+                  grad, fade=0.1):
     """The loss of ``pred`` (B, 2, M) against ``labels`` (B, 2, M) over the cells where
     ``free`` (B, M) is 1, inlet speeds ``speed`` (B,) m/s, all float32; its gradient with
     respect to ``pred`` into ``grad`` (B, 2, M). ``norm``: the vector term is ``|pred - label|
-    / U`` (softened by ``1e-3 U``), else ``|pred - label|^2 / U^2``. Returns the loss.
+    / U`` (softened by ``1e-3 U``), else ``|pred - label|^2 / U^2``; the direction term fades
+    out in cells slower than ``fade`` U (weight ``min(1, |label| / (fade U))``; 0: no fade).
+    Returns the loss.
 
     Float32 arithmetic without branches in the loop over cells (every term is computed, a
     weight of 0 drops it), so that the loop vectorises; the sum over cells is float64.
@@ -109,7 +112,7 @@ def loss_and_grad(pred, labels, free, speed, power, norm, speed_weight, directio
     """
     inv_n = np.float32(1.0 / max(free_count(free), 1))
     return loss_rows(pred, labels, free, speed, float(power), bool(norm), float(speed_weight),
-                     float(direction_weight), inv_n, grad, 0, pred.shape[0])
+                     float(direction_weight), inv_n, grad, 0, pred.shape[0], float(fade))
 
 
 @functools.cache
@@ -120,11 +123,13 @@ def _loss_function():
 
     class FusedLoss(torch.autograd.Function):
         @staticmethod
-        def forward(ctx, p, labels, free, speed, power, norm, speed_weight, direction_weight):
+        def forward(ctx, p, labels, free, speed, power, norm, speed_weight, direction_weight,
+                    fade):
             arrays = [np.ascontiguousarray(t.detach().numpy(), dtype=np.float32)
                       for t in (p, labels, free, speed)]
             grad = np.empty_like(arrays[0])
-            value = loss_and_grad(*arrays, power, norm, speed_weight, direction_weight, grad)
+            value = loss_and_grad(*arrays, power, norm, speed_weight, direction_weight, grad,
+                                  fade)
             ctx.save_for_backward(torch.from_numpy(grad))
             return p.new_tensor(value)
 
@@ -134,15 +139,15 @@ def _loss_function():
             # a plain loss's backward starts from g = 1: the gradient itself, not a pass
             # over the field that multiplies it by 1 (the same bits)
             if g.numel() == 1 and float(g) == 1.0:
-                return grad, None, None, None, None, None, None, None
-            return grad * g, None, None, None, None, None, None, None
+                return grad, None, None, None, None, None, None, None, None
+            return grad * g, None, None, None, None, None, None, None, None
 
     return FusedLoss
 
 
 def fused_loss(pred, labels, free, speed, power: float, direction_weight: float,
-               vector: str = "squared", speed_weight: float = 0.0):
+               vector: str = "squared", speed_weight: float = 0.0, fade: float = 0.1):
     """The loss of :func:`windnav.predict.train._loss` with ``direction = "cosine"``, as a
     torch scalar whose backward is the gradient computed with it (CPU tensors, float32)."""
     return _loss_function().apply(pred, labels, free, speed, float(power), vector == "norm",
-                                  float(speed_weight), float(direction_weight))
+                                  float(speed_weight), float(direction_weight), float(fade))

@@ -21,7 +21,8 @@ schedule. :func:`train_decoder` then
   (``train.loss_speed_power`` p: 0 weighs every inlet speed alike, 2 is the plain MSE in units
   of 10 m/s, the thesis's), plus ``train.direction_loss_weight`` times the mean of
   ``1 - cos(pred, label)`` (the direction error weighs slow cells as much as fast ones, the
-  MSE does not), with Adam or AdamW, weight decay (the thesis's
+  MSE does not; faded out in cells slower than ``train.direction_fade`` U, 0.1 by default),
+  with Adam or AdamW, weight decay (the thesis's
   ``lambda / 2 |theta|^2``, lambda = 0.002, is Adam with ``weight_decay = 0.002``), a linear
   warm-up and a cosine decay per step;
 - after every epoch evaluates the NumPy decoder (the shipped inference path, not the torch
@@ -127,6 +128,7 @@ DEFAULTS = {
         "speed_loss_weight": 0.0,
         "direction_loss_weight": 0.0,
         "direction_loss": "cosine",
+        "direction_fade": 0.1,
         "augment_d4": False,
         "augment_speed": [],
         "pca_samples": 8192,
@@ -277,7 +279,7 @@ def _check_recipe(r: dict, where: str) -> None:
         if not isinstance(t[key], (int, float)) or not 0 < t[key] < math.inf:
             fail(f"train.{key}", "a positive number", t[key])
     for key in ("weight_decay", "warmup_fraction", "final_lr_fraction",
-                "direction_loss_weight", "speed_loss_weight"):
+                "direction_loss_weight", "speed_loss_weight", "direction_fade"):
         top = 1 if key in ("warmup_fraction", "final_lr_fraction") else math.inf
         if not isinstance(t[key], (int, float)) or not 0 <= t[key] <= top:
             fail(f"train.{key}", "a number >= 0 (a fraction <= 1)", t[key])
@@ -395,7 +397,8 @@ def _fingerprint(recipe: dict) -> str:
     # the loss keys added on 2026-11-30 likewise, at their defaults
     added = {k: DEFAULTS["train"][k] for k in ("vector_loss", "speed_loss_weight",
                                               "direction_loss", "members", "teacher",
-                                              "teacher_weight", "ema_decay", "keep")}
+                                              "teacher_weight", "ema_decay", "keep",
+                                              "direction_fade")}
     train = {k: v for k, v in recipe["train"].items()
              if k not in ("threads", "flush_denormal", "device", "tensorboard",
                           "eval_batch_size") and not (k in added and v == added[k])}
@@ -633,7 +636,7 @@ def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = Fals
 
 def _loss(pred, labels, free, speed, power: float, direction_weight: float,
           vector: str = "squared", speed_weight: float = 0.0, direction: str = "cosine",
-          fused: bool = True):
+          fade: float = 0.1, fused: bool = True):
     """The training loss, a mean over free cells of three terms:
 
     - the vector term, ``vector = "squared"``: ``(U / 10)^p |pred - label|^2 / U^2`` (the MSE);
@@ -646,8 +649,10 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
       ``atan2(|pred x label|, pred . label)``: its gradient does not vanish for small angles
       as that of ``1 - cos ~ angle^2 / 2`` does). Both are scale-invariant (their gradients
       never pull on the predicted speed); the cosine is softened only by ``1e-6 U^2`` against
-      0 / 0, the cross product by ``1e-3 U^2``; ``c = min(1, |label| / (0.1 U))`` fades out
-      cells whose true direction is barely defined.
+      0 / 0, the cross product by ``1e-3 U^2``; ``c = min(1, |label| / (fade U))`` fades out
+      cells whose true direction is barely defined (``fade`` = ``train.direction_fade``,
+      0.1 by default; 0: ``c = 1`` wherever the label is not 0, every free cell counted as
+      the direction-error metric counts it).
 
     The norms are softened by ``1e-3 U`` so that their gradients stay finite at 0.
 
@@ -660,7 +665,7 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
 
     if fused and direction == "cosine" and pred.device.type == "cpu":
         return fused_loss(pred, labels, free, speed, power, direction_weight, vector,
-                          speed_weight)
+                          speed_weight, fade)
     u = torch.clamp(speed, min=0.1)
     n_free = torch.clamp(free.sum(), min=1.0)
     by_speed = (u / SPEED_REF) ** power
@@ -677,7 +682,8 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
         loss = loss + speed_weight * (speed_err * free * (by_speed / u)[:, None]).sum() / n_free
     if direction_weight > 0:
         norm_l = torch.sqrt((labels ** 2).sum(dim=1))
-        c = torch.clamp(norm_l / (0.1 * u[:, None]), max=1.0)
+        c = torch.clamp(norm_l / (fade * u[:, None]), max=1.0) if fade > 0 \
+            else (norm_l > 0).to(norm_l.dtype)
         if direction == "cosine":
             norm_p = torch.sqrt((pred ** 2).sum(dim=1))
             cos = (pred * labels).sum(dim=1) / (norm_p * norm_l + 1e-6 * (u * u)[:, None])
@@ -1126,7 +1132,7 @@ class _Run:
         limit = threadpool_limits(limits=1, user_api="blas") if self.teacher is not None \
             else contextlib.nullcontext()
         terms = (tr["loss_speed_power"], tr["direction_loss_weight"], tr["vector_loss"],
-                 tr["speed_loss_weight"], tr["direction_loss"])
+                 tr["speed_loss_weight"], tr["direction_loss"], tr["direction_fade"])
         with limit:
             for batch, features in bar:
                 if tr["augment_speed"]:
