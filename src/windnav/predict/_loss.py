@@ -18,6 +18,7 @@ import numba
 import numpy as np
 
 SPEED_REF = 10.0  # m/s, the reference speed of the loss weight (U / SPEED_REF)^p
+DIRECTION_FADE = 0.1  # U: the direction term fades out below this speed (train.direction_fade)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -32,7 +33,7 @@ def free_count(free):  # pragma: no cover - numba
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
 def loss_rows(pred, labels, free, speed, power, norm, speed_weight, direction_weight, inv_n,
-              grad, b0, b1, fade=0.1):  # pragma: no cover - numba
+              grad, b0, b1, fade=DIRECTION_FADE):  # pragma: no cover - numba
     """Samples ``b0:b1`` of :func:`loss_and_grad`: their gradient into ``grad`` and their
     share of the loss, given ``inv_n``, the inverse count of all free cells (float32)."""
     M = pred.shape[2]
@@ -93,7 +94,7 @@ def loss_rows(pred, labels, free, speed, power, norm, speed_weight, direction_we
 
 
 def loss_and_grad(pred, labels, free, speed, power, norm, speed_weight, direction_weight,
-                  grad, fade=0.1):
+                  grad, fade=DIRECTION_FADE):
     """The loss of ``pred`` (B, 2, M) against ``labels`` (B, 2, M) over the cells where
     ``free`` (B, M) is 1, inlet speeds ``speed`` (B,) m/s, all float32; its gradient with
     respect to ``pred`` into ``grad`` (B, 2, M). ``norm``: the vector term is ``|pred - label|
@@ -146,7 +147,8 @@ def _loss_function():
 
 
 def fused_loss(pred, labels, free, speed, power: float, direction_weight: float,
-               vector: str = "squared", speed_weight: float = 0.0, fade: float = 0.1):
+               vector: str = "squared", speed_weight: float = 0.0,
+               fade: float = DIRECTION_FADE):
     """The loss of :func:`windnav.predict.train._loss` with ``direction = "cosine"``, as a
     torch scalar whose backward is the gradient computed with it (CPU tensors, float32)."""
     return _loss_function().apply(pred, labels, free, speed, float(power), vector == "norm",

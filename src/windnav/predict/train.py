@@ -66,7 +66,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav.predict._loss import SPEED_REF, fused_loss
+from windnav.predict._loss import DIRECTION_FADE, SPEED_REF, fused_loss
 from windnav.predict.baselines import LocalBaseline, UpstreamBaseline
 from windnav.predict.dataset import DecoderDataset, fields_from_store
 from windnav.predict.decoder import (
@@ -128,7 +128,7 @@ DEFAULTS = {
         "speed_loss_weight": 0.0,
         "direction_loss_weight": 0.0,
         "direction_loss": "cosine",
-        "direction_fade": 0.1,
+        "direction_fade": DIRECTION_FADE,
         "augment_d4": False,
         "augment_speed": [],
         "pca_samples": 8192,
@@ -636,7 +636,7 @@ def _tensor_batch(arch, batch, device, teacher=None, in_model_frame: bool = Fals
 
 def _loss(pred, labels, free, speed, power: float, direction_weight: float,
           vector: str = "squared", speed_weight: float = 0.0, direction: str = "cosine",
-          fade: float = 0.1, fused: bool = True):
+          fade: float = DIRECTION_FADE, fused: bool = True):
     """The training loss, a mean over free cells of three terms:
 
     - the vector term, ``vector = "squared"``: ``(U / 10)^p |pred - label|^2 / U^2`` (the MSE);
