@@ -262,6 +262,51 @@ def test_sampling_bounds_smoothing_and_seed(base):
     assert np.std(uni) == pytest.approx((cfg.a_max - cfg.a_min) / np.sqrt(12), rel=0.02)
 
 
+@pytest.mark.parametrize("shape", [(25, 1000), (187, 100), (9, 37), (3, 300)])
+def test_the_smoothing_is_the_float32_sum_over_taps_in_order_to_the_bit(base, shape):
+    """perturb_clip_smooth works in column blocks and four taps per pass; every element must
+    still be the float32 sum ``0 + w_0 x_0 + w_1 x_1 + ...`` taken in order, as NumPy adds it
+    (the committed flights depend on these bits)."""
+    from windnav.plan import _random
+    from windnav.plan.mppi import _smoothing_bands
+    k, s = shape
+    cfg = dataclasses.replace(base, n_samples=s, n_steps=k)
+    mean = np.random.default_rng(1).normal(0, 3, (k, 2))
+    taps, lo, hi = _smoothing_bands(k, cfg.sigma_gf)
+    seed = np.uint64(987654321)
+    out = np.empty((k, 2, s), np.float32)
+    clipped = np.empty_like(out)
+    _kernels.perturb_clip_smooth(seed, clipped, mean, cfg.sigma_u, cfg.a_min, cfg.a_max, taps,
+                                 lo, hi, out)
+    noise = np.empty_like(out)
+    _random.fill_normal(seed, noise, mean, cfg.sigma_u, cfg.a_min, cfg.a_max, _random.KN,
+                        _random.WN, _random.FN)
+    np.testing.assert_array_equal(clipped, noise)
+    flat = noise.reshape(k, 2 * s)
+    for i in range(k):
+        ref = np.zeros(2 * s, np.float32)
+        for t in range(hi[i] - lo[i]):
+            ref = ref + np.float32(taps[i, t]) * flat[lo[i] + t]
+        np.testing.assert_array_equal(out[i].reshape(-1).view(np.int32), ref.view(np.int32))
+
+
+def test_the_weighted_mean_sums_each_row_in_sample_order_to_the_bit():
+    """softmin_mean sums four rows at a time; each row is still ``sum_s w_s u_s`` added from
+    s = 0 up in float64, for every count of rows (multiples of four and not)."""
+    rng = np.random.default_rng(3)
+    for k in (1, 2, 3, 25):
+        costs = rng.uniform(0, 5, 101)
+        u = rng.normal(size=(k, 2, 101)).astype(np.float32)
+        w = np.empty(101)
+        out = np.empty((k, 2))
+        assert _kernels.softmin_mean(costs, 0.79, u, w, out)
+        for r in range(2 * k):
+            acc = 0.0
+            for j in range(101):
+                acc += w[j] * float(u[r // 2, r % 2, j])
+            assert out[r // 2, r % 2] == acc
+
+
 def test_sampler_normals_are_standard_normal():
     """The planner's ziggurat (windnav.plan._random) against N(0, 1): moments, the mass of the
     tail beyond the ziggurat's base (a separate code path), Kolmogorov-Smirnov; seeded."""
