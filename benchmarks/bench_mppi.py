@@ -10,7 +10,8 @@ rolls out, weights and updates. Before timing, the two costs of the same control
 compared (they must agree). Timings are medians over interleaved repeats; windnav runs with
 NUMBA_NUM_THREADS=1 (single-threaded kernels); torch runs in ``--torch-dtype`` (default float32,
 its faster) at each of ``--torch-threads`` (default 1 and all cores: on a loaded machine its
-threads stall each other) and the fastest is the reference. Each figure is the smallest of
+threads stall each other) and the fastest is the reference; the ratio against its one-thread
+time (one core each) is reported beside it. Each figure is the smallest of
 ``--repeats`` interleaved rounds' medians (load from other processes only adds time); every
 round is written to the JSON.
 
@@ -251,15 +252,19 @@ def main(argv=None) -> int:
            "torch_threads_tried": args.torch_threads, "torch_dtype": args.torch_dtype,
            "numba_threads": int(os.environ["NUMBA_NUM_THREADS"])}
     rows = ["| shape (samples x steps) | windnav ms | pytorch_mppi ms (fastest thread count) | "
-            "speed-up | pytorch_mppi ms per thread count | windnav mean profile ms (obstacles / "
-            "sampling / rollout+cost / update) | fused kernel ms (no obstacles / all costs) |",
-            "|---|---|---|---|---|---|---|"]
+            "speed-up | speed-up, one core each | pytorch_mppi ms per thread count | windnav "
+            "mean profile ms (obstacles / sampling / rollout+cost / update) | fused kernel ms "
+            "(no obstacles / all costs) |",
+            "|---|---|---|---|---|---|---|---|"]
     for S, Kk in SHAPES:
         r = bench_shape(torch, pytorch_mppi, base, S, Kk, origin, scan, args)
         tag = f"{S}x{Kk}"
         out[f"windnav_ms_{tag}"] = r["windnav_ms"]
         out[f"pytorch_mppi_ms_{tag}"] = r["pytorch_mppi_ms"]
         out[f"speedup_{tag}"] = r["pytorch_mppi_ms"] / r["windnav_ms"]
+        # like for like: windnav runs on one thread, so also against pytorch_mppi on one
+        one = r["pytorch_mppi_ms_by_threads"].get(1)
+        out[f"speedup_one_core_{tag}"] = None if one is None else one / r["windnav_ms"]
         out[f"pytorch_mppi_ms_by_threads_{tag}"] = r["pytorch_mppi_ms_by_threads"]
         out[f"rounds_ms_{tag}"] = r["rounds_ms"]
         out[f"profile_ms_{tag}"] = r["profile_ms"]
@@ -268,8 +273,11 @@ def main(argv=None) -> int:
         out["scan_points"] = r["n_points"]
         p, k = r["profile_ms"], r["kernel_split_ms"]
         threads = ", ".join(f"{n}: {v:.1f}" for n, v in r["pytorch_mppi_ms_by_threads"].items())
+        one = out[f"speedup_one_core_{tag}"]
+        one = "-" if one is None else f"{one:.0f}x"
         rows.append(f"| {tag} | {r['windnav_ms']:.2f} | {r['pytorch_mppi_ms']:.1f} | "
-                    f"**{out[f'speedup_{tag}']:.0f}x** | {threads} | {p['obstacles']:.2f} / "
+                    f"**{out[f'speedup_{tag}']:.0f}x** | {one} | {threads} | "
+                    f"{p['obstacles']:.2f} / "
                     f"{p['sampling']:.2f} / {p['rollout_cost']:.2f} / {p['update']:.2f} | "
                     f"{k['rollout_progress_energy']:.2f} / {k['with_obstacle_cost']:.2f} |")
     agree = ", ".join(f"{out[f'cost_agreement_{S}x{K}']:.1e}" for S, K in SHAPES)
