@@ -291,8 +291,8 @@ def test_the_smoothing_is_the_float32_sum_over_taps_in_order_to_the_bit(base, sh
 
 
 def test_the_weighted_mean_sums_each_row_in_sample_order_to_the_bit():
-    """softmin_mean sums four rows at a time; each row is still ``sum_s w_s u_s`` added from
-    s = 0 up in float64, for every count of rows (multiples of four and not)."""
+    """Each row of softmin_mean's weighted mean is ``sum_s w_s u_s`` added from s = 0 up in
+    float64 (the committed flights depend on these bits), for any count of rows."""
     rng = np.random.default_rng(3)
     for k in (1, 2, 3, 25):
         costs = rng.uniform(0, 5, 101)

@@ -622,33 +622,12 @@ def softmin_mean(costs, temperature, u, weights, out):  # pragma: no cover - num
         total += w
     for s in range(S):
         weights[s] /= total
-    # four rows at a time, each summed over s in order (the same bits as one at a time): four
-    # independent chains instead of one hide the latency of the additions
-    # (row r of the K x 2 rows is u[r // 2, r % 2])
-    R = 2 * u.shape[0]
-    r = 0
-    while r + 4 <= R:
-        a0 = a1 = a2 = a3 = 0.0
-        u0 = u[r // 2, r % 2]
-        u1 = u[(r + 1) // 2, (r + 1) % 2]
-        u2 = u[(r + 2) // 2, (r + 2) % 2]
-        u3 = u[(r + 3) // 2, (r + 3) % 2]
-        for s in range(S):
-            w = weights[s]
-            a0 += w * u0[s]
-            a1 += w * u1[s]
-            a2 += w * u2[s]
-            a3 += w * u3[s]
-        out[r // 2, r % 2] = a0
-        out[(r + 1) // 2, (r + 1) % 2] = a1
-        out[(r + 2) // 2, (r + 2) % 2] = a2
-        out[(r + 3) // 2, (r + 3) % 2] = a3
-        r += 4
-    while r < R:
-        acc = 0.0
-        row = u[r // 2, r % 2]
-        for s in range(S):
-            acc += weights[s] * row[s]
-        out[r // 2, r % 2] = acc
-        r += 1
+    K = u.shape[0]
+    for k in range(K):
+        for c in range(2):
+            acc = 0.0
+            row = u[k, c]
+            for s in range(S):
+                acc += weights[s] * row[s]
+            out[k, c] = acc
     return True
