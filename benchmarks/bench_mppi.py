@@ -273,10 +273,10 @@ def main(argv=None) -> int:
         out["scan_points"] = r["n_points"]
         p, k = r["profile_ms"], r["kernel_split_ms"]
         threads = ", ".join(f"{n}: {v:.1f}" for n, v in r["pytorch_mppi_ms_by_threads"].items())
-        one = out[f"speedup_one_core_{tag}"]
-        one = "-" if one is None else f"{one:.0f}x"
+        ratio = out[f"speedup_one_core_{tag}"]
+        one_core = "-" if ratio is None else f"{ratio:.0f}x"
         rows.append(f"| {tag} | {r['windnav_ms']:.2f} | {r['pytorch_mppi_ms']:.1f} | "
-                    f"**{out[f'speedup_{tag}']:.0f}x** | {one} | {threads} | "
+                    f"**{out[f'speedup_{tag}']:.0f}x** | {one_core} | {threads} | "
                     f"{p['obstacles']:.2f} / "
                     f"{p['sampling']:.2f} / {p['rollout_cost']:.2f} / {p['update']:.2f} | "
                     f"{k['rollout_progress_energy']:.2f} / {k['with_obstacle_cost']:.2f} |")
