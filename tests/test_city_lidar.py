@@ -129,6 +129,12 @@ def test_noise_statistics_clip_and_determinism():
     noisy = city.lidar(origins, max_range=100.0, noise_std=0.35, rng=np.random.default_rng(9))
     again = city.lidar(origins, max_range=100.0, noise_std=0.35, rng=9)
     np.testing.assert_array_equal(noisy, again)
+    # the caller's own draw of the same normals gives the same scan (a deferred scan)
+    normals = np.random.default_rng(9).standard_normal(size=clean.shape)
+    drawn = city.lidar(origins, max_range=100.0, noise_std=0.35, normals=normals)
+    np.testing.assert_array_equal(drawn, noisy)
+    assert not np.array_equal(
+        city.lidar(origins, max_range=100.0, noise_std=0.35, normals=normals[::-1]), noisy)
     assert noisy.min() >= 0.0 and noisy.max() <= 100.0
     # no return, no noise: rays that hit nothing read max_range exactly
     np.testing.assert_array_equal(noisy[clean == 100.0], 100.0)
@@ -153,6 +159,8 @@ def test_noise_statistics_clip_and_determinism():
         ({"min_range": -1.0}, "min_range"),
         ({"noise_std": -0.1}, "noise_std"),
         ({"noise_std": 0.1}, "rng"),
+        ({"noise_std": 0.1, "normals": np.zeros((1, 359))}, "normals"),
+        ({"noise_std": 0.1, "normals": np.full((1, 360), np.nan)}, "normals"),
     ],
 )
 def test_bad_input_names_the_argument(kwargs, name):

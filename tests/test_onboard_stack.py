@@ -124,8 +124,10 @@ def test_flies_to_the_goal_on_the_decoder_wind_inside_25_m(flight, city):
     assert res.onboard.settings["conditions"] == "thesis"
 
 
-def test_the_decoder_runs_at_50_hz_on_the_inlet_and_the_ukf_estimate(flight):
-    res, dec = flight
+def test_the_decoder_runs_at_50_hz_on_the_inlet_and_the_ukf_estimate(city, flow):
+    # decode_all: every due decode computed, as on hardware (by default only those read)
+    dec = Recording()
+    res = fly(city, flow, decoder=dec, onboard={"decode_all": True})
     n = res.t.size
     # steps 0 .. n-2 ran the stack (the last one ended the flight); every 2nd one decoded
     decoded = [k for k in range(n - 1) if k % 2 == 0]
@@ -138,18 +140,43 @@ def test_the_decoder_runs_at_50_hz_on_the_inlet_and_the_ukf_estimate(flight):
     # the UKF stepped at every control step after the first, at 100 Hz
     assert res.onboard.stage_updates["ukf"] == n - 2
     assert res.onboard.stage_updates["planner"] == res.planner_updates
+    assert res.onboard.settings["decoder_due"] == len(decoded)
+    assert res.onboard.settings["decoder_computed"] == len(decoded)
+
+
+def test_decodes_no_planner_update_reads_are_not_computed_and_change_nothing(flight, city,
+                                                                           flow):
+    # the default flight computes the decodes of the planning steps only (every 10th control
+    # step, every 5th decode); with every decode computed the flight is the same to the bit,
+    # and the computed ones have the same inputs and outputs
+    lazy, dec = flight
+    full, dec_all = Recording(), None
+    eager = fly(city, flow, decoder=full, onboard={"decode_all": True})
+    dec_all = full.calls
+    for name in ("t", "position", "velocity", "wind_estimate", "accel_cmd"):
+        np.testing.assert_array_equal(getattr(lazy, name), getattr(eager, name))
+    assert (lazy.outcome, lazy.energy_J) == (eager.outcome, eager.energy_J)
+    assert lazy.onboard.settings["decoder_due"] == eager.onboard.settings["decoder_due"]
+    assert len(dec.calls) == lazy.planner_updates == lazy.onboard.stage_updates["decoder"]
+    assert lazy.onboard.settings["decoder_computed"] == len(dec.calls)
+    assert len(dec_all) > 4 * len(dec.calls)
+    for j, call in enumerate(dec.calls):
+        for a, b in zip(call, dec_all[5 * j], strict=True):
+            np.testing.assert_array_equal(a, b)
 
 
 def test_the_planner_gets_the_latest_field_on_the_decoder_grid(city, flow):
     dec, spy = Recording(), WindSpy()
     res = fly(city, flow, decoder=dec, planner=spy, duration=3.0)
-    assert len(spy.winds) == res.planner_updates == 30
+    assert len(spy.winds) == res.planner_updates == 30 == len(dec.calls)
+    assert res.onboard.settings["decoder_due"] == 150
     for j, wind in enumerate(spy.winds):
         assert isinstance(wind, LocalWind)
-        # planning step 10 j is decoding step 10 j / 2: same position, no shift
+        # planning step 10 j is decoding step 10 j / 2: same position, no shift (the one
+        # decode of the five due since the last update that is read, and so computed)
         np.testing.assert_array_equal(wind.x, dec.offsets)
         np.testing.assert_array_equal(wind.y, dec.offsets)
-        np.testing.assert_array_equal(wind.uv, dec.calls[5 * j][3][0])
+        np.testing.assert_array_equal(wind.uv, dec.calls[j][3][0])
 
 
 def test_outside_robot_fills_the_window_with_the_decoders_w_robot(city, flow):
@@ -159,8 +186,9 @@ def test_outside_robot_fills_the_window_with_the_decoders_w_robot(city, flow):
     assert all(w.fill == (0.0, 0.0) for w in spy.winds)
     dec, spy = Recording(), WindSpy()
     fly(city, flow, decoder=dec, planner=spy, duration=1.0, onboard={"outside": "robot"})
+    assert len(dec.calls) == len(spy.winds)
     for j, wind in enumerate(spy.winds):
-        call = dec.calls[5 * j]
+        call = dec.calls[j]
         np.testing.assert_array_equal(wind.uv, call[3][0])
         assert wind.fill == tuple(call[2][0]) and np.hypot(*wind.fill) > 0.0
     with pytest.raises(ValueError, match="'outside'"):
@@ -176,12 +204,13 @@ def test_an_averaged_w_robot_is_the_ukf_estimate_smoothed_at_100_hz(city, flow):
     assert res.onboard.settings["wrobot_tau_s"] == 2.0
     est = res.wind_estimate[:, :2]
     avg = smooth_wind(est[:-1], 0.01, 2.0)  # the last step ended the flight
+    # the decodes computed are those of the planning steps, every 10th control step
     for j, (_, _, w_robot, _) in enumerate(dec.calls):
-        np.testing.assert_allclose(w_robot[0], avg[2 * j], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(w_robot[0], avg[10 * j], rtol=1e-12, atol=1e-12)
     got = np.array([c[2][0] for c in dec.calls])
-    assert np.abs(got - est[:-1:2][: len(got)]).max() > 0.05  # it is not the raw estimate
+    assert np.abs(got - est[:-1:10][: len(got)]).max() > 0.05  # it is not the raw estimate
     for j, wind in enumerate(spy.winds):
-        assert wind.fill == tuple(dec.calls[5 * j][2][0])
+        assert wind.fill == tuple(dec.calls[j][2][0])
     with pytest.raises(ValueError, match="'wrobot_tau_s'"):
         fly(city, flow, duration=1.0, onboard={"wrobot_tau_s": -1.0})
 
@@ -255,7 +284,8 @@ def test_a_field_from_an_earlier_step_is_shifted_to_the_planning_position(city, 
     dec, spy = Recording(), WindSpy(accel=(2.0, 1.0))
     res = fly(city, flow, decoder=dec, planner=spy, duration=2.0,
               onboard={"decoder_rate_hz": 25.0})
-    assert len(dec.calls) == 50 and res.onboard.stage_rate_hz["decoder"] == 25.0
+    assert res.onboard.settings["decoder_due"] == 50
+    assert len(dec.calls) == 20 and res.onboard.stage_rate_hz["decoder"] == 25.0
     for j in range(1, len(spy.winds)):
         k, k_dec = 10 * j, 4 * ((10 * j) // 4)
         shift = res.position[k_dec, :2] - res.position[k, :2]
@@ -263,7 +293,7 @@ def test_a_field_from_an_earlier_step_is_shifted_to_the_planning_position(city, 
             assert np.hypot(*shift) > 0.02
         np.testing.assert_allclose(spy.winds[j].x, dec.offsets + shift[0], rtol=0, atol=1e-12)
         np.testing.assert_allclose(spy.winds[j].y, dec.offsets + shift[1], rtol=0, atol=1e-12)
-        np.testing.assert_array_equal(spy.winds[j].uv, dec.calls[k_dec // 4][3][0])
+        np.testing.assert_array_equal(spy.winds[j].uv, dec.calls[j][3][0])
 
 
 def test_the_ukf_tracks_the_true_wind_at_the_vehicle(flight):
@@ -354,6 +384,7 @@ def test_benchmark_records_carry_the_onboard_fields(city, flow):
     ({"onboard": {"conditions": "nope"}}, "'conditions'"),
     ({"onboard": {"decoder_rate_hz": 30.0}}, "'decoder_rate_hz'.*divide"),
     ({"onboard": {"scan_noise": -1.0}}, "'scan_noise'"),
+    ({"onboard": {"decode_all": "yes"}}, "'decode_all'"),
     ({"onboard": "fast"}, "'onboard'"),
     ({"onboard": {"rate_hz": 20.0}}, "'onboard'.*fields"),
     ({"decoder": object()}, "'decoder'"),

@@ -321,6 +321,7 @@ class City:
         min_range: float = 0.0,
         noise_std: float = 0.0,
         rng=None,
+        normals=None,
     ) -> np.ndarray:
         """Planar LiDAR scans from a batch of origins (exact slab ray casting, numba).
 
@@ -337,7 +338,9 @@ class City:
         noise_std : float
             Standard deviation of Gaussian noise on returns, m, >= 0.
         rng : numpy.random.Generator or int, optional
-            Noise source or seed; required when ``noise_std > 0``.
+            Noise source or seed; required when ``noise_std > 0`` and ``normals`` is None.
+        normals : array_like of shape (B, n_rays), optional
+            The noise's standard normals, drawn by the caller, instead of ``rng``.
 
         Returns
         -------
@@ -351,7 +354,7 @@ class City:
         windnav.city.lidar.lidar_scan : the implementation and its equations.
         """
         return lidar_scan(self, origins_xy, n_rays=n_rays, max_range=max_range,
-                          min_range=min_range, noise_std=noise_std, rng=rng)
+                          min_range=min_range, noise_std=noise_std, rng=rng, normals=normals)
 
     # ------------------------------------------------------------------ files
     @classmethod

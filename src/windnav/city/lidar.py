@@ -75,6 +75,7 @@ def lidar_scan(
     min_range: float = 0.0,
     noise_std: float = 0.0,
     rng=None,
+    normals=None,
 ) -> np.ndarray:
     """Planar LiDAR scans of ``city`` from a batch of origins.
 
@@ -93,7 +94,11 @@ def lidar_scan(
     noise_std : float
         Standard deviation of the Gaussian range noise on returns, m, >= 0.
     rng : numpy.random.Generator or int, optional
-        Noise source (or its seed); required when ``noise_std > 0``.
+        Noise source (or its seed); required when ``noise_std > 0`` and ``normals`` is None.
+    normals : array_like of shape (B, n_rays), optional
+        The standard normals of the range noise, drawn by the caller (as
+        ``rng.standard_normal(size=(B, n_rays))`` would draw them here; used instead of
+        ``rng``): the scan a caller computes later than its noise was drawn, the same scan.
 
     Returns
     -------
@@ -106,7 +111,8 @@ def lidar_scan(
     ------
     ValueError
         Naming the argument: NaN/inf or wrongly shaped origins, ``n_rays < 1``,
-        ``max_range <= min_range``, negative ``noise_std``, or noise without ``rng``.
+        ``max_range <= min_range``, negative ``noise_std``, noise without ``rng`` or
+        ``normals``, or ``normals`` not finite or of another shape.
     """
     origins = batch_array(origins_xy, "origins_xy", _WHERE, (2,))
     n_rays = positive_int(n_rays, "n_rays", _WHERE)
@@ -118,7 +124,14 @@ def lidar_scan(
             f"({min_range!r}). Got {max_range!r} instead."
         )
     noise_std = positive_float(noise_std, "noise_std", _WHERE, allow_zero=True)
-    if noise_std > 0.0:
+    if normals is not None:
+        normals = np.asarray(normals, dtype=np.float64)
+        if normals.shape != (origins.shape[0], n_rays) or not np.isfinite(normals).all():
+            raise ValueError(
+                f"The 'normals' parameter of {_WHERE} must be a finite array of shape "
+                f"({origins.shape[0]}, {n_rays}). Got shape {normals.shape} instead."
+            )
+    elif noise_std > 0.0:
         if rng is None:
             raise ValueError(
                 f"The 'rng' parameter of {_WHERE} must be a numpy.random.Generator or a seed "
@@ -133,7 +146,8 @@ def lidar_scan(
     _scan(np.ascontiguousarray(origins), np.ascontiguousarray(city.footprints),
           cos_a, sin_a, max_range, ranges, hit, blocked)
     if noise_std > 0.0:
-        noise = rng.standard_normal(size=ranges.shape)
+        noise = (rng.standard_normal(size=ranges.shape) if normals is None
+                 else normals.copy())
         noise *= noise_std
         noise *= hit  # rays without a return keep max_range exactly
         ranges += noise
