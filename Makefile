@@ -5,7 +5,7 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.windnav-installed
 
-.PHONY: venv demo test quick-suite lint bench clean
+.PHONY: venv demo test quick-suite lint bench-venv clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -35,11 +35,9 @@ test: lint
 quick-suite: $(STAMP)
 	WINDNAV_QUICK_SUITE=1 $(PY) -m pytest -q tests/test_nav_benchmark.py -k quick_suite
 
+# the benchmarks' references (pytorch_mppi, FilterPy, ...); each script in benchmarks/ runs alone
 bench-venv: $(STAMP)
 	$(PY) -m pip install -q -e '.[bench]'
-
-bench: bench-venv
-	$(PY) benchmarks/run_all.py
 
 clean:
 	rm -rf $(VENV) out

@@ -30,8 +30,8 @@ the vehicle could know on board (Folk 2026, ch. 4-6):
   at the decode time. Only a planner update reads the field, so by default a decode is
   computed when one reads it (its scan noise drawn at its own time, in order): the decodes no
   update reads, 4 of 5 at these rates, are not computed, and the flight is the same to the
-  bit as with every decode computed (``OnboardOptions.decode_all``; 29 % less wall time per
-  flight, 2026-12-04).
+  bit as with every decode computed (``OnboardOptions.decode_all``; 28 % less wall time per
+  flight over the thesis suite, 2026-12-04).
 * **Planner, 10 Hz.** The planner's :class:`~windnav.plan.LocalWind` is the latest field, its
   cell-centre offsets shifted to the vehicle's position at the planning time (the decoder runs
   first on a step where both are due, so with the default rates the shift is 0). The window
@@ -294,14 +294,17 @@ class OnboardReport:
     stage_ms_median, stage_ms_mean : dict of str to float
         Per update of each of :data:`STAGES`, ms.
     stage_updates : dict of str to int
-        Updates of each stage.
+        Timed updates of each stage (the decoder's: the decodes computed, see
+        ``OnboardOptions.decode_all``).
     stage_rate_hz : dict of str to float
         Rate of each stage, Hz.
     real_time_fraction : float
         ``sum_s rate_s * median_s``: onboard compute per second of flight, s/s (< 1: the loop
         keeps real time on one core).
     settings : dict
-        Conditions, rates, scan noise, decoder, filter repairs and rejected measurements.
+        Conditions, rates, scan noise, decoder, filter repairs and rejected measurements, and
+        ``decoder_due`` / ``decoder_computed``: the decodes due at the decoder's rate and those
+        computed (read by a planner update, or all with ``decode_all``).
     """
 
     wind_estimate: np.ndarray
