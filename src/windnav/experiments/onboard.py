@@ -515,7 +515,8 @@ class OnboardStack:
         self._due = (pos_xy, w_robot, normals)
 
     def _decode_due(self) -> None:
-        """Scan and decode at the latest due decode, if not done yet: the field it gives."""
+        """Compute the due decode (its scan, then the prediction): its field becomes the
+        latest."""
         pos_xy, w_robot, normals = self._due
         self._due = None
         scan = self.city.lidar(pos_xy[None], n_rays=self.n_rays, max_range=SCAN_MAX,
