@@ -508,7 +508,7 @@ class OnboardStack:
             self.skipped += 1
             self._due = None
             self.field = np.full((2, self.offsets.size, self.offsets.size), np.nan)
-            self.centre = pos_xy.copy()
+            self.centre = pos_xy
             return
         normals = (self.scan_rng.standard_normal(size=(1, self.n_rays))
                    if self.options.scan_noise > 0.0 else None)
