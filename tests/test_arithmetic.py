@@ -70,3 +70,41 @@ def test_the_portable_arithmetic_is_avx2():
         assert run(env) == ar.PORTABLE
     else:
         assert line.startswith("this machine cannot run the portable arithmetic")
+
+
+@X86_OPENBLAS
+def test_nearest_pins_the_rest_of_an_arithmetic_whose_numpy_targets_this_cpu_lacks():
+    """A record naming a NumPy target this machine lacks (an Intel Xeon's AVX512_SPR on an AMD
+    EPYC) is refused as it stands, and with ``nearest`` pinned without that target: its BLAS
+    kernel and the targets this machine has, which a new process then reports."""
+    from numpy._core._multiarray_umath import __cpu_features__
+
+    if not __cpu_features__.get("X86_V3"):
+        pytest.skip("needs a CPU with AVX2 (NumPy's X86_V3)")
+    want = {"blas_kernel": "OpenBLAS Nehalem", "numpy_simd": "X86_V3 NO_SUCH"}
+    env, line = ar.pinned_environment(want)
+    assert env is None and "cannot run NumPy's" in line
+    env, line = ar.pinned_environment(want, nearest=True)
+    assert env["OPENBLAS_CORETYPE"] == "Nehalem"
+    assert "without NumPy's NO_SUCH loops, which this machine cannot run" in line
+    assert run(env) == {"blas_kernel": "OpenBLAS Nehalem", "numpy_simd": "X86_V3"}
+    # this machine's own arithmetic and a target it lacks: nothing to pin, and said so
+    own = ar.arithmetic()
+    env, line = ar.pinned_environment(
+        {**own, "numpy_simd": f"{own['numpy_simd']} NO_SUCH"}, nearest=True)
+    assert env == {} and "without NumPy's NO_SUCH loops" in line
+    assert ar.pinned_environment(own, nearest=True) == ({}, ar.pinned_environment(own)[1])
+
+
+def test_process_environment_adds_variables_for_the_block_and_restores_them(monkeypatch):
+    monkeypatch.setenv("WINDNAV_TEST_KEPT", "before")
+    monkeypatch.delenv("WINDNAV_TEST_NEW", raising=False)
+    with ar.process_environment({"WINDNAV_TEST_KEPT": "pinned", "WINDNAV_TEST_NEW": 1}):
+        out = subprocess.run([sys.executable, "-c", "import os; print(os.environ["
+                              "'WINDNAV_TEST_KEPT'], os.environ['WINDNAV_TEST_NEW'])"],
+                             capture_output=True, text=True, check=True)
+        assert out.stdout.split() == ["pinned", "1"]  # a process started in the block
+    assert os.environ["WINDNAV_TEST_KEPT"] == "before" and "WINDNAV_TEST_NEW" not in os.environ
+    with pytest.raises(KeyError), ar.process_environment({"WINDNAV_TEST_NEW": "x"}):
+        raise KeyError("restored on an exception too")
+    assert "WINDNAV_TEST_NEW" not in os.environ

@@ -965,7 +965,8 @@ def test_a_replay_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, ca
                         lambda args, env, why: restarts.append((args.argv, env, why)) or 7)
     pins = {"OpenBLAS Older": ({"OPENBLAS_CORETYPE": "Older"}, "blas_kernel 'OpenBLAS Older'")}
     monkeypatch.setattr(ar, "pinned_environment",
-                        lambda rec: pins.get(rec["blas_kernel"], (None, "cannot run it")))
+                        lambda rec, nearest: pins.get(rec["blas_kernel"],
+                                                      (None, "cannot run it")))
     argv = ["--replay", "quick/m00/w01/p1", "--variant", "mppi", "--out", tmp_path]
     rc = command(argv + ["--native-arithmetic"] * native)
     if native:
@@ -1085,10 +1086,56 @@ def test_check_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, capsy
     monkeypatch.setattr(bench_cmd, "_restart",
                         lambda args, env, why: restarts.append((env, why)) or 0)
     monkeypatch.setattr(ar, "pinned_environment",
-                        lambda rec: ({"OPENBLAS_CORETYPE": "Older"}, "the line"))
+                        lambda rec, nearest: ({"OPENBLAS_CORETYPE": "Older"}, "the line"))
     assert command(["--out", tmp_path, "--check", "all"]) == 0
     assert restarts == [({"OPENBLAS_CORETYPE": "Older"},
                          "checking under the records' arithmetic (the line)")]
+
+
+def test_check_of_records_of_several_arithmetics_pins_each_groups_workers(tmp_path, tiny_suite,
+                                                                        capsys, monkeypatch):
+    """Records of two arithmetics (the store's declared one and a Xeon's, say) are checked in
+    two groups, each flown by worker processes started under its own pin (or this machine's
+    own, said so, when it has none); the JSON names each group. With --native-arithmetic or
+    the serial executor all are flown under this machine's own."""
+    command(["--suite", "quick", "--variants", "mppi,ea-mppi-w", "--executor", "serial",
+             "--out", tmp_path, "--no-progress"])
+    store = NavStore(tmp_path, SUITES["quick"])
+    recs = [{**r, "blas_kernel": "OpenBLAS Older" if r["variant"] == "mppi" else "OpenBLAS New",
+             "numpy_simd": "X86_V3"} for r in store.load()]
+    store.records_path.write_text("".join(json.dumps(r) + "\n" for r in recs))
+    pins = {"OpenBLAS Older": ({"WINDNAV_TEST_PIN": "older"}, "older line"),
+            "OpenBLAS New": (None, "cannot run New")}
+    monkeypatch.setattr(ar, "pinned_environment", lambda rec, nearest: pins[rec["blas_kernel"]])
+    monkeypatch.delenv("WINDNAV_TEST_PIN", raising=False)
+    flown = []
+
+    def check_records(spec, group, *, executor, **kw):  # as flown by pinned workers
+        flown.append(([r["variant"] for r in group], executor,
+                      os.environ.get("WINDNAV_TEST_PIN")))
+        return [nb.checked_flight(r, r) for r in group]
+
+    monkeypatch.setattr(nb, "check_records", check_records)
+    check = ["--out", tmp_path, "--check", "all", "--no-progress", "--json", tmp_path / "c.json"]
+    assert command(check) == 0
+    assert flown == [(["mppi"] * 4, "process", "older"), (["ea-mppi-w"] * 4, "process", None)]
+    assert "WINDNAV_TEST_PIN" not in os.environ
+    out, err = capsys.readouterr()
+    assert "8 flights of 4 scenarios flown again under their records' 2 arithmetics" in out
+    assert ": 8 reproduced" in out
+    assert ("note: checking 4 flights of BLAS OpenBLAS Older, NumPy SIMD X86_V3 under the "
+            "records' arithmetic (older line)") in err
+    assert "under this machine's own (cannot run New)" in err
+    groups = json.loads((tmp_path / "c.json").read_text())["summary"]["groups"]
+    assert [(g["environment"], g["line"], g["flights"]) for g in groups] == [
+        ({"WINDNAV_TEST_PIN": "older"}, "older line", 4), (None, "cannot run New", 4)]
+    for extra, why in ((["--native-arithmetic"], "--native-arithmetic"),
+                       (["--executor", "serial"], "the 'serial' executor")):
+        flown.clear()
+        assert command(check + extra + ["--overwrite"]) == 0
+        assert [(len(f[0]), f[2]) for f in flown] == [(8, None)]  # one group, not pinned
+        assert (f"note: the records were flown under 2 arithmetics; checking under this "
+                f"machine's own ({why}") in capsys.readouterr().err
 
 
 def test_record_arithmetic_is_the_records_own_else_the_manifests_declaration():
@@ -1126,7 +1173,8 @@ def test_a_store_can_declare_the_arithmetic_of_its_unnamed_records(tmp_path, tin
     monkeypatch.setattr(bench_cmd, "_restart",
                         lambda args, env, why: restarts.append((env, why)) or 0)
 
-    def pin(rec):
+    def pin(rec, nearest):
+        assert nearest  # a replay or a check takes the nearest arithmetic this CPU runs
         pinned.append(rec)
         return ({"OPENBLAS_CORETYPE": "Older"}, "the line") if rec else ({}, "")
 

@@ -420,21 +420,32 @@ def _check(args, name: str) -> int:
         raise ValueError(f"The store {str(args.out)!r} holds no flight of {name}'s --variants, "
                          "--maps and --scenarios to check.")
     man = _manifest(args.out)
-    kinds = {}  # each arithmetic among the records (named, or declared by the manifest)
-    for r in flights:
+    kinds, groups = {}, {}  # each arithmetic among the records (named, or declared) and its
+    for r in flights:       # flights
         known = record_arithmetic(r, man)
-        kinds.setdefault(tuple(known.get(k) for k in KERNEL_FIELDS), known)
+        key = tuple(known.get(k) for k in KERNEL_FIELDS)
+        kinds.setdefault(key, known)
+        groups.setdefault(key, []).append(r)
+    under = f"under {_arithmetic(arithmetic())}"
+    pins = []  # with several arithmetics: each group's pin, for the JSON
     if len(kinds) == 1:
         status = _pinned(args, next(iter(kinds.values())), "checking", "the records'")
         if status is not None:
             return status
-    else:
+        checks = check_records(spec, flights, executor=args.executor, workers=workers,
+                               progress=not args.no_progress, wind_batch=wind_batch)
+    elif args.executor != "process" or args.native_arithmetic:
+        why = ("--native-arithmetic" if args.native_arithmetic else
+               f"the {args.executor!r} executor flies them in processes not started here")
         print(f"note: the records were flown under {len(kinds)} arithmetics; checking under "
-              "this machine's own", file=sys.stderr)
-    checks = check_records(spec, flights, executor=args.executor, workers=workers,
-                           progress=not args.no_progress, wind_batch=wind_batch)
+              f"this machine's own ({why})", file=sys.stderr)
+        checks = check_records(spec, flights, executor=args.executor, workers=workers,
+                               progress=not args.no_progress, wind_batch=wind_batch)
+    else:
+        checks, pins = _check_groups(args, spec, kinds, groups, workers, wind_batch)
+        under = f"under their records' {len(kinds)} arithmetics (each group's workers pinned)"
     bad = _report(checks, f"{args.out}: {len(checks)} flights of {len(ids)} scenarios flown "
-                          f"again under {_arithmetic(arithmetic())}", "reproduced", "recorded")
+                          f"again {under}", "reproduced", "recorded")
     if bad:
         print(f"note: {KERNEL_SENSITIVE_NOTE}. Arithmetic of the records: "
               + "; ".join(sorted({_arithmetic(r) for r in kinds.values()})), file=sys.stderr)
@@ -443,11 +454,40 @@ def _check(args, name: str) -> int:
                    "variants": list(dict.fromkeys(r["variant"] for r in flights)),
                    "reproduced": len(checks) - len(bad), "arithmetic": arithmetic(),
                    "records_arithmetic": list(kinds.values()), "tolerance": REPLAY_TOLERANCE}
+        if pins:
+            summary["groups"] = pins
         with out.writing() as stage:
             write_json(document("benchmark-nav", {"summary": summary, "flights": checks}, args),
                        stage.file("--json"))
         print_written(out)
     return 0 if not bad else 1
+
+
+def _check_groups(args, spec, kinds: dict, groups: dict, workers, wind_batch):
+    """Check the flights of each arithmetic among the records in worker processes started under
+    it, or the nearest this machine runs (``None`` pins: this machine's own, said so).
+
+    Returns the checks (the groups' in turn) and, per group, ``records_arithmetic``,
+    ``environment`` (None when it could not be pinned), ``line`` and ``flights``. A scenario
+    with flights in two groups has its wind simulated once in each.
+    """
+    from windnav.experiments.arithmetic import pinned_environment, process_environment
+    from windnav.experiments.nav_benchmark import check_records
+
+    checks, pins = [], []
+    for key, known in kinds.items():
+        group = groups[key]
+        env, line = pinned_environment(known, nearest=True)
+        where_ = (f"this machine's own ({line})" if env is None else
+                  f"the records' arithmetic ({line})")
+        print(f"note: checking {len(group)} flights of {_arithmetic(known)} under {where_}",
+              file=sys.stderr, flush=True)
+        with process_environment(env or {}):
+            checks += check_records(spec, group, executor="process", workers=workers,
+                                    progress=not args.no_progress, wind_batch=wind_batch)
+        pins.append({"records_arithmetic": known, "environment": env, "line": line,
+                     "flights": len(group)})
+    return checks, pins
 
 
 def _joules(record: dict) -> str:
@@ -472,17 +512,22 @@ def _reproduced(check: dict | None) -> bool:
 
 def _pinned(args, record: dict, doing: str, whose: str) -> int | None:
     """Restart this command under ``record``'s arithmetic when it differs from this machine's
-    and the CPU can run it (not with ``--native-arithmetic``, nor in a process so started):
-    the new process's exit status; None to go on here (with a note when the CPU cannot)."""
+    and the CPU can run it, or the nearest one it can (NumPy SIMD targets it lacks left out;
+    :func:`~windnav.experiments.arithmetic.pinned_environment`), not with
+    ``--native-arithmetic`` nor in a process so started: the new process's exit status; None to
+    go on here (with a note when the CPU cannot, or runs only the nearest)."""
     from windnav.experiments.arithmetic import PIN_VARIABLE, pinned_environment
 
     if args.native_arithmetic or PIN_VARIABLE in os.environ:
         return None
-    env, line = pinned_environment(record)
+    env, line = pinned_environment(record, nearest=True)
     if env:
         return _restart(args, env, f"{doing} under {whose} arithmetic ({line})")
     if env is None:
         print(f"note: {line}; {doing} under this machine's own", file=sys.stderr)
+    elif "without NumPy's" in line:
+        print(f"note: {doing} under {whose} arithmetic ({line}), this machine's own",
+              file=sys.stderr)
     return None
 
 

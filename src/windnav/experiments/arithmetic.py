@@ -20,6 +20,7 @@ without reassociation; they are not pinned here.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import subprocess
@@ -34,6 +35,7 @@ __all__ = [
     "numpy_simd",
     "pinned_environment",
     "portable_environment",
+    "process_environment",
 ]
 
 FIELDS = ("blas_kernel", "numpy_simd")
@@ -143,17 +145,51 @@ def _probe(env: dict) -> dict | None:
         return None
 
 
-def pinned_environment(recorded: dict) -> tuple[dict | None, str]:
+def _lacking(simd: str | None) -> list[str]:
+    """The NumPy SIMD targets of ``simd`` this process cannot use (its CPU lacks them, or
+    ``NPY_DISABLE_CPU_FEATURES`` turned them off), in ``simd``'s order."""
+    now = numpy_simd()
+    if simd in (None, "baseline") or now is None:
+        return []
+    return [t for t in simd.split() if t not in _targets(now)]
+
+
+def pinned_environment(recorded: dict, *, nearest: bool = False) -> tuple[dict | None, str]:
     """The environment under which a new process computes as the flight ``recorded`` did.
 
-    Returns ``(env, line)``: ``env`` the variables to add to ``os.environ`` (``{}`` when this
-    process already computes so), or None when it cannot be pinned on this machine, and a line
-    saying which arithmetic or why not. A record without the fields (flown before 2026-12-02,
-    or flown before ``numpy_simd`` was recorded) pins only what it names. The pin is checked by
-    starting a process under it (a second or so).
+    Parameters
+    ----------
+    recorded : dict
+        A flight record, or any mapping with the :data:`FIELDS` it knows.
+    nearest : bool, default False
+        When the record names NumPy SIMD targets this machine cannot run (an Intel Xeon's
+        ``AVX512_SPR`` on an AMD EPYC with AVX-512), pin the rest of its arithmetic (the BLAS
+        kernel and the targets it can run) instead of none of it, and say so in the line.
+        Whether those targets took part in the flight shows only when it is flown again: a
+        replay or a check compares. (NumPy builds its ``AVX512_SPR`` code for 16-bit types,
+        its ``float16`` sort among them, and the onboard stack's records of 2026-12-05 flown on
+        such a Xeon replayed to the bit without it, ``docs/navigation.md``.)
+
+    Returns
+    -------
+    env : dict or None
+        The variables to add to ``os.environ`` (``{}`` when this process already computes so),
+        or None when it cannot be pinned on this machine.
+    line : str
+        Which arithmetic, or why not.
+
+    A record without the fields (flown before 2026-12-02, or flown before ``numpy_simd`` was
+    recorded) pins only what it names. The pin is checked by starting a process under it (a
+    second or so).
     """
     want = {k: recorded.get(k) for k in FIELDS}
     named = ", ".join(f"{k} {v!r}" for k, v in want.items() if v is not None)
+    lacking = _lacking(want["numpy_simd"]) if nearest else []
+    if lacking:
+        kept = [t for t in want["numpy_simd"].split() if t not in lacking]
+        want["numpy_simd"] = " ".join(kept) or "baseline"
+        named += (f", without NumPy's {' '.join(lacking)} loops, which this machine cannot run "
+                  "(the nearest arithmetic it can)")
     env, why = _environment(want)
     if why:
         return None, why
@@ -164,6 +200,26 @@ def pinned_environment(recorded: dict) -> tuple[dict | None, str]:
         return None, (f"this CPU cannot run the record's arithmetic ({named}): a process "
                       f"under {env} " + ("failed" if got is None else f"reports {got}"))
     return env, named
+
+
+@contextlib.contextmanager
+def process_environment(env: dict):
+    """``os.environ`` with ``env`` added inside the block and restored after it.
+
+    The processes started in the block (a process pool's workers) compute under the arithmetic
+    that ``env`` pins (:func:`pinned_environment`); this process keeps its own, read when its
+    libraries loaded.
+    """
+    saved = {k: os.environ.get(k) for k in env}
+    os.environ.update({k: str(v) for k, v in env.items()})
+    try:
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def portable_environment() -> tuple[dict | None, str]:
