@@ -979,6 +979,12 @@ def test_a_replay_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, ca
     pins.clear()  # this CPU cannot run it: replayed here, and said so
     assert command(argv) == 0
     assert "note: cannot run it; replaying under this machine's own" in capsys.readouterr().err
+    # the nearest arithmetic this CPU runs is its own already: replayed here, and said so
+    pins["OpenBLAS Older"] = ({}, "blas_kernel 'OpenBLAS Older', without NumPy's NO_SUCH loops")
+    assert command(argv) == 0
+    assert ("note: replaying under the record's arithmetic (blas_kernel 'OpenBLAS Older', "
+            "without NumPy's NO_SUCH loops): this machine's own already"
+            in capsys.readouterr().err)
 
 
 def test_restart_runs_the_command_line_again_in_a_new_process(capsys):

@@ -525,8 +525,8 @@ def _pinned(args, record: dict, doing: str, whose: str) -> int | None:
         return _restart(args, env, f"{doing} under {whose} arithmetic ({line})")
     if env is None:
         print(f"note: {line}; {doing} under this machine's own", file=sys.stderr)
-    elif "without NumPy's" in line:
-        print(f"note: {doing} under {whose} arithmetic ({line}), this machine's own",
+    elif "without NumPy's" in line:  # the nearest arithmetic is the one this process has
+        print(f"note: {doing} under {whose} arithmetic ({line}): this machine's own already",
               file=sys.stderr)
     return None
 
