@@ -337,3 +337,33 @@ def test_ctrl_c_in_wind_exits_130_with_one_line(tmp_path):
     assert status == 130, err
     assert "Traceback" not in err and err.strip() == "windnav wind: interrupted"
     assert not (tmp_path / "w" / "flow.zarr").exists() and leftovers(tmp_path) == []
+
+
+def test_a_ctrl_c_during_an_import_is_held_until_the_import_ends(tmp_path, monkeypatch):
+    """A SIGINT that arrives while ``cholespy`` (a nanobind extension) initialises would abort
+    the process; :func:`import_holding_ctrl_c` hands it on once the import is done: a
+    KeyboardInterrupt under the default handler, nothing when SIGINT is ignored (as in the
+    process executor's workers)."""
+    from windnav.flow.pressure import import_holding_ctrl_c
+
+    source = "import os, signal\nos.kill(os.getpid(), signal.SIGINT)\nfinished = True\n"
+    monkeypatch.syspath_prepend(str(tmp_path))
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        for name, handler in (("interrupted_import", signal.default_int_handler),
+                              ("ignored_import", signal.SIG_IGN)):
+            (tmp_path / f"{name}.py").write_text(source)
+            monkeypatch.delitem(sys.modules, name, raising=False)
+            signal.signal(signal.SIGINT, handler)
+            if handler is signal.SIG_IGN:
+                assert import_holding_ctrl_c(name).finished
+            else:
+                with pytest.raises(KeyboardInterrupt):
+                    import_holding_ctrl_c(name)
+                assert sys.modules[name].finished  # the import ran to its end first
+            assert signal.getsignal(signal.SIGINT) is handler  # restored
+            assert import_holding_ctrl_c(name).finished  # loaded: a plain import
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        for name in ("interrupted_import", "ignored_import"):
+            sys.modules.pop(name, None)

@@ -26,6 +26,11 @@ sweeps from q = 0).
 from __future__ import annotations
 
 import hashlib
+import importlib
+import os
+import signal
+import sys
+import threading
 from collections import OrderedDict
 
 import numba
@@ -267,9 +272,37 @@ class RedBlackFactor:
         return x
 
 
+def import_holding_ctrl_c(name: str):
+    """``importlib.import_module(name)`` with Ctrl-C (SIGINT) held until the import ends.
+
+    nanobind, which builds ``cholespy``, turns a ``KeyboardInterrupt`` raised while its
+    extension initialises into a C++ exception, and the process aborts (SIGABRT, "terminate
+    called after throwing an instance of 'nanobind::python_error'") instead of stopping as
+    Ctrl-C should (``windnav`` exits 130). A SIGINT that arrives during the import is handed to
+    the previous handler just after it (the default one raises ``KeyboardInterrupt``; an
+    ignored one stays ignored). Only the main thread can hold a signal; elsewhere, and once the
+    module is loaded, this is a plain import.
+    """
+    if name in sys.modules or threading.current_thread() is not threading.main_thread():
+        return importlib.import_module(name)
+    held = []
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        module = importlib.import_module(name)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if held:
+        if callable(previous):
+            previous(signal.SIGINT, None)
+        elif previous == signal.SIG_DFL:
+            os.kill(os.getpid(), signal.SIGINT)
+    return module
+
+
 def _cholmod_solver(schur):
     """``solve(b) -> S^-1 b`` (b: (m,) or (m, k)) by CHOLMOD's Cholesky factor of SPD ``S``."""
-    from cholespy import CholeskySolverD, MatrixType
+    cholespy = import_holding_ctrl_c("cholespy")
+    CholeskySolverD, MatrixType = cholespy.CholeskySolverD, cholespy.MatrixType
 
     coo = sp.coo_matrix(schur)
     chol = CholeskySolverD(coo.shape[0], coo.row.astype(np.int32), coo.col.astype(np.int32),
