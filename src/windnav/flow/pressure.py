@@ -280,10 +280,12 @@ def import_holding_ctrl_c(name: str):
     called after throwing an instance of 'nanobind::python_error'") instead of stopping as
     Ctrl-C should (``windnav`` exits 130). A SIGINT that arrives during the import is handed to
     the previous handler just after it (the default one raises ``KeyboardInterrupt``; an
-    ignored one stays ignored). Only the main thread can hold a signal; elsewhere, and once the
-    module is loaded, this is a plain import.
+    ignored one stays ignored). Only the main thread can hold a signal, and only a handler set
+    from Python can be put back; otherwise, and once the module is loaded, this is a plain
+    import.
     """
-    if name in sys.modules or threading.current_thread() is not threading.main_thread():
+    if (name in sys.modules or threading.current_thread() is not threading.main_thread()
+            or signal.getsignal(signal.SIGINT) is None):  # None: a handler not set from Python
         return importlib.import_module(name)
     held = []
     previous = signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
