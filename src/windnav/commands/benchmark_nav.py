@@ -432,18 +432,17 @@ def _check(args, name: str) -> int:
         status = _pinned(args, next(iter(kinds.values())), "checking", "the records'")
         if status is not None:
             return status
-        checks = check_records(spec, flights, executor=args.executor, workers=workers,
-                               progress=not args.no_progress, wind_batch=wind_batch)
     elif args.executor != "process" or args.native_arithmetic:
         why = ("--native-arithmetic" if args.native_arithmetic else
                f"the {args.executor!r} executor flies them in processes not started here")
         print(f"note: the records were flown under {len(kinds)} arithmetics; checking under "
               f"this machine's own ({why})", file=sys.stderr)
-        checks = check_records(spec, flights, executor=args.executor, workers=workers,
-                               progress=not args.no_progress, wind_batch=wind_batch)
     else:
         checks, pins = _check_groups(args, spec, kinds, groups, workers, wind_batch)
         under = f"under their records' {len(kinds)} arithmetics (each group's workers pinned)"
+    if not pins:  # one group, flown here or under this process's pin
+        checks = check_records(spec, flights, executor=args.executor, workers=workers,
+                               progress=not args.no_progress, wind_batch=wind_batch)
     bad = _report(checks, f"{args.out}: {len(checks)} flights of {len(ids)} scenarios flown "
                           f"again {under}", "reproduced", "recorded")
     if bad:
@@ -516,7 +515,12 @@ def _pinned(args, record: dict, doing: str, whose: str) -> int | None:
     :func:`~windnav.experiments.arithmetic.pinned_environment`), not with
     ``--native-arithmetic`` nor in a process so started: the new process's exit status; None to
     go on here (with a note when the CPU cannot, or runs only the nearest)."""
-    from windnav.experiments.arithmetic import PIN_VARIABLE, pinned_environment
+    from windnav.experiments.arithmetic import (
+        FIELDS,
+        PIN_VARIABLE,
+        arithmetic,
+        pinned_environment,
+    )
 
     if args.native_arithmetic or PIN_VARIABLE in os.environ:
         return None
@@ -525,7 +529,7 @@ def _pinned(args, record: dict, doing: str, whose: str) -> int | None:
         return _restart(args, env, f"{doing} under {whose} arithmetic ({line})")
     if env is None:
         print(f"note: {line}; {doing} under this machine's own", file=sys.stderr)
-    elif "without NumPy's" in line:  # the nearest arithmetic is the one this process has
+    elif any(record.get(k) not in (None, arithmetic()[k]) for k in FIELDS):  # nearest: ours
         print(f"note: {doing} under {whose} arithmetic ({line}): this machine's own already",
               file=sys.stderr)
     return None
