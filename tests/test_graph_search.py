@@ -54,3 +54,17 @@ def test_goal_inside_a_building_is_rejected():
     walled = City((0, 100, 0, 100), [[45, 55, 0, 100]], [20])
     with pytest.raises(ValueError, match="cannot be reached"):
         grid_route(walled, (5, 50), (95, 50))
+
+
+@pytest.mark.parametrize("start, goal, name", [((-20, 50), (95, 50), "start_xy"),
+                                               ((5, 50), (1e6, 1e6), "goal_xy")])
+def test_an_end_point_off_the_map_is_rejected(start, goal, name):
+    # it used to be snapped to the nearest edge cell and joined by a straight leg that no
+    # one checked (a route to (1e6, 1e6) of 1.4e6 m)
+    city = City((0, 100, 0, 100), [[40, 60, 40, 60]], [20])
+    with pytest.raises(ValueError, match=f"'{name}' parameter of grid_route must lie inside "
+                                         "the map"):
+        grid_route(city, start, goal)
+    # a point on the map's boundary is on the map
+    r = grid_route(city, (0, 0), (100, 100), clearance=2.0)
+    np.testing.assert_allclose(r["waypoints"][[0, -1]], [[0, 0], [100, 100]])

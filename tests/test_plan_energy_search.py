@@ -114,6 +114,19 @@ def test_moves_and_bad_input(gs_w):
         energy_route(city, (5, 5), (95, 95), gs_w, wind=(1.0, np.nan))
 
 
+@pytest.mark.parametrize("start, goal, name", [((-20, 20), (55, 20), "start_xy"),
+                                               ((-500, 20), (55, 20), "start_xy"),
+                                               ((5, 20), (55, 300), "goal_xy")])
+def test_an_end_point_off_the_map_is_rejected(gs_w, start, goal, name):
+    # a start off the map used to be snapped to the edge cell while the route began at the
+    # real start: the first leg overran the kernel's buffer and the process later died with a
+    # segmentation fault (found by a bad-input audit, 2026-12-05)
+    city = City((0, 60, 0, 40), [[25, 35, 15, 25]], [10])
+    with pytest.raises(ValueError, match=f"'{name}' parameter of energy_route must lie "
+                                         "inside the map"):
+        energy_route(city, start, goal, gs_w, wind=(3.0, 0.0))
+
+
 def test_a_map_without_buildings_is_free_everywhere(gs_w):
     # the distance transform of an image with no background measures from a phantom corner;
     # free_space must not inherit that (a start 3 m from the edge of an empty map is free)

@@ -43,6 +43,12 @@ def test_max_ground_speed_rejects_bad_input():
         max_ground_speed([[1, 0]], [[1, 0]], -1.0)
 
 
+def test_least_time_rejects_an_end_point_off_the_map():
+    lat = reach_lattice(EMPTY, (0.0, 0.0), dx=2.0, clearance=0.0)
+    with pytest.raises(ValueError, match="'goal_xy' parameter of least_time must lie inside"):
+        least_time(lat, (20, 100), (260, 100), airspeed_max=10.0)
+
+
 @pytest.mark.parametrize("wind", [(0.0, 0.0), (-6.0, 0.0), (4.0, 3.0), (0.0, 8.0)])
 def test_uniform_wind_straight_line(wind):
     """Open map, uniform wind: the straight line at v_max (the lattice's 16 moves follow a

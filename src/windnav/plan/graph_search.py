@@ -32,7 +32,14 @@ def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarra
 
 def free_cell(p, name: str, x, y, free, dx: float, clearance: float, where: str) -> int:
     """Flat index (``j * nx + i``) of the grid cell nearest ``p`` (m); a ValueError naming
-    ``name`` when that cell is not free (inside a building or its ``clearance``, m)."""
+    ``name`` when ``p`` lies outside the grid's cells (off the map) or that cell is not free
+    (inside a building or its ``clearance``, m)."""
+    half = 0.5 * dx * (1.0 + 1e-9)
+    if not (x[0] - half <= p[0] <= x[-1] + half and y[0] - half <= p[1] <= y[-1] + half):
+        raise ValueError(f"The '{name}' parameter of {where} must lie inside the map (x in "
+                         f"[{x[0] - 0.5 * dx:g}, {x[-1] + 0.5 * dx:g}], y in "
+                         f"[{y[0] - 0.5 * dx:g}, {y[-1] + 0.5 * dx:g}] m). Got {p.tolist()} "
+                         "instead.")
     i = int(np.clip(np.round((p[0] - x[0]) / dx), 0, len(x) - 1))
     j = int(np.clip(np.round((p[1] - y[0]) / dx), 0, len(y) - 1))
     if not free[j, i]:
