@@ -2,6 +2,7 @@
 and bad input."""
 
 import dataclasses
+import types
 
 import numba
 import numpy as np
@@ -479,6 +480,17 @@ def test_bad_planner_arguments_raise_named_errors(base):
     planner.set_goal((10, 0))
     with pytest.raises(ValueError, match="'state' parameter of MPPIPlanner.update"):
         planner.update([0, 0, 0])
+    # a (2, 2) array is not [x, y, vx, vy], and two vehicles are not one (audit, 2026-12-05)
+    with pytest.raises(ValueError, match="'state' parameter of MPPIPlanner.update"):
+        planner.update([[0, 0], [0, 0]])
+    two = types.SimpleNamespace(position=np.zeros((2, 3)), velocity=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="'state' parameter of MPPIPlanner.update"):
+        planner.update(two)
+    assert planner.update([[0, 0, 0, 0]]).shape == (2,)
+    # a negative range used to become an obstacle on the opposite side
+    with pytest.raises(ValueError, match="'scan' parameter of MPPIPlanner.update must hold "
+                                         "ranges >= 0"):
+        planner.update([0, 0, 0, 0], np.full(8, -5.0))
     for bad in ([0.0, 1.0, 3.0], [2.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, np.nan, 2.0],
                 [0.0, 1.0, np.inf], [0.0, 1.0, 2.00001]):
         with pytest.raises(ValueError, match="'offsets' parameter of LocalWind"):

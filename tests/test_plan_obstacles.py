@@ -82,6 +82,9 @@ def test_scan_points_lie_on_the_building_in_the_world_frame():
 
 
 def test_bad_points_raise_named_errors():
+    with pytest.raises(ValueError, match="'ranges' parameter of scan_points must be >= 0"):
+        scan_points(np.full(8, -5.0), max_range=100.0)
+    assert scan_points(np.array([0.0, np.nan, 3.0, 100.0]), max_range=100.0).shape == (2, 2)
     with pytest.raises(ValueError, match="'points' parameter of obstacle_field"):
         obstacle_field([[0.0, np.nan]])
     with pytest.raises(ValueError, match="'points' parameter of obstacle_field"):

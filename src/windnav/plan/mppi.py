@@ -519,11 +519,15 @@ def _state_xy(state) -> tuple[np.ndarray, np.ndarray]:
     if hasattr(state, "position") and hasattr(state, "velocity"):
         p = np.asarray(state.position, dtype=np.float64).reshape(-1, np.shape(state.position)[-1])
         v = np.asarray(state.velocity, dtype=np.float64).reshape(-1, np.shape(state.velocity)[-1])
+        if len(p) != 1 or len(v) != 1 or p.shape[1] < 2 or v.shape[1] < 2:
+            raise ValueError("The 'state' parameter of MPPIPlanner.update must be one vehicle's "
+                             f"state. Got position {p.shape} and velocity {v.shape} instead.")
         return p[0, :2].copy(), v[0, :2].copy()
-    s = np.asarray(state, dtype=np.float64).reshape(-1)
-    if s.shape != (4,):
+    s = np.asarray(state, dtype=np.float64)
+    if s.shape not in ((4,), (1, 4)):
         raise ValueError("The 'state' parameter of MPPIPlanner.update must be [x, y, vx, vy] or "
                          f"have position and velocity. Got shape {np.shape(state)} instead.")
+    s = s.reshape(4)
     return s[:2].copy(), s[2:].copy()
 
 
@@ -535,6 +539,9 @@ def _scan_to_points(scan, lidar_range: float) -> np.ndarray | None:
     if not np.all(np.isfinite(a)):
         return None
     if a.ndim == 1:
+        if (a < 0).any():
+            raise ValueError("The 'scan' parameter of MPPIPlanner.update must hold ranges >= 0, "
+                             f"m. Got {a.min()!r} instead.")
         return scan_points(a, max_range=lidar_range)
     if a.ndim == 2 and a.shape[1] == 2:
         return a

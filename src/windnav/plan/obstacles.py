@@ -55,11 +55,19 @@ def scan_points(ranges, *, max_range: float | None = None) -> np.ndarray:
     -------
     ndarray of shape (P, 2)
         The returns, m. Non-finite readings are dropped.
+
+    Raises
+    ------
+    ValueError
+        On a reading below 0 (it would put an obstacle on the opposite side).
     """
     r = np.asarray(ranges, dtype=np.float64)
     if r.ndim != 1 or r.size < 1:
         raise ValueError("The 'ranges' parameter of scan_points must be a 1-D array of "
                          f"n_rays >= 1 readings. Got shape {r.shape} instead.")
+    if (r < 0).any():
+        raise ValueError("The 'ranges' parameter of scan_points must be >= 0 (distances, m). "
+                         f"Got {np.nanmin(r)!r} instead.")
     top = np.nanmax(r) if max_range is None else positive_float(max_range, "max_range",
                                                                  "scan_points")
     keep = np.isfinite(r) & (r < top)
