@@ -443,6 +443,12 @@ class MPPIPlanner:
             Acceleration, m/s^2, inside ``[a_min, a_max]``. Zero (hover) when the state is not
             finite; braking ``clip(-v / dt)`` when the scan, the wind or every sampled cost is
             not finite.
+
+        Raises
+        ------
+        ValueError
+            With no goal set; on a state of another shape or of more than one vehicle; on a
+            scan of another shape or with a range below 0.
         """
         if self.goal is None:
             raise ValueError("The 'goal_xy' of MPPIPlanner must be set (constructor or "
