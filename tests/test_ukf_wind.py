@@ -239,6 +239,17 @@ def test_shell_validates_and_rejects():
     f = WindUKF(P_HB)
     with pytest.raises(ValueError, match="'u_cmd'"):
         f.step(np.zeros(3), {})
+    # a batch of commands is not one (the second row used to be dropped), None is not a
+    # mapping, and neither leaves the filter predicted (audit, 2026-12-05)
+    x_before = f.x.copy()
+    with pytest.raises(ValueError, match="'u_cmd' parameter of WindUKF.step must be a batch "
+                                         "of 1"):
+        f.step(np.zeros((2, 4)), {})
+    with pytest.raises(ValueError, match="'measurements' parameter of WindUKF.step"):
+        f.step(np.full(4, P_HB.hover_rotor_speed), None)
+    np.testing.assert_array_equal(f.x, x_before)
+    with pytest.raises(ValueError, match="'accel_from_odometry' parameter of WindUKF"):
+        WindUKF(P_HB, accel_from_odometry="yes")
     with pytest.raises(ValueError, match="'r'"):
         WindUKF(P_HB, r={"gps": 1.0})
     with pytest.raises(ValueError, match="'q'"):

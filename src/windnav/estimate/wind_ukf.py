@@ -232,6 +232,9 @@ class WindUKF:
         self.dt = positive_float(dt, "dt", where)
         self.n_substeps = positive_int(n_substeps, "n_substeps", where)
         chain = opt["accel_from_odometry"]
+        if not isinstance(chain, (bool, np.bool_, OdometryAccel)):
+            raise ValueError(f"The 'accel_from_odometry' parameter of {where} must be a bool or "
+                             f"an OdometryAccel. Got {chain!r} instead.")
         self.odometry_accel = chain if isinstance(chain, OdometryAccel) else None
         self.accel_from_odometry = self.odometry_accel is not None or bool(chain)
         N = params.n_rotors
@@ -378,7 +381,11 @@ class WindUKF:
         u = u_cmd
         if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (N,)
                 and np.isfinite(u).all()):  # the checks of batch_array, without its cost
-            u = batch_array(u_cmd, "u_cmd", "WindUKF.step", (N,))[0]
+            u = batch_array(u_cmd, "u_cmd", "WindUKF.step", (N,), batch=1)[0]
+        if not isinstance(measurements, Mapping):
+            raise ValueError("The 'measurements' parameter of WindUKF.step must be a mapping of "
+                             f"block name to array (or None). Got {type(measurements).__name__} "
+                             "instead.")
         u = np.minimum(np.maximum(u, self._u_lo), self._u_hi)  # np.clip, without its wrapper
         self.ukf.predict(self.dt, u)
         self._steps_since_odom += 1
