@@ -153,6 +153,10 @@ def test_noise_statistics_clip_and_determinism():
         ({"origins_xy": np.zeros((2, 2, 2))}, "origins_xy"),
         ({"n_rays": 0}, "n_rays"),
         ({"n_rays": 2.5}, "n_rays"),
+        ({"n_rays": np.inf}, "n_rays"),  # OverflowError, NaN and None messages without the
+        ({"n_rays": np.nan}, "n_rays"),  # name until the 2026-12-05 audit
+        ({"n_rays": None}, "n_rays"),
+        ({"n_rays": "8"}, "n_rays"),
         ({"max_range": 5.0, "min_range": 5.0}, "max_range"),
         ({"max_range": 1.0, "min_range": 5.0}, "max_range"),
         ({"max_range": np.inf}, "max_range"),

@@ -39,8 +39,13 @@ def finite_float(value, name: str, where: str) -> float:
 
 
 def positive_int(value, name: str, where: str) -> int:
-    """Return ``value`` as an int >= 1, else raise a named ValueError."""
-    if isinstance(value, bool) or int(value) != value or int(value) < 1:
+    """Return ``value`` as an int >= 1, else raise a named ValueError (NaN, inf, None and
+    strings included)."""
+    try:
+        ok = not isinstance(value, (bool, str, bytes)) and int(value) == value and value >= 1
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
         raise _fail(name, where, "an integer >= 1", value)
     return int(value)
 
