@@ -244,10 +244,12 @@ def test_independent_realisations_per_row():
     [({"sigma": (1, -1, 1)}, "sigma"), ({"airspeed": 0.0}, "airspeed"),
      ({"altitude": -2.0}, "altitude"), ({"length_scales": (1, 0, 1)}, "length_scales"),
      ({"mean": (1, np.nan, 0)}, "mean"), ({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"),
-     ({"batch_size": 0}, "batch_size"), ({"rng": -3}, "rng"), ({"time_step": 0.0}, "time_step")],
+     ({"batch_size": 0}, "batch_size"), ({"rng": -3}, "rng"), ({"time_step": 0.0}, "time_step"),
+     # a microsecond time constant: the gusts were hundreds of times sigma (audit, 2026-12-05)
+     ({"length_scales": (1e-6,) * 3}, "length_scales")],
 )
 def test_bad_parameters_raise_naming_them(kwargs, name):
-    with pytest.raises(ValueError, match=f"'{name}'"):
+    with pytest.raises(ValueError, match=f"'{name}' parameter of DrydenWind"):
         DrydenWind(**kwargs)
 
 

@@ -104,7 +104,8 @@ def dryden_length_scales(altitude: float) -> np.ndarray:
     return np.array([l_uv, l_uv, h_ft]) * FOOT
 
 
-def dryden_state_space(sigma, length_scales, airspeed: float):
+def dryden_state_space(sigma, length_scales, airspeed: float, *,
+                       where: str = "dryden_state_space"):
     """Linear SDE realisation ``dx = A x dt + B dW``, ``g = C x`` of the three Dryden filters.
 
     Parameters
@@ -124,8 +125,9 @@ def dryden_state_space(sigma, length_scales, airspeed: float):
         Noise input: one standard Wiener process per axis.
     C : ndarray of shape (3, 5)
         Output map, so that ``C (sI - A)^-1 B = sqrt(pi) diag(H_u, H_v, H_w)``.
+
+    ``where`` names the caller in the errors.
     """
-    where = "dryden_state_space"
     sig = batch_array(sigma, "sigma", where, (3,), batch=1)[0]
     if np.any(sig < 0):
         raise ValueError(f"The 'sigma' parameter of {where} must be >= 0. Got {sig!r} instead.")
@@ -326,7 +328,8 @@ class DrydenWind:
         else:
             self.altitude = None
             scales = length_scales
-        self._a, self._b, self._c = dryden_state_space(sigma, scales, self.airspeed)
+        self._a, self._b, self._c = dryden_state_space(sigma, scales, self.airspeed,
+                                                       where=where)
         self._sigma = batch_array(sigma, "sigma", where, (3,), batch=1)[0]
         self._scales = np.asarray(scales, dtype=np.float64).copy()
         for arr in (self._mean, self._sigma, self._scales):
@@ -335,6 +338,15 @@ class DrydenWind:
         self._t0 = finite_float(t0, "t0", where)
         self._h = positive_float(time_step, "time_step", where)
         self._p = stationary_covariance(self._a, self._b)
+        variance = np.einsum("ij,jk,ik->i", self._c, self._p, self._c)
+        if not np.allclose(variance, self._sigma ** 2, rtol=1e-6, atol=1e-12):
+            # time constants L / V of a microsecond or less: the Lyapunov solve loses the
+            # covariance, and the gusts came out hundreds of times larger than sigma
+            raise ValueError(f"The 'length_scales' parameter of {where} must give time "
+                             "constants L / airspeed that double precision can realise (the "
+                             f"gust's standard deviation came out {np.sqrt(variance)!r} m/s "
+                             f"for sigma {self._sigma!r}). Got {self._scales!r} m at "
+                             f"{self.airspeed} m/s instead.")
         self._fastest = float(np.max(np.abs(np.linalg.eigvals(self._a))))
         phi, q = _exact_step(self._a, self._b, self._p, self._fastest, self._h)
         self._phi = np.ascontiguousarray(phi)
