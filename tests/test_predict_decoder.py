@@ -373,6 +373,9 @@ def test_corrupt_model_file_is_a_value_error_naming_path(tmp_path, damage):
     ({"w_up": np.array([[np.nan, 1.0], [1.0, 1.0]])}, "w_up"),
     ({"w_robot": np.array([[1.0, np.inf], [1.0, 1.0]])}, "w_robot"),
     ({"w_robot": np.ones((3, 2))}, "w_robot"),
+    # beyond float32's range: an all-NaN field with only an overflow warning (2026-12-05)
+    ({"w_up": np.array([[1e39, 0.0], [1.0, 1.0]])}, "w_up"),
+    ({"scans": np.full((2, 360), 10.0 + 1j)}, "scans"),  # the imaginary part was dropped
 ])
 @pytest.mark.parametrize("arch", sorted(ARCHITECTURES))
 def test_bad_inputs_raise_value_errors_naming_the_argument(bad, name, arch):

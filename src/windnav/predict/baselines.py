@@ -24,10 +24,24 @@ from windnav.predict.dataset import N_RAYS, grid_offsets
 
 def _array(value, name: str, where: str) -> np.ndarray:
     try:
-        return np.asarray(value, dtype=np.float64)
+        a = np.asarray(value)
+        if a.dtype.kind == "c":  # the cast to float64 would drop the imaginary part
+            raise TypeError
+        return a.astype(np.float64, copy=False)
     except (TypeError, ValueError):
-        raise ValueError(f"The {name!r} parameter of {where} must be an array of numbers. "
-                         f"Got {type(value).__name__} instead.") from None
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of real "
+                         f"numbers. Got {type(value).__name__} instead.") from None
+
+
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def _wind(value, name: str, where: str, batch: int) -> np.ndarray:
+    w = batch_array(_array(value, name, where), name, where, (2,), batch=batch)
+    if w.size and np.abs(w).max() > _FLOAT32_MAX:  # the models compute in float32
+        raise ValueError(f"The {name!r} parameter of {where} must be within float32's range "
+                         f"(|w| <= {_FLOAT32_MAX:.3g} m/s). Got {np.abs(w).max()!r} instead.")
+    return w
 
 
 def check_inputs(scans, w_up, w_robot, where: str):
@@ -55,7 +69,8 @@ def check_inputs(scans, w_up, w_robot, where: str):
     ------
     ValueError
         Naming the argument: a scan of the wrong length or shape, NaN, inf or negative ranges,
-        NaN or inf wind, a wrongly shaped wind, or a batch size different from the scans'.
+        NaN or inf wind or wind beyond float32's range, a wrongly shaped wind, complex
+        numbers, or a batch size different from the scans'.
     """
     scans = batch_array(_array(scans, "scans", where), "scans", where, (N_RAYS,))
     if (scans < 0).any():
@@ -63,8 +78,8 @@ def check_inputs(scans, w_up, w_robot, where: str):
         raise ValueError(f"The 'scans' parameter of {where} must hold ranges >= 0, m. "
                          f"Got a negative range in scan {bad} instead.")
     b = scans.shape[0]
-    w_up = batch_array(_array(w_up, "w_up", where), "w_up", where, (2,), batch=b)
-    w_robot = batch_array(_array(w_robot, "w_robot", where), "w_robot", where, (2,), batch=b)
+    w_up = _wind(w_up, "w_up", where, b)
+    w_robot = _wind(w_robot, "w_robot", where, b)
     return scans, w_up, w_robot
 
 
