@@ -284,6 +284,7 @@ def test_strouhal_number_of_a_pure_tone():
         (dict(dt=5.0), "dt"),
         (dict(steps=0), "steps"),
         (dict(record_every=-1), "record_every"),
+        (dict(record_every=100), "record_every"),  # more than steps: no frame, silently
         (dict(viscosity=-1e-3), "viscosity"),
         (dict(viscosity=float("inf")), "viscosity"),
     ],

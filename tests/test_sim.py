@@ -181,6 +181,7 @@ def test_hub_wind_sees_shear():
     "kwargs, name",
     [
         (dict(duration=0.0), "duration"),
+        (dict(duration=0.05, dt=1.0), "'duration' parameter of fly must be at least half"),
         (dict(dt=-1.0), "dt"),
         (dict(control_rate_hz=300.0), "rate_hz"),
         (dict(sensors=SensorSuite(IMU(rate_hz=333.0), None, None)), "rate_hz"),

@@ -169,6 +169,34 @@ def test_bad_input_names_the_argument(kwargs, name):
         model.step(s, args["cmd"], args["wind"], args["dt"])
 
 
+@pytest.mark.parametrize("field, value, match", [
+    ("attitude", np.zeros((1, 4)), "a non-zero attitude quaternion"),  # ZeroDivisionError before
+    ("attitude", np.array([[0, 0, 0, 1e-200]]), "a non-zero attitude quaternion"),
+    ("position", np.zeros(3), r"position of shape \(B, 3\)"),  # numpy's AxisError before
+    ("velocity", np.zeros((2, 3)), r"velocity of shape \(B, 3\)"),  # concatenate's message
+    ("rotor_speeds", np.zeros((1, 6)), r"rotor_speeds of shape \(B, 4\)"),
+])
+def test_a_malformed_state_names_its_field(field, value, match):
+    model = Multirotor(wn.vehicle.params("hummingbird"))
+    s = dataclasses.replace(model.hover_state([0.0, 0.0, 0.0]), **{field: value})
+    with pytest.raises(ValueError, match="'state' parameter of Multirotor.step must have "
+                                         + match):
+        model.step(s, np.full(4, 400.0), np.zeros(3), 0.01)
+    with pytest.raises(ValueError, match="'state' parameter of Multirotor.derivatives"):
+        model.derivatives(s, np.zeros(3))
+
+
+def test_state_indexing_counts_from_the_end_and_checks_the_range():
+    model = Multirotor(wn.vehicle.params("hummingbird"))
+    s = model.hover_state([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
+    np.testing.assert_array_equal(s[-1].position, [[4.0, 5.0, 6.0]])  # was empty
+    np.testing.assert_array_equal(s[1].position, [[1.0, 2.0, 3.0]])
+    for bad in (3, 5, -4):
+        with pytest.raises(IndexError, match="out of range for a batch of 3"):
+            s[bad]
+    assert s[1:].batch_size == 2
+
+
 def test_unknown_vehicle_name():
     with pytest.raises(ValueError, match="'name'"):
         wn.vehicle.params("blimp")

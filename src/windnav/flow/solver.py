@@ -566,7 +566,8 @@ def simulate(
     steps : int
         Steps averaged (>= 1).
     record_every : int
-        Record a cell-centred frame every this many averaged steps (0: none).
+        Record a cell-centred frame every this many averaged steps (0: none; at most
+        ``steps``).
     advection : {"maccormack", "semi_lagrangian"}
     pressure : {"exact", "jacobi"}
     symmetry_break : float
@@ -691,6 +692,10 @@ def simulate_batch(
     if steps < 1:
         raise ValueError(f"The 'steps' parameter of {where} must be >= 1. Got {steps} instead.")
     record_every = _nonneg_int(record_every, "record_every", where)
+    if record_every > steps:  # it would record no frame at all
+        raise ValueError(f"The 'record_every' parameter of {where} must be at most steps "
+                         f"({steps}) to record a frame, or 0 for none. Got {record_every} "
+                         "instead.")
     symmetry_break = finite_float(symmetry_break, "symmetry_break", where)
     smagorinsky = _nonneg_float(smagorinsky, "smagorinsky", where)
     viscosity = _nonneg_float(viscosity, "viscosity", where)

@@ -197,6 +197,10 @@ def fly(
         lift_fraction, "lift_fraction", _WHERE)
     if max_airspeed is not None:
         max_airspeed = positive_float(max_airspeed, "max_airspeed", _WHERE)
+    if round(duration / loop.dt) < 1:  # no step at all: a log of the initial state alone
+        raise ValueError(f"The 'duration' parameter of {_WHERE} must be at least half the "
+                         f"physics step dt ({loop.dt} s) to fly one step. Got {duration} "
+                         "instead.")
     rec = _Recorder(loop, duration, log_every, periods, lift_fraction, max_airspeed)
     state = initial_loop_state(loop, x0)
     n_steps = rec.n_steps

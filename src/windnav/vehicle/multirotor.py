@@ -9,7 +9,7 @@ import numpy as np
 
 from windnav._validate import batch_array, positive_float, positive_int
 from windnav.vehicle.dynamics import derivative_kernel, pack_params, step_kernel
-from windnav.vehicle.layout import BODY_RATES, N_RIGID, VELOCITY
+from windnav.vehicle.layout import ATTITUDE, BODY_RATES, N_RIGID, VELOCITY
 from windnav.vehicle.params import MultirotorParams
 from windnav.vehicle.state import VehicleState
 
@@ -95,12 +95,22 @@ class Multirotor:
         if not isinstance(state, VehicleState):
             raise ValueError(f"The 'state' parameter of {where} must be a VehicleState. "
                              f"Got {type(state).__name__} instead.")
+        widths = {"position": 3, "velocity": 3, "attitude": 4, "body_rates": 3,
+                  "rotor_speeds": self.n_rotors}
+        batch = np.shape(state.position)[0] if np.ndim(state.position) else None
+        for field, width in widths.items():
+            shape = np.shape(getattr(state, field))
+            if shape != (batch, width):
+                raise ValueError(f"The 'state' parameter of {where} must have {field} of shape "
+                                 f"(B, {width}) with the batch of position. Got {field} of "
+                                 f"shape {shape} instead.")
         x = state.to_array()
-        if x.ndim != 2 or x.shape[1] != N_RIGID + self.n_rotors:
-            raise ValueError(f"The 'state' parameter of {where} must hold {self.n_rotors} rotor "
-                             f"speeds. Got packed shape {x.shape} instead.")
         if not np.all(np.isfinite(x)):
             raise ValueError(f"The 'state' parameter of {where} must be finite. Got NaN/inf.")
+        q_norm = np.sqrt(np.sum(x[:, ATTITUDE] ** 2, axis=1))
+        if (q_norm < 1e-6).any():  # the rotation divides by it
+            raise ValueError(f"The 'state' parameter of {where} must have a non-zero attitude "
+                             f"quaternion. Got a norm of {float(q_norm.min())!r} instead.")
         self._check_batch(x.shape[0])
         return x
 

@@ -53,8 +53,14 @@ class VehicleState:
                    x[:, ROTOR_SPEEDS])
 
     def __getitem__(self, idx) -> VehicleState:
-        """Select vehicles (keeps the batch axis for an integer index)."""
+        """Select vehicles (keeps the batch axis for an integer index, which may count from
+        the end; out of range it raises IndexError)."""
         if isinstance(idx, (int, np.integer)):
-            idx = slice(int(idx), int(idx) + 1)
+            b = self.batch_size
+            i = int(idx) + b if idx < 0 else int(idx)
+            if not 0 <= i < b:
+                raise IndexError(f"VehicleState index {int(idx)} is out of range for a batch "
+                                 f"of {b}.")
+            idx = slice(i, i + 1)
         return VehicleState(self.position[idx], self.velocity[idx], self.attitude[idx],
                             self.body_rates[idx], self.rotor_speeds[idx])
