@@ -114,8 +114,17 @@ def test_malformed_json_names_file_and_problem(tmp_path, doc, words):
 
 
 def test_missing_file_raises_file_not_found(tmp_path):
-    with pytest.raises(FileNotFoundError):
+    with pytest.raises(FileNotFoundError, match="nope.json' does not exist"):
         City.from_rotorpy_json(tmp_path / "nope.json")
+
+
+def test_a_folder_or_a_binary_file_is_a_value_error_naming_it(tmp_path):
+    with pytest.raises(ValueError, match="is a folder, not a JSON file"):
+        City.from_rotorpy_json(tmp_path)  # IsADirectoryError before
+    binary = tmp_path / "map.json"
+    binary.write_bytes(b"\xff\xfe\x00garbage")
+    with pytest.raises(ValueError, match="map.json' is not UTF-8 text"):
+        City.from_rotorpy_json(binary)  # a UnicodeDecodeError without the file before
 
 
 def test_overlapping_blocks_form_a_union(tmp_path):

@@ -325,6 +325,8 @@ def test_save_and_load_round_trip(tmp_path):
 def test_missing_model_file_is_a_value_error_naming_path(tmp_path):
     with pytest.raises(ValueError, match="'path' parameter of load_decoder.*does not exist"):
         load_decoder(tmp_path / "nope.npz")
+    with pytest.raises(ValueError, match="'path' parameter of load_decoder.*instead, a folder"):
+        load_decoder(tmp_path)
 
 
 def test_missing_default_model_says_how_to_build_it(monkeypatch, tmp_path):

@@ -372,9 +372,11 @@ class City:
 
         Raises
         ------
+        FileNotFoundError
+            If the file does not exist (naming it).
         ValueError
-            Naming the file and what is wrong (invalid JSON, missing keys, a block outside
-            the bounds or without volume, by index and extents).
+            Naming the file and what is wrong (a folder, not UTF-8 text, invalid JSON, missing
+            keys, a block outside the bounds or without volume, by index and extents).
 
         See Also
         --------

@@ -36,12 +36,20 @@ def load_rotorpy_doc(path) -> dict:
     Raises
     ------
     FileNotFoundError
-        If the file does not exist.
+        If the file does not exist (the message names it).
     ValueError
-        If it is not valid JSON (the message names the file).
+        If the path is a folder, or the file is not UTF-8 text or not valid JSON (the message
+        names the file).
     """
     path = Path(path)
-    text = path.read_text()
+    if not path.exists():
+        raise FileNotFoundError(f"RotorPy world file {str(path)!r} does not exist.")
+    if path.is_dir():
+        raise ValueError(f"RotorPy world file {str(path)!r} is a folder, not a JSON file.")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"RotorPy world file {str(path)!r} is not UTF-8 text: {exc}") from None
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:

@@ -978,8 +978,9 @@ def load_decoder(path=None) -> Decoder:
         path = DEFAULT_MODEL
     path = Path(path)
     if not path.is_file():
+        what = "a folder" if path.is_dir() else "which does not exist"
         raise ValueError(f"The 'path' parameter of {where} must name an existing decoder file "
-                         f"(.npz). Got {str(path)!r} instead, which does not exist.")
+                         f"(.npz). Got {str(path)!r} instead, {what}.")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: np.asarray(data[k]) for k in data.files}
