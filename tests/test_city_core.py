@@ -172,6 +172,16 @@ def test_empty_city_is_valid():
 
 
 # ------------------------------------------------------------------ grids and rasterisation
+def test_bad_block_attrs_and_a_grid_too_fine_are_named():
+    with pytest.raises(ValueError, match="'block_attrs' parameter of City must be a sequence "
+                                         "of dicts"):
+        City((0, 10, 0, 10), [[1, 2, 1, 2]], [5], block_attrs=[1])  # a TypeError before
+    city = City((0, 600, 0, 600), np.zeros((0, 4)), np.zeros(0))
+    with pytest.raises(ValueError, match="'dx' parameter of grid_shape must give at most"):
+        city.grid(1e-9)  # a MemoryError after trying to allocate 298 GiB before
+    assert city.grid(0.1)[0].size == 6000
+
+
 def test_grid_cell_centres():
     city = City((-5.0, 25.0, 10.0, 30.0), [[0, 1, 11, 12]], [3])
     x, y = city.grid(0.1)

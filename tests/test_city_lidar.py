@@ -163,6 +163,8 @@ def test_noise_statistics_clip_and_determinism():
         ({"min_range": -1.0}, "min_range"),
         ({"noise_std": -0.1}, "noise_std"),
         ({"noise_std": 0.1}, "rng"),
+        ({"noise_std": 0.1, "rng": "x"}, "rng"),  # SeedSequence's TypeError before
+        ({"noise_std": 0.1, "rng": -1}, "rng"),  # "expected non-negative integer" before
         ({"noise_std": 0.1, "normals": np.zeros((1, 359))}, "normals"),
         ({"noise_std": 0.1, "normals": np.full((1, 360), np.nan)}, "normals"),
     ],

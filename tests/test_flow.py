@@ -294,6 +294,13 @@ def test_bad_input_names_the_argument(kwargs, name):
         wn.flow.simulate(_city(), **{"speed": 2.0, "dt": 0.2, "steps": 2, **kwargs})
 
 
+@pytest.mark.parametrize("city", [None, "map.json"])
+def test_a_city_of_another_type_is_named(city):
+    with pytest.raises(ValueError, match="'city' parameter of simulate must be a "
+                                         "windnav.city.City .*Got (NoneType|str) instead"):
+        wn.flow.simulate(city, speed=2.0, dt=0.2, steps=2)
+
+
 def test_cfl_error_reports_the_cfl_number():
     with pytest.raises(ValueError, match=r"'dt'.*CFL number speed\*dt/dx = 5"):
         wn.flow.simulate(_city(), speed=5.0, dx=1.0, dt=1.0)

@@ -47,6 +47,12 @@ def test_routes_keep_clearance_and_are_near_optimal(seed):
     assert r["length"] >= np.linalg.norm(goal - start) - 1e-9
 
 
+def test_a_city_of_another_type_is_named():
+    with pytest.raises(ValueError, match="'city' parameter of grid_route must be a "
+                                         "windnav.city.City"):
+        grid_route(None, (5, 5), (50, 50))
+
+
 def test_goal_inside_a_building_is_rejected():
     city = City((0, 100, 0, 100), [[40, 60, 40, 60]], [20])
     with pytest.raises(ValueError, match="'goal_xy'"):

@@ -474,6 +474,9 @@ def test_bad_planner_arguments_raise_named_errors(base):
         MPPIPlanner(with_variant(base, "gs"))
     with pytest.raises(ValueError, match="'goal_xy' parameter of MPPIPlanner"):
         MPPIPlanner(base, goal_xy=(np.nan, 0))
+    for bad in (-1, "a", 1.5):
+        with pytest.raises(ValueError, match="'rng' parameter of MPPIPlanner"):
+            MPPIPlanner(base, rng=bad)
     planner = MPPIPlanner(dataclasses.replace(base, n_samples=10, n_steps=5), rng=0)
     with pytest.raises(ValueError, match="'goal_xy'"):
         planner.update([0, 0, 0, 0])

@@ -238,11 +238,21 @@ def test_same_seed_same_flight_other_seed_other_flight(city, flow):
     ({"goal": (150.0, 60.0)}, "'goal_xy'.*inside the map"),
     ({"goal": (np.nan, 60.0)}, "goal_xy"),
     ({"variant": "astar"}, "'variant'"),
+    ({"rng": "a"}, "'rng' parameter of navigate"),
 ])
 def test_bad_input_is_named(city, flow, kw, match):
     variant = kw.pop("variant", "mppi")
     with pytest.raises(ValueError, match=match):
         fly(city, flow, variant, **kw)
+
+
+def test_a_city_or_a_flow_of_another_type_is_named(city, flow):
+    # AttributeErrors from deep inside before the 2026-12-05 audit
+    with pytest.raises(ValueError, match="'city' parameter of navigate must be a "
+                                         "windnav.city.City"):
+        fly(None, flow)
+    with pytest.raises(ValueError, match="'flow' parameter of navigate must be a FlowSolution"):
+        fly(city, "flow.zarr")
 
 
 def test_a_flow_of_another_wind_is_refused(city, flow):

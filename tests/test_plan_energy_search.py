@@ -112,6 +112,9 @@ def test_moves_and_bad_input(gs_w):
         energy_route(city, (5, 5), (95, 95), gs_w, speed_range=(5.0, 1.0))
     with pytest.raises(ValueError, match="'wind' parameter of energy_route"):
         energy_route(city, (5, 5), (95, 95), gs_w, wind=(1.0, np.nan))
+    with pytest.raises(ValueError, match="'speed_step' parameter of energy_route must give at "
+                                         "most"):
+        energy_route(city, (5, 5), (95, 95), gs_w, speed_step=1e-9)  # 145 GiB before
 
 
 @pytest.mark.parametrize("start, goal, name", [((-20, 20), (55, 20), "start_xy"),

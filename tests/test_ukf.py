@@ -165,6 +165,15 @@ def test_bad_input_raises_named_errors():
         f.update({"gps": [0.1]})
     with pytest.raises(ValueError, match="'P0'"):
         UKF(pendulum_fx, [0.0, 0.0], np.eye(3), np.eye(2), dt=0.1)
+    # not a covariance: only repaired, with a warning, at the first step before (2026-12-05)
+    for bad in (-np.eye(2), np.array([[1.0, 0.5], [0.0, 1.0]]), np.array([[1.0, 2.0],
+                                                                          [2.0, 1.0]])):
+        with pytest.raises(ValueError, match="'P0' parameter of UKF must be a symmetric "
+                                             "positive semi-definite covariance"):
+            UKF(pendulum_fx, [0.0, 0.0], bad, np.eye(2), dt=0.1)
+        with pytest.raises(ValueError, match="'Q' parameter of UKF must be a symmetric"):
+            UKF(pendulum_fx, [0.0, 0.0], np.eye(2), bad, dt=0.1)
+    assert UKF(pendulum_fx, [0.0, 0.0], np.zeros((2, 2)), np.zeros((2, 2)), dt=0.1).n == 2
     with pytest.raises(ValueError, match="'dt'"):
         UKF(pendulum_fx, [0.0, 0.0], np.eye(2), np.eye(2), dt=0.0)
     with pytest.raises(ValueError, match="positive definite"):

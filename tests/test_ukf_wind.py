@@ -250,6 +250,10 @@ def test_shell_validates_and_rejects():
     np.testing.assert_array_equal(f.x, x_before)
     with pytest.raises(ValueError, match="'accel_from_odometry' parameter of WindUKF"):
         WindUKF(P_HB, accel_from_odometry="yes")
+    with pytest.raises(ValueError, match="'x' and 'P' parameters of wind_world"):
+        wind_world(np.zeros(5), np.eye(5))  # an IndexError inside the kernel before
+    with pytest.raises(ValueError, match="'x' and 'P' parameters of wind_world"):
+        wind_world(np.zeros(16), np.eye(15))
     with pytest.raises(ValueError, match="'r'"):
         WindUKF(P_HB, r={"gps": 1.0})
     with pytest.raises(ValueError, match="'q'"):

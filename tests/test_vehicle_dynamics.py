@@ -197,6 +197,13 @@ def test_state_indexing_counts_from_the_end_and_checks_the_range():
     assert s[1:].batch_size == 2
 
 
+@pytest.mark.parametrize("params", ["hummingbird", None, [None]])
+def test_a_model_of_something_else_than_params_is_named(params):
+    with pytest.raises(ValueError, match="'params' parameter of pack_params must be "
+                                         "MultirotorParams"):
+        Multirotor(params)
+
+
 def test_unknown_vehicle_name():
     with pytest.raises(ValueError, match="'name'"):
         wn.vehicle.params("blimp")

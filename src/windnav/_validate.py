@@ -38,6 +38,21 @@ def finite_float(value, name: str, where: str) -> float:
     return v
 
 
+def generator(rng, name: str, where: str) -> np.random.Generator:
+    """``rng`` itself when it is a ``numpy.random.Generator``, else ``default_rng(rng)`` (an
+    integer seed >= 0, a SeedSequence, a sequence of seeds, or None for fresh entropy); a
+    ValueError naming the argument for anything ``default_rng`` refuses."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if isinstance(rng, (bool, str, bytes)):
+        raise _fail(name, where, "a numpy.random.Generator, an integer seed >= 0 or None", rng)
+    try:
+        return np.random.default_rng(rng)
+    except (TypeError, ValueError):
+        raise _fail(name, where, "a numpy.random.Generator, an integer seed >= 0 or None",
+                    rng) from None
+
+
 def positive_int(value, name: str, where: str) -> int:
     """Return ``value`` as an int >= 1, else raise a named ValueError (NaN, inf, None and
     strings included)."""

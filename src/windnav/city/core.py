@@ -119,7 +119,11 @@ class City:
         _check_blocks(b, zb, fp, h, base)
         attrs = self.block_attrs
         if attrs is not None:
-            attrs = tuple(dict(a) for a in attrs)
+            try:
+                attrs = tuple(dict(a) for a in attrs)
+            except (TypeError, ValueError):
+                raise ValueError("The 'block_attrs' parameter of City must be a sequence of "
+                                 f"dicts, one per footprint. Got {attrs!r} instead.") from None
             if len(attrs) != m:
                 raise ValueError(
                     f"The 'block_attrs' parameter of City must hold one dict per footprint ({m}). "
@@ -400,6 +404,15 @@ class City:
         return write_rotorpy_json(self, path)
 
 
+def check_city(city, where: str) -> City:
+    """``city`` if it is a :class:`City`, else a ValueError naming the parameter (an
+    AttributeError deep inside the caller before)."""
+    if not isinstance(city, City):
+        raise ValueError(f"The 'city' parameter of {where} must be a windnav.city.City (e.g. "
+                         f"City.from_rotorpy_json(path)). Got {type(city).__name__} instead.")
+    return city
+
+
 def read_rotorpy_json(path) -> City:
     """Read a RotorPy world JSON file.
 
@@ -459,6 +472,10 @@ def _check_blocks(b, zb, fp, h, base) -> None:
             )
 
 
+MAX_GRID_CELLS = 10**9
+"""The most cells a grid on a map may have (8 GB per float64 field)."""
+
+
 def grid_shape(bounds, dx: float) -> tuple[int, int]:
     """``(ny, nx)`` of the grid of square cells of side ``dx`` (m) that covers ``bounds =
     (x_min, x_max, y_min, y_max)`` (m) from its lower-left corner.
@@ -470,7 +487,12 @@ def grid_shape(bounds, dx: float) -> tuple[int, int]:
     reaches past the bound; no part of the map is left off.
     """
     x0, x1, y0, y1 = (float(b) for b in bounds)
-    return _n_cells(y1 - y0, dx), _n_cells(x1 - x0, dx)
+    ny, nx = _n_cells(y1 - y0, dx), _n_cells(x1 - x0, dx)
+    if ny * nx > MAX_GRID_CELLS:  # before anything allocates 8 bytes a cell, or more
+        raise ValueError(f"The 'dx' parameter of grid_shape must give at most "
+                         f"{MAX_GRID_CELLS:.0e} cells on the map {tuple(bounds)}. Got {dx!r} m "
+                         f"instead ({ny} x {nx} cells).")
+    return ny, nx
 
 
 def _n_cells(length: float, dx: float) -> int:

@@ -29,7 +29,7 @@ import math
 import numba
 import numpy as np
 
-from windnav._validate import batch_array, positive_float, positive_int
+from windnav._validate import batch_array, generator, positive_float, positive_int
 
 _WHERE = "City.lidar"
 
@@ -137,7 +137,7 @@ def lidar_scan(
                 f"The 'rng' parameter of {_WHERE} must be a numpy.random.Generator or a seed "
                 "when noise_std > 0. Got None instead."
             )
-        rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        rng = generator(rng, "rng", _WHERE)
 
     cos_a, sin_a = _ray_components(n_rays)
     ranges = np.empty((origins.shape[0], n_rays))

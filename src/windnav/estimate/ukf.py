@@ -405,11 +405,18 @@ class UKF:
             self.add_block(name, *spec)
 
     @staticmethod
-    def _square(A, n: int, name: str, where: str = "UKF") -> np.ndarray:
+    def _square(A, n: int, name: str, where: str = "UKF", psd: bool = True) -> np.ndarray:
         A = np.array(A, dtype=np.float64)
         if A.shape != (n, n) or not np.all(np.isfinite(A)):
             raise ValueError(f"The {name!r} parameter of {where} must be a finite ({n}, {n}) "
                              f"array. Got shape {A.shape} instead.")
+        tol = 1e-9 * max(float(np.abs(A).max()), 1e-300)
+        if psd and (np.abs(A - A.T).max() > tol or np.linalg.eigvalsh(A).min() < -tol):
+            # a covariance: the filter would only "repair" it, with a warning, at its first step
+            raise ValueError(f"The {name!r} parameter of {where} must be a symmetric positive "
+                             "semi-definite covariance. Got smallest eigenvalue "
+                             f"{float(np.linalg.eigvals(A).real.min())!r} and asymmetry "
+                             f"{float(np.abs(A - A.T).max())!r} instead.")
         return A
 
     @property
@@ -421,7 +428,7 @@ class UKF:
         """Register (or replace) measurement block ``name`` with model ``hx`` and noise ``R``."""
         R = np.atleast_2d(np.array(R, dtype=np.float64))
         m = R.shape[0]
-        self._square(R, m, f"R[{name!r}]", "UKF.add_block")
+        self._square(R, m, f"R[{name!r}]", "UKF.add_block", psd=False)  # definite: below
         if not _k.chol_lower(R, np.zeros((m, m))):
             raise ValueError(f"The 'R[{name!r}]' parameter of UKF.add_block must be positive "
                              "definite.")

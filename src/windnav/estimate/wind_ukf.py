@@ -127,7 +127,17 @@ def wind_world(x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m/s, world frame.
     cov : ndarray of shape (3, 3)
         (m/s)^2.
+
+    Raises
+    ------
+    ValueError
+        On ``x`` shorter than 12 + 1 or a ``P`` of another shape than ``x``'s square.
     """
+    x = np.asarray(x, dtype=np.float64)
+    P = np.asarray(P, dtype=np.float64)
+    if x.ndim != 1 or x.size <= N_BASE or P.shape != (x.size, x.size):
+        raise ValueError(f"The 'x' and 'P' parameters of wind_world must have shapes (12 + N,) "
+                         f"and (12 + N, 12 + N), N >= 1. Got {x.shape} and {P.shape} instead.")
     w = _WIND_WEIGHTS
     mean, cov, ok = wm._wind_world_ut(x, P, w.wm, w.wc, w.scale)
     if ok:

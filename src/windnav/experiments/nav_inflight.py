@@ -29,7 +29,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from windnav._validate import positive_float
+from windnav._validate import generator, positive_float
 
 __all__ = ["INFLIGHT_VARIANT", "MODELS", "inflight_errors", "inflight_samples",
            "inflight_study", "smoothed_key", "summarize_inflight"]
@@ -112,7 +112,7 @@ def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
     solution = getattr(flow, "solution", flow)
     field = field_from_solution(city, solution)
     pos = np.asarray(result.position, dtype=np.float64)[k, :2]
-    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    gen = generator(rng, "rng", "inflight_samples")
     scans = city.lidar(pos, n_rays=N_RAYS, max_range=SCAN_MAX, noise_std=SCAN_NOISE, rng=gen)
     np.clip(scans, SCAN_MIN, SCAN_MAX, out=scans)
     labels, free = field.grid_values(pos, offsets)

@@ -108,7 +108,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from windnav._validate import batch_array, finite_float, positive_float
+from windnav._validate import batch_array, finite_float, generator, positive_float
+from windnav.city.core import check_city
 
 __all__ = [
     "OUTCOMES",
@@ -449,6 +450,11 @@ def check_point(city, value, name: str, where: str = _WHERE) -> np.ndarray:
 
 
 def _check_flow(flow, speed: float, direction_deg: float, city):
+    if not all(hasattr(flow, a) for a in ("frames_u", "t", "speed", "direction_deg", "x", "y",
+                                          "dx", "wind_field")):
+        raise ValueError(f"The 'flow' parameter of {_WHERE} must be a FlowSolution (e.g. "
+                         f"simulate_flow(city, speed, direction_deg)). Got "
+                         f"{type(flow).__name__} instead.")
     if flow.frames_u is None or flow.t is None or flow.t.size < 2:
         raise ValueError(f"The 'flow' parameter of {_WHERE} must hold recorded frames "
                          "(simulate with record_every > 0, e.g. simulate_flow). Got a mean "
@@ -748,6 +754,7 @@ def navigate(
     if variant not in VARIANTS:
         raise ValueError(f"The 'variant' parameter of {_WHERE} must be one of "
                          f"{list(VARIANTS)}. Got {variant!r} instead.")
+    check_city(city, _WHERE)
     start = check_point(city, start_xy, "start_xy")
     goal = check_point(city, goal_xy, "goal_xy")
     speed = positive_float(speed, "speed", _WHERE)
@@ -764,7 +771,7 @@ def navigate(
     if plan_every < 1 or abs(ratio - plan_every) > 1e-9 * ratio:
         raise ValueError(f"The 'plan_rate_hz' parameter of {_WHERE} must divide "
                          f"control_rate_hz={control_rate_hz:g}. Got {plan_rate_hz!r} instead.")
-    gen = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+    gen = generator(rng, "rng", _WHERE)
     planner_rng, lidar_rng = gen.spawn(2)
 
     if flow is None:

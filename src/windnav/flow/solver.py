@@ -36,6 +36,7 @@ import numba
 import numpy as np
 
 from windnav._validate import finite_float, positive_float
+from windnav.city.core import check_city
 from windnav.flow.advection import make_advection
 from windnav.flow.grid import (
     FACE_FIXED,
@@ -680,6 +681,7 @@ def simulate_batch(
         In the order of ``speeds``.
     """
     where = _where
+    check_city(city, where)
     speeds = [positive_float(sp, "speed" if where == "simulate" else "speeds", where)
               for sp in np.atleast_1d(np.asarray(speeds, dtype=object))]
     if not speeds:

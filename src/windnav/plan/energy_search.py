@@ -32,6 +32,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 
 from windnav._validate import batch_array, finite_float, positive_float
+from windnav.city.core import check_city
 from windnav.plan import _search_kernels as SK
 from windnav.plan.config import PlannerConfig
 from windnav.plan.graph_search import cell_path, free_cell, free_space
@@ -118,6 +119,10 @@ def _wind_grid(wind, x, y, altitude, use_wind, where) -> np.ndarray:
     return out
 
 
+MAX_SPEED_LEVELS = 100_000
+"""The most ground-speed levels :func:`energy_route`'s lattice may have."""
+
+
 def energy_route(
     city,
     start_xy,
@@ -166,6 +171,7 @@ def energy_route(
         On invalid arguments, a start or goal inside a building's clearance, or no route.
     """
     where = "energy_route"
+    check_city(city, where)
     if not isinstance(config, PlannerConfig):
         raise ValueError(f"The 'config' parameter of {where} must be a PlannerConfig. Got "
                          f"{type(config).__name__} instead.")
@@ -181,6 +187,10 @@ def energy_route(
     if not (0 < v_lo < v_hi < np.inf):
         raise ValueError(f"The 'speed_range' parameter of {where} must satisfy 0 < low < high. "
                          f"Got {speed_range!r} instead.")
+    if (v_hi - v_lo) / step > MAX_SPEED_LEVELS:  # np.arange would allocate them all
+        raise ValueError(f"The 'speed_step' parameter of {where} must give at most "
+                         f"{MAX_SPEED_LEVELS} speed levels over {speed_range!r} m/s. Got "
+                         f"{speed_step!r} instead.")
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
     goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
     x, y, free = free_space(city, dx, clearance)

@@ -15,6 +15,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 
 from windnav._validate import batch_array, positive_float
+from windnav.city.core import check_city
 
 
 def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -116,6 +117,7 @@ def grid_route(city, start_xy, goal_xy, *, dx: float = 2.0, clearance: float = 6
         If the start or goal lies inside a building's clearance, or no route exists.
     """
     where = "grid_route"
+    check_city(city, where)
     dx = positive_float(dx, "dx", where)
     clearance = positive_float(clearance, "clearance", where, allow_zero=True)
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]

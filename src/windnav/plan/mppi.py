@@ -49,7 +49,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from windnav._validate import batch_array
+from windnav._validate import batch_array, generator
 from windnav.plan import _kernels as K
 from windnav.plan.config import PlannerConfig
 from windnav.plan.local_wind import NO_WIND, LocalWind
@@ -396,11 +396,8 @@ class MPPIPlanner:
         if config.planner != "mppi":
             raise ValueError("The 'config' parameter of MPPIPlanner must have an MPPI variant. "
                              f"Got variant {config.variant!r} instead.")
-        if rng is not None and not isinstance(rng, (np.random.Generator, int, np.integer)):
-            raise ValueError("The 'rng' parameter of MPPIPlanner must be a numpy Generator, an "
-                             f"int or None. Got {type(rng).__name__} instead.")
         self.config = config
-        self.rng = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+        self.rng = generator(rng, "rng", "MPPIPlanner")
         self.rollout_cost = fused_rollout_cost if rollout_cost is None else rollout_cost
         self.goal = None if goal_xy is None else self._goal(goal_xy)
         shape = (config.n_steps, 2, config.n_samples)

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from windnav._validate import batch_array, finite_float, positive_float
+from windnav.city.core import check_city
 from windnav.plan import _search_kernels as SK
 from windnav.plan.energy_search import MOVES, _guards
 from windnav.plan.graph_search import cell_path, free_cell, free_space
@@ -213,6 +214,7 @@ def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0,
     from windnav.wind.gridded import GriddedWind, _bracket
 
     where = "reach_lattice"
+    check_city(city, where)
     dx = positive_float(dx, "dx", where)
     clearance = positive_float(clearance, "clearance", where, allow_zero=True)
     x, y, free = free_space(city, dx, clearance)

@@ -136,9 +136,16 @@ def pack_params(
     ``aero=False`` zeroes every aerodynamic coefficient (k_d, k_z, k_h, k_flap, c_d);
     ``gravity=False`` sets g = 0.
     """
-    plist = [params] if isinstance(params, MultirotorParams) else list(params)
+    plist = [params] if isinstance(params, MultirotorParams) else (
+        list(params) if isinstance(params, Sequence) and not isinstance(params, str)
+        else [params])
     if not plist:
         raise ValueError("The 'params' parameter of pack_params must not be empty.")
+    bad = [type(p).__name__ for p in plist if not isinstance(p, MultirotorParams)]
+    if bad:
+        raise ValueError("The 'params' parameter of pack_params must be MultirotorParams (e.g. "
+                         f"windnav.vehicle.params('hummingbird')) or a list of them. Got "
+                         f"{bad[0]} instead.")
     n = plist[0].n_rotors
     if any(p.n_rotors != n for p in plist):
         raise ValueError(
