@@ -157,6 +157,24 @@ def test_missing_and_nonfinite_blocks_are_skipped():
     assert c.rejected == {"sin": 2, "prod": 1}
 
 
+def test_a_sample_beyond_the_blocks_range_is_rejected_like_a_non_finite_one():
+    a, b = _two_block_filter(), _two_block_filter()
+    b.add_block("prod", lambda X: X[:, :1] * X[:, 1:2], np.diag([0.05]), limit=10.0)
+    b.update({"sin": 0.2, "prod": 1e6})  # beyond the range: "sin" alone is fused
+    a.update({"sin": 0.2})
+    np.testing.assert_array_equal(a.x, b.x)
+    assert b.rejected == {"sin": 0, "prod": 1}
+    b.update({"prod": 9.0})  # inside it: fused
+    assert b.rejected["prod"] == 1 and not np.array_equal(a.x, b.x)
+    # the default is no range: the same sample is fused, as before the limits existed
+    c = _two_block_filter()
+    c.update({"sin": 0.2, "prod": 1e6})
+    assert c.rejected == {"sin": 0, "prod": 0}
+    for bad in (0.0, -1.0, np.nan, [1.0, 2.0]):
+        with pytest.raises(ValueError, match="'limit' parameter of UKF.add_block"):
+            c.add_block("prod", lambda X: X[:, :1], np.diag([0.05]), limit=bad)
+
+
 def test_bad_input_raises_named_errors():
     f = _two_block_filter()
     with pytest.raises(ValueError, match=r"measurements\['sin'\]"):

@@ -7,7 +7,7 @@ from scipy import stats
 from scipy.spatial.transform import Rotation
 
 import windnav as wn
-from windnav.estimate import DEFAULT_R, WindUKF, wind_world
+from windnav.estimate import DEFAULT_R, WindUKF, sensor_range, wind_world
 from windnav.estimate import wind_model as wm
 
 P_HB = wn.vehicle.params("hummingbird")
@@ -268,6 +268,37 @@ def test_shell_validates_and_rejects():
     custom = WindUKF(P_HB, r={"accel": [0.1, 0.1, 0.2], "odom": np.eye(6) * 1e-4})
     np.testing.assert_allclose(np.diag(custom.R["accel"]), [0.01, 0.01, 0.04])
     np.testing.assert_allclose(custom.R["odom"], np.eye(6) * 1e-4)
+
+
+@pytest.mark.parametrize("block, value", [("accel", [1e6, 0.0, 9.81]), ("gyro", [1e3, 0, 0]),
+                                          ("odom", [1e4, 0, 0, 0, 0, 0]),
+                                          ("rotor_speeds", [1e7, 0, 0, 0])])
+def test_one_absurd_sample_is_rejected_and_the_filter_goes_on(block, value):
+    # before the sensor ranges (2026-12-05) an accelerometer sample of 1e6 m/s^2 threw the
+    # state so far that this and every later step raised FloatingPointError
+    hover = np.full(4, P_HB.hover_rotor_speed)
+    good = {"accel": [0.0, 0.0, 9.81], "gyro": np.zeros(3), "odom": np.zeros(6),
+            "rotor_speeds": hover}
+    f, ref = WindUKF(P_HB), WindUKF(P_HB)
+    f.step(hover, {**good, block: np.asarray(value, dtype=float) + good[block]})
+    ref.step(hover, {k: v for k, v in good.items() if k != block})
+    assert f.rejected[block] == 1
+    np.testing.assert_array_equal(f.x, ref.x)  # as if the block had not been sampled
+    for _ in range(50):
+        e = f.step(hover, good)
+    assert np.all(np.isfinite(e.wind_world)) and np.abs(e.wind_world).max() < 1.0
+    limit = sensor_range(P_HB)[block]
+    assert limit.shape == (len(value),) and (np.abs(value) >= limit).any()
+
+
+def test_measurements_of_real_flights_are_inside_the_sensor_ranges():
+    # the ranges reject no sample of a simulated flight with a gusty wind
+    rng = np.random.default_rng(4)
+    xs, us, zs = synthetic_flight(3.0, np.array([6.0, -4.0, 0.0]), "world", rng)
+    f = WindUKF(P_HB, DT)
+    for u, z in zip(us, zs, strict=True):
+        f.step(u, z)
+    assert sum(f.rejected.values()) == 0
 
 
 def test_multirate_odometry_and_rotor_speed_block():

@@ -38,7 +38,14 @@ from windnav.estimate.uncertainty import (
     wind_uncertainty,
     wind_uncertainty_axes,
 )
-from windnav.estimate.wind_ukf import DEFAULT_Q, DEFAULT_R, WindEstimate, WindUKF, wind_world
+from windnav.estimate.wind_ukf import (
+    DEFAULT_Q,
+    DEFAULT_R,
+    WindEstimate,
+    WindUKF,
+    sensor_range,
+    wind_world,
+)
 
 __all__ = [
     "CONDITIONS",
@@ -59,6 +66,7 @@ __all__ = [
     "run_wind_ukf",
     "WindEstimate",
     "WindUKF",
+    "sensor_range",
     "compare_vehicles",
     "conditions",
     "merwe_weights",

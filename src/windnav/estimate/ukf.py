@@ -342,6 +342,7 @@ class _Block(NamedTuple):
     hx: Callable
     R: np.ndarray
     wrap: np.ndarray
+    limit: np.ndarray  # (m,): a component at or beyond it rejects the sample (inf: none)
 
 
 class UKF:
@@ -359,9 +360,11 @@ class UKF:
         Additive process-noise covariance per step of ``dt``.
     dt : float
         Default prediction step, s.
-    blocks : mapping of str to (hx, R) or (hx, R, wrap), optional
-        Measurement blocks: ``hx(X (S, n)) -> (S, m)``, noise covariance ``R`` (m, m), and
-        optionally the indices of angle components of that block (wrapped innovation).
+    blocks : mapping of str to (hx, R), (hx, R, wrap) or (hx, R, wrap, limit), optional
+        Measurement blocks: ``hx(X (S, n)) -> (S, m)``, noise covariance ``R`` (m, m),
+        optionally the indices of angle components of that block (wrapped innovation), and
+        optionally the sensor's range: a sample with a component ``|z_i| >= limit_i`` is
+        rejected like a non-finite one (see :meth:`add_block`).
     alpha, beta, kappa : float
         Sigma-point parameters (see :func:`merwe_weights`).
 
@@ -372,7 +375,7 @@ class UKF:
     repairs : int
         How many times a covariance had to be repaired to positive definite.
     rejected : dict of str to int
-        Non-finite measurements rejected, per block.
+        Measurements rejected (non-finite, or beyond the block's range), per block.
 
     Examples
     --------
@@ -424,8 +427,14 @@ class UKF:
         """State dimension."""
         return self.x.size
 
-    def add_block(self, name: str, hx: Callable, R, wrap=()) -> None:
-        """Register (or replace) measurement block ``name`` with model ``hx`` and noise ``R``."""
+    def add_block(self, name: str, hx: Callable, R, wrap=(), limit=np.inf) -> None:
+        """Register (or replace) measurement block ``name`` with model ``hx`` and noise ``R``.
+
+        ``limit`` (scalar or (m,), > 0, default inf: none) is the sensor's range: a sample with
+        a component ``|z_i| >= limit_i`` is rejected and counted, as a non-finite one is. One
+        absurd but finite sample (an accelerometer reading of 1e6 m/s^2) can otherwise throw
+        the state so far that every later prediction fails.
+        """
         R = np.atleast_2d(np.array(R, dtype=np.float64))
         m = R.shape[0]
         self._square(R, m, f"R[{name!r}]", "UKF.add_block", psd=False)  # definite: below
@@ -436,7 +445,15 @@ class UKF:
         if np.any((wrap < 0) | (wrap >= m)):
             raise ValueError(f"The 'wrap' parameter of UKF.add_block must index the {m} "
                              f"components of block {name!r}. Got {wrap.tolist()!r} instead.")
-        self.blocks[name] = _Block(hx, R, wrap)
+        try:
+            lim = np.broadcast_to(np.asarray(limit, dtype=np.float64), (m,)).copy()
+        except (TypeError, ValueError):
+            lim = np.full(m, np.nan)
+        if np.isnan(lim).any() or (lim <= 0).any():
+            raise ValueError(f"The 'limit' parameter of UKF.add_block must be > 0 (inf: no "
+                             f"limit), a scalar or one per component ({m}) of block {name!r}. "
+                             f"Got {limit!r} instead.")
+        self.blocks[name] = _Block(hx, R, wrap, lim)
         self.rejected.setdefault(name, 0)
         self._stack_cache.clear()
 
@@ -475,7 +492,8 @@ class UKF:
         else:
             def hx(X, _hxs=tuple(hxs)):
                 return np.concatenate([h(X) for h in _hxs], axis=1)
-        hit = (hx, R, np.asarray(wrap, dtype=np.intp), offsets)
+        hit = (hx, R, np.asarray(wrap, dtype=np.intp), offsets,
+               np.concatenate([b.limit for b in blocks]))
         self._stack_cache[names] = hit
         return hit
 
@@ -487,7 +505,8 @@ class UKF:
         ----------
         measurements : mapping of str to array_like of shape (m,) or None
             Block name to measured value. ``None`` means "no sample this step". A value with NaN
-            or inf is rejected and counted in ``rejected[name]``; the other blocks are fused.
+            or inf, or a component at or beyond the block's ``limit``, is rejected and counted
+            in ``rejected[name]``; the other blocks are fused.
         noise : mapping of str to ndarray of shape (m, m), optional
             Measurement-noise covariances for this update only, replacing the registered ``R``
             of those blocks (the registered blocks are not changed).
@@ -518,9 +537,10 @@ class UKF:
             names.append(name)
             zs.append(z)
         z = zs[0] if len(zs) == 1 else np.concatenate(zs) if zs else None
-        if z is not None and not np.isfinite(z).all():  # one check for all, then by block
+        # one check for all, then by block: NaN, inf and samples beyond the range fail "<"
+        if z is not None and not (np.abs(z) < self._stacked(tuple(names))[4]).all():
             kept = [(name, zb) for name, zb in zip(names, zs, strict=True)
-                    if np.isfinite(zb).all()]
+                    if (np.abs(zb) < self.blocks[name].limit).all()]
             for name in set(names) - {name for name, _ in kept}:
                 self.rejected[name] += 1
             names, zs = [name for name, _ in kept], [zb for _, zb in kept]
@@ -531,7 +551,7 @@ class UKF:
         if unknown:
             raise ValueError(f"The 'noise' parameter of UKF.update holds unknown blocks "
                              f"{sorted(unknown)}; registered: {sorted(self.blocks)}.")
-        hx, R, wrap, offsets = self._stacked(tuple(names))
+        hx, R, wrap, offsets, _ = self._stacked(tuple(names))
         if noise:
             R = R.copy()
             for k, name in enumerate(names):

@@ -60,7 +60,7 @@ from windnav.estimate.layout import (
 from windnav.estimate.ukf import UKF, merwe_weights, robust_cholesky
 from windnav.vehicle.params import GRAVITY, MultirotorParams
 
-__all__ = ["DEFAULT_Q", "DEFAULT_R", "WindEstimate", "WindUKF", "wind_world"]
+__all__ = ["DEFAULT_Q", "DEFAULT_R", "WindEstimate", "WindUKF", "sensor_range", "wind_world"]
 
 DEFAULT_R = {
     "accel": 0.3,          # m/s^2, per axis
@@ -147,6 +147,25 @@ def wind_world(x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     L, _, _ = robust_cholesky(P[np.ix_(idx, idx)])
     return wm._wind_world_sigma(np.ascontiguousarray(x[idx]), np.ascontiguousarray(L), w.wm,
                                 w.wc, w.scale)
+
+
+def sensor_range(params: MultirotorParams) -> dict[str, np.ndarray]:
+    """The range of each measurement block, per component: a sample at or beyond it is
+    rejected and counted in ``WindUKF.rejected``, as a non-finite one is.
+
+    Far beyond any flight's measurements and a multirotor IMU's full scale (16-32 g, 2000-4000
+    deg/s), and well inside what the filter survives (a fresh filter is thrown beyond recovery
+    by one accelerometer sample of 1e4 m/s^2, not by 3e3):
+
+    - ``accel``: 1,000 m/s^2 (about 100 g);
+    - ``gyro``: 100 rad/s;
+    - ``odom``: 1,000 m/s for the velocity, 4 pi rad for the Euler angles;
+    - ``rotor_speeds``: 10 x ``params.rotor_speed_max``.
+    """
+    n = params.n_rotors
+    return {"accel": np.full(3, 1000.0), "gyro": np.full(3, 100.0),
+            "odom": np.r_[np.full(3, 1000.0), np.full(3, 4.0 * np.pi)],
+            "rotor_speeds": np.full(n, 10.0 * float(np.max(params.rotor_speed_max)))}
 
 
 def _noise_cov(value, m: int, name: str) -> np.ndarray:
@@ -287,11 +306,12 @@ class WindUKF:
         def h_rotor(X):
             return X[:, IDX_ROTORS]
 
+        limit = sensor_range(params)
         blocks = {
-            "accel": (h_accel, self.R["accel"]),
-            "gyro": (h_gyro, self.R["gyro"]),
-            "odom": (wm._odometry, self.R["odom"], np.arange(6)[ODOM_EULER]),
-            "rotor_speeds": (h_rotor, self.R["rotor_speeds"]),
+            "accel": (h_accel, self.R["accel"], (), limit["accel"]),
+            "gyro": (h_gyro, self.R["gyro"], (), limit["gyro"]),
+            "odom": (wm._odometry, self.R["odom"], np.arange(6)[ODOM_EULER], limit["odom"]),
+            "rotor_speeds": (h_rotor, self.R["rotor_speeds"], (), limit["rotor_speeds"]),
         }
         self.ukf = UKF(fx, x0, P0, self.Q, dt=self.dt, blocks=blocks, alpha=alpha, beta=beta,
                        kappa=kappa)
@@ -335,7 +355,7 @@ class WindUKF:
 
     @property
     def rejected(self) -> dict[str, int]:
-        """Non-finite measurements rejected, per block."""
+        """Measurements rejected (non-finite, or beyond :func:`sensor_range`), per block."""
         return self.ukf.rejected
 
     @property
@@ -380,7 +400,8 @@ class WindUKF:
             Commanded rotor speeds, rad/s (clipped to the vehicle's range).
         measurements : mapping of str to array_like or None
             Any of ``accel`` (3,), ``gyro`` (3,), ``odom`` (6,), ``rotor_speeds`` (N,); absent
-            or None blocks are skipped, non-finite ones are rejected and counted. With
+            or None blocks are skipped, non-finite ones and ones beyond the sensor's range
+            (:func:`sensor_range`) are rejected and counted in ``rejected``. With
             ``accel_from_odometry`` an ``accel`` entry is ignored.
 
         Returns
