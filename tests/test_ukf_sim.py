@@ -86,6 +86,24 @@ def test_still_air_hover_estimates_zero_wind():
     assert track.rmse_after(2.0) < 0.1
 
 
+def test_a_diverging_filter_says_when_and_names_the_flights_status():
+    # `windnav fly --dt 0.2 --conditions windnav`: the controller at 5 Hz saturates the rotors,
+    # the measurements leave the filter's model, and it diverged with a bare FloatingPointError
+    from windnav.estimate import FilterDivergedError
+    from windnav.experiments.flight import wind_estimate
+
+    log = wn.sim.fly(P_HB, wn.sim.Hover((0.0, 0.0, 5.0)), wn.wind.ConstantWind((2, 0, 0)), 5.0,
+                     dt=0.2, rng=3)
+    assert "SATURATED" in str(log.meta["status"])
+    with pytest.raises(FilterDivergedError, match=r"diverged at t = [0-9.]+ s of the log "
+                                                   r"\(vehicle 0\), whose flight status is"):
+        run_wind_ukf(log, P_HB, conditions="windnav")
+    summary = wind_estimate(log, P_HB, "windnav", 5.0)  # fly keeps the flight and says why
+    assert summary["wind_rmse_m_s"] is None
+    assert "diverged" in summary["wind_estimate_error"]
+    assert issubclass(FilterDivergedError, FloatingPointError)
+
+
 def test_inputs_are_aligned_with_the_command_held_over_each_step(logs):
     log = logs[0]
     inp = filter_inputs(log, P_HB)

@@ -17,6 +17,7 @@ the Wind UKF on the log under it; the summary adds the wind RMSE.
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from windnav._validate import finite_float, positive_float
@@ -118,6 +119,9 @@ def run(args) -> int:
                               sensor_rate_hz=sensor, hub_wind=args.hub_wind, rng=args.seed,
                               conditions=args.conditions, progress=True)
     log.meta.update(wind_kind=args.wind)
+    if metrics.get("wind_estimate_error"):
+        print(f"{name}: note: no wind estimate: {metrics['wind_estimate_error']}",
+              file=sys.stderr)
     summary = {"vehicle": args.vehicle, "wind": args.wind, "trajectory": args.trajectory,
                "duration_s": duration, "seed": args.seed, **metrics}
     doc = document("fly", summary, args)

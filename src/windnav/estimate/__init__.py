@@ -23,6 +23,7 @@ from windnav.estimate.flight import WindTrack, filter_inputs, run_wind_ukf
 from windnav.estimate.hardware import OdometryAccel, odometry_specific_force
 from windnav.estimate.ukf import (
     UKF,
+    FilterDivergedError,
     PredictResult,
     SigmaWeights,
     UpdateResult,
@@ -52,6 +53,7 @@ __all__ = [
     "DEFAULT_Q",
     "DEFAULT_R",
     "UKF",
+    "FilterDivergedError",
     "PredictResult",
     "SigmaWeights",
     "UpdateResult",

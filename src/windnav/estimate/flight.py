@@ -42,6 +42,7 @@ from windnav.estimate.layout import (
     ODOM_EULER,
     ODOM_VELOCITY,
 )
+from windnav.estimate.ukf import FilterDivergedError
 from windnav.estimate.wind_ukf import WindUKF
 from windnav.vehicle.params import MultirotorParams
 
@@ -315,6 +316,14 @@ def run_wind_ukf(
     for k in tqdm(range(1, T), disable=not progress, desc="wind ukf", unit="step",
                   leave=False, mininterval=0.5):
         meas = {b: inp[b][k] for b in blocks if have[b][k]}
-        est = ukf.step(inp["u"][k], meas)
+        try:
+            est = ukf.step(inp["u"][k], meas)
+        except FilterDivergedError as exc:
+            status = log.meta.get("status")
+            raise FilterDivergedError(
+                f"{exc} The Wind UKF diverged at t = {inp['t'][k]:.3f} s of the log (vehicle "
+                f"{vehicle}), whose flight status is {status!r}: a flight saturated or outside "
+                "the aerodynamic envelope (e.g. flown with a physics step too long for the "
+                "controller) gives measurements the filter's model cannot follow.") from exc
         wind_est[k], wind_cov[k], xs[k] = est.wind_world, est.wind_world_cov, est.x
     return WindTrack(inp["t"], wind_est, wind_cov, inp["wind_true"], xs, ukf.repairs)

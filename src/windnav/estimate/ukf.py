@@ -43,6 +43,7 @@ from windnav._validate import finite_float, positive_float
 from windnav.estimate import _ukf_kernels as _k
 
 __all__ = [
+    "FilterDivergedError",
     "UKF",
     "PredictResult",
     "SigmaWeights",
@@ -54,6 +55,11 @@ __all__ = [
     "ukf_update",
     "unscented_transform",
 ]
+
+
+class FilterDivergedError(FloatingPointError):
+    """The filter's arithmetic broke down (NaN or inf in the state, its covariance or a sigma
+    point; a covariance that cannot be repaired): a FloatingPointError that windnav names."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -157,7 +163,7 @@ def robust_cholesky(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
 
     Raises
     ------
-    FloatingPointError
+    FilterDivergedError (a FloatingPointError)
         If ``P`` holds NaN or inf (the filter has diverged).
     """
     Ps = 0.5 * (P + P.T)
@@ -165,7 +171,7 @@ def robust_cholesky(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     if info == 0:
         return L, Ps, False
     if not np.all(np.isfinite(Ps)):
-        raise FloatingPointError("The covariance holds NaN or inf: the filter has diverged.")
+        raise FilterDivergedError("The covariance holds NaN or inf: the filter has diverged.")
     w, V = np.linalg.eigh(Ps)
     floor = max(1e-12 * float(np.max(np.abs(w))), np.finfo(np.float64).tiny)
     Pr = (V * np.maximum(w, floor)) @ V.T
@@ -177,7 +183,7 @@ def robust_cholesky(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
             return L, Pr, True
         Pr = Pr + jitter * np.eye(Pr.shape[0])
         jitter *= 10.0
-    raise FloatingPointError("The covariance could not be repaired to positive definite.")
+    raise FilterDivergedError("The covariance could not be repaired to positive definite.")
 
 
 def sigma_points(x: np.ndarray, L: np.ndarray, weights: SigmaWeights) -> np.ndarray:
@@ -289,14 +295,14 @@ def ukf_predict(x: np.ndarray, P: np.ndarray, fx: Callable, dt: float, Q: np.nda
 
     Raises
     ------
-    FloatingPointError
+    FilterDivergedError (a FloatingPointError)
         If the process model returns NaN or inf.
     """
     X, _, repaired = _sigma(x, P, weights)
     Y = _model_output(fx(X, dt, u), X.shape[0], X.shape[1], "fx")
     xp, Pp = _k.unscented(Y, weights.wm, weights.wc, Q, True)
     if not math.isfinite(float(xp.sum())):
-        raise FloatingPointError("The process model returned NaN or inf for a sigma point.")
+        raise FilterDivergedError("The process model returned NaN or inf for a sigma point.")
     return PredictResult(xp, Pp, repaired)
 
 
@@ -324,7 +330,7 @@ def ukf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, hx: Callable, R: np.
 
     Raises
     ------
-    FloatingPointError
+    FilterDivergedError (a FloatingPointError)
         If the innovation covariance is not positive definite.
     """
     X, P, repaired = _sigma(x, P, weights)
@@ -333,8 +339,8 @@ def ukf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, hx: Callable, R: np.
     xn, Pn, y, S, ok = _k.update(x, P, X, Z, np.asarray(z, dtype=np.float64), R,
                                  weights.wm, weights.wc, wrap)
     if not ok:
-        raise FloatingPointError("The innovation covariance S is not positive definite; check "
-                                 "that R is positive definite.")
+        raise FilterDivergedError("The innovation covariance S is not positive definite: the "
+                                  "filter has diverged, or R is not positive definite.")
     return UpdateResult(xn, Pn, y, S, repaired)
 
 

@@ -99,10 +99,19 @@ def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float
 def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
     """The Wind UKF's accuracy on ``log`` under ``conditions`` (see the module docstring):
     ``conditions``, ``wind_rmse_m_s`` (3D) and ``wind_rmse_axes_m_s`` after
-    ``min(2 s, duration / 2)``, ``filter_covariance_repairs``."""
+    ``min(2 s, duration / 2)``, ``filter_covariance_repairs``; when the filter diverges
+    (:class:`~windnav.estimate.FilterDivergedError`) these are None and
+    ``wind_estimate_error`` says why."""
+    from windnav.estimate import FilterDivergedError
     from windnav.experiments.ukf_conditions import estimate_wind
 
-    track, applied = estimate_wind(log, params, conditions, rng=np.random.default_rng([rng, 2]))
+    try:
+        track, applied = estimate_wind(log, params, conditions,
+                                       rng=np.random.default_rng([rng, 2]))
+    except FilterDivergedError as exc:  # the flight is kept; the summary says why no estimate
+        name = conditions if isinstance(conditions, str) else conditions.name
+        return {"conditions": name, "wind_rmse_m_s": None, "wind_rmse_axes_m_s": None,
+                "filter_covariance_repairs": None, "wind_estimate_error": str(exc)}
     settle = min(2.0, duration / 2)
     return {"conditions": applied["conditions"], "wind_rmse_m_s": track.rmse_after(settle),
             "wind_rmse_axes_m_s": [track.rmse_after(settle, axis=k) for k in range(3)],
