@@ -180,6 +180,10 @@ def test_bad_block_attrs_and_a_grid_too_fine_are_named():
     with pytest.raises(ValueError, match="'dx' parameter of grid_shape must give at most"):
         city.grid(1e-9)  # a MemoryError after trying to allocate 298 GiB before
     assert city.grid(0.1)[0].size == 6000
+    from windnav.city import grid_shape
+    for bad in (0.0, -1.0, np.nan):  # a recipe's dx = 0 was a ZeroDivisionError
+        with pytest.raises(ValueError, match="'dx' parameter of grid_shape"):
+            grid_shape((0, 10, 0, 10), bad)
 
 
 def test_grid_cell_centres():

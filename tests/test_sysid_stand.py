@@ -135,3 +135,26 @@ def test_windnav_main_reports_bad_input_in_one_line(tmp_path, capsys):
     assert status == 2
     assert len(err.splitlines()) == 1 and "e.csv" in err and "'voltage_V'" in err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("argv, match", [
+    # a sample count of none (CSVs of a header alone, exit 0) or 1e9 (a 67 GiB MemoryError)
+    (["simulate-stand", "--voltages", "3.7", "--rate-hz", "1e-3"], "'--rate-hz' parameter"),
+    (["simulate-stand", "--voltages", "3.7", "--rate-hz", "1e9"], "'--rate-hz' parameter"),
+    (["simulate-stand", "--voltages", "3.7", "--v0", "nan"], "'V0' parameter"),  # NaN CSVs
+    (["simulate-stand", "--voltages", "3.7", "--dz", "1e9"], "'DZ' parameter"),  # never spins
+    (["simulate-tunnel", "--speed-step", "1e-9"], "'--speed-step' parameter"),
+    (["power", "--csv", "x.csv", "--speed-col", "s", "--power-col", "p",
+      "--wind", "-5", "5", "1e-5"], "'--wind' parameter"),  # 1e6 winds: minutes of silence
+], ids=["rate-low", "rate-high", "v0-nan", "dz", "tunnel-step", "power-wind-step"])
+def test_sysid_commands_refuse_sizes_and_values_that_break_them(tmp_path, capsys, argv,
+                                                                match):
+    from windnav import cli
+
+    (tmp_path / "x.csv").write_text("s,p\n1,100\n2,110\n3,125\n4,150\n")
+    status = cli.main(["sysid", *[a.replace("x.csv", str(tmp_path / "x.csv")) for a in argv],
+                       "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1, err
+    assert match in err
+    assert not (tmp_path / "o").exists()

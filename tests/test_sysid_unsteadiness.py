@@ -6,6 +6,7 @@ import argparse
 import json
 
 import numpy as np
+import pytest
 
 import windnav as wn
 import windnav.commands.sysid
@@ -66,6 +67,10 @@ def test_unsteadiness_maps_of_known_samples(tmp_path):
                                            np.column_stack([fx, np.zeros(2 * n)]),
                                            np.zeros((2 * n, 3))), cell=1.0)
     np.testing.assert_allclose(maps.wind_mean[0, :, 0], [1.0, 3.0])
+    with pytest.raises(ValueError, match="'cell' parameter of unsteadiness_maps must give at "
+                                         "most"):  # a 7.5 TiB MemoryError on a log before
+        unsteadiness_maps(FlightSamples(xy * 100, np.zeros((2 * n, 2)), np.zeros((2 * n, 2)),
+                                        np.zeros((2 * n, 3))), cell=1e-6)
     np.testing.assert_allclose(maps.force_cmd_std[0], [0.0, 0.1], atol=1e-12)
     path = write_csv(tmp_path / "u.csv", cols)
     _cli("sysid", "unsteadiness", "--csv", path, "--cell", 1.0, "--min-count", 1,

@@ -486,6 +486,7 @@ def grid_shape(bounds, dx: float) -> tuple[int, int]:
     adds no cell), and at least 2. When the extent is not a multiple of ``dx`` the last cell
     reaches past the bound; no part of the map is left off.
     """
+    dx = positive_float(dx, "dx", "grid_shape")  # 0 was a ZeroDivisionError
     x0, x1, y0, y1 = (float(b) for b in bounds)
     ny, nx = _n_cells(y1 - y0, dx), _n_cells(x1 - x0, dx)
     if ny * nx > MAX_GRID_CELLS:  # before anything allocates 8 bytes a cell, or more

@@ -40,6 +40,18 @@ PRODUCTS = {
 """What each subcommand writes into ``--out``."""
 
 
+def _steps(lo: float, hi: float, step: float, option: str, name: str, *, most: int):
+    """``lo, lo + step, ..., hi`` (rounded to 1e-10), at most ``most`` values: a ValueError
+    naming ``option`` before NumPy tries to allocate a step of 1e-9 over 100 units."""
+    import numpy as np
+
+    if (hi - lo) / step + 1 > most:
+        raise ValueError(f"The '{option}' parameter of {name} must give at most {most} values "
+                         f"from {lo:g} to {hi:g}. Got a step of {step:g} instead "
+                         f"({(hi - lo) / step + 1:.3g} values).")
+    return np.round(np.arange(lo, hi + 0.5 * step, step), 10)
+
+
 def _where(args) -> str:
     sub = getattr(args, "sysid_command", None)
     return f"windnav {args.command}" + (f" {sub}" if sub else "")
@@ -301,7 +313,6 @@ def _speed_range(value, name: str):
 
 
 def run_power(args) -> int:
-    import numpy as np
 
     from windnav.experiments.sysid import plot_power, power_study
     from windnav.sysid.io import read_table
@@ -312,7 +323,7 @@ def run_power(args) -> int:
     if step <= 0 or hi < lo:
         raise ValueError(f"The '--wind' parameter of {name} must be MIN <= MAX and STEP > 0. "
                          f"Got {list(args.wind)} instead.")
-    winds = np.round(np.arange(lo, hi + 0.5 * step, step), 10)
+    winds = _steps(lo, hi, step, "--wind", name, most=10_001)
     if (args.csv is None) == (not args.bag):
         raise ValueError(f"The '--csv' parameter of {name} must name one file, or give one "
                          "--bag instead (not both).")
@@ -498,6 +509,11 @@ def run_simulate_stand(args) -> int:
     volts = [positive_float(v, "--voltages", name) for v in args.voltages]
     rate = positive_float(args.rate_hz, "--rate-hz", name)
     step = positive_float(args.step_s, "--step-s", name)
+    per_step = round(step * rate)  # samples per PWM step of the ramp
+    if not 1 <= per_step <= 1_000_000:  # none: CSVs of a header alone; 1e9 Hz: 67 GiB
+        raise ValueError(f"The '--rate-hz' parameter of {name} must give 1 to 1,000,000 samples "
+                         f"per --step-s ({step:g} s). Got {args.rate_hz!r} instead ({per_step} "
+                         "samples).")
     params = vehicle_params(args.vehicle)
     overrides = {"Kv": args.kv, "V0": args.v0, "DZ": args.dz}
     if "pwm_motor" in params.extra:
@@ -550,7 +566,6 @@ def _register_simulate_tunnel(ss) -> None:
 
 
 def run_simulate_tunnel(args) -> int:
-    import numpy as np
 
     from windnav.experiments.results import write_json
     from windnav.experiments.sysid import simulate_tunnel, vehicle_params
@@ -563,7 +578,7 @@ def run_simulate_tunnel(args) -> int:
     record = positive_float(args.record_s, "--record-s", name)
     out = _outputs(args, "simulate-tunnel")
     params = vehicle_params(args.vehicle)
-    speeds = np.round(np.arange(0.0, vmax + 0.5 * step, step), 10)
+    speeds = _steps(0.0, vmax, step, "--speed-step", name, most=1_001)
     log, columns = simulate_tunnel(params, speeds=speeds, axes=args.axes, settle_s=settle,
                                    record_s=record, rng=args.seed)
     truth = {**log.meta["sysid"], "status": log.meta.get("status"), "seed": args.seed}

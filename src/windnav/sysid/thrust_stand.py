@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from windnav._validate import positive_float, positive_int
+from windnav._validate import finite_float, positive_float, positive_int
 from windnav.sysid._fit import Estimate, LeastSquares, linear_fit, nonlinear_fit
 from windnav.sysid._signal import steepest_slope
 from windnav.sysid.io import Table
@@ -65,8 +65,12 @@ class PWMMotorModel:
 
     def __post_init__(self):
         positive_float(self.Kv, "Kv", "PWMMotorModel")
-        positive_float(self.DZ, "DZ", "PWMMotorModel", allow_zero=True)
+        finite_float(self.V0, "V0", "PWMMotorModel")  # NaN gave a stand log of NaN
         positive_float(self.pwm_max, "pwm_max", "PWMMotorModel")
+        dz = positive_float(self.DZ, "DZ", "PWMMotorModel", allow_zero=True)
+        if dz >= self.pwm_max:  # the motor would never spin
+            raise ValueError(f"The 'DZ' parameter of PWMMotorModel must be below pwm_max "
+                             f"({self.pwm_max:g}). Got {self.DZ!r} instead.")
 
     @classmethod
     def thesis(cls) -> PWMMotorModel:

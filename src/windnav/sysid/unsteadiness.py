@@ -207,6 +207,10 @@ class UnsteadinessMaps:
         }
 
 
+MAX_CELLS = 10**8
+"""The most cells :func:`unsteadiness_maps` may bin into."""
+
+
 def unsteadiness_maps(samples: FlightSamples, *, cell: float = 1.0,
                       min_count: int = 1) -> UnsteadinessMaps:
     """Bin ``samples`` on a grid of ``cell``-metre squares covering them.
@@ -226,6 +230,11 @@ def unsteadiness_maps(samples: FlightSamples, *, cell: float = 1.0,
         raise ValueError(f"The 'samples' parameter of {where} holds no finite sample.")
     lo = np.floor(samples.xy.min(axis=0) / cell) * cell
     hi = (np.floor(samples.xy.max(axis=0) / cell) + 1) * cell
+    n_cells = float(np.prod(np.round((hi - lo) / cell)))
+    if n_cells > MAX_CELLS:  # a 1e-6 m cell tried to allocate 7.5 TiB
+        raise ValueError(f"The 'cell' parameter of {where} must give at most {MAX_CELLS:.0e} "
+                         f"cells over the samples' extent {(hi - lo).tolist()} m. Got {cell!r} "
+                         f"instead ({n_cells:.3g} cells).")
     x_edges = np.arange(lo[0], hi[0] + 0.5 * cell, cell)
     y_edges = np.arange(lo[1], hi[1] + 0.5 * cell, cell)
     rate = np.linalg.norm(samples.body_rates, axis=1)
