@@ -59,3 +59,12 @@ def test_similitude_command(tmp_path, command):
     assert doc["mass"]["model_kg"] == pytest.approx(2000 / 32**3)
     assert doc["speed"]["model_reynolds_m_s"] == pytest.approx(320.0)
     assert doc["length_scale_exact"] == pytest.approx(32.727, abs=1e-3)
+
+
+@pytest.mark.parametrize("kwargs, name", [({"scale": 1e-200}, "scale"), ({"scale": 1e308}, "scale"),
+                                          ({"full_scale_diameter": 1e300}, "full_scale_diameter")])
+def test_a_length_scale_whose_powers_overflow_is_named(kwargs, name):
+    # similitude --scale 1e-200 was an OverflowError traceback at lambda**-3
+    with pytest.raises(ValueError, match=f"'{name}' parameter of Similitude must give a length "
+                                         "scale in"):
+        Similitude(**{"full_scale_diameter": 1.8, "model_diameter": 0.055, **kwargs})

@@ -32,6 +32,10 @@ KINEMATIC_VISCOSITY_AIR = 1.5e-5
 """Kinematic viscosity of air at 20 degC, m^2/s."""
 
 
+SCALE_RANGE = (1e-6, 1e6)
+"""The length scales (full scale / model) :class:`Similitude` accepts."""
+
+
 @dataclass(frozen=True)
 class Similitude:
     """Froude scaling between a full-scale vehicle and its model.
@@ -57,6 +61,12 @@ class Similitude:
         positive_float(self.model_diameter, "model_diameter", where)
         if self.scale is not None:
             positive_float(self.scale, "scale", where)
+        lam = self.length_scale
+        if not SCALE_RANGE[0] <= lam <= SCALE_RANGE[1]:  # lambda^3.5 overflowed at 1e-200
+            name = "scale" if self.scale is not None else "full_scale_diameter"
+            raise ValueError(f"The {name!r} parameter of {where} must give a length scale in "
+                             f"[{SCALE_RANGE[0]:g}, {SCALE_RANGE[1]:g}]. Got a scale of "
+                             f"{lam:g} instead.")
 
     @classmethod
     def thesis(cls) -> Similitude:
