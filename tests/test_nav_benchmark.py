@@ -1077,8 +1077,14 @@ def test_table_against_another_store_compares_the_same_flights(tmp_path, tiny_su
     assert command(["--out", a, "--table", "--against", b, "--variants", "mppi"]) == 0
     n = sum(r["variant"] == "mppi" for r in recs[:-1])
     assert f"{n} flights in both" in capsys.readouterr().out
+    capsys.readouterr()
     with pytest.raises(ValueError, match="'--against' parameter"):
         command(["--out", a, "--table", "--against", tmp_path / "none"])
+    assert capsys.readouterr().out == ""  # refused before the table was printed
+    # a reference the store does not hold: the table lost its paired columns, silently
+    with pytest.raises(ValueError, match=r"'--reference' parameter of .* must be a variant the "
+                                         r"store holds: \['ea-mppi-w', 'mppi'\]"):
+        command(["--out", a, "--table", "--reference", "bogus"])
 
 
 def test_check_restarts_under_the_records_arithmetic(tmp_path, tiny_suite, capsys,

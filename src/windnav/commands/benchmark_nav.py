@@ -325,14 +325,20 @@ def _table(args, name: str) -> int:
     from windnav.experiments.results import write_json
 
     spec, records, variants = _stored(args, name)
-    out = outputs(args)
-    table = _print_table(records, variants, args.reference, spec)
-    payload = {"table": table}
-    if args.against is not None:
+    flown = sorted({r["variant"] for r in records})
+    if args.reference not in flown:  # the table came out without its paired columns
+        raise ValueError(f"The '--reference' parameter of {name} must be a variant the store "
+                         f"holds: {flown}. Got {args.reference!r} instead.")
+    other = None
+    if args.against is not None:  # checked before the table is printed
         if _manifest(args.against) is None:
             raise ValueError(f"The '--against' parameter of {name} must name a benchmark store "
                              f"(with manifest.json). Got {str(args.against)!r} instead.")
         other = NavStore(args.against, spec, create=False).latest()
+    out = outputs(args)
+    table = _print_table(records, variants, args.reference, spec)
+    payload = {"table": table}
+    if other is not None:
         checks = []
         for (sid, v), rec in latest_records(records).items():
             theirs = other.get((sid, v))
