@@ -292,11 +292,26 @@ def test_command_writes_the_outcome_json_and_figures(city, tmp_path):
         args.func(args)
 
 
+def test_command_flies_winds_above_10_m_s_with_a_shorter_flow_step(city, tmp_path, capsys):
+    # `navigate --speed 11` stopped with the solver's CFL error about a dt it has no option for
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    args = parse(["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+                  "--speed", "12.5", "--variant", "gs", "--seed", "1", "--spinup-s", "2",
+                  "--record-s", "6", "--out", str(tmp_path / "out")])
+    assert args.func(args) == 0
+    assert "simulated at dt = 0.2 s, not 0.25 s" in capsys.readouterr().err
+    assert (tmp_path / "out" / "summary.json").is_file()
+
+
 def test_command_names_a_start_inside_a_building_before_simulating(city, tmp_path):
     path = city.to_rotorpy_json(tmp_path / "city.json")
     args = parse(["navigate", "--map", str(path), "--start", "40", "60", "--goal", "100", "30",
                   "--speed", "2", "--out", str(tmp_path / "out")])
     with pytest.raises(ValueError, match="'--start'.*inside a building"):
+        args.func(args)
+    args = parse(["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+                  "--speed", "2", "--tilt-max-deg", "0", "--out", str(tmp_path / "out")])
+    with pytest.raises(ValueError, match="'--tilt-max-deg' parameter"):  # was after the flow
         args.func(args)
     args = parse(["navigate", "--map", str(tmp_path / "none.json"), "--start", "4", "6",
                   "--goal", "100", "30", "--speed", "2", "--out", str(tmp_path / "out")])

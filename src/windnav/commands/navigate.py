@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 from windnav._validate import finite_float, positive_float
@@ -137,12 +138,23 @@ def run(args) -> int:
     city = _city(args.map, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
-    # check the start and goal before the (long) flow simulation
-    from windnav.experiments.navigate import check_point
+    # check the start, the goal and the tilt before the (long) flow simulation
+    from windnav.experiments.navigate import TILT_LIMIT_DEG, check_point
 
     check_point(city, start, "--start", name)
     check_point(city, goal, "--goal", name)
-    flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record)
+    tilt = finite_float(args.tilt_max_deg, "--tilt-max-deg", name)
+    if not 0.0 < tilt < TILT_LIMIT_DEG:
+        raise ValueError(f"The '--tilt-max-deg' parameter of {name} must be in "
+                         f"(0, {TILT_LIMIT_DEG:g}). Got {args.tilt_max_deg!r} instead.")
+    from windnav.flow.solver import MAX_CFL
+
+    dt = 0.25  # the thesis's frames; shorter above 10 m/s, where the CFL number would pass 2.5
+    if speed * dt > MAX_CFL:
+        dt = MAX_CFL / speed
+        print(f"{name}: note: the wind is simulated at dt = {dt:.4g} s, not 0.25 s, to keep the "
+              f"CFL number at {MAX_CFL:g} at {speed:g} m/s", file=sys.stderr)
+    flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record, dt=dt)
     result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                       variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
                       horizon=horizon, tilt_max_deg=args.tilt_max_deg, onboard=onboard,
