@@ -343,6 +343,11 @@ def test_corrupt_logs_raise_value_error_naming_the_file(tmp_path):
     (tmp_path / "flipped.npz").write_bytes(bytes(flipped))
     with pytest.raises(ValueError, match="flipped.npz"):
         FlightLog.load(tmp_path / "flipped.npz")
+    # a text file: NumPy read it as a pickle and advised allow_pickle, for a corrupt file
+    (tmp_path / "text.npz").write_text("garbage")
+    with pytest.raises(ValueError, match="text.npz' \\(not an .npz file") as info:
+        FlightLog.load(tmp_path / "text.npz")
+    assert "pickle" not in str(info.value)
     # an array of the wrong shape
     arrays = dict(np.load(path))
     arrays["velocity"] = arrays["velocity"][:, :, :2]

@@ -93,6 +93,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -981,6 +982,10 @@ def load_decoder(path=None) -> Decoder:
         what = "a folder" if path.is_dir() else "which does not exist"
         raise ValueError(f"The 'path' parameter of {where} must name an existing decoder file "
                          f"(.npz). Got {str(path)!r} instead, {what}.")
+    if not zipfile.is_zipfile(path):  # NumPy would read it as a pickle and suggest allow_pickle
+        raise ValueError(f"The 'path' parameter of {where} must name a readable decoder file "
+                         f"(.npz). Got {str(path)!r} instead, which is not an .npz (zip) "
+                         "archive.")
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: np.asarray(data[k]) for k in data.files}

@@ -214,6 +214,8 @@ class FlightLog:
             return ValueError(f"The 'path' parameter of FlightLog.load must name a readable "
                               f"FlightLog .npz file. Got {str(path)!r} ({why}).")
 
+        if path.is_file() and not zipfile.is_zipfile(path):  # NumPy would read it as a pickle
+            raise bad("not an .npz file, which is a zip archive")  # and suggest allow_pickle
         try:
             with np.load(path, allow_pickle=False) as data:
                 content = {k: data[k] for k in data.files}
