@@ -7,6 +7,7 @@ random weights: the numbers are checked against the metrics computed by hand, no
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -272,6 +273,19 @@ def test_evaluate_decoder_command_refuses_bad_comparisons(map_and_model, capsys,
     assert rc == 2
     assert re.search(match, capsys.readouterr().err)
     assert not (d / "refused").exists()
+
+
+def test_evaluate_decoder_command_refuses_a_file_as_flow_cache_and_a_folder_as_model(
+        map_and_model, capsys):
+    d, _ = map_and_model
+    (d / "a_file").write_text("garbage")
+    for extra, match in ((["--flow-cache", str(d / "a_file")], "'--flow-cache' parameter .* "
+                          "must name a folder .* which is a file"),  # "[Errno 17]" before
+                         (["--model", str(d)], "'--model' parameter .* a folder")):
+        rc = main(["evaluate-decoder", "--out", str(d / "refused"), "--no-progress", *extra])
+        assert rc == 2
+        assert re.search(match, capsys.readouterr().err)
+        assert not (d / "refused").exists()
 
 
 def test_bench_decoder_runs_with_tiny_repeats(map_and_model, tmp_path):

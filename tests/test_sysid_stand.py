@@ -144,9 +144,12 @@ def test_windnav_main_reports_bad_input_in_one_line(tmp_path, capsys):
     (["simulate-stand", "--voltages", "3.7", "--v0", "nan"], "'V0' parameter"),  # NaN CSVs
     (["simulate-stand", "--voltages", "3.7", "--dz", "1e9"], "'DZ' parameter"),  # never spins
     (["simulate-tunnel", "--speed-step", "1e-9"], "'--speed-step' parameter"),
+    (["simulate-stand", "--voltages", "3.7", "--seed", "-1"], "'--seed' parameter"),
+    (["simulate-tunnel", "--seed", "-1"], "'--seed' parameter"),
     (["power", "--csv", "x.csv", "--speed-col", "s", "--power-col", "p",
       "--wind", "-5", "5", "1e-5"], "'--wind' parameter"),  # 1e6 winds: minutes of silence
-], ids=["rate-low", "rate-high", "v0-nan", "dz", "tunnel-step", "power-wind-step"])
+], ids=["rate-low", "rate-high", "v0-nan", "dz", "tunnel-step", "stand-seed", "tunnel-seed",
+        "power-wind-step"])
 def test_sysid_commands_refuse_sizes_and_values_that_break_them(tmp_path, capsys, argv,
                                                                 match):
     from windnav import cli

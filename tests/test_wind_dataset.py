@@ -448,6 +448,10 @@ def test_cli_errors_name_the_argument(tmp_path, capsys):
     rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
                "--directions", "2.5"])
     assert rc == 2 and "'--directions'" in capsys.readouterr().err
+    for extra in (["--directions", "nan"],  # "cannot convert float NaN to integer" before
+                  ["--directions", "1", "--directions-deg", "90"]):  # one silently ignored
+        rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"), *extra])
+        assert rc == 2 and "'--directions'" in capsys.readouterr().err
 
 
 def test_cli_wind_sweep_into_a_store_of_another_sweep_names_out(tmp_path, capsys):

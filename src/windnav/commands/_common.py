@@ -8,12 +8,13 @@ earlier run, removing its stale files); its output paths are checked by
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from windnav.experiments.results import Outputs, check_output_path, document
 
-__all__ = ["add_output_arguments", "check_output_path", "document", "outputs", "print_written",
-           "seed", "where"]
+__all__ = ["add_output_arguments", "cache_folder", "check_output_path", "document", "outputs",
+           "print_written", "seed", "where"]
 
 
 def add_output_arguments(parser, *, overwrite: bool = True) -> None:
@@ -39,6 +40,15 @@ def seed(args) -> int:
         raise ValueError(f"The '--seed' parameter of {where(args)} must be an integer >= 0. "
                          f"Got {value!r} instead.")
     return int(value)
+
+
+def cache_folder(path, option: str, name: str):
+    """``path`` (a folder to keep a cache in, made when missing), or a ValueError naming
+    ``option`` when it is a file ("[Errno 17] File exists" named nothing)."""
+    if path is not None and os.path.exists(path) and not os.path.isdir(path):
+        raise ValueError(f"The {option!r} parameter of {name} must name a folder (made when "
+                         f"missing). Got {str(path)!r} instead, which is a file.")
+    return path
 
 
 def outputs(args, *, out=None, files=None) -> Outputs:

@@ -56,6 +56,7 @@ from pathlib import Path
 from windnav._validate import positive_int
 from windnav.commands._common import (
     add_output_arguments,
+    cache_folder,
     document,
     outputs,
     print_written,
@@ -249,6 +250,7 @@ def run(args, simulate=None) -> int:
 
     name = where(args)
     seed(args)
+    cache_folder(args.flow_cache, "--flow-cache", name)
     study = args.study
     progress = not args.no_progress
     for flag, value in (("--samples", args.samples), ("--epochs", args.epochs),

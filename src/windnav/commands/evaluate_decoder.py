@@ -28,6 +28,7 @@ from pathlib import Path
 from windnav._validate import positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
+    cache_folder,
     document,
     outputs,
     print_written,
@@ -91,8 +92,10 @@ def run(args, simulate=None, flow_settings=None) -> int:
         raise ValueError(f"The '--maps' parameter of {name} must be an integer >= 0 (>= 1 with "
                          f"--no-windinet). Got {args.maps!r} instead.")
     if args.model is not None and not Path(args.model).is_file():
+        what = "a folder" if Path(args.model).is_dir() else "which does not exist"
         raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
-                         f"{str(args.model)!r} instead, which does not exist.")
+                         f"{str(args.model)!r} instead, {what}.")
+    cache_folder(args.flow_cache, "--flow-cache", name)
     compare = _compare_files(args.compare, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet, compare=compare,

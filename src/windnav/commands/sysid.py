@@ -40,6 +40,14 @@ PRODUCTS = {
 """What each subcommand writes into ``--out``."""
 
 
+def _seed(value: int, name: str) -> int:
+    """``--seed`` as a seed NumPy takes (>= 0), or a ValueError naming it."""
+    if value < 0:  # NumPy's "expected non-negative integer" named nothing
+        raise ValueError(f"The '--seed' parameter of {name} must be an integer >= 0. Got "
+                         f"{value} instead.")
+    return value
+
+
 def _steps(lo: float, hi: float, step: float, option: str, name: str, *, most: int):
     """``lo, lo + step, ..., hi`` (rounded to 1e-10), at most ``most`` values: a ValueError
     naming ``option`` before NumPy tries to allocate a step of 1e-9 over 100 units."""
@@ -528,7 +536,7 @@ def run_simulate_stand(args) -> int:
                           pwm_max=spec.get("pwm_max", 65535.0))
     out = _outputs(args, "simulate-stand")
     runs = simulate_stand(params, voltages=volts, rate_hz=rate, step_s=step, motor=motor,
-                          rng=args.seed)
+                          rng=_seed(args.seed, name))
     truth = {"vehicle": params.name, "n_rotors": params.n_rotors, "k_eta": params.k_eta,
              "tau_m": params.tau_m, "motor": motor.to_dict(), "voltages": volts,
              "seed": args.seed}
@@ -580,7 +588,7 @@ def run_simulate_tunnel(args) -> int:
     params = vehicle_params(args.vehicle)
     speeds = _steps(0.0, vmax, step, "--speed-step", name, most=1_001)
     log, columns = simulate_tunnel(params, speeds=speeds, axes=args.axes, settle_s=settle,
-                                   record_s=record, rng=args.seed)
+                                   record_s=record, rng=_seed(args.seed, name))
     truth = {**log.meta["sysid"], "status": log.meta.get("status"), "seed": args.seed}
     doc = document("sysid simulate-tunnel", truth, args)
     with out.writing() as stage:

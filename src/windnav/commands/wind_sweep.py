@@ -16,6 +16,7 @@ store itself is never replaced (``--overwrite`` applies to ``--json`` only).
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from pathlib import Path
@@ -85,12 +86,15 @@ def register(subparsers) -> None:
 
 def _directions_arg(args):
     if args.directions_deg is not None:
+        if args.directions is not None:  # one of them was silently ignored
+            raise ValueError("The '--directions' parameter of windnav wind-sweep cannot be given "
+                             "with --directions-deg: give one of them. Got both instead.")
         return list(args.directions_deg)
     if args.directions is None:
         return None
     if len(args.directions) == 1:
         n = args.directions[0]
-        if n != int(n) or n < 1:
+        if not math.isfinite(n) or n != int(n) or n < 1:  # int(nan) raised without the name
             raise ValueError(
                 "The '--directions' parameter of windnav wind-sweep must be one integer count "
                 f"or a list of degrees. Got {args.directions!r} instead; use --directions-deg "
