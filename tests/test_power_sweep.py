@@ -67,6 +67,12 @@ def test_power_curve_command(tmp_path):
     assert len(out["power_W"]) == 7
     assert out["thesis_crazyflie"]["max_range_speed_m_s"] == pytest.approx(7.73, abs=5e-3)
     assert (tmp_path / "power_curve.png").stat().st_size > 1000
+    # a sweep slower than a reported headwind: no max-range speed there, instead of an error
+    # about a 3 m/s headwind the user never gave
+    assert main(["power-curve", "--max-speed", "2", "--points", "5", "--degree", "2",
+                 "--out", str(tmp_path / "slow")]) == 0
+    slow = json.loads((tmp_path / "slow" / "power_curve.json").read_text())["max_range"]
+    assert slow["-3 m/s along track"] is None and slow["+0 m/s along track"] is not None
 
 
 def test_sweep_marks_points_outside_the_envelope_instead_of_reporting_zero_power():

@@ -26,7 +26,8 @@ def power_curve_study(vehicle: str, max_speed: float = 12.0, points: int = 21,
     dict
         JSON-ready: ``speeds_m_s``, ``power_W``, ``tilt_deg``, ``saturated_fraction`` (per
         point), ``fit_coefficients`` (ascending powers), ``max_endurance_speed_m_s``,
-        ``max_range`` (per wind), and the thesis Crazyflie curve's values.
+        ``max_range`` (per wind; None in a headwind of at least ``max_speed``), and the thesis
+        Crazyflie curve's values.
     """
     import windnav as wn
     from windnav.sim.sweeps import simulated_power_curve
@@ -45,7 +46,7 @@ def power_curve_study(vehicle: str, max_speed: float = 12.0, points: int = 21,
         "saturated_fraction": sweep["saturated"].tolist(),
         "fit_coefficients": curve.coefficients.tolist(),
         "max_endurance_speed_m_s": max_endurance_speed(curve),
-        "max_range": {f"{w:+.0f} m/s along track": max_range_speed(curve, w)._asdict()
+        "max_range": {f"{w:+.0f} m/s along track": _max_range(curve, w, max_speed)
                       for w in RANGE_WINDS},
         "thesis_crazyflie": {
             "coefficients": thesis.coefficients.tolist(),
@@ -53,6 +54,17 @@ def power_curve_study(vehicle: str, max_speed: float = 12.0, points: int = 21,
             "max_range_speed_m_s": max_range_speed(thesis, 0.0).ground_speed,
         },
     }
+
+
+def _max_range(curve, wind_along: float, max_speed: float) -> dict | None:
+    """:func:`max_range_speed` as a dict; None in a headwind at least as fast as the sweep's
+    top speed, where the curve cannot make headway (power-curve --max-speed 2 stopped with an
+    error about a 3 m/s headwind the user never asked for)."""
+    from windnav.vehicle.power import max_range_speed
+
+    if -wind_along >= max_speed:
+        return None
+    return max_range_speed(curve, wind_along)._asdict()
 
 
 def plot_power_curve(result: dict, path) -> None:
