@@ -104,3 +104,20 @@ def test_command_writes_json_and_plot(tmp_path, monkeypatch, capsys):
     assert len(rec["trials"]) == 2 and rec["summary"]["n"] == 2
     assert rec["config"]["seed"] == 0 and png.stat().st_size > 0
     assert "median" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("duration", [("3", "1e9"), ("1", "5"), ("6", "5")])
+def test_command_refuses_durations_outside_its_range_before_any_trial(tmp_path, capsys,
+                                                                      duration):
+    # 1e9 s ran the trials and reported each one failed with a 20 TiB MemoryError
+    assert main(["ukf-montecarlo", "--trials", "1", "--duration", *duration,
+                 "--json", str(tmp_path / "o.json"), "--backend", "serial"]) == 2
+    assert "'--duration' parameter" in capsys.readouterr().err
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_command_refuses_a_plot_format_before_any_trial(tmp_path, capsys):
+    # the trials all ran, then matplotlib refused "Format 'txt'" without naming --plot
+    assert main(["ukf-montecarlo", "--trials", "1", "--plot", str(tmp_path / "x.txt"),
+                 "--backend", "serial"]) == 2
+    assert "'--plot' parameter" in capsys.readouterr().err

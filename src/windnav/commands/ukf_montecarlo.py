@@ -46,6 +46,10 @@ from windnav.experiments.results import write_json
 MODULE_DOC = __doc__
 
 
+
+MAX_DURATION_S = 3600.0
+"""The longest flight ``--duration`` accepts, s (an hour at 200 Hz)."""
+
 def partial_path(json_path) -> Path:
     """The record log kept next to ``--json`` while the study runs (``OUT.partial.jsonl``)."""
     return Path(json_path).with_suffix(".partial.jsonl")
@@ -99,10 +103,10 @@ def _config(args):
     if args.duration is not None:
         settle = MonteCarloConfig.settle_s
         lo, hi = (positive_float(v, "--duration", name) for v in args.duration)
-        if not settle < lo <= hi:
+        if not settle < lo <= hi <= MAX_DURATION_S:  # 1e9 s: a 20 TiB MemoryError per trial
             raise ValueError(f"The '--duration' parameter of {name} must be a range MIN MAX "
-                             f"with {settle:g} s (the unscored settling time) < MIN <= MAX. "
-                             f"Got {lo:g} {hi:g} instead.")
+                             f"with {settle:g} s (the unscored settling time) < MIN <= MAX <= "
+                             f"{MAX_DURATION_S:g} s. Got {lo:g} {hi:g} instead.")
         kw["duration"] = (lo, hi)
     if args.workers is not None:
         positive_int(args.workers, "--workers", name)
@@ -140,6 +144,13 @@ def run(args) -> int:
 
     name = where(args)
     config = _config(args)
+    if args.plot is not None:  # checked before the trials, not after them
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        kinds = FigureCanvasAgg.get_supported_filetypes()
+        if args.plot.suffix.lstrip(".").lower() not in kinds:
+            raise ValueError(f"The '--plot' parameter of {name} must end in a figure format "
+                             f"({', '.join(sorted(kinds))}). Got {str(args.plot)!r} instead.")
     out = outputs(args, files={"--json": args.json, "--plot": args.plot})
     log = _record_log(args, config)
     try:
