@@ -770,6 +770,13 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"train": {"ema_decay": -0.1}}, "train.ema_decay"),
     ({"train": {"ema_decay": True}}, "train.ema_decay"),
     ({"train": {"keep": "first"}}, "train.keep"),
+    # map names the sweep will not make: refused after the sweep before (2026-12-05)
+    ({"sweep": {"maps": [{"name": "holdout", "kind": "training"}]},
+      "data": {"validation_maps": ["holdout-1"]}}, r"data.validation_maps.*\['holdout-1'\]"),
+    ({"sweep": {"maps": [{"name": "holdout", "kind": "training"}]},
+      "data": {"exclude_maps": ["nowhere-0"]}}, "data.exclude_maps"),
+    ({"sweep": {"maps": [{"name": "holdout", "kind": "training", "count": 0}]}},
+     r"sweep.maps\[0\].count"),
 ])
 def test_bad_recipes_are_refused(change, match):
     base = {"data": {"validation_maps": ["holdout-0"]}}

@@ -346,6 +346,17 @@ def _check_recipe(r: dict, where: str) -> None:
                 or set(group) - {"name", "kind", "path"}):
             fail(f"sweep.maps[{i}]", "for kind \"file\", a name and the path of one RotorPy "
                  "world JSON file (no count, seed or generator arguments)", group)
+        count = group.get("count", 1)
+        if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+            fail(f"sweep.maps[{i}].count", "an integer >= 1", count)
+    # the map names are known before the sweep: a wrong name failed only after it (an hour)
+    names = [f"{g['name']}-{k}" for g in r["sweep"]["maps"]
+             for k in range(1 if g["kind"] == "file" else g.get("count", 1))]
+    for key in ("validation_maps", "exclude_maps") if names else ():  # none: a store's maps
+        missing = [m for m in d[key] if m not in names]
+        if missing:
+            shown = ", ".join(names[:6]) + (", ..." if len(names) > 6 else "")
+            fail(f"data.{key}", f"names of the sweep's maps ('<name>-<i>': {shown})", missing)
 
 
 def recipe_maps(recipe: dict) -> list[tuple]:
