@@ -193,6 +193,8 @@ def test_fly_names_the_option_behind_a_bad_rate_or_speed(tmp_path, capsys, never
     one_line_error(capsys, "'--dt'", "--sensor-rate-hz 300")
     assert main(["fly", "--trajectory", "line", "--speed", "0", "--out", out]) == 2
     one_line_error(capsys, "'--speed'", "> 0")
+    assert main(["fly", "--dt", "1", "--duration", "0.4", "--out", out]) == 2  # no step
+    one_line_error(capsys, "'--duration'", "at least half of --dt")
     assert not (tmp_path / "run").exists()
 
 

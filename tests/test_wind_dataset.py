@@ -445,6 +445,9 @@ def test_cli_errors_name_the_argument(tmp_path, capsys):
     rc = main(["wind", "--map", str(tiny), "--speed", "3", "--dx", "-1",
                "--out", str(tmp_path / "o")])
     assert rc == 2 and "'--dx'" in capsys.readouterr().err
+    rc = main(["wind", "--map", str(tiny), "--speed", "3", "--steps", "2", "--record-every",
+               "5", "--out", str(tmp_path / "o")])  # exit 0 with no frame recorded before
+    assert rc == 2 and "'--record-every'" in capsys.readouterr().err
     rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
                "--directions", "2.5"])
     assert rc == 2 and "'--directions'" in capsys.readouterr().err

@@ -101,6 +101,9 @@ def run(args) -> int:
     size = positive_float(args.size, "--size", name)
     duration = positive_float(args.duration, "--duration", name)
     dt = positive_float(args.dt, "--dt", name)
+    if round(duration / dt) < 1:
+        raise ValueError(f"The '--duration' parameter of {name} must be at least half of --dt "
+                         f"({dt:g} s) to fly one step. Got {args.duration!r} instead.")
     # a line or waypoints must get somewhere; a circle at 0 m/s holds its first point
     speed = positive_float(args.speed, "--speed", name,
                            allow_zero=args.trajectory in ("hover", "circle"))

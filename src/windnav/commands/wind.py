@@ -78,12 +78,17 @@ def solver_settings(args, max_speed: float) -> dict:
             f"The '--dt' parameter of {name} must keep the CFL number speed*dt/dx at or below "
             f"{MAX_CFL:g} at the fastest inlet {max_speed:g} m/s; use --dt <= "
             f"{MAX_CFL * dx / max_speed:.4g} (or leave it out). Got {dt:g} instead.")
+    steps = positive_int(args.steps, "--steps", name)
+    every = _count(args.record_every, "--record-every", name)
+    if every > steps:  # no frame would be recorded
+        raise ValueError(f"The '--record-every' parameter of {name} must be at most --steps "
+                         f"({steps}), or 0 for no frames. Got {every} instead.")
     return {
         "dx": dx,
         "dt": dt,
         "spinup_steps": _count(args.spinup_steps, "--spinup-steps", name),
-        "steps": positive_int(args.steps, "--steps", name),
-        "record_every": _count(args.record_every, "--record-every", name),
+        "steps": steps,
+        "record_every": every,
     }
 
 
