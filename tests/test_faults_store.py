@@ -272,3 +272,24 @@ def test_load_flow_of_a_file_without_digests_warns_and_loads(flow_file):
         back = load_flow(path)
     np.testing.assert_array_equal(back.mean_u, sol.mean_u)
     np.testing.assert_array_equal(back.frames_v, sol.frames_v)
+
+
+def test_save_flow_replaces_a_flow_but_never_empties_a_folder_of_other_files(flow_file,
+                                                                              tmp_path):
+    path, sol = flow_file
+    save_flow(sol, path)  # a flow solution is replaced, as documented
+    assert load_flow(path).mean_u.shape == sol.mean_u.shape
+    mine = tmp_path / "results"
+    mine.mkdir()
+    (mine / "important.csv").write_text("x\n1\n")
+    # zarr's mode "w" deleted important.csv before (audit, 2026-12-05)
+    with pytest.raises(ValueError, match="'path' parameter of save_flow must be a new or empty "
+                                         "folder, or a flow solution"):
+        save_flow(sol, mine)
+    assert (mine / "important.csv").read_text() == "x\n1\n"
+    (tmp_path / "a_file").write_text("x")
+    with pytest.raises(ValueError, match="'path' parameter of save_flow"):
+        save_flow(sol, tmp_path / "a_file")
+    (tmp_path / "empty").mkdir()
+    save_flow(sol, tmp_path / "empty")
+    assert load_flow(tmp_path / "empty").mean_u.shape == sol.mean_u.shape

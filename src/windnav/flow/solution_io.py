@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import os
 import warnings
+from pathlib import Path
 
 import numpy as np
 import zarr
@@ -50,7 +51,7 @@ __all__ = ["CorruptStoreError", "flow_attrs", "load_flow", "save_flow"]
 
 
 def save_flow(solution, path, config: dict | None = None) -> None:
-    """Write a flow solution to a Zarr v3 group at ``path`` (replacing what is there).
+    """Write a flow solution to a Zarr v3 group at ``path`` (replacing a flow solution there).
 
     Parameters
     ----------
@@ -65,8 +66,23 @@ def save_flow(solution, path, config: dict | None = None) -> None:
         The generating config, stored as the ``config`` attribute: e.g. speed (m/s),
         direction_deg, dx (m), dt (s), spinup_steps, steps, record_every, seed, map_source.
         JSON values only.
+
+    Raises
+    ------
+    ValueError
+        On a solution of inconsistent shapes, or a ``path`` that is a file or a folder holding
+        anything but a flow solution (it would be emptied: refused, as
+        :meth:`~windnav.flow.sweep_store.SweepStore.create` refuses).
     """
     config = jsonable(config, "config", "save_flow")
+    target = Path(path)
+    if target.exists() and (not target.is_dir() or any(target.iterdir())):
+        try:
+            open_group(target, FLOW_FORMAT, "save_flow")
+        except ValueError:  # zarr's mode "w" deleted a folder's files, whatever they were
+            raise ValueError(f"The 'path' parameter of save_flow must be a new or empty folder, "
+                             f"or a flow solution to replace. Got {str(target)!r} instead, "
+                             "which holds something else.") from None
     x = np.asarray(solution.x, dtype=np.float64)
     y = np.asarray(solution.y, dtype=np.float64)
     shape = (y.size, x.size)
