@@ -503,3 +503,24 @@ def test_bad_planner_arguments_raise_named_errors(base):
     with pytest.raises(ValueError, match="'fill' parameter of LocalWind.grid"):
         LocalWind.grid(np.zeros((2, 3, 3)), [-1.0, 0.0, 1.0], fill=(1.0, 2.0, 3.0))
     assert not LocalWind.grid(np.zeros((2, 3, 3)), [-1.0, 0.0, 1.0], fill=(np.nan, 0.0)).finite
+
+
+def test_the_low_level_steps_refuse_arrays_their_kernels_would_read_past(base):
+    # a mean shorter than n_steps was read past its end (heap values in the samples), and a
+    # problem's wind meta likewise (API audit, 2026-12-05)
+    from windnav.plan import mppi_step
+    from windnav.plan.local_wind import NO_WIND
+
+    cfg = dataclasses.replace(base, n_samples=4, n_steps=40)
+    rng = np.random.default_rng(0)
+    for mean in (np.zeros((1, 2)), np.zeros((3, 2)), np.zeros(80)):
+        with pytest.raises(ValueError, match="'mean' parameter of sample_controls"):
+            sample_controls(cfg, mean, rng)
+    with pytest.raises(ValueError, match="'out' parameter of sample_controls"):
+        sample_controls(cfg, np.zeros((40, 2)), rng, out=np.empty((40, 2, 3), np.float32))
+    field = obstacle_field(np.zeros((0, 2)))
+    good = Problem(np.zeros(2), np.array([10.0, 0.0]), field, NO_WIND)
+    assert mppi_step(cfg, np.zeros((40, 2)), good, rng)["controls"].shape == (40, 2)
+    short = Problem(np.zeros(2), np.array([10.0, 0.0]), field, (1, NO_WIND[1], np.zeros(2)))
+    with pytest.raises(ValueError, match="'problem' parameter of mppi_step"):
+        mppi_step(cfg, np.zeros((40, 2)), short, rng)

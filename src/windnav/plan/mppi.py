@@ -166,8 +166,21 @@ def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Gene
     samples are float32 (planning tensors may be, DESIGN.md); the kernels clip them to the
     float64 bounds again. ``out`` and ``work`` (float32 buffers of that shape) are reused when
     given.
+
+    Raises
+    ------
+    ValueError
+        On a ``mean`` that is not (K, 2), or buffers of another shape or type (the kernel
+        would read or write past their ends).
     """
     shape = (config.n_steps, 2, config.n_samples)
+    if np.shape(mean) != shape[:2]:
+        raise ValueError(f"The 'mean' parameter of sample_controls must have shape "
+                         f"(n_steps, 2) = {shape[:2]}. Got {np.shape(mean)} instead.")
+    for name, buf in (("out", out), ("work", work)):
+        if buf is not None and (buf.shape != shape or buf.dtype != np.float32):
+            raise ValueError(f"The {name!r} parameter of sample_controls must be a float32 "
+                             f"array of shape {shape}. Got {buf.dtype} {buf.shape} instead.")
     out = np.empty(shape, np.float32) if out is None else out
     if config.sampling == "uniform":
         rng.random(dtype=np.float32, out=out)
@@ -292,6 +305,12 @@ def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
         (False when no sample had a finite cost).
     """
     t0 = time.perf_counter()
+    if (len(problem.wind) != 3 or np.shape(problem.wind[2]) != (7,)
+            or np.shape(problem.velocity) != (2,) or np.shape(problem.goal) != (2,)
+            or np.shape(problem.mission) != (5,)):  # the kernel reads them by index
+        raise ValueError("The 'problem' parameter of mppi_step must hold velocity (2,), goal "
+                         "(2,), mission (5,) and wind (mode, grid, meta (7,)) as LocalWind.pack "
+                         f"gives. Got {problem!r} instead.")
     u = sample_controls(config, mean, rng, out=None if workspace is None else workspace[0],
                         work=None if workspace is None else workspace[1])
     t1 = time.perf_counter()
