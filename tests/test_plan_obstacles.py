@@ -82,6 +82,13 @@ def test_scan_points_lie_on_the_building_in_the_world_frame():
 
 
 def test_bad_points_raise_named_errors():
+    # fields too large to hold: 5 GB for a point at 1e7 m, MemoryErrors, "negative
+    # dimensions" (API audit, 2026-12-05)
+    for pts, kw in (([[1e7, 0.0]], {}), ([[1e5, 1e5]], {}), ([[10.0, 0.0]], {"resolution": 1e-4}),
+                    ([[10.0, 0.0]], {"padding": 1e12}), ([[1e300, 0.0]], {})):
+        with pytest.raises(ValueError, match="'points' parameter of obstacle_field must span"):
+            obstacle_field(pts, **kw)
+    assert not obstacle_field([[3000.0, 3000.0]]).empty  # 3 km at 1 m: 9.1e6 nodes, allowed
     with pytest.raises(ValueError, match="'ranges' parameter of scan_points must be >= 0"):
         scan_points(np.full(8, -5.0), max_range=100.0)
     assert scan_points(np.array([0.0, np.nan, 3.0, 100.0]), max_range=100.0).shape == (2, 2)

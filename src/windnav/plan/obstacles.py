@@ -156,6 +156,10 @@ class ObstacleField:
         return lidar_range**2 / np.maximum(d * d, K._MIN_D2)
 
 
+MAX_NODES = 2 * 10**7
+"""The most nodes (and buckets) of an obstacle field: 480 MB of node data."""
+
+
 def obstacle_field(points, *, resolution: float = 1.0, padding: float = 10.0,
                    bucket: float = 2.0) -> ObstacleField:
     """Build the distance field of ``points`` (P, 2) (m) on nodes ``resolution`` m apart.
@@ -194,7 +198,26 @@ def obstacle_field(points, *, resolution: float = 1.0, padding: float = 10.0,
                              np.array([0, 0, 1 / h, h, 0, 0, 0, 0.0]), np.zeros(0, np.int64),
                              np.zeros(2, np.int64), np.array([0, 0, 1 / b, 1, 1.0]),
                              np.zeros(0), np.zeros(0))
+    r = float(np.abs(pts).max())  # one cheap bound first: the planner calls this every update
+    side = MAX_NODES ** 0.5
+    if 2.0 * (r + pad) / h + 2.0 > side or 2.0 * r / b + 1.0 > side:
+        _check_field_size(pts, h, pad, b, where)  # a point at 1e7 m took 5 GB
     return ObstacleField(pts, *K.build_field(pts, h, pad, b))
+
+
+def _check_field_size(pts, h: float, pad: float, b: float, where: str) -> None:
+    """A ValueError when the field of ``pts`` would hold more than :data:`MAX_NODES` nodes or
+    buckets (the extents of :func:`windnav.plan._kernels.build_field`)."""
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    with np.errstate(over="ignore"):  # inf counts are refused like any other too many
+        span = np.maximum(hi, 0.0) - np.minimum(lo, 0.0) + 2.0 * pad  # the nodes' extent, m
+        nodes = float(np.prod(span / h + 2.0))
+        buckets = float(np.prod((hi - lo) / b + 1.0))
+    if not nodes <= MAX_NODES or not buckets <= MAX_NODES:
+        raise ValueError(f"The 'points' parameter of {where} must span, with the origin and the "
+                         f"padding, at most {MAX_NODES:.0e} nodes of 'resolution' and buckets "
+                         f"of 'bucket'. Got {span.tolist()} m at resolution {h:g} m and bucket "
+                         f"{b:g} m instead ({nodes:.3g} nodes, {buckets:.3g} buckets).")
 
 
 def obstacle_cost(positions, points, lidar_range: float) -> np.ndarray:
