@@ -507,3 +507,27 @@ def test_cli_wind_sweep_reports_failed_simulations_and_counts(tmp_path, capsys):
     out = capsys.readouterr().out
     assert out.count("failed: map 0 cases") == 2 and "solver diverged at 6.0 m/s" in out
     assert "2/4 simulations done (2 now, 0 already, 2 failed)" in out
+
+
+def test_two_processes_creating_one_store_at_once_both_finish_it(tmp_path):
+    # each used to wipe the store the other was building: 2 of 4 tries failed, one leaving a
+    # store no rerun could repair (store audit, 2026-12-05); now the second waits on the
+    # creation lock, then resumes the finished store
+    script = textwrap.dedent("""
+        import sys
+        from windnav.city import City
+        from windnav.experiments.wind_sweep import sweep
+        maps = [("a", "a.json", City((0, 40, 0, 40), [[15, 22, 12, 25]], [10.0])),
+                ("b", "b.json", City((0, 30, 0, 30), [[20, 27, 12, 25]], [10.0]))]
+        sweep(maps, sys.argv[1], speeds=[2.0, 3.0], directions_deg=[0.0],
+              settings={"dx": 2.0, "dt": 0.1, "spinup_steps": 1, "steps": 4,
+                        "record_every": 0}, backend="serial", progress=False, seed=1)
+    """)
+    for attempt in range(3):
+        path = tmp_path / f"s{attempt}.zarr"
+        procs = [subprocess.Popen([sys.executable, "-c", script, str(path)],
+                                  stderr=subprocess.PIPE, text=True) for _ in range(2)]
+        errors = [p.communicate(timeout=120)[1] for p in procs]
+        assert [p.returncode for p in procs] == [0, 0], errors
+        store = SweepStore(path)
+        assert store.n_maps == 2 and all(store.done(k).all() for k in range(2))

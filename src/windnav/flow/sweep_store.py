@@ -47,6 +47,8 @@ config is refused. One simulation on its own: :mod:`windnav.flow.solution_io`.
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import hashlib
 import json
 import math
@@ -164,6 +166,22 @@ class VerifyReport:
         return sorted(self.damaged)
 
 
+
+@contextlib.contextmanager
+def _creation_lock(path: str):
+    """Hold an exclusive ``flock`` on the folder that holds ``path`` while a store is created
+    or reopened there: a second process waits, then finds the finished store and resumes it
+    (two ``wind-sweep`` runs started together each wiped the store the other was building,
+    and could leave one that no rerun repaired)."""
+    parent = os.path.dirname(os.path.abspath(path))
+    os.makedirs(parent, exist_ok=True)
+    fd = os.open(parent, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
 class SweepStore:
     """A dataset of flow simulations, ``maps x cases``, in one Zarr v3 store (see module doc).
 
@@ -277,6 +295,14 @@ class SweepStore:
         }
         path = os.fspath(path)
         static = _static_arrays(maps, case_speed, case_dir, int(seed))
+        with _creation_lock(path):  # two processes creating one store wiped each other's
+            return cls._create_locked(path, maps, static, ident, config, case_speed,
+                                      int(n_frames), int(seed), where)
+
+    @classmethod
+    def _create_locked(cls, path, maps, static, ident, config, case_speed, n_frames: int,
+                       seed: int, where: str) -> SweepStore:
+        """:meth:`create` once it holds the creation lock."""
         if _is_unfinished_sweep(path):
             pass  # creation itself was interrupted: nothing computed yet, start over
         elif os.path.exists(path) and (not os.path.isdir(path) or os.listdir(path)):
@@ -287,7 +313,7 @@ class SweepStore:
                     "directions, solver config or seed differ); write the sweep to another "
                     "path, or delete the store to start over."
                 )
-            repaired = _repair(group, maps, static, case_speed.size, int(n_frames))
+            repaired = _repair(group, maps, static, case_speed.size, n_frames)
             store = cls(path, mode="r+")
             store.repaired = repaired
             return store
@@ -298,7 +324,7 @@ class SweepStore:
             write_array(cases, name, static[f"cases/{name}"])
         n_cases = case_speed.size
         for k, m in enumerate(maps):
-            _create_map_group(group, k, m, static, n_cases, int(n_frames))
+            _create_map_group(group, k, m, static, n_cases, n_frames)
         # Written last: a store without these attributes is not a sweep store and is refused.
         group.attrs.update(
             {
@@ -307,9 +333,9 @@ class SweepStore:
                 "layout": "maps/<k>/wind[c] = [u, v] of map k, case c; "
                 "see windnav.flow.sweep_store",
                 "config": config,
-                "seed": int(seed),
+                "seed": seed,
                 "n_maps": len(maps),
-                "n_frames": int(n_frames),
+                "n_frames": n_frames,
                 "identity": ident,
                 "checksums": {p: digest(a) for p, a in static.items() if p.startswith("cases/")},
                 "format_version": FORMAT_VERSION,
@@ -324,7 +350,7 @@ class SweepStore:
         except Exception as exc:
             raise CorruptStoreError(
                 f"SweepStore: the Zarr store {self.path!r} has a missing or corrupt group "
-                f"'maps/{int(k)}': {exc}"
+                f"'maps/{int(k)}' (delete the store to start over): {exc}"
             ) from exc
 
     def done(self, k: int) -> np.ndarray:
