@@ -239,6 +239,10 @@ def test_same_seed_same_flight_other_seed_other_flight(city, flow):
     ({"goal": (np.nan, 60.0)}, "goal_xy"),
     ({"variant": "astar"}, "'variant'"),
     ({"rng": "a"}, "'rng' parameter of navigate"),
+    # a 6.55 TiB MemoryError, and a flight of no step reported as a timeout (audit 2026-12-05)
+    ({"control_rate_hz": 1e12, "plan_rate_hz": 1e11}, "'control_rate_hz'.*at most"),
+    ({"control_rate_hz": 0.5, "plan_rate_hz": 0.5, "duration": 1.0},
+     "'control_rate_hz'.*at least one"),
 ])
 def test_bad_input_is_named(city, flow, kw, match):
     variant = kw.pop("variant", "mppi")

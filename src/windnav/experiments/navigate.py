@@ -127,6 +127,9 @@ __all__ = [
 ]
 
 OUTCOMES = ("success", "hover", "collision", "left_map", "timeout")
+
+MAX_CONTROL_STEPS = 10**8
+"""The most control steps :func:`navigate` flies (about 10 GB of recorded series)."""
 """How a flight ends (see the module docstring)."""
 
 GOAL_RADIUS = 5.0
@@ -787,6 +790,14 @@ def navigate(
     model = Multirotor(params)
     controller = SE3Controller(params)
     n_max = int(math.floor(end / control_dt + 1e-9)) + 1
+    if n_max > MAX_CONTROL_STEPS:  # 1e12 Hz tried to allocate 6.55 TiB of series
+        raise ValueError(f"The 'control_rate_hz' parameter of {_WHERE} must give at most "
+                         f"{MAX_CONTROL_STEPS:.0e} control steps over the {end:g} s flown. Got "
+                         f"{control_rate_hz!r} instead ({n_max:.3g} steps).")
+    if n_max < 2:  # a flight of no step, reported as a timeout with no energy
+        raise ValueError(f"The 'control_rate_hz' parameter of {_WHERE} must give at least one "
+                         f"control step in the {end:g} s flown. Got {control_rate_hz!r} "
+                         "instead.")
     onboard_stack = None
     if VARIANTS[variant].wind_source == "onboard":
         from windnav.experiments.onboard import OnboardOptions, OnboardStack
