@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from windnav.sensors import IMU, Odometry
+from windnav.sensors import IMU, Odometry, RotorSpeedSensor, SensorSuite
 from windnav.sensors._kernels import N_NORMALS, NormalStream, imu_odometry_sample
 
 
@@ -36,3 +36,17 @@ def test_normal_stream_hands_out_the_generators_sequence():
     stream = NormalStream(np.random.default_rng(3), block=7)
     got = np.concatenate([stream.take(n).copy() for n in (3, 5, 1, 9, 4, 20)])
     assert np.array_equal(got, np.random.default_rng(3).standard_normal(got.size))
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda: IMU(accel_noise_density=np.nan), "accel_noise_density"),  # logged NaN before
+    (lambda: IMU(accel_bias_walk=np.inf), "accel_bias_walk"),
+    (lambda: IMU(gyro_noise_density=-1.0), "gyro_noise_density"),  # "scale < 0" at fly time
+    (lambda: Odometry(position_std=np.nan), "position_std"),
+    (lambda: RotorSpeedSensor(noise_std=np.nan), "noise_std"),
+    (lambda: SensorSuite(imu=Odometry()), "imu"),  # blamed 'extra' before
+    (lambda: SensorSuite(imu="abc"), "imu"),
+])
+def test_bad_sensor_noise_and_kinds_are_named_at_construction(make, name):
+    with pytest.raises(ValueError, match=f"'{name}' parameter of"):
+        make()

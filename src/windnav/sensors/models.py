@@ -27,6 +27,13 @@ from windnav.sensors.base import Sensor, SensorTruth
 from windnav.vehicle.rotation import quat_from_rotvec, quat_multiply
 
 
+def _check_noise(sensor, names, where: str) -> None:
+    """Each noise parameter finite and >= 0 (NaN logged NaN measurements; a negative one failed
+    at the first sample with NumPy's "scale < 0")."""
+    for name in names:
+        positive_float(getattr(sensor, name), name, where, allow_zero=True)
+
+
 def _check_rate(rate_hz, where):
     return positive_float(rate_hz, "rate_hz", where)
 
@@ -58,6 +65,8 @@ class IMU:
 
     def __post_init__(self):
         _check_rate(self.rate_hz, "IMU")
+        _check_noise(self, ("accel_noise_density", "gyro_noise_density", "accel_bias_walk",
+                            "gyro_bias_walk"), "IMU")
 
     @property
     def accel_std(self) -> float:
@@ -130,6 +139,7 @@ class Odometry:
 
     def __post_init__(self):
         _check_rate(self.rate_hz, "Odometry")
+        _check_noise(self, ("position_std", "velocity_std", "attitude_std"), "Odometry")
 
     def measure(self, position, velocity, attitude, rng):
         """Samples of arrays with any leading shape ``(..., 3)`` / ``(..., 4)``.
@@ -168,6 +178,7 @@ class RotorSpeedSensor:
 
     def __post_init__(self):
         _check_rate(self.rate_hz, "RotorSpeedSensor")
+        _check_noise(self, ("noise_std",), "RotorSpeedSensor")
 
     def measure(self, rotor_speed_cmd, rng):
         """Samples of the commanded speeds (any shape), rad/s."""
@@ -199,6 +210,12 @@ class SensorSuite:
     extra: tuple = ()
 
     def __post_init__(self):
+        for name, kind in (("imu", IMU), ("odometry", Odometry),
+                           ("rotor_speeds", RotorSpeedSensor)):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, kind):  # blamed 'extra' before
+                raise ValueError(f"The {name!r} parameter of SensorSuite must be a "
+                                 f"{kind.__name__} or None. Got {type(value).__name__} instead.")
         extra = tuple(self.extra)
         for s in extra:
             if not isinstance(s, Sensor):
