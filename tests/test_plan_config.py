@@ -102,6 +102,8 @@ def test_max_range_speed_agrees_with_the_vehicle_power_module(config):
     ("horizon", -5.0), ("horizon", "wide"), ("sampling", "sobol"), ("variant", "astar"),
     ("a_max", 0.0), ("a_min", 100.0), ("drag", -0.1), ("power_coefficients", (-1.0, 0.0)),
     ("energy_weight", -3.0), ("use_wind", "yes"), ("dt", 5.0),
+    # a power that falls below 0 before power_speed_max: J_E rewarded speed (audit 2026-12-05)
+    ("power_coefficients", (100.0, -50.0)),
 ])
 def test_bad_config_values_raise_named_errors(config, field, value):
     with pytest.raises(ValueError, match=f"'{field}' parameter of PlannerConfig"):

@@ -235,6 +235,12 @@ class PlannerConfig:
         set_(self, "power_coefficients", tuple(float(v) for v in c))
         set_(self, "power_speed_max",
              positive_float(self.power_speed_max, "power_speed_max", where))
+        lowest = float(np.min(np.polynomial.polynomial.polyval(
+            np.linspace(0.0, self.power_speed_max, 201), c)))
+        if not lowest > 0:  # a power that falls to 0 or below made J_E reward speed
+            raise _fail("power_coefficients", "a power curve above 0 W from hover to "
+                        f"power_speed_max={self.power_speed_max:g} m/s (its lowest: "
+                        f"{lowest:.3g} W)", self.power_coefficients)
         q_e = var.energy_weight if self.energy_weight is None else self.energy_weight
         set_(self, "energy_weight", positive_float(q_e, "energy_weight", where, allow_zero=True))
         use_wind = var.use_wind if self.use_wind is None else self.use_wind
