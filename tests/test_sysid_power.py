@@ -124,6 +124,11 @@ def test_missing_column_and_too_few_speeds_name_file_and_column(tmp_path):
                                          r"the 4"):
         _cli("sysid", "power", "--csv", path, "--speed-col", "v", "--power-col", "P",
              "--out", tmp_path / "o")
+    # zero or negative power: a ZeroDivisionError, or a fit with a negative hover power
+    v = np.linspace(0.0, 10.0, 30)
+    for bad in (np.zeros(30), -(100.0 + v)):
+        with pytest.raises(ValueError, match="powers of .* must be > 0 W"):
+            fit_power(v, bad)
 
 
 def test_only_unsteady_points_name_file_and_column(tmp_path):

@@ -161,3 +161,24 @@ def test_sysid_commands_refuse_sizes_and_values_that_break_them(tmp_path, capsys
     assert status == 2 and len(err.splitlines()) == 1, err
     assert match in err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_stand_log_without_thrust_is_refused(stand, tmp_path):
+    # all-zero or sign-reversed thrust gave k_eta = -0.0, or a negative k_eta with R^2 0.999
+    _, csvs, _ = stand
+    for name, scale in (("zero", 0.0), ("negative", -1.0)):
+        out = []
+        for k, c in enumerate(csvs):
+            lines = c.read_text().splitlines()
+            header = lines[0].split(",")
+            col = header.index("thrust_N")
+            rows = [line.split(",") for line in lines[1:]]
+            for r in rows:
+                r[col] = repr(float(r[col]) * scale)
+            path = tmp_path / f"{name}_{k}.csv"
+            path.write_text("\n".join([lines[0], *[",".join(r) for r in rows]]) + "\n")
+            out.append(path)
+        with pytest.raises(ValueError, match="'thrust_N' of .* must give a thrust coefficient "
+                                             "k_eta > 0"):
+            _cli("sysid", "thrust-stand", "--csv", *out, "--n-rotors", 4,
+                 "--out", tmp_path / f"o_{name}")

@@ -151,3 +151,11 @@ def test_bad_input_is_named(logs):
         run_wind_ukf(log, P_HB).rmse_after(100.0)
     with pytest.raises(ValueError, match="imu"):
         run_wind_ukf(log, P_HB, sensors=("odometry",))
+    # no finite odometry sample: an IndexError before (API audit, 2026-12-05)
+    import copy
+
+    blind = copy.deepcopy(log)
+    blind.sensors["odometry"]["velocity"][:] = np.nan
+    with pytest.raises(ValueError, match="'log' parameter of run_wind_ukf must hold at least "
+                                         "one finite odometry sample"):
+        run_wind_ukf(blind, P_HB)

@@ -297,7 +297,12 @@ def run_wind_ukf(
     if inp["u"].shape[1] != N:
         raise ValueError(f"The 'params_filter' parameter of {where} has {N} rotors but the log "
                          f"has {inp['u'].shape[1]}.")
-    first = int(np.flatnonzero(np.all(np.isfinite(inp["odom"]), axis=1))[0])
+    finite = np.flatnonzero(np.all(np.isfinite(inp["odom"]), axis=1))
+    if finite.size == 0:  # an IndexError before
+        raise ValueError(f"The 'log' parameter of {where} must hold at least one finite "
+                         f"odometry sample of vehicle {vehicle} (the filter starts from it). "
+                         "Got none instead.")
+    first = int(finite[0])
     x0 = np.zeros(N_BASE + N)
     odom0 = inp["odom"][first]
     x0[IDX_EULER] = odom0[ODOM_EULER]

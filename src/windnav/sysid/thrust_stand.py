@@ -254,6 +254,11 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
     files = ", ".join(repr(t.source) for t in tables)
     th = linear_fit(omega[:, None] ** 2, thrust, ["k_eta"],
                     source=f"the steady points of {files} (columns 'thrust_N', 'rpm')")
+    if not th.estimate("k_eta").value > 0:  # all-zero or negative thrust: k_eta <= 0, R^2 0.999
+        raise ValueError(f"The column 'thrust_N' of {files} must give a thrust coefficient "
+                         f"k_eta > 0 at the steady points. Got k_eta = "
+                         f"{th.estimate('k_eta').value:.3g} instead (no thrust, or its sign "
+                         "reversed).")
     src = f"the steady points of {files} (columns 'pwm', 'voltage_V', 'rpm')"
     if np.unique(pwm).size < 2:
         raise ValueError(f"The column 'pwm' of {files} must take at least two values at the "
