@@ -524,3 +524,24 @@ def test_the_low_level_steps_refuse_arrays_their_kernels_would_read_past(base):
     short = Problem(np.zeros(2), np.array([10.0, 0.0]), field, (1, NO_WIND[1], np.zeros(2)))
     with pytest.raises(ValueError, match="'problem' parameter of mppi_step"):
         mppi_step(cfg, np.zeros((40, 2)), short, rng)
+
+
+def test_the_planner_helpers_refuse_degenerate_arguments(base):
+    # audit 2026-12-05: a negative shift rotated the sequence, NaN shifts raised IndexError,
+    # a zero temperature gave NaN weights, a NaN smoothing width a NaN matrix, and n_steps of
+    # 20,000 asked for a 3.2 GB smoothing matrix
+    u = np.arange(10.0).reshape(5, 2)
+    for steps in (-3, np.nan):
+        with pytest.raises(ValueError, match="'steps' parameter of shift_controls"):
+            shift_controls(u, steps)
+    np.testing.assert_array_equal(shift_controls(u, 0), u)
+    for t in (0.0, -1.0):
+        with pytest.raises(ValueError, match="'temperature' parameter of softmin_weights"):
+            softmin_weights(np.array([1.0, 2.0]), t)
+    with pytest.raises(ValueError, match="'sigma' parameter of smoothing_matrix"):
+        smoothing_matrix(5, np.nan)
+    np.testing.assert_array_equal(smoothing_matrix(3, 0.0), np.eye(3))
+    with pytest.raises(ValueError, match="'n_steps' parameter of PlannerConfig"):
+        dataclasses.replace(base, n_steps=20_000)
+    with pytest.raises(ValueError, match="'n_samples' parameter of PlannerConfig"):
+        dataclasses.replace(base, n_steps=1000, n_samples=10**6)

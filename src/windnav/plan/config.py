@@ -119,6 +119,14 @@ def _fail(name, rule, got, where="PlannerConfig"):
     return ValueError(f"The {name!r} parameter of {where} must be {rule}. Got {got!r} instead.")
 
 
+MAX_STEPS = 5_000
+"""The longest horizon in model steps a :class:`PlannerConfig` takes (its dense smoothing matrix
+is ``n_steps^2`` floats: 200 MB)."""
+
+MAX_SAMPLE_STEPS = 50_000_000
+"""The most ``n_samples * n_steps`` a :class:`PlannerConfig` takes (400 MB a buffer of
+samples)."""
+
 @dataclass(frozen=True, eq=False)
 class PlannerConfig:
     """Hyperparameters of the MPPI planner and the vehicle constants they need.
@@ -256,6 +264,13 @@ class PlannerConfig:
         set_(self, "horizon", h)
         for name in ("n_samples", "n_steps"):
             set_(self, name, positive_int(getattr(self, name), name, where))
+        # the smoothing matrix is n_steps^2 floats (3.2 GB at 20,000 steps), each buffer of
+        # samples n_steps x n_samples x 2 float32s
+        if self.n_steps > MAX_STEPS:
+            raise _fail("n_steps", f"at most {MAX_STEPS}", self.n_steps)
+        if self.n_steps * self.n_samples > MAX_SAMPLE_STEPS:
+            raise _fail("n_samples", f"at most {MAX_SAMPLE_STEPS:.0e} / n_steps "
+                        f"({MAX_SAMPLE_STEPS // self.n_steps})", self.n_samples)
         for name in ("dt", "rate_hz", "temperature", "sigma_u", "lidar_range",
                      "obstacle_resolution", "goal_radius"):
             set_(self, name, positive_float(getattr(self, name), name, where))

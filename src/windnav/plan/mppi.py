@@ -49,7 +49,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from windnav._validate import batch_array, generator
+from windnav._validate import batch_array, generator, positive_float, positive_int
 from windnav.plan import _kernels as K
 from windnav.plan.config import PlannerConfig
 from windnav.plan.local_wind import NO_WIND, LocalWind
@@ -113,8 +113,10 @@ def smoothing_matrix(n_steps: int, sigma: float) -> np.ndarray:
     sum 1, so a constant sequence is unchanged and smoothed controls stay inside the bounds.
     ``sigma = 0`` gives the identity.
     """
+    n_steps = positive_int(n_steps, "n_steps", "smoothing_matrix")
+    sigma = positive_float(sigma, "sigma", "smoothing_matrix", allow_zero=True)  # NaN: NaN G
     k = np.arange(n_steps)
-    if sigma <= 0:
+    if sigma == 0:
         return np.eye(n_steps)
     d = k[:, None] - k[None, :]
     g = np.exp(-0.5 * (d / sigma) ** 2) * (np.abs(d) <= 4.0 * sigma + 1e-9)
@@ -145,6 +147,9 @@ def shift_controls(controls: np.ndarray, steps: float) -> np.ndarray:
 
 @lru_cache(maxsize=16)
 def _shift_weights(n: int, steps: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    # checked here, once per cached value: a negative shift rotated the sequence (negative
+    # indices wrap), NaN was an IndexError of index -9.2e18
+    positive_float(steps, "steps", "shift_controls", allow_zero=True)
     t = np.minimum(np.arange(n) + steps, n - 1)
     i = np.minimum(np.floor(t).astype(int), max(n - 2, 0))
     j = np.minimum(i + 1, n - 1)
@@ -200,6 +205,7 @@ def softmin_weights(costs: np.ndarray, temperature: float) -> np.ndarray:
 
     Returns all zeros when no cost is finite.
     """
+    temperature = positive_float(temperature, "temperature", "softmin_weights")  # 0: NaN
     ok = np.isfinite(costs)
     w = np.zeros_like(costs)
     if not ok.any():
