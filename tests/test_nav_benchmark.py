@@ -92,6 +92,12 @@ def test_thesis_suite_is_deterministic_and_follows_the_pair_rules():
     assert [s.start for s in other[:8]] != [s.start for s in a[:8]]
     assert not np.array_equal(suite_map(get_suite("thesis", seed=1), 0).footprints,
                               cities[0].footprints)
+    # seeds and names refused by name (int(nan), OverflowError, "unhashable" before)
+    for seed in (np.nan, np.inf, None, -1, 1.5):
+        with pytest.raises(ValueError, match="'seed' parameter of SuiteSpec"):
+            get_suite("thesis", seed=seed)
+    with pytest.raises(ValueError, match="'suite' parameter of get_suite"):
+        get_suite(["thesis"])
 
 
 def test_quick_is_a_subset_of_thesis_and_ids_parse_back():

@@ -145,7 +145,12 @@ class SuiteSpec:
         if not isinstance(self.name, str) or not self.name or "/" in self.name:
             raise ValueError(f"The 'name' parameter of {where} must be a non-empty string "
                              f"without '/'. Got {self.name!r} instead.")
-        if isinstance(self.seed, bool) or int(self.seed) != self.seed or self.seed < 0:
+        try:  # int(nan), int(inf) and int(None) raised without the name
+            ok = (not isinstance(self.seed, (bool, str)) and int(self.seed) == self.seed
+                  and self.seed >= 0)
+        except (TypeError, ValueError, OverflowError):
+            ok = False
+        if not ok:
             raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. "
                              f"Got {self.seed!r} instead.")
         object.__setattr__(self, "seed", int(self.seed))
@@ -225,7 +230,7 @@ SUITES = {
 
 def get_suite(name: str, seed: int = 0) -> SuiteSpec:
     """The named suite (a key of :data:`SUITES`) with the suite seed ``seed``."""
-    if name not in SUITES:
+    if not isinstance(name, str) or name not in SUITES:  # a list was "unhashable"
         raise ValueError(f"The 'suite' parameter of get_suite must be one of {list(SUITES)}. "
                          f"Got {name!r} instead.")
     return replace(SUITES[name], seed=seed)
