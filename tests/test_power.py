@@ -166,7 +166,12 @@ def test_from_samples_recovers_a_known_polynomial():
      (lambda: PowerCurve((np.nan, 1.0)), "coefficients"),
      (lambda: PowerCurve((1.0, 1.0), speed_max=-1), "speed_max"),
      (lambda: PowerCurve((1.0,))(-1.0), "airspeed"),
-     (lambda: PowerCurve.from_conditions(10, 9, 5, 4), "max_range_speed")],
+     (lambda: PowerCurve.from_conditions(10, 9, 5, 4), "max_range_speed"),
+     # audit 2026-12-05: a "minimum" above hover made a local maximum; extreme speeds gave a
+     # LinAlgError or an OverflowError
+     (lambda: PowerCurve.from_conditions(10, 20, 4, 7), "min_power"),
+     (lambda: PowerCurve.from_conditions(10, 5, 1e-300, 7), "min_power_speed"),
+     (lambda: PowerCurve.from_conditions(10, 5, 4, 1e300), "min_power_speed")],
 )
 def test_bad_curve_inputs_raise_naming_them(call, name):
     with pytest.raises(ValueError, match=f"'{name}'"):

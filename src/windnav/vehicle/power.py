@@ -185,13 +185,24 @@ class PowerCurve:
                 f"The 'max_range_speed' parameter of {where} must exceed min_power_speed "
                 f"{v_e!r}. Got {max_range_speed!r} instead."
             )
-        a = np.array([
-            [1.0, 0.0, 0.0, 0.0],
-            [1.0, v_e, v_e**2, v_e**3],
-            [0.0, 1.0, 2 * v_e, 3 * v_e**2],
-            [-1.0, 0.0, v_r**2, 2 * v_r**3],
-        ])
-        coeffs = np.linalg.solve(a, np.array([c0, p_min, 0.0, 0.0]))
+        if p_min >= c0:  # the "minimum" at V_E came out a local maximum
+            raise ValueError(f"The 'min_power' parameter of {where} must be below hover_power "
+                             f"{c0!r} (a bucket). Got {min_power!r} instead.")
+        with np.errstate(all="ignore"):
+            try:
+                a = np.array([
+                    [1.0, 0.0, 0.0, 0.0],
+                    [1.0, v_e, v_e**2, v_e**3],
+                    [0.0, 1.0, 2 * v_e, 3 * v_e**2],
+                    [-1.0, 0.0, v_r**2, 2 * v_r**3],
+                ])
+                coeffs = np.linalg.solve(a, np.array([c0, p_min, 0.0, 0.0]))
+            except (np.linalg.LinAlgError, OverflowError):
+                coeffs = np.full(4, np.nan)
+        if not np.all(np.isfinite(coeffs)):  # speeds of 1e-300 or 1e300: singular or overflow
+            raise ValueError(f"The 'min_power_speed' and 'max_range_speed' parameters of {where} "
+                             f"must give a solvable cubic. Got {min_power_speed!r} and "
+                             f"{max_range_speed!r} instead.")
         return cls(coeffs, speed_max=speed_max, name=name)
 
     @classmethod
