@@ -84,6 +84,12 @@ def test_a_diverged_row_is_flagged_without_raising():
     x = Multirotor(HB).hover_state(np.zeros((2, 3))).to_array()
     x[1, 3] = np.nan
     np.testing.assert_array_equal(outside_envelope(HB, x, np.zeros(3)), [False, True])
+    # a zero quaternion (a ZeroDivisionError in the kernel) and an empty batch (a
+    # "range() arg 3" error) before the 2026-12-05 audit
+    x = Multirotor(HB).hover_state(np.zeros((2, 3))).to_array()
+    x[0, 6:10] = 0.0
+    np.testing.assert_array_equal(outside_envelope(HB, x, np.zeros(3)), [True, False])
+    assert outside_envelope(HB, x[:0], np.zeros((0, 3))).shape == (0,)
 
 
 def test_bad_input_is_named():

@@ -25,7 +25,7 @@ import numpy as np
 
 from windnav._validate import positive_float
 from windnav.vehicle.dynamics import rotor_loads_kernel
-from windnav.vehicle.layout import N_RIGID, VELOCITY
+from windnav.vehicle.layout import ATTITUDE, N_RIGID, VELOCITY
 from windnav.vehicle.multirotor import Multirotor
 from windnav.vehicle.params import LIFT_ENVELOPE_FRACTION, MultirotorParams
 from windnav.vehicle.state import VehicleState
@@ -95,7 +95,14 @@ def outside_envelope(
                          "instead.")
     x = np.ascontiguousarray(x)
     B = x.shape[0]
+    if B == 0:  # "range() arg 3 must not be zero" inside the kernel before
+        return np.zeros(0, dtype=bool)
     model._check_batch(B)
+    q_norm = np.sqrt(np.sum(x[:, ATTITUDE] ** 2, axis=1))
+    no_attitude = ~(q_norm >= 1e-6)  # a zero quaternion: a ZeroDivisionError in the kernel
+    if no_attitude.any():  # such a row is outside any envelope, like a non-finite one
+        x = x.copy()
+        x[no_attitude, ATTITUDE] = (0.0, 0.0, 0.0, 1.0)
     com, hub = model._winds(wind_world, B, where)
     thrust = np.empty((B, model.n_rotors))
     lift = np.empty((B, model.n_rotors))
@@ -105,4 +112,4 @@ def outside_envelope(
     airspeed = np.linalg.norm(x[:, VELOCITY] - com, axis=1)
     # a diverged (non-finite) state is outside any envelope; no exception for one bad row
     return (np.any(lift > lift_fraction * thrust, axis=1) | (airspeed > limit)
-            | ~np.all(np.isfinite(x), axis=1))
+            | ~np.all(np.isfinite(x), axis=1) | no_attitude)
