@@ -68,3 +68,12 @@ def test_a_length_scale_whose_powers_overflow_is_named(kwargs, name):
     with pytest.raises(ValueError, match=f"'{name}' parameter of Similitude must give a length "
                                          "scale in"):
         Similitude(**{"full_scale_diameter": 1.8, "model_diameter": 0.055, **kwargs})
+
+
+def test_reynolds_names_a_zero_viscosity_or_a_negative_speed():
+    sim = Similitude.thesis()
+    assert sim.reynolds(10.0, 1.8) == pytest.approx(10.0 * 1.8 / 1.5e-5)
+    with pytest.raises(ValueError, match="'kinematic_viscosity' parameter of Similitude"):
+        sim.reynolds(1.0, 1.0, 0.0)  # a ZeroDivisionError before
+    with pytest.raises(ValueError, match="'speed' parameter of Similitude.reynolds"):
+        sim.reynolds(-1.0, 1.0)

@@ -111,8 +111,11 @@ class Similitude:
 
     def reynolds(self, speed: float, diameter: float,
                  kinematic_viscosity: float = KINEMATIC_VISCOSITY_AIR) -> float:
-        """``U D / nu``."""
-        return speed * diameter / kinematic_viscosity
+        """``U D / nu`` (speed m/s >= 0, diameter m > 0, kinematic viscosity m^2/s > 0)."""
+        where = "Similitude.reynolds"  # a zero viscosity was a ZeroDivisionError
+        return (positive_float(speed, "speed", where, allow_zero=True)
+                * positive_float(diameter, "diameter", where)
+                / positive_float(kinematic_viscosity, "kinematic_viscosity", where))
 
     def report(self, *, full_scale_speed: float | None = None,
                full_scale_mass: float | None = None, model_speed: float | None = None,
