@@ -182,3 +182,14 @@ def test_a_stand_log_without_thrust_is_refused(stand, tmp_path):
                                              "k_eta > 0"):
             _cli("sysid", "thrust-stand", "--csv", *out, "--n-rotors", 4,
                  "--out", tmp_path / f"o_{name}")
+
+
+def test_steady_mask_names_mismatched_arrays_and_a_window_that_is_not_positive():
+    # an IndexError, "cannot convert float NaN to integer", or a window of 0 accepted before
+    t = np.linspace(0.0, 1.0, 10)
+    with pytest.raises(ValueError, match="times and values of steepest_slope must be 1-D"):
+        steady_mask(t, np.ones(5))
+    for w in (np.nan, 0.0, -0.1):
+        with pytest.raises(ValueError, match="'window_s' parameter of steepest_slope"):
+            steady_mask(t, np.full(10, 300.0), window_s=w)
+    assert steady_mask(t, np.full(10, 300.0)).all()

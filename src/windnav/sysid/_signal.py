@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from windnav._validate import positive_float
+
 __all__ = ["local_slope", "min_run", "steepest_slope"]
 
 
@@ -77,6 +79,10 @@ def steepest_slope(t, y, window_s: float) -> np.ndarray:
     """
     t = np.asarray(t, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
+    if t.ndim != 1 or y.shape != t.shape:  # an IndexError or a broadcast error before
+        raise ValueError(f"The times and values of steepest_slope must be 1-D arrays of one "
+                         f"length. Got shapes {t.shape} and {y.shape} instead.")
+    window_s = positive_float(window_s, "window_s", "steepest_slope")  # 0 and < 0 passed
     if t.size < 2:
         return np.zeros_like(y)
     h = _half_width(t, window_s)
