@@ -71,6 +71,12 @@ def test_unsteadiness_maps_of_known_samples(tmp_path):
                                          "most"):  # a 7.5 TiB MemoryError on a log before
         unsteadiness_maps(FlightSamples(xy * 100, np.zeros((2 * n, 2)), np.zeros((2 * n, 2)),
                                         np.zeros((2 * n, 3))), cell=1e-6)
+    bad = xy.copy()
+    bad[3] = np.nan  # "arange: cannot compute length" before
+    with pytest.raises(ValueError, match="'samples' parameter of unsteadiness_maps must have "
+                                         "finite positions"):
+        unsteadiness_maps(FlightSamples(bad, np.zeros((2 * n, 2)), np.zeros((2 * n, 2)),
+                                        np.zeros((2 * n, 3))))
     np.testing.assert_allclose(maps.force_cmd_std[0], [0.0, 0.1], atol=1e-12)
     path = write_csv(tmp_path / "u.csv", cols)
     _cli("sysid", "unsteadiness", "--csv", path, "--cell", 1.0, "--min-count", 1,

@@ -147,6 +147,10 @@ def test_bad_input_is_named(logs):
         run_wind_ukf(log, "hummingbird")
     with pytest.raises(ValueError, match="vehicle"):
         run_wind_ukf(log, P_HB, vehicle=3)
+    for v in (0.7, np.nan):  # 0.7 was read as 0
+        with pytest.raises(ValueError, match="'vehicle' parameter of filter_inputs must be an "
+                                             "integer"):
+            run_wind_ukf(log, P_HB, vehicle=v)
     with pytest.raises(ValueError, match="settle_s"):
         run_wind_ukf(log, P_HB).rmse_after(100.0)
     with pytest.raises(ValueError, match="imu"):

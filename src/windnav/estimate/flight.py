@@ -184,6 +184,10 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
     """
     where = "filter_inputs"
     B = log.position.shape[1]
+    # 0.7 was read as 0, NaN raised "cannot convert float NaN to integer"
+    if isinstance(vehicle, bool) or not isinstance(vehicle, (int, np.integer)):
+        raise ValueError(f"The 'vehicle' parameter of {where} must be an integer. Got "
+                         f"{vehicle!r} instead.")
     vehicle = int(vehicle)
     if not 0 <= vehicle < B:
         raise ValueError(f"The 'vehicle' parameter of {where} must be in [0, {B}). "

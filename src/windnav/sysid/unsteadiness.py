@@ -228,6 +228,9 @@ def unsteadiness_maps(samples: FlightSamples, *, cell: float = 1.0,
     min_count = positive_int(min_count, "min_count", where)
     if samples.xy.shape[0] == 0:
         raise ValueError(f"The 'samples' parameter of {where} holds no finite sample.")
+    if not np.all(np.isfinite(samples.xy)):  # "arange: cannot compute length" before
+        raise ValueError(f"The 'samples' parameter of {where} must have finite positions. Got "
+                         "NaN or inf in xy instead.")
     lo = np.floor(samples.xy.min(axis=0) / cell) * cell
     hi = (np.floor(samples.xy.max(axis=0) / cell) + 1) * cell
     n_cells = float(np.prod(np.round((hi - lo) / cell)))
