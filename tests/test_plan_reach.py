@@ -7,7 +7,13 @@ import pytest
 
 from windnav.city import City
 from windnav.experiments.nav_feasibility import _hold_ok, reach_table
-from windnav.plan.reach import least_time, max_ground_speed, reach_lattice
+from windnav.plan.reach import (
+    fastest_route,
+    least_time,
+    max_ground_speed,
+    nearest_free_cell,
+    reach_lattice,
+)
 from windnav.wind.gridded import GriddedWind
 
 EMPTY = City((0, 200, 0, 200), np.zeros((0, 4)), np.zeros(0))
@@ -47,6 +53,18 @@ def test_least_time_rejects_an_end_point_off_the_map():
     lat = reach_lattice(EMPTY, (0.0, 0.0), dx=2.0, clearance=0.0)
     with pytest.raises(ValueError, match="'goal_xy' parameter of least_time must lie inside"):
         least_time(lat, (20, 100), (260, 100), airspeed_max=10.0)
+    # audit 2026-12-05: an airspeed of 1e308 gave a time of 0, a speed cap under the 0.5 m/s
+    # floor was flown at 0.5, and NaN found a cell
+    with pytest.raises(ValueError, match="'airspeed_max' parameter of least_time must be at "
+                                         "most"):
+        least_time(lat, (20, 100), (180, 100), airspeed_max=1e308)
+    with pytest.raises(ValueError, match="'speed_max' parameter of fastest_route must be at "
+                                         "least 0.5"):
+        fastest_route(lat, (20, 100), (180, 100), airspeed_max=10.0, speed_max=1e-300)
+    with pytest.raises(ValueError, match="'point_xy' parameter of nearest_free_cell"):
+        nearest_free_cell(lat, (np.nan, 0.0))
+    with pytest.raises(ValueError, match="'max_distance' parameter of nearest_free_cell"):
+        nearest_free_cell(lat, (10.0, 10.0), -1.0)
 
 
 @pytest.mark.parametrize("wind", [(0.0, 0.0), (-6.0, 0.0), (4.0, 3.0), (0.0, 8.0)])

@@ -52,6 +52,20 @@ __all__ = [
 ]
 
 
+MIN_ROUTE_SPEED = 0.5
+"""The slowest ground speed :func:`fastest_route` flies a piece at, m/s."""
+
+MAX_AIRSPEED = 1000.0
+"""The largest ``airspeed_max`` the least-time searches take, m/s (1e308 gave a time of 0)."""
+
+
+def _airspeed(value, where: str) -> float:
+    a = positive_float(value, "airspeed_max", where)
+    if a > MAX_AIRSPEED:
+        raise ValueError(f"The 'airspeed_max' parameter of {where} must be at most "
+                         f"{MAX_AIRSPEED:g} m/s. Got {value!r} instead.")
+    return a
+
 def max_ground_speed(direction, wind, airspeed_max) -> np.ndarray:
     """Largest ground speed along ``direction`` with airspeed at most ``airspeed_max``.
 
@@ -314,7 +328,7 @@ def least_time(
     if not isinstance(lattice, ReachLattice):
         raise ValueError(f"The 'lattice' parameter of {where} must be a ReachLattice (from "
                          f"reach_lattice). Got {type(lattice).__name__} instead.")
-    a_max = positive_float(airspeed_max, "airspeed_max", where)
+    a_max = _airspeed(airspeed_max, where)
     t_start = finite_float(t_start, "t_start", where)
     t_end = float(t_end)
     if not t_end > t_start:
@@ -378,8 +392,13 @@ class FastestRoute:
 
 def nearest_free_cell(lattice: ReachLattice, point_xy, max_distance: float = np.inf):
     """Centre (2,) of the free cell of ``lattice`` nearest ``point_xy``, m; None when none lies
-    within ``max_distance`` (m)."""
-    p = np.asarray(point_xy, dtype=np.float64).reshape(2)
+    within ``max_distance`` (m, >= 0)."""
+    where = "nearest_free_cell"
+    p = batch_array(point_xy, "point_xy", where, (2,), batch=1)[0]  # NaN found a cell
+    max_distance = float(max_distance)
+    if not max_distance >= 0:  # a negative one was ignored
+        raise ValueError(f"The 'max_distance' parameter of {where} must be >= 0 (inf allowed). "
+                         f"Got {max_distance!r} instead.")
     j, i = np.nonzero(lattice.free)
     if i.size == 0:
         return None
@@ -428,8 +447,12 @@ def fastest_route(lattice: ReachLattice, start_xy, goal_xy, *, airspeed_max: flo
     if not isinstance(lattice, ReachLattice) or lattice.unsteady:
         raise ValueError(f"The 'lattice' parameter of {where} must be a steady ReachLattice. "
                          f"Got {type(lattice).__name__} instead.")
-    a_max = positive_float(airspeed_max, "airspeed_max", where)
+    a_max = _airspeed(airspeed_max, where)
     v_cap = positive_float(speed_max, "speed_max", where)
+    if v_cap < MIN_ROUTE_SPEED:  # the pieces are flown at least this fast: 0.5 > 1e-300
+        raise ValueError(f"The 'speed_max' parameter of {where} must be at least "
+                         f"{MIN_ROUTE_SPEED:g} m/s, the slowest piece flown. Got {speed_max!r} "
+                         "instead.")
     snap = positive_float(snap_m, "snap_m", where, allow_zero=True)
     k = _gust_k(lattice, gust_k, where)
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
@@ -460,6 +483,6 @@ def fastest_route(lattice: ReachLattice, start_xy, goal_xy, *, airspeed_max: flo
     speeds = np.minimum(max_ground_speed(pieces, wind, a_max), v_cap)
     if entry is not start:  # the way out of the clearance
         speeds[0] = min(2.0, v_cap)
-    speeds = np.maximum(speeds, 0.5)
+    speeds = np.maximum(speeds, MIN_ROUTE_SPEED)
     return FastestRoute(samples=path, speeds=speeds, time_s=float(np.sum(lengths / speeds)),
                         length_m=float(lengths.sum()), airspeed_max=a_max)
