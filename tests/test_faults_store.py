@@ -293,3 +293,15 @@ def test_save_flow_replaces_a_flow_but_never_empties_a_folder_of_other_files(flo
     (tmp_path / "empty").mkdir()
     save_flow(sol, tmp_path / "empty")
     assert load_flow(tmp_path / "empty").mean_u.shape == sol.mean_u.shape
+
+
+def test_a_foreign_checksums_attribute_and_an_unknown_mode_are_named(flow_file, tmp_path):
+    import zarr
+
+    path, _ = flow_file
+    group = zarr.open_group(str(path), mode="r+")
+    group.attrs["checksums"] = ["not", "a", "table"]  # an AttributeError before
+    with pytest.raises(CorruptStoreError, match="corrupt 'checksums' attribute"):
+        load_flow(path)
+    with pytest.raises(ValueError, match="'mode' parameter of SweepStore must be 'r' or 'r\\+'"):
+        SweepStore(tmp_path, mode="zz")  # a CorruptStoreError with an empty message before

@@ -173,6 +173,9 @@ def load_flow(path):
     from windnav.flow.solver import FlowSolution
 
     sums = group.attrs.get("checksums")
+    if sums is not None and not isinstance(sums, dict):  # an AttributeError below before
+        raise CorruptStoreError(f"{where}: the Zarr store {path!r} has a corrupt 'checksums' "
+                                f"attribute (a {type(sums).__name__}, not a table).")
     if sums is None:
         warnings.warn(
             f"load_flow: the Zarr store {path!r} was written without checksums (by an older "

@@ -213,6 +213,9 @@ class SweepStore:
     def __init__(self, path, mode: str = "r"):
         self.path = os.fspath(path)
         where = "SweepStore"
+        if mode not in ("r", "r+"):  # "zz" was a CorruptStoreError with an empty message
+            raise ValueError(f"The 'mode' parameter of {where} must be 'r' or 'r+'. Got {mode!r} "
+                             "instead.")
         self.group = open_group(self.path, SWEEP_FORMAT, where, mode=mode)
         config = require_attr(self.group, "config", self.path, where)
         n_maps = require_attr(self.group, "n_maps", self.path, where)
