@@ -111,7 +111,9 @@ def test_quick_is_a_subset_of_thesis_and_ids_parse_back():
             t.start, t.goal, t.seed, t.speed, t.direction_deg)
     s = quick[3]
     assert parse_scenario_id(SUITES["quick"], s.scenario_id) == s
-    for bad in ("quick/m0/w04", "thesis/m00/w04/p0", "quick/m05/w04/p0"):
+    for bad in ("quick/m0/w04", "thesis/m00/w04/p0", "quick/m05/w04/p0",
+                # a trailing newline and Arabic-Indic digits were accepted before 2026-12-05
+                s.scenario_id + "\n", s.scenario_id.replace("m00", "m\u0660\u0660")):
         with pytest.raises(ValueError, match="'scenario_id' parameter of parse_scenario_id"):
             parse_scenario_id(SUITES["quick"], bad)
 

@@ -61,7 +61,8 @@ __all__ = [
 KINDS = ("tailwind", "headwind")
 """Pair kinds: the start-to-goal vector along the wind, or against it."""
 
-_ID = re.compile(r"^(?P<name>[^/]+)/m(?P<m>\d+)/w(?P<w>\d+)/p(?P<p>\d+)$")
+# ASCII digits, the whole string: "\d" took Arabic-Indic digits and "$" a trailing newline
+_ID = re.compile(r"(?P<name>[^/\s]+)/m(?P<m>[0-9]+)/w(?P<w>[0-9]+)/p(?P<p>[0-9]+)")
 
 
 def derive_seed(seed: int, key: str) -> int:
@@ -387,7 +388,7 @@ def parse_scenario_id(spec: SuiteSpec, scenario_id: str) -> Scenario:
         On a malformed id, another suite's id, or indices the suite does not fly.
     """
     where = "parse_scenario_id"
-    match = _ID.match(str(scenario_id))
+    match = _ID.fullmatch(str(scenario_id))
     if match is None:
         raise ValueError(f"The 'scenario_id' parameter of {where} must look like "
                          f"'{spec.name}/m03/w07/p2'. Got {scenario_id!r} instead.")
