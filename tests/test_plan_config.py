@@ -116,3 +116,20 @@ def test_planner_config_rejects_unknown_names(params):
     with pytest.raises(ValueError, match="'overrides' parameter of planner_config"):
         planner_config(params, "mppi", n_sample=10)
     assert isinstance(planner_config(params, "mppi", n_samples=1000, n_steps=25), PlannerConfig)
+
+
+def test_the_config_helpers_refuse_what_gave_nonsense(config):
+    # audit 2026-12-05: power(-1) gave a power, max_range_speed(nan) 0.5 m/s, a negative
+    # speed range a negative energy per metre, one number a range of linspace(1, 981)
+    with pytest.raises(ValueError, match="'airspeed' parameter of PlannerConfig.power"):
+        config.power(-1.0)
+    with pytest.raises(ValueError, match="'wind_along' parameter of PlannerConfig"):
+        config.max_range_speed(np.nan)
+    for bad in ((-10.0, 10.0), (1.0,), (5.0, 1.0)):
+        with pytest.raises(ValueError, match="'speed_range' parameter of PlannerConfig"):
+            config.energy_per_metre((1.0, 0.0), speed_range=bad)
+        with pytest.raises(ValueError, match="'speed_range' parameter of PlannerConfig"):
+            config.max_range_speed(0.0, speed_range=bad)
+    with pytest.raises(ValueError, match="'wind' parameter of PlannerConfig.energy_per_metre"):
+        config.energy_per_metre((1.0, 0.0), wind=(np.nan, 0.0))
+    assert config.energy_per_metre((1.0, 0.0)) > 0

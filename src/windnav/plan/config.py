@@ -39,7 +39,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from windnav._validate import positive_float, positive_int
+from windnav._validate import batch_array, finite_float, positive_float, positive_int
 from windnav.plan._kernels import power_bar_array
 from windnav.sim.sweeps import power_sweep
 from windnav.vehicle.params import GRAVITY, MultirotorParams
@@ -318,6 +318,9 @@ class PlannerConfig:
         """Steady-flight power at ``airspeed`` (m/s, any shape, >= 0), W, with the continuation
         beyond ``power_speed_max`` the planner uses."""
         v = np.asarray(airspeed, dtype=np.float64)
+        if not np.all(v >= 0):  # -1 m/s gave a power; NaN a NaN
+            raise ValueError("The 'airspeed' parameter of PlannerConfig.power must be >= 0 m/s "
+                             "(no NaN).")
         return power_bar_array(v, self.power_table()) * self.hover_power
 
     def energy_per_metre(self, direction, wind=(0.0, 0.0), *, speed_range=(0.5, 25.0)
@@ -326,21 +329,40 @@ class PlannerConfig:
         flown along the unit vector ``d`` (2,) in the uniform wind ``w`` (2,), m/s, over ground
         speeds ``V`` in ``speed_range``, m/s; in s/m (energy divided by ``P_hover``). In still
         air it is ``P(V_R) / (P_hover V_R)``, with ``V_R`` the max-range speed."""
-        d = np.asarray(direction, dtype=np.float64).reshape(2)
+        where = "PlannerConfig.energy_per_metre"
+        d = batch_array(direction, "direction", where, (2,), batch=1)[0]
         d = d / max(float(np.hypot(*d)), 1e-12)
-        v = np.linspace(*speed_range, 981)
-        air = np.hypot(v * d[0] - float(wind[0]), v * d[1] - float(wind[1]))
+        w = batch_array(wind, "wind", where, (2,), batch=1)[0]
+        v = np.linspace(*_speed_range(speed_range, where), 981)
+        air = np.hypot(v * d[0] - float(w[0]), v * d[1] - float(w[1]))
         return float(np.min(power_bar_array(air, self.power_table()) / v))
 
     def max_range_speed(self, wind_along: float = 0.0, *, speed_range=(0.5, 20.0)) -> float:
         """``V_R(W) = argmin_V P(|V - W|) / V`` over ground speeds in ``speed_range``, m/s."""
-        lo, hi = speed_range
+        where = "PlannerConfig.max_range_speed"
+        lo, hi = _speed_range(speed_range, where)
+        wind_along = finite_float(wind_along, "wind_along", where)  # NaN gave 0.5
         v = np.linspace(lo, hi, 20001)
         k = int(np.argmin(self.power(np.abs(v - wind_along)) / v))
         return float(v[k])
 
 
 @lru_cache(maxsize=32)
+def _speed_range(speed_range, where: str) -> tuple[float, float]:
+    """``(low, high)`` ground speeds, m/s, with ``0 < low < high`` finite; a ValueError naming
+    ``speed_range`` otherwise (a negative range gave a negative energy per metre; one number
+    was read as ``linspace(1, 981)``)."""
+    try:
+        lo, hi = (float(x) for x in speed_range)
+    except (TypeError, ValueError):
+        raise ValueError(f"The 'speed_range' parameter of {where} must be two numbers, m/s. "
+                         f"Got {speed_range!r} instead.") from None
+    if not 0 < lo < hi < math.inf:
+        raise ValueError(f"The 'speed_range' parameter of {where} must satisfy 0 < low < high, "
+                         f"m/s. Got {speed_range!r} instead.")
+    return lo, hi
+
+
 def _power_table(coefficients: tuple, speed_max: float) -> np.ndarray:
     c = np.asarray(coefficients) / coefficients[0]
     poly = np.polynomial.Polynomial(c)
