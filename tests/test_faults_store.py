@@ -305,3 +305,15 @@ def test_a_foreign_checksums_attribute_and_an_unknown_mode_are_named(flow_file, 
         load_flow(path)
     with pytest.raises(ValueError, match="'mode' parameter of SweepStore must be 'r' or 'r\\+'"):
         SweepStore(tmp_path, mode="zz")  # a CorruptStoreError with an empty message before
+
+
+def test_save_flow_refuses_a_solution_that_would_load_and_fail_later(flow_file, tmp_path):
+    import dataclasses
+
+    _, sol = flow_file
+    for change, match in (({"t": sol.t[:-1]}, "one time per frame"),
+                          ({"x": sol.x[::-1].copy()}, "x of at least two finite, increasing"),
+                          ({"frames_v": None}, "both frames_u and frames_v, or neither")):
+        with pytest.raises(ValueError, match=match):
+            save_flow(dataclasses.replace(sol, **change), tmp_path / "bad.zarr")
+        assert not (tmp_path / "bad.zarr").exists()

@@ -97,9 +97,18 @@ def save_flow(solution, path, config: dict | None = None) -> None:
                 f"The 'solution' parameter of save_flow must have {name} of shape {shape} "
                 f"(ny, nx). Got shape {value.shape} instead."
             )
+    for name, c in (("x", x), ("y", y)):  # a store that loaded and failed later before
+        if c.ndim != 1 or c.size < 2 or not np.all(np.isfinite(c)) or not np.all(np.diff(c) > 0):
+            raise ValueError(f"The 'solution' parameter of save_flow must have {name} of at "
+                             "least two finite, increasing cell centres, m. Got "
+                             f"{np.array2string(c.ravel()[:6], precision=3)} "
+                             f"(shape {c.shape}) instead.")
     arrays = {"x": x, "y": y, **fields}
     frames_u = getattr(solution, "frames_u", None)
     frames_v = getattr(solution, "frames_v", None)
+    if (frames_u is None) != (frames_v is None):  # one was silently dropped
+        raise ValueError("The 'solution' parameter of save_flow must have both frames_u and "
+                         "frames_v, or neither. Got one of them instead.")
     if frames_u is not None and frames_v is not None:
         fu = np.asarray(frames_u, dtype=np.float64)
         fv = np.asarray(frames_v, dtype=np.float64)
@@ -112,6 +121,10 @@ def save_flow(solution, path, config: dict | None = None) -> None:
         times = getattr(solution, "t", None)
         if times is not None:
             arrays["t"] = np.asarray(times, dtype=np.float64)
+            if arrays["t"].shape != (fu.shape[0],):
+                raise ValueError(f"The 'solution' parameter of save_flow must have one time per "
+                                 f"frame ({fu.shape[0]}). Got t of shape {arrays['t'].shape} "
+                                 "instead.")
     group = zarr.open_group(os.fspath(path), mode="w")
     group.attrs.update(
         {
