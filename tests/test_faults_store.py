@@ -317,3 +317,9 @@ def test_save_flow_refuses_a_solution_that_would_load_and_fail_later(flow_file, 
         with pytest.raises(ValueError, match=match):
             save_flow(dataclasses.replace(sol, **change), tmp_path / "bad.zarr")
         assert not (tmp_path / "bad.zarr").exists()
+
+
+def test_save_flow_names_a_solution_that_is_not_one(tmp_path):
+    with pytest.raises(ValueError, match="'solution' parameter of save_flow must be a "
+                                         "FlowSolution"):
+        save_flow("x", tmp_path / "f.zarr")  # an AttributeError before

@@ -545,3 +545,9 @@ def test_the_planner_helpers_refuse_degenerate_arguments(base):
         dataclasses.replace(base, n_steps=20_000)
     with pytest.raises(ValueError, match="'n_samples' parameter of PlannerConfig"):
         dataclasses.replace(base, n_steps=1000, n_samples=10**6)
+
+
+def test_rollout_names_a_wind_that_is_not_a_local_wind(base):
+    cfg = dataclasses.replace(base, n_samples=3, n_steps=5)
+    with pytest.raises(ValueError, match="'wind' parameter of rollout must be a LocalWind"):
+        rollout(cfg, np.zeros((5, 2)), [0.0, 0.0], wind=(1.0, 0.0))  # AttributeError before

@@ -98,6 +98,9 @@ def test_thesis_suite_is_deterministic_and_follows_the_pair_rules():
             get_suite("thesis", seed=seed)
     with pytest.raises(ValueError, match="'suite' parameter of get_suite"):
         get_suite(["thesis"])
+    # a suite's name for its spec: an AttributeError before
+    first = make_suite("quick")[0].scenario_id
+    assert parse_scenario_id("quick", first).scenario_id == first
 
 
 def test_quick_is_a_subset_of_thesis_and_ids_parse_back():

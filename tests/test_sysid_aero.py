@@ -176,3 +176,19 @@ def test_thesis_preset_carries_the_identified_values():
     assert crazyflie_thesis(mass=0.05).mass == 0.05
     with pytest.raises(ValueError, match="pwm_motor"):
         PWMMotorModel.from_params(base)
+
+
+def test_arguments_of_the_wrong_type_are_named():
+    # AttributeErrors before the 2026-12-05 audit
+    from windnav.sysid import fit_thrust_stand
+    from windnav.vehicle.power import max_endurance_speed, max_range_speed
+
+    with pytest.raises(ValueError, match="'data' parameter of fit_aero must be an AeroData"):
+        fit_aero("x", MASS)
+    with pytest.raises(ValueError, match="'tables' parameter of fit_thrust_stand must hold "
+                                         "tables"):
+        fit_thrust_stand(["a"], 4)
+    with pytest.raises(ValueError, match="'curve' parameter of max_range_speed"):
+        max_range_speed("cf", 0.0)
+    with pytest.raises(ValueError, match="'curve' parameter of max_endurance_speed"):
+        max_endurance_speed(None)

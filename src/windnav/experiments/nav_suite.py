@@ -361,6 +361,7 @@ def make_suite(spec: SuiteSpec, *, maps=None) -> list[Scenario]:
     list of Scenario
         ``spec.n_scenarios`` of them; the same for the same ``spec``.
     """
+    spec = check_suite_spec(spec, "make_suite")  # a name is looked up (AttributeError before)
     out = []
     for m in spec.maps:
         city = (maps or {}).get(m) or suite_map(spec, m)
@@ -388,6 +389,7 @@ def parse_scenario_id(spec: SuiteSpec, scenario_id: str) -> Scenario:
         On a malformed id, another suite's id, or indices the suite does not fly.
     """
     where = "parse_scenario_id"
+    spec = check_suite_spec(spec, where)
     match = _ID.fullmatch(str(scenario_id))
     if match is None:
         raise ValueError(f"The 'scenario_id' parameter of {where} must look like "

@@ -75,6 +75,10 @@ def save_flow(solution, path, config: dict | None = None) -> None:
         :meth:`~windnav.flow.sweep_store.SweepStore.create` refuses).
     """
     config = jsonable(config, "config", "save_flow")
+    missing = [a for a in ("x", "y", "solid", "mean_u", "mean_v") if not hasattr(solution, a)]
+    if missing:  # an AttributeError before
+        raise ValueError(f"The 'solution' parameter of save_flow must be a FlowSolution. Got "
+                         f"{type(solution).__name__} (without {missing}) instead.")
     target = Path(path)
     if target.exists() and (not target.is_dir() or any(target.iterdir())):
         try:

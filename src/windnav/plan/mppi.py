@@ -278,6 +278,9 @@ def mission_terms(config: PlannerConfig, goal: np.ndarray, packed_wind: tuple) -
 
 
 def _pack_wind(config: PlannerConfig, wind: LocalWind | None) -> tuple:
+    if wind is not None and not isinstance(wind, LocalWind):  # an AttributeError on pack
+        raise ValueError("The 'wind' parameter of rollout must be a LocalWind or None. Got "
+                         f"{type(wind).__name__} instead.")
     if not config.use_wind or wind is None:
         return NO_WIND
     return wind.pack(config.horizon)

@@ -278,6 +278,11 @@ def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
         coefficients (e.g. no lateral airspeed, or only one airspeed).
     """
     m = positive_float(mass, "mass", where)
+    if not isinstance(data, AeroData) and not (
+            isinstance(data, (list, tuple)) and data
+            and all(isinstance(x, AeroData) for x in data)):  # an AttributeError before
+        raise ValueError(f"The 'data' parameter of {where} must be an AeroData or a non-empty "
+                         f"list of them. Got {type(data).__name__} instead.")
     d = data if isinstance(data, AeroData) else AeroData.concatenate(list(data))
     va, f, eta = d.airspeed_body, d.specific_force_body, d.rotor_speeds
     K, N = eta.shape

@@ -223,6 +223,10 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
     n_rotors = positive_int(n_rotors, "n_rotors", where)
     if not tables:
         raise ValueError(f"The 'tables' parameter of {where} must hold at least one file.")
+    if not all(isinstance(tab, Table) for tab in tables):  # an AttributeError before
+        raise ValueError(f"The 'tables' parameter of {where} must hold tables read with "
+                         "read_table. Got "
+                         f"{sorted({type(tab).__name__ for tab in tables})} instead.")
     parts, counts = [], {}
     for tab in tables:
         tab.require(STAND_COLUMNS, where)

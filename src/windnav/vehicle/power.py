@@ -277,8 +277,15 @@ def _global_min(f, lo: float, hi: float) -> float:
     return float(res.x) if f(np.array(res.x)) <= f(grid[k]) else float(grid[k])
 
 
+def _check_curve(curve, where: str) -> None:
+    if not isinstance(curve, PowerCurve):  # an AttributeError on speed_max before
+        raise ValueError(f"The 'curve' parameter of {where} must be a PowerCurve. Got "
+                         f"{type(curve).__name__} instead.")
+
+
 def max_endurance_speed(curve: PowerCurve) -> float:
     """Airspeed of least power ``argmin_{0 <= V <= speed_max} P(V)``, m/s."""
+    _check_curve(curve, "max_endurance_speed")
     return _global_min(curve, 0.0, curve.speed_max)
 
 
@@ -307,6 +314,7 @@ def max_range_speed(curve: PowerCurve, wind_along: float = 0.0) -> RangeOptimum:
     ValueError
         If the headwind is at least ``speed_max`` (no forward progress possible).
     """
+    _check_curve(curve, "max_range_speed")
     w = finite_float(wind_along, "wind_along", "max_range_speed")
     hi = w + curve.speed_max
     if hi <= 0:
