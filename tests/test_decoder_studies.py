@@ -582,3 +582,14 @@ def test_decoder_study_basis_quick_writes_its_json_and_figure(tmp_path):
         "speed_error"]
     assert doc["n_modes"] == 48 and len(doc["modes"]["r2"]) == 48
     assert (out / "decoder_basis.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("study", ["winds", "size"])
+def test_the_full_study_recipes_load(study):
+    # the default recipe's map_weights named groups the studies replace: every full `winds`
+    # and `size` study stopped on load_recipe (found by a CLI audit, 2026-12-05)
+    from windnav.experiments.decoder_studies import study_recipe
+
+    r = study_recipe(study, quick=False)
+    assert [g["name"] for g in r["sweep"]["maps"]] == ["dense", "sparse", "holdout"]
+    assert r["data"]["map_weights"] == {} and r["data"]["validation_maps"] == ["holdout-0"]

@@ -813,6 +813,10 @@ def study_recipe(study: str, *, quick: bool = False, epochs: int | None = None,
             {"name": "holdout", "kind": "dense", "count": 1, "seed": 1005, "size": 300.0,
              "lots_per_side": 4}]
         r["data"]["validation_maps"] = ["holdout-0"]
+        # the default recipe's weights and exclusions name its own groups, not these (every
+        # full `winds` and `size` study stopped on them since the weights came, 2026-11-30)
+        r["data"]["map_weights"] = {}
+        r["data"]["exclude_maps"] = []
         r["data"]["validation_samples_per_field"] = 512
         r["train"].update(epochs=STUDY_SCHEDULE[study]["epochs"], resample_every=0, threads=1,
                           members=1)
