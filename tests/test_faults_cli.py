@@ -369,3 +369,17 @@ def test_a_ctrl_c_during_an_import_is_held_until_the_import_ends(tmp_path, monke
         signal.signal(signal.SIGINT, previous)
         for name in ("interrupted_import", "ignored_import"):
             sys.modules.pop(name, None)
+
+
+def test_a_library_warning_is_one_prefixed_line_on_the_command_line(tmp_path):
+    # Python's default printed the source file and line of the library (found by a CLI audit,
+    # 2026-12-05); the command line prints "windnav COMMAND: warning: ..." instead
+    data = Path(__file__).parent / "data" / "2d_vortex_shedding.json"
+    proc = subprocess.run([sys.executable, "-m", "windnav", "wind", "--map", str(data),
+                           "--speed", "3", "--steps", "20", "--spinup-steps", "5",
+                           "--out", str(tmp_path / "w")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    warned = [line for line in proc.stderr.splitlines() if "warning" in line.lower()]
+    assert warned and all(line.startswith("windnav wind: warning: ") for line in warned), warned
+    assert "thinner than 2 cells" in proc.stderr and ".py:" not in proc.stderr

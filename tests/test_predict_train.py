@@ -787,6 +787,8 @@ def test_bad_recipes_are_refused(change, match):
 
 
 def test_recipe_files_are_checked(tmp_path):
+    with pytest.raises(ValueError, match="'config' parameter of load_recipe.*instead, a folder"):
+        load_recipe(tmp_path)  # "(names), which does not exist" before
     with pytest.raises(ValueError, match="'config' parameter of load_recipe.*does not exist"):
         load_recipe(tmp_path / "none.toml")
     bad = tmp_path / "bad.toml"
@@ -912,7 +914,8 @@ def test_a_recipe_base_is_checked(tmp_path):
     with pytest.raises(ValueError, match="'config' parameter of load_recipe.*cycle"):
         load_recipe(tmp_path / "x.toml")
     (tmp_path / "z.toml").write_text('base = "missing.toml"\n')
-    with pytest.raises(ValueError, match="missing.toml.*has base.*does not exist"):
+    with pytest.raises(ValueError, match=r"the base of .*z.toml'\). Got .*missing.toml' "
+                                         "instead, which does not exist"):
         load_recipe(tmp_path / "z.toml")
     (tmp_path / "w.toml").write_text('base = 3\n')
     with pytest.raises(ValueError, match="must have base.*a recipe file name. Got 3"):

@@ -165,6 +165,9 @@ def test_command_writes_json_and_figure_and_refuses_to_overwrite(tmp_path, capsy
     assert (out / "tune_mppi.json").read_bytes() == before
     with pytest.raises(ValueError, match="'--trials' parameter of windnav tune-mppi"):
         command(["--trials", 0, "--out", tmp_path / "other"])
+    with pytest.raises(ValueError, match="'--holdout' parameter of windnav tune-mppi must be an "
+                                         "integer >= 0"):  # it said ">= 1", but 0 is allowed
+        command(["--trials", 1, "--holdout", -1, "--out", tmp_path / "other"])
     assert command(["--trials", 1, "--out", out, "--overwrite", "--no-progress",
                     "--flight-seeds", 1, "--holdout", 1]) == 0
     doc = json.loads((out / "tune_mppi.json").read_text())

@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
 # name of the module in windnav.commands, in the order shown by --help
 COMMAND_MODULES = (
@@ -75,6 +76,25 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)  # for a command that restarts
     where = f"windnav {args.command}"
+    if argv is None:  # the command line itself: warnings as one line, not a source location
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning(where)
+            return _run(args, where)
+    return _run(args, where)
+
+
+def _one_line_warning(where: str):
+    """``warnings.showwarning`` for the command line: ``windnav CMD: warning: message`` on
+    stderr (Python's default adds the file, the line number and the source line)."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        text = " ".join(str(message).split())
+        print(f"{where}: warning: {text}", file=sys.stderr if file is None else file)
+
+    return show
+
+
+def _run(args, where: str) -> int:
+    """Run the parsed command; named errors become one line and an exit status."""
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:

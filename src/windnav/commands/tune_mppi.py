@@ -66,7 +66,10 @@ def run(args) -> int:
     tune_mppi.require_optuna()  # a missing extra is reported before anything is written
     trials = positive_int(args.trials, "--trials", name)
     n_seeds = positive_int(args.flight_seeds, "--flight-seeds", name)
-    holdout = 0 if args.holdout == 0 else positive_int(args.holdout, "--holdout", name)
+    if args.holdout < 0:  # positive_int's ">= 1" hid that 0 (none) is allowed
+        raise ValueError(f"The '--holdout' parameter of {name} must be an integer >= 0 (0: no "
+                         f"held-out seeds). Got {args.holdout} instead.")
+    holdout = args.holdout
     sampler_seed = seed(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     res = tune_mppi.tune(trials, seed=sampler_seed, seeds=range(n_seeds),

@@ -169,7 +169,9 @@ def run(args) -> int:
     s = result["summary"]
     print(f"Wind UKF Monte Carlo ({config.conditions} conditions): {len(result['trials'])} "
           f"trials ({result['resumed']} resumed), {result['failed']} failed, "
-          f"{result['seconds']:.1f} s on {args.workers or os.cpu_count()} workers")
+          f"{result['seconds']:.1f} s "
+          + ("serially" if args.backend == "serial"
+             else f"on {args.workers or os.cpu_count()} workers"))
     if s.get("n"):
         print(f"3D wind RMSE after {config.settle_s:g} s (m/s): median {s['median']:.3f}, "
               f"quartiles {s['q1']:.3f} / {s['q3']:.3f}, mean {s['mean']:.3f}, "

@@ -130,7 +130,8 @@ def run(args, simulate=None) -> int:
         raise ValueError(
             f"The '--out' parameter of {name} names {args.out!r}, which already holds a "
             "different sweep (maps, speeds, directions, solver config or seed differ); choose "
-            "another --out, or delete it to start over."
+            "another --out, or delete it to start over (--overwrite replaces the --json "
+            "summary only: a sweep store is never deleted for you)."
         ) from exc
     except KeyboardInterrupt:
         try:

@@ -205,9 +205,10 @@ def _read_recipe(source: Path, where: str, chain: tuple = ()) -> dict:
         raise ValueError(f"The 'config' parameter of {where} names recipes whose 'base' keys "
                          f"form a cycle: {' -> '.join(str(p) for p in (*chain, source))}.")
     if not source.is_file():
-        what = "names" if not chain else f"has base (in {str(chain[-1])!r})"
-        raise ValueError(f"The 'config' parameter of {where} must name a TOML recipe file. "
-                         f"Got {str(source)!r} instead ({what}), which does not exist.")
+        kind = "a folder" if source.is_dir() else "which does not exist"
+        raise ValueError(f"The 'config' parameter of {where} must name a TOML recipe file"
+                         + (f" (the base of {str(chain[-1])!r})" if chain else "")
+                         + f". Got {str(source)!r} instead, {kind}.")
     try:
         config = _read_toml(source)
     except Exception as exc:  # tomllib.TOMLDecodeError, UnicodeDecodeError, OSError
