@@ -347,7 +347,6 @@ class PlannerConfig:
         return float(v[k])
 
 
-@lru_cache(maxsize=32)
 def _speed_range(speed_range, where: str) -> tuple[float, float]:
     """``(low, high)`` ground speeds, m/s, with ``0 < low < high`` finite; a ValueError naming
     ``speed_range`` otherwise (a negative range gave a negative energy per metre; one number
@@ -363,6 +362,7 @@ def _speed_range(speed_range, where: str) -> tuple[float, float]:
     return lo, hi
 
 
+@lru_cache(maxsize=32)
 def _power_table(coefficients: tuple, speed_max: float) -> np.ndarray:
     c = np.asarray(coefficients) / coefficients[0]
     poly = np.polynomial.Polynomial(c)
