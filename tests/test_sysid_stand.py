@@ -193,3 +193,13 @@ def test_steady_mask_names_mismatched_arrays_and_a_window_that_is_not_positive()
         with pytest.raises(ValueError, match="'window_s' parameter of steepest_slope"):
             steady_mask(t, np.full(10, 300.0), window_s=w)
     assert steady_mask(t, np.full(10, 300.0)).all()
+
+
+def test_one_supply_voltage_does_not_determine_kv_and_v0(stand, tmp_path):
+    # one ramp (a sagging 3.7 V) gave Kv 0.0007 [-0.56, 0.56] and V0 2185 V beside R^2 0.9995,
+    # with nothing said (CLI audit, 2026-12-05)
+    _, csvs, _ = stand
+    one = [c for c in csvs if c.name == "stand_3.70V.csv"]
+    with pytest.raises(ValueError, match=r"'voltage_V' .* must span supply voltages far enough "
+                                         r"apart to determine Kv and V0"):
+        _cli("sysid", "thrust-stand", "--csv", *one, "--n-rotors", 4, "--out", tmp_path / "o")

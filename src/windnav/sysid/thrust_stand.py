@@ -286,6 +286,13 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
     sp = nonlinear_fit(model, jac, x0, omega, ["Kv", "V0", "DZ"], source=src,
                        bounds=([1e-12, -np.inf, -np.inf], [np.inf, np.inf, hi_dz]))
     kv, v0, dz = (sp.estimate(n) for n in ("Kv", "V0", "DZ"))
+    for name, e in (("Kv", kv), ("V0", v0)):
+        if not e.ci95[0] * e.ci95[1] > 0:  # the interval holds 0: the data do not tell
+            raise ValueError(  # (one voltage, sagging: Kv 0.0007 [-0.56, 0.56], V0 2185 V)
+                f"The column 'voltage_V' of {files} must span supply voltages far enough "
+                f"apart to determine Kv and V0 (repeat the ramp at several voltages): the "
+                f"steady points span {float(np.ptp(volt)):.3g} V and give {name} = "
+                f"{e.value:.4g} with a 95 % interval of [{e.ci95[0]:.3g}, {e.ci95[1]:.3g}].")
     motor = PWMMotorModel(Kv=kv.value, V0=v0.value, DZ=max(dz.value, 0.0))
     return ThrustStandFit(th.estimate("k_eta"), kv, v0, dz, motor, th, sp, pwm, volt, omega,
                           thrust, counts)
