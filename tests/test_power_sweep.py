@@ -56,7 +56,7 @@ def test_default_hummingbird_sweep_and_fit():
     assert max_endurance_speed(curve) < 1.0
 
 
-def test_power_curve_command(tmp_path):
+def test_power_curve_command(tmp_path, capsys):
     import json
 
     from windnav.cli import main
@@ -73,6 +73,9 @@ def test_power_curve_command(tmp_path):
                  "--out", str(tmp_path / "slow")]) == 0
     slow = json.loads((tmp_path / "slow" / "power_curve.json").read_text())["max_range"]
     assert slow["-3 m/s along track"] is None and slow["+0 m/s along track"] is not None
+    # the optimum at the sweep's top speed is an edge: flagged, not reported as the answer
+    assert slow["+0 m/s along track"]["at_speed_max"] is True
+    assert "an edge and not a minimum" in capsys.readouterr().err
 
 
 def test_sweep_marks_points_outside_the_envelope_instead_of_reporting_zero_power():

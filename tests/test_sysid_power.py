@@ -137,3 +137,16 @@ def test_only_unsteady_points_name_file_and_column(tmp_path):
     with pytest.raises(ValueError, match=r"accel\.csv.*no steady level point.*\|d v/dt\|"):
         _cli("sysid", "power", "--csv", path, "--speed-col", "v", "--power-col", "P",
              "--time-col", "t", "--out", tmp_path / "o")
+
+
+def test_a_max_range_speed_at_the_edge_or_beyond_the_data_is_noted(tmp_path, capsys):
+    # 6.0 m/s at the data's edge, or 9.1 m/s extrapolated past it, were printed as the answer
+    v = np.linspace(0.0, 6.0, 40)
+    path = write_csv(tmp_path / "p.csv", {"speed": v, "power": 100 - 8 * v + 1.2 * v**2})
+    _cli("sysid", "power", "--csv", path, "--speed-col", "speed", "--power-col", "power",
+         "--out", tmp_path / "a")
+    assert "is the curve's top speed 6 m/s, not a minimum" in capsys.readouterr().err
+    _cli("sysid", "power", "--csv", path, "--speed-col", "speed", "--power-col", "power",
+         "--speed-max", 30, "--out", tmp_path / "b")
+    assert "beyond the fastest sample (6 m/s): the curve is extrapolated" in \
+        capsys.readouterr().err

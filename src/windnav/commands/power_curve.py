@@ -11,6 +11,7 @@ steady wind), so the command takes no ``--seed``.
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from windnav._validate import positive_float, positive_int
@@ -57,5 +58,10 @@ def run(args) -> int:
             write_json(doc, stage.file("--json"))
     print(json.dumps({k: result[k] for k in ("vehicle", "max_endurance_speed_m_s", "max_range")},
                      indent=2))
+    edge = [w for w, opt in result["max_range"].items() if opt and opt.get("at_speed_max")]
+    if edge:
+        print(f"{name}: note: the max-range airspeed is the sweep's top speed, an edge and not a "
+              f"minimum, at {', '.join(edge)}: raise --max-speed (within the vehicle's "
+              "envelope) to find it", file=sys.stderr)
     print_written(out)
     return 0

@@ -24,6 +24,7 @@ column layouts are in ``docs/sysid.md``.
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from windnav._validate import finite_float, positive_float, positive_int
@@ -359,6 +360,15 @@ def run_power(args) -> int:
     _print({k: payload[k] for k in ("coefficient_values", "hover_W", "min_power_W",
                                     "max_endurance_speed", "max_range_speed", "hover_ratio",
                                     "r2")}, out)
+    fastest = float(fit.speed.max())
+    if payload["max_range_at_speed_limit"]:  # an edge, not a minimum (CLI audit 2026-12-05)
+        print(f"{name}: note: the max-range speed is the curve's top speed "
+              f"{payload['speed_max']:g} m/s, not a minimum inside it: fly faster, or raise "
+              "--speed-max", file=sys.stderr)
+    if payload["max_range_speed"] > fastest * (1 + 1e-9):
+        print(f"{name}: note: the max-range speed {payload['max_range_speed']:.3g} m/s lies "
+              f"beyond the fastest sample ({fastest:.3g} m/s): the curve is extrapolated there",
+              file=sys.stderr)
     return 0
 
 

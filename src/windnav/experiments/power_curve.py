@@ -64,7 +64,10 @@ def _max_range(curve, wind_along: float, max_speed: float) -> dict | None:
 
     if -wind_along >= max_speed:
         return None
-    return max_range_speed(curve, wind_along)._asdict()
+    opt = max_range_speed(curve, wind_along)._asdict()
+    # the sweep's top airspeed is an edge of the search, not a minimum (CLI audit 2026-12-05)
+    opt["at_speed_max"] = bool(opt["airspeed"] >= curve.speed_max * (1 - 1e-6))
+    return opt
 
 
 def plot_power_curve(result: dict, path) -> None:
