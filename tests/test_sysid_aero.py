@@ -192,3 +192,15 @@ def test_arguments_of_the_wrong_type_are_named():
         max_range_speed("cf", 0.0)
     with pytest.raises(ValueError, match="'curve' parameter of max_endurance_speed"):
         max_endurance_speed(None)
+
+
+def test_a_mass_that_disagrees_with_the_log_is_noted(tunnel, tmp_path, capsys):
+    # --mass 27 (grams typed as kg) gave k_d 600 x too large with nothing said (audit)
+    capsys.readouterr()
+    _cli("sysid", "aero", "--log", tunnel / "sim" / "tunnel_log.npz", "--mass", 27,
+         "--out", tmp_path / "o")
+    err = capsys.readouterr().err
+    assert f"--mass 27 kg differs from the {MASS:g} kg the logs record" in err
+    _cli("sysid", "aero", "--log", tunnel / "sim" / "tunnel_log.npz", "--mass", MASS,
+         "--out", tmp_path / "p")
+    assert "differs" not in capsys.readouterr().err
