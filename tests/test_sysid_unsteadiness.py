@@ -105,3 +105,15 @@ def test_unsteadiness_of_a_flight_log_with_ukf_wind(tmp_path):
         assert later.sum() >= 2
         np.testing.assert_allclose(wx[later], 2.0, atol=0.05)
         np.testing.assert_allclose(wy[later], 1.0, atol=0.05)
+
+
+def test_a_vehicle_other_than_the_logs_is_noted(tmp_path, capsys):
+    # a hummingbird log read as crazyflie_thesis gave a force spread 135 x too small, unflagged
+    p = wn.vehicle.params("crazyflie_brushless")
+    log = wn.sim.fly(p, wn.sim.Line((0, 0, 1), (4, 0, 1), 2.0),
+                     wn.wind.ConstantWind((2.0, 1.0, 0.0)), 2.0, rng=0, log_every=4)
+    log.save(tmp_path / "line.npz")
+    _cli("sysid", "unsteadiness", "--log", tmp_path / "line.npz", "--vehicle",
+         "crazyflie_thesis", "--cell", 1.0, "--min-count", 1, "--out", tmp_path / "o")
+    assert "flew 'crazyflie_brushless', not --vehicle 'crazyflie_thesis'" in \
+        capsys.readouterr().err

@@ -488,7 +488,13 @@ def run_unsteadiness(args) -> int:
     parts = []
     for path in args.log:
         log = FlightLog.load(path)
-        vname = args.vehicle or (log.meta.get("vehicles") or [None])[0]
+        flown = (log.meta.get("vehicles") or [None])[0]
+        vname = args.vehicle or flown
+        if args.vehicle is not None and flown is not None and flown != args.vehicle:
+            # the force spread came out 135 x smaller, unflagged (CLI audit 2026-12-05)
+            print(f"{name}: note: {str(path)!r} flew {flown!r}, not --vehicle "
+                  f"{args.vehicle!r}: its thrust coefficient scales the force spread",
+                  file=sys.stderr)
         if vname not in vehicle_names():
             raise ValueError(f"The '--vehicle' parameter of {name} must be given: the log "
                              f"{str(path)!r} flew {vname!r}, not a known preset.")
