@@ -77,3 +77,13 @@ def test_reynolds_names_a_zero_viscosity_or_a_negative_speed():
         sim.reynolds(1.0, 1.0, 0.0)  # a ZeroDivisionError before
     with pytest.raises(ValueError, match="'speed' parameter of Similitude.reynolds"):
         sim.reynolds(-1.0, 1.0)
+
+
+def test_the_report_notes_what_leaves_the_scaling_valid():
+    # a Reynolds-matched model speed near Mach 1 and a model larger than the aircraft were
+    # reported without a word (CLI audit, 2026-12-05)
+    notes = Similitude.thesis().report(full_scale_speed=10.0)["notes"]
+    assert len(notes) == 1 and "Reynolds-scaled model speed 320 m/s is above Mach 0.3" in notes[0]
+    assert Similitude.thesis().report(full_scale_speed=1.0)["notes"] == []
+    swapped = Similitude(0.055, 1.8).report()["notes"]
+    assert len(swapped) == 1 and "the model is larger than the full-scale aircraft" in swapped[0]

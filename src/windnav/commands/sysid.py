@@ -436,6 +436,8 @@ def run_similitude(args) -> int:
     doc = document(name.removeprefix("windnav "), report, args)
     _write(args, doc, out, "similitude")
     _print(report, out)
+    for note in report["notes"]:
+        print(f"{name}: note: {note}", file=sys.stderr)
     return 0
 
 

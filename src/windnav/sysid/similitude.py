@@ -32,6 +32,9 @@ KINEMATIC_VISCOSITY_AIR = 1.5e-5
 """Kinematic viscosity of air at 20 degC, m^2/s."""
 
 
+MACH_03_M_S = 103.0
+"""Mach 0.3 in air at 20 degC, m/s: above it compressibility matters."""
+
 SCALE_RANGE = (1e-6, 1e6)
 """The length scales (full scale / model) :class:`Similitude` accepts."""
 
@@ -193,4 +196,22 @@ class Similitude:
                     "control_to_shedding_model": fc / f_m,
                     "control_to_shedding_full_scale": self.full_scale_frequency(fc) / f_fs,
                 }
+        out["notes"] = self._notes(out)
         return out
+
+    @staticmethod
+    def _notes(out: dict) -> list[str]:
+        """What in ``out`` leaves the similitude's valid range (CLI audit, 2026-12-05: a
+        Reynolds-matched model speed near Mach 1 and a model larger than the aircraft were
+        reported without a word)."""
+        notes = []
+        if out["length_scale"] < 1.0:
+            notes.append(f"the length scale {out['length_scale']:.4g} is below 1: the model is "
+                         "larger than the full-scale aircraft (diameters swapped, or in mm?)")
+        speed = out.get("speed", {})
+        for key, what in (("model_froude_m_s", "Froude"), ("model_reynolds_m_s", "Reynolds")):
+            if speed.get(key, 0.0) > MACH_03_M_S:
+                notes.append(f"the {what}-scaled model speed {speed[key]:.4g} m/s is above Mach "
+                             f"0.3 ({MACH_03_M_S:g} m/s): the air is compressible there and the "
+                             "incompressible scaling does not hold")
+        return notes
