@@ -303,8 +303,19 @@ def test_command_flies_winds_above_10_m_s_with_a_shorter_flow_step(city, tmp_pat
                   "--speed", "12.5", "--variant", "gs", "--seed", "1", "--spinup-s", "2",
                   "--record-s", "6", "--out", str(tmp_path / "out")])
     assert args.func(args) == 0
-    assert "simulated at dt = 0.2 s, not 0.25 s" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "simulated at dt = 0.2 s, not 0.25 s" in err
     assert (tmp_path / "out" / "summary.json").is_file()
+    doc = json.loads((tmp_path / "out" / "summary.json").read_text())
+    # 6 s of record is too short for the 41 m flight: it times out, and says why (CLI audit)
+    assert doc["outcome"] == "timeout"
+    assert "timed out when the recorded wind ended (6 s, --record-s)" in err
+    # above the 20 m building the 2D slice does not apply: said so
+    args = parse(["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+                  "--speed", "2", "--variant", "gs", "--seed", "1", "--spinup-s", "2",
+                  "--record-s", "6", "--altitude", "50", "--out", str(tmp_path / "high")])
+    assert args.func(args) == 0
+    assert "--altitude 50 m is above the tallest building (20 m)" in capsys.readouterr().err
 
 
 def test_command_names_a_start_inside_a_building_before_simulating(city, tmp_path):

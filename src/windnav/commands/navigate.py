@@ -182,6 +182,15 @@ def run(args) -> int:
             "real_time_fraction", "ukf_wind_rms_mps", "airspeed_max_mps", "outside_envelope_s")
     print(json.dumps(json_ready({k: summary[k] for k in keys if k in summary}), indent=2))
     warn_envelope(summary)
+    tallest = float(np.max(city.heights)) if len(city.heights) else 0.0
+    if len(city.heights) and args.altitude > tallest:  # the flight ignored the 3D gap
+        print(f"{name}: note: --altitude {args.altitude:g} m is above the tallest building "
+              f"({tallest:g} m): the 2D wind is a slice between the buildings, and the planner "
+              "still avoids their footprints", file=sys.stderr)
+    if summary["outcome"] == "timeout":  # the flight lasts as long as the recorded wind
+        print(f"{name}: note: the flight timed out when the recorded wind ended "
+              f"({float(flow.t[-1]):g} s, --record-s); a longer record gives it more time",
+              file=sys.stderr)
     print_written(out)
     return 0
 
