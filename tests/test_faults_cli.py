@@ -211,6 +211,16 @@ def test_fly_at_a_coarse_step_runs_its_controller_and_sensors_at_rates_that_fit(
                                              "rotor_speeds": 50.0})
 
 
+def test_a_coarse_step_that_leaves_the_envelope_is_named_as_the_cause(tmp_path, capsys):
+    # at --dt 0.2 the flight saturates; only the status said so (CLI audit, 2026-12-05)
+    assert main(["fly", "--dt", "0.2", "--duration", "5", "--no-plots",
+                 "--out", str(tmp_path / "coarse")]) == 0
+    err = capsys.readouterr().err
+    assert "left the envelope (SATURATED" in err and "a physics step of 0.2 s" in err
+    assert main(["fly", "--duration", "2", "--no-plots", "--out", str(tmp_path / "fine")]) == 0
+    assert "left the envelope" not in capsys.readouterr().err
+
+
 def test_demo_advises_its_own_flow_step(tmp_path, capsys, monkeypatch):
     import windnav.experiments.demo as demo
 

@@ -122,6 +122,13 @@ def run(args) -> int:
                               sensor_rate_hz=sensor, hub_wind=args.hub_wind, rng=args.seed,
                               conditions=args.conditions, progress=True)
     log.meta.update(wind_kind=args.wind)
+    status = " ".join(str(s) for s in (metrics.get("status") or []))
+    rate = log.meta.get("control_rate_hz")
+    if dt > 0.01 and ("SATURATED" in status or "OUTSIDE" in status):  # named the cause nowhere
+        print(f"{name}: note: the flight left the envelope ({status}) with a physics step of "
+              f"{dt:g} s" + (f" and the controller at {rate:g} Hz" if rate else "")
+              + ": the vehicle's models are validated at --dt 0.005-0.01 s with 100 Hz control",
+              file=sys.stderr)
     if metrics.get("wind_estimate_error"):
         print(f"{name}: note: no wind estimate: {metrics['wind_estimate_error']}",
               file=sys.stderr)
