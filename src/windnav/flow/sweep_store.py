@@ -177,7 +177,10 @@ def _creation_lock(path: str):
     os.makedirs(parent, exist_ok=True)
     fd = os.open(parent, os.O_RDONLY)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except OSError:  # a file system without locks: create as before, unguarded
+            pass
         yield
     finally:
         os.close(fd)  # releases the lock
