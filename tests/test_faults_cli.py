@@ -393,3 +393,24 @@ def test_a_library_warning_is_one_prefixed_line_on_the_command_line(tmp_path):
     warned = [line for line in proc.stderr.splitlines() if "warning" in line.lower()]
     assert warned and all(line.startswith("windnav wind: warning: ") for line in warned), warned
     assert "thinner than 2 cells" in proc.stderr and ".py:" not in proc.stderr
+
+
+DATA_MAP = str(Path(__file__).parent / "data" / "2d_vortex_shedding.json")
+
+
+@pytest.mark.parametrize("argv, option", [
+    # each named the library's parameter before (CLI audit, 2026-12-05)
+    (["power-curve", "--points", "5", "--degree", "2", "--max-speed", "40"],
+     "'--max-speed' parameter of windnav power-curve"),
+    (["wind-sweep", "--speeds", "3"], "'--maps' parameter of windnav wind-sweep"),
+    (["wind-sweep", "--maps", DATA_MAP, "--speeds", "3", "--workers", "0"],
+     "'--workers' parameter of windnav wind-sweep"),
+    (["wind", "--map", DATA_MAP, "--speed", "3", "--dx", "20"],
+     "'--dx' parameter of windnav wind is too coarse"),
+    (["sysid", "unsteadiness", "--log", "."], "'--log' parameter of windnav sysid unsteadiness"),
+])
+def test_library_errors_name_the_option_typed(argv, option, tmp_path, capsys):
+    out = ["--out", str(tmp_path / ("o.zarr" if argv[0] == "wind-sweep" else "o"))]
+    assert main([*argv, *out]) == 2
+    one_line_error(capsys, option)
+    assert not (tmp_path / "o").exists() and not (tmp_path / "o.zarr").exists()

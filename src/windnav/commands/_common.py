@@ -8,13 +8,14 @@ earlier run, removing its stale files); its output paths are checked by
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
 from windnav.experiments.results import Outputs, check_output_path, document
 
-__all__ = ["add_output_arguments", "cache_folder", "check_output_path", "document", "outputs",
-           "print_written", "seed", "where"]
+__all__ = ["add_output_arguments", "cache_folder", "check_output_path", "document",
+           "options_named", "outputs", "print_written", "seed", "where"]
 
 
 def add_output_arguments(parser, *, overwrite: bool = True) -> None:
@@ -49,6 +50,22 @@ def cache_folder(path, option: str, name: str):
         raise ValueError(f"The {option!r} parameter of {name} must name a folder (made when "
                          f"missing). Got {str(path)!r} instead, which is a file.")
     return path
+
+
+@contextlib.contextmanager
+def options_named(names: dict[str, str]):
+    """Re-raise a library's ValueError with its parameter names replaced by the options the
+    user typed (``{"'max_speed' parameter of simulated_power_curve": "'--max-speed' parameter
+    of windnav power-curve"}``); other errors pass unchanged."""
+    try:
+        yield
+    except ValueError as exc:
+        text = str(exc)
+        for library, option in names.items():
+            text = text.replace(library, option)
+        if text == str(exc):
+            raise
+        raise ValueError(text) from None
 
 
 def outputs(args, *, out=None, files=None) -> Outputs:

@@ -58,6 +58,7 @@ from windnav.commands._common import (
     add_output_arguments,
     cache_folder,
     document,
+    options_named,
     outputs,
     print_written,
     seed,
@@ -306,9 +307,11 @@ def run(args, simulate=None) -> int:
     elif study == "averaging":
         dec = load_decoder(args.model)
         city, map_name, kw = _averaging_map(args)
-        res = ds.averaging_study(dec, city, speed=args.speed, direction_deg=args.direction_deg,
-                                 samples=samples, seed=args.seed, simulate=simulate,
-                                 name=map_name, **kw)
+        with options_named({"'speed' parameter of averaging_study": f"'--speed' parameter of "
+                                                                     f"{name}"}):
+            res = ds.averaging_study(dec, city, speed=args.speed,
+                                     direction_deg=args.direction_deg, samples=samples,
+                                     seed=args.seed, simulate=simulate, name=map_name, **kw)
         plot = figures.plot_averaging
     elif study == "start":
         dec = load_decoder(args.model)
@@ -334,7 +337,9 @@ def run(args, simulate=None) -> int:
             plot = figures.plot_winds_ablation
         else:
             sizes = args.sizes or ((5, 15, 25) if args.quick else ds.SIZES)
-            res = ds.size_study(runs, sizes=sizes, **kw)
+            with options_named({"'sizes' parameter of size_study":
+                                f"'--sizes' parameter of {name}"}):
+                res = ds.size_study(runs, sizes=sizes, **kw)
             plot = figures.plot_size_study
         res["runs"] = str(runs)
     res["elapsed_s"] = time.perf_counter() - t0

@@ -15,7 +15,14 @@ import sys
 from pathlib import Path
 
 from windnav._validate import positive_float, positive_int
-from windnav.commands._common import add_output_arguments, document, outputs, print_written, where
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    options_named,
+    outputs,
+    print_written,
+    where,
+)
 
 PRODUCTS = ("power_curve.json", "power_curve.png")
 """What a run writes into ``--out``."""
@@ -49,7 +56,9 @@ def run(args) -> int:
                          f"(a fit needs more points than its degree). Got {points} instead.")
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
-    result = power_curve_study(args.vehicle, max_speed, points, degree)
+    with options_named({"'max_speed' parameter of simulated_power_curve":
+                        f"'--max-speed' parameter of {name}"}):
+        result = power_curve_study(args.vehicle, max_speed, points, degree)
     doc = document("power-curve", result, args)
     with out.writing() as stage:
         write_json(doc, stage.dir / "power_curve.json")

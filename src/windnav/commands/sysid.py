@@ -28,7 +28,12 @@ import sys
 from pathlib import Path
 
 from windnav._validate import finite_float, positive_float, positive_int
-from windnav.commands._common import add_output_arguments, document, print_written
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    options_named,
+    print_written,
+)
 
 PRODUCTS = {
     "thrust-stand": ("thrust_stand.json", "thrust_stand.png"),
@@ -268,7 +273,8 @@ def run_aero(args) -> int:
     settle = (None if args.settle_s is None
               else positive_float(args.settle_s, "--settle-s", name, allow_zero=True))
     out = _outputs(args, "aero")
-    logs = [(p, FlightLog.load(p)) for p in args.log]
+    with options_named({"'path' parameter of FlightLog.load": f"'--log' parameter of {name}"}):
+        logs = [(p, FlightLog.load(p)) for p in args.log]
     parts = [aero_from_flight_log(log, settle_s=settle, source=str(p)) for p, log in logs]
     tables = [read_table(p, where=name) for p in args.csv] + _bag_tables(args, "time_s")
     parts += [AeroData.from_table(t, name) for t in tables]
@@ -489,7 +495,9 @@ def run_unsteadiness(args) -> int:
     out = _outputs(args, "unsteadiness")
     parts = []
     for path in args.log:
-        log = FlightLog.load(path)
+        with options_named({"'path' parameter of FlightLog.load":
+                            f"'--log' parameter of {name}"}):
+            log = FlightLog.load(path)
         flown = (log.meta.get("vehicles") or [None])[0]
         vname = args.vehicle or flown
         if args.vehicle is not None and flown is not None and flown != args.vehicle:

@@ -28,6 +28,7 @@ import sys
 import time
 from pathlib import Path
 
+from windnav._validate import positive_int
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
@@ -74,6 +75,8 @@ def run(args, simulate=None) -> int:
     from windnav.predict.train import load_recipe, recipe_maps, resolve_paths, train_decoder
 
     name = where(args)
+    if args.workers is not None:  # "'workers' parameter of run_tasks" after the set-up before
+        positive_int(args.workers, "--workers", name)
     try:
         recipe = load_recipe(args.config)
     except ValueError as exc:

@@ -15,12 +15,14 @@ building footprints.
 from __future__ import annotations
 
 import os
+import warnings
 from pathlib import Path
 
 from windnav._validate import finite_float, positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    options_named,
     outputs,
     print_written,
     seed,
@@ -132,6 +134,12 @@ def run(args, simulate=None) -> int:
     direction_deg = finite_float(args.direction_deg, "--direction-deg", name)
     settings = solver_settings(args, speed)
     city = load_city(args.map)
+    with options_named({"simulate: City block": f"The '--dx' parameter of {name} is too coarse "
+                                                "for the map: its block",
+                        "Use dx <=": "Use --dx <="}):
+        with warnings.catch_warnings():  # its warnings come once, from the solve itself
+            warnings.simplefilter("ignore")
+            city.check_resolution(settings["dx"], "simulate")  # before any output or work
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     x, y = solver_grid(city, settings["dx"])
     print(f"{name}: solving {x.size} x {y.size} cells, {settings['spinup_steps']} spin-up + "

@@ -118,6 +118,11 @@ def run(args, simulate=None) -> int:
     if args.generate:
         k = positive_int(args.generate, "--generate", name)
         maps += generated_maps(k, args.map_kind, seed=args.seed)
+    if not maps:  # "'maps' parameter of sweep" before
+        raise ValueError(f"The '--maps' parameter of {name} must name at least one map (or "
+                         "give --generate N). Got none instead.")
+    if args.workers is not None:  # "'workers' parameter of run_tasks" before
+        positive_int(args.workers, "--workers", name)
     check_output_path(args.out, "--out", name, kind="dir")
     out = outputs(args)
     try:
