@@ -451,6 +451,10 @@ def test_cli_errors_name_the_argument(tmp_path, capsys):
     rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
                "--directions", "2.5"])
     assert rc == 2 and "'--directions'" in capsys.readouterr().err
+    rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s90.zarr"),
+               "--directions", "90", "--workers", "0"])  # refused after the note below
+    err = capsys.readouterr().err
+    assert rc == 2 and "--directions 90 is a count: 90 directions, 4 deg apart" in err
     for extra in (["--directions", "nan"],  # "cannot convert float NaN to integer" before
                   ["--directions", "1", "--directions-deg", "90"]):  # one silently ignored
         rc = main(["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"), *extra])

@@ -100,6 +100,10 @@ def _directions_arg(args):
                 f"or a list of degrees. Got {args.directions!r} instead; use --directions-deg "
                 "for a single direction."
             )
+        if n > 36:  # "--directions 90" meant 90 deg, and flew 90 directions (CLI audit)
+            print(f"windnav wind-sweep: note: --directions {int(n)} is a count: {int(n)} "
+                  f"directions, {360 / n:.3g} deg apart; for one direction of {int(n)} deg, "
+                  f"give --directions-deg {int(n)}", file=sys.stderr)
         return directions_from(int(n)).tolist()
     return list(args.directions)
 
@@ -113,6 +117,7 @@ def run(args, simulate=None) -> int:
     seed(args)
     speeds = [positive_float(v, "--speeds", name) for v in args.speeds]
     settings = solver_settings(args, max(speeds))
+    directions = _directions_arg(args)  # checked, and noted, before the maps are read
     maps = [(f.stem, os.path.abspath(f), load_city(f, "--maps", name))
             for f in _map_files(args.maps)]
     if args.generate:
@@ -127,7 +132,7 @@ def run(args, simulate=None) -> int:
     out = outputs(args)
     try:
         store, results = sweep(maps, args.out, speeds=speeds,
-                               directions_deg=_directions_arg(args), settings=settings,
+                               directions_deg=directions, settings=settings,
                                backend=args.backend, workers=args.workers, seed=args.seed,
                                progress=not args.no_progress, verify=args.verify,
                                simulate=simulate)
