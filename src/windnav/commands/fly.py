@@ -43,19 +43,24 @@ def register(sub) -> None:
     p = sub.add_parser("fly", help="fly a trajectory in wind and plot it",
                        description="Fly a reference trajectory with the SE(3) controller in a "
                                    "constant or Dryden wind; write log.npz, summary.json, PNGs.")
-    p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES)
-    p.add_argument("--wind", default="dryden", choices=WIND_KINDS)
+    p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES,
+                   help="vehicle preset (%(default)s)")
+    p.add_argument("--wind", default="dryden", choices=WIND_KINDS,
+                   help="wind model (%(default)s; none ignores --wind-mean and --wind-sigma)")
     p.add_argument("--wind-mean", type=float, nargs=3, default=(3.0, 1.0, 0.0),
-                   metavar=("WX", "WY", "WZ"), help="mean wind, world frame, m/s")
+                   metavar=("WX", "WY", "WZ"), help="mean wind, world frame, m/s (3 1 0)")
     p.add_argument("--wind-sigma", type=float, nargs=3, default=(1.5, 1.5, 0.7),
-                   metavar=("SX", "SY", "SZ"), help="Dryden gust standard deviations, m/s")
-    p.add_argument("--trajectory", default="circle", choices=TRAJECTORIES)
+                   metavar=("SX", "SY", "SZ"),
+                   help="Dryden gust standard deviations, m/s (1.5 1.5 0.7)")
+    p.add_argument("--trajectory", default="circle", choices=TRAJECTORIES,
+                   help="reference trajectory (%(default)s)")
     p.add_argument("--size", type=float, default=3.0,
-                   help="circle radius / line length / waypoint square side, m")
+                   help="circle radius / line length / waypoint square side, m (%(default)s)")
     p.add_argument("--speed", type=float, default=2.0,
-                   help="reference speed, m/s (> 0 for a line or waypoints)")
-    p.add_argument("--duration", type=float, default=20.0, help="flight time, s")
-    p.add_argument("--dt", type=float, default=0.005, help="physics step, s (%(default)s)")
+                   help="reference speed, m/s (%(default)s; > 0 for a line or waypoints)")
+    p.add_argument("--duration", type=float, default=20.0, help="flight time, s (%(default)s)")
+    p.add_argument("--dt", type=float, default=0.005,
+                   help="physics step, s (%(default)s; the models are validated at 0.005-0.01)")
     p.add_argument("--control-rate-hz", type=float, default=None,
                    help="SE(3) controller rate, Hz; a whole number of --dt steps (default: "
                         "100, or the fastest rate below it that fits --dt)")
@@ -68,9 +73,11 @@ def register(sub) -> None:
                         "(windnav, thesis, thesis-0.038, hardware; see docs/ukf.md)")
     p.add_argument("--hub-wind", action="store_true",
                    help="sample the wind at each rotor hub instead of the centre of mass")
-    p.add_argument("--seed", type=int, default=0, help="seed of the gusts and sensor noise")
-    p.add_argument("--out", type=Path, default=Path("out/fly"), help="output folder")
-    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the gusts and sensor noise (%(default)s)")
+    p.add_argument("--out", type=Path, default=Path("out/fly"),
+                   help="output folder (%(default)s)")
+    p.add_argument("--no-plots", action="store_true", help="write no PNG figures")
     add_output_arguments(p)
     p.set_defaults(func=run)
 

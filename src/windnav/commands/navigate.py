@@ -60,10 +60,12 @@ def register(sub) -> None:
                    help="start position, m")
     p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"),
                    help="goal position, m")
-    p.add_argument("--speed", type=float, required=True, help="inlet wind speed, m/s")
+    p.add_argument("--speed", type=float, required=True,
+                   help="inlet wind speed, m/s (> 0; above 10 the flow step is shortened)")
     p.add_argument("--direction-deg", type=float, default=0.0,
                    help="direction the wind blows toward, deg CCW from +x (%(default)s)")
-    p.add_argument("--variant", choices=tuple(VARIANTS), default="ea-mppi-w")
+    p.add_argument("--variant", choices=tuple(VARIANTS), default="ea-mppi-w",
+                   help="planner (%(default)s; docs/planner.md)")
     p.add_argument("--horizon", type=float, default=math.inf,
                    help="side H of the window in which the -w MPPI variants know the wind, m "
                         "(default: inf, the whole map; ea-mppi-w-hat: the decoder's 25 m grid)")
@@ -78,15 +80,19 @@ def register(sub) -> None:
                    help="ea-mppi-w-hat only: time constant of the average of the Wind UKF's "
                         "estimate given as W_robot, s; 0 is the estimate itself, the thesis's "
                         "(%(default)s)")
-    p.add_argument("--altitude", type=float, default=10.0, help="flight altitude, m")
+    p.add_argument("--altitude", type=float, default=10.0,
+                   help="flight altitude, m (%(default)s; the 2D wind is a slice below the "
+                        "roofs)")
     p.add_argument("--tilt-max-deg", type=float, default=55.0,
                    help="tilt cap of the acceleration commands, deg (%(default)s)")
     p.add_argument("--spinup-s", type=float, default=25.0, help="wind spin-up, s (%(default)s)")
     p.add_argument("--record-s", type=float, default=100.0,
                    help="recorded wind, s; the longest flight (%(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the planner and LiDAR noise")
-    p.add_argument("--out", type=Path, default=Path("out/navigate"), help="output folder")
-    p.add_argument("--no-plots", action="store_true")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the planner and LiDAR noise (%(default)s)")
+    p.add_argument("--out", type=Path, default=Path("out/navigate"),
+                   help="output folder (%(default)s)")
+    p.add_argument("--no-plots", action="store_true", help="write no PNG figures")
     add_output_arguments(p)
     p.set_defaults(func=run)
 

@@ -34,11 +34,17 @@ def register(sub) -> None:
     p = sub.add_parser("power-curve", help="sweep steady-flight power versus airspeed",
                        description="Sweep steady level flights (hover in a uniform wind) in the "
                                    "simulator, fit P(airspeed), and report the best speeds.")
-    p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES)
-    p.add_argument("--max-speed", type=float, default=12.0, help="largest airspeed, m/s")
-    p.add_argument("--points", type=int, default=21, help="airspeeds in the sweep")
-    p.add_argument("--degree", type=int, default=4, help="degree of the fitted polynomial")
-    p.add_argument("--out", type=Path, default=Path("out/power_curve"), help="output folder")
+    p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES,
+                   help="vehicle preset (%(default)s)")
+    p.add_argument("--max-speed", type=float, default=12.0,
+                   help="largest airspeed, m/s (%(default)s; points beyond the vehicle's "
+                        "envelope are left out)")
+    p.add_argument("--points", type=int, default=21,
+                   help="airspeeds in the sweep (%(default)s)")
+    p.add_argument("--degree", type=int, default=4,
+                   help="degree of the fitted polynomial (%(default)s)")
+    p.add_argument("--out", type=Path, default=Path("out/power_curve"),
+                   help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run)
 
