@@ -220,6 +220,11 @@ def test_predict_writes_its_figure_and_json(map_and_model, capsys):
     assert doc["command"] == "windnav predict"
     assert set(doc["metrics"]) == {"decoder", "local", "upstream", "improvement_pct"}
     assert doc["metrics"]["upstream"]["n_free"] > 0
+    # the prediction itself, not only its errors (CLI audit, 2026-12-05)
+    u, v = doc["prediction_at_position"]
+    assert np.isfinite([u, v]).all() and doc["n_window_cells"] >= doc["n_free_cells"] > 0
+    assert f"predicted wind at ({at[0]:g}, {at[1]:g}) m: ({u:.2f}, {v:.2f}) m/s" in \
+        capsys.readouterr().out
 
 
 def test_predict_rejects_a_point_inside_a_building(map_and_model, capsys):

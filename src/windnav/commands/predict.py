@@ -86,9 +86,13 @@ def run(args, flow_settings=None) -> int:
                    progress=not args.no_progress, **settings)
     field = field_from_solution(city, sol, name=str(args.map))
     pred = predict_at(dec, field, at, scan_noise=noise, rng=args.seed)
+    c = len(pred["offsets"]) // 2  # the robot's cell (H is odd: offsets centred on 0)
+    at_robot = [float(v) for v in pred["prediction"][:, c, c]]
     payload = {"position": at, "speed": speed, "direction_deg": args.direction_deg,
                "flow": {"dx": dx, **settings}, "w_up": pred["w_up"],
-               "w_robot": pred["w_robot"], "n_free_cells": int(pred["free"].sum()),
+               "w_robot": pred["w_robot"], "prediction_at_position": at_robot,
+               "n_free_cells": int(pred["free"].sum()),
+               "n_window_cells": int(pred["free"].size),
                "decoder": {"architecture": dec.architecture, "size": dec.size,
                            "path": str(args.model) if args.model else "default"},
                "metrics": pred["metrics"]}
@@ -101,5 +105,11 @@ def run(args, flow_settings=None) -> int:
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
     print(json.dumps(json_ready(pred["metrics"]), indent=1))
+    # the prediction itself, not only its errors (CLI audit, 2026-12-05)
+    w = pred["w_robot"]
+    print(f"predicted wind at ({at[0]:g}, {at[1]:g}) m: ({at_robot[0]:.2f}, {at_robot[1]:.2f}) "
+          f"m/s (W_robot, the mean there: ({w[0]:.2f}, {w[1]:.2f})); {payload['n_free_cells']} "
+          f"of the window's {payload['n_window_cells']} cells are free air on the map (the "
+          "errors count those)")
     print_written(out)
     return 0
