@@ -53,6 +53,31 @@ def generator(rng, name: str, where: str) -> np.random.Generator:
                     rng) from None
 
 
+def nonnegative_int(value, name: str, where: str) -> int:
+    """Return ``value`` as an int >= 0 (a seed, a count that may be none), else raise a named
+    ValueError (NaN, inf, None, strings and bools included)."""
+    try:
+        ok = (not isinstance(value, (bool, str, bytes)) and int(value) == value
+              and int(value) >= 0)
+    except (TypeError, ValueError, OverflowError):
+        ok = False
+    if not ok:
+        raise _fail(name, where, "an integer >= 0", value)
+    return int(value)
+
+
+def speed_range(value, name: str, where: str) -> tuple[float, float]:
+    """``(low, high)`` from two numbers with ``0 < low < high`` finite (a range of speeds, m/s),
+    else a named ValueError."""
+    try:
+        lo, hi = (float(x) for x in value)
+    except (TypeError, ValueError):
+        raise _fail(name, where, "two numbers, m/s", value) from None
+    if not 0 < lo < hi < math.inf:
+        raise _fail(name, where, "0 < low < high, m/s", value)
+    return lo, hi
+
+
 def positive_int(value, name: str, where: str) -> int:
     """Return ``value`` as an int >= 1, else raise a named ValueError (NaN, inf, None and
     strings included)."""

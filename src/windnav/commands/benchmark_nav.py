@@ -535,9 +535,11 @@ def _pinned(args, record: dict, doing: str, whose: str) -> int | None:
         return _restart(args, env, f"{doing} under {whose} arithmetic ({line})")
     if env is None:
         print(f"note: {line}; {doing} under this machine's own", file=sys.stderr)
-    elif any(record.get(k) not in (None, arithmetic()[k]) for k in FIELDS):  # nearest: ours
-        print(f"note: {doing} under {whose} arithmetic ({line}): this machine's own already",
-              file=sys.stderr)
+    else:
+        ours = arithmetic()  # once: it asks the BLAS library and NumPy
+        if any(record.get(k) not in (None, ours[k]) for k in FIELDS):  # the nearest is ours
+            print(f"note: {doing} under {whose} arithmetic ({line}): this machine's own "
+                  "already", file=sys.stderr)
     return None
 
 

@@ -27,7 +27,7 @@ import json
 import sys
 from pathlib import Path
 
-from windnav._validate import finite_float, positive_float, positive_int
+from windnav._validate import finite_float, nonnegative_int, positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     document,
@@ -44,14 +44,6 @@ PRODUCTS = {
     "simulate-tunnel": ("tunnel_log.npz", "tunnel.csv", "truth.json"),
 }
 """What each subcommand writes into ``--out``."""
-
-
-def _seed(value: int, name: str) -> int:
-    """``--seed`` as a seed NumPy takes (>= 0), or a ValueError naming it."""
-    if value < 0:  # NumPy's "expected non-negative integer" named nothing
-        raise ValueError(f"The '--seed' parameter of {name} must be an integer >= 0. Got "
-                         f"{value} instead.")
-    return value
 
 
 def _steps(lo: float, hi: float, step: float, option: str, name: str, *, most: int):
@@ -581,7 +573,7 @@ def run_simulate_stand(args) -> int:
                           pwm_max=spec.get("pwm_max", 65535.0))
     out = _outputs(args, "simulate-stand")
     runs = simulate_stand(params, voltages=volts, rate_hz=rate, step_s=step, motor=motor,
-                          rng=_seed(args.seed, name))
+                          rng=nonnegative_int(args.seed, "--seed", name))
     truth = {"vehicle": params.name, "n_rotors": params.n_rotors, "k_eta": params.k_eta,
              "tau_m": params.tau_m, "motor": motor.to_dict(), "voltages": volts,
              "seed": args.seed}
@@ -633,7 +625,7 @@ def run_simulate_tunnel(args) -> int:
     params = vehicle_params(args.vehicle)
     speeds = _steps(0.0, vmax, step, "--speed-step", name, most=1_001)
     log, columns = simulate_tunnel(params, speeds=speeds, axes=args.axes, settle_s=settle,
-                                   record_s=record, rng=_seed(args.seed, name))
+                                   record_s=record, rng=nonnegative_int(args.seed, "--seed", name))
     truth = {**log.meta["sysid"], "status": log.meta.get("status"), "seed": args.seed}
     doc = document("sysid simulate-tunnel", truth, args)
     with out.writing() as stage:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from windnav._validate import positive_int
+from windnav._validate import nonnegative_int, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     document,
@@ -66,10 +66,7 @@ def run(args) -> int:
     tune_mppi.require_optuna()  # a missing extra is reported before anything is written
     trials = positive_int(args.trials, "--trials", name)
     n_seeds = positive_int(args.flight_seeds, "--flight-seeds", name)
-    if args.holdout < 0:  # positive_int's ">= 1" hid that 0 (none) is allowed
-        raise ValueError(f"The '--holdout' parameter of {name} must be an integer >= 0 (0: no "
-                         f"held-out seeds). Got {args.holdout} instead.")
-    holdout = args.holdout
+    holdout = nonnegative_int(args.holdout, "--holdout", name)  # 0: no held-out seeds
     sampler_seed = seed(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     res = tune_mppi.tune(trials, seed=sampler_seed, seeds=range(n_seeds),

@@ -18,7 +18,7 @@ import os
 import warnings
 from pathlib import Path
 
-from windnav._validate import finite_float, positive_float, positive_int
+from windnav._validate import finite_float, nonnegative_int, positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     document,
@@ -57,14 +57,6 @@ def add_solver_arguments(parser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (%(default)s)")
 
 
-def _count(value, name: str, where: str) -> int:
-    if isinstance(value, bool) or int(value) != value or int(value) < 0:
-        raise ValueError(
-            f"The {name!r} parameter of {where} must be an integer >= 0. Got {value!r} instead."
-        )
-    return int(value)
-
-
 def solver_settings(args, max_speed: float) -> dict:
     """Validated solver settings from parsed arguments, as a dict of JSON values.
 
@@ -81,14 +73,14 @@ def solver_settings(args, max_speed: float) -> dict:
             f"{MAX_CFL:g} at the fastest inlet {max_speed:g} m/s; use --dt <= "
             f"{MAX_CFL * dx / max_speed:.4g} (or leave it out). Got {dt:g} instead.")
     steps = positive_int(args.steps, "--steps", name)
-    every = _count(args.record_every, "--record-every", name)
+    every = nonnegative_int(args.record_every, "--record-every", name)
     if every > steps:  # no frame would be recorded
         raise ValueError(f"The '--record-every' parameter of {name} must be at most --steps "
                          f"({steps}), or 0 for no frames. Got {every} instead.")
     return {
         "dx": dx,
         "dt": dt,
-        "spinup_steps": _count(args.spinup_steps, "--spinup-steps", name),
+        "spinup_steps": nonnegative_int(args.spinup_steps, "--spinup-steps", name),
         "steps": steps,
         "record_every": every,
     }

@@ -543,21 +543,23 @@ class UKF:
             names.append(name)
             zs.append(z)
         z = zs[0] if len(zs) == 1 else np.concatenate(zs) if zs else None
+        stack = self._stacked(tuple(names)) if names else None
         # one check for all, then by block: NaN, inf and samples beyond the range fail "<"
-        if z is not None and not (np.abs(z) < self._stacked(tuple(names))[4]).all():
+        if z is not None and not (np.abs(z) < stack[4]).all():
             kept = [(name, zb) for name, zb in zip(names, zs, strict=True)
                     if (np.abs(zb) < self.blocks[name].limit).all()]
             for name in set(names) - {name for name, _ in kept}:
                 self.rejected[name] += 1
             names, zs = [name for name, _ in kept], [zb for _, zb in kept]
             z = zs[0] if len(zs) == 1 else np.concatenate(zs) if zs else None
+            stack = self._stacked(tuple(names)) if names else None
         if not names:
             return None
         unknown = set(noise or ()) - set(self.blocks)
         if unknown:
             raise ValueError(f"The 'noise' parameter of UKF.update holds unknown blocks "
                              f"{sorted(unknown)}; registered: {sorted(self.blocks)}.")
-        hx, R, wrap, offsets, _ = self._stacked(tuple(names))
+        hx, R, wrap, offsets, _ = stack
         if noise:
             R = R.copy()
             for k, name in enumerate(names):

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav._validate import positive_float, positive_int
+from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
            "check_point", "flow_cache_name", "inlet_slots", "predict_at", "slot_flow",
@@ -295,9 +295,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     samples = positive_int(samples_per_inlet, "samples_per_inlet", where)
     budget_s = positive_float(budget_s, "budget_s", where)
     dx = positive_float(dx, "dx", where)
-    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
-        raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. "
-                         f"Got {seed!r} instead.")
+    nonnegative_int(seed, "seed", where)
     settings = {**PROTOCOL, **(flow_settings or {})}
     unknown = sorted(set(settings) - {"spinup_steps", "steps", "dt"})
     if unknown:

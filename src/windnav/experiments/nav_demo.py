@@ -44,7 +44,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from windnav._validate import finite_float, positive_float
+from windnav._validate import finite_float, nonnegative_int, positive_float
 from windnav.experiments.results import say
 
 __all__ = ["LABELS", "RECORD_KEYS", "VARIANTS", "NavDemoConfig", "describe", "run_nav_demo"]
@@ -106,9 +106,7 @@ class NavDemoConfig:
         from windnav.flow.solver import MAX_CFL
 
         where = "NavDemoConfig"
-        if isinstance(self.seed, bool) or int(self.seed) != self.seed or self.seed < 0:
-            raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. Got "
-                             f"{self.seed!r} instead.")
+        nonnegative_int(self.seed, "seed", where)
         finite_float(self.direction_deg, "direction_deg", where)
         for name in ("map_size", "wind_speed", "dx", "flow_dt", "record_s", "altitude"):
             positive_float(getattr(self, name), name, where)

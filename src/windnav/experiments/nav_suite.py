@@ -44,7 +44,7 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from windnav._validate import positive_float
+from windnav._validate import nonnegative_int, positive_float
 
 __all__ = [
     "KINDS",
@@ -146,15 +146,7 @@ class SuiteSpec:
         if not isinstance(self.name, str) or not self.name or "/" in self.name:
             raise ValueError(f"The 'name' parameter of {where} must be a non-empty string "
                              f"without '/'. Got {self.name!r} instead.")
-        try:  # int(nan), int(inf) and int(None) raised without the name
-            ok = (not isinstance(self.seed, (bool, str)) and int(self.seed) == self.seed
-                  and self.seed >= 0)
-        except (TypeError, ValueError, OverflowError):
-            ok = False
-        if not ok:
-            raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. "
-                             f"Got {self.seed!r} instead.")
-        object.__setattr__(self, "seed", int(self.seed))
+        object.__setattr__(self, "seed", nonnegative_int(self.seed, "seed", where))
         for name in ("speeds", "incidences_deg"):
             vals = tuple(float(v) for v in getattr(self, name))
             if not vals or not all(math.isfinite(v) for v in vals):
@@ -165,10 +157,7 @@ class SuiteSpec:
         for v in self.speeds:
             positive_float(v, "speeds", where)
         for name in ("n_tailwind", "n_headwind"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or int(value) != value or value < 0:
-                raise ValueError(f"The {name!r} parameter of {where} must be an integer >= 0. "
-                                 f"Got {value!r} instead.")
+            nonnegative_int(getattr(self, name), name, where)
         n_winds = len(self.speeds) * len(self.incidences_deg)
         for name, count in (("maps", None), ("winds", n_winds),
                             ("pairs", self.n_tailwind + self.n_headwind)):

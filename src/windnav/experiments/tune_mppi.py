@@ -65,7 +65,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from windnav._validate import positive_float, positive_int
+from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = [
     "FAILURE_PENALTY_S",
@@ -353,9 +353,7 @@ def tune(n_trials: int, *, seed: int = 0, seeds: Sequence[int] = SEEDS,
     where = "tune"
     optuna = require_optuna()
     n_trials = positive_int(n_trials, "n_trials", where)
-    if isinstance(seed, bool) or int(seed) != seed or seed < 0:
-        raise ValueError(f"The 'seed' parameter of {where} must be an integer >= 0. Got "
-                         f"{seed!r} instead.")
+    nonnegative_int(seed, "seed", where)
     seeds = _check_seeds(seeds, where)
     space = _check_space(SEARCH_SPACE if search_space is None else search_space, where)
     duration = positive_float(duration, "duration", where)

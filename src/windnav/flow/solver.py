@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from windnav._validate import finite_float, positive_float
+from windnav._validate import finite_float, nonnegative_int, positive_float
 from windnav.city.core import check_city
 from windnav.flow.advection import make_advection
 from windnav.flow.grid import (
@@ -689,11 +689,11 @@ def simulate_batch(
     directions = _directions(direction_deg, len(speeds), where)
     dx = positive_float(dx, "dx", where)
     dt = positive_float(dt, "dt", where)
-    spinup_steps = _nonneg_int(spinup_steps, "spinup_steps", where)
-    steps = _nonneg_int(steps, "steps", where)
+    spinup_steps = nonnegative_int(spinup_steps, "spinup_steps", where)
+    steps = nonnegative_int(steps, "steps", where)
     if steps < 1:
         raise ValueError(f"The 'steps' parameter of {where} must be >= 1. Got {steps} instead.")
-    record_every = _nonneg_int(record_every, "record_every", where)
+    record_every = nonnegative_int(record_every, "record_every", where)
     if record_every > steps:  # it would record no frame at all
         raise ValueError(f"The 'record_every' parameter of {where} must be at most steps "
                          f"({steps}) to record a frame, or 0 for none. Got {record_every} "
@@ -860,18 +860,6 @@ def _nonneg_float(value, name, where) -> float:
     if value < 0:
         raise ValueError(f"The {name!r} parameter of {where} must be >= 0. Got {value!r} instead.")
     return value
-
-
-def _nonneg_int(value, name, where) -> int:
-    try:
-        ok = not isinstance(value, bool) and int(value) == value and int(value) >= 0
-    except (TypeError, ValueError, OverflowError):
-        ok = False
-    if not ok:
-        raise ValueError(
-            f"The {name!r} parameter of {where} must be an integer >= 0. Got {value!r} instead."
-        )
-    return int(value)
 
 
 def fixed_face_violation(domain: FlowDomain, u, v) -> float:

@@ -40,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from windnav._validate import batch_array, finite_float, positive_float, positive_int
+from windnav._validate import speed_range as check_speed_range
 from windnav.plan._kernels import power_bar_array
 from windnav.sim.sweeps import power_sweep
 from windnav.vehicle.params import GRAVITY, MultirotorParams
@@ -333,33 +334,18 @@ class PlannerConfig:
         d = batch_array(direction, "direction", where, (2,), batch=1)[0]
         d = d / max(float(np.hypot(*d)), 1e-12)
         w = batch_array(wind, "wind", where, (2,), batch=1)[0]
-        v = np.linspace(*_speed_range(speed_range, where), 981)
+        v = np.linspace(*check_speed_range(speed_range, "speed_range", where), 981)
         air = np.hypot(v * d[0] - float(w[0]), v * d[1] - float(w[1]))
         return float(np.min(power_bar_array(air, self.power_table()) / v))
 
     def max_range_speed(self, wind_along: float = 0.0, *, speed_range=(0.5, 20.0)) -> float:
         """``V_R(W) = argmin_V P(|V - W|) / V`` over ground speeds in ``speed_range``, m/s."""
         where = "PlannerConfig.max_range_speed"
-        lo, hi = _speed_range(speed_range, where)
+        lo, hi = check_speed_range(speed_range, "speed_range", where)
         wind_along = finite_float(wind_along, "wind_along", where)  # NaN gave 0.5
         v = np.linspace(lo, hi, 20001)
         k = int(np.argmin(self.power(np.abs(v - wind_along)) / v))
         return float(v[k])
-
-
-def _speed_range(speed_range, where: str) -> tuple[float, float]:
-    """``(low, high)`` ground speeds, m/s, with ``0 < low < high`` finite; a ValueError naming
-    ``speed_range`` otherwise (a negative range gave a negative energy per metre; one number
-    was read as ``linspace(1, 981)``)."""
-    try:
-        lo, hi = (float(x) for x in speed_range)
-    except (TypeError, ValueError):
-        raise ValueError(f"The 'speed_range' parameter of {where} must be two numbers, m/s. "
-                         f"Got {speed_range!r} instead.") from None
-    if not 0 < lo < hi < math.inf:
-        raise ValueError(f"The 'speed_range' parameter of {where} must satisfy 0 < low < high, "
-                         f"m/s. Got {speed_range!r} instead.")
-    return lo, hi
 
 
 @lru_cache(maxsize=32)

@@ -32,6 +32,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 
 from windnav._validate import batch_array, finite_float, positive_float
+from windnav._validate import speed_range as check_speed_range
 from windnav.city.core import check_city
 from windnav.plan import _search_kernels as SK
 from windnav.plan.config import PlannerConfig
@@ -179,14 +180,7 @@ def energy_route(
     clearance = positive_float(clearance, "clearance", where, allow_zero=True)
     step = positive_float(speed_step, "speed_step", where)
     altitude = finite_float(altitude, "altitude", where)
-    try:
-        v_lo, v_hi = (float(v) for v in speed_range)
-    except (TypeError, ValueError):
-        raise ValueError(f"The 'speed_range' parameter of {where} must be two numbers. Got "
-                         f"{speed_range!r} instead.") from None
-    if not (0 < v_lo < v_hi < np.inf):
-        raise ValueError(f"The 'speed_range' parameter of {where} must satisfy 0 < low < high. "
-                         f"Got {speed_range!r} instead.")
+    v_lo, v_hi = check_speed_range(speed_range, "speed_range", where)
     if (v_hi - v_lo) / step > MAX_SPEED_LEVELS:  # np.arange would allocate them all
         raise ValueError(f"The 'speed_step' parameter of {where} must give at most "
                          f"{MAX_SPEED_LEVELS} speed levels over {speed_range!r} m/s. Got "

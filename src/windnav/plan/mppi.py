@@ -53,7 +53,7 @@ from windnav._validate import batch_array, generator, positive_float, positive_i
 from windnav.plan import _kernels as K
 from windnav.plan.config import PlannerConfig
 from windnav.plan.local_wind import NO_WIND, LocalWind
-from windnav.plan.obstacles import ObstacleField, obstacle_field, scan_points
+from windnav.plan.obstacles import ObstacleField, obstacle_field, returns, scan_points
 
 __all__ = [
     "MPPIPlanner",
@@ -573,7 +573,9 @@ def _scan_to_points(scan, lidar_range: float) -> np.ndarray | None:
         if (a < 0).any():
             raise ValueError("The 'scan' parameter of MPPIPlanner.update must hold ranges >= 0, "
                              f"m. Got {a.min()!r} instead.")
-        return scan_points(a, max_range=lidar_range)
+        if a.size == 0:  # scan_points names an empty scan
+            return scan_points(a, max_range=lidar_range)
+        return returns(a, lidar_range)  # checked here: scan_points would check the signs again
     if a.ndim == 2 and a.shape[1] == 2:
         return a
     raise ValueError("The 'scan' parameter of MPPIPlanner.update must be ranges (n_rays,) or "

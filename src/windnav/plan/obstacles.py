@@ -70,6 +70,12 @@ def scan_points(ranges, *, max_range: float | None = None) -> np.ndarray:
                          f"Got {np.nanmin(r)!r} instead.")
     top = np.nanmax(r) if max_range is None else positive_float(max_range, "max_range",
                                                                  "scan_points")
+    return returns(r, top)
+
+
+def returns(r: np.ndarray, top: float) -> np.ndarray:
+    """:func:`scan_points` of ranges ``r`` (n_rays,) float64 already checked (1-D, none below
+    0) and ``top`` > 0: the planner, which checks them under its own name, calls this."""
     keep = np.isfinite(r) & (r < top)
     return _directions(r.size)[keep] * r[keep, None]
 
