@@ -228,6 +228,49 @@ def test_a_part_of_the_maps_now_the_rest_later_into_the_same_store(tmp_path, no_
         bench_cmd.suite_maps("1,16", thesis, "x")
 
 
+HOLD_CLAIM = """
+import pickle, sys, time
+from windnav.experiments.nav_records import NavStore
+store = NavStore(sys.argv[1], pickle.loads(bytes.fromhex(sys.argv[2])))
+with store.claim([("mppi", 0)]):
+    print("held", flush=True)
+    time.sleep(120)
+"""
+
+
+def test_two_runs_never_fly_the_same_variant_on_the_same_map_into_one_store(tmp_path, no_wind):
+    """A run claims its (variant, map) pairs in the store: a second run of any of them is
+    refused before it reads or flies anything, naming the run that holds it (two such runs
+    used to fly every flight twice); other variants and maps fly meanwhile; the claim of a
+    killed run goes with it."""
+    import pickle
+
+    two = replace(TINY, maps=(0, 1))
+    store = tmp_path / "store"
+    NavStore(store, two)
+    holder = subprocess.Popen([sys.executable, "-c", HOLD_CLAIM, str(store),
+                               pickle.dumps(two).hex()], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        with pytest.raises(nb.StoreBusyError, match=rf"variant 'mppi' on map 0 into the store "
+                                                    rf".*\(process {holder.pid} on "):
+            nb.run_benchmark(two, ["ea-mppi-w", "mppi"], store, executor="serial",
+                             progress=False, navigate_fn=Fake())
+        assert not NavStore(store, two).records_path.exists()
+        # the same variant on another map, another variant on the same map: flown
+        assert nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                                navigate_fn=Fake(), maps=[1])["now"] == 4
+        assert nb.run_benchmark(two, ["ea-mppi-w"], store, executor="serial", progress=False,
+                                navigate_fn=Fake())["now"] == 8
+    finally:
+        holder.kill()  # SIGKILL: no handler runs
+        holder.wait()
+    out = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                           navigate_fn=Fake())
+    assert (out["already"], out["now"]) == (4, 4)
+    assert len(keys(NavStore(store, two))) == 16
+
+
 def test_variant_labels_with_study_parameters_reach_the_flight(tmp_path, no_wind):
     assert nb.parse_variant("ea-mppi-w") == ("ea-mppi-w", {})
     assert nb.parse_variant("ea-mppi-w@qe=2") == (

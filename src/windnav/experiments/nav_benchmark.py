@@ -57,6 +57,7 @@ from windnav.experiments.nav_records import (
     ERROR,
     CorruptRecordError,
     NavStore,
+    StoreBusyError,
     SuiteMismatchError,
     benchmark_table,
     render_table,
@@ -87,6 +88,7 @@ __all__ = [
     "CorruptRecordError",
     "GroupTask",
     "NavStore",
+    "StoreBusyError",
     "Scenario",
     "SharedFlow",
     "SuiteMismatchError",
@@ -913,10 +915,13 @@ def run_benchmark(
     ValueError
         An unknown variant or executor; :class:`SuiteMismatchError` for a store of another
         suite; :class:`CorruptRecordError` for a corrupt record line.
+    StoreBusyError
+        When another run is flying any of the same variants on any of the same maps into
+        ``store`` (:meth:`NavStore.claim`): the second run used to fly them all again.
     KeyboardInterrupt
         On Ctrl-C, after the workers are stopped; every finished flight is in the store.
     """
-    from windnav.experiments.executor import BACKENDS, run_tasks
+    from windnav.experiments.executor import BACKENDS
 
     where = "run_benchmark"
     spec = check_suite_spec(spec, where)
@@ -930,15 +935,27 @@ def run_benchmark(
     check_against_suite(spec, variants, where)
     t0 = time.perf_counter()
     nav_store = NavStore(store, spec)
+    scenarios = make_suite(dataclasses.replace(spec, maps=maps))  # the same ids and seeds
+    if chosen is not None:
+        scenarios = [sc for sc in scenarios if sc.scenario_id in chosen]
+    # claimed before the records are read: a run that ends meanwhile has recorded everything
+    with nav_store.claim((v, sc.group[0]) for sc in scenarios for v in variants):
+        return _run_claimed(spec, variants, nav_store, scenarios, maps, t0, executor=executor,
+                            workers=workers, progress=progress, retry_errors=retry_errors,
+                            navigate_fn=navigate_fn, wind_batch=wind_batch)
+
+
+def _run_claimed(spec, variants, nav_store, scenarios, maps, t0, *, executor, workers,
+                 progress, retry_errors, navigate_fn, wind_batch) -> dict:
+    """:func:`run_benchmark` once its (variant, map) pairs are claimed."""
+    from windnav.experiments.executor import run_tasks
+
     done = nav_store.latest()
 
     def finished(key) -> bool:
         rec = done.get(key)
         return rec is not None and not (retry_errors and rec["outcome"] == ERROR)
 
-    scenarios = make_suite(dataclasses.replace(spec, maps=maps))  # the same ids and seeds
-    if chosen is not None:
-        scenarios = [sc for sc in scenarios if sc.scenario_id in chosen]
     groups: dict[tuple[int, int], list] = {}
     for sc in scenarios:
         for v in variants:

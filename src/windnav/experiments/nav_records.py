@@ -49,6 +49,7 @@ __all__ = [
     "UNNAMED_ARITHMETIC",
     "CorruptRecordError",
     "NavStore",
+    "StoreBusyError",
     "SuiteMismatchError",
     "benchmark_table",
     "latest_records",
@@ -77,6 +78,7 @@ ENERGIES = ("energy_J", "rotor_energy_J")
 
 MANIFEST = "manifest.json"
 RECORDS = "records.jsonl"
+CLAIMS = ".claims"
 
 UNNAMED_ARITHMETIC = "unnamed_records_arithmetic"
 """Manifest key: the arithmetic (``blas_kernel``, ``numpy_simd``, as
@@ -128,6 +130,10 @@ class SuiteMismatchError(ValueError):
 
 class CorruptRecordError(ValueError):
     """A line of the record file that is not a flight record (and is not a torn last line)."""
+
+
+class StoreBusyError(RuntimeError):
+    """Another run is flying some of the same (variant, map) pairs into the store."""
 
 
 # ------------------------------------------------------------------------------- the store
@@ -237,6 +243,56 @@ class NavStore:
         return latest_records(self.load())
 
     # ----------------------------------------------------------------------------- writing
+
+    @contextlib.contextmanager
+    def claim(self, pairs: Iterable[tuple[str, int]]):
+        """Hold an exclusive claim on each ``(variant, map_index)`` of ``pairs`` until the block
+        ends, so that two runs never fly the same flights into this store.
+
+        Each pair is an ``flock`` on a file of ``.claims/`` in the store, which the kernel
+        releases when the process ends, however it ends (no stale claim after a kill). The file
+        names the holder (process id, host, start time, command line).
+
+        Raises
+        ------
+        StoreBusyError
+            When another process holds any of the pairs; none is then held by this one.
+        """
+        import fcntl  # POSIX; the store is written by processes of one machine
+        import hashlib
+        import socket
+        import sys
+        import time
+
+        folder = self.path / CLAIMS
+        folder.mkdir(parents=True, exist_ok=True)
+        me = (f"process {os.getpid()} on {socket.gethostname()}, started "
+              f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}: {' '.join(sys.argv)}")
+        held = []
+        try:
+            for variant, m in sorted(set(pairs)):
+                tag = hashlib.sha1(variant.encode()).hexdigest()[:12]  # any variant key
+                f = open(folder / f"m{int(m):03d}-{tag}.lock", "a+")
+                try:
+                    fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                except BlockingIOError:
+                    f.seek(0)
+                    holder = f.read().strip() or "a process that has not named itself yet"
+                    f.close()
+                    raise StoreBusyError(
+                        f"Another run is flying variant {variant!r} on map {m} into the store "
+                        f"{str(self.path)!r} ({holder}). Wait for it to end and run this "
+                        "command again (every recorded flight is kept and skipped), or fly "
+                        "other variants or maps.") from None
+                held.append(f)
+                f.seek(0)
+                f.truncate()
+                f.write(me + "\n")
+                f.flush()
+            yield
+        finally:
+            for f in held:
+                f.close()  # releases its flock
 
     @contextlib.contextmanager
     def _locked(self):
