@@ -108,6 +108,38 @@ def test_outputs_refuse_an_earlier_run_and_replace_it_whole_with_overwrite(tmp_p
     assert [p.name for p in again.removed] == ["fig_b.png"]  # stale figure of run 1
 
 
+def test_outputs_of_a_run_that_ended_meanwhile_are_not_replaced(tmp_path):
+    """Two runs started on the same paths both passed the check at their start; the one that
+    ends second used to replace the first's results without --overwrite. Now its own are
+    kept beside them under new names, and it says where."""
+    out = tmp_path / "run"
+    json_path = tmp_path / "summary.json"
+    products = ("a.txt",)
+    first = res.Outputs("windnav x", out=("--out", out, products), files={"--json": json_path})
+    second = res.Outputs("windnav x", out=("--out", out, products), files={"--json": json_path})
+    with first.writing() as stage:
+        (stage.dir / "a.txt").write_text("run 1")
+        stage.file("--json").write_text("{1}")
+    with pytest.raises(res.OutputExistsError, match="another run wrote") as clash, \
+            second.writing() as stage:
+        (stage.dir / "a.txt").write_text("run 2")
+        stage.file("--json").write_text("{2}")
+    assert (out / "a.txt").read_text() == "run 1" and json_path.read_text() == "{1}"
+    kept = sorted(p for p in out.iterdir() if p.name.startswith("results-pid"))
+    assert len(kept) == 1 and (kept[0] / "a.txt").read_text() == "run 2"
+    other = [p for p in tmp_path.glob("summary.pid*.json")]
+    assert len(other) == 1 and other[0].read_text() == "{2}"
+    assert str(kept[0]) in str(clash.value) and str(other[0]) in str(clash.value)
+    assert not [p for p in tmp_path.rglob("*windnav-tmp*")]
+    # with --overwrite the second run replaces the first's, as asked
+    third = res.Outputs("windnav x", out=("--out", out, products), files={"--json": json_path},
+                        overwrite=True)
+    with third.writing() as stage:
+        (stage.dir / "a.txt").write_text("run 3")
+        stage.file("--json").write_text("{3}")
+    assert (out / "a.txt").read_text() == "run 3" and json_path.read_text() == "{3}"
+
+
 def test_outputs_write_nothing_when_the_run_fails(tmp_path):
     out = tmp_path / "run"
     o = res.Outputs("windnav x", out=("--out", out, ("a.txt",)), files={"--json": tmp_path / "j"})

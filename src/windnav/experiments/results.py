@@ -347,6 +347,8 @@ class Outputs:
             stage.discard()
 
     def _commit(self, stage: _Stage) -> None:
+        if not self.overwrite:
+            self._keep_apart_from_a_run_meanwhile(stage)
         written = []
         if stage.dir is not None:
             new = sorted(stage.dir.iterdir())
@@ -366,6 +368,35 @@ class Outputs:
                 written.append(self.files[flag])
         self.written = written
 
+
+    def _keep_apart_from_a_run_meanwhile(self, stage: _Stage) -> None:
+        """Without ``overwrite``: when another run wrote results to these paths while this one
+        ran (the check at the start saw none), keep this run's beside them, under new names,
+        and raise :class:`OutputExistsError` saying where; nothing of either run is replaced."""
+        clash = []
+        if stage.dir is not None:
+            clash += _matches(self.dir, self.products)
+        clash += [self.files[flag] for flag, tmp in stage.staged_files.items()
+                  if tmp.exists() and os.path.lexists(self.files[flag])]
+        if not clash:
+            return
+        tag = f"pid{os.getpid()}-{uuid.uuid4().hex[:6]}"
+        kept = []
+        if stage.dir is not None:
+            folder = self.dir / f"results-{tag}"
+            os.replace(stage.dir, folder)
+            kept.append(folder)
+        for flag, tmp in stage.staged_files.items():
+            if tmp.exists():
+                path = self.files[flag]
+                dst = path.with_name(f"{path.stem}.{tag}{path.suffix}")
+                os.replace(tmp, dst)
+                kept.append(dst)
+        names = ", ".join(str(p) for p in clash[:4]) + (", ..." if len(clash) > 4 else "")
+        raise OutputExistsError(
+            f"{self.where}: another run wrote {names} while this one ran; this run's results "
+            f"are kept beside them in {', '.join(map(str, kept))} (nothing was replaced; pass "
+            "--overwrite for a run that replaces earlier results).")
 
 class _Stage:
     """Where a run writes before :meth:`Outputs.writing` moves its files into place."""
