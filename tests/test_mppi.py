@@ -547,6 +547,59 @@ def test_the_planner_helpers_refuse_degenerate_arguments(base):
         dataclasses.replace(base, n_steps=1000, n_samples=10**6)
 
 
+def test_shift_controls_and_softmin_weights_refuse_arrays_of_another_shape():
+    # a (K,) sequence came back (K, K), a (K, 3) one was shifted, NaN controls came back NaN,
+    # a list or None raised an AttributeError; (3, 2) costs were weighted as six samples, a
+    # list raised a TypeError and integer costs got weights of 0 (audit of the low-level helpers)
+    for bad in (np.zeros(5), np.zeros((5, 3)), np.zeros((0, 2)), np.zeros((5, 2, 1)), 1.0, None,
+                "ab", np.full((5, 2), np.nan), [[0.0, 1.0], [np.inf, 0.0]]):
+        with pytest.raises(ValueError, match="'controls' parameter of shift_controls must be"):
+            shift_controls(bad, 1.0)
+    with pytest.raises(ValueError, match="'steps' parameter of shift_controls"):
+        shift_controls(np.zeros((5, 2)), "a")
+    np.testing.assert_array_equal(shift_controls([[0.0, 1.0], [2.0, 3.0]], 1.0),
+                                  [[2.0, 3.0], [2.0, 3.0]])
+    for bad in (np.zeros((3, 2)), np.float64(1.0), "ab", None, np.array([1j, 2j])):
+        with pytest.raises(ValueError, match="'costs' parameter of softmin_weights must be"):
+            softmin_weights(bad, 1.0)
+    np.testing.assert_allclose(softmin_weights([1, 1], 1.0), [0.5, 0.5])
+    c32 = np.array([1.0, 2.0, np.nan], np.float32)   # a float32 input keeps its arithmetic
+    assert softmin_weights(c32, 0.79).dtype == np.float32
+
+
+def test_local_wind_built_directly_refuses_what_it_cannot_pack():
+    # the constructor checked nothing: a (2, 3) wind, a (2, 3, 3) one on 4 x 3 offsets, NaN,
+    # decreasing or repeated offsets and one offset per axis were packed (a NaN or negative
+    # cell size for the kernel) or raised an IndexError; a horizon of NaN gave a NaN window
+    z = np.zeros(0)
+    for uv, x, y, name in [
+        (np.zeros((2, 3)), z, z, "uv"),
+        (np.zeros((3, 1, 1)), z, z, "uv"),
+        (np.zeros((2, 3, 3)), np.arange(4.0), np.arange(3.0), "uv"),
+        (np.zeros((2, 1, 1)), np.arange(2.0), z, "y"),
+        (np.zeros((2, 2, 2)), np.array([0.0, np.nan]), np.arange(2.0), "x"),
+        (np.zeros((2, 2, 2)), np.array([1.0, 0.0]), np.arange(2.0), "x"),
+        (np.zeros((2, 2, 2)), np.arange(2.0), np.array([1.0, 1.0]), "y"),
+        (np.zeros((2, 1, 1)), np.zeros(1), np.zeros(1), "x"),
+        (np.zeros((2, 2, 2)), np.zeros((1, 2)), np.arange(2.0), "x"),
+    ]:
+        with pytest.raises(ValueError, match=f"'{name}' parameter of LocalWind must"):
+            LocalWind(uv, x, y)
+    for fill in ((1.0, 2.0, 3.0), "ab", None):
+        with pytest.raises(ValueError, match="'fill' parameter of LocalWind must"):
+            LocalWind(np.zeros((2, 1, 1)), z, z, fill=fill)
+    for horizon in (np.nan, 0.0, -5.0, "wide"):
+        with pytest.raises(ValueError, match="'horizon' parameter of LocalWind.pack"):
+            LocalWind.uniform([1.0, 0.0]).pack(horizon)
+    assert LocalWind.uniform([1.0, 0.0]).pack(np.inf)[2][4] == np.inf
+    # NaN winds stay constructible: the planner checks them at each update and brakes
+    nan_grid = LocalWind(np.full((2, 2, 3), np.nan), np.arange(3.0), np.arange(2.0),
+                         fill=(np.nan, 0.0))
+    assert not nan_grid.finite
+    mode, grid, meta = LocalWind([[[1.0]], [[2.0]]], [], []).pack(10.0)
+    assert mode == 1 and grid.dtype == np.float64 and list(meta) == [0, 0, 1, 1, 5, 0, 0]
+
+
 def test_rollout_names_a_wind_that_is_not_a_local_wind(base):
     cfg = dataclasses.replace(base, n_samples=3, n_steps=5)
     with pytest.raises(ValueError, match="'wind' parameter of rollout must be a LocalWind"):

@@ -176,3 +176,21 @@ def test_from_samples_recovers_a_known_polynomial():
 def test_bad_curve_inputs_raise_naming_them(call, name):
     with pytest.raises(ValueError, match=f"'{name}'"):
         call()
+
+
+def test_a_curve_with_power_at_or_below_zero_is_refused():
+    # from_conditions(10, 1, 4, 7) gave a cubic down to -8.9 W at 12 m/s whose "max-range
+    # speed" was 12 m/s at -0.74 J/m; hand-made curves below 0 W gave negative energies per
+    # metre at the ends of the search (audit of the low-level helpers)
+    with pytest.raises(ValueError, match="'min_power'.* parameters of PowerCurve.from_conditions "
+                                         "must give a cubic above 0 W"):
+        PowerCurve.from_conditions(10, 1, 4, 7)
+    with pytest.raises(ValueError, match="'speed_max' parameter of PowerCurve.from_conditions"):
+        PowerCurve.from_conditions(10.56, 10.12, 4.15, 7.73, speed_max=np.nan)
+    for coefficients in ((10.0, 0.0, -1.0), (-1.0,), (0.0,), (10.0, -5.0, 0.5)):
+        curve = PowerCurve(coefficients, speed_max=12.0)
+        for wind in (0.0, 5.0, -3.0):
+            with pytest.raises(ValueError, match="'curve' parameter of max_range_speed must have "
+                                                 "a power above 0 W"):
+                max_range_speed(curve, wind)
+    assert max_range_speed(PowerCurve.from_conditions(10, 1, 4, 7, speed_max=8.0)).power > 0

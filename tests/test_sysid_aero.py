@@ -194,6 +194,30 @@ def test_arguments_of_the_wrong_type_are_named():
         max_endurance_speed(None)
 
 
+def test_aero_data_refuses_arrays_that_do_not_line_up():
+    # built by hand, mismatched arrays reached fit_aero as a LinAlgError, an IndexError or a
+    # misleading "linearly dependent" message; NaN samples the same (audit of the helpers)
+    d = _model_samples(n=20)
+    t, va, f, eta = d.t, d.airspeed_body, d.specific_force_body, d.rotor_speeds
+    for args, name in [
+        ((t[:, None], va, f, eta), "t"),
+        ((np.r_[t[:-1], np.nan], va, f, eta), "t"),
+        ((t, va[:, :2], f, eta), "airspeed_body"),
+        ((t, va[:-1], f, eta), "airspeed_body"),
+        ((t, va, f[:-1], eta), "specific_force_body"),
+        ((t, va, np.full_like(f, np.nan), eta), "specific_force_body"),
+        ((t, va, f, eta[:, 0]), "rotor_speeds"),
+        ((t, va, f, eta[:, :0]), "rotor_speeds"),
+        ((t, va, f, np.where(eta > 2000, np.inf, eta)), "rotor_speeds"),
+        ((None, va, f, eta), "t"),
+    ]:
+        with pytest.raises(ValueError, match=f"'{name}' parameter of AeroData must be"):
+            AeroData(*args)
+    listed = AeroData(t.tolist(), va.tolist(), f.tolist(), eta.tolist())
+    assert listed.n_rotors == 4 and listed.t.dtype == np.float64
+    assert AeroData(t[:0], va[:0], f[:0], eta[:0]).t.size == 0  # an empty file: fit_aero names it
+
+
 def test_a_mass_that_disagrees_with_the_log_is_noted(tunnel, tmp_path, capsys):
     # --mass 27 (grams typed as kg) gave k_d 600 x too large with nothing said (audit)
     capsys.readouterr()

@@ -195,6 +195,23 @@ def test_steady_mask_names_mismatched_arrays_and_a_window_that_is_not_positive()
     assert steady_mask(t, np.full(10, 300.0)).all()
 
 
+def test_steady_mask_names_thresholds_and_times_that_make_no_rule():
+    # a NaN, zero or negative max_accel or a NaN min_speed silently kept no point; NaN, inf,
+    # repeated or decreasing times kept every point (audit of the low-level helpers)
+    t = np.linspace(0.0, 1.0, 10)
+    w = np.full(10, 300.0)
+    for name, bad in (("max_accel", np.nan), ("max_accel", 0.0), ("max_accel", -1.0),
+                      ("max_accel", "fast"), ("min_speed", np.nan), ("min_speed", -1.0)):
+        with pytest.raises(ValueError, match=f"'{name}' parameter of steady_mask"):
+            steady_mask(t, w, **{name: bad})
+    for bad_t in (np.r_[t[:5], np.nan, t[6:]], np.r_[t[:9], np.inf], np.zeros(10), t[::-1]):
+        with pytest.raises(ValueError, match="'t' parameter of steady_mask must be finite and "
+                                             "increasing"):
+            steady_mask(bad_t, w)
+    assert steady_mask(t, w, min_speed=0.0).all()
+    assert steady_mask([], []).shape == (0,)
+
+
 def test_one_supply_voltage_does_not_determine_kv_and_v0(stand, tmp_path):
     # one ramp (a sagging 3.7 V) gave Kv 0.0007 [-0.56, 0.56] and V0 2185 V beside R^2 0.9995,
     # with nothing said (CLI audit, 2026-12-05)

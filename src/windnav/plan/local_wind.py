@@ -12,6 +12,7 @@ planner: an option of the onboard stack, which may fill with its uniform local e
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -21,6 +22,15 @@ from windnav.plan._kernels import evenly_increasing
 __all__ = ["LocalWind"]
 
 _WHERE = "LocalWind"
+
+
+def _array(values, name: str, rule: str) -> np.ndarray:
+    """``values`` as a C-contiguous float64 array (itself when it is one already)."""
+    try:
+        return np.ascontiguousarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The {name!r} parameter of {_WHERE} must be {rule}. Got {values!r} "
+                         "instead.") from None
 
 
 def _offsets(values, name: str) -> np.ndarray:
@@ -49,7 +59,9 @@ class LocalWind:
         Evenly spaced cell-centre offsets, m (empty for a uniform wind).
 
     Build it with :meth:`uniform` or :meth:`grid`. Values may be non-finite: the planner
-    checks them at each update and falls back (it does not raise in its loop).
+    checks them at each update and falls back (it does not raise in its loop). The layout is
+    checked at construction: ``uv`` (2, 1, 1) with ``x`` and ``y`` empty, or ``uv``
+    (2, ny, nx) on finite, evenly increasing ``x`` and ``y`` of at least 2 offsets each.
     """
 
     uv: np.ndarray
@@ -60,6 +72,38 @@ class LocalWind:
     once): :attr:`finite` then skips the check (0.4 ms on a 600 m map per update)."""
     fill: tuple = (0.0, 0.0)
     """``(u, v)`` wind outside the window, m/s, world frame (default zero, the thesis's)."""
+
+    def __post_init__(self):
+        # built directly, a (2, 3) wind, offsets that did not match it, NaN or decreasing
+        # offsets (a NaN or negative cell size for the kernel) and a fill of three values were
+        # packed as given; the values themselves may be NaN (LocalWind.finite)
+        set_ = object.__setattr__
+        x, y = (_array(getattr(self, n), n, "a 1-D array of offsets, m") for n in ("x", "y"))
+        uv = _array(self.uv, "uv", "an array of wind components (2, ny, nx), m/s")
+        if x.ndim != 1 or y.ndim != 1:
+            bad = "x" if x.ndim != 1 else "y"
+            raise ValueError(f"The {bad!r} parameter of {_WHERE} must be a 1-D array of "
+                             f"offsets, m. Got shape {np.shape(getattr(self, bad))} instead.")
+        if x.size or y.size:
+            x, y = _offsets(x, "x"), _offsets(y, "y")
+            want, what = (2, y.size, x.size), "on the offsets y and x"
+        else:
+            want, what = (2, 1, 1), "for a uniform wind (x and y empty)"
+        if uv.shape != want:
+            raise ValueError(f"The 'uv' parameter of {_WHERE} must have shape {want} {what}. "
+                             f"Got shape {uv.shape} instead.")
+        try:
+            fill = () if isinstance(self.fill, (str, bytes)) else tuple(map(float, self.fill))
+        except (TypeError, ValueError):
+            fill = ()
+        if len(fill) != 2:
+            raise ValueError(f"The 'fill' parameter of {_WHERE} must be two numbers (u, v), "
+                             f"m/s. Got {self.fill!r} instead.")
+        set_(self, "uv", uv)
+        set_(self, "x", x)
+        set_(self, "y", y)
+        set_(self, "known_finite", bool(self.known_finite))
+        set_(self, "fill", fill)
 
     @classmethod
     def uniform(cls, wind_xy) -> LocalWind:
@@ -103,8 +147,16 @@ class LocalWind:
                 and all(np.isfinite(self.fill)))
 
     def pack(self, horizon: float) -> tuple[int, np.ndarray, np.ndarray]:
-        """``(mode, grid, meta)`` for the kernels, with the window side ``H = horizon`` (m)."""
-        half = 0.5 * float(horizon)
+        """``(mode, grid, meta)`` for the kernels, with the window side ``H = horizon`` (m,
+        > 0, ``inf`` for everywhere)."""
+        try:
+            h = float(horizon)
+        except (TypeError, ValueError):
+            h = math.nan
+        if not h > 0:  # NaN gave a NaN window, <= 0 a wind known nowhere
+            raise ValueError(f"The 'horizon' parameter of {_WHERE}.pack must be a number > 0, m "
+                             f"(inf allowed). Got {horizon!r} instead.")
+        half = 0.5 * h
         if self.is_uniform:
             return 1, self.uv, np.array([0.0, 0.0, 1.0, 1.0, half, *self.fill])
         meta = np.array([self.x[0], self.y[0], self.x[1] - self.x[0], self.y[1] - self.y[0],

@@ -136,11 +136,34 @@ def _smoothing_bands(n_steps: int, sigma: float) -> tuple[np.ndarray, np.ndarray
     return taps, lo.astype(np.int64), hi.astype(np.int64)
 
 
-def shift_controls(controls: np.ndarray, steps: float) -> np.ndarray:
+def shift_controls(controls, steps: float) -> np.ndarray:
     """The sequence advanced by ``steps`` (fractional) model steps, the last control held.
 
-    ``out[k] = controls(k + steps)`` by linear interpolation in time.
+    ``out[k] = controls(k + steps)`` by linear interpolation in time; ``controls`` is a finite
+    (K, 2) sequence, K >= 1, m/s^2, and ``steps >= 0``.
+
+    Raises
+    ------
+    ValueError
+        On ``controls`` of another shape or with NaN or inf, or a negative or NaN ``steps``.
     """
+    where = "shift_controls"
+    try:
+        u = np.asarray(controls, dtype=np.float64)
+    except (TypeError, ValueError):
+        u = None
+    if u is None or u.ndim != 2 or u.shape[0] < 1 or u.shape[1] != 2:
+        raise ValueError(f"The 'controls' parameter of {where} must be an array of shape (K, 2) "
+                         f"with K >= 1, m/s^2. Got shape {np.shape(controls)} instead.")
+    if not np.isfinite(u).all():  # NaN or inf came back as a NaN warm start
+        raise ValueError(f"The 'controls' parameter of {where} must be finite. Got non-finite "
+                         "entries instead.")
+    return _shift(u, positive_float(steps, "steps", where, allow_zero=True))
+
+
+def _shift(controls: np.ndarray, steps: float) -> np.ndarray:
+    """:func:`shift_controls` without the checks, for the planner's own (K, 2) finite plan
+    (once per update: the checks would cost more than the shift of a short horizon)."""
     i, j, a = _shift_weights(controls.shape[0], float(steps))
     return (1.0 - a) * controls[i] + a * controls[j]
 
@@ -201,11 +224,24 @@ def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Gene
 
 
 def softmin_weights(costs: np.ndarray, temperature: float) -> np.ndarray:
-    """``w_i = exp(-(J_i - min J) / lambda) / sum``; non-finite costs get weight 0.
+    """``w_i = exp(-(J_i - min J) / lambda) / sum`` of the costs (S,); non-finite costs get
+    weight 0.
 
-    Returns all zeros when no cost is finite.
+    Returns all zeros when no cost is finite. Float costs keep their precision; integer ones
+    are weighted in float64.
+
+    Raises
+    ------
+    ValueError
+        On costs that are not a 1-D array of numbers, or a temperature that is not > 0.
     """
     temperature = positive_float(temperature, "temperature", "softmin_weights")  # 0: NaN
+    costs = np.asarray(costs)
+    if costs.ndim != 1 or costs.dtype.kind not in "biuf":  # (S, 2) was weighted as 2 S samples
+        raise ValueError("The 'costs' parameter of softmin_weights must be a 1-D array of "
+                         f"numbers (S,). Got shape {costs.shape} of {costs.dtype} instead.")
+    if costs.dtype.kind != "f":  # integer costs got integer weights: all 0
+        costs = costs.astype(np.float64)
     ok = np.isfinite(costs)
     w = np.zeros_like(costs)
     if not ok.any():
@@ -511,7 +547,7 @@ class MPPIPlanner:
         controls = out["controls"]
         self._last = (controls.copy(), pos.copy(), vel.copy(), problem.wind,
                       out["parts"][int(np.argmin(out["costs"]))].copy())
-        self.mean = shift_controls(controls, 1.0 / (cfg.rate_hz * cfg.dt))
+        self.mean = _shift(controls, 1.0 / (cfg.rate_hz * cfg.dt))
         total = 1e3 * (time.perf_counter() - t0)
         self.stats.profile_ms = {"obstacles": 1e3 * (t1 - t0), **prof, "total": total}
         for key, value in self.stats.profile_ms.items():

@@ -41,6 +41,14 @@ AERO_COLUMNS = ("time_s", "airspeed_x", "airspeed_y", "airspeed_z", "specific_fo
 _ROTOR = re.compile(r"^rotor_speed_(\d+)$")
 
 
+def _float_array(value, name: str) -> np.ndarray:
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The {name!r} parameter of AeroData must be an array of numbers. Got "
+                         f"{type(value).__name__} instead.") from None
+
+
 def aero_columns(n_rotors: int) -> tuple[str, ...]:
     """The full header of an aero CSV for ``n_rotors`` rotors."""
     return AERO_COLUMNS + tuple(f"rotor_speed_{i + 1}" for i in range(n_rotors))
@@ -62,6 +70,9 @@ class AeroData:
         rad/s.
     source : str
         Where the samples came from, for messages.
+
+    Every array is checked at construction: finite, with one row per time (K may be 0) and
+    at least one rotor.
     """
 
     t: np.ndarray
@@ -69,6 +80,28 @@ class AeroData:
     specific_force_body: np.ndarray
     rotor_speeds: np.ndarray
     source: str = "aero data"
+
+    def __post_init__(self):
+        # built by hand, arrays that did not line up reached fit_aero as a LinAlgError, an
+        # IndexError or a "linearly dependent" message, and NaN samples as the latter
+        names = ("t", "airspeed_body", "specific_force_body", "rotor_speeds")
+        arrays = {n: _float_array(getattr(self, n), n) for n in names}
+        t, eta = arrays["t"], arrays["rotor_speeds"]
+        k = t.shape[0] if t.ndim == 1 else None
+        wanted = {"t": ((k,), "(K,)"), "airspeed_body": ((k, 3), "(K, 3)"),
+                  "specific_force_body": ((k, 3), "(K, 3)"),
+                  "rotor_speeds": ((k, max(eta.shape[-1], 1) if eta.ndim == 2 else -1),
+                                   "(K, N) with N >= 1")}
+        for name, a in arrays.items():
+            shape, text = wanted[name]
+            if a.shape != shape:
+                raise ValueError(f"The {name!r} parameter of AeroData must be an array of shape "
+                                 f"{text}, K = len(t). Got shape {a.shape} with t "
+                                 f"{t.shape} instead.")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"The {name!r} parameter of AeroData must be finite (drop the "
+                                 "rows with NaN first). Got non-finite entries instead.")
+            object.__setattr__(self, name, a)
 
     @property
     def n_rotors(self) -> int:
@@ -165,14 +198,16 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
         R = Rotation.from_quat(log.attitude[near, b])
         va = R.inv().apply(rel)
         f = np.asarray(imu["accel"])[keep, b]
-        parts.append(AeroData(t, va, f, at(log.rotor_speeds), source))
+        eta = at(log.rotor_speeds)
+        ok = (np.all(np.isfinite(f), 1) & np.all(np.isfinite(va), 1)  # AeroData holds
+              & np.all(np.isfinite(eta), 1))                            # finite samples only
+        parts.append(AeroData(t[ok], va[ok], f[ok], eta[ok], source))
     if not parts:
         raise ValueError(f"The flight log {source!r} has no vehicle that flew with finite "
                          "values.")
     data = AeroData.concatenate(parts)
-    ok = np.all(np.isfinite(data.specific_force_body), 1)
-    return AeroData(data.t[ok], data.airspeed_body[ok], data.specific_force_body[ok],
-                    data.rotor_speeds[ok], source)
+    return AeroData(data.t, data.airspeed_body, data.specific_force_body, data.rotor_speeds,
+                    source)
 
 
 def block_average(data: AeroData, window_s: float) -> AeroData:

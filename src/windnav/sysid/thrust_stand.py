@@ -120,8 +120,19 @@ def rotor_acceleration(t, omega, window_s: float = 0.1) -> np.ndarray:
 
 def steady_mask(t, omega, *, max_accel: float = 1000.0, min_speed: float = 250.0,
                 window_s: float = 0.1) -> np.ndarray:
-    """The thesis's steady points: ``|d omega/dt| < max_accel`` (rad/s^2) and
-    ``omega > min_speed`` (rad/s); see :func:`rotor_acceleration`."""
+    """The thesis's steady points: ``|d omega/dt| < max_accel`` (rad/s^2, > 0) and
+    ``omega > min_speed`` (rad/s, >= 0); see :func:`rotor_acceleration`. ``t`` (n,) are finite,
+    increasing times, s, and ``omega`` (n,) the rotor speeds, rad/s (a NaN speed is not
+    steady)."""
+    where = "steady_mask"
+    # NaN thresholds kept no point, and NaN, repeated or decreasing times every point
+    max_accel = positive_float(max_accel, "max_accel", where)
+    min_speed = positive_float(min_speed, "min_speed", where, allow_zero=True)
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim == 1 and not (np.all(np.isfinite(t)) and np.all(np.diff(t) > 0)):
+        got = "repeated or decreasing" if np.all(np.isfinite(t)) else "non-finite"
+        raise ValueError(f"The 't' parameter of {where} must be finite and increasing, s. Got "
+                         f"{got} times instead.")
     w = np.asarray(omega, dtype=np.float64)
     return (np.abs(rotor_acceleration(t, w, window_s)) < max_accel) & (w > min_speed)
 
@@ -221,6 +232,8 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
         fewer steady points than parameters, a PWM that never changes.
     """
     n_rotors = positive_int(n_rotors, "n_rotors", where)
+    max_accel = positive_float(max_accel, "max_accel", where)  # else named by steady_mask
+    min_speed = positive_float(min_speed, "min_speed", where, allow_zero=True)
     if not tables:
         raise ValueError(f"The 'tables' parameter of {where} must hold at least one file.")
     if not all(isinstance(tab, Table) for tab in tables):  # an AttributeError before

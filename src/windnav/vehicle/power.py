@@ -173,9 +173,11 @@ class PowerCurve:
         Conditions: ``P(0) = hover_power``; ``P(V_E) = min_power`` and ``P'(V_E) = 0`` at
         ``V_E = min_power_speed``; the no-wind range tangency ``P'(V_R) V_R = P(V_R)`` at
         ``V_R = max_range_speed``, i.e. ``c2 V_R^2 + 2 c3 V_R^3 = c0``. Solved as a 4x4 linear
-        system.
+        system; conditions whose cubic is not above 0 W on ``[0, speed_max]`` raise a
+        ValueError.
         """
         where = "PowerCurve.from_conditions"
+        speed_max = positive_float(speed_max, "speed_max", where)
         c0 = positive_float(hover_power, "hover_power", where)
         p_min = positive_float(min_power, "min_power", where)
         v_e = positive_float(min_power_speed, "min_power_speed", where)
@@ -203,7 +205,16 @@ class PowerCurve:
             raise ValueError(f"The 'min_power_speed' and 'max_range_speed' parameters of {where} "
                              f"must give a solvable cubic. Got {min_power_speed!r} and "
                              f"{max_range_speed!r} instead.")
-        return cls(coeffs, speed_max=speed_max, name=name)
+        curve = cls(coeffs, speed_max=speed_max, name=name)
+        lowest, at = _lowest_power(curve)
+        if not lowest > 0:  # (10, 1, 4, 7) fell to -8.9 W at 12 m/s: a negative energy per metre
+            raise ValueError(
+                f"The 'hover_power', 'min_power', 'min_power_speed', 'max_range_speed' and "
+                f"'speed_max' parameters of {where} must give a cubic above 0 W from 0 to "
+                f"speed_max (its lowest: {lowest:.3g} W at {at:.3g} m/s). Got {hover_power!r}, "
+                f"{min_power!r}, {min_power_speed!r}, {max_range_speed!r} and {speed_max!r} "
+                "instead.")
+        return curve
 
     @classmethod
     def crazyflie(cls) -> PowerCurve:
@@ -283,6 +294,16 @@ def _check_curve(curve, where: str) -> None:
                          f"{type(curve).__name__} instead.")
 
 
+def _lowest_power(curve: PowerCurve) -> tuple[float, float]:
+    """``(P, V)``: the least power of ``curve`` on a grid of ``[0, speed_max]`` (W) and where
+    (m/s); NaN where the polynomial overflows."""
+    v = np.linspace(0.0, curve.speed_max, _GRID)
+    with np.errstate(all="ignore"):
+        p = curve(v)
+    k = int(np.argmin(p))  # the first NaN, if any
+    return float(p[k]), float(v[k])
+
+
 def max_endurance_speed(curve: PowerCurve) -> float:
     """Airspeed of least power ``argmin_{0 <= V <= speed_max} P(V)``, m/s."""
     _check_curve(curve, "max_endurance_speed")
@@ -312,9 +333,16 @@ def max_range_speed(curve: PowerCurve, wind_along: float = 0.0) -> RangeOptimum:
     Raises
     ------
     ValueError
-        If the headwind is at least ``speed_max`` (no forward progress possible).
+        If the headwind is at least ``speed_max`` (no forward progress possible), or the
+        curve's power is not above 0 W everywhere on ``[0, speed_max]``.
     """
     _check_curve(curve, "max_range_speed")
+    lowest, at = _lowest_power(curve)
+    if not lowest > 0:  # P <= 0 made P / V least at the ends of the search: a negative J/m
+        raise ValueError(
+            "The 'curve' parameter of max_range_speed must have a power above 0 W from 0 to its "
+            f"speed_max {curve.speed_max:g} m/s (its lowest: {lowest:.3g} W at {at:.3g} m/s). "
+            f"Got the curve {curve.name!r} instead.")
     w = finite_float(wind_along, "wind_along", "max_range_speed")
     hi = w + curve.speed_max
     if hi <= 0:
