@@ -127,6 +127,17 @@ def test_calibrate_command_writes_the_fit(tmp_path, capsys):
     assert "k_d" in capsys.readouterr().out
 
 
+def test_calibrate_command_names_settle_when_it_leaves_no_sample(tmp_path, capsys):
+    # "The 'settle_s' parameter of fit_drag must leave samples" named no option of the command
+    assert main(["calibrate", "--out", str(tmp_path / "c"), "--duration", "1",
+                 "--settle", "0.999"]) == 2
+    err = capsys.readouterr().err
+    assert ("error: The '--settle' parameter of windnav calibrate must leave samples in the "
+            "log" in err)
+    assert "settle_s" not in err and "fit_drag" not in err
+    assert not (tmp_path / "c").exists()
+
+
 def test_estimate_imports_neither_the_simulator_nor_the_experiments():
     """The fitting math is pure: no module of windnav.estimate imports windnav.sim or
     windnav.experiments at import time."""

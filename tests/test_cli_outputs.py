@@ -45,6 +45,59 @@ def test_every_listed_command_is_registered_with_json_overwrite_and_seed():
             assert ("--seed" in opts) == (words[0] in SEEDED), words
 
 
+def _help_of(sub, action) -> str:
+    """The help of one option as ``--help`` prints it (``%(default)s`` expanded), one line."""
+    return " ".join(sub._get_formatter()._expand_help(action).split()) if action.help else ""
+
+
+def _default_text(value) -> str:
+    if isinstance(value, (list, tuple)):
+        return " ".join(_default_text(v) for v in value)
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def test_every_option_with_a_default_says_it_in_its_help():
+    # many --help entries gave neither the default nor, for a physical quantity, the unit
+    # (CLI audit, 2026-12-05); the flags, required options and options off by default aside
+    parser = build_parser()
+    action = next(a for a in parser._actions if a.dest == "command")
+    flags = (argparse._HelpAction, argparse._StoreTrueAction, argparse._StoreFalseAction,
+             argparse.BooleanOptionalAction)
+    missing = []
+    for words, sub in leaves(action.choices):
+        for a in sub._actions:
+            if (not a.option_strings or a.required or isinstance(a, flags)
+                    or a.default is None or a.default == []):
+                continue
+            text = _help_of(sub, a)
+            if not ("default" in text or str(a.default) in text
+                    or _default_text(a.default) in text):
+                missing.append(f"{' '.join(words)} {a.option_strings[0]}: {text!r}")
+    assert not missing, "\n".join(missing)
+
+
+@pytest.mark.parametrize("words, option, needles", [
+    (("sysid", "simulate-stand"), "--kv", ["rad/s/V/count^(2/3)", "default: the vehicle's"]),
+    (("sysid", "simulate-tunnel"), "--max-speed", ["airspeed, m/s (6.0)"]),
+    (("sysid", "simulate-tunnel"), "--record-s", ["s (1.5)"]),
+    (("sysid", "power"), "--time-col", ["s:", "default: none, every sample is used"]),
+    (("sysid", "aero"), "--average-s", ["seconds", "default: none, no averaging"]),
+    (("similitude",), "--full-scale-mass", ["kg (default: none"]),
+    (("similitude",), "--kinematic-viscosity", ["kinematic viscosity of the air, m^2/s"]),
+    (("calibrate",), "--settle", ["s (default 3.0"]),
+    (("nav-study",), "--values", ["the window side H, m", "the tilt cap, deg"]),
+    (("decoder-study",), "--sizes", ["cells per side"]),
+    (("wind-sweep",), "--maps", ["default: none"]),
+])
+def test_help_gives_units_and_what_an_unset_option_means(words, option, needles):
+    parser = build_parser()
+    subs = next(a for a in parser._actions if a.dest == "command").choices
+    sub = dict(leaves(subs))[words]
+    text = _help_of(sub, next(a for a in sub._actions if option in a.option_strings))
+    for needle in needles:
+        assert needle in text, text
+
+
 def test_a_command_module_that_fails_to_import_is_not_dropped(monkeypatch):
     import windnav.cli as cli
 

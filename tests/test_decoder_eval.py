@@ -238,6 +238,25 @@ def test_predict_rejects_a_point_inside_a_building(map_and_model, capsys):
     assert not (d / "bad").exists()
 
 
+@pytest.mark.parametrize("extra, expected", [
+    (["--direction-deg", "nan"], "The '--direction-deg' parameter of windnav predict must be "
+                                 "finite"),
+    (["--direction-deg", "0", "--dx", "30"], "The '--dx' parameter of windnav predict is too "
+                                             "coarse for the map"),
+])
+def test_predict_names_the_option_of_a_bad_inlet(map_and_model, capsys, extra, expected):
+    # "The 'direction_deg' parameter of simulate must be finite" named no option of predict
+    d, city = map_and_model
+    rc = main(["predict", "--map", str(d / "map.json"), "--at", "5", "5", "--speed", "5",
+               *extra, "--model", str(d / "model.npz"), "--out", str(d / "bad_inlet"),
+               "--no-progress"])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert expected in err
+    assert "of simulate" not in err and "simulate:" not in err and "Use dx" not in err
+    assert not (d / "bad_inlet").exists()
+
+
 def test_evaluate_decoder_command_writes_json_and_figure(map_and_model, monkeypatch, capsys):
     import windnav.commands.evaluate_decoder as cmd
 

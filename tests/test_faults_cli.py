@@ -198,6 +198,31 @@ def test_fly_names_the_option_behind_a_bad_rate_or_speed(tmp_path, capsys, never
     assert not (tmp_path / "run").exists()
 
 
+def test_fly_refuses_a_wind_option_its_wind_would_ignore(tmp_path, capsys, never_computes):
+    # `fly --wind none --wind-mean 5 0 0` flew in still air, the mean silently ignored
+    never_computes("fly")
+    out = str(tmp_path / "run")
+    assert main(["fly", "--wind", "none", "--wind-mean", "5", "0", "0", "--out", out]) == 2
+    one_line_error(capsys, "'--wind-mean' parameter of windnav fly applies only to --wind "
+                           "constant or dryden", "Got --wind-mean 5 0 0 with --wind none")
+    # typed, even at its default value: the user meant a wind
+    assert main(["fly", "--wind", "none", "--wind-mean", "3", "1", "0", "--out", out]) == 2
+    one_line_error(capsys, "'--wind-mean'", "--wind none")
+    assert main(["fly", "--wind", "constant", "--wind-sigma", "1", "1", "1", "--out", out]) == 2
+    one_line_error(capsys, "'--wind-sigma' parameter of windnav fly applies only to --wind "
+                           "dryden", "with --wind constant")
+    assert not (tmp_path / "run").exists()
+
+
+def test_fly_without_wind_options_records_their_defaults(tmp_path):
+    out = tmp_path / "run"
+    assert main(["fly", "--duration", "0.2", "--wind", "none", "--no-plots",
+                 "--out", str(out)]) == 0
+    arguments = json.loads((out / "summary.json").read_text())["arguments"]
+    assert arguments["wind_mean"] == [3.0, 1.0, 0.0]
+    assert arguments["wind_sigma"] == [1.5, 1.5, 0.7]
+
+
 def test_fly_at_a_coarse_step_runs_its_controller_and_sensors_at_rates_that_fit(tmp_path):
     out = tmp_path / "run"
     assert main(FLY + ["--dt", "0.02", "--no-plots", "--out", str(out)]) == 0

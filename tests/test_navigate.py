@@ -383,6 +383,28 @@ def test_command_passes_the_energy_mode_to_the_planner(command_kwargs):
         parse(base + ["--energy", "trip"])
 
 
+def test_command_refuses_an_energy_mode_the_variant_would_ignore(command_kwargs):
+    # `navigate --variant mppi --energy mission` flew MPPI (Q_E = 0) with --energy ignored
+    seen, base = command_kwargs
+    for variant in ("mppi", "mppi-w", "gs", "gs-w"):
+        args = parse(base + ["--variant", variant, "--energy", "mission"])
+        with pytest.raises(ValueError, match=f"'--energy' parameter of windnav navigate "
+                                             f"applies only to the energy-aware variants.*"
+                                             f"--variant '{variant}'"):
+            args.func(args)
+        assert not seen
+        args = parse(base + ["--variant", variant])  # the default --energy: no error
+        with pytest.raises(_Stop):
+            args.func(args)
+        assert seen["planner_overrides"] is None
+        seen.clear()
+    for variant in ("ea-mppi", "ea-mppi-w-hat", "ea-mppi-w-esc"):
+        args = parse(base + ["--variant", variant, "--energy", "mission"])
+        with pytest.raises(_Stop):
+            args.func(args)
+        assert seen["planner_overrides"] == {"energy_mode": "mission"}
+
+
 def test_command_passes_the_onboard_settings_only_to_the_onboard_stack(command_kwargs):
     seen, base = command_kwargs
     hat = ["--variant", "ea-mppi-w-hat"]

@@ -87,3 +87,25 @@ def test_the_report_notes_what_leaves_the_scaling_valid():
     assert Similitude.thesis().report(full_scale_speed=1.0)["notes"] == []
     swapped = Similitude(0.055, 1.8).report()["notes"]
     assert len(swapped) == 1 and "the model is larger than the full-scale aircraft" in swapped[0]
+
+
+@pytest.mark.parametrize("command", [["similitude"], ["sysid", "similitude"]])
+@pytest.mark.parametrize("option, value", [("--strouhal", 0), ("--kinematic-viscosity", 0),
+                                           ("--full-scale-mass", -1),
+                                           ("--control-rate-hz", -1),
+                                           ("--obstacle-width", -1), ("--scale", 1e-200)])
+def test_similitude_command_names_the_option_typed(command, option, value):
+    # "The 'strouhal' parameter of Similitude.report must be ..." named no option the user
+    # could type
+    base = ["--full-scale-speed", 10, "--control-rate-hz", 500, "--obstacle-width", 0.3]
+    with pytest.raises(ValueError) as info:
+        _cli(*command, *base, f"{option}={value}")
+    text = str(info.value)
+    assert text.startswith(f"The '{option}' parameter of windnav {' '.join(command)} must")
+    assert "Similitude" not in text
+
+
+def test_similitude_command_checks_a_strouhal_number_it_would_not_use():
+    # without an obstacle the bad --strouhal was silently ignored
+    with pytest.raises(ValueError, match="'--strouhal' parameter of windnav similitude"):
+        _cli("similitude", "--strouhal", -1)

@@ -461,6 +461,33 @@ def test_cli_errors_name_the_argument(tmp_path, capsys):
         assert rc == 2 and "'--directions'" in capsys.readouterr().err
 
 
+def test_cli_wind_sweep_refuses_a_direction_count_that_is_no_count(tmp_path, capsys):
+    # `--directions 400` (an angle) ran 400 simulations 0.9 deg apart, and a NaN in a list
+    # was "'directions' parameter of directions_from"; --workers 0 stops a run that got past
+    from windnav.cli import build_parser, main
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    base = ["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+            "--workers", "0"]
+    for count in ("400", "361", "0", "-8"):
+        assert main(base + ["--directions", count]) == 2
+        err = capsys.readouterr().err
+        assert ("'--directions' parameter of windnav wind-sweep must be, as one value, a count "
+                "of directions from 1 to 360" in err), err
+        assert f"for a single direction of {count} deg, give --directions-deg {count}." in err
+        assert "is a count" not in err  # refused, not noted
+    for extra, flag in ((["--directions", "0", "nan"], "--directions"),
+                        (["--directions-deg", "inf"], "--directions-deg")):
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err
+        assert f"'{flag}' parameter of windnav wind-sweep must be finite" in err, err
+    sweep_parser = build_parser()._subparsers._group_actions[0].choices["wind-sweep"]
+    text = " ".join(sweep_parser.format_help().split())
+    assert "a COUNT N of directions (an integer, 1 to 360)" in text
+    assert "never an angle" in text and "two or more values: the directions themselves" in text
+    assert not (tmp_path / "s.zarr").exists()
+
+
 def test_cli_wind_sweep_into_a_store_of_another_sweep_names_out(tmp_path, capsys):
     from windnav.cli import build_parser, main
     from windnav.commands import wind_sweep

@@ -20,6 +20,7 @@ from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    options_named,
     outputs,
     print_written,
     seed,
@@ -41,11 +42,14 @@ def register(subparsers) -> None:
                     "(and parasitic) drag coefficients by least squares.",
     )
     p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES,
-                   help="built-in vehicle name")
+                   help="built-in vehicle name (default %(default)s)")
     p.add_argument("--out", type=Path, required=True, help="output directory")
     p.add_argument("--seed", type=int, default=0, help="sensor-noise seed (default 0)")
-    p.add_argument("--duration", type=float, default=6.0, help="flight time per row, s")
-    p.add_argument("--settle", type=float, default=3.0, help="samples before this are dropped, s")
+    p.add_argument("--duration", type=float, default=6.0,
+                   help="flight time per row, s (default %(default)s)")
+    p.add_argument("--settle", type=float, default=3.0,
+                   help="samples before this are dropped, s (default %(default)s; below "
+                        "--duration)")
     p.add_argument("--linear", action="store_true",
                    help="fit only k_d and k_z (parasitic drag fixed at 0)")
     p.add_argument("--sensor-noise", choices=("windnav", "rotorpy"), default="windnav",
@@ -73,7 +77,8 @@ def run(args) -> int:
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     log = calibration_flights(truth, duration=duration, rng=args.seed,
                               sensors=sensor_suite(100.0, args.sensor_noise))
-    fit = fit_drag(log, truth, settle_s=settle, parasitic=not args.linear)
+    with options_named({"'settle_s' parameter of fit_drag": f"'--settle' parameter of {name}"}):
+        fit = fit_drag(log, truth, settle_s=settle, parasitic=not args.linear)
     print(f"drag calibration of {truth.name}: {fit.rows_used} rows ({fit.rows_dropped} "
           f"dropped), {fit.n_samples} samples")
     print(f"{'coefficient':<12}{'fitted':>14}{'std err':>12}{'true':>14}{'rel. error':>12}")

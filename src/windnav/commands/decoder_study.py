@@ -83,7 +83,8 @@ def register(subparsers) -> None:
     p.add_argument("study", choices=STUDIES, help="which study")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder (JSON, figure)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the inlets and the samples")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the inlets and the samples (default %(default)s)")
     p.add_argument("--quick", action="store_true",
                    help="a tiny run (tests): small map and short flows, or the tiny recipe")
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
@@ -99,7 +100,7 @@ def register(subparsers) -> None:
     p.add_argument("--samples", type=int, default=2048, metavar="N",
                    help="samples per (map, inlet) for eigenflows and gradients (default 2048)")
     p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
-                   help="keep the flow solutions here and reuse them")
+                   help="keep the flow solutions here and reuse them (default: no cache)")
     p.add_argument("--runs", type=Path, default=None, metavar="DIR",
                    help="winds/size/scaling: the sweep store and trained models (default "
                         "runs/decoder_studies, runs/scaling, or with --quick ..._quick)")
@@ -109,11 +110,13 @@ def register(subparsers) -> None:
     p.add_argument("--samples-per-field", type=int, default=None, metavar="N",
                    help="winds/size: training samples per mean field (default 384)")
     p.add_argument("--sizes", type=int, nargs="+", default=None, metavar="H",
-                   help="size: the grid sizes (default 5 15 25 35 45; quick 5 15 25)")
+                   help="size: the grid sizes H, cells per side of the H x H window, odd "
+                        "(default 5 15 25 35 45; quick 5 15 25)")
     p.add_argument("--speed", type=float, default=6.0,
                    help="averaging, start: inlet speed, m/s (%(default)s)")
     p.add_argument("--direction-deg", type=float, default=3.75,
-                   help="averaging, start: inlet direction, deg toward (%(default)s)")
+                   help="averaging, start: direction the inlet wind blows toward, deg CCW "
+                        "from +x (%(default)s)")
     p.add_argument("--windinet", action="store_true",
                    help="averaging, start: the third-party windinet 1.1 km layout instead of the "
                         "default recipe's held-out district; direction, basis: instead of the "

@@ -67,8 +67,9 @@ def register(sub) -> None:
     p.add_argument("--story", choices=STORIES, default="navigate",
                    help="which demo (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0,
-                   help="seed of the city, the planners and the sensors")
-    p.add_argument("--wind-speed", type=float, default=5.0, help="inlet wind speed, m/s")
+                   help="seed of the city, the planners and the sensors (default %(default)s)")
+    p.add_argument("--wind-speed", type=float, default=5.0,
+                   help="inlet wind speed, m/s (default %(default)s)")
     p.add_argument("--flow-dt", type=float, default=None,
                    help="time step of the flow solver, s (default: 0.25 navigate, 0.2 ukf, or "
                         "less to keep wind_speed * flow_dt / dx <= 1)")
@@ -89,7 +90,8 @@ def register(sub) -> None:
     ukf.add_argument("--conditions", choices=tuple(CONDITIONS), default=None,
                      help="Wind UKF preset (sensors and filter; see docs/ukf.md); default: "
                           "windnav's sensors and the filter's defaults")
-    p.add_argument("--out", type=Path, default=Path("out/demo"), help="output folder")
+    p.add_argument("--out", type=Path, default=Path("out/demo"),
+                   help="output folder (default %(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run)
 

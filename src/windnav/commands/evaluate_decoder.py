@@ -67,10 +67,12 @@ def register(subparsers) -> None:
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder (JSON, figure)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the inlets and the samples")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the inlets and the samples (default %(default)s)")
     p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
                    help="keep each inlet's flow here and reuse it when the same map, inlet and "
-                        "protocol come again (shared with decoder-study --flow-cache)")
+                        "protocol come again (shared with decoder-study --flow-cache; "
+                        "default: no cache)")
     p.add_argument("--no-progress", action="store_true", help="hide the per-inlet lines")
     add_output_arguments(p)
     p.set_defaults(func=run)

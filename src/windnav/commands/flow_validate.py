@@ -45,7 +45,8 @@ def register(subparsers) -> None:
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes for the Strouhal runs (default: all cores)")
     p.add_argument("--seed", type=int, default=0,
-                   help="seed of the random city layout (and of the label-noise map)")
+                   help="seed of the random city layout (and of the label-noise map) "
+                        "(%(default)s)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)

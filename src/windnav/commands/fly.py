@@ -46,12 +46,15 @@ def register(sub) -> None:
     p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES,
                    help="vehicle preset (%(default)s)")
     p.add_argument("--wind", default="dryden", choices=WIND_KINDS,
-                   help="wind model (%(default)s; none ignores --wind-mean and --wind-sigma)")
-    p.add_argument("--wind-mean", type=float, nargs=3, default=(3.0, 1.0, 0.0),
-                   metavar=("WX", "WY", "WZ"), help="mean wind, world frame, m/s (3 1 0)")
-    p.add_argument("--wind-sigma", type=float, nargs=3, default=(1.5, 1.5, 0.7),
+                   help="wind model (%(default)s; none: still air, an error with --wind-mean "
+                        "or --wind-sigma)")
+    # default None: whether the option was typed (it is an error with a wind that ignores it)
+    p.add_argument("--wind-mean", type=float, nargs=3, default=None,
+                   metavar=("WX", "WY", "WZ"),
+                   help="mean wind, world frame, m/s (3 1 0); constant and dryden only")
+    p.add_argument("--wind-sigma", type=float, nargs=3, default=None,
                    metavar=("SX", "SY", "SZ"),
-                   help="Dryden gust standard deviations, m/s (1.5 1.5 0.7)")
+                   help="Dryden gust standard deviations, m/s (1.5 1.5 0.7); dryden only")
     p.add_argument("--trajectory", default="circle", choices=TRAJECTORIES,
                    help="reference trajectory (%(default)s)")
     p.add_argument("--size", type=float, default=3.0,
@@ -99,12 +102,37 @@ def _check_rates(dt: float, control_rate_hz, sensor_rate_hz, name: str) -> None:
             "itself to --dt).")
 
 
+WIND_DEFAULTS = {"wind_mean": (3.0, 1.0, 0.0), "wind_sigma": (1.5, 1.5, 0.7)}
+"""``--wind-mean`` and ``--wind-sigma`` when not given, m/s."""
+
+WIND_USES = {"wind_mean": ("constant", "dryden"), "wind_sigma": ("dryden",)}
+"""The ``--wind`` kinds that use each option: with another, the option is refused."""
+
+
+def _wind_options(args, name: str) -> None:
+    """Refuse ``--wind-mean``/``--wind-sigma`` typed with a ``--wind`` that ignores them (``fly
+    --wind none --wind-mean 5 0 0`` flew in still air), then fill in their defaults."""
+    for key, kinds in WIND_USES.items():
+        value = getattr(args, key)
+        if value is not None and args.wind not in kinds:
+            flag = "--" + key.replace("_", "-")
+            what = "still air" if args.wind == "none" else "a steady wind"
+            raise ValueError(
+                f"The '{flag}' parameter of {name} applies only to --wind "
+                f"{' or '.join(kinds)}: --wind {args.wind} flies in {what} and would ignore "
+                f"it. Got {flag} {' '.join(f'{v:g}' for v in value)} with --wind {args.wind} "
+                "instead.")
+        if value is None:
+            setattr(args, key, WIND_DEFAULTS[key])
+
+
 def run(args) -> int:
     from windnav.experiments.flight import make_wind, run_flight
     from windnav.experiments.results import json_ready, write_json
 
     name = where(args)
     seed(args)
+    _wind_options(args, name)
     size = positive_float(args.size, "--size", name)
     duration = positive_float(args.duration, "--duration", name)
     dt = positive_float(args.dt, "--dt", name)

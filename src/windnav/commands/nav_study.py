@@ -97,14 +97,16 @@ def register(subparsers) -> None:
     p.add_argument("--store", type=Path, default=None,
                    help="qe, h, tilt: the benchmark store the flights go to (created or "
                         "resumed); "
-                        "cases, pace, bound: the store whose records are read")
+                        "cases, pace, bound: the store whose records are read (no default: "
+                        "these studies need it)")
     p.add_argument("--suite", choices=tuple(SUITES), default="thesis",
                    help="the suite (%(default)s)")
     p.add_argument("--maps", default=None, metavar="LIST",
                    help="the suite's maps to fly, e.g. 0-1 (default: all)")
     p.add_argument("--values", type=float, nargs="+", default=None,
-                   help="the values swept (default: qe 0 0.5 1 2 3 4 5 6; h 0 25 50 100 200 "
-                        "inf; tilt 55 70 78 degrees)")
+                   help="the values swept: qe, Q_E; h, the window side H, m; tilt, the "
+                        "tilt cap, deg (default: qe 0 0.5 1 2 3 4 5 6; h 0 25 50 100 200 "
+                        "inf; tilt 55 70 78)")
     p.add_argument("--variant", default=None,
                    help="cases, pace: the variant compared with MPPI (default ea-mppi-w); "
                         "inflight: the onboard-stack variant re-flown (default "
@@ -120,7 +122,7 @@ def register(subparsers) -> None:
     p.add_argument("--tau", type=float, nargs="+", default=[], metavar="S",
                    help="inflight: also score the decoder and Local given the UKF's estimate "
                         "averaged over time with each time constant, s (> 0; the onboard "
-                        "stack's '@tau=S'); nothing flies differently")
+                        "stack's '@tau=S'); nothing flies differently (default: none)")
     p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
@@ -135,7 +137,7 @@ def register(subparsers) -> None:
                         "envelope limit")
     p.add_argument("--fly", default=None, metavar="VARIANTS",
                    help="feasibility: also fly these variants' pending flights (comma-separated "
-                        "labels) into --store, in the same winds")
+                        "labels) into --store, in the same winds (default: none)")
     p.add_argument("--scenario", default=None,
                    help="gusts: the scenario re-flown (default thesis/m12/w14/p2)")
     p.add_argument("--base", default=None,

@@ -72,7 +72,10 @@ def register(sub) -> None:
     p.add_argument("--energy", choices=ENERGY_MODES, default="horizon",
                    help="what the energy-aware variants' J_E measures: the planning horizon's "
                         "energy (the thesis) or the mission's, which is least at the "
-                        "max-range speed (ours) (%(default)s)")
+                        "max-range speed (ours) (%(default)s); 'mission' is an error with "
+                        "the variants without an energy term ("
+                        + ", ".join(k for k in VARIANTS if k not in energy_aware_variants())
+                        + ")")
     p.add_argument("--outside", choices=("zero", "robot"), default="zero",
                    help="ea-mppi-w-hat only: the planner's wind outside the decoder's window, "
                         "zero (the thesis) or the decoder's W_robot (ours) (%(default)s)")
@@ -121,6 +124,29 @@ def _onboard(args, name: str) -> dict | None:
     return settings or None
 
 
+def energy_aware_variants() -> tuple[str, ...]:
+    """The variants whose MPPI cost has an energy term (``Q_E > 0``): the only ones
+    ``--energy`` changes (:class:`~windnav.plan.PlannerConfig` ``energy_mode``)."""
+    from windnav.plan import VARIANTS
+
+    return tuple(k for k, v in VARIANTS.items() if v.planner == "mppi" and v.energy_weight > 0)
+
+
+def _energy_mode(args, name: str) -> dict | None:
+    """The planner override of ``--energy`` (None: the default, ``horizon``); a ValueError
+    when it is given to a variant without an energy term, which would ignore it."""
+    if args.energy == "horizon":
+        return None
+    aware = energy_aware_variants()
+    if args.variant not in aware:
+        raise ValueError(f"The '--energy' parameter of {name} applies only to the energy-aware "
+                         f"variants (--variant {', '.join(aware)}), whose J_E it sets; "
+                         f"--variant {args.variant!r} has no energy term and would ignore it. "
+                         f"Got --energy {args.energy!r} with --variant {args.variant!r} "
+                         "instead.")
+    return {"energy_mode": args.energy}
+
+
 def run(args) -> int:
     import numpy as np
 
@@ -138,6 +164,7 @@ def run(args) -> int:
                          f"Got {args.horizon!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
     onboard = _onboard(args, name)
+    energy = _energy_mode(args, name)
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
     goal = [finite_float(v, "--goal", name) for v in args.goal]
@@ -164,8 +191,7 @@ def run(args) -> int:
     result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                       variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
                       horizon=horizon, tilt_max_deg=args.tilt_max_deg, onboard=onboard,
-                      planner_overrides=({"energy_mode": args.energy}
-                                         if args.energy != "horizon" else None))
+                      planner_overrides=energy)
     summary = {"map": str(args.map), "seed": args.seed, **result.summary()}
     doc = document("navigate", summary, args)
     with out.writing() as stage:

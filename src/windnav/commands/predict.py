@@ -21,6 +21,7 @@ from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    options_named,
     outputs,
     print_written,
     seed,
@@ -50,7 +51,8 @@ def register(subparsers) -> None:
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
     p.add_argument("--scan-noise", type=float, default=0.0, metavar="M",
                    help="LiDAR range noise standard deviation, m (default 0: noise-free)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the scan noise")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the scan noise (default %(default)s)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder (figure, JSON)")
     p.add_argument("--no-progress", action="store_true", help="hide the solver's progress")
@@ -82,8 +84,15 @@ def run(args, flow_settings=None) -> int:
                                           f"'--model' parameter of {name}")) from None
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     settings = {**PROTOCOL, "dt": auto_dt(dx, speed), **(flow_settings or {})}
-    sol = simulate(city, speed=speed, direction_deg=args.direction_deg, dx=dx,
-                   progress=not args.no_progress, **settings)
+    with options_named({"'direction_deg' parameter of simulate":
+                        f"'--direction-deg' parameter of {name}",
+                        "'speed' parameter of simulate": f"'--speed' parameter of {name}",
+                        "'dx' parameter of simulate": f"'--dx' parameter of {name}",
+                        "simulate: City block": f"The '--dx' parameter of {name} is too coarse "
+                                                "for the map: its block",
+                        "Use dx <=": "Use --dx <="}):
+        sol = simulate(city, speed=speed, direction_deg=args.direction_deg, dx=dx,
+                       progress=not args.no_progress, **settings)
     field = field_from_solution(city, sol, name=str(args.map))
     pred = predict_at(dec, field, at, scan_noise=noise, rng=args.seed)
     c = len(pred["offsets"]) // 2  # the robot's cell (H is odd: offsets centred on 0)

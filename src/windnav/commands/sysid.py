@@ -145,7 +145,9 @@ def _register_thrust_stand(ss) -> None:
                                   "w = Kv (V + V0)(PWM - DZ)^(2/3). CSV header: timestamp,pwm,"
                                   "thrust_N,torque_Nm,rpm,voltage_V,current_A (thrust_N: the "
                                   "whole vehicle; rpm: one motor).")
-    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE")
+    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE",
+                   help="stand logs, CSV with the header above (default: none; give --csv or "
+                        "--bag)")
     _add_bag_arguments(p)
     p.add_argument("--n-rotors", type=int, default=4,
                    help="rotors carrying the measured thrust (%(default)s)")
@@ -155,7 +157,8 @@ def _register_thrust_stand(ss) -> None:
                    help="steady: w above this, rad/s (%(default)s)")
     p.add_argument("--window-s", type=float, default=0.1,
                    help="window of the dw/dt line fit, s (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_thrust_stand"))
+    p.add_argument("--out", type=Path, default=Path("out/sysid_thrust_stand"),
+                   help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_thrust_stand)
 
@@ -194,19 +197,23 @@ def _register_aero(ss) -> None:
                                   "z up).")
     p.add_argument("--log", type=Path, nargs="+", default=[], metavar="FILE",
                    help="FlightLog .npz files (IMU specific force, logged airspeed and rotor "
-                        "speeds)")
-    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE")
+                        "speeds) (default: none; give --log, --csv or --bag)")
+    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE",
+                   help="CSV files with the header above (default: none)")
     _add_bag_arguments(p)
     p.add_argument("--mass", type=float, default=None,
                    help="vehicle mass, kg (default: from --vehicle or the log)")
-    p.add_argument("--vehicle", default=None, help="take the mass from this vehicle preset")
+    p.add_argument("--vehicle", default=None,
+                   help="take the mass from this vehicle preset (default: none)")
     p.add_argument("--settle-s", type=float, default=None,
                    help="drop log samples before this time, s (default: the log's "
                         "meta['sysid']['settle_s'], else 0)")
     p.add_argument("--average-s", type=float, default=None,
                    help="average consecutive samples over blocks of this many seconds "
-                        "before fitting (against noise on rotor speeds and airspeed)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_aero"))
+                        "before fitting (against noise on rotor speeds and airspeed) "
+                        "(default: none, no averaging)")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_aero"),
+                   help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_aero)
 
@@ -296,17 +303,21 @@ def _register_power(ss) -> None:
                                   "--time-col, only steady level flight is used.")
     p.add_argument("--csv", type=Path, default=None, metavar="FILE",
                    help="a CSV with a header, or a headerless whitespace table (columns "
-                        "named 0, 1, ... or by --layout)")
+                        "named 0, 1, ... or by --layout) (default: none; give --csv or --bag)")
     _add_bag_arguments(p)
     p.add_argument("--layout", default=None, choices=sorted(LAYOUTS),
-                   help="column names of a headerless table")
+                   help="column names of a headerless table (default: none, columns 0, 1, "
+                        "...)")
     p.add_argument("--speed-col", required=True, help="speed column, m/s")
     p.add_argument("--power-col", required=True, help="electrical power column, W")
     p.add_argument("--time-col", default=None,
-                   help="time column, s: select steady level flight")
-    p.add_argument("--vertical-speed-col", default=None, help="climb-rate column, m/s")
-    p.add_argument("--altitude-col", default=None, help="height column, m")
-    p.add_argument("--min-altitude", type=float, default=None, help="keep samples above, m")
+                   help="time column, s: select steady level flight (default: none, every "
+                        "sample is used)")
+    p.add_argument("--vertical-speed-col", default=None,
+                   help="climb-rate column, m/s (default: none)")
+    p.add_argument("--altitude-col", default=None, help="height column, m (default: none)")
+    p.add_argument("--min-altitude", type=float, default=None,
+                   help="keep samples above, m (default: none, no altitude limit)")
     p.add_argument("--max-vertical-speed", type=float, default=0.3,
                    help="level: |climb rate| below, m/s (%(default)s)")
     p.add_argument("--max-accel", type=float, default=0.5,
@@ -314,15 +325,16 @@ def _register_power(ss) -> None:
     p.add_argument("--min-segment-s", type=float, default=1.0,
                    help="drop steady runs shorter than this, s (%(default)s)")
     p.add_argument("--speed-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
-                   help="fit only the samples with speeds in [LO, HI], m/s")
+                   help="fit only the samples with speeds in [LO, HI], m/s (default: all)")
     p.add_argument("--degree", type=int, default=3, help="polynomial degree (%(default)s)")
     p.add_argument("--speed-max", type=float, default=None,
                    help="upper end of the speed searches, m/s (default: the fastest sample)")
     p.add_argument("--wind", type=float, nargs=3, default=(-5.0, 5.0, 1.0),
                    metavar=("MIN", "MAX", "STEP"),
-                   help="along-track winds of the range table, m/s (%(default)s; > 0 "
+                   help="along-track winds of the range table, m/s (default -5 5 1; > 0 "
                         "tailwind)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_power"))
+    p.add_argument("--out", type=Path, default=Path("out/sysid_power"),
+                   help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_power)
 
@@ -401,18 +413,24 @@ def add_similitude_arguments(p) -> None:
     p.add_argument("--scale", type=float, default=None,
                    help="length scale to use (the thesis rounds 32.7 to 32); default the "
                         "ratio of the diameters")
-    p.add_argument("--full-scale-mass", type=float, default=None, help="kg")
+    p.add_argument("--full-scale-mass", type=float, default=None,
+                   help="full-scale mass, kg (default: none, no mass scaling)")
     speed = p.add_mutually_exclusive_group()
-    speed.add_argument("--full-scale-speed", type=float, default=None, help="m/s")
-    speed.add_argument("--model-speed", type=float, default=None, help="m/s")
+    speed.add_argument("--full-scale-speed", type=float, default=None,
+                       help="full-scale wind or flight speed, m/s (default: none; or give "
+                            "--model-speed)")
+    speed.add_argument("--model-speed", type=float, default=None,
+                       help="the model's speed, m/s (default: none; or give "
+                            "--full-scale-speed)")
     p.add_argument("--control-rate-hz", type=float, default=None,
-                   help="the model's control rate, Hz")
+                   help="the model's control rate, Hz (default: none)")
     p.add_argument("--obstacle-width", type=float, default=None,
-                   help="width of the model's obstacle, m (for the shedding frequency)")
+                   help="width of the model's obstacle, m (for the shedding frequency, with a "
+                        "speed and --control-rate-hz; default: none)")
     p.add_argument("--strouhal", type=float, default=0.2,
-                   help="Strouhal number of the shedding (%(default)s)")
+                   help="Strouhal number of the shedding, dimensionless (%(default)s)")
     p.add_argument("--kinematic-viscosity", type=float, default=1.5e-5,
-                   help="m^2/s (%(default)s: air at 20 degC)")
+                   help="kinematic viscosity of the air, m^2/s (%(default)s: air at 20 degC)")
     add_output_arguments(p)
 
 
@@ -421,16 +439,30 @@ def run_similitude(args) -> int:
     from windnav.sysid.similitude import Similitude
 
     name = _where(args)
-    sim = Similitude(positive_float(args.full_scale_diameter, "--full-scale-diameter", name),
-                     positive_float(args.model_diameter, "--model-diameter", name),
-                     None if args.scale is None else positive_float(args.scale, "--scale",
-                                                                    name))
+    # the library's checks named its parameters ('strouhal' parameter of Similitude.report)
+    options = {f"'{param}' parameter of {library} ": f"'--{param.replace('_', '-')}' "
+                                                     f"parameter of {name} "
+               for library, params in (
+                   ("Similitude", ("full_scale_diameter", "model_diameter", "scale")),
+                   ("Similitude.report", ("full_scale_speed", "full_scale_mass",
+                                          "model_speed", "control_rate_hz", "obstacle_width",
+                                          "strouhal", "kinematic_viscosity")))
+               for param in params}
+    with options_named(options):
+        sim = Similitude(positive_float(args.full_scale_diameter, "--full-scale-diameter",
+                                        name),
+                         positive_float(args.model_diameter, "--model-diameter", name),
+                         None if args.scale is None else positive_float(args.scale, "--scale",
+                                                                        name))
+    # checked here too: the report uses it only with a speed, a control rate and a width
+    strouhal = positive_float(args.strouhal, "--strouhal", name)
     out = Outputs(name, files={"--json": args.json}, overwrite=bool(args.overwrite))
-    report = sim.report(full_scale_speed=args.full_scale_speed,
-                        full_scale_mass=args.full_scale_mass, model_speed=args.model_speed,
-                        control_rate_hz=args.control_rate_hz,
-                        obstacle_width=args.obstacle_width, strouhal=args.strouhal,
-                        kinematic_viscosity=args.kinematic_viscosity)
+    with options_named(options):
+        report = sim.report(full_scale_speed=args.full_scale_speed,
+                            full_scale_mass=args.full_scale_mass, model_speed=args.model_speed,
+                            control_rate_hz=args.control_rate_hz,
+                            obstacle_width=args.obstacle_width, strouhal=strouhal,
+                            kinematic_viscosity=args.kinematic_viscosity)
     doc = document(name.removeprefix("windnav "), report, args)
     _write(args, doc, out, "similitude")
     _print(report, out)
@@ -448,8 +480,10 @@ def _register_unsteadiness(ss) -> None:
                                   "mean body-rate magnitude per bin. CSV header: x,y,wind_x,"
                                   "wind_y,force_cmd_x,force_cmd_y,body_rate_x,body_rate_y,"
                                   "body_rate_z (SI, world x-y).")
-    p.add_argument("--log", type=Path, nargs="+", default=[], metavar="FILE")
-    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE")
+    p.add_argument("--log", type=Path, nargs="+", default=[], metavar="FILE",
+                   help="FlightLog .npz files (default: none; give --log or --csv)")
+    p.add_argument("--csv", type=Path, nargs="+", default=[], metavar="FILE",
+                   help="CSV files with the header above (default: none)")
     p.add_argument("--wind", choices=("truth", "ukf"), default="truth",
                    help="for logs: the simulator's wind, or the Wind UKF's estimate run on "
                         "the log's sensors (%(default)s)")
@@ -458,7 +492,8 @@ def _register_unsteadiness(ss) -> None:
     p.add_argument("--cell", type=float, default=1.0, help="bin size, m (%(default)s)")
     p.add_argument("--min-count", type=int, default=5,
                    help="bins with fewer samples are blank (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_unsteadiness"))
+    p.add_argument("--out", type=Path, default=Path("out/sysid_unsteadiness"),
+                   help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_unsteadiness)
 
@@ -520,7 +555,8 @@ def run_unsteadiness(args) -> int:
 def _vehicle_argument(p) -> None:
     from windnav.experiments.sysid import THESIS_VEHICLE, vehicle_names
 
-    p.add_argument("--vehicle", default=THESIS_VEHICLE, choices=vehicle_names())
+    p.add_argument("--vehicle", default=THESIS_VEHICLE, choices=vehicle_names(),
+                   help="vehicle preset simulated (%(default)s)")
 
 
 def _register_simulate_stand(ss) -> None:
@@ -533,14 +569,22 @@ def _register_simulate_stand(ss) -> None:
                                   "truth.json into --out.")
     _vehicle_argument(p)
     p.add_argument("--voltages", type=float, nargs="+", default=list(STAND_VOLTAGES),
-                   metavar="V", help="supply voltages, V (2.7 ... 4.1)")
+                   metavar="V", help="supply voltages, V (default "
+                                     + " ".join(f"{v:g}" for v in STAND_VOLTAGES) + ")")
     p.add_argument("--rate-hz", type=float, default=100.0, help="log rate, Hz (%(default)s)")
-    p.add_argument("--step-s", type=float, default=1.0, help="time per PWM step, s")
-    p.add_argument("--kv", type=float, default=None, help="override the motor model's Kv")
-    p.add_argument("--v0", type=float, default=None, help="override V0, V")
-    p.add_argument("--dz", type=float, default=None, help="override DZ, counts")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_stand"))
+    p.add_argument("--step-s", type=float, default=1.0,
+                   help="time per PWM step, s (%(default)s)")
+    p.add_argument("--kv", type=float, default=None,
+                   help="override the motor model's Kv, rad/s/V/count^(2/3) (default: the "
+                        "vehicle's)")
+    p.add_argument("--v0", type=float, default=None,
+                   help="override V0, V (default: the vehicle's)")
+    p.add_argument("--dz", type=float, default=None,
+                   help="override DZ, counts (default: the vehicle's)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the sensor noise (%(default)s)")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_stand"),
+                   help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_simulate_stand)
 
@@ -599,13 +643,18 @@ def _register_simulate_tunnel(ss) -> None:
     p.add_argument("--axes", nargs="+", default=["x", "y", "xy", "z", "neg_z"],
                    choices=list(AXES),
                    help="airspeed directions, body axes (%(default)s)")
-    p.add_argument("--max-speed", type=float, default=6.0, help="m/s (%(default)s)")
-    p.add_argument("--speed-step", type=float, default=0.5, help="m/s (%(default)s)")
+    p.add_argument("--max-speed", type=float, default=6.0,
+                   help="largest airspeed, m/s (%(default)s)")
+    p.add_argument("--speed-step", type=float, default=0.5,
+                   help="airspeed step from 0 to --max-speed, m/s (%(default)s)")
     p.add_argument("--settle-s", type=float, default=2.5,
                    help="transient dropped by the fits, s (%(default)s)")
-    p.add_argument("--record-s", type=float, default=1.5, help="recorded hover, s")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_tunnel"))
+    p.add_argument("--record-s", type=float, default=1.5,
+                   help="recorded hover, s (%(default)s)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the sensor noise (%(default)s)")
+    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_tunnel"),
+                   help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_simulate_tunnel)
 

@@ -66,7 +66,7 @@ def register(subparsers) -> None:
     p.add_argument("--trials", type=int, default=50, help="number of trials (default 50)")
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
     p.add_argument("--plot", type=Path, default=None,
-                   help="write the RMSE vs mass-to-drag ratio plot here (PNG)")
+                   help="write the RMSE vs mass-to-drag ratio plot here (PNG; default: no plot)")
     p.add_argument("--conditions", choices=tuple(CONDITIONS), default="windnav",
                    help="sensing and filter preset (default windnav; see docs/ukf.md)")
     p.add_argument("--sensor-noise", choices=("windnav", "rotorpy"), default=None,
@@ -77,7 +77,8 @@ def register(subparsers) -> None:
                         "for windnav's gusts; 1 for RotorPy's)")
     p.add_argument("--duration", type=float, nargs=2, default=None, metavar=("MIN", "MAX"),
                    help="range of the flight time, s (default 20 60)")
-    p.add_argument("--backend", choices=("serial", "process", "ray"), default="process")
+    p.add_argument("--backend", choices=("serial", "process", "ray"), default="process",
+                   help="where the trials run (default %(default)s)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (default: CPU count)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")

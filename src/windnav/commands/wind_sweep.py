@@ -21,7 +21,7 @@ import os
 import sys
 from pathlib import Path
 
-from windnav._validate import positive_float, positive_int
+from windnav._validate import finite_float, positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
@@ -34,6 +34,10 @@ from windnav.commands._common import (
 from windnav.commands.wind import add_solver_arguments, load_city, solver_settings
 from windnav.experiments.maps import MAP_KINDS, generated_maps
 from windnav.experiments.wind_sweep import THESIS_SPEEDS, directions_from, sweep
+
+MAX_DIRECTIONS = 360
+"""The largest count one ``--directions N`` accepts: 1 deg apart (more is no count of inlet
+directions anyone simulates; ``--directions 400`` meant an angle)."""
 
 
 def _map_files(items) -> list[Path]:
@@ -61,21 +65,28 @@ def register(subparsers) -> None:
                     "resume after an interruption.",
     )
     p.add_argument("--maps", nargs="+", default=[], metavar="FILE_OR_DIR",
-                   help="RotorPy world JSON files, or folders of them")
+                   help="RotorPy world JSON files, or folders of them (default: none; then give "
+                        "--generate)")
     p.add_argument("--generate", type=int, default=0, metavar="K",
-                   help="also make K procedural maps (with --map-kind)")
+                   help="also make K procedural maps (with --map-kind) (default %(default)s)")
     p.add_argument("--map-kind", choices=MAP_KINDS, default="training",
                    help="generator of the --generate maps (%(default)s)")
     p.add_argument("--out", required=True, help="the dataset store (a .zarr directory)")
     p.add_argument("--speeds", nargs="+", type=float, default=list(THESIS_SPEEDS),
                    help="inlet speeds, m/s (default: 0.1 2.575 5.05 7.525 10.0)")
     p.add_argument("--directions", nargs="+", type=float, default=None, metavar="N_OR_DEG",
-                   help="one integer N: N directions evenly spaced from 0 deg; several "
-                        "values: the directions in deg (default: 8)")
+                   help="one value: a COUNT N of directions (an integer, 1 to "
+                        f"{MAX_DIRECTIONS}), evenly spaced from 0 deg, 360/N deg apart, never "
+                        "an angle (for one direction, give --directions-deg); two or more "
+                        "values: the directions themselves, deg (default: 8, i.e. 0 45 ... "
+                        "315). Directions are those the wind blows toward, CCW from +x")
     p.add_argument("--directions-deg", nargs="+", type=float, default=None,
-                   help="explicit directions in deg (use for a single direction)")
-    p.add_argument("--backend", choices=("serial", "process", "ray"), default="process")
-    p.add_argument("--workers", type=int, default=None, help="worker count (all cores)")
+                   help="the directions themselves, deg, one or more (use for a single "
+                        "direction); not with --directions (default: see --directions)")
+    p.add_argument("--backend", choices=("serial", "process", "ray"), default="process",
+                   help="where the simulations run (%(default)s)")
+    p.add_argument("--workers", type=int, default=None,
+                   help="worker count (default: all cores)")
     p.add_argument("--verify", action="store_true",
                    help="also recompute finished simulations whose data no longer reads back")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
@@ -85,27 +96,33 @@ def register(subparsers) -> None:
 
 
 def _directions_arg(args):
+    name = "windnav wind-sweep"
     if args.directions_deg is not None:
         if args.directions is not None:  # one of them was silently ignored
             raise ValueError("The '--directions' parameter of windnav wind-sweep cannot be given "
                              "with --directions-deg: give one of them. Got both instead.")
-        return list(args.directions_deg)
+        # "'directions' parameter of directions_from" before
+        return [finite_float(d, "--directions-deg", name) for d in args.directions_deg]
     if args.directions is None:
         return None
     if len(args.directions) == 1:
         n = args.directions[0]
-        if not math.isfinite(n) or n != int(n) or n < 1:  # int(nan) raised without the name
+        if not math.isfinite(n) or n != int(n) or not 1 <= n <= MAX_DIRECTIONS:
+            # int(nan) raised without the name; --directions 400 was 400 simulations 0.9 deg
+            # apart where an angle was meant
             raise ValueError(
-                "The '--directions' parameter of windnav wind-sweep must be one integer count "
-                f"or a list of degrees. Got {args.directions!r} instead; use --directions-deg "
-                "for a single direction."
+                "The '--directions' parameter of windnav wind-sweep must be, as one value, a "
+                f"count of directions from 1 to {MAX_DIRECTIONS} (evenly spaced from 0 deg), "
+                f"or two or more directions in deg. Got {n:g} instead"
+                + (f"; for a single direction of {n:g} deg, give --directions-deg {n:g}."
+                   if math.isfinite(n) else ".")
             )
         if n > 36:  # "--directions 90" meant 90 deg, and flew 90 directions (CLI audit)
             print(f"windnav wind-sweep: note: --directions {int(n)} is a count: {int(n)} "
                   f"directions, {360 / n:.3g} deg apart; for one direction of {int(n)} deg, "
                   f"give --directions-deg {int(n)}", file=sys.stderr)
         return directions_from(int(n)).tolist()
-    return list(args.directions)
+    return [finite_float(d, "--directions", name) for d in args.directions]
 
 
 def run(args, simulate=None) -> int:
