@@ -433,6 +433,15 @@ DATA_MAP = str(Path(__file__).parent / "data" / "2d_vortex_shedding.json")
     (["wind", "--map", DATA_MAP, "--speed", "3", "--dx", "20"],
      "'--dx' parameter of windnav wind is too coarse"),
     (["sysid", "unsteadiness", "--log", "."], "'--log' parameter of windnav sysid unsteadiness"),
+    # an inlet past the incompressible solver's Mach 0.3: 1e300 was an OverflowError
+    (["wind", "--map", DATA_MAP, "--speed", "150"], "'--speed' parameter of windnav wind must be "
+                                                   "<= 100 m/s"),
+    (["wind-sweep", "--maps", DATA_MAP, "--speeds", "3", "1e300"],
+     "'--speeds' parameter of windnav wind-sweep must be <= 100 m/s"),
+    (["predict", "--map", DATA_MAP, "--at", "5", "5", "--speed", "1e300", "--direction-deg",
+      "0"], "'--speed' parameter of windnav predict must be <= 100 m/s"),
+    (["navigate", "--map", DATA_MAP, "--start", "1", "1", "--goal", "9", "9", "--speed",
+      "101", "--variant", "mppi"], "'--speed' parameter of windnav navigate must be <= 100"),
 ])
 def test_library_errors_name_the_option_typed(argv, option, tmp_path, capsys):
     out = ["--out", str(tmp_path / ("o.zarr" if argv[0] == "wind-sweep" else "o"))]

@@ -301,6 +301,16 @@ def test_a_city_of_another_type_is_named(city):
         wn.flow.simulate(city, speed=2.0, dt=0.2, steps=2)
 
 
+def test_an_inlet_past_the_incompressible_model_is_refused():
+    """1e300 m/s overflowed in the diffusion (an OverflowError from `windnav predict`); any
+    inlet past Mach 0.3 is outside the incompressible model, so it is refused, named."""
+    with pytest.raises(ValueError, match=r"'speed' parameter of simulate must be <= 100 m/s: "
+                                         r"the solver is incompressible.*Got 1e\+300"):
+        wn.flow.simulate(_city(), speed=1e300, dt=1e-300, steps=2)
+    with pytest.raises(ValueError, match=r"'speeds' parameter of simulate_batch .* Got 101\.0"):
+        wn.flow.simulate_batch(_city(), [2.0, 101.0], 0.0, 1.0, 0.01, 1, 2)
+
+
 def test_cfl_error_reports_the_cfl_number():
     with pytest.raises(ValueError, match=r"'dt'.*CFL number speed\*dt/dx = 5"):
         wn.flow.simulate(_city(), speed=5.0, dx=1.0, dt=1.0)

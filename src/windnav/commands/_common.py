@@ -52,6 +52,20 @@ def cache_folder(path, option: str, name: str):
     return path
 
 
+def inlet_speed(value, option: str, name: str) -> float:
+    """An inlet speed option, m/s: > 0 and no faster than the flow solver's model holds
+    (:data:`windnav.flow.solver.MAX_SPEED`), checked before any work, named."""
+    from windnav._validate import positive_float
+    from windnav.flow.solver import MAX_SPEED
+
+    speed = positive_float(value, option, name)
+    if speed > MAX_SPEED:
+        raise ValueError(f"The {option!r} parameter of {name} must be <= {MAX_SPEED:g} m/s: the "
+                         "wind solver is incompressible, valid below Mach 0.3. Got "
+                         f"{value!r} instead.")
+    return speed
+
+
 @contextlib.contextmanager
 def options_named(names: dict[str, str]):
     """Re-raise a library's ValueError with its parameter names replaced by the options the

@@ -36,6 +36,7 @@ from windnav._validate import finite_float, positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    inlet_speed,
     outputs,
     print_written,
     seed,
@@ -61,7 +62,7 @@ def register(sub) -> None:
     p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"),
                    help="goal position, m")
     p.add_argument("--speed", type=float, required=True,
-                   help="inlet wind speed, m/s (> 0; above 10 the flow step is shortened)")
+                   help="inlet wind speed, m/s (0 to 100; above 10 the flow step is shortened)")
     p.add_argument("--direction-deg", type=float, default=0.0,
                    help="direction the wind blows toward, deg CCW from +x (%(default)s)")
     p.add_argument("--variant", choices=tuple(VARIANTS), default="ea-mppi-w",
@@ -155,7 +156,7 @@ def run(args) -> int:
 
     name = where(args)
     seed(args)
-    speed = positive_float(args.speed, "--speed", name)
+    speed = inlet_speed(args.speed, "--speed", name)
     direction = finite_float(args.direction_deg, "--direction-deg", name)
     positive_float(args.altitude, "--altitude", name)
     horizon = float(args.horizon)

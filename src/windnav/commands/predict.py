@@ -21,6 +21,7 @@ from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    inlet_speed,
     options_named,
     outputs,
     print_written,
@@ -43,7 +44,7 @@ def register(subparsers) -> None:
                    help="RotorPy world JSON map")
     p.add_argument("--at", type=float, nargs=2, required=True, metavar=("X", "Y"),
                    help="robot position, m (inside the map, outside every building)")
-    p.add_argument("--speed", type=float, required=True, help="inlet wind speed, m/s")
+    p.add_argument("--speed", type=float, required=True, help="inlet wind speed, m/s (0 to 100)")
     p.add_argument("--direction-deg", type=float, required=True,
                    help="direction the inlet wind blows toward, deg CCW from +x")
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
@@ -72,7 +73,7 @@ def run(args, flow_settings=None) -> int:
 
     name = where(args)
     seed(args)
-    speed = positive_float(args.speed, "--speed", name)
+    speed = inlet_speed(args.speed, "--speed", name)
     dx = positive_float(args.dx, "--dx", name)
     noise = positive_float(args.scan_noise, "--scan-noise", name, allow_zero=True)
     city = load_city(args.map, "--map", name)

@@ -22,6 +22,7 @@ from windnav._validate import finite_float, nonnegative_int, positive_float, pos
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    inlet_speed,
     options_named,
     outputs,
     print_written,
@@ -105,7 +106,8 @@ def register(subparsers) -> None:
                     "OUT/flow.zarr and OUT/mean_speed.png.",
     )
     p.add_argument("--map", required=True, help="RotorPy world JSON file")
-    p.add_argument("--speed", type=float, required=True, help="inlet speed, m/s")
+    p.add_argument("--speed", type=float, required=True,
+                   help="inlet speed, m/s (0 to 100: the incompressible solver's Mach 0.3)")
     p.add_argument("--direction-deg", type=float, default=0.0,
                    help="inlet direction the wind blows toward, deg CCW from +x (%(default)s)")
     p.add_argument("--out", required=True, help="output directory")
@@ -122,7 +124,7 @@ def run(args, simulate=None) -> int:
 
     name = where(args)
     seed(args)
-    speed = positive_float(args.speed, "--speed", name)
+    speed = inlet_speed(args.speed, "--speed", name)
     direction_deg = finite_float(args.direction_deg, "--direction-deg", name)
     settings = solver_settings(args, speed)
     city = load_city(args.map)

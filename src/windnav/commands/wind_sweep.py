@@ -21,11 +21,12 @@ import os
 import sys
 from pathlib import Path
 
-from windnav._validate import finite_float, positive_float, positive_int
+from windnav._validate import finite_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     document,
+    inlet_speed,
     outputs,
     print_written,
     seed,
@@ -73,7 +74,7 @@ def register(subparsers) -> None:
                    help="generator of the --generate maps (%(default)s)")
     p.add_argument("--out", required=True, help="the dataset store (a .zarr directory)")
     p.add_argument("--speeds", nargs="+", type=float, default=list(THESIS_SPEEDS),
-                   help="inlet speeds, m/s (default: 0.1 2.575 5.05 7.525 10.0)")
+                   help="inlet speeds, m/s, each 0 to 100 (default: 0.1 2.575 5.05 7.525 10.0)")
     p.add_argument("--directions", nargs="+", type=float, default=None, metavar="N_OR_DEG",
                    help="one value: a COUNT N of directions (an integer, 1 to "
                         f"{MAX_DIRECTIONS}), evenly spaced from 0 deg, 360/N deg apart, never "
@@ -132,7 +133,7 @@ def run(args, simulate=None) -> int:
 
     name = where(args)
     seed(args)
-    speeds = [positive_float(v, "--speeds", name) for v in args.speeds]
+    speeds = [inlet_speed(v, "--speeds", name) for v in args.speeds]
     settings = solver_settings(args, max(speeds))
     directions = _directions_arg(args)  # checked, and noted, before the maps are read
     maps = [(f.stem, os.path.abspath(f), load_city(f, "--maps", name))

@@ -81,6 +81,9 @@ the exact projection's CHOLMOD factor (``cholespy``, pinned) solves one, two or 
 right-hand sides with the same arithmetic per column, four or more with kernels that sum in
 another order (measured on the thesis suite's 600 m maps; tests/test_flow_closure.py)."""
 
+MAX_SPEED = 100.0
+"""Fastest inlet, m/s: Mach 0.3 at sea level, the edge of the incompressible model."""
+
 
 class FlowDivergedError(RuntimeError):
     """The solution became non-finite or far faster than the inlet (a numerical blow-up)."""
@@ -686,6 +689,11 @@ def simulate_batch(
               for sp in np.atleast_1d(np.asarray(speeds, dtype=object))]
     if not speeds:
         raise ValueError(f"The 'speeds' parameter of {where} must not be empty.")
+    if max(speeds) > MAX_SPEED:  # 1e300 m/s overflowed in the diffusion, far past its physics
+        raise ValueError(
+            f"The {'speed' if where == 'simulate' else 'speeds'!r} parameter of {where} must be "
+            f"<= {MAX_SPEED:g} m/s: the solver is incompressible, valid below Mach 0.3 (about "
+            f"{MAX_SPEED:g} m/s at sea level). Got {max(speeds)!r} instead.")
     directions = _directions(direction_deg, len(speeds), where)
     dx = positive_float(dx, "dx", where)
     dt = positive_float(dt, "dt", where)
