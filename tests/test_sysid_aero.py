@@ -228,3 +228,13 @@ def test_a_mass_that_disagrees_with_the_log_is_noted(tunnel, tmp_path, capsys):
     _cli("sysid", "aero", "--log", tunnel / "sim" / "tunnel_log.npz", "--mass", MASS,
          "--out", tmp_path / "p")
     assert "differs" not in capsys.readouterr().err
+
+
+def test_a_settle_time_past_the_log_is_named(tunnel, tmp_path):
+    # "hold 0 usable points" without naming --settle-s before (audit)
+    with pytest.raises(ValueError, match=r"'--settle-s' parameter of windnav sysid aero must "
+                                         r"leave samples in the log .*tunnel_log.npz.*ends "
+                                         r".* Got 1000\.0"):
+        _cli("sysid", "aero", "--log", tunnel / "sim" / "tunnel_log.npz", "--settle-s", 1000,
+             "--out", tmp_path / "o")
+    assert not (tmp_path / "o").exists()

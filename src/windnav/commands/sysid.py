@@ -274,7 +274,9 @@ def run_aero(args) -> int:
     out = _outputs(args, "aero")
     with options_named({"'path' parameter of FlightLog.load": f"'--log' parameter of {name}"}):
         logs = [(p, FlightLog.load(p)) for p in args.log]
-    parts = [aero_from_flight_log(log, settle_s=settle, source=str(p)) for p, log in logs]
+    with options_named({"'settle_s' parameter of aero_from_flight_log":
+                        f"'--settle-s' parameter of {name}"}):
+        parts = [aero_from_flight_log(log, settle_s=settle, source=str(p)) for p, log in logs]
     tables = [read_table(p, where=name) for p in args.csv] + _bag_tables(args, "time_s")
     parts += [AeroData.from_table(t, name) for t in tables]
     mass = _aero_mass(args, logs, name)

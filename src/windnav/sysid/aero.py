@@ -181,6 +181,11 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
     imu = log.sensors["imu"]
     t_imu = np.asarray(imu["t"], dtype=np.float64)
     keep = t_imu >= log.t[0] + settle_s
+    if not keep.any():  # "0 usable points" before, without the cause
+        end = float(t_imu[-1] - log.t[0]) if t_imu.size else 0.0
+        raise ValueError(f"The 'settle_s' parameter of aero_from_flight_log must leave samples "
+                         f"in the log {source!r} (its IMU ends {end:.4g} s after its start). "
+                         f"Got {settle_s!r} instead.")
     t = t_imu[keep]
     near = np.clip(np.searchsorted(log.t, t - 1e-9), 0, log.t.size - 1)
     B = log.position.shape[1]
