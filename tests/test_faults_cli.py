@@ -246,6 +246,25 @@ def test_a_coarse_step_that_leaves_the_envelope_is_named_as_the_cause(tmp_path, 
     assert "left the envelope" not in capsys.readouterr().err
 
 
+def test_a_flight_mostly_outside_the_envelope_says_how_much_and_how_far(tmp_path, capsys):
+    """OUTSIDE_ENVELOPE read the same for a take-off blip and a whole flight beyond the
+    trusted airspeed (envelope audit, 2026-12-05): the summary gives the fractions and the
+    largest airspeed, and a note says when the settled flight is outside."""
+    base = ["fly", "--trajectory", "hover", "--wind", "constant", "--duration", "3",
+            "--no-plots"]
+    assert main([*base, "--wind-mean", "16", "0", "0", "--out", str(tmp_path / "fast")]) == 0
+    err = capsys.readouterr().err
+    assert "note: 100 % of the flight after its first 1.5 s is outside the vehicle's " \
+           "envelope (largest airspeed 16 m/s, trusted to 13.4" in err
+    doc = json.loads((tmp_path / "fast" / "summary.json").read_text())
+    assert doc["outside_envelope_fraction_settled"] == 1.0
+    assert doc["max_airspeed_m_s"] == pytest.approx(16.0, abs=0.1)
+    assert main([*base, "--wind-mean", "3", "0", "0", "--out", str(tmp_path / "slow")]) == 0
+    assert "outside the vehicle's envelope" not in capsys.readouterr().err
+    doc = json.loads((tmp_path / "slow" / "summary.json").read_text())
+    assert doc["outside_envelope_fraction_settled"] == 0.0 and doc["max_airspeed_m_s"] < 4
+
+
 def test_demo_advises_its_own_flow_step(tmp_path, capsys, monkeypatch):
     import windnav.experiments.demo as demo
 

@@ -164,6 +164,15 @@ def run(args) -> int:
               f"{dt:g} s" + (f" and the controller at {rate:g} Hz" if rate else "")
               + ": the vehicle's models are validated at --dt 0.005-0.01 s with 100 Hz control",
               file=sys.stderr)
+    settled = metrics.get("outside_envelope_fraction_settled", 0.0)
+    if settled > 0:  # the status alone read the same for a take-off blip and a whole flight
+        limit = (log.meta.get("envelope") or {}).get("max_airspeed")
+        limit = limit[0] if isinstance(limit, list) else limit
+        print(f"{name}: note: {100 * settled:.3g} % of the flight after its first "
+              f"{min(2.0, duration / 2):g} s is outside the vehicle's envelope (largest "
+              f"airspeed {metrics['max_airspeed_m_s']:.3g} m/s"
+              + (f", trusted to {limit:g} m/s" if limit else "")
+              + "): its aerodynamics and power are extrapolated there", file=sys.stderr)
     if metrics.get("wind_estimate_error"):
         print(f"{name}: note: no wind estimate: {metrics['wind_estimate_error']}",
               file=sys.stderr)

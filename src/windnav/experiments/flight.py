@@ -122,11 +122,21 @@ def flight_summary(log, duration: float) -> dict:
     """Tracking error (m) after the take-off transient, power (W), energy (J), saturation,
     mean wind speed (m/s) and the flight status (``OK``, or the flags of
     :class:`windnav.sim.log.FlightStatus`: saturated, outside the envelope, non-finite) of
-    ``log``."""
+    ``log``, with the fraction of logged instants outside the envelope (all, and after the
+    transient) and the largest airspeed (m/s)."""
     settled = log.t >= min(2.0, duration / 2)
     err = log.tracking_error[settled]
+    airspeed = np.linalg.norm(log.velocity - log.wind, axis=-1)
+    outside = np.asarray(log.outside_envelope, bool)
     return {
         "status": log.meta.get("status"),
+        # the status flags a flight outside the envelope at any instant: these say how much
+        # of it, after the take-off transient too, and how far (the model's trusted airspeed is
+        # meta["envelope"]["max_airspeed"])
+        "outside_envelope_fraction": float(outside.mean()) if outside.size else 0.0,
+        "outside_envelope_fraction_settled": (float(outside[settled].mean())
+                                              if outside[settled].size else 0.0),
+        "max_airspeed_m_s": float(airspeed.max()) if airspeed.size else 0.0,
         "rms_tracking_error_m": float(np.sqrt(np.mean(err ** 2))),
         "max_tracking_error_m": float(np.max(err)),
         "mean_power_W": float(log.power.mean()),
