@@ -60,6 +60,12 @@ def test_small_study_records_and_summary():
         # 3D RMSE is the root of the summed per-axis mean squares
         assert t["rmse"] == pytest.approx(np.sqrt(np.sum(np.square(t["rmse_axes"]))))
         assert t["fitted"]["k_d"] == pytest.approx(t["params"]["k_d"], rel=0.05, abs=2e-6)
+        # each trial says whether the vehicle flew inside its model's envelope (audit)
+        assert t["status"] == ["OK"] and t["outside_envelope_fraction"] == 0.0
+    assert s["n_outside_envelope"] == 0
+    forced = [{**t, "outside_envelope_fraction": 0.2} if t["index"] == 1 else t
+              for t in out["trials"]]
+    assert mc.summarize(forced)["n_outside_envelope"] == 1
     json.dumps(out)  # JSON-ready
 
 

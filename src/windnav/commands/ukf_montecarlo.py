@@ -179,6 +179,11 @@ def run(args) -> int:
               f"min {s['min']:.3f}, max {s['max']:.3f} (thesis: median {THESIS_MEDIAN:g})")
         print("median per world axis (m/s): "
               + ", ".join(f"{a} {v:.3f}" for a, v in zip("xyz", s["median_axes"], strict=True)))
+        if s.get("n_outside_envelope"):
+            print(f"{name}: note: {s['n_outside_envelope']} of {s['n']} trials flew outside the "
+                  "vehicle's envelope (trusted airspeed or lift) for part of the flight: their "
+                  "RMSE is the filter's against extrapolated aerodynamics (each trial's "
+                  "'outside_envelope_fraction' in --json)", file=sys.stderr)
     for t in result["trials"]:
         if t.get("error") is not None:
             first = t["error"].splitlines()[0] if t["error"] else "unknown error"

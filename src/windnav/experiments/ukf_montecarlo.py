@@ -361,6 +361,8 @@ def run_trial(spec: TrialSpec) -> dict:
         "nees": track.nees(cfg.settle_s),
         "max_tracking_error": float(log.tracking_error.max()),
         "saturated_fraction": log.saturation_fraction,
+        "status": log.meta.get("status"),
+        "outside_envelope_fraction": log.envelope_fraction,
         "filter_repairs": track.repairs,
         "seconds": time.perf_counter() - t0,
     }
@@ -368,8 +370,8 @@ def run_trial(spec: TrialSpec) -> dict:
 
 def summarize(records: list[dict]) -> dict:
     """Median, quartiles, mean and extremes of the 3D RMSE over the finite trials (m/s), the
-    median and quartiles of the per-axis RMSE (world x, y, z), and the number of trials whose
-    rotor commands saturated more than 1% of the time."""
+    median and quartiles of the per-axis RMSE (world x, y, z), and the numbers of trials whose
+    rotor commands saturated more than 1% of the time and that left the vehicle's envelope."""
     rmse = np.array([r["rmse"] for r in records], dtype=np.float64)
     ok = np.isfinite(rmse)
     if not np.any(ok):
@@ -388,6 +390,10 @@ def summarize(records: list[dict]) -> dict:
         # they are kept (the filter sees the flight as flown) but counted
         "n_saturated_over_1pct": int(sum(r.get("saturated_fraction", 0.0) > 0.01
                                          for r, good in zip(records, ok, strict=True) if good)),
+        # flown beyond the model's trusted airspeed or lift: their RMSE is the filter's
+        # against an extrapolated vehicle (kept, counted)
+        "n_outside_envelope": int(sum(r.get("outside_envelope_fraction", 0.0) > 0
+                                      for r, good in zip(records, ok, strict=True) if good)),
     }
 
 
