@@ -127,6 +127,26 @@ def test_calibrate_command_writes_the_fit(tmp_path, capsys):
     assert "k_d" in capsys.readouterr().out
 
 
+def test_calibrate_command_gives_no_relative_error_where_the_truth_is_zero(tmp_path, capsys):
+    # CLI audit C: the Crazyflie's c_dx (true 0) printed "rel. error +0.00%", its absolute
+    # error (2.7e-6) shown as a percent
+    truth = wn.vehicle.params("crazyflie_brushless")
+    assert main(["calibrate", "--vehicle", "crazyflie_brushless", "--out", str(tmp_path)]) == 0
+    rec = json.loads((tmp_path / "calibration.json").read_text())
+    zero = [k for k in rec["true"] if rec["true"][k] == 0]
+    assert zero == ["c_dx", "c_dy", "c_dz"]
+    assert set(rec["absolute_error"]) == set(zero)
+    lines = {line.split()[0]: line for line in capsys.readouterr().out.splitlines() if line}
+    for k in zero:
+        assert rec["relative_error"][k] is None
+        assert rec["absolute_error"][k] == rec["fit"][k] > 0
+        assert "%" not in lines[k] and f"n/a (abs {rec['fit'][k]:+.1e})" in lines[k]
+    for k in ("k_d", "k_z"):  # nonzero truth: the relative error as before
+        assert rec["relative_error"][k] == pytest.approx(
+            (rec["fit"][k] - getattr(truth, k)) / getattr(truth, k), rel=1e-12)
+        assert lines[k].endswith(f"{rec['relative_error'][k]:>+12.2%}")
+
+
 def test_calibrate_command_names_settle_when_it_leaves_no_sample(tmp_path, capsys):
     # "The 'settle_s' parameter of fit_drag must leave samples" named no option of the command
     assert main(["calibrate", "--out", str(tmp_path / "c"), "--duration", "1",

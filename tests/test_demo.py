@@ -120,7 +120,33 @@ def test_options_of_the_other_story_are_refused(tmp_path, capsys, argv, flag):
     assert not (tmp_path / "run").exists()
 
 
-def test_ukf_story_end_to_end(tmp_path):
+def test_navigate_story_warns_of_each_variant_outside_the_envelope(tmp_path, capsys):
+    # CLI audit C: at 8 m/s the JSON held 3.15 s outside the envelope for MPPI, 4.53 / 1.41 s of
+    # extrapolated power and 6.3 s of goal hold at the tilt cap, and the console said only
+    # "EA-MPPI+W: success, 4.54 kJ"
+    from windnav.experiments.nav_demo import LABELS
+
+    js = tmp_path / "demo.json"
+    assert main(["demo", "--seed", "1", "--wind-speed", "8", "--gif-frames", "2", "--out",
+                 str(tmp_path / "run"), "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    err = capsys.readouterr().err
+    warned = [line for line in err.splitlines() if "warning:" in line]
+    expected = []
+    for v, r in doc["variants"].items():
+        who = f"windnav demo: {LABELS[v]}: warning: "
+        if r["outside_envelope_s"] > 0 or r["power_extrapolated_s"] > 0:
+            expected.append(f"{who}the flight spent {r['outside_envelope_s']:.2f} s above the "
+                            "vehicle's trusted airspeed")
+        if r["goal_hold_at_cap_s"] > 0:
+            expected.append(f"{who}for {r['goal_hold_at_cap_s']:.2f} s near the goal")
+    assert any(r["outside_envelope_s"] > 0 for r in doc["variants"].values())
+    assert len(warned) == len(expected)
+    for line, start in zip(warned, expected, strict=True):
+        assert line.startswith(start)
+
+
+def test_ukf_story_end_to_end(tmp_path, capsys):
     js = tmp_path / "demo.json"
     assert main(["demo", "--story", "ukf", "--seed", "1", "--out", str(tmp_path / "run"),
                  "--json", str(js)]) == 0
@@ -136,3 +162,13 @@ def test_ukf_story_end_to_end(tmp_path):
     assert summary["max_wind_speed_along_path_m_s"] > 1.5 * summary["inlet_speed_m_s"]
     assert summary["wind_rmse_m_s"] < 0.6
     assert summary["filter_covariance_repairs"] == 0
+    # CLI audit C: a quarter of this flight is above the Hummingbird's trusted airspeed
+    # (13.45 m/s), and the summary and the console said nothing of it
+    assert summary["status"] == "OUTSIDE_ENVELOPE"
+    assert 0.2 < summary["outside_envelope_fraction"] < 0.3
+    assert summary["airspeed_max_m_s"] > summary["airspeed_limit_m_s"] == pytest.approx(13.45,
+                                                                                        abs=0.01)
+    err = capsys.readouterr().err
+    assert ("windnav demo: warning: the flight spent "
+            f"{100 * summary['outside_envelope_fraction']:.1f} % of its") in err
+    assert f"largest airspeed {summary['airspeed_max_m_s']:.2f} m/s" in err

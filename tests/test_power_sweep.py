@@ -78,6 +78,52 @@ def test_power_curve_command(tmp_path, capsys):
     assert "an edge and not a minimum" in capsys.readouterr().err
 
 
+def test_power_curve_flags_a_fitted_endurance_speed_within_the_fit_residuals(tmp_path, capsys):
+    # CLI audit C: the Hummingbird's samples rise strictly from hover (56.193, 56.203, 56.244 W,
+    # ...) but the degree-4 fit, off by up to 0.16 W, dips to its minimum at 0.99 m/s; the
+    # reported speed stays the fit's, flagged and explained
+    import json
+
+    from windnav.cli import main
+
+    for vehicle, fitted_speed in (("hummingbird", 0.99), ("crazyflie_brushless", 0.48)):
+        out = tmp_path / vehicle
+        assert main(["power-curve", "--vehicle", vehicle, "--out", str(out)]) == 0
+        doc = json.loads((out / "power_curve.json").read_text())
+        assert doc["max_endurance_speed_m_s"] == pytest.approx(fitted_speed, abs=0.005)
+        assert doc["lowest_power_sample_speed_m_s"] == 0.0
+        assert doc["lowest_power_sample_W"] == doc["power_W"][0] == min(
+            p for p in doc["power_W"] if p is not None)
+        gap = doc["lowest_power_sample_W"] - doc["max_endurance_fit_power_W"]
+        assert 0 < gap < doc["fit_residual_max_W"]
+        assert doc["endurance_within_fit_noise"] is True
+        assert len(doc["notes"]) == 1 and "hover to within the fit" in doc["notes"][0]
+        captured = capsys.readouterr()
+        assert json.loads(captured.out[:captured.out.index("\n}\n") + 2])[
+            "endurance_within_fit_noise"] is True
+        assert ("windnav power-curve: note: the sampled power is lowest at the slowest sample "
+                "(hover, 0 m/s") in captured.err
+
+
+def test_endurance_check_leaves_a_real_bucket_and_an_exact_fit_unflagged():
+    from windnav.experiments.power_curve import endurance_check
+    from windnav.vehicle.power import PowerCurve
+
+    # the thesis curve's bucket at 4.15 m/s: the least sampled power is not at hover
+    thesis = PowerCurve.crazyflie()
+    v = np.linspace(0.0, 10.0, 11)
+    check = endurance_check(thesis, v, thesis(v))
+    assert check["endurance_within_fit_noise"] is False and check["note"] is None
+    assert check["lowest_power_sample_speed_m_s"] == 4.0
+    # power rising from hover and fitted exactly: no residual to hide a dip in
+    v = np.array([0.0, 1.0, 2.0])
+    p = np.array([10.0, 10.01, 10.5])
+    exact = PowerCurve.from_samples(v, p, degree=2)
+    check = endurance_check(exact, v, p)
+    assert check["fit_residual_max_W"] < 1e-9
+    assert check["endurance_within_fit_noise"] is False
+
+
 def test_sweep_marks_points_outside_the_envelope_instead_of_reporting_zero_power():
     # issue 13: a Crazyflie "flying" at 80-200 m/s stopped its rotors (0 W) and climbed away;
     # such points are not steady flight and must not enter the power curve

@@ -9,6 +9,11 @@ Flies the vehicle at a range of airspeeds along body x, y and z (hover in a tunn
 :mod:`windnav.experiments.calibration`), fits ``k_d, k_z`` (and ``c_dx, c_dy, c_dz`` unless
 ``--linear``) by least squares, prints the fit against the vehicle's true coefficients and
 writes ``calibration.json`` (and the flight log ``calibration_log.npz``) into ``--out``.
+
+A coefficient whose true value is 0 (the Crazyflie's parasitic drag ``c_dx, c_dy, c_dz``) has
+no relative error: the table prints ``n/a`` with the absolute error, and the JSON's
+``relative_error`` holds null for it and ``absolute_error`` the fitted minus the true value
+(only for those coefficients).
 """
 
 from __future__ import annotations
@@ -82,16 +87,24 @@ def run(args) -> int:
     print(f"drag calibration of {truth.name}: {fit.rows_used} rows ({fit.rows_dropped} "
           f"dropped), {fit.n_samples} samples")
     print(f"{'coefficient':<12}{'fitted':>14}{'std err':>12}{'true':>14}{'rel. error':>12}")
+    # relative_errors gives fit - true where the truth is 0, which printed as "+0.00%"
+    # (CLI audit C: c_dx 2.69e-6 against a true 0): no relative error there, say so
     rel = fit.relative_errors(truth)
+    absolute = {k: v - getattr(truth, k) for k, v in fit.coefficients.items()
+                if getattr(truth, k) == 0}
+    rel = {k: None if k in absolute else e for k, e in rel.items()}
     for k, v in fit.coefficients.items():
         se = fit.stderr.get(k, float("nan"))
-        print(f"{k:<12}{v:>14.4e}{se:>12.2e}{getattr(truth, k):>14.4e}{rel[k]:>+12.2%}")
+        error = (f"  n/a (abs {absolute[k]:+.1e})" if k in absolute
+                 else f"{rel[k]:>+12.2%}")
+        print(f"{k:<12}{v:>14.4e}{se:>12.2e}{getattr(truth, k):>14.4e}{error}")
     print("residual RMS of the specific force (m/s^2): "
           + ", ".join(f"{a} {r:.4f}" for a, r in zip("xyz", fit.residual_rms, strict=True))
           + f"; R^2 in-plane {fit.r2[0]:.5f}, axial {fit.r2[1]:.5f}")
     record = document("calibrate", {
         "vehicle": truth.name, "seed": args.seed, "fit": json.loads(fit.to_json()),
-        "true": {k: getattr(truth, k) for k in fit.coefficients}, "relative_error": rel}, args)
+        "true": {k: getattr(truth, k) for k in fit.coefficients}, "relative_error": rel,
+        "absolute_error": absolute}, args)
     with out.writing() as stage:
         write_json(record, stage.dir / "calibration.json")
         log.save(stage.dir / "calibration_log.npz")

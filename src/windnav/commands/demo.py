@@ -205,6 +205,7 @@ def _run_navigate(args) -> int:
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
     print(describe(summary))
+    _warn_variants(args, summary)
     print(f"({timings['total']:.0f} s: wind {timings['flow']:.0f} s, flights "
           f"{sum(timings[v] for v in result['results']):.0f} s, figures and GIF "
           f"{timings['figures'] + timings['gif']:.0f} s)")
@@ -230,5 +231,38 @@ def _run_ukf(args) -> int:
         if stage.file("--json") is not None:
             write_json(summary, stage.file("--json"))
     print(json.dumps(metrics, indent=2))
+    _warn_ukf_envelope(args, metrics)
     print_written(out)
     return 0
+
+
+def _warn_variants(args, summary: dict) -> None:
+    """:func:`windnav.commands.navigate.warn_envelope` for each variant flown, its lines named
+    by the command and the variant (the JSON holds the numbers; the console said only
+    ``EA-MPPI+W: success, 4.54 kJ`` of a flight with 1.41 s of extrapolated power)."""
+    import contextlib
+    import io
+
+    from windnav.commands.navigate import warn_envelope
+    from windnav.experiments.nav_demo import LABELS
+
+    name = where(args)
+    for v, record in summary["variants"].items():
+        said = io.StringIO()
+        with contextlib.redirect_stderr(said):
+            warn_envelope(record)
+        for line in said.getvalue().splitlines():
+            print(f"{name}: {LABELS.get(v, v)}: {line}", file=sys.stderr)
+
+
+def _warn_ukf_envelope(args, metrics: dict) -> None:
+    """One line on stderr when the UKF story's flight left the model's envelope (its status,
+    time outside and largest airspeed are in the summary too)."""
+    if "OUTSIDE_ENVELOPE" not in str(metrics.get("status")):
+        return
+    frac = metrics["outside_envelope_fraction"]
+    print(f"{where(args)}: warning: the flight spent {100 * frac:.1f} % of its "
+          f"{metrics['flight_duration_s']:.0f} s outside the vehicle model's envelope (status "
+          f"{metrics['status']}; largest airspeed {metrics['airspeed_max_m_s']:.2f} m/s, "
+          f"trusted up to {metrics['airspeed_limit_m_s']:.2f} m/s), where its aerodynamic model, "
+          "the simulated flight's and the Wind UKF's, is not validated", file=sys.stderr)

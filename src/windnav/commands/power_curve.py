@@ -71,8 +71,12 @@ def run(args) -> int:
         plot_power_curve(result, stage.dir / "power_curve.png")
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
-    print(json.dumps({k: result[k] for k in ("vehicle", "max_endurance_speed_m_s", "max_range")},
+    print(json.dumps({k: result[k] for k in ("vehicle", "max_endurance_speed_m_s",
+                                             "endurance_within_fit_noise",
+                                             "lowest_power_sample_speed_m_s", "max_range")},
                      indent=2))
+    for note in result["notes"]:  # the fitted endurance speed is a dip of the fit only
+        print(f"{name}: note: {note}", file=sys.stderr)
     edge = [w for w, opt in result["max_range"].items() if opt and opt.get("at_speed_max")]
     if edge:
         print(f"{name}: note: the max-range airspeed is the sweep's top speed, an edge and not a "
