@@ -238,3 +238,60 @@ def test_a_settle_time_past_the_log_is_named(tunnel, tmp_path):
         _cli("sysid", "aero", "--log", tunnel / "sim" / "tunnel_log.npz", "--settle-s", 1000,
              "--out", tmp_path / "o")
     assert not (tmp_path / "o").exists()
+
+
+def test_horizontal_flows_alone_note_that_k_z_and_k_h_are_not_separated(tunnel, tmp_path,
+                                                                         capsys):
+    # --axes x y xy gave k_z -25 % and k_h -40 % with intervals that excluded the truth and
+    # no word: their regressors correlate at -0.997 (audit)
+    _cli("sysid", "simulate-tunnel", "--axes", "x", "y", "xy", "--seed", 3, "--out",
+         tmp_path / "sim")
+    capsys.readouterr()
+    _cli("sysid", "aero", "--csv", tmp_path / "sim" / "tunnel.csv", "--vehicle",
+         "crazyflie_thesis", "--json", tmp_path / "h.json", "--out", tmp_path / "h")
+    err = capsys.readouterr().err
+    doc = json.loads((tmp_path / "h.json").read_text())
+    assert doc["kz_kh_regressor_correlation"] < -0.99
+    assert doc["vertical_condition_number"] > 20
+    assert len(doc["notes"]) == 1 and "k_z and k_h are not separable without vertical flows" \
+        in doc["notes"][0] and "ignore regressor noise" in doc["notes"][0]
+    assert err.count("note: k_z and k_h are not separable") == 1
+    # the default campaign, with vertical flows, separates them
+    for source in ("log", "csv"):
+        default = json.loads((tunnel / f"{source}.json").read_text())
+        assert abs(default["kz_kh_regressor_correlation"]) < 0.5
+        assert default["vertical_condition_number"] < 5
+        assert default["notes"] == []
+    exact = fit_aero(_model_samples(), MASS)
+    assert abs(exact.kz_kh_correlation) < 0.2 and exact.notes == []
+
+
+def test_tunnel_vehicles_that_did_not_fly_ok_are_counted(tunnel, tmp_path, capsys):
+    # --max-speed 12 on the Crazyflie (trusted to 7 m/s): 30 of 65 conditions outside the
+    # envelope, said only in truth.json, and sysid aero --log fitted them unflagged (audit)
+    capsys.readouterr()
+    _cli("sysid", "simulate-tunnel", "--axes", "x", "z", "--max-speed", 12, "--speed-step", 2,
+         "--out", tmp_path / "sim")
+    err = capsys.readouterr().err
+    truth = json.loads((tmp_path / "sim" / "truth.json").read_text())
+    bad = [s for s in truth["status"] if s != "OK"]
+    assert 0 < len(bad) < len(truth["status"]) == 14
+    assert f"note: {len(bad)} of the 14 tunnel conditions did not fly OK" in err
+    assert truth["notes"] and "trusted airspeed limit is 6.97 m/s" in truth["notes"][0]
+    _cli("sysid", "aero", "--log", tmp_path / "sim" / "tunnel_log.npz", "--json",
+         tmp_path / "a.json", "--out", tmp_path / "a")
+    err = capsys.readouterr().err
+    doc = json.loads((tmp_path / "a.json").read_text())
+    status = doc["log_status"]
+    assert status["vehicles_not_ok"] == len(bad) and status["not_ok_kept"] is True
+    assert sum(status["samples"].values()) == doc["n_points"]  # they are kept
+    assert 0 < status["samples_not_ok"] < doc["n_points"]
+    text = (f"{status['samples_not_ok']} of the {doc['n_points']} log samples come from "
+            f"{len(bad)} of 14 vehicles whose status is not OK")
+    assert any(text in n and "kept in the fit" in n for n in doc["notes"])
+    assert f"note: {text}" in err
+    # the default campaign flies OK throughout: counted, no note
+    default = json.loads((tunnel / "log.json").read_text())
+    assert default["log_status"]["samples_not_ok"] == 0
+    assert default["log_status"]["samples"] == {"OK": default["n_points"]}
+    assert "log_status" not in json.loads((tunnel / "csv.json").read_text())

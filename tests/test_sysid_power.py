@@ -150,3 +150,26 @@ def test_a_max_range_speed_at_the_edge_or_beyond_the_data_is_noted(tmp_path, cap
          "--speed-max", 30, "--out", tmp_path / "b")
     assert "beyond the fastest sample (6 m/s): the curve is extrapolated" in \
         capsys.readouterr().err
+
+
+def test_a_hover_power_extrapolated_below_the_slowest_sample_is_noted(thesis_fit, tmp_path,
+                                                                      capsys):
+    # --speed-range 3.5 6 gave hover_W 12.15 W (truth 10.56 W), P(0) extrapolated from 3.5 m/s,
+    # with no word; the mirror case above the fastest sample had a note (audit)
+    thesis = PowerCurve.crazyflie()
+    v = np.linspace(0.0, 6.0, 40)
+    path = write_csv(tmp_path / "p.csv", {"speed": v, "power": thesis(v)})
+    capsys.readouterr()
+    _cli("sysid", "power", "--csv", path, "--speed-col", "speed", "--power-col", "power",
+         "--speed-range", 3.5, 6, "--json", tmp_path / "p.json", "--out", tmp_path / "o")
+    err = capsys.readouterr().err
+    doc = json.loads((tmp_path / "p.json").read_text())
+    slowest = float(v[v >= 3.5].min())
+    assert doc["hover_extrapolated"] is True and doc["slowest_speed"] == pytest.approx(slowest)
+    assert f"note: hover_W is extrapolated below {slowest:.3g} m/s" in err
+    assert any(n.startswith("hover_W is extrapolated below") for n in doc["notes"])
+    # samples from hover: measured, not extrapolated
+    _, full = thesis_fit
+    assert full["hover_extrapolated"] is False and full["slowest_speed"] == 0.0
+    assert not any("hover_W" in n for n in full["notes"])
+    assert fit_power(v, thesis(v)).hover_extrapolated is False

@@ -109,3 +109,40 @@ def test_similitude_command_checks_a_strouhal_number_it_would_not_use():
     # without an obstacle the bad --strouhal was silently ignored
     with pytest.raises(ValueError, match="'--strouhal' parameter of windnav similitude"):
         _cli("similitude", "--strouhal", -1)
+
+
+def test_the_shedding_notes_an_obstacle_reynolds_number_without_constant_strouhal(capsys):
+    # a 5 mm obstacle at 0.1 m/s (Re 33: no shedding at all) got shedding.model_hz 4.0 with
+    # notes [] (audit)
+    sim = Similitude.thesis()
+    r = sim.report(model_speed=0.1, control_rate_hz=100.0, obstacle_width=0.005)
+    sh = r["shedding"]
+    assert sh["model_hz"] == pytest.approx(4.0)  # unchanged
+    assert sh["reynolds_model"] == pytest.approx(0.1 * 0.005 / 1.5e-5)
+    assert sh["reynolds_full_scale"] == pytest.approx(
+        0.1 * math.sqrt(32) * 0.005 * 32 / 1.5e-5)
+    assert sh["kinematic_viscosity_m2_s"] == 1.5e-5
+    assert len(r["notes"]) == 1 and "model obstacle's Reynolds number U W / nu is 33.3" in \
+        r["notes"][0] and "no shedding" in r["notes"][0]
+    # laminar shedding (Re 167): St is not 0.2 there
+    notes = sim.report(model_speed=0.5, control_rate_hz=100.0, obstacle_width=0.005)["notes"]
+    assert len(notes) == 1 and "is 167, below ~300" in notes[0] and "0.12" in notes[0]
+    # both scales between 300 and 2e5: nothing to say
+    ok = sim.report(model_speed=0.5, control_rate_hz=500.0, obstacle_width=0.02)
+    assert 300 < ok["shedding"]["reynolds_model"] < ok["shedding"]["reynolds_full_scale"] < 2e5
+    assert ok["notes"] == []
+    # a building at full scale, far above a cylinder's drag crisis: sharp edges fix its
+    # separation, so nothing is said
+    big = sim.report(full_scale_speed=1.0, control_rate_hz=500.0, obstacle_width=0.5)
+    assert big["shedding"]["reynolds_full_scale"] > 2e5 and big["notes"] == []
+    # the command prints the note, with its own viscosity
+    capsys.readouterr()
+    _cli("similitude", "--model-speed", 0.1, "--obstacle-width", 0.005, "--control-rate-hz",
+         100, "--kinematic-viscosity", 1.5e-6)
+    out = capsys.readouterr()
+    assert json.loads(out.out)["shedding"]["reynolds_model"] == pytest.approx(333.33, rel=1e-4)
+    assert "no shedding" not in out.err
+    _cli("similitude", "--model-speed", 0.1, "--obstacle-width", 0.005, "--control-rate-hz",
+         100)
+    assert "note: the model obstacle's Reynolds number U W / nu is 33.3" in \
+        capsys.readouterr().err

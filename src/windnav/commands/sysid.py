@@ -262,7 +262,12 @@ def _logged_mass(logs) -> float | None:
 def run_aero(args) -> int:
     from windnav.experiments.sysid import aero_study, plot_aero
     from windnav.sim import FlightLog
-    from windnav.sysid.aero import AeroData, aero_from_flight_log, block_average
+    from windnav.sysid.aero import (
+        AeroData,
+        aero_from_flight_log,
+        block_average,
+        flight_log_status_samples,
+    )
     from windnav.sysid.io import read_table
 
     name = _where(args)
@@ -277,6 +282,8 @@ def run_aero(args) -> int:
     with options_named({"'settle_s' parameter of aero_from_flight_log":
                         f"'--settle-s' parameter of {name}"}):
         parts = [aero_from_flight_log(log, settle_s=settle, source=str(p)) for p, log in logs]
+        status = [flight_log_status_samples(log, settle_s=settle, source=str(p))
+                  for p, log in logs]
     tables = [read_table(p, where=name) for p in args.csv] + _bag_tables(args, "time_s")
     parts += [AeroData.from_table(t, name) for t in tables]
     mass = _aero_mass(args, logs, name)
@@ -284,12 +291,40 @@ def run_aero(args) -> int:
         window = positive_float(args.average_s, "--average-s", name)
         parts = [block_average(p, window) for p in parts]
     fit, payload = aero_study(parts if len(parts) > 1 else parts[0], mass, where=name)
+    if logs:
+        payload["log_status"], note = _log_status(status)
+        if note:
+            payload["notes"] = [*payload["notes"], note]
     doc = document("sysid aero", payload, args)
     _write(args, doc, out, "aero", lambda path: plot_aero(fit, path))
     summary = _coefficients(payload, ("k_eta", "k_d", "k_z", "k_h"))
     summary["accel_bias"] = {a: payload["accel_bias"][a]["value"] for a in "xy"}
     _print(summary, out)
+    for note in payload["notes"]:
+        print(f"{name}: note: {note}", file=sys.stderr)
     return 0
+
+
+def _log_status(counts) -> tuple[dict, str | None]:
+    """The logs' samples by the FlightStatus of their vehicle, and a note when some vehicle
+    was not OK (a 12 m/s campaign fitted 30 of 65 vehicles outside the envelope unflagged)."""
+    samples: dict[str, int] = {}
+    vehicles: dict[str, int] = {}
+    for c in counts:
+        for key, total in (("samples", samples), ("vehicles", vehicles)):
+            for status, n in c[key].items():
+                total[status] = total.get(status, 0) + n
+    n_all, n_bad = sum(samples.values()), sum(n for s, n in samples.items() if s != "OK")
+    v_all, v_bad = sum(vehicles.values()), sum(n for s, n in vehicles.items() if s != "OK")
+    out = {"samples": samples, "vehicles": vehicles, "samples_not_ok": n_bad,
+           "vehicles_not_ok": v_bad, "not_ok_kept": True}
+    if not n_bad:
+        return out, None
+    kinds = ", ".join(f"{vehicles[s]} {s}" for s in sorted(vehicles) if s != "OK")
+    return out, (f"{n_bad} of the {n_all} log samples come from {v_bad} of {v_all} vehicles "
+                 f"whose status is not OK ({kinds}): saturated rotors or flight outside the "
+                 "model's envelope (the flag covers the whole flight, the settling included); "
+                 "they are kept in the fit")
 
 
 # ------------------------------------------------------------------------------ power
@@ -384,6 +419,7 @@ def run_power(args) -> int:
         min_segment_s=positive_float(args.min_segment_s, "--min-segment-s", name,
                                      allow_zero=True),
         winds=winds, speed_range=_speed_range(args.speed_range, name), where=name)
+    payload["notes"] = _power_notes(fit, payload)
     doc = document("sysid power", payload, args)
     title = f"{Path(table.source).name}: {args.power_col} vs {args.speed_col}"
     _write(args, doc, out, "power",
@@ -391,16 +427,27 @@ def run_power(args) -> int:
     _print({k: payload[k] for k in ("coefficient_values", "hover_W", "min_power_W",
                                     "max_endurance_speed", "max_range_speed", "hover_ratio",
                                     "r2")}, out)
+    for note in payload["notes"]:
+        print(f"{name}: note: {note}", file=sys.stderr)
+    return 0
+
+
+def _power_notes(fit, payload: dict) -> list[str]:
+    """Where the reported numbers lie outside the fitted speeds."""
+    notes = []
     fastest = float(fit.speed.max())
     if payload["max_range_at_speed_limit"]:  # an edge, not a minimum (CLI audit 2026-12-05)
-        print(f"{name}: note: the max-range speed is the curve's top speed "
-              f"{payload['speed_max']:g} m/s, not a minimum inside it: fly faster, or raise "
-              "--speed-max", file=sys.stderr)
+        notes.append(f"the max-range speed is the curve's top speed {payload['speed_max']:g} "
+                     "m/s, not a minimum inside it: fly faster, or raise --speed-max")
     if payload["max_range_speed"] > fastest * (1 + 1e-9):
-        print(f"{name}: note: the max-range speed {payload['max_range_speed']:.3g} m/s lies "
-              f"beyond the fastest sample ({fastest:.3g} m/s): the curve is extrapolated there",
-              file=sys.stderr)
-    return 0
+        notes.append(f"the max-range speed {payload['max_range_speed']:.3g} m/s lies beyond "
+                     f"the fastest sample ({fastest:.3g} m/s): the curve is extrapolated there")
+    if payload["hover_extrapolated"]:  # 12.15 W for 10.56 W from 3.5 ... 6 m/s (audit)
+        notes.append(f"hover_W is extrapolated below {payload['slowest_speed']:.3g} m/s (the "
+                     "slowest fitted sample): P(0), hover_ratio and their intervals assume "
+                     "the polynomial holds down to hover; fit samples near hover, or widen "
+                     "--speed-range")
+    return notes
 
 
 # ------------------------------------------------------------------------------ similitude
@@ -678,6 +725,8 @@ def run_simulate_tunnel(args) -> int:
     log, columns = simulate_tunnel(params, speeds=speeds, axes=args.axes, settle_s=settle,
                                    record_s=record, rng=nonnegative_int(args.seed, "--seed", name))
     truth = {**log.meta["sysid"], "status": log.meta.get("status"), "seed": args.seed}
+    note = _tunnel_status_note(log, params)
+    truth["notes"] = [] if note is None else [note]
     doc = document("sysid simulate-tunnel", truth, args)
     with out.writing() as stage:
         log.save(stage.dir / "tunnel_log.npz")
@@ -686,4 +735,28 @@ def run_simulate_tunnel(args) -> int:
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
     _print({k: truth[k] for k in ("vehicle", "mass", "true", "settle_s")}, out)
+    for note in truth["notes"]:
+        print(f"{name}: note: {note}", file=sys.stderr)
     return 0
+
+
+def _tunnel_status_note(log, params) -> str | None:
+    """A note counting the tunnel conditions whose vehicle did not fly OK (--max-speed 12 on
+    the Crazyflie: 30 of 65 outside the envelope, said only in truth.json's status list)."""
+    from collections import Counter
+
+    from windnav.sim.log import FlightStatus
+
+    codes = [int(c) for c in log.status]
+    bad = [i for i, c in enumerate(codes) if c]
+    if not bad:
+        return None
+    kinds = Counter(str(FlightStatus(codes[i]).name) for i in bad)
+    conditions = log.meta["sysid"]["conditions"]
+    slowest = min(conditions[i]["airspeed_m_s"] for i in bad)
+    return (f"{len(bad)} of the {len(codes)} tunnel conditions did not fly OK ("
+            + ", ".join(f"{n} {k}" for k, n in sorted(kinds.items()))
+            + f"), from {slowest:g} m/s airspeed ({params.name}'s trusted airspeed limit is "
+            f"{params.airspeed_limit:.3g} m/s): their samples are in tunnel_log.npz and "
+            "tunnel.csv, and sysid aero fits them; see truth.json's status, or lower "
+            "--max-speed")

@@ -322,7 +322,7 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
     ``time_col`` is given; otherwise every row is used. ``speed_range = (lo, hi)`` (m/s)
     keeps only the samples with speeds in it.
     """
-    from windnav.sysid.power import DEFAULT_WINDS, fit_power, steady_level_mask
+    from windnav.sysid.power import DEFAULT_WINDS, HOVER_SPEED_M_S, fit_power, steady_level_mask
 
     speed = table.column(speed_col, where)
     power = table.column(power_col, where)
@@ -356,7 +356,7 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
     src = f"{table.source!r} (columns {speed_col!r}, {power_col!r})"
     fit = fit_power(speed[keep], power[keep], degree=degree, speed_max=speed_max,
                     winds=DEFAULT_WINDS if winds is None else winds, source=src)
-    low = speed[keep] < 0.5
+    low = speed[keep] < HOVER_SPEED_M_S
     measured = float(np.median(power[keep][low])) if low.sum() >= 3 else None
     return fit, {**fit.to_dict(), "selection": selection,
                  "hover_measured_W": measured,

@@ -29,8 +29,8 @@ from windnav._validate import positive_float
 from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
 from windnav.sysid.io import Table
 
-__all__ = ["AERO_COLUMNS", "AeroData", "AeroFit", "aero_columns", "aero_from_flight_log",
-           "block_average", "fit_aero"]
+__all__ = ["AERO_COLUMNS", "AeroData", "AeroFit", "COLLINEAR_KZ_KH", "aero_columns",
+           "aero_from_flight_log", "block_average", "fit_aero", "flight_log_status_samples"]
 
 AERO_COLUMNS = ("time_s", "airspeed_x", "airspeed_y", "airspeed_z", "specific_force_x",
                 "specific_force_y", "specific_force_z")
@@ -39,6 +39,13 @@ AERO_COLUMNS = ("time_s", "airspeed_x", "airspeed_y", "airspeed_z", "specific_fo
 (rad/s)."""
 
 _ROTOR = re.compile(r"^rotor_speed_(\d+)$")
+
+COLLINEAR_KZ_KH = 0.95
+"""Above this ``|r|`` between the regressors of ``k_z`` (``-v_a,z sum(eta)``) and ``k_h``
+(``N v_h^2``), the fit notes that the two are not separated. Horizontal flows alone give
+``r`` about -0.997 (the inflow ``v_a,z`` comes only from the tilt, which grows like ``V``),
+and sensor noise then biased k_z by -25 % and k_h by -40 % with 95 % intervals that excluded
+the truth (audit, 2027); the default campaign with vertical flows gives about -0.2."""
 
 
 def _float_array(value, name: str) -> np.ndarray:
@@ -158,7 +165,8 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
     Specific force: the logged IMU accelerometer (with its noise and bias). Airspeed
     ``R^T (v - w)`` and rotor speeds: the logged state and wind at the same times (the log
     is interpolated linearly; the attitude is taken at the nearest logged instant). Every
-    vehicle of the batch contributes, except those flagged non-finite.
+    vehicle of the batch contributes, except those flagged non-finite: ``SATURATED`` and
+    ``OUTSIDE_ENVELOPE`` ones are kept (:func:`flight_log_status_samples` counts them).
 
     Parameters
     ----------
@@ -170,6 +178,46 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
     source : str
         For messages.
     """
+    parts = _vehicle_parts(log, settle_s, source)
+    if not parts:
+        raise ValueError(f"The flight log {source!r} has no vehicle that flew with finite "
+                         "values.")
+    data = AeroData.concatenate([d for _, d in parts])
+    return AeroData(data.t, data.airspeed_body, data.specific_force_body, data.rotor_speeds,
+                    source)
+
+
+def flight_log_status_samples(log, *, settle_s: float | None = None,
+                              source: str = "FlightLog") -> dict:
+    """How many of the samples :func:`aero_from_flight_log` takes come from each
+    :class:`~windnav.sim.log.FlightStatus` of the flying vehicle.
+
+    The status is the vehicle's over its whole flight (the settling transient included):
+    ``SATURATED`` or ``OUTSIDE_ENVELOPE`` vehicles are *kept* by :func:`aero_from_flight_log`
+    (only non-finite ones are dropped), and their samples may lie where the force model does
+    not hold.
+
+    Returns
+    -------
+    dict
+        ``{"samples": {status name: count}, "vehicles": {status name: count}}``, ``"OK"`` for
+        the vehicles without a flag; the same arguments as :func:`aero_from_flight_log`.
+    """
+    from windnav.sim.log import FlightStatus
+
+    status = np.asarray(log.status, dtype=np.int64)
+    samples: dict[str, int] = {}
+    vehicles: dict[str, int] = {}
+    for b, part in _vehicle_parts(log, settle_s, source):
+        code = int(status[b])
+        name = str(FlightStatus(code).name) if code else "OK"
+        samples[name] = samples.get(name, 0) + int(part.t.size)
+        vehicles[name] = vehicles.get(name, 0) + 1
+    return {"samples": samples, "vehicles": vehicles}
+
+
+def _vehicle_parts(log, settle_s: float | None, source: str) -> list:
+    """``[(batch index, AeroData)]`` of the vehicles that flew with finite values."""
     from scipy.spatial.transform import Rotation
 
     if "imu" not in log.sensors:
@@ -206,13 +254,8 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
         eta = at(log.rotor_speeds)
         ok = (np.all(np.isfinite(f), 1) & np.all(np.isfinite(va), 1)  # AeroData holds
               & np.all(np.isfinite(eta), 1))                            # finite samples only
-        parts.append(AeroData(t[ok], va[ok], f[ok], eta[ok], source))
-    if not parts:
-        raise ValueError(f"The flight log {source!r} has no vehicle that flew with finite "
-                         "values.")
-    data = AeroData.concatenate(parts)
-    return AeroData(data.t, data.airspeed_body, data.specific_force_body, data.rotor_speeds,
-                    source)
+        parts.append((b, AeroData(t[ok], va[ok], f[ok], eta[ok], source)))
+    return parts
 
 
 def block_average(data: AeroData, window_s: float) -> AeroData:
@@ -279,6 +322,40 @@ class AeroFit:
     mass: float
     data: AeroData
 
+    @property
+    def kz_kh_correlation(self) -> float | None:
+        """Pearson correlation of the regressors of ``k_z`` (``-v_a,z sum(eta)``) and ``k_h``
+        (``v_h^2``) over the samples; None where one of them does not vary. Near +-1 the two
+        are not separated (horizontal flows only), see :data:`COLLINEAR_KZ_KH`."""
+        X = _vertical_regressors(self.data, self.mass)
+        a, b = X[:, 1], X[:, 2]
+        if a.size < 2 or np.ptp(a) == 0 or np.ptp(b) == 0:
+            return None
+        return float(np.corrcoef(a, b)[0, 1])
+
+    @property
+    def vertical_condition_number(self) -> float:
+        """Condition number of the vertical regressors scaled to unit norm (the matrix the
+        fit solves): about 3 with vertical flows, about 50 with horizontal flows only."""
+        X = _vertical_regressors(self.data, self.mass)
+        norm = np.linalg.norm(X, axis=0)
+        return float(np.linalg.cond(X / np.where(norm > 0, norm, 1.0)))
+
+    @property
+    def notes(self) -> list[str]:
+        """Caveats of the fit, one sentence each (empty when none)."""
+        notes = []
+        r = self.kz_kh_correlation
+        if r is not None and abs(r) > COLLINEAR_KZ_KH:
+            notes.append(
+                f"k_z and k_h are not separable without vertical flows: their regressors "
+                f"v_z sum(eta) and v_h^2 correlate at r = {r:.3f} (|r| > {COLLINEAR_KZ_KH:g}; "
+                f"condition number {self.vertical_condition_number:.3g}), so noise on the "
+                "rotor speeds and airspeed biases both, and their 95 % intervals, which "
+                "ignore regressor noise, may exclude the truth; fly vertical flows "
+                "(simulate-tunnel --axes ... z neg_z) or use --average-s")
+        return notes
+
     def to_dict(self) -> dict:
         """The JSON payload: each coefficient with ``value``, ``std_error``, ``ci95``."""
         return {
@@ -289,9 +366,21 @@ class AeroFit:
             "rmse_lateral_m_s2": self.lateral.rmse, "rmse_vertical_m_s2": self.vertical.rmse,
             "mass_kg": self.mass, "n_points": int(self.data.t.size),
             "n_rotors": self.data.n_rotors,
+            "kz_kh_regressor_correlation": self.kz_kh_correlation,
+            "vertical_condition_number": self.vertical_condition_number,
             "units": {"k_eta": "N/(rad/s)^2", "k_d": "kg/rad", "k_z": "kg/rad", "k_h": "kg/m",
                       "accel_bias": "m/s^2"},
+            "notes": self.notes,
         }
+
+
+def _vertical_regressors(d: AeroData, m: float) -> np.ndarray:
+    """The columns of the vertical fit, ``(K, 3)``: those of ``k_eta``, ``k_z``, ``k_h``."""
+    va, eta = d.airspeed_body, d.rotor_speeds
+    s1 = eta.sum(axis=1)
+    s2 = (eta**2).sum(axis=1)
+    return np.column_stack([s2 / m, -va[:, 2] * s1 / m,
+                            d.n_rotors * (va[:, 0] ** 2 + va[:, 1] ** 2) / m])
 
 
 def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
@@ -325,9 +414,8 @@ def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
                          f"list of them. Got {type(data).__name__} instead.")
     d = data if isinstance(data, AeroData) else AeroData.concatenate(list(data))
     va, f, eta = d.airspeed_body, d.specific_force_body, d.rotor_speeds
-    K, N = eta.shape
+    K = eta.shape[0]
     s1 = eta.sum(axis=1)
-    s2 = (eta**2).sum(axis=1)
     zero, one = np.zeros(K), np.ones(K)
     X_lat = np.vstack([np.column_stack([-va[:, 0] * s1 / m, one, zero]),
                        np.column_stack([-va[:, 1] * s1 / m, zero, one])])
@@ -335,8 +423,7 @@ def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
     lat = linear_fit(X_lat, y_lat, ["k_d", "b_x", "b_y"],
                      source=f"{d.source} (columns 'specific_force_x', 'specific_force_y', "
                             "'airspeed_x', 'airspeed_y', 'rotor_speed_*')")
-    X_v = np.column_stack([s2 / m, -va[:, 2] * s1 / m, N * (va[:, 0] ** 2 + va[:, 1] ** 2) / m])
-    ver = linear_fit(X_v, f[:, 2], ["k_eta", "k_z", "k_h"],
+    ver = linear_fit(_vertical_regressors(d, m), f[:, 2], ["k_eta", "k_z", "k_h"],
                      source=f"{d.source} (columns 'specific_force_z', 'airspeed_*', "
                             "'rotor_speed_*')")
     return AeroFit(ver.estimate("k_eta"), lat.estimate("k_d"), ver.estimate("k_z"),

@@ -38,6 +38,16 @@ MACH_03_M_S = 103.0
 SCALE_RANGE = (1e-6, 1e6)
 """The length scales (full scale / model) :class:`Similitude` accepts."""
 
+RE_SHEDDING_ONSET = 47.0
+"""Reynolds number ``U W / nu`` below which the wake of a circular cylinder is steady: no
+vortex shedding (onset near Re 47)."""
+
+RE_STROUHAL_CONSTANT = (300.0, 2e5)
+"""Reynolds numbers between which a circular cylinder's Strouhal number stays near 0.2. Below,
+in laminar shedding, it falls toward 0.12 (Roshko: about 0.21 (1 - 21/Re)); above, the drag
+crisis changes it. Sharp-edged obstacles (buildings) separate at their corners, so their
+Strouhal number depends far less on Re: only the lower end is noted."""
+
 
 @dataclass(frozen=True)
 class Similitude:
@@ -195,6 +205,9 @@ class Similitude:
                     "model_hz": f_m, "full_scale_hz": f_fs,
                     "control_to_shedding_model": fc / f_m,
                     "control_to_shedding_full_scale": self.full_scale_frequency(fc) / f_fs,
+                    "reynolds_model": self.model_speed(full_scale_speed) * w / nu,
+                    "reynolds_full_scale": full_scale_speed * w * lam / nu,
+                    "kinematic_viscosity_m2_s": nu,
                 }
         out["notes"] = self._notes(out)
         return out
@@ -214,4 +227,22 @@ class Similitude:
                 notes.append(f"the {what}-scaled model speed {speed[key]:.4g} m/s is above Mach "
                              f"0.3 ({MACH_03_M_S:g} m/s): the air is compressible there and the "
                              "incompressible scaling does not hold")
+        shedding = out.get("shedding", {})
+        for scale in ("model", "full_scale"):
+            if f"reynolds_{scale}" not in shedding:
+                continue
+            re, what = shedding[f"reynolds_{scale}"], scale.replace("_", "-")
+            lo, hi = RE_STROUHAL_CONSTANT
+            if re < RE_SHEDDING_ONSET:
+                notes.append(f"the {what} obstacle's Reynolds number U W / nu is {re:.3g}, below "
+                             f"~{RE_SHEDDING_ONSET:g} where a cylinder's wake starts to shed "
+                             f"vortices: there is no shedding, and shedding.{scale}_hz is not a "
+                             "frequency of the flow")
+            elif re < lo:  # above the range, the drag crisis moves a cylinder's St, but the
+                # obstacles here are buildings, whose corners fix separation: no note
+                notes.append(f"the {what} obstacle's Reynolds number U W / nu is {re:.3g}, "
+                             f"below ~{lo:g}, where a cylinder sheds in the laminar regime and "
+                             "its Strouhal number falls toward 0.12 near onset: "
+                             f"shedding.{scale}_hz assumes St = {shedding['strouhal']:g} holds "
+                             "there")
         return notes
