@@ -85,6 +85,10 @@ def test_unsteadiness_maps_of_known_samples(tmp_path):
     np.testing.assert_allclose(doc["body_rate_mean_rad_s"][0], [0.0, 0.5], atol=1e-12)
     np.testing.assert_allclose(doc["force_cmd_std_N"][0], [0.0, 0.1], atol=1e-12)
     assert (tmp_path / "o" / "unsteadiness.png").is_file()
+    # the command names its option, not the library's parameter (docs audit)
+    with pytest.raises(ValueError, match="'--cell' parameter of windnav sysid unsteadiness "
+                                         "must give at most"):
+        _cli("sysid", "unsteadiness", "--csv", path, "--cell", 1e-6, "--out", tmp_path / "p")
 
 
 def test_unsteadiness_of_a_flight_log_with_ukf_wind(tmp_path):

@@ -588,8 +588,11 @@ def run_unsteadiness(args) -> int:
         wind = ukf_wind_on_log(log, params) if args.wind == "ukf" else None
         parts.append(flight_samples_from_log(log, params.k_eta, wind_xy=wind))
     parts += [FlightSamples.from_table(read_table(p, where=name), name) for p in args.csv]
-    maps, payload = unsteadiness_study(FlightSamples.concatenate(parts), cell=cell,
-                                       min_count=min_count)
+    with options_named({"'cell' parameter of unsteadiness_maps": f"'--cell' parameter of {name}",
+                        "'min_count' parameter of unsteadiness_maps":
+                        f"'--min-count' parameter of {name}"}):
+        maps, payload = unsteadiness_study(FlightSamples.concatenate(parts), cell=cell,
+                                           min_count=min_count)
     payload["wind_source"] = args.wind if args.log else "csv"
     doc = document("sysid unsteadiness", payload, args)
     _write(args, doc, out, "unsteadiness", lambda path: plot_unsteadiness(maps, path))
