@@ -88,7 +88,7 @@ def test_unsteadiness_maps_of_known_samples(tmp_path):
     # the command names its option, not the library's parameter (docs audit)
     with pytest.raises(ValueError, match="'--cell' parameter of windnav sysid unsteadiness "
                                          "must give at most"):
-        _cli("sysid", "unsteadiness", "--csv", path, "--cell", 1e-6, "--out", tmp_path / "p")
+        _cli("sysid", "unsteadiness", "--csv", path, "--cell", 1e-9, "--out", tmp_path / "p")
 
 
 def test_unsteadiness_of_a_flight_log_with_ukf_wind(tmp_path):
