@@ -327,3 +327,83 @@ def test_bench_decoder_runs_with_tiny_repeats(map_and_model, tmp_path):
             t = res["models"][model][k]
             assert 0 < t["min_ms"] <= t["median_ms"]
     assert "| thesis MLP (reference) |" in proc.stdout
+
+
+def test_predict_notes_inputs_and_a_truth_outside_the_decoders_training(map_and_model, capsys):
+    """Audit: ``--scan-noise 3`` (trained at 0.35 m), ``--at`` farther from every building
+    than the training's robots, ``--dx 3`` (trained on 1 m flows) and a 2 m/s inlet (the time
+    step min(0.25, dx/U) lets its air travel 150 m, not the training's 300 m) were all run
+    without a word, beside a truth whose mean fails the averaging rule. Each is now a note,
+    read against the training recipe in the model file, and in predict.json."""
+    d, city = map_and_model
+    recipe = {"data": {"scan_noise": 0.35, "wall_clearance": 1.0, "building_reach": 5.0},
+              "sweep": {"speeds": [6.0], "settings": {"dx": 1.0, "spinup_steps": 100,
+                                                      "steps": 200}}}
+    dec = tiny_decoder()
+    Decoder(dec.weights, {**dec.metadata, "recipe": recipe}).save(d / "recipe_model.npz")
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(5.0, 115.0, size=(4000, 2))
+    fp = city.footprints
+    gap = np.sqrt(np.min(
+        np.maximum(np.maximum(fp[None, :, 0] - pts[:, :1], pts[:, :1] - fp[None, :, 1]), 0) ** 2
+        + np.maximum(np.maximum(fp[None, :, 2] - pts[:, 1:], pts[:, 1:] - fp[None, :, 3]), 0)
+        ** 2, axis=1))
+    at = pts[gap > 8.0][0]
+    out = d / "outside"
+    rc = main(["predict", "--map", str(d / "map.json"), "--at", str(at[0]), str(at[1]),
+               "--speed", "2", "--direction-deg", "0", "--dx", "3", "--scan-noise", "3",
+               "--model", str(d / "recipe_model.npz"), "--out", str(out), "--no-progress"])
+    assert rc == 0
+    err = capsys.readouterr().err
+    doc = json.loads((out / "predict.json").read_text())
+    notes = doc["notes"]
+    assert [f"windnav predict: note: {n}" in err for n in notes] == [True] * len(notes)
+    assert notes[0] == ("--scan-noise 3 m is above the decoder's training scan noise (0.35 m): "
+                        "outside its training range")
+    assert "from the nearest building; the decoder was trained at 1 to 5 m from one" in notes[1]
+    assert notes[2].startswith("--dx 3 m differs from the cell size of the decoder's training "
+                               "flows (1 m)")
+    assert any(n.startswith("the truth flow's air travelled 150 m during spin-up and averaging, "
+                            "the decoder's training flows' 300 m: a younger flow") for n in notes)
+    assert doc["travel"] == {"travel_m": 150.0, "training_travel_m": [300.0, 300.0],
+                             "outside": True}
+    assert doc["training"]["source"] == "recipe" and doc["training"]["building_reach"] == 5.0
+    diag = doc["flow_diagnostics"]
+    assert diag["flow_throughs_spinup"] == pytest.approx(2 * 0.25 * 100 / 120)
+    assert doc["averaging"]["converged"] is (doc["averaging"]["level"] == "ok")
+    if not doc["averaging"]["converged"]:
+        assert any(n.startswith("the truth flow's mean is ") for n in notes)
+
+
+def test_evaluate_decoder_records_each_truths_diagnostics_and_notes_them(map_and_model,
+                                                                         monkeypatch, capsys):
+    """The truth flows of evaluate-decoder carry their diagnostics and verdicts, cached or not
+    (10 + 10 steps: not converged, and far younger than the training's 300 m of travel)."""
+    import windnav.commands.evaluate_decoder as cmd
+
+    d, city = map_and_model
+    monkeypatch.setattr("windnav.experiments.decoder_eval._evaluation_maps",
+                        lambda maps, windinet, where: [("tiny-0", "dense", city)])
+    run = cmd.run
+    monkeypatch.setattr(cmd, "run", lambda args: run(args, flow_settings=TINY_FLOW))
+    docs = []
+    for k in range(2):  # solved, then read from the flow cache
+        rc = main(["evaluate-decoder", "--model", str(d / "model.npz"), "--maps", "1",
+                   "--inlets", "2", "--samples", "8", "--dx", "2", "--out",
+                   str(d / f"eval_truth{k}"), "--seed", "2", "--no-progress",
+                   "--flow-cache", str(d / "truth_cache")])
+        assert rc == 0
+        err = capsys.readouterr().err
+        assert "windnav evaluate-decoder: note: --dx 2 m differs" in err
+        assert "note: the truth flows of 2 of 2 slots fail the averaging rule" in err
+        assert "the air of 2 of 2 slots travelled more than 25% farther or shorter" in err
+        docs.append(json.loads((d / f"eval_truth{k}" / "decoder_eval.json").read_text()))
+    assert [r["flow_cached"] for r in docs[1]["records"]] == [True, True]
+    for rec, again in zip(docs[0]["records"], docs[1]["records"], strict=True):
+        assert rec["flow_diagnostics"]["flow_throughs_average"] > 0
+        assert again["flow_diagnostics"] == rec["flow_diagnostics"]
+        assert rec["averaging"]["converged"] is False and rec["travel"]["outside"]
+        assert rec["notes"] == again["notes"] and len(rec["notes"]) == 2
+    checks = docs[0]["truth_checks"]
+    assert checks["slots"] == 2 and checks["travel_outside"] == 2 and checks["unknown"] == 0
+    assert checks["not_converged"] + checks["young"] == 2

@@ -454,3 +454,77 @@ def test_the_solvers_frames_skip_the_finite_scan_and_any_other_frames_do_not(mon
     scans.clear()
     sol.wind_field()
     assert len(scans) == 2
+
+
+# ----------------------------------------------------------------- validity flags (notes only)
+
+
+def _diag(spinup, window, halves):
+    return {"flow_throughs_spinup": spinup, "flow_throughs_average": window,
+            "half_window_difference": halves}
+
+
+def test_a_window_much_shorter_than_a_flow_through_is_not_converged_though_its_halves_agree():
+    """Audit: 400 + 2 steps at 5 m/s on a 200 m map (spin-up 2, window 0.01 flow-throughs)
+    had halves 0.031 apart and no warning, but was 0.265 U RMS from the mean of 1600 steps:
+    two snapshots a step apart always agree."""
+    from windnav.commands.wind import averaging_report
+    from windnav.flow.validity import averaging_verdict
+
+    verdict = averaging_verdict(_diag(2.0, 0.01, 0.031))
+    assert verdict["converged"] is False and verdict["level"] == "warning"
+    assert "window 0.01 flow-throughs, under 0.5" in verdict["reason"]
+
+    class Short:
+        diagnostics = {**_diag(2.0, 0.01, 0.031), "smagorinsky": 0.17, "filter_width": 2.5}
+
+    assert "warning: the mean is not converged: window 0.01" in averaging_report(Short())
+    # long enough, spun up, halves agreeing: converged, and no line added to the report
+    ok = averaging_verdict(_diag(1.2, 0.6, 0.04))
+    assert ok["converged"] is True and ok["level"] == "ok"
+    Short.diagnostics.update(_diag(1.2, 0.6, 0.04))
+    assert "\n" not in averaging_report(Short())
+    # fewer than 2 averaged steps: the halves are not compared (NaN), not "converged"
+    assert averaging_verdict(_diag(2.0, 0.6, float("nan")))["converged"] is False
+    assert averaging_verdict({})["converged"] is None
+
+
+@pytest.mark.parametrize("direction_deg", [0.0, 45.0])
+def test_the_thesis_protocol_is_a_young_mean_a_note_not_a_warning(direction_deg):
+    """dx 1 m, dt 0.25 s, 100 + 200 steps at 10 m/s over a 600 m map: spin-up 0.42 and window
+    0.83 flow-throughs along x (0.29 and 0.59 along the diagonal). With halves that agree the
+    verdict is a young mean, worded as a note."""
+    from windnav.flow.validity import averaging_message, averaging_verdict
+
+    a = np.deg2rad(direction_deg)
+    length = 600.0 * (abs(np.cos(a)) + abs(np.sin(a)))
+    spin, window = 10.0 * 0.25 * 100 / length, 10.0 * 0.25 * 200 / length
+    assert spin == pytest.approx(0.4167 if direction_deg == 0 else 0.2946, abs=1e-4)
+    verdict = averaging_verdict(_diag(spin, window, 0.03))
+    assert verdict["converged"] is False and verdict["level"] == "note"
+    assert averaging_message(verdict).startswith("note: the mean is young: spin-up 0.")
+    # a spin-up under a quarter of a flow-through (the slow inlets of one-dt sweeps) is not
+    assert averaging_verdict(_diag(0.1, window, 0.03))["level"] == "warning"
+
+
+def test_a_cell_above_a_eighth_of_the_median_building_is_accepted_with_a_note():
+    """docs/flow_validation.md validates grid independence for dx <= s/8 only (s the median
+    building's smaller side: 20 m here, s/8 = 2.5 m); dx 4 is run, but said to be
+    grid-dependent (check_resolution's warning, which simulate gives)."""
+    from windnav.flow.validity import resolution_check
+
+    city = City((0.0, 200.0, 0.0, 200.0),
+                [[60.0, 80.0, 60.0, 90.0], [100.0, 125.0, 50.0, 70.0],
+                 [140.0, 160.0, 80.0, 130.0]], [20.0, 20.0, 20.0])
+    check = resolution_check(city, 4.0)
+    assert check["grid_dependent"] and check["validated_dx"] == 2.5
+    assert "cell size above the validated resolution (s/8 = 2.5 m" in check["note"]
+    assert "results grid-dependent" in check["note"]
+    assert resolution_check(city, 2.5)["note"] is None
+    with pytest.warns(UserWarning, match="simulate: cell size above the validated resolution"):
+        city.check_resolution(4.0, "simulate")
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        city.check_resolution(2.0, "simulate")  # validated: no warning

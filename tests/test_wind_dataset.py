@@ -435,6 +435,65 @@ def test_cli_wind_sweep_end_to_end_matches_direct_simulation_and_resumes(tmp_pat
     assert "4/4 simulations done (0 now, 4 already" in capsys.readouterr().out
 
 
+def test_cli_wind_flags_a_short_window_and_a_cell_above_the_validated_resolution(tmp_path,
+                                                                                  capsys):
+    """Audit: a 2-step window passed the half-window test (two near-identical snapshots), and
+    a dx above s/8 (s the median building's smaller side: 7 m here, s/8 = 0.875 m) was
+    accepted with only its filter width printed. Both are now said, in the output, the JSON and
+    the Zarr attributes (the fields themselves are unchanged)."""
+    from windnav.cli import main
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    js = tmp_path / "w.json"
+    assert main(["wind", "--map", str(tiny), "--speed", "4", "--dx", "2", "--dt", "0.1",
+                 "--spinup-steps", "60", "--steps", "2", "--out", str(tmp_path / "w"),
+                 "--json", str(js)]) == 0
+    captured = capsys.readouterr()
+    assert "warning: the mean is not converged: window 0.02 flow-throughs, under 0.5" in \
+        captured.out
+    note = ("windnav wind: note: cell size above the validated resolution (s/8 = 0.875 m, s "
+            "the median building's smaller side; dx = 2 m): results grid-dependent")
+    assert note in captured.err
+    assert captured.err.count("validated resolution") == 1  # not again as the solver's warning
+    doc = json.loads(js.read_text())
+    assert doc["averaging"]["converged"] is False and doc["averaging"]["level"] == "warning"
+    assert "window 0.02" in doc["averaging"]["reason"]
+    assert doc["resolution"]["grid_dependent"] is True
+    assert doc["diagnostics"]["validated_dx"] == 0.875
+    attrs = flow_attrs(tmp_path / "w" / "flow.zarr")
+    assert attrs["averaging"] == doc["averaging"] and attrs["resolution"] == doc["resolution"]
+    assert load_flow(tmp_path / "w" / "flow.zarr").flow_throughs_average == pytest.approx(0.02)
+
+
+def test_cli_wind_sweep_names_the_cases_whose_mean_is_not_converged(tmp_path, capsys):
+    """Audit: one time step for the sweep (set by the fastest inlet) and fixed steps gave the
+    0.1 m/s case 0.005 flow-throughs of spin-up, and the output said only "2/2 simulations
+    done". The cases failing the averaging rule are now named once, and counted in --json."""
+    from windnav.cli import main
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    js = tmp_path / "s.json"
+    argv = ["wind-sweep", "--maps", str(tiny), "--out", str(tmp_path / "s.zarr"),
+            "--speeds", "0.1", "10", "--directions-deg", "0", "--backend", "serial",
+            "--dx", "1", "--spinup-steps", "40", "--steps", "80", "--no-progress",
+            "--json", str(js)]
+    assert main(argv) == 0
+    captured = capsys.readouterr()
+    assert "2/2 simulations done" in captured.out
+    warning = [line for line in captured.err.splitlines() if "not converged" in line]
+    assert len(warning) == 1 and "windnav wind-sweep: warning:" in warning[0]
+    assert "map tiny 0.1 m/s toward 0 deg (spin-up 0.01, window 0.02 flow-throughs" in \
+        warning[0]
+    assert "set by the fastest inlet, 10 m/s" in warning[0]
+    doc = json.loads(js.read_text())
+    bad = doc["averaging"]["not_converged"]
+    assert doc["summary"]["not_converged"] == len(bad) >= 1
+    assert doc["summary"]["averaging_checked"] == 2
+    assert bad[0]["speed"] == 0.1 and bad[0]["map"] == "tiny"
+    assert bad[0]["flow_throughs_spinup"] == pytest.approx(0.1 * 40 * 0.1 / 40)
+    assert doc["resolution"][0]["map"] == "tiny" and doc["resolution"][0]["grid_dependent"]
+
+
 def test_cli_errors_name_the_argument(tmp_path, capsys):
     from windnav.cli import main
 

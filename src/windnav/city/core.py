@@ -284,7 +284,9 @@ class City:
         a cell (or slips between centres); the flow would then pass through a building the
         LiDAR sees. Raises a ValueError naming the first such block, its thinnest side and the
         largest ``dx`` that keeps every block. Blocks thinner than ``2 dx`` (kept, but with
-        their shape lost) give a UserWarning.
+        their shape lost) give a UserWarning, and so does a ``dx`` above ``s / 8`` (``s`` the
+        median building's smaller side), the coarsest resolution at which the flow solver's
+        grid independence was validated (:func:`windnav.flow.validity.resolution_check`).
         """
         dx = positive_float(dx, "dx", where)
         if self.n_buildings == 0:
@@ -314,6 +316,16 @@ class City:
                 f"{where}: {shape_lost.size} block(s) thinner than 2 cells at dx = {dx:g} m, "
                 f"e.g. {block(k)} "
                 f"({thin[k]:.3g} m): they keep at most one cell across.",
+                UserWarning, stacklevel=3)
+        # accepted, but outside docs/flow_validation.md's series: the filter is s / 8 (s the
+        # median building's smaller side; windnav.flow.solver.FILTER_PER_BUILDING = 8), and
+        # the grid independence was shown on grids at least that fine
+        # (windnav.flow.validity.resolution_check gives the same words)
+        validated = float(np.median(thin)) / 8
+        if dx > validated * (1.0 + 1e-9):
+            warnings.warn(
+                f"{where}: cell size above the validated resolution (s/8 = {validated:.3g} m, s "
+                f"the median building's smaller side; dx = {dx:g} m): results grid-dependent",
                 UserWarning, stacklevel=3)
 
     # ------------------------------------------------------------------ sensing

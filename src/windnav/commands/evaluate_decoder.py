@@ -17,6 +17,13 @@ added, map by map, while they fit in the budget. The harness is
 :mod:`windnav.experiments.decoder_eval`, the figure :mod:`windnav.viz.decoder`.
 
 Writes into ``--out``: ``decoder_eval.json`` and ``decoder_eval.png``.
+
+Each record carries its truth flow's diagnostics (``flow_diagnostics``), their averaging
+verdict (``averaging``: :func:`windnav.flow.validity.averaging_verdict`), its air travel beside
+the decoder's training flows' (``travel``, read from the decoder's recipe:
+:func:`windnav.predict.envelope.training_envelope`) and its ``notes``; ``truth_checks`` counts
+them, and one ``note`` on stderr says how many slots' truths fail the averaging rule or travel
+more than 25 % farther or shorter than the training's (as ``windnav predict`` does for one).
 """
 
 from __future__ import annotations
@@ -100,11 +107,23 @@ def run(args, simulate=None, flow_settings=None) -> int:
     cache_folder(args.flow_cache, "--flow-cache", name)
     compare = _compare_files(args.compare, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
+    from windnav.commands.predict import TRAVEL_TOLERANCE, print_notes, training_conditions
+    from windnav.predict import load_decoder
+    from windnav.predict.envelope import training_envelope
+
+    training = training_conditions(training_envelope(load_decoder(args.model)))
+    trained_dx = training["flow"]["dx"]
+    notes = [f"--dx {args.dx:g} m differs from the cell size of the decoder's training flows "
+             f"({trained_dx:g} m): outside its training range"] \
+        if abs(args.dx - trained_dx) > TRAVEL_TOLERANCE * trained_dx else []
+    solved: dict = {}  # (map's inlet speed, direction) -> the truth's diagnostics
     res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet, compare=compare,
                            n_inlets=args.inlets, samples_per_inlet=args.samples,
                            seed=args.seed, budget_s=60.0 * budget, dx=args.dx,
                            flow_settings=flow_settings, progress=not args.no_progress,
-                           simulate=simulate, flow_cache=args.flow_cache)
+                           simulate=_recording(simulate, solved), flow_cache=args.flow_cache)
+    res["truth_checks"] = check_truths(res, solved, training, args.flow_cache)
+    print_notes(notes + truth_summary(res), name)  # once the run is not refused
     with out.writing() as stage:
         plot_evaluation(res, stage.dir / "decoder_eval.png")
         doc = document("evaluate-decoder", res, args)
@@ -145,3 +164,93 @@ def _named_compare_files(items, name) -> dict:
         raise ValueError(f"The '--compare' parameter of {name} must name every model "
                          f"(NAME=FILE). Got {items!r} instead.")
     return compare
+
+
+def _recording(simulate, solved: dict):
+    """``simulate`` (default :func:`windnav.flow.simulate`), keeping each run's diagnostics in
+    ``solved`` under ``(speed, direction_deg)``; the run itself is unchanged."""
+    def run(city, **kwargs):
+        from windnav.flow import simulate as flow_simulate
+
+        sol = (simulate or flow_simulate)(city, **kwargs)
+        key = (float(kwargs["speed"]), float(kwargs["direction_deg"]))
+        solved[key] = dict(getattr(sol, "diagnostics", {}) or {})
+        return sol
+
+    return run
+
+
+def _cached_diagnostics(cache) -> dict:
+    """The diagnostics of every flow in a ``--flow-cache`` folder, under ``(map, inlet, speed,
+    direction_deg, dx, dt)``."""
+    from windnav.flow import flow_attrs
+    from windnav.flow.solver import DIAGNOSTICS
+
+    found = {}
+    for path in sorted(Path(cache).glob("*.zarr")) if cache is not None else ():
+        try:
+            attrs = flow_attrs(path)
+            sol, cfg = attrs["solution"], attrs.get("config") or {}
+            key = (cfg.get("map"), cfg.get("inlet"), float(sol["speed"]),
+                   float(sol["direction_deg"]), float(sol["dx"]), float(sol["dt"]))
+        except (ValueError, KeyError, TypeError):  # not a readable flow: not ours to judge
+            continue
+        found[key] = {k: sol[k] for k in DIAGNOSTICS if k in sol}
+    return found
+
+
+def check_truths(res: dict, solved: dict, training: dict, cache=None) -> dict:
+    """Add ``flow_diagnostics``, ``averaging``, ``travel`` and ``notes`` to each record of
+    ``res`` (the truth flow's, see :func:`windnav.commands.predict.truth_notes`); returns the
+    counts: ``slots``, ``not_converged``, ``young``, ``unknown``, ``travel_outside``."""
+    from windnav.commands.predict import travel_check, truth_notes
+    from windnav.flow.validity import averaging_verdict
+
+    cached = _cached_diagnostics(cache) if any(r.get("flow_cached") for r in res["records"]) \
+        else {}
+    config = res["config"]
+    counts = {"slots": len(res["records"]), "not_converged": 0, "young": 0, "unknown": 0,
+              "travel_outside": 0, "training_travel_m": training["flow"]["travel_m"]}
+    for rec in res["records"]:
+        key = (rec["speed"], rec["direction_deg"])
+        diagnostics = solved.get(key) if not rec.get("flow_cached") else cached.get(
+            (rec["map"], rec["inlet"], *key, float(config["dx"]), rec["dt"]))
+        verdict = averaging_verdict(diagnostics or {})
+        travel = travel_check(training, rec["speed"], {"spinup_steps": config["spinup_steps"],
+                                                       "steps": config["steps"],
+                                                       "dt": rec["dt"]})
+        rec.update(flow_diagnostics=diagnostics or {}, averaging=verdict, travel=travel,
+                   notes=truth_notes(verdict, travel))
+        bucket = {"warning": "not_converged", "note": "young", "unknown": "unknown"}.get(
+            verdict["level"])
+        if bucket is not None:
+            counts[bucket] += 1
+        counts["travel_outside"] += int(travel["outside"])
+    return counts
+
+
+def truth_summary(res: dict) -> list[str]:
+    """The note on the truths of an evaluation (empty when every one passes)."""
+    from windnav.commands.predict import TRAVEL_TOLERANCE
+
+    c = res["truth_checks"]
+    n, parts = c["slots"], []
+    recs = res["records"]
+    bad = [r for r in recs if r["averaging"]["level"] in ("warning", "note")]
+    if bad:
+        first = bad[0]
+        parts.append(f"the truth flows of {len(bad)} of {n} slots fail the averaging rule "
+                     f"({c['not_converged']} not converged, {c['young']} young; e.g. "
+                     f"{first['map']} inlet {first['inlet']}: {first['averaging']['reason']})")
+    far = [r for r in recs if r["travel"]["outside"]]
+    if far:
+        lo, hi = far[0]["travel"]["training_travel_m"]
+        trained = f"{lo:.0f} m" if lo == hi else f"{lo:.0f}-{hi:.0f} m"
+        slots = ", ".join(f"{r['map']} inlet {r['inlet']} ({r['speed']:.2f} m/s: "
+                          f"{r['travel']['travel_m']:.0f} m)" for r in far[:10])
+        parts.append(f"the air of {len(far)} of {n} slots travelled more than "
+                     f"{TRAVEL_TOLERANCE:.0%} farther or "
+                     f"shorter during spin-up and averaging than in the decoder's training "
+                     f"flows ({trained}): {slots}{' ...' if len(far) > 10 else ''}")
+    return ["; ".join(parts) + " (per slot: records[].averaging, .travel in the JSON)"] \
+        if parts else []

@@ -10,12 +10,26 @@ from ``--seed``), W_up from the inlet and W_robot the mean wind at the point, an
 local field. Writes into ``--out`` one figure, ``predict.png`` (truth, prediction, speed error,
 direction error on the H x H grid, buildings masked, the metrics in the title), and
 ``predict.json`` (the metrics of the decoder and both baselines).
+
+The inputs are compared with the decoder's training conditions, read from its file
+(:func:`windnav.predict.envelope.training_envelope`): one ``note`` (stderr) per input outside
+them (scan noise above the training's, ``--at`` nearer a wall or farther from every building
+than the training's robots, ``--dx`` other than the training flows' cell size), and one when
+the truth flow's mean fails the averaging rule
+(:func:`windnav.flow.validity.averaging_verdict`) or its air travelled, during spin-up and
+averaging, more than :data:`TRAVEL_TOLERANCE` farther or shorter than the training flows' (the
+time step ``min(0.25 s, dx / U)`` makes the flow of an inlet under 4 m/s younger). The notes,
+the truth's diagnostics and the training conditions are in ``predict.json`` (``notes``,
+``flow_diagnostics``, ``averaging``, ``training``).
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
+
+import numpy as np
 
 from windnav._validate import positive_float
 from windnav.commands._common import (
@@ -31,6 +45,9 @@ from windnav.commands._common import (
 
 PRODUCTS = ("predict.json", "predict.png")
 """What a run writes into ``--out``."""
+TRAVEL_TOLERANCE = 0.25
+"""Relative difference between the truth's and the training flows' air travel (and the
+relative slack on the scan noise and ``--dx``) above which a note is printed."""
 
 
 def register(subparsers) -> None:
@@ -85,6 +102,10 @@ def run(args, flow_settings=None) -> int:
                                           f"'--model' parameter of {name}")) from None
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     settings = {**PROTOCOL, "dt": auto_dt(dx, speed), **(flow_settings or {})}
+    from windnav.predict.envelope import training_envelope
+
+    training = training_conditions(training_envelope(dec))
+    notes = input_notes(training, city, at, dx, noise)  # said once the run is not refused
     with options_named({"'direction_deg' parameter of simulate":
                         f"'--direction-deg' parameter of {name}",
                         "'speed' parameter of simulate": f"'--speed' parameter of {name}",
@@ -94,6 +115,13 @@ def run(args, flow_settings=None) -> int:
                         "Use dx <=": "Use --dx <="}):
         sol = simulate(city, speed=speed, direction_deg=args.direction_deg, dx=dx,
                        progress=not args.no_progress, **settings)
+    from windnav.flow.validity import averaging_verdict
+
+    diagnostics = dict(getattr(sol, "diagnostics", {}) or {})
+    verdict = averaging_verdict(diagnostics)
+    travel = travel_check(training, speed, settings)
+    notes += truth_notes(verdict, travel)
+    print_notes(notes, name)
     field = field_from_solution(city, sol, name=str(args.map))
     pred = predict_at(dec, field, at, scan_noise=noise, rng=args.seed)
     c = len(pred["offsets"]) // 2  # the robot's cell (H is odd: offsets centred on 0)
@@ -105,7 +133,9 @@ def run(args, flow_settings=None) -> int:
                "n_window_cells": int(pred["free"].size),
                "decoder": {"architecture": dec.architecture, "size": dec.size,
                            "path": str(args.model) if args.model else "default"},
-               "metrics": pred["metrics"]}
+               "metrics": pred["metrics"],
+               "flow_diagnostics": diagnostics, "averaging": verdict, "travel": travel,
+               "training": training, "notes": notes}
     with out.writing() as stage:
         plot_prediction(pred, stage.dir / "predict.png",
                         title=f"({at[0]:g}, {at[1]:g}) m, {speed:g} m/s toward "
@@ -123,3 +153,92 @@ def run(args, flow_settings=None) -> int:
           "errors count those)")
     print_written(out)
     return 0
+
+
+def training_conditions(envelope: dict) -> dict:
+    """A decoder's training conditions (:func:`windnav.predict.envelope.training_envelope`)
+    with its flow protocol completed as its sweep ran it: the solver settings the recipe left
+    out take :data:`~windnav.experiments.wind_sweep.DEFAULT_SETTINGS`, the time step
+    :func:`~windnav.experiments.wind_sweep.auto_dt` of the fastest speed; ``flow`` holds
+    ``dx`` m, ``dt`` s, ``spinup_steps``, ``steps``, ``speeds`` m/s and ``travel_m`` (the
+    inlet's air travel during spin-up and averaging, ``U dt (spinup_steps + steps)``, per
+    speed, m)."""
+    from windnav.experiments.wind_sweep import DEFAULT_SETTINGS, auto_dt
+
+    given = envelope["settings"]
+    settings = {**DEFAULT_SETTINGS, **given}
+    speeds = envelope["speeds"]
+    dx = float(settings["dx"])
+    dt = float(given["dt"]) if given.get("dt") is not None else auto_dt(dx, max(speeds))
+    n_steps = int(settings["spinup_steps"]) + int(settings["steps"])
+    flow = {"dx": dx, "dt": dt, "spinup_steps": int(settings["spinup_steps"]),
+            "steps": int(settings["steps"]), "speeds": speeds,
+            "travel_m": [u * dt * n_steps for u in speeds]}
+    return {**{k: v for k, v in envelope.items() if k not in ("settings", "speeds")},
+            "flow": flow}
+
+
+def print_notes(notes, name: str) -> None:
+    """One ``note:`` line per note, on stderr."""
+    for note in notes:
+        print(f"{name}: note: {note}", file=sys.stderr, flush=True)
+
+
+def _outside(value: float, trained: float) -> bool:
+    """``value`` more than :data:`TRAVEL_TOLERANCE` (relative) away from ``trained``."""
+    return abs(value - trained) > TRAVEL_TOLERANCE * abs(trained)
+
+
+def input_notes(training: dict, city, at, dx: float, scan_noise: float) -> list[str]:
+    """One note per input of ``windnav predict`` outside the decoder's training conditions
+    (``training``: :func:`windnav.predict.envelope.training_envelope`)."""
+    notes = []
+    trained = training["scan_noise"]
+    if scan_noise > trained * (1.0 + TRAVEL_TOLERANCE):
+        notes.append(f"--scan-noise {scan_noise:g} m is above the decoder's training scan "
+                     f"noise ({trained:g} m): outside its training range")
+    fp = np.asarray(city.footprints, dtype=np.float64).reshape(-1, 4)
+    if fp.shape[0]:
+        p = np.asarray(at, dtype=np.float64)
+        ex = np.maximum(np.maximum(fp[:, 0] - p[0], p[0] - fp[:, 1]), 0.0)
+        ey = np.maximum(np.maximum(fp[:, 2] - p[1], p[1] - fp[:, 3]), 0.0)
+        gap = float(np.sqrt((ex * ex + ey * ey).min()))
+        near, reach = training["wall_clearance"], training["building_reach"]
+        if not near <= gap <= reach:
+            notes.append(f"--at ({p[0]:g}, {p[1]:g}) is {gap:.3g} m from the nearest building; "
+                         f"the decoder was trained at {near:g} to {reach:g} m from one: outside "
+                         "its training range")
+    flow_dx = training["flow"]["dx"]
+    if _outside(dx, flow_dx):
+        notes.append(f"--dx {dx:g} m differs from the cell size of the decoder's training "
+                     f"flows ({flow_dx:g} m): outside its training range")
+    return notes
+
+
+def travel_check(training: dict, speed: float, settings: dict) -> dict:
+    """How far the inlet's air travelled during the truth's spin-up and averaging, beside the
+    decoder's training flows (``U dt (spinup_steps + steps)``, m)."""
+    n_steps = int(settings["spinup_steps"]) + int(settings["steps"])
+    travel = float(speed) * float(settings["dt"]) * n_steps
+    lo, hi = min(training["flow"]["travel_m"]), max(training["flow"]["travel_m"])
+    return {"travel_m": travel, "training_travel_m": [lo, hi],
+            "outside": bool(travel < lo * (1.0 - TRAVEL_TOLERANCE)
+                            or travel > hi * (1.0 + TRAVEL_TOLERANCE))}
+
+
+def truth_notes(verdict: dict, travel: dict) -> list[str]:
+    """Notes on the truth flow: its averaging verdict
+    (:func:`windnav.flow.validity.averaging_verdict`) and its air travel
+    (:func:`travel_check`) when outside the training's."""
+    notes = []
+    if verdict["level"] in ("warning", "note"):
+        kind = "not converged" if verdict["level"] == "warning" else "young"
+        notes.append(f"the truth flow's mean is {kind}: {verdict['reason']}")
+    if travel["outside"]:
+        lo, hi = travel["training_travel_m"]
+        trained = f"{lo:.0f} m" if lo == hi else f"{lo:.0f}-{hi:.0f} m"
+        age = "a younger" if travel["travel_m"] < lo else "an older"
+        notes.append(f"the truth flow's air travelled {travel['travel_m']:.0f} m during spin-up "
+                     f"and averaging, the decoder's training flows' {trained}: {age} flow "
+                     f"than it learned (more than {TRAVEL_TOLERANCE:.0%} apart)")
+    return notes

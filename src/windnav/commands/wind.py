@@ -10,11 +10,18 @@ The flow is solved by :func:`windnav.flow.simulate` (through
 too); the picture (:func:`windnav.experiments.flow_figures.plot_mean_speed`) shows the
 time-averaged wind speed ``|(mean_u, mean_v)|`` with streamlines of the mean wind over the
 building footprints.
+
+The run ends with the averaging diagnostics and their verdict
+(:func:`windnav.flow.validity.averaging_verdict`: a ``warning`` when the mean is not
+converged, a ``note`` when it is young), and a ``note`` on stderr when ``--dx`` is above the
+validated resolution (:func:`windnav.flow.validity.resolution_check`); both are in ``--json``
+(``averaging``, ``resolution``) and in the Zarr attributes of ``flow.zarr``.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 import warnings
 from pathlib import Path
 
@@ -138,7 +145,13 @@ def run(args, simulate=None) -> int:
     x, y = solver_grid(city, settings["dx"])
     print(f"{name}: solving {x.size} x {y.size} cells, {settings['spinup_steps']} spin-up + "
           f"{settings['steps']} averaged steps of {settings['dt']:g} s", flush=True)
-    solution, seconds = simulate_case(city, speed, direction_deg, settings, args.seed, simulate)
+    from windnav.flow.validity import averaging_verdict, resolution_check
+
+    resolution = resolution_check(city, settings["dx"])
+    with warnings.catch_warnings():  # said once, at the end, as a note
+        warnings.filterwarnings("ignore", message=RESOLUTION_WARNING)
+        solution, seconds = simulate_case(city, speed, direction_deg, settings, args.seed,
+                                          simulate)
     config = {
         "speed": speed,
         "direction_deg": direction_deg,
@@ -147,24 +160,57 @@ def run(args, simulate=None) -> int:
         "map_source": os.path.abspath(args.map),
         "solve_seconds": seconds,
     }
+    verdict = averaging_verdict(solution)
     with out.writing() as stage:
         save_flow(solution, stage.dir / "flow.zarr", config=config)
+        add_flow_attrs(stage.dir / "flow.zarr", {"averaging": verdict, "resolution": resolution})
         plot_mean_speed(
             solution, city, stage.dir / "mean_speed.png",
             title=f"{Path(args.map).name}: inlet {speed:g} m/s toward {direction_deg:g} deg",
         )
         if stage.file("--json") is not None:
             diagnostics = dict(getattr(solution, "diagnostics", {}) or {})
-            write_json(document("wind", {"config": config, "diagnostics": diagnostics}, args),
+            diagnostics["validated_dx"] = resolution["validated_dx"]
+            write_json(document("wind", {"config": config, "diagnostics": diagnostics,
+                                         "averaging": verdict, "resolution": resolution}, args),
                        stage.file("--json"))
     print(f"solved in {seconds:.1f} s")
     print_written(out)
     print(averaging_report(solution))
+    print_resolution_note(city, settings["dx"], name)
     return 0
 
 
+RESOLUTION_WARNING = ".*cell size above the validated resolution"
+"""The message of the solver's resolution warning (:meth:`windnav.city.City.check_resolution`),
+which the commands print as a note instead."""
+
+
+def print_resolution_note(city, dx: float, name: str, label: str = "") -> dict:
+    """Print the ``note:`` line (stderr) when ``dx`` is above the map's validated resolution;
+    returns :func:`windnav.flow.validity.resolution_check`'s dict."""
+    from windnav.flow.validity import resolution_check
+
+    check = resolution_check(city, dx)
+    if check["note"] is not None:
+        print(f"{name}: note: {label}{check['note']}", file=sys.stderr, flush=True)
+    return check
+
+
+def add_flow_attrs(path, attrs: dict) -> None:
+    """Add attributes to a saved flow (``flow.zarr``; its arrays are left as they are)."""
+    from windnav.experiments.results import json_ready
+    from windnav.flow._zarr import FLOW_FORMAT, open_group
+
+    open_group(path, FLOW_FORMAT, "windnav wind", mode="r+").attrs.update(json_ready(attrs))
+
+
 def averaging_report(solution) -> str:
-    """One paragraph on how well the mean wind is converged (printed by ``windnav wind``)."""
+    """One paragraph on how well the mean wind is converged (printed by ``windnav wind``):
+    the diagnostics, then the verdict's ``warning:`` or ``note:`` line
+    (:func:`windnav.flow.validity.averaging_verdict`) when it is not converged."""
+    from windnav.flow.validity import averaging_message, averaging_verdict
+
     d = getattr(solution, "diagnostics", {})
     if not d:
         return "averaging: no diagnostics (solver override)"
@@ -174,7 +220,7 @@ def averaging_report(solution) -> str:
         f"the window's halves by {d['half_window_difference']:.3f} of the inlet speed (RMS); "
         f"closure: Smagorinsky C_s = {d['smagorinsky']:g}, filter {d['filter_width']:.2f} m"
     )
-    if d["flow_throughs_spinup"] < 1.0 or d["half_window_difference"] > 0.05:
-        text += ("\nwarning: the mean is not converged (spin-up under one flow-through or "
-                 "halves differing by more than 5 %); raise --spinup-steps / --steps")
+    message = averaging_message(averaging_verdict(d))
+    if message is not None:
+        text += "\n" + message
     return text

@@ -12,6 +12,14 @@ rerunning the same command after an interruption computes only the simulations n
 ``--json`` writes one record per task run now (a map and one direction, or several with the
 same inlet sides; its pending cases, with each case's speed and direction) and the counts; the
 store itself is never replaced (``--overwrite`` applies to ``--json`` only).
+
+After the sweep every finished case's stored diagnostics are judged by the averaging rule
+(:func:`windnav.flow.validity.averaging_verdict`): one ``warning`` names the cases whose mean
+is not converged (the sweep runs one time step, set by the fastest inlet, and fixed step
+counts, so a slow inlet gets few flow-throughs), one ``note`` those whose mean is young; a
+map whose ``--dx`` is above its validated resolution gets a ``note``. The
+counts and the cases are in ``--json`` (``summary.not_converged``, ``summary.young``,
+``averaging``, ``resolution``).
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import warnings
 from pathlib import Path
 
 from windnav._validate import finite_float, positive_int
@@ -32,13 +41,26 @@ from windnav.commands._common import (
     seed,
     where,
 )
-from windnav.commands.wind import add_solver_arguments, load_city, solver_settings
+from windnav.commands.wind import (
+    RESOLUTION_WARNING,
+    add_solver_arguments,
+    load_city,
+    print_resolution_note,
+    solver_settings,
+)
 from windnav.experiments.maps import MAP_KINDS, generated_maps
-from windnav.experiments.wind_sweep import THESIS_SPEEDS, directions_from, sweep
+from windnav.experiments.wind_sweep import (
+    THESIS_SPEEDS,
+    averaging_summary,
+    directions_from,
+    sweep,
+)
 
 MAX_DIRECTIONS = 360
 """The largest count one ``--directions N`` accepts: 1 deg apart (more is no count of inlet
 directions anyone simulates; ``--directions 400`` meant an angle)."""
+NAMED_CASES = 10
+"""The most cases one averaging warning or note names (``--json`` lists them all)."""
 
 
 def _map_files(items) -> list[Path]:
@@ -149,11 +171,13 @@ def run(args, simulate=None) -> int:
     check_output_path(args.out, "--out", name, kind="dir")
     out = outputs(args)
     try:
-        store, results = sweep(maps, args.out, speeds=speeds,
-                               directions_deg=directions, settings=settings,
-                               backend=args.backend, workers=args.workers, seed=args.seed,
-                               progress=not args.no_progress, verify=args.verify,
-                               simulate=simulate)
+        with warnings.catch_warnings():  # said once per map, at the end, as a note
+            warnings.filterwarnings("ignore", message=RESOLUTION_WARNING)
+            store, results = sweep(maps, args.out, speeds=speeds,
+                                   directions_deg=directions, settings=settings,
+                                   backend=args.backend, workers=args.workers, seed=args.seed,
+                                   progress=not args.no_progress, verify=args.verify,
+                                   simulate=simulate)
     except SweepMismatchError as exc:  # the library's message names no flag; add it here
         raise ValueError(
             f"The '--out' parameter of {name} names {args.out!r}, which already holds a "
@@ -184,6 +208,10 @@ def run(args, simulate=None) -> int:
               f"{', '.join(f'{d:g}' for d in t.directions_deg)} deg): {first}")
     print(f"{store.path}: {n_done}/{total} simulations done "
           f"({n_now} now, {total - n_now - n_failed} already, {n_failed} failed)")
+    averaging = averaging_summary(store)
+    print_averaging(averaging, settings, max(speeds), name)
+    resolution = [{"map": m, **print_resolution_note(city, settings["dx"], name, f"map {m}: ")}
+                  for m, _, city in maps]
     if args.json is not None:
         records = [{"map_index": r.task.map_index, "cases": list(r.task.case_indices),
                     "speeds": list(r.task.speeds),
@@ -191,9 +219,47 @@ def run(args, simulate=None) -> int:
                     "ok": r.ok, "seconds": r.seconds, "error": r.error}
                    for r in sorted(results, key=lambda r: r.index)]
         summary = {"store": str(store.path), "simulations": total, "done": n_done,
-                   "now": n_now, "already": total - n_now - n_failed, "failed": n_failed}
+                   "now": n_now, "already": total - n_now - n_failed, "failed": n_failed,
+                   "averaging_checked": averaging["checked"],
+                   "not_converged": len(averaging["not_converged"]),
+                   "young": len(averaging["young"])}
         with out.writing() as stage:
-            write_json(document("wind-sweep", {"records": records, "summary": summary}, args),
+            write_json(document("wind-sweep", {"records": records, "summary": summary,
+                                               "averaging": averaging,
+                                               "resolution": resolution}, args),
                        stage.file("--json"))
         print_written(out)
     return 1 if failed else 0
+
+
+def _named(cases: list) -> str:
+    """``map speed m/s toward direction deg`` of the first cases, and how many more."""
+    words = [f"map {c['map']} {c['speed']:g} m/s toward {c['direction_deg']:g} deg "
+             f"(spin-up {c['flow_throughs_spinup']:.2g}, window "
+             f"{c['flow_throughs_average']:.2g} flow-throughs, halves "
+             f"{c['half_window_difference']:.2g} U apart)" for c in cases[:NAMED_CASES]]
+    more = len(cases) - NAMED_CASES
+    return "; ".join(words) + (f"; and {more} more (--json lists them)" if more > 0 else "")
+
+
+def print_averaging(averaging: dict, settings: dict, max_speed: float, name: str) -> None:
+    """One ``warning:`` line (stderr) naming the finished cases whose mean is not converged,
+    one ``note:`` line naming those whose mean is young
+    (:func:`~windnav.experiments.wind_sweep.averaging_summary`)."""
+    from windnav.flow.validity import HALVES_LIMIT, SPINUP_FLOOR, WINDOW_FLOOR
+
+    n = averaging["checked"]
+    bad, young = averaging["not_converged"], averaging["young"]
+    if bad:
+        slower = any(c["speed"] < max_speed for c in bad)
+        advice = (f"The sweep runs one time step ({settings['dt']:g} s, set by the fastest "
+                  f"inlet, {max_speed:g} m/s) and fixed step counts, so slower inlets get fewer "
+                  "flow-throughs: raise --spinup-steps / --steps, or sweep them separately"
+                  if slower else "Raise --spinup-steps / --steps")
+        print(f"{name}: warning: {len(bad)} of {n} simulations are not converged (spin-up under "
+              f"{SPINUP_FLOOR:g} or window under {WINDOW_FLOOR:g} flow-throughs, or halves "
+              f"over {HALVES_LIMIT:.0%} of the inlet speed apart): {_named(bad)}. {advice}",
+              file=sys.stderr)
+    if young:
+        print(f"{name}: note: {len(young)} of {n} simulations are young means (spin-up under "
+              f"one flow-through): {_named(young)}", file=sys.stderr)

@@ -345,6 +345,50 @@ def direction_batches(directions_deg, n_speeds: int, group_sides: bool = True) -
     return batch_of
 
 
+def averaging_summary(store) -> dict:
+    """The averaging verdict (:func:`windnav.flow.validity.averaging_verdict`) of every finished
+    case of a sweep store, from the diagnostics stored with it.
+
+    Returns
+    -------
+    dict
+        ``checked`` (finished cases with diagnostics), ``unknown`` (finished cases without:
+        a solver override, or an unreadable diagnostics chunk), ``not_converged`` and
+        ``young`` (one dict per such case: ``map``, ``map_index``, ``case``, ``speed`` m/s,
+        ``direction_deg``, ``flow_throughs_spinup``, ``flow_throughs_average``,
+        ``half_window_difference``, ``reason``).
+    """
+    from windnav.flow.validity import averaging_verdict
+
+    out = {"checked": 0, "unknown": 0, "not_converged": [], "young": []}
+    for k in range(store.n_maps):
+        done = np.flatnonzero(store.done(k))
+        try:
+            name = str(store.map_attrs(k).get("name", k))
+            diagnostics = store.case_diagnostics(k)
+        except ValueError:  # a damaged group or chunk: verify / resume reports it
+            out["unknown"] += int(done.size)
+            continue
+        for c in done:
+            case = {key: float(v[c]) for key, v in diagnostics.items()}
+            verdict = averaging_verdict(case)
+            if verdict["converged"] is None:
+                out["unknown"] += 1
+                continue
+            out["checked"] += 1
+            if verdict["converged"]:
+                continue
+            entry = {"map": name, "map_index": int(k), "case": int(c),
+                     "speed": float(store.speeds[c]),
+                     "direction_deg": float(store.directions_deg[c]),
+                     **{key: case.get(key) for key in ("flow_throughs_spinup",
+                                                       "flow_throughs_average",
+                                                       "half_window_difference")},
+                     "reason": verdict["reason"]}
+            out["not_converged" if verdict["level"] == "warning" else "young"].append(entry)
+    return out
+
+
 def solver_grid(city, dx: float) -> tuple[np.ndarray, np.ndarray]:
     """Cell centres ``x`` (nx,), ``y`` (ny,) in m of the grid :func:`windnav.flow.simulate`
     solves ``city`` on at spacing ``dx`` (:func:`windnav.flow.grid.grid_for`)."""

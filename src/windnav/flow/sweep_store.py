@@ -593,6 +593,18 @@ class SweepStore:
             out["diagnostics"] = dict(zip(columns, values, strict=True))
         return out
 
+    def case_diagnostics(self, k: int) -> dict:
+        """The averaging and closure diagnostics of every case of map ``k``, read as stored:
+        ``{column: ndarray of shape (n_cases,)}`` (NaN for a case not done, or a store or
+        solver without them: then empty)."""
+        g = self._map(k)
+        if "diagnostics" not in g:
+            return {}
+        columns = g["diagnostics"].attrs.get("columns", list(DIAGNOSTICS))
+        values = np.asarray(read(g, "diagnostics", self.path,
+                                 f"SweepStore.case_diagnostics({k})"), dtype=np.float64)
+        return {name: values[:, i] for i, name in enumerate(columns)}
+
     def map_attrs(self, k: int) -> dict:
         """Attributes of map ``k``: name, source, bounds, fingerprint, spacing, origin."""
         return dict(self._map(k).attrs)
