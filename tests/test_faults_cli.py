@@ -265,6 +265,18 @@ def test_a_flight_mostly_outside_the_envelope_says_how_much_and_how_far(tmp_path
     assert doc["outside_envelope_fraction_settled"] == 0.0 and doc["max_airspeed_m_s"] < 4
 
 
+def test_a_filter_without_parasitic_drag_in_fast_air_is_noted(tmp_path, capsys):
+    """The thesis filter leaves parasitic drag out; at 8 m/s its RMSE was 1.86 m/s against
+    0.66 at 3, with nothing said (envelope audit, 2026-12-05)."""
+    base = ["fly", "--trajectory", "hover", "--wind", "constant", "--wind-mean", "8", "0", "0",
+            "--duration", "3", "--no-plots"]
+    assert main([*base, "--conditions", "thesis", "--out", str(tmp_path / "t")]) == 0
+    assert "note: the 'thesis' filter models no parasitic drag, and this flight's median " \
+           "airspeed is 8" in capsys.readouterr().err
+    assert main([*base, "--conditions", "windnav", "--out", str(tmp_path / "w")]) == 0
+    assert "parasitic drag" not in capsys.readouterr().err
+
+
 def test_demo_advises_its_own_flow_step(tmp_path, capsys, monkeypatch):
     import windnav.experiments.demo as demo
 
