@@ -29,8 +29,6 @@ import json
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
@@ -192,6 +190,8 @@ def _outside(value: float, trained: float) -> bool:
 def input_notes(training: dict, city, at, dx: float, scan_noise: float) -> list[str]:
     """One note per input of ``windnav predict`` outside the decoder's training conditions
     (``training``: :func:`windnav.predict.envelope.training_envelope`)."""
+    import numpy as np
+
     notes = []
     trained = training["scan_noise"]
     if scan_noise > trained * (1.0 + TRAVEL_TOLERANCE):
