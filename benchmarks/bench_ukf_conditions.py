@@ -61,6 +61,8 @@ def main() -> int:
                     default=["windnav", "thesis", "thesis-0.038", "hardware"])
     ap.add_argument("--ablations", action="store_true")
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--no-record", action="store_true",
+                    help="print the table only; do not append docs/benchmarks.md")
     args = ap.parse_args()
     rows = ["| conditions | trials ok | median 3D (m/s) | median x / y / z (m/s) | "
             "quartiles 3D (m/s) | max (m/s) | thesis (m/s) | target (m/s) | wall (s) |",
@@ -88,8 +90,9 @@ def main() -> int:
                 "(0.8, hardware rows); conditions in `docs/ukf.md`, definitions in "
                 "`windnav.experiments.ukf_montecarlo`.")
     print("\n".join(rows))
-    append_record(f"Wind UKF Monte Carlo by conditions ({args.trials} trials, seed {args.seed})",
-                  rows)
+    if not args.no_record:
+        append_record(f"Wind UKF Monte Carlo by conditions ({args.trials} trials, "
+                      f"seed {args.seed})", rows)
     return 0
 
 

@@ -33,6 +33,8 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=None)
+    ap.add_argument("--no-record", action="store_true",
+                    help="print the table only; do not append docs/benchmarks.md")
     args = ap.parse_args()
     rows = ["| sensors | trials ok | median RMSE (m/s) | quartiles (m/s) | max (m/s) | "
             "median / thesis 0.5 | wall (s) | speed-up |",
@@ -54,7 +56,8 @@ def main() -> int:
     rows.append(f"{args.workers} worker processes; RMSE of the 3D wind error after 2 s; "
                 "definitions in `windnav.experiments.ukf_montecarlo`.")
     print("\n".join(rows))
-    append_record(f"Wind UKF Monte Carlo ({args.trials} trials, seed {args.seed})", rows)
+    if not args.no_record:
+        append_record(f"Wind UKF Monte Carlo ({args.trials} trials, seed {args.seed})", rows)
     return 0
 
 
