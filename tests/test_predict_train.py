@@ -423,6 +423,63 @@ def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
     assert not (out / "recipe.toml").exists()
 
 
+def test_train_decoder_command_ctrl_c_says_what_is_kept_and_how_to_resume(tiny, tmp_path,
+                                                                          monkeypatch, capsys):
+    """Audit: Ctrl-C printed only ``windnav train-decoder: interrupted``. It now says which step
+    stopped, what is kept (the sweep's simulations; the checkpoint after the last finished
+    epoch) and that rerunning the same command resumes; and rerunning does."""
+    import windnav.experiments.wind_sweep as wind_sweep
+    import windnav.predict.train as train
+    from windnav.commands import train_decoder as command
+
+    recipe, out, full = tiny
+    (tmp_path / "sweep.zarr").symlink_to(out / "sweep.zarr")
+    parser = argparse.ArgumentParser()
+    command.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["train-decoder", "--config", str(RECIPES / "tiny.toml"),
+                              "--out", str(tmp_path), "--no-progress", "--backend", "serial"])
+    real_train, real_sweep = train.train_decoder, wind_sweep.sweep
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    def after_two_epochs(*a, **k):
+        def stop(epoch, record):
+            if epoch == 2:
+                raise KeyboardInterrupt
+        return real_train(*a, **k, callback=stop)
+
+    monkeypatch.setattr(wind_sweep, "sweep", interrupted)
+    assert args.func(args) == 130
+    err = capsys.readouterr().err.strip()
+    assert err == ("windnav train-decoder: interrupted during the sweep (12/12 simulations "
+                   f"done, kept in {tmp_path / 'sweep.zarr'}); rerun the same command to "
+                   "continue it, then train.")
+    monkeypatch.setattr(wind_sweep, "sweep", real_sweep)
+    monkeypatch.setattr(train, "train_decoder", interrupted)
+    assert args.func(args) == 130
+    err = capsys.readouterr().err.strip()
+    assert "before its first epoch finished (no checkpoint yet" in err
+    monkeypatch.setattr(train, "train_decoder", after_two_epochs)
+    assert args.func(args) == 130
+    err = capsys.readouterr().err.strip()
+    assert err == ("windnav train-decoder: interrupted during the training; the checkpoint "
+                   f"after the last finished epoch is kept in {tmp_path / 'checkpoint.pt'}; "
+                   "rerun the same command to resume from it.")
+    monkeypatch.setattr(train, "train_decoder", real_train)
+    assert args.func(args) == 0   # resumes after epoch 2, ends with the uninterrupted model
+    assert "resuming" in capsys.readouterr().out
+    a, b = load_decoder(out / "model.npz"), load_decoder(tmp_path / "model.npz")
+    for k in a.weights:
+        np.testing.assert_array_equal(a.weights[k], b.weights[k])
+    over = parser.parse_args(["train-decoder", "--config", str(RECIPES / "tiny.toml"),
+                              "--out", str(tmp_path), "--no-progress", "--overwrite"])
+    monkeypatch.setattr(train, "train_decoder", after_two_epochs)
+    assert over.func(over) == 130
+    assert "rerun the same command without --overwrite (which starts over) to resume" in \
+        capsys.readouterr().err
+
+
 @pytest.mark.parametrize("fused", [True, False])
 def test_loss_is_the_free_cell_mean_of_relative_squared_error_and_misdirection(fused):
     import torch

@@ -13,7 +13,10 @@ from each field and reports the speed, direction and vector errors of the decode
 baseline (uniform W_robot) and the Upstream baseline (uniform W_up), per (map, inlet) and
 pooled, with the improvements over each baseline and issue 9's acceptance checks; models given
 with ``--compare`` are scored on the same fields and samples beside it. Inlets are
-added, map by map, while they fit in the budget. The harness is
+added, map by map, while they fit in the budget; an inlet whose flow comes from ``--flow-cache``
+is charged the simulation time recorded with it, so a run resumed after Ctrl-C runs the same
+inlets as one never interrupted, up to the timing noise of the work done again (an entry that
+cannot be read is solved again, with a warning). The harness is
 :mod:`windnav.experiments.decoder_eval`, the figure :mod:`windnav.viz.decoder`.
 
 Writes into ``--out``: ``decoder_eval.json`` and ``decoder_eval.png``.
@@ -68,7 +71,8 @@ def register(subparsers) -> None:
                    help="samples per (map, inlet) (default 2048)")
     p.add_argument("--budget-min", type=float, default=20.0, metavar="MIN",
                    help="wall-clock budget in minutes (default 20): no inlet starts that would "
-                        "end past it")
+                        "end past it; an inlet read from --flow-cache is charged the simulation "
+                        "time recorded with it, as if solved again")
     p.add_argument("--windinet", action=argparse.BooleanOptionalAction, default=True,
                    help="also evaluate the third-party windinet 1.1 km layout (default: yes)")
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
@@ -182,12 +186,15 @@ def _recording(simulate, solved: dict):
 
 def _cached_diagnostics(cache) -> dict:
     """The diagnostics of every flow in a ``--flow-cache`` folder, under ``(map, inlet, speed,
-    direction_deg, dx, dt)``."""
+    direction_deg, dx, dt)``; hidden names (an entry still being written, or left half-written
+    by a killed process) are skipped."""
     from windnav.flow import flow_attrs
     from windnav.flow.solver import DIAGNOSTICS
 
     found = {}
     for path in sorted(Path(cache).glob("*.zarr")) if cache is not None else ():
+        if path.name.startswith("."):
+            continue
         try:
             attrs = flow_attrs(path)
             sol, cfg = attrs["solution"], attrs.get("config") or {}

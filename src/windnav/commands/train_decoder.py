@@ -10,7 +10,8 @@ the sweep, the samples, the architecture and the schedule. The command first run
 the sweep into ``<out>/<sweep.store>`` (:func:`windnav.experiments.wind_sweep.sweep`: finished
 simulations are kept), then trains with :func:`windnav.predict.train.train_decoder`, which
 resumes from ``<out>/checkpoint.pt`` after an interruption. Rerun the same command to continue
-either step. ``--overwrite`` starts the training over (the sweep store is kept and reused).
+either step (Ctrl-C says which was interrupted and what is kept). ``--overwrite`` starts the
+training over (the sweep store is kept and reused).
 A recipe with ``train.members`` M > 1 trains M models from seeds ``train.seed + i``, each in
 ``<out>/member<i>`` with the files above, and writes their ensemble (the mean of their fields)
 to ``<out>/model.npz``.
@@ -116,6 +117,9 @@ def run(args, simulate=None) -> int:
             "different sweep (maps, inlets, solver settings or seed); use another --out, or "
             "delete the store to start over."
         ) from exc
+    except KeyboardInterrupt:
+        print(_interrupted_sweep(name, store), file=sys.stderr)
+        return 130
     sweep_seconds = time.perf_counter() - t0
     failed = [r for r in results if not r.ok]
     for r in failed:
@@ -136,6 +140,10 @@ def run(args, simulate=None) -> int:
     t1 = time.perf_counter()
     try:
         history = train_decoder(recipe, store=store, out_dir=out_dir, progress=progress)
+    except KeyboardInterrupt:
+        print(_interrupted_training(name, out_dir, recipe["train"]["members"],
+                                    args.overwrite), file=sys.stderr)
+        return 130
     except ValueError as exc:
         raise ValueError(str(exc).replace("'config' parameter of train_decoder",
                                           f"'--config' parameter of {name}")) from None
@@ -165,3 +173,32 @@ def run(args, simulate=None) -> int:
         print_written(out)
     return 0
 
+
+def _interrupted_sweep(name: str, store: Path) -> str:
+    """The Ctrl-C line of the sweep step: how many simulations its store keeps."""
+    from windnav.flow.sweep_store import SweepStore
+
+    try:
+        st = SweepStore(store)
+        total = st.n_maps * st.n_cases
+        done = f"{total - len(st.pending())}/{total} simulations done, kept in {store}"
+    except (ValueError, OSError):  # interrupted before the store was created
+        done = "no simulation stored yet"
+    return (f"{name}: interrupted during the sweep ({done}); rerun the same command to "
+            "continue it, then train.")
+
+
+def _interrupted_training(name: str, out_dir: Path, members: int, overwrite: bool) -> str:
+    """The Ctrl-C line of the training step: the checkpoint kept (written after each finished
+    epoch, :func:`windnav.predict.train.train_decoder`) and how to resume from it."""
+    ckpts = [out_dir / "checkpoint.pt"] if members <= 1 else \
+        [out_dir / f"member{i}" / "checkpoint.pt" for i in range(members)]
+    kept = [c for c in ckpts if c.is_file()]
+    again = "rerun the same command" + (" without --overwrite (which starts over)"
+                                        if overwrite else "")
+    if not kept:
+        return (f"{name}: interrupted during the training, before its first epoch finished "
+                f"(no checkpoint yet; the sweep is kept); {again} to start the training.")
+    where = str(kept[0]) if members <= 1 else ", ".join(str(c) for c in kept)
+    return (f"{name}: interrupted during the training; the checkpoint after the last finished "
+            f"epoch is kept in {where}; {again} to resume from it.")

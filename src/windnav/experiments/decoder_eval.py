@@ -24,7 +24,14 @@ The protocol (the thesis's evaluation, ch. 4, on our maps):
 - **Budget.** Slots run inlet by inlet, each inlet over every map in turn (so the maps share the
   time); before a slot starts, its cost is estimated from the slots done (seconds per grid cell
   times its cells) and the run stops when it would end past ``budget_s``. The first slot always
-  runs.
+  runs. A slot whose flow comes from the cache (``flow_cache``) is charged as if it had been
+  solved: what it took plus the simulation's seconds recorded in the cache entry
+  (``config["compute_s"]``, :func:`slot_flow`), both in the time spent and in the cost per cell;
+  so the budget is deterministic given the cache's recorded times, and a run resumed from the
+  cache runs the same slots as the run it resumes (up to the wall-clock noise of the rest of the
+  work: sampling, scoring, the flows solved now). An entry that recorded no time (written by an
+  older windnav) is charged the current estimate (its own time when there is none yet) and does
+  not change the estimate.
 
 Pooled errors weigh cells equally (:func:`windnav.predict.pooled_errors`); improvements are
 ``1 - model / baseline`` (:func:`windnav.predict.improvement`), in percent.
@@ -33,7 +40,9 @@ Pooled errors weigh cells equally (:func:`windnav.predict.pooled_errors`); impro
 from __future__ import annotations
 
 import hashlib
+import math
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -136,20 +145,56 @@ def slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, dx
     the evaluation and the studies share their flows. ``simulate`` replaces
     :func:`windnav.flow.simulate` (tests). A diverged flow raises
     :class:`windnav.flow.solver.FlowDivergedError` and is not cached.
+
+    An entry is written to a temporary sibling and renamed into place once complete
+    (:func:`windnav.experiments.results.atomic_path`), so an interrupted write (Ctrl-C) leaves
+    no entry; its config records the map, the inlet and ``compute_s``, the seconds the
+    simulation took (what :func:`evaluate_decoder`'s budget charges a cached slot). An entry
+    that cannot be read (damaged, or left incomplete by a process killed while writing it with
+    an older windnav) is a cache miss: a warning names it, and the flow is solved again and
+    replaces it.
     """
-    from windnav.flow import load_flow, save_flow
+    sol, cached, _ = _slot_flow(city, name, inlet, speed, direction, dx=dx, dt=dt, steps=steps,
+                                cache_dir=cache_dir, simulate=simulate)
+    return sol, cached
+
+
+def _recorded_seconds(attrs: dict) -> float | None:
+    """The simulation seconds a cache entry recorded (``config["compute_s"]``), or None."""
+    value = (attrs.get("config") or {}).get("compute_s")
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    return float(value) if math.isfinite(value) and value >= 0 else None
+
+
+def _slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, dx: float,
+               dt: float, steps: dict, cache_dir=None, simulate=None) -> tuple:
+    """:func:`slot_flow`, with the simulation's seconds third: measured when solved now, the
+    entry's recorded ``compute_s`` when read from the cache (None when it recorded none)."""
+    from windnav.experiments.results import atomic_path
+    from windnav.flow import flow_attrs, load_flow, save_flow
     from windnav.flow import simulate as flow_simulate
 
     path = Path(cache_dir) / flow_cache_name(name, city, speed, direction, dx, steps, dt) \
         if cache_dir is not None else None
     if path is not None and path.is_dir():
-        return load_flow(path), True
+        try:  # CorruptStoreError (a ValueError), or a folder that is no flow solution (yet)
+            sol = load_flow(path)
+            return sol, True, _recorded_seconds(flow_attrs(path))
+        except ValueError as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            warnings.warn(f"slot_flow: the flow cache entry {str(path)!r} cannot be read (an "
+                          f"interrupted write, or damaged); solving it again to replace it. "
+                          f"({reason})", stacklevel=3)
+    t0 = time.perf_counter()
     sol = (simulate or flow_simulate)(city, speed=speed, direction_deg=direction, dx=dx, dt=dt,
                                       **steps)
+    compute_s = time.perf_counter() - t0
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
-        save_flow(sol, path, config={"map": name, "inlet": inlet})
-    return sol, False
+        with atomic_path(path) as tmp:  # replaces an unreadable entry whole
+            save_flow(sol, tmp, config={"map": name, "inlet": inlet, "compute_s": compute_s})
+    return sol, False, compute_s
 
 
 def _evaluation_maps(maps, windinet, where):
@@ -271,7 +316,9 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     flow_cache : str or path-like, optional
         Keep each slot's solution in this folder and reuse it when the same map, inlet and
         protocol come again (:func:`slot_flow`; shared with ``windnav decoder-study
-        --flow-cache``). The budget counts a cached slot at its own, shorter cost.
+        --flow-cache``). The budget charges a cached slot the simulation time recorded in its
+        entry on top of its own (module doc), so the slots run do not depend on which flows
+        were cached.
 
     Returns
     -------
@@ -311,22 +358,24 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     records, failed, per_sample = [], [], []
     seconds_per_cell = None  # the cost of the slots done, s per grid cell
     spent_s, spent_cells = 0.0, 0
+    credit_s = 0.0  # charged to cached slots beyond their own time (module doc: Budget)
     stopped = False
     for i, j in slots:
         name, group, city = cities[i]
         speed, direction = inlets[i, j]
         cells = np.prod([len(a) for a in city.grid(dx)])
-        elapsed = time.perf_counter() - t_start
+        elapsed = time.perf_counter() - t_start + credit_s
         if seconds_per_cell is not None and elapsed + seconds_per_cell * cells > budget_s:
             stopped = True
             break
         t0 = time.perf_counter()
         dt = settings.get("dt") or auto_dt(dx, speed)
         try:
-            sol, cached = slot_flow(city, name, j, float(speed), float(direction), dx=dx,
-                                    dt=float(dt), steps={k: settings[k] for k in
-                                                         ("spinup_steps", "steps")},
-                                    cache_dir=flow_cache, simulate=simulate)
+            sol, cached, compute_s = _slot_flow(city, name, j, float(speed), float(direction),
+                                                dx=dx, dt=float(dt),
+                                                steps={k: settings[k] for k in
+                                                       ("spinup_steps", "steps")},
+                                                cache_dir=flow_cache, simulate=simulate)
         except FlowDivergedError as exc:
             failed.append({"map": name, "group": group, "inlet": j, "speed": speed,
                            "direction_deg": direction, "error": str(exc)})
@@ -337,8 +386,15 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
                              spacing=dec.spacing, scan_noise=0.35, w_robot_noise=0.0)
         errors, ps = _score(dec, batch, dec.size, dec.spacing, compared)
         seconds = time.perf_counter() - t0
-        spent_s, spent_cells = spent_s + seconds, spent_cells + int(cells)
-        seconds_per_cell = spent_s / spent_cells
+        charged = seconds  # a solved slot: what it took
+        if cached and compute_s is not None:  # as if solved: plus its recorded simulation
+            charged = seconds + compute_s
+        elif cached and seconds_per_cell is not None:  # no time recorded: the estimate
+            charged = max(seconds, seconds_per_cell * cells)
+        credit_s += charged - seconds
+        if not cached or compute_s is not None:
+            spent_s, spent_cells = spent_s + charged, spent_cells + int(cells)
+            seconds_per_cell = spent_s / spent_cells
         rec = {"map": name, "group": group, "inlet": j, "speed": float(speed),
                "direction_deg": float(direction), "dt": float(dt), "cells": int(cells),
                "n_samples": int(batch.scans.shape[0]), "flow_seconds": t_flow,
