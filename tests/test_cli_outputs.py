@@ -203,6 +203,52 @@ def test_outputs_write_nothing_when_the_run_fails(tmp_path):
     assert list(out.iterdir()) == [] and sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
+def test_what_a_killed_run_left_is_removed_by_the_next_run_and_nothing_else(tmp_path):
+    """A SIGKILL while writing leaves a staging folder in --out and a temporary file beside
+    --json; the next run that stages its outputs removes those of processes that are gone,
+    and keeps those of live processes, of other hosts, of other files and of older names."""
+    import os
+    import subprocess
+    import sys
+
+    gone = subprocess.Popen([sys.executable, "-c", "pass"])
+    gone.wait()  # a process id that no longer names a process
+    dead, live, host = gone.pid, os.getpid(), res._host_tag()
+    other_host = f"{(int(host, 16) + 1) % 2**32:08x}"
+    out, json_path = tmp_path / "run", tmp_path / "summary.json"
+    out.mkdir()
+    removed = [out / f".windnav-staging-{dead}-{host}-0badc0de",
+               out / f".a.{dead}-{host}-0badc0de.windnav-tmp.txt",  # a product's, in --out
+               tmp_path / f".summary.{dead}-{host}-0badc0de.windnav-tmp.json"]
+    kept = [out / f".windnav-staging-{live}-{host}-0badc0de",  # a live run's
+            out / f".windnav-staging-{dead}-{other_host}-0badc0de",  # a shared folder's
+            out / ".windnav-staging-0badc0de",  # an older windnav's name: no process id
+            out / f".notes.{dead}-{host}-0badc0de.windnav-tmp.txt",  # not a product
+            tmp_path / f".summary.{live}-{host}-0badc0de.windnav-tmp.json",
+            tmp_path / f".other.{dead}-{host}-0badc0de.windnav-tmp.json"]  # not --json's
+    for path in removed + kept:
+        if "staging" in path.name:
+            path.mkdir()
+            (path / "a.txt").write_text("half")
+        else:
+            path.write_text("half")
+    # the names this windnav writes are the names it cleans up
+    assert res._STAGING.fullmatch(f"{res._STAGING_PREFIX}{res._owner()}")
+    m = res._TEMPORARY_NAME.fullmatch(res._temporary_name(json_path).name)
+    assert (m["stem"] + m["suffix"], int(m["pid"]), m["host"]) == ("summary.json", live, host)
+    o = res.Outputs("windnav x", out=("--out", out, ("a.txt",)), files={"--json": json_path})
+    with o.writing() as stage:
+        staged = stage.dir.name
+        assert staged.startswith(f".windnav-staging-{live}-{host}-")
+        assert stage.file("--json").name.startswith(f".summary.{live}-{host}-")
+        (stage.dir / "a.txt").write_text("run")
+        stage.file("--json").write_text("{}")
+    assert sorted(o.cleaned) == sorted(removed)
+    assert not any(p.exists() for p in removed) and all(p.exists() for p in kept)
+    assert (out / "a.txt").read_text() == "run" and json_path.read_text() == "{}"
+    assert not (out / staged).exists()
+
+
 def test_outputs_refuse_two_flags_naming_one_file(tmp_path):
     with pytest.raises(res.OutputPathError, match="--plot"):
         res.Outputs("windnav x", files={"--json": tmp_path / "a", "--plot": tmp_path / "a"})

@@ -217,10 +217,34 @@ def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys)
     text = json.dumps(doc)
     assert '"n_modes"' in text and '"canonical"' in text
     assert (out / "decoder_eigenflows.png").stat().st_size > 10_000
+    assert (doc["arguments"]["maps"], doc["arguments"]["inlets"]) == (1, 2)  # the defaults
     # a second run refuses to overwrite without --overwrite
     assert cli.main(["decoder-study", "eigenflows", "--quick", "--out", str(out),
                      "--no-progress"]) == 2
     assert "--overwrite" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("study, option, value, why", [
+    ("averaging", "--flow-cache", "cache", "the averaging study keeps no flows"),
+    ("start", "--flow-cache", "cache", "the start study keeps no flows"),
+    ("winds", "--flow-cache", "cache", "the winds study keeps no flows"),
+    ("eigenflows", "--inlets", "6", "does not apply with --quick"),
+    ("noise", "--maps", "2", "does not apply with --quick"),
+    ("averaging", "--maps", "2", "is for the studies on evaluation flows"),
+])
+def test_decoder_study_refuses_the_options_a_study_would_ignore(study, option, value, why,
+                                                                tmp_path, capsys):
+    """--flow-cache for a study that keeps no flows, --maps and --inlets with --quick (one map,
+    one inlet) or for a study on no evaluation maps: refused before any work, never ignored
+    (``averaging --quick --flow-cache D`` ran and never made D; ``eigenflows --quick --inlets
+    6`` made one flow)."""
+    if option == "--flow-cache":
+        value = str(tmp_path / value)
+    assert cli.main(["decoder-study", study, "--quick", "--out", str(tmp_path / "out"),
+                     "--runs", str(tmp_path / "runs"), option, value, "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert f"'{option}' parameter of windnav decoder-study" in err and why in err
+    assert list(tmp_path.iterdir()) == []  # nothing made, no flow simulated
 
 
 def test_decoder_study_size_quick_trains_one_model_per_grid_size(runs, tmp_path):

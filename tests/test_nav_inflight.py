@@ -210,3 +210,68 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
     assert cli.main(["nav-study", "bound", "--out", str(tmp_path / "b"), "--store",
                      str(tmp_path / "s"), "--compare", "x=y.npz"]) == 2
     assert "'--compare' parameter" in capsys.readouterr().err
+
+
+def test_the_command_resumes_an_interrupted_study_with_the_same_result(tmp_path, monkeypatch,
+                                                                       capsys):
+    """Ctrl-C after the first wind keeps it in the output folder's record log; the rerun flies
+    only the other wind and writes what an uninterrupted run writes (but the timings)."""
+    import json
+
+    from windnav import cli
+
+    real_study, real_fly = ni.inflight_study, ni._fly_wind
+    ids = ["tiny/m00/w00/p0", "tiny/m00/w01/p0"]  # two winds
+    monkeypatch.setattr(ni, "inflight_study", lambda spec, _ids, **kw: real_study(
+        TINY, ids, **{**kw, "executor": "serial"}))
+    flown = []
+
+    def fly(task, stop_at=None):
+        if len(flown) == stop_at:
+            raise KeyboardInterrupt
+        flown.append(task[1])
+        return real_fly(task)
+
+    def command(out, *more):
+        return cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0", "--pairs",
+                         "0", "--every", "1", "--tau", "2", "--out", str(out), "--no-progress",
+                         *more])
+
+    def untimed(doc):
+        return {**{k: v for k, v in doc.items() if k not in ("elapsed_s", "arguments")},
+                "arguments": {k: v for k, v in doc["arguments"].items() if k != "out"}}
+
+    monkeypatch.setattr(ni, "_fly_wind", fly)
+    assert command(tmp_path / "whole") == 0 and len(flown) == 2
+    whole = json.loads((tmp_path / "whole" / "nav_inflight.json").read_text())
+    assert sorted(p.name for p in (tmp_path / "whole").iterdir()) == [
+        "nav_inflight.json", "nav_inflight.png", "nav_inflight_tau.png"]  # no record log left
+
+    out, log = tmp_path / "cut", tmp_path / "cut" / ni.RECORDS
+    flown.clear()
+    monkeypatch.setattr(ni, "_fly_wind", lambda task: fly(task, stop_at=1))
+    capsys.readouterr()
+    assert command(out) == 130
+    assert f"the finished winds are kept in {log}" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [ni.RECORDS]  # no result written
+    assert len(log.read_text().splitlines()) == 2  # the header and the first wind
+    flown.clear()
+    monkeypatch.setattr(ni, "_fly_wind", fly)
+    assert command(out) == 0
+    assert flown == [["tiny/m00/w01/p0"]]  # the first wind was not flown again
+    doc = json.loads((out / "nav_inflight.json").read_text())
+    assert untimed(doc) == untimed(whole)
+    assert not log.exists()
+    assert (out / "nav_inflight.png").read_bytes() == (
+        tmp_path / "whole" / "nav_inflight.png").read_bytes()
+
+    # a record log of another study (here: another --every) is refused, never mixed in
+    other = tmp_path / "other"
+    other.mkdir()
+    stale = ni.records_header(TINY, ni.INFLIGHT_VARIANT, 2.0, (2.0,))
+    (other / ni.RECORDS).write_text(json.dumps({"header": stale}) + "\n")
+    flown.clear()
+    assert command(other) == 2 and flown == []
+    err = capsys.readouterr().err
+    assert "'--out' parameter" in err and "another inflight study" in err
+    assert "--overwrite" in err and (other / ni.RECORDS).exists()

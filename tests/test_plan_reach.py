@@ -1,5 +1,6 @@
 """The least-time search within an airspeed limit (windnav.plan.reach), against closed forms."""
 
+import json
 import math
 
 import numpy as np
@@ -206,6 +207,27 @@ def test_reach_scenarios_on_a_tiny_suite_resumes_and_bounds_the_flights(tmp_path
     again = reach_scenarios(spec, tmp_path, airspeeds=(2.0, 13.0), executor="serial",
                             progress=False)
     assert again == reach and len((tmp_path / RECORDS).read_text().splitlines()) == 4
+    # a kill mid-append tears the last line (no newline): the rerun ignores it, cuts it off
+    # and appends the missing record whole (it used to exit 2 on every rerun, naming no file)
+    whole = (tmp_path / RECORDS).read_bytes()
+    cut = len(whole) - len(whole.splitlines()[-1]) // 2 - 1
+    (tmp_path / RECORDS).write_bytes(whole[:cut])
+    mended = reach_scenarios(spec, tmp_path, airspeeds=(2.0, 13.0), executor="serial",
+                             progress=False)
+
+    def untimed(records):
+        return [{k: v for k, v in r.items() if k != "flow_s"} for r in records]
+
+    assert untimed(mended) == untimed(reach)
+    lines = (tmp_path / RECORDS).read_bytes().split(b"\n")
+    assert lines[:3] == whole.split(b"\n")[:3] and lines[4] == b""  # torn line gone, 4 whole
+    assert untimed([json.loads(x) for x in lines[:4]]) == untimed(reach)
+    # a corrupt line elsewhere is an error naming the file and the line
+    lines[1] = b'{"scenario_id": "tiny/m00/w00/p1", "lim'
+    (tmp_path / RECORDS).write_bytes(b"\n".join(lines))
+    with pytest.raises(ValueError, match=rf"{RECORDS}'.* at line 2: "):
+        reach_scenarios(spec, tmp_path, airspeeds=(2.0, 13.0), executor="serial",
+                        progress=False)
 
 
 def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, capsys):

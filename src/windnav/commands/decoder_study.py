@@ -41,7 +41,10 @@ flows or with ``--windinet`` on the windinet layout at ``--inlets`` inlets (thos
 can express (each label fitted by least squares) beside the decoder, and the decoder's R^2 on
 each of the labels' eigenflows within those modes, on the same flows (or ``--windinet``): is
 the output basis what limits the decoder? ``--quick``:
-a 150 m map and short flows, or the tiny recipe's sweep and models. The harness is
+a 150 m map and short flows, or the tiny recipe's sweep and models. ``--maps``, ``--inlets``
+and ``--flow-cache`` are for the studies on evaluation flows (eigenflows, gradients, mosaic,
+noise, direction, basis), and ``--maps`` and ``--inlets`` not with ``--quick`` (one map, one
+inlet): where a study would ignore them they are refused, before any work. The harness is
 :mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
 
 Writes into ``--out``: ``decoder_<study>.json`` and ``decoder_<study>.png``.
@@ -68,6 +71,11 @@ from windnav.commands._common import (
 STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
            "scaling", "noise", "direction", "basis")
 """The studies, as named on the command line."""
+FLOW_STUDIES = ("eigenflows", "gradients", "mosaic", "noise", "direction", "basis")
+"""The studies on the flows of dense evaluation maps: the ones that read ``--maps``,
+``--inlets`` and ``--flow-cache``."""
+MAPS, INLETS = 1, 2
+"""The defaults of ``--maps`` and ``--inlets``."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
 
@@ -93,14 +101,17 @@ def register(subparsers) -> None:
     p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
                    help="noise: another decoder scored beside --model on the same samples "
                         "(repeatable)")
-    p.add_argument("--maps", type=int, default=1, metavar="N",
-                   help="dense 1.2 km evaluation maps (default 1; the mosaic uses the first)")
-    p.add_argument("--inlets", type=int, default=2, metavar="N",
-                   help="random inlets per map (default 2; the mosaic uses the first)")
+    p.add_argument("--maps", type=int, default=None, metavar="N",
+                   help="dense 1.2 km evaluation maps (default 1; the mosaic uses the first; "
+                        "not with --quick, whose one map is fixed)")
+    p.add_argument("--inlets", type=int, default=None, metavar="N",
+                   help="random inlets per map (default 2; the mosaic uses the first; not "
+                        "with --quick, whose one inlet is fixed)")
     p.add_argument("--samples", type=int, default=2048, metavar="N",
                    help="samples per (map, inlet) for eigenflows and gradients (default 2048)")
     p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
-                   help="keep the flow solutions here and reuse them (default: no cache)")
+                   help="eigenflows, gradients, mosaic, noise, direction, basis: keep the flow "
+                        "solutions here and reuse them (default: no cache)")
     p.add_argument("--runs", type=Path, default=None, metavar="DIR",
                    help="winds/size/scaling: the sweep store and trained models (default "
                         "runs/decoder_studies, runs/scaling, or with --quick ..._quick)")
@@ -254,8 +265,9 @@ def run(args, simulate=None) -> int:
 
     name = where(args)
     seed(args)
-    cache_folder(args.flow_cache, "--flow-cache", name)
     study = args.study
+    _check_flow_options(args, name)
+    cache_folder(args.flow_cache, "--flow-cache", name)
     progress = not args.no_progress
     for flag, value in (("--samples", args.samples), ("--epochs", args.epochs),
                         ("--samples-per-field", args.samples_per_field)):
@@ -357,6 +369,32 @@ def run(args, simulate=None) -> int:
                                  "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 0
+
+
+def _check_flow_options(args, name: str) -> None:
+    """Refuse ``--flow-cache``, ``--maps`` and ``--inlets`` where the study would ignore them
+    (a study that simulates no evaluation flows; ``--quick``, whose one map and inlet are
+    fixed), before any work; then set ``--maps`` and ``--inlets`` to their defaults when
+    unset."""
+    study = args.study
+    if args.flow_cache is not None and study not in FLOW_STUDIES:
+        raise ValueError(f"The '--flow-cache' parameter of {name} is for the studies on "
+                         f"evaluation flows ({', '.join(FLOW_STUDIES)}); the {study} study "
+                         f"keeps no flows. Got {str(args.flow_cache)!r} for {study!r} instead.")
+    for flag, value in (("--maps", args.maps), ("--inlets", args.inlets)):
+        if value is None:
+            continue
+        if study not in FLOW_STUDIES:
+            raise ValueError(f"The {flag!r} parameter of {name} is for the studies on "
+                             f"evaluation flows ({', '.join(FLOW_STUDIES)}). Got {value!r} for "
+                             f"{study!r} instead.")
+        if args.quick:
+            raise ValueError(f"The {flag!r} parameter of {name} does not apply with --quick "
+                             f"(one 150 m map, one inlet). Got {value!r} with --quick instead.")
+    if args.maps is None:
+        args.maps = MAPS
+    if args.inlets is None:
+        args.inlets = INLETS
 
 
 def _drop_bulk(study: str, res: dict) -> dict:

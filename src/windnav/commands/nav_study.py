@@ -55,12 +55,16 @@ energy (:mod:`windnav.experiments.nav_tilt`). ``inflight`` re-flies the scenario
 (``--variant``, default ``ea-mppi-w-hat@outside=robot``) and scores the decoder and the
 baselines along the paths against the mean field, given the UKF's, the mean and the true
 instantaneous ``W_robot`` (and, with ``--tau``, the UKF's estimate averaged over time)
-(:mod:`windnav.experiments.nav_inflight`); it needs no store.
+(:mod:`windnav.experiments.nav_inflight`); it needs no store. It keeps each finished wind's
+flights in ``--out``'s ``nav_inflight.partial.jsonl`` until its outputs are written: after
+Ctrl-C (exit 130) or a kill, rerunning the same command flies only the winds not yet done, with
+the uninterrupted run's result.
 """
 
 from __future__ import annotations
 
 import json
+import sys
 import time
 from pathlib import Path
 
@@ -389,7 +393,7 @@ def _inflight(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.commands.evaluate_decoder import _named_compare_files
     from windnav.experiments import nav_inflight
-    from windnav.experiments.results import json_ready
+    from windnav.experiments.results import RecordMismatchError, json_ready
     from windnav.predict import load_decoder
     from windnav.viz.nav_studies import plot_inflight, plot_inflight_tau
 
@@ -409,13 +413,33 @@ def _inflight(args, name: str, spec) -> int:
                 *(("nav_inflight_tau.png",) if args.tau else ()))
     out = outputs(args, out=("--out", args.out, products))
     compare = _named_compare_files(args.compare, name)
-    t0 = time.perf_counter()
-    try:
-        res = nav_inflight.inflight_study(
+    log = Path(args.out) / nav_inflight.RECORDS  # each finished wind, until the outputs are in
+
+    def study():
+        return nav_inflight.inflight_study(
             spec, ids, variant=args.variant or nav_inflight.INFLIGHT_VARIANT,
             every_s=args.every, compare={n: load_decoder(f) for n, f in compare.items()},
             taus=args.tau, executor=args.executor, workers=workers,
-            progress=not args.no_progress)
+            progress=not args.no_progress, records=log)
+
+    t0 = time.perf_counter()
+    try:
+        try:
+            res = study()
+        except RecordMismatchError:  # raised before any flight
+            if not args.overwrite:
+                raise ValueError(
+                    f"The '--out' parameter of {name} names {str(args.out)!r}, whose record "
+                    f"log {str(log)!r} holds the flights of another inflight study (suite, "
+                    "--variant, --every or --tau differ); rerun that study to finish it, pass "
+                    "--overwrite to discard them, or choose another --out.") from None
+            log.unlink()
+            res = study()
+    except KeyboardInterrupt:
+        kept = f"the finished winds are kept in {log}" if log.exists() else "no wind finished"
+        print(f"{name}: interrupted: {kept}; rerun the same command to resume",
+              file=sys.stderr)
+        return 130
     except ValueError as exc:
         raise ValueError(str(exc).replace("'variant' parameter of inflight_study",
                                           f"'--variant' parameter of {name}").replace(
@@ -432,6 +456,7 @@ def _inflight(args, name: str, spec) -> int:
             plot_inflight_tau(res, folder / products[2])
 
     _write(out, args, res, products[0], draw)
+    log.unlink(missing_ok=True)
     print("\n".join(nav_inflight.summarize_inflight(res)))
     print(json.dumps(json_ready({"study": "inflight", "flights": len(res["flights"]),
                                  "errors": len(res["errors"]),

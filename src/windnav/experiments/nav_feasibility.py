@@ -16,11 +16,14 @@ vehicle stays inside the envelope; a reachable one may still be out of reach of 
 
 Each (map, wind) is one task: its wind is simulated once (as the benchmark does, with the same
 worker reuse, so it is the benchmark's wind to the bit) and its pairs are searched at each
-airspeed limit. Results are appended to ``reach.jsonl`` in the output folder as tasks finish;
-a rerun computes only what is missing. ``fly`` (variant labels) and ``store`` (a benchmark
-store) also fly those variants' pending flights in the same winds, as
-:func:`~windnav.experiments.nav_benchmark.run_benchmark` would, so that one pass over the
-suite's winds serves both.
+airspeed limit. Results are appended to ``reach.jsonl`` in the output folder as tasks finish
+(flushed and synced); a rerun computes only what is missing. A kill loses at most the lines
+being written: a last line without its newline is torn, ignored on reading and cut off before
+the next append, as in the benchmark store (:class:`~windnav.experiments.nav_records.NavStore`);
+any other line that is not a reach record is an error naming the file and the line. ``fly``
+(variant labels) and ``store`` (a benchmark store) also fly those variants' pending flights in
+the same winds, as :func:`~windnav.experiments.nav_benchmark.run_benchmark` would, so that one
+pass over the suite's winds serves both.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -125,14 +129,54 @@ def reach_task(task: ReachTask) -> list[dict]:
 
 
 def _done(path: Path) -> list[dict]:
+    """The reach records in ``path``, in order ([] when there is none).
+
+    A last line without its newline was torn by a kill mid-write: it is ignored (and cut off
+    before the next append, :func:`_append`).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the (1-based) line of the first other line that is not a reach
+        record.
+    """
     if not path.is_file():
         return []
+    lines = path.read_bytes().split(b"\n")
     out = []
-    with path.open() as fh:
-        for line in fh:
-            if line.strip():
-                out.append(json.loads(line))
+    for i, raw in enumerate(lines[:-1], start=1):  # the last item follows the last newline
+        if not raw.strip():
+            continue
+        try:
+            rec = json.loads(raw)
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            rec = None
+        if not (isinstance(rec, dict) and isinstance(rec.get("scenario_id"), str)
+                and isinstance(rec.get("limits"), dict)):
+            text = raw[:80].decode("utf-8", "replace")
+            raise ValueError(
+                f"The reach record file {str(path)!r} has a corrupt record at line {i}: "
+                f"{text!r}. Delete or repair that line (its scenarios are then computed "
+                "again); the other lines keep their finished scenarios.")
+        out.append(rec)
     return out
+
+
+def _append(path: Path, records: Sequence[Mapping]) -> None:
+    """Append ``records`` to ``path``, one JSON line each, durably; a torn last line left by
+    an earlier kill is cut off first."""
+    from windnav.experiments.nav_records import _cut_torn_tail
+    from windnav.experiments.results import json_ready
+
+    if not records:
+        return
+    data = "".join(json.dumps(json_ready(rec)) + "\n" for rec in records).encode()
+    with path.open("a+b") as fh:
+        _cut_torn_tail(fh)
+        fh.seek(0, os.SEEK_END)
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
@@ -155,7 +199,6 @@ def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
     from windnav.experiments.executor import run_tasks
     from windnav.experiments.nav_benchmark import NavStore, check_variants
     from windnav.experiments.nav_suite import make_suite
-    from windnav.experiments.results import json_ready
 
     where = "reach_scenarios"
     out = Path(out)
@@ -185,10 +228,7 @@ def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
 
     def on_result(res):
         if res.ok:
-            with path.open("a") as fh:
-                for rec in res.value:
-                    if rec["scenario_id"] not in have:
-                        fh.write(json.dumps(json_ready(rec)) + "\n")
+            _append(path, [rec for rec in res.value if rec["scenario_id"] not in have])
 
     failed = []
     for res in run_tasks(reach_task, tasks, executor, workers=workers, progress=progress,

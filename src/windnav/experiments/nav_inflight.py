@@ -21,18 +21,25 @@ and reports the input errors, RMS over the samples: ``|w_ukf - w_mean|``, ``|w -
 Everything is grouped by inlet speed. The scans are drawn afresh at the sampled positions with
 the decoder's training noise (the flight's own scans are not kept; their noise is independent
 draws of the same law).
+
+With ``records`` (a :class:`~windnav.experiments.results.RecordLog`, JSON lines), each wind's
+flights and samples are appended as the wind finishes (the arrays exactly, as compressed
+bytes), so an interrupted study resumes with the winds not yet done, and its result is the
+uninterrupted study's.
 """
 
 from __future__ import annotations
 
+import base64
+import zlib
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from windnav._validate import generator, positive_float
 
-__all__ = ["INFLIGHT_VARIANT", "MODELS", "inflight_errors", "inflight_samples",
-           "inflight_study", "smoothed_key", "summarize_inflight"]
+__all__ = ["INFLIGHT_VARIANT", "MODELS", "RECORDS", "inflight_errors", "inflight_samples",
+           "inflight_study", "records_header", "smoothed_key", "summarize_inflight"]
 
 INFLIGHT_VARIANT = "ea-mppi-w-hat@outside=robot"
 """The variant re-flown: the onboard stack with ``W_robot`` outside the decoder's window."""
@@ -49,6 +56,9 @@ INPUTS = {"ukf_vs_mean": ("ukf", "mean"), "inst_vs_mean": ("inst", "mean"),
 
 
 _SMOOTHED = "ukf_tau"
+
+RECORDS = "nav_inflight.partial.jsonl"
+"""The record log ``windnav nav-study inflight`` keeps in its output folder while it runs."""
 
 
 def smoothed_key(tau_s: float) -> str:
@@ -235,10 +245,56 @@ def _fly_wind(task):
     return out
 
 
+def records_header(spec, variant: str, every_s: float, taus: Sequence[float]) -> dict:
+    """The header of a study's record log: what its flights and samples depend on (the suite,
+    the variant flown, the sampling; not the scenarios, each wind's recorded with its flights,
+    nor the compared decoders, which only score the samples)."""
+    return {"study": "windnav.experiments.nav_inflight", "suite": spec.name, "seed": spec.seed,
+            "settings_hash": spec.settings_hash(), "variant": variant, "every_s": every_s,
+            "taus": list(taus)}
+
+
+def _packed(a: np.ndarray) -> dict:
+    """An array as JSON: dtype, shape and its bytes (zlib, base64), to read back exactly."""
+    a = np.ascontiguousarray(a)
+    return {"dtype": a.dtype.str, "shape": list(a.shape),
+            "data": base64.b64encode(zlib.compress(a.tobytes())).decode("ascii")}
+
+
+def _unpacked(d: Mapping) -> np.ndarray:
+    raw = zlib.decompress(base64.b64decode(d["data"], validate=True))
+    return np.frombuffer(raw, dtype=np.dtype(d["dtype"])).reshape(d["shape"]).copy()
+
+
+def _flight_record(flight: Mapping) -> dict:
+    return {**{k: flight[k] for k in ("scenario_id", "speed", "outcome", "time_s")},
+            "samples": {k: _packed(v) for k, v in flight["samples"].items()}}
+
+
+def _recorded_winds(log, groups: Sequence[Sequence[str]]) -> dict:
+    """The flights of each of ``groups`` (one wind's scenario ids) that the record log ``log``
+    holds for exactly that group (the last record of it), by the group as a tuple."""
+    wanted = {tuple(g) for g in groups}
+    found = {}
+    for rec in log.load():
+        ids = tuple(rec.get("scenario_ids") or ()) if isinstance(rec, dict) else ()
+        if ids in wanted:
+            found[ids] = rec["flights"]
+    try:
+        return {ids: [{**{k: f[k] for k in ("scenario_id", "speed", "outcome", "time_s")},
+                       "samples": {k: _unpacked(v) for k, v in f["samples"].items()}}
+                      for f in flights]
+                for ids, flights in found.items()}
+    except (KeyError, TypeError, ValueError, zlib.error) as exc:
+        raise ValueError(f"The record log {str(log.path)!r} holds a wind that cannot be read "
+                         f"({type(exc).__name__}: {exc}); move it away, or start over.") from None
+
+
 def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT_VARIANT,
                    every_s: float = 0.5, compare: Mapping | None = None,
                    taus: Sequence[float] = (), executor: str = "process",
-                   workers: int | None = None, progress: bool = True) -> dict:
+                   workers: int | None = None, progress: bool = True,
+                   records=None) -> dict:
     """Re-fly ``scenario_ids`` with the onboard stack and score its wind along the paths.
 
     Parameters
@@ -258,6 +314,12 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
         estimate averaged with each (:func:`inflight_samples`); nothing flies differently.
     executor, workers, progress
         :func:`windnav.experiments.executor.run_tasks`.
+    records : str or path-like, optional
+        A record log (:class:`windnav.experiments.results.RecordLog`, header
+        :func:`records_header`): each wind's flights, with their samples, are appended as soon
+        as the wind finishes, so an interrupted study loses only the winds in flight. A wind
+        recorded there (the same scenarios) is not flown again (a failed wind is); the result
+        is the uninterrupted study's.
 
     Returns
     -------
@@ -267,10 +329,16 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
         sample; ``flights``: per scenario its outcome, time and sample count; ``variant``,
         ``every_s``, ``taus``, ``compare`` (the compared decoders' names), ``errors`` (harness
         errors, scenario id to message; a wind that fails fails all its scenarios).
+
+    Raises
+    ------
+    RecordMismatchError
+        When ``records`` holds the records of another study (checked before any flight).
     """
     from windnav.experiments.executor import run_tasks
     from windnav.experiments.nav_benchmark import check_scenario_ids, parse_variant
     from windnav.experiments.nav_suite import parse_scenario_id
+    from windnav.experiments.results import RecordLog, say
     from windnav.plan import VARIANTS
 
     where = "inflight_study"
@@ -288,13 +356,24 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
     for sid in ids:
         sc = parse_scenario_id(spec, sid)
         winds.setdefault((sc.map_index, sc.wind_index), []).append(sid)
-    tasks = [(spec, group, variant, every, taus) for group in winds.values()]
-    flown, errors = [], {}
+    log = None if records is None else RecordLog(records, records_header(spec, variant, every,
+                                                                          taus))
+    done = {} if log is None else _recorded_winds(log, list(winds.values()))
+    flown = [f for group in winds.values() for f in done.get(tuple(group), ())]
+    tasks = [(spec, group, variant, every, taus) for group in winds.values()
+             if tuple(group) not in done]
+    if len(tasks) < len(winds):
+        say(progress, f"resuming: {len(winds) - len(tasks)}/{len(winds)} winds already flown, "
+                      f"in {log.path}")
+    errors = {}
     for res in run_tasks(_fly_wind, tasks, executor, workers=workers, progress=progress,
                          desc="in-flight decoder (winds)"):
         if res.error is not None:
             errors.update({sid: str(res.error) for sid in res.task[1]})
         else:
+            if log is not None:
+                log.append({"scenario_ids": list(res.task[1]),
+                            "flights": [_flight_record(f) for f in res.value]})
             flown.extend(res.value)
     flown.sort(key=lambda f: ids.index(f["scenario_id"]))
     by_speed = {}

@@ -10,7 +10,11 @@ Every command writes its results through this module, so they share one contract
   file into place only when it finished (:meth:`Outputs.writing`); an exception or Ctrl-C
   leaves the earlier results as they were and no temporary file behind. With ``overwrite``, the
   files of the earlier run that this run did not write again (a figure of a study not run this
-  time) are removed, so a folder never mixes two runs.
+  time) are removed, so a folder never mixes two runs. A kill (SIGKILL) cannot clean up: the
+  staging folders and temporary files are named with the process id (and the host), and a run
+  that stages its outputs removes those of processes of this host that are no longer alive. A
+  kill during the moves themselves (milliseconds) can leave part of a set of several files in
+  place; every staged file is complete before the first is moved.
 * **One JSON shape.** :func:`document` wraps a payload with the command, its arguments and
   the machine it ran on (:func:`machine`); :func:`json_ready` writes non-finite numbers as
   ``null``.
@@ -21,13 +25,18 @@ Every command writes its results through this module, so they share one contract
 from __future__ import annotations
 
 import contextlib
+import fnmatch
+import glob
 import json
 import math
 import os
 import platform
+import re
 import shutil
+import socket
 import sys
 import uuid
+import zlib
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 
@@ -50,6 +59,12 @@ __all__ = [
 ]
 
 _STAGING_PREFIX = ".windnav-staging-"
+_TEMPORARY = ".windnav-tmp"
+_OWNER = re.compile(r"(?P<pid>[0-9]+)-(?P<host>[0-9a-f]{8})-[0-9a-f]{8}")
+"""The owner part of a staging or temporary name: ``<pid>-<host>-<random>``."""
+_STAGING = re.compile(re.escape(_STAGING_PREFIX) + _OWNER.pattern)
+_TEMPORARY_NAME = re.compile(r"\.(?P<stem>.*)\." + _OWNER.pattern + re.escape(_TEMPORARY)
+                             + r"(?P<suffix>.*)")
 
 
 class OutputPathError(ValueError):
@@ -148,9 +163,65 @@ def write_json(result: Mapping, path, *, indent: int | None = 1) -> Path:
 # ------------------------------------------------------------------------------- atomic writes
 
 
+def _host_tag() -> str:
+    """This host, as 8 hex digits (a process id names a process on one host only)."""
+    return f"{zlib.crc32(socket.gethostname().encode()):08x}"
+
+
+def _owner() -> str:
+    """The owner part of a new staging or temporary name: this process, this host, and a
+    random part (:data:`_OWNER`)."""
+    return f"{os.getpid()}-{_host_tag()}-{uuid.uuid4().hex[:8]}"
+
+
 def _temporary_name(path: Path) -> Path:
-    """A hidden sibling of ``path`` with the same suffix (writers pick the format from it)."""
-    return path.with_name(f".{path.stem}.{uuid.uuid4().hex[:8]}.windnav-tmp{path.suffix}")
+    """A hidden sibling of ``path`` with the same suffix (writers pick the format from it),
+    named with its owner: ``.NAME.<pid>-<host>-<random>.windnav-tmp.SUFFIX``."""
+    return path.with_name(f".{path.stem}.{_owner()}{_TEMPORARY}{path.suffix}")
+
+
+def _dead_owner(match: re.Match | None) -> bool:
+    """Whether a staging or temporary name (``match`` of :data:`_OWNER`'s groups) belongs to a
+    process of this host that is no longer alive. Anything else is kept: a name of another
+    form (an older windnav's), of another host (a shared folder), of a live process, or where
+    liveness cannot be told (not POSIX, no permission to ask)."""
+    if match is None or os.name != "posix" or match["host"] != _host_tag():
+        return False
+    pid = int(match["pid"])
+    if pid <= 0 or pid == os.getpid():
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # PermissionError: alive, someone else's
+        return False
+    return False
+
+
+def _remove_dead_leftovers(folder: Path, originals) -> list[Path]:
+    """Remove from ``folder`` the staging folders and the temporary files of the names
+    ``originals`` (glob patterns) that processes killed while writing left behind
+    (:func:`_dead_owner`); returns what was removed."""
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return []
+    removed = []
+    for entry in entries:
+        name = entry.name
+        if name.startswith(_STAGING_PREFIX):
+            dead = _dead_owner(_STAGING.fullmatch(name))
+        else:
+            m = _TEMPORARY_NAME.fullmatch(name)
+            dead = m is not None and any(fnmatch.fnmatchcase(m["stem"] + m["suffix"], pattern)
+                                         for pattern in originals) and _dead_owner(m)
+        if dead:
+            path = folder / name
+            _remove(path)
+            if not (path.exists() or path.is_symlink()):
+                removed.append(path)
+    return removed
 
 
 def _remove(path: Path) -> None:
@@ -287,6 +358,7 @@ class Outputs:
         self.files: dict[str, Path] = {}
         self.written: list[Path] = []
         self.removed: list[Path] = []
+        self.cleaned: list[Path] = []  # what killed runs left beside the targets, removed
         if out is not None:
             flag, path, products = out
             self.dir = check_output_path(path, flag, where, kind="dir")
@@ -337,7 +409,8 @@ class Outputs:
         Yields a stage whose ``dir`` is the folder to write the ``out`` products into and
         whose :meth:`_Stage.file` gives where to write each single file. On success
         :attr:`written` lists the final paths and :attr:`removed` the files of an earlier run
-        that this run did not write again.
+        that this run did not write again; :attr:`cleaned` lists the staging folders and
+        temporary files that killed runs left beside the targets, removed when staging.
         """
         stage = _Stage(self)
         try:
@@ -399,7 +472,11 @@ class Outputs:
             "--overwrite for a run that replaces earlier results).")
 
 class _Stage:
-    """Where a run writes before :meth:`Outputs.writing` moves its files into place."""
+    """Where a run writes before :meth:`Outputs.writing` moves its files into place.
+
+    Staging first removes what killed runs left beside the targets: their staging folders in
+    the output folder and their temporary files of these targets (:func:`_dead_owner`).
+    """
 
     def __init__(self, outputs: Outputs):
         self._outputs = outputs
@@ -407,10 +484,13 @@ class _Stage:
         self.staged_files: dict[str, Path] = {}
         if outputs.dir is not None:
             outputs.dir.mkdir(parents=True, exist_ok=True)
-            self.dir = outputs.dir / f"{_STAGING_PREFIX}{uuid.uuid4().hex[:8]}"
+            outputs.cleaned += _remove_dead_leftovers(outputs.dir, outputs.products)
+            self.dir = outputs.dir / f"{_STAGING_PREFIX}{_owner()}"
             self.dir.mkdir()
         for flag, path in outputs.files.items():
             path.parent.mkdir(parents=True, exist_ok=True)
+            outputs.cleaned += _remove_dead_leftovers(path.parent,
+                                                      [glob.escape(path.name)])
             self.staged_files[flag] = _temporary_name(path)
 
     def file(self, flag: str) -> Path | None:
