@@ -152,7 +152,9 @@ def slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, dx
     simulation took (what :func:`evaluate_decoder`'s budget charges a cached slot). An entry
     that cannot be read (damaged, or left incomplete by a process killed while writing it with
     an older windnav) is a cache miss: a warning names it, and the flow is solved again and
-    replaces it.
+    replaces it. The temporary copy a killed process left of the entry is removed when the
+    entry is written (:func:`windnav.experiments.results._remove_dead_leftovers`: only that of a
+    dead process of this host).
     """
     sol, cached, _ = _slot_flow(city, name, inlet, speed, direction, dx=dx, dt=dt, steps=steps,
                                 cache_dir=cache_dir, simulate=simulate)
@@ -171,7 +173,9 @@ def _slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, d
                dt: float, steps: dict, cache_dir=None, simulate=None) -> tuple:
     """:func:`slot_flow`, with the simulation's seconds third: measured when solved now, the
     entry's recorded ``compute_s`` when read from the cache (None when it recorded none)."""
-    from windnav.experiments.results import atomic_path
+    import glob
+
+    from windnav.experiments.results import _remove_dead_leftovers, atomic_path
     from windnav.flow import flow_attrs, load_flow, save_flow
     from windnav.flow import simulate as flow_simulate
 
@@ -192,6 +196,8 @@ def _slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, d
     compute_s = time.perf_counter() - t0
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
+        # a process killed while writing this entry left its temporary copy (tens of MB)
+        _remove_dead_leftovers(path.parent, [glob.escape(path.name)])
         with atomic_path(path) as tmp:  # replaces an unreadable entry whole
             save_flow(sol, tmp, config={"map": name, "inlet": inlet, "compute_s": compute_s})
     return sol, False, compute_s
