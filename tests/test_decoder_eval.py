@@ -482,6 +482,25 @@ def test_evaluate_decoder_command_refuses_a_file_as_flow_cache_and_a_folder_as_m
         assert not (d / "refused").exists()
 
 
+def test_evaluate_decoder_ctrl_c_says_what_is_kept(map_and_model, capsys, monkeypatch):
+    """Ctrl-C said only "interrupted": without --flow-cache every solved flow is lost, with it
+    they are kept for the rerun (interrupt audit, 2026-12-05)."""
+    import windnav.experiments.decoder_eval as de
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(de, "evaluate_decoder", interrupted)
+    d, _ = map_and_model
+    base = ["evaluate-decoder", "--model", str(d / "model.npz"), "--no-progress"]
+    assert main([*base, "--out", str(d / "int1")]) == 130
+    assert "interrupted; nothing is kept without --flow-cache DIR" in capsys.readouterr().err
+    assert main([*base, "--out", str(d / "int2"), "--flow-cache", str(d / "fc")]) == 130
+    err = capsys.readouterr().err
+    assert "the flows solved so far are kept in" in err and "rerun the same command" in err
+    assert not (d / "int1").exists() and not (d / "int2").exists()
+
+
 def test_bench_decoder_runs_with_tiny_repeats(map_and_model, tmp_path):
     d, _ = map_and_model
     out = tmp_path / "bench.json"

@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from windnav._validate import positive_float, positive_int
@@ -121,11 +122,20 @@ def run(args, simulate=None, flow_settings=None) -> int:
              f"({trained_dx:g} m): outside its training range"] \
         if abs(args.dx - trained_dx) > TRAVEL_TOLERANCE * trained_dx else []
     solved: dict = {}  # (map's inlet speed, direction) -> the truth's diagnostics
-    res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet, compare=compare,
-                           n_inlets=args.inlets, samples_per_inlet=args.samples,
-                           seed=args.seed, budget_s=60.0 * budget, dx=args.dx,
-                           flow_settings=flow_settings, progress=not args.no_progress,
-                           simulate=_recording(simulate, solved), flow_cache=args.flow_cache)
+    try:
+        res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet,
+                               compare=compare, n_inlets=args.inlets,
+                               samples_per_inlet=args.samples, seed=args.seed,
+                               budget_s=60.0 * budget, dx=args.dx, flow_settings=flow_settings,
+                               progress=not args.no_progress,
+                               simulate=_recording(simulate, solved), flow_cache=args.flow_cache)
+    except KeyboardInterrupt:  # said only "interrupted": the solved flows were lost unsaid
+        kept = (f"the flows solved so far are kept in {str(args.flow_cache)!r}; rerun the same "
+                "command to reuse them" if args.flow_cache is not None else
+                "nothing is kept without --flow-cache DIR, which keeps each solved flow and "
+                "lets a rerun reuse it (the same result)")
+        print(f"{name}: interrupted; {kept}", file=sys.stderr)
+        return 130
     res["truth_checks"] = check_truths(res, solved, training, args.flow_cache)
     print_notes(notes + truth_summary(res), name)  # once the run is not refused
     with out.writing() as stage:
