@@ -140,17 +140,12 @@ def _done(path: Path) -> list[dict]:
         Naming the file and the (1-based) line of the first other line that is not a reach
         record.
     """
+    from windnav.experiments.nav_records import json_lines
+
     if not path.is_file():
         return []
-    lines = path.read_bytes().split(b"\n")
     out = []
-    for i, raw in enumerate(lines[:-1], start=1):  # the last item follows the last newline
-        if not raw.strip():
-            continue
-        try:
-            rec = json.loads(raw)
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            rec = None
+    for i, raw, rec in json_lines(path):
         if not (isinstance(rec, dict) and isinstance(rec.get("scenario_id"), str)
                 and isinstance(rec.get("limits"), dict)):
             text = raw[:80].decode("utf-8", "replace")

@@ -37,7 +37,7 @@ import json
 import math
 import os
 import zlib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -139,6 +139,21 @@ class StoreBusyError(RuntimeError):
 # ------------------------------------------------------------------------------- the store
 
 
+def json_lines(path: Path) -> Iterator[tuple[int, bytes, object]]:
+    """``(line number, raw line, parsed JSON or None)`` of each complete, non-blank line of an
+    append-only record file (1-based; None where the line is not JSON). The last item after the
+    last newline is skipped: empty, or a line torn by a kill mid-write (cut off before the next
+    append, :func:`_cut_torn_tail`)."""
+    for i, raw in enumerate(path.read_bytes().split(b"\n")[:-1], start=1):
+        if not raw.strip():
+            continue
+        try:
+            rec = json.loads(raw)
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            rec = None
+        yield i, raw, rec
+
+
 class NavStore:
     """The folder of one suite's flight records (see the module docstring).
 
@@ -211,18 +226,9 @@ class NavStore:
         """
         if not self.records_path.exists():
             return []
-        data = self.records_path.read_bytes()
-        lines = data.split(b"\n")
-        complete = lines[:-1]  # the last item follows the last newline: torn or empty
         out = []
         prefix = f"{self.spec.name}/"
-        for i, raw in enumerate(complete, start=1):
-            if not raw.strip():
-                continue
-            try:
-                rec = json.loads(raw)
-            except (json.JSONDecodeError, UnicodeDecodeError):
-                rec = None
+        for i, raw, rec in json_lines(self.records_path):
             ok = (isinstance(rec, dict) and isinstance(rec.get("scenario_id"), str)
                   and isinstance(rec.get("variant"), str) and "outcome" in rec)
             if not ok:
