@@ -112,23 +112,19 @@ def run(args, simulate=None, flow_settings=None) -> int:
     cache_folder(args.flow_cache, "--flow-cache", name)
     compare = _compare_files(args.compare, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    from windnav.commands.predict import TRAVEL_TOLERANCE, print_notes, training_conditions
+    from windnav.commands.predict import dx_notes, print_notes, training_conditions
     from windnav.predict import load_decoder
     from windnav.predict.envelope import training_envelope
 
     training = training_conditions(training_envelope(load_decoder(args.model)))
-    trained_dx = training["flow"]["dx"]
-    notes = [f"--dx {args.dx:g} m differs from the cell size of the decoder's training flows "
-             f"({trained_dx:g} m): outside its training range"] \
-        if abs(args.dx - trained_dx) > TRAVEL_TOLERANCE * trained_dx else []
-    solved: dict = {}  # (map's inlet speed, direction) -> the truth's diagnostics
+    notes = dx_notes(training, args.dx)
     try:
         res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet,
                                compare=compare, n_inlets=args.inlets,
                                samples_per_inlet=args.samples, seed=args.seed,
                                budget_s=60.0 * budget, dx=args.dx, flow_settings=flow_settings,
                                progress=not args.no_progress,
-                               simulate=_recording(simulate, solved), flow_cache=args.flow_cache)
+                               simulate=simulate, flow_cache=args.flow_cache)
     except KeyboardInterrupt:  # said only "interrupted": the solved flows were lost unsaid
         kept = (f"the flows solved so far are kept in {str(args.flow_cache)!r}; rerun the same "
                 "command to reuse them" if args.flow_cache is not None else
@@ -136,7 +132,7 @@ def run(args, simulate=None, flow_settings=None) -> int:
                 "lets a rerun reuse it (the same result)")
         print(f"{name}: interrupted; {kept}", file=sys.stderr)
         return 130
-    res["truth_checks"] = check_truths(res, solved, training, args.flow_cache)
+    res["truth_checks"] = check_truths(res, training)
     print_notes(notes + truth_summary(res), name)  # once the run is not refused
     with out.writing() as stage:
         plot_evaluation(res, stage.dir / "decoder_eval.png")
@@ -180,64 +176,23 @@ def _named_compare_files(items, name) -> dict:
     return compare
 
 
-def _recording(simulate, solved: dict):
-    """``simulate`` (default :func:`windnav.flow.simulate`), keeping each run's diagnostics in
-    ``solved`` under ``(speed, direction_deg)``; the run itself is unchanged."""
-    def run(city, **kwargs):
-        from windnav.flow import simulate as flow_simulate
-
-        sol = (simulate or flow_simulate)(city, **kwargs)
-        key = (float(kwargs["speed"]), float(kwargs["direction_deg"]))
-        solved[key] = dict(getattr(sol, "diagnostics", {}) or {})
-        return sol
-
-    return run
-
-
-def _cached_diagnostics(cache) -> dict:
-    """The diagnostics of every flow in a ``--flow-cache`` folder, under ``(map, inlet, speed,
-    direction_deg, dx, dt)``; hidden names (an entry still being written, or left half-written
-    by a killed process) are skipped."""
-    from windnav.flow import flow_attrs
-    from windnav.flow.solver import DIAGNOSTICS
-
-    found = {}
-    for path in sorted(Path(cache).glob("*.zarr")) if cache is not None else ():
-        if path.name.startswith("."):
-            continue
-        try:
-            attrs = flow_attrs(path)
-            sol, cfg = attrs["solution"], attrs.get("config") or {}
-            key = (cfg.get("map"), cfg.get("inlet"), float(sol["speed"]),
-                   float(sol["direction_deg"]), float(sol["dx"]), float(sol["dt"]))
-        except (ValueError, KeyError, TypeError):  # not a readable flow: not ours to judge
-            continue
-        found[key] = {k: sol[k] for k in DIAGNOSTICS if k in sol}
-    return found
-
-
-def check_truths(res: dict, solved: dict, training: dict, cache=None) -> dict:
-    """Add ``flow_diagnostics``, ``averaging``, ``travel`` and ``notes`` to each record of
-    ``res`` (the truth flow's, see :func:`windnav.commands.predict.truth_notes`); returns the
-    counts: ``slots``, ``not_converged``, ``young``, ``unknown``, ``travel_outside``."""
+def check_truths(res: dict, training: dict) -> dict:
+    """Add ``averaging``, ``travel`` and ``notes`` to each record of ``res`` (its truth flow's,
+    from the record's ``flow_diagnostics``, solved or read from the cache; see
+    :func:`windnav.commands.predict.truth_notes`); returns the counts: ``slots``,
+    ``not_converged``, ``young``, ``unknown``, ``travel_outside``."""
     from windnav.commands.predict import travel_check, truth_notes
     from windnav.flow.validity import averaging_verdict
 
-    cached = _cached_diagnostics(cache) if any(r.get("flow_cached") for r in res["records"]) \
-        else {}
     config = res["config"]
     counts = {"slots": len(res["records"]), "not_converged": 0, "young": 0, "unknown": 0,
               "travel_outside": 0, "training_travel_m": training["flow"]["travel_m"]}
     for rec in res["records"]:
-        key = (rec["speed"], rec["direction_deg"])
-        diagnostics = solved.get(key) if not rec.get("flow_cached") else cached.get(
-            (rec["map"], rec["inlet"], *key, float(config["dx"]), rec["dt"]))
-        verdict = averaging_verdict(diagnostics or {})
+        verdict = averaging_verdict(rec["flow_diagnostics"])
         travel = travel_check(training, rec["speed"], {"spinup_steps": config["spinup_steps"],
                                                        "steps": config["steps"],
                                                        "dt": rec["dt"]})
-        rec.update(flow_diagnostics=diagnostics or {}, averaging=verdict, travel=travel,
-                   notes=truth_notes(verdict, travel))
+        rec.update(averaging=verdict, travel=travel, notes=truth_notes(verdict, travel))
         bucket = {"warning": "not_converged", "note": "young", "unknown": "unknown"}.get(
             verdict["level"])
         if bucket is not None:

@@ -208,11 +208,18 @@ def input_notes(training: dict, city, at, dx: float, scan_noise: float) -> list[
             notes.append(f"--at ({p[0]:g}, {p[1]:g}) is {gap:.3g} m from the nearest building; "
                          f"the decoder was trained at {near:g} to {reach:g} m from one: outside "
                          "its training range")
-    flow_dx = training["flow"]["dx"]
-    if _outside(dx, flow_dx):
-        notes.append(f"--dx {dx:g} m differs from the cell size of the decoder's training "
-                     f"flows ({flow_dx:g} m): outside its training range")
+    notes += dx_notes(training, dx)
     return notes
+
+
+def dx_notes(training: dict, dx: float) -> list[str]:
+    """The note on a cell size ``dx`` (m) more than :data:`TRAVEL_TOLERANCE` from the decoder's
+    training flows' (empty when within), for ``predict`` and ``evaluate-decoder``."""
+    flow_dx = training["flow"]["dx"]
+    if not _outside(dx, flow_dx):
+        return []
+    return [f"--dx {dx:g} m differs from the cell size of the decoder's training flows "
+            f"({flow_dx:g} m): outside its training range"]
 
 
 def travel_check(training: dict, speed: float, settings: dict) -> dict:

@@ -330,8 +330,10 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     -------
     dict
         ``config`` (the protocol), ``decoder`` (its file and architecture), ``records`` (one
-        per (map, inlet) slot run: map, group, speed, direction_deg, seconds, errors of each
-        model, improvement_pct), ``failed`` (slots whose flow failed, with the error),
+        per (map, inlet) slot run: map, group, speed, direction_deg, seconds, flow_cached,
+        flow_diagnostics (the truth flow's averaging diagnostics, solved or read from the
+        cache), errors of each model, improvement_pct), ``failed`` (slots whose flow
+        failed, with the error),
         ``pooled`` (``{"dense": ..., "windinet": ..., "all": ...}``: errors per model,
         improvement_pct and ``acceptance``), ``n_slots_run``, ``n_slots_planned``,
         ``stopped_by_budget``, ``elapsed_s``; ``models`` (the names scored, in order) and
@@ -405,6 +407,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
                "direction_deg": float(direction), "dt": float(dt), "cells": int(cells),
                "n_samples": int(batch.scans.shape[0]), "flow_seconds": t_flow,
                "flow_cached": cached,
+               "flow_diagnostics": dict(getattr(sol, "diagnostics", None) or {}),
                "seconds": seconds, **_summary(errors)}
         records.append(rec)
         per_sample.append((group, ps))
