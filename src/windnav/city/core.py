@@ -317,16 +317,29 @@ class City:
                 f"e.g. {block(k)} "
                 f"({thin[k]:.3g} m): they keep at most one cell across.",
                 UserWarning, stacklevel=3)
-        # accepted, but outside docs/flow_validation.md's series: the filter is s / 8 (s the
-        # median building's smaller side; windnav.flow.solver.FILTER_PER_BUILDING = 8), and
-        # the grid independence was shown on grids at least that fine
-        # (windnav.flow.validity.resolution_check gives the same words)
-        validated = float(np.median(thin)) / 8
-        if dx > validated * (1.0 + 1e-9):
-            warnings.warn(
-                f"{where}: cell size above the validated resolution (s/8 = {validated:.3g} m, s "
-                f"the median building's smaller side; dx = {dx:g} m): results grid-dependent",
-                UserWarning, stacklevel=3)
+        note = self.resolution_note(dx)  # accepted, but outside the validated series
+        if note is not None:
+            warnings.warn(f"{where}: {note}", UserWarning, stacklevel=3)
+
+    @property
+    def median_building_side(self) -> float | None:
+        """The median over the blocks of their smaller side, m (None without blocks): the
+        length the flow solver's filter and its validated resolution are tied to."""
+        if self.n_buildings == 0:
+            return None
+        fp = self.footprints
+        return float(np.median(np.minimum(fp[:, 1] - fp[:, 0], fp[:, 3] - fp[:, 2])))
+
+    def resolution_note(self, dx: float) -> str | None:
+        """The words for a cell size ``dx`` (m) above ``s / 8`` (``s``:
+        :attr:`median_building_side`), the coarsest grid of docs/flow_validation.md's
+        grid-independence series (the filter is ``s / 8``,
+        ``windnav.flow.solver.FILTER_PER_BUILDING``); None at or below it, or without blocks."""
+        side = self.median_building_side
+        if side is None or dx <= side / 8 * (1.0 + 1e-9):
+            return None
+        return (f"cell size above the validated resolution (s/8 = {side / 8:.3g} m, s the "
+                f"median building's smaller side; dx = {dx:g} m): results grid-dependent")
 
     # ------------------------------------------------------------------ sensing
     def lidar(

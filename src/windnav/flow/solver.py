@@ -462,11 +462,10 @@ def default_filter_width(city, dx: float) -> float:
     scale: on grids finer than ``s / 8`` the equations no longer change with ``dx`` and the
     solution converges (the square-cylinder Strouhal number: docs/flow_validation.md).
     """
-    fp = np.asarray(city.footprints, dtype=np.float64).reshape(-1, 4)
-    if fp.shape[0] == 0:
+    side = city.median_building_side
+    if side is None:
         return float(dx)
-    side = np.minimum(fp[:, 1] - fp[:, 0], fp[:, 3] - fp[:, 2])
-    return float(max(dx, np.median(side) / FILTER_PER_BUILDING))
+    return float(max(dx, side / FILTER_PER_BUILDING))
 
 
 def wake_seed(domain: FlowDomain, cells: int = WAKE_SEED_CELLS) -> np.ndarray:

@@ -32,8 +32,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 __all__ = ["HALVES_LIMIT", "SPINUP_FLOOR", "SPINUP_FLOW_THROUGHS", "WINDOW_FLOOR",
            "averaging_message", "averaging_verdict", "resolution_check", "validated_dx"]
 
@@ -115,11 +113,8 @@ def validated_dx(city) -> float:
     median over the buildings of their smaller side (inf for a map without buildings)."""
     from windnav.flow.solver import FILTER_PER_BUILDING
 
-    fp = np.asarray(city.footprints, dtype=np.float64).reshape(-1, 4)
-    if fp.shape[0] == 0:
-        return math.inf
-    side = np.minimum(fp[:, 1] - fp[:, 0], fp[:, 3] - fp[:, 2])
-    return float(np.median(side) / FILTER_PER_BUILDING)
+    side = city.median_building_side
+    return math.inf if side is None else side / FILTER_PER_BUILDING
 
 
 def resolution_check(city, dx: float) -> dict:
@@ -133,9 +128,6 @@ def resolution_check(city, dx: float) -> dict:
     """
     limit = validated_dx(city)
     dx = float(dx)
-    coarse = dx > limit * (1.0 + 1e-9)
-    note = (f"cell size above the validated resolution (s/8 = {limit:.3g} m, s the median "
-            f"building's smaller side; dx = {dx:g} m): results grid-dependent"
-            if coarse else None)
+    note = city.resolution_note(dx)
     return {"dx": dx, "validated_dx": limit if math.isfinite(limit) else None,
-            "grid_dependent": bool(coarse), "note": note}
+            "grid_dependent": note is not None, "note": note}
