@@ -262,12 +262,7 @@ def _logged_mass(logs) -> float | None:
 def run_aero(args) -> int:
     from windnav.experiments.sysid import aero_study, plot_aero
     from windnav.sim import FlightLog
-    from windnav.sysid.aero import (
-        AeroData,
-        aero_from_flight_log,
-        block_average,
-        flight_log_status_samples,
-    )
+    from windnav.sysid.aero import AeroData, aero_and_status_from_flight_log, block_average
     from windnav.sysid.io import read_table
 
     name = _where(args)
@@ -281,9 +276,11 @@ def run_aero(args) -> int:
         logs = [(p, FlightLog.load(p)) for p in args.log]
     with options_named({"'settle_s' parameter of aero_from_flight_log":
                         f"'--settle-s' parameter of {name}"}):
-        parts = [aero_from_flight_log(log, settle_s=settle, source=str(p)) for p, log in logs]
-        status = [flight_log_status_samples(log, settle_s=settle, source=str(p))
-                  for p, log in logs]
+        parts, status = [], []
+        for p, log in logs:
+            data, counts = aero_and_status_from_flight_log(log, settle_s=settle, source=str(p))
+            parts.append(data)
+            status.append(counts)
     tables = [read_table(p, where=name) for p in args.csv] + _bag_tables(args, "time_s")
     parts += [AeroData.from_table(t, name) for t in tables]
     mass = _aero_mass(args, logs, name)

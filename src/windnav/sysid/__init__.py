@@ -7,7 +7,7 @@ Public API::
     Estimate, LeastSquares                                    a coefficient with its 95% CI
     PWMMotorModel, fit_thrust_stand, steady_mask              thrust stand: k_eta, Kv, V0, DZ
     AeroData, fit_aero, aero_from_flight_log                  tunnel hover: k_eta, k_d, k_z, k_h
-    flight_log_status_samples                                 log samples by vehicle status
+    aero_and_status_from_flight_log                           the same, samples by vehicle status
     fit_power, steady_level_mask                              power curve and best speeds
     Similitude                                                Froude / Reynolds scaling
     unsteadiness_maps, FlightSamples                          binned flow and unsteadiness
@@ -22,11 +22,11 @@ from windnav.sysid.aero import (
     AERO_COLUMNS,
     AeroData,
     AeroFit,
+    aero_and_status_from_flight_log,
     aero_columns,
     aero_from_flight_log,
     block_average,
     fit_aero,
-    flight_log_status_samples,
 )
 from windnav.sysid.io import LAYOUTS, Table, parse_topic_map, read_bag, read_table, write_csv
 from windnav.sysid.power import DEFAULT_WINDS, PowerFit, fit_power, steady_level_mask
@@ -66,13 +66,13 @@ __all__ = [
     "ThrustStandFit",
     "UnsteadinessMaps",
     "aero_columns",
+    "aero_and_status_from_flight_log",
     "aero_from_flight_log",
     "bin_xy",
     "block_average",
     "fit_aero",
     "fit_power",
     "fit_thrust_stand",
-    "flight_log_status_samples",
     "flight_samples_from_log",
     "lateral_force_command",
     "parse_topic_map",

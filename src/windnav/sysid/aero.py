@@ -29,8 +29,9 @@ from windnav._validate import positive_float
 from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
 from windnav.sysid.io import Table
 
-__all__ = ["AERO_COLUMNS", "AeroData", "AeroFit", "COLLINEAR_KZ_KH", "aero_columns",
-           "aero_from_flight_log", "block_average", "fit_aero", "flight_log_status_samples"]
+__all__ = ["AERO_COLUMNS", "AeroData", "AeroFit", "COLLINEAR_KZ_KH",
+           "aero_and_status_from_flight_log", "aero_columns", "aero_from_flight_log",
+           "block_average", "fit_aero"]
 
 AERO_COLUMNS = ("time_s", "airspeed_x", "airspeed_y", "airspeed_z", "specific_force_x",
                 "specific_force_y", "specific_force_z")
@@ -166,7 +167,7 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
     ``R^T (v - w)`` and rotor speeds: the logged state and wind at the same times (the log
     is interpolated linearly; the attitude is taken at the nearest logged instant). Every
     vehicle of the batch contributes, except those flagged non-finite: ``SATURATED`` and
-    ``OUTSIDE_ENVELOPE`` ones are kept (:func:`flight_log_status_samples` counts them).
+    ``OUTSIDE_ENVELOPE`` ones are kept (:func:`aero_and_status_from_flight_log` counts them).
 
     Parameters
     ----------
@@ -178,42 +179,41 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
     source : str
         For messages.
     """
+    return aero_and_status_from_flight_log(log, settle_s=settle_s, source=source)[0]
+
+
+def aero_and_status_from_flight_log(log, *, settle_s: float | None = None,
+                                    source: str = "FlightLog") -> tuple[AeroData, dict]:
+    """:func:`aero_from_flight_log`, with how many of its samples come from each
+    :class:`~windnav.sim.log.FlightStatus` of the flying vehicle (one pass over the log).
+
+    The status is the vehicle's over its whole flight (the settling transient included):
+    ``SATURATED`` or ``OUTSIDE_ENVELOPE`` vehicles are *kept* (only non-finite ones are
+    dropped), and their samples may lie where the force model does not hold.
+
+    Returns
+    -------
+    (AeroData, dict)
+        The samples, and ``{"samples": {status name: count}, "vehicles": {status name:
+        count}}`` (``"OK"`` for the vehicles without a flag).
+    """
+    from windnav.sim.log import FlightStatus
+
     parts = _vehicle_parts(log, settle_s, source)
     if not parts:
         raise ValueError(f"The flight log {source!r} has no vehicle that flew with finite "
                          "values.")
-    data = AeroData.concatenate([d for _, d in parts])
-    return AeroData(data.t, data.airspeed_body, data.specific_force_body, data.rotor_speeds,
-                    source)
-
-
-def flight_log_status_samples(log, *, settle_s: float | None = None,
-                              source: str = "FlightLog") -> dict:
-    """How many of the samples :func:`aero_from_flight_log` takes come from each
-    :class:`~windnav.sim.log.FlightStatus` of the flying vehicle.
-
-    The status is the vehicle's over its whole flight (the settling transient included):
-    ``SATURATED`` or ``OUTSIDE_ENVELOPE`` vehicles are *kept* by :func:`aero_from_flight_log`
-    (only non-finite ones are dropped), and their samples may lie where the force model does
-    not hold.
-
-    Returns
-    -------
-    dict
-        ``{"samples": {status name: count}, "vehicles": {status name: count}}``, ``"OK"`` for
-        the vehicles without a flag; the same arguments as :func:`aero_from_flight_log`.
-    """
-    from windnav.sim.log import FlightStatus
-
     status = np.asarray(log.status, dtype=np.int64)
     samples: dict[str, int] = {}
     vehicles: dict[str, int] = {}
-    for b, part in _vehicle_parts(log, settle_s, source):
+    for b, part in parts:
         code = int(status[b])
         name = str(FlightStatus(code).name) if code else "OK"
         samples[name] = samples.get(name, 0) + int(part.t.size)
         vehicles[name] = vehicles.get(name, 0) + 1
-    return {"samples": samples, "vehicles": vehicles}
+    data = AeroData.concatenate([d for _, d in parts])
+    return (AeroData(data.t, data.airspeed_body, data.specific_force_body, data.rotor_speeds,
+                     source), {"samples": samples, "vehicles": vehicles})
 
 
 def _vehicle_parts(log, settle_s: float | None, source: str) -> list:
