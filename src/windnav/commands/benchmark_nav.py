@@ -34,6 +34,7 @@ from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     document,
+    options_named,
     outputs,
     print_written,
     seed,
@@ -177,10 +178,8 @@ def run(args) -> int:
 def _variants(args, name: str) -> tuple[str, ...]:
     from windnav.experiments.nav_benchmark import check_variants
 
-    try:
+    with options_named({"'variants'": "'--variants'"}):
         return check_variants(args.variants, name)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'variants'", "'--variants'")) from None
 
 
 def suite_maps(text, spec, name: str) -> tuple[int, ...]:
@@ -199,10 +198,8 @@ def suite_maps(text, spec, name: str) -> tuple[int, ...]:
         except ValueError:
             raise ValueError(f"The '--maps' parameter of {name} must be map indices and "
                              f"ranges, e.g. 0,1 or 0-3. Got {text!r} instead.") from None
-    try:
+    with options_named({"'maps'": "'--maps'"}):
         return check_maps(spec, out, name)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'maps'", "'--maps'")) from None
 
 
 def scenario_ids(text, spec, name: str) -> frozenset | None:
@@ -219,10 +216,8 @@ def scenario_ids(text, spec, name: str) -> frozenset | None:
         ids = [line for line in lines if line]
     else:
         ids = [part.strip() for part in str(text).split(",") if part.strip()]
-    try:
+    with options_named({"'scenario_ids'": "'--scenarios'"}):
         return check_scenario_ids(spec, ids, name)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'scenario_ids'", "'--scenarios'")) from None
 
 
 def _print_table(records, variants, reference, spec) -> dict:
@@ -249,10 +244,8 @@ def _run(args, name: str) -> int:
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     maps = suite_maps(args.maps, spec, name)
     chosen = scenario_ids(args.scenarios, spec, name)
-    try:
+    with options_named({"'wind_batch'": "'--wind-batch'"}):
         wind_batch = check_wind_batch(args.wind_batch, name)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'wind_batch'", "'--wind-batch'")) from None
     try:
         summary = run_benchmark(spec, variants, args.out, executor=args.executor,
                                 workers=workers, progress=not args.no_progress,
@@ -411,10 +404,8 @@ def _check(args, name: str) -> int:
     spec, records, variants = _stored(args, name)
     out = outputs(args)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
-    try:
+    with options_named({"'wind_batch'": "'--wind-batch'"}):
         wind_batch = check_wind_batch(args.wind_batch, name)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'wind_batch'", "'--wind-batch'")) from None
     flights = [r for r in latest_records(records).values()
                if r["variant"] in variants and r.get("outcome") != ERROR]
     ids = sorted({r["scenario_id"] for r in flights})
@@ -612,13 +603,10 @@ def _replay(args, name: str) -> int:
         status = _pinned(args, known, "replaying", "the record's")
         if status is not None:
             return status
-    try:
+    with options_named({"'scenario_id' parameter of parse_scenario_id":
+                        f"'--replay' parameter of {name}",
+                        "'variants' parameter of replay": f"'--variant' parameter of {name}"}):
         record = replay(spec, args.replay, args.variant)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'scenario_id' parameter of parse_scenario_id",
-                                          f"'--replay' parameter of {name}")
-                         .replace("'variants' parameter of replay",
-                                  f"'--variant' parameter of {name}")) from None
     payload = dict(record)
     if recorded is not None:
         payload["check"] = compare_records(record, recorded)

@@ -73,6 +73,7 @@ from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     document,
+    options_named,
     outputs,
     print_written,
     where,
@@ -224,11 +225,8 @@ def run(args) -> int:
         return _tilt(args, name, spec)
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
-    try:
+    with options_named({"'values' parameter of sweep_labels": f"'--values' parameter of {name}"}):
         labels = nav_sweeps.sweep_labels(study, args.values)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'values' parameter of sweep_labels",
-                                          f"'--values' parameter of {name}")) from None
     products = (f"nav_sweep_{study}.json", f"nav_sweep_{study}.png")
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
@@ -301,11 +299,8 @@ def _pace(args, name: str, spec) -> int:
     out = outputs(args, out=("--out", args.out, products))
     records = [r for r in NavStore(args.store, spec, create=False).load()
                if r.get("map_index") in maps]
-    try:
+    with options_named({"'records' parameter of pace_study": f"'--store' parameter of {name}"}):
         res = pace_study(records, variant)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'records' parameter of pace_study",
-                                          f"'--store' parameter of {name}")) from None
     res.update(store=str(args.store), maps=list(maps))
     _write(out, args, {"study": "pace", **res}, products[0],
            lambda folder: plot_pace(res, folder / products[1]))
@@ -332,11 +327,8 @@ def _bound(args, name: str, spec) -> int:
     out = outputs(args, out=("--out", args.out, products))
     records = [r for r in NavStore(args.store, spec, create=False).load()
                if r.get("map_index") in maps]
-    try:
+    with options_named({"'records' parameter of bound_study": f"'--store' parameter of {name}"}):
         res = bound_study(records)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'records' parameter of bound_study",
-                                          f"'--store' parameter of {name}")) from None
     res.update(store=str(args.store), maps=list(maps))
     _write(out, args, {"study": "bound", **res}, products[0],
            lambda folder: plot_bound(res, folder / products[1]))
@@ -531,21 +523,16 @@ def _gusts(args, name: str, spec) -> int:
     from windnav.viz.nav_studies import plot_gust_routes
 
     scenario = args.scenario or nav_gusts.DEFAULT_SCENARIO
-    try:
+    with options_named({"'scenario_ids'": "'--scenario'"}):
         check_scenario_ids(spec, [scenario], name)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'scenario_ids'", "'--scenario'")) from None
     base = args.base or nav_gusts.DEFAULT_BASE
     products = ("nav_gusts.json", "nav_gusts.png")
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
-    try:
+    with options_named({"'base' parameter of gust_routes": f"'--base' parameter of {name}",
+                        "'gust_k' parameter of gust_routes": f"'--gust-k' parameter of {name}"}):
         res = nav_gusts.gust_routes(spec, scenario, base=base, gust_k=args.gust_k,
                                     progress=not args.no_progress)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'base' parameter of gust_routes",
-                                          f"'--base' parameter of {name}").replace(
-            "'gust_k' parameter of gust_routes", f"'--gust-k' parameter of {name}")) from None
     sigma = res["sigma_along"][~res["flow"].solid]
     summary = {"scenario_id": scenario, "gust_k": res["gust_k"],
                "sigma_along_mps": {"median": float(np.median(sigma)),
@@ -597,13 +584,10 @@ def _feasibility(args, name: str, spec) -> int:
     products = ("nav_feasibility.json", "nav_feasibility.png")
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
-    try:
+    with options_named({"'variants' parameter of reach_scenarios": f"'--fly' parameter of {name}"}):
         reach = reach_scenarios(spec, args.cache, maps=maps, airspeeds=airspeeds,
                                 executor=args.executor, workers=workers,
                                 progress=not args.no_progress, fly=fly, store=args.store)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'variants' parameter of reach_scenarios",
-                                          f"'--fly' parameter of {name}")) from None
     flights = ([] if args.store is None else
                [r for r in NavStore(args.store, spec, create=False).load()
                 if r.get("map_index") in maps])

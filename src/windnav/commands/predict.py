@@ -93,11 +93,8 @@ def run(args, flow_settings=None) -> int:
     noise = positive_float(args.scan_noise, "--scan-noise", name, allow_zero=True)
     city = load_city(args.map, "--map", name)
     at = check_point(city, args.at, "--at", name)
-    try:
+    with options_named({"'path' parameter of load_decoder": f"'--model' parameter of {name}"}):
         dec = load_decoder(args.model)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'path' parameter of load_decoder",
-                                          f"'--model' parameter of {name}")) from None
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     settings = {**PROTOCOL, "dt": auto_dt(dx, speed), **(flow_settings or {})}
     from windnav.predict.envelope import training_envelope

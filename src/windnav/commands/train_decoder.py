@@ -34,6 +34,7 @@ from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     document,
+    options_named,
     outputs,
     print_written,
     where,
@@ -78,11 +79,8 @@ def run(args, simulate=None) -> int:
     name = where(args)
     if args.workers is not None:  # "'workers' parameter of run_tasks" after the set-up before
         positive_int(args.workers, "--workers", name)
-    try:
+    with options_named({"'config' parameter of load_recipe": f"'--config' parameter of {name}"}):
         recipe = load_recipe(args.config)
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'config' parameter of load_recipe",
-                                          f"'--config' parameter of {name}")) from None
     out_dir, store = resolve_paths(recipe, args.out)
     check_output_path(out_dir, "--out", name, kind="dir")
     out = outputs(args)
