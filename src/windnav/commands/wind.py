@@ -177,7 +177,7 @@ def run(args, simulate=None) -> int:
     print(f"solved in {seconds:.1f} s")
     print_written(out)
     print(averaging_report(solution))
-    print_resolution_note(city, settings["dx"], name)
+    print_resolution_note(resolution, name)
     return 0
 
 
@@ -186,12 +186,9 @@ RESOLUTION_WARNING = ".*cell size above the validated resolution"
 which the commands print as a note instead."""
 
 
-def print_resolution_note(city, dx: float, name: str, label: str = "") -> dict:
-    """Print the ``note:`` line (stderr) when ``dx`` is above the map's validated resolution;
-    returns :func:`windnav.flow.validity.resolution_check`'s dict."""
-    from windnav.flow.validity import resolution_check
-
-    check = resolution_check(city, dx)
+def print_resolution_note(check: dict, name: str, label: str = "") -> dict:
+    """Print the ``note:`` line (stderr) of a :func:`windnav.flow.validity.resolution_check`
+    when its cell size is above the map's validated resolution; returns ``check``."""
     if check["note"] is not None:
         print(f"{name}: note: {label}{check['note']}", file=sys.stderr, flush=True)
     return check

@@ -210,7 +210,10 @@ def run(args, simulate=None) -> int:
           f"({n_now} now, {total - n_now - n_failed} already, {n_failed} failed)")
     averaging = averaging_summary(store)
     print_averaging(averaging, settings, max(speeds), name)
-    resolution = [{"map": m, **print_resolution_note(city, settings["dx"], name, f"map {m}: ")}
+    from windnav.flow.validity import resolution_check
+
+    resolution = [{"map": m, **print_resolution_note(resolution_check(city, settings["dx"]),
+                                                     name, f"map {m}: ")}
                   for m, _, city in maps]
     if args.json is not None:
         records = [{"map_index": r.task.map_index, "cases": list(r.task.case_indices),
