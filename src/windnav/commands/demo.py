@@ -240,19 +240,12 @@ def _warn_variants(args, summary: dict) -> None:
     """:func:`windnav.commands.navigate.warn_envelope` for each variant flown, its lines named
     by the command and the variant (the JSON holds the numbers; the console said only
     ``EA-MPPI+W: success, 4.54 kJ`` of a flight with 1.41 s of extrapolated power)."""
-    import contextlib
-    import io
-
     from windnav.commands.navigate import warn_envelope
     from windnav.experiments.nav_demo import LABELS
 
     name = where(args)
     for v, record in summary["variants"].items():
-        said = io.StringIO()
-        with contextlib.redirect_stderr(said):
-            warn_envelope(record)
-        for line in said.getvalue().splitlines():
-            print(f"{name}: {LABELS.get(v, v)}: {line}", file=sys.stderr)
+        warn_envelope(record, prefix=f"{name}: {LABELS.get(v, v)}: ")
 
 
 def _warn_ukf_envelope(args, metrics: dict) -> None:

@@ -228,17 +228,18 @@ def run(args) -> int:
     return 0
 
 
-def warn_envelope(summary: dict) -> None:
+def warn_envelope(summary: dict, prefix: str = "") -> None:
     """Say on stderr when the flight left the models' envelope, and when it held the goal at its
-    tilt cap (the summary's :meth:`~windnav.experiments.navigate.NavigationResult.envelope`)."""
+    tilt cap (the summary's :meth:`~windnav.experiments.navigate.NavigationResult.envelope`);
+    each line starts with ``prefix`` (the demo names its command and variant there)."""
     import sys
 
     out_s = summary.get("outside_envelope_s") or 0.0
     extra_s = summary.get("power_extrapolated_s") or 0.0
     if out_s > 0 or extra_s > 0:
         settings = summary.get("settings", {})
-        print(f"warning: the flight spent {out_s:.2f} s above the vehicle's trusted airspeed "
-              f"({settings.get('airspeed_limit', float('nan')):.2f} m/s; largest "
+        print(f"{prefix}warning: the flight spent {out_s:.2f} s above the vehicle's trusted "
+              f"airspeed ({settings.get('airspeed_limit', float('nan')):.2f} m/s; largest "
               f"{summary['airspeed_max_mps']:.2f} m/s), where its aerodynamic model is not "
               f"validated, and {extra_s:.2f} s above the power curve's valid range "
               f"({settings.get('power_speed_max', float('nan')):g} m/s), where energy_J "
@@ -246,7 +247,7 @@ def warn_envelope(summary: dict) -> None:
     capped_s = summary.get("goal_hold_at_cap_s") or 0.0
     if capped_s > 0:
         settings = summary.get("settings", {})
-        print(f"warning: for {capped_s:.2f} s near the goal (within "
+        print(f"{prefix}warning: for {capped_s:.2f} s near the goal (within "
               f"{settings.get('capture_radius', float('nan')):g} m) the hold's command was at "
               f"the {settings.get('tilt_max_deg', float('nan')):g} deg tilt cap: the wind there "
               "was more than the vehicle can hold against", file=sys.stderr)
