@@ -259,6 +259,7 @@ def test_a_flight_mostly_outside_the_envelope_says_how_much_and_how_far(tmp_path
     doc = json.loads((tmp_path / "fast" / "summary.json").read_text())
     assert doc["outside_envelope_fraction_settled"] == 1.0
     assert doc["max_airspeed_m_s"] == pytest.approx(16.0, abs=0.1)
+    assert 13.45 < doc["median_airspeed_m_s"] <= doc["max_airspeed_m_s"]
     assert main([*base, "--wind-mean", "3", "0", "0", "--out", str(tmp_path / "slow")]) == 0
     assert "outside the vehicle's envelope" not in capsys.readouterr().err
     doc = json.loads((tmp_path / "slow" / "summary.json").read_text())
@@ -274,6 +275,8 @@ def test_a_filter_without_parasitic_drag_in_fast_air_is_noted(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "note: the 'thesis' filter models no parasitic drag, and this flight's median " \
            "airspeed is " in err and "its error grows with airspeed" in err
+    doc = json.loads((tmp_path / "t" / "summary.json").read_text())
+    assert f"median airspeed is {doc['median_airspeed_m_s']:.3g} m/s" in err
     assert main([*base, "--conditions", "windnav", "--out", str(tmp_path / "w")]) == 0
     assert "parasitic drag" not in capsys.readouterr().err
 

@@ -179,11 +179,9 @@ def run(args) -> int:
               + (f", trusted to {limit:g} m/s" if limit else "")
               + "): its aerodynamics and power are extrapolated there", file=sys.stderr)
     if args.conditions is not None and metrics.get("wind_rmse_m_s") is not None:
-        import numpy as np
-
         from windnav.estimate.conditions import CONDITIONS
 
-        air = float(np.median(np.linalg.norm(log.velocity - log.wind, axis=-1)))
+        air = metrics["median_airspeed_m_s"]
         if not CONDITIONS[args.conditions].parasitic_drag and air > PARASITIC_NOTE_AIRSPEED:
             print(f"{name}: note: the '{args.conditions}' filter models no parasitic drag, and "
                   f"this flight's median airspeed is {air:.3g} m/s: its error grows with "

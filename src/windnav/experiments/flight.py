@@ -123,7 +123,7 @@ def flight_summary(log, duration: float) -> dict:
     mean wind speed (m/s) and the flight status (``OK``, or the flags of
     :class:`windnav.sim.log.FlightStatus`: saturated, outside the envelope, non-finite) of
     ``log``, with the fraction of logged instants outside the envelope (all, and after the
-    transient) and the largest airspeed (m/s)."""
+    transient) and the largest and median airspeed (m/s)."""
     settled = log.t >= min(2.0, duration / 2)
     err = log.tracking_error[settled]
     airspeed = np.linalg.norm(log.velocity - log.wind, axis=-1)
@@ -137,6 +137,7 @@ def flight_summary(log, duration: float) -> dict:
         "outside_envelope_fraction_settled": (float(outside[settled].mean())
                                               if outside[settled].size else 0.0),
         "max_airspeed_m_s": float(airspeed.max()) if airspeed.size else 0.0,
+        "median_airspeed_m_s": float(np.median(airspeed)) if airspeed.size else 0.0,
         "rms_tracking_error_m": float(np.sqrt(np.mean(err ** 2))),
         "max_tracking_error_m": float(np.max(err)),
         "mean_power_W": float(log.power.mean()),
