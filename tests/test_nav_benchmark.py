@@ -569,6 +569,19 @@ def test_table_ratio_interval_does_not_depend_on_the_other_rows():
     assert other["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]["table_ratio"]["ci95"] != ci[0]
 
 
+@pytest.mark.parametrize("k, n, low, high", [
+    (81, 263, 25.53, 36.62), (15, 148, 6.24, 16.05), (0, 20, 0.0, 16.11), (1, 29, 0.61, 17.18)])
+def test_failure_interval_is_wilsons_as_published(k, n, low, high):
+    """The failure rate's 95 % interval against the Wilson score intervals (no continuity
+    correction) of Newcombe, Statistics in Medicine 17 (1998) 857, Table I, method 3."""
+    recs = [{"scenario_id": f"s{i}", "variant": "mppi", "seed": 0,
+             "outcome": "collision" if i < k else "success", "energy_J": 1.0,
+             "rotor_energy_J": 1.0, "time_s": 1.0, "distance_m": 1.0, "mean_cmd_accel": 1.0}
+            for i in range(n)]
+    lo, hi = benchmark_table(recs, n_boot=0)["rows"]["mppi"]["failure_pct"]["ci95"]
+    assert (lo, hi) == (pytest.approx(low, abs=0.005), pytest.approx(high, abs=0.005))
+
+
 def test_table_counts_means_and_both_energy_measures():
     t = benchmark_table(synthetic_records(), n_boot=500)
     assert t["variants"] == ["mppi", "ea-mppi-w"] and t["reference"] == "mppi"

@@ -378,17 +378,14 @@ def _describe(values, confidence: float) -> dict:
 
 
 def _wilson(k: int, n: int, confidence: float) -> list[float] | None:
-    """Wilson score interval of a proportion ``k / n``, in percent."""
+    """Wilson score interval (no continuity correction) of a proportion ``k / n``, in percent
+    (SciPy's ``binomtest(...).proportion_ci(method="wilson")``)."""
     if n == 0:
         return None
-    from scipy.stats import norm
+    from scipy.stats import binomtest
 
-    z = float(norm.ppf(0.5 + 0.5 * confidence))
-    p = k / n
-    den = 1.0 + z * z / n
-    mid = (p + z * z / (2 * n)) / den
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return [100.0 * max(0.0, mid - half), 100.0 * min(1.0, mid + half)]
+    ci = binomtest(int(k), int(n)).proportion_ci(confidence_level=confidence, method="wilson")
+    return [100.0 * float(ci.low), 100.0 * float(ci.high)]
 
 
 def _table_ratio(ev, er, confidence, n_boot, rng) -> dict:
