@@ -6,6 +6,7 @@ so a user always learns which argument was wrong, the rule, and what was receive
 
 from __future__ import annotations
 
+import contextlib
 import math
 from collections.abc import Sequence
 
@@ -116,3 +117,20 @@ def batch_array(
     if finite and not np.isfinite(arr).all():
         raise _fail(name, where, "finite (no NaN or inf)", "non-finite entries")
     return arr
+
+
+@contextlib.contextmanager
+def options_named(names: dict[str, str]):
+    """Re-raise a library's ValueError with its parameter names replaced by those the caller's
+    user typed (``{"'max_speed' parameter of simulated_power_curve": "'--max-speed' parameter
+    of windnav power-curve"}``; a library function naming its own parameters for a helper's
+    alike); other errors pass unchanged."""
+    try:
+        yield
+    except ValueError as exc:
+        text = str(exc)
+        for library, option in names.items():
+            text = text.replace(library, option)
+        if text == str(exc):
+            raise
+        raise ValueError(text) from None

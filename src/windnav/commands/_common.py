@@ -8,10 +8,10 @@ earlier run, removing its stale files); its output paths are checked by
 
 from __future__ import annotations
 
-import contextlib
 import os
 from pathlib import Path
 
+from windnav._validate import options_named  # noqa: F401  (the commands import it from here)
 from windnav.experiments.results import Outputs, check_output_path, document
 
 __all__ = ["add_output_arguments", "cache_folder", "check_output_path", "document",
@@ -64,22 +64,6 @@ def inlet_speed(value, option: str, name: str) -> float:
                          "wind solver is incompressible, valid below Mach 0.3. Got "
                          f"{value!r} instead.")
     return speed
-
-
-@contextlib.contextmanager
-def options_named(names: dict[str, str]):
-    """Re-raise a library's ValueError with its parameter names replaced by the options the
-    user typed (``{"'max_speed' parameter of simulated_power_curve": "'--max-speed' parameter
-    of windnav power-curve"}``); other errors pass unchanged."""
-    try:
-        yield
-    except ValueError as exc:
-        text = str(exc)
-        for library, option in names.items():
-            text = text.replace(library, option)
-        if text == str(exc):
-            raise
-        raise ValueError(text) from None
 
 
 def outputs(args, *, out=None, files=None) -> Outputs:

@@ -52,6 +52,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from windnav._validate import options_named
 from windnav.experiments.arithmetic import FIELDS, arithmetic, blas_kernel
 from windnav.experiments.nav_records import (
     ERROR,
@@ -616,12 +617,10 @@ def check_scenario_ids(spec: SuiteSpec, scenario_ids, where: str) -> frozenset |
     if not ids:
         raise ValueError(f"The 'scenario_ids' parameter of {where} must name at least one "
                          "scenario. Got none instead.")
-    for sid in ids:
-        try:
+    with options_named({"'scenario_id' parameter of parse_scenario_id":
+                        f"'scenario_ids' parameter of {where}"}):
+        for sid in ids:
             parse_scenario_id(spec, sid)
-        except ValueError as exc:
-            raise ValueError(str(exc).replace("'scenario_id' parameter of parse_scenario_id",
-                                              f"'scenario_ids' parameter of {where}")) from None
     return frozenset(ids)
 
 
