@@ -415,29 +415,28 @@ def _inflight(args, name: str, spec) -> int:
             progress=not args.no_progress, records=log)
 
     t0 = time.perf_counter()
+    options = {f"'{library}' parameter of inflight_study": f"'{option}' parameter of {name}"
+               for library, option in (("variant", "--variant"), ("every_s", "--every"),
+                                       ("compare", "--compare"), ("taus", "--tau"))}
     try:
-        try:
-            res = study()
-        except RecordMismatchError:  # raised before any flight
-            if not args.overwrite:
-                raise ValueError(
-                    f"The '--out' parameter of {name} names {str(args.out)!r}, whose record "
-                    f"log {str(log)!r} holds the flights of another inflight study (suite, "
-                    "--variant, --every or --tau differ); rerun that study to finish it, pass "
-                    "--overwrite to discard them, or choose another --out.") from None
-            log.unlink()
-            res = study()
+        with options_named(options):
+            try:
+                res = study()
+            except RecordMismatchError:  # raised before any flight
+                if not args.overwrite:
+                    raise ValueError(
+                        f"The '--out' parameter of {name} names {str(args.out)!r}, whose "
+                        f"record log {str(log)!r} holds the flights of another inflight study "
+                        "(suite, --variant, --every or --tau differ); rerun that study to "
+                        "finish it, pass --overwrite to discard them, or choose another "
+                        "--out.") from None
+                log.unlink()
+                res = study()
     except KeyboardInterrupt:
         kept = f"the finished winds are kept in {log}" if log.exists() else "no wind finished"
         print(f"{name}: interrupted: {kept}; rerun the same command to resume",
               file=sys.stderr)
         return 130
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'variant' parameter of inflight_study",
-                                          f"'--variant' parameter of {name}").replace(
-            "'every_s' parameter of inflight_study", f"'--every' parameter of {name}").replace(
-            "'compare' parameter of inflight_study", f"'--compare' parameter of {name}").replace(
-            "'taus' parameter of inflight_study", f"'--tau' parameter of {name}")) from None
     res.update(study="inflight", suite=spec.name, seed=spec.seed, maps=list(maps),
                pairs=pairs, models={n: str(f) for n, f in compare.items()},
                elapsed_s=time.perf_counter() - t0)
