@@ -19,7 +19,9 @@ inputs into two stacks, alternating:
 
 It checks both give the same UKF estimate and decoder field at every step, to the bit, prints
 the time per control step of each (median of the repetitions) and appends them to
-docs/benchmarks.md.
+docs/benchmarks.md. The flight is flown under the arithmetic its committed record was flown
+under (a new process, when this machine's differs and can run it), and compared with that
+record.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ from scipy.spatial.transform import Rotation  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _record import append_record  # noqa: E402
+from _record import append_record, matches_record, under_record_arithmetic  # noqa: E402
 
 from windnav.experiments import nav_benchmark, onboard  # noqa: E402
 from windnav.experiments.nav_suite import get_suite, parse_scenario_id  # noqa: E402
@@ -89,7 +91,7 @@ def reference_features(arch, scans, w_up, w_robot) -> dict:
 
 def capture(scenario_id: str):
     """Fly the scenario with EA-MPPI+Ŵ and return the stack's constructor arguments and the
-    inputs of each of its steps."""
+    inputs of each of its steps, and the flight's record."""
     spec = get_suite("thesis")
     sc = parse_scenario_id(spec, scenario_id)
     city, flow, flow_s = nav_benchmark.group_wind(spec, sc.map_index, sc.wind_index)
@@ -118,7 +120,7 @@ def capture(scenario_id: str):
         raise RuntimeError(rec["error"])
     print(f"flown: {rec['outcome']}, {rec['time_s']:.1f} s, {len(seen[0]['steps'])} steps",
           flush=True)
-    return seen[0]
+    return seen[0], rec
 
 
 def replay(cap, cls, decoder):
@@ -148,7 +150,10 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=int, default=5, help="replays of each stack (5)")
     ap.add_argument("--no-record", action="store_true", help="do not append to docs/benchmarks.md")
     args = ap.parse_args(argv)
-    cap = capture(args.scenario)
+    committed = under_record_arithmetic(args.scenario, "ea-mppi-w-hat")
+    cap, flown = capture(args.scenario)
+    matched = matches_record(flown, committed)
+    print(matched, flush=True)
     decoder = nav_benchmark.benchmark_decoder()
     arch = decoder.arch
     compiled_features = arch.features
@@ -176,6 +181,7 @@ def main(argv=None) -> int:
         f"- `{args.scenario}` flown with EA-MPPI+Ŵ, its {n} control steps replayed into the "
         f"stack {args.repeats} times each way, alternating; UKF estimate and decoder field "
         "equal to the bit at every step",
+        f"- {matched}",
         "",
         "| per control step (UKF 100 Hz, decoder 50 Hz) | reference (batched models, "
         "two-step features) | compiled | ratio |",
