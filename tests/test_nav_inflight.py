@@ -275,3 +275,30 @@ def test_the_command_resumes_an_interrupted_study_with_the_same_result(tmp_path,
     err = capsys.readouterr().err
     assert "'--out' parameter" in err and "another inflight study" in err
     assert "--overwrite" in err and (other / ni.RECORDS).exists()
+
+
+def test_a_record_log_flown_with_another_decoder_is_refused(tmp_path, monkeypatch):
+    """Audit: the record log's header named the variant but not the decoder it flew, so a log
+    flown with the benchmark's earlier pinned decoder was resumed after a re-pin and its winds
+    mixed into a study of another decoder. The header now holds the decoder's file and SHA-256,
+    and such a log is refused (before any flight) like another configuration's."""
+    import json
+
+    from windnav.experiments import nav_benchmark as nb
+    from windnav.experiments.results import RecordMismatchError
+
+    header = ni.records_header(TINY, ni.INFLIGHT_VARIANT, 1.0, ())
+    file, sha = nb.DECODERS[nb.BENCHMARK_DECODER]
+    assert header["decoder"] == {"name": nb.BENCHMARK_DECODER, "file": file,
+                                 "sha256": sha[:16]}
+    assert ni.records_header(TINY, f"{ni.INFLIGHT_VARIANT}@decoder=2026-11-26", 1.0,
+                             ())["decoder"]["file"] == "decoder_2026-11-26.npz"
+    log = tmp_path / ni.RECORDS
+    log.write_text(json.dumps({"header": header}) + "\n")
+    flown = []
+    monkeypatch.setattr(ni, "_fly_wind", lambda task: flown.append(task) or [])
+    monkeypatch.setattr(nb, "BENCHMARK_DECODER", "2026-11-26")  # the benchmark re-pinned
+    with pytest.raises(RecordMismatchError, match="another study"):
+        ni.inflight_study(TINY, ["tiny/m00/w00/p0"], every_s=1.0, executor="serial",
+                          progress=False, records=log)
+    assert flown == [] and log.read_text() == json.dumps({"header": header}) + "\n"

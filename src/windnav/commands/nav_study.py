@@ -427,9 +427,9 @@ def _inflight(args, name: str, spec) -> int:
                     raise ValueError(
                         f"The '--out' parameter of {name} names {str(args.out)!r}, whose "
                         f"record log {str(log)!r} holds the flights of another inflight study "
-                        "(suite, --variant, --every or --tau differ); rerun that study to "
-                        "finish it, pass --overwrite to discard them, or choose another "
-                        "--out.") from None
+                        "(suite, --variant, --every, --tau or the decoder the variant flies "
+                        "differ); rerun that study to finish it, pass --overwrite to discard "
+                        "them, or choose another --out.") from None
                 log.unlink()
                 res = study()
     except KeyboardInterrupt:

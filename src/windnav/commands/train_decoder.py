@@ -12,6 +12,11 @@ simulations are kept), then trains with :func:`windnav.predict.train.train_decod
 resumes from ``<out>/checkpoint.pt`` after an interruption. Rerun the same command to continue
 either step (Ctrl-C says which was interrupted and what is kept). ``--overwrite`` starts the
 training over (the sweep store is kept and reused).
+The seconds each invocation spent in the sweep and in the training are kept in
+``<out>/times.json``, so the times reported (``sweep_seconds``, ``train_seconds``) are the
+recipe's whole cost over the invocations that made the run, interrupted ones included; each
+count starts again with its step (a sweep into a store not there yet, a training with
+``--overwrite``).
 A recipe with ``train.members`` M > 1 trains M models from seeds ``train.seed + i``, each in
 ``<out>/member<i>`` with the files above, and writes their ensemble (the mean of their fields)
 to ``<out>/model.npz``.
@@ -19,11 +24,13 @@ to ``<out>/model.npz``.
 Writes into ``--out``: ``model.npz`` (the best decoder on the held-out maps; load it with
 ``windnav.predict.load_decoder``), ``history.json``, ``checkpoint.pt``, ``recipe.toml`` (a copy
 of the recipe a fresh run started with), ``tensorboard/`` (when the ``tensorboard`` package is
-installed) and the sweep store.
+installed), ``times.json`` (:data:`TIMES`) and the sweep store.
 """
 
 from __future__ import annotations
 
+import contextlib
+import json
 import shutil
 import sys
 import time
@@ -40,11 +47,18 @@ from windnav.commands._common import (
     where,
 )
 
-__all__ = ["TRAINING_PRODUCTS", "register", "run"]
+__all__ = ["TIMES", "TRAINING_PRODUCTS", "register", "run"]
 
 TRAINING_PRODUCTS = ("checkpoint.pt", "history.json", "model.npz", "tensorboard",
                      "recipe.toml")
 """What the training writes into ``--out`` (removed by ``--overwrite``; the store is kept)."""
+
+TIMES = "times.json"
+"""The run's time ledger in ``--out``: ``invocations``, one record per invocation of the command
+(``sweep_seconds``, ``train_seconds``, s of wall time; ``new_sweep``: the store was not there
+yet; ``new_training``: ``--overwrite``; ``ended``), and their totals ``sweep_seconds`` and
+``train_seconds``, each summed from the last invocation that started its step over. Kept by
+``--overwrite`` (the sweep it times is kept too)."""
 
 
 def register(subparsers) -> None:
@@ -100,15 +114,18 @@ def run(args, simulate=None) -> int:
     if not (out_dir / "checkpoint.pt").exists() and args.config.resolve() != copy.resolve():
         shutil.copyfile(args.config, copy)  # a fresh run: the recipe it was made with
 
+    times = _Times(out_dir / TIMES, name, new_sweep=not store.exists(),
+                   new_training=bool(args.overwrite))
     sw = recipe["sweep"]
     progress = not args.no_progress
-    t0 = time.perf_counter()
     try:
-        st, results = sweep(recipe_maps(recipe), store, speeds=sw["speeds"],
-                            directions_deg=sw["directions_deg"], settings=sw["settings"],
-                            backend=args.backend or sw["backend"],
-                            workers=args.workers if args.workers is not None else sw["workers"],
-                            seed=sw["seed"], progress=progress, simulate=simulate)
+        with times.step("sweep"):
+            st, results = sweep(recipe_maps(recipe), store, speeds=sw["speeds"],
+                                directions_deg=sw["directions_deg"], settings=sw["settings"],
+                                backend=args.backend or sw["backend"],
+                                workers=args.workers if args.workers is not None
+                                else sw["workers"],
+                                seed=sw["seed"], progress=progress, simulate=simulate)
     except SweepMismatchError as exc:
         raise ValueError(
             f"The '--out' parameter of {name} holds a sweep store {str(store)!r} of a "
@@ -118,7 +135,7 @@ def run(args, simulate=None) -> int:
     except KeyboardInterrupt:
         print(_interrupted_sweep(name, store), file=sys.stderr)
         return 130
-    sweep_seconds = time.perf_counter() - t0
+    sweep_seconds = times.this["sweep_seconds"]
     failed = [r for r in results if not r.ok]
     for r in failed:
         t = r.task
@@ -135,17 +152,16 @@ def run(args, simulate=None) -> int:
         print(f"{name}: warning: {len(failed)} sweep task(s) failed and are left out of the "
               "training (listed above); rerunning the command retries them.", file=sys.stderr)
 
-    t1 = time.perf_counter()
     try:
-        history = train_decoder(recipe, store=store, out_dir=out_dir, progress=progress)
+        with (options_named({"'config' parameter of train_decoder":
+                             f"'--config' parameter of {name}"}), times.step("train")):
+            history = train_decoder(recipe, store=store, out_dir=out_dir, progress=progress)
     except KeyboardInterrupt:
         print(_interrupted_training(name, out_dir, recipe["train"]["members"],
                                     args.overwrite), file=sys.stderr)
         return 130
-    except ValueError as exc:
-        raise ValueError(str(exc).replace("'config' parameter of train_decoder",
-                                          f"'--config' parameter of {name}")) from None
-    train_seconds = time.perf_counter() - t1
+    train_seconds = times.this["train_seconds"]
+    spent = times.finish()
     best = history["best_val"]
     local = history["baselines"]["local"]
     if "members" in history:
@@ -162,14 +178,85 @@ def run(args, simulate=None) -> int:
     print(f"held-out maps: speed error {best['speed_error']:.3f} m/s (Local "
           f"{local['speed_error']:.3f}), direction error {best['direction_error_deg']:.2f} deg "
           f"(Local {local['direction_error_deg']:.2f}); training {train_seconds:.0f} s")
+    if len(spent["invocations"]) > 1:
+        print(f"run time with the earlier invocations ({times.path}): sweep "
+              f"{spent['sweep_seconds']:.0f} s, training {spent['train_seconds']:.0f} s")
     if args.json is not None:
         payload = {"model": str(out_dir / "model.npz"), "store": str(store),
-                   "sweep_seconds": sweep_seconds, "train_seconds": train_seconds,
-                   "history": history}
+                   "sweep_seconds": spent["sweep_seconds"],
+                   "train_seconds": spent["train_seconds"],
+                   "sweep_seconds_this_run": sweep_seconds,
+                   "train_seconds_this_run": train_seconds,
+                   "invocations": spent["invocations"], "history": history}
         with out.writing() as stage:
             write_json(document("train-decoder", payload, args), stage.file("--json"))
         print_written(out)
     return 0
+
+
+class _Times:
+    """The run's time ledger (:data:`TIMES`): the invocations before this one, read from
+    ``path``, and this one's record (``this``), written back after each step it times."""
+
+    def __init__(self, path: Path, name: str, *, new_sweep: bool, new_training: bool):
+        self.path = path
+        self.invocations = self._read(path, name)
+        self.this = {"sweep_seconds": 0.0, "train_seconds": 0.0, "new_sweep": new_sweep,
+                     "new_training": new_training, "ended": "started"}
+        self.invocations.append(self.this)
+
+    @staticmethod
+    def _read(path: Path, name: str) -> list:
+        try:
+            invocations = json.loads(path.read_text())["invocations"]
+            if not all(isinstance(i, dict) and isinstance(i.get("sweep_seconds"), float | int)
+                       and isinstance(i.get("train_seconds"), float | int)
+                       for i in invocations):
+                raise TypeError("not a list of invocation records")
+        except FileNotFoundError:
+            return []
+        except (ValueError, KeyError, TypeError) as exc:
+            print(f"{name}: warning: the time ledger {path} cannot be read ({exc}); it starts "
+                  "over with this invocation, so the times reported leave out the earlier "
+                  "ones.", file=sys.stderr)
+            return []
+        return invocations
+
+    @contextlib.contextmanager
+    def step(self, step: str):
+        """Time the step ``step`` ("sweep" or "train"), recorded however it ends."""
+        t0 = time.perf_counter()
+        try:
+            yield
+        except BaseException as exc:
+            what = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+            self.this["ended"] = f"{what} during the {'training' if step == 'train' else step}"
+            raise
+        finally:
+            self.this[f"{step}_seconds"] += time.perf_counter() - t0
+            self.save()
+
+    def totals(self) -> dict:
+        """``sweep_seconds`` and ``train_seconds``, each summed from the last invocation that
+        started its step over, and ``invocations``."""
+        total = {"sweep_seconds": 0.0, "train_seconds": 0.0}
+        for inv in self.invocations:
+            for step in ("sweep", "train"):
+                if inv.get(f"new_{'training' if step == 'train' else step}"):
+                    total[f"{step}_seconds"] = 0.0
+                total[f"{step}_seconds"] += inv[f"{step}_seconds"]
+        return {**total, "invocations": self.invocations}
+
+    def save(self) -> None:
+        from windnav.experiments.results import write_json
+
+        write_json(self.totals(), self.path)
+
+    def finish(self) -> dict:
+        """Mark this invocation finished, write the ledger and return :meth:`totals`."""
+        self.this["ended"] = "finished"
+        self.save()
+        return self.totals()
 
 
 def _interrupted_sweep(name: str, store: Path) -> str:

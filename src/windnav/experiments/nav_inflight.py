@@ -212,13 +212,33 @@ def _check_compare(compare, offsets, where: str) -> dict:
     return compare
 
 
-def _decoder(variant: str):
-    """The decoder ``fly`` gives the onboard stack of ``variant`` (the benchmark's pinned one,
-    or the label's ``@decoder=``)."""
-    from windnav.experiments.nav_benchmark import benchmark_decoder, parse_variant
+def _decoder_name(variant: str) -> str:
+    """The name (a key of :data:`~windnav.experiments.nav_benchmark.DECODERS`) of the decoder
+    ``fly`` gives the onboard stack of ``variant``: the label's ``@decoder=``, or the benchmark's
+    pinned :data:`~windnav.experiments.nav_benchmark.BENCHMARK_DECODER`."""
+    from windnav.experiments import nav_benchmark
 
-    name = parse_variant(variant)[1].get("decoder")
-    return benchmark_decoder() if name is None else benchmark_decoder(name)
+    name = nav_benchmark.parse_variant(variant)[1].get("decoder")
+    return nav_benchmark.BENCHMARK_DECODER if name is None else str(name)
+
+
+def _decoder(variant: str):
+    """The decoder ``fly`` gives the onboard stack of ``variant`` (:func:`_decoder_name`)."""
+    from windnav.experiments.nav_benchmark import benchmark_decoder
+
+    return benchmark_decoder(_decoder_name(variant))
+
+
+def _decoder_identity(variant: str) -> dict:
+    """The flown decoder's identity: its name, file and the first 16 hex digits of the file's
+    SHA-256 (the one :func:`~windnav.experiments.nav_benchmark.benchmark_decoder` checks the
+    file against before it loads it)."""
+    from windnav.experiments.nav_benchmark import DECODERS
+
+    name = _decoder_name(variant)
+    _decoder(variant)  # an unknown name or a file not of its date: benchmark_decoder's error
+    file, sha = DECODERS[name]
+    return {"name": name, "file": file, "sha256": sha[:16]}
 
 
 def _fly_wind(task):
@@ -247,11 +267,13 @@ def _fly_wind(task):
 
 def records_header(spec, variant: str, every_s: float, taus: Sequence[float]) -> dict:
     """The header of a study's record log: what its flights and samples depend on (the suite,
-    the variant flown, the sampling; not the scenarios, each wind's recorded with its flights,
-    nor the compared decoders, which only score the samples)."""
+    the variant flown and the decoder its onboard stack flies, the sampling; not the scenarios,
+    each wind's recorded with its flights, nor the compared decoders, which only score the
+    samples). The decoder is named by file and SHA-256 (:func:`_decoder_identity`), so a log
+    flown before the benchmark's pinned decoder changed is another study's."""
     return {"study": "windnav.experiments.nav_inflight", "suite": spec.name, "seed": spec.seed,
-            "settings_hash": spec.settings_hash(), "variant": variant, "every_s": every_s,
-            "taus": list(taus)}
+            "settings_hash": spec.settings_hash(), "variant": variant,
+            "decoder": _decoder_identity(variant), "every_s": every_s, "taus": list(taus)}
 
 
 def _packed(a: np.ndarray) -> dict:
