@@ -9,6 +9,12 @@ rectangles, St against the depth ratio B/H; about 15-20 minutes on 2 cores), ``-
 resolution series (a square at 0 and 90 deg, 8/16/32 cells per height), the closure comparison
 and the label-noise table of the thesis's averaging protocol (about 30-40 minutes).
 
+The studies keep every finished run in ``--out``'s ``flow_validation.partial.jsonl`` until the
+outputs are written: after Ctrl-C (exit 130) or a kill, rerunning the same command runs only the
+runs not yet done, and writes what an uninterrupted run writes. A record log of another
+validation (``--studies`` or ``--full``, or ``--seed``, differ) is refused, or discarded with
+``--overwrite``.
+
 The harness is :mod:`windnav.experiments.flow_validation`, the figures
 :mod:`windnav.experiments.flow_figures`.
 """
@@ -16,6 +22,7 @@ The harness is :mod:`windnav.experiments.flow_validation`, the figures
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from windnav._validate import positive_int
@@ -35,13 +42,16 @@ def register(subparsers) -> None:
         help="validate the 2D flow solver (divergence, walls, vortex decay, Strouhal)",
         description=__doc__.splitlines()[0],
     )
-    p.add_argument("--out", type=Path, required=True, help="output folder (plots, JSON)")
+    p.add_argument("--out", type=Path, required=True,
+                   help="output folder (plots, JSON; while the studies run, their finished runs "
+                        "are kept there in flow_validation.partial.jsonl, to resume from)")
     p.add_argument("--studies", action="store_true",
                    help="also run the Strouhal studies against incidence and aspect ratio "
-                        "(about 15-20 minutes on 2 cores)")
+                        "(about 15-20 minutes on 2 cores; resumable after an interrupt)")
     p.add_argument("--full", action="store_true",
                    help="the studies, plus the resolution series (8/16/32 cells per height), "
-                        "the closure comparison and the label-noise table (30-40 minutes)")
+                        "the closure comparison and the label-noise table (30-40 minutes; "
+                        "resumable after an interrupt)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes for the Strouhal runs (default: all cores)")
     p.add_argument("--seed", type=int, default=0,
@@ -59,6 +69,34 @@ def products() -> tuple[str, ...]:
     return ("flow_validation.json", "strouhal_runs.json", *CHECK_FIGURES, *STROUHAL_FIGURES)
 
 
+def _record_log(args, name: str):
+    """The studies' record log in ``--out`` (None without --studies or --full), checked before
+    anything runs: one of another validation is refused, or discarded with --overwrite."""
+    from windnav.experiments.flow_validation import RECORDS, open_records
+    from windnav.experiments.results import RecordMismatchError
+
+    if not (args.studies or args.full):
+        return None
+    path = Path(args.out) / RECORDS
+    config = {"seed": args.seed, "studies": args.studies, "full": args.full}
+    try:
+        log = open_records(path, **config)
+    except RecordMismatchError:
+        if not args.overwrite:
+            raise ValueError(
+                f"The '--out' parameter of {name} names {str(args.out)!r}, whose record log "
+                f"{str(path)!r} holds the runs of another validation (--studies or --full, or "
+                "--seed, differ); rerun that validation to finish it, pass --overwrite to "
+                "discard them, or choose another --out.") from None
+        path.unlink()
+        log = open_records(path, **config)
+    n = len(log.load())
+    if n:
+        print(f"resuming: {n} finished run{'s' * (n != 1)} already in {log.path}",
+              file=sys.stderr)
+    return log
+
+
 def run(args) -> int:
     from windnav.experiments.flow_figures import plot_checks, plot_strouhal
     from windnav.experiments.flow_validation import run_validation
@@ -69,8 +107,18 @@ def run(args) -> int:
     if args.workers is not None:
         positive_int(args.workers, "--workers", name)
     out = outputs(args, out=("--out", args.out, products()))
-    res = run_validation(seed=args.seed, studies=args.studies, full=args.full,
-                         workers=args.workers, progress=not args.no_progress)
+    log = _record_log(args, name)
+    try:
+        res = run_validation(seed=args.seed, studies=args.studies, full=args.full,
+                             workers=args.workers, progress=not args.no_progress,
+                             records=None if log is None else log.path)
+    except KeyboardInterrupt:
+        if log is None:
+            raise  # the checks alone: seconds, nothing to keep
+        n = len(log.load()) if log.path.exists() else 0
+        kept = f"{n} finished run{'s' * (n != 1)} kept in {log.path}" if n else "no run finished"
+        print(f"{name}: interrupted: {kept}; rerun the same command to resume", file=sys.stderr)
+        return 130
     with out.writing() as stage:
         figures = plot_checks(stage.dir, res["projection"], res["taylor_green"])
         figures += plot_strouhal(stage.dir, res["strouhal"])
@@ -81,6 +129,8 @@ def run(args) -> int:
             write_json(res["runs"], stage.dir / "strouhal_runs.json", indent=None)
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
+    if log is not None:
+        log.remove()
     print(json.dumps(summary, indent=2))
     print_written(out)
     return 0

@@ -17,17 +17,26 @@ stated), run through :func:`windnav.experiments.executor.run_tasks`:
 
 Reference values come from ``windnav/flow/data/strouhal_reference.csv`` (one row per point,
 with its source, and whether it is stated in the text or read from a figure).
+
+With ``records`` (a :class:`~windnav.experiments.results.RecordLog`, JSON lines, header
+:func:`records_header`), every finished run of a study -- each Strouhal case, and the
+label-noise table -- is appended as it finishes, with its study and its case, so an
+interrupted validation resumes with the runs not yet done. A run's record is its result as
+:func:`run_case` returns it (floats written with ``repr``, which reads back to the bit; the
+lift history is float32 values), so the resumed validation's result is the uninterrupted one's.
 """
 
 from __future__ import annotations
 
 import csv
-from dataclasses import replace
+import json
+from dataclasses import asdict, replace
 from importlib import resources
 
 import numpy as np
 
 from windnav.city import City
+from windnav.experiments.results import RecordLog, json_ready
 from windnav.flow import (
     BoundaryConditions,
     MACGrid,
@@ -53,6 +62,9 @@ RESOLUTION_CASE = BluffBodyCase(upstream=5.0, downstream=10.0, spinup_time=40.0,
 STUDY_CASE = BluffBodyCase(cells_per_height=STUDY_CELLS, upstream=6.0, downstream=12.0,
                            spinup_time=40.0, record_time=80.0)
 
+RECORDS = "flow_validation.partial.jsonl"
+"""The record log ``windnav flow-validate`` keeps in its output folder while its studies run."""
+
 
 class StudyFailedError(RuntimeError):
     """A Strouhal study some of whose runs failed (the message gives the first error)."""
@@ -69,21 +81,66 @@ def run_case(case: BluffBodyCase) -> dict:
     return out
 
 
-def _run(cases, backend: str, workers: int | None, progress: bool, desc: str) -> list[dict]:
+def records_header(*, seed: int, studies: bool, full: bool) -> dict:
+    """The header of a validation's record log: what its runs depend on (which studies run,
+    and the seed of the label-noise map; not the workers)."""
+    return {"study": "windnav.experiments.flow_validation",
+            "studies": "full" if full else "studies" if studies else "checks", "seed": int(seed)}
+
+
+def _case_key(case: dict) -> str:
+    """A run's case (a dataclass's fields, or JSON read back) as a string to look it up by."""
+    return json.dumps(json_ready(case, keep_nonfinite=True), sort_keys=True)
+
+
+def _recorded(records: RecordLog | None, study: str) -> dict:
+    """The results ``records`` holds for ``study``, by :func:`_case_key` (the last of each)."""
+    if records is None:
+        return {}
+    return {_case_key(rec["case"]): rec["run"] for rec in records.load()
+            if isinstance(rec, dict) and rec.get("study") == study
+            and isinstance(rec.get("case"), dict) and "run" in rec}
+
+
+def _record(records: RecordLog | None, study: str, case: dict, run) -> None:
+    if records is not None:
+        records.append({"study": study, "case": case, "run": run})
+
+
+def _run(cases, study: str, backend: str, workers: int | None, progress: bool,
+         records: RecordLog | None = None) -> list[dict]:
+    """:func:`run_case` of each of ``cases`` (in their order), those recorded for ``study`` in
+    ``records`` taken from it, the others run and appended to it as each finishes."""
     from windnav.experiments.executor import run_tasks
 
-    results = sorted(run_tasks(run_case, cases, backend=backend, workers=workers,
-                               progress=progress, desc=desc), key=lambda r: r.index)
-    failed = [r for r in results if not r.ok]
+    desc = f"St {study.replace('_', ' ')}"
+    done = _recorded(records, study)
+    keys = [_case_key(asdict(c)) for c in cases]
+    todo = [i for i, key in enumerate(keys) if key not in done]
+
+    def keep(r):
+        if r.ok:
+            _record(records, study, asdict(cases[todo[r.index]]), r.value)
+
+    results = list(run_tasks(run_case, [cases[i] for i in todo], backend=backend,
+                             workers=workers, progress=progress, desc=desc, on_result=keep))
+    failed = sorted((r for r in results if not r.ok), key=lambda r: r.index)
     if failed:
-        raise StudyFailedError(f"{len(failed)} of {len(results)} Strouhal runs ({desc}) "
-                               f"failed; first: {failed[0].error}")
-    return [r.value for r in results]
+        kept = "" if records is None else (f"; the finished runs are kept in "
+                                           f"{str(records.path)!r}, a rerun runs the others")
+        raise StudyFailedError(f"{len(failed)} of {len(cases)} Strouhal runs ({desc}) "
+                               f"failed; first: {failed[0].error}{kept}")
+    ran = {todo[r.index]: r.value for r in results}
+    return [ran[i] if i in ran else done[key] for i, key in enumerate(keys)]
 
 
 def resolution_study(resolutions=RESOLUTIONS, angles=(0.0, 90.0), backend="process",
-                     workers=None, progress=True, base: BluffBodyCase = RESOLUTION_CASE) -> dict:
+                     workers=None, progress=True, base: BluffBodyCase = RESOLUTION_CASE,
+                     records: RecordLog | None = None) -> dict:
     """St of a square at each angle and resolution (default closure), with the verdict.
+
+    ``records``: a record log (see the module docstring); runs recorded there are not run
+    again, and each other run is appended as it finishes (as for every study here).
 
     Returns
     -------
@@ -94,7 +151,7 @@ def resolution_study(resolutions=RESOLUTIONS, angles=(0.0, 90.0), backend="proce
     """
     cases = [replace(base, cells_per_height=int(n), angle_deg=float(a))
              for a in angles for n in resolutions]
-    runs = _run(cases, backend, workers, progress, "St resolution")
+    runs = _run(cases, "resolution", backend, workers, progress, records)
     st = {f"{a:g}": [r["strouhal"] for r in runs if r["angle_deg"] == a] for a in angles}
     change = {k: [abs(b - a) / a for a, b in zip(v[:-1], v[1:], strict=True)]
               for k, v in st.items()}
@@ -110,7 +167,8 @@ def resolution_study(resolutions=RESOLUTIONS, angles=(0.0, 90.0), backend="proce
 
 
 def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="process",
-                    workers=None, progress=True, base: BluffBodyCase = STUDY_CASE) -> dict:
+                    workers=None, progress=True, base: BluffBodyCase = STUDY_CASE,
+                    records: RecordLog | None = None) -> dict:
     """St against the inlet angle for each aspect ratio, and the square's checks.
 
     Returns
@@ -122,7 +180,7 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
     """
     cases = [replace(base, aspect_ratio=float(s), angle_deg=float(a))
              for s in shapes for a in angles]
-    runs = _run(cases, backend, workers, progress, "St incidence")
+    runs = _run(cases, "incidence", backend, workers, progress, records)
     st = {f"{s:g}": [r["strouhal"] for r in runs if r["aspect_ratio"] == s] for s in shapes}
     out = {"runs": runs, "angles": list(angles), "strouhal": st}
     if 1.0 in shapes:
@@ -149,10 +207,11 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
 
 
 def aspect_ratio_study(ratios=ASPECT_RATIOS, backend="process", workers=None, progress=True,
-                       base: BluffBodyCase = STUDY_CASE) -> dict:
+                       base: BluffBodyCase = STUDY_CASE,
+                       records: RecordLog | None = None) -> dict:
     """St against the depth ratio B/H at 0 deg. Returns ``runs``, ``ratios``, ``strouhal``."""
     cases = [replace(base, aspect_ratio=float(b), angle_deg=0.0) for b in ratios]
-    runs = _run(cases, backend, workers, progress, "St aspect ratio")
+    runs = _run(cases, "aspect_ratio", backend, workers, progress, records)
     return {"runs": runs, "ratios": list(ratios), "strouhal": [r["strouhal"] for r in runs]}
 
 
@@ -237,7 +296,8 @@ CLOSURES = ("inviscid", "smagorinsky_grid_filter", "default")
 
 
 def closure_study(resolutions=(8, 16), backend="process", workers=None, progress=True,
-                  base: BluffBodyCase = RESOLUTION_CASE) -> dict:
+                  base: BluffBodyCase = RESOLUTION_CASE,
+                  records: RecordLog | None = None) -> dict:
     """St of the square at 0 deg per closure and resolution: why the default is what it is.
 
     ``inviscid``: no closure (the scheme's numerical diffusion); ``smagorinsky_grid_filter``:
@@ -254,7 +314,7 @@ def closure_study(resolutions=(8, 16), backend="process", workers=None, progress
                 case = replace(case, filter_width=1.0 / n)
             cases.append(case)
             labels.append(name)
-    runs = _run(cases, backend, workers, progress, "St closures")
+    runs = _run(cases, "closures", backend, workers, progress, records)
     for r, name in zip(runs, labels, strict=True):
         r["closure"] = name
     st = {name: [r["strouhal"] for r in runs if r["closure"] == name] for name in CLOSURES}
@@ -341,19 +401,56 @@ def taylor_green_study(n: int = 64, periods: float = 4.0) -> dict:
 # ------------------------------------------------------------------------------ the report
 
 
+def open_records(records, *, seed: int, studies: bool, full: bool) -> RecordLog | None:
+    """The record log at ``records`` (None: none) for this validation, checked: its records
+    are loaded once, so one of another validation is refused before anything runs.
+
+    Raises
+    ------
+    RecordMismatchError
+        When ``records`` holds the records of another validation (:func:`records_header`).
+    """
+    if records is None:
+        return None
+    log = RecordLog(records, records_header(seed=seed, studies=studies, full=full))
+    log.load()
+    return log
+
+
+def _label_noise(seed: int, records: RecordLog | None) -> dict:
+    """:func:`label_noise_study` of ``seed``, from ``records`` when recorded there (else
+    appended to it), as JSON reads it back either way."""
+    case = {"seed": int(seed)}
+    done = _recorded(records, "label_noise").get(_case_key(case))
+    if done is not None:
+        return done
+    res = json_ready(label_noise_study(seed=seed), keep_nonfinite=True)
+    _record(records, "label_noise", case, res)
+    return res
+
+
 def strouhal_studies(full: bool, studies: bool, workers: int | None = None,
-                     progress: bool = True, seed: int = 0) -> dict:
+                     progress: bool = True, seed: int = 0, *, backend: str = "process",
+                     records=None) -> dict:
     """The requested Strouhal studies: ``studies`` the incidence and aspect-ratio studies
     (with the reference comparison), ``full`` also the resolution series, the closure
-    comparison and the label-noise table (on the training map of ``seed``)."""
+    comparison and the label-noise table (on the training map of ``seed``).
+
+    ``records`` (str or path-like, optional): a record log (header :func:`records_header`) that
+    every finished run is appended to as it finishes; runs recorded there are not run again,
+    and the result is the uninterrupted validation's. Raises ``RecordMismatchError`` (before
+    any run) when it holds the records of another validation.
+    """
+    log = open_records(records, seed=seed, studies=studies, full=full)
+    kw = {"backend": backend, "workers": workers, "progress": progress, "records": log}
     res = {}
     if full:
-        res["resolution"] = resolution_study(workers=workers, progress=progress)
-        res["closures"] = closure_study(workers=workers, progress=progress)
-        res["label_noise"] = label_noise_study(seed=seed)
+        res["resolution"] = resolution_study(**kw)
+        res["closures"] = closure_study(**kw)
+        res["label_noise"] = _label_noise(seed, log)
     if full or studies:
-        res["incidence"] = incidence_study(workers=workers, progress=progress)
-        res["aspect_ratio"] = aspect_ratio_study(workers=workers, progress=progress)
+        res["incidence"] = incidence_study(**kw)
+        res["aspect_ratio"] = aspect_ratio_study(**kw)
         res["references"] = compare_references(load_references(), res["incidence"],
                                                res["aspect_ratio"])
     return res
@@ -375,8 +472,13 @@ def brief(res: dict) -> dict:
 
 
 def run_validation(*, seed: int = 0, studies: bool = False, full: bool = False,
-                   workers: int | None = None, progress: bool = True) -> dict:
+                   workers: int | None = None, progress: bool = True, backend: str = "process",
+                   records=None) -> dict:
     """Every check, and the requested Strouhal studies.
+
+    ``backend`` and ``workers`` run the Strouhal runs (:func:`windnav.experiments.run_tasks`);
+    ``records`` is :func:`strouhal_studies`'s record log, checked before the checks run (the
+    checks take seconds and are not recorded).
 
     Returns
     -------
@@ -386,10 +488,12 @@ def run_validation(*, seed: int = 0, studies: bool = False, full: bool = False,
         studies' per-run records), and ``projection``, ``taylor_green``, ``strouhal`` (the
         raw results, for the figures of :mod:`windnav.experiments.flow_figures`).
     """
+    open_records(records, seed=seed, studies=studies, full=full)
     proj = projection_study(rng=np.random.default_rng(seed))
     uni = uniform_study()
     tg = taylor_green_study()
-    st = strouhal_studies(full, studies, workers, progress, seed)
+    st = strouhal_studies(full, studies, workers, progress, seed, backend=backend,
+                          records=records)
     summary = {
         "seed": seed,
         "max_div_dx_over_U": max(proj["max_div_dx_over_U"]),
