@@ -483,8 +483,9 @@ def test_evaluate_decoder_command_refuses_a_file_as_flow_cache_and_a_folder_as_m
 
 
 def test_evaluate_decoder_ctrl_c_says_what_is_kept(map_and_model, capsys, monkeypatch):
-    """Ctrl-C said only "interrupted": without --flow-cache every solved flow is lost, with it
-    they are kept for the rerun (interrupt audit, 2026-12-05)."""
+    """Ctrl-C said only "interrupted": the solved flows are kept for the rerun (in --out's
+    flows folder, or --flow-cache DIR), or with --no-flow-cache lost (interrupt audit,
+    2026-12-05; the resume itself: test_evaluate_decoder_cache.py)."""
     import windnav.experiments.decoder_eval as de
 
     def interrupted(*args, **kwargs):
@@ -493,12 +494,15 @@ def test_evaluate_decoder_ctrl_c_says_what_is_kept(map_and_model, capsys, monkey
     monkeypatch.setattr(de, "evaluate_decoder", interrupted)
     d, _ = map_and_model
     base = ["evaluate-decoder", "--model", str(d / "model.npz"), "--no-progress"]
-    assert main([*base, "--out", str(d / "int1")]) == 130
-    assert "interrupted; nothing is kept without --flow-cache DIR" in capsys.readouterr().err
-    assert main([*base, "--out", str(d / "int2"), "--flow-cache", str(d / "fc")]) == 130
-    err = capsys.readouterr().err
-    assert "the flows solved so far are kept in" in err and "rerun the same command" in err
-    assert not (d / "int1").exists() and not (d / "int2").exists()
+    assert main([*base, "--out", str(d / "int1"), "--no-flow-cache"]) == 130
+    assert "interrupted; nothing is kept with --no-flow-cache" in capsys.readouterr().err
+    for out, extra, kept in (("int2", ["--flow-cache", str(d / "fc")], d / "fc"),
+                             ("int3", [], d / "int3" / "flows")):
+        assert main([*base, "--out", str(d / out), *extra]) == 130
+        err = capsys.readouterr().err
+        assert f"the flows solved so far are kept in {str(kept)!r}" in err
+        assert "rerun the same command" in err
+    assert not any((d / out).exists() for out in ("int1", "int2", "int3"))
 
 
 def test_bench_decoder_runs_with_tiny_repeats(map_and_model, tmp_path):
@@ -596,3 +600,28 @@ def test_evaluate_decoder_records_each_truths_diagnostics_and_notes_them(map_and
     checks = docs[0]["truth_checks"]
     assert checks["slots"] == 2 and checks["travel_outside"] == 2 and checks["unknown"] == 0
     assert checks["not_converged"] + checks["young"] == 2
+
+
+def test_the_windinet_layout_is_found_beside_the_checkout_or_named_and_checked(tmp_path,
+                                                                               monkeypatch):
+    """The layout's path was /work/shared/data written into the code: on another machine the
+    default evaluation failed on a missing file with no hint. It is looked for under
+    $WINDNAV_SHARED_DATA first, and a file there that is not the layout (another layout's
+    figures under windinet's name) is refused."""
+    import shutil
+
+    from windnav.experiments import decoder_eval as de
+
+    good = de.windinet_layout()
+    assert good.is_file()
+    mine = tmp_path / "data" / "windinet" / "example_layout.json"
+    mine.parent.mkdir(parents=True)
+    shutil.copyfile(good, mine)
+    monkeypatch.setenv("WINDNAV_SHARED_DATA", str(tmp_path / "data"))
+    assert de.windinet_layout() == mine
+    mine.write_text(mine.read_text().replace("1", "2", 1))
+    with pytest.raises(ValueError, match="must be Weihao-Li-2001/windinet @ 2de913ee"):
+        de.windinet_layout()
+    monkeypatch.setattr(de, "_windinet_candidates", lambda: [tmp_path / "nowhere.json"])
+    with pytest.raises(FileNotFoundError, match=r"set WINDNAV_SHARED_DATA .*\(--no-windinet\)"):
+        de.windinet_layout()

@@ -5,7 +5,7 @@
     windnav evaluate-decoder --out runs/eval --json eval.json --seed 0          # 20 min budget
     windnav evaluate-decoder --model runs/default/model.npz --maps 3 --inlets 8 --budget-min 5
     windnav evaluate-decoder --compare thesis-mlp=runs/thesis_mlp/model.npz --out runs/eval
-    windnav evaluate-decoder --maps 0 --out runs/eval_wi --flow-cache runs/flows  # flows reused
+    windnav evaluate-decoder --maps 0 --out runs/eval_wi --flow-cache runs/flows  # flows shared
 
 Simulates the mean flow of dense 1.2 km evaluation maps (never trained on) and of the windinet
 1.1 km layout at random inlets (speed U[2, 10] m/s, direction U[0, 360) deg), draws samples
@@ -13,13 +13,20 @@ from each field and reports the speed, direction and vector errors of the decode
 baseline (uniform W_robot) and the Upstream baseline (uniform W_up), per (map, inlet) and
 pooled, with the improvements over each baseline and issue 9's acceptance checks; models given
 with ``--compare`` are scored on the same fields and samples beside it. Inlets are
-added, map by map, while they fit in the budget; an inlet whose flow comes from ``--flow-cache``
-is charged the simulation time recorded with it, so a run resumed after Ctrl-C runs the same
+added, map by map, while they fit in the budget. Each solved flow is kept in the flow cache,
+``--out``'s ``flows`` folder unless ``--flow-cache DIR`` names another (``--no-flow-cache``:
+none), so the same command run again after Ctrl-C or a kill resumes: an inlet whose flow comes
+from the cache is charged the simulation time recorded with it, so a resumed run runs the same
 inlets as one never interrupted, up to the timing noise of the work done again (an entry that
 cannot be read is solved again, with a warning). The harness is
 :mod:`windnav.experiments.decoder_eval`, the figure :mod:`windnav.viz.decoder`.
 
-Writes into ``--out``: ``decoder_eval.json`` and ``decoder_eval.png``.
+Writes into ``--out``: ``decoder_eval.json`` and ``decoder_eval.png``, and the flow cache
+``flows/`` (tens of MB a flow) by default. The cache holds no results: it does not make a rerun
+an overwrite (a run interrupted before its results were written reruns without
+``--overwrite``), and ``--overwrite`` keeps it (an entry is the flow of one map, inlet and
+protocol, whichever run solved it). The JSON records the folder used (``flow_cache``, null with
+``--no-flow-cache``).
 
 Each record carries its truth flow's diagnostics (``flow_diagnostics``), their averaging
 verdict (``averaging``: :func:`windnav.flow.validity.averaging_verdict`), its air travel beside
@@ -48,7 +55,9 @@ from windnav.commands._common import (
 )
 
 PRODUCTS = ("decoder_eval.json", "decoder_eval.png")
-"""What a run writes into ``--out``."""
+"""The results a run writes into ``--out`` (what ``--overwrite`` replaces)."""
+FLOW_CACHE = "flows"
+"""The default flow cache: this folder of ``--out`` (not one of :data:`PRODUCTS`)."""
 
 
 def register(subparsers) -> None:
@@ -72,8 +81,8 @@ def register(subparsers) -> None:
                    help="samples per (map, inlet) (default 2048)")
     p.add_argument("--budget-min", type=float, default=20.0, metavar="MIN",
                    help="wall-clock budget in minutes (default 20): no inlet starts that would "
-                        "end past it; an inlet read from --flow-cache is charged the simulation "
-                        "time recorded with it, as if solved again")
+                        "end past it; an inlet read from the flow cache is charged the "
+                        "simulation time recorded with it, as if solved again")
     p.add_argument("--windinet", action=argparse.BooleanOptionalAction, default=True,
                    help="also evaluate the third-party windinet 1.1 km layout (default: yes)")
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
@@ -83,8 +92,12 @@ def register(subparsers) -> None:
                    help="seed of the inlets and the samples (default %(default)s)")
     p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
                    help="keep each inlet's flow here and reuse it when the same map, inlet and "
-                        "protocol come again (shared with decoder-study --flow-cache; "
-                        "default: no cache)")
+                        "protocol come again, so a rerun after an interrupt resumes (shared "
+                        f"with decoder-study --flow-cache; default: OUT/{FLOW_CACHE}, in "
+                        "--out)")
+    p.add_argument("--no-flow-cache", action="store_true",
+                   help="keep no flows: a rerun solves every flow again (default: kept in "
+                        "the flow cache)")
     p.add_argument("--no-progress", action="store_true", help="hide the per-inlet lines")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -109,9 +122,9 @@ def run(args, simulate=None, flow_settings=None) -> int:
         what = "a folder" if Path(args.model).is_dir() else "which does not exist"
         raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
                          f"{str(args.model)!r} instead, {what}.")
-    cache_folder(args.flow_cache, "--flow-cache", name)
     compare = _compare_files(args.compare, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
+    flow_cache = flow_cache_folder(args, name)
     from windnav.commands.predict import dx_notes, print_notes, training_conditions
     from windnav.predict import load_decoder
     from windnav.predict.envelope import training_envelope
@@ -124,14 +137,15 @@ def run(args, simulate=None, flow_settings=None) -> int:
                                samples_per_inlet=args.samples, seed=args.seed,
                                budget_s=60.0 * budget, dx=args.dx, flow_settings=flow_settings,
                                progress=not args.no_progress,
-                               simulate=simulate, flow_cache=args.flow_cache)
+                               simulate=simulate, flow_cache=flow_cache)
     except KeyboardInterrupt:  # said only "interrupted": the solved flows were lost unsaid
-        kept = (f"the flows solved so far are kept in {str(args.flow_cache)!r}; rerun the same "
-                "command to reuse them" if args.flow_cache is not None else
-                "nothing is kept without --flow-cache DIR, which keeps each solved flow and "
-                "lets a rerun reuse it (the same result)")
+        kept = (f"the flows solved so far are kept in {str(flow_cache)!r}; rerun the same "
+                "command to reuse them (the same result)" if flow_cache is not None else
+                "nothing is kept with --no-flow-cache; without it each solved flow is kept "
+                "and a rerun reuses it (the same result)")
         print(f"{name}: interrupted; {kept}", file=sys.stderr)
         return 130
+    res["flow_cache"] = str(flow_cache) if flow_cache is not None else None
     res["truth_checks"] = check_truths(res, training)
     print_notes(notes + truth_summary(res), name)  # once the run is not refused
     with out.writing() as stage:
@@ -149,7 +163,35 @@ def run(args, simulate=None, flow_settings=None) -> int:
                       "stopped_by_budget": res["stopped_by_budget"],
                       "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
+    if flow_cache is not None and Path(flow_cache).is_dir():  # its disk use said, not silent
+        files = [f for f in Path(flow_cache).rglob("*") if f.is_file()]
+        size = sum(f.stat().st_size for f in files)
+        print(f"flow cache: {str(flow_cache)!r}, {size / 1e6:.1f} MB: reused by a rerun (and "
+              "decoder-study --flow-cache); delete it to free the space, or pass "
+              "--no-flow-cache")
     return 0
+
+
+def flow_cache_folder(args, name: str) -> Path | None:
+    """The folder the run keeps its flows in: ``--flow-cache``, else ``--out``'s
+    :data:`FLOW_CACHE` folder; None with ``--no-flow-cache``. Checked before any work, as
+    :func:`~windnav.commands._common.cache_folder` checks ``--flow-cache``: a file where the
+    folder should be is refused, naming the option that put it there."""
+    if args.no_flow_cache:
+        if args.flow_cache is not None:
+            raise ValueError(f"The '--no-flow-cache' parameter of {name} keeps no flows, and "
+                             f"'--flow-cache' names where to keep them: give one of the two. "
+                             f"Got both (--flow-cache {str(args.flow_cache)!r}) instead.")
+        return None
+    if args.flow_cache is not None:
+        return cache_folder(args.flow_cache, "--flow-cache", name)
+    path = Path(args.out) / FLOW_CACHE
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"The '--out' parameter of {name} must name a folder whose "
+                         f"{FLOW_CACHE!r} (the default flow cache) is a folder or missing. Got "
+                         f"{str(args.out)!r} instead, where {str(path)!r} is a file; pass "
+                         "--flow-cache DIR or --no-flow-cache.")
+    return path
 
 
 def _compare_files(items, name) -> dict | list:
