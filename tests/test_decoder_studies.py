@@ -247,6 +247,60 @@ def test_decoder_study_refuses_the_options_a_study_would_ignore(study, option, v
     assert list(tmp_path.iterdir()) == []  # nothing made, no flow simulated
 
 
+@pytest.mark.parametrize("study", ["direction", "basis"])
+def test_decoder_study_refuses_maps_with_windinet_for_direction_and_basis(study, tmp_path,
+                                                                          capsys, monkeypatch):
+    """``direction --windinet`` and ``basis --windinet`` run on the windinet layout alone and
+    silently ignored ``--maps`` (interrupt audit, 2026-12-05): refused, naming both options,
+    before any work."""
+    from windnav.experiments import decoder_studies as ds
+
+    def no_flows(*args, **kwargs):  # were it not refused: fail now, not after minutes of flows
+        raise AssertionError("--maps with --windinet was not refused")
+
+    monkeypatch.setattr(ds, "evaluation_fields", no_flows)
+    assert cli.main(["decoder-study", study, "--windinet", "--maps", "3", "--out",
+                     str(tmp_path / "out"), "--flow-cache", str(tmp_path / "flows"),
+                     "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "'--maps' parameter of windnav decoder-study does not apply with --windinet" in err
+    assert f"for the {study} study" in err and "Got 3 with --windinet" in err
+    assert list(tmp_path.iterdir()) == []  # nothing made, no flow simulated
+
+
+def test_decoder_study_windinet_keeps_its_inlets_and_other_studies_their_maps():
+    """Only a typed ``--maps`` is refused with ``--windinet``: unset it takes its default, and
+    ``--inlets`` (the windinet slots) is read; a study that runs on the dense maps whatever
+    ``--windinet`` says keeps ``--maps``."""
+    from windnav.commands.decoder_study import INLETS, MAPS, _check_flow_options
+
+    def namespace(study, **kw):
+        return argparse.Namespace(**{"study": study, "quick": False, "windinet": True,
+                                     "flow_cache": None, "maps": None, "inlets": None, **kw})
+
+    args = namespace("direction", inlets=8)
+    _check_flow_options(args, "windnav decoder-study")
+    assert (args.maps, args.inlets) == (MAPS, 8)
+    args = namespace("basis")
+    _check_flow_options(args, "windnav decoder-study")
+    assert (args.maps, args.inlets) == (MAPS, INLETS)
+    args = namespace("gradients", maps=3, windinet=False)
+    _check_flow_options(args, "windnav decoder-study")
+    assert args.maps == 3
+    with pytest.raises(ValueError, match="'--maps' parameter .* with --windinet"):
+        _check_flow_options(namespace("direction", maps=1), "windnav decoder-study")
+    # --windinet where the study would ignore it (gradients ran the dense maps), or with
+    # --quick (whose one map it replaced for averaging and start in silence)
+    for study in ("eigenflows", "gradients", "mosaic", "noise", "winds", "size", "scaling"):
+        with pytest.raises(ValueError, match=f"'--windinet' parameter .* the {study} study "
+                                             "would ignore it"):
+            _check_flow_options(namespace(study), "windnav decoder-study")
+    for study in ("averaging", "start", "direction", "basis"):
+        _check_flow_options(namespace(study), "windnav decoder-study")
+        with pytest.raises(ValueError, match="'--windinet' parameter .* with --quick"):
+            _check_flow_options(namespace(study, quick=True), "windnav decoder-study")
+
+
 def test_decoder_study_size_quick_trains_one_model_per_grid_size(runs, tmp_path):
     out = tmp_path / "out"
     assert cli.main(["decoder-study", "size", "--quick", "--sizes", "5", "15", "--out",

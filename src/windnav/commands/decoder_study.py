@@ -43,8 +43,9 @@ each of the labels' eigenflows within those modes, on the same flows (or ``--win
 the output basis what limits the decoder? ``--quick``:
 a 150 m map and short flows, or the tiny recipe's sweep and models. ``--maps``, ``--inlets``
 and ``--flow-cache`` are for the studies on evaluation flows (eigenflows, gradients, mosaic,
-noise, direction, basis), and ``--maps`` and ``--inlets`` not with ``--quick`` (one map, one
-inlet): where a study would ignore them they are refused, before any work. The harness is
+noise, direction, basis), ``--maps`` and ``--inlets`` not with ``--quick`` (one map, one
+inlet), and ``--maps`` not with ``--windinet`` for direction and basis (the windinet layout is
+their one map): where a study would ignore them they are refused, before any work. The harness is
 :mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
 
 Writes into ``--out``: ``decoder_<study>.json`` and ``decoder_<study>.png``.
@@ -74,6 +75,11 @@ STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "s
 FLOW_STUDIES = ("eigenflows", "gradients", "mosaic", "noise", "direction", "basis")
 """The studies on the flows of dense evaluation maps: the ones that read ``--maps``,
 ``--inlets`` and ``--flow-cache``."""
+WINDINET_FLOW_STUDIES = ("direction", "basis")
+"""The studies on evaluation flows that ``--windinet`` runs on the windinet layout instead of
+``--maps`` dense maps."""
+WINDINET_STUDIES = ("averaging", "start", *WINDINET_FLOW_STUDIES)
+"""The studies that read ``--windinet`` (refused with the others, and with ``--quick``)."""
 MAPS, INLETS = 1, 2
 """The defaults of ``--maps`` and ``--inlets``."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
@@ -103,7 +109,8 @@ def register(subparsers) -> None:
                         "(repeatable)")
     p.add_argument("--maps", type=int, default=None, metavar="N",
                    help="dense 1.2 km evaluation maps (default 1; the mosaic uses the first; "
-                        "not with --quick, whose one map is fixed)")
+                        "not with --quick, whose one map is fixed, nor with direction or "
+                        "basis --windinet, whose one map is the windinet layout)")
     p.add_argument("--inlets", type=int, default=None, metavar="N",
                    help="random inlets per map (default 2; the mosaic uses the first; not "
                         "with --quick, whose one inlet is fixed)")
@@ -131,7 +138,7 @@ def register(subparsers) -> None:
     p.add_argument("--windinet", action="store_true",
                    help="averaging, start: the third-party windinet 1.1 km layout instead of the "
                         "default recipe's held-out district; direction, basis: instead of the "
-                        "dense evaluation maps (--inlets of them)")
+                        "dense evaluation maps (at --inlets inlets; not with --maps)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -147,9 +154,9 @@ def _quick_map():
 def _windinet_map():
     """The third-party windinet layout (``--windinet``) as a City."""
     from windnav.city import read_rotorpy_json
-    from windnav.experiments.decoder_eval import WINDINET_LAYOUT
+    from windnav.experiments.decoder_eval import windinet_layout
 
-    return read_rotorpy_json(WINDINET_LAYOUT)
+    return read_rotorpy_json(windinet_layout())
 
 
 def _fields(args, name, simulate, progress):
@@ -165,7 +172,7 @@ def _fields(args, name, simulate, progress):
     positive_int(args.maps, "--maps", name)
     positive_int(args.inlets, "--inlets", name)
     maps = args.maps
-    if args.windinet and args.study in ("direction", "basis"):
+    if args.windinet and args.study in WINDINET_FLOW_STUDIES:
         # one map: the inlets of evaluate-decoder's windinet slots, for the same seed
         maps = [("windinet", _windinet_map())]
     return evaluation_fields(maps, args.inlets, seed=args.seed,
@@ -372,11 +379,20 @@ def run(args, simulate=None) -> int:
 
 
 def _check_flow_options(args, name: str) -> None:
-    """Refuse ``--flow-cache``, ``--maps`` and ``--inlets`` where the study would ignore them
-    (a study that simulates no evaluation flows; ``--quick``, whose one map and inlet are
-    fixed), before any work; then set ``--maps`` and ``--inlets`` to their defaults when
-    unset."""
+    """Refuse ``--windinet``, ``--flow-cache``, ``--maps`` and ``--inlets`` where the study
+    would ignore them (a study without a windinet variant; a study that simulates no
+    evaluation flows; ``--quick``, whose one map and inlet are fixed; ``--maps`` for direction
+    and basis with ``--windinet``, whose one map is the windinet layout), before any work;
+    then set ``--maps`` and ``--inlets`` to their defaults when unset (None: not typed)."""
     study = args.study
+    if args.windinet and study not in WINDINET_STUDIES:
+        raise ValueError(f"The '--windinet' parameter of {name} is for the studies "
+                         f"{', '.join(WINDINET_STUDIES)}; the {study} study would ignore it. "
+                         f"Got --windinet for {study!r} instead.")
+    if args.windinet and args.quick:
+        raise ValueError(f"The '--windinet' parameter of {name} does not apply with --quick "
+                         "(one 150 m map, which --quick fixes). Got --windinet with --quick "
+                         "instead.")
     if args.flow_cache is not None and study not in FLOW_STUDIES:
         raise ValueError(f"The '--flow-cache' parameter of {name} is for the studies on "
                          f"evaluation flows ({', '.join(FLOW_STUDIES)}); the {study} study "
@@ -391,6 +407,11 @@ def _check_flow_options(args, name: str) -> None:
         if args.quick:
             raise ValueError(f"The {flag!r} parameter of {name} does not apply with --quick "
                              f"(one 150 m map, one inlet). Got {value!r} with --quick instead.")
+        if flag == "--maps" and args.windinet and study in WINDINET_FLOW_STUDIES:
+            raise ValueError(f"The '--maps' parameter of {name} does not apply with --windinet "
+                             f"for the {study} study (its one map is the windinet layout; "
+                             f"--inlets sets its inlets). Got {value!r} with --windinet "
+                             "instead.")
     if args.maps is None:
         args.maps = MAPS
     if args.inlets is None:

@@ -11,8 +11,9 @@ The protocol (the thesis's evaluation, ch. 4, on our maps):
 - **Maps.** ``dense-i``: :func:`windnav.city.dense_map` (1.2 km, >= 200 buildings) drawn from
   child ``i`` of ``numpy.random.SeedSequence(EVAL_MAP_SEED)`` (:func:`generated_maps`); the
   default recipe trains on seeds 1001-1005, so these maps are never trained on. ``windinet``:
-  the third-party 1.1 km layout ``/work/shared/data/windinet/example_layout.json``
-  (Weihao-Li-2001/windinet, Apache-2.0).
+  the third-party 1.1 km layout ``windinet/example_layout.json`` of the project's shared data
+  folder (Weihao-Li-2001/windinet, Apache-2.0; :func:`windinet_layout` says where it is
+  looked for).
 - **Inlets.** Speed ``U[2, 10]`` m/s and direction ``U[0, 360)`` deg, drawn from ``seed`` for
   every (map, inlet) slot before anything runs (:func:`inlet_slots`), and the samples of each
   slot from its own stream (:func:`slot_rng`), so a slot does not depend on the budget.
@@ -51,12 +52,64 @@ from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
            "check_point", "flow_cache_name", "inlet_slots", "predict_at", "slot_flow",
-           "slot_rng"]
+           "slot_rng", "windinet_layout"]
 
 EVAL_MAP_SEED = 2000
 """Seed of the dense evaluation maps (the default recipe's training maps use 1001-1005)."""
-WINDINET_LAYOUT = Path("/work/shared/data/windinet/example_layout.json")
-"""The third-party 1.1 km urban layout (Weihao-Li-2001/windinet, Apache-2.0)."""
+WINDINET_FILE = Path("windinet") / "example_layout.json"
+"""The third-party 1.1 km urban layout (Weihao-Li-2001/windinet @ 2de913ee, Apache-2.0), in the
+project's shared data folder."""
+WINDINET_SHA256 = "f9aea3e8d53e0037241b6fc208d18b64f74c7b20cef4910f6a163a7807f23c16"
+"""The SHA-256 of that file: the layout every windinet figure of ``docs/decoder.md`` is of."""
+
+
+def _windinet_candidates() -> list[Path]:
+    """Where the layout is looked for, in order: ``$WINDNAV_SHARED_DATA``, the shared data
+    folder beside this checkout (``../shared/data``), the checkout's test copy
+    (``tests/data``), ``/work/shared/data``."""
+    import os
+
+    up = Path(__file__).resolve().parents  # .../<checkout>/src/windnav/experiments/this file
+    checkout = up[min(3, len(up) - 1)]
+    out = [Path(r) / WINDINET_FILE for r in (os.environ.get("WINDNAV_SHARED_DATA"),) if r]
+    out += [checkout.parent / "shared" / "data" / WINDINET_FILE,
+            checkout / "tests" / "data" / WINDINET_FILE.name,
+            Path("/work/shared/data") / WINDINET_FILE]
+    return list(dict.fromkeys(out))
+
+
+WINDINET_LAYOUT = next((c for c in _windinet_candidates() if c.is_file()),
+                       _windinet_candidates()[0])
+"""The windinet layout's path on this machine (the first of :func:`_windinet_candidates` that
+exists, else the first); read it with :func:`windinet_layout`."""
+
+
+def windinet_layout() -> Path:
+    """The third-party windinet layout's file (:data:`WINDINET_FILE`), checked.
+
+    Raises
+    ------
+    FileNotFoundError
+        When it is on none of the paths looked for (``$WINDNAV_SHARED_DATA``, ``../shared/data``
+        beside this checkout, the checkout's ``tests/data``, ``/work/shared/data``): an
+        installed package carries no copy.
+    ValueError
+        When the file found is not that layout (its SHA-256 differs): the windinet figures
+        would be another layout's under its name.
+    """
+    path = next((c for c in _windinet_candidates() if c.is_file()), None)
+    if path is None:
+        looked = ", ".join(str(c) for c in _windinet_candidates())
+        raise FileNotFoundError(
+            f"The third-party windinet layout ({WINDINET_FILE}) is not on this machine (looked "
+            f"in {looked}): set WINDNAV_SHARED_DATA to the folder holding "
+            f"{WINDINET_FILE}, or leave the layout out (--no-windinet).")
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    if digest != WINDINET_SHA256:
+        raise ValueError(f"The windinet layout at {str(path)!r} must be Weihao-Li-2001/windinet "
+                         f"@ 2de913ee's example_layout.json (SHA-256 {WINDINET_SHA256[:16]}...). "
+                         f"Got a file with SHA-256 {digest[:16]}... instead.")
+    return path
 MODELS = ("decoder", "local", "upstream")
 """The predictors always scored, in report order (the compared models, when any, come after
 the decoder)."""
@@ -225,7 +278,7 @@ def _evaluation_maps(maps, windinet, where):
                                  f"a list of (name, City). Got {type(c).__name__} instead.")
             out.append((str(name), "dense", c))
     if windinet:
-        path = WINDINET_LAYOUT if windinet is True else Path(windinet)
+        path = windinet_layout() if windinet is True else Path(windinet)
         out.append(("windinet", "windinet", read_rotorpy_json(path)))
     if not out:
         raise ValueError(f"The 'maps' parameter of {where} must give at least one map (or "
@@ -431,7 +484,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         pooled[group] = summary
     return {
         "config": {"maps": [n for n, _, _ in cities], "map_seed": EVAL_MAP_SEED,
-                   "windinet_layout": str(WINDINET_LAYOUT) if windinet is True else
+                   "windinet_layout": str(windinet_layout()) if windinet is True else
                    (str(windinet) if windinet else None),
                    "n_inlets": n_inlets, "samples_per_inlet": samples, "seed": int(seed),
                    "budget_s": budget_s, "dx": dx, **settings,
