@@ -64,7 +64,8 @@ def tunnel(tmp_path_factory):
 def test_round_trip_recovers_the_thesis_coefficients(tunnel, source):
     doc = json.loads((tunnel / f"{source}.json").read_text())
     truth = json.loads((tunnel / "sim" / "truth.json").read_text())
-    assert truth["true"] == {**TRUE, "accel_bias": [0.05, -0.04, 0.03]}
+    assert truth["true"] == {**TRUE, "c_Dx": 0.0, "c_Dy": 0.0, "c_Dz": 0.0,
+                             "accel_bias": [0.05, -0.04, 0.03]}
     for key, tol in (("k_eta", 0.02), ("k_d", 0.02), ("k_z", 0.02), ("k_h", 0.10)):
         assert doc[key]["value"] == pytest.approx(TRUE[key], rel=tol), key
         assert doc[key]["ci95"][0] < doc[key]["value"] < doc[key]["ci95"][1]
@@ -295,3 +296,53 @@ def test_tunnel_vehicles_that_did_not_fly_ok_are_counted(tunnel, tmp_path, capsy
     assert default["log_status"]["samples_not_ok"] == 0
     assert default["log_status"]["samples"] == {"OK": default["n_points"]}
     assert "log_status" not in json.loads((tunnel / "csv.json").read_text())
+
+
+def test_frame_drag_is_fitted_with_parasitic_and_noted_without(tmp_path, capsys):
+    """The thesis's model has no frame drag: on the simulated Hummingbird (c_D 0.005-0.01
+    N/(m/s)^2) it gave k_d +10.7 %, k_z +10.9 %, k_h -8.1 %, each 95 % interval excluding the
+    truth, and said nothing (API audit, 2026-12-05). Without --parasitic a note says so; with
+    it every coefficient, the drag included, comes back."""
+    p = vehicle_params("hummingbird")
+    sim = tmp_path / "sim"
+    _cli("sysid", "simulate-tunnel", "--vehicle", "hummingbird", "--out", sim, "--seed", 0)
+    truth = json.loads((sim / "truth.json").read_text())["true"]
+    assert (truth["c_Dx"], truth["c_Dy"], truth["c_Dz"]) == (p.c_dx, p.c_dy, p.c_dz)
+    log = sim / "tunnel_log.npz"
+    _cli("sysid", "aero", "--log", log, "--json", tmp_path / "plain.json", "--out",
+         tmp_path / "plain")
+    plain = json.loads((tmp_path / "plain.json").read_text())
+    assert plain["k_d"]["ci95"][0] > 1.05 * p.k_d  # biased, the interval excluding the truth
+    assert plain["frame_drag"] is None and plain["frame_drag_check"]["significant"]
+    note = [n for n in plain["notes"] if "frame (parasitic) drag" in n]
+    assert len(note) == 1 and "sysid aero --parasitic" in note[0]
+    assert "frame (parasitic) drag" in capsys.readouterr().err
+    _cli("sysid", "aero", "--log", log, "--parasitic", "--json", tmp_path / "drag.json",
+         "--out", tmp_path / "drag")
+    drag = json.loads((tmp_path / "drag.json").read_text())
+    for key, tol in (("k_eta", 0.01), ("k_d", 0.01), ("k_z", 0.01), ("k_h", 0.02)):
+        assert drag[key]["value"] == pytest.approx(getattr(p, key), rel=tol), key
+        assert drag[key]["ci95"][0] < getattr(p, key) * (1 + tol)
+    for key, true in zip(("c_Dx", "c_Dy", "c_Dz"), (p.c_dx, p.c_dy, p.c_dz), strict=True):
+        assert drag["frame_drag"][key]["value"] == pytest.approx(true, rel=0.03), key
+    assert drag["frame_drag_check"] is None
+    assert not any("frame (parasitic) drag" in n for n in drag["notes"])
+    assert (tmp_path / "drag" / "aero.png").stat().st_size > 10_000
+
+
+def test_no_frame_drag_note_for_a_vehicle_without_it(tunnel):
+    """The thesis's Crazyflie has no frame drag: no note, and the drag fitted with
+    parasitic=True is zero within its intervals."""
+    doc = json.loads((tunnel / "log.json").read_text())
+    assert not doc["frame_drag_check"]["significant"]
+    assert not any("frame (parasitic) drag" in n for n in doc["notes"])
+    from windnav.sim import FlightLog
+    from windnav.sysid.aero import aero_from_flight_log
+
+    data = aero_from_flight_log(FlightLog.load(tunnel / "sim" / "tunnel_log.npz"))
+    fit = fit_aero(data, MASS, parasitic=True)
+    for e in fit.frame_drag:
+        assert e.ci95[0] < 0.0 < e.ci95[1]
+    assert fit.k_d.value == pytest.approx(TRUE["k_d"], rel=0.01)
+    with pytest.raises(ValueError, match="'parasitic' parameter of fit_aero"):
+        fit_aero(data, MASS, parasitic="yes")

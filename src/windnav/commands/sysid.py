@@ -212,6 +212,10 @@ def _register_aero(ss) -> None:
                    help="average consecutive samples over blocks of this many seconds "
                         "before fitting (against noise on rotor speeds and airspeed) "
                         "(default: none, no averaging)")
+    p.add_argument("--parasitic", action="store_true",
+                   help="fit the frame (parasitic) drag c_Dx, c_Dy, c_Dz with the rest, which "
+                        "the thesis's model leaves out (default: the thesis's model, with a "
+                        "note when the samples carry frame drag that biases it)")
     p.add_argument("--out", type=Path, default=Path("out/sysid_aero"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
@@ -287,7 +291,8 @@ def run_aero(args) -> int:
     if args.average_s is not None:
         window = positive_float(args.average_s, "--average-s", name)
         parts = [block_average(p, window) for p in parts]
-    fit, payload = aero_study(parts if len(parts) > 1 else parts[0], mass, where=name)
+    fit, payload = aero_study(parts if len(parts) > 1 else parts[0], mass,
+                              parasitic=args.parasitic, where=name)
     if logs:
         payload["log_status"], note = _log_status(status)
         if note:
@@ -295,6 +300,8 @@ def run_aero(args) -> int:
     doc = document("sysid aero", payload, args)
     _write(args, doc, out, "aero", lambda path: plot_aero(fit, path))
     summary = _coefficients(payload, ("k_eta", "k_d", "k_z", "k_h"))
+    if payload["frame_drag"] is not None:
+        summary |= _coefficients(payload["frame_drag"], tuple(payload["frame_drag"]))
     summary["accel_bias"] = {a: payload["accel_bias"][a]["value"] for a in "xy"}
     _print(summary, out)
     for note in payload["notes"]:

@@ -271,7 +271,8 @@ def simulate_tunnel(params, *, speeds: Sequence[float] = tuple(np.arange(0.0, 6.
         "experiment": "tunnel", "settle_s": settle_s, "record_s": record_s,
         "mass": params.mass, "vehicle": params.name,
         "true": {"k_eta": params.k_eta, "k_d": params.k_d, "k_z": params.k_z,
-                 "k_h": params.k_h, "accel_bias": list(noise.accel_bias)},
+                 "k_h": params.k_h, "c_Dx": params.c_dx, "c_Dy": params.c_dy,
+                 "c_Dz": params.c_dz, "accel_bias": list(noise.accel_bias)},
         "conditions": [{"axis": a, "airspeed_m_s": v} for a, v in conditions],
     }
     data = aero_from_flight_log(log)
@@ -302,11 +303,12 @@ def thrust_stand_study(paths: Sequence, n_rotors: int, *, max_accel: float = 100
                                 "window_s": window_s}}
 
 
-def aero_study(data, mass: float, *, where: str = "aero_study"):
-    """Fit pooled :class:`~windnav.sysid.AeroData`; returns ``(fit, payload)``."""
+def aero_study(data, mass: float, *, parasitic: bool = False, where: str = "aero_study"):
+    """Fit pooled :class:`~windnav.sysid.AeroData` (``parasitic``: with the frame drag,
+    :func:`~windnav.sysid.fit_aero`); returns ``(fit, payload)``."""
     from windnav.sysid.aero import fit_aero
 
-    fit = fit_aero(data, mass, where=where)
+    fit = fit_aero(data, mass, parasitic=parasitic, where=where)
     return fit, fit.to_dict()
 
 
@@ -446,14 +448,18 @@ def plot_thrust_stand(fit, path) -> None:
 
 
 def plot_aero(fit, path) -> None:
-    """Lateral specific force against ``-v_a sum(eta) / m``, vertical specific force measured
-    against fitted, and their residuals. Writes a PNG."""
+    """Lateral specific force against ``-v_a sum(eta) / m`` (less the fitted frame drag, when
+    fitted), vertical specific force measured against fitted, and their residuals. Writes a
+    PNG."""
     d, m = fit.data, fit.mass
     s1 = d.rotor_speeds.sum(axis=1)
+    drag = fit.frame_drag_accel()
+    less = "" if fit.frame_drag is None else " - frame drag"
     fig, ax = _figure(2, 2, (11, 8))
     for j, (lab, b) in enumerate((("x", fit.accel_bias[0]), ("y", fit.accel_bias[1]))):
         xr = -d.airspeed_body[:, j] * s1 / m
-        ax[0].plot(xr, d.specific_force_body[:, j], ".", ms=1.5, alpha=0.3, label=f"f_{lab}")
+        ax[0].plot(xr, d.specific_force_body[:, j] - drag[:, j], ".", ms=1.5, alpha=0.3,
+                   label=f"f_{lab}{less}")
         xs = np.linspace(xr.min(), xr.max(), 2)
         ax[0].plot(xs, fit.k_d.value * xs + b.value, "-", lw=1)
     ax[0].set(xlabel="-v_a sum(eta) / m  (rad/s m/s / kg)", ylabel="specific force (m/s^2)",

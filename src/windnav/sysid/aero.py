@@ -13,8 +13,14 @@ The lateral equations share the slope ``k_d``; their intercepts are the accelero
 squares (``windnav.sysid._fit``). Thesis values (Crazyflie 2.1 Brushless): k_eta 4.26e-8,
 k_d 5.09e-6, k_z 1.19e-5, k_h 1.11e-3.
 
-Parasitic frame drag (``c_d |v_a| v_a``) is not in the model: fit a vehicle whose frame drag
-matters with it removed from ``f`` first.
+Parasitic frame drag (``D = -|v_a| diag(c_Dx, c_Dy, c_Dz) v_a``, the simulator's) is not in
+the thesis's model. ``fit_aero(..., parasitic=True)`` (``windnav sysid aero --parasitic``) adds
+it: ``- c_Dx |v_a| v_a,x`` and ``- c_Dy |v_a| v_a,y`` to the lateral equations and ``- c_Dz
+|v_a| v_a,z`` to the vertical one, fitted with the rest. Without it, the fit still fits the
+lateral equations with frame drag too (:attr:`AeroFit.frame_drag_check`) and notes when the
+drag is there and moves ``k_d`` by more than ``k_d``'s own 95 % interval: on the simulated
+Hummingbird (``c_D`` 0.005-0.01 N/(m/s)^2) the thesis's model gave k_d +10.7 %, k_z +10.9 %,
+k_h -8.1 %, each interval excluding the truth, and said nothing.
 """
 
 from __future__ import annotations
@@ -29,7 +35,7 @@ from windnav._validate import positive_float
 from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
 from windnav.sysid.io import Table
 
-__all__ = ["AERO_COLUMNS", "AeroData", "AeroFit", "COLLINEAR_KZ_KH",
+__all__ = ["AERO_COLUMNS", "AeroData", "AeroFit", "COLLINEAR_KZ_KH", "FRAME_DRAG_NAMES",
            "aero_and_status_from_flight_log", "aero_columns", "aero_from_flight_log",
            "block_average", "fit_aero"]
 
@@ -47,6 +53,11 @@ COLLINEAR_KZ_KH = 0.95
 ``r`` about -0.997 (the inflow ``v_a,z`` comes only from the tilt, which grows like ``V``),
 and sensor noise then biased k_z by -25 % and k_h by -40 % with 95 % intervals that excluded
 the truth (audit, 2027); the default campaign with vertical flows gives about -0.2."""
+
+
+FRAME_DRAG_NAMES = ("c_Dx", "c_Dy", "c_Dz")
+"""The parasitic (frame) drag coefficients ``fit_aero(..., parasitic=True)`` fits, N/(m/s)^2
+(the fields ``c_dx``, ``c_dy``, ``c_dz`` of :class:`windnav.vehicle.MultirotorParams`)."""
 
 
 def _float_array(value, name: str) -> np.ndarray:
@@ -310,6 +321,15 @@ class AeroFit:
         Mass used, kg.
     data : AeroData
         The samples.
+    frame_drag : tuple of Estimate or None
+        ``(c_Dx, c_Dy, c_Dz)``, N/(m/s)^2, when fitted (``parasitic=True``); else None.
+    frame_drag_check : dict or None
+        Without ``parasitic``: the lateral equations fitted again with frame drag
+        (``c_Dx``, ``c_Dy`` and that fit's ``k_d``, each ``{"value", "std_error", "ci95"}``),
+        and ``significant``: whether the drag is there (both intervals above 0) and moves
+        ``k_d`` past its own 95 % interval, when the thesis's model is biased (a note says
+        so). None with ``parasitic`` (the drag is in the model) or where the samples cannot
+        separate it.
     """
 
     k_eta: Estimate
@@ -321,6 +341,8 @@ class AeroFit:
     vertical: LeastSquares
     mass: float
     data: AeroData
+    frame_drag: tuple | None = None
+    frame_drag_check: dict | None = None
 
     @property
     def kz_kh_correlation(self) -> float | None:
@@ -354,6 +376,16 @@ class AeroFit:
                 "rotor speeds and airspeed biases both, and their 95 % intervals, which "
                 "ignore regressor noise, may exclude the truth; fly vertical flows "
                 "(simulate-tunnel --axes ... z neg_z) or use --average-s")
+        check = self.frame_drag_check
+        if check is not None and check["significant"]:
+            kd, kd2 = self.k_d.value, check["k_d"]["value"]
+            notes.append(
+                f"the lateral samples carry frame (parasitic) drag, which the thesis's model "
+                f"leaves out: with it, c_Dx = {check['c_Dx']['value']:.3g} and c_Dy = "
+                f"{check['c_Dy']['value']:.3g} N/(m/s)^2 and k_d = {kd2:.4g} "
+                f"({100 * (kd2 / kd - 1):+.1f} % from this fit's, outside its 95 % interval), "
+                "so this k_d, and k_z and k_h with it, are biased; fit with the drag "
+                "(fit_aero(..., parasitic=True), sysid aero --parasitic)")
         return notes
 
     def to_dict(self) -> dict:
@@ -369,9 +401,21 @@ class AeroFit:
             "kz_kh_regressor_correlation": self.kz_kh_correlation,
             "vertical_condition_number": self.vertical_condition_number,
             "units": {"k_eta": "N/(rad/s)^2", "k_d": "kg/rad", "k_z": "kg/rad", "k_h": "kg/m",
-                      "accel_bias": "m/s^2"},
+                      "accel_bias": "m/s^2", "frame_drag": "N/(m/s)^2"},
+            "frame_drag": (None if self.frame_drag is None else
+                           {n: e.to_dict() for n, e in zip(FRAME_DRAG_NAMES, self.frame_drag,
+                                                          strict=True)}),
+            "frame_drag_check": self.frame_drag_check,
             "notes": self.notes,
         }
+
+    def frame_drag_accel(self) -> np.ndarray:
+        """The fitted frame drag's specific force at the samples, ``(K, 3)`` m/s^2 (zeros
+        without ``parasitic``)."""
+        if self.frame_drag is None:
+            return np.zeros_like(self.data.airspeed_body)
+        c = np.array([e.value for e in self.frame_drag])
+        return _frame_drag_regressors(self.data, self.mass) * c
 
 
 def _vertical_regressors(d: AeroData, m: float) -> np.ndarray:
@@ -383,7 +427,33 @@ def _vertical_regressors(d: AeroData, m: float) -> np.ndarray:
                             d.n_rotors * (va[:, 0] ** 2 + va[:, 1] ** 2) / m])
 
 
-def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
+def _frame_drag_regressors(d: AeroData, m: float) -> np.ndarray:
+    """``-|v_a| v_a / m`` per axis, ``(K, 3)``: frame drag's specific force per unit of
+    ``c_D`` (N/(m/s)^2)."""
+    va = d.airspeed_body
+    return -np.linalg.norm(va, axis=1)[:, None] * va / m
+
+
+def _lateral_system(d: AeroData, m: float, parasitic: bool):
+    """The lateral regression: x rows then y rows; columns ``k_d``, ``b_x``, ``b_y`` (and
+    ``c_Dx``, ``c_Dy`` with ``parasitic``)."""
+    va, f = d.airspeed_body, d.specific_force_body
+    K = va.shape[0]
+    s1 = d.rotor_speeds.sum(axis=1)
+    zero, one = np.zeros(K), np.ones(K)
+    cols_x = [-va[:, 0] * s1 / m, one, zero]
+    cols_y = [-va[:, 1] * s1 / m, zero, one]
+    names = ["k_d", "b_x", "b_y"]
+    if parasitic:
+        drag = _frame_drag_regressors(d, m)
+        cols_x += [drag[:, 0], zero]
+        cols_y += [zero, drag[:, 1]]
+        names += ["c_Dx", "c_Dy"]
+    X = np.vstack([np.column_stack(cols_x), np.column_stack(cols_y)])
+    return X, np.concatenate([f[:, 0], f[:, 1]]), names
+
+
+def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *, parasitic: bool = False,
              where: str = "fit_aero") -> AeroFit:
     """Fit ``k_d`` (with the accelerometer biases) and ``k_eta, k_z, k_h`` (jointly).
 
@@ -393,6 +463,10 @@ def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
         Hover samples in several airflows (pooled).
     mass : float
         Vehicle mass, kg.
+    parasitic : bool, default False
+        Fit the frame drag ``c_Dx``, ``c_Dy`` (lateral) and ``c_Dz`` (vertical) with the rest
+        (:data:`FRAME_DRAG_NAMES`). Without it, the thesis's model, and a check that notes when
+        the samples carry frame drag that biases it (:attr:`AeroFit.frame_drag_check`).
     where : str
         The caller, for messages.
 
@@ -412,20 +486,43 @@ def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *,
             and all(isinstance(x, AeroData) for x in data)):  # an AttributeError before
         raise ValueError(f"The 'data' parameter of {where} must be an AeroData or a non-empty "
                          f"list of them. Got {type(data).__name__} instead.")
+    if not isinstance(parasitic, bool | np.bool_):
+        raise ValueError(f"The 'parasitic' parameter of {where} must be True or False. Got "
+                         f"{parasitic!r} instead.")
     d = data if isinstance(data, AeroData) else AeroData.concatenate(list(data))
-    va, f, eta = d.airspeed_body, d.specific_force_body, d.rotor_speeds
-    K = eta.shape[0]
-    s1 = eta.sum(axis=1)
-    zero, one = np.zeros(K), np.ones(K)
-    X_lat = np.vstack([np.column_stack([-va[:, 0] * s1 / m, one, zero]),
-                       np.column_stack([-va[:, 1] * s1 / m, zero, one])])
-    y_lat = np.concatenate([f[:, 0], f[:, 1]])
-    lat = linear_fit(X_lat, y_lat, ["k_d", "b_x", "b_y"],
-                     source=f"{d.source} (columns 'specific_force_x', 'specific_force_y', "
-                            "'airspeed_x', 'airspeed_y', 'rotor_speed_*')")
-    ver = linear_fit(_vertical_regressors(d, m), f[:, 2], ["k_eta", "k_z", "k_h"],
+    f = d.specific_force_body
+    lat_source = (f"{d.source} (columns 'specific_force_x', 'specific_force_y', 'airspeed_x', "
+                  "'airspeed_y', 'rotor_speed_*')")
+    X_lat, y_lat, names = _lateral_system(d, m, parasitic)
+    lat = linear_fit(X_lat, y_lat, names, source=lat_source)
+    X_ver, names_ver = _vertical_regressors(d, m), ["k_eta", "k_z", "k_h"]
+    if parasitic:
+        X_ver = np.column_stack([X_ver, _frame_drag_regressors(d, m)[:, 2]])
+        names_ver.append("c_Dz")
+    ver = linear_fit(X_ver, f[:, 2], names_ver,
                      source=f"{d.source} (columns 'specific_force_z', 'airspeed_*', "
                             "'rotor_speed_*')")
+    frame = check = None
+    if parasitic:
+        frame = (lat.estimate("c_Dx"), lat.estimate("c_Dy"), ver.estimate("c_Dz"))
+    else:
+        check = _frame_drag_check(d, m, lat.estimate("k_d"), lat_source)
     return AeroFit(ver.estimate("k_eta"), lat.estimate("k_d"), ver.estimate("k_z"),
                    ver.estimate("k_h"), (lat.estimate("b_x"), lat.estimate("b_y")), lat, ver,
-                   m, d)
+                   m, d, frame, check)
+
+
+def _frame_drag_check(d: AeroData, m: float, k_d: Estimate, source: str) -> dict | None:
+    """The lateral equations fitted with frame drag, beside the thesis model's ``k_d``
+    (:attr:`AeroFit.frame_drag_check`); None where the samples cannot separate the drag."""
+    X, y, names = _lateral_system(d, m, True)
+    try:
+        fit = linear_fit(X, y, names, source=source)
+    except ValueError:  # too few samples, or airflows that do not separate it
+        return None
+    c = [fit.estimate(n) for n in ("c_Dx", "c_Dy")]
+    k_d2 = fit.estimate("k_d")
+    there = all(e.ci95[0] > 0 for e in c)
+    moved = not (k_d.ci95[0] <= k_d2.value <= k_d.ci95[1])
+    return {"c_Dx": c[0].to_dict(), "c_Dy": c[1].to_dict(), "k_d": k_d2.to_dict(),
+            "significant": bool(there and moved)}
