@@ -170,7 +170,7 @@ def bad_inputs():
         ("w_up", (scans, np.where(w_up > 0, np.nan, w_up), w_robot)),
         ("w_up", (scans, w_up[:, :1], w_robot)),
         ("w_up", (scans, w_up[:2], w_robot)),
-        ("w_up", (scans, w_up[0], w_robot)),
+        ("w_up", (scans, w_up[:1], w_robot)),  # a (2,) wind is used for every scan, (1, 2) not
         ("w_robot", (scans, w_up, np.full((3, 2), np.inf))),
         ("w_robot", (scans, w_up, w_robot[:1])),
         ("w_robot", (scans, w_up, np.zeros((3, 3)))),

@@ -4,8 +4,10 @@ Subpackages follow the data flow of ``DESIGN.md``::
 
     city -> flow -> wind -> vehicle -> control -> sensors -> sim -> estimate -> predict -> plan
 
-They are imported lazily (``import windnav as wn; wn.vehicle.params(...)``) so that
-``import windnav`` stays cheap and torch is only loaded by ``predict`` and ``plan``.
+beside them ``sysid`` (system identification: data files to vehicle coefficients, on
+``vehicle`` and ``sim``), and the harnesses ``experiments`` and ``viz`` on top. They are
+imported lazily (``import windnav as wn; wn.vehicle.params(...)``) so that ``import windnav``
+stays cheap and torch is only loaded by ``predict`` and ``plan``.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ _SUBPACKAGES = (
     "estimate",
     "predict",
     "plan",
+    "sysid",
     "experiments",
     "viz",
 )

@@ -142,7 +142,14 @@ class City:
     # ------------------------------------------------------------------ geometry
     @property
     def n_buildings(self) -> int:
-        """Number of blocks M (footprints); overlapping blocks count separately."""
+        """Number of blocks M: the rows of ``footprints`` (one cuboid each), not of buildings.
+
+        Blocks that overlap or touch count separately, so a map of
+        :func:`~windnav.city.planning_map` (buildings of 1-3 blocks) has more blocks than
+        buildings. The distinct buildings are the labels of :meth:`building_labels`:
+        ``np.unique(city.building_labels()).size`` (what ``planning_map``'s ``n_buildings``
+        counts). The name is kept for compatibility.
+        """
         return int(self.footprints.shape[0])
 
     @property

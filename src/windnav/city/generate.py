@@ -103,7 +103,7 @@ def training_map(
     size : float
         Side of the square map, m; the thesis uses 300 and 500.
     n_buildings : int, optional
-        Number of buildings; drawn uniformly from 1-10 when omitted.
+        Number of buildings; drawn uniformly from 1-10 when omitted, whatever ``size``.
     side_range : (float, float)
         Range of footprint sides, m (the upper end shrinks if the map gets crowded).
     height_range : (float, float)
@@ -121,7 +121,8 @@ def training_map(
     Raises
     ------
     ValueError
-        On bad arguments, or if the buildings cannot be placed (map too small).
+        On bad arguments, or if the buildings cannot be placed (map too small): naming
+        ``n_buildings`` when it was passed, else saying how many were drawn.
     """
     where = "training_map"
     rng = _generator(_rng, rng, where)
@@ -130,12 +131,16 @@ def training_map(
         n_buildings, "n_buildings", where)
     boxes = _scatter(rng, n, size, _range(side_range, "side_range", where),
                      positive_float(min_street, "min_street", where),
-                     positive_float(margin, "margin", where, allow_zero=True), where)
+                     positive_float(margin, "margin", where, allow_zero=True), where,
+                     drawn="1-10" if n_buildings is None else None, gap="streets")
     heights = rng.uniform(*_range(height_range, "height_range", where), size=n)
     return City((0.0, size, 0.0, size), boxes, heights)
 
 
-def _scatter(rng, n, size, side, street, margin, where) -> np.ndarray:
+def _scatter(rng, n, size, side, street, margin, where, *, drawn: str | None = None,
+             gap: str = "streets") -> np.ndarray:
+    """``n`` boxes placed by :func:`_place`; ``drawn`` (e.g. ``"9-16"``) when ``n`` was drawn
+    rather than passed, so a failure blames the draw and not an argument the user never gave."""
     if side[0] > size - 2 * margin:
         raise ValueError(f"The 'side_range' parameter of {where} must fit inside the map "
                          f"({size} m less 2 x {margin} m margin). Got {side!r} instead.")
@@ -143,6 +148,12 @@ def _scatter(rng, n, size, side, street, margin, where) -> np.ndarray:
     for i in range(n):
         box = _place(rng, boxes, size, side, street, margin)
         if box is None:
+            if drawn is not None:
+                raise ValueError(
+                    f"{where} drew {n} buildings ({drawn} when n_buildings is not given), "
+                    f"which do not fit a {size:g} m map with these {gap} (>= {street:g} m) and "
+                    f"margin ({margin:g} m): no room was found for building {i + 1}. Pass a "
+                    f"smaller n_buildings= or a larger size.")
             raise ValueError(f"The 'n_buildings' parameter of {where} is too large: could "
                              f"place only {i} buildings on a {size} m map. Got {n} instead.")
         boxes.append(box)
@@ -176,7 +187,8 @@ def planning_map(
     size : float
         Side of the square map, m.
     n_buildings : int, optional
-        Number of distinct buildings; drawn uniformly from 9-16 when omitted.
+        Number of distinct buildings; drawn uniformly from 9-16 when omitted, whatever
+        ``size`` (maps much smaller than 600 m may not hold the count drawn: pass it then).
     side_range : (float, float)
         Range of the building bounding-box sides, m.
     height_range : (float, float)
@@ -191,7 +203,14 @@ def planning_map(
     Returns
     -------
     City
-        Its :meth:`City.building_labels` has ``n_buildings`` distinct labels.
+        Its :meth:`City.building_labels` has ``n_buildings`` distinct labels (its
+        :attr:`City.n_buildings` counts the blocks, more).
+
+    Raises
+    ------
+    ValueError
+        On bad arguments, or if the buildings cannot be placed: naming ``n_buildings`` when it
+        was passed, else saying how many were drawn.
     """
     where = "planning_map"
     rng = _generator(_rng, rng, where)
@@ -204,7 +223,8 @@ def planning_map(
                          f"Got {max_blocks!r} instead.")
     boxes = _scatter(rng, n, size, _range(side_range, "side_range", where),
                      positive_float(min_alley, "min_alley", where),
-                     positive_float(margin, "margin", where, allow_zero=True), where)
+                     positive_float(margin, "margin", where, allow_zero=True), where,
+                     drawn="9-16" if n_buildings is None else None, gap="alleys")
     heights_lohi = _range(height_range, "height_range", where)
     blocks = [b for box in boxes for b in _stack(rng, box, max_blocks)]
     fp = np.array(blocks).reshape(-1, 4)

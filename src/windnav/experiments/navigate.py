@@ -452,12 +452,16 @@ def check_point(city, value, name: str, where: str = _WHERE) -> np.ndarray:
     return p
 
 
-def _check_flow(flow, speed: float, direction_deg: float, city):
+def _check_flow_kind(flow):
     if not all(hasattr(flow, a) for a in ("frames_u", "t", "speed", "direction_deg", "x", "y",
                                           "dx", "wind_field")):
         raise ValueError(f"The 'flow' parameter of {_WHERE} must be a FlowSolution (e.g. "
                          f"simulate_flow(city, speed, direction_deg)). Got "
                          f"{type(flow).__name__} instead.")
+
+
+def _check_flow(flow, speed: float, direction_deg: float, city):
+    _check_flow_kind(flow)
     if flow.frames_u is None or flow.t is None or flow.t.size < 2:
         raise ValueError(f"The 'flow' parameter of {_WHERE} must hold recorded frames "
                          "(simulate with record_every > 0, e.g. simulate_flow). Got a mean "
@@ -637,8 +641,8 @@ def navigate(
     start_xy,
     goal_xy,
     *,
-    speed: float,
-    direction_deg: float,
+    speed: float | None = None,
+    direction_deg: float | None = None,
     variant: str,
     rng: np.random.Generator | int | None = None,
     flow=None,
@@ -668,17 +672,19 @@ def navigate(
     city : windnav.city.City
     start_xy, goal_xy : array_like of shape (2,)
         m, world; inside the map and outside every building.
-    speed : float
-        Inlet wind speed, m/s.
-    direction_deg : float
-        Direction the wind blows toward, degrees counter-clockwise from +x.
+    speed : float, optional
+        Inlet wind speed, m/s. Required without ``flow``; with it, default ``flow.speed``.
+    direction_deg : float, optional
+        Direction the wind blows toward, degrees counter-clockwise from +x. Required without
+        ``flow``; with it, default ``flow.direction_deg``.
     variant : str
         A key of :data:`windnav.plan.VARIANTS`.
     rng : numpy.random.Generator or int or None, keyword-only
         Seeds the planner's sampling and the LiDAR noise. Same seed, same flight.
     flow : FlowSolution, optional
         The wind, precomputed (reuse it across variants); default :func:`simulate_flow` at
-        ``speed`` and ``direction_deg``. It must have recorded frames and match them.
+        ``speed`` and ``direction_deg``. It must have recorded frames, and match ``speed`` and
+        ``direction_deg`` where they are given.
     altitude : float
         Flight altitude held by the controller, m.
     horizon : float
@@ -736,9 +742,10 @@ def navigate(
     Raises
     ------
     ValueError
-        On a start or goal outside the map or inside a building, an unknown variant, a flow that
-        does not match, invalid rates, or (``ea-mppi-w-hat``) a ``config`` whose window is wider
-        than the decoder's grid.
+        On a start or goal outside the map or inside a building, an unknown variant, no
+        ``speed`` or ``direction_deg`` without a ``flow``, a flow that does not match them,
+        invalid rates, or (``ea-mppi-w-hat``) a ``config`` whose window is wider than the
+        decoder's grid.
     """
     from windnav.control import SE3Controller
     from windnav.plan import (
@@ -760,6 +767,14 @@ def navigate(
     check_city(city, _WHERE)
     start = check_point(city, start_xy, "start_xy")
     goal = check_point(city, goal_xy, "goal_xy")
+    if flow is not None:  # a flow carries its inlet: speed and direction_deg may be left out
+        _check_flow_kind(flow)
+        speed = flow.speed if speed is None else speed
+        direction_deg = flow.direction_deg if direction_deg is None else direction_deg
+    for name, value in (("speed", speed), ("direction_deg", direction_deg)):
+        if value is None:
+            raise ValueError(f"The {name!r} parameter of {_WHERE} must be given when 'flow' is "
+                             "not (the wind to simulate). Got None instead.")
     speed = positive_float(speed, "speed", _WHERE)
     direction_deg = finite_float(direction_deg, "direction_deg", _WHERE)
     altitude = positive_float(altitude, "altitude", _WHERE)
@@ -842,7 +857,9 @@ def navigate(
         gs_config = config if config.planner == "gs" else planner_config(params, variant)
         t0 = time.perf_counter()
         mean_wind = flow.wind_field()
-        route = energy_route(city, start, goal, gs_config, wind=mean_wind,
+        # GS plans in still air: the wind goes only to a config that uses it
+        route = energy_route(city, start, goal, gs_config,
+                             wind=mean_wind if gs_config.use_wind else None,
                              dx=route_dx, clearance=route_clearance, altitude=altitude)
         plan_ms.append(1e3 * (time.perf_counter() - t0))
         follower = _RouteFollower(route, kp_xy, kd_xy)

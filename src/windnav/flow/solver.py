@@ -404,6 +404,17 @@ class FlowSolution:
         """The averaging and closure figures as a JSON-ready dict (see the class docstring)."""
         return {k: float(getattr(self, k)) for k in DIAGNOSTICS}
 
+    @property
+    def inlet_xy(self) -> np.ndarray:
+        """The inlet (free-stream) wind ``W_up``, ndarray of shape (2,), m/s, world x-y.
+
+        ``speed * (cos a, sin a)`` with ``a = direction_deg`` (the direction the wind blows
+        toward, counter-clockwise from +x): the ``w_up`` the decoder and its datasets take
+        (:func:`windnav.predict.field_from_solution`). A fresh array each call.
+        """
+        a = np.deg2rad(self.direction_deg)
+        return float(self.speed) * np.array([np.cos(a), np.sin(a)])
+
     def wind_field(self, unsteady: bool = False):
         """The solution as a :class:`windnav.wind.gridded.GriddedWind`.
 

@@ -25,6 +25,7 @@ at most ``dx / 2`` and each piece is flown at its continuous optimum ``argmin_v 
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -120,6 +121,17 @@ def _wind_grid(wind, x, y, altitude, use_wind, where) -> np.ndarray:
     return out
 
 
+def _ignored_wind_matters(wind) -> bool:
+    """Whether a ``wind`` that a still-air config ignores could have changed the route: any
+    WindField (not sampled here), any uniform vector but zero."""
+    if hasattr(wind, "velocity"):
+        return True
+    try:
+        return bool(np.any(np.asarray(wind, dtype=np.float64) != 0.0))
+    except (TypeError, ValueError):
+        return True
+
+
 MAX_SPEED_LEVELS = 100_000
 """The most ground-speed levels :func:`energy_route`'s lattice may have."""
 
@@ -150,7 +162,8 @@ def energy_route(
     wind : WindField or array_like of shape (2,), optional
         The mean wind: any object with ``velocity(t, xyz)`` (e.g. ``FlowSolution.wind_field()``,
         sampled once at the cell centres at ``t = 0``, height ``altitude``) or a uniform vector,
-        m/s.
+        m/s. A still-air config (``config.use_wind`` False, ``"gs"``) ignores it, with a
+        UserWarning unless it is None or a zero vector.
     dx : float
         Lattice spacing, m.
     clearance : float
@@ -176,6 +189,11 @@ def energy_route(
     if not isinstance(config, PlannerConfig):
         raise ValueError(f"The 'config' parameter of {where} must be a PlannerConfig. Got "
                          f"{type(config).__name__} instead.")
+    if wind is not None and not config.use_wind and _ignored_wind_matters(wind):
+        warnings.warn(f"The 'wind' parameter of {where} is ignored: the config "
+                      f"(variant {config.variant!r}, use_wind False) plans in still air. Pass "
+                      "wind=None for that, or a wind-aware config (planner_config(vehicle, "
+                      "'gs-w')) to plan in the wind.", UserWarning, stacklevel=2)
     dx = positive_float(dx, "dx", where)
     clearance = positive_float(clearance, "clearance", where, allow_zero=True)
     step = positive_float(speed_step, "speed_step", where)

@@ -5,6 +5,7 @@ Public API::
     load_decoder(path=None) -> Decoder          the shipped default model, or a model file
     Decoder.offsets, Decoder.predict(scans, w_up, w_robot) -> (B, 2, H, H)
     UpstreamBaseline, LocalBaseline             uniform W_up / uniform W_robot, same signature
+    with_baselines(models, size, spacing)       models followed by both baselines on their grid
     field_errors, pooled_errors, improvement    the metrics, defined once
     MeanField, fields_from_store, field_from_solution, draw_samples, DecoderDataset
                                                 samples derived on the fly from mean fields
@@ -13,7 +14,12 @@ Training (torch) lives in :mod:`windnav.predict.train` and :mod:`windnav.predict
 and is imported only by ``windnav train-decoder``.
 """
 
-from windnav.predict.baselines import LocalBaseline, UpstreamBaseline, check_inputs
+from windnav.predict.baselines import (
+    LocalBaseline,
+    UpstreamBaseline,
+    check_inputs,
+    with_baselines,
+)
 from windnav.predict.dataset import (
     N_RAYS,
     SCAN_MAX,
@@ -64,4 +70,5 @@ __all__ = [
     "load_decoder",
     "pooled_errors",
     "robot_positions",
+    "with_baselines",
 ]

@@ -37,7 +37,14 @@ _FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def _wind(value, name: str, where: str, batch: int) -> np.ndarray:
-    w = batch_array(_array(value, name, where), name, where, (2,), batch=batch)
+    w = _array(value, name, where)
+    if w.shape == (2,):  # one wind for every scan: a copy per row, (B, 2) like any batch
+        w = np.repeat(w[None], batch, axis=0)
+    elif w.shape != (batch, 2):
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of shape "
+                         f"({batch}, 2), a row per scan, or (2,), the same for every scan. "
+                         f"Got shape {w.shape} instead.")
+    w = batch_array(w, name, where, (2,), batch=batch)
     if w.size and np.abs(w).max() > _FLOAT32_MAX:  # the models compute in float32
         raise ValueError(f"The {name!r} parameter of {where} must be within float32's range "
                          f"(|w| <= {_FLOAT32_MAX:.3g} m/s). Got {np.abs(w).max()!r} instead.")
@@ -53,9 +60,10 @@ def check_inputs(scans, w_up, w_robot, where: str):
         LiDAR ranges, m, ray k at k degrees counter-clockwise from +x (world frame); finite
         and >= 0.
     w_up : array_like of shape (B, 2) or (2,)
-        Inlet wind, m/s, world frame, finite.
+        Inlet wind, m/s, world frame, finite. A single ``(2,)`` wind is used for every scan.
     w_robot : array_like of shape (B, 2) or (2,)
-        Wind at the robot, m/s, world frame, finite.
+        Wind at the robot, m/s, world frame, finite. A single ``(2,)`` wind is used for every
+        scan.
     where : str
         The caller, named in the messages (e.g. ``"LocalBaseline.predict"``).
 
@@ -63,16 +71,23 @@ def check_inputs(scans, w_up, w_robot, where: str):
     -------
     scans : ndarray of float64, shape (B, 360)
     w_up, w_robot : ndarray of float64, shape (B, 2)
-        A single sample (``(360,)``, ``(2,)``, ``(2,)``) becomes a batch of one.
+        A single sample (``(360,)``, ``(2,)``, ``(2,)``) becomes a batch of one; a ``(2,)``
+        wind with a batch of scans is repeated over the batch.
 
     Raises
     ------
     ValueError
         Naming the argument: a scan of the wrong length or shape, NaN, inf or negative ranges,
-        NaN or inf wind or wind beyond float32's range, a wrongly shaped wind, complex
-        numbers, or a batch size different from the scans'.
+        NaN or inf wind or wind beyond float32's range, a wind of a shape other than
+        ``(B, 2)`` or ``(2,)`` (a batch size different from the scans' included, with both
+        shapes in the message), or complex numbers.
     """
-    scans = batch_array(_array(scans, "scans", where), "scans", where, (N_RAYS,))
+    scans = _array(scans, "scans", where)
+    if scans.shape != (N_RAYS,) and (scans.ndim != 2 or scans.shape[1] != N_RAYS):
+        raise ValueError(f"The 'scans' parameter of {where} must be an array of shape "
+                         f"(B, {N_RAYS}), a scan per row, or ({N_RAYS},), one scan. Got shape "
+                         f"{scans.shape} instead.")
+    scans = batch_array(scans, "scans", where, (N_RAYS,))
     if (scans < 0).any():
         bad = int(np.flatnonzero((scans < 0).any(axis=1))[0])
         raise ValueError(f"The 'scans' parameter of {where} must hold ranges >= 0, m. "
@@ -107,10 +122,11 @@ class _UniformBaseline:
 
         Parameters
         ----------
-        scans : array_like of shape (B, 360)
+        scans : array_like of shape (B, 360) or (360,)
             LiDAR ranges, m (checked, otherwise unused).
-        w_up, w_robot : array_like of shape (B, 2)
-            Inlet wind and wind at the robot, m/s, world frame.
+        w_up, w_robot : array_like of shape (B, 2) or (2,)
+            Inlet wind and wind at the robot, m/s, world frame; a ``(2,)`` wind is used for
+            every scan.
 
         Returns
         -------
@@ -154,7 +170,22 @@ class LocalBaseline(_UniformBaseline):
 
 
 def with_baselines(models: dict, size: int, spacing: float) -> dict:
-    """``models`` (name -> predictor), followed by ``"local"`` (:class:`LocalBaseline`) and
-    ``"upstream"`` (:class:`UpstreamBaseline`) on the grid of ``size`` cells of ``spacing`` m."""
+    """``models`` followed by both baselines on their grid: the set every comparison scores.
+
+    Parameters
+    ----------
+    models : dict
+        Name -> predictor (anything with ``offsets`` and ``predict(scans, w_up, w_robot)``).
+    size : int
+        Cells per side ``H`` of the baselines' grid (the models', e.g. ``decoder.size``).
+    spacing : float
+        Cell size of that grid, m (e.g. ``decoder.spacing``).
+
+    Returns
+    -------
+    dict
+        ``models``, then ``"local"`` (:class:`LocalBaseline`) and ``"upstream"``
+        (:class:`UpstreamBaseline`), in that order.
+    """
     return {**models, "local": LocalBaseline(size=size, spacing=spacing),
             "upstream": UpstreamBaseline(size=size, spacing=spacing)}
