@@ -872,10 +872,12 @@ class Decoder:
         scans : array_like of shape (B, n_rays)
             LiDAR ranges, m; ray ``k`` at ``360 k / n_rays`` deg counter-clockwise from +x
             (world frame), as :meth:`windnav.city.City.lidar` returns them.
-        w_up : array_like of shape (B, 2)
-            Free-stream (inlet) wind, world frame, m/s.
-        w_robot : array_like of shape (B, 2)
-            Time-averaged wind at the robot, world frame, m/s.
+        w_up : array_like of shape (B, 2) or (2,)
+            Free-stream (inlet) wind, world frame, m/s (``(2,)``: the same for every scan;
+            e.g. ``FlowSolution.inlet_xy``).
+        w_robot : array_like of shape (B, 2) or (2,)
+            Time-averaged wind at the robot, world frame, m/s (``(2,)``: the same for every
+            scan).
 
         Returns
         -------
