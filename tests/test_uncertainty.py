@@ -70,3 +70,33 @@ def test_rejects_bad_input():
         wind_uncertainty(0.5, 1e-4, 2000.0, np.nan, 0.05)
     with pytest.raises(ValueError, match="'combine'"):
         wind_uncertainty(0.5, 1e-4, 2000.0, 0.1, 0.05, combine="max")
+
+
+def test_drag_model_bias_of_a_filter_without_frame_drag():
+    """A filter without the Hummingbird's frame drag reads ``c_d V^2 / (k_d N eta_h)`` too
+    strong an airflow (the closed form), and the measured bias of a steady hover agrees; a
+    filter with the vehicle's own model, or a vehicle without frame drag, reads none."""
+    from windnav.estimate import drag_model_bias
+
+    p = wn.vehicle.params("hummingbird")
+    no_frame = p.replace(c_dx=0.0, c_dy=0.0, c_dz=0.0)
+    v = np.array([0.0, 4.0, 8.0])
+    s = p.n_rotors * p.hover_rotor_speed
+    closed = p.c_dx * v**2 / (p.k_d * s)
+    np.testing.assert_allclose(drag_model_bias(p, no_frame, v), closed, rtol=1e-12, atol=1e-15)
+    assert drag_model_bias(p, no_frame, 4.0) == pytest.approx(0.358, abs=0.001)
+    np.testing.assert_allclose(drag_model_bias(p, p, v), 0.0, atol=1e-12)
+    np.testing.assert_allclose(drag_model_bias(p, no_frame, v, axis="z"),
+                               p.c_dz * v**2 / (p.k_z * s), rtol=1e-12, atol=1e-15)
+    # a filter whose k_d absorbed the drag (a linear calibration) reads it right at one speed
+    k = p.k_d + p.c_dx * 4.0 / s
+    assert drag_model_bias(p, no_frame.replace(k_d=k), 4.0) == pytest.approx(0.0, abs=1e-12)
+    assert drag_model_bias(p, no_frame.replace(k_d=k), 8.0) > 0.5
+    cf = wn.vehicle.params("crazyflie_brushless")
+    np.testing.assert_allclose(drag_model_bias(cf, cf.replace(c_dx=0.0), v), 0.0, atol=1e-12)
+    with pytest.raises(ValueError, match="'airspeed' parameter of drag_model_bias"):
+        drag_model_bias(p, no_frame, -1.0)
+    with pytest.raises(ValueError, match="'axis' parameter of drag_model_bias"):
+        drag_model_bias(p, no_frame, 1.0, axis="w")
+    with pytest.raises(ValueError, match="'believed' parameter of drag_model_bias"):
+        drag_model_bias(p, "hummingbird", 1.0)

@@ -81,3 +81,26 @@ def print_written(out: Outputs) -> None:
         print(f"wrote {path}")
     for path in out.removed:
         print(f"removed {path} (from an earlier run)")
+
+
+def print_drag_model_note(bias, airspeed, conditions: str, prefix: str = "", *,
+                          measured=None) -> None:
+    """Say on stderr when the Wind UKF's drag model under ``conditions`` is not the vehicle's
+    enough to bias its estimate: ``bias`` (m/s, :func:`windnav.estimate.drag_model_bias`) at
+    the flight's median horizontal ``airspeed`` (m/s) at least
+    :data:`~windnav.estimate.uncertainty.DRAG_BIAS_NOTE_MPS`; ``measured``: the mean
+    estimation error, m/s per axis, when known."""
+    import math
+    import sys
+
+    from windnav.estimate.uncertainty import DRAG_BIAS_NOTE_MPS
+
+    if bias is None or not math.isfinite(bias) or abs(bias) < DRAG_BIAS_NOTE_MPS:
+        return
+    got = ("" if measured is None else
+           f"; measured here: mean error ({', '.join(f'{e:+.2f}' for e in measured)}) m/s")
+    print(f"{prefix}note: the '{conditions}' Wind UKF's drag model is not the vehicle's "
+          "(e.g. no frame drag): at this flight's median horizontal airspeed "
+          f"{airspeed:.3g} m/s it reads the airflow {bias:+.2f} m/s too strong "
+          f"(drag_model_bias, at hover rotor speed){got}; the bias grows with the square of "
+          "the airspeed", file=sys.stderr)

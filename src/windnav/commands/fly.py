@@ -25,6 +25,7 @@ from windnav.commands._common import (
     add_output_arguments,
     document,
     outputs,
+    print_drag_model_note,
     print_written,
     seed,
     where,
@@ -102,11 +103,6 @@ def _check_rates(dt: float, control_rate_hz, sensor_rate_hz, name: str) -> None:
             "itself to --dt).")
 
 
-PARASITIC_NOTE_AIRSPEED = 5.0
-"""Median airspeed, m/s, above which ``fly`` notes that a filter without parasitic drag (the
-``thesis`` preset) is off its model (its drag grows as the square of the airspeed; the
-Monte Carlo's vehicles, where leaving it out costs little, fly at a few m/s)."""
-
 WIND_DEFAULTS = {"wind_mean": (3.0, 1.0, 0.0), "wind_sigma": (1.5, 1.5, 0.7)}
 """``--wind-mean`` and ``--wind-sigma`` when not given, m/s."""
 
@@ -179,14 +175,9 @@ def run(args) -> int:
               + (f", trusted to {limit:g} m/s" if limit else "")
               + "): its aerodynamics and power are extrapolated there", file=sys.stderr)
     if args.conditions is not None and metrics.get("wind_rmse_m_s") is not None:
-        from windnav.estimate.conditions import CONDITIONS
-
-        air = metrics["median_airspeed_m_s"]
-        if not CONDITIONS[args.conditions].parasitic_drag and air > PARASITIC_NOTE_AIRSPEED:
-            print(f"{name}: note: the '{args.conditions}' filter models no parasitic drag, and "
-                  f"this flight's median airspeed is {air:.3g} m/s: its error grows with "
-                  "airspeed there (docs/ukf.md: 2.89 m/s RMS against 0.44 with parasitic drag "
-                  "in an urban flight at 10 m/s)", file=sys.stderr)
+        print_drag_model_note(metrics["drag_model_bias_m_s"],
+                              metrics["median_horizontal_airspeed_m_s"], args.conditions,
+                              f"{name}: ", measured=metrics.get("wind_mean_error_m_s"))
     if metrics.get("wind_estimate_error"):
         print(f"{name}: note: no wind estimate: {metrics['wind_estimate_error']}",
               file=sys.stderr)

@@ -229,7 +229,8 @@ def run(args) -> int:
 
 
 def warn_envelope(summary: dict, prefix: str = "") -> None:
-    """Say on stderr when the flight left the models' envelope, and when it held the goal at its
+    """Say on stderr when the flight left the models' envelope, when the onboard Wind UKF's drag
+    model biases its estimate (``ukf_drag_model_bias_mps``), and when it held the goal at its
     tilt cap (the summary's :meth:`~windnav.experiments.navigate.NavigationResult.envelope`);
     each line starts with ``prefix`` (the demo names its command and variant there)."""
     import sys
@@ -244,6 +245,12 @@ def warn_envelope(summary: dict, prefix: str = "") -> None:
               f"validated, and {extra_s:.2f} s above the power curve's valid range "
               f"({settings.get('power_speed_max', float('nan')):g} m/s), where energy_J "
               "extrapolates it", file=sys.stderr)
+    if "ukf_drag_model_bias_mps" in summary:  # the onboard stack's Wind UKF
+        from windnav.commands._common import print_drag_model_note
+
+        print_drag_model_note(summary["ukf_drag_model_bias_mps"],
+                              summary["ukf_median_airspeed_mps"],
+                              summary.get("onboard", {}).get("conditions", "onboard"), prefix)
     capped_s = summary.get("goal_hold_at_cap_s") or 0.0
     if capped_s > 0:
         settings = summary.get("settings", {})

@@ -7,6 +7,7 @@ Public API::
     wind_model, layout                                 its batched models and packed layouts
     observability                                      Lie-derivative rank analysis (sympy)
     wind_uncertainty, wind_uncertainty_axes, ...       a-priori wind uncertainty (appendix A)
+    drag_model_bias                                    a filter's bias from another drag model
     run_wind_ukf, WindTrack, filter_inputs             the Wind UKF over a recorded flight
     fit_drag, DragFit                                  drag calibration by least squares
     UKFConditions, CONDITIONS, ukf_conditions          named sensing + filter presets
@@ -36,6 +37,7 @@ from windnav.estimate.ukf import (
 )
 from windnav.estimate.uncertainty import (
     compare_vehicles,
+    drag_model_bias,
     wind_uncertainty,
     wind_uncertainty_axes,
 )
@@ -70,6 +72,7 @@ __all__ = [
     "WindUKF",
     "sensor_range",
     "compare_vehicles",
+    "drag_model_bias",
     "conditions",
     "merwe_weights",
     "observability",

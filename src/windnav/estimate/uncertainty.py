@@ -18,6 +18,14 @@ with ``k = k_d`` for the body x and y axes and ``k = k_z`` for z. Biases ``b_v``
 full magnitude with the same sign, an upper bound. A vehicle with a large drag-to-mass ratio
 ``k sum(eta) / m`` (s^-1) turns accelerometer noise into a small wind error; a heavy vehicle
 with little rotor drag cannot sense wind well from one sample.
+
+A filter whose drag model is not the vehicle's is biased instead (:func:`drag_model_bias`):
+in a steady airflow ``V`` along a body axis, at hover rotor speeds, the vehicle's drag per unit
+mass is ``(k_d N eta_h V + c_d V^2) / m``, and the filter reads the airspeed ``V_hat`` at which
+its own model gives that drag, ``(k_d' N eta_h V_hat + c_d' V_hat^2) / m' = ...``. A filter
+without the frame drag ``c_d`` of the Hummingbird (the thesis's conditions) reads ``V_hat - V
+= c_d V^2 / (k_d N eta_h)``: +0.36 m/s at 4 m/s, +1.43 m/s at 8 m/s (measured in hover: +0.37
+and +1.6 m/s, ``docs/ukf.md``).
 """
 
 from __future__ import annotations
@@ -29,7 +37,12 @@ import numpy as np
 from windnav.vehicle.params import MultirotorParams
 from windnav.vehicle.params import params as vehicle_params
 
-__all__ = ["compare_vehicles", "wind_uncertainty", "wind_uncertainty_axes"]
+__all__ = ["DRAG_BIAS_NOTE_MPS", "compare_vehicles", "drag_model_bias", "wind_uncertainty",
+           "wind_uncertainty_axes"]
+
+DRAG_BIAS_NOTE_MPS = 0.1
+"""m/s: the :func:`drag_model_bias` above which the commands note that the Wind UKF's drag
+model is not the vehicle's (its estimates biased by about that much along the airflow)."""
 
 _COMBINE = ("rss", "worst")
 
@@ -159,3 +172,50 @@ def compare_vehicles(vehicles: Sequence[MultirotorParams | str], sigma_accel, si
                                                 bias_velocity, combine=combine),
         })
     return rows
+
+
+def drag_model_bias(true: MultirotorParams, believed: MultirotorParams, airspeed,
+                    axis: str = "x") -> np.ndarray:
+    """The steady airspeed a filter believing ``believed`` reads where ``true`` flies at
+    ``airspeed``, less that airspeed, m/s (module docstring): the bias of its wind estimate
+    along the airflow (positive: it reads a stronger airflow than there is).
+
+    Parameters
+    ----------
+    true, believed : MultirotorParams
+        The vehicle, and what the filter's force model believes about it (e.g.
+        :func:`windnav.experiments.ukf_conditions.believed_params`, or calibrated drag).
+    airspeed : float or array_like
+        Airspeed along the body ``axis``, m/s (>= 0).
+    axis : {"x", "y", "z"}
+        The body axis of the airflow: in-plane rotor drag ``k_d`` and ``c_dx``/``c_dy``, or
+        axial drag ``k_z`` and ``c_dz``.
+
+    Returns
+    -------
+    ndarray
+        The bias at each airspeed, m/s (the shape of ``airspeed``). At hover rotor speed
+        ``eta_h`` of ``true``: in forward flight the rotors spin faster and the rotor drag
+        weighs more, so this is an upper estimate of the frame-drag bias.
+    """
+    where = "drag_model_bias"
+    for name, p in (("true", true), ("believed", believed)):
+        if not isinstance(p, MultirotorParams):
+            raise ValueError(f"The {name!r} parameter of {where} must be a MultirotorParams. "
+                             f"Got {type(p).__name__} instead.")
+    if axis not in ("x", "y", "z"):
+        raise ValueError(f"The 'axis' parameter of {where} must be 'x', 'y' or 'z'. Got "
+                         f"{axis!r} instead.")
+    v = _nonneg(airspeed, "airspeed", where)
+    rotor = "k_z" if axis == "z" else "k_d"
+    frame = f"c_d{axis}"
+    s = true.n_rotors * true.hover_rotor_speed
+    drag = (getattr(true, rotor) * s * v + getattr(true, frame) * v**2) / true.mass
+    a = getattr(believed, frame) / believed.mass      # the filter: a v^2 + b v = drag
+    b = getattr(believed, rotor) * s / believed.mass
+    if b <= 0 and a <= 0:
+        return np.full(v.shape, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v_hat = (drag / b if a == 0 else
+                 (np.sqrt(b * b + 4.0 * a * drag) - b) / (2.0 * a))
+    return v_hat - v

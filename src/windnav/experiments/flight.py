@@ -113,9 +113,33 @@ def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
         return {"conditions": name, "wind_rmse_m_s": None, "wind_rmse_axes_m_s": None,
                 "filter_covariance_repairs": None, "wind_estimate_error": str(exc)}
     settle = min(2.0, duration / 2)
+    kept = track.t >= settle
+    mean_error = (np.nanmean(track.error[kept], axis=0) if kept.any()
+                  else np.full(3, np.nan))
     return {"conditions": applied["conditions"], "wind_rmse_m_s": track.rmse_after(settle),
             "wind_rmse_axes_m_s": [track.rmse_after(settle, axis=k) for k in range(3)],
+            "wind_mean_error_m_s": [float(e) for e in mean_error],
+            **drag_model_note(log, params, conditions, settle),
             "filter_covariance_repairs": int(track.repairs)}
+
+
+def drag_model_note(log, params, conditions, settle_s: float) -> dict:
+    """``drag_model_bias_m_s``: the bias the filter's drag model under ``conditions`` (what it
+    leaves out of the vehicle's, e.g. the frame drag of the thesis's presets; not the
+    preset's random parameter errors) gives its wind estimate at the flight's median
+    horizontal airspeed after ``settle_s`` (:func:`windnav.estimate.drag_model_bias`), m/s
+    along the airflow; and that airspeed, ``median_horizontal_airspeed_m_s``."""
+    from dataclasses import replace
+
+    from windnav.estimate import drag_model_bias, ukf_conditions
+    from windnav.experiments.ukf_conditions import believed_params
+
+    cond = replace(ukf_conditions(conditions), parameter_error=0.0)
+    believed, _ = believed_params(params, cond)
+    air = np.linalg.norm((log.velocity - log.wind)[..., :2], axis=-1)[log.t >= settle_s]
+    median = float(np.median(air)) if air.size else 0.0
+    return {"median_horizontal_airspeed_m_s": median,
+            "drag_model_bias_m_s": float(drag_model_bias(params, believed, median))}
 
 
 def flight_summary(log, duration: float) -> dict:

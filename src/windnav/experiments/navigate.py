@@ -1061,7 +1061,7 @@ def navigate(
     if escape_guide is not None:
         settings.update(escapes=[list(e) for e in escape_guide.escapes],
                         route_ms=escape_ms)
-    report = None if onboard_stack is None else onboard_stack.report(n, plan_ms)
+    report = None if onboard_stack is None else onboard_stack.report(n, plan_ms, air)
     return NavigationResult(
         outcome=outcome, variant=variant,
         energy_J=float(e[-1]), rotor_energy_J=float(e_rot[-1]), time_s=float(t[-1]),

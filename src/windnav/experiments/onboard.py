@@ -63,7 +63,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 
 import numpy as np
@@ -305,6 +305,13 @@ class OnboardReport:
         Conditions, rates, scan noise, decoder, filter repairs and rejected measurements, and
         ``decoder_due`` / ``decoder_computed``: the decodes due at the decoder's rate and those
         computed (read by a planner update, or all with ``decode_all``).
+    drag_model_bias_mps : float
+        What the filter's drag model (the conditions' and the calibration's, less the random
+        parameter errors) reads too strong an airflow by at the flight's median horizontal
+        airspeed after ``settle_s`` (:func:`windnav.estimate.drag_model_bias`), m/s; NaN when
+        the airspeed was not given.
+    median_airspeed_mps : float
+        That airspeed, m/s.
     """
 
     wind_estimate: np.ndarray
@@ -316,10 +323,14 @@ class OnboardReport:
     stage_rate_hz: dict
     real_time_fraction: float
     settings: dict
+    drag_model_bias_mps: float = math.nan
+    median_airspeed_mps: float = math.nan
 
     def summary(self) -> dict:
         """The scalars, JSON-ready (merged into :meth:`NavigationResult.summary`)."""
-        return {"stage_ms_median": dict(self.stage_ms_median),
+        return {"ukf_drag_model_bias_mps": self.drag_model_bias_mps,
+                "ukf_median_airspeed_mps": self.median_airspeed_mps,
+                "stage_ms_median": dict(self.stage_ms_median),
                 "stage_ms_mean": dict(self.stage_ms_mean),
                 "stage_updates": dict(self.stage_updates),
                 "stage_rate_hz": dict(self.stage_rate_hz),
@@ -387,6 +398,10 @@ class OnboardStack:
         self.sensor_rng, self.scan_rng, param_rng = rng.spawn(3)
         believed, errors = believed_params(_calibrated(params, cond), cond, rng=param_rng)
         self.believed = believed
+        self.true_params = params
+        # what the filter's model leaves out by design, without the drawn errors
+        self.believed_model = believed_params(_calibrated(params, cond),
+                                              replace(cond, parameter_error=0.0))[0]
         self.parameter_errors = errors
         self.city, self.model = city, model
         self.n_rotors = model.n_rotors
@@ -543,8 +558,9 @@ class OnboardStack:
         self.ms[stage].append(ms)
 
     # ------------------------------------------------------------------------- report
-    def report(self, n: int, planner_ms) -> OnboardReport:
-        """The flight's :class:`OnboardReport` over its ``n`` control steps."""
+    def report(self, n: int, planner_ms, airspeed=None) -> OnboardReport:
+        """The flight's :class:`OnboardReport` over its ``n`` control steps (``airspeed``:
+        the horizontal airspeed at each of them, m/s, for the drag model's bias)."""
         self.ms["planner"] = list(planner_ms)
         est, true = self.wind_est[:n], self.wind_true[:n]
         keep = (np.arange(n) * self.dt >= self.options.settle_s) & np.isfinite(true[:, 0])
@@ -565,8 +581,19 @@ class OnboardStack:
                     "ukf_rejected": {} if self.ukf is None else dict(self.ukf.rejected),
                     "decoder_skipped": self.skipped,
                     "decoder_due": self.ticks, "decoder_computed": len(self.ms["decoder"])}
+        bias = median = math.nan
+        if airspeed is not None:
+            from windnav.estimate import drag_model_bias
+
+            air = np.asarray(airspeed, dtype=np.float64)[:n]
+            air = air[(np.arange(air.size) * self.dt >= self.options.settle_s)
+                      & np.isfinite(air)]
+            if air.size:
+                median = float(np.median(air))
+                bias = float(drag_model_bias(self.true_params, self.believed_model, median))
         return OnboardReport(
             wind_estimate=est.copy(), ukf_wind_rms_mps=rms, ukf_wind_rms_xy_mps=rms_xy,
             stage_ms_median=med, stage_ms_mean=mean,
             stage_updates={s: len(v) for s, v in self.ms.items()},
-            stage_rate_hz=dict(self.rates), real_time_fraction=float(load), settings=settings)
+            stage_rate_hz=dict(self.rates), real_time_fraction=float(load), settings=settings,
+            drag_model_bias_mps=bias, median_airspeed_mps=median)

@@ -445,7 +445,11 @@ def planner_config(
     Returns
     -------
     PlannerConfig
-        With ``derivation`` recording the sweep and fits.
+        With ``derivation`` recording the sweep and fits. Its ``a_max`` is the vehicle's own
+        (full thrust, holding altitude: 70.6 m/s^2 per axis for the Hummingbird); the closed
+        loop of :func:`windnav.experiments.navigate.navigate` overrides it with what its
+        controller's tilt cap allows, ``g tan(tilt_max) / sqrt(2)`` (9.9 m/s^2 at 55 deg).
+        Pass ``a_max=`` likewise for plans a tilt-capped controller can follow.
 
     Raises
     ------
