@@ -249,8 +249,15 @@ def _warn_variants(args, summary: dict) -> None:
 
 
 def _warn_ukf_envelope(args, metrics: dict) -> None:
-    """One line on stderr when the UKF story's flight left the model's envelope (its status,
+    """One line on stderr when the UKF story's filter reads a drag model that biases it
+    (``drag_model_bias_m_s``), and one when its flight left the model's envelope (its status,
     time outside and largest airspeed are in the summary too)."""
+    if "drag_model_bias_m_s" in metrics:
+        from windnav.commands._common import print_drag_model_note
+
+        print_drag_model_note(metrics["drag_model_bias_m_s"],
+                              metrics["median_horizontal_airspeed_m_s"], args.conditions,
+                              f"{where(args)}: ", measured=metrics["wind_mean_error_m_s"])
     if "OUTSIDE_ENVELOPE" not in str(metrics.get("status")):
         return
     frac = metrics["outside_envelope_fraction"]
