@@ -10,7 +10,7 @@ from scipy.spatial.transform import Rotation
 import windnav as wn
 from windnav.cli import main
 from windnav.estimate.calibrate import DragFit, fit_drag
-from windnav.experiments.calibration import calibrate, calibration_flights
+from windnav.experiments.calibration import calibrate, calibration_flights, calibration_notes
 
 P_HB = wn.vehicle.params("hummingbird")
 SHORT = {"x": (-4.0, -2.0, 2.0, 4.0), "y": (-4.0, 2.0, 4.0), "z": (-1.5, -0.5, 1.0, 2.0)}
@@ -172,3 +172,33 @@ def test_estimate_imports_neither_the_simulator_nor_the_experiments():
                      else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
             for name in names:
                 assert not name.startswith(("windnav.sim", "windnav.experiments")), (path, name)
+
+
+def test_a_linear_fit_that_leaves_out_frame_drag_is_noted(tmp_path, capsys):
+    """--linear on the Hummingbird (c_d 0.005/0.005/0.01 N/(m/s)^2): k_d +9.0 % and k_z +6.2 %,
+    hundreds of standard errors from the truth, with no note (misspecification audit)."""
+    assert main(["calibrate", "--vehicle", "hummingbird", "--linear", "--out",
+                 str(tmp_path / "lin")]) == 0
+    rec = json.loads((tmp_path / "lin" / "calibration.json").read_text())
+    assert rec["relative_error"]["k_d"] == pytest.approx(0.090, abs=0.005)  # the fit unchanged
+    assert rec["relative_error"]["k_z"] == pytest.approx(0.062, abs=0.005)
+    assert len(rec["notes"]) == 1
+    note = rec["notes"][0]
+    assert "leaves out hummingbird's frame drag" in note and "k_d +9.0 %" in note
+    assert "k_z +6.2 %" in note and "Wind UKF built on them is biased" in note
+    assert f"note: {note}" in capsys.readouterr().err
+    # with the frame drag in the model, or for a vehicle without it: nothing to say
+    fit = DragFit(k_d=1.19e-4, k_z=2.32e-4, c_dx=5e-3, c_dy=5e-3, c_dz=1e-2, parasitic=True)
+    assert calibration_notes(fit, P_HB) == []
+    cf = wn.vehicle.params("crazyflie_brushless")
+    assert calibration_notes(DragFit(k_d=cf.k_d, k_z=cf.k_z, parasitic=False), cf) == []
+
+
+def test_the_linear_drag_matches_the_true_one_where_the_note_says():
+    """k_d' S V = k_d S V + c_d V^2 at V* = (k_d' - k_d) S / c_d: the note's crossing speed."""
+    fit = DragFit(k_d=1.1 * P_HB.k_d, k_z=P_HB.k_z, stderr={"k_d": 1e-7}, parasitic=False)
+    s = P_HB.n_rotors * P_HB.hover_rotor_speed
+    v_eq = 0.1 * P_HB.k_d * s / P_HB.c_dx
+    assert fit.k_d * s * v_eq == pytest.approx(P_HB.k_d * s * v_eq + P_HB.c_dx * v_eq**2)
+    (note,) = calibration_notes(fit, P_HB)
+    assert f"in-plane near {v_eq:.2g} m/s" in note and "k_d +10.0 % (119 standard errors)" in note

@@ -173,3 +173,132 @@ def test_a_hover_power_extrapolated_below_the_slowest_sample_is_noted(thesis_fit
     assert full["hover_extrapolated"] is False and full["slowest_speed"] == 0.0
     assert not any("hover_W" in n for n in full["notes"])
     assert fit_power(v, thesis(v)).hover_extrapolated is False
+
+
+# --- a curve of the wrong shape (misspecification audit) ------------------------------------
+def _hummingbird_curve():
+    """The simulated Hummingbird's steady-flight power (no bucket: least power at hover) on
+    0 ... 12 m/s, and its true hover power and max-range speed."""
+    from windnav.experiments.sysid import vehicle_params
+    from windnav.sim.sweeps import power_sweep
+
+    params = vehicle_params("hummingbird")
+    sweep = power_sweep(params, np.linspace(0.0, 12.0, 121))
+    v, p = sweep["speeds"][sweep["valid"]], sweep["power"][sweep["valid"]]
+    fast = v > 0.2
+    coarse = float(v[fast][np.argmin(p[fast] / v[fast])])
+    fine = power_sweep(params, np.arange(coarse - 0.15, coarse + 0.15, 0.005))
+    v_r = float(fine["speeds"][np.argmin(fine["power"] / fine["speeds"])])
+    return v, p, float(p[0]), v_r
+
+
+@pytest.fixture(scope="module")
+def hummingbird_power(tmp_path_factory):
+    """The audit's recipe (power_rt.py): 4 samples every 0.5 m/s with N(0, 0.05 W) noise."""
+    v, p, hover, v_r = _hummingbird_curve()
+    grid = np.arange(0.0, v.max() + 1e-9, 0.5)
+    speed = np.repeat(grid, 4)
+    power = np.repeat(np.interp(grid, v, p), 4) + np.random.default_rng(0).normal(
+        0.0, 0.05, speed.size)
+    path = write_csv(tmp_path_factory.mktemp("hb") / "hb.csv", {"speed": speed, "power": power})
+    return path, hover, v_r
+
+
+def _power_doc(path, tmp_path, *extra):
+    _cli("sysid", "power", "--csv", path, "--speed-col", "speed", "--power-col", "power",
+         *extra, "--json", tmp_path / "p.json", "--out", tmp_path / "o")
+    return json.loads((tmp_path / "p.json").read_text())
+
+
+def test_a_cubic_of_the_wrong_shape_is_noted(hummingbird_power, tmp_path, capsys):
+    """The Hummingbird's curve has no bucket; a cubic gave hover 55.24 [54.84, 55.64] W (true
+    56.19 W, the measured 56.20 W outside the interval) and V_R 9.18 [9.14, 9.21] m/s (true
+    9.35), an RMS residual of 0.57 W on 0.05 W of noise, and no note (audit)."""
+    path, hover, v_r = hummingbird_power
+    capsys.readouterr()
+    doc = _power_doc(path, tmp_path)
+    err = capsys.readouterr().err
+    # the fit itself is unchanged: still biased, its intervals excluding the truth
+    assert doc["hover_W"] == pytest.approx(55.24, abs=0.01)
+    assert not doc["hover_W_ci95"][0] < hover < doc["hover_W_ci95"][1]
+    assert not doc["max_range_speed_ci95"][0] < v_r < doc["max_range_speed_ci95"][1]
+    test = doc["lack_of_fit"]
+    assert test["rejected"] and test["p_value"] < 1e-50
+    assert test["groups"] == 25 and test["pure_error_dof"] == 75
+    assert test["pure_error_rms_W"] == pytest.approx(0.05, rel=0.1)  # the noise
+    lack = [n for n in doc["notes"] if "lack-of-fit F" in n]
+    assert len(lack) == 1 and "assume the shape is right, ignore that misfit" in lack[0]
+    assert "note: the degree-3 curve does not follow the samples" in err
+    # (b) the measured hover power against hover_W's interval
+    assert doc["hover_measured_W"] == pytest.approx(hover, abs=0.03)
+    assert doc["hover_outside_fit"] is True
+    assert any("samples slower than 0.5 m/s draw 56.199 W" in n for n in doc["notes"])
+
+
+def test_a_quartic_dip_that_is_not_in_the_data_is_noted(hummingbird_power, tmp_path):
+    """--degree 4 gave V_E 1.02 [0.92, 1.12] m/s where the true V_E is hover, silently."""
+    path, hover, _ = hummingbird_power
+    doc = _power_doc(path, tmp_path, "--degree", 4)
+    assert doc["max_endurance_speed"] == pytest.approx(1.02, abs=0.01)  # unchanged
+    assert doc["lack_of_fit"]["rejected"] and doc["lack_of_fit"]["p_value"] < 1e-10
+    assert any(n.startswith("the degree-4 curve does not follow") for n in doc["notes"])
+    assert doc["hover_outside_fit"] is True  # 56.36 [56.28, 56.44] W for a measured 56.20
+
+
+def test_a_quintic_that_fits_the_hummingbird_curve_gets_no_lack_of_fit_note(
+        hummingbird_power, tmp_path):
+    path, _, v_r = hummingbird_power
+    doc = _power_doc(path, tmp_path, "--degree", 5)
+    assert doc["lack_of_fit"]["p_value"] > 0.01 and not doc["lack_of_fit"]["rejected"]
+    assert doc["hover_outside_fit"] is False
+    assert not any("lack-of-fit" in n or "slower than" in n for n in doc["notes"])
+    assert doc["max_range_speed"] == pytest.approx(v_r, abs=0.02)
+
+
+def test_power_curve_endurance_check_flags_a_dip_of_the_fit(tmp_path):
+    """windnav power-curve's endurance_check, on sysid power: the 21 noise-free points of the
+    Hummingbird's curve fitted with a quartic dip 0.09 W below hover at 0.99 m/s."""
+    v, p, _, _ = _hummingbird_curve()
+    path = write_csv(tmp_path / "hb21.csv", {"speed": v[::6], "power": p[::6]})
+    doc = _power_doc(path, tmp_path, "--degree", 4)
+    check = doc["endurance_check"]
+    assert check["endurance_within_fit_noise"] is True
+    assert check["lowest_power_sample_speed_m_s"] == 0.0
+    assert doc["max_endurance_speed"] == pytest.approx(0.99, abs=0.01)
+    assert any("maximum-endurance speed is hover to within the fit" in n for n in doc["notes"])
+    assert doc["lack_of_fit"] is None  # no repeated speed: nothing to test
+
+
+def test_thesis_cubic_samples_get_no_lack_of_fit_note(thesis_fit, tmp_path):
+    """The thesis's cubic, sampled exactly (49 points) and as the figure of docs/sysid.md (4
+    samples every 0.5 m/s, N(0, 0.05 W), seed 0): the right shape, no note."""
+    _, doc = thesis_fit
+    assert doc["notes"] == [] and doc["lack_of_fit"] is None
+    assert doc["endurance_check"]["endurance_within_fit_noise"] is False
+    thesis = PowerCurve.crazyflie()
+    v = np.repeat(np.arange(0.0, 12.0001, 0.5), 4)
+    p = thesis(v) + np.random.default_rng(0).normal(0.0, 0.05, v.size)
+    noisy = _power_doc(write_csv(tmp_path / "noisy.csv", {"speed": v, "power": p}), tmp_path)
+    assert noisy["lack_of_fit"]["p_value"] > 0.1 and not noisy["lack_of_fit"]["rejected"]
+    assert noisy["hover_outside_fit"] is False
+    assert noisy["notes"] == []
+    assert noisy["max_range_speed_ci95"][0] < 7.73 < noisy["max_range_speed_ci95"][1]
+
+
+def test_lack_of_fit_test_without_repeats_exact_or_noise_free():
+    from windnav.sysid.power import lack_of_fit_test
+
+    v = np.arange(0.0, 10.0, 0.5)
+    assert lack_of_fit_test(v, np.ones_like(v), 4) is None  # no speed repeats
+    twice = np.repeat(v, 2)
+    exact = lack_of_fit_test(twice, np.zeros_like(twice), 4, scale=100.0)
+    assert exact["F"] is None and exact["rejected"] is False
+    # noise-free repeats that the curve misses: no scatter, infinite F
+    missed = lack_of_fit_test(twice, np.repeat(np.sin(v), 2), 4, scale=100.0)
+    assert missed["rejected"] and missed["F"] == float("inf") and missed["p_value"] == 0.0
+    # near repeats within a bin count, less the curve's slope across the bin
+    rng = np.random.default_rng(1)
+    near = np.repeat(v, 3) + rng.uniform(0.0, 0.04, 3 * v.size)
+    noise = rng.normal(0.0, 0.1, near.size)
+    ok = lack_of_fit_test(np.floor(near / 0.05) * 0.05 + 0.01, noise, 4, scale=100.0)
+    assert ok["groups"] == v.size and not ok["rejected"]

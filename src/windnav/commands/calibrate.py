@@ -14,11 +14,16 @@ A coefficient whose true value is 0 (the Crazyflie's parasitic drag ``c_dx, c_dy
 no relative error: the table prints ``n/a`` with the absolute error, and the JSON's
 ``relative_error`` holds null for it and ``absolute_error`` the fitted minus the true value
 (only for those coefficients).
+
+With ``--linear`` on a vehicle that has frame drag (the Hummingbird), ``k_d`` and ``k_z``
+absorb it; the JSON's ``notes`` (and stderr) say by how much and where their drag is wrong
+(:func:`windnav.experiments.calibration.calibration_notes`).
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 from windnav._validate import positive_float
@@ -67,7 +72,7 @@ def run(args) -> int:
     """Run the calibration; returns 0."""
     import windnav as wn
     from windnav.estimate.calibrate import fit_drag
-    from windnav.experiments.calibration import calibration_flights
+    from windnav.experiments.calibration import calibration_flights, calibration_notes
     from windnav.experiments.results import write_json
     from windnav.experiments.ukf_montecarlo import sensor_suite
 
@@ -101,14 +106,17 @@ def run(args) -> int:
     print("residual RMS of the specific force (m/s^2): "
           + ", ".join(f"{a} {r:.4f}" for a, r in zip("xyz", fit.residual_rms, strict=True))
           + f"; R^2 in-plane {fit.r2[0]:.5f}, axial {fit.r2[1]:.5f}")
+    notes = calibration_notes(fit, truth)
     record = document("calibrate", {
         "vehicle": truth.name, "seed": args.seed, "fit": json.loads(fit.to_json()),
         "true": {k: getattr(truth, k) for k in fit.coefficients}, "relative_error": rel,
-        "absolute_error": absolute}, args)
+        "absolute_error": absolute, "notes": notes}, args)
     with out.writing() as stage:
         write_json(record, stage.dir / "calibration.json")
         log.save(stage.dir / "calibration_log.npz")
         if stage.file("--json") is not None:
             write_json(record, stage.file("--json"))
     print_written(out)
+    for note in notes:  # the linear model's k_d, k_z stand in for the frame drag it lacks
+        print(f"{name}: note: {note}", file=sys.stderr)
     return 0

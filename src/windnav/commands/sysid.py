@@ -181,6 +181,8 @@ def run_thrust_stand(args) -> int:
     doc = document("sysid thrust-stand", payload, args)
     _write(args, doc, out, "thrust_stand", lambda path: plot_thrust_stand(fit, path))
     _print({**_coefficients(payload, ("k_eta", "Kv", "V0", "DZ")), "r2": payload["r2"]}, out)
+    for note in payload["notes"]:
+        print(f"{name}: note: {note}", file=sys.stderr)
     return 0
 
 
@@ -306,6 +308,8 @@ def run_aero(args) -> int:
     _print(summary, out)
     for note in payload["notes"]:
         print(f"{name}: note: {note}", file=sys.stderr)
+    for assumption in payload["assumptions"]:  # not testable from the data: said once, here
+        print(f"{name}: assumption: {assumption}", file=sys.stderr)
     return 0
 
 
@@ -423,7 +427,7 @@ def run_power(args) -> int:
         min_segment_s=positive_float(args.min_segment_s, "--min-segment-s", name,
                                      allow_zero=True),
         winds=winds, speed_range=_speed_range(args.speed_range, name), where=name)
-    payload["notes"] = _power_notes(fit, payload)
+    payload["notes"] = [*payload["notes"], *_power_notes(fit, payload)]
     doc = document("sysid power", payload, args)
     title = f"{Path(table.source).name}: {args.power_col} vs {args.speed_col}"
     _write(args, doc, out, "power",
@@ -647,7 +651,12 @@ def _register_simulate_stand(ss) -> None:
 
 def run_simulate_stand(args) -> int:
     from windnav.experiments.results import write_json
-    from windnav.experiments.sysid import simulate_stand, vehicle_params, write_stand_csvs
+    from windnav.experiments.sysid import (
+        simulate_stand,
+        stand_clipping_note,
+        vehicle_params,
+        write_stand_csvs,
+    )
     from windnav.sysid.thrust_stand import PWMMotorModel
 
     name = _where(args)
@@ -663,9 +672,12 @@ def run_simulate_stand(args) -> int:
     overrides = {"Kv": args.kv, "V0": args.v0, "DZ": args.dz}
     if "pwm_motor" in params.extra:
         base = PWMMotorModel.from_params(params).to_dict()
-    elif None in overrides.values():
-        raise ValueError(f"The '--kv' parameter of {name} must be given with --v0 and --dz: "
-                         f"the vehicle {args.vehicle!r} carries no PWM motor model.")
+    elif None in overrides.values():  # "'--kv' ... must be given with --v0 and --dz" misled
+        given = [f"--{k.lower()}" for k, v in overrides.items() if v is not None]
+        raise ValueError(f"The vehicle {args.vehicle!r} has no PWM motor model, so the '--kv', "
+                         f"'--v0' and '--dz' parameters of {name} must all be given. Got "
+                         f"{'only ' + ' and '.join(given) if given else 'none of them'} "
+                         "instead.")
     else:
         base = {}
     spec = {**base, **{k: v for k, v in overrides.items() if v is not None}}
@@ -674,9 +686,12 @@ def run_simulate_stand(args) -> int:
     out = _outputs(args, "simulate-stand")
     runs = simulate_stand(params, voltages=volts, rate_hz=rate, step_s=step, motor=motor,
                           rng=nonnegative_int(args.seed, "--seed", name))
+    note = stand_clipping_note(runs, params)
     truth = {"vehicle": params.name, "n_rotors": params.n_rotors, "k_eta": params.k_eta,
              "tau_m": params.tau_m, "motor": motor.to_dict(), "voltages": volts,
-             "seed": args.seed}
+             "rotor_speed_limits_rad_s": [params.rotor_speed_min, params.rotor_speed_max],
+             "clipped_samples": sum(r["clipped"] for r in runs), "seed": args.seed,
+             "notes": [] if note is None else [note]}
     doc = document("sysid simulate-stand", truth, args)
     with out.writing() as stage:
         write_stand_csvs(runs, stage.dir)
@@ -684,6 +699,8 @@ def run_simulate_stand(args) -> int:
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
     _print(truth, out)
+    for note in truth["notes"]:
+        print(f"{name}: note: {note}", file=sys.stderr)
     return 0
 
 

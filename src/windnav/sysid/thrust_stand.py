@@ -15,22 +15,39 @@ where ``d omega / dt`` is the steeper of the straight-line slopes over the ``win
 
 Thesis values: k_eta = 4.052e-8 N/(rad/s)^2, Kv = 0.3637, V0 = 0.5535 V, DZ = 4673 counts,
 R^2 = 0.979.
+
+Two checks of the motor model against the data (:attr:`ThrustStandFit.notes`):
+
+- **settling** (:attr:`ThrustStandFit.settling_check`): a slow motor (the Crazyflie's
+  ``tau_m`` = 0.05 s) is still up to ``tau_m * max_accel`` (50 rad/s) below steady when the
+  rule first admits it, which biased V0 by -1 % and DZ by +0.6 %, outside their intervals in
+  most seeds, silently. The first and second halves of each PWM step are compared (a paired
+  test of their mean rotor-speed residuals), and the motor model is fitted again on the second
+  halves only; a note when the halves differ (p < :data:`SETTLING_P`) and a coefficient of
+  either fit lies outside the other's 95 % interval. (Halves by time, not a stricter
+  ``max_accel``: the acceleration estimate is noisy, and selecting on it selects on the
+  speed noise too.)
+- **saturation** (:attr:`ThrustStandFit.saturation`): per file, the rotor speed from the
+  second-highest to the highest PWM step must rise by at least ``(P1 / P2)^(2/3) - 1``
+  (the model's least rise, with DZ = 0); a rise smaller than half that by three standard
+  errors is a ceiling (a speed limit, a saturated ESC) the model does not have.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.stats
 
 from windnav._validate import finite_float, positive_float, positive_int
 from windnav.sysid._fit import Estimate, LeastSquares, linear_fit, nonlinear_fit
 from windnav.sysid._signal import steepest_slope
 from windnav.sysid.io import Table
 
-__all__ = ["STAND_COLUMNS", "PWMMotorModel", "ThrustStandFit", "fit_thrust_stand",
-           "rotor_acceleration", "steady_mask"]
+__all__ = ["SETTLING_P", "STAND_COLUMNS", "PWMMotorModel", "ThrustStandFit",
+           "fit_thrust_stand", "rotor_acceleration", "steady_mask"]
 
 STAND_COLUMNS = ("timestamp", "pwm", "thrust_N", "rpm", "voltage_V")
 """Columns the fit needs (the author's header also has ``torque_Nm`` and ``current_A``):
@@ -38,6 +55,14 @@ time (s), PWM command (counts), whole-vehicle thrust (N), one motor's speed (rev
 supply voltage (V)."""
 
 RPM_TO_RAD_S = 2.0 * np.pi / 60.0
+
+SETTLING_P = 1e-3
+"""Below this p-value of the paired test of the first against the second halves of the PWM
+steps, the rotor speed has not settled (with a fast motor, ``tau_m`` = 5 ms, 0 of 20 seeds
+went below it together with a coefficient outside the other fit's interval; with 50 ms,
+20 of 20)."""
+
+_MOTOR_NAMES = ("Kv", "V0", "DZ")
 
 
 @dataclass(frozen=True)
@@ -157,6 +182,21 @@ class ThrustStandFit:
         The steady points (counts, V, rad/s, N).
     counts : dict
         Per file: ``rows``, ``steady`` and ``dropped_nan`` counts.
+    saturation : dict
+        Per file with steady points at two PWM steps or more: the two highest steps'
+        ``pwm`` (counts), median ``rotor_speed_rad_s``, the ``rise`` between them and the
+        model's least ``model_min_rise`` (fractions), and ``saturated``: the rise falls short
+        of half the least by more than three standard errors (a ceiling).
+    settling_check : dict or None
+        The first against the second half of each PWM step: ``steps`` compared,
+        ``early_minus_late`` (mean relative rotor-speed residual, fraction), its ``p_value``
+        (paired t test), ``late_fit`` (Kv, V0, DZ fitted on the second halves, each
+        ``{"value", "std_error", "ci95"}``, and its ``n_points``), and ``significant`` (p below
+        :data:`SETTLING_P` and a coefficient of either fit outside the other's 95 %
+        interval: the motor's lag biases the model). None where fewer than three steps have
+        steady points in both halves, or the second halves cannot be fitted.
+    max_accel : float
+        The steadiness threshold used, rad/s^2.
     """
 
     k_eta: Estimate
@@ -171,11 +211,49 @@ class ThrustStandFit:
     omega: np.ndarray
     thrust_per_rotor: np.ndarray
     counts: dict
+    saturation: dict = field(default_factory=dict)
+    settling_check: dict | None = None
+    max_accel: float = 1000.0
 
     @property
     def r2(self) -> float:
         """R^2 of the rotor-speed model (the thesis reports 0.979)."""
         return self.speed.r2
+
+    @property
+    def notes(self) -> list[str]:
+        """Caveats of the fit, one sentence each (empty when none)."""
+        notes = []
+        flat = {src: c for src, c in self.saturation.items() if c["saturated"]}
+        if flat:
+            src, c = min(flat.items(), key=lambda item: item[1]["rise"])  # the flattest
+            notes.append(
+                f"in {len(flat)} of the {len(self.saturation)} files the rotor speed stops "
+                f"rising with PWM at the top (e.g. {src!r}: {c['rotor_speed_rad_s'][0]:.4g} "
+                f"and {c['rotor_speed_rad_s'][1]:.4g} rad/s at PWM {c['pwm'][0]:g} and "
+                f"{c['pwm'][1]:g}, {100 * c['rise']:+.2f} % where the model rises at least "
+                f"{100 * c['model_min_rise']:.1f} %): a speed limit or a saturated drive the "
+                "PWM model does not have, whose points bias Kv, V0 and DZ; drop the saturated "
+                "steps")
+        check = self.settling_check
+        if check is not None and check["significant"]:
+            d = check["early_minus_late"]
+            late = {n: Estimate(e["value"], e["std_error"], tuple(e["ci95"]))
+                    for n, e in check["late_fit"].items() if n in _MOTOR_NAMES}
+            moved = [f"{n} {late[n].value:.5g} (this fit {getattr(self, n).value:.5g} "
+                     f"[{getattr(self, n).ci95[0]:.5g}, {getattr(self, n).ci95[1]:.5g}])"
+                     for n in _MOTOR_NAMES if _apart(getattr(self, n), late[n])]
+            notes.append(
+                f"the rotor speed had not settled at the first steady points of the PWM "
+                f"steps: over each step's first half they sit {100 * abs(d):.2g} % "
+                f"{'below' if d < 0 else 'above'} its second half (paired over "
+                f"{check['steps']} steps, p = {check['p_value']:.1g}), the motor's lag (|d "
+                f"omega/dt| < {self.max_accel:g} rad/s^2 admits points up to tau_m x "
+                f"{self.max_accel:g} rad/s from steady), and it biases the motor model: "
+                f"fitted on the second halves, {', '.join(moved)}, each outside the other's "
+                "95 % interval (settling_check); the second halves' values are the less "
+                "biased, or hold each step longer")
+        return notes
 
     def to_dict(self) -> dict:
         """The JSON payload: each coefficient with ``value``, ``std_error``, ``ci95``."""
@@ -184,9 +262,77 @@ class ThrustStandFit:
             "DZ": self.DZ.to_dict(), "r2": self.speed.r2, "r2_thrust": self.thrust.r2,
             "rmse_rotor_speed_rad_s": self.speed.rmse, "rmse_thrust_N": self.thrust.rmse,
             "n_steady_points": int(self.omega.size), "files": self.counts,
+            "saturation": self.saturation, "settling_check": self.settling_check,
+            "notes": self.notes,
             "units": {"k_eta": "N/(rad/s)^2", "Kv": "rad/s/V/count^(2/3)", "V0": "V",
                       "DZ": "PWM counts"},
         }
+
+
+def _apart(a: Estimate, b: Estimate) -> bool:
+    """Each estimate outside the other's 95 % interval."""
+    return not (a.ci95[0] <= b.value <= a.ci95[1]) and not (b.ci95[0] <= a.value <= b.ci95[1])
+
+
+def _step_halves(t: np.ndarray, pwm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per sample: the index of its PWM step (a run of one PWM value) and whether it lies in
+    the step's second half (by time)."""
+    new = np.r_[True, pwm[1:] != pwm[:-1]]
+    step = np.cumsum(new) - 1
+    start = t[new]
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    end = np.r_[start[1:], t[-1] + dt]
+    frac = (t - start[step]) / np.maximum(end - start, 1e-300)[step]
+    return step, frac >= 0.5
+
+
+def _top_steps(pwm: np.ndarray, omega: np.ndarray) -> dict | None:
+    """The saturation check of one file's steady points (see ThrustStandFit.saturation)."""
+    levels = np.unique(pwm)
+    if levels.size < 2 or levels[-2] <= 0:
+        return None
+    stats = []
+    for level in levels[-2:]:
+        w = omega[pwm == level]
+        se = 1.2533 * np.std(w, ddof=1) / np.sqrt(w.size) if w.size > 1 else np.inf
+        stats.append((float(np.median(w)), float(se)))
+    (w2, se2), (w1, se1) = stats
+    if not w2 > 0:
+        return None
+    rise = w1 / w2 - 1
+    least = float((levels[-1] / levels[-2]) ** (2.0 / 3.0) - 1)
+    se = float(np.hypot(se1 / w2, se2 * w1 / w2**2))
+    return {"pwm": [float(levels[-2]), float(levels[-1])], "rotor_speed_rad_s": [w2, w1],
+            "rise": float(rise), "model_min_rise": least,
+            "saturated": bool(0.5 * least - rise > 3 * se)}
+
+
+def _settling_check(late: np.ndarray, step: np.ndarray, pwm, volt, omega,
+                    motor_fit: LeastSquares, src: str) -> dict | None:
+    """The first against the second halves of the PWM steps (see
+    ThrustStandFit.settling_check); ``motor_fit`` is the fit on all the steady points."""
+    rel = motor_fit.residuals / omega
+    diffs = []
+    for j in np.unique(step):
+        e, ll = (step == j) & ~late, (step == j) & late
+        if e.any() and ll.any():
+            diffs.append(rel[e].mean() - rel[ll].mean())
+    if len(diffs) < 3 or late.sum() <= len(_MOTOR_NAMES) + 1:
+        return None
+    diffs = np.asarray(diffs)
+    pval = float(scipy.stats.ttest_1samp(diffs, 0.0).pvalue) if np.ptp(diffs) > 0 else 1.0
+    try:
+        second = _fit_motor(pwm[late], volt[late], omega[late], motor_fit.coef,
+                            f"{src}, second halves of the PWM steps")
+    except ValueError:  # too few points, or they do not separate Kv, V0 and DZ
+        return None
+    full = {n: motor_fit.estimate(n) for n in _MOTOR_NAMES}
+    est = {n: second.estimate(n) for n in _MOTOR_NAMES}
+    moved = any(_apart(full[n], est[n]) for n in _MOTOR_NAMES)
+    return {"steps": len(diffs), "early_minus_late": float(diffs.mean()), "p_value": pval,
+            "late_fit": {**{n: e.to_dict() for n, e in est.items()},
+                         "n_points": int(late.sum())},
+            "significant": bool(pval < SETTLING_P and moved)}
 
 
 def _initial_motor(pwm, volt, omega) -> np.ndarray:
@@ -240,7 +386,8 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
         raise ValueError(f"The 'tables' parameter of {where} must hold tables read with "
                          "read_table. Got "
                          f"{sorted({type(tab).__name__ for tab in tables})} instead.")
-    parts, counts = [], {}
+    parts, counts, saturation = [], {}, {}
+    n_steps = 0
     for tab in tables:
         tab.require(STAND_COLUMNS, where)
         cols = {c: tab.columns[c] for c in STAND_COLUMNS}
@@ -263,11 +410,18 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
                 f"{min_speed:g} rad/s ({int(fast.sum())} of {omega.size} rows are fast "
                 f"enough; the smallest |d omega/dt| among them is "
                 f"{acc[fast].min() if fast.any() else float('nan'):.4g} rad/s^2).")
+        step, late = _step_halves(t, cols["pwm"][finite])
         parts.append({"pwm": cols["pwm"][finite][mask], "volt": cols["voltage_V"][finite][mask],
                       "omega": omega[mask],
-                      "thrust": cols["thrust_N"][finite][mask] / n_rotors})
-    pwm, volt, omega, thrust = (np.concatenate([p[k] for p in parts])
-                                for k in ("pwm", "volt", "omega", "thrust"))
+                      "thrust": cols["thrust_N"][finite][mask] / n_rotors,
+                      "step": step[mask] + n_steps, "late": late[mask]})
+        n_steps += int(step.max()) + 1
+        top = _top_steps(parts[-1]["pwm"], parts[-1]["omega"])
+        if top is not None:
+            saturation[tab.source] = top
+    pwm, volt, omega, thrust, step, late = (np.concatenate([p[k] for p in parts])
+                                            for k in ("pwm", "volt", "omega", "thrust", "step",
+                                                      "late"))
     files = ", ".join(repr(t.source) for t in tables)
     th = linear_fit(omega[:, None] ** 2, thrust, ["k_eta"],
                     source=f"the steady points of {files} (columns 'thrust_N', 'rpm')")
@@ -283,7 +437,23 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
     if np.ptp(volt) == 0:
         raise ValueError(f"The column 'voltage_V' of {files} must vary to separate Kv and V0 "
                          "(repeat the ramp at several supply voltages).")
-    x0 = _initial_motor(pwm, volt, omega)
+    sp = _fit_motor(pwm, volt, omega, _initial_motor(pwm, volt, omega), src)
+    kv, v0, dz = (sp.estimate(n) for n in _MOTOR_NAMES)
+    for name, e in (("Kv", kv), ("V0", v0)):
+        if not e.ci95[0] * e.ci95[1] > 0:  # the interval holds 0: the data do not tell
+            raise ValueError(  # (one voltage, sagging: Kv 0.0007 [-0.56, 0.56], V0 2185 V)
+                f"The column 'voltage_V' of {files} must span supply voltages far enough "
+                f"apart to determine Kv and V0 (repeat the ramp at several voltages): the "
+                f"steady points span {float(np.ptp(volt)):.3g} V and give {name} = "
+                f"{e.value:.4g} with a 95 % interval of [{e.ci95[0]:.3g}, {e.ci95[1]:.3g}].")
+    motor = PWMMotorModel(Kv=kv.value, V0=v0.value, DZ=max(dz.value, 0.0))
+    settling = _settling_check(late, step, pwm, volt, omega, sp, src)
+    return ThrustStandFit(th.estimate("k_eta"), kv, v0, dz, motor, th, sp, pwm, volt, omega,
+                          thrust, counts, saturation, settling, max_accel)
+
+
+def _fit_motor(pwm, volt, omega, x0, src: str) -> LeastSquares:
+    """``omega = Kv (V + V0)(PWM - DZ)^(2/3)`` by nonlinear least squares from ``x0``."""
     third = 2.0 / 3.0
 
     def model(b):
@@ -296,16 +466,5 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
                                 -b[0] * (volt + b[1]) * third * d ** (-1.0 / 3.0)])
 
     hi_dz = float(pwm.min()) - 1e-6
-    sp = nonlinear_fit(model, jac, x0, omega, ["Kv", "V0", "DZ"], source=src,
-                       bounds=([1e-12, -np.inf, -np.inf], [np.inf, np.inf, hi_dz]))
-    kv, v0, dz = (sp.estimate(n) for n in ("Kv", "V0", "DZ"))
-    for name, e in (("Kv", kv), ("V0", v0)):
-        if not e.ci95[0] * e.ci95[1] > 0:  # the interval holds 0: the data do not tell
-            raise ValueError(  # (one voltage, sagging: Kv 0.0007 [-0.56, 0.56], V0 2185 V)
-                f"The column 'voltage_V' of {files} must span supply voltages far enough "
-                f"apart to determine Kv and V0 (repeat the ramp at several voltages): the "
-                f"steady points span {float(np.ptp(volt)):.3g} V and give {name} = "
-                f"{e.value:.4g} with a 95 % interval of [{e.ci95[0]:.3g}, {e.ci95[1]:.3g}].")
-    motor = PWMMotorModel(Kv=kv.value, V0=v0.value, DZ=max(dz.value, 0.0))
-    return ThrustStandFit(th.estimate("k_eta"), kv, v0, dz, motor, th, sp, pwm, volt, omega,
-                          thrust, counts)
+    return nonlinear_fit(model, jac, x0, omega, list(_MOTOR_NAMES), source=src,
+                         bounds=([1e-12, -np.inf, -np.inf], [np.inf, np.inf, hi_dz]))
