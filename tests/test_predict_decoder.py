@@ -21,6 +21,7 @@ from windnav.predict.decoder import (
     FORMAT_VERSION,
     METADATA_KEY,
     Decoder,
+    boundary_side,
     canonical_elements,
     canonicalize_field,
     conv_block,
@@ -31,6 +32,7 @@ from windnav.predict.decoder import (
     load_decoder,
     make_architecture,
     member_weights,
+    on_sector_boundary,
     permute_cells,
     save_decoder,
     uncanonicalize,
@@ -450,3 +452,61 @@ def test_d4film_features_equal_the_two_step_reference_for_every_element():
             assert f[k].dtype == v.dtype and np.array_equal(f[k], v), k
     f["scale"][:] = -1.0  # callers own what they get
     assert np.all(arch.features(scans, w_up, w_robot)["scale"] > 0)
+
+
+@pytest.mark.parametrize("h", range(8))
+def test_d4_film_is_equivariant_on_the_sector_boundaries_too(h):
+    """On a multiple of 45 deg two symmetries take the wind into [0, 45] deg and the network
+    answers differently through each: the decoder jumped there (0 and 360 deg differed by
+    1.3 m/s; a mirrored scene's field was not the mirrored field; conventions audit,
+    2026-12-05). ``boundary="average"`` (the default) takes the mean of the two sides, so the
+    symmetry holds there as well; ``"floor"`` keeps the old answer (the benchmark's)."""
+    rng = np.random.default_rng(30 + h)
+    _, dec = random_decoder("d4-film", size=9)
+    scans, _, w_robot = random_inputs(16, rng)
+    angles = np.radians(45.0 * rng.integers(0, 9, 16))  # 0, 45, ..., 360 deg
+    speed = rng.uniform(1.0, 8.0, 16)
+    w_up = speed[:, None] * np.column_stack([np.cos(angles), np.sin(angles)])
+    assert dec.boundary == "average" and on_sector_boundary(w_up).all()
+    turned = transform_scenario(h, scans, w_up, w_robot)
+    got = dec.predict(*turned)
+    expected = transform_field(h, dec.predict(scans, w_up, w_robot))
+    np.testing.assert_allclose(got, expected, rtol=0, atol=2e-6 * np.abs(expected).max())
+    # 0 and 360 deg, whose sines round to 0 and -2e-15, are one direction
+    full = w_up.copy()
+    full[angles == 0.0] = speed[angles == 0.0, None] * [np.cos(2 * np.pi), np.sin(2 * np.pi)]
+    np.testing.assert_allclose(dec.predict(scans, full, w_robot), dec.predict(scans, w_up,
+                                                                              w_robot),
+                               rtol=0, atol=2e-6 * np.abs(expected).max())
+    # the mean of the two sides, each a hair off the boundary
+    sides = [dec.predict(scans, boundary_side(w_up, s), w_robot) for s in (1.0, -1.0)]
+    np.testing.assert_allclose(dec.predict(scans, w_up, w_robot), 0.5 * (sides[0] + sides[1]),
+                               rtol=0, atol=1e-6 * np.abs(expected).max())
+    floor = Decoder(dec.weights, dec.metadata, boundary="floor")
+    arch, w = floor.arch, floor.prepared
+    f = arch.features(*(x.astype(np.float32) for x in (scans, w_up, w_robot)))
+    old = floor.predict(scans, w_up, w_robot)  # the sector rounding picks, as before
+    reference = arch.world_frame(arch.network(w, f), f).reshape(-1, 2, 9, 9)
+    np.testing.assert_allclose(old, reference, rtol=0, atol=2e-6 * np.abs(reference).max())
+    assert np.abs(old - dec.predict(scans, w_up, w_robot)).max() > 1e-3
+
+
+def test_off_the_boundaries_the_two_ways_are_one():
+    rng = np.random.default_rng(5)
+    _, dec = random_decoder("d4-film", size=9)
+    scans, w_up, w_robot = random_inputs(64, rng)
+    assert not on_sector_boundary(w_up).any()
+    floor = Decoder(dec.weights, dec.metadata, boundary="floor")
+    np.testing.assert_array_equal(dec.predict(scans, w_up, w_robot),
+                                  floor.predict(scans, w_up, w_robot))
+    with pytest.raises(ValueError, match="'boundary' parameter of Decoder"):
+        Decoder(dec.weights, dec.metadata, boundary="round")
+    with pytest.raises(ValueError, match="'boundary' parameter of load_decoder"):
+        load_decoder(boundary="nearest")
+
+
+def test_the_benchmark_decoder_keeps_the_boundaries_its_flights_met():
+    from windnav.experiments.nav_benchmark import benchmark_decoder
+
+    assert benchmark_decoder().boundary == "floor"
+    assert load_decoder().boundary == "average"

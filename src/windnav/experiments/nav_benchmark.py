@@ -360,7 +360,9 @@ pinning the benchmark's model keeps every recorded flight replayable to the bit.
 
 
 def benchmark_decoder(name: str = BENCHMARK_DECODER):
-    """The decoder :data:`DECODERS` ``[name]``, its file's hash checked, loaded once per process.
+    """The decoder :data:`DECODERS` ``[name]``, its file's hash checked, loaded once per process,
+    with the sector boundaries its recorded flights met (``boundary="floor"``,
+    :data:`windnav.predict.decoder.BOUNDARIES`).
 
     Raises
     ------
@@ -386,7 +388,9 @@ def _dated_decoder(name: str):
         raise ValueError(f"The 'decoder' parameter of benchmark_decoder names {name!r}, whose "
                          f"file {str(path)!r} is missing or not the model of that date "
                          f"(SHA-256 {sha[:12]}...): its flights would not replay.")
-    return load_decoder(path)
+    # the sector boundaries as the recorded flights met them (the suite's 0 and 45 deg
+    # incidences): windnav.predict.decoder.BOUNDARIES
+    return load_decoder(path, boundary="floor")
 
 
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",

@@ -103,12 +103,14 @@ from windnav.predict.dataset import grid_offsets
 
 __all__ = [
     "ARCHITECTURES",
+    "BOUNDARIES",
     "DEFAULT_MODEL",
     "FORMAT",
     "FORMAT_VERSION",
     "D4FilmArchitecture",
     "Decoder",
     "ThesisMLPArchitecture",
+    "boundary_side",
     "canonical_elements",
     "canonicalize",
     "canonicalize_field",
@@ -121,6 +123,7 @@ __all__ = [
     "load_decoder",
     "make_architecture",
     "member_weights",
+    "on_sector_boundary",
     "permute_cells",
     "save_decoder",
     "uncanonicalize",
@@ -147,6 +150,27 @@ working set is reused: 11.5 ms in both states (2026-12-02, docs/decoder.md; chun
 192, 256, 512: 14.3, 12.5-12.9, 10.9-15.7, 10.1-14.9, 16.2-17.8 ms, the first figure in a
 fresh process where they differ). A chunk's rows agree with the whole batch's to float32
 rounding (the matrix products' blocking differs)."""
+
+BOUNDARIES = ("average", "floor")
+"""How :meth:`Decoder.predict` treats a free-stream direction on a sector boundary of the
+d4-film's frame (a multiple of 45 deg: 0, 45, 90, ... 315), where two of its symmetries take
+the wind into [0, 45] deg and the network, never made symmetric there, answers differently
+through each (up to 14 m/s in a cell, 0.6 m/s on average, on a real map):
+
+- ``"average"`` (the default): the mean of the two, each at the boundary's side
+  (:data:`BOUNDARY_NUDGE_DEG`): the answer is the same for 0 and 360 deg and mirrors with the
+  scene, as the decoder's symmetry promises everywhere else;
+- ``"floor"``: the sector ``floor(angle / 45)`` of the direction as rounding leaves it (0 deg
+  and 360 deg, whose sine rounds to -1e-15, fall on either side). The navigation benchmark's
+  onboard stack flew its recorded flights so (the suite's incidences are 0, 15, 30 and 45 deg),
+  and :func:`windnav.experiments.nav_benchmark.benchmark_decoder` keeps it, so they replay."""
+
+BOUNDARY_TOLERANCE_DEG = 1e-4
+"""A free-stream direction within this of a multiple of 45 deg is on the boundary, deg."""
+
+BOUNDARY_NUDGE_DEG = 1e-3
+"""How far to either side of a boundary :data:`BOUNDARIES` ``"average"`` evaluates the two
+sides, deg (above float32's resolution of the angle near 360 deg, 3e-5 deg)."""
 CONV_BLOCK_MAX = 12
 """The largest block of sectors of the banded scan convolution (:func:`conv_block`)."""
 
@@ -200,6 +224,25 @@ def canonical_elements(w_up: np.ndarray) -> np.ndarray:
     j, odd = sector // 2, sector % 2
     k = np.where(odd == 1, (j + 1) % 4, (-j) % 4)
     return 4 * odd + k
+
+
+def on_sector_boundary(w_up: np.ndarray) -> np.ndarray:
+    """Whether each free-stream wind's direction lies within :data:`BOUNDARY_TOLERANCE_DEG`
+    of a multiple of 45 deg (a zero wind does not), ``(B,)`` bool."""
+    w = np.asarray(w_up, dtype=np.float64)
+    alpha = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
+    off = np.abs(alpha - 45.0 * np.round(alpha / 45.0))
+    return (off < BOUNDARY_TOLERANCE_DEG) & (np.hypot(w[:, 0], w[:, 1]) > 0)
+
+
+def boundary_side(w_up: np.ndarray, sign: float) -> np.ndarray:
+    """Winds on a sector boundary turned to its ``sign`` side (+1: counter-clockwise) by
+    :data:`BOUNDARY_NUDGE_DEG` from the exact multiple of 45 deg, their speeds kept."""
+    w = np.asarray(w_up, dtype=np.float64)
+    alpha = np.radians(45.0 * np.round(np.degrees(np.arctan2(w[:, 1], w[:, 0])) / 45.0)
+                       + sign * BOUNDARY_NUDGE_DEG)
+    return np.hypot(w[:, 0], w[:, 1])[:, None] * np.column_stack([np.cos(alpha),
+                                                                  np.sin(alpha)])
 
 
 def d4_ring_indices(n: int) -> np.ndarray:
@@ -806,6 +849,9 @@ class Decoder:
         The parameters, named as in ``make_architecture(...).shapes()`` (cast to float32).
     metadata : dict
         At least ``architecture``, ``hyperparameters`` (with ``size``) and ``spacing`` (m).
+    boundary : {"average", "floor"}
+        A free-stream direction on a sector boundary of the d4-film's frame (a multiple of 45
+        deg): the mean of the two sides, or the side rounding picks (:data:`BOUNDARIES`).
 
     Attributes
     ----------
@@ -825,8 +871,12 @@ class Decoder:
     n_parameters : int
     """
 
-    def __init__(self, weights: dict, metadata: dict):
+    def __init__(self, weights: dict, metadata: dict, *, boundary: str = "average"):
         where = "Decoder"
+        if boundary not in BOUNDARIES:
+            raise ValueError(f"The 'boundary' parameter of {where} must be one of "
+                             f"{list(BOUNDARIES)}. Got {boundary!r} instead.")
+        self.boundary = boundary
         name = metadata.get("architecture")
         if name not in ARCHITECTURES:
             raise ValueError(f"The 'metadata' parameter of {where} must name an architecture "
@@ -890,11 +940,27 @@ class Decoder:
         ValueError
             Naming the argument, for a scan of the wrong length, NaN or negative ranges, NaN
             wind or a batch-size mismatch (:func:`windnav.predict.baselines.check_inputs`).
+
+        A ``w_up`` whose direction is a multiple of 45 deg is answered as :attr:`boundary`
+        says (:data:`BOUNDARIES`; by default the mean of the two sides, two more forward
+        passes for those samples).
         """
         scans, w_up, w_robot = check_inputs(scans, w_up, w_robot, "Decoder.predict")
         if scans.shape[1] != self.n_rays:
             raise ValueError(f"The 'scans' parameter of Decoder.predict must have "
                              f"{self.n_rays} rays per scan. Got shape {scans.shape} instead.")
+        out = self._predict(scans, w_up, w_robot)
+        if self.boundary == "average" and isinstance(self.arch, D4FilmArchitecture):
+            on = on_sector_boundary(w_up)
+            if on.any():  # the mean of the two sides: the symmetry holds there too
+                rows = np.flatnonzero(on)
+                sides = [self._predict(scans[rows], boundary_side(w_up[rows], sign),
+                                       w_robot[rows]) for sign in (1.0, -1.0)]
+                out[rows] = 0.5 * (sides[0] + sides[1])
+        return out
+
+    def _predict(self, scans, w_up, w_robot) -> np.ndarray:
+        """The network's field for checked inputs, in chunks of :data:`PREDICT_CHUNK`."""
         b, h = scans.shape[0], self.size
         out = np.empty((b, 2, h, h), dtype=np.float32)
         for i in range(0, b, PREDICT_CHUNK):
@@ -950,7 +1016,7 @@ def _jsonable(value):
     raise TypeError(f"{type(value).__name__} is not JSON serialisable")
 
 
-def load_decoder(path=None) -> Decoder:
+def load_decoder(path=None, *, boundary: str = "average") -> Decoder:
     """Load a wind flow decoder.
 
     Parameters
@@ -958,6 +1024,8 @@ def load_decoder(path=None) -> Decoder:
     path : str or path-like, optional
         A decoder file (.npz) written by :func:`save_decoder` or ``windnav train-decoder``.
         Default: the model shipped with windnav (``windnav/predict/data/decoder_default.npz``).
+    boundary : {"average", "floor"}
+        Free-stream directions on a multiple of 45 deg (:data:`BOUNDARIES`).
 
     Returns
     -------
@@ -1009,8 +1077,11 @@ def load_decoder(path=None) -> Decoder:
         raise ValueError(f"The 'path' parameter of {where} names {str(path)!r}, a decoder file "
                          f"of format version {version!r}; this windnav reads version "
                          f"{FORMAT_VERSION}. Retrain it with `windnav train-decoder`.")
+    if boundary not in BOUNDARIES:
+        raise ValueError(f"The 'boundary' parameter of {where} must be one of "
+                         f"{list(BOUNDARIES)}. Got {boundary!r} instead.")
     try:
-        return Decoder(arrays, meta)
+        return Decoder(arrays, meta, boundary=boundary)
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"The 'path' parameter of {where} names {str(path)!r}, whose "
                          f"parameters do not match its metadata: {exc}") from exc
