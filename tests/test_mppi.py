@@ -263,6 +263,22 @@ def test_sampling_bounds_smoothing_and_seed(base):
     assert np.std(uni) == pytest.approx((cfg.a_max - cfg.a_min) / np.sqrt(12), rel=0.02)
 
 
+@pytest.mark.parametrize("sigma", [0.7, 2.0, 5.97])
+def test_smoothing_taps_are_the_normalised_gaussian_of_std_sigma(base, sigma):
+    """Row k of G is SciPy's normal density of std ``sigma`` at ``j - k``, cut beyond
+    ``4 sigma`` and scaled to sum 1; away from the ends the taps' spread is ``sigma``."""
+    from scipy import stats
+    n = 60
+    g = smoothing_matrix(n, sigma)
+    d = np.arange(n)[None, :] - np.arange(n)[:, None]
+    ref = stats.norm.pdf(d, scale=sigma) * (np.abs(d) <= 4.0 * sigma)
+    np.testing.assert_allclose(g, ref / ref.sum(axis=1, keepdims=True), rtol=1e-12, atol=1e-300)
+    if sigma >= 2.0:   # the discrete second moment is sigma^2 (the 4-sigma cut takes 0.1 %)
+        mid = n // 2
+        assert np.sum(d[mid] ** 2 * g[mid]) == pytest.approx(sigma**2, rel=5e-3)
+    assert base.sigma_gf == 5.97   # the planners' width is among the cases
+
+
 @pytest.mark.parametrize("shape", [(25, 1000), (187, 100), (9, 37), (3, 300)])
 def test_the_smoothing_is_the_float32_sum_over_taps_in_order_to_the_bit(base, shape):
     """perturb_clip_smooth works in column blocks and four taps per pass; every element must

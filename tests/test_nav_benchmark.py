@@ -15,11 +15,13 @@ import os
 import platform
 import subprocess
 import sys
+import zlib
 from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from scipy import stats
 
 import windnav.commands.benchmark_nav as bench_cmd
 import windnav.experiments.arithmetic as ar
@@ -697,6 +699,42 @@ def test_goal_clearance_is_derived_from_the_suite_maps_and_banded_in_the_table()
     md = render_table(benchmark_table(recs))
     assert ("| 5 m/s | goal <25 m | goal 25-40 m | goal 40-60 m | goal >=60 m |" in md
             and "| mppi | 50.0 (6) | 50.0 (2) | 100.0 (1) | 0.0 (1) | 50.0 (2) |" in md)
+
+
+def _energy_records(variant, energies_J):
+    return [{"scenario_id": f"s/m00/w{i:02d}/p0", "variant": variant, "outcome": "success",
+             "speed": 5.0, "energy_J": e, "rotor_energy_J": 2.0 * e, "mean_cmd_accel": 1.0,
+             "time_s": 30.0, "distance_m": 300.0} for i, e in enumerate(energies_J)]
+
+
+def test_mean_interval_is_students_t_with_n_minus_1_degrees_of_freedom():
+    """Each metric's interval is SciPy's t interval of the mean, ``n - 1`` degrees of freedom."""
+    kj = [1.0, 2.0, 3.0, 4.0, 5.0]
+    recs = _energy_records("mppi", [1000.0 * e for e in kj])
+    for confidence in (0.95, 0.9):
+        m = benchmark_table(recs, n_boot=0, confidence=confidence)["rows"]["mppi"]["metrics"]
+        want = stats.t.interval(confidence, len(kj) - 1, loc=np.mean(kj),
+                                scale=np.std(kj, ddof=1) / np.sqrt(len(kj)))
+        np.testing.assert_allclose(m["energy_kJ"]["ci95"], want, rtol=1e-12)
+
+
+def test_table_ratio_interval_is_the_2_5_and_97_5_percentiles_of_its_resamples():
+    """The ratio's interval from the row's own stream (the seed and the label's CRC-32):
+    resample each sample's mean ``n_boot`` times, variant first, then take the central 95 %
+    (or 90 %) of ``1 - mean_variant / mean_reference``."""
+    e_ref = np.array([1000.0, 2600.0, 3000.0, 4100.0, 5000.0, 7000.0])
+    e_var = np.array([900.0, 1500.0, 3300.0, 3000.0, 5500.0])
+    recs = _energy_records("mppi", e_ref) + _energy_records("ea-mppi-w", e_var)
+    n_boot = 4000
+    for confidence, seed in ((0.95, 0), (0.9, 3)):
+        t = benchmark_table(recs, n_boot=n_boot, rng=seed, confidence=confidence)
+        got = t["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]["table_ratio"]["ci95"]
+        gen = np.random.default_rng([seed, zlib.crc32(b"ea-mppi-w")])
+        mv = e_var[gen.integers(0, e_var.size, (n_boot, e_var.size))].mean(axis=1)
+        mr = e_ref[gen.integers(0, e_ref.size, (n_boot, e_ref.size))].mean(axis=1)
+        tail = 0.5 * (1.0 - confidence)
+        want = np.quantile(1.0 - mv / mr, [tail, 1.0 - tail])
+        np.testing.assert_allclose(got, want, rtol=1e-12)
 
 
 def test_table_without_reference_or_flights():

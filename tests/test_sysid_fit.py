@@ -98,6 +98,31 @@ def test_min_run_drops_short_runs():
     assert kept[(t > 3) & (t < 6)].all()
 
 
+
+def test_min_run_keeps_a_run_exactly_min_s_long_and_drops_a_shorter_one():
+    """A run's length is the time from its first to its last sample; runs of at least
+    ``min_s`` stay. Dyadic times make the lengths exact, so the boundary is sharp."""
+    t = 0.25 * np.arange(60)
+    mask = np.zeros(t.size, bool)
+    mask[4:13] = True    # t 1.00 .. 3.00: 2.00 s, exactly min_s
+    mask[20:28] = True   # t 5.00 .. 6.75: 1.75 s
+    mask[32:45] = True   # t 8.00 .. 11.00: 3.00 s
+    kept = min_run(t, mask, 2.0)
+    # brute force: each maximal run of True, kept when last - first >= min_s
+    want = mask.copy()
+    i = 0
+    while i < t.size:
+        if mask[i]:
+            j = i
+            while j + 1 < t.size and mask[j + 1]:
+                j += 1
+            want[i:j + 1] = t[j] - t[i] >= 2.0
+            i = j + 1
+        else:
+            i += 1
+    np.testing.assert_array_equal(kept, want)
+    assert kept[4:13].all() and not kept[20:28].any() and kept[32:45].all()
+
 # --- readers -----------------------------------------------------------------------------
 def test_read_table_names_the_file_line_and_column_of_a_bad_value(tmp_path):
     path = tmp_path / "stand.csv"

@@ -71,6 +71,34 @@ def test_accelerometer_is_the_non_gravitational_part_of_the_velocity_dynamics():
     np.testing.assert_allclose(wm.specific_force(X, prm), a, atol=1e-12)
 
 
+def test_force_law_is_the_thesis_model_in_closed_form():
+    """Against the thesis's force law written out here (body axes, ``v_a = v_b - w_b``):
+    ``m f = k_eta sum eta^2 e3 - sum eta diag(k_d, k_d, k_z) v_a + N k_h (v_ax^2 + v_ay^2) e3
+    - |v_a| diag(c_dx, c_dy, c_dz) v_a``, and ``v_b' = f - R^T g e3 - Omega x v_b`` with SciPy's
+    ZYX rotation; at these airspeeds the k_h lift is about 5 % of the force along e3 (median)."""
+    p = P_HB
+    X = random_states(np.random.default_rng(11), 40)
+    eta, va = X[:, 12:], X[:, 6:9] - X[:, 9:12]
+    s1, s2 = eta.sum(axis=1), (eta**2).sum(axis=1)
+    speed = np.linalg.norm(va, axis=1)
+    thrust = p.k_eta * s2 + p.n_rotors * p.k_h * (va[:, 0] ** 2 + va[:, 1] ** 2)
+    force = np.column_stack([
+        -s1 * p.k_d * va[:, 0] - speed * p.c_dx * va[:, 0],
+        -s1 * p.k_d * va[:, 1] - speed * p.c_dy * va[:, 1],
+        thrust - s1 * p.k_z * va[:, 2] - speed * p.c_dz * va[:, 2]])
+    f = force / p.mass
+    lift = p.n_rotors * p.k_h * (va[:, 0] ** 2 + va[:, 1] ** 2) / p.mass
+    assert np.median(lift / f[:, 2]) > 0.03   # the k_h term matters at these states
+    for frame in ("world", "body"):
+        prm = wm.model_constants(p, wind_frame=frame)
+        np.testing.assert_allclose(wm.specific_force(X, prm), f, rtol=1e-12, atol=1e-12)
+        R = Rotation.from_euler("ZYX", X[:, :3]).as_matrix()
+        g_body = np.einsum("bji,j->bi", R, [0.0, 0.0, wn.vehicle.GRAVITY])
+        dv = f - g_body - np.cross(X[:, 3:6], X[:, 6:9])
+        got = wm.state_derivative(X, np.full(p.n_rotors, 500.0), prm)[:, 6:9]
+        np.testing.assert_allclose(got, dv, rtol=1e-10, atol=1e-10)
+
+
 def test_linear_drag_limit_matches_the_appendix_model():
     """Without lift and parasitic drag, a_x = -(k_d sum(eta) / m) (v_x - w_x)."""
     p = P_HB.replace(k_h=0.0, c_dx=0.0, c_dy=0.0, c_dz=0.0)
@@ -343,6 +371,33 @@ def test_accel_from_odometry_equals_fusing_the_differenced_velocity_explicitly()
     np.testing.assert_allclose(inside.P, explicit.P, rtol=1e-10, atol=1e-16)
     for k, R in blocks_before.items():
         np.testing.assert_array_equal(inside.ukf.blocks[k].R, R)
+
+
+def test_accel_from_25_hz_odometry_differences_over_the_four_steps_between_samples():
+    """Odometry every 4th step of a 100 Hz filter: the filter fuses
+    a_b = R^T ((v_k - v_(k-4)) / (4 dt) + g e3) with std sqrt(2) sigma_v / (4 dt), the same as
+    fusing that accelerometer explicitly at the odometry steps."""
+    rng = np.random.default_rng(12)
+    xs, us, zs = synthetic_flight(1.0, np.array([2.0, 1.0, 0.0]), "world", rng)
+    every = 4
+    interval = every * DT
+    inside = WindUKF(P_HB, DT, accel_from_odometry=True)
+    sigma_v = DEFAULT_R["odom_velocity"]
+    explicit = WindUKF(P_HB, DT, r={"accel": np.sqrt(2.0) * sigma_v / interval})
+    prev = None
+    for k, (u, z) in enumerate(zip(us, zs, strict=True)):
+        odom = z["odom"] if k % every == 0 else None
+        inside.step(u, {"gyro": z["gyro"], "odom": odom})
+        accel = None
+        if odom is not None:
+            if prev is not None:
+                a_world = (odom[:3] - prev[:3]) / interval + np.array([0.0, 0.0,
+                                                                       wn.vehicle.GRAVITY])
+                accel = wm.euler_to_matrix(odom[3:])[0].T @ a_world
+            prev = odom
+        explicit.step(u, {"gyro": z["gyro"], "odom": odom, "accel": accel})
+    np.testing.assert_allclose(inside.x, explicit.x, rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(inside.P, explicit.P, rtol=1e-8, atol=1e-14)
 
 
 def test_wind_frame_default_is_the_same_everywhere():
