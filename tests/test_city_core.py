@@ -276,6 +276,19 @@ def test_overlap_rasterisation_is_conservative(dx):
         city.rasterize(x, y, rule="nearest")
 
 
+def test_overlap_rule_on_footprint_edges_that_are_cell_edges():
+    """Whole-metre buildings on a 1 m grid (the usual case): a cell that only touches the
+    footprint along an edge (zero overlap area) stays free, on every side. [10, 20] x [10, 20]
+    covers exactly the 10 x 10 cells centred at 10.5 ... 19.5."""
+    city = City((0.0, 30.0, 0.0, 30.0), [[10.0, 20.0, 10.0, 20.0]], [5.0])
+    x, y = city.grid(1.0)
+    over = city.rasterize(x, y, rule="overlap")
+    inside_x, inside_y = (x > 10.0) & (x < 20.0), (y > 10.0) & (y < 20.0)
+    assert over.sum() == 100, f"{over.sum()} cells marked, expected 100"
+    np.testing.assert_array_equal(over, inside_y[:, None] & inside_x[None, :])
+    np.testing.assert_array_equal(over, _overlap_reference(city, x, y, 1.0))
+
+
 def test_a_thin_wall_cannot_vanish_from_the_flow():
     """Issue 13.5: a 0.2 m wall across the map vanished at dx = 1 m and --dx 100 on a 40 m
     map removed every building, both silently. The solver now refuses, naming the block and

@@ -108,6 +108,23 @@ def test_mean_near_buildings_is_unbiased_within_its_own_half_window_difference()
     assert long.half_window_difference < short.half_window_difference
 
 
+def test_half_window_difference_is_the_rms_over_fluid_cells_of_the_frames_halves():
+    """Its definition rebuilt from every step's frame (record_every=1, 12 steps): the means of
+    frames 1-6 and 7-12, the RMS over fluid cells (buildings excluded, 11 % of this map) of
+    their difference's magnitude, divided by the speed."""
+    city = city_of([[15, 25, 12, 28], [35, 45, 5, 15]], 60.0, 40.0)
+    sol = simulate(city, speed=5.0, direction_deg=10.0, dx=1.0, dt=0.25, spinup_steps=10,
+                   steps=12, record_every=1)
+    fluid = ~sol.solid
+    assert sol.frames_u.shape[0] == 12 and 0.05 < sol.solid.mean() < 0.5
+    du = sol.frames_u[:6].mean(axis=0) - sol.frames_u[6:].mean(axis=0)
+    dv = sol.frames_v[:6].mean(axis=0) - sol.frames_v[6:].mean(axis=0)
+    expected = math.sqrt(np.mean((du**2 + dv**2)[fluid])) / 5.0
+    assert expected > 0.01
+    assert sol.half_window_difference == pytest.approx(expected, rel=1e-9), \
+        "half_window_difference must be the RMS over fluid cells only"
+
+
 def test_diagnostics_count_flow_throughs_along_the_wind():
     sol = simulate(empty_city(200.0, 100.0), speed=4.0, direction_deg=0.0, dt=0.25,
                    spinup_steps=20, steps=40)
@@ -144,6 +161,23 @@ def test_eddy_viscosity_is_zero_in_uniform_flow_and_closed_form_in_simple_shear(
     top = _eddy_viscosity(u, v, solid, 0.01, cs_delta**2, 1 / dx, corner, out)
     np.testing.assert_allclose(out[1:-1, :], 0.01 + cs_delta**2 * gamma, rtol=1e-12)
     assert top == pytest.approx(0.01 + cs_delta**2 * gamma)
+
+
+def test_eddy_viscosity_is_closed_form_in_pure_strain():
+    """Pure strain u = gamma x, v = -gamma y (no shear): |S| = sqrt(2 (u_x^2 + v_y^2) +
+    (u_y + v_x)^2) = sqrt(2 (gamma^2 + gamma^2)) = 2 gamma, so nu = nu0 + (C_s Delta)^2 2 gamma
+    in every cell (the face differences of a linear field are exact, the edges included)."""
+    ny, nx, dx, gamma, cs_delta, nu0 = 10, 14, 0.5, 0.3, 0.2, 0.01
+    grid = MACGrid((ny, nx), dx)
+    solid = np.zeros((ny, nx), bool)
+    out, corner = np.zeros((ny, nx)), np.zeros((ny + 1, nx + 1))
+    u = gamma * grid.x_faces[None, :] + np.zeros((ny, 1))
+    v = -gamma * grid.y_faces[:, None] + np.zeros((1, nx))
+    top = _eddy_viscosity(u, v, solid, nu0, cs_delta**2, 1 / dx, corner, out)
+    expected = nu0 + cs_delta**2 * 2.0 * gamma
+    np.testing.assert_allclose(out, expected, rtol=1e-12,
+                               err_msg="nu_t of pure strain must be (C_s Delta)^2 * 2 gamma")
+    assert top == pytest.approx(expected)
 
 
 def test_eddy_diffusion_stays_bounded_for_any_viscosity():

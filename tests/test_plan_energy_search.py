@@ -140,3 +140,77 @@ def test_a_map_without_buildings_is_free_everywhere(gs_w):
     assert free.all()
     r = energy_route(city, (3, 3), (17, 17), gs_w)
     assert r.length == pytest.approx(np.hypot(14, 14))
+
+
+def test_edge_weight_uses_the_mean_wind_of_its_two_cells(gs_w):
+    """Two free cells, winds (4, 0) and (-4, 3) m/s: both edges (+x and -x) weigh
+    L min_v P(|v e - w|) / (P_hover v) over the speed levels, w = (0, 1.5) the cells' mean,
+    against a brute-force minimum over the levels with the power curve."""
+    from windnav.plan import _search_kernels as SK
+    from windnav.plan.energy_search import _guards
+
+    dx = 2.0
+    free = np.ones((1, 2), bool)
+    wind = np.array([[[4.0, 0.0], [-4.0, 3.0]]])
+    speeds = np.arange(0.5, 20.0 + 1e-9, 0.25)
+    n_cap = free.size * len(MOVES)
+    rows, cols = np.empty(n_cap, np.int64), np.empty(n_cap, np.int64)
+    weights, levels = np.empty(n_cap), np.empty(n_cap, np.int64)
+    n = SK.edge_weights(free, wind, MOVES, _guards(MOVES), dx, speeds, gs_w.power_table(),
+                        rows, cols, weights, levels)
+    assert n == 2 and sorted(zip(rows[:n], cols[:n], strict=True)) == [(0, 1), (1, 0)]
+    w_mean = wind[0].mean(axis=0)
+    for k in range(n):
+        e = np.array([1.0, 0.0]) if cols[k] == 1 else np.array([-1.0, 0.0])
+        per_metre = gs_w.power(np.hypot(*(speeds[:, None] * e - w_mean).T)) / speeds
+        expected = dx * per_metre.min() / gs_w.hover_power
+        assert weights[k] == pytest.approx(expected, rel=1e-12), \
+            f"edge {rows[k]}->{cols[k]} must use the mean wind {w_mean} of its two cells"
+        assert speeds[levels[k]] == speeds[np.argmin(per_metre)]
+
+
+def _cells_met(di, dj):
+    """Brute force: cells (i, j) (unit squares centred on integers) whose closed square the
+    segment (0, 0) -> (di, dj) meets, by exact slab clipping in rationals."""
+    from fractions import Fraction as F
+
+    met = set()
+    for i in range(min(0, di) - 1, max(0, di) + 2):
+        for j in range(min(0, dj) - 1, max(0, dj) + 2):
+            lo, hi = F(0), F(1)
+            for c, d in ((i, di), (j, dj)):  # c - 1/2 <= t d <= c + 1/2
+                a, b = F(2 * c - 1, 2), F(2 * c + 1, 2)
+                if d == 0:
+                    lo, hi = (lo, hi) if a <= 0 <= b else (F(1), F(0))
+                else:
+                    t1, t2 = sorted((a / d, b / d))
+                    lo, hi = max(lo, t1), min(hi, t2)
+            if lo <= hi:
+                met.add((i, j))
+    return met
+
+
+def test_a_move_is_refused_exactly_when_it_meets_a_blocked_cell():
+    """Every one of the 16 moves from the centre of a free 5 x 5 grid, with one other cell
+    blocked at a time: refused exactly when the straight move meets that cell's closed square
+    (brute force), e.g. the knight move (2, 1) from (0, 0) crosses (1, 0) and (1, 1)."""
+    from windnav.plan import _search_kernels as SK
+    from windnav.plan.energy_search import _guards
+
+    guards = _guards(MOVES)
+    assert _cells_met(2, 1) == {(0, 0), (1, 0), (1, 1), (2, 1)}
+    knight = int(np.flatnonzero((MOVES == (2, 1)).all(axis=1))[0])
+    free = np.ones((3, 3), bool)
+    free[1, 1] = False  # [j, i]: the cell (1, 1) the knight move (2, 1) from (0, 0) crosses
+    assert not SK.move_ok(free, 0, 0, knight, MOVES, guards), "(2, 1) cuts the blocked (1, 1)"
+    for m, (di, dj) in enumerate(MOVES):
+        met = _cells_met(int(di), int(dj))
+        for bj in range(-2, 3):
+            for bi in range(-2, 3):
+                if (bi, bj) == (0, 0):
+                    continue
+                free = np.ones((5, 5), bool)
+                free[2 + bj, 2 + bi] = False
+                ok = SK.move_ok(free, 2, 2, m, MOVES, guards)
+                assert ok == ((bi, bj) not in met), \
+                    f"move {(int(di), int(dj))} with cell {(bi, bj)} blocked: move_ok={ok}"

@@ -65,6 +65,25 @@ def test_field_errors_match_hand_computed_values():
     assert loose["direction_error_masked_deg"] == pytest.approx(out["direction_error_deg"])
 
 
+def test_masked_direction_error_masks_by_the_true_speed_not_the_predicted_one():
+    """Inlet 10 m/s, so the mask keeps |u| >= 1 m/s of the truth u. Cell A: slow truth (0.5, 0),
+    fast prediction (0, 2), 90 deg: left out. Cell B: fast truth (3, 0), slow prediction
+    (-0.3, 0.4), arccos(-0.6) deg: kept. Cells C (0 deg) and D (45 deg): fast both, kept."""
+    true = np.zeros((1, 2, 2, 2))
+    pred = np.zeros((1, 2, 2, 2))
+    cells = [((0.5, 0.0), (0.0, 2.0)), ((3.0, 0.0), (-0.3, 0.4)),
+             ((0.0, 2.0), (0.0, 4.0)), ((2.0, 0.0), (2.0, 2.0))]
+    for k, (t, p) in enumerate(cells):
+        true[0, :, k // 2, k % 2] = t
+        pred[0, :, k // 2, k % 2] = p
+    out = field_errors(pred, true, np.ones((1, 2, 2), bool), np.array([10.0]))
+    b = np.degrees(np.arccos(-0.6))
+    assert out["direction_error_deg"] == pytest.approx((90.0 + b + 0.0 + 45.0) / 4)
+    assert out["n_direction_masked"] == 3
+    assert out["direction_error_masked_deg"] == pytest.approx((b + 0.0 + 45.0) / 3), \
+        "the mask must keep cell B (true 3 m/s) and drop cell A (true 0.5 m/s)"
+
+
 def test_field_errors_of_the_truth_are_zero_and_empty_masks_give_nan():
     rng = np.random.default_rng(0)
     true = rng.normal(size=(3, 2, 5, 5)).astype(np.float32)

@@ -148,6 +148,31 @@ def test_wind_gradient_moment_matches_the_closed_form():
     assert min(abs(v) for v in expected) > 1e-4  # every term is far above round-off
 
 
+def test_flapping_moment_of_a_y_wind_gradient_matches_the_closed_form():
+    """The y-airflow companion of the test above (which checks only the flapping M_y). Level
+    hover, y-wind v_i = 3 + 2 x_i at hub i of the quad-X (sum x_i = sum x_i y_i = sum x_i^2 y_i
+    = 0, sum v_i = 12). Hub airspeed (0, -v_i, 0), so f_i = (0, k_d eta v_i, k_eta eta^2 +
+    k_h v_i^2) and the flapping moment Mf_i = -k_flap eta (v_a,i x e3) = (k_flap eta v_i, 0, 0):
+
+        M_x = k_h sum y_i v_i^2 + k_flap eta sum v_i = 12 k_flap eta
+        M_y = -k_h sum x_i v_i^2 = -12 k_h sum x_i^2
+        M_z = k_d eta sum x_i v_i = 2 k_d eta sum x_i^2
+    """
+    p = wn.vehicle.params("hummingbird", k_flap=2.0e-6)
+    model = Multirotor(p)
+    s = model.hover_state([0.0, 0.0, 0.0])
+    eta = p.hover_rotor_speed
+    x = p.rotor_positions[:, 0]
+    hub = np.zeros((1, 4, 3))
+    hub[0, :, 1] = 3.0 + 2.0 * x  # y-wind increasing toward +x
+    m = model.derivatives(s, hub)["moment_body"][0]
+    sx2 = np.sum(x**2)
+    expected = [12.0 * p.k_flap * eta, -12.0 * p.k_h * sx2, 2.0 * p.k_d * eta * sx2]
+    np.testing.assert_allclose(m, expected, rtol=1e-9, atol=0.0,
+                               err_msg="moment_body (M_x carries the flapping term)")
+    assert min(abs(v) for v in expected) > 1e-4  # every term is far above round-off
+
+
 @pytest.mark.parametrize(
     "kwargs, name",
     [
