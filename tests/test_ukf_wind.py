@@ -413,3 +413,18 @@ def test_wind_frame_default_is_the_same_everywhere():
     assert defaults["WindUKF"] is None and defaults["run_wind_ukf"] is None, defaults
     assert WindUKF(P_HB).wind_frame == "world"
     assert WindUKF(P_HB)._prm[wm.PRM_WORLD_WIND] == 1.0
+
+
+def test_the_model_functions_name_commands_of_the_wrong_shape():
+    """A scalar command (one speed for every rotor) was a Numba TypingError deep inside the
+    kernel (mutation audit, 2026-12-05): named, for the derivative and the propagation."""
+    prm = wm.model_constants(P_HB)
+    x = np.zeros(16)
+    for call in (lambda u: wm.state_derivative(x[None], u, prm),
+                 lambda u: wm.process(x[None], 0.01, u, prm)):
+        with pytest.raises(ValueError, match=r"'u' parameter of (state_derivative|process) "
+                                             r"must be an array of the 4 commanded"):
+            call(500.0)
+        with pytest.raises(ValueError, match=r"Got shape \(3,\) instead"):
+            call(np.full(3, 500.0))
+        assert call(np.full(4, 500.0)).shape == (1, 16)

@@ -303,6 +303,17 @@ def _check_states(X, name: str, where: str) -> np.ndarray:
     return np.ascontiguousarray(X)
 
 
+def _check_commands(u, X: np.ndarray, where: str) -> np.ndarray:
+    """``u`` as a float64 array of one rotor speed per rotor of the states ``X`` (a scalar
+    was a Numba TypingError deep inside the kernel)."""
+    n = X.shape[1] - N_BASE
+    a = np.asarray(u, dtype=np.float64)
+    if a.shape != (n,):
+        raise ValueError(f"The 'u' parameter of {where} must be an array of the {n} commanded "
+                         f"rotor speeds (N,), rad/s. Got shape {a.shape} instead.")
+    return np.ascontiguousarray(a)
+
+
 def state_derivative(X, u, prm) -> np.ndarray:
     """Continuous-time derivative ``dx/dt`` of the Wind UKF model.
 
@@ -320,7 +331,7 @@ def state_derivative(X, u, prm) -> np.ndarray:
     ndarray of shape (S, 12 + N)
     """
     X = _check_states(X, "X", "state_derivative")
-    return _state_derivative(X, np.asarray(u, dtype=np.float64), prm)
+    return _state_derivative(X, _check_commands(u, X, "state_derivative"), prm)
 
 
 def process(X, dt: float, u, prm, n_substeps: int = 1) -> np.ndarray:
@@ -342,7 +353,8 @@ def process(X, dt: float, u, prm, n_substeps: int = 1) -> np.ndarray:
     -------
     ndarray of shape (S, 12 + N)
     """
-    return _process(X, float(dt), u, prm, int(n_substeps))
+    X = _check_states(X, "X", "process")
+    return _process(X, float(dt), _check_commands(u, X, "process"), prm, int(n_substeps))
 
 
 def specific_force(X, prm) -> np.ndarray:
