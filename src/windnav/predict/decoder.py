@@ -942,21 +942,27 @@ class Decoder:
             wind or a batch-size mismatch (:func:`windnav.predict.baselines.check_inputs`).
 
         A ``w_up`` whose direction is a multiple of 45 deg is answered as :attr:`boundary`
-        says (:data:`BOUNDARIES`; by default the mean of the two sides, two more forward
-        passes for those samples).
+        says (:data:`BOUNDARIES`; by default the mean of the two sides: two forward passes
+        for those samples, twice the time of a batch whose inlets all lie on one).
         """
         scans, w_up, w_robot = check_inputs(scans, w_up, w_robot, "Decoder.predict")
         if scans.shape[1] != self.n_rays:
             raise ValueError(f"The 'scans' parameter of Decoder.predict must have "
                              f"{self.n_rays} rays per scan. Got shape {scans.shape} instead.")
-        out = self._predict(scans, w_up, w_robot)
-        if self.boundary == "average" and isinstance(self.arch, D4FilmArchitecture):
-            on = on_sector_boundary(w_up)
-            if on.any():  # the mean of the two sides: the symmetry holds there too
-                rows = np.flatnonzero(on)
-                sides = [self._predict(scans[rows], boundary_side(w_up[rows], sign),
-                                       w_robot[rows]) for sign in (1.0, -1.0)]
-                out[rows] = 0.5 * (sides[0] + sides[1])
+        on = (on_sector_boundary(w_up)
+              if self.boundary == "average" and isinstance(self.arch, D4FilmArchitecture)
+              else None)
+        if on is None or not on.any():
+            return self._predict(scans, w_up, w_robot)
+        # the mean of the two sides on a boundary: the symmetry holds there too
+        out = np.empty((scans.shape[0], 2, self.size, self.size), dtype=np.float32)
+        off = np.flatnonzero(~on)
+        if off.size:
+            out[off] = self._predict(scans[off], w_up[off], w_robot[off])
+        rows = np.flatnonzero(on)
+        sides = [self._predict(scans[rows], boundary_side(w_up[rows], sign), w_robot[rows])
+                 for sign in (1.0, -1.0)]
+        out[rows] = 0.5 * (sides[0] + sides[1])
         return out
 
     def _predict(self, scans, w_up, w_robot) -> np.ndarray:
