@@ -127,7 +127,8 @@ def run(args, flow_settings=None) -> int:
                "n_free_cells": int(pred["free"].sum()),
                "n_window_cells": int(pred["free"].size),
                "decoder": {"architecture": dec.architecture, "size": dec.size,
-                           "path": str(args.model) if args.model else "default"},
+                           "path": str(args.model) if args.model else "default",
+                           "boundary": dec.boundary},
                "metrics": pred["metrics"],
                "flow_diagnostics": diagnostics, "averaging": verdict, "travel": travel,
                "training": training, "notes": notes}
