@@ -7,6 +7,8 @@ sweep harness with a stand-in solver whose answer is known in closed form.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -379,3 +381,27 @@ def test_field_from_solution_takes_the_inlet_of_the_solution():
     np.testing.assert_allclose(f.w_up, [0.0, 3.0], atol=1e-12)
     np.testing.assert_array_equal(f.u, sol.mean_u)
     assert field_from_solution(city, sol, (1.0, 2.0)).w_up.tolist() == [1.0, 2.0]
+
+
+def test_robot_positions_fill_the_band_around_a_building_by_area():
+    # one 40 m x 20 m building in the middle of a 400 m map; the admissible set (distance to the
+    # footprint in [c, r]) is four straight strips along the walls and four quarter annuli at
+    # the corners: each part's share of the positions is its share of the area
+    x0, x1, y0, y1 = 180.0, 220.0, 190.0, 210.0
+    city = City(bounds=(0.0, 400.0, 0.0, 400.0), footprints=[[x0, x1, y0, y1]],
+                heights=[20.0])
+    c, r, n = 5.0, 30.0, 20000
+    pos = robot_positions(city, n, 11, wall_clearance=c, building_reach=r)
+    x, y = pos[:, 0], pos[:, 1]
+    west, east, south, north = x < x0, x > x1, y < y0, y > y1
+    mid_x, mid_y = ~west & ~east, ~south & ~north
+    strip_x, strip_y = (x1 - x0) * (r - c), (y1 - y0) * (r - c)
+    corner = math.pi * (r * r - c * c) / 4
+    total = 2 * strip_x + 2 * strip_y + 4 * corner
+    parts = {"west": (west & mid_y, strip_y), "east": (east & mid_y, strip_y),
+             "south": (south & mid_x, strip_x), "north": (north & mid_x, strip_x),
+             "south-west": (west & south, corner), "south-east": (east & south, corner),
+             "north-west": (west & north, corner), "north-east": (east & north, corner)}
+    for name, (inside, area) in parts.items():
+        share = area / total  # binomial standard error <= 0.0035 at n = 20,000
+        assert np.mean(inside) == pytest.approx(share, abs=0.015), name

@@ -146,3 +146,37 @@ def test_the_shedding_notes_an_obstacle_reynolds_number_without_constant_strouha
          100)
     assert "note: the model obstacle's Reynolds number U W / nu is 33.3" in \
         capsys.readouterr().err
+
+
+@pytest.mark.parametrize("sim", [Similitude.thesis(), Similitude(1.8, 0.055),
+                                 Similitude(10.0, 1.0, 4.0)])
+def test_froude_ratios_follow_from_the_dimensions(sim):
+    # model / full-scale ratios from first principles, with the model's length ratio L = 1 / lam:
+    # equal Froude number U^2 / (g L) gives U ~ L^0.5; time = length / speed; frequency = 1 /
+    # time; mass ~ L^3 (same density); acceleration = speed / time ~ 1 (same g); force = mass x
+    # acceleration; power = force x speed; Reynolds = speed x length / nu (same air)
+    length = 1.0 / sim.length_scale
+    speed = math.sqrt(length)
+    time = length / speed
+    mass = length**3
+    force = mass * (speed / time)
+    want = {"speed": speed, "time": time, "frequency": 1.0 / time, "mass": mass,
+            "force": force, "power": force * speed, "reynolds": speed * length}
+    froude = sim.report()["froude"]
+    assert set(froude) == set(want) | {"note"}
+    for name, value in want.items():
+        assert froude[name] == pytest.approx(value, rel=1e-12), name
+    # power, checked once more against momentum theory: ideal hover power sqrt(T^3 / (2 rho A))
+    # with the thrust T = m g of the scaled mass and the disc area A of the scaled diameter
+    def hover_power(mass_kg, diameter_m, rho=1.2):
+        return math.sqrt((mass_kg * 9.81) ** 3 / (2 * rho * math.pi * diameter_m**2 / 4))
+
+    p_fs = hover_power(2000.0, 1.8)
+    p_m = hover_power(sim.model_mass(2000.0), 1.8 * length)
+    assert p_m / p_fs == pytest.approx(froude["power"], rel=1e-12)
+    # Reynolds scaling: the speed it asks of the model gives it the full-scale Reynolds number
+    u = 7.0
+    assert sim.reynolds(sim.reynolds_model_speed(u), 1.8 * length) == pytest.approx(
+        sim.reynolds(u, 1.8), rel=1e-12)
+    assert sim.reynolds(sim.model_speed(u), 1.8 * length) / sim.reynolds(u, 1.8) == (
+        pytest.approx(froude["reynolds"], rel=1e-12))

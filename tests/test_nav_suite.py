@@ -1,0 +1,85 @@
+"""The benchmark suite's scenario rules, against closed forms and brute force.
+
+The harness itself (store, table, flights) is tested in ``test_nav_benchmark.py``; here the
+suite's geometry: the clearance from a point to the buildings, and the spread of the start/goal
+directions inside the wind cone.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from windnav.city import City
+from windnav.experiments.nav_suite import clearance_to_buildings, get_suite, make_suite
+
+# two buildings [x_min, x_max, y_min, y_max], m
+FOOTPRINTS = [[100.0, 140.0, 200.0, 220.0], [300.0, 310.0, 50.0, 120.0]]
+
+
+def two_buildings():
+    return City(bounds=(0.0, 400.0, 0.0, 400.0), footprints=FOOTPRINTS, heights=[20.0, 30.0])
+
+
+def test_clearance_is_the_euclidean_distance_to_the_nearest_footprint():
+    city = two_buildings()
+    cases = [
+        ((143.0, 224.0), 5.0),    # beyond the north-east corner by (3, 4): a 3-4-5 triangle
+        ((94.0, 192.0), 10.0),    # beyond the south-west corner by (6, 8)
+        ((96.0, 210.0), 4.0),     # beside the west edge
+        ((120.0, 195.0), 5.0),    # below the south edge
+        ((120.0, 210.0), 0.0),    # inside
+        ((140.0, 220.0), 0.0),    # on a corner
+        ((315.0, 132.0), 13.0),   # second building: (5, 12) from its north-east corner
+        ((220.0, 160.0), math.hypot(80.0, 40.0)),  # (80, 40) from a corner of each building
+    ]
+    pts = np.array([p for p, _ in cases])
+    want = np.array([d for _, d in cases])
+    np.testing.assert_allclose(clearance_to_buildings(city, pts), want, rtol=0, atol=1e-12)
+
+
+def test_clearance_agrees_with_densely_sampled_walls():
+    city = two_buildings()
+    spacing = 0.01  # m between samples along the walls: the brute force is within spacing / 2
+    walls = []
+    for x0, x1, y0, y1 in FOOTPRINTS:
+        xs = np.arange(x0, x1 + spacing / 2, spacing)
+        ys = np.arange(y0, y1 + spacing / 2, spacing)
+        walls += [np.c_[xs, np.full_like(xs, y0)], np.c_[xs, np.full_like(xs, y1)],
+                  np.c_[np.full_like(ys, x0), ys], np.c_[np.full_like(ys, x1), ys]]
+    walls = np.concatenate(walls)
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(0.0, 400.0, (200, 2))
+    inside = np.zeros(len(pts), bool)
+    for x0, x1, y0, y1 in FOOTPRINTS:
+        inside |= ((pts[:, 0] >= x0) & (pts[:, 0] <= x1) & (pts[:, 1] >= y0)
+                   & (pts[:, 1] <= y1))
+    pts = pts[~inside]
+    brute = np.array([np.hypot(*(walls - p).T).min() for p in pts])
+    got = clearance_to_buildings(city, pts)
+    assert np.all(got <= brute + 1e-9)
+    assert np.all(brute - got <= spacing / 2 + 1e-9)
+
+
+def test_thesis_pair_directions_spread_over_the_whole_cone():
+    # the start-to-goal heading, relative to the wind (tailwind) or its opposite (headwind), is
+    # drawn uniform in (-45, 45) deg: both sides of the wind, about evenly
+    spec = get_suite("thesis")
+    suite = make_suite(spec)  # 1,024 pairs, under a second
+    offsets = []
+    for sc in suite:
+        v = np.subtract(sc.goal, sc.start)
+        heading = math.degrees(math.atan2(v[1], v[0]))
+        target = sc.direction_deg + (0.0 if sc.kind == "tailwind" else 180.0)
+        offsets.append((heading - target + 180.0) % 360.0 - 180.0)
+    offsets = np.array(offsets)
+    assert len(offsets) == 1024
+    assert np.all(np.abs(offsets) <= spec.cone_deg + 1e-9)
+    for kind in ("tailwind", "headwind"):
+        half = offsets[[sc.kind == kind for sc in suite]]
+        assert 0.4 <= np.mean(half > 0) <= 0.6, kind
+    assert stats.kstest(offsets, stats.uniform(-45.0, 90.0).cdf).pvalue > 1e-3
+    assert np.mean(offsets) == pytest.approx(0.0, abs=3.0)  # standard error ~0.8 deg
