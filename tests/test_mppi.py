@@ -158,6 +158,34 @@ def test_mission_energy_matches_the_numpy_reference(base, use_wind):
     np.testing.assert_allclose(costs, parts[:, 0] + cfg.energy_weight * je, rtol=1e-10)
 
 
+def test_the_planner_gives_the_mission_energy_the_uncapped_goal(base):
+    # J_prog sees the goal capped at D_max, the mission energy the real one (500 m away):
+    # the problem the planner hands its rollout cost, recorded by an injected cost
+    cfg = dataclasses.replace(base, n_samples=32, n_steps=20, energy_mode="mission")
+    seen = []
+
+    def recording_cost(config, controls, problem):
+        seen.append(problem)
+        return fused_rollout_cost(config, controls, problem)
+
+    pos, goal_true = np.array([20.0, -10.0]), np.array([480.0, 140.0])
+    planner = MPPIPlanner(cfg, goal_xy=pos + goal_true, rng=1, rollout_cost=recording_cost)
+    wind = LocalWind.uniform([3.0, -1.0])
+    planner.update([*pos, 1.0, 0.5], None, wind)
+    (problem,) = seen
+    dist = np.hypot(*goal_true)
+    assert dist == pytest.approx(500.0) and cfg.lidar_range == 100.0
+    np.testing.assert_allclose(problem.goal, goal_true * 100.0 / dist, rtol=1e-12)
+    # e_R by brute force over ground speeds towards the goal in the wind, s/m
+    d = goal_true / dist
+    speeds = np.linspace(0.5, 25.0, 200001)
+    e_r = np.min(cfg.power(np.hypot(speeds * d[0] - 3.0, speeds * d[1] + 1.0))
+                 / cfg.hover_power / speeds)
+    np.testing.assert_allclose(problem.mission[:4], [1.0, *goal_true, cfg.goal_radius],
+                               rtol=1e-12)
+    assert problem.mission[4] == pytest.approx(e_r, rel=1e-4)
+
+
 def test_mission_energy_is_least_at_the_max_range_speed(base):
     # a straight flight at constant ground speed V towards a far goal for the whole horizon:
     # its mission energy T P(V) + e_R (D - V T) is least near V_R (P'(V_R) = P(V_R) / V_R),

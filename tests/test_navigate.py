@@ -5,6 +5,7 @@ One small map (140 m x 120 m, one building between start and goal) and one short
 """
 
 import argparse
+import dataclasses
 import json
 
 import numpy as np
@@ -12,7 +13,14 @@ import pytest
 
 import windnav.commands.navigate as nav_cmd
 from windnav.city import City
-from windnav.experiments.navigate import OUTCOMES, navigate, simulate_flow
+from windnav.experiments.navigate import (
+    GOAL_RADIUS,
+    HOLD_S,
+    HOVER_SPEED,
+    OUTCOMES,
+    navigate,
+    simulate_flow,
+)
 from windnav.plan import planner_config
 from windnav.vehicle import params
 from windnav.vehicle.power import PowerCurve
@@ -208,6 +216,22 @@ def test_leaving_the_map_and_hovering_and_timeout(city, flow):
     slow = fly(city, flow, planner=Constant([0.0, 0.3]), duration=3.0)
     assert slow.outcome == "timeout" and slow.time_s == pytest.approx(3.0)
     assert set(o.outcome for o in (out, still, slow)) <= set(OUTCOMES)
+
+
+@pytest.mark.parametrize(("offset", "outcome"), [(7.0, "hover"), (4.0, "success")])
+def test_success_needs_the_goal_radius_not_the_capture_radius(city, flow, offset, outcome):
+    # still air and a 0.5 deg tilt cap: the goal hold (from 10 m) creeps at most
+    # 0.5 g tan(0.5 deg) t^2 = 1.1 m in 5 s, so a vehicle 7 m out stays beyond the 5 m
+    # success radius, slow, and hovers; 4 m out it succeeds
+    still = dataclasses.replace(flow, **{k: np.zeros_like(getattr(flow, k)) for k in
+                                         ("mean_u", "mean_v", "frames_u", "frames_v")})
+    start = (GOAL[0] - offset, GOAL[1])
+    res = fly(city, still, planner=Brake(), start=start, tilt_max_deg=0.5)
+    d = goal_distance(res)
+    assert d[0] == pytest.approx(offset) and res.settings["capture_radius"] == 10.0
+    assert res.outcome == outcome and res.time_s == pytest.approx(HOLD_S, abs=0.02)
+    assert np.all((d > GOAL_RADIUS) if outcome == "hover" else (d <= GOAL_RADIUS))
+    assert np.all(np.hypot(*res.velocity[:, :2].T) <= HOVER_SPEED)
 
 
 def test_a_nan_planner_update_falls_back_to_hover_and_is_counted(city, flow):
