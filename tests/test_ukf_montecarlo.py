@@ -66,6 +66,11 @@ def test_small_study_records_and_summary():
     forced = [{**t, "outside_envelope_fraction": 0.2} if t["index"] == 1 else t
               for t in out["trials"]]
     assert mc.summarize(forced)["n_outside_envelope"] == 1
+    # the filter's drag model under the default conditions is the calibrated vehicle's: no
+    # bias worth a note; the summary gives the largest (misspecification audit, 2026-12-05)
+    for t in out["trials"]:
+        assert t["median_horizontal_airspeed"] > 0 and abs(t["drag_model_bias"]) < 0.1
+    assert s["max_drag_model_bias"] == max(abs(t["drag_model_bias"]) for t in out["trials"])
     json.dumps(out)  # JSON-ready
 
 

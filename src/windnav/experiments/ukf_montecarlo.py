@@ -347,6 +347,7 @@ def run_trial(spec: TrialSpec) -> dict:
               rng=np.random.default_rng([spec.seed, 1]))
     track, applied = estimate_wind(log, believed, cond, rng=np.random.default_rng([spec.seed, 2]),
                                    q=cfg.q, r=cfg.r, wind_frame=cfg.wind_frame)
+    bias, air = _drag_model_bias(log, truth, believed, cond, cfg.settle_s)
     return {
         "index": spec.index, "seed": spec.seed, "conditions": cond.name,
         "params": {k: getattr(truth, k) for k in ("mass", "k_d", "k_z", "c_dx", "c_dy", "c_dz")},
@@ -364,14 +365,33 @@ def run_trial(spec: TrialSpec) -> dict:
         "status": log.meta.get("status"),
         "outside_envelope_fraction": log.envelope_fraction,
         "filter_repairs": track.repairs,
+        "median_horizontal_airspeed": air, "drag_model_bias": bias,
         "seconds": time.perf_counter() - t0,
     }
+
+
+def _drag_model_bias(log, truth, believed, cond, settle_s: float) -> tuple[float, float]:
+    """What the filter's drag model (the calibrated or true parameters, less what the
+    conditions leave out, without their random errors) reads too strong an airflow by at the
+    trial's median horizontal airspeed after ``settle_s`` (m/s), and that airspeed (m/s):
+    :func:`windnav.estimate.drag_model_bias`."""
+    from dataclasses import replace
+
+    from windnav.estimate import drag_model_bias
+    from windnav.experiments.ukf_conditions import believed_params
+
+    model, _ = believed_params(believed, replace(cond, parameter_error=0.0))
+    air = np.linalg.norm((log.velocity - log.wind)[..., :2], axis=-1)[log.t >= settle_s]
+    median = float(np.median(air)) if air.size else 0.0
+    return float(drag_model_bias(truth, model, median)), median
 
 
 def summarize(records: list[dict]) -> dict:
     """Median, quartiles, mean and extremes of the 3D RMSE over the finite trials (m/s), the
     median and quartiles of the per-axis RMSE (world x, y, z), and the numbers of trials whose
-    rotor commands saturated more than 1% of the time and that left the vehicle's envelope."""
+    rotor commands saturated more than 1% of the time and that left the vehicle's envelope, and
+    the largest drag-model bias of a trial (``max_drag_model_bias``, m/s; None for records
+    written before it was kept)."""
     rmse = np.array([r["rmse"] for r in records], dtype=np.float64)
     ok = np.isfinite(rmse)
     if not np.any(ok):
@@ -394,6 +414,12 @@ def summarize(records: list[dict]) -> dict:
         # against an extrapolated vehicle (kept, counted)
         "n_outside_envelope": int(sum(r.get("outside_envelope_fraction", 0.0) > 0
                                       for r, good in zip(records, ok, strict=True) if good)),
+        # a filter whose drag model is not the vehicle's (the thesis's presets leave the frame
+        # drag out) is biased, by about this much at the trial's airspeed (m/s)
+        "max_drag_model_bias": max((abs(r["drag_model_bias"]) for r, good
+                                    in zip(records, ok, strict=True)
+                                    if good and r.get("drag_model_bias") is not None),
+                                   default=None),
     }
 
 
