@@ -195,6 +195,12 @@ def test_gs_route_is_flown_to_a_success(city, flow):
     # success is declared after 5 s stopped at the goal
     stopped = (goal_distance(res) <= 5.0) & (np.linalg.norm(res.velocity, axis=1) <= 2.0)
     assert stopped[-501:].all()
+    # the goal hold the route leaves out: 5 s at rest in the planned wind at the goal
+    # (mutation audit, 2026-12-05: dropping the 5 s survived)
+    w_goal = flow.wind_field().velocity(0.0, np.array([[*res.goal, res.settings["altitude"]]]))
+    power = planner_config(params("hummingbird"), "gs-w").power(float(np.hypot(*w_goal[0,
+                                                                                    :2])))
+    assert res.settings["route_hold_energy_J"] == pytest.approx(5.0 * float(power), rel=1e-12)
 
 
 # --------------------------------------------------------------------------- outcomes
