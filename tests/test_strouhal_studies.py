@@ -63,3 +63,26 @@ def test_reference_points_name_their_source_and_compare_by_interpolation():
     assert out["points"][0]["deviation"] == pytest.approx(0.02)
     assert np.isnan(out["points"][1]["computed"])  # shape not studied: not covered
     assert out["n"] == 1 and out["rms"] == pytest.approx(0.02)
+
+
+def test_strouhal_number_scales_frequency_by_length_over_speed():
+    """St = f H / U exactly for a pure sinusoid of known frequency."""
+    f, H, U = 0.4, 2.0, 5.0
+    dt = 0.01
+    t = np.arange(0.0, 50.0, dt)
+    assert strouhal_number(np.sin(2 * np.pi * f * t), dt, H, U, "spectrum") == pytest.approx(
+        f * H / U, rel=0.01)
+
+
+def test_bluff_body_strouhal_is_independent_of_the_inlet_speed():
+    """Without molecular viscosity the solver has no velocity scale (Smagorinsky scales with
+    |S|): a body at U = 2.5 sheds 2.5 times as often as at U = 1, so St = f H / U is the same."""
+    from windnav.flow.strouhal import BluffBodyCase, bluff_body_strouhal
+
+    base = BluffBodyCase(cells_per_height=6, upstream=3.0, downstream=6.0,
+                         spinup_time=10.0, record_time=30.0, viscosity=0.0)
+    slow = bluff_body_strouhal(replace(base, speed=1.0))
+    fast = bluff_body_strouhal(replace(base, speed=2.5))
+    assert np.isfinite(slow["strouhal"]) and slow["strouhal"] > 0.05
+    assert fast["strouhal"] == pytest.approx(slow["strouhal"], rel=1e-6)
+    assert fast["strouhal_crossings"] == pytest.approx(slow["strouhal_crossings"], rel=1e-6)
