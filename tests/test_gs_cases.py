@@ -180,3 +180,27 @@ def test_command_nav_study_gs_writes_the_case_figures_and_json(tmp_path, monkeyp
     capsys.readouterr()
     assert cli.main(["nav-study", "gs", "--case", "roundabout", "--out", str(tmp_path / "x")]) == 2
     assert "'--case' parameter" in capsys.readouterr().err
+
+
+def test_energy_route_time_is_the_sum_of_each_piece_length_over_its_speed():
+    """Through a wind that changes along the route (a headwind in half the corridor) GS+W flies
+    the pieces at different ground speeds; the route's time is sum(length_i / speed_i)."""
+    import windnav as wn
+    from windnav.city import City
+    from windnav.plan import energy_route, planner_config
+
+    class HalfHeadwind:
+        def velocity(self, t, xyz):
+            w = np.zeros((len(xyz), 3))
+            w[:, 0] = np.where(xyz[:, 0] > 100.0, -6.0, 0.0)
+            return w
+
+    city = City((0, 200, 0, 60), np.zeros((0, 4)), np.zeros(0))
+    cfg = planner_config(wn.vehicle.params("hummingbird"), "gs-w")
+    r = energy_route(city, (10.0, 30.0), (190.0, 30.0), cfg, wind=HalfHeadwind())
+    lengths = np.hypot(*np.diff(r.samples, axis=0).T)
+    assert len(lengths) == len(r.speeds)
+    assert r.speeds.max() > 1.2 * r.speeds.min()  # the pieces are flown at different speeds
+    assert r.time == pytest.approx(float(np.sum(lengths / r.speeds)), rel=1e-12)
+    # and not the total length over the mean speed
+    assert abs(r.time - lengths.sum() / r.speeds.mean()) > 1e-3 * r.time

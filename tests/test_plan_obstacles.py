@@ -98,3 +98,21 @@ def test_bad_points_raise_named_errors():
         obstacle_field(np.zeros((3, 3)))
     with pytest.raises(ValueError, match="'resolution' parameter of obstacle_field"):
         obstacle_field([[0.0, 1.0]], resolution=0)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_distance_and_j_obs_match_brute_force_in_every_cell_of_a_coarse_field(seed):
+    """A coarse field (h = 4 m, little padding) over dense points: queries in every cell,
+    each cell's own node bound must use the node spacing h, or a query near a node that is not
+    its nearest point's node is answered from the wrong node."""
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(-30, 30, (400, 2))
+    f = obstacle_field(pts, resolution=4.0, padding=0.5)
+    assert f.resolution == 4.0
+    ny, nx = f.node_distance.shape
+    q = np.stack([f.meta[0] + rng.uniform(0, 4.0 * (nx - 1), 20000),
+                  f.meta[1] + rng.uniform(0, 4.0 * (ny - 1), 20000)], 1)
+    np.testing.assert_allclose(f.distance(q), _brute_distance(q, pts), rtol=1e-9, atol=1e-12)
+    traj = q.reshape(2000, 10, 2)
+    d_min = _brute_distance(q, pts).reshape(2000, 10).min(1)
+    np.testing.assert_allclose(f.cost(traj, 100.0), (100.0 / d_min) ** 2, rtol=1e-9)
