@@ -123,23 +123,22 @@ def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
             "filter_covariance_repairs": int(track.repairs)}
 
 
-def drag_model_note(log, params, conditions, settle_s: float) -> dict:
+def drag_model_note(log, params, conditions, settle_s: float, *, believed=None) -> dict:
     """``drag_model_bias_m_s``: the bias the filter's drag model under ``conditions`` (what it
     leaves out of the vehicle's, e.g. the frame drag of the thesis's presets; not the
     preset's random parameter errors) gives its wind estimate at the flight's median
     horizontal airspeed after ``settle_s`` (:func:`windnav.estimate.drag_model_bias`), m/s
-    along the airflow; and that airspeed, ``median_horizontal_airspeed_m_s``."""
-    from dataclasses import replace
+    along the airflow; and that airspeed, ``median_horizontal_airspeed_m_s``. ``params`` is
+    the vehicle flown; ``believed`` what the filter starts from (default ``params``; the
+    calibrated parameters where the conditions calibrate)."""
+    from windnav.estimate import drag_model_bias
+    from windnav.experiments.ukf_conditions import believed_model
 
-    from windnav.estimate import drag_model_bias, ukf_conditions
-    from windnav.experiments.ukf_conditions import believed_params
-
-    cond = replace(ukf_conditions(conditions), parameter_error=0.0)
-    believed, _ = believed_params(params, cond)
+    model = believed_model(params if believed is None else believed, conditions)
     air = np.linalg.norm((log.velocity - log.wind)[..., :2], axis=-1)[log.t >= settle_s]
     median = float(np.median(air)) if air.size else 0.0
     return {"median_horizontal_airspeed_m_s": median,
-            "drag_model_bias_m_s": float(drag_model_bias(params, believed, median))}
+            "drag_model_bias_m_s": float(drag_model_bias(params, model, median))}
 
 
 def flight_summary(log, duration: float) -> dict:

@@ -63,7 +63,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from functools import lru_cache
 
 import numpy as np
@@ -369,7 +369,7 @@ class OnboardStack:
                  control_rate_hz: float, plan_rate_hz: float, n_max: int, rng,
                  decoder=None, options: OnboardOptions | None = None):
         from windnav.estimate import WindUKF
-        from windnav.experiments.ukf_conditions import believed_params
+        from windnav.experiments.ukf_conditions import believed_model, believed_params
 
         where = "navigate"
         opt = OnboardOptions() if options is None else options
@@ -400,8 +400,7 @@ class OnboardStack:
         self.believed = believed
         self.true_params = params
         # what the filter's model leaves out by design, without the drawn errors
-        self.believed_model = believed_params(_calibrated(params, cond),
-                                              replace(cond, parameter_error=0.0))[0]
+        self.believed_model = believed_model(_calibrated(params, cond), cond)
         self.parameter_errors = errors
         self.city, self.model = city, model
         self.n_rotors = model.n_rotors

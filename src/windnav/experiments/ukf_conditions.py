@@ -24,6 +24,8 @@ the :class:`windnav.wind.FromRotorPy` adapter (RotorPy is imported when called).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from windnav.estimate.conditions import UKFConditions, ukf_conditions
@@ -36,6 +38,7 @@ __all__ = [
     "PERTURBED_PARAMETERS",
     "ROTORPY_GUST_ALTITUDE",
     "ROTORPY_GUST_DT",
+    "believed_model",
     "believed_params",
     "estimate_wind",
     "pwm_rotor_speed_map",
@@ -81,6 +84,15 @@ def believed_params(params: MultirotorParams, conditions: str | UKFConditions, *
         errors = {k: float(gen.uniform(-e, e)) for k in PERTURBED_PARAMETERS}
         out = out.replace(**{k: getattr(out, k) * (1.0 + v) for k, v in errors.items()})
     return out, errors
+
+
+def believed_model(params: MultirotorParams, conditions: str | UKFConditions
+                   ) -> MultirotorParams:
+    """What the filter's force model believes under ``conditions`` by design, starting from
+    ``params`` (the true or calibrated parameters): :func:`believed_params` without the
+    preset's random parameter errors (e.g. the thesis's presets without the frame drag)."""
+    cond = ukf_conditions(conditions)
+    return believed_params(params, replace(cond, parameter_error=0.0))[0]
 
 
 def pwm_rotor_speed_map(kv_error: float = 0.0, *, motor: PWMMotorModel | None = None,

@@ -64,6 +64,7 @@ from windnav.estimate.conditions import CONDITIONS, UKFConditions, ukf_condition
 from windnav.estimate.wind_ukf import DEFAULT_R
 from windnav.experiments.calibration import calibrate
 from windnav.experiments.executor import run_tasks
+from windnav.experiments.flight import drag_model_note
 from windnav.experiments.ukf_conditions import estimate_wind, rotorpy_dryden
 from windnav.sensors import presets
 from windnav.sensors.models import SensorSuite
@@ -347,7 +348,7 @@ def run_trial(spec: TrialSpec) -> dict:
               rng=np.random.default_rng([spec.seed, 1]))
     track, applied = estimate_wind(log, believed, cond, rng=np.random.default_rng([spec.seed, 2]),
                                    q=cfg.q, r=cfg.r, wind_frame=cfg.wind_frame)
-    bias, air = _drag_model_bias(log, truth, believed, cond, cfg.settle_s)
+    drag = drag_model_note(log, truth, cond, cfg.settle_s, believed=believed)
     return {
         "index": spec.index, "seed": spec.seed, "conditions": cond.name,
         "params": {k: getattr(truth, k) for k in ("mass", "k_d", "k_z", "c_dx", "c_dy", "c_dz")},
@@ -365,25 +366,10 @@ def run_trial(spec: TrialSpec) -> dict:
         "status": log.meta.get("status"),
         "outside_envelope_fraction": log.envelope_fraction,
         "filter_repairs": track.repairs,
-        "median_horizontal_airspeed": air, "drag_model_bias": bias,
+        "median_horizontal_airspeed": drag["median_horizontal_airspeed_m_s"],
+        "drag_model_bias": drag["drag_model_bias_m_s"],
         "seconds": time.perf_counter() - t0,
     }
-
-
-def _drag_model_bias(log, truth, believed, cond, settle_s: float) -> tuple[float, float]:
-    """What the filter's drag model (the calibrated or true parameters, less what the
-    conditions leave out, without their random errors) reads too strong an airflow by at the
-    trial's median horizontal airspeed after ``settle_s`` (m/s), and that airspeed (m/s):
-    :func:`windnav.estimate.drag_model_bias`."""
-    from dataclasses import replace
-
-    from windnav.estimate import drag_model_bias
-    from windnav.experiments.ukf_conditions import believed_params
-
-    model, _ = believed_params(believed, replace(cond, parameter_error=0.0))
-    air = np.linalg.norm((log.velocity - log.wind)[..., :2], axis=-1)[log.t >= settle_s]
-    median = float(np.median(air)) if air.size else 0.0
-    return float(drag_model_bias(truth, model, median)), median
 
 
 def summarize(records: list[dict]) -> dict:
