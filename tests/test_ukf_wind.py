@@ -428,3 +428,21 @@ def test_the_model_functions_name_commands_of_the_wrong_shape():
         with pytest.raises(ValueError, match=r"Got shape \(3,\) instead"):
             call(np.full(3, 500.0))
         assert call(np.full(4, 500.0)).shape == (1, 16)
+
+
+def test_a_tracks_mean_error_and_rmse_are_over_the_same_settled_samples():
+    """``mean_error_after`` (the bias fly and the demo report) and ``rmse_after`` keep the
+    samples at ``t - t_0 >= settle_s``, leave NaN out of the mean, and refuse a settle time
+    past the track."""
+    from windnav.estimate.flight import WindTrack
+
+    t = 5.0 + 0.5 * np.arange(8)
+    est = np.zeros((8, 3))
+    est[:, 0] = np.arange(8.0)
+    est[6, 1] = np.nan
+    track = WindTrack(t=t, wind_est=est, wind_cov=np.tile(np.eye(3), (8, 1, 1)),
+                      wind_true=np.zeros((8, 3)), x=np.zeros((8, 16)), repairs=0)
+    np.testing.assert_allclose(track.mean_error_after(1.0), [4.5, 0.0, 0.0])  # samples 2-7
+    assert track.rmse_after(1.0, axis=0) == pytest.approx(np.sqrt(np.mean(np.arange(2, 8) ** 2)))
+    with pytest.raises(ValueError, match="'settle_s' parameter of WindTrack.mean_error_after"):
+        track.mean_error_after(10.0)

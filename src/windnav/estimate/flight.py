@@ -98,15 +98,26 @@ class WindTrack:
         axis : int, optional
             0, 1 or 2 for the RMS error of one world axis; None for the 3D error norm.
         """
-        settle_s = finite_float(settle_s, "settle_s", "WindTrack.rmse_after")
-        keep = self.t - self.t[0] >= settle_s
-        if not np.any(keep):
-            raise ValueError(f"The 'settle_s' parameter of WindTrack.rmse_after must be below "
-                             f"the track length {self.t[-1] - self.t[0]:.3f} s. "
-                             f"Got {settle_s!r} instead.")
-        e = self.error[keep]
+        e = self.error[self._settled(settle_s, "WindTrack.rmse_after")]
         sq = np.sum(e**2, axis=1) if axis is None else e[:, axis] ** 2
         return float(np.sqrt(np.mean(sq)))
+
+    def mean_error_after(self, settle_s: float = 2.0) -> np.ndarray:
+        """Mean wind error per world axis over ``t - t_0 >= settle_s`` (its bias), m/s, (3,);
+        NaN samples (where the filter did not run) left out."""
+        return np.nanmean(self.error[self._settled(settle_s, "WindTrack.mean_error_after")],
+                          axis=0)
+
+    def _settled(self, settle_s, where: str) -> np.ndarray:
+        """The samples at ``t - t_0 >= settle_s`` (bool mask), at least one, else a
+        ValueError naming ``where``."""
+        settle_s = finite_float(settle_s, "settle_s", where)
+        keep = self.t - self.t[0] >= settle_s
+        if not np.any(keep):
+            raise ValueError(f"The 'settle_s' parameter of {where} must be below "
+                             f"the track length {self.t[-1] - self.t[0]:.3f} s. "
+                             f"Got {settle_s!r} instead.")
+        return keep
 
     def nees(self, settle_s: float = 2.0) -> float:
         """Mean normalised estimation error squared ``e^T C^-1 e`` after ``settle_s`` (3 when

@@ -186,9 +186,8 @@ def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
     if cfg.conditions is not None:  # what the preset's drag model leaves out, at this flight
         from windnav.experiments.flight import drag_model_note
 
-        kept = track.t >= track.t[0] + cfg.settle_s
         metrics["wind_mean_error_m_s"] = [float(e) for e in
-                                          np.nanmean(track.error[kept], axis=0)]
+                                          track.mean_error_after(cfg.settle_s)]
         metrics.update(drag_model_note(log, p, cfg.conditions, cfg.settle_s))
     return {"config": cfg, "city": city, "solution": sol, "route": route, "log": log,
             "track": track, "metrics": metrics}

@@ -113,12 +113,9 @@ def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
         return {"conditions": name, "wind_rmse_m_s": None, "wind_rmse_axes_m_s": None,
                 "filter_covariance_repairs": None, "wind_estimate_error": str(exc)}
     settle = min(2.0, duration / 2)
-    kept = track.t >= settle
-    mean_error = (np.nanmean(track.error[kept], axis=0) if kept.any()
-                  else np.full(3, np.nan))
     return {"conditions": applied["conditions"], "wind_rmse_m_s": track.rmse_after(settle),
             "wind_rmse_axes_m_s": [track.rmse_after(settle, axis=k) for k in range(3)],
-            "wind_mean_error_m_s": [float(e) for e in mean_error],
+            "wind_mean_error_m_s": [float(e) for e in track.mean_error_after(settle)],
             **drag_model_note(log, params, conditions, settle),
             "filter_covariance_repairs": int(track.repairs)}
 
