@@ -429,20 +429,22 @@ def _hover_check(fit, slow_power, hover_speed: float) -> dict:
     """The measured hover power against the curve's ``P(0)``.
 
     ``hover_measured_W`` is the median power of the samples slower than ``hover_speed`` (at
-    least three, else None), ``hover_measured_std_error_W`` its standard error (``1.2533 s /
-    sqrt(k)`` of ``k`` samples of standard deviation ``s``). ``hover_outside_fit`` is True,
+    least three, else None), ``hover_measured_std_error_W`` its standard error
+    (:func:`windnav.sysid._fit.median_std_error`). ``hover_outside_fit`` is True,
     with a note, when the median lies outside ``hover_W``'s 95 % interval and differs from
     ``hover_W`` by more than 1.96 standard errors of the two together: outside the interval
     alone, a right curve's noise put 15 % of 300 samplings of the thesis's cubic there, the
     rule 1 %. The Hummingbird's simulated curve, fitted with a cubic, gave 55.24 [54.84,
     55.64] W for a measured 56.20 W, silently (audit).
     """
+    from windnav.sysid._fit import median_std_error
+
     slow = np.asarray(slow_power, dtype=np.float64)
     if slow.size < 3:
         return {"hover_measured_W": None, "hover_measured_std_error_W": None,
                 "hover_outside_fit": None, "note": None}
     measured = float(np.median(slow))
-    se = float(1.2533 * np.std(slow, ddof=1) / np.sqrt(slow.size))
+    se = median_std_error(slow)
     lo, hi = fit.hover.ci95
     diff = measured - fit.hover.value
     z = abs(diff) / max(float(np.hypot(fit.hover.std_error, se)), 1e-300)

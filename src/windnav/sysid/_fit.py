@@ -20,7 +20,7 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-__all__ = ["Estimate", "LeastSquares", "linear_fit", "nonlinear_fit"]
+__all__ = ["Estimate", "LeastSquares", "linear_fit", "median_std_error", "nonlinear_fit"]
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,16 @@ class LeastSquares:
         half = float(scipy.stats.t.ppf(0.975, self.dof)) * se
         v = float(self.coef[i])
         return Estimate(v, se, (v - half, v + half))
+
+
+def median_std_error(values) -> float:
+    """Standard error of the median of ``values`` (normal samples): ``sqrt(pi / 2) s /
+    sqrt(n)`` = ``1.2533 s / sqrt(n)`` with ``s`` the sample standard deviation; infinite
+    for fewer than two values."""
+    v = np.asarray(values, dtype=np.float64)
+    if v.size < 2:
+        return float("inf")
+    return float(1.2533 * np.std(v, ddof=1) / np.sqrt(v.size))
 
 
 def _r2(y: np.ndarray, resid: np.ndarray) -> float:

@@ -42,7 +42,13 @@ import numpy as np
 import scipy.stats
 
 from windnav._validate import finite_float, positive_float, positive_int
-from windnav.sysid._fit import Estimate, LeastSquares, linear_fit, nonlinear_fit
+from windnav.sysid._fit import (
+    Estimate,
+    LeastSquares,
+    linear_fit,
+    median_std_error,
+    nonlinear_fit,
+)
 from windnav.sysid._signal import steepest_slope
 from windnav.sysid.io import Table
 
@@ -294,8 +300,7 @@ def _top_steps(pwm: np.ndarray, omega: np.ndarray) -> dict | None:
     stats = []
     for level in levels[-2:]:
         w = omega[pwm == level]
-        se = 1.2533 * np.std(w, ddof=1) / np.sqrt(w.size) if w.size > 1 else np.inf
-        stats.append((float(np.median(w)), float(se)))
+        stats.append((float(np.median(w)), median_std_error(w)))
     (w2, se2), (w1, se1) = stats
     if not w2 > 0:
         return None
