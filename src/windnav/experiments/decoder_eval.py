@@ -78,8 +78,12 @@ def _windinet_candidates() -> list[Path]:
     return list(dict.fromkeys(out))
 
 
-WINDINET_LAYOUT = next((c for c in _windinet_candidates() if c.is_file()),
-                       _windinet_candidates()[0])
+def _found_windinet() -> Path | None:
+    """The first of :func:`_windinet_candidates` that is a file, else None."""
+    return next((c for c in _windinet_candidates() if c.is_file()), None)
+
+
+WINDINET_LAYOUT = _found_windinet() or _windinet_candidates()[0]
 """The windinet layout's path on this machine (the first of :func:`_windinet_candidates` that
 exists, else the first); read it with :func:`windinet_layout`."""
 
@@ -97,7 +101,7 @@ def windinet_layout() -> Path:
         When the file found is not that layout (its SHA-256 differs): the windinet figures
         would be another layout's under its name.
     """
-    path = next((c for c in _windinet_candidates() if c.is_file()), None)
+    path = _found_windinet()
     if path is None:
         looked = ", ".join(str(c) for c in _windinet_candidates())
         raise FileNotFoundError(
