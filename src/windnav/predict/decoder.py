@@ -226,6 +226,14 @@ def canonical_elements(w_up: np.ndarray) -> np.ndarray:
     return 4 * odd + k
 
 
+def _check_boundary(boundary, where: str) -> str:
+    """``boundary`` if it is one of :data:`BOUNDARIES`, else a ValueError naming ``where``."""
+    if boundary not in BOUNDARIES:
+        raise ValueError(f"The 'boundary' parameter of {where} must be one of "
+                         f"{list(BOUNDARIES)}. Got {boundary!r} instead.")
+    return boundary
+
+
 def on_sector_boundary(w_up: np.ndarray) -> np.ndarray:
     """Whether each free-stream wind's direction lies within :data:`BOUNDARY_TOLERANCE_DEG`
     of a multiple of 45 deg (a zero wind does not), ``(B,)`` bool."""
@@ -873,10 +881,7 @@ class Decoder:
 
     def __init__(self, weights: dict, metadata: dict, *, boundary: str = "average"):
         where = "Decoder"
-        if boundary not in BOUNDARIES:
-            raise ValueError(f"The 'boundary' parameter of {where} must be one of "
-                             f"{list(BOUNDARIES)}. Got {boundary!r} instead.")
-        self.boundary = boundary
+        self.boundary = _check_boundary(boundary, where)
         name = metadata.get("architecture")
         if name not in ARCHITECTURES:
             raise ValueError(f"The 'metadata' parameter of {where} must name an architecture "
@@ -1044,6 +1049,7 @@ def load_decoder(path=None, *, boundary: str = "average") -> Decoder:
         written by an incompatible format version.
     """
     where = "load_decoder"
+    _check_boundary(boundary, where)  # before the file is read
     if path is None:
         if not DEFAULT_MODEL.is_file():
             raise ValueError(
@@ -1083,9 +1089,6 @@ def load_decoder(path=None, *, boundary: str = "average") -> Decoder:
         raise ValueError(f"The 'path' parameter of {where} names {str(path)!r}, a decoder file "
                          f"of format version {version!r}; this windnav reads version "
                          f"{FORMAT_VERSION}. Retrain it with `windnav train-decoder`.")
-    if boundary not in BOUNDARIES:
-        raise ValueError(f"The 'boundary' parameter of {where} must be one of "
-                         f"{list(BOUNDARIES)}. Got {boundary!r} instead.")
     try:
         return Decoder(arrays, meta, boundary=boundary)
     except (ValueError, KeyError, TypeError) as exc:
