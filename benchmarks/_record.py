@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import sys
 from pathlib import Path
 
@@ -52,18 +53,30 @@ COMMITTED_STORE = DOC.parent / "navigation"
 def committed_record(scenario_id: str, variant: str) -> tuple[dict | None, dict]:
     """The committed store's latest record of ``scenario_id`` flown by ``variant`` (None when
     there is none) and the store's manifest."""
+    return _committed(variant).get(scenario_id), _committed_manifest()
+
+
+@functools.cache
+def _committed(variant: str) -> dict:
+    """``scenario_id -> latest record`` of ``variant`` in the committed store (read once)."""
     import gzip
     import json
 
-    manifest = json.loads((COMMITTED_STORE / "thesis_manifest.json").read_text())
-    found = None
+    out = {}
     with gzip.open(COMMITTED_STORE / "thesis_records.jsonl.gz", "rt") as fh:
         for line in fh:
-            if scenario_id in line:
+            if variant in line:
                 rec = json.loads(line)
-                if rec["scenario_id"] == scenario_id and rec["variant"] == variant:
-                    found = rec
-    return found, manifest
+                if rec["variant"] == variant:
+                    out[rec["scenario_id"]] = rec
+    return out
+
+
+@functools.cache
+def _committed_manifest() -> dict:
+    import json
+
+    return json.loads((COMMITTED_STORE / "thesis_manifest.json").read_text())
 
 
 def under_record_arithmetic(scenario_id: str, variant: str) -> dict | None:
