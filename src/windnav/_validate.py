@@ -13,6 +13,14 @@ from collections.abc import Sequence
 import numpy as np
 
 
+class _Said(str):
+    """A description of what was received ("shape (3, 1)"), shown as written, not quoted as
+    a value would be."""
+
+    def __repr__(self) -> str:
+        return str(self)
+
+
 def _fail(name: str, where: str, rule: str, got) -> ValueError:
     return ValueError(f"The {name!r} parameter of {where} must be {rule}. Got {got!r} instead.")
 
@@ -111,11 +119,14 @@ def batch_array(
         arr = arr[None]
     if arr.ndim != len(trailing) + 1 or arr.shape[1:] != trailing:
         want = "(B, " + ", ".join(str(t) for t in trailing) + ")"
-        raise _fail(name, where, f"an array of shape {want} or {trailing}", f"shape {arr.shape}")
+        raise _fail(name, where, f"an array of shape {want} or {trailing}",
+                    _Said(f"shape {arr.shape}"))
     if batch is not None and arr.shape[0] != batch:
-        raise _fail(name, where, f"a batch of {batch}", f"a batch of {arr.shape[0]}")
+        raise _fail(name, where, f"a batch of {batch}",
+                    _Said(f"a batch of {arr.shape[0]}"))
     if finite and not np.isfinite(arr).all():
-        raise _fail(name, where, "finite (no NaN or inf)", "non-finite entries")
+        raise _fail(name, where, "finite (no NaN or inf)",
+                    _Said("non-finite entries"))
     return arr
 
 
