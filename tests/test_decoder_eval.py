@@ -625,3 +625,23 @@ def test_the_windinet_layout_is_found_beside_the_checkout_or_named_and_checked(t
     monkeypatch.setattr(de, "_windinet_candidates", lambda: [tmp_path / "nowhere.json"])
     with pytest.raises(FileNotFoundError, match=r"set WINDNAV_SHARED_DATA .*\(--no-windinet\)"):
         de.windinet_layout()
+
+
+def test_the_windinet_layout_is_found_and_hashed_once_per_evaluation(tmp_path, monkeypatch):
+    """The evaluation found and hashed the layout twice (for the map, then for its JSON)."""
+    from windnav.experiments import decoder_eval as de
+
+    calls = []
+    path = tmp_path / "layout.json"
+
+    def counted():
+        calls.append(1)
+        return path
+
+    monkeypatch.setattr(de, "windinet_layout", counted)
+    monkeypatch.setattr("windnav.city.read_rotorpy_json", lambda p: tiny_maps(1)[0][1])
+    res = evaluate_decoder(maps=0, windinet=True, n_inlets=1, samples_per_inlet=8, seed=3,
+                           dx=2.0, flow_settings=TINY_FLOW, decoder=tiny_decoder())
+    assert len(calls) == 1
+    assert res["config"]["windinet_layout"] == str(path)
+    assert set(res["pooled"]) == {"windinet", "all"}

@@ -416,6 +416,8 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     dec = decoder if decoder is not None else load_decoder(model_path)
     compared, compared_paths = _compared(compare, dec, where)
     models = ("decoder", *compared, *BASELINES)
+    if windinet is True:
+        windinet = windinet_layout()  # found and checked once (its SHA-256 reads the file)
     cities = _evaluation_maps(maps, windinet, where)
     inlets = inlet_slots(len(cities), n_inlets, int(seed))
     slots = [(i, j) for j in range(n_inlets) for i in range(len(cities))]
@@ -488,8 +490,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         pooled[group] = summary
     return {
         "config": {"maps": [n for n, _, _ in cities], "map_seed": EVAL_MAP_SEED,
-                   "windinet_layout": str(windinet_layout()) if windinet is True else
-                   (str(windinet) if windinet else None),
+                   "windinet_layout": str(windinet) if windinet else None,
                    "n_inlets": n_inlets, "samples_per_inlet": samples, "seed": int(seed),
                    "budget_s": budget_s, "dx": dx, **settings,
                    "dt_rule": "0.25 s, shortened to U dt / dx <= 1" if "dt" not in
