@@ -302,3 +302,39 @@ def test_lack_of_fit_test_without_repeats_exact_or_noise_free():
     noise = rng.normal(0.0, 0.1, near.size)
     ok = lack_of_fit_test(np.floor(near / 0.05) * 0.05 + 0.01, noise, 4, scale=100.0)
     assert ok["groups"] == v.size and not ok["rejected"]
+
+
+def test_samples_without_scatter_are_judged_alike_in_float32_float64_and_rounded():
+    """A float32 copy of exact cubic samples was rejected as the wrong shape (F infinite, a
+    note) where the float64 one passed; so were the samples rounded to 0.1 W (fuzz audit)."""
+    from windnav.sysid import fit_power
+
+    c = np.array([56.0, -1.0, -0.3, 0.05])
+    v = np.repeat(np.linspace(0.0, 12.0, 13), 3)
+    p = np.polyval(c[::-1], v)
+    for speed, power in ((v, p), (v.astype(np.float32), p.astype(np.float32)),
+                         (v, np.round(p, 1))):
+        fit = fit_power(speed, power)
+        test = fit.lack_of_fit
+        assert test["no_scatter"] and test["F"] is None and not test["rejected"]
+        assert fit.notes == []
+    # a misfit well over rounding is still rejected, and the note says there was no scatter
+    bent = p + 2.0 * np.sin(v)
+    fit = fit_power(v, bent)
+    assert fit.lack_of_fit["rejected"] and fit.lack_of_fit["F"] == float("inf")
+    assert "agree exactly" in fit.notes[0] and "of the largest power" in fit.notes[0]
+    # scattered samples are tested as before
+    noisy = fit_power(v, p + np.random.default_rng(0).normal(0.0, 0.05, v.size))
+    assert not noisy.lack_of_fit["no_scatter"] and noisy.lack_of_fit["F"] is not None
+
+
+def test_non_finite_samples_are_left_out_and_counted():
+    from windnav.sysid import fit_power
+
+    v = np.repeat(np.linspace(0.0, 12.0, 13), 3)
+    p = 56.0 - 0.3 * v**2 + 0.05 * v**3 + np.random.default_rng(1).normal(0.0, 0.05, v.size)
+    clean = fit_power(v, p)
+    fit = fit_power(np.r_[v, np.nan, 3.0], np.r_[p, 50.0, np.inf])
+    assert fit.n_dropped == 2 and fit.to_dict()["n_dropped"] == 2 and clean.n_dropped == 0
+    assert fit.speed.size == v.size and fit.hover.value == clean.hover.value
+    assert any("2 sample(s) with a non-finite" in n for n in fit.notes)

@@ -41,8 +41,8 @@ from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
 from windnav.sysid._signal import min_run, steepest_slope
 from windnav.vehicle.power import PowerCurve, max_endurance_speed, max_range_speed
 
-__all__ = ["DEFAULT_WINDS", "HOVER_SPEED_M_S", "LACK_OF_FIT_P", "PowerFit", "REPLICATE_BIN_M_S",
-           "fit_power", "lack_of_fit_test", "steady_level_mask"]
+__all__ = ["DEFAULT_WINDS", "HOVER_SPEED_M_S", "LACK_OF_FIT_P", "NO_SCATTER_RESOLUTION", "PowerFit",
+           "REPLICATE_BIN_M_S", "fit_power", "lack_of_fit_test", "steady_level_mask"]
 
 DEFAULT_WINDS = tuple(float(w) for w in range(-5, 6))
 """Along-track winds of the ``max_range_speed_in_wind`` table, m/s (-5 ... +5)."""
@@ -59,6 +59,13 @@ less their bin mean, so the curve's own slope across the bin does not count as s
 
 LACK_OF_FIT_P = 0.01
 """Below this p-value of the lack-of-fit F test, the fitted shape is rejected (a note)."""
+
+NO_SCATTER_RESOLUTION = 1e-3
+"""Where the samples at repeated speeds agree exactly (noise-free, duplicated or rounded data),
+the F test has no scatter to weigh the misfit against: a residual RMS under this fraction of
+the largest power is then taken for the data's rounding (a logged resolution, float32 values)
+and not tested; a larger one rejects the shape. (A float32 copy of exact cubic samples was
+rejected as the wrong shape, F infinite, where the float64 one passed.)"""
 
 
 def steady_level_mask(t, speed, *, vertical_speed=None, altitude=None,
@@ -139,11 +146,13 @@ def lack_of_fit_test(speed, residuals, n_params: int, *, scale: float = 1.0,
     -------
     dict or None
         ``bin_m_s``, ``groups``, ``pure_error_dof``, ``lack_of_fit_dof``,
-        ``pure_error_rms_W`` (the scatter within bins), ``F``, ``p_value`` and ``rejected``
+        ``pure_error_rms_W`` (the scatter within bins), ``no_scatter`` (the samples at
+        repeated speeds agree to rounding), ``F``, ``p_value`` and ``rejected``
         (``p_value < LACK_OF_FIT_P``); None where the samples repeat no speed or hold no more
         bins than parameters (nothing to test). A fit exact to rounding has ``F`` and
-        ``p_value`` None and is not rejected; a curve that misses exact repeats has ``F``
-        infinite and is.
+        ``p_value`` None and is not rejected. Without scatter, a residual RMS under
+        :data:`NO_SCATTER_RESOLUTION` of ``scale`` is rounding (``F`` None, not rejected),
+        and a curve that misses the repeats by more has ``F`` infinite and is rejected.
     """
     v = np.asarray(speed, dtype=np.float64).reshape(-1)
     r = np.asarray(residuals, dtype=np.float64).reshape(-1)
@@ -156,11 +165,15 @@ def lack_of_fit_test(speed, residuals, n_params: int, *, scale: float = 1.0,
     ss_pure = float(np.sum((r - mean[group]) ** 2))
     ss_all = float(np.sum(r**2))
     ss_lack = max(ss_all - ss_pure, 0.0)
+    rounding = n * (1e-10 * abs(float(scale))) ** 2
     out = {"bin_m_s": h, "groups": g, "pure_error_dof": n - g, "lack_of_fit_dof": g - p,
-           "pure_error_rms_W": float(np.sqrt(ss_pure / (n - g)))}
-    if ss_all <= n * (1e-10 * abs(float(scale))) ** 2:  # exact to rounding: nothing to test
+           "pure_error_rms_W": float(np.sqrt(ss_pure / (n - g))),
+           "no_scatter": bool(ss_pure <= rounding)}
+    if ss_all <= rounding:  # exact to rounding: nothing to test
         return {**out, "F": None, "p_value": None, "rejected": False}
-    if ss_pure == 0.0:
+    if out["no_scatter"]:  # the misfit against nothing: rounding, or a wrong shape
+        if ss_all <= n * (NO_SCATTER_RESOLUTION * abs(float(scale))) ** 2:
+            return {**out, "F": None, "p_value": None, "rejected": False}
         return {**out, "F": float("inf"), "p_value": 0.0, "rejected": True}
     F = (ss_lack / (g - p)) / (ss_pure / (n - g))
     pval = float(scipy.stats.f.sf(F, g - p, n - g))
@@ -186,7 +199,9 @@ class PowerFit:
         energy per metre, and ``at_speed_limit`` when the airspeed sits on ``speed_max``
         (the optimum lies beyond the data).
     speed, power : ndarray of shape (n,)
-        The samples, m/s and W.
+        The samples, m/s and W (those with a finite speed and power).
+    n_dropped : int
+        Samples given with a non-finite speed or power, left out (a note says how many).
     """
 
     coefficients: tuple
@@ -199,6 +214,7 @@ class PowerFit:
     in_wind: list
     speed: np.ndarray
     power: np.ndarray
+    n_dropped: int = 0
 
     @property
     def hover_extrapolated(self) -> bool:
@@ -241,7 +257,15 @@ class PowerFit:
                 "speed share something the curve does not model, such as one leg's wind), "
                 "so hover_W, min_power_W, max_endurance_speed and max_range_speed may be "
                 "biased, and their 95 % intervals, which assume the shape is right, ignore "
-                "that misfit; try another --degree, or read the powers off the samples")
+                "that misfit; try another --degree, or read the powers off the samples"
+                + (" (the samples at each repeated speed agree exactly, as noise-free or "
+                   "duplicated data do, and the residual RMS is "
+                   f"{self.fit.rmse / np.max(np.abs(self.power)):.2%} of the largest power, "
+                   f"over the {NO_SCATTER_RESOLUTION:.1%} taken for rounding)"
+                   if test["no_scatter"] else ""))
+        if self.n_dropped:
+            notes.append(f"{self.n_dropped} sample(s) with a non-finite speed or power were "
+                         "left out of the fit")
         return notes
 
     def to_dict(self) -> dict:
@@ -251,6 +275,7 @@ class PowerFit:
             "coefficient_values": [c.value for c in self.coefficients],
             "degree": len(self.coefficients) - 1,
             "r2": self.fit.r2, "rmse_W": self.fit.rmse, "n_points": int(self.speed.size),
+            "n_dropped": int(self.n_dropped),
             "speed_max": self.curve.speed_max,
             "hover_W": self.hover.value, "hover_W_ci95": list(self.hover.ci95),
             "slowest_speed": float(self.speed.min()),
@@ -311,9 +336,10 @@ def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
     Raises
     ------
     ValueError
-        Naming ``source``: non-finite or negative speeds, fewer distinct speeds than
-        coefficients, a curve without an interior minimum is not an error (reported as
-        found).
+        Naming ``source``: negative speeds, powers <= 0 W, fewer distinct speeds than
+        coefficients. A sample with a non-finite speed or power is left out and counted
+        (``n_dropped``, a note); a curve without an interior minimum is not an error
+        (reported as found).
     """
     where = "fit_power"
     deg = positive_int(degree, "degree", where)
@@ -364,4 +390,4 @@ def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
     return PowerFit(tuple(fit.estimate(n) for n in names), fit, curve, fit.estimate("c0"),
                     _delta(pmin, fit.coef, fit.cov, fit.dof),
                     _delta(ve, fit.coef, fit.cov, fit.dof),
-                    _delta(vr, fit.coef, fit.cov, fit.dof), table, v, p)
+                    _delta(vr, fit.coef, fit.cov, fit.dof), table, v, p, int(ok.size - ok.sum()))
