@@ -140,7 +140,7 @@ def fly(
     gains : SE3Gains, optional
         Controller gains (default per vehicle).
     initial_state : VehicleState, optional
-        Defaults to hover at the trajectory's start.
+        Defaults to hover at the trajectory's start: its position and heading (yaw).
     batch : int
         Number of vehicles when ``params`` is a single vehicle.
     hub_wind : bool
@@ -235,6 +235,9 @@ def _initial_state(loop: ClosedLoop, initial_state) -> np.ndarray:
     if initial_state is None:
         ref0 = loop.trajectory(0.0)
         initial_state = loop.model.hover_state(np.broadcast_to(ref0.position, (B, 3)))
+        yaw = float(ref0.yaw)
+        if yaw != 0.0:  # a yaw-0 start made a yaw step at t = 0 (rotors to 3 and 1,272 rad/s)
+            initial_state.attitude[:] = (0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2))
     x = np.ascontiguousarray(initial_state.to_array(), dtype=np.float64)
     if x.shape != (B, layout.N_RIGID + N) or not np.all(np.isfinite(x)):
         raise ValueError(f"The 'initial_state' parameter of {_WHERE} must hold {B} finite "
