@@ -513,6 +513,26 @@ def test_nan_input_falls_back_and_is_counted(base):
     assert np.all(np.isfinite(good)) and planner.stats.fallbacks == 3
 
 
+def test_a_scan_of_zeros_brakes_as_contact(base):
+    """City.lidar reads 0 on every ray on or inside a building; the planner took it for
+    obstacle points at the vehicle, which every sample paid alike, and flew the obstacle-free
+    plan into the wall, with no fallback counted (fuzz audit)."""
+    cfg = dataclasses.replace(base, n_samples=50, n_steps=20)
+    city = City(bounds=(0, 100, 0, 100), footprints=[[40, 60, 40, 60]], heights=[20])
+    scan = city.lidar([40.0, 50.0], n_rays=360, max_range=100.0)[0]  # on the west wall
+    assert not scan.any()
+    planner = MPPIPlanner(cfg, goal_xy=(90, 50), rng=0)
+    accel = planner.update([40.0, 50.0, 2.0, 1.0], scan)
+    np.testing.assert_allclose(accel, np.clip(-np.array([2.0, 1.0]) / cfg.dt, cfg.a_min,
+                                              cfg.a_max))
+    assert planner.stats.reasons == {"contact": 1} and planner.plan() is None
+    # one ray at zero among others is a return like any other: planned
+    scan = np.full(360, 50.0)
+    scan[0] = 0.0
+    planner.update([30.0, 50.0, 0.0, 0.0], scan)
+    assert planner.stats.fallbacks == 1 and planner.plan() is not None
+
+
 def test_bad_planner_arguments_raise_named_errors(base):
     with pytest.raises(ValueError, match="'config' parameter of MPPIPlanner"):
         MPPIPlanner(with_variant(base, "gs"))

@@ -402,7 +402,8 @@ class PlannerStats:
     fallbacks : int
         Updates that returned hover or braking instead of a plan.
     reasons : dict of str to int
-        Fallbacks by cause: ``"state"``, ``"scan"``, ``"wind"``, ``"costs"``.
+        Fallbacks by cause: ``"state"``, ``"scan"``, ``"contact"`` (a scan of zeros),
+        ``"wind"``, ``"costs"``.
     profile_ms : dict of str to float
         The last planned update's ``obstacles`` (scan to distance field), ``sampling``,
         ``rollout_cost`` (the fused rollout and cost), ``update`` (weights, mean, warm start)
@@ -503,7 +504,9 @@ class MPPIPlanner:
         ndarray of shape (2,)
             Acceleration, m/s^2, inside ``[a_min, a_max]``. Zero (hover) when the state is not
             finite; braking ``clip(-v / dt)`` when the scan, the wind or every sampled cost is
-            not finite.
+            not finite, and when the scan reads 0 on every ray (``City.lidar``'s reading on or
+            inside a building: no direction to plan in; every sample paid the same obstacle
+            cost and the plan ignored the wall).
 
         Raises
         ------
@@ -523,6 +526,8 @@ class MPPIPlanner:
         points = _scan_to_points(scan, cfg.lidar_range)
         if points is None:
             return self._fallback("scan", self._brake(vel), t0)
+        if points is _CONTACT:
+            return self._fallback("contact", self._brake(vel), t0)
         if cfg.use_wind and wind is not None and not (isinstance(wind, LocalWind)
                                                       and wind.finite):
             if not isinstance(wind, LocalWind):
@@ -598,8 +603,13 @@ def _state_xy(state) -> tuple[np.ndarray, np.ndarray]:
     return s[:2].copy(), s[2:].copy()
 
 
+_CONTACT = np.zeros((0, 2))
+"""What :func:`_scan_to_points` returns for ranges that are all zero (the vehicle in contact)."""
+
+
 def _scan_to_points(scan, lidar_range: float) -> np.ndarray | None:
-    """Points (P, 2) relative to the vehicle, or None when the scan holds non-finite values."""
+    """Points (P, 2) relative to the vehicle, None when the scan holds non-finite values, or
+    :data:`_CONTACT` for ranges that are all zero."""
     if scan is None:
         return np.zeros((0, 2))
     a = np.asarray(scan, dtype=np.float64)
@@ -611,6 +621,8 @@ def _scan_to_points(scan, lidar_range: float) -> np.ndarray | None:
                              f"m. Got {a.min()!r} instead.")
         if a.size == 0:  # scan_points names an empty scan
             return scan_points(a, max_range=lidar_range)
+        if a[0] == 0.0 and not a.any():  # the first ray first: one read in a normal scan
+            return _CONTACT
         return returns(a, lidar_range)  # checked here: scan_points would check the signs again
     if a.ndim == 2 and a.shape[1] == 2:
         return a
