@@ -305,3 +305,14 @@ def test_lift_model_and_airspeed_limit_are_validated():
     with pytest.raises(ValueError, match="'max_airspeed'"):
         p.replace(max_airspeed=-1.0)
     assert p.replace(max_airspeed=12.0).airspeed_limit == 12.0
+
+
+def test_an_empty_batch_steps_to_an_empty_batch():
+    """hover_state took a batch of 0, but step and derivatives failed inside the compiled
+    kernel with "range() arg 3 must not be zero", naming no argument (fuzz audit)."""
+    m = wn.vehicle.Multirotor(wn.vehicle.params("hummingbird"))
+    s0 = m.hover_state(np.zeros((0, 3)))
+    s1 = m.step(s0, np.zeros((0, 4)), np.zeros(3), 0.01)
+    assert s1.position.shape == (0, 3) and s1.rotor_speeds.shape == (0, 4)
+    d = m.derivatives(s0, np.zeros(3))
+    assert all(v.shape == (0, 3) for v in d.values())

@@ -147,7 +147,8 @@ class Multirotor:
                              f"{B}. Got {cmd.shape[0]} instead.")
         com, hub = self._winds(wind_world, B, where)
         out = np.empty_like(x)
-        self.step_packed(x, np.ascontiguousarray(cmd), com, hub, dt, out)
+        if B:  # the kernel's chunks fail on an empty batch ("range() arg 3 must not be zero")
+            self.step_packed(x, np.ascontiguousarray(cmd), com, hub, dt, out)
         return VehicleState.from_array(out)
 
     def step_packed(self, x, cmd, wind_com, wind_hub, dt, out) -> None:
@@ -181,8 +182,9 @@ class Multirotor:
         force = np.empty((B, 3))
         moment = np.empty((B, 3))
         p = self.packed
-        derivative_kernel(p.scalars, p.inertia, p.inertia_inv, p.rotor_positions,
-                          p.rotor_directions, x, com, hub, dy, force, moment)
+        if B:  # an empty batch: empty results (the kernel's chunks fail on it)
+            derivative_kernel(p.scalars, p.inertia, p.inertia_inv, p.rotor_positions,
+                              p.rotor_directions, x, com, hub, dy, force, moment)
         mass = p.mass[:, None]
         return {
             "acceleration_world": dy[:, VELOCITY],
