@@ -28,10 +28,10 @@ import argparse  # noqa: E402
 import json  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
+import tomllib  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
-import tomllib  # noqa: E402
 
 TARGETS_MS = {1: 1.0, 1024: 20.0}
 """Issue 9's latency targets for the decoder, ms per call."""

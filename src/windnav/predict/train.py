@@ -59,7 +59,6 @@ import hashlib
 import json
 import math
 import os
-import sys
 import time
 import warnings
 from pathlib import Path
@@ -157,10 +156,8 @@ MAP_KINDS = ("training", "dense", "planning", "file")
 
 
 def _read_toml(path: Path) -> dict:
-    if sys.version_info >= (3, 11):
-        import tomllib
-    else:  # pragma: no cover - Python 3.10
-        import tomli as tomllib
+    import tomllib
+
     with open(path, "rb") as fh:
         return tomllib.load(fh)
 
