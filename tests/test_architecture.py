@@ -13,7 +13,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "windnav"
 
 # the data flow, left to right; a package may import any package to its left
-LAYERS = ["_validate", "city", "flow", "wind", "vehicle", "control", "sensors", "sim",
+LAYERS = ["_validate", "_extras", "city", "flow", "wind", "vehicle", "control", "sensors", "sim",
           "estimate", "predict", "plan", "sysid", "experiments", "viz", "commands", "cli"]
 
 # deliberate exceptions, each with its reason

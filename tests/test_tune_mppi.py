@@ -185,5 +185,5 @@ def test_command_without_optuna_says_how_to_install_it(tmp_path, monkeypatch):
     with pytest.raises(ImportError) as info:
         command(["--trials", 1, "--out", tmp_path / "tune"])
     message = str(info.value)
-    assert "pip install -e '.[tune]'" in message and "\n" not in message
+    assert "pip install 'windnav[tune]'" in message and "\n" not in message
     assert not (tmp_path / "tune").exists()

@@ -106,8 +106,11 @@ def _run(args, where: str) -> int:
     except ImportError as exc:
         if not _missing_dependency(exc):
             raise
+        from windnav._extras import install_hint
+
         hint = "" if "install" in str(exc) else (
-            f"; this command needs the optional dependency {exc.name!r}: install it with pip")
+            f"; this command needs the optional dependency {exc.name!r}: "
+            f"{install_hint(exc.name)}")
         print(f"{where}: error: {exc}{hint}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as exc:

@@ -57,6 +57,7 @@ import json
 import time
 from pathlib import Path
 
+from windnav._extras import require
 from windnav._validate import positive_int
 from windnav.commands._common import (
     add_output_arguments,
@@ -68,6 +69,9 @@ from windnav.commands._common import (
     seed,
     where,
 )
+
+TRAINING_STUDIES = ("winds", "size", "scaling")
+"""The studies that train models (they need the ``train`` extra's torch)."""
 
 STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
            "scaling", "noise", "direction", "basis")
@@ -285,6 +289,8 @@ def run(args, simulate=None) -> int:
                          f"{str(args.model)!r} instead, which does not exist.")
     products = (f"decoder_{study}.json", f"decoder_{study}.png")
     out = outputs(args, out=("--out", args.out, products))
+    if study in TRAINING_STUDIES:  # before their sweep, which ran whole before this failed
+        require("torch", f"windnav {name} {study}")
     t0 = time.perf_counter()
     samples = 64 if args.quick else args.samples
     flows = None

@@ -2,6 +2,7 @@
 
 ::
 
+    windnav train-decoder --config default --out runs/default   # a shipped recipe, by name
     windnav train-decoder --config src/windnav/predict/recipes/default.toml --out runs/default
     windnav train-decoder --config tiny.toml --out runs/tiny --overwrite   # train again
 
@@ -36,6 +37,7 @@ import sys
 import time
 from pathlib import Path
 
+from windnav._extras import require
 from windnav._validate import positive_int
 from windnav.commands._common import (
     add_output_arguments,
@@ -71,7 +73,8 @@ def register(subparsers) -> None:
                     "written to OUT/model.npz.",
     )
     p.add_argument("--config", type=Path, required=True, metavar="FILE",
-                   help="the recipe (e.g. src/windnav/predict/recipes/default.toml)")
+                   help="the recipe: a TOML file, or the name of one shipped with windnav "
+                        "(default, ensemble, thesis_mlp, tiny, wrobot_flight, wrobot_noise)")
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="output folder (default runs/<recipe name>)")
     p.add_argument("--backend", choices=("serial", "process", "ray"), default=None,
@@ -95,6 +98,7 @@ def run(args, simulate=None) -> int:
         positive_int(args.workers, "--workers", name)
     with options_named({"'config' parameter of load_recipe": f"'--config' parameter of {name}"}):
         recipe = load_recipe(args.config)
+    require("torch", f"windnav {name}")  # before the sweep: it ran whole (an hour) first
     out_dir, store = resolve_paths(recipe, args.out)
     check_output_path(out_dir, "--out", name, kind="dir")
     out = outputs(args)
@@ -111,8 +115,9 @@ def run(args, simulate=None) -> int:
             print(f"removed {path} (from an earlier run)")
     out_dir.mkdir(parents=True, exist_ok=True)
     copy = out_dir / "recipe.toml"
-    if not (out_dir / "checkpoint.pt").exists() and args.config.resolve() != copy.resolve():
-        shutil.copyfile(args.config, copy)  # a fresh run: the recipe it was made with
+    source = Path(recipe["source"])  # --config, or the shipped recipe it names
+    if not (out_dir / "checkpoint.pt").exists() and source.resolve() != copy.resolve():
+        shutil.copyfile(source, copy)  # a fresh run: the recipe it was made with
 
     times = _Times(out_dir / TIMES, name, new_sweep=not store.exists(),
                    new_training=bool(args.overwrite))

@@ -11,7 +11,7 @@ Flies MPPI through the intersection of
 sampler seeded by ``--seed``; trial 0 is the thesis defaults. Writes ``tune_mppi.json`` (every
 trial's parameters, cost and flights, the best, the defaults' cost) and ``tune_mppi.png`` into
 ``--out``, and prints the best parameters and the defaults' cost. Needs the ``tune`` extra
-(``pip install -e '.[tune]'``).
+(``pip install 'windnav[tune]'``).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def register(subparsers) -> None:
         description="Tune MPPI's base hyperparameters (lambda, sigma_u, sigma_gf, Q_O) with "
                     "Optuna's TPE sampler on the intersection case without wind; trial 0 is "
                     "the thesis defaults. Writes tune_mppi.json and tune_mppi.png into --out. "
-                    "Needs the 'tune' extra: pip install -e '.[tune]'.",
+                    "Needs the 'tune' extra: pip install 'windnav[tune]'.",
     )
     p.add_argument("--trials", type=int, default=20, help="Optuna trials (%(default)s)")
     p.add_argument("--seed", type=int, default=0, help="seed of the TPE sampler (%(default)s)")

@@ -106,7 +106,8 @@ def windinet_layout() -> Path:
         looked = ", ".join(str(c) for c in _windinet_candidates())
         raise FileNotFoundError(
             f"The third-party windinet layout ({WINDINET_FILE}) is not on this machine (looked "
-            f"in {looked}): set WINDNAV_SHARED_DATA to the folder holding "
+            f"in {looked}): it is example_layout.json of github.com/Weihao-Li-2001/windinet "
+            f"@ 2de913ee (Apache-2.0); set WINDNAV_SHARED_DATA to the folder holding "
             f"{WINDINET_FILE}, or leave the layout out (--no-windinet).")
     digest = hashlib.sha256(path.read_bytes()).hexdigest()
     if digest != WINDINET_SHA256:

@@ -284,7 +284,7 @@ def require_optuna():
         import optuna
     except ImportError as exc:
         raise ModuleNotFoundError(
-            "Tuning MPPI needs the optional dependency Optuna: pip install -e '.[tune]'",
+            "Tuning MPPI needs the optional dependency Optuna: pip install 'windnav[tune]'",
             name=exc.name) from exc
     return optuna
 

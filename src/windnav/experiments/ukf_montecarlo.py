@@ -59,6 +59,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from windnav._extras import require
 from windnav._validate import positive_float, positive_int
 from windnav.estimate.conditions import CONDITIONS, UKFConditions, ukf_conditions
 from windnav.estimate.wind_ukf import DEFAULT_R
@@ -461,6 +462,9 @@ def run_montecarlo(config: MonteCarloConfig, *, backend: str = "process",
     from windnav.experiments.results import RecordLog
 
     specs = draw_trials(config)
+    if specs and specs[0].config.wind_model == "rotorpy":  # once, not a failure per trial
+        require("rotorpy", f"The {ukf_conditions(config.conditions).name!r} conditions' gusts "
+                "(RotorPy's DrydenGust)")
     log = RecordLog(records, records_header(config)) if records is not None else None
     done = {}
     for rec in (log.load() if log is not None else []):

@@ -82,7 +82,7 @@ from windnav.predict.decoder import (
 from windnav.predict.metrics import field_errors
 
 __all__ = ["DEFAULTS", "flush_denormals", "load_recipe", "member_recipe", "recipe_maps",
-           "resolve_paths", "train_decoder"]
+           "recipe_path", "resolve_paths", "shipped_recipes", "train_decoder"]
 
 RECIPES = Path(__file__).resolve().parent / "recipes"
 """Folder of the recipes shipped with windnav (``default.toml``, ``tiny.toml``, ...)."""
@@ -204,7 +204,8 @@ def _read_recipe(source: Path, where: str, chain: tuple = ()) -> dict:
     if not source.is_file():
         kind = "a folder" if source.is_dir() else "which does not exist"
         raise ValueError(f"The 'config' parameter of {where} must name a TOML recipe file"
-                         + (f" (the base of {str(chain[-1])!r})" if chain else "")
+                         + (f" (the base of {str(chain[-1])!r})" if chain else
+                            f" or a shipped recipe ({', '.join(shipped_recipes())})")
                          + f". Got {str(source)!r} instead, {kind}.")
     try:
         config = _read_toml(source)
@@ -221,13 +222,30 @@ def _read_recipe(source: Path, where: str, chain: tuple = ()) -> dict:
     return _overlay(under, config)
 
 
+def recipe_path(config) -> Path:
+    """The recipe file ``config`` names: a path, or, when no file is there, the name of a
+    recipe shipped in :data:`RECIPES` (``"default"`` or ``"default.toml"``), so that an
+    installed windnav, without the source tree, trains with ``--config default``."""
+    path = Path(config)
+    if path.exists() or path.name != str(config) or not path.name:  # a path, or a folder's
+        return path
+    shipped = RECIPES / (path.name if path.suffix == ".toml" else f"{path.name}.toml")
+    return shipped if shipped.is_file() else path
+
+
+def shipped_recipes() -> list[str]:
+    """Names of the recipes shipped with windnav (:data:`RECIPES`)."""
+    return sorted(p.stem for p in RECIPES.glob("*.toml"))
+
+
 def load_recipe(config) -> dict:
     """A complete, checked recipe from a dict or a TOML file.
 
     Parameters
     ----------
     config : dict, str or path-like
-        The recipe, or the path of its TOML file; missing keys take :data:`DEFAULTS`. A file
+        The recipe, or the path of its TOML file, or the name of a shipped one (``"default"``,
+        :func:`recipe_path`); missing keys take :data:`DEFAULTS`. A file
         may start from another with ``base = "default.toml"`` (a path relative to its own
         folder): its tables are merged over the base's key by key, and anything else it sets
         (a list such as ``sweep.maps`` included) replaces the base's.
@@ -246,7 +264,7 @@ def load_recipe(config) -> dict:
     where = "load_recipe"
     source = None
     if not isinstance(config, dict):
-        source = Path(config)
+        source = recipe_path(config)
         config = _read_recipe(source, where)
     config = {k: v for k, v in config.items() if k != "source"}
     recipe = _merge(DEFAULTS, config, where)
