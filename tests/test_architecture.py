@@ -67,3 +67,21 @@ def test_public_api_has_no_kernels(pkg):
     kernels = [n for n in names
                if type(getattr(module, n, None)).__name__ in ("CPUDispatcher", "Dispatcher")]
     assert not kernels, f"windnav.{pkg} exports Numba kernels {kernels}"
+
+
+def test_no_module_switches_the_matplotlib_backend():
+    """Eleven plotting modules called matplotlib.use("Agg") at import, so a notebook that
+    imported one lost its inline backend (packaging audit); the command line sets Agg itself."""
+    import subprocess
+    import sys
+
+    calls = [str(p.relative_to(SRC)) for p in SRC.rglob("*.py")
+             if "matplotlib.use(" in p.read_text() or "mpl.use(" in p.read_text()]
+    assert calls == []
+    viz = sorted(p.stem for p in (SRC / "viz").glob("*.py") if p.stem != "__init__")
+    code = ("import matplotlib; matplotlib.use('svg'); import importlib; "
+            + "; ".join(f"importlib.import_module('windnav.viz.{m}')" for m in viz)
+            + "; print(matplotlib.get_backend())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "svg"

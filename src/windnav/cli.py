@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 import warnings
 
@@ -72,6 +73,10 @@ def _named(exc: Exception) -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    # the commands write figures to files: no window, whatever the user's backend (the
+    # plotting modules no longer switch the backend at import, which a notebook's import of
+    # them did); set before matplotlib is imported, and inherited by the worker processes
+    os.environ["MPLBACKEND"] = "Agg"
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)  # for a command that restarts

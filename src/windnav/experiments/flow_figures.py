@@ -75,9 +75,6 @@ def plot_checks(out, proj: dict, tg: dict) -> list[str]:
     """The figures of the solver checks (divergence and wall error per step, the random
     city's speed, Taylor-Green energy decay) into the folder ``out``; returns the file names."""
     out = Path(out)
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(6, 3.5))
@@ -122,9 +119,6 @@ def plot_strouhal(out, res: dict) -> list[str]:
     """The Strouhal figures of whichever studies ran into the folder ``out``; returns the file
     names."""
     out = Path(out)
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     names = []

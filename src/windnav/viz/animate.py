@@ -21,13 +21,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from windnav.viz.nav_compare import COLORS, OUTLINE, wind_background  # noqa: E402
+from windnav.viz.nav_compare import COLORS, OUTLINE, wind_background
 
 __all__ = ["SPEED_LEVELS", "animate_flights", "frame_times"]
 

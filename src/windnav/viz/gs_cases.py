@@ -12,13 +12,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from windnav.viz.nav_compare import draw_paths, plot_energy  # noqa: E402
+from windnav.viz.nav_compare import draw_paths, plot_energy
 
 __all__ = ["plot_gs_case", "plot_gs_case_energy"]
 

@@ -22,15 +22,12 @@ import re
 from collections.abc import Mapping
 from pathlib import Path
 
-import matplotlib
+import matplotlib.patheffects as pe
+import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.lines import Line2D
 
-matplotlib.use("Agg")
-import matplotlib.patheffects as pe  # noqa: E402
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-
-from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background  # noqa: E402
+from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background
 
 __all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
            "plot_inflight_tau", "plot_reach", "plot_wind_scenarios"]

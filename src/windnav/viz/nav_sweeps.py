@@ -10,14 +10,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from windnav.experiments.thesis_nav import PAIRED_SAVING  # noqa: E402
-from windnav.viz.navigate import _save  # noqa: E402
+from windnav.experiments.thesis_nav import PAIRED_SAVING
+from windnav.viz.navigate import _save
 
 __all__ = ["plot_bound", "plot_pace", "plot_sweep", "plot_tilt"]
 
