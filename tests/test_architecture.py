@@ -13,8 +13,9 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "windnav"
 
 # the data flow, left to right; a package may import any package to its left
-LAYERS = ["_validate", "_extras", "city", "flow", "wind", "vehicle", "control", "sensors", "sim",
-          "estimate", "predict", "plan", "sysid", "experiments", "viz", "commands", "cli"]
+LAYERS = ["_validate", "_extras", "_console", "city", "flow", "wind", "vehicle", "control",
+          "sensors", "sim", "estimate", "predict", "plan", "sysid", "experiments", "viz",
+          "commands", "cli"]
 
 # deliberate exceptions, each with its reason
 ALLOWED = {

@@ -199,3 +199,25 @@ def test_a_task_that_always_kills_its_worker_is_lost_after_the_restarts(tmp_path
     assert [r.index for r in results] == list(range(4))
     assert results[0].ok and results[1].ok and not results[2].ok
     assert "BrokenProcessPool" in results[2].error and "pool broke 2 times" in results[2].error
+
+
+def _warns(task):
+    import warnings
+
+    warnings.warn(f"task {task} is odd", UserWarning, stacklevel=1)
+    return task
+
+
+def test_process_workers_print_warnings_as_the_command_line_does(capfd, monkeypatch):
+    """The command line prints a warning as one line; a process worker printed Python's form
+    (file, line number, source line) instead (packaging audit)."""
+    import warnings
+
+    from windnav._console import one_line_warning
+
+    monkeypatch.setattr(warnings, "showwarning", one_line_warning("windnav x"))
+    values = [r.value for r in run_tasks(_warns, [7], backend="process", workers=1,
+                                         progress=False)]
+    assert values == [7]
+    err = capfd.readouterr().err
+    assert "windnav x: warning: task 7 is odd" in err and "UserWarning" not in err

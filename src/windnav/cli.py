@@ -83,19 +83,11 @@ def main(argv: list[str] | None = None) -> int:
     where = f"windnav {args.command}"
     if argv is None:  # the command line itself: warnings as one line, not a source location
         with warnings.catch_warnings():
-            warnings.showwarning = _one_line_warning(where)
+            from windnav._console import one_line_warning
+
+            warnings.showwarning = one_line_warning(where)
             return _run(args, where)
     return _run(args, where)
-
-
-def _one_line_warning(where: str):
-    """``warnings.showwarning`` for the command line: ``windnav CMD: warning: message`` on
-    stderr (Python's default adds the file, the line number and the source line)."""
-    def show(message, category, filename, lineno, file=None, line=None):
-        text = " ".join(str(message).split())
-        print(f"{where}: warning: {text}", file=sys.stderr if file is None else file)
-
-    return show
 
 
 def _run(args, where: str) -> int:

@@ -53,6 +53,7 @@ import sys
 import threading
 import time
 import traceback
+import warnings
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
@@ -61,6 +62,7 @@ from typing import Any
 
 from tqdm import tqdm
 
+from windnav._console import one_line_warning
 from windnav._validate import positive_int
 
 BACKENDS = ("serial", "process", "ray")
@@ -168,10 +170,14 @@ def die_with_parent(parent_pid: int, poll_s: float = PARENT_POLL_S) -> str:
     return how
 
 
-def _worker_init(parent_pid: int) -> None:
-    """Initializer of every process worker: leave Ctrl-C to the parent, die with it."""
+def _worker_init(parent_pid: int, warning_where: str | None = None) -> None:
+    """Initializer of every process worker: leave Ctrl-C to the parent, die with it, and print
+    warnings as the parent does when it prints them as one line
+    (:func:`windnav._console.one_line_warning`: the command line's)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     die_with_parent(parent_pid)
+    if warning_where is not None:
+        warnings.showwarning = one_line_warning(warning_where)
 
 
 def _stop_pool(pool: ProcessPoolExecutor, pending) -> None:
@@ -212,7 +218,9 @@ def _process_pool(fn, todo, workers, broken: list, last: bool) -> Iterator[TaskR
     are appended to ``broken`` (reported lost instead when ``last``)."""
     ctx = multiprocessing.get_context("spawn")
     pool = ProcessPoolExecutor(max_workers=min(workers, len(todo)), mp_context=ctx,
-                               initializer=_worker_init, initargs=(os.getpid(),))
+                               initializer=_worker_init,
+                               initargs=(os.getpid(), getattr(warnings.showwarning, "where",
+                                                              None)))
     pending: dict = {}
     finished = False
     try:
