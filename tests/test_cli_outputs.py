@@ -411,3 +411,12 @@ def test_ukf_montecarlo_partial_records_of_another_study_are_not_mixed_in(tmp_pa
     assert main(UKF + ["--json", str(js), "--overwrite"]) == 0
     assert [t["rmse"] for t in json.loads(js.read_text())["trials"]] == [0.2, 0.2, 0.2]
     assert not log.path.exists()
+
+
+def test_version(capsys):
+    import windnav
+    from windnav.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0 and capsys.readouterr().out == f"windnav {windnav.__version__}\n"

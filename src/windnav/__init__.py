@@ -7,7 +7,8 @@ Subpackages follow the data flow of ``DESIGN.md``::
 beside them ``sysid`` (system identification: data files to vehicle coefficients, on
 ``vehicle`` and ``sim``), and the harnesses ``experiments`` and ``viz`` on top. They are
 imported lazily (``import windnav as wn; wn.vehicle.params(...)``) so that ``import windnav``
-stays cheap and torch is only loaded by ``predict`` and ``plan``.
+stays cheap. None of them loads torch: only training the decoder
+(:mod:`windnav.predict.train`, the ``train`` extra) does.
 """
 
 from __future__ import annotations

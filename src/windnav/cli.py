@@ -54,6 +54,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="windnav",
         description="Real-time local wind inference and wind-aware navigation for multirotors.",
     )
+    from windnav import __version__
+
+    parser.add_argument("--version", action="version", version=f"windnav {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(f"windnav.commands.{name}").register(sub)
