@@ -221,3 +221,16 @@ def test_process_workers_print_warnings_as_the_command_line_does(capfd, monkeypa
     assert values == [7]
     err = capfd.readouterr().err
     assert "windnav x: warning: task 7 is odd" in err and "UserWarning" not in err
+
+
+def test_a_sweep_without_ray_creates_nothing(tmp_path, monkeypatch):
+    """wind-sweep --backend ray without Ray created its store, then failed on the import."""
+    from windnav.city import training_map
+    from windnav.experiments.wind_sweep import sweep
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` raises ImportError
+    city = training_map(rng=1, size=120.0, n_buildings=3, side_range=(10.0, 30.0))
+    with pytest.raises(BackendUnavailableError, match=r"windnav\[ray\]"):
+        sweep([("m", "generated", city)], tmp_path / "s.zarr", speeds=[5.0],
+              directions_deg=[0.0], settings={"dx": 4.0}, backend="ray", progress=False)
+    assert not (tmp_path / "s.zarr").exists()

@@ -249,6 +249,19 @@ def _process_pool(fn, todo, workers, broken: list, last: bool) -> Iterator[TaskR
             _stop_pool(pool, pending)
 
 
+def check_backend(backend: str) -> None:
+    """Raise the errors :func:`run_tasks` would for ``backend``: a ValueError for an unknown
+    one, :class:`BackendUnavailableError` for ``"ray"`` without Ray (call it before creating
+    what the tasks will fill)."""
+    if backend not in _RUNNERS:
+        raise ValueError(
+            f"The 'backend' parameter of run_tasks must be one of {BACKENDS}. "
+            f"Got {backend!r} instead."
+        )
+    if backend == "ray":
+        _import_ray()
+
+
 def _import_ray():
     try:
         import ray
@@ -340,11 +353,7 @@ def run_tasks(
     consumed. Collect everything with
     ``sorted(run_tasks(...), key=lambda r: r.index)``.
     """
-    if backend not in _RUNNERS:
-        raise ValueError(
-            f"The 'backend' parameter of run_tasks must be one of {BACKENDS}. "
-            f"Got {backend!r} instead."
-        )
+    check_backend(backend)  # ray's now, with the install hint, rather than on first iteration
     tasks = list(tasks)
     if workers is not None:
         workers = positive_int(workers, "workers", "run_tasks")
@@ -352,8 +361,6 @@ def run_tasks(
         workers = os.cpu_count() or 1
     if workers is not None:
         workers = max(1, min(workers, len(tasks)))
-    if backend == "ray":
-        _import_ray()  # fail now, with the install hint, rather than on first iteration
     if on_result is not None and not callable(on_result):
         raise ValueError(
             f"The 'on_result' parameter of run_tasks must be callable or None. "

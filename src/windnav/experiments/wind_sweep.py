@@ -267,7 +267,7 @@ def sweep(
     KeyboardInterrupt
         On Ctrl-C, after the workers are stopped; finished simulations stay in the store.
     """
-    from windnav.experiments.executor import run_tasks
+    from windnav.experiments.executor import check_backend, run_tasks
     from windnav.flow.sweep_store import SweepMap, SweepStore
 
     where = "sweep"
@@ -290,6 +290,7 @@ def sweep(
     runs = len(speeds) * max(np.bincount(list(batch_of.values()))) if batch_of else 1
     workers = _fit_workers(sweep_maps, settings["dx"], runs, n_frames, backend, workers,
                            memory_limit, len(directions_deg) * len(sweep_maps))
+    check_backend(backend)  # before the store: ray's was created, then its import failed
     store = SweepStore.create(out, sweep_maps, speeds, directions_deg, config=settings,
                               n_frames=n_frames, seed=seed)
     if verify:
