@@ -3,19 +3,25 @@
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
+# the package alone (the demo's needs), then the test extra (torch, RotorPy, Ray, ...: the suite's)
+CORE_STAMP := $(VENV)/.windnav-core
 STAMP := $(VENV)/.windnav-installed
 
 .PHONY: venv demo test quick-suite lint bench-venv clean
 
-$(STAMP): pyproject.toml
+$(CORE_STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e .
+	touch $(CORE_STAMP)
+
+$(STAMP): $(CORE_STAMP)
 	$(PY) -m pip install -q -e '.[test]'
 	touch $(STAMP)
 
 venv: $(STAMP)
 
-demo: $(STAMP)
+demo: $(CORE_STAMP)
 	$(VENV)/bin/windnav demo --out out/demo --seed 0 --overwrite
 
 lint: $(STAMP)
