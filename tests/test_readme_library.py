@@ -75,6 +75,10 @@ def test_readme_library_tour_runs(tmp_path, monkeypatch):
     # the shapes and units its comments promise
     b = ns["xy"].shape[0]
     assert ns["scans"].shape == (b, 360)
+    # the robot stands in the street: its position was inside a building (every range 0, a
+    # field predicted from nothing and a planner update that braked; thread audit)
+    assert not ns["city"].contains(ns["xy"]).any() and ns["scans"].min() > 1.0
+    assert ns["planner"].stats.fallbacks == 0
     assert ns["uv"].shape == (b, 2, ns["dec"].offsets.size, ns["dec"].offsets.size) == (
         b, 2, 25, 25)
     assert np.all(np.isfinite(ns["uv"]))
