@@ -210,6 +210,25 @@ def test_a_finished_run_is_freed_without_waiting_for_the_cycle_collector(tiny, t
         gc.enable()
 
 
+def test_a_resume_on_another_thread_count_says_it_will_not_match(tiny, tmp_path):
+    """A run begun on one torch thread and resumed on two was accepted silently, and its
+    model matched neither uninterrupted run (thread audit); the recipe keeps train.threads
+    out of its identity, so it may still be resumed, with a warning."""
+    recipe, out, _ = tiny
+    one, two = tiny_recipe(threads=1), tiny_recipe(threads=2)
+
+    def stop_after_one(epoch, record):
+        if epoch == 1:
+            raise Stop
+
+    with pytest.raises(Stop):
+        train_decoder(one, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None, callback=stop_after_one)
+    with pytest.warns(UserWarning, match=r"resuming on 2 torch thread\(s\) a run begun on 1"):
+        train_decoder(two, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None)
+
+
 def test_another_recipe_does_not_resume_a_checkpoint(tiny):
     recipe, out, _ = tiny
     changed = copy.deepcopy(recipe)

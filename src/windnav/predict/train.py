@@ -47,7 +47,8 @@ schedule. :func:`train_decoder` then
 Re-running with the same recipe and out folder continues after the last finished epoch and
 ends with the same model as an uninterrupted run: the sample order of epoch ``e`` and any
 augmentation are functions of (seed, e), the samples are functions of the seed, and the torch
-state is restored from the checkpoint (bit for bit on one CPU thread count).
+state is restored from the checkpoint (bit for bit on one CPU thread count: a resume on
+another ``train.threads`` than the run began on is allowed, with a warning).
 """
 
 from __future__ import annotations
@@ -754,10 +755,16 @@ def _schedule(total_steps: int, warmup: float, final: float):
 
 
 def _evaluate(decoder: Decoder, samples, batch_size: int) -> dict:
-    pred = np.concatenate([decoder.predict(samples.scans[i:i + batch_size],
-                                           samples.w_up[i:i + batch_size],
-                                           samples.w_robot[i:i + batch_size])
-                           for i in range(0, samples.scans.shape[0], batch_size)])
+    # on one BLAS thread: a batch's float32 products otherwise change in their last bits with
+    # the BLAS thread count (6e-6 m/s under OpenBLAS's Haswell kernel), and so could the
+    # validation errors that pick the shipped epoch (thread audit, 2026-12-05)
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        pred = np.concatenate([decoder.predict(samples.scans[i:i + batch_size],
+                                               samples.w_up[i:i + batch_size],
+                                               samples.w_robot[i:i + batch_size])
+                               for i in range(0, samples.scans.shape[0], batch_size)])
     return _errors(pred, samples)
 
 
@@ -863,6 +870,13 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
         run.restore(ckpt)
         if log and run.start < tr["epochs"]:
             log(f"{where}: resuming {str(out)!r} after epoch {run.start}")
+        began = run.history.get("threads")
+        if began is not None and began != tr["threads"] and run.start < tr["epochs"]:
+            warnings.warn(
+                f"{where}: resuming on {tr['threads']} torch thread(s) a run begun on {began}: "
+                "its model will not be the one an uninterrupted run makes (torch's sums "
+                f"depend on the thread count); set train.threads = {began} to match it",
+                stacklevel=2)
     run.history["flush_denormal"] = flushed
     writer = _summary_writer(tr["tensorboard"], out / "tensorboard") \
         if run.start < tr["epochs"] else None
