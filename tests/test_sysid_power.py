@@ -338,3 +338,26 @@ def test_non_finite_samples_are_left_out_and_counted():
     assert fit.n_dropped == 2 and fit.to_dict()["n_dropped"] == 2 and clean.n_dropped == 0
     assert fit.speed.size == v.size and fit.hover.value == clean.hover.value
     assert any("2 sample(s) with a non-finite" in n for n in fit.notes)
+
+
+def test_the_hover_check_takes_student_s_quantile_for_few_slow_samples():
+    """With three slow samples the median's +-1.96 standard errors covered it 84 % of the
+    time (coverage audit): the rule takes t(n - 1)'s quantile, 4.30 for n = 3."""
+    from types import SimpleNamespace
+
+    from windnav.experiments.sysid import _hover_check
+    from windnav.sysid._fit import median_std_error
+
+    slow = np.array([50.0, 50.5, 51.0])
+    se = median_std_error(slow)  # 0.3618 W
+    for z, flagged in ((3.0, False), (4.5, True)):
+        hover = 50.5 - z * np.hypot(se, 0.01)
+        fit = SimpleNamespace(degree=3, hover=SimpleNamespace(value=hover, std_error=0.01,
+                                                    ci95=(hover - 0.02, hover + 0.02)))
+        assert _hover_check(fit, slow, 0.5)["hover_outside_fit"] is flagged
+    many = np.random.default_rng(0).normal(50.0, 0.5, 400)  # t(399) is about 1.966
+    se = median_std_error(many)
+    hover = float(np.median(many)) - 2.2 * np.hypot(se, 0.01)
+    fit = SimpleNamespace(degree=3, hover=SimpleNamespace(value=hover, std_error=0.01,
+                                                ci95=(hover - 0.02, hover + 0.02)))
+    assert _hover_check(fit, many, 0.5)["hover_outside_fit"] is True

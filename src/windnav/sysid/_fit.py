@@ -103,7 +103,9 @@ class LeastSquares:
 def median_std_error(values) -> float:
     """Standard error of the median of ``values`` (normal samples): ``sqrt(pi / 2) s /
     sqrt(n)`` = ``1.2533 s / sqrt(n)`` with ``s`` the sample standard deviation; infinite
-    for fewer than two values."""
+    for fewer than two values. A large-sample formula: an interval from it takes Student's
+    quantile with ``n - 1`` degrees of freedom (with 1.96, +-2 SE covered the median of
+    normal samples 84 % of the time at n = 3, 91 % at n = 5; coverage audit)."""
     v = np.asarray(values, dtype=np.float64)
     if v.size < 2:
         return float("inf")
