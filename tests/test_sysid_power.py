@@ -361,3 +361,20 @@ def test_the_hover_check_takes_student_s_quantile_for_few_slow_samples():
     fit = SimpleNamespace(degree=3, hover=SimpleNamespace(value=hover, std_error=0.01,
                                                 ci95=(hover - 0.02, hover + 0.02)))
     assert _hover_check(fit, many, 0.5)["hover_outside_fit"] is True
+
+
+def test_a_best_speed_on_the_search_bound_has_no_interval():
+    """V_E on 0 (a curve without a bucket) had the delta method's point interval [0, 0],
+    which never covers the truth (coverage audit): no interval there, and a note."""
+    from windnav.sysid import fit_power
+
+    v = np.linspace(0.0, 12.0, 25)
+    p = 50.0 + 0.1 * v**2 + 0.05 * v**3 + np.random.default_rng(2).normal(0.0, 0.2, v.size)
+    fit = fit_power(v, p)
+    assert fit.max_endurance_speed.value == pytest.approx(0.0, abs=1e-6)
+    assert np.isnan(fit.max_endurance_speed.std_error)
+    assert all(np.isnan(fit.max_endurance_speed.ci95))
+    assert any(n.startswith("max_endurance_speed (") for n in fit.notes)
+    inner = fit.max_range_speed  # an interior optimum keeps its interval
+    assert 0.0 < inner.value < 12.0 and inner.ci95[0] < inner.value < inner.ci95[1]
+    assert not any(n.startswith("max_range_speed (") for n in fit.notes)

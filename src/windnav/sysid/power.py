@@ -193,7 +193,8 @@ class PowerFit:
     curve : PowerCurve
         The curve, searched on ``[0, speed_max]`` m/s.
     hover, min_power, max_endurance_speed, max_range_speed : Estimate
-        ``P(0)`` (W), ``P(V_E)`` (W), ``V_E`` (m/s), ``V_R`` (m/s, no wind).
+        ``P(0)`` (W), ``P(V_E)`` (W), ``V_E`` (m/s), ``V_R`` (m/s, no wind). A best speed on
+        the bound of the speeds searched has a NaN standard error and interval (a note).
     in_wind : list of dict
         Per along-track wind ``W`` (m/s): the ground speed ``V_R(W)``, its airspeed, power and
         energy per metre, and ``at_speed_limit`` when the airspeed sits on ``speed_max``
@@ -263,6 +264,13 @@ class PowerFit:
                    f"{self.fit.rmse / np.max(np.abs(self.power)):.2%} of the largest power, "
                    f"over the {NO_SCATTER_RESOLUTION:.1%} taken for rounding)"
                    if test["no_scatter"] else ""))
+        for name, e in (("max_endurance_speed", self.max_endurance_speed),
+                        ("max_range_speed", self.max_range_speed)):
+            if np.isnan(e.std_error):
+                notes.append(
+                    f"{name} ({e.value:.3g} m/s) lies on the bound of the speeds searched (0 or "
+                    f"speed_max {self.curve.speed_max:.3g} m/s): the optimum is not inside the "
+                    "data, and no 95 % interval is given for it")
         if self.n_dropped:
             notes.append(f"{self.n_dropped} sample(s) with a non-finite speed or power were "
                          "left out of the fit")
@@ -297,6 +305,17 @@ class PowerFit:
             "units": {"speed": "m/s", "power": "W", "coefficients": "W/(m/s)^k",
                       "wind_m_s": "along track, > 0 tailwind, < 0 headwind"},
         }
+
+
+def _inside(e: Estimate, speed_max: float) -> Estimate:
+    """``e``, a best speed, without an interval when it lies on the searched range's bound
+    (0 or ``speed_max``): there the optimum does not move with the coefficients, the delta
+    method's gradient is 0 and its interval a point that never covered the truth (8.5 % of
+    13-sample fits of the thesis's cubic; coverage audit)."""
+    tol = 1e-6 * speed_max
+    if e.value <= tol or e.value >= speed_max - tol:
+        return Estimate(e.value, float("nan"), (float("nan"), float("nan")))
+    return e
 
 
 def _delta(func, coef: np.ndarray, cov: np.ndarray, dof: int) -> Estimate:
@@ -389,5 +408,6 @@ def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
                       "at_speed_limit": bool(opt.airspeed >= vmax * (1 - 1e-6))})
     return PowerFit(tuple(fit.estimate(n) for n in names), fit, curve, fit.estimate("c0"),
                     _delta(pmin, fit.coef, fit.cov, fit.dof),
-                    _delta(ve, fit.coef, fit.cov, fit.dof),
-                    _delta(vr, fit.coef, fit.cov, fit.dof), table, v, p, int(ok.size - ok.sum()))
+                    _inside(_delta(ve, fit.coef, fit.cov, fit.dof), vmax),
+                    _inside(_delta(vr, fit.coef, fit.cov, fit.dof), vmax), table, v, p,
+                    int(ok.size - ok.sum()))
