@@ -22,7 +22,9 @@ with its breakdown (collision, hover, left_map, timeout) and a Wilson 95 % inter
 reference (MPPI), for both energies:
 
 * the *table ratio* ``1 - mean(E_variant) / mean(E_ref)``, each mean over that variant's
-  successful flights (95 % percentile bootstrap interval, resampling each variant's flights);
+  successful flights (95 % percentile bootstrap interval, resampling each variant's flights
+  on their own: conservative, since both flew the same scenarios; ``docs/navigation.md``,
+  "How far to trust the intervals");
 * the *paired reduction*: the mean over scenarios where neither failed of
   ``1 - E_variant / E_ref`` (Student t interval), also per inlet speed.
 
