@@ -531,3 +531,11 @@ def test_a_vehicle_that_leaves_the_model_ends_as_left_map_not_collision(city, fl
     last = res.position[-1:, :2]
     assert not city.contains(last)[0]
     assert res.outcome == "left_map"
+
+
+def test_a_duration_past_the_flow_s_end_is_cut_with_a_warning(city, still):
+    """navigate cut a duration longer than the recorded wind to its end, silently."""
+    end = float(still.t[-1])
+    with pytest.warns(UserWarning, match=rf"frames end at {end:g} s, so the flight ends there"):
+        r = fly(city, still, planner=Constant((0.0, 0.0)), duration=end + 30.0)
+    assert r.time_s <= end + 1e-9

@@ -406,3 +406,27 @@ def test_the_default_start_holds_the_reference_heading(yaw):
     assert np.allclose(q, [0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2)], atol=1e-12)
     assert log.flags == [FlightStatus.OK] and log.meta["envelope_fraction"] == 0.0
     assert np.abs(log.position[:, 0] - [0.0, 0.0, 1.0]).max() < 1e-6
+
+
+def test_a_flight_past_an_unsteady_wind_s_frames_says_the_wind_is_held():
+    """An unsteady urban wind is held at its last frame after it (documented); a 600 s flight
+    in a 100 s flow flew its last 500 s in a steady wind and said nothing (long-run audit)."""
+    import warnings
+
+    from windnav.wind import GriddedWind
+
+    x = y = np.linspace(-50.0, 50.0, 11)
+    t = np.linspace(0.0, 2.0, 5)
+    u = np.broadcast_to(t[:, None, None], (5, 11, 11))  # u grows from 0 to 2 m/s
+    wind = GriddedWind(x, y, u, np.zeros_like(u), t)
+    p = wn.vehicle.params("hummingbird")
+    hover = make_trajectory("hover", start=(0, 0, 1))
+    with pytest.warns(UserWarning, match=r"frames end at 2 s and the flight lasts 3 s: for its "
+                                         r"last 1 s the wind is held at its last frame"):
+        log = fly(p, hover, wind, 3.0, sensors=NO_SENSORS)
+    assert log.meta["wind_held_after_s"] == 2.0
+    np.testing.assert_array_equal(log.wind[log.t > 2.0, 0, 0], 2.0)  # held
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        inside = fly(p, hover, wind, 2.0, sensors=NO_SENSORS)
+    assert inside.meta["wind_held_after_s"] is None

@@ -103,6 +103,7 @@ import bisect
 import dataclasses
 import math
 import time
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -797,7 +798,12 @@ def navigate(
     _check_flow(flow, speed, direction_deg, city)
     end = float(flow.t[-1])
     if duration is not None:
-        end = min(end, positive_float(duration, "duration", _WHERE))
+        asked = positive_float(duration, "duration", _WHERE)
+        if asked > end + 1e-9:  # it was cut to the wind's end silently
+            warnings.warn(f"{_WHERE}: the flow's frames end at {end:g} s, so the flight ends "
+                          f"there, not at the {asked:g} s asked for (simulate the flow longer)",
+                          stacklevel=2)
+        end = min(end, asked)
     wind_at = _FastWind(flow.wind_field(unsteady=True))
 
     params = _default_params() if vehicle is None else vehicle

@@ -201,6 +201,7 @@ def fly(
         raise ValueError(f"The 'duration' parameter of {_WHERE} must be at least half the "
                          f"physics step dt ({loop.dt} s) to fly one step. Got {duration} "
                          "instead.")
+    held = _frames_end(wind, duration)
     rec = _Recorder(loop, duration, log_every, periods, lift_fraction, max_airspeed)
     state = initial_loop_state(loop, x0)
     n_steps = rec.n_steps
@@ -218,9 +219,29 @@ def fly(
     bar.close()
     sensors_out = _sample_sensors(loop, sensor_list, periods, rec, state.failed_step, gen)
     plist = [params] if isinstance(params, MultirotorParams) else list(params)
-    return rec.flight_log(state, plist, sensors_out, seed_used, suite_rates={
+    log = rec.flight_log(state, plist, sensors_out, seed_used, suite_rates={
         s.name: s.rate_hz for s in sensor_list}, names=(type(wind).__name__,
                                                         type(trajectory).__name__))
+    log.meta["wind_held_after_s"] = held
+    return log
+
+
+def _frames_end(wind, duration: float) -> float | None:
+    """The time of an unsteady gridded wind's last frame when the flight outlasts it (the wind
+    is held at that frame from then on, :class:`windnav.wind.GriddedWind`), with a warning;
+    else None. (A 600 s flight in a flow of 100 s flew its last 500 s in a steady wind,
+    silently; long-run audit.)"""
+    frames = getattr(wind, "t", None)
+    if not isinstance(frames, np.ndarray) or frames.ndim != 1 or frames.size < 2:
+        return None
+    end = float(frames[-1])
+    if duration <= end + 1e-9:
+        return None
+    warnings.warn(
+        f"{_WHERE}: the wind's frames end at {end:g} s and the flight lasts {duration:g} s: for "
+        f"its last {duration - end:g} s the wind is held at its last frame, a steady wind "
+        "(shorten the flight, or simulate the flow longer)", stacklevel=3)
+    return end
 
 
 def _sensor_period(sensor, dt: float) -> int:
