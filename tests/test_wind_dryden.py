@@ -185,6 +185,18 @@ def test_earlier_than_t0_raises_and_later_blocks_are_reachable_directly():
     np.testing.assert_array_equal(DrydenWind(seed=5, t0=2.0).sample([2.0, 60.0])[1], far[0])
 
 
+def test_a_query_far_ahead_keeps_only_its_own_block():
+    """One query 2e4 s ahead kept every block it generated on the way (499 MB, past the
+    64 MB cap; long-run audit): the blocks passed over give their start states only."""
+    field = DrydenWind(seed=5)
+    far = field.velocity(500.0, np.zeros((1, 3)))
+    assert len(field._values) == 1
+    near = field.velocity(100.0, np.zeros((1, 3)))  # a block passed over: regenerated alike
+    fresh = DrydenWind(seed=5).sample(np.arange(0.0, 500.001, 0.5))
+    np.testing.assert_array_equal(far[0], fresh[-1])
+    np.testing.assert_array_equal(near[0], fresh[200])
+
+
 def test_between_lattice_points_the_gust_is_linear():
     field = DrydenWind(sigma=SIGMA, seed=2, time_step=0.01)
     g0, g1, gm = field.sample([1.0, 1.01, 1.0025])

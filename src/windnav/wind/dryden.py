@@ -438,8 +438,9 @@ class DrydenWind:
                 self._values.move_to_end(j)
                 return values
             for k in range(len(self._starts) - 1, j + 1):
-                values = self._generate(k)
-                self._values[k] = values
+                values = self._generate(k)  # the blocks passed over give their start states
+                if k == j:  # and are not kept: one query 2e4 s ahead kept them all (499 MB)
+                    self._values[k] = values
             if j not in self._values:  # evicted earlier: regenerated bit for bit
                 values = self._generate(j)
                 self._values[j] = values
