@@ -420,3 +420,20 @@ def test_version(capsys):
     with pytest.raises(SystemExit) as info:
         main(["--version"])
     assert info.value.code == 0 and capsys.readouterr().out == f"windnav {windnav.__version__}\n"
+
+
+def test_the_command_line_sets_the_agg_backend_itself(tmp_path, monkeypatch):
+    """The plotting modules leave the backend alone (a notebook's import of one switched it
+    to Agg); the command line itself, and only it (not main(argv) called from Python), sets
+    Agg for its figures and its workers."""
+    import os
+    import sys
+
+    from windnav.cli import main
+
+    monkeypatch.delenv("MPLBACKEND", raising=False)
+    assert main(["power-curve", "--out", str(tmp_path / "a")]) == 0
+    assert "MPLBACKEND" not in os.environ
+    monkeypatch.setattr(sys, "argv", ["windnav", "power-curve", "--out", str(tmp_path / "b")])
+    assert main() == 0
+    assert os.environ["MPLBACKEND"] == "Agg"

@@ -76,15 +76,15 @@ def _named(exc: Exception) -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
-    # the commands write figures to files: no window, whatever the user's backend (the
-    # plotting modules no longer switch the backend at import, which a notebook's import of
-    # them did); set before matplotlib is imported, and inherited by the worker processes
-    os.environ["MPLBACKEND"] = "Agg"
     parser = build_parser()
     args = parser.parse_args(argv)
     args.argv = list(sys.argv[1:] if argv is None else argv)  # for a command that restarts
     where = f"windnav {args.command}"
     if argv is None:  # the command line itself: warnings as one line, not a source location
+        # and figures to files, never a window, whatever the user's backend (the plotting
+        # modules no longer switch it at import, which a notebook's import of them did): set
+        # before matplotlib is imported, and inherited by the worker processes
+        os.environ["MPLBACKEND"] = "Agg"
         with warnings.catch_warnings():
             from windnav._console import one_line_warning
 
