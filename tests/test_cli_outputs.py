@@ -269,6 +269,46 @@ def test_record_log_refuses_another_study_and_skips_a_torn_line(tmp_path):
         res.RecordLog(tmp_path / "r.jsonl", {"seed": 2}).load()
 
 
+def test_record_log_takes_an_empty_or_torn_header_file_for_no_records(tmp_path):
+    """A kill between creating the file and writing its header left a file the next run
+    called another study's; lines that are JSON but no object crashed the callers, and bytes
+    that are not UTF-8 failed the whole load (files audit)."""
+    for torn in (b"", b'{"hea', b'{"header": {"seed": 1'):
+        path = tmp_path / f"r{len(torn)}.jsonl"
+        path.write_bytes(torn)
+        log = res.RecordLog(path, {"seed": 1})
+        assert log.load() == []
+        log.append({"index": 0})
+        assert log.load() == [{"index": 0}]
+    with open(path, "ab") as f:
+        f.write(b'[1, 2]\n7\n{"index": \xff\xfe}\n{"index": 1}\n')
+    assert log.load() == [{"index": 0}, {"index": 1}]
+    other = tmp_path / "other.jsonl"
+    other.write_bytes(b"not a record log")
+    with pytest.raises(res.RecordMismatchError, match="another study"):
+        res.RecordLog(other, {"seed": 1}).load()
+
+
+def test_ukf_montecarlo_resumes_only_the_records_of_its_own_trials(tmp_path, monkeypatch):
+    """A record of another study's trial 1 (another seed) in this study's log was taken for
+    trial 1 and moved the median, silently; a record without its rmse failed the summary
+    after every other trial had run (files audit)."""
+    cfg = mc.MonteCarloConfig(n_trials=3, seed=5, duration=(3.0, 3.0))
+    specs = mc.draw_trials(cfg)
+    log = res.RecordLog(tmp_path / "mc.partial.jsonl", mc.records_header(cfg))
+    good = {"rmse": 0.3, "rmse_axes": [0.1, 0.2, 0.1], "saturated_fraction": 0.0,
+            "outside_envelope_fraction": 0.0}
+    log.append({"index": 0, "seed": specs[0].seed, **good})
+    log.append({"index": 1, "seed": specs[1].seed + 1, **good, "rmse": 9.0})  # another study
+    log.append({"index": 2, "seed": specs[2].seed, "rmse_axes": [0.1, 0.2, 0.1]})  # no rmse
+    ran = []
+    monkeypatch.setattr(mc, "run_trial", lambda spec: ran.append(spec.index) or {
+        "index": spec.index, "seed": spec.seed, **good, "rmse": 0.2})
+    out = mc.run_montecarlo(cfg, backend="serial", progress=False, records=log.path)
+    assert ran == [1, 2] and out["resumed"] == 1
+    assert [t["rmse"] for t in out["trials"]] == [0.3, 0.2, 0.2]
+
+
 # ------------------------------------------------------------------ --json of each command
 
 

@@ -117,13 +117,13 @@ def _config(args):
 def _record_log(args, config):
     """The record log of ``--json`` (None without it), checked before any trial runs."""
     from windnav.experiments.results import RecordLog, RecordMismatchError
-    from windnav.experiments.ukf_montecarlo import records_header
+    from windnav.experiments.ukf_montecarlo import draw_trials, recorded_trials, records_header
 
     if args.json is None:
         return None
     log = RecordLog(partial_path(args.json), records_header(config))
     try:
-        n = sum(r.get("error") is None for r in log.load())
+        n = len(recorded_trials(log.load(), draw_trials(config)))
     except RecordMismatchError:
         if not args.overwrite:
             raise ValueError(

@@ -529,7 +529,9 @@ class RecordLog:
         self.header = json_ready(dict(header), keep_nonfinite=True)
 
     def load(self) -> list[dict]:
-        """The records already in the file ([] when there is none).
+        """The records already in the file ([] when there is none, or when the file is empty
+        or holds only a header torn by a kill, which is then dropped); lines that are not
+        JSON objects (torn, damaged) are skipped.
 
         Raises
         ------
@@ -538,7 +540,15 @@ class RecordLog:
         """
         if not self.path.exists():
             return []
-        lines = self.path.read_text().splitlines()
+        raw = self.path.read_bytes()
+        start = b'{"header"'
+        if b"\n" not in raw and (start.startswith(raw) or raw.startswith(start)):
+            # empty, or a header torn by a kill: no record yet (the next append writes it)
+            if raw:
+                self.path.write_bytes(b"")
+            return []
+        # bytes that are not UTF-8 (a damaged line) become U+FFFD: that line is skipped below
+        lines = raw.decode("utf-8", errors="replace").splitlines()
         try:
             head = json.loads(lines[0])["header"] if lines else None
         except (json.JSONDecodeError, KeyError, TypeError):
@@ -550,9 +560,11 @@ class RecordLog:
         records = []
         for line in lines[1:]:
             try:
-                records.append(json.loads(line))
+                rec = json.loads(line)
             except json.JSONDecodeError:
                 continue  # a record torn by a kill mid-write
+            if isinstance(rec, dict):  # a list or a number is no record (it crashed callers)
+                records.append(rec)
         return records
 
     def append(self, record: Mapping) -> None:

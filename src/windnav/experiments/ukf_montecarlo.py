@@ -430,6 +430,33 @@ def failed_record(spec: TrialSpec, error: str | None, seconds: float = 0.0) -> d
             "rmse": math.nan, "rmse_axes": [math.nan] * 3, "seconds": seconds}
 
 
+_RECORD_NUMBERS = ("rmse", "saturated_fraction", "outside_envelope_fraction")
+
+
+def _recorded_trial(rec: dict, specs: list[TrialSpec]) -> bool:
+    """Whether ``rec`` is the finished record of the trial it names: its index in range, its
+    seed that trial's and the numbers the summary reads numbers. (A line of another study,
+    seed 1 against 0, was taken for trial 1 and moved the median, silently; a record without
+    its ``rmse`` failed the summary after every other trial had run; files audit.)"""
+    i = rec.get("index")
+    if isinstance(i, bool) or not isinstance(i, int) or not 0 <= i < len(specs):
+        return False
+    if rec.get("seed") != specs[i].seed:
+        return False
+    nums = [rec.get(k) for k in _RECORD_NUMBERS]
+    axes = rec.get("rmse_axes")
+    return (all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in nums)
+            and isinstance(axes, list) and len(axes) == 3
+            and all(isinstance(v, (int, float)) for v in axes))
+
+
+def recorded_trials(records, specs: list[TrialSpec]) -> dict[int, dict]:
+    """``{index: record}`` of the finished trials among ``records`` (a record log's): those
+    without an error that :func:`_recorded_trial` accepts, the last of each index."""
+    return {r["index"]: r for r in records
+            if r.get("error") is None and _recorded_trial(r, specs)}
+
+
 def run_montecarlo(config: MonteCarloConfig, *, backend: str = "process",
                    workers: int | None = None, progress: bool = True,
                    records=None) -> dict:
@@ -466,10 +493,7 @@ def run_montecarlo(config: MonteCarloConfig, *, backend: str = "process",
         require("rotorpy", f"The {ukf_conditions(config.conditions).name!r} conditions' gusts "
                 "(RotorPy's DrydenGust)")
     log = RecordLog(records, records_header(config)) if records is not None else None
-    done = {}
-    for rec in (log.load() if log is not None else []):
-        if rec.get("error") is None and 0 <= rec.get("index", -1) < len(specs):
-            done[rec["index"]] = rec
+    done = recorded_trials(log.load() if log is not None else [], specs)
     t0 = time.perf_counter()
     trials = dict(done)
     todo = [s for s in specs if s.index not in done]
