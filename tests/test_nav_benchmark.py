@@ -534,6 +534,29 @@ def test_a_corrupt_record_is_named_by_file_and_line(tmp_path, no_wind):
         NavStore(tmp_path, TINY).load()
 
 
+def test_a_record_that_is_no_flight_of_the_suite_is_named(tmp_path, no_wind):
+    """A record of a map the suite does not fly was counted as one more flight, an unknown
+    outcome as a failure and a success without energy shown as '-' (files audit)."""
+    nb.run_benchmark(TINY, ["mppi"], tmp_path, executor="serial", progress=False,
+                     navigate_fn=Fake())
+    path = tmp_path / "records.jsonl"
+    good = path.read_text()
+    first = json.loads(good.splitlines()[0])
+    m = max(TINY.maps) + 1
+    for change, what in (
+            ({"scenario_id": f"tiny/m{m:02d}/w00/p0"}, "is not in the suite"),
+            ({"outcome": "banana"}, "the outcome 'banana' is none of"),
+            ({"outcome": "success", "energy_J": None}, "a success whose energy_J is None"),
+            ({"outcome": "success", "energy_J": "1.0"}, "energy_J is '1.0'")):
+        path.write_text(good + json.dumps({**first, **change}) + "\n")
+        n = len(good.splitlines()) + 1
+        with pytest.raises(CorruptRecordError, match=f"at line {n} a record that is not one of "
+                                                     f"this suite's flights: .*{what}"):
+            NavStore(tmp_path, TINY).load()
+    path.write_text(good)
+    assert len(NavStore(tmp_path, TINY).load()) == len(good.splitlines())
+
+
 # ----------------------------------------------------------------------------- the table
 
 

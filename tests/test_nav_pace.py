@@ -30,7 +30,7 @@ FLIGHTS = [(3000.0, 50.0, 3300.0, 60.0, "success"), (2000.0, 40.0, 1800.0, 36.0,
 def records(suffix=""):
     out = []
     for i, (e_ref, t_ref, e, t, outcome) in enumerate(FLIGHTS):
-        sid = f"quick/m00/w00/p{i}"
+        sid = f"quick/m00/w{i // 2:02d}/p{i % 2}"  # flights of the tiny suite
         out += [rec(sid, "mppi" + suffix, "success", e_ref, t_ref),
                 rec(sid, "ea-mppi-w" + suffix, outcome, e, t)]
     return out

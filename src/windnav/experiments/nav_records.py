@@ -223,8 +223,9 @@ class NavStore:
         Raises
         ------
         CorruptRecordError
-            Naming the file and the (1-based) line of the first line that is not a record;
-            a torn last line (no newline) is ignored.
+            Naming the file and the (1-based) line of the first line that is not a record, or
+            not one of the suite's flights (a scenario it does not fly, an unknown outcome, a
+            success without a finite energy); a torn last line (no newline) is ignored.
         """
         if not self.records_path.exists():
             return []
@@ -243,8 +244,34 @@ class NavStore:
                 raise SuiteMismatchError(
                     f"The record file {str(self.records_path)!r} has at line {i} a record of "
                     f"another suite ({rec['scenario_id']!r}, expected {prefix}...).")
+            problem = self._record_problem(rec)
+            if problem:  # a map the suite does not fly counted as a sixth flight of a table
+                raise CorruptRecordError(  # of four, "banana" as a failure (files audit)
+                    f"The record file {str(self.records_path)!r} has at line {i} a record "
+                    f"that is not one of this suite's flights: {problem}. Delete or repair "
+                    "that line; the other lines keep their finished flights.")
             out.append(rec)
         return out
+
+    def _record_problem(self, rec: Mapping) -> str | None:
+        """What makes ``rec`` no flight of this store's suite (None when nothing does): an id
+        the suite does not fly, an unknown outcome, a success without a finite energy."""
+        from windnav.experiments.nav_suite import _ID
+
+        match = _ID.fullmatch(rec["scenario_id"])
+        spec = self.spec
+        if match is None or int(match["m"]) not in spec.maps or int(match["w"]) not in \
+                spec.winds or int(match["p"]) not in spec.pairs:
+            return (f"the scenario {rec['scenario_id']!r} is not in the suite (maps "
+                    f"{list(spec.maps)}, winds {list(spec.winds)}, pairs {list(spec.pairs)})")
+        outcome = rec["outcome"]
+        if outcome not in ("success", *FAILURES, ERROR):
+            return f"the outcome {outcome!r} is none of {['success', *FAILURES, ERROR]}"
+        energy = rec.get("energy_J")
+        if outcome == "success" and (isinstance(energy, bool) or not isinstance(
+                energy, (int, float)) or not math.isfinite(energy)):
+            return f"a success whose energy_J is {energy!r}, not a finite number"
+        return None
 
     def latest(self) -> dict[tuple[str, str], dict]:
         """The last record of each ``(scenario_id, variant)``."""
