@@ -47,7 +47,7 @@ def load_rotorpy_doc(path) -> dict:
     if path.is_dir():
         raise ValueError(f"RotorPy world file {str(path)!r} is a folder, not a JSON file.")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark, as editors write
     except UnicodeDecodeError as exc:
         raise ValueError(f"RotorPy world file {str(path)!r} is not UTF-8 text: {exc}") from None
     try:

@@ -212,7 +212,13 @@ def scenario_ids(text, spec, name: str) -> frozenset | None:
         return None
     path = Path(text)
     if path.is_file():
-        lines = (line.split("#", 1)[0].strip() for line in path.read_text().splitlines())
+        try:
+            text_ = path.read_text(encoding="utf-8-sig")
+        except UnicodeDecodeError:
+            raise ValueError(f"The '--scenarios' parameter of {name} must name a text file of "
+                             f"scenario ids. Got {str(path)!r} instead, which is not UTF-8 "
+                             "text.") from None
+        lines = (line.split("#", 1)[0].strip() for line in text_.splitlines())
         ids = [line for line in lines if line]
     else:
         ids = [part.strip() for part in str(text).split(",") if part.strip()]

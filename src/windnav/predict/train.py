@@ -159,8 +159,8 @@ MAP_KINDS = ("training", "dense", "planning", "file")
 def _read_toml(path: Path) -> dict:
     import tomllib
 
-    with open(path, "rb") as fh:
-        return tomllib.load(fh)
+    raw = path.read_bytes()
+    return tomllib.loads(raw.decode("utf-8-sig"))  # a byte-order mark, as editors write
 
 
 _WHOLE_TABLES = ("hyperparameters", "settings", "map_weights")

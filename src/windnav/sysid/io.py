@@ -135,7 +135,7 @@ def read_table(path, *, layout: str | Sequence[str] | None = None,
     if not path.is_file():
         raise ValueError(f"The file {source!r} given to {where} does not exist (or is not a "
                          "file).")
-    text = path.read_text(errors="replace").splitlines()
+    text = path.read_text(encoding="utf-8-sig", errors="replace").splitlines()  # BOM: Excel
     lines = [(i + 1, ln) for i, ln in enumerate(text) if ln.strip() and not ln.startswith("#")]
     if not lines:
         raise ValueError(f"The file {source!r} given to {where} is empty.")
