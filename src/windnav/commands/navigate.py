@@ -93,7 +93,8 @@ def register(sub) -> None:
     p.add_argument("--record-s", type=float, default=100.0,
                    help="recorded wind, s; the longest flight (%(default)s)")
     p.add_argument("--seed", type=int, default=0,
-                   help="seed of the planner and LiDAR noise (%(default)s)")
+                   help="seed of the planner and LiDAR noise; the MPPI variants only, the "
+                        "graph search (gs, gs-w) draws nothing (%(default)s)")
     p.add_argument("--out", type=Path, default=Path("out/navigate"),
                    help="output folder (%(default)s)")
     p.add_argument("--no-plots", action="store_true", help="write no PNG figures")

@@ -62,7 +62,10 @@ def add_solver_arguments(parser) -> None:
     parser.add_argument("--record-every", type=int, default=d["record_every"],
                         help="store a frame every this many averaged steps; 0: none "
                              "(%(default)s)")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (%(default)s)")
+    parser.add_argument("--seed", type=int, default=0,
+                        help="recorded with the flow; the solver is deterministic (its "
+                             "symmetry-breaking kick is fixed), so it changes no field; "
+                             "wind-sweep: the seed of the --generate maps (%(default)s)")
 
 
 def solver_settings(args, max_speed: float) -> dict:
