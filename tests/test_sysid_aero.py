@@ -378,3 +378,17 @@ def test_fast_measured_samples_fitted_unaveraged_are_noted(tunnel, tmp_path):
     assert AVERAGE_NOTE not in json.loads((tmp_path / "a.json").read_text())["notes"]
     assert AVERAGE_NOTE in json.loads((tunnel / "csv.json").read_text())["notes"]
     assert AVERAGE_NOTE not in json.loads((tunnel / "log.json").read_text())["notes"]
+
+
+def test_rows_with_a_non_finite_value_are_counted(tunnel, tmp_path):
+    """NaN on every other row of the CSV halved the samples fitted, silently (files audit)."""
+    tab = read_table(tunnel / "sim" / "tunnel.csv")
+    cols = {k: v.copy() for k, v in tab.columns.items()}
+    cols["airspeed_x"][::2] = np.nan
+    write_csv(tmp_path / "holes.csv", cols)
+    _cli("sysid", "aero", "--csv", tmp_path / "holes.csv", "--vehicle", "crazyflie_thesis",
+         "--average-s", 0.1, "--json", tmp_path / "h.json", "--out", tmp_path / "h")
+    doc = json.loads((tmp_path / "h.json").read_text())
+    n = int(np.ceil(tab.columns["airspeed_x"].size / 2))
+    assert doc["n_dropped"] == n and f"{n} sample(s) with a non-finite value" in doc["notes"][-1]
+    assert json.loads((tunnel / "csv.json").read_text())["n_dropped"] == 0

@@ -89,6 +89,9 @@ class AeroData:
         rad/s.
     source : str
         Where the samples came from, for messages.
+    dropped : int
+        Rows of the source left out for a non-finite value (:meth:`from_table`, the flight
+        log reader); ``sysid aero`` says how many.
 
     Every array is checked at construction: finite, with one row per time (K may be 0) and
     at least one rotor.
@@ -99,6 +102,7 @@ class AeroData:
     specific_force_body: np.ndarray
     rotor_speeds: np.ndarray
     source: str = "aero data"
+    dropped: int = 0
 
     def __post_init__(self):
         # built by hand, arrays that did not line up reached fit_aero as a LinAlgError, an
@@ -143,7 +147,7 @@ class AeroData:
         t = c["time_s"]
         ok = np.isfinite(t) & np.all(np.isfinite(va), 1) & np.all(np.isfinite(f), 1) & np.all(
             np.isfinite(eta), 1)
-        return cls(t[ok], va[ok], f[ok], eta[ok], table.source)
+        return cls(t[ok], va[ok], f[ok], eta[ok], table.source, int(ok.size - ok.sum()))
 
     def to_columns(self) -> dict:
         """``{column: (K,)}`` in the aero CSV layout."""
@@ -167,7 +171,8 @@ class AeroData:
                         np.concatenate([p.airspeed_body for p in parts]),
                         np.concatenate([p.specific_force_body for p in parts]),
                         np.concatenate([p.rotor_speeds for p in parts]),
-                        ", ".join(repr(p.source) for p in parts))
+                        ", ".join(repr(p.source) for p in parts),
+                        sum(p.dropped for p in parts))
 
 
 def aero_from_flight_log(log, *, settle_s: float | None = None,
@@ -224,7 +229,7 @@ def aero_and_status_from_flight_log(log, *, settle_s: float | None = None,
         vehicles[name] = vehicles.get(name, 0) + 1
     data = AeroData.concatenate([d for _, d in parts])
     return (AeroData(data.t, data.airspeed_body, data.specific_force_body, data.rotor_speeds,
-                     source), {"samples": samples, "vehicles": vehicles})
+                     source, data.dropped), {"samples": samples, "vehicles": vehicles})
 
 
 def _vehicle_parts(log, settle_s: float | None, source: str) -> list:
@@ -265,7 +270,8 @@ def _vehicle_parts(log, settle_s: float | None, source: str) -> list:
         eta = at(log.rotor_speeds)
         ok = (np.all(np.isfinite(f), 1) & np.all(np.isfinite(va), 1)  # AeroData holds
               & np.all(np.isfinite(eta), 1))                            # finite samples only
-        parts.append((b, AeroData(t[ok], va[ok], f[ok], eta[ok], source)))
+        parts.append((b, AeroData(t[ok], va[ok], f[ok], eta[ok], source,
+                                  int(ok.size - ok.sum()))))
     return parts
 
 
@@ -296,7 +302,7 @@ def block_average(data: AeroData, window_s: float) -> AeroData:
         return (out / counts[:, None]).reshape((-1,) + a.shape[1:])
 
     return AeroData(mean(t), mean(data.airspeed_body), mean(data.specific_force_body),
-                    mean(data.rotor_speeds), data.source)
+                    mean(data.rotor_speeds), data.source, data.dropped)
 
 
 @dataclass(frozen=True, eq=False)
