@@ -246,7 +246,7 @@ def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, cap
     store = NavStore(tmp_path / "store", spec, create=True)
     for w, outcome in ((0, "success"), (1, "timeout")):
         store.append({"scenario_id": f"quick/m00/w0{w}/p0", "variant": "mppi", "map_index": 0,
-                      "outcome": outcome})
+                      "outcome": outcome, "energy_J": 1000.0})
     args = ["nav-study", "feasibility", "--suite", "quick", "--store", str(store.path),
             "--cache", str(tmp_path / "reach"), "--airspeeds", "2", "--executor", "serial",
             "--out", str(tmp_path / "out"), "--no-progress"]
