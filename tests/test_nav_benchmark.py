@@ -1411,3 +1411,15 @@ def test_quick_suite_ea_mppi_w_uses_less_energy_than_mppi(quick_table):
     vs = table["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]
     assert vs["table_ratio"]["value"] > 0.0
     assert vs["paired_reduction"]["n"] > 0 and vs["paired_reduction"]["mean"] > 0.0
+
+
+def test_a_manifest_that_is_not_an_object_is_named(tmp_path, no_wind, capsys):
+    """A manifest.json of [1] failed the command with an AttributeError (files audit)."""
+    from windnav import cli
+
+    nb.run_benchmark(TINY, ["mppi"], tmp_path, executor="serial", progress=False,
+                     navigate_fn=Fake())
+    (tmp_path / "manifest.json").write_text("[1]")
+    assert cli.main(["benchmark-nav", "--out", str(tmp_path), "--table"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "must name a benchmark store" in err

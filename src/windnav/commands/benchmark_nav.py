@@ -123,9 +123,10 @@ def _manifest(store: Path | None) -> dict | None:
     if store is None or not (store / "manifest.json").is_file():
         return None
     try:
-        return json.loads((store / "manifest.json").read_text())
+        found = json.loads((store / "manifest.json").read_text())
     except (OSError, ValueError):
         return None  # NavStore names the problem
+    return found if isinstance(found, dict) else None  # ([1]: an AttributeError; files audit)
 
 
 def _spec(args, name: str, prefer: str | None = None):
