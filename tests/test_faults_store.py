@@ -323,3 +323,22 @@ def test_save_flow_names_a_solution_that_is_not_one(tmp_path):
     with pytest.raises(ValueError, match="'solution' parameter of save_flow must be a "
                                          "FlowSolution"):
         save_flow("x", tmp_path / "f.zarr")  # an AttributeError before
+
+
+def test_an_unverified_store_whose_arrays_do_not_fit_the_grid_is_refused(flow_file):
+    """Without checksums (an older windnav's store, or the attribute deleted) a (ny - 1, nx)
+    mean on the (ny, nx) grid loaded, with only the unverified warning (files audit)."""
+    import zarr
+
+    path, sol = flow_file
+    group = zarr.open_group(str(path), mode="r+")
+    del group["mean_u"]
+    group.create_array("mean_u", data=sol.mean_u[:-1])  # save_flow would refuse it
+    meta = Path(path, "zarr.json")
+    doc = json.loads(meta.read_text())
+    del doc["attributes"]["checksums"]
+    meta.write_text(json.dumps(doc))
+    with pytest.warns(UserWarning, match="without checksums"), pytest.raises(
+            CorruptStoreError, match=r"'mean_u' of the Zarr store .* has shape \(\d+, \d+\) "
+                                     r"where the grid .* needs"):
+        load_flow(path)

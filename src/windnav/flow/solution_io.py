@@ -211,6 +211,19 @@ def load_flow(path):
                 f"{where}: the array {name!r} of the Zarr store {path!r} does not match the "
                 "checksum recorded when it was saved (a chunk is missing or damaged)."
             )
+    grid = (np.shape(data["y"])[0], np.shape(data["x"])[0]) if np.ndim(data["x"]) == 1 \
+        and np.ndim(data["y"]) == 1 else None
+    frames = data["frames_u"]
+    want = {"solid": grid, "mean_u": grid, "mean_v": grid}
+    if frames is not None and grid is not None:
+        want |= {"frames_u": (np.shape(frames)[0], *grid), "frames_v": (np.shape(frames)[0], *grid),
+                 "t": (np.shape(frames)[0],)}
+    for name, shape in want.items():  # unverified stores (no checksums) loaded a (29, 30)
+        if shape is None or np.shape(data[name]) != shape:  # mean on a (30, 30) grid
+            raise CorruptStoreError(
+                f"{where}: the array {name!r} of the Zarr store {path!r} has shape "
+                f"{np.shape(data[name])} where the grid (y {np.shape(data['y'])}, x "
+                f"{np.shape(data['x'])}) needs {shape}.")
     try:
         scalars = {k: float(v) for k, v in group.attrs["solution"].items()}
         return FlowSolution(**data, **scalars)
