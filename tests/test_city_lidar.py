@@ -122,6 +122,20 @@ def test_batch_equals_one_by_one():
         np.testing.assert_array_equal(city.lidar(o, n_rays=90)[0], batch[b])
 
 
+def test_a_batch_clipped_in_one_pass_equals_scans_clipped_one_by_one():
+    """Above 4,096 ranges the clip is np.clip's one pass (a batch's throughput), below it two
+    ufuncs (one scan's latency): the same values, bit for bit, clipped at both ends."""
+    from windnav.city.lidar import _ONE_PASS
+
+    city = dense_map(rng=1)
+    origins = street_origins(city, np.random.default_rng(3), 25)
+    batch = city.lidar(origins, n_rays=360, max_range=60.0, min_range=3.0)
+    assert batch.size > _ONE_PASS and (batch == 3.0).any() and (batch == 60.0).any()
+    for b, o in enumerate(origins):
+        np.testing.assert_array_equal(city.lidar(o, n_rays=360, max_range=60.0,
+                                                 min_range=3.0)[0], batch[b])
+
+
 def test_noise_statistics_clip_and_determinism():
     city = dense_map(rng=2)
     origins = street_origins(city, np.random.default_rng(3), 300)

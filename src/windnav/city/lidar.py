@@ -32,6 +32,10 @@ import numpy as np
 from windnav._validate import batch_array, generator, positive_float, positive_int
 
 _WHERE = "City.lidar"
+_ONE_PASS = 4096
+"""Above this many ranges, the clip to ``[min_range, max_range]`` is ``np.clip``'s one pass
+(10,000 scans: 346 k against 323 k scans/s); below, two ufuncs without its wrapper's cost (one
+scan, the onboard stack's: 204 -> 190 us a step). The same values either way."""
 
 
 def ray_directions(n_rays: int) -> np.ndarray:
@@ -151,8 +155,10 @@ def lidar_scan(
         noise *= noise_std
         noise *= hit  # rays without a return keep max_range exactly
         ranges += noise
-    # np.clip's values (bounds > 0: no signed-zero tie), without its wrapper's cost
-    np.minimum(np.maximum(ranges, min_range, out=ranges), max_range, out=ranges)
+    if ranges.size > _ONE_PASS:  # a batch: np.clip's one pass (two cost 7 % of the scans/s)
+        np.clip(ranges, min_range, max_range, out=ranges)
+    else:  # np.clip's values (bounds > 0: no signed-zero tie), without its wrapper's cost
+        np.minimum(np.maximum(ranges, min_range, out=ranges), max_range, out=ranges)
     ranges[blocked] = min_range
     return ranges
 
