@@ -1,7 +1,7 @@
 """The default decoder recipe from scratch: its time, and its metrics against the shipped model.
 
 Run: ``.venv/bin/python benchmarks/bench_decoder_recipe.py`` (about 25-80 min on 2 cores; needs
-``pip install .[train]``). It runs
+``pip install '.[train]'``). It runs
 
     windnav train-decoder --config src/windnav/predict/recipes/default.toml --out OUT
 
