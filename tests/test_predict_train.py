@@ -423,6 +423,39 @@ def test_labels_cached_in_the_model_frame_are_those_each_batch_turned_itself(tin
     np.testing.assert_array_equal(got[2]["g"], f["g"])
 
 
+def test_a_second_run_into_the_same_out_refuses_at_once(tmp_path, capsys):
+    """Two train-decoder runs into one --out: the second resumed the first's live checkpoint
+    and crashed on its temporary file (2 of 2 tries), or replaced its files silently
+    (concurrency audit). The first holds a lock on --out; the second names it and stops."""
+    import subprocess
+    import sys
+    import time
+
+    from windnav import cli
+    from windnav.commands.train_decoder import LOCK
+
+    out = tmp_path / "same"
+    out.mkdir()
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time\n"
+        "from windnav.experiments.results import exclusive\n"
+        f"with exclusive({str(out / LOCK)!r}, 'x'):\n"
+        "    print('held', flush=True)\n"
+        "    time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        t0 = time.perf_counter()
+        assert cli.main(["train-decoder", "--config", "tiny", "--out", str(out)]) == 1
+        assert time.perf_counter() - t0 < 30  # at once, not after a sweep
+        err = capsys.readouterr().err
+        assert "OutputBusyError: Another run is writing the decoder run" in err
+        assert f"process {holder.pid} on" in err
+        assert sorted(p.name for p in out.iterdir()) == [LOCK]  # nothing else written
+    finally:
+        holder.kill()
+        holder.wait()
+
+
 def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
     from windnav.commands import train_decoder as decoder
 

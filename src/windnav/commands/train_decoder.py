@@ -55,6 +55,10 @@ TRAINING_PRODUCTS = ("checkpoint.pt", "history.json", "model.npz", "tensorboard"
                      "recipe.toml")
 """What the training writes into ``--out`` (removed by ``--overwrite``; the store is kept)."""
 
+LOCK = ".train-decoder.lock"
+"""The lock file in ``--out`` a run holds (its ``flock``, naming the run): two runs into one
+folder resumed each other's live checkpoint, and one crashed on the other's temporary file."""
+
 TIMES = "times.json"
 """The run's time ledger in ``--out``: ``invocations``, one record per invocation of the command
 (``sweep_seconds``, ``train_seconds``, s of wall time; ``new_sweep``: the store was not there
@@ -88,10 +92,8 @@ def register(subparsers) -> None:
 
 def run(args, simulate=None) -> int:
     """Run ``windnav train-decoder``; returns 0 (failed simulations are left out, warned)."""
-    from windnav.experiments.results import write_json
-    from windnav.experiments.wind_sweep import sweep
-    from windnav.flow.sweep_store import SweepMismatchError
-    from windnav.predict.train import load_recipe, recipe_maps, resolve_paths, train_decoder
+    from windnav.experiments.results import exclusive
+    from windnav.predict.train import load_recipe, resolve_paths
 
     name = where(args)
     if args.workers is not None:  # "'workers' parameter of run_tasks" after the set-up before
@@ -102,6 +104,18 @@ def run(args, simulate=None) -> int:
     out_dir, store = resolve_paths(recipe, args.out)
     check_output_path(out_dir, "--out", name, kind="dir")
     out = outputs(args)
+    lock = out_dir / LOCK
+    with exclusive(lock, f"the decoder run {str(out_dir)!r}"):  # a second run refuses at once
+        return _train(args, name, recipe, out_dir, store, out, simulate)
+
+
+def _train(args, name, recipe, out_dir, store, out, simulate) -> int:
+    """The run itself, under the lock of ``--out``."""
+    from windnav.experiments.results import write_json
+    from windnav.experiments.wind_sweep import sweep
+    from windnav.flow.sweep_store import SweepMismatchError
+    from windnav.predict.train import recipe_maps, train_decoder
+
     if args.overwrite:
         members = sorted(p.name for p in out_dir.glob("member*") if p.is_dir())
         for product in (*TRAINING_PRODUCTS, *members):

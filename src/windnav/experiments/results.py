@@ -43,12 +43,14 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "OutputBusyError",
     "OutputExistsError",
     "OutputPathError",
     "Outputs",
     "RecordLog",
     "RecordMismatchError",
     "atomic_path",
+    "exclusive",
     "check_output_path",
     "cpu_model",
     "document",
@@ -78,6 +80,49 @@ class OutputExistsError(OutputPathError):
 
 class RecordMismatchError(ValueError):
     """A record log that holds the records of another study."""
+
+
+class OutputBusyError(RuntimeError):
+    """An output that another running process is writing (:func:`exclusive`)."""
+
+
+@contextlib.contextmanager
+def exclusive(lock_path, what: str):
+    """Hold an ``flock`` on ``lock_path`` (created, with its folder) while the block runs, so
+    that a second run into the same output refuses at once, naming the first (its process,
+    host, start time and command line, written into the file); the kernel releases it when
+    the process ends, however it ends.
+
+    Raises
+    ------
+    OutputBusyError
+        When another process holds it (two ``train-decoder`` runs into one ``--out`` resumed
+        each other's live checkpoint and one crashed on the other's temporary file;
+        concurrency audit).
+    """
+    import fcntl  # POSIX: the runs of one machine
+    import socket
+    import time
+
+    path = Path(lock_path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    f = open(path, "a+")
+    try:
+        try:
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            holder = f.read().strip() or "a process that has not named itself yet"
+            raise OutputBusyError(f"Another run is writing {what} ({holder}). Wait for it to "
+                                  "end, or write elsewhere.") from None
+        f.seek(0)
+        f.truncate()
+        f.write(f"process {os.getpid()} on {socket.gethostname()}, started "
+                f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}: {' '.join(sys.argv)}\n")
+        f.flush()
+        yield
+    finally:
+        f.close()  # releases the flock
 
 
 # ------------------------------------------------------------------------------- JSON
