@@ -1423,3 +1423,25 @@ def test_a_manifest_that_is_not_an_object_is_named(tmp_path, no_wind, capsys):
     assert cli.main(["benchmark-nav", "--out", str(tmp_path), "--table"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "must name a benchmark store" in err
+
+
+def test_a_new_store_created_by_two_runs_at_once_belongs_to_the_first(tmp_path, monkeypatch):
+    """Two runs creating one store at once both got in, whichever wrote its manifest last
+    owning it (concurrency audit: 20 of 20 in a harness). The manifest is created only if
+    absent: the second run, past the existence check, reads the first's and is refused."""
+    import os
+
+    other = SuiteSpec(**{**TINY.__dict__, "seed": TINY.seed + 1})
+    real_exists = type(tmp_path).exists
+
+    def raced(path):  # the second run checked before the first created the manifest
+        return False if path.name == "manifest.json" else real_exists(path)
+
+    NavStore(tmp_path, TINY)
+    monkeypatch.setattr(type(tmp_path), "exists", raced)
+    with pytest.raises(SuiteMismatchError, match="holds another suite: seed"):
+        NavStore(tmp_path, other)
+    monkeypatch.undo()
+    assert NavStore(tmp_path, TINY).manifest["seed"] == TINY.seed
+    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
+    assert os.path.isfile(tmp_path / "manifest.json")

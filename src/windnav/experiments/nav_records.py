@@ -197,7 +197,16 @@ class NavStore:
             from windnav.experiments.results import write_json
 
             self.path.mkdir(parents=True, exist_ok=True)
-            write_json({**self.manifest, "windnav_version": __version__}, man)
+            tmp = man.with_name(f".{MANIFEST}.{os.getpid()}.tmp")
+            write_json({**self.manifest, "windnav_version": __version__}, tmp)
+            try:  # created only if absent: of two runs creating one store at once (the
+                os.link(tmp, man)  # second's seed won, silently; concurrency audit), the
+            except FileExistsError:  # other reads the winner's manifest, and is refused
+                self._check(man)  # when its suite differs
+            except OSError:  # a file system without hard links: as before, last one wins
+                os.replace(tmp, man)
+            finally:
+                tmp.unlink(missing_ok=True)
 
     def _check(self, man: Path) -> None:
         try:
