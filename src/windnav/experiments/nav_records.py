@@ -254,7 +254,7 @@ class NavStore:
                     f"The record file {str(self.records_path)!r} has at line {i} a record of "
                     f"another suite ({rec['scenario_id']!r}, expected {prefix}...).")
             problem = self._record_problem(rec)
-            if problem:  # a map the suite does not fly counted as a sixth flight of a table
+            if problem:  # a map the suite does not fly counted as a fifth flight of a table
                 raise CorruptRecordError(  # of four, "banana" as a failure (files audit)
                     f"The record file {str(self.records_path)!r} has at line {i} a record "
                     f"that is not one of this suite's flights: {problem}. Delete or repair "
