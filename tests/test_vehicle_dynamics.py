@@ -124,6 +124,19 @@ def test_hub_wind_equal_to_com_wind_matches():
     np.testing.assert_allclose(a, b, rtol=0, atol=1e-15)
 
 
+def _moment_in_a_wind_gradient(wind_axis: int, across_axis: int):
+    """``(params, hover rotor speed, hub offsets along across_axis, moment_body)`` of the
+    Hummingbird (k_flap 2e-6) in level hover whose hub wind along ``wind_axis`` is
+    ``3 + 2 r_i`` with ``r_i`` the hub's body offset along ``across_axis``, m/s."""
+    p = wn.vehicle.params("hummingbird", k_flap=2.0e-6)
+    model = Multirotor(p)
+    offsets = p.rotor_positions[:, across_axis]
+    hub = np.zeros((1, 4, 3))
+    hub[0, :, wind_axis] = 3.0 + 2.0 * offsets
+    m = model.derivatives(model.hover_state([0.0, 0.0, 0.0]), hub)["moment_body"][0]
+    return p, p.hover_rotor_speed, offsets, m
+
+
 def test_wind_gradient_moment_matches_the_closed_form():
     """Level hover, x-wind u_i = 3 + 2 y_i at hub i of the quad-X (sum y_i = sum x_i y_i = 0,
     sum y_i^3 = sum x_i y_i^2 = 0). Each rotor carries f_i = (k_d eta u_i, 0, k_eta eta^2 +
@@ -134,14 +147,7 @@ def test_wind_gradient_moment_matches_the_closed_form():
         M_y = -k_h sum x_i u_i^2 - k_flap eta sum u_i = -12 k_flap eta
         M_z = -k_d eta sum y_i u_i = -2 k_d eta sum y_i^2
     """
-    p = wn.vehicle.params("hummingbird", k_flap=2.0e-6)
-    model = Multirotor(p)
-    s = model.hover_state([0.0, 0.0, 0.0])
-    eta = p.hover_rotor_speed
-    y = p.rotor_positions[:, 1]
-    hub = np.zeros((1, 4, 3))
-    hub[0, :, 0] = 3.0 + 2.0 * y  # x-wind increasing toward +y
-    m = model.derivatives(s, hub)["moment_body"][0]
+    p, eta, y, m = _moment_in_a_wind_gradient(wind_axis=0, across_axis=1)  # u grows along y
     sy2 = np.sum(y**2)
     expected = [12.0 * p.k_h * sy2, -12.0 * p.k_flap * eta, -2.0 * p.k_d * eta * sy2]
     np.testing.assert_allclose(m, expected, rtol=1e-9, atol=0.0)
@@ -158,14 +164,7 @@ def test_flapping_moment_of_a_y_wind_gradient_matches_the_closed_form():
         M_y = -k_h sum x_i v_i^2 = -12 k_h sum x_i^2
         M_z = k_d eta sum x_i v_i = 2 k_d eta sum x_i^2
     """
-    p = wn.vehicle.params("hummingbird", k_flap=2.0e-6)
-    model = Multirotor(p)
-    s = model.hover_state([0.0, 0.0, 0.0])
-    eta = p.hover_rotor_speed
-    x = p.rotor_positions[:, 0]
-    hub = np.zeros((1, 4, 3))
-    hub[0, :, 1] = 3.0 + 2.0 * x  # y-wind increasing toward +x
-    m = model.derivatives(s, hub)["moment_body"][0]
+    p, eta, x, m = _moment_in_a_wind_gradient(wind_axis=1, across_axis=0)  # v grows along x
     sx2 = np.sum(x**2)
     expected = [12.0 * p.k_flap * eta, -12.0 * p.k_h * sx2, 2.0 * p.k_d * eta * sx2]
     np.testing.assert_allclose(m, expected, rtol=1e-9, atol=0.0,
