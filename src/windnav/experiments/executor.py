@@ -63,6 +63,7 @@ from typing import Any
 from tqdm import tqdm
 
 from windnav._console import one_line_warning
+from windnav._extras import install_hint
 from windnav._validate import positive_int
 
 BACKENDS = ("serial", "process", "ray")
@@ -267,8 +268,8 @@ def _import_ray():
         import ray
     except ImportError as exc:
         raise BackendUnavailableError(
-            "The 'ray' backend of run_tasks needs the optional dependency Ray; install it with "
-            "`pip install 'windnav[ray]'` or choose backend='process'."
+            f"The 'ray' backend of run_tasks needs the optional dependency Ray; "
+            f"{install_hint('ray')}, or choose backend='process'."
         ) from exc
     return ray
 

@@ -65,6 +65,7 @@ from dataclasses import fields
 
 import numpy as np
 
+from windnav._extras import install_hint
 from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = [
@@ -284,7 +285,7 @@ def require_optuna():
         import optuna
     except ImportError as exc:
         raise ModuleNotFoundError(
-            "Tuning MPPI needs the optional dependency Optuna: pip install 'windnav[tune]'",
+            f"Tuning MPPI needs the optional dependency Optuna: {install_hint('optuna')}",
             name=exc.name) from exc
     return optuna
 

@@ -28,6 +28,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from windnav._extras import install_hint
 from windnav.estimate.conditions import UKFConditions, ukf_conditions
 from windnav.estimate.flight import WindTrack, run_wind_ukf
 from windnav.sysid.thrust_stand import PWMMotorModel
@@ -130,8 +131,8 @@ def rotorpy_dryden(mean, intensity, *, seed: int, dt: float = ROTORPY_GUST_DT,
         from rotorpy.wind.dryden_winds import DrydenGust
     except ImportError as exc:
         raise ModuleNotFoundError(
-            "The 'thesis' and 'hardware' conditions fly RotorPy's DrydenGust; install it with "
-            "pip install 'windnav[rotorpy]'.", name=exc.name) from exc
+            "The 'thesis' and 'hardware' conditions fly RotorPy's DrydenGust; "
+            f"{install_hint('rotorpy')}.", name=exc.name) from exc
 
     from windnav.wind.adapters import FromRotorPy
 
