@@ -302,37 +302,22 @@ class NavStore:
         StoreBusyError
             When another process holds any of the pairs; none is then held by this one.
         """
-        import fcntl  # POSIX; the store is written by processes of one machine
         import hashlib
-        import socket
-        import sys
-        import time
 
-        folder = self.path / CLAIMS
-        folder.mkdir(parents=True, exist_ok=True)
-        me = (f"process {os.getpid()} on {socket.gethostname()}, started "
-              f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}: {' '.join(sys.argv)}")
+        from windnav.experiments.results import try_lock
+
         held = []
         try:
             for variant, m in sorted(set(pairs)):
                 tag = hashlib.sha1(variant.encode()).hexdigest()[:12]  # any variant key
-                f = open(folder / f"m{int(m):03d}-{tag}.lock", "a+")
-                try:
-                    fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-                except BlockingIOError:
-                    f.seek(0)
-                    holder = f.read().strip() or "a process that has not named itself yet"
-                    f.close()
+                f, holder = try_lock(self.path / CLAIMS / f"m{int(m):03d}-{tag}.lock")
+                if f is None:
                     raise StoreBusyError(
                         f"Another run is flying variant {variant!r} on map {m} into the store "
                         f"{str(self.path)!r} ({holder}). Wait for it to end and run this "
                         "command again (every recorded flight is kept and skipped), or fly "
-                        "other variants or maps.") from None
+                        "other variants or maps.")
                 held.append(f)
-                f.seek(0)
-                f.truncate()
-                f.write(me + "\n")
-                f.flush()
             yield
         finally:
             for f in held:

@@ -51,6 +51,7 @@ __all__ = [
     "RecordMismatchError",
     "atomic_path",
     "exclusive",
+    "try_lock",
     "check_output_path",
     "cpu_model",
     "document",
@@ -86,20 +87,12 @@ class OutputBusyError(RuntimeError):
     """An output that another running process is writing (:func:`exclusive`)."""
 
 
-@contextlib.contextmanager
-def exclusive(lock_path, what: str):
-    """Hold an ``flock`` on ``lock_path`` (created, with its folder) while the block runs, so
-    that a second run into the same output refuses at once, naming the first (its process,
-    host, start time and command line, written into the file); the kernel releases it when
-    the process ends, however it ends.
-
-    Raises
-    ------
-    OutputBusyError
-        When another process holds it (two ``train-decoder`` runs into one ``--out`` resumed
-        each other's live checkpoint and one crashed on the other's temporary file;
-        concurrency audit).
-    """
+def try_lock(lock_path):
+    """``(file, None)`` holding an exclusive ``flock`` on ``lock_path`` (created, with its
+    folder), into which this process has written who it is (process id, host, start time,
+    command line); or ``(None, holder)`` with what the process that holds it wrote, when one
+    does. Closing the file releases the lock; so does the end of the process, however it
+    ends."""
     import fcntl  # POSIX: the runs of one machine
     import socket
     import time
@@ -108,18 +101,37 @@ def exclusive(lock_path, what: str):
     path.parent.mkdir(parents=True, exist_ok=True)
     f = open(path, "a+")
     try:
-        try:
-            fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            f.seek(0)
-            holder = f.read().strip() or "a process that has not named itself yet"
-            raise OutputBusyError(f"Another run is writing {what} ({holder}). Wait for it to "
-                                  "end, or write elsewhere.") from None
+        fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
         f.seek(0)
-        f.truncate()
-        f.write(f"process {os.getpid()} on {socket.gethostname()}, started "
-                f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}: {' '.join(sys.argv)}\n")
-        f.flush()
+        holder = f.read().strip() or "a process that has not named itself yet"
+        f.close()
+        return None, holder
+    f.seek(0)
+    f.truncate()
+    f.write(f"process {os.getpid()} on {socket.gethostname()}, started "
+            f"{time.strftime('%Y-%m-%d %H:%M:%S %Z')}: {' '.join(sys.argv)}\n")
+    f.flush()
+    return f, None
+
+
+@contextlib.contextmanager
+def exclusive(lock_path, what: str):
+    """Hold :func:`try_lock`'s lock on ``lock_path`` while the block runs, so that a second
+    run into the same output refuses at once, naming the first.
+
+    Raises
+    ------
+    OutputBusyError
+        When another process holds it (two ``train-decoder`` runs into one ``--out`` resumed
+        each other's live checkpoint and one crashed on the other's temporary file;
+        concurrency audit).
+    """
+    f, holder = try_lock(lock_path)
+    if f is None:
+        raise OutputBusyError(f"Another run is writing {what} ({holder}). Wait for it to "
+                              "end, or write elsewhere.")
+    try:
         yield
     finally:
         f.close()  # releases the flock
