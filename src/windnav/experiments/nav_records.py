@@ -265,12 +265,8 @@ class NavStore:
     def _record_problem(self, rec: Mapping) -> str | None:
         """What makes ``rec`` no flight of this store's suite (None when nothing does): an id
         the suite does not fly, an unknown outcome, a success without a finite energy."""
-        from windnav.experiments.nav_suite import _ID
-
-        match = _ID.fullmatch(rec["scenario_id"])
         spec = self.spec
-        if match is None or int(match["m"]) not in spec.maps or int(match["w"]) not in \
-                spec.winds or int(match["p"]) not in spec.pairs:
+        if not spec.flies(rec["scenario_id"]):
             return (f"the scenario {rec['scenario_id']!r} is not in the suite (maps "
                     f"{list(spec.maps)}, winds {list(spec.winds)}, pairs {list(spec.pairs)})")
         outcome = rec["outcome"]

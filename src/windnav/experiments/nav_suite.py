@@ -210,6 +210,13 @@ class SuiteSpec:
         """Scenarios per variant."""
         return len(self.maps) * len(self.winds) * len(self.pairs)
 
+    def flies(self, scenario_id: str) -> bool:
+        """Whether ``scenario_id`` names one of this suite's scenarios (its name, and a map,
+        wind and pair it flies); :func:`parse_scenario_id` says which part does not."""
+        match = _ID.fullmatch(str(scenario_id))
+        return (match is not None and match["name"] == self.name and int(match["m"]) in self.maps
+                and int(match["w"]) in self.winds and int(match["p"]) in self.pairs)
+
 
 SUITES = {
     "thesis": SuiteSpec("thesis"),
@@ -387,7 +394,7 @@ def parse_scenario_id(spec: SuiteSpec, scenario_id: str) -> Scenario:
         raise ValueError(f"The 'scenario_id' parameter of {where} must be a scenario of the "
                          f"suite {spec.name!r}. Got {scenario_id!r} instead.")
     m, w, p = int(match["m"]), int(match["w"]), int(match["p"])
-    if m not in spec.maps or w not in spec.winds or p not in spec.pairs:
+    if not spec.flies(scenario_id):
         raise ValueError(f"The 'scenario_id' parameter of {where} must name a map in "
                          f"{list(spec.maps)}, a wind in {list(spec.winds)} and a pair in "
                          f"{list(spec.pairs)} of the suite {spec.name!r}. Got {scenario_id!r} "
