@@ -315,10 +315,6 @@ def run_aero(args) -> int:
             payload["notes"] = [*payload["notes"], note]
     if noisy:
         payload["notes"] = [*payload["notes"], AVERAGE_NOTE]
-    payload["n_dropped"] = dropped = sum(p.dropped for p in parts)
-    if dropped:  # NaN on every other row halved the samples, silently (files audit)
-        payload["notes"] = [*payload["notes"], f"{dropped} sample(s) with a non-finite value "
-                            "were left out of the fit"]
     doc = document("sysid aero", payload, args)
     _write(args, doc, out, "aero", lambda path: plot_aero(fit, path))
     summary = _coefficients(payload, ("k_eta", "k_d", "k_z", "k_h"))

@@ -354,11 +354,19 @@ def aero_assumptions(fit) -> list[str]:
 def aero_study(data, mass: float, *, parasitic: bool = False, where: str = "aero_study"):
     """Fit pooled :class:`~windnav.sysid.AeroData` (``parasitic``: with the frame drag,
     :func:`~windnav.sysid.fit_aero`); returns ``(fit, payload)``, the payload with the fit's
-    ``notes`` and its untestable ``assumptions`` (:func:`aero_assumptions`)."""
+    ``notes``, its untestable ``assumptions`` (:func:`aero_assumptions`) and ``n_dropped``,
+    the samples the data left out for a non-finite value (a note when any: NaN on every other
+    CSV row halved the samples fitted, silently; files audit)."""
     from windnav.sysid.aero import fit_aero
 
     fit = fit_aero(data, mass, parasitic=parasitic, where=where)
-    return fit, {**fit.to_dict(), "assumptions": aero_assumptions(fit)}
+    payload = {**fit.to_dict(), "assumptions": aero_assumptions(fit)}
+    payload["n_dropped"] = dropped = sum(d.dropped for d in (
+        data if isinstance(data, (list, tuple)) else [data]))
+    if dropped:
+        payload["notes"] = [*payload["notes"], f"{dropped} sample(s) with a non-finite value "
+                            "were left out of the fit"]
+    return fit, payload
 
 
 def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
