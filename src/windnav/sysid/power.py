@@ -295,9 +295,8 @@ class PowerFit:
             "max_range_speed_ci95": list(self.max_range_speed.ci95),
             "max_range_at_speed_limit": bool(
                 self.max_range_speed.value >= self.curve.speed_max * (1 - 1e-6)),
-            "max_endurance_at_speed_limit": bool(
-                self.max_endurance_speed.value >= self.curve.speed_max * (1 - 1e-6)
-                or self.max_endurance_speed.value <= 1e-6 * self.curve.speed_max),
+            "max_endurance_at_speed_limit": _on_bound(self.max_endurance_speed.value,
+                                                      self.curve.speed_max),
             "hover_ratio": self.hover_ratio,
             "max_range_speed_in_wind": self.in_wind,
             "lack_of_fit": self.lack_of_fit,
@@ -312,10 +311,15 @@ def _inside(e: Estimate, speed_max: float) -> Estimate:
     (0 or ``speed_max``): there the optimum does not move with the coefficients, the delta
     method's gradient is 0 and its interval a point that never covered the truth (8.5 % of
     13-sample fits of the thesis's cubic; coverage audit)."""
-    tol = 1e-6 * speed_max
-    if e.value <= tol or e.value >= speed_max - tol:
+    if _on_bound(e.value, speed_max):
         return Estimate(e.value, float("nan"), (float("nan"), float("nan")))
     return e
+
+
+def _on_bound(speed: float, speed_max: float) -> bool:
+    """Whether a best speed lies on the bound of the speeds searched, 0 or ``speed_max``
+    (to 1e-6 of ``speed_max``)."""
+    return speed <= 1e-6 * speed_max or speed >= speed_max * (1 - 1e-6)
 
 
 def _delta(func, coef: np.ndarray, cov: np.ndarray, dof: int) -> Estimate:
