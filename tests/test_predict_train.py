@@ -10,6 +10,7 @@ import copy
 import functools
 import importlib.util
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -33,6 +34,7 @@ from windnav.predict.train import (  # noqa: E402
     ema_decay_at,
     load_recipe,
     recipe_maps,
+    shipped_recipes,
     train_decoder,
 )
 from windnav.predict.train import (
@@ -1015,6 +1017,28 @@ def test_a_recipe_starts_from_its_base(tmp_path):
     assert thesis["model"]["hyperparameters"] == {"width": 2048, "depth": 3}
     assert thesis["sweep"]["maps"] == default["sweep"]["maps"]
     assert thesis["sweep"]["store"] == "../default/sweep.zarr"
+
+
+def test_a_recipe_file_without_a_section_is_warned(tmp_path):
+    """A copy of the default recipe cut before its [train] table parsed and trained with the
+    built-in training defaults, not the recipe's, without a word (leftover of 2026-12-05)."""
+    text = (RECIPES / "default.toml").read_text()
+    cut = tmp_path / "cut.toml"
+    cut.write_text(text[:text.index("\n[train]")])
+    with pytest.warns(UserWarning, match=r"sets nothing in \[train\]: the built-in defaults"):
+        recipe = load_recipe(cut)
+    default = load_recipe(RECIPES / "default.toml")
+    assert recipe["train"] != default["train"]   # what the warning is about
+    assert recipe["data"] == default["data"]
+    text = (RECIPES / "tiny.toml").read_text()
+    cut.write_text(text[:text.index("\n[model]")])   # (before [data]: no validation map, refused)
+    with pytest.warns(UserWarning, match=r"sets nothing in \[model\], \[train\]"):
+        load_recipe(cut)
+    with warnings.catch_warnings():   # a base, or a dict from code, sets them all
+        warnings.simplefilter("error")
+        for name in shipped_recipes():
+            load_recipe(RECIPES / f"{name}.toml")
+        load_recipe({"data": {"validation_maps": ["m"]}})
 
 
 def test_a_recipe_base_is_checked(tmp_path):

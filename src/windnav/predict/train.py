@@ -152,6 +152,9 @@ DEFAULTS = {
 
 MAP_KINDS = ("training", "dense", "planning", "file")
 
+RECIPE_SECTIONS = ("sweep", "data", "model", "train")
+"""The tables of a recipe; a recipe file that sets none of one's keys is warned about."""
+
 
 # ---------------------------------------------------------------------------- recipes
 
@@ -267,6 +270,14 @@ def load_recipe(config) -> dict:
     if not isinstance(config, dict):
         source = recipe_path(config)
         config = _read_recipe(source, where)
+        unset = [s for s in RECIPE_SECTIONS if s not in config]
+        if unset:  # a file cut short, or a section forgotten: built-in values, silently
+            warnings.warn(
+                f"the recipe {str(source)!r} (with its base) sets nothing in "
+                f"{', '.join(f'[{s}]' for s in unset)}: the built-in defaults of "
+                "windnav.predict.train.DEFAULTS are used there, which are not the shipped "
+                "default recipe's (start the file with base = \"default.toml\" to build on "
+                "that one)", stacklevel=2)
     config = {k: v for k, v in config.items() if k != "source"}
     recipe = _merge(DEFAULTS, config, where)
     _check_recipe(recipe, where)
