@@ -513,6 +513,22 @@ def test_nan_input_falls_back_and_is_counted(base):
     assert np.all(np.isfinite(good)) and planner.stats.fallbacks == 3
 
 
+def test_planner_stats_keep_a_bounded_record_of_update_times(base, monkeypatch):
+    """``total_ms`` was a list that grew by every update, 1.2 MB an hour at 10 Hz, for as
+    long as a planner lived (long-run audit); it keeps the last TIMES_KEPT."""
+    import windnav.plan.mppi as mppi
+
+    monkeypatch.setattr(mppi, "TIMES_KEPT", 3)
+    cfg = dataclasses.replace(base, n_samples=50, n_steps=20)
+    planner = MPPIPlanner(cfg, goal_xy=(100, 0), rng=0)
+    for _ in range(4):
+        planner.update([0, 0, 2.0, 1.0])
+    planner.update([np.nan, 0, 2.0, 1.0])   # a fallback's time is kept too
+    assert planner.stats.updates == 5 and len(planner.stats.total_ms) == 3
+    assert planner.stats.median_ms() == float(np.median(list(planner.stats.total_ms)))
+    assert len(mppi.PlannerStats().total_ms) == 0
+
+
 def test_a_scan_of_zeros_brakes_as_contact(base):
     """City.lidar reads 0 on every ray on or inside a building; the planner took it for
     obstacle points at the vehicle, which every sample paid alike, and flew the obstacle-free
