@@ -39,7 +39,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from windnav._validate import batch_array, finite_float, positive_float, positive_int
+from windnav._validate import _fail, batch_array, finite_float, positive_float, positive_int
 from windnav._validate import speed_range as check_speed_range
 from windnav.plan._kernels import power_bar_array
 from windnav.sim.sweeps import power_sweep
@@ -114,10 +114,6 @@ VARIANTS = {
 estimate instead of the truth (issue 11), and ``ea-mppi-w-esc`` (EA-MPPI+W+esc): EA-MPPI+W plus
 a progress monitor that hands a stalled vehicle to the GS+W route for a stretch
 (:mod:`windnav.plan.escape`, issue 11)."""
-
-
-def _fail(name, rule, got, where="PlannerConfig"):
-    return ValueError(f"The {name!r} parameter of {where} must be {rule}. Got {got!r} instead.")
 
 
 MAX_STEPS = 5_000
@@ -224,7 +220,7 @@ class PlannerConfig:
     def __post_init__(self):
         where = "PlannerConfig"
         if self.variant not in VARIANTS:
-            raise _fail("variant", f"one of {list(VARIANTS)}", self.variant)
+            raise _fail("variant", where, f"one of {list(VARIANTS)}", self.variant)
         var = VARIANTS[self.variant]
         set_ = object.__setattr__
         set_(self, "a_max", positive_float(self.a_max, "a_max", where))
@@ -232,45 +228,45 @@ class PlannerConfig:
         try:
             a_min = float(a_min)
         except (TypeError, ValueError):
-            raise _fail("a_min", "a number below a_max", self.a_min) from None
+            raise _fail("a_min", where, "a number below a_max", self.a_min) from None
         if not (math.isfinite(a_min) and a_min < self.a_max):
-            raise _fail("a_min", f"a finite number below a_max={self.a_max!r}", self.a_min)
+            raise _fail("a_min", where, f"a finite number below a_max={self.a_max!r}", self.a_min)
         set_(self, "a_min", a_min)
         set_(self, "drag", positive_float(self.drag, "drag", where, allow_zero=True))
         c = np.asarray(self.power_coefficients, dtype=np.float64).reshape(-1)
         if not (1 <= c.size <= MAX_COEFFICIENTS) or not np.all(np.isfinite(c)) or c[0] <= 0:
-            raise _fail("power_coefficients", f"1 to {MAX_COEFFICIENTS} finite numbers with a "
-                        "positive hover power c_0", self.power_coefficients)
+            raise _fail("power_coefficients", where, f"1 to {MAX_COEFFICIENTS} finite numbers "
+                        "with a positive hover power c_0", self.power_coefficients)
         set_(self, "power_coefficients", tuple(float(v) for v in c))
         set_(self, "power_speed_max",
              positive_float(self.power_speed_max, "power_speed_max", where))
         lowest = float(np.min(np.polynomial.polynomial.polyval(
             np.linspace(0.0, self.power_speed_max, 201), c)))
         if not lowest > 0:  # a power that falls to 0 or below made J_E reward speed
-            raise _fail("power_coefficients", "a power curve above 0 W from hover to "
+            raise _fail("power_coefficients", where, "a power curve above 0 W from hover to "
                         f"power_speed_max={self.power_speed_max:g} m/s (its lowest: "
                         f"{lowest:.3g} W)", self.power_coefficients)
         q_e = var.energy_weight if self.energy_weight is None else self.energy_weight
         set_(self, "energy_weight", positive_float(q_e, "energy_weight", where, allow_zero=True))
         use_wind = var.use_wind if self.use_wind is None else self.use_wind
         if not isinstance(use_wind, (bool, np.bool_)):
-            raise _fail("use_wind", "a bool or None", self.use_wind)
+            raise _fail("use_wind", where, "a bool or None", self.use_wind)
         set_(self, "use_wind", bool(use_wind))
         try:
             h = float(self.horizon)
         except (TypeError, ValueError):
-            raise _fail("horizon", "a number > 0 (inf allowed)", self.horizon) from None
+            raise _fail("horizon", where, "a number > 0 (inf allowed)", self.horizon) from None
         if not h > 0:
-            raise _fail("horizon", "a number > 0 (inf allowed)", self.horizon)
+            raise _fail("horizon", where, "a number > 0 (inf allowed)", self.horizon)
         set_(self, "horizon", h)
         for name in ("n_samples", "n_steps"):
             set_(self, name, positive_int(getattr(self, name), name, where))
         # the smoothing matrix is n_steps^2 floats (3.2 GB at 20,000 steps), each buffer of
         # samples n_steps x n_samples x 2 float32s
         if self.n_steps > MAX_STEPS:
-            raise _fail("n_steps", f"at most {MAX_STEPS}", self.n_steps)
+            raise _fail("n_steps", where, f"at most {MAX_STEPS}", self.n_steps)
         if self.n_steps * self.n_samples > MAX_SAMPLE_STEPS:
-            raise _fail("n_samples", f"at most {MAX_SAMPLE_STEPS:.0e} / n_steps "
+            raise _fail("n_samples", where, f"at most {MAX_SAMPLE_STEPS:.0e} / n_steps "
                         f"({MAX_SAMPLE_STEPS // self.n_steps})", self.n_samples)
         for name in ("dt", "rate_hz", "temperature", "sigma_u", "lidar_range",
                      "obstacle_resolution", "goal_radius"):
@@ -278,14 +274,14 @@ class PlannerConfig:
         for name in ("sigma_gf", "obstacle_weight"):
             set_(self, name, positive_float(getattr(self, name), name, where, allow_zero=True))
         if self.sampling not in SAMPLING:
-            raise _fail("sampling", f"one of {list(SAMPLING)}", self.sampling)
+            raise _fail("sampling", where, f"one of {list(SAMPLING)}", self.sampling)
         if self.energy_mode not in ENERGY_MODES:
-            raise _fail("energy_mode", f"one of {list(ENERGY_MODES)}", self.energy_mode)
+            raise _fail("energy_mode", where, f"one of {list(ENERGY_MODES)}", self.energy_mode)
         # forward Euler of v' = a - C |v| v is stable while dt C |v| < 2; the fastest steady
         # speed is the terminal speed at full acceleration, sqrt(|a|_max / C)
         a_top = math.hypot(max(abs(self.a_min), self.a_max), max(abs(self.a_min), self.a_max))
         if self.dt * math.sqrt(a_top * self.drag) >= 2.0:
-            raise _fail("dt", "below 2 / sqrt(C |a|_max) (forward Euler of the drag at the "
+            raise _fail("dt", where, "below 2 / sqrt(C |a|_max) (forward Euler of the drag at the "
                         f"terminal speed: {2.0 / math.sqrt(a_top * self.drag):.3g} s)", self.dt)
 
     @classmethod
@@ -458,11 +454,11 @@ def planner_config(
     """
     where = "planner_config"
     if variant not in VARIANTS:
-        raise _fail("variant", f"one of {list(VARIANTS)}", variant, where)
+        raise _fail("variant", where, f"one of {list(VARIANTS)}", variant)
     names = {f.name for f in fields(PlannerConfig)}
     unknown = sorted(set(overrides) - names)
     if unknown:
-        raise _fail("overrides", f"fields of PlannerConfig {sorted(names)}", unknown, where)
+        raise _fail("overrides", where, f"fields of PlannerConfig {sorted(names)}", unknown)
     sweep = steady_flight(params)
     v, p, d = sweep["speeds"], sweep["power"], sweep["drag_accel"]
     if v.size <= POWER_DEGREE + 1:
@@ -497,5 +493,5 @@ def planner_config(
 def with_variant(config: PlannerConfig, variant: str) -> PlannerConfig:
     """``config`` switched to another variant (its ``Q_E`` and use of wind)."""
     if variant not in VARIANTS:
-        raise _fail("variant", f"one of {list(VARIANTS)}", variant, "with_variant")
+        raise _fail("variant", "with_variant", f"one of {list(VARIANTS)}", variant)
     return replace(config, variant=variant, energy_weight=None, use_wind=None)

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from windnav._validate import positive_float
+from windnav._validate import _fail as _named_fail
+from windnav._validate import _Said, positive_float
 
 ZERO_SPEED = 1e-9
 """Speeds below this (m/s) count as zero vectors, which have no direction."""
@@ -32,8 +33,9 @@ _COUNTS = {"speed_error": "n_free", "vector_error": "n_free",
 _CHUNK = 4096  # samples per pass (float64 temporaries of a few hundred MB at most)
 
 
-def _fail(name: str, where: str, rule: str, got) -> ValueError:
-    return ValueError(f"The {name!r} parameter of {where} must be {rule}. Got {got} instead.")
+def _fail(name: str, where: str, rule: str, got: str) -> ValueError:
+    """The package's message (:func:`windnav._validate._fail`) with ``got`` a description."""
+    return _named_fail(name, where, rule, _Said(got))
 
 
 def _fields(pred, true, free, inlet_speed, where):
