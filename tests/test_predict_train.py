@@ -34,6 +34,7 @@ from windnav.predict.train import (  # noqa: E402
     ema_decay_at,
     load_recipe,
     recipe_maps,
+    recipe_toml,
     shipped_recipes,
     train_decoder,
 )
@@ -475,6 +476,43 @@ def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
     assert doc["history"]["best_epoch"] == h["best_epoch"]
     # the recipe copy is written by fresh runs only, never over an existing checkpoint's
     assert not (out / "recipe.toml").exists()
+
+
+def test_train_decoder_writes_the_resolved_recipe_and_takes_a_seed(tiny, tmp_path, capsys):
+    """OUT/recipe.toml was a byte copy of --config: a recipe with a ``base`` (four of the six
+    shipped) named it relative to its own folder, so the copy did not load, and an edited base
+    changed what it meant. It is now the resolved recipe, ``--seed`` included."""
+    from windnav.commands import train_decoder as command
+
+    recipe, out, _ = tiny
+    (tmp_path / "sweep.zarr").symlink_to(out / "sweep.zarr")
+    parser = argparse.ArgumentParser()
+    command.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["train-decoder", "--config", str(RECIPES / "tiny.toml"),
+                              "--out", str(tmp_path), "--no-progress", "--seed", "3"])
+    assert args.func(args) == 0
+    capsys.readouterr()
+    copy = load_recipe(tmp_path / "recipe.toml")
+    assert copy["train"]["seed"] == 3 and copy["train"]["tensorboard"] is True
+    want = load_recipe(RECIPES / "tiny.toml")
+    want["train"]["seed"] = 3
+    assert {k: v for k, v in copy.items() if k != "source"} == \
+        {k: v for k, v in want.items() if k != "source"}
+    seeded, first = load_decoder(tmp_path / "model.npz"), load_decoder(out / "model.npz")
+    assert any(not np.array_equal(seeded.weights[k], first.weights[k]) for k in first.weights)
+    # the same out folder with another seed is another recipe: refused, not resumed
+    again = parser.parse_args(["train-decoder", "--config", str(tmp_path / "recipe.toml"),
+                               "--out", str(tmp_path), "--no-progress", "--seed", "4"])
+    with pytest.raises(ValueError, match="differs from the recipe of the checkpoint"):
+        again.func(again)
+    bad = parser.parse_args(["train-decoder", "--config", "tiny", "--seed", "-1"])
+    with pytest.raises(ValueError, match="'--seed' parameter of windnav train-decoder must be "):
+        bad.func(bad)
+    # every shipped recipe (and a base chain) reads back from its resolved form
+    for name in shipped_recipes():
+        r = load_recipe(RECIPES / f"{name}.toml")
+        (tmp_path / "r.toml").write_text(recipe_toml(r))
+        assert load_recipe(tmp_path / "r.toml") == {**r, "source": str(tmp_path / "r.toml")}
 
 
 def test_train_decoder_command_ctrl_c_says_what_is_kept_and_how_to_resume(tiny, tmp_path,

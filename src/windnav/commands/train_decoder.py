@@ -23,9 +23,11 @@ A recipe with ``train.members`` M > 1 trains M models from seeds ``train.seed + 
 to ``<out>/model.npz``.
 
 Writes into ``--out``: ``model.npz`` (the best decoder on the held-out maps; load it with
-``windnav.predict.load_decoder``), ``history.json``, ``checkpoint.pt``, ``recipe.toml`` (a copy
-of the recipe a fresh run started with), ``tensorboard/`` (when the ``tensorboard`` package is
-installed), ``times.json`` (:data:`TIMES`) and the sweep store.
+``windnav.predict.load_decoder``), ``history.json``, ``checkpoint.pt``, ``recipe.toml`` (the
+recipe a fresh run started with, every key resolved: its base recipes, the defaults and
+``--seed`` written out, so that ``--config OUT/recipe.toml`` repeats the run wherever the file
+lies), ``tensorboard/`` (when the ``tensorboard`` package is installed), ``times.json``
+(:data:`TIMES`) and the sweep store.
 """
 
 from __future__ import annotations
@@ -38,7 +40,7 @@ import time
 from pathlib import Path
 
 from windnav._extras import require
-from windnav._validate import positive_int
+from windnav._validate import nonnegative_int, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
@@ -85,6 +87,11 @@ def register(subparsers) -> None:
                    help="sweep executor (default: the recipe's)")
     p.add_argument("--workers", type=int, default=None,
                    help="sweep workers (default: the recipe's)")
+    p.add_argument("--seed", type=int, default=None, metavar="N",
+                   help="the training's seed, in place of the recipe's train.seed: the "
+                        "weights' initialisation, the batch order and each epoch's fresh "
+                        "samples; the sweep and the validation samples stay the recipe's, so "
+                        "runs of several seeds share one sweep (give each its own --out)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -100,6 +107,8 @@ def run(args, simulate=None) -> int:
         positive_int(args.workers, "--workers", name)
     with options_named({"'config' parameter of load_recipe": f"'--config' parameter of {name}"}):
         recipe = load_recipe(args.config)
+    if args.seed is not None:
+        recipe["train"]["seed"] = nonnegative_int(args.seed, "--seed", name)
     require("torch", f"windnav {name}")  # before the sweep: it ran whole (an hour) first
     out_dir, store = resolve_paths(recipe, args.out)
     check_output_path(out_dir, "--out", name, kind="dir")
@@ -111,10 +120,11 @@ def run(args, simulate=None) -> int:
 
 def _train(args, name, recipe, out_dir, store, out, simulate) -> int:
     """The run itself, under the lock of ``--out``."""
+    from windnav import __version__
     from windnav.experiments.results import write_json
     from windnav.experiments.wind_sweep import sweep
     from windnav.flow.sweep_store import SweepMismatchError
-    from windnav.predict.train import recipe_maps, train_decoder
+    from windnav.predict.train import recipe_maps, recipe_toml, train_decoder
 
     if args.overwrite:
         members = sorted(p.name for p in out_dir.glob("member*") if p.is_dir())
@@ -128,10 +138,12 @@ def _train(args, name, recipe, out_dir, store, out, simulate) -> int:
                 path.unlink()
             print(f"removed {path} (from an earlier run)")
     out_dir.mkdir(parents=True, exist_ok=True)
-    copy = out_dir / "recipe.toml"
-    source = Path(recipe["source"])  # --config, or the shipped recipe it names
-    if not (out_dir / "checkpoint.pt").exists() and source.resolve() != copy.resolve():
-        shutil.copyfile(source, copy)  # a fresh run: the recipe it was made with
+    if not (out_dir / "checkpoint.pt").exists():  # a fresh run: the recipe it was made with
+        (out_dir / "recipe.toml").write_text(
+            f"# The recipe of `windnav {name}` (windnav {__version__}), from "
+            f"{recipe['source']}\n# with its base recipes, the defaults and the command's "
+            "options resolved: `--config` this file repeats the run.\n\n"
+            + recipe_toml(recipe), encoding="utf-8")
 
     times = _Times(out_dir / TIMES, name, new_sweep=not store.exists(),
                    new_training=bool(args.overwrite))

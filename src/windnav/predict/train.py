@@ -83,7 +83,7 @@ from windnav.predict.decoder import (
 from windnav.predict.metrics import field_errors
 
 __all__ = ["DEFAULTS", "flush_denormals", "load_recipe", "member_recipe", "recipe_maps",
-           "recipe_path", "resolve_paths", "shipped_recipes", "train_decoder"]
+           "recipe_path", "recipe_toml", "resolve_paths", "shipped_recipes", "train_decoder"]
 
 RECIPES = Path(__file__).resolve().parent / "recipes"
 """Folder of the recipes shipped with windnav (``default.toml``, ``tiny.toml``, ...)."""
@@ -224,6 +224,69 @@ def _read_recipe(source: Path, where: str, chain: tuple = ()) -> dict:
                          f"{str(source)!r}, a recipe file name. Got {base!r} instead.")
     under = _read_recipe(source.parent / base, where, (*chain, source))
     return _overlay(under, config)
+
+
+def recipe_toml(recipe: dict) -> str:
+    """A recipe as one TOML document that :func:`load_recipe` reads back to the same recipe.
+
+    A recipe file may start from a ``base`` named relative to its own folder, so a plain copy
+    of it elsewhere did not load (four of the six shipped recipes), and an edit of its base
+    changed what the copy meant. This writes every resolved key instead: keys that are
+    ``None`` are left out (they take their default, which is ``None``), as is ``"source"``.
+
+    Parameters
+    ----------
+    recipe : dict
+        From :func:`load_recipe`.
+
+    Returns
+    -------
+    str
+        The TOML text (top-level keys, then ``[sweep]``, ``[[sweep.maps]]``, ``[data]``,
+        ``[model]``, ``[train]``).
+    """
+    def key(k) -> str:
+        k = str(k)
+        return k if k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k) \
+            else value(k)
+
+    def value(v) -> str:
+        if isinstance(v, (bool, np.bool_)):
+            return "true" if v else "false"
+        if isinstance(v, (int, np.integer)):
+            return str(int(v))
+        if isinstance(v, (float, np.floating)):
+            v = float(v)
+            return ("nan" if math.isnan(v) else repr(v)) if math.isfinite(v) or math.isnan(v) \
+                else ("inf" if v > 0 else "-inf")
+        if isinstance(v, str):  # JSON's escapes are TOML's, but for DEL
+            return json.dumps(v).replace("\x7f", "\\u007f")
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v if x is not None) + "]"
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{key(k)} = {value(x)}" for k, x in v.items()
+                                   if x is not None) + "}"
+        raise TypeError(f"recipe_toml: a recipe value of type {type(v).__name__} ({v!r}) has "
+                        "no TOML form.")
+
+    def is_tables(v) -> bool:
+        return isinstance(v, list) and bool(v) and all(isinstance(x, dict) for x in v)
+
+    lines = [f"{key(k)} = {value(v)}" for k, v in recipe.items()
+             if k != "source" and v is not None and not isinstance(v, dict)]
+    for section, table in recipe.items():
+        if not isinstance(table, dict):
+            continue
+        lines += ["", f"[{key(section)}]"]
+        lines += [f"{key(k)} = {value(v)}" for k, v in table.items()
+                  if v is not None and not is_tables(v)]
+        for k, v in table.items():
+            if is_tables(v):
+                for item in v:
+                    lines += ["", f"[[{key(section)}.{key(k)}]]"]
+                    lines += [f"{key(ik)} = {value(iv)}" for ik, iv in item.items()
+                              if iv is not None]
+    return "\n".join(lines) + "\n"
 
 
 def recipe_path(config) -> Path:
