@@ -56,6 +56,7 @@ __all__ = [
     "make_suite",
     "parse_scenario_id",
     "suite_map",
+    "wind_of",
 ]
 
 KINDS = ("tailwind", "headwind")
@@ -374,6 +375,15 @@ def make_suite(spec: SuiteSpec, *, maps=None) -> list[Scenario]:
                     goal=(float(goal[0]), float(goal[1])),
                     seed=derive_seed(spec.seed, key)))
     return out
+
+
+def wind_of(scenario_id: str) -> str:
+    """The (map, wind) that ``scenario_id`` belongs to, ``"thesis/m03/w07"`` for
+    ``"thesis/m03/w07/p2"``: the four start and goal pairs of one wind share its field, so
+    their flights are not independent. An id of another form is its own group."""
+    match = _ID.fullmatch(str(scenario_id))
+    return str(scenario_id) if match is None else \
+        f"{match['name']}/m{match['m']}/w{match['w']}"
 
 
 def parse_scenario_id(spec: SuiteSpec, scenario_id: str) -> Scenario:
