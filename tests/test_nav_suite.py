@@ -83,3 +83,13 @@ def test_thesis_pair_directions_spread_over_the_whole_cone():
         assert 0.4 <= np.mean(half > 0) <= 0.6, kind
     assert stats.kstest(offsets, stats.uniform(-45.0, 90.0).cdf).pvalue > 1e-3
     assert np.mean(offsets) == pytest.approx(0.0, abs=3.0)  # standard error ~0.8 deg
+
+
+def test_wind_of_names_the_map_and_wind_a_scenario_shares_with_its_pairs():
+    from windnav.experiments.nav_suite import wind_of
+
+    assert wind_of("thesis/m03/w07/p2") == wind_of("thesis/m03/w07/p0") == "thesis/m03/w07"
+    assert wind_of("thesis/m03/w08/p2") != wind_of("thesis/m03/w07/p2")
+    assert wind_of("quick/m00/w00/p1") == "quick/m00/w00"
+    assert wind_of("my-own-flight") == "my-own-flight"   # another form: its own group
+    assert wind_of("thesis/m03/w07/p2\n") == "thesis/m03/w07/p2\n"
