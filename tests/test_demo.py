@@ -138,8 +138,8 @@ def test_navigate_story_warns_of_each_variant_outside_the_envelope(tmp_path, cap
         if r["outside_envelope_s"] > 0 or r["power_extrapolated_s"] > 0:
             expected.append(f"{who}the flight spent {r['outside_envelope_s']:.2f} s above the "
                             "vehicle's trusted airspeed")
-        if r["goal_hold_at_cap_s"] > 0:
-            expected.append(f"{who}for {r['goal_hold_at_cap_s']:.2f} s near the goal")
+        if r["goal_hold_at_cap_settled_s"] > 0:
+            expected.append(f"{who}for {r['goal_hold_at_cap_settled_s']:.2f} s near the goal")
     assert any(r["outside_envelope_s"] > 0 for r in doc["variants"].values())
     assert len(warned) == len(expected)
     for line, start in zip(warned, expected, strict=True):

@@ -236,6 +236,8 @@ def warn_envelope(summary: dict, prefix: str = "") -> None:
     each line starts with ``prefix`` (the demo names its command and variant there)."""
     import sys
 
+    from windnav.experiments.navigate import HOLD_SETTLE_S
+
     out_s = summary.get("outside_envelope_s") or 0.0
     extra_s = summary.get("power_extrapolated_s") or 0.0
     if out_s > 0 or extra_s > 0:
@@ -252,10 +254,11 @@ def warn_envelope(summary: dict, prefix: str = "") -> None:
         print_drag_model_note(summary["ukf_drag_model_bias_mps"],
                               summary["ukf_median_airspeed_mps"],
                               summary.get("onboard", {}).get("conditions", "onboard"), prefix)
-    capped_s = summary.get("goal_hold_at_cap_s") or 0.0
+    capped_s = summary.get("goal_hold_at_cap_settled_s") or 0.0  # not the capture's braking
     if capped_s > 0:
         settings = summary.get("settings", {})
         print(f"{prefix}warning: for {capped_s:.2f} s near the goal (within "
-              f"{settings.get('capture_radius', float('nan')):g} m) the hold's command was at "
-              f"the {settings.get('tilt_max_deg', float('nan')):g} deg tilt cap: the wind there "
+              f"{settings.get('capture_radius', float('nan')):g} m, after the first "
+              f"{HOLD_SETTLE_S:g} s of the hold) the hold's command was at the "
+              f"{settings.get('tilt_max_deg', float('nan')):g} deg tilt cap: the wind there "
               "was more than the vehicle can hold against", file=sys.stderr)

@@ -139,6 +139,11 @@ CAPTURE_RADIUS = 10.0
 """Default distance from the goal at which the loop stops planning and holds it, m."""
 TILT_MAX_DEG = 55.0
 """Default tilt cap of the closed loop, degrees (see the module docstring)."""
+
+HOLD_SETTLE_S = 2.0
+"""Seconds after entering the goal's capture circle that the hold's own braking may spend at
+the tilt cap (its gains command 65 m/s^2 at 10 m): time at the cap after them is the wind's
+(:meth:`NavigationResult.envelope`)."""
 TILT_LIMIT_DEG = 80.0
 """A tilt cap must lie in (0, TILT_LIMIT_DEG) degrees."""
 GOAL_SPEED = 2.0
@@ -258,24 +263,33 @@ class NavigationResult:
 
         And where it reached the limit of its authority at the goal: ``goal_hold_at_cap_s``,
         the time within ``capture_radius`` of the goal (where the loop holds it) with the
-        command at the tilt cap, s. Time there means the wind at the goal was, for that long,
-        more than the vehicle can hold against at its tilt cap (at 55 deg the Hummingbird's
-        steady limit lies near its 13.45 m/s trusted airspeed)."""
+        command at the tilt cap, s. It includes the capture itself: the hold's gains command
+        65 m/s^2 at the 10 m radius, so a vehicle that enters the circle at speed is braked at
+        the cap for up to about a second, whatever the wind (0.3-1.1 s in every success of an
+        audit in still air, 2026-12-05). ``goal_hold_at_cap_settled_s`` leaves out the first
+        :data:`HOLD_SETTLE_S` after each entry into the circle: time there means the wind at
+        the goal was, for that long, more than the vehicle can hold against at its tilt cap
+        (at 55 deg the Hummingbird's steady limit lies near its 13.45 m/s trusted
+        airspeed)."""
         dt = float(self.t[1] - self.t[0]) if self.t.size > 1 else 0.0
         air = self.airspeed
         limit = self.settings.get("airspeed_limit", float("inf"))
         p_max = self.settings.get("power_speed_max", float("inf"))
         capture = self.settings.get("capture_radius", 0.0)
         tilt = self.settings.get("tilt_max_deg")
-        at_cap_s = 0.0
+        at_cap_s = settled_s = 0.0
         if capture > 0 and tilt is not None and self.accel_cmd.size:
             near = np.hypot(*(self.position[:, :2] - self.goal).T) <= capture
             capped = np.hypot(*self.accel_cmd.T) >= tilt_accel_cap(tilt) * (1.0 - 1e-9)
             at_cap_s = dt * int(np.count_nonzero(near & capped))
+            entry = near & ~np.r_[False, near[:-1]]  # the samples that enter the circle
+            last = np.maximum.accumulate(np.where(entry, np.arange(near.size), 0))
+            settled = near & capped & (self.t - self.t[last] >= HOLD_SETTLE_S)
+            settled_s = dt * int(np.count_nonzero(settled))
         return {"airspeed_max_mps": float(air.max()) if air.size else 0.0,
                 "outside_envelope_s": dt * int(np.count_nonzero(air > limit)),
                 "power_extrapolated_s": dt * int(np.count_nonzero(air > p_max)),
-                "goal_hold_at_cap_s": at_cap_s}
+                "goal_hold_at_cap_s": at_cap_s, "goal_hold_at_cap_settled_s": settled_s}
 
     def arrival(self) -> dict:
         """``arrival_time_s`` and ``arrival_energy_J``, ``arrival_rotor_energy_J``: when the
@@ -701,7 +715,10 @@ def navigate(
         Replaces the MPPI planner: anything with ``update(state, scan, wind) -> (2,)`` (a
         ``stats`` attribute is read when present). For tests and ablations.
     tilt_max_deg : float
-        Tilt cap: horizontal commands are clipped to ``g tan(tilt_max)``, degrees (0-80).
+        Tilt cap: horizontal commands are clipped to ``g tan(tilt_max)``, degrees (0-80). A
+        vehicle whose full thrust cannot hold its altitude at that tilt gets the tilt it can
+        (:func:`windnav.plan.config.acceleration_limit`), with a warning: the Hummingbird
+        and the Crazyflie can tilt to 84 and 74 deg, so only a heavier or weaker vehicle does.
     control_rate_hz, plan_rate_hz : float
         Controller and planner rates, Hz; the planner's a whole number of control steps.
     duration : float, optional
@@ -758,6 +775,7 @@ def navigate(
         energy_route,
         planner_config,
     )
+    from windnav.plan.config import acceleration_limit
     from windnav.plan.reach import FastestRoute
     from windnav.vehicle import Multirotor
     from windnav.vehicle.params import GRAVITY
@@ -807,6 +825,15 @@ def navigate(
     wind_at = _FastWind(flow.wind_field(unsteady=True))
 
     params = _default_params() if vehicle is None else vehicle
+    a_vehicle = acceleration_limit(params)  # at full thrust, holding altitude
+    tilt_vehicle = math.degrees(math.atan2(a_vehicle, GRAVITY))
+    if tilt_vehicle < tilt:  # the planner and the hold asked for what the rotors cannot give
+        warnings.warn(f"{_WHERE}: at full thrust the vehicle holds its altitude up to "
+                      f"{a_vehicle:.3g} m/s^2 of horizontal acceleration ({tilt_vehicle:.1f} deg "
+                      f"of tilt), less than the {tilt:g} deg tilt cap's "
+                      f"{tilt_accel_cap(tilt):.3g}: the cap is lowered to {tilt_vehicle:.1f} deg "
+                      "(settings' tilt_max_deg)", stacklevel=2)
+        tilt = tilt_vehicle
     a_cap = tilt_accel_cap(tilt)
     model = Multirotor(params)
     controller = SE3Controller(params)
