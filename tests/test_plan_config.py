@@ -170,3 +170,21 @@ def test_the_config_helpers_refuse_what_gave_nonsense(config):
     with pytest.raises(ValueError, match="'wind' parameter of PlannerConfig.energy_per_metre"):
         config.energy_per_metre((1.0, 0.0), wind=(np.nan, 0.0))
     assert config.energy_per_metre((1.0, 0.0)) > 0
+
+
+def test_a_diverging_state_is_outside_the_envelope_without_a_stray_overflow_warning():
+    """The steady-flight sweep behind ``planner_config`` reaches points beyond the Crazyflie's
+    envelope, where the flight diverges; the envelope check squared their 1e200 m/s speeds and
+    printed a bare ``RuntimeWarning: overflow`` (vehicle audit). Such a state is still outside
+    the envelope (and its point still left out of the curve)."""
+    import warnings
+
+    from windnav.vehicle import Multirotor, outside_envelope, params
+
+    p = params("crazyflie_brushless")
+    x = Multirotor(p).hover_state(np.zeros((2, 3))).to_array()
+    x[1, 3:6] = [1e200, 0.0, 0.0]  # the packed velocity
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        out = outside_envelope(p, x, np.zeros((2, 3)))
+    np.testing.assert_array_equal(out, [False, True])

@@ -109,7 +109,8 @@ def outside_envelope(
     p = model.packed
     rotor_loads_kernel(p.scalars, p.inertia, p.inertia_inv, p.rotor_positions,
                        p.rotor_directions, x, com, hub, thrust, lift)
-    airspeed = np.linalg.norm(x[:, VELOCITY] - com, axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):  # a diverging row's 1e200 m/s: inf,
+        airspeed = np.linalg.norm(x[:, VELOCITY] - com, axis=1)  # outside, as it should be
     # a diverged (non-finite) state is outside any envelope; no exception for one bad row
     return (np.any(lift > lift_fraction * thrust, axis=1) | (airspeed > limit)
             | ~np.all(np.isfinite(x), axis=1) | no_attitude)
