@@ -1,5 +1,6 @@
 """Wind UKF Monte Carlo: reproducible draws within the thesis ranges, records, failure isolation."""
 
+import dataclasses
 import json
 import math
 
@@ -132,3 +133,23 @@ def test_command_refuses_a_plot_format_before_any_trial(tmp_path, capsys):
     assert main(["ukf-montecarlo", "--trials", "1", "--plot", str(tmp_path / "x.txt"),
                  "--backend", "serial"]) == 2
     assert "'--plot' parameter" in capsys.readouterr().err
+
+
+def test_another_vehicle_needs_its_own_ranges():
+    """The ranges are the thesis's, about the 0.5 kg Hummingbird: with the Crazyflie they drew
+    0.76-0.91 kg vehicles (thrust-to-weight 0.2) with 60 x its drag, saturated for the whole
+    flight, into the summary's median, said only by the status flag (vehicle audit)."""
+    with pytest.raises(ValueError, match=r"'mass' parameter of MonteCarloConfig must stay "
+                                         r"below 0\.1059 kg for 'crazyflie_brushless'"):
+        mc.MonteCarloConfig(vehicle="crazyflie_brushless")
+    with pytest.warns(UserWarning, match=r"\['k_d', 'k_z', 'c_dx', 'c_dy', 'c_dz'\] are the "
+                                         "thesis's for the Hummingbird"):
+        mc.MonteCarloConfig(vehicle="crazyflie_brushless", mass=(0.033, 0.066))
+    own = mc.MonteCarloConfig(vehicle="crazyflie_brushless", mass=(0.033, 0.066),
+                              k_d=(0.0, 1e-5), k_z=(0.0, 2.4e-5), c_dx=(0.0, 0.0),
+                              c_dy=(0.0, 0.0), c_dz=(0.0, 0.0))
+    p = mc.draw_trials(dataclasses.replace(own, n_trials=3))[0].params()
+    assert 0.033 <= p.mass <= 0.066
+    assert p.n_rotors * p.k_eta * p.rotor_speed_max**2 / (p.mass * wn.vehicle.GRAVITY) > 1.5
+    with pytest.raises(ValueError, match="'vehicle' parameter of MonteCarloConfig"):
+        mc.MonteCarloConfig(vehicle="banana")

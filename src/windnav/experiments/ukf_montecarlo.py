@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import math
 import time
+import warnings
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -71,7 +72,7 @@ from windnav.sensors import presets
 from windnav.sensors.models import SensorSuite
 from windnav.sim.runner import fly
 from windnav.sim.trajectories import Circle
-from windnav.vehicle.params import MultirotorParams, params
+from windnav.vehicle.params import GRAVITY, MultirotorParams, params
 from windnav.wind.dryden import DrydenWind
 
 __all__ = [
@@ -129,6 +130,11 @@ intensity for RotorPy's. Conditions not listed get the thesis's."""
 
 THESIS_MEDIAN = 0.5
 """Median 3D wind RMSE of the thesis's simulated Monte Carlo, m/s (its real flights: 0.8)."""
+
+MIN_THRUST_TO_WEIGHT = 1.5
+"""The least thrust-to-weight ratio a drawn vehicle may have at its heaviest (the navigation
+loop's altitude hold asks for up to 1.5 g); :class:`MonteCarloConfig` refuses a mass range
+beyond it."""
 
 MIL_VERTICAL_SIGMA_RATIO = float((0.177 + 0.000823 * 10.0 / 0.3048) ** 0.4)
 """``sigma_w / sigma_u`` of MIL-F-8785C at 10 m (33 ft) altitude, about 0.53."""
@@ -228,6 +234,28 @@ class MonteCarloConfig:
         if self.settle_s >= self.duration[0]:
             raise ValueError(f"The 'settle_s' parameter of {where} must be below the shortest "
                              f"flight {self.duration[0]!r} s. Got {self.settle_s!r} instead.")
+        try:
+            base = params(self.vehicle)
+        except (KeyError, ValueError) as exc:
+            raise ValueError(f"The 'vehicle' parameter of {where} must name a vehicle of "
+                             f"windnav.vehicle.params. Got {self.vehicle!r} instead.") from exc
+        # the ranges are absolute (the thesis's, about the 0.5 kg Hummingbird): with another
+        # vehicle they drew 0.76-0.91 kg Crazyflies with a thrust-to-weight of 0.2, saturated
+        # the whole flight, into the summary's median (vehicle audit, 2026-12-05)
+        lift = base.n_rotors * base.k_eta * base.rotor_speed_max**2 / GRAVITY  # kg at full
+        if not self.mass[1] < lift / MIN_THRUST_TO_WEIGHT:
+            raise ValueError(
+                f"The 'mass' parameter of {where} must stay below {lift / MIN_THRUST_TO_WEIGHT:.4g}"
+                f" kg for {self.vehicle!r} (a thrust-to-weight of {MIN_THRUST_TO_WEIGHT:g} at "
+                f"its full thrust; its own mass is {base.mass:g} kg; the default ranges are the "
+                f"thesis's, about the Hummingbird: give the drag ranges for it too). Got "
+                f"{tuple(self.mass)!r} instead.")
+        kept = [f.name for f in fields(self) if f.name in ("k_d", "k_z", "c_dx", "c_dy", "c_dz")
+                and tuple(getattr(self, f.name)) == f.default]
+        if self.vehicle != "hummingbird" and kept:
+            warnings.warn(f"{where}: the ranges {kept} are the thesis's for the Hummingbird, "
+                          f"not scaled to {self.vehicle!r} (its own k_d is {base.k_d:.3g}, "
+                          f"k_z {base.k_z:.3g}): give ranges for it", stacklevel=3)
 
 
     def _resolve(self, where: str) -> None:
