@@ -7,6 +7,7 @@ One small map (140 m x 120 m, one building between start and goal) and one short
 import argparse
 import dataclasses
 import json
+import re
 import warnings
 
 import numpy as np
@@ -579,3 +580,23 @@ def test_a_vehicle_that_cannot_reach_the_tilt_cap_flies_at_the_tilt_it_can(city,
         warnings.simplefilter("error", UserWarning)
         strong = fly(city, flow, "mppi", duration=1.0, vehicle=params("crazyflie_brushless"))
     assert strong.settings["tilt_max_deg"] == 55.0
+
+
+def test_a_route_planned_beyond_the_trusted_airspeed_is_said(city, still, capsys):
+    """The energy-optimal search has no airspeed cap: into a strong headwind it plans the
+    route above the vehicle's trusted airspeed and the power curve's valid range, and
+    route_energy_J and route_time_s rested on the curve's continuation, unsaid (vehicle
+    audit: a Crazyflie at 17.7 m/s of airspeed, trusted to 7.0)."""
+    headwind = dataclasses.replace(still, **{k: getattr(still, k) - 12.0
+                                             for k in ("mean_u", "frames_u")})
+    from windnav.commands.navigate import warn_envelope
+
+    res = fly(city, headwind, "gs-w", duration=2.0)
+    assert res.settings["route_airspeed_max_mps"] > res.settings["power_speed_max"]
+    warn_envelope(res.summary())
+    assert re.search(r"warning: the route is planned at up to 1[3-9]\.\d* m/s of airspeed, "
+                     r"above the vehicle's trusted 13\.4 m/s", capsys.readouterr().err)
+    calm = fly(city, still, "gs-w", duration=2.0)
+    assert calm.settings["route_airspeed_max_mps"] < calm.settings["power_speed_max"]
+    warn_envelope(calm.summary())
+    assert "route is planned" not in capsys.readouterr().err

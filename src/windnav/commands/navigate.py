@@ -234,6 +234,7 @@ def warn_envelope(summary: dict, prefix: str = "") -> None:
     model biases its estimate (``ukf_drag_model_bias_mps``), and when it held the goal at its
     tilt cap (the summary's :meth:`~windnav.experiments.navigate.NavigationResult.envelope`);
     each line starts with ``prefix`` (the demo names its command and variant there)."""
+    import math
     import sys
 
     from windnav.experiments.navigate import HOLD_SETTLE_S
@@ -254,6 +255,15 @@ def warn_envelope(summary: dict, prefix: str = "") -> None:
         print_drag_model_note(summary["ukf_drag_model_bias_mps"],
                               summary["ukf_median_airspeed_mps"],
                               summary.get("onboard", {}).get("conditions", "onboard"), prefix)
+    settings = summary.get("settings", {})
+    route_air = settings.get("route_airspeed_max_mps", 0.0)
+    if route_air > min(settings.get("airspeed_limit", math.inf),
+                       settings.get("power_speed_max", math.inf)):  # the search has no cap
+        print(f"{prefix}warning: the route is planned at up to {route_air:.3g} m/s of airspeed, "
+              f"above the vehicle's trusted {settings['airspeed_limit']:.3g} m/s or its power "
+              f"curve's valid {settings['power_speed_max']:.3g} m/s: its energy and time "
+              "(route_energy_J, route_time_s) rest on the curve's continuation",
+              file=sys.stderr)
     capped_s = summary.get("goal_hold_at_cap_settled_s") or 0.0  # not the capture's braking
     if capped_s > 0:
         settings = summary.get("settings", {})

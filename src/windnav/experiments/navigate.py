@@ -1085,8 +1085,9 @@ def navigate(
     if isinstance(route, FastestRoute):
         settings.update(route_time_s=route.time_s, route_length_m=route.length_m)
     elif route is not None:
+        air_max = float(np.max(route.airspeeds)) if np.size(route.airspeeds) else 0.0
         settings.update(route_energy_J=route.energy, route_time_s=route.time,
-                        route_length_m=route.length)
+                        route_length_m=route.length, route_airspeed_max_mps=air_max)
     if route_hold_J is not None:
         settings.update(route_hold_energy_J=route_hold_J)
     if isinstance(escape_guide, FastestEscape):
