@@ -75,7 +75,17 @@ def test_power_curve_command(tmp_path, capsys):
     assert slow["-3 m/s along track"] is None and slow["+0 m/s along track"] is not None
     # the optimum at the sweep's top speed is an edge: flagged, not reported as the answer
     assert slow["+0 m/s along track"]["at_speed_max"] is True
-    assert "an edge and not a minimum" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "an edge and not a minimum" in err and "raise --max-speed" in err
+    # an edge where the vehicle's envelope ends the sweep, not --max-speed: raising it cannot
+    # help, and the note said it would (vehicle audit: the Crazyflie, trusted to 6.97 m/s)
+    assert main(["power-curve", "--vehicle", "crazyflie_brushless", "--max-speed", "12",
+                 "--points", "13", "--out", str(tmp_path / "cf")]) == 0
+    cf = json.loads((tmp_path / "cf" / "power_curve.json").read_text())
+    assert 6.0 <= cf["fitted_speed_max_m_s"] < 7.0 and cf["max_speed_m_s"] == 12.0
+    err = capsys.readouterr().err
+    assert "an edge and not a minimum" in err and "raise --max-speed" not in err
+    assert "where the vehicle's trusted envelope does (not at --max-speed 12)" in err
 
 
 def test_power_curve_flags_a_fitted_endurance_speed_within_the_fit_residuals(tmp_path, capsys):

@@ -31,7 +31,9 @@ def power_curve_study(vehicle: str, max_speed: float = 12.0, points: int = 21,
     -------
     dict
         JSON-ready: ``speeds_m_s``, ``power_W``, ``tilt_deg``, ``saturated_fraction`` (per
-        point), ``fit_coefficients`` (ascending powers), ``max_endurance_speed_m_s``,
+        point), ``fit_coefficients`` (ascending powers), ``fitted_speed_max_m_s`` (the
+        fastest point fitted: below ``max_speed`` when the vehicle's envelope ends first),
+        ``max_endurance_speed_m_s``,
         ``max_range`` (per wind; None in a headwind of at least ``max_speed``), the thesis
         Crazyflie curve's values, the fields of :func:`endurance_check`
         (``lowest_power_sample_speed_m_s``, ``endurance_within_fit_noise``, ...) and ``notes``
@@ -50,6 +52,7 @@ def power_curve_study(vehicle: str, max_speed: float = 12.0, points: int = 21,
     return {
         "vehicle": vehicle,
         "max_speed_m_s": float(max_speed),
+        "fitted_speed_max_m_s": float(curve.speed_max),
         "degree": int(degree),
         "speeds_m_s": sweep["speeds"].tolist(),
         "power_W": sweep["power"].tolist(),
