@@ -499,3 +499,13 @@ def test_library_errors_name_the_option_typed(argv, option, tmp_path, capsys):
     assert main([*argv, *out]) == 2
     one_line_error(capsys, option)
     assert not (tmp_path / "o").exists() and not (tmp_path / "o.zarr").exists()
+
+
+@pytest.mark.parametrize("command", ["navigate", "predict", "wind", "wind-sweep"])
+def test_the_speed_help_gives_the_range_the_check_holds(command, capsys):
+    """The help said "0 to 100" where --speed 0 is refused ("must be a finite number > 0";
+    vehicle audit): the help now gives the range the check applies."""
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "0 to 100" not in help_text and "above 0" in help_text and "at most 100" in help_text

@@ -62,7 +62,8 @@ def register(sub) -> None:
     p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"),
                    help="goal position, m")
     p.add_argument("--speed", type=float, required=True,
-                   help="inlet wind speed, m/s (0 to 100; above 10 the flow step is shortened)")
+                   help="inlet wind speed, m/s (above 0, at most 100; above 10 the flow step is "
+                        "shortened)")
     p.add_argument("--direction-deg", type=float, default=0.0,
                    help="direction the wind blows toward, deg CCW from +x (%(default)s)")
     p.add_argument("--variant", choices=tuple(VARIANTS), default="ea-mppi-w",

@@ -59,7 +59,8 @@ def register(subparsers) -> None:
                    help="RotorPy world JSON map")
     p.add_argument("--at", type=float, nargs=2, required=True, metavar=("X", "Y"),
                    help="robot position, m (inside the map, outside every building)")
-    p.add_argument("--speed", type=float, required=True, help="inlet wind speed, m/s (0 to 100)")
+    p.add_argument("--speed", type=float, required=True,
+                   help="inlet wind speed, m/s (above 0, at most 100)")
     p.add_argument("--direction-deg", type=float, required=True,
                    help="direction the inlet wind blows toward, deg CCW from +x")
     p.add_argument("--model", type=Path, default=None, metavar="FILE",

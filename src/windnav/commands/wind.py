@@ -117,7 +117,8 @@ def register(subparsers) -> None:
     )
     p.add_argument("--map", required=True, help="RotorPy world JSON file")
     p.add_argument("--speed", type=float, required=True,
-                   help="inlet speed, m/s (0 to 100: the incompressible solver's Mach 0.3)")
+                   help="inlet speed, m/s (above 0, at most 100: the incompressible "
+                        "solver's Mach 0.3)")
     p.add_argument("--direction-deg", type=float, default=0.0,
                    help="inlet direction the wind blows toward, deg CCW from +x (%(default)s)")
     p.add_argument("--out", required=True, help="output directory")

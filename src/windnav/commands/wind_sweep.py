@@ -96,7 +96,8 @@ def register(subparsers) -> None:
                    help="generator of the --generate maps (%(default)s)")
     p.add_argument("--out", required=True, help="the dataset store (a .zarr directory)")
     p.add_argument("--speeds", nargs="+", type=float, default=list(THESIS_SPEEDS),
-                   help="inlet speeds, m/s, each 0 to 100 (default: 0.1 2.575 5.05 7.525 10.0)")
+                   help="inlet speeds, m/s, each above 0 and at most 100 (default: 0.1 2.575 "
+                        "5.05 7.525 10.0)")
     p.add_argument("--directions", nargs="+", type=float, default=None, metavar="N_OR_DEG",
                    help="one value: a COUNT N of directions (an integer, 1 to "
                         f"{MAX_DIRECTIONS}), evenly spaced from 0 deg, 360/N deg apart, never "
