@@ -387,6 +387,31 @@ def test_command_names_a_start_inside_a_building_before_simulating(city, tmp_pat
         args.func(args)
 
 
+def test_command_names_a_goal_without_a_gs_route_before_simulating(city, tmp_path,
+                                                                     monkeypatch):
+    """A goal 3 m from a wall is fine for MPPI but has no GS route (6 m clearance): the
+    search said so after the flow simulation, naming energy_route's 'goal_xy' (vehicle
+    audit). The building is x 35-45, y 45-75."""
+    import windnav.experiments.navigate as nav
+
+    def no_flow(*a, **kw):
+        raise AssertionError("the flow was simulated")
+
+    monkeypatch.setattr(nav, "simulate_flow", no_flow)
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    for variant in ("gs", "gs-w", "ea-mppi-w-esc"):
+        args = parse(["navigate", "--map", str(path), "--start", "10", "20", "--goal", "48",
+                      "60", "--speed", "2", "--variant", variant, "--out", str(tmp_path / "o")])
+        with pytest.raises(ValueError, match=r"'--start' and '--goal' parameters of windnav "
+                                             rf"navigate must allow the {variant} variant's GS "
+                                             r"route, which keeps 6 m from every building"):
+            args.func(args)
+    args = parse(["navigate", "--map", str(path), "--start", "10", "20", "--goal", "48", "60",
+                  "--speed", "2", "--variant", "mppi", "--out", str(tmp_path / "o")])
+    with pytest.raises(AssertionError, match="the flow was simulated"):  # MPPI: no route
+        args.func(args)
+
+
 def test_a_non_finite_known_wind_makes_every_planner_update_fall_back(city, flow):
     """The +W variants check the mean wind once per flight, not at every update; a NaN in it
     still reaches the planner's wind fallback at every update."""

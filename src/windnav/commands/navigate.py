@@ -150,6 +150,26 @@ def _energy_mode(args, name: str) -> dict | None:
     return {"energy_mode": args.energy}
 
 
+def _check_route(city, start, goal, variant: str, name: str) -> None:
+    """For a variant that flies or keeps a GS route, that one exists in still air, before the
+    flow simulation: the search refused a start or goal near a wall, or a goal walled in, only
+    after the flow (a minute on a 600 m map), naming its own parameters (vehicle audit)."""
+    from windnav.experiments.navigate import ROUTE_CLEARANCE, ROUTE_DX
+    from windnav.plan import VARIANTS, energy_route, planner_config
+    from windnav.vehicle import params
+
+    if VARIANTS[variant].planner != "gs" and not VARIANTS[variant].escape:
+        return
+    try:  # connectivity does not depend on the wind: the still-air search decides it
+        energy_route(city, start, goal, planner_config(params("hummingbird"), "gs"),
+                     dx=ROUTE_DX, clearance=ROUTE_CLEARANCE)
+    except ValueError as exc:
+        raise ValueError(f"The '--start' and '--goal' parameters of {name} must allow the "
+                         f"{variant} variant's GS route, which keeps {ROUTE_CLEARANCE:g} m from "
+                         f"every building. Got start {list(start)} and goal {list(goal)} "
+                         f"instead: {exc}") from None
+
+
 def run(args) -> int:
     import numpy as np
 
@@ -179,6 +199,7 @@ def run(args) -> int:
 
     check_point(city, start, "--start", name)
     check_point(city, goal, "--goal", name)
+    _check_route(city, start, goal, args.variant, name)
     tilt = finite_float(args.tilt_max_deg, "--tilt-max-deg", name)
     if not 0.0 < tilt < TILT_LIMIT_DEG:
         raise ValueError(f"The '--tilt-max-deg' parameter of {name} must be in "

@@ -140,6 +140,12 @@ CAPTURE_RADIUS = 10.0
 TILT_MAX_DEG = 55.0
 """Default tilt cap of the closed loop, degrees (see the module docstring)."""
 
+ROUTE_DX = 2.0
+"""Lattice spacing of the GS routes (``gs``, ``gs-w``, the escapes), m."""
+
+ROUTE_CLEARANCE = 6.0
+"""Least distance of a GS route from any building, m: a start or goal closer has no route."""
+
 HOLD_SETTLE_S = 2.0
 """Seconds after entering the goal's capture circle that the hold's own braking may spend at
 the tilt cap (its gains command 65 m/s^2 at 10 m): time at the cap after them is the wind's
@@ -670,8 +676,8 @@ def navigate(
     control_rate_hz: float = 100.0,
     plan_rate_hz: float = 10.0,
     duration: float | None = None,
-    route_dx: float = 2.0,
-    route_clearance: float = 6.0,
+    route_dx: float = ROUTE_DX,
+    route_clearance: float = ROUTE_CLEARANCE,
     planner_overrides: dict | None = None,
     capture_radius: float = CAPTURE_RADIUS,
     decoder=None,
