@@ -645,3 +645,19 @@ def test_the_windinet_layout_is_found_and_hashed_once_per_evaluation(tmp_path, m
     assert len(calls) == 1
     assert res["config"]["windinet_layout"] == str(path)
     assert set(res["pooled"]) == {"windinet", "all"}
+
+
+def test_predict_notes_a_map_without_buildings_as_outside_the_training():
+    """A point 63.6 m from the only building was noted, a map with none was not (vehicle
+    audit): the decoder never saw a scan that returns nothing."""
+    from windnav.city import City
+    from windnav.commands.predict import input_notes
+
+    training = {"scan_noise": 0.35, "wall_clearance": 1.0, "building_reach": 40.0,
+                "flow": {"dx": 1.0}}
+    empty = City((0.0, 120.0, 0.0, 120.0), np.zeros((0, 4)), np.zeros(0))
+    notes = input_notes(training, empty, (60.0, 60.0), 1.0, 0.35)
+    assert notes == ["the map has no building; the decoder was trained at 1 to 40 m from one: "
+                     "outside its training range"]
+    one = City((0.0, 120.0, 0.0, 120.0), np.array([[50.0, 60.0, 50.0, 60.0]]), np.array([20.0]))
+    assert input_notes(training, one, (45.0, 55.0), 1.0, 0.35) == []

@@ -207,6 +207,10 @@ def input_notes(training: dict, city, at, dx: float, scan_noise: float) -> list[
             notes.append(f"--at ({p[0]:g}, {p[1]:g}) is {gap:.3g} m from the nearest building; "
                          f"the decoder was trained at {near:g} to {reach:g} m from one: outside "
                          "its training range")
+    else:  # no building at all: farther than any trained position (vehicle audit)
+        notes.append(f"the map has no building; the decoder was trained at "
+                     f"{training['wall_clearance']:g} to {training['building_reach']:g} m from "
+                     "one: outside its training range")
     notes += dx_notes(training, dx)
     return notes
 
