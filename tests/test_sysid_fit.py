@@ -72,6 +72,159 @@ def test_fits_refuse_too_few_points_and_dependent_regressors():
         linear_fit(X, np.arange(5.0), ["a", "b"], source="x")
 
 
+# --- heteroscedasticity- and cluster-robust covariances (cov_type) ---------------------------
+def _tiny():
+    """Eight points, a line, three clusters of unequal size."""
+    x = np.array([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0])
+    X = np.column_stack([np.ones_like(x), x])
+    y = np.array([0.1, 1.3, 1.7, 3.4, 3.9, 5.6, 5.8, 7.5])
+    return X, y, np.array([0, 0, 0, 1, 1, 2, 2, 2])
+
+
+def test_hc3_and_cluster_covariances_are_the_sandwiches_by_hand():
+    X, y, groups = _tiny()
+    n, p = X.shape
+    classical = linear_fit(X, y, ["a", "b"], source="t")
+    hc3 = linear_fit(X, y, ["a", "b"], source="t", cov_type="hc3")
+    cr1 = linear_fit(X, y, ["a", "b"], source="t", cov_type="cluster", clusters=groups)
+    for fit in (hc3, cr1):  # the estimates, residuals and R^2 do not depend on the covariance
+        np.testing.assert_array_equal(fit.coef, classical.coef)
+        np.testing.assert_array_equal(fit.residuals, classical.residuals)
+        assert fit.r2 == classical.r2 and fit.dof == n - p
+    bread = np.linalg.inv(X.T @ X)
+    e = y - X @ bread @ X.T @ y
+    h = np.array([X[i] @ bread @ X[i] for i in range(n)])
+    meat = sum(np.outer(X[i], X[i]) * e[i] ** 2 / (1 - h[i]) ** 2 for i in range(n))
+    np.testing.assert_allclose(hc3.cov, bread @ meat @ bread, rtol=1e-10)
+    assert hc3.cov_type == "hc3" and hc3.t_dof is None  # t on n - p
+    half = scipy.stats.t.ppf(0.975, n - p) * np.sqrt(hc3.cov[1, 1])
+    np.testing.assert_allclose(hc3.estimate("b").ci95, hc3.coef[1] + np.array([-half, half]))
+    scores = [X[groups == g].T @ e[groups == g] for g in range(3)]
+    meat = sum(np.outer(s, s) for s in scores)
+    corr = 3 / 2 * (n - 1) / (n - p)
+    np.testing.assert_allclose(cr1.cov, corr * bread @ meat @ bread, rtol=1e-10)
+    assert cr1.cov_type == "cluster" and cr1.t_dof == 2  # t on G - 1
+    half = scipy.stats.t.ppf(0.975, 2) * np.sqrt(cr1.cov[1, 1])
+    np.testing.assert_allclose(cr1.estimate("b").ci95, cr1.coef[1] + np.array([-half, half]))
+    assert cr1.estimate("b").std_error == pytest.approx(np.sqrt(cr1.cov[1, 1]))
+    # cluster labels of any kind (strings), in any order
+    relabel = linear_fit(X, y, ["a", "b"], source="t", cov_type="cluster",
+                         clusters=np.array(["z", "z", "z", "a", "a", "m", "m", "m"]))
+    np.testing.assert_allclose(relabel.cov, cr1.cov, rtol=1e-12)
+
+
+def test_robust_covariances_reduce_to_the_classical_one_for_an_even_residual_pattern():
+    """Residuals all of one size, equal leverages (a balanced design): HC3 is the classical
+    covariance times n / (n - p), and the cluster one with one point per cluster equals it
+    (CR1's n / (n - 1) (n - 1) / (n - p) times HC0's s^2 (n - p) / n)."""
+    x = np.array([1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0, -1.0])
+    X = np.column_stack([np.ones_like(x), x])
+    r = np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0])  # orthogonal to both columns
+    y = X @ np.array([2.0, 0.5]) + 0.3 * r
+    n, p = X.shape
+    classical = linear_fit(X, y, ["a", "b"], source="t")
+    np.testing.assert_allclose(classical.residuals, 0.3 * r, atol=1e-12)
+    hc3 = linear_fit(X, y, ["a", "b"], source="t", cov_type="hc3")
+    np.testing.assert_allclose(hc3.cov, n / (n - p) * classical.cov, rtol=1e-10, atol=1e-15)
+    singles = linear_fit(X, y, ["a", "b"], source="t", cov_type="cluster", clusters=np.arange(n))
+    np.testing.assert_allclose(singles.cov, classical.cov, rtol=1e-10, atol=1e-15)
+    assert singles.t_dof == n - 1
+
+
+def test_nonlinear_fit_sandwiches_use_the_jacobian_at_the_optimum():
+    # a model linear in its parameters, written as a nonlinear one: the same covariances
+    X, y, groups = _tiny()
+    for cov_type in ("classical", "hc3", "cluster"):
+        lin = linear_fit(X, y, ["a", "b"], source="t", cov_type=cov_type, clusters=groups)
+        non = nonlinear_fit(lambda b: X @ b, lambda b: X, [0.0, 0.0], y, ["a", "b"],
+                            source="t", cov_type=cov_type, clusters=groups)
+        np.testing.assert_allclose(non.coef, lin.coef, rtol=1e-9)
+        np.testing.assert_allclose(non.cov, lin.cov, rtol=1e-6)
+        assert non.cov_type == cov_type and non.t_dof == lin.t_dof
+
+
+def test_cov_type_and_clusters_are_checked():
+    X, y, groups = _tiny()
+    with pytest.raises(ValueError, match=r"'cov_type' parameter of linear_fit must be one of "
+                                         r"\['classical', 'hc3', 'cluster'\]. Got 'HC3'"):
+        linear_fit(X, y, ["a", "b"], source="t", cov_type="HC3")
+    with pytest.raises(ValueError, match="'clusters' parameter of linear_fit must give each "
+                                         "point's cluster"):
+        linear_fit(X, y, ["a", "b"], source="t", cov_type="cluster")
+    with pytest.raises(ValueError, match=r"'clusters' parameter of nonlinear_fit must hold one "
+                                         r"label per point \(8\). Got shape \(7,\)"):
+        nonlinear_fit(lambda b: X @ b, lambda b: X, [0.0, 0.0], y, ["a", "b"], source="t",
+                      cov_type="cluster", clusters=groups[:7])
+    # two clusters cannot give a covariance of two parameters: their scores sum to zero
+    with pytest.raises(ValueError, match=r"'f.csv' fall into 2 clusters, too few .* \(at "
+                                         r"least 3 needed"):
+        linear_fit(X, y, ["a", "b"], source="'f.csv'", cov_type="cluster",
+                   clusters=np.r_[np.zeros(4), np.ones(4)])
+    with pytest.raises(ValueError, match="leverage 1"):  # a point alone determines c
+        linear_fit(np.column_stack([X, np.eye(8)[0]]), y, ["a", "b", "c"], source="t",
+                   cov_type="hc3")
+
+
+def _coverage(fits, truth) -> dict:
+    """Share of the fits (lists per covariance) whose 95 % intervals hold the truth."""
+    return {c: np.mean([[lo <= t <= hi for (lo, hi), t in zip(ci, truth, strict=True)]
+                        for ci in cis], axis=0) for c, cis in fits.items()}
+
+
+def test_robust_intervals_cover_a_scatter_that_grows_where_the_classical_do_not():
+    """k_eta's fit, thrust = k omega^2, with 1 % relative noise (the simulated stand's speed
+    noise made the scatter grow with the speed; the classical interval of k_eta covered 72 %
+    of 1,000 seeds): 64 steps of 5 points, 1,000 draws (fixed seed; over 20 x 200 draws
+    classical 0.81, HC3 0.94, cluster 0.93: CR1 runs a little narrow where a few clusters
+    carry most of the weight, here the fastest steps)."""
+    rng = np.random.default_rng(7)
+    w = np.repeat(np.linspace(300.0, 1500.0, 64), 5)
+    steps = np.repeat(np.arange(64), 5)
+    X = w[:, None] ** 2
+    k = 5e-6
+    fits = {"classical": [], "hc3": [], "cluster": []}
+    for _ in range(1000):
+        y = k * X[:, 0] * (1 + 0.01 * rng.standard_normal(w.size))
+        for cov_type, cis in fits.items():
+            fit = linear_fit(X, y, ["k"], source="t", cov_type=cov_type, clusters=steps)
+            cis.append([fit.estimate("k").ci95])
+    cover = _coverage(fits, [k])
+    assert cover["classical"][0] < 0.88
+    assert 0.90 <= cover["hc3"][0] <= 0.99 and 0.90 <= cover["cluster"][0] <= 0.99
+
+
+def test_cluster_intervals_cover_an_error_shared_within_each_step():
+    """The PWM motor model on 8 voltages x 8 PWM steps x 10 points, 0.5 % independent relative
+    speed noise and 0.4 % shared by the points of a step: only the cluster-robust intervals
+    cover (1,000 draws, fixed seed; over 3,000 draws classical 0.57-0.73, HC3 0.63, cluster
+    0.92-0.94)."""
+    volt = np.repeat(2.7 + 0.2 * np.arange(8), 80)
+    pwm = np.tile(np.repeat(np.arange(15_000.0, 50_001.0, 5_000.0), 10), 8)
+    steps = np.repeat(np.arange(64), 10)
+    truth = np.array([0.24, 0.5535, 4673.0])
+
+    def model(b):
+        return b[0] * (volt + b[1]) * (pwm - b[2]) ** (2 / 3)
+
+    def jac(b):
+        d = pwm - b[2]
+        return np.column_stack([(volt + b[1]) * d ** (2 / 3), b[0] * d ** (2 / 3),
+                                -2 / 3 * b[0] * (volt + b[1]) * d ** (-1 / 3)])
+
+    rng = np.random.default_rng(1)
+    fits = {"classical": [], "hc3": [], "cluster": []}
+    for _ in range(1000):
+        shared = 0.004 * rng.standard_normal(64)[steps]
+        w = model(truth) * (1 + 0.005 * rng.standard_normal(pwm.size) + shared)
+        for cov_type, cis in fits.items():
+            fit = nonlinear_fit(model, jac, truth * [1.02, 0.9, 0.98], w, ["Kv", "V0", "DZ"],
+                                source="t", cov_type=cov_type, clusters=steps)
+            cis.append([fit.estimate(n).ci95 for n in ("Kv", "V0", "DZ")])
+    cover = _coverage(fits, truth)
+    assert np.all(cover["classical"] < 0.85) and np.all(cover["hc3"] < 0.85)
+    assert np.all((0.90 <= cover["cluster"]) & (cover["cluster"] <= 0.99)), cover
+
+
 def test_slopes_of_a_line_and_of_a_step():
     t = np.arange(0, 2, 0.01)
     np.testing.assert_allclose(local_slope(t, 3 * t + 1, 0.1), 3.0, rtol=1e-9)

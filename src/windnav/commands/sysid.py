@@ -157,6 +157,10 @@ def _register_thrust_stand(ss) -> None:
                    help="steady: w above this, rad/s (%(default)s)")
     p.add_argument("--window-s", type=float, default=0.1,
                    help="window of the dw/dt line fit, s (%(default)s)")
+    p.add_argument("--settle-s", type=float, default=0.05,
+                   help="steady: at least this long after a PWM change, s (%(default)s; 0: the "
+                        "thesis's rule alone, which admits the first sample of a small step "
+                        "before the rotor has settled)")
     p.add_argument("--out", type=Path, default=Path("out/sysid_thrust_stand"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
@@ -171,12 +175,13 @@ def run_thrust_stand(args) -> int:
     max_accel = positive_float(args.max_accel, "--max-accel", name)
     min_speed = positive_float(args.min_speed, "--min-speed", name, allow_zero=True)
     window = positive_float(args.window_s, "--window-s", name)
+    settle = positive_float(args.settle_s, "--settle-s", name, allow_zero=True)
     if not args.csv and not args.bag:
         raise ValueError(f"The '--csv' parameter of {name} must name at least one file (or "
                          "give --bag).")
     out = _outputs(args, "thrust-stand")
     fit, payload = thrust_stand_study(args.csv, n_rotors, max_accel=max_accel,
-                                      min_speed=min_speed, window_s=window,
+                                      min_speed=min_speed, window_s=window, settle_s=settle,
                                       tables=_bag_tables(args, "timestamp"), where=name)
     doc = document("sysid thrust-stand", payload, args)
     _write(args, doc, out, "thrust_stand", lambda path: plot_thrust_stand(fit, path))

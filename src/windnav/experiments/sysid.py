@@ -319,18 +319,20 @@ def simulate_tunnel(params, *, speeds: Sequence[float] = tuple(np.arange(0.0, 6.
 
 
 def thrust_stand_study(paths: Sequence, n_rotors: int, *, max_accel: float = 1000.0,
-                       min_speed: float = 250.0, window_s: float = 0.1, tables=None,
+                       min_speed: float = 250.0, window_s: float = 0.1,
+                       settle_s: float | None = None, tables=None,
                        where: str = "thrust_stand_study"):
     """Read thrust-stand CSV files (or ``tables``) and fit; returns ``(fit, payload)``."""
     from windnav.sysid.io import read_table
-    from windnav.sysid.thrust_stand import fit_thrust_stand
+    from windnav.sysid.thrust_stand import SETTLE_S, fit_thrust_stand
 
+    settle_s = SETTLE_S if settle_s is None else settle_s
     tabs = list(tables or []) + [read_table(p, where=where) for p in paths]
     fit = fit_thrust_stand(tabs, n_rotors, max_accel=max_accel, min_speed=min_speed,
-                           window_s=window_s, where=where)
+                           window_s=window_s, settle_s=settle_s, where=where)
     return fit, {**fit.to_dict(), "n_rotors": int(n_rotors),
                  "steadiness": {"max_accel_rad_s2": max_accel, "min_speed_rad_s": min_speed,
-                                "window_s": window_s}}
+                                "window_s": window_s, "settle_s": settle_s}}
 
 
 def aero_assumptions(fit) -> list[str]:

@@ -10,6 +10,17 @@ Nonlinear models use the same formulas with ``X`` replaced by the Jacobian at th
 (the usual linearisation, as in ``scipy.optimize.curve_fit``). Columns are scaled to unit norm
 before solving, so coefficients that differ by ten orders of magnitude (``k_eta ~ 1e-8`` beside
 an accelerometer bias ~ 0.1) are solved without loss of precision.
+
+``s^2 (X^T X)^-1`` assumes the errors are independent with one variance. Two sandwich
+estimators ``cov = B M B``, ``B = (X^T X)^-1``, drop that assumption (``cov_type``; the
+estimates themselves do not change)::
+
+    "hc3"      M = sum_i x_i x_i^T e_i^2 / (1 - h_ii)^2,   h_ii = x_i^T B x_i     t: n - p
+               (MacKinnon-White: each point's own squared residual, leverage-corrected;
+               errors independent, of any variance)
+    "cluster"  M = c sum_g (X_g^T e_g)(X_g^T e_g)^T,  c = G/(G-1) (n-1)/(n-p)     t: G - 1
+               (CR1, the Stata/statsmodels correction: errors independent between the G
+               clusters, of any variance and correlation within one; needs G > p)
 """
 
 from __future__ import annotations
@@ -20,7 +31,11 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
-__all__ = ["Estimate", "LeastSquares", "linear_fit", "median_std_error", "nonlinear_fit"]
+__all__ = ["COV_TYPES", "Estimate", "LeastSquares", "linear_fit", "median_std_error",
+           "nonlinear_fit"]
+
+COV_TYPES = ("classical", "hc3", "cluster")
+"""The covariances :func:`linear_fit` and :func:`nonlinear_fit` can report (module docstring)."""
 
 
 @dataclass(frozen=True)
@@ -62,7 +77,8 @@ class LeastSquares:
     coef : ndarray of shape (p,)
         Estimates.
     cov : ndarray of shape (p, p)
-        Their covariance ``s^2 (J^T J)^-1``.
+        Their covariance: ``s^2 (J^T J)^-1`` (``cov_type`` "classical") or a sandwich
+        (module docstring).
     residuals : ndarray of shape (n,)
         ``y - fitted``.
     fitted : ndarray of shape (n,)
@@ -71,6 +87,11 @@ class LeastSquares:
         Coefficient of determination (against the mean of ``y``).
     dof : int
         Residual degrees of freedom ``n - p``.
+    cov_type : str
+        Which covariance ``cov`` is (:data:`COV_TYPES`).
+    t_dof : int or None
+        Degrees of freedom of the t quantile of the intervals when not ``dof``: ``G - 1``
+        for the cluster-robust covariance of ``G`` clusters.
     """
 
     names: tuple[str, ...]
@@ -80,6 +101,8 @@ class LeastSquares:
     fitted: np.ndarray
     r2: float
     dof: int
+    cov_type: str = "classical"
+    t_dof: int | None = None
 
     @property
     def rmse(self) -> float:
@@ -95,7 +118,8 @@ class LeastSquares:
         """The :class:`Estimate` of parameter ``name``."""
         i = self.names.index(name)
         se = float(self.std_errors[i])
-        half = float(scipy.stats.t.ppf(0.975, self.dof)) * se
+        dof = self.dof if self.t_dof is None else self.t_dof
+        half = float(scipy.stats.t.ppf(0.975, dof)) * se
         v = float(self.coef[i])
         return Estimate(v, se, (v - half, v + half))
 
@@ -123,7 +147,27 @@ def _too_few(n: int, names, source: str) -> ValueError:
                       f"(parameters + 1).")
 
 
-def _covariance(jac: np.ndarray, rss: float, dof: int, names, source: str) -> np.ndarray:
+def _check_cov_type(cov_type, clusters, n: int, where: str):
+    """``clusters`` as an (n,) array of group labels for "cluster", else None."""
+    if cov_type not in COV_TYPES:
+        raise ValueError(f"The 'cov_type' parameter of {where} must be one of {list(COV_TYPES)}. "
+                         f"Got {cov_type!r} instead.")
+    if cov_type != "cluster":
+        return None
+    if clusters is None:
+        raise ValueError(f"The 'clusters' parameter of {where} must give each point's cluster "
+                         "when cov_type is 'cluster'. Got None instead.")
+    labels = np.asarray(clusters)
+    if labels.shape != (n,):
+        raise ValueError(f"The 'clusters' parameter of {where} must hold one label per point "
+                         f"({n}). Got shape {labels.shape} instead.")
+    return labels
+
+
+def _covariance(jac: np.ndarray, resid: np.ndarray, dof: int, names, source: str,
+                cov_type: str = "classical", clusters=None) -> tuple[np.ndarray, int | None]:
+    """``(cov, t_dof)``: the covariance of the estimates (module docstring) from the Jacobian
+    (or regressors) ``jac`` (n, p) and the residuals (n,); ``t_dof`` None for ``dof``."""
     scale = np.linalg.norm(jac, axis=0)
     if np.any(scale == 0):
         bad = [n for n, s in zip(names, scale, strict=True) if s == 0]
@@ -134,10 +178,36 @@ def _covariance(jac: np.ndarray, rss: float, dof: int, names, source: str) -> np
         raise ValueError(f"The data of {source} do not determine {list(names)} separately: "
                          "the regressors are linearly dependent (vary the conditions).")
     inv = np.linalg.inv(js.T @ js)
-    return (rss / dof) * inv / np.outer(scale, scale)
+    n, p = js.shape
+    t_dof = None
+    if cov_type == "classical":
+        return (float(np.sum(resid**2)) / dof) * inv / np.outer(scale, scale), None
+    if cov_type == "hc3":
+        lev = np.einsum("ij,jk,ik->i", js, inv, js)
+        if np.any(lev > 1.0 - 1e-10):
+            raise ValueError(f"The data of {source} hold a point of leverage 1 (it alone "
+                             f"determines a combination of {list(names)}): the HC3 covariance "
+                             "is undefined.")
+        u = resid / (1.0 - lev)
+        meat = (js * u[:, None] ** 2).T @ js
+        cov = inv @ meat @ inv
+    else:  # cluster (CR1)
+        _, group = np.unique(clusters, return_inverse=True)
+        g = int(group.max()) + 1
+        if g <= p:  # the G cluster scores sum to 0 (normal equations): rank <= G - 1 < p
+            raise ValueError(f"The data of {source} fall into {g} clusters, too few for a "
+                             f"cluster-robust covariance of {list(names)} (at least "
+                             f"{p + 1} needed: parameters + 1).")
+        scores = np.zeros((g, p))
+        np.add.at(scores, group, js * resid[:, None])
+        corr = g / (g - 1) * (n - 1) / (n - p)
+        cov = corr * (inv @ (scores.T @ scores) @ inv)
+        t_dof = g - 1
+    return 0.5 * (cov + cov.T) / np.outer(scale, scale), t_dof  # symmetric to rounding
 
 
-def linear_fit(X, y, names, *, source: str) -> LeastSquares:
+def linear_fit(X, y, names, *, source: str, cov_type: str = "classical",
+               clusters=None) -> LeastSquares:
     """Ordinary least squares ``y ~ X beta`` with covariance and R^2.
 
     Parameters
@@ -150,16 +220,24 @@ def linear_fit(X, y, names, *, source: str) -> LeastSquares:
         The p parameter names.
     source : str
         What the data are, for messages (``"'stand.csv' columns 'thrust_N', 'rpm'"``).
+    cov_type : {"classical", "hc3", "cluster"}
+        The covariance, and so the standard errors and 95 % intervals (module docstring):
+        ``s^2 (X^T X)^-1`` (default), heteroscedasticity-robust HC3, or cluster-robust CR1
+        with t on ``G - 1`` degrees of freedom. The estimates are the same for all three.
+    clusters : array_like of shape (n,), optional
+        Each observation's cluster label, for ``cov_type="cluster"``.
 
     Raises
     ------
     ValueError
-        Naming ``source``, when n <= p or the regressors are linearly dependent.
+        Naming ``source``, when n <= p or the regressors are linearly dependent; for
+        "cluster", with p clusters or fewer; for "hc3", a point of leverage 1.
     """
     X = np.asarray(X, dtype=np.float64)
     y = np.asarray(y, dtype=np.float64)
     names = tuple(names)
     n, p = X.shape
+    labels = _check_cov_type(cov_type, clusters, n, "linear_fit")
     if n <= p:
         raise _too_few(n, names, source)
     scale = np.linalg.norm(X, axis=0)
@@ -169,11 +247,12 @@ def linear_fit(X, y, names, *, source: str) -> LeastSquares:
     fitted = X @ beta
     resid = y - fitted
     dof = n - p
-    cov = _covariance(X, float(np.sum(resid**2)), dof, names, source)
-    return LeastSquares(names, beta, cov, resid, fitted, _r2(y, resid), dof)
+    cov, t_dof = _covariance(X, resid, dof, names, source, cov_type, labels)
+    return LeastSquares(names, beta, cov, resid, fitted, _r2(y, resid), dof, cov_type, t_dof)
 
 
-def nonlinear_fit(model, jacobian, x0, y, names, *, source: str, bounds=None) -> LeastSquares:
+def nonlinear_fit(model, jacobian, x0, y, names, *, source: str, bounds=None,
+                  cov_type: str = "classical", clusters=None) -> LeastSquares:
     """Nonlinear least squares ``y ~ model(beta)`` (trust-region reflective).
 
     Parameters
@@ -190,10 +269,14 @@ def nonlinear_fit(model, jacobian, x0, y, names, *, source: str, bounds=None) ->
         For messages.
     bounds : (lower, upper), optional
         Bounds on the parameters.
+    cov_type : {"classical", "hc3", "cluster"}
+    clusters : array_like of shape (n,), optional
+        As in :func:`linear_fit`, with the Jacobian at the optimum for the regressors.
     """
     y = np.asarray(y, dtype=np.float64)
     names = tuple(names)
     x0 = np.asarray(x0, dtype=np.float64)
+    labels = _check_cov_type(cov_type, clusters, y.size, "nonlinear_fit")
     if y.size <= x0.size:
         raise _too_few(y.size, names, source)
     res = scipy.optimize.least_squares(
@@ -204,5 +287,5 @@ def nonlinear_fit(model, jacobian, x0, y, names, *, source: str, bounds=None) ->
     fitted = model(beta)
     resid = y - fitted
     dof = y.size - x0.size
-    cov = _covariance(jacobian(beta), float(np.sum(resid**2)), dof, names, source)
-    return LeastSquares(names, beta, cov, resid, fitted, _r2(y, resid), dof)
+    cov, t_dof = _covariance(jacobian(beta), resid, dof, names, source, cov_type, labels)
+    return LeastSquares(names, beta, cov, resid, fitted, _r2(y, resid), dof, cov_type, t_dof)

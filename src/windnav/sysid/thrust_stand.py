@@ -16,6 +16,21 @@ where ``d omega / dt`` is the steeper of the straight-line slopes over the ``win
 Thesis values: k_eta = 4.052e-8 N/(rad/s)^2, Kv = 0.3637, V0 = 0.5535 V, DZ = 4673 counts,
 R^2 = 0.979.
 
+The 95 % intervals are cluster-robust, one cluster per PWM step (a run of one PWM value in one
+file): the sandwich covariance CR1 of :mod:`windnav.sysid._fit` (``cov_type="cluster"``) with
+Student's t on ``G - 1`` degrees of freedom for ``G`` steps. They allow for a scatter that
+changes with the speed (an optical tachometer's relative noise) and for an error shared by the
+points of one step. On the simulated stand (a 5 ms motor, 400 seeds) they covered the truth
+94.8 % (Kv), 95.8 % (V0), 96.0 % (DZ) and 87.5 % (k_eta) of the time, and 92-95 % with an
+error shared within each step, where the classical ``s^2 (J^T J)^-1`` covered 90, 91, 99.8
+(too wide) and 73 %, and 28-57 %. No interval covers a bias: k_eta's regressor is the noisy
+speed squared (errors in variables, ``-5 sigma^2`` relative, -1.25e-4 at 0.5 % noise: 0.65
+standard deviations, which caps its coverage near 90 %); and the thesis's steadiness rule
+admits the first sample of a PWM step whose jump is small, up to ~1 % below steady with a
+5 ms motor, which moved DZ by +1e-3 (1.6 standard deviations; its CR1 interval covered 75 %):
+samples less than :data:`SETTLE_S` after a PWM change are therefore not steady. The estimates
+do not depend on the covariance.
+
 Two checks of the motor model against the data (:attr:`ThrustStandFit.notes`):
 
 - **settling** (:attr:`ThrustStandFit.settling_check`): a slow motor (the Crazyflie's
@@ -64,13 +79,21 @@ RPM_TO_RAD_S = 2.0 * np.pi / 60.0
 
 SCATTER_P = 1e-3
 """Below this p-value of the rank correlation between the absolute rotor-speed residual and the
-rotor speed, the scatter is uneven and the motor model's intervals miscalibrated (a note)."""
+rotor speed, the scatter is uneven (:attr:`ThrustStandFit.scatter_check`, a diagnostic: the
+cluster-robust intervals allow for it)."""
+
+SETTLE_S = 0.05
+"""Samples less than this after a PWM change are left out of the steady points, s. The thesis's
+rule (``|d omega/dt| < max_accel`` over a 0.1 s window) admitted the first sample of a step
+whose jump is small, up to 1 % below steady with a 5 ms motor, which biased DZ by +1e-3
+(1.6 standard deviations: its cluster-robust interval covered the truth 75 % of the time on the
+simulated stand, 95 % without those samples; 1,000 seeds, 2026-12-05)."""
 
 SETTLING_P = 1e-3
 """Below this p-value of the paired test of the first against the second halves of the PWM
 steps, the rotor speed has not settled (with a fast motor, ``tau_m`` = 5 ms, 0 of 20 seeds
 went below it together with a coefficient outside the other fit's interval; with 50 ms,
-20 of 20)."""
+20 of 20; the same with the cluster-robust intervals)."""
 
 _MOTOR_NAMES = ("Kv", "V0", "DZ")
 
@@ -179,15 +202,18 @@ class ThrustStandFit:
     Attributes
     ----------
     k_eta : Estimate
-        Thrust coefficient per rotor, N/(rad/s)^2.
+        Thrust coefficient per rotor, N/(rad/s)^2, with its cluster-robust standard error and
+        95 % interval (same unit; clusters: the PWM steps, module docstring).
     Kv, V0, DZ : Estimate
-        The :class:`PWMMotorModel` coefficients (rad/s/V/count^(2/3), V, counts).
+        The :class:`PWMMotorModel` coefficients (rad/s/V/count^(2/3), V, counts), each with
+        its cluster-robust standard error and 95 % interval.
     motor : PWMMotorModel
         The fitted model.
     thrust : LeastSquares
-        The fit of thrust per rotor against ``omega^2`` (``thrust.r2``).
+        The fit of thrust per rotor against ``omega^2`` (``thrust.r2``; ``thrust.cov`` the
+        cluster-robust covariance, ``thrust.t_dof`` = steps - 1).
     speed : LeastSquares
-        The fit of the rotor speed (``speed.r2``: the thesis's R^2).
+        The fit of the rotor speed (``speed.r2``: the thesis's R^2; covariance as ``thrust``).
     pwm, voltage, omega, thrust_per_rotor : ndarray of shape (n,)
         The steady points (counts, V, rad/s, N).
     counts : dict
@@ -201,12 +227,16 @@ class ThrustStandFit:
         The first against the second half of each PWM step: ``steps`` compared,
         ``early_minus_late`` (mean relative rotor-speed residual, fraction), its ``p_value``
         (paired t test), ``late_fit`` (Kv, V0, DZ fitted on the second halves, each
-        ``{"value", "std_error", "ci95"}``, and its ``n_points``), and ``significant`` (p below
+        ``{"value", "std_error", "ci95"}``, cluster-robust as the full fit's, and its
+        ``n_points``), and ``significant`` (p below
         :data:`SETTLING_P` and a coefficient of either fit outside the other's 95 %
         interval: the motor's lag biases the model). None where fewer than three steps have
         steady points in both halves, or the second halves cannot be fitted.
     max_accel : float
         The steadiness threshold used, rad/s^2.
+    step : ndarray of shape (n,) or None
+        The PWM step of each steady point (0, 1, ... over all files in order): the clusters
+        of the intervals.
     """
 
     k_eta: Estimate
@@ -224,6 +254,7 @@ class ThrustStandFit:
     saturation: dict = field(default_factory=dict)
     settling_check: dict | None = None
     max_accel: float = 1000.0
+    step: np.ndarray | None = None
 
     @property
     def r2(self) -> float:
@@ -232,12 +263,14 @@ class ThrustStandFit:
 
     @property
     def scatter_check(self) -> dict | None:
-        """Whether the rotor-speed scatter is even, as the intervals of Kv, V0 and DZ assume:
-        ``spearman_rho`` between the absolute residual and the rotor speed, its ``p_value``,
-        and ``uneven`` (p below :data:`SCATTER_P`). None for fewer than 20 points. On the
-        simulated stand, whose optical speed has 0.5 % noise (a scatter that grows with the
-        speed), the intervals covered the truth 89 % (Kv, V0) and 99.5 % (DZ) of the time
-        with a fast motor, 1,000 seeds (coverage audit, 2026-12-05)."""
+        """Whether the rotor-speed scatter is even: ``spearman_rho`` between the absolute
+        residual and the rotor speed, its ``p_value``, and ``uneven`` (p below
+        :data:`SCATTER_P`). None for fewer than 20 points. A diagnostic, not a note: the
+        cluster-robust intervals allow for an uneven scatter (the classical ``s^2 (J^T J)^-1``
+        did not: on the simulated stand's 0.5 % relative speed noise, rho ~ +0.4, it covered
+        the truth 92-93 % (Kv, V0) and 99.7 % (DZ, too wide) of the time with a lag-free fast
+        motor, 1,000 seeds). An uneven scatter still costs precision: weighting the points by
+        the inverse variance would narrow the intervals."""
         if self.omega.size < 20:
             return None
         rho, pval = scipy.stats.spearmanr(self.omega, np.abs(self.speed.residuals))
@@ -279,18 +312,6 @@ class ThrustStandFit:
                 f"fitted on the second halves, {', '.join(moved)}, each outside the other's "
                 "95 % interval (settling_check); the second halves' values are the less "
                 "biased, or hold each step longer")
-        scatter = self.scatter_check
-        if scatter is not None and scatter["uneven"]:
-            grows = scatter["spearman_rho"] > 0
-            notes.append(
-                f"the rotor-speed scatter {'grows' if grows else 'shrinks'} with the speed "
-                f"(Spearman rho {scatter['spearman_rho']:+.2f} between the absolute residual "
-                f"and the speed, p = {scatter['p_value']:.1g}"
-                + ("; an optical tachometer's noise does" if grows else "")
-                + "): the 95 % intervals of Kv, V0 and DZ assume an even scatter, so some are "
-                "too narrow and others too wide (on the simulated stand's 0.5 % speed noise "
-                "Kv's and V0's covered the truth 89 % of the time, DZ's 99.5 %; "
-                "scatter_check)")
         return notes
 
     def to_dict(self) -> dict:
@@ -302,6 +323,9 @@ class ThrustStandFit:
             "n_steady_points": int(self.omega.size), "files": self.counts,
             "saturation": self.saturation, "settling_check": self.settling_check,
             "scatter_check": self.scatter_check,
+            "intervals": {"covariance": "cluster-robust (CR1), one cluster per PWM step",
+                          "n_clusters": None if self.step is None
+                          else int(np.unique(self.step).size)},
             "notes": self.notes,
             "units": {"k_eta": "N/(rad/s)^2", "Kv": "rad/s/V/count^(2/3)", "V0": "V",
                       "DZ": "PWM counts"},
@@ -313,16 +337,17 @@ def _apart(a: Estimate, b: Estimate) -> bool:
     return not (a.ci95[0] <= b.value <= a.ci95[1]) and not (b.ci95[0] <= a.value <= b.ci95[1])
 
 
-def _step_halves(t: np.ndarray, pwm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per sample: the index of its PWM step (a run of one PWM value) and whether it lies in
-    the step's second half (by time)."""
+def _step_halves(t: np.ndarray, pwm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per sample: the index of its PWM step (a run of one PWM value), whether it lies in the
+    step's second half (by time), and the time since the step began, s."""
     new = np.r_[True, pwm[1:] != pwm[:-1]]
     step = np.cumsum(new) - 1
     start = t[new]
     dt = float(np.median(np.diff(t))) if t.size > 1 else 0.0
     end = np.r_[start[1:], t[-1] + dt]
-    frac = (t - start[step]) / np.maximum(end - start, 1e-300)[step]
-    return step, frac >= 0.5
+    since = t - start[step]
+    frac = since / np.maximum(end - start, 1e-300)[step]
+    return step, frac >= 0.5, since
 
 
 def _top_steps(pwm: np.ndarray, omega: np.ndarray) -> dict | None:
@@ -361,8 +386,8 @@ def _settling_check(late: np.ndarray, step: np.ndarray, pwm, volt, omega,
     pval = float(scipy.stats.ttest_1samp(diffs, 0.0).pvalue) if np.ptp(diffs) > 0 else 1.0
     try:
         second = _fit_motor(pwm[late], volt[late], omega[late], motor_fit.coef,
-                            f"{src}, second halves of the PWM steps")
-    except ValueError:  # too few points, or they do not separate Kv, V0 and DZ
+                            f"{src}, second halves of the PWM steps", step[late])
+    except ValueError:  # too few points or steps, or they do not separate Kv, V0 and DZ
         return None
     full = {n: motor_fit.estimate(n) for n in _MOTOR_NAMES}
     est = {n: second.estimate(n) for n in _MOTOR_NAMES}
@@ -390,6 +415,7 @@ def _initial_motor(pwm, volt, omega) -> np.ndarray:
 
 def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float = 1000.0,
                      min_speed: float = 250.0, window_s: float = 0.1,
+                     settle_s: float = SETTLE_S,
                      where: str = "fit_thrust_stand") -> ThrustStandFit:
     """Fit ``k_eta`` and the PWM motor model to thrust-stand logs.
 
@@ -402,20 +428,27 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
         Rotors carrying the measured thrust (thrust per rotor = ``thrust_N / n_rotors``).
     max_accel, min_speed, window_s : float
         The steadiness rule (rad/s^2, rad/s, s), see :func:`steady_mask`.
+    settle_s : float
+        Samples less than this after a PWM change are not steady, s (:data:`SETTLE_S`; 0:
+        the thesis's rule alone).
     where : str
         The caller, for messages.
 
     Returns
     -------
     ThrustStandFit
+        The estimates with cluster-robust standard errors and 95 % intervals, one cluster
+        per PWM step (module docstring).
 
     Raises
     ------
     ValueError
         Naming the file and the column: missing columns, a file without steady points,
-        fewer steady points than parameters, a PWM that never changes.
+        fewer steady points than parameters, a PWM that never changes, steady points at
+        fewer than four PWM steps.
     """
     n_rotors = positive_int(n_rotors, "n_rotors", where)
+    settle_s = positive_float(settle_s, "settle_s", where, allow_zero=True)
     max_accel = positive_float(max_accel, "max_accel", where)  # else named by steady_mask
     min_speed = positive_float(min_speed, "min_speed", where, allow_zero=True)
     if not tables:
@@ -435,8 +468,9 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
             raise ValueError(f"The column 'timestamp' of {tab.source!r} must increase from row "
                              "to row.")
         omega = cols["rpm"][finite] * RPM_TO_RAD_S
+        step, late, since = _step_halves(t, cols["pwm"][finite])
         mask = steady_mask(t, omega, max_accel=max_accel, min_speed=min_speed,
-                           window_s=window_s)
+                           window_s=window_s) & (since >= settle_s)
         counts[tab.source] = {"rows": len(tab), "steady": int(mask.sum()),
                               "dropped_nan": int((~finite).sum())}
         if not mask.any():
@@ -445,10 +479,10 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
             raise ValueError(
                 f"The file {tab.source!r} given to {where} has no steady point in column "
                 f"'rpm': none has |d omega/dt| < {max_accel:g} rad/s^2 and omega > "
-                f"{min_speed:g} rad/s ({int(fast.sum())} of {omega.size} rows are fast "
+                f"{min_speed:g} rad/s at least {settle_s:g} s after a PWM change "
+                f"({int(fast.sum())} of {omega.size} rows are fast "
                 f"enough; the smallest |d omega/dt| among them is "
                 f"{acc[fast].min() if fast.any() else float('nan'):.4g} rad/s^2).")
-        step, late = _step_halves(t, cols["pwm"][finite])
         parts.append({"pwm": cols["pwm"][finite][mask], "volt": cols["voltage_V"][finite][mask],
                       "omega": omega[mask],
                       "thrust": cols["thrust_N"][finite][mask] / n_rotors,
@@ -461,21 +495,28 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
                                             for k in ("pwm", "volt", "omega", "thrust", "step",
                                                       "late"))
     files = ", ".join(repr(t.source) for t in tables)
+    if np.unique(pwm).size < 2:
+        raise ValueError(f"The column 'pwm' of {files} must take at least two values at the "
+                         "steady points to fit the motor model (a PWM ramp).")
     th = linear_fit(omega[:, None] ** 2, thrust, ["k_eta"],
-                    source=f"the steady points of {files} (columns 'thrust_N', 'rpm')")
+                    source=f"the steady points of {files} (columns 'thrust_N', 'rpm')",
+                    cov_type="cluster", clusters=step)
     if not th.estimate("k_eta").value > 0:  # all-zero or negative thrust: k_eta <= 0, R^2 0.999
         raise ValueError(f"The column 'thrust_N' of {files} must give a thrust coefficient "
                          f"k_eta > 0 at the steady points. Got k_eta = "
                          f"{th.estimate('k_eta').value:.3g} instead (no thrust, or its sign "
                          "reversed).")
     src = f"the steady points of {files} (columns 'pwm', 'voltage_V', 'rpm')"
-    if np.unique(pwm).size < 2:
-        raise ValueError(f"The column 'pwm' of {files} must take at least two values at the "
-                         "steady points to fit the motor model (a PWM ramp).")
     if np.ptp(volt) == 0:
         raise ValueError(f"The column 'voltage_V' of {files} must vary to separate Kv and V0 "
                          "(repeat the ramp at several supply voltages).")
-    sp = _fit_motor(pwm, volt, omega, _initial_motor(pwm, volt, omega), src)
+    n_used = np.unique(step).size
+    if n_used <= len(_MOTOR_NAMES) < pwm.size:  # (too few points: nonlinear_fit says so)
+        raise ValueError(f"The column 'pwm' of {files} must hold steady points at "
+                         f"{len(_MOTOR_NAMES) + 1} PWM steps or more (runs of one value) for "
+                         "intervals of Kv, V0 and DZ robust to errors shared within a step. "
+                         f"Got {n_used} instead.")
+    sp = _fit_motor(pwm, volt, omega, _initial_motor(pwm, volt, omega), src, step)
     kv, v0, dz = (sp.estimate(n) for n in _MOTOR_NAMES)
     for name, e in (("Kv", kv), ("V0", v0)):
         if not e.ci95[0] * e.ci95[1] > 0:  # the interval holds 0: the data do not tell
@@ -487,11 +528,12 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
     motor = PWMMotorModel(Kv=kv.value, V0=v0.value, DZ=max(dz.value, 0.0))
     settling = _settling_check(late, step, pwm, volt, omega, sp, src)
     return ThrustStandFit(th.estimate("k_eta"), kv, v0, dz, motor, th, sp, pwm, volt, omega,
-                          thrust, counts, saturation, settling, max_accel)
+                          thrust, counts, saturation, settling, max_accel, step)
 
 
-def _fit_motor(pwm, volt, omega, x0, src: str) -> LeastSquares:
-    """``omega = Kv (V + V0)(PWM - DZ)^(2/3)`` by nonlinear least squares from ``x0``."""
+def _fit_motor(pwm, volt, omega, x0, src: str, step) -> LeastSquares:
+    """``omega = Kv (V + V0)(PWM - DZ)^(2/3)`` by nonlinear least squares from ``x0``, with
+    the covariance cluster-robust by ``step`` (each point's PWM step)."""
     third = 2.0 / 3.0
 
     def model(b):
@@ -505,4 +547,5 @@ def _fit_motor(pwm, volt, omega, x0, src: str) -> LeastSquares:
 
     hi_dz = float(pwm.min()) - 1e-6
     return nonlinear_fit(model, jac, x0, omega, list(_MOTOR_NAMES), source=src,
-                         bounds=([1e-12, -np.inf, -np.inf], [np.inf, np.inf, hi_dz]))
+                         bounds=([1e-12, -np.inf, -np.inf], [np.inf, np.inf, hi_dz]),
+                         cov_type="cluster", clusters=step)
