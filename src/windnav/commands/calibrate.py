@@ -3,7 +3,7 @@
 ::
 
     windnav calibrate --vehicle hummingbird --out calib/
-    windnav calibrate --vehicle hummingbird --out calib/ --linear   # k_d, k_z only
+    windnav calibrate --vehicle hummingbird --out calib_linear/ --linear   # k_d, k_z only
 
 Flies the vehicle at a range of airspeeds along body x, y and z (hover in a tunnel wind, see
 :mod:`windnav.experiments.calibration`), fits ``k_d, k_z`` (and ``c_dx, c_dy, c_dz`` unless

@@ -12,7 +12,8 @@ UKF's estimate of the wind (:mod:`windnav.experiments.demo`); writes ``map_wind_
 ::
 
     windnav demo --out out/demo --seed 0                       # the navigation story
-    windnav demo --wind-speed 8 --direction-deg 180 --out out/demo8
+    windnav demo --wind-speed 8 --direction-deg 180 --out out/demo8   # into the wind: with
+                                                   # seed 0 both flights fail, and it says so
     windnav demo --story ukf --seed 1 --out out/demo_ukf
     windnav demo --story ukf --conditions thesis --out out/demo_thesis
 

@@ -3,7 +3,8 @@
 ::
 
     windnav evaluate-decoder --out runs/eval --json eval.json --seed 0          # 20 min budget
-    windnav evaluate-decoder --model runs/default/model.npz --maps 3 --inlets 8 --budget-min 5
+    windnav evaluate-decoder --model runs/default/model.npz --maps 3 --inlets 8 --budget-min 5 \
+        --out runs/eval_own
     windnav evaluate-decoder --compare thesis-mlp=runs/thesis_mlp/model.npz --out runs/eval
     windnav evaluate-decoder --maps 0 --out runs/eval_wi --flow-cache runs/flows  # flows shared
 

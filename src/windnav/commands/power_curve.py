@@ -2,7 +2,7 @@
 
 ::
 
-    windnav power-curve --vehicle crazyflie_brushless --max-speed 10 --out out/power_curve
+    windnav power-curve --vehicle crazyflie_brushless --max-speed 6.5 --out out/power_curve
 
 The harness is :mod:`windnav.experiments.power_curve`. The sweep is deterministic (no sensors,
 steady wind), so the command takes no ``--seed``.

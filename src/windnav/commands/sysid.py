@@ -4,7 +4,7 @@
 
     windnav sysid thrust-stand --csv stand_*.csv --n-rotors 4 --json stand.json --out out/stand
     windnav sysid aero --log tunnel_log.npz --json aero.json --out out/aero
-    windnav sysid aero --csv tunnel.csv --mass 0.044 --out out/aero
+    windnav sysid aero --csv tunnel.csv --mass 0.044 --out out/aero_csv
     windnav sysid power --csv flight.csv --speed-col speed --power-col power --out out/power
     windnav sysid similitude --full-scale-mass 2000 --full-scale-speed 10 --scale 32
     windnav sysid unsteadiness --log flight.npz --cell 1 --out out/unsteady

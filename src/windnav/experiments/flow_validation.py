@@ -265,7 +265,7 @@ def label_noise_study(speeds=(2.0, 5.0, 10.0), direction_deg: float = 0.0, seed:
                       dx: float = 1.0, dt: float = 0.25) -> dict:
     """The thesis's averaging protocol on a training map: how converged are its mean fields?
 
-    One ``training_map(size)`` drawn from ``seed``; for each inlet speed, the flow-throughs of
+    One ``training_map(rng=seed, size=size)``; for each inlet speed, the flow-throughs of
     the spin-up and of the window and the half-window difference of the mean (relative to the
     inlet speed), which is the noise of the labels a decoder learns from.
 

@@ -2,9 +2,10 @@
 
 Each module mirrors the ``network`` part of one architecture of
 :mod:`windnav.predict.decoder` (parameter names equal to the NumPy weights' names) and takes
-the same feature dict the NumPy :class:`~windnav.predict.decoder.Preprocessor` makes, as
-tensors; the fixed parts (D4 canonicalisation, scan pooling, wind scaling) are NumPy only,
-shared by training and inference. :func:`export_weights` turns a module into the arrays of a
+the same feature dict the NumPy architecture's ``features(scans, w_up, w_robot)`` makes
+(:func:`windnav.predict.decoder.make_architecture`), as tensors; the fixed parts (D4
+canonicalisation, scan pooling, wind scaling) are NumPy only, shared by training and
+inference. :func:`export_weights` turns a module into the arrays of a
 decoder file; ``tests/test_predict_decoder.py`` checks that the NumPy forward agrees with the
 torch forward.
 

@@ -283,8 +283,8 @@ def params(name: str, **overrides) -> MultirotorParams:
 
     Parameters
     ----------
-    name : {"hummingbird", "crazyflie_brushless"}
-        Vehicle name.
+    name : {"hummingbird", "crazyflie_brushless", "crazyflie_thesis"}
+        Vehicle name (:data:`VEHICLES`).
     **overrides
         Fields to change, e.g. ``params("hummingbird", mass=0.6)``.
 
