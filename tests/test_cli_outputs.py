@@ -193,6 +193,52 @@ def test_outputs_of_a_run_that_ended_meanwhile_are_not_replaced(tmp_path):
     assert (out / "a.txt").read_text() == "run 3" and json_path.read_text() == "{3}"
 
 
+def test_two_runs_that_finish_together_do_not_both_move_their_results(tmp_path, monkeypatch):
+    """The check for another run's results and the moves into place were not one step: two
+    runs finishing together both passed the check and both moved, or --out came from one run
+    and --json from the other (concurrency audit, forced in a harness). The moves now happen
+    under an flock of the output folders: the second waits, sees the first's results and
+    keeps its own beside them."""
+    import threading
+    import time
+
+    out, json_path, products = tmp_path / "run", tmp_path / "summary.json", ("a.txt",)
+    real_replace = res._replace
+    first_move = threading.Event()
+
+    def slow_replace(src, dst):  # the first run to move pauses inside its commit
+        if not first_move.is_set():
+            first_move.set()
+            time.sleep(0.5)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(res, "_replace", slow_replace)
+    runs = [res.Outputs("windnav x", out=("--out", out, products), files={"--json": json_path})
+            for _ in range(2)]
+    errors = []
+
+    def run(k):
+        try:
+            with runs[k].writing() as stage:
+                (stage.dir / "a.txt").write_text(f"run {k}")
+                stage.file("--json").write_text(f"{{{k}}}")
+                if k == 1:
+                    first_move.wait(5.0)   # finish while run 0 is moving its results
+        except res.OutputExistsError as exc:
+            errors.append((k, exc))
+
+    threads = [threading.Thread(target=run, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(10.0)
+    assert [k for k, _ in errors] == [1], errors   # the second to commit keeps its own apart
+    assert (out / "a.txt").read_text() == "run 0" and json_path.read_text() == "{0}"
+    kept = [p for p in out.iterdir() if p.name.startswith("results-pid")]
+    assert len(kept) == 1 and (kept[0] / "a.txt").read_text() == "run 1"
+    assert not [p for p in tmp_path.rglob("*.lock")]   # no lock file left behind
+
+
 def test_outputs_write_nothing_when_the_run_fails(tmp_path):
     out = tmp_path / "run"
     o = res.Outputs("windnav x", out=("--out", out, ("a.txt",)), files={"--json": tmp_path / "j"})

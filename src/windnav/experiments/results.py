@@ -477,6 +477,12 @@ class Outputs:
             stage.discard()
 
     def _commit(self, stage: _Stage) -> None:
+        folders = ([self.dir] if self.dir is not None else []) + [
+            path.parent for path in self.files.values()]
+        with _folder_locks(folders):  # the check and the moves as one step
+            self._commit_locked(stage)
+
+    def _commit_locked(self, stage: _Stage) -> None:
         if not self.overwrite:
             self._keep_apart_from_a_run_meanwhile(stage)
         written = []
@@ -527,6 +533,29 @@ class Outputs:
             f"{self.where}: another run wrote {names} while this one ran; this run's results "
             f"are kept beside them in {', '.join(map(str, kept))} (nothing was replaced; pass "
             "--overwrite for a run that replaces earlier results).")
+
+@contextlib.contextmanager
+def _folder_locks(folders):
+    """Hold an exclusive ``flock`` on each of ``folders`` (their directory descriptors, so no
+    lock file is left behind), waiting for another run's, in one order: two runs that finished
+    together both passed the check for the other's results and both moved theirs into place,
+    or ``--out`` came from one run and ``--json`` from the other (concurrency audit)."""
+    import fcntl  # POSIX: the runs of one machine
+
+    fds = []
+    try:
+        for folder in sorted({os.path.abspath(f) for f in folders}):
+            fd = os.open(folder, os.O_RDONLY)
+            fds.append(fd)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX)
+            except OSError:  # a file system without flock: as before, unlocked
+                pass
+        yield
+    finally:
+        for fd in reversed(fds):
+            os.close(fd)  # releases its lock
+
 
 class _Stage:
     """Where a run writes before :meth:`Outputs.writing` moves its files into place.
