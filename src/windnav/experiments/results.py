@@ -137,6 +137,33 @@ def exclusive(lock_path, what: str):
         f.close()  # releases the flock
 
 
+@contextlib.contextmanager
+def exclusive_folder(folder, what: str):
+    """Hold an exclusive ``flock`` on the existing ``folder`` itself (its directory descriptor,
+    so no lock file is left in it) while the block runs; a second process refuses at once.
+
+    Raises
+    ------
+    OutputBusyError
+        When another process holds it.
+    """
+    import fcntl  # POSIX: the runs of one machine
+
+    fd = os.open(os.fspath(folder), os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise OutputBusyError(f"Another run is writing {what}. Wait for it to end and run "
+                                  "this command again (what it finished is kept and "
+                                  "skipped), or write elsewhere.") from None
+        except OSError:  # a file system without flock: unlocked, as before
+            pass
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
 # ------------------------------------------------------------------------------- JSON
 
 

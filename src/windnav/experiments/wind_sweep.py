@@ -267,7 +267,8 @@ def sweep(
     KeyboardInterrupt
         On Ctrl-C, after the workers are stopped; finished simulations stay in the store.
     """
-    from windnav.experiments.executor import check_backend, run_tasks
+    from windnav.experiments.executor import check_backend
+    from windnav.experiments.results import exclusive_folder
     from windnav.flow.sweep_store import SweepMap, SweepStore
 
     where = "sweep"
@@ -293,6 +294,18 @@ def sweep(
     check_backend(backend)  # before the store: ray's was created, then its import failed
     store = SweepStore.create(out, sweep_maps, speeds, directions_deg, config=settings,
                               n_frames=n_frames, seed=seed)
+    # one run computes a store at a time: a second one computed every pending case again
+    # (concurrency audit); it now refuses at once
+    with exclusive_folder(store.path, f"the sweep store {str(store.path)!r}"):
+        return store, _run_pending(store, sweep_maps, settings, batch_of, verify, backend,
+                                   workers, progress, simulate, memory_limit)
+
+
+def _run_pending(store, sweep_maps, settings, batch_of, verify, backend, workers, progress,
+                 simulate, memory_limit) -> list:
+    """The pending simulations of ``store`` (damaged ones too, with ``verify``), as tasks."""
+    from windnav.experiments.executor import run_tasks
+
     if verify:
         store.invalidate(store.verify(progress=progress).damaged)
     groups: dict = {}
@@ -311,9 +324,8 @@ def sweep(
     # of one size keep their order)
     tasks.sort(key=lambda t: -sweep_maps[t.map_index].x.size * sweep_maps[t.map_index].y.size
                * len(t.case_indices))
-    results = list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
-                             progress=progress, desc="wind-sweep"))
-    return store, results
+    return list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
+                          progress=progress, desc="wind-sweep"))
 
 
 def direction_batches(directions_deg, n_speeds: int, group_sides: bool = True) -> dict:
