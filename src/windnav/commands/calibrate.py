@@ -43,7 +43,7 @@ PRODUCTS = ("calibration.json", "calibration_log.npz")
 
 def register(subparsers) -> None:
     """Add the ``calibrate`` subcommand."""
-    from windnav.vehicle.params import VEHICLES
+    from windnav.commands._choices import VEHICLES
 
     p = subparsers.add_parser(
         "calibrate",

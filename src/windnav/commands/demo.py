@@ -54,9 +54,8 @@ NAV_FLOW_DT = 0.25
 
 
 def register(sub) -> None:
-    from windnav.estimate.conditions import CONDITIONS
+    from windnav.commands._choices import CONDITION_NAMES, VEHICLES
     from windnav.experiments.nav_demo import NavDemoConfig as Nav
-    from windnav.vehicle.params import VEHICLES
 
     p = sub.add_parser("demo", help="end-to-end demo: urban wind, MPPI vs EA-MPPI+W (or the "
                                     "Wind UKF)",
@@ -88,7 +87,7 @@ def register(sub) -> None:
     ukf = p.add_argument_group("ukf story")
     ukf.add_argument("--vehicle", default=None, choices=VEHICLES,
                      help="vehicle (default hummingbird)")
-    ukf.add_argument("--conditions", choices=tuple(CONDITIONS), default=None,
+    ukf.add_argument("--conditions", choices=CONDITION_NAMES, default=None,
                      help="Wind UKF preset (sensors and filter; see docs/ukf.md); default: "
                           "windnav's sensors and the filter's defaults")
     p.add_argument("--out", type=Path, default=Path("out/demo"),

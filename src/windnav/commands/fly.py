@@ -36,10 +36,7 @@ PRODUCTS = ("log.npz", "summary.json", "flight_*.png")
 
 
 def register(sub) -> None:
-    from windnav.estimate.conditions import CONDITIONS
-    from windnav.experiments.flight import WIND_KINDS
-    from windnav.sim.trajectories import TRAJECTORIES
-    from windnav.vehicle.params import VEHICLES
+    from windnav.commands._choices import CONDITION_NAMES, TRAJECTORIES, VEHICLES, WIND_KINDS
 
     p = sub.add_parser("fly", help="fly a trajectory in wind and plot it",
                        description="Fly a reference trajectory with the SE(3) controller in a "
@@ -72,7 +69,7 @@ def register(sub) -> None:
                    help="run every sensor at this rate, Hz; a whole number of --dt steps "
                         "(default: IMU 200 Hz, odometry and rotor speeds 100 Hz, each lowered "
                         "to fit --dt)")
-    p.add_argument("--conditions", choices=tuple(CONDITIONS), default=None,
+    p.add_argument("--conditions", choices=CONDITION_NAMES, default=None,
                    help="Wind UKF preset: fly its sensors and run the filter under it "
                         "(windnav, thesis, thesis-0.038, hardware; see docs/ukf.md)")
     p.add_argument("--hub-wind", action="store_true",

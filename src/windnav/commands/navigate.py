@@ -48,7 +48,7 @@ PRODUCTS = ("summary.json", "series.npz", "navigate_*.png")
 
 
 def register(sub) -> None:
-    from windnav.plan import ENERGY_MODES, VARIANTS
+    from windnav.commands._choices import ENERGY_MODES, NAV_VARIANTS, UNAWARE_VARIANTS
 
     p = sub.add_parser("navigate", help="fly a planner through a city's urban wind",
                        description="Simulate the map's unsteady wind, then fly the 6-DoF "
@@ -66,7 +66,7 @@ def register(sub) -> None:
                         "shortened)")
     p.add_argument("--direction-deg", type=float, default=0.0,
                    help="direction the wind blows toward, deg CCW from +x (%(default)s)")
-    p.add_argument("--variant", choices=tuple(VARIANTS), default="ea-mppi-w",
+    p.add_argument("--variant", choices=NAV_VARIANTS, default="ea-mppi-w",
                    help="planner (%(default)s; docs/planner.md)")
     p.add_argument("--horizon", type=float, default=math.inf,
                    help="side H of the window in which the -w MPPI variants know the wind, m "
@@ -76,7 +76,7 @@ def register(sub) -> None:
                         "energy (the thesis) or the mission's, which is least at the "
                         "max-range speed (ours) (%(default)s); 'mission' is an error with "
                         "the variants without an energy term ("
-                        + ", ".join(k for k in VARIANTS if k not in energy_aware_variants())
+                        + ", ".join(UNAWARE_VARIANTS)
                         + ")")
     p.add_argument("--outside", choices=("zero", "robot"), default="zero",
                    help="ea-mppi-w-hat only: the planner's wind outside the decoder's window, "

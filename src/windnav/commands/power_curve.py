@@ -29,7 +29,7 @@ PRODUCTS = ("power_curve.json", "power_curve.png")
 
 
 def register(sub) -> None:
-    from windnav.vehicle.params import VEHICLES
+    from windnav.commands._choices import VEHICLES
 
     p = sub.add_parser("power-curve", help="sweep steady-flight power versus airspeed",
                        description="Sweep steady level flights (hover in a uniform wind) in the "

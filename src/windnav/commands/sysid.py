@@ -360,7 +360,7 @@ def _log_status(counts) -> tuple[dict, str | None]:
 
 
 def _register_power(ss) -> None:
-    from windnav.sysid.io import LAYOUTS
+    from windnav.commands._choices import TABLE_LAYOUTS
 
     p = ss.add_parser("power", help="fit power against speed; hover, endurance, range speeds",
                       description="Fit a polynomial (default a cubic) of power against speed; "
@@ -371,7 +371,7 @@ def _register_power(ss) -> None:
                    help="a CSV with a header, or a headerless whitespace table (columns "
                         "named 0, 1, ... or by --layout) (default: none; give --csv or --bag)")
     _add_bag_arguments(p)
-    p.add_argument("--layout", default=None, choices=sorted(LAYOUTS),
+    p.add_argument("--layout", default=None, choices=TABLE_LAYOUTS,
                    help="column names of a headerless table (default: none, columns 0, 1, "
                         "...)")
     p.add_argument("--speed-col", required=True, help="speed column, m/s")
@@ -634,9 +634,10 @@ def run_unsteadiness(args) -> int:
 
 
 def _vehicle_argument(p) -> None:
-    from windnav.experiments.sysid import THESIS_VEHICLE, vehicle_names
+    from windnav.commands._choices import VEHICLES
+    from windnav.experiments.sysid import THESIS_VEHICLE
 
-    p.add_argument("--vehicle", default=THESIS_VEHICLE, choices=vehicle_names(),
+    p.add_argument("--vehicle", default=THESIS_VEHICLE, choices=VEHICLES,
                    help="vehicle preset simulated (%(default)s)")
 
 

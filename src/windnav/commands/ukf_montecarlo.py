@@ -32,6 +32,7 @@ import sys
 from pathlib import Path
 
 from windnav._validate import positive_float, positive_int
+from windnav.commands._choices import CONDITION_NAMES
 from windnav.commands._common import (
     add_output_arguments,
     document,
@@ -40,7 +41,6 @@ from windnav.commands._common import (
     seed,
     where,
 )
-from windnav.estimate.conditions import CONDITIONS
 from windnav.experiments.results import write_json
 
 MODULE_DOC = __doc__
@@ -67,7 +67,7 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
     p.add_argument("--plot", type=Path, default=None,
                    help="write the RMSE vs mass-to-drag ratio plot here (PNG; default: no plot)")
-    p.add_argument("--conditions", choices=tuple(CONDITIONS), default="windnav",
+    p.add_argument("--conditions", choices=CONDITION_NAMES, default="windnav",
                    help="sensing and filter preset (default windnav; see docs/ukf.md)")
     p.add_argument("--sensor-noise", choices=("windnav", "rotorpy"), default=None,
                    help="under --conditions windnav only: the sensor suite (default windnav's; "

@@ -168,12 +168,14 @@ def _saving(records: dict, key: str) -> tuple[float | None, str]:
                  f"{LABELS[VARIANTS[0]]}")
 
 
-def run_nav_demo(cfg: NavDemoConfig = NavDemoConfig(), *, progress: bool = False) -> dict:
+def run_nav_demo(cfg: NavDemoConfig | None = None, *, progress: bool = False) -> dict:
     """Simulate the city's wind and fly MPPI and EA-MPPI+W through it.
 
     Parameters
     ----------
-    cfg : NavDemoConfig
+    cfg : NavDemoConfig, optional
+        Default ``NavDemoConfig()`` (built at the call: a default built at import imported
+        the flow solver with the module).
     progress : bool
         Report each stage (and the flow's progress bar) on stderr.
 
@@ -186,6 +188,7 @@ def run_nav_demo(cfg: NavDemoConfig = NavDemoConfig(), *, progress: bool = False
     """
     from windnav.experiments.navigate import navigate, simulate_flow
 
+    cfg = NavDemoConfig() if cfg is None else cfg
     timings = {}
     t0 = time.perf_counter()
     city = _city(cfg)
