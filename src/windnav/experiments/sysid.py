@@ -547,7 +547,8 @@ def plot_thrust_stand(fit, path) -> None:
     ax[2].axhline(0, color="k", lw=0.8)
     ax[2].set(xlabel="rotor speed (rad/s)", ylabel="thrust residual (N)",
               title="thrust residuals")
-    ax[3].scatter(fit.pwm, fit.speed.residuals, c=fit.voltage, s=2, cmap="viridis")
+    sc = ax[3].scatter(fit.pwm, fit.speed.residuals, c=fit.voltage, s=2, cmap="viridis")
+    fig.colorbar(sc, ax=ax[3], label="supply voltage (V)")
     ax[3].axhline(0, color="k", lw=0.8)
     ax[3].set(xlabel="PWM (counts)", ylabel="rotor speed residual (rad/s)",
               title="rotor-speed residuals (colour: voltage)")
@@ -572,7 +573,7 @@ def plot_aero(fit, path) -> None:
         ax[0].plot(xr, d.specific_force_body[:, j] - drag[:, j], ".", ms=1.5, alpha=0.3,
                    label=f"f_{lab}{less}")
         xs = np.linspace(xr.min(), xr.max(), 2)
-        ax[0].plot(xs, fit.k_d.value * xs + b.value, "-", lw=1)
+        ax[0].plot(xs, fit.k_d.value * xs + b.value, "-", lw=1, label=f"fit f_{lab}")
     ax[0].set(xlabel="-v_a sum(eta) / m  (rad/s m/s / kg)", ylabel="specific force (m/s^2)",
               title=_ci_text("k_d", fit.k_d, "kg/rad") + f", R2 {fit.lateral.r2:.4f}")
     ax[0].legend(fontsize=8)
