@@ -153,3 +153,29 @@ def test_another_vehicle_needs_its_own_ranges():
     assert p.n_rotors * p.k_eta * p.rotor_speed_max**2 / (p.mass * wn.vehicle.GRAVITY) > 1.5
     with pytest.raises(ValueError, match="'vehicle' parameter of MonteCarloConfig"):
         mc.MonteCarloConfig(vehicle="banana")
+
+
+def test_a_run_whose_json_another_run_wrote_meanwhile_leaves_no_partial_log(tmp_path,
+                                                                             monkeypatch, capsys):
+    """Two runs on one --json: the second to finish keeps its results beside the first's, and
+    left its partial record log behind (concurrency audit); its trials are in its kept JSON,
+    so the log goes."""
+    import windnav.commands.ukf_montecarlo as command
+
+    orig, real_run = mc.MonteCarloConfig, mc.run_montecarlo
+    monkeypatch.setattr(mc, "MonteCarloConfig", lambda **kw: orig(**{**SHORT, **kw}))
+    js = tmp_path / "out.json"
+
+    def run_then_another_finishes(*a, **kw):
+        result = real_run(*a, **kw)
+        js.write_text("{}")   # the other run's results, written while this one ran
+        return result
+
+    monkeypatch.setattr(mc, "run_montecarlo", run_then_another_finishes)
+    assert main(["ukf-montecarlo", "--trials", "1", "--seed", "0", "--json", str(js),
+                 "--backend", "serial", "--no-progress"]) == 2
+    assert "another run wrote" in capsys.readouterr().err
+    assert js.read_text() == "{}"
+    kept = list(tmp_path.glob("out.pid*.json"))
+    assert len(kept) == 1 and len(json.loads(kept[0].read_text())["trials"]) == 1
+    assert not command.partial_path(js).exists()

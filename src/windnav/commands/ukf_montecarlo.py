@@ -41,7 +41,7 @@ from windnav.commands._common import (
     seed,
     where,
 )
-from windnav.experiments.results import write_json
+from windnav.experiments.results import OutputExistsError, write_json
 
 MODULE_DOC = __doc__
 
@@ -188,13 +188,18 @@ def run(args) -> int:
         if t.get("error") is not None:
             first = t["error"].splitlines()[0] if t["error"] else "unknown error"
             print(f"trial {t['index']} failed: {first}", file=sys.stderr)
-    with out.writing() as stage:
-        if stage.file("--json") is not None:
-            write_json(document("ukf-montecarlo", result, args), stage.file("--json"))
-        if stage.file("--plot") is not None:
-            from windnav.viz.ukf import plot_montecarlo
+    try:
+        with out.writing() as stage:
+            if stage.file("--json") is not None:
+                write_json(document("ukf-montecarlo", result, args), stage.file("--json"))
+            if stage.file("--plot") is not None:
+                from windnav.viz.ukf import plot_montecarlo
 
-            plot_montecarlo(result, stage.file("--plot"))
+                plot_montecarlo(result, stage.file("--plot"))
+    except OutputExistsError:  # another run wrote --json meanwhile; this one's are kept
+        if log is not None:   # beside it, trials and all: nothing is left to resume
+            log.remove()
+        raise
     if log is not None:
         log.remove()
     print_written(out)
