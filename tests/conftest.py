@@ -4,3 +4,33 @@
 import os
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+import contextlib  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+
+import pytest  # noqa: E402
+
+
+@pytest.fixture
+def held_elsewhere():
+    """``held_elsewhere(lock, path)``: a context manager in which another process holds
+    ``windnav.experiments.results.<lock>(path, 'x')`` (``exclusive`` or ``exclusive_folder``);
+    it yields that process (the concurrency tests' second run)."""
+    @contextlib.contextmanager
+    def hold(lock: str, path):
+        holder = subprocess.Popen([sys.executable, "-c", (
+            "import time\n"
+            f"from windnav.experiments.results import {lock}\n"
+            f"with {lock}({str(path)!r}, 'x'):\n"
+            "    print('held', flush=True)\n"
+            "    time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
+        try:
+            assert holder.stdout.readline().strip() == "held"
+            yield holder
+        finally:
+            holder.kill()
+            holder.wait()
+
+    return hold

@@ -344,35 +344,23 @@ def test_an_unverified_store_whose_arrays_do_not_fit_the_grid_is_refused(flow_fi
         load_flow(path)
 
 
-def test_a_second_sweep_into_a_store_another_run_is_computing_refuses_at_once(tmp_path):
+def test_a_second_sweep_into_a_store_another_run_is_computing_refuses_at_once(tmp_path,
+                                                                               held_elsewhere):
     """Two wind-sweep runs on one store both computed every pending case (the store stayed
     right, the time was spent twice; concurrency audit). The run holds an flock on the store
     folder itself; a second refuses before computing anything, and runs again once the
     first has ended, skipping what it finished."""
-    import subprocess
-    import sys
-
     from windnav.experiments.results import OutputBusyError
 
     out = tmp_path / "s.zarr"
     first = solver(tmp_path, "log0")
     sweep(MAPS[:1], out, simulate=first, **{**KW, "speeds": [2.0]})  # creates the store
-    holder = subprocess.Popen([sys.executable, "-c", (
-        "import sys, time\n"
-        "from windnav.experiments.results import exclusive_folder\n"
-        f"with exclusive_folder({str(out)!r}, 'x'):\n"
-        "    print('held', flush=True)\n"
-        "    time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline().strip() == "held"
+    with held_elsewhere("exclusive_folder", out):
         second = solver(tmp_path, "log1")
         with pytest.raises(OutputBusyError, match=r"Another run is writing the sweep store "
                                                   r".*s\.zarr'\. Wait for it to end"):
             sweep(MAPS[:1], out, simulate=second, **{**KW, "speeds": [2.0]})
         assert called(second) == []
-    finally:
-        holder.kill()
-        holder.wait()
     store, results = sweep(MAPS[:1], out, simulate=second, **{**KW, "speeds": [2.0]})
     assert results == [] and called(second) == [] and store.done(0).all()
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []  # no lock file

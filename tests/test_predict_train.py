@@ -426,12 +426,10 @@ def test_labels_cached_in_the_model_frame_are_those_each_batch_turned_itself(tin
     np.testing.assert_array_equal(got[2]["g"], f["g"])
 
 
-def test_a_second_run_into_the_same_out_refuses_at_once(tmp_path, capsys):
+def test_a_second_run_into_the_same_out_refuses_at_once(tmp_path, capsys, held_elsewhere):
     """Two train-decoder runs into one --out: the second resumed the first's live checkpoint
     and crashed on its temporary file (2 of 2 tries), or replaced its files silently
     (concurrency audit). The first holds a lock on --out; the second names it and stops."""
-    import subprocess
-    import sys
     import time
 
     from windnav import cli
@@ -439,14 +437,7 @@ def test_a_second_run_into_the_same_out_refuses_at_once(tmp_path, capsys):
 
     out = tmp_path / "same"
     out.mkdir()
-    holder = subprocess.Popen([sys.executable, "-c", (
-        "import sys, time\n"
-        "from windnav.experiments.results import exclusive\n"
-        f"with exclusive({str(out / LOCK)!r}, 'x'):\n"
-        "    print('held', flush=True)\n"
-        "    time.sleep(60)\n")], stdout=subprocess.PIPE, text=True)
-    try:
-        assert holder.stdout.readline().strip() == "held"
+    with held_elsewhere("exclusive", out / LOCK) as holder:
         t0 = time.perf_counter()
         assert cli.main(["train-decoder", "--config", "tiny", "--out", str(out)]) == 1
         assert time.perf_counter() - t0 < 30  # at once, not after a sweep
@@ -454,9 +445,6 @@ def test_a_second_run_into_the_same_out_refuses_at_once(tmp_path, capsys):
         assert "OutputBusyError: Another run is writing the decoder run" in err
         assert f"process {holder.pid} on" in err
         assert sorted(p.name for p in out.iterdir()) == [LOCK]  # nothing else written
-    finally:
-        holder.kill()
-        holder.wait()
 
 
 def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
@@ -478,18 +466,23 @@ def test_train_decoder_command_resumes_sweep_and_training(tiny, capsys):
     assert not (out / "recipe.toml").exists()
 
 
+def _on_the_tiny_sweep(tiny, out_dir, *options):
+    """``(parser, args)``: ``windnav train-decoder --config tiny.toml --out out_dir`` with
+    ``options``, its sweep store linked to the ``tiny`` fixture's (no simulation)."""
+    from windnav.commands import train_decoder as command
+
+    (out_dir / "sweep.zarr").symlink_to(tiny[1] / "sweep.zarr")
+    parser = argparse.ArgumentParser()
+    command.register(parser.add_subparsers(dest="command"))
+    return parser, parser.parse_args(["train-decoder", "--config", str(RECIPES / "tiny.toml"),
+                                      "--out", str(out_dir), "--no-progress", *options])
+
+
 def test_train_decoder_writes_the_resolved_recipe_and_takes_a_seed(tiny, tmp_path, capsys):
     """OUT/recipe.toml was a byte copy of --config: a recipe with a ``base`` (four of the six
     shipped) named it relative to its own folder, so the copy did not load, and an edited base
     changed what it meant. It is now the resolved recipe, ``--seed`` included."""
-    from windnav.commands import train_decoder as command
-
-    recipe, out, _ = tiny
-    (tmp_path / "sweep.zarr").symlink_to(out / "sweep.zarr")
-    parser = argparse.ArgumentParser()
-    command.register(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(["train-decoder", "--config", str(RECIPES / "tiny.toml"),
-                              "--out", str(tmp_path), "--no-progress", "--seed", "3"])
+    parser, args = _on_the_tiny_sweep(tiny, tmp_path, "--seed", "3")
     assert args.func(args) == 0
     capsys.readouterr()
     copy = load_recipe(tmp_path / "recipe.toml")
@@ -498,7 +491,7 @@ def test_train_decoder_writes_the_resolved_recipe_and_takes_a_seed(tiny, tmp_pat
     want["train"]["seed"] = 3
     assert {k: v for k, v in copy.items() if k != "source"} == \
         {k: v for k, v in want.items() if k != "source"}
-    seeded, first = load_decoder(tmp_path / "model.npz"), load_decoder(out / "model.npz")
+    seeded, first = load_decoder(tmp_path / "model.npz"), load_decoder(tiny[1] / "model.npz")
     assert any(not np.array_equal(seeded.weights[k], first.weights[k]) for k in first.weights)
     # the same out folder with another seed is another recipe: refused, not resumed
     again = parser.parse_args(["train-decoder", "--config", str(tmp_path / "recipe.toml"),
@@ -522,14 +515,8 @@ def test_train_decoder_command_ctrl_c_says_what_is_kept_and_how_to_resume(tiny, 
     epoch) and that rerunning the same command resumes; and rerunning does."""
     import windnav.experiments.wind_sweep as wind_sweep
     import windnav.predict.train as train
-    from windnav.commands import train_decoder as command
-
     recipe, out, full = tiny
-    (tmp_path / "sweep.zarr").symlink_to(out / "sweep.zarr")
-    parser = argparse.ArgumentParser()
-    command.register(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(["train-decoder", "--config", str(RECIPES / "tiny.toml"),
-                              "--out", str(tmp_path), "--no-progress", "--backend", "serial"])
+    parser, args = _on_the_tiny_sweep(tiny, tmp_path, "--backend", "serial")
     real_train, real_sweep = train.train_decoder, wind_sweep.sweep
 
     def interrupted(*a, **k):
