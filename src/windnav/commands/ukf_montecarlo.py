@@ -50,6 +50,11 @@ MODULE_DOC = __doc__
 MAX_DURATION_S = 3600.0
 """The longest flight ``--duration`` accepts, s (an hour at 200 Hz)."""
 
+NEES_BAND = (1.5, 6.0)
+"""A median NEES outside this band (half and twice the 3 of a consistent 3D estimate) is
+noted: the covariance the filter reports is off by more than a factor of two."""
+
+
 def partial_path(json_path) -> Path:
     """The record log kept next to ``--json`` while the study runs (``OUT.partial.jsonl``)."""
     return Path(json_path).with_suffix(".partial.jsonl")
@@ -179,6 +184,21 @@ def run(args) -> int:
               f"min {s['min']:.3f}, max {s['max']:.3f} (thesis: median {THESIS_MEDIAN:g})")
         print("median per world axis (m/s): "
               + ", ".join(f"{a} {v:.3f}" for a, v in zip("xyz", s["median_axes"], strict=True)))
+        nees = s.get("nees_median")
+        if nees is not None:
+            print(f"median NEES {nees:.2f} (3 when the filter's reported wind covariance "
+                  "matches its errors)")
+            if not NEES_BAND[0] <= nees <= NEES_BAND[1]:
+                small = nees > 3
+                why = ("an error the filter does not model, such as a parameter or drag-model "
+                       "bias, or a wind walk q['wind'] too small for the gusts" if small else
+                       "a wind walk q['wind'] larger than the gusts need")
+                print(f"{name}: note: the filter's reported wind covariance is about "
+                      f"{nees / 3 if small else 3 / nees:.2g} x "
+                      f"{'too small' if small else 'too large'} for its errors (median NEES "
+                      f"{nees:.2f} against 3): intervals from 'wind_cov' are "
+                      f"{'too narrow' if small else 'too wide'} in these conditions ({why}; "
+                      "each trial's 'nees' in --json)", file=sys.stderr)
         if s.get("n_outside_envelope"):
             print(f"{name}: note: {s['n_outside_envelope']} of {s['n']} trials flew outside the "
                   "vehicle's envelope (trusted airspeed or lift) for part of the flight: their "

@@ -406,7 +406,9 @@ def summarize(records: list[dict]) -> dict:
     median and quartiles of the per-axis RMSE (world x, y, z), and the numbers of trials whose
     rotor commands saturated more than 1% of the time and that left the vehicle's envelope, and
     the largest drag-model bias of a trial (``max_drag_model_bias``, m/s; None for records
-    written before it was kept)."""
+    written before it was kept), and the median of the trials' mean NEES (``nees_median``,
+    :meth:`~windnav.estimate.WindTrack.nees`: 3 when the filter's reported wind covariance
+    matches its errors; None without it)."""
     rmse = np.array([r["rmse"] for r in records], dtype=np.float64)
     ok = np.isfinite(rmse)
     if not np.any(ok):
@@ -435,7 +437,18 @@ def summarize(records: list[dict]) -> dict:
                                     in zip(records, ok, strict=True)
                                     if good and r.get("drag_model_bias") is not None),
                                    default=None),
+        # the covariance the filter reports against its errors: 3 (the wind's 3 components)
+        # when consistent
+        "nees_median": _median_finite([r.get("nees") for r, good
+                                       in zip(records, ok, strict=True) if good]),
     }
+
+
+def _median_finite(values) -> float | None:
+    """The median of the finite numbers of ``values`` (None when there is none)."""
+    v = np.array([x for x in values if x is not None], dtype=np.float64)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if v.size else None
 
 
 def config_dict(config: MonteCarloConfig) -> dict:
