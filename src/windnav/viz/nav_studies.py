@@ -265,11 +265,11 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     bins = [b for b in next(iter(v.values()))["by_mean_time"]] if v else []
     counts = [v[names[0]]["by_mean_time"][b][0] for b in bins] if names else []
     shown = [i for i, c in enumerate(counts) if c > 0]
-    for k, n in enumerate(names):  # ten colours, then the same with another line style
+    for k, n in enumerate(names):  # ten colours, then the same with another line and marker
         cells = v[n]["by_mean_time"]
         rate = [100 * cells[bins[i]][1] / cells[bins[i]][0] for i in shown]
-        cx.plot(range(len(shown)), rate, "o", ms=4, label=n, color=f"C{k % 10}",
-                ls=("-", "--", ":")[(k // 10) % 3])
+        cx.plot(range(len(shown)), rate, ms=4, label=n, color=f"C{k % 10}",
+                marker=("o", "s", "^")[(k // 10) % 3], ls=("-", "--", ":")[(k // 10) % 3])
     for j, i in enumerate(shown):
         cx.annotate(f"n={counts[i]}", (j, 103), ha="center", fontsize=8)
     cx.set_xticks(range(len(shown)))
@@ -281,7 +281,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     cx.set_title("failures by the least time in the mean wind", fontsize=10)
     fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
     fig.tight_layout()
-    cx.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2)
+    cx.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2,
+              handlelength=3.5)  # long enough to show the dashes of the second ten
     path = Path(path)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
