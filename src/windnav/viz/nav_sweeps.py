@@ -48,8 +48,8 @@ def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path
     for k, s in enumerate(speeds):
         y = [100 * r["by_speed"][s]["mean"] if s in r["by_speed"]
              and r["by_speed"][s]["mean"] is not None else np.nan for r in rows]
-        ax.plot(x, y, "o-", color=cmap(k / max(len(speeds) - 1, 1)), lw=1.2, ms=4,
-                label=f"{s} m/s")
+        ax.plot(x, y, "o-", color=cmap(0.85 * k / max(len(speeds) - 1, 1)), lw=1.2, ms=4,
+                label=f"{s} m/s")  # viridis short of its pale yellow
     mean = np.array([100 * r["paired_reduction"]["mean"] if r["paired_reduction"]["mean"]
                      is not None else np.nan for r in rows])
     lo = np.array([100 * r["paired_reduction"]["ci95"][0] if r["paired_reduction"]["ci95"]
@@ -60,7 +60,8 @@ def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path
     ax.plot(x, mean, "ks-", lw=2, ms=5, label="all (95 % CI)")
     ax.axhline(0.0, color="0.5", lw=0.8)
     ax.set_ylabel(f"paired energy reduction vs {result['reference']} (%)")
-    ax.legend(fontsize=8, title="inlet", title_fontsize=8)
+    ax.legend(fontsize=8, title="inlet", title_fontsize=8, loc="center left",
+              bbox_to_anchor=(1.01, 0.5))  # beside the curves, not over them
     bx.plot(x, [r["failure_pct"] for r in rows], "o-", color="#c0392b", label="EA-MPPI+W")
     if result.get("reference_failure_pct") is not None:
         bx.axhline(result["reference_failure_pct"], color="0.3", ls="--",
@@ -124,8 +125,10 @@ def plot_pace(result: dict, path) -> Path:
     ax.set_ylim(0.0, 1.05 * max(p_all))
     ax.set_xlabel("time ratio  T / T_MPPI")
     ax.set_ylabel("mean-power ratio  (E/T) / (E_MPPI/T_MPPI)")
+    ax.plot([], [], "o", ms=11, mfc="0.8", mec="k", mew=1.2, ls="",
+            label="large markers: each curve's means")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), markerscale=1.6)
     ax.set_title("Energy = mean power x time: scenarios where neither failed", fontsize=10)
     return _save(fig, path)
 
@@ -154,6 +157,7 @@ def plot_bound(result: dict, path) -> Path:
                     (t["failure_pct"], 100.0 * t["table_ratio"]), fontsize=7,
                     xytext=(10, -24 if k % 2 == 0 else 10), textcoords="offset points")
     settings = False
+    shown = 0
     for v, row in result["variants"].items():
         if row["table_ratio"] is None:
             continue
@@ -165,8 +169,9 @@ def plot_bound(result: dict, path) -> Path:
             continue
         ax.plot(row["failure_pct"], y, "o", ms=5, color="C0" if v != result["route_variant"]
                 else "C3")
-        ax.annotate(v, (row["failure_pct"], y), fontsize=6, xytext=(4, -8),
-                    textcoords="offset points")
+        ax.annotate(v, (row["failure_pct"], y), fontsize=6,  # staggered: neighbours overlapped
+                    xytext=(4, (-8, 3, -17)[shown % 3]), textcoords="offset points")
+        shown += 1
     ax.axhline(0.0, color="0.5", lw=0.8)
     ax.set_xlim(0.0, 100.0)
     lows = [100.0 * row["table_ratio"] for row in result["variants"].values()
@@ -232,7 +237,7 @@ def plot_tilt(result: dict, path) -> Path:
         ax.set_xlabel("tilt cap (planner a_max = g tan(tilt) / √2)")
         ax.set_title(title, fontsize=10)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8)
+    axes[0].legend(fontsize=8, loc="lower left")
     axes[1].legend(fontsize=7)
     axes[2].legend(fontsize=8)
     axes[3].set_ylim(bottom=0.0)
