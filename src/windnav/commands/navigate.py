@@ -282,13 +282,13 @@ def warn_envelope(summary: dict, prefix: str = "") -> None:
     if route_air > min(settings.get("airspeed_limit", math.inf),
                        settings.get("power_speed_max", math.inf)):  # the search has no cap
         print(f"{prefix}warning: the route is planned at up to {route_air:.3g} m/s of airspeed, "
-              f"above the vehicle's trusted {settings['airspeed_limit']:.3g} m/s or its power "
-              f"curve's valid {settings['power_speed_max']:.3g} m/s: its energy and time "
+              f"above the vehicle's trusted {settings.get('airspeed_limit', math.inf):.3g} m/s "
+              f"or its power curve's valid {settings.get('power_speed_max', math.inf):.3g} m/s: "
+              "its energy and time "
               "(route_energy_J, route_time_s) rest on the curve's continuation",
               file=sys.stderr)
     capped_s = summary.get("goal_hold_at_cap_settled_s") or 0.0  # not the capture's braking
     if capped_s > 0:
-        settings = summary.get("settings", {})
         print(f"{prefix}warning: for {capped_s:.2f} s near the goal (within "
               f"{settings.get('capture_radius', float('nan')):g} m, after the first "
               f"{HOLD_SETTLE_S:g} s of the hold) the hold's command was at the "
