@@ -509,3 +509,16 @@ def test_the_speed_help_gives_the_range_the_check_holds(command, capsys):
         main([command, "--help"])
     help_text = " ".join(capsys.readouterr().out.split())
     assert "0 to 100" not in help_text and "above 0" in help_text and "at most 100" in help_text
+
+
+def test_the_seed_help_of_wind_and_wind_sweep_says_what_each_does(capsys):
+    """``windnav wind --help`` described --seed as wind-sweep's seed of the --generate maps,
+    an option ``wind`` does not have (examples audit)."""
+    with pytest.raises(SystemExit):
+        main(["wind", "--help"])
+    wind = " ".join(capsys.readouterr().out.split())
+    with pytest.raises(SystemExit):
+        main(["wind-sweep", "--help"])
+    sweep = " ".join(capsys.readouterr().out.split())
+    assert "--generate" not in wind and "it changes no field" in wind
+    assert "the seed of the --generate maps" in sweep

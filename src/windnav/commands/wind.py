@@ -48,8 +48,11 @@ PRODUCTS = ("flow.zarr", "mean_speed.png")
 """What a run writes into ``--out``."""
 
 
-def add_solver_arguments(parser) -> None:
-    """Add ``--dx --dt --spinup-steps --steps --record-every --seed`` to ``parser``."""
+def add_solver_arguments(parser, seed_help: str = "recorded with the flow; the solver is "
+                         "deterministic (its symmetry-breaking kick is fixed), so it changes no "
+                         "field") -> None:
+    """Add ``--dx --dt --spinup-steps --steps --record-every --seed`` to ``parser`` (what
+    ``--seed`` does in this command: ``seed_help``)."""
     d = DEFAULT_SETTINGS
     parser.add_argument("--dx", type=float, default=d["dx"], help="cell size, m (%(default)s)")
     parser.add_argument("--dt", type=float, default=None,
@@ -62,10 +65,7 @@ def add_solver_arguments(parser) -> None:
     parser.add_argument("--record-every", type=int, default=d["record_every"],
                         help="store a frame every this many averaged steps; 0: none "
                              "(%(default)s)")
-    parser.add_argument("--seed", type=int, default=0,
-                        help="recorded with the flow; the solver is deterministic (its "
-                             "symmetry-breaking kick is fixed), so it changes no field; "
-                             "wind-sweep: the seed of the --generate maps (%(default)s)")
+    parser.add_argument("--seed", type=int, default=0, help=f"{seed_help} (%(default)s)")
 
 
 def solver_settings(args, max_speed: float) -> dict:

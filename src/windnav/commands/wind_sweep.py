@@ -114,7 +114,9 @@ def register(subparsers) -> None:
     p.add_argument("--verify", action="store_true",
                    help="also recompute finished simulations whose data no longer reads back")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
-    add_solver_arguments(p)
+    add_solver_arguments(p, "the seed of the --generate maps, recorded with each simulation; "
+                            "the solver is deterministic (its symmetry-breaking kick is "
+                            "fixed)")
     add_output_arguments(p)
     p.set_defaults(func=run)
 
