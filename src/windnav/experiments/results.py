@@ -138,14 +138,23 @@ def exclusive(lock_path, what: str):
 
 
 @contextlib.contextmanager
-def exclusive_folder(folder, what: str):
+def exclusive_folder(folder, what: str, *, on_wait=None):
     """Hold an exclusive ``flock`` on the existing ``folder`` itself (its directory descriptor,
-    so no lock file is left in it) while the block runs; a second process refuses at once.
+    so no lock file is left in it) while the block runs.
+
+    Parameters
+    ----------
+    folder : path-like
+    what : str
+        What the folder holds, for messages.
+    on_wait : callable, optional
+        When given and another process holds the lock, it is called with a message and this
+        one waits for the lock; without it, a second process refuses at once.
 
     Raises
     ------
     OutputBusyError
-        When another process holds it.
+        When another process holds it and ``on_wait`` is None.
     """
     import fcntl  # POSIX: the runs of one machine
 
@@ -154,9 +163,13 @@ def exclusive_folder(folder, what: str):
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            raise OutputBusyError(f"Another run is writing {what}. Wait for it to end and run "
-                                  "this command again (what it finished is kept and "
-                                  "skipped), or write elsewhere.") from None
+            if on_wait is None:
+                raise OutputBusyError(f"Another run is writing {what}. Wait for it to end and "
+                                      "run this command again (what it finished is kept and "
+                                      "skipped), or write elsewhere.") from None
+            on_wait(f"another run is writing {what}: waiting for it to end, then going on "
+                    "with what it left")
+            fcntl.flock(fd, fcntl.LOCK_EX)
         except OSError:  # a file system without flock: unlocked, as before
             pass
         yield

@@ -295,8 +295,11 @@ def sweep(
     store = SweepStore.create(out, sweep_maps, speeds, directions_deg, config=settings,
                               n_frames=n_frames, seed=seed)
     # one run computes a store at a time: a second one computed every pending case again
-    # (concurrency audit); it now refuses at once
-    with exclusive_folder(store.path, f"the sweep store {str(store.path)!r}"):
+    # (concurrency audit); it now waits for the first, then computes what is left (nothing,
+    # when the first finished)
+    with exclusive_folder(store.path, f"the sweep store {str(store.path)!r}",
+                          on_wait=lambda message: warnings.warn(f"{where}: {message}",
+                                                                stacklevel=3)):
         return store, _run_pending(store, sweep_maps, settings, batch_of, verify, backend,
                                    workers, progress, simulate, memory_limit)
 
