@@ -309,3 +309,24 @@ def test_concurrent_queries_from_threads_see_the_same_gusts():
     with ThreadPoolExecutor(4) as pool:
         got = list(pool.map(query, range(4)))
     np.testing.assert_array_equal(np.stack(got), ref)
+
+
+def test_block_start_states_are_kept_sparsely_and_regenerated_bit_for_bit():
+    """Every block's start state was kept: one per 2.048 s, about 100 MB at t = 1e6 s
+    (long-run audit). Every 64th and the furthest are kept; a block between is run forward
+    from the kept one before it, to the same bits."""
+    from windnav.wind.dryden import _BLOCK, _START_STRIDE
+
+    field = DrydenWind(mean=MEAN, sigma=SIGMA, seed=5, batch_size=3)
+    far = 1.0 + 150 * _BLOCK * field.time_step   # 150 blocks ahead
+    field.velocity(far, np.zeros((3, 3)))
+    assert field._frontier == 151 and set(field._starts) == {0, 64, 128, 151}
+    assert _START_STRIDE == 64
+    past = np.array([3.7, 77.0 * _BLOCK * field.time_step + 0.31, far - 0.5])
+    got = np.array([field.velocity(t, np.zeros((3, 3))) for t in past])
+    fresh = DrydenWind(mean=MEAN, sigma=SIGMA, seed=5, batch_size=3)
+    want = np.array([fresh.velocity(t, np.zeros((3, 3))) for t in past])  # in order
+    np.testing.assert_array_equal(got, want)
+    field.reset()
+    assert set(field._starts) == {0} and field._frontier == 0
+    np.testing.assert_array_equal(field.velocity(past[1], np.zeros((3, 3))), want[1])

@@ -81,6 +81,9 @@ _N_STATES = 5  # u: 1 state, v: 2 states, w: 2 states
 _VAN_LOAN_MAX_DECAYS = 4.0  # beyond dt * max|eig(A)| = 4 use Q = P - Phi P Phi^T
 _BLOCK = 2048  # lattice steps per block of generated gusts
 _CACHE_BYTES = 64 << 20  # generated values kept per DrydenWind; evicted blocks are regenerated
+_START_STRIDE = 64  # block start states kept: every 64th and the furthest (a block between two
+# kept ones is regenerated from the one before it, up to 63 blocks of work; keeping every one
+# grew by one state per 2.048 s, about 100 MB at t = 1e6 s, long-run audit)
 _SNAP = 1e-6  # a query within 1e-6 lattice steps of a lattice point reads that point
 
 def dryden_length_scales(altitude: float) -> np.ndarray:
@@ -411,7 +414,10 @@ class DrydenWind:
     def _init_cache(self) -> None:
         n_real = 1 if self._batch is None else self._batch
         noise = self._noise((0,), (n_real, _N_STATES))
-        self._starts = [noise @ _psd_sqrt(self._p).T]  # state at the start of block j
+        # the state at the start of block j, for j a multiple of _START_STRIDE and for the
+        # furthest block reached (the frontier)
+        self._starts = {0: noise @ _psd_sqrt(self._p).T}
+        self._frontier = 0
         self._values: OrderedDict[int, np.ndarray] = OrderedDict()
         self._lock = threading.Lock()
 
@@ -419,14 +425,32 @@ class DrydenWind:
         seq = np.random.SeedSequence(self._seed, spawn_key=key)
         return np.random.default_rng(seq).standard_normal(shape)
 
-    def _generate(self, j: int) -> np.ndarray:
-        """Values of block ``j`` (lattice points ``j M .. (j + 1) M``), from its start state."""
-        x = self._starts[j].copy()
+    def _run(self, j: int, x: np.ndarray) -> np.ndarray:
+        """Values of block ``j`` (lattice points ``j M .. (j + 1) M``) from its start state
+        ``x``, which is advanced in place to the block's end (the start of block ``j + 1``)."""
         noise = self._noise((1, j), (_BLOCK, x.shape[0], _N_STATES))
         out = np.empty((_BLOCK + 1, x.shape[0], 3))
         _run_block(x, self._phi, self._s, noise, self._c, self._mean, out)
-        if len(self._starts) == j + 1:
-            self._starts.append(x)
+        return out
+
+    def _start(self, j: int) -> np.ndarray:
+        """A copy of block ``j``'s start state (``j <= self._frontier``): kept, or run forward,
+        bit for bit, from the kept one before it."""
+        c = j if j in self._starts else (j // _START_STRIDE) * _START_STRIDE
+        x = self._starts[c].copy()
+        for k in range(c, j):
+            self._run(k, x)
+        return x
+
+    def _generate(self, j: int) -> np.ndarray:
+        """Values of block ``j``, from its start state; the frontier moves on past it."""
+        x = self._start(j)
+        out = self._run(j, x)
+        if j == self._frontier:  # x is now the start of block j + 1
+            if j % _START_STRIDE:
+                del self._starts[j]
+            self._starts[j + 1] = x
+            self._frontier = j + 1
         return out
 
     def _block(self, j: int) -> np.ndarray:
@@ -437,7 +461,7 @@ class DrydenWind:
             if values is not None:
                 self._values.move_to_end(j)
                 return values
-            for k in range(len(self._starts) - 1, j + 1):
+            for k in range(self._frontier, j + 1):
                 values = self._generate(k)  # the blocks passed over give their start states
                 if k == j:  # and are not kept: one query 2e4 s ahead kept them all (499 MB)
                     self._values[k] = values
@@ -465,12 +489,13 @@ class DrydenWind:
     def reset(self) -> None:
         """Drop the generated gusts (to free memory); later queries give the same values."""
         with self._lock:
-            del self._starts[1:]
+            self._starts = {0: self._starts[0]}
+            self._frontier = 0
             self._values.clear()
 
     def __getstate__(self):
         state = self.__dict__.copy()
-        for name in ("_starts", "_values", "_lock"):
+        for name in ("_starts", "_frontier", "_values", "_lock"):
             del state[name]
         return state
 
