@@ -576,25 +576,14 @@ class Outputs:
 
 @contextlib.contextmanager
 def _folder_locks(folders):
-    """Hold an exclusive ``flock`` on each of ``folders`` (their directory descriptors, so no
-    lock file is left behind), waiting for another run's, in one order: two runs that finished
-    together both passed the check for the other's results and both moved theirs into place,
-    or ``--out`` came from one run and ``--json`` from the other (concurrency audit)."""
-    import fcntl  # POSIX: the runs of one machine
-
-    fds = []
-    try:
+    """Hold :func:`exclusive_folder`'s lock on each of ``folders``, waiting for another run's,
+    in one order: two runs that finished together both passed the check for the other's
+    results and both moved theirs into place, or ``--out`` came from one run and ``--json``
+    from the other (concurrency audit)."""
+    with contextlib.ExitStack() as stack:
         for folder in sorted({os.path.abspath(f) for f in folders}):
-            fd = os.open(folder, os.O_RDONLY)
-            fds.append(fd)
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX)
-            except OSError:  # a file system without flock: as before, unlocked
-                pass
+            stack.enter_context(exclusive_folder(folder, folder, on_wait=lambda message: None))
         yield
-    finally:
-        for fd in reversed(fds):
-            os.close(fd)  # releases its lock
 
 
 class _Stage:
