@@ -152,8 +152,9 @@ DEFAULTS = {
 
 MAP_KINDS = ("training", "dense", "planning", "file")
 
-RECIPE_SECTIONS = ("sweep", "data", "model", "train")
-"""The tables of a recipe; a recipe file that sets none of one's keys is warned about."""
+RECIPE_SECTIONS = tuple(k for k, v in DEFAULTS.items() if isinstance(v, dict))
+"""The tables of a recipe (``sweep``, ``data``, ``model``, ``train``); a recipe file that
+sets none of one's keys is warned about."""
 
 
 # ---------------------------------------------------------------------------- recipes
@@ -257,8 +258,9 @@ def recipe_toml(recipe: dict) -> str:
             return str(int(v))
         if isinstance(v, (float, np.floating)):
             v = float(v)
-            return ("nan" if math.isnan(v) else repr(v)) if math.isfinite(v) or math.isnan(v) \
-                else ("inf" if v > 0 else "-inf")
+            if math.isinf(v):  # TOML's spellings; repr gives "nan" already
+                return "inf" if v > 0 else "-inf"
+            return repr(v)
         if isinstance(v, str):  # JSON's escapes are TOML's, but for DEL
             return json.dumps(v).replace("\x7f", "\\u007f")
         if isinstance(v, (list, tuple)):
