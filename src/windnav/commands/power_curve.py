@@ -78,15 +78,13 @@ def run(args) -> int:
     for note in result["notes"]:  # the fitted endurance speed is a dip of the fit only
         print(f"{name}: note: {note}", file=sys.stderr)
     edge = [w for w, opt in result["max_range"].items() if opt and opt.get("at_speed_max")]
-    top = result["fitted_speed_max_m_s"]
-    if edge and top < max_speed * (1.0 - 1e-6):  # the envelope, not --max-speed, ended it
-        print(f"{name}: note: the max-range airspeed is the fit's top speed, an edge and not a "
-              f"minimum, at {', '.join(edge)}: the sweep ends at {top:.3g} m/s, where the "
-              f"vehicle's trusted envelope does (not at --max-speed {max_speed:g}), so the "
-              "max-range speed lies beyond what the model is trusted for", file=sys.stderr)
-    elif edge:
+    if edge:
+        top = result["fitted_speed_max_m_s"]
+        why = (f"the sweep ends at {top:.3g} m/s, where the vehicle's trusted envelope does "
+               f"(not at --max-speed {max_speed:g}), so the max-range speed lies beyond what "
+               "the model is trusted for" if top < max_speed * (1.0 - 1e-6) else
+               "raise --max-speed (within the vehicle's envelope) to find it")
         print(f"{name}: note: the max-range airspeed is the sweep's top speed, an edge and not a "
-              f"minimum, at {', '.join(edge)}: raise --max-speed (within the vehicle's "
-              "envelope) to find it", file=sys.stderr)
+              f"minimum, at {', '.join(edge)}: {why}", file=sys.stderr)
     print_written(out)
     return 0
