@@ -242,7 +242,7 @@ class MonteCarloConfig:
         # the ranges are absolute (the thesis's, about the 0.5 kg Hummingbird): with another
         # vehicle they drew 0.76-0.91 kg Crazyflies with a thrust-to-weight of 0.2, saturated
         # the whole flight, into the summary's median (vehicle audit, 2026-12-05)
-        lift = base.n_rotors * base.k_eta * base.rotor_speed_max**2 / GRAVITY  # kg at full
+        lift = base.max_thrust / GRAVITY  # kg at full thrust
         if not self.mass[1] < lift / MIN_THRUST_TO_WEIGHT:
             raise ValueError(
                 f"The 'mass' parameter of {where} must stay below {lift / MIN_THRUST_TO_WEIGHT:.4g}"

@@ -367,7 +367,7 @@ def acceleration_limit(params: MultirotorParams) -> float:
     ValueError
         If the vehicle cannot lift its weight at maximum rotor speed.
     """
-    t_max = params.n_rotors * params.k_eta * params.rotor_speed_max**2 / params.mass
+    t_max = params.max_thrust / params.mass
     if t_max <= GRAVITY:
         raise ValueError("The 'params' parameter of acceleration_limit must describe a vehicle "
                          "whose maximum thrust exceeds its weight. Got a thrust-to-weight ratio "
@@ -479,8 +479,7 @@ def planner_config(
             "linear": params.n_rotors * params.k_d * eta_h / params.mass,
             "quadratic": 0.5 * (params.c_dx + params.c_dy) / params.mass,
         },
-        "thrust_to_weight": params.n_rotors * params.k_eta * params.rotor_speed_max**2
-        / params.weight,
+        "thrust_to_weight": params.max_thrust / params.weight,
         "horizontal_accel_max_mps2": a_h,
         "envelope_speed_mps": sweep["envelope_speed"],
     }

@@ -191,6 +191,11 @@ class MultirotorParams:
         return self.mass * GRAVITY
 
     @property
+    def max_thrust(self) -> float:
+        """``N k_eta eta_max^2``: the thrust of all rotors at their top speed, N."""
+        return self.n_rotors * self.k_eta * self.rotor_speed_max**2
+
+    @property
     def hover_thrust_per_rotor(self) -> float:
         """``T_ref = m g / N``: the thrust of each of N equal rotors in hover, N."""
         return self.weight / self.n_rotors
