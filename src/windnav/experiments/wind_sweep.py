@@ -267,7 +267,7 @@ def sweep(
     KeyboardInterrupt
         On Ctrl-C, after the workers are stopped; finished simulations stay in the store.
     """
-    from windnav.experiments.executor import check_backend
+    from windnav.experiments.executor import check_backend, run_tasks
     from windnav.experiments.results import exclusive_folder
     from windnav.flow.sweep_store import SweepMap, SweepStore
 
@@ -300,35 +300,27 @@ def sweep(
     with exclusive_folder(store.path, f"the sweep store {str(store.path)!r}",
                           on_wait=lambda message: warnings.warn(f"{where}: {message}",
                                                                 stacklevel=3)):
-        return store, _run_pending(store, sweep_maps, settings, batch_of, verify, backend,
-                                   workers, progress, simulate, memory_limit)
-
-
-def _run_pending(store, sweep_maps, settings, batch_of, verify, backend, workers, progress,
-                 simulate, memory_limit) -> list:
-    """The pending simulations of ``store`` (damaged ones too, with ``verify``), as tasks."""
-    from windnav.experiments.executor import run_tasks
-
-    if verify:
-        store.invalidate(store.verify(progress=progress).damaged)
-    groups: dict = {}
-    for k, c in store.pending():
-        key = (k, batch_of[float(store.directions_deg[c])]) if batch_of else (k, c)
-        groups.setdefault(key, []).append(c)
-    tasks = [
-        SweepTask(store.path, k, tuple(cases), sweep_maps[k].city,
-                  tuple(float(store.speeds[c]) for c in cases),
-                  tuple(float(store.directions_deg[c]) for c in cases),
-                  settings, tuple(store.case_seed(k, c) for c in cases), simulate,
-                  memory_limit)
-        for (k, _), cases in groups.items()
-    ]
-    # the largest first, so that no long task is left alone at the end (a stable sort: maps
-    # of one size keep their order)
-    tasks.sort(key=lambda t: -sweep_maps[t.map_index].x.size * sweep_maps[t.map_index].y.size
-               * len(t.case_indices))
-    return list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
-                          progress=progress, desc="wind-sweep"))
+        if verify:
+            store.invalidate(store.verify(progress=progress).damaged)
+        groups: dict = {}
+        for k, c in store.pending():
+            key = (k, batch_of[float(store.directions_deg[c])]) if batch_of else (k, c)
+            groups.setdefault(key, []).append(c)
+        tasks = [
+            SweepTask(store.path, k, tuple(cases), sweep_maps[k].city,
+                      tuple(float(store.speeds[c]) for c in cases),
+                      tuple(float(store.directions_deg[c]) for c in cases),
+                      settings, tuple(store.case_seed(k, c) for c in cases), simulate,
+                      memory_limit)
+            for (k, _), cases in groups.items()
+        ]
+        # the largest first, so that no long task is left alone at the end (a stable sort: maps
+        # of one size keep their order)
+        tasks.sort(key=lambda t: -sweep_maps[t.map_index].x.size * sweep_maps[t.map_index].y.size
+                   * len(t.case_indices))
+        results = list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
+                                 progress=progress, desc="wind-sweep"))
+    return store, results
 
 
 def direction_batches(directions_deg, n_speeds: int, group_sides: bool = True) -> dict:
