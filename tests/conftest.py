@@ -33,5 +33,6 @@ def held_elsewhere():
         finally:
             holder.kill()
             holder.wait()
+            holder.stdout.close()
 
     return hold

@@ -128,6 +128,8 @@ def test_workers_and_resource_tracker_exit_when_the_parent_is_killed(tmp_path):
             [p for p in kids if alive(p)]
     finally:
         cleanup(kids)
+        proc.stdout.close()
+        proc.stderr.close()
 
 
 @pytest.mark.parametrize("to_group", [True, False], ids=["terminal", "parent-only"])
@@ -184,6 +186,7 @@ def test_without_pdeathsig_a_watcher_thread_ends_the_orphan():
         assert wait_for(lambda: not alive(child), timeout=10)
     finally:
         cleanup([child])
+        parent.stdout.close()
 
 
 def test_die_with_parent_arms_pdeathsig_on_linux():

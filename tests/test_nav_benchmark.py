@@ -267,6 +267,7 @@ def test_two_runs_never_fly_the_same_variant_on_the_same_map_into_one_store(tmp_
     finally:
         holder.kill()  # SIGKILL: no handler runs
         holder.wait()
+        holder.stdout.close()
     out = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
                            navigate_fn=Fake())
     assert (out["already"], out["now"]) == (4, 4)
