@@ -544,7 +544,7 @@ def predict_at(decoder, field, at, *, scan_noise: float = 0.0, rng=None) -> dict
     scan_noise : float
         Standard deviation of the LiDAR range noise, m (0: noise-free).
     rng : numpy.random.Generator, int or None
-        Source of the scan noise.
+        Source of the scan noise; required when ``scan_noise > 0``.
 
     Returns
     -------

@@ -642,7 +642,7 @@ def mosaic(decoder, field, *, scan_noise: float = 0.35, rng=None, batch_size: in
     scan_noise : float
         LiDAR range noise, m (returns only, clipped to [0.25, 100] m as in training).
     rng : numpy.random.Generator, int or None
-        Source of the scan noise.
+        Source of the scan noise (None: fresh entropy).
     batch_size : int
         Robots per decoder call.
     progress : bool

@@ -85,7 +85,7 @@ def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
     settle_s : float
         Samples begin this long after take-off (the UKF's start), s (>= 0).
     rng : numpy.random.Generator, int or None
-        The scans' noise.
+        The scans' noise (None: fresh entropy).
     taus : sequence of float
         Time constants (s, > 0) of averages of the UKF's estimate to sample as well.
 

@@ -701,7 +701,8 @@ def navigate(
     variant : str
         A key of :data:`windnav.plan.VARIANTS`.
     rng : numpy.random.Generator or int or None, keyword-only
-        Seeds the planner's sampling and the LiDAR noise. Same seed, same flight.
+        Seeds the planner's sampling and the LiDAR noise. Same seed, same flight (None:
+        fresh entropy, a flight that does not repeat).
     flow : FlowSolution, optional
         The wind, precomputed (reuse it across variants); default :func:`simulate_flow` at
         ``speed`` and ``direction_deg``. It must have recorded frames, and match ``speed`` and

@@ -155,7 +155,8 @@ def estimate_wind(log, params: MultirotorParams, conditions: str | UKFConditions
         calibrated parameters where the conditions calibrate, else the true ones.
     conditions : str or UKFConditions
     rng : numpy.random.Generator or int, optional
-        Draws the parameter and ``Kv`` errors.
+        Draws the parameter and ``Kv`` errors (None: fresh entropy; unused when the
+        conditions draw no error).
     **options
         Passed to :func:`~windnav.estimate.run_wind_ukf` (``q``, ``r``, ``wind_frame``,
         ``vehicle``, ``progress``, ...), overriding the conditions'.

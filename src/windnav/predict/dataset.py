@@ -463,7 +463,7 @@ def robot_positions(field_or_city, n: int, rng, *, wall_clearance: float = 1.0,
     n : int
         Number of positions, >= 1.
     rng : numpy.random.Generator, int or None
-        Random source or seed; same source, same positions.
+        Random source or seed (None: fresh entropy); same source, same positions.
     wall_clearance : float
         Smallest distance to every wall, m, >= 0.
     building_reach : float
@@ -625,7 +625,7 @@ def draw_samples(field: MeanField, n: int, rng, *, size: int = 25, spacing: floa
     n : int
         Number of samples, >= 1.
     rng : numpy.random.Generator, int or None
-        Random source or seed; same source, same batch bit for bit.
+        Random source or seed (None: fresh entropy); same source, same batch bit for bit.
     size : int
         Label grid cells per side ``H``.
     spacing : float
