@@ -373,6 +373,27 @@ def test_accel_from_odometry_equals_fusing_the_differenced_velocity_explicitly()
         np.testing.assert_array_equal(inside.ukf.blocks[k].R, R)
 
 
+def test_an_imu_presets_accelerometer_noise_does_not_replace_the_differenced_odometrys():
+    """``conditions='windnav'`` with ``accel_from_odometry=True``: the differenced velocity is
+    fused with its own noise, sqrt(2) sigma_v / dt, as without the preset (whose other setting,
+    q wind 1.0, is given alike); the preset's 0.1 m/s^2 is an IMU's. It used to be taken for the
+    differenced velocity's: 2.9 m/s of wind error and a NEES of 574 (audit, 2026-12-05). An
+    explicit ``r['accel']`` still sets it."""
+    rng = np.random.default_rng(10)
+    xs, us, zs = synthetic_flight(1.0, np.array([2.0, 1.0, 0.0]), "world", rng)
+    preset = WindUKF(P_HB, DT, conditions="windnav", accel_from_odometry=True,
+                     wind_frame="world")
+    plain = WindUKF(P_HB, DT, q={"wind": 1.0}, accel_from_odometry=True, wind_frame="world")
+    given = WindUKF(P_HB, DT, conditions="windnav", accel_from_odometry=True,
+                    wind_frame="world", r={"accel": 0.1})
+    for u, z in zip(us, zs, strict=True):
+        for f in (preset, plain, given):
+            f.step(u, {**z, "accel": None})
+    np.testing.assert_array_equal(preset.x, plain.x)
+    np.testing.assert_array_equal(preset.P, plain.P)
+    assert not np.allclose(given.P, plain.P)
+
+
 def test_accel_from_25_hz_odometry_differences_over_the_four_steps_between_samples():
     """Odometry every 4th step of a 100 Hz filter: the filter fuses
     a_b = R^T ((v_k - v_(k-4)) / (4 dt) + g e3) with std sqrt(2) sigma_v / (4 dt), the same as
