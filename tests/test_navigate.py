@@ -625,3 +625,29 @@ def test_a_route_planned_beyond_the_trusted_airspeed_is_said(city, still, capsys
     assert calm.settings["route_airspeed_max_mps"] < calm.settings["power_speed_max"]
     warn_envelope(calm.summary())
     assert "route is planned" not in capsys.readouterr().err
+
+
+def test_the_planner_shifts_its_warm_start_by_the_loops_own_planning_interval(city, flow,
+                                                                             monkeypatch):
+    """At ``plan_rate_hz`` = 5 the planner is built with ``rate_hz`` 5, so each update shifts
+    its warm start by 0.2 s, the time between updates (it used to keep the default 10 Hz and
+    shift by 0.1 s: audit, 2026-12-05); a configuration at another rate is refused."""
+    import windnav.plan as plan_mod
+
+    built = []
+
+    class Spy(plan_mod.MPPIPlanner):
+        def __init__(self, config, *a, **kw):
+            built.append(config)
+            super().__init__(config, *a, **kw)
+
+    monkeypatch.setattr(plan_mod, "MPPIPlanner", Spy)  # navigate imports it at the call
+    fly(city, flow, plan_rate_hz=5.0, duration=2.0)
+    fly(city, flow, duration=2.0)
+    assert [c.rate_hz for c in built] == [5.0, 10.0]
+    with pytest.raises(ValueError, match=r"'plan_rate_hz' parameter of navigate must equal "
+                                         r"the planner configuration's rate_hz, 10 Hz"):
+        fly(city, flow, plan_rate_hz=5.0, planner_overrides={"rate_hz": 10.0}, duration=2.0)
+    with pytest.raises(ValueError, match="rate_hz, 10 Hz"):
+        fly(city, flow, plan_rate_hz=20.0, config=planner_config(params("hummingbird"), "mppi"),
+            duration=2.0)

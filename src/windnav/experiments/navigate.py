@@ -878,8 +878,19 @@ def navigate(
         raise ValueError(f"The 'power_shape' parameter of {_WHERE} must be None or one of "
                          f"{list(POWER_SHAPES)}. Got {power_shape!r} instead.")
     if config is None:
-        overrides = {"a_max": a_cap / math.sqrt(2.0), **(planner_overrides or {})}
+        overrides = {"a_max": a_cap / math.sqrt(2.0), "rate_hz": float(plan_rate_hz),
+                     **(planner_overrides or {})}
         config = planner_config(params, variant, horizon=horizon, **overrides)
+    planned_rate = getattr(planner.config if hasattr(planner, "config") else
+                           config if planner is None else None, "rate_hz", None)
+    if (planned_rate is not None and VARIANTS[variant].planner != "gs"
+            and not math.isclose(planned_rate, plan_rate_hz, rel_tol=1e-9)):
+        # the planner shifts its warm start by 1 / rate_hz at each update: at another rate its
+        # plan would be shifted by the wrong time (a 5 or 20 Hz loop shifted it 0.1 s; audit)
+        raise ValueError(f"The 'plan_rate_hz' parameter of {_WHERE} must equal the planner "
+                         f"configuration's rate_hz, {planned_rate:g} Hz (its warm start is "
+                         f"shifted by 1 / rate_hz at each update). Got {plan_rate_hz!r} "
+                         "instead.")
     if power_shape is not None:
         config = with_power_shape(config, power_shape)
     kp_xy, kd_xy = controller.gains.kp_pos[0], controller.gains.kd_pos[0]
