@@ -188,3 +188,32 @@ def test_a_diverging_state_is_outside_the_envelope_without_a_stray_overflow_warn
         warnings.simplefilter("error", RuntimeWarning)
         out = outside_envelope(p, x, np.zeros((2, 3)))
     np.testing.assert_array_equal(out, [False, True])
+
+
+def test_the_time_step_bound_is_where_the_models_euler_steps_stop_converging(config):
+    """Forward Euler of ``v' = a - C |v| v`` settles on the terminal speed sqrt(a / C) while
+    dt sqrt(a C) < 1 (the drag's derivative along the velocity is 2 C |v|). The planner's own
+    rollout at full acceleration settles there at 0.5 and 0.9 of the bound; the same step at
+    1.2 of it alternates between two speeds, and such a dt is refused (audit, 2026-12-05: the
+    bound was 2, and every dt up to twice this one was accepted)."""
+    from windnav.plan.mppi import rollout
+
+    free = dataclasses.replace(config, a_max=60.0, a_min=-60.0)
+    a_top = math.hypot(60.0, 60.0)
+    bound = 1.0 / math.sqrt(a_top * free.drag)
+    terminal = math.sqrt(a_top / free.drag)  # full acceleration on both axes: |a| = a_top
+    for ratio in (0.5, 0.9):
+        ok = dataclasses.replace(free, dt=ratio * bound)
+        _, vel = rollout(ok, np.full((400, 2), 60.0), np.zeros(2))
+        np.testing.assert_allclose(np.hypot(*vel[0, -3:].T), terminal, rtol=1e-6)
+    # the same Euler step, written out, at 1.2 x the bound (the rollout would be refused)
+    v, dt = 0.0, 1.2 * bound
+    speeds = []
+    for _ in range(400):
+        v = v + dt * (a_top - free.drag * v * abs(v))
+        speeds.append(v)
+    assert abs(speeds[-1] - speeds[-2]) > 0.1 * terminal
+    for ratio in (1.2, 1.95):
+        with pytest.raises(ValueError, match=r"'dt' parameter of PlannerConfig must be below "
+                                             r"1 / sqrt\(C \|a\|_max\)"):
+            dataclasses.replace(free, dt=ratio * bound)

@@ -277,12 +277,15 @@ class PlannerConfig:
             raise _fail("sampling", where, f"one of {list(SAMPLING)}", self.sampling)
         if self.energy_mode not in ENERGY_MODES:
             raise _fail("energy_mode", where, f"one of {list(ENERGY_MODES)}", self.energy_mode)
-        # forward Euler of v' = a - C |v| v is stable while dt C |v| < 2; the fastest steady
-        # speed is the terminal speed at full acceleration, sqrt(|a|_max / C)
+        # forward Euler of v' = a - C |v| v: along the velocity the drag's derivative is
+        # 2 C |v|, so a steady speed is stable while dt C |v| < 1 (across it, C |v|: < 2); the
+        # fastest steady speed is the terminal speed at full acceleration, sqrt(|a|_max / C).
+        # (The bound was 2 until an audit of 2026-12-05: between the two, rollouts alternated
+        # between two speeds or overflowed, and every update fell back to braking.)
         a_top = math.hypot(max(abs(self.a_min), self.a_max), max(abs(self.a_min), self.a_max))
-        if self.dt * math.sqrt(a_top * self.drag) >= 2.0:
-            raise _fail("dt", where, "below 2 / sqrt(C |a|_max) (forward Euler of the drag at the "
-                        f"terminal speed: {2.0 / math.sqrt(a_top * self.drag):.3g} s)", self.dt)
+        if self.dt * math.sqrt(a_top * self.drag) >= 1.0:
+            raise _fail("dt", where, "below 1 / sqrt(C |a|_max) (forward Euler of the drag at the "
+                        f"terminal speed: {1.0 / math.sqrt(a_top * self.drag):.3g} s)", self.dt)
 
     @classmethod
     def from_vehicle(cls, params: MultirotorParams, variant: str = "ea-mppi-w", *,
