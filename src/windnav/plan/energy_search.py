@@ -167,7 +167,8 @@ def energy_route(
     dx : float
         Lattice spacing, m.
     clearance : float
-        Distance kept from every building, m.
+        Distance kept from every building, m, to within ``dx / 2``
+        (:func:`windnav.plan.graph_search.free_space`).
     speed_range : (float, float)
         Ground speeds allowed, m/s.
     speed_step : float

@@ -22,7 +22,10 @@ def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarra
     """Cell centres ``x`` (nx,), ``y`` (ny,) and the free mask (ny, nx) after inflation.
 
     Occupancy is conservative (``rasterize(rule="overlap")``): a cell touched by a building
-    is solid, so no route passes through a building thinner than a cell."""
+    is solid, so no route passes through a building thinner than a cell. A cell is free when
+    its centre lies more than ``clearance`` (m) from the centre of every solid cell; a
+    building's edge may lie up to ``dx / 2`` nearer than that (5.1 m at ``clearance`` 6 and
+    ``dx`` 2: audit, 2026-12-05)."""
     x, y = city.grid(dx)
     solid = city.rasterize(x, y, rule="overlap")
     if not solid.any():  # the transform needs a background cell; with none, all is free
@@ -104,7 +107,7 @@ def grid_route(city, start_xy, goal_xy, *, dx: float = 2.0, clearance: float = 6
     dx : float
         Grid resolution, m.
     clearance : float
-        Minimum distance kept from every building, m.
+        Distance kept from every building, m, to within ``dx / 2`` (:func:`free_space`).
 
     Returns
     -------

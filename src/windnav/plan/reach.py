@@ -215,7 +215,8 @@ def reach_lattice(city, wind, *, dx: float = 2.0, clearance: float = 1.0,
     dx : float
         Lattice spacing, m.
     clearance : float
-        Distance kept from every building, m (the vehicle's size).
+        Distance kept from every building, m (the vehicle's size), to within ``dx / 2``
+        (:func:`windnav.plan.graph_search.free_space`).
     gust : ndarray of shape (ny_w, nx_w, 3), optional
         The wind's covariance on the grid of ``wind`` (a GriddedWind, or a FlowSolution's)
         (:func:`wind_covariance`), resampled bilinearly at the cells into
