@@ -15,13 +15,22 @@ along ``v in {f0, g_1..g_N}``; the system is locally weakly observable at ``x`` 
 The symbolic build (sympy) is cached per (number of rotors, order); vehicle parameters are
 lambdify arguments, so ``rank_at`` works for any parameter values, including zeroed ones.
 
-Findings (hummingbird, order 1; checked in ``tests/test_observability.py``):
+The model is the filter's: its wind is a random walk in the world frame by default
+(``w_b' = -Omega x w_b``), or in the body frame with ``wind_frame="body"`` (``w_b' = 0``, the
+thesis model), as in :func:`windnav.estimate.wind_model.model_constants`. Until 2026-12-05 it
+was always the body frame's, whatever the filter's; of the findings below only the one where
+no equation sees the horizontal wind differs.
+
+Findings (hummingbird, order 1, either frame unless said; checked in
+``tests/test_observability.py``):
 
 - random states: rank 16 = full. Order 1 is the lowest that achieves it: order 0 gives 12
   (the accelerometer alone cannot separate the wind from the rotor speeds).
 - ``k_d = 0`` and ``c_dx = c_dy = 0``: horizontal wind enters only through translational lift
   ``k_h (v_a,x^2 + v_a,y^2)`` and ``|v_a|`` in the vertical parasitic drag: rank 15. With
-  ``k_h = 0`` and ``c_dz = 0`` as well, horizontal wind enters no equation: rank 14.
+  ``k_h = 0`` and ``c_dz = 0`` as well, horizontal wind enters no equation: rank 14 in the
+  body frame; 15 in the world frame, where the turning body carries the world-fixed wind into
+  its vertical axis and the rotors' vertical drag ``k_z`` sees one more direction.
 - steady level hover in still air (zero airspeed, zero acceleration) with ``k_d = 0``: the
   quadratic parasitic drag and lift have zero gradient there, so horizontal wind is
   unobservable (rank 14) although it is observable in motion; likewise ``k_z = 0`` leaves the
@@ -44,6 +53,7 @@ import functools
 import numpy as np
 
 from windnav.estimate.layout import IDX_ROTORS, IDX_VELOCITY, IDX_WIND, N_BASE, ROTORS
+from windnav.estimate.wind_model import WIND_FRAMES
 from windnav.vehicle.params import GRAVITY, MultirotorParams
 
 __all__ = ["MEASUREMENT_SETS", "observability_matrix", "rank_at", "symbolic_model"]
@@ -69,12 +79,16 @@ _PARAM_NAMES = ("m", "k_eta", "k_d", "k_z", "k_h", "c_dx", "c_dy", "c_dz", "tau_
 
 
 @functools.lru_cache(maxsize=8)
-def symbolic_model(n_rotors: int):
+def symbolic_model(n_rotors: int, wind_frame: str = "world"):
     """Symbolic Wind UKF model.
 
     Parameters
     ----------
     n_rotors : int
+    wind_frame : {"world", "body"}
+        The wind's random-walk frame, as in :func:`windnav.estimate.wind_model.model_constants`:
+        "world" (default, the filter's), ``w_b' = -Omega x w_b``; "body", ``w_b' = 0`` (the
+        thesis model).
 
     Returns
     -------
@@ -92,6 +106,9 @@ def symbolic_model(n_rotors: int):
     """
     import sympy as sp
 
+    if wind_frame not in WIND_FRAMES:
+        raise ValueError(f"The 'wind_frame' parameter of symbolic_model must be one of "
+                         f"{list(WIND_FRAMES)}. Got {wind_frame!r} instead.")
     ps, th, ph, p, q, r, vx, vy, vz, wx, wy, wz = sp.symbols(
         "psi theta phi p q r vx vy vz wx wy wz", real=True)
     eta = list(sp.symbols(f"eta0:{n_rotors}", real=True))
@@ -115,8 +132,9 @@ def symbolic_model(n_rotors: int):
     omega = sp.Matrix([p, q, r])
     a = q * sp.sin(ph) + r * sp.cos(ph)
     dv = F - R.T * sp.Matrix([0, 0, g]) - omega.cross(v)
+    dw = -omega.cross(sp.Matrix([wx, wy, wz])) if wind_frame == "world" else sp.zeros(3, 1)
     f0 = sp.Matrix([a / sp.cos(th), q * sp.cos(ph) - r * sp.sin(ph),
-                    p + a * sp.tan(th), 0, 0, 0, *dv, 0, 0, 0, *[-e / tau for e in eta]])
+                    p + a * sp.tan(th), 0, 0, 0, *dv, *dw, *[-e / tau for e in eta]])
     gs = []
     for i in range(n_rotors):
         gi = sp.zeros(N_BASE + n_rotors, 1)
@@ -127,10 +145,10 @@ def symbolic_model(n_rotors: int):
 
 
 @functools.lru_cache(maxsize=8)
-def _lambdified(n_rotors: int, order: int, outputs: tuple[str, ...]):
+def _lambdified(n_rotors: int, order: int, outputs: tuple[str, ...], wind_frame: str):
     import sympy as sp
 
-    x, prm, f0, gs, h_all = symbolic_model(n_rotors)
+    x, prm, f0, gs, h_all = symbolic_model(n_rotors, wind_frame)
     h = sp.Matrix.vstack(*(h_all[slice(*_OUTPUT_ROWS[o]), :] for o in outputs))
     X = sp.Matrix(x)
     level = [h]
@@ -156,7 +174,7 @@ def _prm_values(params: MultirotorParams, eps: float) -> list[float]:
 
 
 def observability_matrix(params: MultirotorParams, state, order: int = 1,
-                         measurements: str = "imu") -> np.ndarray:
+                         measurements: str = "imu", wind_frame: str = "world") -> np.ndarray:
     """Numerical observability matrix at one state.
 
     Parameters
@@ -168,6 +186,8 @@ def observability_matrix(params: MultirotorParams, state, order: int = 1,
         Highest Lie-derivative order (0, 1 or 2; 2 builds in seconds, once per process).
     measurements : {"imu", "hardware"}
         Output set (:data:`MEASUREMENT_SETS`).
+    wind_frame : {"world", "body"}
+        The model's wind frame (:func:`symbolic_model`); default the filter's, "world".
 
     Returns
     -------
@@ -190,13 +210,16 @@ def observability_matrix(params: MultirotorParams, state, order: int = 1,
     # smoothing gives the limit without adding a spurious (eps-sized) gradient
     eps = 1e-12 if airspeed == 0.0 else 0.0
     outputs = _measurement_set(measurements, "observability_matrix")
-    fn = _lambdified(params.n_rotors, int(order), outputs)
+    if wind_frame not in WIND_FRAMES:
+        raise ValueError(f"The 'wind_frame' parameter of observability_matrix must be one of "
+                         f"{list(WIND_FRAMES)}. Got {wind_frame!r} instead.")
+    fn = _lambdified(params.n_rotors, int(order), outputs, wind_frame)
     O = np.array(fn(list(x), _prm_values(params, eps)), dtype=np.float64)
     return np.broadcast_to(O, O.shape).reshape(-1, n)
 
 
 def rank_at(params: MultirotorParams, state, order: int = 1, rtol: float = 1e-9,
-            measurements: str = "imu") -> int:
+            measurements: str = "imu", wind_frame: str = "world") -> int:
     """Numerical rank of the observability matrix (full rank = 12 + N: locally observable).
 
     Columns are scaled by the state's typical magnitudes (rotor speeds by the hover speed)
@@ -213,12 +236,14 @@ def rank_at(params: MultirotorParams, state, order: int = 1, rtol: float = 1e-9,
         Relative singular-value threshold.
     measurements : {"imu", "hardware"}
         Output set (:data:`MEASUREMENT_SETS`); "hardware" needs ``order=2`` for full rank.
+    wind_frame : {"world", "body"}
+        The model's wind frame (:func:`symbolic_model`); default the filter's, "world".
 
     Returns
     -------
     int
     """
-    O = observability_matrix(params, state, order, measurements)
+    O = observability_matrix(params, state, order, measurements, wind_frame)
     scale = np.ones(O.shape[1])
     scale[IDX_ROTORS] = params.hover_rotor_speed
     sv = np.linalg.svd(O * scale, compute_uv=False)
