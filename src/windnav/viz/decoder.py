@@ -179,6 +179,11 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
         The PNG to write.
     n_show : int
         Modes drawn (speed of the mode as colour, its vectors as arrows).
+
+    Notes
+    -----
+    The number of modes that explain 98 % of the variance is marked on each frame's curve and
+    given in the legend.
     """
     world, canon = result["world"], result["canonical"]
     n_show = min(n_show, world["modes"].shape[0])
@@ -189,18 +194,18 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
     for res, label, colour in ((world, "world frame", "C0"), (canon, "canonical D4 frame", "C1")):
         cum = np.asarray(res["cumulative"])
         k = np.arange(1, cum.size + 1)
-        ax.plot(k, 100 * cum, color=colour, label=label)
         n98 = res["n_modes"]["0.98"]
+        # the count in the legend, not as text by the marker: both curves pass there
+        ax.plot(k, 100 * cum, color=colour, label=f"{label} (98 %: {n98} modes)")
         ax.plot(n98, 100 * cum[n98 - 1], "o", color=colour)
-        ax.annotate(f"98 %: {n98}", (n98, 100 * cum[n98 - 1]), textcoords="offset points",
-                    xytext=(6, -12 if colour == "C0" else 4), fontsize=8, color=colour)
     ax.axhline(98, color="k", ls=":", lw=0.8)
     ax.axvline(16, color="0.5", ls="--", lw=0.8, label="16 modes (thesis: >= 98 %)")
     ax.set_xscale("log")
     ax.set_ylim(max(0.0, 100 * min(world["cumulative"][0], canon["cumulative"][0]) - 5), 100.5)
     ax.set_xlabel("number of eigenflows")
     ax.set_ylabel("cumulative explained variance (%)")
-    ax.legend(fontsize=8, loc="lower right")
+    # below the panel: inside it, a legend this wide would cover the curves' start
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.09), frameon=False)
     h = result["size"]
     o = (np.arange(h) - (h - 1) / 2) * result["spacing"]
     ratio = world["explained_variance_ratio"]
@@ -350,7 +355,9 @@ def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
     right.set_ylabel("R^2")
     handles = ax.get_legend_handles_labels()
     extra = right.get_legend_handles_labels()
-    ax.legend(handles[0] + extra[0], handles[1] + extra[1], fontsize=8, loc="center right")
+    # above the panel, off the data: no corner inside it is free of both axes' bars and line
+    ax.legend(handles[0] + extra[0], handles[1] + extra[1], fontsize=8, loc="lower center",
+              bbox_to_anchor=(0.5, 1.01), ncol=2, frameon=False)
     # the decoder with its first k eigenflows right: 0 is the decoder, all of them the oracle
     fixed = {int(n): e for n, e in result.get("fixed_modes", {}).items()}
     ks = [0, *sorted(fixed), result["n_modes"]]
@@ -475,10 +482,19 @@ def plot_winds_ablation(result: dict, path) -> Path:
         ax.set_xlabel("winds given to the model")
     axes[0].legend(fontsize=8)
     s = result["schedule"]
-    fig.suptitle(f"Winds ablation: {s['architecture']} {s['hyperparameters']}, {s['epochs']} "
-                 f"epochs x {result['variants'][names[0]]['n_train_samples']} samples; test "
-                 f"samples of a held-out map", fontsize=10)
+    fig.suptitle(f"Winds ablation: {s['architecture']} ({_settings(s['hyperparameters'])}), "
+                 f"{s['epochs']} epochs x {result['variants'][names[0]]['n_train_samples']} "
+                 "samples; test samples of a held-out map", fontsize=10)
     return _save(fig, path)
+
+
+def _settings(values) -> str:
+    """A mapping of settings as title text, ``"width 256, depth 3"`` (not its Python repr);
+    nested mappings in parentheses, anything else as ``str``."""
+    if not isinstance(values, dict):
+        return str(values)
+    return ", ".join(f"{k} ({_settings(v)})" if isinstance(v, dict) else f"{k} {v}"
+                     for k, v in values.items())
 
 
 def plot_size_study(result: dict, path) -> Path:
@@ -516,6 +532,11 @@ def plot_size_study(result: dict, path) -> Path:
 def plot_noise(result: dict, path) -> Path:
     """Each model's errors against the noise on ``W_robot`` (fraction of the inlet speed).
 
+    Top: the errors themselves, the baselines included (down to 0). Bottom, on an axis of its
+    own: each decoder's error minus the first decoder's at the lowest level (the exact
+    ``W_robot`` at level 0), the cost of the noise and the gaps between the decoders, which
+    the top row's range hides.
+
     Parameters
     ----------
     result : dict
@@ -524,21 +545,38 @@ def plot_noise(result: dict, path) -> Path:
         The PNG to write.
     """
     levels = result["levels"]
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7.6), sharex=True)
     others = [m for m in result["errors"] if m not in ("local", "upstream")]
     styles = {m: (f"C{[0, 3, 4, 5, 6][k % 5]}", "o") for k, m in enumerate(others)}
     styles.update(local=("C1", "s"), upstream=("C2", "^"))
-    for ax, (metric, label) in zip(axes, _METRICS[:2], strict=True):
+    parts = {"speed_error": ("speed error", "m/s"),
+             "direction_error_deg": ("direction error", "deg")}
+    least = int(np.argmin(levels))  # the reference: the first decoder at the lowest noise
+    given = "exact W_robot" if levels[least] == 0 else f"W_robot noise {levels[least]:g} U"
+    for col, (metric, label) in enumerate(_METRICS[:2]):
+        ax, diff = axes[0, col], axes[1, col]
         for m, errs in result["errors"].items():
             colour, marker = styles[m]
             ax.plot(levels, [e[metric] for e in errs], marker=marker, color=colour,
                     label=m if m in others else f"{m} baseline")
-        ax.set_xlabel("noise on W_robot per component (fraction of the inlet speed)")
         ax.set_ylabel(label)
         ax.set_ylim(bottom=0)
-    axes[0].legend(fontsize=8)
+        if others:
+            ref = others[0]
+            base = result["errors"][ref][least][metric]
+            for m in others:
+                colour, marker = styles[m]
+                diff.plot(levels, [e[metric] - base for e in result["errors"][m]],
+                          marker=marker, color=colour, label=m)
+            diff.axhline(0.0, color="k", lw=0.6)
+            name, unit = parts[metric]
+            diff.set_ylabel(f"{name} - {ref}'s\nwith {given} ({unit})")
+            diff.grid(alpha=0.3)
+        diff.set_xlabel("noise on W_robot per component (fraction of the inlet speed)")
+    axes[0, 0].legend(fontsize=8)
     fig.suptitle(f"W_robot noise study: {result['n_samples']:,} samples, the same noise draw "
-                 "for every model", fontsize=10)
+                 f"for every model; bottom: the decoders' errors relative to the first's "
+                 f"with {given}", fontsize=10)
     return _save(fig, path)
 
 

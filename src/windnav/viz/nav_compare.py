@@ -12,9 +12,11 @@ from pathlib import Path
 import matplotlib.patheffects as pe
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-__all__ = ["COLORS", "draw_paths", "plot_energy", "plot_paths", "wind_background"]
+__all__ = ["COLORS", "colour_extend", "draw_paths", "path_widths", "plot_energy", "plot_paths",
+           "wind_background", "wind_colorbar"]
 
 COLORS = ("#ff2d55", "#ffffff", "#ff9500", "#5ac8fa")
 """Line colours of the flights, in order (drawn with a black outline over the wind)."""
@@ -68,6 +70,47 @@ def wind_background(ax, city, flow, speed=None, *, vmax: float | None = None,
     return im
 
 
+def wind_colorbar(fig, im, ax, label: str, **kwargs):
+    """``im``'s colour bar on ``ax``, with an arrow at each end the data pass.
+
+    :func:`wind_background` clips its colours at the 99th percentile by default: the bar's
+    arrow (``extend`` "max", "min" or "both") says that the field goes beyond the scale.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    im : matplotlib.image.AxesImage
+        The image (its array, masked where there is no data, and its norm's limits).
+    ax : matplotlib.axes.Axes
+        The axes the bar takes its room from.
+    label : str
+    **kwargs
+        Passed to ``fig.colorbar`` (``shrink``, say).
+
+    Returns
+    -------
+    matplotlib.colorbar.Colorbar
+    """
+    return fig.colorbar(im, ax=ax, label=label, extend=colour_extend(im), **kwargs)
+
+
+def colour_extend(im) -> str:
+    """``"neither"``, ``"max"``, ``"min"`` or ``"both"``: the ends of ``im``'s colour scale
+    that its (unmasked, finite) data pass."""
+    data = np.ma.masked_invalid(np.ma.asarray(im.get_array(), dtype=float)).compressed()
+    vmin, vmax = im.norm.vmin, im.norm.vmax
+    above = data.size > 0 and vmax is not None and bool(data.max() > vmax)
+    below = data.size > 0 and vmin is not None and bool(data.min() < vmin)
+    return {(False, False): "neither", (True, False): "max", (False, True): "min",
+            (True, True): "both"}[(above, below)]
+
+
+def path_widths(n: int, *, thinnest: float = 2.0, step: float = 1.2) -> list[float]:
+    """Line widths (points) of ``n`` paths drawn in order, each one ``step`` thinner than the
+    one before: a later path over an earlier one leaves the earlier's colour on both sides."""
+    return [thinnest + step * (n - 1 - i) for i in range(n)]
+
+
 def _endpoints(ax, result) -> None:
     ax.plot(*result.start, "o", color="w", mec="k", ms=8, zorder=6, label="start")
     ax.plot(*result.goal, "*", color="w", mec="k", ms=14, zorder=6, label="goal")
@@ -99,22 +142,35 @@ def plot_paths(results: dict, city, flow, path, *, title: str | None = None) -> 
 
 def draw_paths(fig, ax, results: dict, city, flow, *, detail: bool = True,
                routes: bool = False) -> None:
-    """The panel of :func:`plot_paths` on ``ax``: the mean wind with its colour bar, every
-    flight's path in :data:`COLORS`, the start and goal of the first, a legend. ``detail``:
-    each legend entry adds the outcome, energy and time; ``routes``: the routes planned before
-    take-off (``NavigationResult.route``, GS and GS+W) as thin dashed lines."""
+    """The panel of :func:`plot_paths` on ``ax``: the mean wind with its colour bar
+    (:func:`wind_colorbar`), every flight's path in :data:`COLORS` with a dot where it ended,
+    the start and goal of the first, a legend. Each path is drawn over the ones before it and
+    thinner (:func:`path_widths`), so that paths flown along the same line stay visible.
+    ``detail``: each legend entry adds the outcome, energy and time; ``routes``: the routes
+    planned before take-off (``NavigationResult.route``, GS and GS+W) as thin dashed lines."""
     im = wind_background(ax, city, flow)
-    fig.colorbar(im, ax=ax, label="mean wind speed (m/s)", shrink=0.85)
+    wind_colorbar(fig, im, ax, "mean wind speed (m/s)", shrink=0.85)
+    widths = path_widths(len(results))
+    handles = []
     for i, (name, r) in enumerate(results.items()):
         c = COLORS[i % len(COLORS)]
         if routes and r.route is not None:
             ax.plot(*np.asarray(r.route).T, "--", color=c, lw=0.9, zorder=4)
         label = (f"{name}: {r.outcome}, {r.energy_J / 1e3:.2f} kJ, {r.time_s:.0f} s" if detail
                  else name)
-        ax.plot(*r.position[:, :2].T, color=c, lw=2.0, zorder=5, path_effects=OUTLINE,
-                label=label)
+        xy = r.position[:, :2].T
+        # the black outlines under every path, each path over the ones before it and thinner:
+        # where paths coincide, they show as nested bands instead of the last one alone
+        ax.plot(*xy, color="k", lw=widths[i] + 1.2, zorder=5, solid_capstyle="round")
+        ax.plot(*xy, color=c, lw=widths[i], zorder=5.1 + 0.01 * i, solid_capstyle="round")
+        ax.plot(*r.position[-1, :2], "o", color=c, mec="k", ms=5, zorder=5.5)
+        handles.append(Line2D([], [], color=c, lw=widths[i],
+                              path_effects=[pe.Stroke(linewidth=widths[i] + 1.2,
+                                                      foreground="k"), pe.Normal()],
+                              label=label))
     _endpoints(ax, next(iter(results.values())))
-    ax.legend(loc="upper left", fontsize=8, framealpha=0.75)
+    ax.legend(handles=handles + ax.get_legend_handles_labels()[0], loc="upper left",
+              fontsize=8, framealpha=0.75)
 
 
 def plot_energy(results: dict, path, *, title: str | None = None) -> Path:

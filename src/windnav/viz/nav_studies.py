@@ -27,7 +27,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.lines import Line2D
 
-from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background
+from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background, wind_colorbar
 
 __all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
            "plot_inflight_tau", "plot_reach", "plot_wind_scenarios"]
@@ -148,7 +148,7 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
         ax.set_visible(False)
     for ax, wind in zip(axes.flat[:n], winds, strict=True):
         im = wind_background(ax, city, wind["flow"])
-        fig.colorbar(im, ax=ax, label="mean wind speed (m/s)", shrink=0.85)
+        wind_colorbar(fig, im, ax, "mean wind speed (m/s)", shrink=0.85)
         for sc in wind["scenarios"]:
             c = KIND_COLORS.get(sc.kind, "w")
             (sx, sy), (gx, gy) = sc.start, sc.goal
@@ -296,7 +296,8 @@ def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path
     flights of :func:`~windnav.experiments.nav_gusts.gust_routes` (without, then with the gust
     margin) its last least-time route (dashed) and its flown path (solid), labelled with its
     outcome. The right panel's colour is the standard deviation of the wind along the inlet's
-    direction, m/s.
+    direction, m/s. Each colour scale ends at its field's 99th percentile; the colour bar's
+    arrow marks the values beyond (:func:`~windnav.viz.nav_compare.wind_colorbar`).
 
     Parameters
     ----------
@@ -319,7 +320,7 @@ def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path
     handles = []
     for ax, (field, label, stream) in zip(axes, panels, strict=True):
         im = wind_background(ax, city, flow, field, streamlines=stream)
-        fig.colorbar(im, ax=ax, label=label, shrink=0.85)
+        wind_colorbar(fig, im, ax, label, shrink=0.85)
         for (v, res), c in zip(result["flights"].items(), colors, strict=True):
             route = result["routes"].get(v)
             if route is not None:
@@ -357,11 +358,23 @@ _INFLIGHT_MODELS = {"decoder_ukf": ("decoder, W_robot from the UKF (flown)", "ta
                     "upstream": ("Upstream", "tab:green", "-", "D")}
 
 
-def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
+def plot_inflight(result: Mapping, path, *, title: str | None = None,
+                  labels: Mapping[str, str] | None = None) -> Path:
     """The decoder in flight (:func:`~windnav.experiments.nav_inflight.inflight_study`): per
     inlet speed, the RMS input errors of ``W_robot`` (left), and the speed and direction errors
     against the mean field in the decoder's window of the decoder and the baselines given each
-    ``W_robot`` (middle, right). Written to ``path`` (PNG)."""
+    ``W_robot`` (middle, right). Written to ``path`` (PNG).
+
+    ``labels`` names the compared decoders (``result["compare"]``) in the legend, e.g.
+    ``{"shipped": "2026-11-26 default"}``; a decoder it does not name is labelled with its
+    name and, where ``result["models"]`` records it, the file it was loaded from without the
+    ``decoder_`` prefix (``"flight (2026-11-29-flight)"``): which model a name such as
+    ``shipped`` meant changes when another is shipped."""
+    unknown = sorted(set(labels or {}) - set(result.get("compare") or []))
+    if unknown:
+        raise ValueError(f"The 'labels' parameter of plot_inflight must name decoders of the "
+                         f"result's 'compare' ({result.get('compare') or []}). Got {unknown} "
+                         "instead.")
     rows = result["by_speed"]
     speeds = [float(s) for s in rows]
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6 + 0.5 * bool(result.get("compare"))))
@@ -374,8 +387,9 @@ def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
     models = dict(_INFLIGHT_MODELS)
     for name, color in zip(result.get("compare") or [], ("tab:red", "tab:purple", "tab:brown",
                                                           "tab:pink", "tab:olive"), strict=False):
-        models[f"{name}_ukf"] = (f"{name}, W_robot from the UKF", color, "-", "v")
-        models[f"{name}_mean"] = (f"{name}, mean W_robot", color, "--", "s")
+        label = _decoder_label(name, result.get("models") or {}, labels or {})
+        models[f"{name}_ukf"] = (f"{label}, W_robot from the UKF", color, "-", "v")
+        models[f"{name}_mean"] = (f"{label}, mean W_robot", color, "--", "s")
     for ax, metric, unit in ((axes[1], "speed_error", "speed error (m/s)"),
                              (axes[2], "direction_error_deg", "direction error (deg)")):
         for key, (label, color, ls, marker) in models.items():
@@ -390,12 +404,38 @@ def plot_inflight(result: Mapping, path, *, title: str | None = None) -> Path:
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
     n = sum(r["flights"] for r in rows.values())
-    ncol = min(len(handles), 6)
+    ncol = _legend_columns(fig, handles, most=6)
     rows_of_legend = -(-len(handles) // ncol)
     return _finish(fig, handles, title or f"The onboard stack's wind in flight ({n} flights of "
                    f"{result['variant']}, a sample every {result['every_s']:g} s), against "
                    "the mean field in the decoder's window", path,
                    bottom=0.1 + 0.05 * (rows_of_legend - 1), ncol=ncol)
+
+
+def _legend_columns(fig, handles, *, most: int, fontsize: float = 9) -> int:
+    """The most columns, up to ``most``, in which :func:`_finish`'s legend of ``handles`` fits
+    the width of ``fig`` (long decoder labels wrap into more rows instead of off the page)."""
+    renderer = fig.canvas.get_renderer()
+    width = fig.bbox.width
+    for ncol in range(min(most, len(handles)), 1, -1):
+        legend = fig.legend(handles=handles, loc="lower center", ncol=ncol, fontsize=fontsize,
+                            frameon=False)
+        wide = legend.get_window_extent(renderer).width
+        legend.remove()
+        if wide <= 0.98 * width:
+            return ncol
+    return 1
+
+
+def _decoder_label(name: str, files: Mapping, labels: Mapping) -> str:
+    """A compared decoder's legend name: ``labels``' if it has one, else ``name`` with the
+    stem of its file in ``files`` (``decoder_`` dropped), else ``name``."""
+    if name in labels:
+        return str(labels[name])
+    if name not in files:
+        return name
+    stem = Path(str(files[name])).stem
+    return f"{name} ({stem.removeprefix('decoder_')})"
 
 
 def plot_inflight_tau(result: Mapping, path, *, title: str | None = None) -> Path:
