@@ -190,7 +190,8 @@ class NavigationResult:
     distance_m : float
         Horizontal distance flown, m.
     mean_cmd_accel : float
-        Mean norm of the horizontal acceleration command, m/s^2.
+        Mean norm of the horizontal acceleration command after the tilt cap, m/s^2, over
+        ``accel_cmd`` (whose last entry is the command before the cap, below).
     planner_ms_median : float
         Median planner update time, ms (GS: the one route computation).
     fallbacks : int
@@ -210,7 +211,11 @@ class NavigationResult:
     airspeed : ndarray of shape (T,)
         Horizontal airspeed ``|v_xy - w_xy|``, m/s.
     accel_cmd : ndarray of shape (T, 2)
-        Horizontal acceleration command, m/s^2, world.
+        Horizontal acceleration command after the tilt cap, m/s^2, world; the last entry (the
+        step that ends the flight, which sends none) is the command before the cap. Recorded
+        flights keep it so that they replay. MPPI's bounds lie within the cap, so only the
+        goal hold and the route followers can leave it above; in 10 benchmark flights
+        replayed (five variants, 2026-12-05) it was within the cap every time.
     power, rotor_power : ndarray of shape (T,)
         Airspeed-model and rotor power, W.
     energy, rotor_energy : ndarray of shape (T,)
