@@ -1075,6 +1075,12 @@ def navigate(
         if not np.all(np.isfinite(x)):  # the vehicle left the model: stop, keep what was flown
             n = k + 1
             outcome = "collision" if city.contains(T_pos[k:k + 1, :2])[0] else "left_map"
+            diverged_s = (k + 1) * control_dt
+            # said, not only classified: a state that stopped being finite is the simulation
+            # failing, which the outcome alone would pass off as the flight's (audit)
+            warnings.warn(f"{_WHERE}: the vehicle's state became non-finite at "
+                          f"{diverged_s:.2f} s (the simulation left its model); the flight "
+                          f"ends there, recorded as {outcome!r}", RuntimeWarning, stacklevel=2)
             break
     wall = time.perf_counter() - wall0
 
