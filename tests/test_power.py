@@ -194,3 +194,11 @@ def test_a_curve_with_power_at_or_below_zero_is_refused():
                                                  "a power above 0 W"):
                 max_range_speed(curve, wind)
     assert max_range_speed(PowerCurve.from_conditions(10, 1, 4, 7, speed_max=8.0)).power > 0
+
+
+@pytest.mark.parametrize("eff", [1.5, 0.0])
+def test_a_vehicle_refuses_a_motor_efficiency_outside_0_to_1(eff):
+    """``fly`` divides k_m by the vehicle's efficiency before ``rotor_power``, whose own check
+    then never saw it: 1.5 logged less electrical power than the shaft's (audit, 2026-12-05)."""
+    with pytest.raises(ValueError, match="'motor_efficiency' parameter of MultirotorParams"):
+        params("hummingbird", motor_efficiency=eff)

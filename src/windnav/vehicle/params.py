@@ -154,7 +154,11 @@ class MultirotorParams:
         positive_float(self.k_eta, "k_eta", where)
         positive_float(self.tau_m, "tau_m", where)
         positive_float(self.rotor_speed_max, "rotor_speed_max", where)
-        positive_float(self.motor_efficiency, "motor_efficiency", where)
+        if positive_float(self.motor_efficiency, "motor_efficiency", where) > 1.0:
+            # fly divides k_m by it before rotor_power, whose own check then never saw it: 1.5
+            # logged 37.5 W of electrical power for 56.2 W of shaft power (audit, 2026-12-05)
+            raise ValueError(f"The 'motor_efficiency' parameter of {where} must be in (0, 1]. "
+                             f"Got {self.motor_efficiency!r} instead.")
         for name in ("k_m", "k_d", "k_z", "k_h", "k_flap", "c_dx", "c_dy", "c_dz",
                      "rotor_speed_min"):
             positive_float(getattr(self, name), name, where, allow_zero=True)
