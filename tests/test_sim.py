@@ -241,6 +241,36 @@ def test_one_vehicle_in_nan_wind_is_frozen_and_flagged_the_others_fly_on():
     assert np.all(np.isfinite(imu["accel"][:, keep]))
 
 
+def test_a_frozen_vehicle_draws_no_more_energy():
+    """From the step a vehicle's state stops being finite its power is NaN, as its sensors are,
+    and its energy stays where it was; its frozen rotor speeds kept adding to it (audit,
+    2026-12-05: 168.6 J at 3 s where the flight stopped at 56.2 J)."""
+    p = wn.vehicle.params("hummingbird")
+    starts = _hover_starts(2)
+    starts[1, 1] = 100.0
+    log = fly(p, make_trajectory("hover"), PatchyWind(t_bad=0.5, y_bad=50.0), 1.5, batch=2,
+              initial_state=Multirotor(p).hover_state(starts), sensors=NO_SENSORS)
+    k = int(np.argmax(~np.isfinite(log.wind[:, 1, 0])))
+    assert np.all(np.isnan(log.power[k:, 1])) and np.all(np.isfinite(log.power[:k, 1]))
+    assert np.all(log.energy[k:, 1] == log.energy[k, 1])
+    assert log.t[k] == pytest.approx(0.505) and log.energy[k, 1] > 0.0
+    assert np.all(np.isfinite(log.power[:, 0]))
+
+
+@pytest.mark.parametrize("log_every", [1, 3, 7, 100])
+def test_the_log_ends_at_the_flights_end_whatever_log_every(log_every):
+    """10.3 s of hover at 200 Hz (2,060 steps): every log_every-th step and the last, so the
+    log ends at 10.3 s and its energy is the hover power times 10.3 s (at log_every = 100 it
+    ended at 10.0 s, 2.9 % short; audit, 2026-12-05)."""
+    p = wn.vehicle.params("hummingbird")
+    log = fly(p, make_trajectory("hover"), ConstantWind((0, 0, 0)), 10.3, sensors=NO_SENSORS,
+              log_every=log_every)
+    assert log.t[-1] == pytest.approx(10.3)
+    assert np.all(np.diff(log.t) > 0) and np.diff(log.t)[:-1] == pytest.approx(log_every * 0.005)
+    hover = p.n_rotors * p.k_m * p.hover_rotor_speed ** 3
+    assert log.energy[-1, 0] == pytest.approx(hover * 10.3, rel=1e-3)
+
+
 def test_all_vehicles_in_nan_wind_return_a_log_instead_of_raising():
     p = wn.vehicle.params("hummingbird")
     log = fly(p, make_trajectory("hover"), PatchyWind(t_bad=0.2, y_bad=-1e9), 0.5, batch=2,

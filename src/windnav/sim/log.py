@@ -40,7 +40,8 @@ class FlightLog:
     Attributes
     ----------
     t : ndarray of shape (T,)
-        Log times, s.
+        Log times, s: every ``log_every``-th physics step, and the last step when the duration
+        is not a whole number of log intervals.
     position, velocity : ndarray of shape (T, B, 3)
         World frame, m and m/s.
     attitude : ndarray of shape (T, B, 4)
@@ -56,11 +57,13 @@ class FlightLog:
     target_position, target_velocity : ndarray of shape (T, 3)
         Reference trajectory, m and m/s.
     wind : ndarray of shape (T, B, 3)
-        True wind at the centre of mass, world frame, m/s.
+        True wind at the centre of mass, world frame, m/s (with ``hub_wind``, the mean of the
+        wind at the rotor hubs, which equals it only in a uniform or linear field).
     power : ndarray of shape (T, B)
-        Rotor mechanical power over motor efficiency, W.
+        Rotor mechanical power over motor efficiency, W; NaN from the step a vehicle's state
+        stopped being finite (``FlightStatus.NON_FINITE``).
     energy : ndarray of shape (T, B)
-        Cumulative energy, J.
+        Cumulative energy, J (the trapezoid rule over ``t``; held from that step on).
     outside_envelope : ndarray of bool, shape (T, B)
         True where the logged instant is outside the model's envelope (see
         :func:`windnav.vehicle.envelope.outside_envelope`); all False when not given (logs

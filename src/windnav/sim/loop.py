@@ -116,7 +116,8 @@ class LoopState(NamedTuple):
 
 class Instant(NamedTuple):
     """What the loop saw at ``t = step * dt`` before stepping: the raw wind at the centre of mass
-    (B, 3) and, with ``hub_wind``, at every hub (B, N, 3) (else None)."""
+    (B, 3; with ``hub_wind``, the mean over the hubs, which equals it only in a uniform or
+    linear field) and, with ``hub_wind``, at every hub (B, N, 3) (else None)."""
 
     step: int
     t: float
