@@ -378,3 +378,29 @@ def test_a_best_speed_on_the_search_bound_has_no_interval():
     inner = fit.max_range_speed  # an interior optimum keeps its interval
     assert 0.0 < inner.value < 12.0 and inner.ci95[0] < inner.value < inner.ci95[1]
     assert not any(n.startswith("max_range_speed (") for n in fit.notes)
+
+
+def test_one_missing_speed_costs_its_own_sample_and_no_other():
+    """The steady selections slide least-squares lines along the log by running sums; one NaN
+    made every later slope NaN, so nothing after it was steady (the real power log lost 489 of
+    its 1,045 fitted points to one blanked speed; audit, 2026-12-05)."""
+    from windnav.sysid.power import steady_level_mask
+    from windnav.sysid.thrust_stand import steady_mask
+
+    t = np.arange(200) * 0.1
+    v = np.full(200, 5.0)
+    v[50] = np.nan
+    np.testing.assert_array_equal(np.flatnonzero(~steady_level_mask(t, v)), [50])
+    omega = np.full(200, 500.0)
+    omega[50] = np.nan
+    np.testing.assert_array_equal(np.flatnonzero(~steady_mask(t / 10, omega)), [50])
+    # beside the gap, the slopes are the least-squares lines of the finite samples
+    from windnav.sysid._signal import local_slope
+
+    y = 2.0 * t + np.sin(t)
+    y[50] = np.nan
+    slope = local_slope(t, y, 0.4)  # samples i-2 ... i+2
+    assert np.isnan(slope[50])
+    for i in (48, 49, 51, 52):
+        idx = [j for j in range(i - 2, i + 3) if j != 50]
+        assert slope[i] == pytest.approx(np.polyfit(t[idx], y[idx], 1)[0], rel=1e-9)

@@ -20,21 +20,27 @@ def _segments(t: np.ndarray) -> list[np.ndarray]:
 
 def _window_slope(t: np.ndarray, y: np.ndarray, before: int, after: int) -> np.ndarray:
     """Slope of the least-squares line over samples ``i - before ... i + after`` (clipped to
-    each segment), for every sample ``i``; 0 where the window holds one sample."""
+    each segment), for every sample ``i``; 0 where the window holds one sample. A non-finite
+    ``y`` is left out of its neighbours' windows and gets NaN itself (the running sums carried
+    one NaN into every later slope of its segment: a blanked speed dropped the real power log's
+    fit from 1,045 to 556 points; audit, 2026-12-05)."""
     out = np.zeros_like(y)
     for seg in _segments(t):
         ts, ys = t[seg] - t[seg[0]], y[seg]
         n = ts.size
         if n < 2:
             continue
+        w = np.isfinite(ys).astype(np.float64)
+        ys = np.where(w > 0, ys, 0.0)
         c = [np.concatenate([[0.0], np.cumsum(a)])
-             for a in (np.ones(n), ts, ys, ts * ys, ts * ts)]
+             for a in (w, ts * w, ys, ts * ys, ts * ts * w)]
         i = np.arange(n)
         lo, hi = np.clip(i - before, 0, n), np.clip(i + after + 1, 0, n)
         k, st, sy, sty, stt = (a[hi] - a[lo] for a in c)
         den = k * stt - st * st
         ok = (k > 1) & (den > 1e-12 * np.maximum(stt * k, 1e-300))
-        out[seg] = np.where(ok, (k * sty - st * sy) / np.where(ok, den, 1.0), 0.0)
+        out[seg] = np.where(w > 0, np.where(ok, (k * sty - st * sy) / np.where(ok, den, 1.0),
+                                            0.0), np.nan)
     return out
 
 
