@@ -323,11 +323,18 @@ def _on_bound(speed: float, speed_max: float) -> bool:
 
 
 def _delta(func, coef: np.ndarray, cov: np.ndarray, dof: int) -> Estimate:
-    """Estimate of ``func(coef)`` with the delta-method CI."""
+    """Estimate of ``func(coef)`` with the delta-method CI.
+
+    The gradient is a central difference over a thousandth of each coefficient's standard
+    error (a millionth of its value when that is 0). A best speed is found to about
+    ``sqrt(eps) |V|`` only, and the millionth of the value that this step was until 2026-12-05
+    moved it by little more than that: standard errors of V_E 0.69-1.27 x the analytic
+    (implicit-function) ones over 40 noisy fits (audit)."""
     value = func(coef)
     grad = np.empty(coef.size)
     for k in range(coef.size):
-        h = 1e-6 * max(abs(coef[k]), 1e-12) + 1e-9 * np.sqrt(max(cov[k, k], 0.0))
+        sd = np.sqrt(max(cov[k, k], 0.0))
+        h = 1e-3 * sd if sd > 0 else 1e-6 * max(abs(coef[k]), 1e-12)
         up, dn = coef.copy(), coef.copy()
         up[k] += h
         dn[k] -= h
