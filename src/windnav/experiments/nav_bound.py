@@ -140,7 +140,10 @@ def bound_study(records: Iterable[Mapping], *, route_variant: str = "gs-w",
                     if "@power=" not in v and set(ideal) <= set(recs)]
     rows, all_ratios = {}, []
     for v in variants:
-        recs = {sid: r for sid, r in by_variant.get(v, {}).items() if sid in ideal}
+        # harness errors are no flights: left out of the rate, as the benchmark's table does
+        # (they counted as failures here; audit, 2026-12-05)
+        recs = {sid: r for sid, r in by_variant.get(v, {}).items()
+                if sid in ideal and r["outcome"] != "error"}
         if not recs:
             continue
         ok = [r for r in recs.values() if r["outcome"] == "success"]
