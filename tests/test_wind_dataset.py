@@ -151,6 +151,31 @@ def test_save_flow_rejects_mismatched_shapes(tmp_path):
         save_flow(bad, tmp_path / "f.zarr")
 
 
+def test_save_flow_refuses_frames_without_their_times(tmp_path):
+    """load_flow needs a time per frame; save_flow wrote frames without ``t`` and the file did
+    not load back (audit, 2026-12-05)."""
+    sol = fake_solution(tiny_city(), 2.0, 0.0, 2.0, record_every=2)
+    with pytest.raises(ValueError, match="times 't' of its 2 frames"):
+        save_flow(dataclasses.replace(sol, t=None), tmp_path / "f.zarr")
+    assert not (tmp_path / "f.zarr").exists()
+
+
+def test_a_sweep_store_refuses_a_solution_of_another_case(tmp_path):
+    """write_case checks the solution's inlet against the case it is written as (a 9 m/s
+    solution toward 45 deg was written as case 0, 2 m/s toward 0; audit, 2026-12-05)."""
+    solver = FakeSolver(str(tmp_path / "log"))
+    os.mkdir(solver.log_dir)
+    store, _ = sweep(MAPS[:1], tmp_path / "s.zarr", speeds=[2.0], directions_deg=[0.0, 90.0],
+                     settings=SETTINGS, backend="serial", progress=False, seed=3,
+                     simulate=solver)
+    city = tiny_city()
+    with pytest.raises(ValueError, match=r"inlet \(2 m/s toward 90 deg\) is not case 0's"):
+        store.write_case(0, 0, fake_solution(city, 2.0, 90.0, SETTINGS["dx"]))
+    with pytest.raises(ValueError, match=r"inlet \(9 m/s toward 0 deg\) is not case 0's"):
+        store.write_case(0, 0, fake_solution(city, 9.0, 0.0, SETTINGS["dx"]))
+    store.write_case(0, 1, fake_solution(city, 2.0, 450.0, SETTINGS["dx"]))  # 450 = 90 deg
+
+
 # ----------------------------------------------------------------- sweeps
 
 

@@ -123,12 +123,14 @@ def save_flow(solution, path, config: dict | None = None) -> None:
             )
         arrays.update(frames_u=fu, frames_v=fv)
         times = getattr(solution, "t", None)
-        if times is not None:
-            arrays["t"] = np.asarray(times, dtype=np.float64)
-            if arrays["t"].shape != (fu.shape[0],):
-                raise ValueError(f"The 'solution' parameter of save_flow must have one time per "
-                                 f"frame ({fu.shape[0]}). Got t of shape {arrays['t'].shape} "
-                                 "instead.")
+        if times is None:  # load_flow needs a time per frame: saved, the file did not load
+            raise ValueError(f"The 'solution' parameter of save_flow must have the times 't' of "
+                             f"its {fu.shape[0]} frames. Got t = None instead.")
+        arrays["t"] = np.asarray(times, dtype=np.float64)
+        if arrays["t"].shape != (fu.shape[0],):
+            raise ValueError(f"The 'solution' parameter of save_flow must have one time per "
+                             f"frame ({fu.shape[0]}). Got t of shape {arrays['t'].shape} "
+                             "instead.")
     group = zarr.open_group(os.fspath(path), mode="w")
     group.attrs.update(
         {

@@ -500,21 +500,33 @@ class SweepStore:
         Raises
         ------
         ValueError
-            When the solution's grid or solid mask differ from the map's stored ones.
+            When the solution's grid differs from the map's stored one (to 1e-9 of a cell), or
+            its inlet speed or direction from case ``c``'s (a solution of another case was
+            written under this one's name; audit, 2026-12-05).
         """
         g = self._map(k)
         x, y = g["x"][:], g["y"][:]
+        cell = float(np.min(np.diff(x))) if x.size > 1 else 1.0
         if not (
             np.shape(solution.x) == x.shape
             and np.shape(solution.y) == y.shape
-            and np.allclose(solution.x, x)
-            and np.allclose(solution.y, y)
+            and np.allclose(solution.x, x, rtol=0.0, atol=1e-9 * cell)
+            and np.allclose(solution.y, y, rtol=0.0, atol=1e-9 * cell)
         ):
             raise ValueError(
                 f"SweepStore.write_case: the solution's grid ({np.size(solution.y)} x "
                 f"{np.size(solution.x)}) does not match map {k}'s grid ({y.size} x {x.size}) "
                 f"in {self.path!r}."
             )
+        speed, direction = float(self.speeds[c]), float(self.directions_deg[c])
+        got = (float(getattr(solution, "speed", speed)),
+               float(getattr(solution, "direction_deg", direction)))
+        if not (np.isclose(got[0], speed, rtol=1e-12, atol=0.0)
+                and np.isclose((got[1] - direction + 180.0) % 360.0 - 180.0, 0.0, atol=1e-9)):
+            raise ValueError(
+                f"SweepStore.write_case: the solution's inlet ({got[0]:g} m/s toward "
+                f"{got[1]:g} deg) is not case {c}'s ({speed:g} m/s toward {direction:g} deg) "
+                f"in {self.path!r}.")
         data = {
             "wind": np.stack([solution.mean_u, solution.mean_v]).astype(np.float64, copy=False),
             "solid": np.asarray(solution.solid, dtype=bool),
