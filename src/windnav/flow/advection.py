@@ -242,7 +242,10 @@ def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, corner, out):
 
     ``|S| = sqrt(2 S_ij S_ij)``: the normal strains from the face differences of the cell, the
     shear strain ``(du/dy + dv/dx) / 2`` averaged from the cell's four corners (``corner``,
-    (ny + 1, nx + 1) scratch; one-sided at the domain edges). Building cells get ``nu0``.
+    (ny + 1, nx + 1) scratch; at the domain's edges the derivative across the edge, du/dy on
+    the y edges and dv/dx on the x edges, is taken as 0, as the free-slip and zero-gradient
+    sides have it, so an edge cell sees half a shear that crosses it). Building cells get
+    ``nu0``.
     Returns the largest value.
     """
     ny, nx = solid.shape

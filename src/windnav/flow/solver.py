@@ -7,14 +7,15 @@ Bridson 2015, "Fluid Simulation for Computer Graphics"):
     u* = u* + dt div(nu grad u*)         eddy (+ fixed) viscosity, see advection.py
     u  = u* - grad q,  div(grad q) = div(u*)                            see pressure.py
 
-The default closure is a Smagorinsky (1963) subgrid eddy viscosity ``nu_t = (C_s dx)^2 |S|``
-with ``C_s = 0.17`` (Lilly 1967), the standard closure of urban large-eddy simulation. The
-inviscid equations have no length scale for the shear layers that leave a building's corners,
-so without a closure the scheme's numerical diffusion sets the Reynolds number, which then
-grows with every refinement and the shedding frequency drifts (docs/flow_validation.md). The
-eddy viscosity is dissipative where the resolved strain is large (the separating shear
-layers), nearly zero in the free stream, and zero in uniform flow. ``smagorinsky=0`` gives the
-inviscid scheme and ``viscosity`` a fixed kinematic viscosity (a fixed Reynolds number).
+The default closure is a Smagorinsky (1963) subgrid eddy viscosity ``nu_t = (C_s Delta)^2 |S|``
+(``Delta`` the filter width, :func:`default_filter_width`) with ``C_s = 0.17`` (Lilly 1967), the
+standard closure of urban large-eddy simulation. The inviscid equations have no length scale for
+the shear layers that leave a building's corners, so without a closure the scheme's numerical
+diffusion sets the Reynolds number, which then grows with every refinement and the shedding
+frequency drifts (docs/flow_validation.md). The eddy viscosity is dissipative where the resolved
+strain is large (the separating shear layers), nearly zero in the free stream, and zero in
+uniform flow. ``smagorinsky=0`` gives the inviscid scheme and ``viscosity`` a fixed kinematic
+viscosity (a fixed Reynolds number).
 
 The run (:func:`simulate`) starts from the projected uniform inlet flow; a cross-wind kick in
 the cells just downstream of each building starts the shedding and leaves with the first
@@ -158,7 +159,7 @@ def make_flow_step(
         Kinematic viscosity, m^2/s, diffused after advection when ``advect`` is a scheme
         name (0: inviscid Euler, the default).
     smagorinsky : float
-        Smagorinsky constant ``C_s`` of an eddy viscosity ``(C_s dx)^2 |S|`` added to
+        Smagorinsky constant ``C_s`` of an eddy viscosity ``(C_s Delta)^2 |S|`` added to
         ``viscosity`` when ``advect`` is a scheme name (0, the default here: none; the
         default of :func:`simulate` is :data:`SMAGORINSKY`).
     filter_width : float, optional
@@ -589,8 +590,9 @@ def simulate(
         downstream of each building (:func:`initial_velocity`); it starts the shedding and
         leaves with the first vortices. 0: a symmetric start.
     smagorinsky : float
-        Smagorinsky constant ``C_s`` (>= 0) of the eddy viscosity ``(C_s dx)^2 |S|``, the
-        default closure (see the module docstring). 0 turns it off.
+        Smagorinsky constant ``C_s`` (>= 0) of the eddy viscosity ``(C_s Delta)^2 |S|``
+        (``Delta``: ``filter_width``), the default closure (see the module docstring). 0 turns
+        it off.
     filter_width : float, optional
         The eddy viscosity's filter width ``Delta``, m. Default (None):
         :func:`default_filter_width`, ``max(dx, median building side / 8)``, a physical length,
