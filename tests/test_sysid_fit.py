@@ -321,3 +321,31 @@ def test_missing_rosbags_is_an_import_error_with_an_install_hint(tmp_path, monke
 
     with pytest.raises(ImportError, match="pip install rosbags"):
         read_bag(tmp_path / "run.bag", {"f": ("/imu", "linear_acceleration")})
+
+
+def test_a_nonlinear_fit_that_does_not_converge_says_so(monkeypatch):
+    """least_squares stops at its evaluation budget; the last iterate was reported as a fit with
+    intervals, unsaid (audit, 2026-12-05). Here the budget is cut to 2 evaluations."""
+    import warnings
+
+    import scipy.optimize
+
+    from windnav.sysid._fit import nonlinear_fit
+
+    x = np.linspace(0.0, 1.0, 50)
+    y = np.exp(3.0 * x) + 0.01 * np.sin(40 * x)
+
+    def model(b):
+        return b[0] * np.exp(b[1] * x)
+
+    def jac(b):
+        return np.column_stack([np.exp(b[1] * x), b[0] * x * np.exp(b[1] * x)])
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        nonlinear_fit(model, jac, [1.0, 1.0], y, ("a", "k"), source="the samples")
+    solve = scipy.optimize.least_squares
+    monkeypatch.setattr(scipy.optimize, "least_squares",
+                        lambda *a, **kw: solve(*a, **{**kw, "max_nfev": 2}))
+    with pytest.warns(RuntimeWarning, match="fit of a, k to the samples did not converge"):
+        nonlinear_fit(model, jac, [1.0, 1.0], y, ("a", "k"), source="the samples")

@@ -25,6 +25,7 @@ estimates themselves do not change)::
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -283,6 +284,10 @@ def nonlinear_fit(model, jacobian, x0, y, names, *, source: str, bounds=None,
         lambda b: model(b) - y, x0, jac=jacobian, x_scale="jac", method="trf",
         bounds=bounds if bounds is not None else (-np.inf, np.inf),
         xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=500)
+    if res.status <= 0:  # the evaluation budget ran out (0) or the solver failed (-1)
+        warnings.warn(f"nonlinear_fit: the fit of {', '.join(names)} to {source} did not converge "
+                      f"({res.message}); its estimates and intervals are those of the last "
+                      "iterate", RuntimeWarning, stacklevel=2)
     beta = res.x
     fitted = model(beta)
     resid = y - fitted
