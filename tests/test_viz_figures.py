@@ -230,3 +230,18 @@ def test_inflight_legend_names_the_compared_decoders_from_the_data(drawn, tmp_pa
         assert box.x0 >= 0 and box.x1 <= fig.bbox.x1
     with pytest.raises(ValueError, match="'labels' parameter of plot_inflight.*'default'"):
         vn.plot_inflight(result, tmp_path / "c.png", labels={"default": "x"})
+
+
+def test_the_label_studies_and_the_mosaic_mark_their_clipped_colour_scales():
+    """The start study's spread map stops at its 99th percentile and the mosaic's speeds at
+    quantiles: their colour bars carry an arrow where the data pass the scale (audit,
+    2026-12-05), and none where they do not."""
+    import matplotlib.pyplot as plt
+
+    errors = {m: {"speed_error": 1.0, "direction_error_deg": 10.0} for m in vd._MODELS}
+    for image, extend in ((np.linspace(0.0, 2.0, 400).reshape(20, 20), "max"),
+                          (np.full((20, 20), 0.01), "neither")):
+        fig, axes = vd._label_study_figure([("a", errors)], image, vmax=1.0,
+                                           colorbar_label="spread", title="t")
+        assert axes[2].images[0].colorbar.extend == extend
+        plt.close(fig)

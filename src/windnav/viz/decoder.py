@@ -17,6 +17,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import ListedColormap
 
+from windnav.viz.nav_compare import colour_extend
+
 __all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
            "plot_prediction", "plot_size_study", "plot_start", "plot_winds_ablation"]
 
@@ -437,7 +439,8 @@ def plot_mosaic(result: dict, path) -> Path:
         ax.imshow(np.where(result["free"], np.nan, 1.0), origin="lower",
                   extent=(x[0], x[-1], y[0], y[-1]), cmap=ListedColormap(["0.3"]),
                   interpolation="nearest")
-        plt.colorbar(im, ax=ax, label=label, fraction=0.046, pad=0.04)
+        # the speed and speed-error scales stop at a quantile: an arrow says the data pass it
+        plt.colorbar(im, ax=ax, label=label, fraction=0.046, pad=0.04, extend=colour_extend(im))
         ax.set_title(title, fontsize=10)
         ax.set_xlabel("x east (m)")
         ax.set_ylabel("y north (m)")
@@ -641,7 +644,7 @@ def _label_study_figure(groups, image, *, vmax: float, colorbar_label: str, titl
         ax.set_xticks(np.arange(len(_MODELS)), _MODELS)
         ax.set_ylabel(name)
     im = axes[2].imshow(image, origin="lower", cmap="magma", vmin=0.0, vmax=vmax)
-    fig.colorbar(im, ax=axes[2], label=colorbar_label)
+    fig.colorbar(im, ax=axes[2], label=colorbar_label, extend=colour_extend(im))
     axes[2].set_title(title, fontsize=9)
     axes[2].set_xticks([])
     axes[2].set_yticks([])
