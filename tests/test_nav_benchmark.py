@@ -1023,6 +1023,13 @@ def test_chosen_scenarios_are_flown_with_the_suites_seeds_and_the_rest_later(tmp
     rest = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
                             navigate_fn=Fake())
     assert (rest["already"], rest["now"], rest["total"]) == (2, 6, 8)
+    # an id written without its zero padding names the same scenario (it passed the check
+    # and then matched none: 0 flights, exit 0; audit, 2026-12-05)
+    assert nb.check_scenario_ids(two, ["tiny/m1/w0/p1", "tiny/m000/w01/p0"], "x") == \
+        frozenset(ids)
+    again = nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,
+                             navigate_fn=Fake(), scenario_ids=["tiny/m1/w0/p1"])
+    assert (again["scenarios"], again["already"]) == (1, 1)
     for bad in ([], ["tiny/m02/w00/p0"], ["thesis/m00/w00/p0"], ["m00"]):
         with pytest.raises(ValueError, match="'scenario_ids' parameter of run_benchmark"):
             nb.run_benchmark(two, ["mppi"], store, executor="serial", progress=False,

@@ -603,8 +603,13 @@ def _replay(args, name: str) -> int:
     out = outputs(args)
     recorded, known, man = None, {}, _manifest(args.out)
     if man is not None:
+        from windnav.experiments.nav_suite import parse_scenario_id
+
+        with options_named({"'scenario_id' parameter of parse_scenario_id":
+                            f"'--replay' parameter of {name}"}):
+            canonical = parse_scenario_id(spec, args.replay).scenario_id  # m3 is m03
         recorded = NavStore(args.out, spec, create=False).latest().get(
-            (args.replay, args.variant))
+            (canonical, args.variant))
     if recorded is not None:
         known = record_arithmetic(recorded, man)
         status = _pinned(args, known, "replaying", "the record's")

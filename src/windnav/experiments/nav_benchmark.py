@@ -612,9 +612,11 @@ def check_maps(spec: SuiteSpec, maps, where: str) -> tuple[int, ...]:
 
 
 def check_scenario_ids(spec: SuiteSpec, scenario_ids, where: str) -> frozenset | None:
-    """``scenario_ids`` (a sequence of ids of ``spec``, at least one) as a set, each checked
-    with :func:`~windnav.experiments.nav_suite.parse_scenario_id`; None stays None (every
-    scenario)."""
+    """``scenario_ids`` (a sequence of ids of ``spec``, at least one) as a set of their
+    canonical forms (``thesis/m3/w7/p2`` is ``thesis/m03/w07/p2``), each checked with
+    :func:`~windnav.experiments.nav_suite.parse_scenario_id`; None stays None (every
+    scenario). (The ids were kept as given: an unpadded one passed the check and then matched
+    no scenario, and the run flew nothing with exit status 0; audit, 2026-12-05.)"""
     if scenario_ids is None:
         return None
     ids = [scenario_ids] if isinstance(scenario_ids, str) else list(scenario_ids)
@@ -623,9 +625,7 @@ def check_scenario_ids(spec: SuiteSpec, scenario_ids, where: str) -> frozenset |
                          "scenario. Got none instead.")
     with options_named({"'scenario_id' parameter of parse_scenario_id":
                         f"'scenario_ids' parameter of {where}"}):
-        for sid in ids:
-            parse_scenario_id(spec, sid)
-    return frozenset(ids)
+        return frozenset(parse_scenario_id(spec, sid).scenario_id for sid in ids)
 
 
 def check_wind_batch(wind_batch, where: str) -> int:
