@@ -8,6 +8,7 @@ directions inside the wind cone.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -93,3 +94,23 @@ def test_wind_of_names_the_map_and_wind_a_scenario_shares_with_its_pairs():
     assert wind_of("quick/m00/w00/p1") == "quick/m00/w00"
     assert wind_of("my-own-flight") == "my-own-flight"   # another form: its own group
     assert wind_of("thesis/m03/w07/p2\n") == "thesis/m03/w07/p2\n"
+
+
+def test_the_settings_hash_tells_two_decoders_apart():
+    """A decoder among the navigate options is hashed by its weights: its str is the same for
+    every decoder of one architecture, and one store took two decoders' flights as one
+    suite's (audit, 2026-12-05). The committed suites, without one, keep their hashes."""
+    from dataclasses import replace
+
+    from windnav.predict import load_decoder
+
+    thesis = get_suite("thesis")
+    assert thesis.settings_hash() == "7c0d341fac564cde"  # docs/navigation/thesis_manifest.json
+    import windnav.predict
+
+    data = Path(windnav.predict.__file__).parent / "data"
+    shipped, older = load_decoder(), load_decoder(data / "decoder_2026-11-23.npz")
+    hashes = [replace(thesis, navigate_options={"decoder": d}).settings_hash()
+              for d in (shipped, older, load_decoder())]
+    assert hashes[0] != hashes[1] and hashes[0] == hashes[2]
+    assert str(shipped) == str(older)

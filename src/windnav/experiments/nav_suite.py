@@ -66,6 +66,15 @@ KINDS = ("tailwind", "headwind")
 _ID = re.compile(r"(?P<name>[^/\s]+)/m(?P<m>[0-9]+)/w(?P<w>[0-9]+)/p(?P<p>[0-9]+)")
 
 
+def _settings_value(obj) -> str:
+    """How :meth:`SuiteSpec.settings` writes a value JSON has no form for: an object with a
+    ``fingerprint()`` as its type and fingerprint, anything else as its ``str``."""
+    fingerprint = getattr(obj, "fingerprint", None)
+    if callable(fingerprint):
+        return f"{type(obj).__name__} sha256:{fingerprint()}"
+    return str(obj)
+
+
 def derive_seed(seed: int, key: str) -> int:
     """A 32-bit seed from the suite ``seed`` and a string ``key``: SHA-256, first 4 bytes.
 
@@ -186,11 +195,14 @@ class SuiteSpec:
     # -------------------------------------------------------------------------- identity
 
     def settings(self) -> dict:
-        """Everything but the name and seed, JSON-ready (what the settings hash covers)."""
+        """Everything but the name and seed, JSON-ready (what the settings hash covers). An
+        object among ``navigate_options`` with a ``fingerprint()`` (a decoder) is written as
+        its fingerprint: its ``str`` is the same for every decoder of one architecture, so one
+        store took the flights of two decoders as one suite's (audit, 2026-12-05)."""
         d = asdict(self)
         d.pop("name")
         d.pop("seed")
-        return json.loads(json.dumps(d, sort_keys=True, default=str))
+        return json.loads(json.dumps(d, sort_keys=True, default=_settings_value))
 
     def settings_hash(self) -> str:
         """SHA-256 (hex, 16 characters) of :meth:`settings` as canonical JSON."""

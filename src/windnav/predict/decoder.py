@@ -987,6 +987,23 @@ class Decoder:
         """Write this decoder to ``path`` (.npz); see :func:`save_decoder`."""
         return save_decoder(self.weights, self.metadata, path)
 
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of what the predictions depend on: the weights (by name, float32
+        bytes), the architecture, its hyperparameters, the spacing and the boundary rule. Two
+        decoders of one architecture and size print alike; this tells them apart."""
+        import hashlib
+
+        h = hashlib.sha256()
+        h.update(json.dumps({"architecture": self.architecture,
+                             "hyperparameters": self.hyperparameters,
+                             "spacing": self.spacing, "boundary": self.boundary},
+                            sort_keys=True, default=str).encode())
+        for name in sorted(self.weights):
+            w = self.weights[name]
+            h.update(f"{name}{w.shape}".encode())
+            h.update(np.ascontiguousarray(w, dtype=np.float32).tobytes())
+        return h.hexdigest()
+
     def __repr__(self) -> str:
         return (f"Decoder({self.architecture!r}, H={self.size}, spacing={self.spacing:g} m, "
                 f"{self.n_parameters} parameters)")
