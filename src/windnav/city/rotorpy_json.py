@@ -9,7 +9,9 @@ Each block becomes one footprint ``[xmin, xmax, ymin, ymax]`` with ``base_z = zm
 ``height = zmax - zmin``. Every other key (block ``"color"``, ``"trainable"``, extra top-level
 sections) is kept on the :class:`~windnav.city.core.City` and written back, so reading and
 writing a file is lossless: ``json.load`` of the output equals ``json.load`` of the input
-(numbers are written as floats, which compare equal to the integers they came from).
+(numbers are written as floats, which compare equal to the integers they came from), but
+for one addition: a block without a ``"color"`` is written with :data:`DEFAULT_COLOR`, the
+grey every block of a generated map gets.
 
 This module is the document layer (JSON text and dictionaries, checked); it does not import
 :class:`~windnav.city.core.City`, which builds itself from :func:`parse_rotorpy_doc`
