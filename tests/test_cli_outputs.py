@@ -313,6 +313,14 @@ def test_record_log_refuses_another_study_and_skips_a_torn_line(tmp_path):
     assert [r["index"] for r in got] == [0, 2] and math.isnan(got[0]["rmse"])
     with pytest.raises(res.RecordMismatchError, match="another study"):
         res.RecordLog(tmp_path / "r.jsonl", {"seed": 2}).load()
+    # a NaN in the header is the same study on resume (NaN != NaN refused it as another's;
+    # audit, 2026-12-05), another value still another study
+    nan = res.RecordLog(tmp_path / "n.jsonl", {"tau": float("nan"), "seed": 1})
+    nan.append({"index": 0})
+    assert res.RecordLog(tmp_path / "n.jsonl", {"seed": 1, "tau": float("nan")}).load() == \
+        [{"index": 0}]
+    with pytest.raises(res.RecordMismatchError, match="another study"):
+        res.RecordLog(tmp_path / "n.jsonl", {"seed": 1, "tau": 2.0}).load()
 
 
 def test_record_log_takes_an_empty_or_torn_header_file_for_no_records(tmp_path):

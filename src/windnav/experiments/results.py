@@ -623,6 +623,11 @@ class _Stage:
 # ------------------------------------------------------------------------------- record logs
 
 
+def _canonical(obj) -> str:
+    """``obj`` as JSON with sorted keys (NaN written as ``NaN``, so equal to itself)."""
+    return json.dumps(obj, sort_keys=True)
+
+
 class RecordLog:
     """Finished records of a study, one JSON line each, kept across interruptions.
 
@@ -668,7 +673,10 @@ class RecordLog:
             head = json.loads(lines[0])["header"] if lines else None
         except (json.JSONDecodeError, KeyError, TypeError):
             head = None
-        if head != self.header:
+        # compared as canonical JSON: a NaN in the header (kept, keep_nonfinite) is never
+        # equal to itself, so such a log was refused as another study's on every resume
+        # (audit, 2026-12-05)
+        if head is None or _canonical(head) != _canonical(self.header):
             raise RecordMismatchError(
                 f"The record log {str(self.path)!r} holds the records of another study (or is "
                 "not a record log); move it away, or start over.")
