@@ -1078,3 +1078,26 @@ def test_a_recipe_base_is_checked(tmp_path):
     (tmp_path / "w.toml").write_text('base = 3\n')
     with pytest.raises(ValueError, match="must have base.*a recipe file name. Got 3"):
         load_recipe(tmp_path / "w.toml")
+
+
+def test_train_decoder_trains_on_the_rest_when_a_sweep_task_fails(tmp_path, capsys):
+    """A flow that fails (here every direction past 100 deg) is listed and left out, and the
+    model trains on the rest; the listing named a task's ``direction_deg``, which a task has
+    not, and crashed after the sweep (CLI audit, 2026-12-05)."""
+    from windnav.commands import train_decoder as command
+    from windnav.flow import simulate as real
+
+    def failing(city, speed, direction_deg, **kw):
+        if direction_deg > 100:
+            raise RuntimeError("a flow that diverged")
+        return real(city, speed=speed, direction_deg=direction_deg, **kw)
+
+    parser = argparse.ArgumentParser()
+    command.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["train-decoder", "--config", "tiny", "--out",
+                              str(tmp_path / "run"), "--no-progress"])
+    assert command.run(args, simulate=failing) == 0
+    err = capsys.readouterr().err
+    assert "failed: map 0 cases [1] (speeds 3 m/s, directions 125 deg): RuntimeError: a flow" in err
+    assert "sweep task(s) failed and are left out of the training" in err
+    assert (tmp_path / "run" / "model.npz").exists()

@@ -168,10 +168,9 @@ def _train(args, name, recipe, out_dir, store, out, simulate) -> int:
         return 130
     sweep_seconds = times.this["sweep_seconds"]
     failed = [r for r in results if not r.ok]
-    for r in failed:
-        t = r.task
-        print(f"failed: map {t.map_index} cases {list(t.case_indices)} (direction "
-              f"{t.direction_deg:g} deg): {(r.error or '').splitlines()[0]}", file=sys.stderr)
+    for r in failed:  # (it named a task's direction_deg, which a task has not: a crash)
+        print(f"failed: {r.task.describe()}: {(r.error or '').splitlines()[0]}",
+              file=sys.stderr)
     total = st.n_maps * st.n_cases
     print(f"sweep {st.path}: {total - len(st.pending())}/{total} simulations done "
           f"({sum(len(r.task.case_indices) for r in results if r.ok)} now, "

@@ -204,11 +204,7 @@ def run(args, simulate=None) -> int:
     n_now = sum(len(r.task.case_indices) for r in results) - n_failed
     n_done = total - len(store.pending())
     for r in failed:
-        t = r.task
-        first = (r.error or "").splitlines()[0]
-        print(f"failed: map {t.map_index} cases {list(t.case_indices)} (speeds "
-              f"{', '.join(f'{s:g}' for s in t.speeds)} m/s, directions "
-              f"{', '.join(f'{d:g}' for d in t.directions_deg)} deg): {first}")
+        print(f"failed: {r.task.describe()}: {(r.error or '').splitlines()[0]}")
     print(f"{store.path}: {n_done}/{total} simulations done "
           f"({n_now} now, {total - n_now - n_failed} already, {n_failed} failed)")
     averaging = averaging_summary(store)

@@ -86,6 +86,12 @@ class SweepTask:
     simulate: object = None
     memory_limit: float | None = None
 
+    def describe(self) -> str:
+        """``map K cases [...] (speeds ... m/s, directions ... deg)``, for messages."""
+        return (f"map {self.map_index} cases {list(self.case_indices)} (speeds "
+                f"{', '.join(f'{s:g}' for s in self.speeds)} m/s, directions "
+                f"{', '.join(f'{d:g}' for d in self.directions_deg)} deg)")
+
     @property
     def case_index(self) -> int:
         """The case of a one-simulation task."""
