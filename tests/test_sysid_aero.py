@@ -95,6 +95,11 @@ def test_csv_without_rotor_speeds_names_file_and_columns(tmp_path):
     full = write_csv(tmp_path / "full.csv", _model_samples(10).to_columns())
     with pytest.raises(ValueError, match="'--mass' parameter"):
         _cli("sysid", "aero", "--csv", full, "--out", tmp_path / "o")
+    # both: --mass won silently, the coefficients scaled by it (CLI audit, 2026-12-05)
+    with pytest.raises(ValueError, match="'--mass' parameter of .* must not be given with "
+                                         "--vehicle"):
+        _cli("sysid", "aero", "--csv", full, "--mass", MASS, "--vehicle", "crazyflie_thesis",
+             "--out", tmp_path / "o")
 
 
 def _write_bag(path, data: AeroData, ros1: bool):

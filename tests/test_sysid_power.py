@@ -422,3 +422,19 @@ def test_best_speed_standard_errors_equal_the_implicit_function_ones():
         grad = -np.array([0.0, 1.0, 2 * ve, 3 * ve**2]) / curvature
         assert fit.max_endurance_speed.std_error == pytest.approx(np.sqrt(grad @ cov @ grad),
                                                                    rel=0.01)
+
+
+def test_the_flight_selection_options_need_their_columns(tmp_path):
+    """Without --time-col the steady-level selection does not run: its options were accepted,
+    recorded in the JSON and ignored, every row fitted (a quarter of the rows on the ground,
+    15 W high, moved hover_W from 60.00 to 65.27 W unsaid; CLI audit, 2026-12-05)."""
+    v = np.repeat(np.linspace(0.0, 8.0, 17), 4)
+    path = write_csv(tmp_path / "p.csv", {"speed": v, "power": 60.0 + 0.1 * v ** 2,
+                                          "alt": np.full(v.size, 10.0)})
+    for extra, need in ((("--altitude-col", "alt", "--min-altitude", "2"), "--time-col"),
+                        (("--max-accel", "0.3"), "--time-col"),
+                        (("--min-segment-s", "2"), "--time-col"),
+                        (("--time-col", "speed", "--min-altitude", "2"), "--altitude-col")):
+        with pytest.raises(ValueError, match=f"'{need}' parameter of windnav sysid power"):
+            _power_doc(path, tmp_path, *extra)
+    assert _power_doc(path, tmp_path)["hover_W"] == pytest.approx(60.0, abs=1e-6)

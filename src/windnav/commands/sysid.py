@@ -229,12 +229,37 @@ def _register_aero(ss) -> None:
     p.set_defaults(func=run_aero)
 
 
+POWER_SELECTION = {"max_vertical_speed": 0.3, "max_accel": 0.5, "min_segment_s": 1.0}
+"""Defaults of ``sysid power``'s steady-level selection (with ``--time-col``)."""
+
+
+def _check_power_selection(args, name: str) -> None:
+    """The selection of steady level flight runs only with ``--time-col``, and the altitude
+    limit only with ``--altitude-col``: given without them, they were accepted, recorded in
+    the JSON and ignored, every row fitted (CLI audit, 2026-12-05)."""
+    if args.time_col is None:
+        given = [f"--{k.replace('_', '-')}" for k in (
+            "vertical_speed_col", "altitude_col", "min_altitude", *POWER_SELECTION)
+            if getattr(args, k) is not None]
+        if given:
+            raise ValueError(f"The '--time-col' parameter of {name} must be given with "
+                             f"{', '.join(given)}: the selection of steady level flight needs "
+                             "the samples' times (without it every row is fitted). Got none "
+                             "instead.")
+    if args.min_altitude is not None and args.altitude_col is None:
+        raise ValueError(f"The '--altitude-col' parameter of {name} must be given with "
+                         "--min-altitude. Got none instead.")
+
+
 def _aero_mass(args, logs, name: str) -> float:
     """The mass the fit divides by, kg: ``--mass``, ``--vehicle``'s, or what the logs say; a
     note on stderr when the given one differs from the logs' by more than 10 % (27 for 0.027
     kg gave drag coefficients 600 x too large, unflagged)."""
     from windnav.experiments.sysid import vehicle_names, vehicle_params
 
+    if args.mass is not None and args.vehicle is not None:  # --mass won, unsaid (CLI audit)
+        raise ValueError(f"The '--mass' parameter of {name} must not be given with --vehicle, "
+                         "which sets the mass too. Got both instead.")
     if args.mass is not None or args.vehicle is not None:
         if args.mass is not None:
             mass, what = positive_float(args.mass, "--mass", name), "--mass"
@@ -384,12 +409,13 @@ def _register_power(ss) -> None:
     p.add_argument("--altitude-col", default=None, help="height column, m (default: none)")
     p.add_argument("--min-altitude", type=float, default=None,
                    help="keep samples above, m (default: none, no altitude limit)")
-    p.add_argument("--max-vertical-speed", type=float, default=0.3,
-                   help="level: |climb rate| below, m/s (%(default)s)")
-    p.add_argument("--max-accel", type=float, default=0.5,
-                   help="steady: |dV/dt| below, m/s^2 (%(default)s)")
-    p.add_argument("--min-segment-s", type=float, default=1.0,
-                   help="drop steady runs shorter than this, s (%(default)s)")
+    p.add_argument("--max-vertical-speed", type=float, default=None,
+                   help=f"level: |climb rate| below, m/s ({POWER_SELECTION['max_vertical_speed']})")
+    p.add_argument("--max-accel", type=float, default=None,
+                   help=f"steady: |dV/dt| below, m/s^2 ({POWER_SELECTION['max_accel']})")
+    p.add_argument("--min-segment-s", type=float, default=None,
+                   help=f"drop steady runs shorter than this, s "
+                        f"({POWER_SELECTION['min_segment_s']})")
     p.add_argument("--speed-range", type=float, nargs=2, default=None, metavar=("LO", "HI"),
                    help="fit only the samples with speeds in [LO, HI], m/s (default: all)")
     p.add_argument("--degree", type=int, default=3, help="polynomial degree (%(default)s)")
@@ -435,6 +461,9 @@ def run_power(args) -> int:
         raise ValueError(f"The '--bag' parameter of {name} takes one bag.")
     speed_max = (None if args.speed_max is None
                  else positive_float(args.speed_max, "--speed-max", name))
+    _check_power_selection(args, name)
+    selection = {k: POWER_SELECTION[k] if getattr(args, k) is None else getattr(args, k)
+                 for k in POWER_SELECTION}
     out = _outputs(args, "power")
     table = (read_table(args.csv, layout=args.layout, where=name) if args.csv is not None
              else _bag_tables(args, args.time_col or "time_s")[0])
@@ -442,10 +471,10 @@ def run_power(args) -> int:
         table, args.speed_col, args.power_col, degree=degree, speed_max=speed_max,
         time_col=args.time_col, vertical_speed_col=args.vertical_speed_col,
         altitude_col=args.altitude_col, min_altitude=args.min_altitude,
-        max_vertical_speed=positive_float(args.max_vertical_speed, "--max-vertical-speed",
-                                          name),
-        max_accel=positive_float(args.max_accel, "--max-accel", name),
-        min_segment_s=positive_float(args.min_segment_s, "--min-segment-s", name,
+        max_vertical_speed=positive_float(selection["max_vertical_speed"],
+                                          "--max-vertical-speed", name),
+        max_accel=positive_float(selection["max_accel"], "--max-accel", name),
+        min_segment_s=positive_float(selection["min_segment_s"], "--min-segment-s", name,
                                      allow_zero=True),
         winds=winds, speed_range=_speed_range(args.speed_range, name), where=name)
     payload["notes"] = [*payload["notes"], *_power_notes(fit, payload)]
