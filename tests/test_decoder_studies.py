@@ -222,6 +222,11 @@ def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys)
     assert cli.main(["decoder-study", "eigenflows", "--quick", "--out", str(out),
                      "--no-progress"]) == 2
     assert "--overwrite" in capsys.readouterr().err
+    # --quick takes 64 samples: --samples beside it was replaced, unsaid (CLI audit)
+    assert cli.main(["decoder-study", "eigenflows", "--quick", "--samples", "500", "--out",
+                     str(tmp_path / "other"), "--no-progress"]) == 2
+    assert "'--samples' parameter of windnav decoder-study must not be given with --quick" \
+        in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("study, option, value, why", [

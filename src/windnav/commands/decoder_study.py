@@ -118,8 +118,10 @@ def register(subparsers) -> None:
     p.add_argument("--inlets", type=int, default=None, metavar="N",
                    help="random inlets per map (default 2; the mosaic uses the first; not "
                         "with --quick, whose one inlet is fixed)")
-    p.add_argument("--samples", type=int, default=2048, metavar="N",
-                   help="samples per (map, inlet) for eigenflows and gradients (default 2048)")
+    p.add_argument("--samples", type=int, default=None, metavar="N",
+                   help="samples per (map, inlet) for eigenflows, gradients, noise, direction, "
+                        "basis, averaging and start (default 2048; not with --quick, whose "
+                        "studies take 64)")
     p.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
                    help="eigenflows, gradients, mosaic, noise, direction, basis: keep the flow "
                         "solutions here and reuse them (default: no cache)")
@@ -292,7 +294,10 @@ def run(args, simulate=None) -> int:
     if study in TRAINING_STUDIES:  # before their sweep, which ran whole before this failed
         require("torch", f"windnav {name} {study}")
     t0 = time.perf_counter()
-    samples = 64 if args.quick else args.samples
+    if args.quick and args.samples is not None:  # it was replaced by 64, unsaid (CLI audit)
+        raise ValueError(f"The '--samples' parameter of {name} must not be given with --quick, "
+                         f"whose studies take 64 samples. Got {args.samples!r} instead.")
+    samples = 64 if args.quick else (2048 if args.samples is None else args.samples)
     flows = None
     if study != "noise" and args.compare:
         raise ValueError(f"The '--compare' parameter of {name} is for the noise study. Got "
