@@ -1002,6 +1002,24 @@ def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_pa
     assert "| mppi | 1 |" in capsys.readouterr().out
     with pytest.raises(ValueError, match="'--scenarios' parameter"):
         command(["--out", store, "--table", "--scenarios", "quick/m07/w00/p0"])
+    # one mode at a time, and each mode's options only with it (CLI audit, 2026-12-05:
+    # --table --check 2 printed the table and exited 0, checking nothing)
+    for argv, match in ((["--table", "--check", "2"], "'--check' parameter .* with --table"),
+                        (["--check", "2", "--replay", "quick/m00/w00/p0", "--variant", "mppi"],
+                         "'--replay' parameter .* with --check"),
+                        (["--against", store], "'--against' parameter .* only with --table"),
+                        (["--table", "--retry-errors"], "'--retry-errors' .* only when flying"),
+                        (["--table", "--variant", "mppi"], "'--variant' .* only with --replay")):
+        with pytest.raises(ValueError, match=match):
+            command(["--out", store, *argv])
+    # typing the flying default is asking for those variants, not for every one in the store
+    assert command(["--suite", "quick", "--variants", "gs", "--executor", "serial",
+                    "--out", store, "--no-progress"]) == 0
+    capsys.readouterr()
+    assert command(["--out", store, "--table"]) == 0
+    assert "| gs |" in capsys.readouterr().out
+    assert command(["--out", store, "--table", "--variants", bench_cmd.DEFAULT_VARIANTS]) == 0
+    assert "| gs |" not in capsys.readouterr().out
 
 
 def test_chosen_scenarios_are_flown_with_the_suites_seeds_and_the_rest_later(tmp_path,

@@ -58,9 +58,9 @@ def register(subparsers) -> None:
     )
     p.add_argument("--suite", choices=tuple(SUITES), default=None,
                    help="the suite (required for a new store; default: the store's own)")
-    p.add_argument("--variants", default=DEFAULT_VARIANTS,
-                   help="comma-separated planner variants (to fly: %(default)s; with "
-                        "--table or --check: every variant the store holds)")
+    p.add_argument("--variants", default=None,
+                   help=f"comma-separated planner variants (to fly: default {DEFAULT_VARIANTS}; "
+                        "with --table or --check: default every variant the store holds)")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the tasks run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -151,6 +151,7 @@ def run(args) -> int:
     name = where(args)
     if args.seed is not None:
         seed(args)
+    _check_modes(args, name)
     if args.portable and (args.replay is not None or args.check is not None):
         raise ValueError(f"The '--portable' parameter of {name} applies to flying a suite; a "
                          "replay or a check runs under the arithmetic of its records. Got "
@@ -176,11 +177,34 @@ def run(args) -> int:
     return _run(args, name)
 
 
+def _check_modes(args, name: str) -> None:
+    """``--table``, ``--check`` and ``--replay`` one at a time, and each mode's options only
+    with it: ``--table --check 2`` printed the table and exited 0, checking nothing, and
+    ``--against``, ``--variant`` and ``--retry-errors`` were ignored outside their modes
+    (CLI audit, 2026-12-05)."""
+    modes = [flag for flag, on in (("--table", args.table), ("--check", args.check is not None),
+                                   ("--replay", args.replay is not None)) if on]
+    if len(modes) > 1:
+        raise ValueError(f"The '{modes[1]}' parameter of {name} must not be given with "
+                         f"{modes[0]}: one of --table, --check and --replay at a time. Got "
+                         f"{' and '.join(modes)} instead.")
+    mode = modes[0] if modes else None
+    for flag, given, belongs in (("--against", args.against is not None, "--table"),
+                                 ("--variant", args.variant is not None, "--replay"),
+                                 ("--retry-errors", args.retry_errors, None)):
+        if given and mode != belongs:
+            what = f"only with {belongs}" if belongs else "only when flying a suite"
+            raise ValueError(f"The '{flag}' parameter of {name} applies {what}. Got it "
+                             f"{'with ' + mode if mode else 'without ' + str(belongs)} "
+                             "instead.")
+
+
 def _variants(args, name: str) -> tuple[str, ...]:
     from windnav.experiments.nav_benchmark import check_variants
 
     with options_named({"'variants'": "'--variants'"}):
-        return check_variants(args.variants, name)
+        return check_variants(DEFAULT_VARIANTS if args.variants is None else args.variants,
+                              name)
 
 
 def suite_maps(text, spec, name: str) -> tuple[int, ...]:
@@ -315,7 +339,8 @@ def _stored(args, name: str):
     if chosen is not None:
         records = [r for r in records if r.get("scenario_id") in chosen]
     present = sorted({r["variant"] for r in records})
-    asked = args.variants if args.variants != DEFAULT_VARIANTS else ",".join(present)
+    # (None, not the flying default: typing that default string tabulated every variant)
+    asked = args.variants if args.variants is not None else ",".join(present)
     return spec, records, (check_variants(asked, name) if asked else ())
 
 
