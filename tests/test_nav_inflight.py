@@ -1,6 +1,8 @@
 """The decoder in flight (windnav.experiments.nav_inflight): samples along a flown path, scored
 against the flow's mean field, and the input errors of the onboard W_robot."""
 
+import re
+
 import numpy as np
 import pytest
 from scipy.interpolate import RegularGridInterpolator
@@ -210,6 +212,20 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
     assert cli.main(["nav-study", "bound", "--out", str(tmp_path / "b"), "--store",
                      str(tmp_path / "s"), "--compare", "x=y.npz"]) == 2
     assert "'--compare' parameter" in capsys.readouterr().err
+    # every option a study does not read is refused (they were ignored, the JSON's arguments
+    # alone differing; CLI audit, 2026-12-05)
+    for study, bad, why in (("bound", ["--variant", "mppi"], "'--variant' parameter .* is for "
+                                                              "the cases, pace, inflight"),
+                            ("bound", ["--values", "3"], "'--values' parameter"),
+                            ("bound", ["--seed", "7"], "'--seed' parameter .* gs study"),
+                            ("winds", ["--maps", "0"], "'--maps' parameter"),
+                            ("gs", ["--map", "0"], "'--map' parameter .* winds study"),
+                            ("gusts", ["--every", "1"], "'--every' parameter")):
+        assert cli.main(["nav-study", study, "--out", str(tmp_path / "o"), "--store",
+                         str(tmp_path / "s"), *bad] if study == "bound" else
+                        ["nav-study", study, "--out", str(tmp_path / "o"), *bad]) == 2
+        err = capsys.readouterr().err
+        assert re.search(why, err), err
 
 
 def test_the_command_resumes_an_interrupted_study_with_the_same_result(tmp_path, monkeypatch,

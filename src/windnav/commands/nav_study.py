@@ -116,11 +116,11 @@ def register(subparsers) -> None:
                    help="cases, pace: the variant compared with MPPI (default ea-mppi-w); "
                         "inflight: the onboard-stack variant re-flown (default "
                         "ea-mppi-w-hat@outside=robot)")
-    p.add_argument("--pairs", default="0,2", metavar="LIST",
-                   help="inflight: the pairs of each wind flown (%(default)s: one tailwind, "
+    p.add_argument("--pairs", default=None, metavar="LIST",
+                   help="inflight: the pairs of each wind flown (default 0,2: one tailwind, "
                         "one headwind)")
-    p.add_argument("--every", type=float, default=0.5,
-                   help="inflight: seconds between samples along a flight (%(default)s)")
+    p.add_argument("--every", type=float, default=None,
+                   help="inflight: seconds between samples along a flight (default 0.5)")
     p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
                    help="inflight: another decoder scored on the same samples (repeatable; it "
                         "does not fly)")
@@ -128,14 +128,14 @@ def register(subparsers) -> None:
                    help="inflight: also score the decoder and Local given the UKF's estimate "
                         "averaged over time with each time constant, s (> 0; the onboard "
                         "stack's '@tau=S'); nothing flies differently (default: none)")
-    p.add_argument("--map", type=int, default=0, help="winds: the suite's map (%(default)s)")
+    p.add_argument("--map", type=int, default=None, help="winds: the suite's map (default 0)")
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
                         "all)")
-    p.add_argument("--seed", type=int, default=0, help="gs: the flights' seed (%(default)s)")
-    p.add_argument("--cache", type=Path, default=Path("runs/reach"),
+    p.add_argument("--seed", type=int, default=None, help="gs: the flights' seed (default 0)")
+    p.add_argument("--cache", type=Path, default=None,
                    help="feasibility: folder of the per-scenario reach records (created or "
-                        "resumed; %(default)s)")
+                        "resumed; default runs/reach)")
     p.add_argument("--airspeeds", type=float, nargs="+", default=None,
                    help="feasibility: the airspeed limits searched, m/s (default: 10, the "
                         "Hummingbird's envelope limit 13.45, 16); the figure and table use the "
@@ -148,8 +148,8 @@ def register(subparsers) -> None:
     p.add_argument("--base", default=None,
                    help="gusts: the sixth variant's setting, without @gust (default "
                         "ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40)")
-    p.add_argument("--gust-k", type=float, default=0.5,
-                   help="gusts: the gust margin, standard deviations (%(default)s)")
+    p.add_argument("--gust-k", type=float, default=None,
+                   help="gusts: the gust margin, standard deviations (default 0.5)")
     p.add_argument("--executor", choices=BACKENDS, default="process",
                    help="where the flights run (%(default)s)")
     p.add_argument("--workers", type=int, default=None,
@@ -158,6 +158,42 @@ def register(subparsers) -> None:
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
+
+
+STUDY_OPTIONS = {
+    "store": ("qe", "h", "cases", "pace", "bound", "tilt", "feasibility"),
+    "maps": ("qe", "h", "pace", "bound", "tilt", "inflight", "feasibility"),
+    "values": ("qe", "h", "tilt"),
+    "variant": ("cases", "pace", "inflight"),
+    "workers": ("qe", "h", "tilt", "inflight", "feasibility"),
+    "pairs": ("inflight",), "every": ("inflight",), "compare": ("inflight",),
+    "tau": ("inflight",),
+    "map": ("winds",),
+    "case": ("gs",), "seed": ("gs",),
+    "cache": ("feasibility",), "airspeeds": ("feasibility",), "fly": ("feasibility",),
+    "scenario": ("gusts",), "base": ("gusts",), "gust_k": ("gusts",),
+}
+"""The studies that read each option; given to another, it is refused."""
+
+LATE_DEFAULTS = {"pairs": "0,2", "every": 0.5, "map": 0, "seed": 0,
+                 "cache": Path("runs/reach"), "gust_k": 0.5}
+"""Defaults set once the options are checked (None until then, so that a given one shows)."""
+
+
+def _check_study_options(args, name: str) -> None:
+    """Refuse an option the study does not read, then fill in :data:`LATE_DEFAULTS`: such
+    options were accepted and ignored, only the JSON's ``arguments`` differing (``bound
+    --variant mppi --values 3 --seed 7`` wrote the plain ``bound``'s results; CLI audit,
+    2026-12-05)."""
+    for key, studies in STUDY_OPTIONS.items():
+        value = getattr(args, key)
+        if args.study not in studies and value not in (None, []):
+            raise ValueError(f"The '--{key.replace('_', '-')}' parameter of {name} is for the "
+                             f"{', '.join(studies)} {'study' if len(studies) == 1 else 'studies'}"
+                             f". Got {value!r} for {args.study!r} instead.")
+    for key, default in LATE_DEFAULTS.items():
+        if getattr(args, key) is None:
+            setattr(args, key, default)
 
 
 def _check_store(store: Path, name: str) -> None:
@@ -193,12 +229,7 @@ def run(args) -> int:
     name = where(args)
     study = args.study
     spec = get_suite(args.suite)
-    if study != "inflight" and args.compare:
-        raise ValueError(f"The '--compare' parameter of {name} is for the inflight study. Got "
-                         f"{args.compare!r} for {study!r} instead.")
-    if study != "inflight" and args.tau:
-        raise ValueError(f"The '--tau' parameter of {name} is for the inflight study. Got "
-                         f"{args.tau!r} for {study!r} instead.")
+    _check_study_options(args, name)
     if study == "winds":
         return _winds(args, name, spec)
     if study == "gs":
