@@ -288,6 +288,19 @@ def test_map_weights_repeat_a_groups_training_fields(tiny):
     assert _fingerprint(changed) != _fingerprint(recipe)
 
 
+def test_thesis_mlp_trains_without_augmentation_from_the_cached_model_frame(tiny, tmp_path):
+    """The model-frame cache (the default) kept a D4 frame ``g`` the thesis MLP's features do
+    not have: a KeyError at setup whenever it trained without augmentation (audit,
+    2026-12-05)."""
+    recipe, out, _ = tiny
+    mlp = copy.deepcopy(recipe)
+    mlp["model"] = {"architecture": "thesis-mlp", "hyperparameters": {"width": 64, "depth": 2}}
+    mlp["train"].update(epochs=1, augment_d4=False, cache=True)
+    h = train_decoder(mlp, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None)
+    assert len(h["epochs"]) == 1 and np.isfinite(h["epochs"][0]["train_loss"])
+
+
 def test_thesis_mlp_trains_with_d4_augmentation(tiny, tmp_path):
     recipe, out, _ = tiny
     mlp = copy.deepcopy(recipe)
@@ -882,6 +895,11 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"train": {"direction_loss": "sine"}}, "train.direction_loss"),
     ({"train": {"speed_loss_weight": -1.0}}, "train.speed_loss_weight"),
     ({"train": {"flush_denormal": 1}}, "train.flush_denormal"),
+    # strings are truthy: augment_d4 = "false" augmented (audit, 2026-12-05)
+    ({"train": {"augment_d4": "false"}}, "train.augment_d4"),
+    ({"train": {"cache": "no"}}, "train.cache"),
+    ({"train": {"tensorboard": 0}}, "train.tensorboard"),
+    ({"train": {"loss_speed_power": -1.0}}, "train.loss_speed_power"),
     ({"data": {"validation_maps": []}}, "data.validation_maps"),
     ({"data": {"exclude_maps": "train-1"}}, "data.exclude_maps"),
     ({"data": {"exclude_maps": ["holdout-0"]}}, "data.exclude_maps"),

@@ -89,9 +89,10 @@ def register(subparsers) -> None:
                    help="sweep workers (default: the recipe's)")
     p.add_argument("--seed", type=int, default=None, metavar="N",
                    help="the training's seed, in place of the recipe's train.seed: the "
-                        "weights' initialisation, the batch order and each epoch's fresh "
-                        "samples; the sweep and the validation samples stay the recipe's, so "
-                        "runs of several seeds share one sweep (give each its own --out)")
+                        "weights' initialisation (and the augmentation's draws); the samples "
+                        "and their order come from data.seed, and the sweep and the validation "
+                        "samples stay the recipe's, so runs of several seeds share one sweep "
+                        "(give each its own --out)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)

@@ -317,7 +317,9 @@ def load_recipe(config) -> dict:
         :func:`recipe_path`); missing keys take :data:`DEFAULTS`. A file
         may start from another with ``base = "default.toml"`` (a path relative to its own
         folder): its tables are merged over the base's key by key, and anything else it sets
-        (a list such as ``sweep.maps`` included) replaces the base's.
+        (a list such as ``sweep.maps`` included) replaces the base's, as do the tables
+        ``model.hyperparameters``, ``sweep.settings`` and ``data.map_weights``
+        (:data:`_WHOLE_TABLES`).
 
     Returns
     -------
@@ -372,7 +374,8 @@ def _check_recipe(r: dict, where: str) -> None:
         if not isinstance(t[key], (int, float)) or not 0 < t[key] < math.inf:
             fail(f"train.{key}", "a positive number", t[key])
     for key in ("weight_decay", "warmup_fraction", "final_lr_fraction",
-                "direction_loss_weight", "speed_loss_weight", "direction_fade"):
+                "direction_loss_weight", "speed_loss_weight", "direction_fade",
+                "loss_speed_power"):
         top = 1 if key in ("warmup_fraction", "final_lr_fraction") else math.inf
         if not isinstance(t[key], (int, float)) or not 0 <= t[key] <= top:
             fail(f"train.{key}", "a number >= 0 (a fraction <= 1)", t[key])
@@ -393,8 +396,11 @@ def _check_recipe(r: dict, where: str) -> None:
         fail("train.augment_speed", "[] or [lo, hi] with 0 < lo <= hi, m/s", sp)
     if t["device"] not in ("auto", "cpu", "cuda"):
         fail("train.device", "'auto', 'cpu' or 'cuda'", t["device"])
-    if not isinstance(t["flush_denormal"], bool):
-        fail("train.flush_denormal", "true or false", t["flush_denormal"])
+    # true or false, not a string: "false" is truthy, so augment_d4 = "false" augmented
+    # (audit, 2026-12-05)
+    for key in ("flush_denormal", "augment_d4", "cache", "tensorboard"):
+        if not isinstance(t[key], bool):
+            fail(f"train.{key}", "true or false", t[key])
     if not isinstance(d["validation_maps"], list) or not d["validation_maps"]:
         fail("data.validation_maps", "a non-empty list of store map names (held out)",
              d["validation_maps"])
@@ -681,6 +687,8 @@ def _model_frame_in_place(arch, scans, w_up, w_robot, labels, free, chunk: int =
                           np.asarray(w_robot[sl], np.float32))
         lab[sl], fr[sl] = arch.model_labels(lab[sl], fr[sl], f)
         for k in keep:
+            if k not in f:  # the thesis MLP has no frame "g" (a KeyError at setup; audit)
+                continue
             a = f[k] if k == "g" else np.asarray(f[k], np.float32)
             if k not in kept:
                 kept[k] = np.empty((n, *a.shape[1:]), a.dtype)
@@ -980,8 +988,9 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
 
 def member_recipe(recipe: dict, i: int) -> dict:
     """Member ``i`` of a recipe with ``train.members`` > 1: the same recipe with one member,
-    ``train.seed`` + ``i`` (another initialisation and sample order; the same samples) and the
-    name ``<name>-member<i>``. Member 0 is the recipe's own single model, bit for bit."""
+    ``train.seed`` + ``i`` (another initialisation; the same samples in the same order, which
+    ``data.seed`` sets) and the name ``<name>-member<i>``. Member 0 is the recipe's own single
+    model, bit for bit."""
     r = copy.deepcopy({k: v for k, v in recipe.items() if k != "source"})
     r["train"].update(members=1, seed=int(recipe["train"]["seed"]) + i)
     r["name"] = f"{recipe['name']}-member{i}"
