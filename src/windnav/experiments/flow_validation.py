@@ -59,8 +59,11 @@ MAX_HALVING_CHANGE = 0.05
 # a shorter domain and record for the resolution series: its finest grid is 512^2 cells
 RESOLUTION_CASE = BluffBodyCase(upstream=5.0, downstream=10.0, spinup_time=40.0,
                                 record_time=80.0)
+# 120 H/U of spin-up and 160 recorded: after 40, the square at 20-35 deg and B/H = 1.5 were
+# still changing their shedding (St 0.132 at 30 deg in the first 80 H/U, 0.140-0.145 in the
+# next three; audit, 2026-12-05); the record's halves tell a run that has not settled
 STUDY_CASE = BluffBodyCase(cells_per_height=STUDY_CELLS, upstream=6.0, downstream=12.0,
-                           spinup_time=40.0, record_time=80.0)
+                           spinup_time=120.0, record_time=160.0)
 
 RECORDS = "flow_validation.partial.jsonl"
 """The record log ``windnav flow-validate`` keeps in its output folder while its studies run."""
@@ -74,8 +77,9 @@ def run_case(case: BluffBodyCase) -> dict:
     """One Strouhal run, reduced to JSON-ready scalars and the lift history (a sweep task)."""
     r = bluff_body_strouhal(case)
     keep = ("strouhal", "strouhal_crossings", "cd_mean", "cl_rms", "dx", "dt", "steps",
-            "cells_per_height", "aspect_ratio", "angle_deg", "filter_width")
+            "cells_per_height", "aspect_ratio", "angle_deg", "filter_width", "settled")
     out = {k: (float(r[k]) if isinstance(r[k], float | np.floating) else r[k]) for k in keep}
+    out["strouhal_halves"] = [float(x) for x in r["strouhal_halves"]]
     out["shape"] = list(r["shape"])
     out["cl"] = np.asarray(r["cl"], dtype=np.float32).tolist()
     return out
@@ -174,7 +178,9 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
     Returns
     -------
     dict
-        ``runs``, ``strouhal`` {aspect ratio: [St per angle]}, ``angles``, and for the square:
+        ``runs``, ``strouhal`` {aspect ratio: [St per angle]}, ``angles``, ``unsettled``
+        ([aspect ratio, angle] of the runs whose record's halves disagree on St by more than
+        :data:`windnav.flow.strouhal.SETTLED_TOLERANCE`), and for the square:
         ``symmetry`` (max |St(a) - St(90 - a)| / St(a)), ``peak_angle`` and ``peak_strouhal``
         (the largest St in 5-25 deg), ``strouhal_0``, ``checks`` (each acceptance point).
     """
@@ -182,7 +188,9 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
              for s in shapes for a in angles]
     runs = _run(cases, "incidence", backend, workers, progress, records)
     st = {f"{s:g}": [r["strouhal"] for r in runs if r["aspect_ratio"] == s] for s in shapes}
-    out = {"runs": runs, "angles": list(angles), "strouhal": st}
+    out = {"runs": runs, "angles": list(angles), "strouhal": st,
+           "unsettled": [[r["aspect_ratio"], r["angle_deg"]] for r in runs
+                         if not r.get("settled", True)]}
     if 1.0 in shapes:
         sq = dict(zip(angles, st["1"], strict=True))
         pairs = [(a, 90.0 - a) for a in angles if a < 45.0 and (90.0 - a) in sq]
@@ -209,10 +217,12 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
 def aspect_ratio_study(ratios=ASPECT_RATIOS, backend="process", workers=None, progress=True,
                        base: BluffBodyCase = STUDY_CASE,
                        records: RecordLog | None = None) -> dict:
-    """St against the depth ratio B/H at 0 deg. Returns ``runs``, ``ratios``, ``strouhal``."""
+    """St against the depth ratio B/H at 0 deg. Returns ``runs``, ``ratios``, ``strouhal``,
+    ``unsettled`` (the ratios whose record's halves disagree, as in :func:`incidence_study`)."""
     cases = [replace(base, aspect_ratio=float(b), angle_deg=0.0) for b in ratios]
     runs = _run(cases, "aspect_ratio", backend, workers, progress, records)
-    return {"runs": runs, "ratios": list(ratios), "strouhal": [r["strouhal"] for r in runs]}
+    return {"runs": runs, "ratios": list(ratios), "strouhal": [r["strouhal"] for r in runs],
+            "unsettled": [r["aspect_ratio"] for r in runs if not r.get("settled", True)]}
 
 
 def load_references(path=None) -> list[dict]:

@@ -29,6 +29,10 @@ from windnav.flow.solver import (
     make_flow_step,
 )
 
+SETTLED_TOLERANCE = 0.03
+"""Largest relative difference between the St of a record's two halves for the shedding to
+count as settled."""
+
 
 def strouhal_number(
     signal: np.ndarray, dt: float, length: float, speed: float, method: str = "crossings"
@@ -269,7 +273,10 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     -------
     dict
         ``strouhal``, ``strouhal_crossings`` (mean period between upward zero crossings of the
-        lift), ``cd_mean`` and ``cl_rms`` (force coefficients on ``0.5 U^2 H``), ``t`` (T,) s,
+        lift), ``strouhal_halves`` (St of the record's first and second halves) and ``settled``
+        (whether they agree within :data:`SETTLED_TOLERANCE`: a flow still changing its
+        shedding gives a St of its transient, not of the flow; audit, 2026-12-05),
+        ``cd_mean`` and ``cl_rms`` (force coefficients on ``0.5 U^2 H``), ``t`` (T,) s,
         ``cl`` (T,), ``dx`` m, ``dt`` s, ``shape`` (ny, nx), ``steps``,
         ``cells_per_height``, ``aspect_ratio``, ``angle_deg``.
     """
@@ -317,8 +324,13 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     lift = -force[:, 0] * np.sin(th) + force[:, 1] * np.cos(th)
     norm = 0.5 * case.speed**2 * H
     cl = lift / norm
+    half = cl.size // 2
+    halves = [strouhal_number(c, dt, H, case.speed, "spectrum") for c in (cl[:half], cl[half:])]
     return {
         "strouhal": strouhal_number(cl, dt, H, case.speed, "spectrum"),
+        "strouhal_halves": halves,
+        "settled": bool(np.all(np.isfinite(halves))
+                        and abs(halves[0] - halves[1]) <= SETTLED_TOLERANCE * np.mean(halves)),
         "strouhal_crossings": strouhal_number(cl, dt, H, case.speed),
         "cd_mean": float(drag.mean() / norm),
         "cl_rms": float(cl.std()),
