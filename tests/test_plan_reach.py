@@ -152,6 +152,34 @@ def test_hold_window():
     assert _hold_ok(gusty, t, 40.0, 100.0, 5.0, 10.0)
 
 
+def test_the_hold_may_be_anywhere_a_success_may_hold_within_the_goal_radius():
+    """A goal whose own cell is in a jet but whose disc of 5 m holds a calm free cell can be
+    held there, as a success may: the check at the goal cell alone called such goals
+    unreachable (audit, 2026-12-05). Cells beyond the radius or inside a building do not
+    count."""
+    from windnav.experiments.nav_feasibility import goal_disc_wind
+    from windnav.plan.reach import ReachLattice
+
+    x = y = np.arange(0.0, 20.0, 2.0) + 1.0  # cell centres 1, 3, ..., 19
+    t = np.arange(0.25, 100.01, 0.25)
+    frames = np.zeros((t.size, y.size, x.size, 2))
+    frames[..., 0] = 20.0                    # a jet everywhere
+    frames[:, 5, 7, 0] = 3.0                 # calm at (15, 11): 4.1 m from the goal (11, 12)
+    frames[:, 5, 9, 0] = 3.0                 # calm at (19, 11): 8.1 m, outside the disc
+    free = np.ones((y.size, x.size), bool)
+    lat = ReachLattice(x=x, y=y, free=free, frames=frames, t0=0.25, dt_frames=0.25, dx=2.0,
+                       clearance=1.0)
+    winds = goal_disc_wind(lat, (11.0, 12.0), 5.0)
+    near = np.hypot(*np.meshgrid(x - 11.0, y - 12.0)) <= 5.0
+    assert winds.shape == (t.size, int(near.sum()))
+    assert any(_hold_ok(winds[:, c], t, 30.0, 100.0, 5.0, 15.45) for c in range(winds.shape[1]))
+    assert not _hold_ok(np.hypot(*frames[:, 6, 5].T), t, 30.0, 100.0, 5.0, 15.45)  # goal cell
+    free[5, 7] = False                       # the calm cell inside a building's clearance
+    winds = goal_disc_wind(lat, (11.0, 12.0), 5.0)
+    assert not any(_hold_ok(winds[:, c], t, 30.0, 100.0, 5.0, 15.45)
+                   for c in range(winds.shape[1]))
+
+
 def test_reach_table_counts():
     def rec(sid, speed, kind, reachable, time, mean_time):
         return {"scenario_id": sid, "speed": speed, "kind": kind,
