@@ -181,7 +181,8 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
         ``runs``, ``strouhal`` {aspect ratio: [St per angle]}, ``angles``, ``unsettled``
         ([aspect ratio, angle] of the runs whose record's halves disagree on St by more than
         :data:`windnav.flow.strouhal.SETTLED_TOLERANCE`), and for the square:
-        ``symmetry`` (max |St(a) - St(90 - a)| / St(a)), ``peak_angle`` and ``peak_strouhal``
+        ``symmetry`` (max |St(a) - St(90 - a)| / St(a)), ``symmetry_settled`` (the same over
+        the pairs of settled runs), ``peak_angle`` and ``peak_strouhal``
         (the largest St in 5-25 deg), ``strouhal_0``, ``checks`` (each acceptance point).
     """
     cases = [replace(base, aspect_ratio=float(s), angle_deg=float(a))
@@ -195,12 +196,20 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
         sq = dict(zip(angles, st["1"], strict=True))
         pairs = [(a, 90.0 - a) for a in angles if a < 45.0 and (90.0 - a) in sq]
         sym = max((abs(sq[a] - sq[b]) / sq[a] for a, b in pairs), default=float("nan"))
+        # a run whose record's halves disagree switches between shedding states: its St is a
+        # window's, so the mirror check is also given over the settled pairs alone
+        settled = {r["angle_deg"]: r.get("settled", True) for r in runs
+                   if r["aspect_ratio"] == 1.0}
+        sym_settled = max((abs(sq[a] - sq[b]) / sq[a] for a, b in pairs
+                           if settled.get(a, True) and settled.get(b, True)),
+                          default=float("nan"))
         band = [a for a in angles if 5.0 <= a <= 25.0]
         peak = max(band, key=lambda a: sq[a]) if band else float("nan")
         s0 = sq.get(0.0, float("nan"))
         lo, hi = ST_RANGE
         out.update({
             "symmetry": float(sym),
+            "symmetry_settled": float(sym_settled),
             "peak_angle": float(peak),
             "peak_strouhal": float(sq[peak]) if band else float("nan"),
             "strouhal_0": float(s0),
