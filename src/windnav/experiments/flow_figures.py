@@ -151,8 +151,17 @@ def plot_strouhal(out, res: dict) -> list[str]:
     if "incidence" in res:
         inc = res["incidence"]
         fig, ax = plt.subplots(figsize=(6.5, 3.8))
+        unsettled = {(float(b), float(a)) for b, a in inc.get("unsettled", [])}
         for shape, vals in inc["strouhal"].items():
-            ax.plot(inc["angles"], vals, "o-", ms=3, label=f"computed {shape}:1")
+            line, = ax.plot(inc["angles"], vals, "o-", ms=3, label=f"computed {shape}:1")
+            odd = [(a, v) for a, v in zip(inc["angles"], vals, strict=True)
+                   if (float(shape), float(a)) in unsettled]
+            if odd:  # runs that switch shedding states within their record: hollow
+                ax.plot(*zip(*odd, strict=True), "o", ms=6, mfc="w", mec=line.get_color(),
+                        zorder=3)
+        if unsettled:
+            ax.plot([], [], "o", ms=6, mfc="w", mec="0.3",
+                    label="unsettled (its record's halves differ > 3 %)")
         pts = [p for p in refs if p["study"] == "incidence"]
         if pts:
             ax.plot([p["angle_deg"] for p in pts], [p["strouhal"] for p in pts], "k*", ms=9,
@@ -170,6 +179,11 @@ def plot_strouhal(out, res: dict) -> list[str]:
         ar = res["aspect_ratio"]
         fig, ax = plt.subplots(figsize=(6.5, 3.8))
         ax.plot(ar["ratios"], ar["strouhal"], "o-", label="computed, 0 deg")
+        odd = [(r, v) for r, v in zip(ar["ratios"], ar["strouhal"], strict=True)
+               if r in set(ar.get("unsettled", []))]
+        if odd:
+            ax.plot(*zip(*odd, strict=True), "o", ms=7, mfc="w", mec="C0", zorder=3,
+                    label="unsettled (its record's halves differ > 3 %)")
         pts = [p for p in refs if p["study"] == "aspect_ratio"]
         if pts:
             ax.plot([p["aspect_ratio"] for p in pts], [p["strouhal"] for p in pts], "k*", ms=9,
