@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 
 import numpy as np
 import pytest
@@ -222,6 +223,13 @@ def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys)
     assert cli.main(["decoder-study", "eigenflows", "--quick", "--out", str(out),
                      "--no-progress"]) == 2
     assert "--overwrite" in capsys.readouterr().err
+    # the training studies' options elsewhere: scaling ignored them, unsaid (CLI audit)
+    for argv, why in ((["scaling", "--epochs", "3"], "'--epochs' parameter .* winds and size"),
+                      (["winds", "--sizes", "5"], "'--sizes' parameter .* size study"),
+                      (["eigenflows", "--samples-per-field", "8"], "'--samples-per-field'")):
+        assert cli.main(["decoder-study", *argv, "--quick", "--out", str(tmp_path / "x"),
+                         "--no-progress"]) == 2
+        assert re.search(why, capsys.readouterr().err)
     # --quick takes 64 samples: --samples beside it was replaced, unsaid (CLI audit)
     assert cli.main(["decoder-study", "eigenflows", "--quick", "--samples", "500", "--out",
                      str(tmp_path / "other"), "--no-progress"]) == 2

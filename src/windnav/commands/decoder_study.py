@@ -282,6 +282,14 @@ def run(args, simulate=None) -> int:
     _check_flow_options(args, name)
     cache_folder(args.flow_cache, "--flow-cache", name)
     progress = not args.no_progress
+    for flag, value, studies in (("--epochs", args.epochs, ("winds", "size")),
+                                 ("--samples-per-field", args.samples_per_field,
+                                  ("winds", "size")),
+                                 ("--sizes", args.sizes, ("size",))):
+        if value is not None and study not in studies:  # scaling ignored them, unsaid (audit)
+            which = " and ".join(studies) + (" study" if len(studies) == 1 else " studies")
+            raise ValueError(f"The '{flag}' parameter of {name} is for the {which}. Got "
+                             f"{value!r} for {study!r} instead.")
     for flag, value in (("--samples", args.samples), ("--epochs", args.epochs),
                         ("--samples-per-field", args.samples_per_field)):
         if value is not None:
