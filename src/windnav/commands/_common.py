@@ -34,6 +34,19 @@ def where(args) -> str:
     return f"windnav {args.command}"
 
 
+def refuse_other_studies(args, name: str, readers) -> None:
+    """Refuse each option of ``readers`` (its ``args`` attribute name, to the studies that read
+    it) given to another ``args.study``: such options were accepted and ignored, only the
+    JSON's ``arguments`` differing (CLI audit, 2026-12-05). None and [] count as not given."""
+    for key, studies in readers.items():
+        value = getattr(args, key)
+        if args.study not in studies and value not in (None, []):
+            which = (" and " if len(studies) == 2 else ", ").join(studies)
+            raise ValueError(f"The '--{key.replace('_', '-')}' parameter of {name} is for the "
+                             f"{which} {'study' if len(studies) == 1 else 'studies'}. Got "
+                             f"{value!r} for {args.study!r} instead.")
+
+
 def seed(args) -> int:
     """``--seed``, checked: an integer >= 0 (what ``numpy.random.default_rng`` accepts)."""
     value = args.seed

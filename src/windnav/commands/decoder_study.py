@@ -66,12 +66,17 @@ from windnav.commands._common import (
     options_named,
     outputs,
     print_written,
+    refuse_other_studies,
     seed,
     where,
 )
 
 TRAINING_STUDIES = ("winds", "size", "scaling")
 """The studies that train models (they need the ``train`` extra's torch)."""
+
+STUDY_OPTIONS = {"epochs": ("winds", "size"), "samples_per_field": ("winds", "size"),
+                 "sizes": ("size",), "compare": ("noise",)}
+"""The studies that read each of these options; given to another, it is refused."""
 
 STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
            "scaling", "noise", "direction", "basis")
@@ -282,14 +287,7 @@ def run(args, simulate=None) -> int:
     _check_flow_options(args, name)
     cache_folder(args.flow_cache, "--flow-cache", name)
     progress = not args.no_progress
-    for flag, value, studies in (("--epochs", args.epochs, ("winds", "size")),
-                                 ("--samples-per-field", args.samples_per_field,
-                                  ("winds", "size")),
-                                 ("--sizes", args.sizes, ("size",))):
-        if value is not None and study not in studies:  # scaling ignored them, unsaid (audit)
-            which = " and ".join(studies) + (" study" if len(studies) == 1 else " studies")
-            raise ValueError(f"The '{flag}' parameter of {name} is for the {which}. Got "
-                             f"{value!r} for {study!r} instead.")
+    refuse_other_studies(args, name, STUDY_OPTIONS)  # scaling ignored the training options
     for flag, value in (("--samples", args.samples), ("--epochs", args.epochs),
                         ("--samples-per-field", args.samples_per_field)):
         if value is not None:
@@ -307,9 +305,6 @@ def run(args, simulate=None) -> int:
                          f"whose studies take 64 samples. Got {args.samples!r} instead.")
     samples = 64 if args.quick else (2048 if args.samples is None else args.samples)
     flows = None
-    if study != "noise" and args.compare:
-        raise ValueError(f"The '--compare' parameter of {name} is for the noise study. Got "
-                         f"{args.compare!r} for {study!r} instead.")
     if study == "noise":
         from windnav.commands.evaluate_decoder import _named_compare_files
 

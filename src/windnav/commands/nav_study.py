@@ -76,6 +76,7 @@ from windnav.commands._common import (
     options_named,
     outputs,
     print_written,
+    refuse_other_studies,
     where,
 )
 
@@ -185,12 +186,7 @@ def _check_study_options(args, name: str) -> None:
     options were accepted and ignored, only the JSON's ``arguments`` differing (``bound
     --variant mppi --values 3 --seed 7`` wrote the plain ``bound``'s results; CLI audit,
     2026-12-05)."""
-    for key, studies in STUDY_OPTIONS.items():
-        value = getattr(args, key)
-        if args.study not in studies and value not in (None, []):
-            raise ValueError(f"The '--{key.replace('_', '-')}' parameter of {name} is for the "
-                             f"{', '.join(studies)} {'study' if len(studies) == 1 else 'studies'}"
-                             f". Got {value!r} for {args.study!r} instead.")
+    refuse_other_studies(args, name, STUDY_OPTIONS)
     for key, default in LATE_DEFAULTS.items():
         if getattr(args, key) is None:
             setattr(args, key, default)
