@@ -886,8 +886,8 @@ def navigate(
         overrides = {"a_max": a_cap / math.sqrt(2.0), "rate_hz": float(plan_rate_hz),
                      **(planner_overrides or {})}
         config = planner_config(params, variant, horizon=horizon, **overrides)
-    planned_rate = getattr(planner.config if hasattr(planner, "config") else
-                           config if planner is None else None, "rate_hz", None)
+    planned_rate = getattr(config if planner is None else getattr(planner, "config", None),
+                           "rate_hz", None)  # a planner without a config: nothing to check
     if (planned_rate is not None and VARIANTS[variant].planner != "gs"
             and not math.isclose(planned_rate, plan_rate_hz, rel_tol=1e-9)):
         # the planner shifts its warm start by 1 / rate_hz at each update: at another rate its
