@@ -189,20 +189,18 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
              for s in shapes for a in angles]
     runs = _run(cases, "incidence", backend, workers, progress, records)
     st = {f"{s:g}": [r["strouhal"] for r in runs if r["aspect_ratio"] == s] for s in shapes}
-    out = {"runs": runs, "angles": list(angles), "strouhal": st,
-           "unsettled": [[r["aspect_ratio"], r["angle_deg"]] for r in runs
-                         if not r.get("settled", True)]}
+    unsettled = [[r["aspect_ratio"], r["angle_deg"]] for r in runs
+                 if not r.get("settled", True)]
+    out = {"runs": runs, "angles": list(angles), "strouhal": st, "unsettled": unsettled}
     if 1.0 in shapes:
         sq = dict(zip(angles, st["1"], strict=True))
         pairs = [(a, 90.0 - a) for a in angles if a < 45.0 and (90.0 - a) in sq]
         sym = max((abs(sq[a] - sq[b]) / sq[a] for a, b in pairs), default=float("nan"))
         # a run whose record's halves disagree switches between shedding states: its St is a
         # window's, so the mirror check is also given over the settled pairs alone
-        settled = {r["angle_deg"]: r.get("settled", True) for r in runs
-                   if r["aspect_ratio"] == 1.0}
+        odd = {a for b, a in unsettled if b == 1.0}
         sym_settled = max((abs(sq[a] - sq[b]) / sq[a] for a, b in pairs
-                           if settled.get(a, True) and settled.get(b, True)),
-                          default=float("nan"))
+                           if a not in odd and b not in odd), default=float("nan"))
         band = [a for a in angles if 5.0 <= a <= 25.0]
         peak = max(band, key=lambda a: sq[a]) if band else float("nan")
         s0 = sq.get(0.0, float("nan"))
