@@ -94,7 +94,8 @@ def test_a_run_whose_shedding_has_not_settled_says_so():
     against 0.140-0.145 later; audit, 2026-12-05). A start without spin-up has not settled."""
     from windnav.flow.strouhal import SETTLED_TOLERANCE, bluff_body_strouhal, strouhal_number
 
-    case = replace(STUDY_CASE, spinup_time=0.0, record_time=60.0, angle_deg=30.0)
+    case = replace(STUDY_CASE, spinup_time=0.0, record_time=60.0, angle_deg=30.0,
+                   max_record_time=None)
     r = bluff_body_strouhal(case)
     half = r["cl"].size // 2
     want = [strouhal_number(c, r["dt"], 1.0, case.speed, "spectrum")
@@ -103,3 +104,38 @@ def test_a_run_whose_shedding_has_not_settled_says_so():
     a, b = want
     assert r["settled"] == (abs(a - b) <= SETTLED_TOLERANCE * (a + b) / 2)
     assert not r["settled"]
+
+
+def test_an_unsettled_run_doubles_its_record_up_to_the_cap():
+    """``max_record_time``: a run whose halves disagree is recorded on, doubling, and St is
+    taken from the whole record; the first record is the same run step for step (bitwise),
+    and a record that never settles stops at the cap, flagged. The square at 35 and 55 deg
+    switches between two shedding states (St ~0.133 and ~0.141) within 160 H/U, and gives
+    0.1401 and 0.1394 over 1,280 (thirty-fifth session)."""
+    from windnav.flow.strouhal import BluffBodyCase, bluff_body_strouhal
+
+    base = replace(STUDY_CASE, spinup_time=0.0, record_time=60.0, angle_deg=30.0,
+                   max_record_time=None)
+    short = bluff_body_strouhal(base)
+    assert not short["settled"] and short["record_time_used"] == pytest.approx(60.0)
+    capped = bluff_body_strouhal(replace(base, max_record_time=120.0))
+    assert capped["record_time_used"] == pytest.approx(120.0)  # doubled once, to the cap
+    assert capped["cl"].size == 2 * short["cl"].size == capped["t"].size
+    np.testing.assert_array_equal(capped["cl"][:short["cl"].size], short["cl"])
+    half = capped["cl"].size // 2
+    want = [strouhal_number(c, capped["dt"], 1.0, 1.0, "spectrum")
+            for c in (capped["cl"][:half], capped["cl"][half:])]
+    assert capped["strouhal_halves"] == want
+    assert capped["strouhal"] == strouhal_number(capped["cl"], capped["dt"], 1.0, 1.0,
+                                                 "spectrum")
+    assert capped["steps"] == int(round(120.0 / capped["dt"]))
+    # a cap between doublings is met exactly; a settled run is never extended
+    odd = bluff_body_strouhal(replace(base, max_record_time=90.0))
+    assert odd["record_time_used"] == pytest.approx(90.0)
+    settled_case = replace(base, spinup_time=20.0, record_time=30.0, angle_deg=0.0)
+    plain = bluff_body_strouhal(settled_case)
+    assert plain["settled"]
+    again = bluff_body_strouhal(replace(settled_case, max_record_time=240.0))
+    np.testing.assert_array_equal(again["cl"], plain["cl"])
+    with pytest.raises(ValueError, match="max_record_time"):
+        BluffBodyCase(record_time=60.0, max_record_time=30.0)

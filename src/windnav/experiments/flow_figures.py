@@ -161,7 +161,7 @@ def plot_strouhal(out, res: dict) -> list[str]:
                         zorder=3)
         if unsettled:
             ax.plot([], [], "o", ms=6, mfc="w", mec="0.3",
-                    label="unsettled (its record's halves differ > 3 %)")
+                    label="unsettled (its longest record's halves differ > 3 %)")
         pts = [p for p in refs if p["study"] == "incidence"]
         if pts:
             ax.plot([p["angle_deg"] for p in pts], [p["strouhal"] for p in pts], "k*", ms=9,
@@ -183,7 +183,7 @@ def plot_strouhal(out, res: dict) -> list[str]:
                if r in set(ar.get("unsettled", []))]
         if odd:
             ax.plot(*zip(*odd, strict=True), "o", ms=7, mfc="w", mec="C0", zorder=3,
-                    label="unsettled (its record's halves differ > 3 %)")
+                    label="unsettled (its longest record's halves differ > 3 %)")
         pts = [p for p in refs if p["study"] == "aspect_ratio"]
         if pts:
             ax.plot([p["aspect_ratio"] for p in pts], [p["strouhal"] for p in pts], "k*", ms=9,

@@ -61,9 +61,11 @@ RESOLUTION_CASE = BluffBodyCase(upstream=5.0, downstream=10.0, spinup_time=40.0,
                                 record_time=80.0)
 # 120 H/U of spin-up and 160 recorded: after 40, the square at 20-35 deg and B/H = 1.5 were
 # still changing their shedding (St 0.132 at 30 deg in the first 80 H/U, 0.140-0.145 in the
-# next three; audit, 2026-12-05); the record's halves tell a run that has not settled
+# next three; audit, 2026-12-05); the record's halves tell a run that has not settled, and
+# such a run's record is doubled up to 1,280 H/U: the square at 35 and 55 deg and B/H = 1.5
+# switch between two shedding states, whose mix a long record averages (thirty-fifth session)
 STUDY_CASE = BluffBodyCase(cells_per_height=STUDY_CELLS, upstream=6.0, downstream=12.0,
-                           spinup_time=120.0, record_time=160.0)
+                           spinup_time=120.0, record_time=160.0, max_record_time=1280.0)
 
 RECORDS = "flow_validation.partial.jsonl"
 """The record log ``windnav flow-validate`` keeps in its output folder while its studies run."""
@@ -77,7 +79,8 @@ def run_case(case: BluffBodyCase) -> dict:
     """One Strouhal run, reduced to JSON-ready scalars and the lift history (a sweep task)."""
     r = bluff_body_strouhal(case)
     keep = ("strouhal", "strouhal_crossings", "cd_mean", "cl_rms", "dx", "dt", "steps",
-            "cells_per_height", "aspect_ratio", "angle_deg", "filter_width", "settled")
+            "cells_per_height", "aspect_ratio", "angle_deg", "filter_width", "settled",
+            "record_time_used")
     out = {k: (float(r[k]) if isinstance(r[k], float | np.floating) else r[k]) for k in keep}
     out["strouhal_halves"] = [float(x) for x in r["strouhal_halves"]]
     out["shape"] = list(r["shape"])
@@ -180,7 +183,9 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
     dict
         ``runs``, ``strouhal`` {aspect ratio: [St per angle]}, ``angles``, ``unsettled``
         ([aspect ratio, angle] of the runs whose record's halves disagree on St by more than
-        :data:`windnav.flow.strouhal.SETTLED_TOLERANCE`), and for the square:
+        :data:`windnav.flow.strouhal.SETTLED_TOLERANCE` at the longest record the base case
+        allows, ``max_record_time``), ``extended`` ([aspect ratio, angle, H / U recorded] of
+        the runs whose record was doubled), and for the square:
         ``symmetry`` (max |St(a) - St(90 - a)| / St(a)), ``symmetry_settled`` (the same over
         the pairs of settled runs), ``peak_angle`` and ``peak_strouhal``
         (the largest St in 5-25 deg), ``strouhal_0``, ``checks`` (each acceptance point).
@@ -191,7 +196,8 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
     st = {f"{s:g}": [r["strouhal"] for r in runs if r["aspect_ratio"] == s] for s in shapes}
     unsettled = [[r["aspect_ratio"], r["angle_deg"]] for r in runs
                  if not r.get("settled", True)]
-    out = {"runs": runs, "angles": list(angles), "strouhal": st, "unsettled": unsettled}
+    out = {"runs": runs, "angles": list(angles), "strouhal": st, "unsettled": unsettled,
+           "extended": _extended(runs, base)}
     if 1.0 in shapes:
         sq = dict(zip(angles, st["1"], strict=True))
         pairs = [(a, 90.0 - a) for a in angles if a < 45.0 and (90.0 - a) in sq]
@@ -225,11 +231,20 @@ def aspect_ratio_study(ratios=ASPECT_RATIOS, backend="process", workers=None, pr
                        base: BluffBodyCase = STUDY_CASE,
                        records: RecordLog | None = None) -> dict:
     """St against the depth ratio B/H at 0 deg. Returns ``runs``, ``ratios``, ``strouhal``,
-    ``unsettled`` (the ratios whose record's halves disagree, as in :func:`incidence_study`)."""
+    ``unsettled`` (the ratios whose record's halves disagree, as in :func:`incidence_study`),
+    ``extended`` (as there)."""
     cases = [replace(base, aspect_ratio=float(b), angle_deg=0.0) for b in ratios]
     runs = _run(cases, "aspect_ratio", backend, workers, progress, records)
     return {"runs": runs, "ratios": list(ratios), "strouhal": [r["strouhal"] for r in runs],
-            "unsettled": [r["aspect_ratio"] for r in runs if not r.get("settled", True)]}
+            "unsettled": [r["aspect_ratio"] for r in runs if not r.get("settled", True)],
+            "extended": _extended(runs, base)}
+
+
+def _extended(runs, base: BluffBodyCase) -> list:
+    """[aspect ratio, angle, H / U recorded] of the runs recorded longer than
+    ``base.record_time`` (an unsettled run's doubled record)."""
+    return [[r["aspect_ratio"], r["angle_deg"], r["record_time_used"]] for r in runs
+            if r.get("record_time_used", base.record_time) > base.record_time * (1 + 1e-9)]
 
 
 def load_references(path=None) -> list[dict]:

@@ -211,6 +211,11 @@ class BluffBodyCase:
         in H. The domain is square.
     spinup_time, record_time : float
         Convective times (H / U) run before and during the force record.
+    max_record_time : float or None
+        None (the default): the record is ``record_time`` long. A number: while the record's
+        two halves disagree on St by more than :data:`SETTLED_TOLERANCE` (a flow switching
+        between shedding states), the record is doubled, up to this many H / U, and St is
+        taken from the whole record. A run still unsettled at the cap is flagged as such.
     smagorinsky, filter_width, viscosity : float
         Closure, as in :func:`windnav.flow.simulate` (``filter_width`` None:
         ``max(dx, min(H, B) / 8)``, the default rule for a map of this one building).
@@ -227,10 +232,18 @@ class BluffBodyCase:
     downstream: float = 16.0
     spinup_time: float = 50.0
     record_time: float = 100.0
+    max_record_time: float | None = None
     smagorinsky: float = SMAGORINSKY
     filter_width: float | None = None
     viscosity: float = 0.0
     advection: str = "maccormack"
+
+    def __post_init__(self):
+        if not (self.record_time > 0):
+            raise ValueError(f"record_time must be > 0 H/U, got {self.record_time!r}")
+        if self.max_record_time is not None and not (self.max_record_time >= self.record_time):
+            raise ValueError(f"max_record_time must be None or >= record_time "
+                             f"({self.record_time!r} H/U), got {self.max_record_time!r}")
 
 
 def _body_faces(solid):
@@ -276,6 +289,8 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
         lift), ``strouhal_halves`` (St of the record's first and second halves) and ``settled``
         (whether they agree within :data:`SETTLED_TOLERANCE`: a flow still changing its
         shedding gives a St of its transient, not of the flow; audit, 2026-12-05),
+        ``record_time_used`` (H / U: ``record_time``, or more where ``max_record_time``
+        doubled the record of an unsettled run),
         ``cd_mean`` and ``cl_rms`` (force coefficients on ``0.5 U^2 H``), ``t`` (T,) s,
         ``cl`` (T,), ``dx`` m, ``dt`` s, ``shape`` (ny, nx), ``steps``,
         ``cells_per_height``, ``aspect_ratio``, ``angle_deg``.
@@ -304,42 +319,65 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     faces = _body_faces(domain.solid)
     n_spin = int(round(case.spinup_time * H / case.speed / dt))
     n_rec = int(round(case.record_time * H / case.speed / dt))
-    force = np.empty((n_rec, 2))
+    n_max = n_rec if case.max_record_time is None else max(
+        n_rec, int(round(case.max_record_time * H / case.speed / dt)))
     q_cells = np.zeros(grid.shape)
     limit, basis = blowup_limit(case.speed, u, v)
-    iterator = range(n_spin + n_rec)
-    if progress:
-        from tqdm import tqdm
-
-        iterator = tqdm(iterator, desc=f"St a={case.angle_deg:g}", unit="step", leave=False)
     u_next, v_next = np.empty_like(u), np.empty_like(v)
-    for k in iterator:
-        step.advance(u, v, u_next, v_next, q_cells if k >= n_spin else None)
-        u, v, u_next, v_next = u_next, v_next, u, v
-        check_finite(u, v, limit, k + 1, basis)
-        if k >= n_spin:
-            force[k - n_spin] = body_force(q_cells, faces, dx, dt)
     th = np.deg2rad(case.angle_deg)
-    drag = force[:, 0] * np.cos(th) + force[:, 1] * np.sin(th)
-    lift = -force[:, 0] * np.sin(th) + force[:, 1] * np.cos(th)
     norm = 0.5 * case.speed**2 * H
-    cl = lift / norm
-    half = cl.size // 2
-    halves = [strouhal_number(c, dt, H, case.speed, "spectrum") for c in (cl[:half], cl[half:])]
+    k = 0  # steps run
+
+    def run_to(n_end: int) -> np.ndarray:
+        """Advance to step ``n_end``; the forces of the recorded steps on the way (n, 2)."""
+        nonlocal u, v, u_next, v_next, k
+        first = max(k, n_spin)
+        rec = np.empty((max(n_end - first, 0), 2))
+        iterator = range(k, n_end)
+        if progress:
+            from tqdm import tqdm
+
+            iterator = tqdm(iterator, desc=f"St a={case.angle_deg:g}", unit="step",
+                            leave=False)
+        for i in iterator:
+            step.advance(u, v, u_next, v_next, q_cells if i >= n_spin else None)
+            u, v, u_next, v_next = u_next, v_next, u, v
+            check_finite(u, v, limit, i + 1, basis)
+            if i >= n_spin:
+                rec[i - first] = body_force(q_cells, faces, dx, dt)
+        k = n_end
+        return rec
+
+    def measure(force):
+        cl = (-force[:, 0] * np.sin(th) + force[:, 1] * np.cos(th)) / norm
+        half = cl.size // 2
+        halves = [strouhal_number(c, dt, H, case.speed, "spectrum")
+                  for c in (cl[:half], cl[half:])]
+        settled = bool(np.all(np.isfinite(halves))
+                       and abs(halves[0] - halves[1]) <= SETTLED_TOLERANCE * np.mean(halves))
+        return cl, halves, settled
+
+    force = run_to(n_spin + n_rec)
+    cl, halves, settled = measure(force)
+    while not settled and force.shape[0] < n_max:
+        # double the record: its new second half is as long as everything recorded so far
+        force = np.concatenate([force, run_to(k + min(force.shape[0], n_max - force.shape[0]))])
+        cl, halves, settled = measure(force)
+    drag = force[:, 0] * np.cos(th) + force[:, 1] * np.sin(th)
     return {
         "strouhal": strouhal_number(cl, dt, H, case.speed, "spectrum"),
         "strouhal_halves": halves,
-        "settled": bool(np.all(np.isfinite(halves))
-                        and abs(halves[0] - halves[1]) <= SETTLED_TOLERANCE * np.mean(halves)),
+        "settled": settled,
+        "record_time_used": float(force.shape[0] * dt * case.speed / H),
         "strouhal_crossings": strouhal_number(cl, dt, H, case.speed),
         "cd_mean": float(drag.mean() / norm),
         "cl_rms": float(cl.std()),
-        "t": dt * np.arange(1, n_rec + 1),
+        "t": dt * np.arange(1, cl.size + 1),
         "cl": cl,
         "dx": dx,
         "dt": dt,
         "shape": grid.shape,
-        "steps": n_spin + n_rec,
+        "steps": k,
         "cells_per_height": n,
         "filter_width": fw,
         "aspect_ratio": float(case.aspect_ratio),
