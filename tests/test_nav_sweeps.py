@@ -174,3 +174,28 @@ def test_command_cases_reflies_the_best_and_worst_and_winds_draws_a_map(tmp_path
                      str(tmp_path / "x")]) == 2
     assert "'--map' parameter" in capsys.readouterr().err
     assert cli.main(["nav-study", "cases", "--suite", "quick", "--out", str(tmp_path / "y")]) == 2
+
+
+def test_one_flight_has_one_label():
+    """A label is the key of its flight's records, so each flight is written one way: numbers in
+    their shortest form (``qe=2``, not ``qe=2.0``), and one list may not name the same
+    parameters twice in another order. The sweeps wrote values with ``:g`` (six digits), which
+    gave two values one label that flew neither."""
+    from windnav.experiments.nav_benchmark import check_variants, number_label, parse_variant
+    from windnav.experiments.nav_tilt import tilt_label
+
+    assert [number_label(v) for v in (2.0, 0.5, 13.45, 1000.0, 0.1 + 0.2, math.inf)] == [
+        "2", "0.5", "13.45", "1000", "0.30000000000000004", "inf"]
+    labels = sweep_labels("qe", [0.1234567, 0.1234568, 2.0])
+    assert len(set(labels.values())) == 3
+    for value, label in labels.items():
+        assert parse_variant(label)[1]["planner_overrides"]["energy_weight"] == value
+    assert parse_variant(tilt_label("mppi", 70.25))[1]["tilt_max_deg"] == 70.25
+    for bad, want in (("ea-mppi-w@qe=2.0", "qe=2 for qe=2.0"), ("ea-mppi-w@h=050", "h=50"),
+                      ("mppi@tilt=7e1", "tilt=70")):
+        with pytest.raises(ValueError, match=want):
+            parse_variant(bad)
+    assert parse_variant("ea-mppi-w@h=inf")[1] == {"horizon": math.inf}
+    with pytest.raises(ValueError, match="names one flight twice"):
+        check_variants(["mppi", "ea-mppi-w@qe=2@h=50", "ea-mppi-w@h=50@qe=2"], "test")
+    assert check_variants("ea-mppi-w@qe=2@h=50,ea-mppi-w@qe=3@h=50", "test")

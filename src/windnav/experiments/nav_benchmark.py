@@ -466,7 +466,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     ------
     ValueError
         An unknown base variant or parameter, a parameter given twice, or a value that is not a
-        number >= 0 (``h`` may be ``inf``).
+        number >= 0 (``h`` may be ``inf``), or a number not in its shortest form (``qe=2.0``
+        for ``qe=2``: the label is the key of the flight's records, so one flight has one).
     """
     from windnav.experiments.navigate import POWER_SHAPES, TILT_LIMIT_DEG
     from windnav.plan import VARIANTS
@@ -539,6 +540,10 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             value = float(text)
         except ValueError:
             raise fail(f"{text!r} is not a number") from None
+        if math.isfinite(value) and text != number_label(value):
+            # '@qe=2.0' and '@qe=2' fly one flight: the label is the records' key, so one form
+            raise fail(f"write {key}={number_label(value)} for {key}={text} (numbers in their "
+                       f"shortest form: the label is the key of the flight's records)")
         if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
             raise fail(f"{key} must be >= 0")
         if key == "tilt":
@@ -578,6 +583,14 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     return base, options
 
 
+def number_label(value: float) -> str:
+    """A variant label parameter's number in its one written form (what :func:`parse_variant`
+    accepts, and what the sweeps write): the shortest that reads back as
+    ``value`` (``repr``), without a trailing ``.0`` (``2``, ``0.5``, ``13.45``, ``1000``)."""
+    text = repr(float(value))
+    return text[:-2] if text.endswith(".0") else text
+
+
 def check_variants(variants, where: str) -> tuple[str, ...]:
     """``variants`` (a sequence, or one comma-separated string) checked: each a key of
     :data:`windnav.plan.VARIANTS` or a label with study parameters (:func:`parse_variant`),
@@ -590,8 +603,14 @@ def check_variants(variants, where: str) -> tuple[str, ...]:
     if not variants or len(set(variants)) != len(variants):
         raise ValueError(f"The 'variants' parameter of {where} must be distinct names among "
                          f"{list(VARIANTS)}. Got {list(variants)!r} instead.")
+    seen = {}
     for v in variants:
         parse_variant(v, where)
+        base, *params = v.split("@")
+        same = seen.setdefault((base, frozenset(params)), v)
+        if same != v:  # the same parameters in another order: one flight, two keys
+            raise ValueError(f"The 'variants' parameter of {where} names one flight twice: "
+                             f"{same!r} and {v!r} set the same parameters in another order.")
     return variants
 
 

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from windnav.experiments.nav_benchmark import parse_variant
+from windnav.experiments.nav_benchmark import number_label, parse_variant
 from windnav.experiments.nav_cases import fly_cases, mean_flow
 from windnav.experiments.nav_suite import get_suite
 
@@ -78,7 +78,7 @@ def gust_routes(spec="thesis", scenario_id: str = DEFAULT_SCENARIO, *,
     if not (0.0 < k < math.inf):
         raise ValueError(f"The 'gust_k' parameter of {where} must be a finite number > 0. Got "
                          f"{gust_k!r} instead.")
-    variants = [base, f"{base}@gust={k:g}"]
+    variants = [base, f"{base}@gust={number_label(k)}"]
     case = fly_cases(spec, [scenario_id], variants, progress=progress,
                      keep_frames=True)[scenario_id]
     scenario, city, flow = case["scenario"], case["city"], case["flow"]

@@ -50,6 +50,7 @@ def sweep_labels(kind: str, values: Sequence[float] | None = None) -> dict[float
         ``value -> label``: ``"ea-mppi-w@qe=2"``, or the thesis variant that is that value
         (``Q_E = 0``: ``"mppi-w"``; ``Q_E = 5``, ``H = inf``: ``"ea-mppi-w"``).
     """
+    from windnav.experiments.nav_benchmark import number_label
     from windnav.plan import VARIANTS
 
     where = "sweep_labels"
@@ -76,7 +77,7 @@ def sweep_labels(kind: str, values: Sequence[float] | None = None) -> dict[float
         elif kind == "qe" and v == 0.0:
             label = "mppi-w"
         else:
-            label = f"{BASE}@{kind}={v:g}"
+            label = f"{BASE}@{kind}={number_label(v)}"
         out[v] = label
     return out
 

@@ -45,7 +45,9 @@ def tilt_label(variant: str, tilt: float) -> str:
     """The benchmark label of ``variant`` flown with the tilt cap ``tilt`` (degrees): the variant
     itself at ``navigate``'s default cap (the ablation table's, 55 deg), else
     ``"variant@tilt=70"``."""
-    return variant if float(tilt) == TILT_MAX_DEG else f"{variant}@tilt={float(tilt):g}"
+    from windnav.experiments.nav_benchmark import number_label
+
+    return variant if float(tilt) == TILT_MAX_DEG else f"{variant}@tilt={number_label(tilt)}"
 
 
 def check_tilts(tilts: Sequence[float], param: str = "tilts",
