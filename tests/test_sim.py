@@ -479,3 +479,25 @@ def test_a_log_whose_times_do_not_increase_is_refused(tmp_path):
                            if why.startswith("from") else "must hold finite, strictly increasing"):
             FlightLog.load(tmp_path / "b.npz")
     assert FlightLog.load(tmp_path / "a.npz").t.size == good["t"].size
+
+
+def test_a_vehicle_the_controller_cannot_steer_in_yaw_is_refused():
+    """Fixed rotors whose allocation matrix has rank < 4 cannot set thrust, roll, pitch and yaw
+    apart: the pseudo-inverse's split let a tricopter spin up to 6.5 rad/s in 10 s of hover,
+    unflagged. A pentacopter (rank 4, unequal hover speeds) still holds its hover."""
+    def ring(n, dirs):
+        a = np.deg2rad(90.0 + 360.0 / n * np.arange(n))
+        pos = 0.17 * np.stack([np.cos(a), np.sin(a), 0.0 * a], axis=1)
+        return wn.vehicle.params("hummingbird", rotor_positions=pos,
+                                 rotor_directions=np.asarray(dirs, float))
+
+    still = ConstantWind(np.zeros(3))
+    for bad, rank in ((ring(3, [1, -1, 1]), 3), (ring(4, [1, 1, 1, 1]), 3),
+                      (wn.vehicle.params("hummingbird", k_m=0.0), 3)):
+        with pytest.raises(ValueError, match=f"'params' parameter of SE3Controller.*rank {rank}"):
+            fly(bad, make_trajectory("hover"), still, duration=1.0)
+    with pytest.raises(ValueError, match="vehicle 1 of the batch"):
+        SE3Controller([wn.vehicle.params("hummingbird"), ring(3, [1, -1, 1])])
+    log = fly(ring(5, [1, -1, 1, -1, 1]), make_trajectory("hover"), still, duration=5.0)
+    assert np.abs(log.position[-1, 0]).max() < 1e-6
+    assert np.abs(log.body_rates[-1, 0]).max() < 1e-6 and log.status[0] == 0
