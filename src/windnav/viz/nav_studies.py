@@ -193,9 +193,10 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     speed and pair kind (jittered points, in :data:`KIND_COLORS`); unreachable scenarios as
     crosses above the record's end; the dashed line is the last arrival that leaves the 5 s
     hold. Bottom left: per variant of ``table`` flown on all its scenarios, the failure rate over
-    all its flights and over the flights in reachable scenarios. Bottom right: the same variants'
-    failure rates by the scenario's least time in the mean wind (``by_mean_time``; the number of
-    scenarios of each bin on top; the legend below it).
+    all its flights and over the flights in reachable scenarios (one bar when every scenario is
+    reachable). Bottom right: the same variants' failure rates (rows, in the bars' order) by the
+    scenario's least time in the mean wind (columns, ``by_mean_time``, with the number of
+    scenarios of each bin), as a table of colours with the rate written in each cell.
 
     Parameters
     ----------
@@ -252,37 +253,48 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     # would compare failure rates over other scenario sets); all when none is
     names = [n for n in v if v[n]["flights"] == table["n"]] or list(v)
     ys = np.arange(len(names))
-    fail = [100 * v[n]["failures"] / max(v[n]["flights"], 1) for n in names]
-    fail_r = [100 * v[n]["failures_reachable"] / max(v[n]["reachable"], 1) for n in names]
-    bx.barh(ys + 0.2, fail, height=0.4, color="0.6", label="all flights")
-    bx.barh(ys - 0.2, fail_r, height=0.4, color="#007aff", label="reachable scenarios")
+    fail = np.array([100 * v[n]["failures"] / max(v[n]["flights"], 1) for n in names])
+    fail_r = np.array([100 * v[n]["failures_reachable"] / max(v[n]["reachable"], 1)
+                       for n in names])
+    if table["reachable"] == table["n"]:  # the two rates are one: one bar each
+        bx.barh(ys, fail_r, height=0.6, color="#007aff")
+        bx.set_title(f"every scenario reachable ({table['n']}): failure over all flights",
+                     fontsize=10)
+    else:
+        bx.barh(ys + 0.2, fail, height=0.4, color="0.6", label="all flights")
+        bx.barh(ys - 0.2, fail_r, height=0.4, color="#007aff", label="reachable scenarios")
+        bx.legend(fontsize=8, loc="lower right")
+        bx.set_title(f"{table['reachable']} of {table['n']} scenarios reachable", fontsize=10)
+    for y, f in zip(ys, fail_r, strict=True):
+        bx.annotate(f"{f:.1f}", (f, y), xytext=(3, 0), textcoords="offset points",
+                    va="center", fontsize=7)
     bx.set_yticks(ys)
     bx.set_yticklabels(names, fontsize=8)
-    bx.invert_yaxis()
+    bx.set_ylim(len(names) - 0.5, -0.5)  # the first variant on top, as in the table
+    bx.set_xlim(0, min(100.0, 1.15 * max(fail.max(initial=0), fail_r.max(initial=0)) + 5))
     bx.set_xlabel("failure (%)")
-    bx.legend(fontsize=8, loc="lower right")
-    bx.set_title(f"{table['reachable']} of {table['n']} scenarios reachable", fontsize=10)
+    # failures by the least time in the mean wind: one row per variant (the bars' rows), one
+    # column per bin with scenarios, the rate written in each cell
     bins = [b for b in next(iter(v.values()))["by_mean_time"]] if v else []
     counts = [v[names[0]]["by_mean_time"][b][0] for b in bins] if names else []
     shown = [i for i, c in enumerate(counts) if c > 0]
-    for k, n in enumerate(names):  # ten colours, then the same with another line and marker
-        cells = v[n]["by_mean_time"]
-        rate = [100 * cells[bins[i]][1] / cells[bins[i]][0] for i in shown]
-        cx.plot(range(len(shown)), rate, ms=4, label=n, color=f"C{k % 10}",
-                marker=("o", "s", "^")[(k // 10) % 3], ls=("-", "--", ":")[(k // 10) % 3])
-    for j, i in enumerate(shown):
-        cx.annotate(f"n={counts[i]}", (j, 103), ha="center", fontsize=8)
+    rates = np.array([[100 * v[n]["by_mean_time"][bins[i]][1] / v[n]["by_mean_time"][bins[i]][0]
+                       for i in shown] for n in names]).reshape(len(names), len(shown))
+    im = cx.imshow(rates, cmap="Reds", vmin=0, vmax=100, aspect="auto",
+                   extent=(-0.5, len(shown) - 0.5, len(names) - 0.5, -0.5))
+    for (k, j), r in np.ndenumerate(rates):
+        cx.annotate(f"{r:.0f}", (j, k), ha="center", va="center", fontsize=7,
+                    color="white" if r > 60 else "black")
+    cx.set_yticks(ys)
+    cx.tick_params(labelleft=False)
+    cx.set_ylim(len(names) - 0.5, -0.5)
     cx.set_xticks(range(len(shown)))
-    cx.set_xticklabels([bins[i] for i in shown], fontsize=8)
-    cx.set_xlim(-0.5, len(shown) - 0.5)
-    cx.set_ylim(0, 108)
-    cx.set_xlabel("least time in the mean wind (s)")
-    cx.set_ylabel("failure (%)")
-    cx.set_title("failures by the least time in the mean wind", fontsize=10)
+    cx.set_xticklabels([f"{bins[i]}\n(n={counts[i]})" for i in shown], fontsize=8)
+    cx.set_xlabel("least time to the goal in the mean wind (s; scenarios per bin)")
+    cx.set_title("failure (%) by the least time in the mean wind", fontsize=10)
+    fig.colorbar(im, ax=cx, label="failure (%)", fraction=0.05, pad=0.02)
     fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
     fig.tight_layout()
-    cx.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=2,
-              handlelength=3.5)  # long enough to show the dashes of the second ten
     path = Path(path)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
