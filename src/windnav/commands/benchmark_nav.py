@@ -12,11 +12,13 @@
 A run flies every pending (scenario, variant) of the suite, one task per (map, wind) whose wind
 is simulated once, and appends one JSON line per flight to ``STORE/records.jsonl``; rerun the
 same command after an interruption to resume. At the end it prints the ablation table in
-Markdown. ``--table`` prints the table of a store without flying; ``--replay`` re-flies one
-scenario from its id and seed and writes the record's fields (compared with the recorded
-flight when ``--out`` holds it). The harness is :mod:`windnav.experiments.nav_benchmark`.
-``--check N`` flies the records of N random scenarios again and compares them (an audit of
-the store's reproducibility on this machine). A replay and a check restart themselves under the
+Markdown, its energies paired with ``--reference``'s flights (a reference typed that the run
+does not fly and the store does not hold is refused before any flight). ``--table`` prints
+the table of a store without flying; ``--replay`` re-flies one scenario from its id and seed
+and writes the record's fields (compared with the recorded flight when ``--out`` holds it).
+The harness is :mod:`windnav.experiments.nav_benchmark`. ``--check N`` flies the records of
+N random scenarios again and compares them (an audit of the store's reproducibility on this
+machine). A replay and a check restart themselves under the
 records' arithmetic (BLAS kernel, NumPy's SIMD loops) when it differs from this machine's and
 the CPU can run it; ``--portable`` flies a run under the arithmetic every AVX2 CPU can run.
 ``--json`` writes the run's counts and the table as data; the store itself is never replaced
@@ -42,6 +44,7 @@ from windnav.commands._common import (
 )
 
 DEFAULT_VARIANTS = "mppi,mppi-w,ea-mppi,ea-mppi-w"
+DEFAULT_REFERENCE = "mppi"
 
 
 def register(subparsers) -> None:
@@ -91,8 +94,10 @@ def register(subparsers) -> None:
                    help="with --table: also compare each flight with the same flight (scenario "
                         "and variant) of another store of the same suite, e.g. one flown on "
                         "another machine: same outcome, every field within 1e-6")
-    p.add_argument("--reference", default="mppi",
-                   help="the variant the energies are compared with (%(default)s)")
+    p.add_argument("--reference", default=None,
+                   help=f"the variant the energies are compared with (default "
+                        f"{DEFAULT_REFERENCE}); one the table holds: flown by this run "
+                        "(--variants) or already in the store")
     p.add_argument("--replay", default=None, metavar="SCENARIO_ID",
                    help="re-fly one scenario (e.g. thesis/m03/w07/p2) with --variant")
     p.add_argument("--variant", default=None, help="the variant of --replay")
@@ -152,6 +157,9 @@ def run(args) -> int:
     if args.seed is not None:
         seed(args)
     _check_modes(args, name)
+    reference_given = args.reference is not None
+    if not reference_given:  # (None: not typed; the JSON's arguments name the default)
+        args.reference = DEFAULT_REFERENCE
     if args.portable and (args.replay is not None or args.check is not None):
         raise ValueError(f"The '--portable' parameter of {name} applies to flying a suite; a "
                          "replay or a check runs under the arithmetic of its records. Got "
@@ -174,14 +182,14 @@ def run(args) -> int:
         return _table(args, name)
     if args.check is not None:
         return _check(args, name)
-    return _run(args, name)
+    return _run(args, name, reference_given)
 
 
 def _check_modes(args, name: str) -> None:
     """``--table``, ``--check`` and ``--replay`` one at a time, and each mode's options only
     with it: ``--table --check 2`` printed the table and exited 0, checking nothing, and
     ``--against``, ``--variant`` and ``--retry-errors`` were ignored outside their modes
-    (CLI audit, 2026-12-05)."""
+    (CLI audit, 2026-12-05), as was ``--reference`` with ``--check`` or ``--replay``."""
     modes = [flag for flag, on in (("--table", args.table), ("--check", args.check is not None),
                                    ("--replay", args.replay is not None)) if on]
     if len(modes) > 1:
@@ -197,6 +205,9 @@ def _check_modes(args, name: str) -> None:
             raise ValueError(f"The '{flag}' parameter of {name} applies {what}. Got it "
                              f"{'with ' + mode if mode else 'without ' + str(belongs)} "
                              "instead.")
+    if args.reference is not None and mode in ("--check", "--replay"):  # (None: not typed)
+        raise ValueError(f"The '--reference' parameter of {name} applies only with --table or "
+                         f"when flying a suite. Got it with {mode} instead.")
 
 
 def _variants(args, name: str) -> tuple[str, ...]:
@@ -265,7 +276,27 @@ def _print_table(records, variants, reference, spec) -> dict:
     return table
 
 
-def _run(args, name: str) -> int:
+def _check_reference(args, name: str, variants, spec, chosen) -> None:
+    """Refuse a ``--reference`` typed for a run that is neither among ``variants`` nor among the
+    variants the store already holds (of the ``chosen`` scenarios, as the table is): the run
+    flew every flight, then printed a table without its paired columns (an unknown name, a
+    typo, was not even named). The default reference is not refused: a run of other variants
+    into a new store (e.g. ``--variants gs-w``) tabulates them alone, as before."""
+    from windnav.experiments.nav_benchmark import NavStore
+
+    if args.reference in variants:
+        return
+    held = []
+    if _manifest(args.out) is not None:
+        held = sorted({r["variant"] for r in NavStore(args.out, spec, create=False).load()
+                       if chosen is None or r.get("scenario_id") in chosen})
+    if args.reference not in held:
+        raise ValueError(f"The '--reference' parameter of {name} must be a variant of the "
+                         f"table: one of --variants {list(variants)} or a variant the store "
+                         f"already holds {held}. Got {args.reference!r} instead.")
+
+
+def _run(args, name: str, reference_given: bool) -> int:
     from windnav.experiments.nav_benchmark import NavStore, check_wind_batch, run_benchmark
     from windnav.experiments.results import write_json
 
@@ -275,6 +306,8 @@ def _run(args, name: str) -> int:
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     maps = suite_maps(args.maps, spec, name)
     chosen = scenario_ids(args.scenarios, spec, name)
+    if reference_given:  # before any flight, not in the table after them
+        _check_reference(args, name, variants, spec, chosen)
     with options_named({"'wind_batch'": "'--wind-batch'"}):
         wind_batch = check_wind_batch(args.wind_batch, name)
     try:
