@@ -17,8 +17,9 @@ Every trial draws a vehicle (mass and drag around the Hummingbird), calibrates i
 circle in Dryden gusts and scores the filter's 3D wind RMSE after 2 s (definitions:
 :mod:`windnav.experiments.ukf_montecarlo`). Trials run through
 :func:`windnav.experiments.run_tasks`; a failing trial is recorded with its error and does not
-stop the others. The JSON holds the config, one record per trial and a summary (median,
-quartiles); non-finite numbers are written as null.
+stop the others. The JSON holds the config, one record per trial, a summary (median,
+quartiles) and ``workers``, the worker count the trials ran on (:func:`workers_used`: not more
+than the trials left to run); non-finite numbers are written as null.
 
 With ``--json OUT.json``, every finished trial is also appended to ``OUT.partial.jsonl`` as it
 finishes: after Ctrl-C (exit 130) or a kill, rerunning the same command runs only the trials
@@ -58,6 +59,25 @@ noted: the covariance the filter reports is off by more than a factor of two."""
 def partial_path(json_path) -> Path:
     """The record log kept next to ``--json`` while the study runs (``OUT.partial.jsonl``)."""
     return Path(json_path).with_suffix(".partial.jsonl")
+
+
+def workers_used(backend: str, workers: int | None, n_run: int) -> int:
+    """The workers ``n_run`` trials ran on, as :func:`windnav.experiments.run_tasks` starts
+    them: ``workers`` (default: the CPU count; under Ray, the CPUs of the Ray instance the trials
+    ran in) but at most one per trial; 1 serially; 0 when no trial ran (every one resumed).
+    ``--workers`` was printed instead, and the CPU count by default: "on 16 workers" for 2
+    trials (leftovers, 2026-12-05)."""
+    if n_run <= 0:
+        return 0
+    if backend == "serial":
+        return 1
+    cpus = workers
+    if backend == "ray":
+        import ray
+
+        if ray.is_initialized():  # started for these trials, or joined: its CPUs ran them
+            cpus = int(ray.cluster_resources().get("CPU", 0)) or None
+    return max(1, min(cpus or os.cpu_count() or 1, n_run))
 
 
 def register(subparsers) -> None:
@@ -173,11 +193,21 @@ def run(args) -> int:
                   f"{log.path}; rerun the same command to resume", file=sys.stderr)
         return 130
     s = result["summary"]
+    n_run = len(result["trials"]) - result["resumed"]
+    used = workers_used(args.backend, args.workers, n_run)
+    if n_run == 0:
+        how = "with no trial left to run"
+    elif args.backend == "serial":
+        how = "serially"
+    else:
+        how = f"on {used} worker{'s' if used != 1 else ''}"
+        if args.workers is not None and used < args.workers:
+            why = ("one per trial left to run" if used == n_run else
+                   "the CPUs of the Ray instance")
+            how += f" ({args.workers} asked for; {why})"
     print(f"Wind UKF Monte Carlo ({config.conditions} conditions): {len(result['trials'])} "
           f"trials ({result['resumed']} resumed), {result['failed']} failed, "
-          f"{result['seconds']:.1f} s "
-          + ("serially" if args.backend == "serial"
-             else f"on {args.workers or os.cpu_count()} workers"))
+          f"{result['seconds']:.1f} s {how}")
     if s.get("n"):
         print(f"3D wind RMSE after {config.settle_s:g} s (m/s): median {s['median']:.3f}, "
               f"quartiles {s['q1']:.3f} / {s['q3']:.3f}, mean {s['mean']:.3f}, "
@@ -211,7 +241,8 @@ def run(args) -> int:
     try:
         with out.writing() as stage:
             if stage.file("--json") is not None:
-                write_json(document("ukf-montecarlo", result, args), stage.file("--json"))
+                write_json(document("ukf-montecarlo", {**result, "workers": used}, args),
+                           stage.file("--json"))
             if stage.file("--plot") is not None:
                 from windnav.viz.ukf import plot_montecarlo
 
