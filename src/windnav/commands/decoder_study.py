@@ -36,8 +36,11 @@ more maps or with a bigger model? ``noise`` gives the decoder (and each ``--comp
 a ``W_robot`` with noise of 0-0.2 U per component, as the Wind UKF gives it in flight, on the
 flows of ``eigenflows``. ``direction`` bins the direction error of the decoder and its
 baselines by the true speed over the inlet's and by the distance from the robot, on those
-flows or with ``--windinet`` on the windinet layout at ``--inlets`` inlets (those of
-``windnav evaluate-decoder``). ``basis`` scores the best fields the d4-film's output modes
+flows or with ``--windinet`` on the windinet layout at ``--inlets`` inlets, drawn for it as
+the first map's (:func:`~windnav.experiments.decoder_eval.inlet_slots`): those of ``windnav
+evaluate-decoder --maps 0`` with the same ``--seed`` and ``--inlets``, not those of its
+windinet slots after dense maps (its default ``--maps 3`` draws them as the fourth map's).
+``basis`` scores the best fields the d4-film's output modes
 can express (each label fitted by least squares) beside the decoder, and the decoder's R^2 on
 each of the labels' eigenflows within those modes, on the same flows (or ``--windinet``): is
 the output basis what limits the decoder? ``--quick``:
@@ -184,7 +187,8 @@ def _fields(args, name, simulate, progress):
     positive_int(args.inlets, "--inlets", name)
     maps = args.maps
     if args.windinet and args.study in WINDINET_FLOW_STUDIES:
-        # one map: the inlets of evaluate-decoder's windinet slots, for the same seed
+        # one map, its inlets drawn as map 0's: evaluate-decoder's windinet inlets only with
+        # its --maps 0 (and the same --seed and --inlets), where the layout is map 0 there too
         maps = [("windinet", _windinet_map())]
     return evaluation_fields(maps, args.inlets, seed=args.seed,
                              cache_dir=args.flow_cache, simulate=simulate, max_fields=first,
