@@ -18,11 +18,13 @@ The state starts at ``t_0`` from the first odometry sample (attitude, body veloc
 
 Accuracy metric (:meth:`WindTrack.rmse_after`): the root mean square over the samples with
 ``t - t_0 >= settle_s`` of the 3D error norm ``|w_hat(t_k) - w(t_k)|``, where ``w`` is the true
-world-frame wind at the centre of mass logged by the simulator.
+world-frame wind at the centre of mass logged by the simulator. Samples where the filter did
+not run (a non-finite estimate) are left out of it, of the mean error and of the NEES alike.
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -91,6 +93,11 @@ class WindTrack:
     def rmse_after(self, settle_s: float = 2.0, axis: int | None = None) -> float:
         """RMS of the 3D wind error (or of one axis) over ``t - t_0 >= settle_s``, m/s.
 
+        Samples where the filter did not run (a non-finite estimate) are left out, as by
+        :meth:`mean_error_after` and :meth:`nees`: for the 3D error a sample with any
+        non-finite component, for one axis a sample whose component on that axis is not
+        finite. When none is left the result is NaN, with a RuntimeWarning saying so.
+
         Parameters
         ----------
         settle_s : float
@@ -98,15 +105,20 @@ class WindTrack:
         axis : int, optional
             0, 1 or 2 for the RMS error of one world axis; None for the 3D error norm.
         """
-        e = self.error[self._settled(settle_s, "WindTrack.rmse_after")]
+        where = "WindTrack.rmse_after"
+        e = self.error[self._settled(settle_s, where)]
         sq = np.sum(e**2, axis=1) if axis is None else e[:, axis] ** 2
-        return float(np.sqrt(np.mean(sq)))
+        return float(np.sqrt(_mean_of_finite(sq, where, settle_s)))
 
     def mean_error_after(self, settle_s: float = 2.0) -> np.ndarray:
-        """Mean wind error per world axis over ``t - t_0 >= settle_s`` (its bias), m/s, (3,);
-        NaN samples (where the filter did not run) left out."""
-        return np.nanmean(self.error[self._settled(settle_s, "WindTrack.mean_error_after")],
-                          axis=0)
+        """Mean wind error per world axis over ``t - t_0 >= settle_s`` (its bias), m/s, (3,).
+
+        Samples where the filter did not run (a non-finite estimate) are left out of each
+        axis's mean, as by :meth:`rmse_after` and :meth:`nees`; an axis with none left is NaN,
+        with a RuntimeWarning saying so.
+        """
+        where = "WindTrack.mean_error_after"
+        return _mean_of_finite(self.error[self._settled(settle_s, where)], where, settle_s)
 
     def _settled(self, settle_s, where: str) -> np.ndarray:
         """The samples at ``t - t_0 >= settle_s`` (bool mask), at least one, else a
@@ -121,11 +133,38 @@ class WindTrack:
 
     def nees(self, settle_s: float = 2.0) -> float:
         """Mean normalised estimation error squared ``e^T C^-1 e`` after ``settle_s`` (3 when
-        the reported covariance is consistent)."""
-        keep = self.t - self.t[0] >= settle_s
-        e = self.error[keep]
-        sol = np.linalg.solve(self.wind_cov[keep], e[..., None])[..., 0]
-        return float(np.mean(np.sum(e * sol, axis=1)))
+        the reported covariance is consistent).
+
+        Samples where the filter did not run (a non-finite estimate or covariance) are left
+        out, as by :meth:`rmse_after` and :meth:`mean_error_after`; when none is left the
+        result is NaN, with a RuntimeWarning saying so.
+        """
+        where = "WindTrack.nees"
+        keep = self._settled(settle_s, where)
+        e, cov = self.error[keep], self.wind_cov[keep]
+        ran = np.all(np.isfinite(e), axis=1) & np.all(np.isfinite(cov), axis=(1, 2))
+        value = np.full(e.shape[0], np.nan)
+        if np.any(ran):
+            sol = np.linalg.solve(cov[ran], e[ran][..., None])[..., 0]
+            value[ran] = np.sum(e[ran] * sol, axis=1)
+        return float(_mean_of_finite(value, where, settle_s))
+
+
+def _mean_of_finite(values: np.ndarray, where: str, settle_s) -> np.ndarray:
+    """The mean of ``values`` (K, ...) over axis 0, non-finite entries (samples where the
+    filter did not run) left out: :func:`numpy.nanmean`'s arithmetic, to the bit; NaN where
+    none is left, with a RuntimeWarning naming ``where`` (not NumPy's "Mean of empty
+    slice")."""
+    ok = np.isfinite(values)
+    count = np.sum(ok, axis=0)
+    total = np.sum(np.where(ok, values, 0.0), axis=0)
+    if np.any(count == 0):
+        warnings.warn(f"{where}: the filter did not run (non-finite estimate) at any of the "
+                      f"{values.shape[0]} samples after settle_s = {float(settle_s):g} s"
+                      + ("" if values.ndim == 1 else " on some axis") + "; the result is NaN "
+                      "there.", RuntimeWarning, stacklevel=3)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
 def _grid(log, use: tuple[str, ...]) -> tuple[np.ndarray, float]:

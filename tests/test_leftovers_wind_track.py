@@ -1,0 +1,72 @@
+"""``WindTrack``'s metrics leave out the samples where the filter did not run (leftovers,
+2026-12-05).
+
+``mean_error_after`` left non-finite estimates out, ``rmse_after`` and ``nees`` returned NaN for
+the same track; now all three leave them out, and say so when none is left.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from windnav.estimate.flight import WindTrack
+
+
+def track(est, cov=None):
+    n = len(est)
+    rng = np.random.default_rng(0)
+    true = rng.normal(size=(n, 3))
+    cov = np.tile(np.diag([0.5, 1.0, 2.0]), (n, 1, 1)) if cov is None else cov
+    return WindTrack(t=0.5 * np.arange(n), wind_est=np.asarray(est, float), wind_cov=cov,
+                     wind_true=true, x=np.zeros((n, 16)), repairs=0)
+
+
+def test_the_three_metrics_leave_out_where_the_filter_did_not_run():
+    est = np.random.default_rng(1).normal(size=(10, 3))
+    full = track(est)
+    holes = est.copy()
+    holes[[4, 7]] = np.nan                  # the filter did not run there
+    cov = full.wind_cov.copy()
+    cov[[4, 7]] = np.nan
+    gappy = track(holes, cov)
+    ran = [i for i in range(10) if i not in (4, 7)]
+    kept = WindTrack(t=full.t[ran], wind_est=est[ran], wind_cov=full.wind_cov[ran],
+                     wind_true=full.wind_true[ran], x=np.zeros((8, 16)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")      # no warning: samples are left
+        for settle in (0.0, 1.0):           # samples 0-9 and 2-9
+            assert gappy.rmse_after(settle) == pytest.approx(kept.rmse_after(settle), rel=1e-12)
+            for k in range(3):
+                assert gappy.rmse_after(settle, axis=k) == pytest.approx(
+                    kept.rmse_after(settle, axis=k), rel=1e-12)
+            assert gappy.nees(settle) == pytest.approx(kept.nees(settle), rel=1e-12)
+            np.testing.assert_allclose(gappy.mean_error_after(settle),
+                                       kept.mean_error_after(settle), rtol=1e-12)
+    assert np.isfinite(gappy.rmse_after(1.0)) and np.isfinite(gappy.nees(1.0))
+    # a track where the filter ran throughout: the numbers as before, to the bit
+    e = full.error[full.t - full.t[0] >= 1.0]
+    assert full.rmse_after(1.0) == float(np.sqrt(np.mean(np.sum(e**2, axis=1))))
+    assert full.rmse_after(1.0, axis=2) == float(np.sqrt(np.mean(e[:, 2] ** 2)))
+    sol = np.linalg.solve(full.wind_cov[2:], e[..., None])[..., 0]
+    assert full.nees(1.0) == float(np.mean(np.sum(e * sol, axis=1)))
+    assert np.array_equal(full.mean_error_after(1.0), np.nanmean(e, axis=0))
+
+
+def test_no_sample_left_is_nan_with_a_warning_naming_the_metric():
+    est = np.random.default_rng(2).normal(size=(6, 3))
+    est[2:] = np.nan                        # the filter stopped after 1 s
+    cov = np.tile(np.eye(3), (6, 1, 1))
+    cov[2:] = np.nan
+    stopped = track(est, cov)
+    for method in ("rmse_after", "nees", "mean_error_after"):
+        with pytest.warns(RuntimeWarning, match=rf"WindTrack.{method}: the filter did not run "
+                                                r"\(non-finite estimate\) at any of the 4 "
+                                                r"samples after settle_s = 1 s"):
+            value = getattr(stopped, method)(1.0)
+        assert np.all(np.isnan(value))
+    # nees checks its settling time as the other two do (it took the mean of no sample)
+    with pytest.raises(ValueError, match="'settle_s' parameter of WindTrack.nees must be below"):
+        stopped.nees(10.0)
