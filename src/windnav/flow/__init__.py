@@ -6,6 +6,8 @@ the time-averaged (and optionally recorded) cell-centred wind. The building bloc
 with injected advection (:func:`make_advection`) and pressure projection
 (:func:`make_exact_projection`, :func:`make_jacobi_projection`) -- and the Strouhal analysis
 (:func:`strouhal_number`, :func:`square_cylinder_strouhal`) are public too.
+:func:`averaging_verdict` says whether a solution's mean has converged (its half-window
+difference, spin-up and window in flow-throughs), as ``windnav wind`` prints it.
 
 On disk (Zarr v3): one solution with :func:`save_flow` / :func:`load_flow` / :func:`flow_attrs`
 (:mod:`windnav.flow.solution_io`), a dataset of many with :class:`SweepStore` and
@@ -42,6 +44,7 @@ from windnav.flow.strouhal import (
     square_cylinder_strouhal,
     strouhal_number,
 )
+from windnav.flow.validity import averaging_verdict
 
 # The Zarr I/O, imported on first access (PEP 562): name -> module.
 _LAZY = {
@@ -70,6 +73,7 @@ __all__ = [
     "SweepMap",
     "SweepStore",
     "VerifyReport",
+    "averaging_verdict",
     "bluff_body_strouhal",
     "cell_centred",
     "check_flow_memory",
