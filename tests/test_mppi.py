@@ -492,6 +492,7 @@ def test_variants_without_wind_ignore_it(base):
     assert not np.allclose(a, c)
 
 
+@pytest.mark.filterwarnings("ignore:MPPIPlanner.update:RuntimeWarning")  # (base: no wind)
 def test_nan_input_falls_back_and_is_counted(base):
     cfg = dataclasses.replace(base, n_samples=50, n_steps=20)
     planner = MPPIPlanner(cfg, goal_xy=(100, 0), rng=0)
@@ -513,6 +514,7 @@ def test_nan_input_falls_back_and_is_counted(base):
     assert np.all(np.isfinite(good)) and planner.stats.fallbacks == 3
 
 
+@pytest.mark.filterwarnings("ignore:MPPIPlanner.update:RuntimeWarning")  # (base: no wind)
 def test_planner_stats_keep_a_bounded_record_of_update_times(base, monkeypatch):
     """``total_ms`` was a list that grew by every update, 1.2 MB an hour at 10 Hz, for as
     long as a planner lived (long-run audit); it keeps the last TIMES_KEPT."""
@@ -684,3 +686,25 @@ def test_rollout_names_a_wind_that_is_not_a_local_wind(base):
     cfg = dataclasses.replace(base, n_samples=3, n_steps=5)
     with pytest.raises(ValueError, match="'wind' parameter of rollout must be a LocalWind"):
         rollout(cfg, np.zeros((5, 2)), [0.0, 0.0], wind=(1.0, 0.0))  # AttributeError before
+
+
+def test_a_wind_aware_planner_given_no_wind_says_it_plans_in_still_air():
+    """EA-MPPI+W's update without a wind plans as in still air: a RuntimeWarning says so, once
+    per planner; a variant without wind, or one given its wind, says nothing."""
+    import warnings
+
+    p = wn.vehicle.params("hummingbird")
+    scan = np.full(360, 100.0)
+    windy = MPPIPlanner(planner_config(p, "ea-mppi-w", horizon=25.0), (50.0, 0.0), rng=0)
+    with pytest.warns(RuntimeWarning, match="plans in still air"):
+        windy.update([0.0, 0.0, 0.0, 0.0], scan)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        windy.update([0.0, 0.0, 0.0, 0.0], scan)  # once per planner
+        calm = MPPIPlanner(planner_config(p, "mppi"), (50.0, 0.0), rng=0)
+        calm.update([0.0, 0.0, 0.0, 0.0], scan)
+        offsets = np.arange(-12.0, 13.0)
+        uv = np.zeros((2, 25, 25))
+        uv[0] = 3.0
+        given = MPPIPlanner(planner_config(p, "ea-mppi-w", horizon=25.0), (50.0, 0.0), rng=0)
+        given.update([0.0, 0.0, 0.0, 0.0], scan, LocalWind.grid(uv, offsets, offsets))

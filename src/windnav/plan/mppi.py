@@ -42,6 +42,7 @@ dynamics vectorise), and the obstacle distance field (:mod:`windnav.plan.obstacl
 from __future__ import annotations
 
 import time
+import warnings
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -476,6 +477,7 @@ class MPPIPlanner:
         shape = (config.n_steps, 2, config.n_samples)
         self._work = (np.empty(shape, np.float32), np.empty(shape, np.float32))
         self.stats = PlannerStats()
+        self._warned_no_wind = False
         self.reset()
 
     @staticmethod
@@ -505,7 +507,8 @@ class MPPIPlanner:
             beyond ``lidar_range`` are no return), or points (P, 2) relative to the vehicle,
             m. None: no obstacles.
         wind : LocalWind, optional
-            The local wind estimate (used only by the variants with wind).
+            The local wind estimate (used only by the variants with wind; such a variant given
+            None plans in still air, with a RuntimeWarning the first time).
 
         Returns
         -------
@@ -542,6 +545,16 @@ class MPPIPlanner:
                 raise ValueError("The 'wind' parameter of MPPIPlanner.update must be a "
                                  f"LocalWind or None. Got {type(wind).__name__} instead.")
             return self._fallback("wind", self._brake(vel), t0)
+        if cfg.use_wind and wind is None and not self._warned_no_wind:
+            # a wind-aware variant given no wind plans in still air: say so once (API audit,
+            # 2026-12-05: EA-MPPI+W's first command was [5.76, -0.31] without the wind given,
+            # [1.11, 1.09] with it, and nothing told them apart)
+            self._warned_no_wind = True
+            warnings.warn("MPPIPlanner.update: the planner's config uses the wind (use_wind) "
+                          "but no 'wind' was given, so it plans in still air; pass a LocalWind "
+                          "(e.g. windnav.plan.LocalWind.grid or navigate's local_wind), or use "
+                          "a variant without wind. (Said once per planner.)", RuntimeWarning,
+                          stacklevel=2)
         goal = self.goal - pos
         dist = float(np.hypot(*goal))
         packed = _pack_wind(cfg, wind)
