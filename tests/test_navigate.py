@@ -315,6 +315,18 @@ def test_a_city_or_a_flow_of_another_type_is_named(city, flow):
 def test_a_flow_of_another_wind_is_refused(city, flow):
     with pytest.raises(ValueError, match="'flow'.*speed"):
         navigate(city, START, GOAL, speed=5.0, direction_deg=0.0, variant="mppi", flow=flow)
+    with pytest.raises(ValueError, match="'flow'.*direction_deg=10"):
+        navigate(city, START, GOAL, speed=SPEED, direction_deg=10.0, variant="mppi", flow=flow)
+
+
+def test_a_direction_is_the_flow_s_modulo_360_deg(city, flow):
+    """The flow was simulated at 0 deg; 360 and -360 deg are that wind (refused until the API
+    audit of 2026-12-05, which met it as -45 against 315), and fly the same flight."""
+    a = fly(city, flow, duration=3.0)
+    for same in (360.0, -360.0):
+        b = navigate(city, START, GOAL, speed=SPEED, direction_deg=same, variant="mppi",
+                     flow=flow, rng=0, duration=3.0)
+        np.testing.assert_array_equal(a.position, b.position)
 
 
 # ------------------------------------------------------------------------------ command

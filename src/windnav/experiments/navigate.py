@@ -492,8 +492,9 @@ def _check_flow(flow, speed: float, direction_deg: float, city):
         raise ValueError(f"The 'flow' parameter of {_WHERE} must hold recorded frames "
                          "(simulate with record_every > 0, e.g. simulate_flow). Got a mean "
                          "field only instead.")
+    turn = (float(flow.direction_deg) - float(direction_deg) + 180.0) % 360.0 - 180.0
     if not (math.isclose(flow.speed, speed, rel_tol=1e-9)
-            and math.isclose(flow.direction_deg, direction_deg, abs_tol=1e-9)):
+            and math.isclose(turn, 0.0, abs_tol=1e-9)):  # 315 deg is -45 deg (API audit)
         raise ValueError(f"The 'flow' parameter of {_WHERE} must be simulated at speed={speed} "
                          f"and direction_deg={direction_deg}. Got speed={flow.speed} and "
                          f"direction_deg={flow.direction_deg} instead.")
