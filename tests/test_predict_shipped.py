@@ -34,3 +34,19 @@ def test_shipped_decoder_contract_and_scaling():
                                atol=1e-4)
     with pytest.raises(ValueError, match="scans"):
         dec.predict(scans[:, :359], w_up, w_robot)
+
+
+def test_a_scan_from_inside_a_building_is_warned():
+    """``City.lidar`` reads 0 m on every ray on or inside a building; the decoder returned a
+    field for it (1.2 m/s of mean speed in the API audit) without a word."""
+    import warnings
+
+    dec = wn.predict.load_decoder()
+    scans = np.full((3, 360), 30.0)
+    scans[1] = 0.0
+    with pytest.warns(RuntimeWarning, match=r"1 of 3 scans read 0 m on every ray \(first: row 1\)"):
+        dec.predict(scans, [4.0, 1.0], [3.0, 0.5])
+    scans[1, 7] = 0.3  # one return: a robot beside a wall, not in it
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        dec.predict(scans, [4.0, 1.0], [3.0, 0.5])
