@@ -11,6 +11,12 @@ Nonlinear models use the same formulas with ``X`` replaced by the Jacobian at th
 before solving, so coefficients that differ by ten orders of magnitude (``k_eta ~ 1e-8`` beside
 an accelerometer bias ~ 0.1) are solved without loss of precision.
 
+A coefficient fitted on a bound of :func:`nonlinear_fit` (or so near one that its 95 % interval
+reaches past it) has no valid interval: the linearisation assumes the estimate could move
+either way by its standard error, which the bound forbids. It is listed in
+:attr:`LeastSquares.at_bound`, its :class:`Estimate` has a NaN standard error and interval, and
+the fit warns (``RuntimeWarning``) naming it and its bound.
+
 ``s^2 (X^T X)^-1`` assumes the errors are independent with one variance. Two sandwich
 estimators ``cov = B M B``, ``B = (X^T X)^-1``, drop that assumption (``cov_type``; the
 estimates themselves do not change)::
@@ -26,7 +32,7 @@ estimates themselves do not change)::
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.optimize
@@ -93,6 +99,11 @@ class LeastSquares:
     t_dof : int or None
         Degrees of freedom of the t quantile of the intervals when not ``dof``: ``G - 1``
         for the cluster-robust covariance of ``G`` clusters.
+    at_bound : dict of str to float
+        The coefficients of a bounded fit that sit on a bound, or so near one that their 95 %
+        interval reaches past it, each with that bound (empty for most fits): their
+        :meth:`estimate` has a NaN standard error and interval. ``cov`` is left as computed
+        (the other coefficients' intervals treat them as free).
     """
 
     names: tuple[str, ...]
@@ -104,6 +115,7 @@ class LeastSquares:
     dof: int
     cov_type: str = "classical"
     t_dof: int | None = None
+    at_bound: dict = field(default_factory=dict)
 
     @property
     def rmse(self) -> float:
@@ -116,8 +128,12 @@ class LeastSquares:
         return np.sqrt(np.clip(np.diag(self.cov), 0.0, None))
 
     def estimate(self, name: str) -> Estimate:
-        """The :class:`Estimate` of parameter ``name``."""
+        """The :class:`Estimate` of parameter ``name`` (NaN standard error and interval when
+        it is in :attr:`at_bound`)."""
         i = self.names.index(name)
+        if name in self.at_bound:
+            nan = float("nan")
+            return Estimate(float(self.coef[i]), nan, (nan, nan))
         se = float(self.std_errors[i])
         dof = self.dof if self.t_dof is None else self.t_dof
         half = float(scipy.stats.t.ppf(0.975, dof)) * se
@@ -269,7 +285,9 @@ def nonlinear_fit(model, jacobian, x0, y, names, *, source: str, bounds=None,
     source : str
         For messages.
     bounds : (lower, upper), optional
-        Bounds on the parameters.
+        Bounds on the parameters. A coefficient that ends on one, or so near one that its
+        95 % interval reaches past it, gets no standard error or interval
+        (:attr:`LeastSquares.at_bound`) and a ``RuntimeWarning`` naming it and the bound.
     cov_type : {"classical", "hc3", "cluster"}
     clusters : array_like of shape (n,), optional
         As in :func:`linear_fit`, with the Jacobian at the optimum for the regressors.
@@ -293,4 +311,27 @@ def nonlinear_fit(model, jacobian, x0, y, names, *, source: str, bounds=None,
     resid = y - fitted
     dof = y.size - x0.size
     cov, t_dof = _covariance(jacobian(beta), resid, dof, names, source, cov_type, labels)
-    return LeastSquares(names, beta, cov, resid, fitted, _r2(y, resid), dof, cov_type, t_dof)
+    at_bound = {} if bounds is None else _at_bound(beta, cov, bounds, res.active_mask,
+                                                   dof if t_dof is None else t_dof, names)
+    for name, bound in at_bound.items():
+        value = float(beta[names.index(name)])
+        warnings.warn(f"nonlinear_fit: {name} = {value:.10g} in the fit to {source} lies on its "
+                      f"bound {bound:.10g} (or its 95 % interval reaches past it): no standard "
+                      "error or interval is given for it, since the covariance's linearisation "
+                      "does not hold at a bound", RuntimeWarning, stacklevel=2)
+    return LeastSquares(names, beta, cov, resid, fitted, _r2(y, resid), dof, cov_type, t_dof,
+                        at_bound)
+
+
+def _at_bound(beta, cov, bounds, active, t_dof: int, names) -> dict:
+    """``{name: bound}`` for the coefficients on a bound (the solver's ``active_mask``), or
+    nearer one than the half-width of their 95 % interval."""
+    lower, upper = (np.broadcast_to(np.asarray(b, dtype=np.float64), beta.shape)
+                    for b in bounds)
+    half = float(scipy.stats.t.ppf(0.975, t_dof)) * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    out = {}
+    for i, name in enumerate(names):
+        for bound, side in ((lower[i], -1), (upper[i], 1)):
+            if np.isfinite(bound) and (active[i] == side or abs(beta[i] - bound) <= half[i]):
+                out[name] = float(bound)
+    return out

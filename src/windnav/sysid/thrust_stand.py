@@ -50,6 +50,8 @@ Two checks of the motor model against the data (:attr:`ThrustStandFit.notes`):
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -234,6 +236,8 @@ class ThrustStandFit:
         steady points in both halves, or the second halves cannot be fitted.
     max_accel : float
         The steadiness threshold used, rad/s^2.
+    min_speed : float
+        The least steady rotor speed used, rad/s.
     step : ndarray of shape (n,) or None
         The PWM step of each steady point (0, 1, ... over all files in order): the clusters
         of the intervals.
@@ -255,11 +259,20 @@ class ThrustStandFit:
     settling_check: dict | None = None
     max_accel: float = 1000.0
     step: np.ndarray | None = None
+    min_speed: float = 250.0
 
     @property
     def r2(self) -> float:
         """R^2 of the rotor-speed model (the thesis reports 0.979)."""
         return self.speed.r2
+
+    @property
+    def at_bound(self) -> dict:
+        """The motor coefficients fitted on a bound of the fit, each with that bound (empty
+        for most fits; :attr:`windnav.sysid.LeastSquares.at_bound`): DZ below the lowest
+        steady PWM (less 1e-6 counts), Kv above 1e-12. Their standard error and 95 % interval
+        are NaN (a note): the covariance's linearisation does not hold at a bound."""
+        return dict(self.speed.at_bound)
 
     @property
     def scatter_check(self) -> dict | None:
@@ -294,6 +307,23 @@ class ThrustStandFit:
                 f"{100 * c['model_min_rise']:.1f} %): a speed limit or a saturated drive the "
                 "PWM model does not have, whose points bias Kv, V0 and DZ; drop the saturated "
                 "steps")
+        for name, bound in self.at_bound.items():
+            value = getattr(self, name).value
+            if name == "DZ":
+                notes.append(
+                    f"DZ ({value:.8g} counts) sits on its bound, or nearer it than its 95 % "
+                    f"interval's half-width: the lowest steady PWM ({float(self.pwm.min()):g}, "
+                    "less 1e-6 counts); the fit pushes the dead zone up against a PWM step it "
+                    "was given as turning, so DZ has no standard error or 95 % interval (ci95 "
+                    "null; the covariance's interval means nothing at a bound); steady points "
+                    "at a PWM inside the dead zone (a stopped rotor's reading above min_speed, "
+                    f"{self.min_speed:g} rad/s) do this: raise min_speed (--min-speed) or drop "
+                    "those steps")
+            else:
+                notes.append(
+                    f"{name} ({value:.6g}) sits on its bound {bound:.6g} in the motor-model fit, "
+                    "or nearer it than its 95 % interval's half-width: it has no standard error "
+                    "or 95 % interval (ci95 null), and the model does not describe these data")
         check = self.settling_check
         if check is not None and check["significant"]:
             d = check["early_minus_late"]
@@ -319,6 +349,7 @@ class ThrustStandFit:
         return {
             "k_eta": self.k_eta.to_dict(), "Kv": self.Kv.to_dict(), "V0": self.V0.to_dict(),
             "DZ": self.DZ.to_dict(), "r2": self.speed.r2, "r2_thrust": self.thrust.r2,
+            "at_bound": self.at_bound,
             "rmse_rotor_speed_rad_s": self.speed.rmse, "rmse_thrust_N": self.thrust.rmse,
             "n_steady_points": int(self.omega.size), "files": self.counts,
             "saturation": self.saturation, "settling_check": self.settling_check,
@@ -333,8 +364,15 @@ class ThrustStandFit:
 
 
 def _apart(a: Estimate, b: Estimate) -> bool:
-    """Each estimate outside the other's 95 % interval."""
-    return not (a.ci95[0] <= b.value <= a.ci95[1]) and not (b.ci95[0] <= a.value <= b.ci95[1])
+    """Each estimate outside the other's 95 % interval (an estimate without one, on a bound,
+    is judged by the other's interval alone; two without: not apart)."""
+    def outside(e: Estimate, value: float) -> bool | None:
+        if not np.all(np.isfinite(e.ci95)):
+            return None
+        return not e.ci95[0] <= value <= e.ci95[1]
+
+    verdicts = [v for v in (outside(a, b.value), outside(b, a.value)) if v is not None]
+    return bool(verdicts) and all(verdicts)
 
 
 def _step_halves(t: np.ndarray, pwm: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -516,19 +554,24 @@ def fit_thrust_stand(tables: Sequence[Table], n_rotors: int, *, max_accel: float
                          f"{len(_MOTOR_NAMES) + 1} PWM steps or more (runs of one value) for "
                          "intervals of Kv, V0 and DZ robust to errors shared within a step. "
                          f"Got {n_used} instead.")
-    sp = _fit_motor(pwm, volt, omega, _initial_motor(pwm, volt, omega), src, step)
+    with warnings.catch_warnings(record=True) as caught:  # given after the check below
+        warnings.simplefilter("always")
+        sp = _fit_motor(pwm, volt, omega, _initial_motor(pwm, volt, omega), src, step)
     kv, v0, dz = (sp.estimate(n) for n in _MOTOR_NAMES)
-    for name, e in (("Kv", kv), ("V0", v0)):
+    for name in ("Kv", "V0"):  # the covariance's interval, even where it reaches a bound
+        e = dataclasses.replace(sp, at_bound={}).estimate(name)
         if not e.ci95[0] * e.ci95[1] > 0:  # the interval holds 0: the data do not tell
             raise ValueError(  # (one voltage, sagging: Kv 0.0007 [-0.56, 0.56], V0 2185 V)
                 f"The column 'voltage_V' of {files} must span supply voltages far enough "
                 f"apart to determine Kv and V0 (repeat the ramp at several voltages): the "
                 f"steady points span {float(np.ptp(volt)):.3g} V and give {name} = "
                 f"{e.value:.4g} with a 95 % interval of [{e.ci95[0]:.3g}, {e.ci95[1]:.3g}].")
+    for w in caught:  # a coefficient on its bound, or no convergence (nonlinear_fit)
+        warnings.warn(w.message, w.category, stacklevel=2)
     motor = PWMMotorModel(Kv=kv.value, V0=v0.value, DZ=max(dz.value, 0.0))
     settling = _settling_check(late, step, pwm, volt, omega, sp, src)
     return ThrustStandFit(th.estimate("k_eta"), kv, v0, dz, motor, th, sp, pwm, volt, omega,
-                          thrust, counts, saturation, settling, max_accel, step)
+                          thrust, counts, saturation, settling, max_accel, step, min_speed)
 
 
 def _fit_motor(pwm, volt, omega, x0, src: str, step) -> LeastSquares:
