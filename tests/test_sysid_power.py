@@ -255,6 +255,26 @@ def test_a_quintic_that_fits_the_hummingbird_curve_gets_no_lack_of_fit_note(
     assert doc["max_range_speed"] == pytest.approx(v_r, abs=0.02)
 
 
+def test_the_hover_check_finds_the_misfit_of_the_cubic_and_quartic_not_the_quintic(
+        hummingbird_power):
+    """windnav.sysid.power.hover_check (the offset of the 4 hover samples from the curve, with
+    its standard error from the joint covariance) on the Hummingbird's samples."""
+    from windnav.sysid import read_table
+    from windnav.sysid.power import hover_check
+
+    path, hover, _ = hummingbird_power
+    tab = read_table(path)
+    speed, power = tab.column("speed", "test"), tab.column("power", "test")
+    got = {deg: hover_check(fit_power(speed, power, degree=deg)) for deg in (3, 4, 5)}
+    for check in got.values():
+        assert check["hover_measured_W"] == pytest.approx(hover, abs=0.03)
+    assert got[3]["hover_offset_W"] == pytest.approx(0.961, abs=1e-3)  # 3.9 standard errors
+    assert got[4]["hover_offset_W"] == pytest.approx(-0.162, abs=1e-3)  # 4.4
+    assert got[3]["hover_outside_fit"] and got[4]["hover_outside_fit"]
+    assert "samples slower than 0.5 m/s draw 56.199 W" in got[3]["note"]
+    assert got[5]["hover_outside_fit"] is False and got[5]["note"] is None
+
+
 def test_power_curve_endurance_check_flags_a_dip_of_the_fit(tmp_path):
     """windnav power-curve's endurance_check, on sysid power: the 21 noise-free points of the
     Hummingbird's curve fitted with a quartic dip 0.09 W below hover at 0.99 m/s."""
@@ -338,29 +358,6 @@ def test_non_finite_samples_are_left_out_and_counted():
     assert fit.n_dropped == 2 and fit.to_dict()["n_dropped"] == 2 and clean.n_dropped == 0
     assert fit.speed.size == v.size and fit.hover.value == clean.hover.value
     assert any("2 sample(s) with a non-finite" in n for n in fit.notes)
-
-
-def test_the_hover_check_takes_student_s_quantile_for_few_slow_samples():
-    """With three slow samples the median's +-1.96 standard errors covered it 84 % of the
-    time (coverage audit): the rule takes t(n - 1)'s quantile, 4.30 for n = 3."""
-    from types import SimpleNamespace
-
-    from windnav.experiments.sysid import _hover_check
-    from windnav.sysid._fit import median_std_error
-
-    slow = np.array([50.0, 50.5, 51.0])
-    se = median_std_error(slow)  # 0.3618 W
-    for z, flagged in ((3.0, False), (4.5, True)):
-        hover = 50.5 - z * np.hypot(se, 0.01)
-        fit = SimpleNamespace(degree=3, hover=SimpleNamespace(value=hover, std_error=0.01,
-                                                    ci95=(hover - 0.02, hover + 0.02)))
-        assert _hover_check(fit, slow, 0.5)["hover_outside_fit"] is flagged
-    many = np.random.default_rng(0).normal(50.0, 0.5, 400)  # t(399) is about 1.966
-    se = median_std_error(many)
-    hover = float(np.median(many)) - 2.2 * np.hypot(se, 0.01)
-    fit = SimpleNamespace(degree=3, hover=SimpleNamespace(value=hover, std_error=0.01,
-                                                ci95=(hover - 0.02, hover + 0.02)))
-    assert _hover_check(fit, many, 0.5)["hover_outside_fit"] is True
 
 
 def test_a_best_speed_on_the_search_bound_has_no_interval():

@@ -384,11 +384,18 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
     keeps only the samples with speeds in it.
 
     The payload's ``notes`` say where the curve does not match the samples: the fit's own
-    (:attr:`~windnav.sysid.PowerFit.notes`, the lack-of-fit test), the measured hover power
-    outside ``hover_W``'s interval (:func:`_hover_check`), and ``windnav power-curve``'s
-    :func:`~windnav.experiments.power_curve.endurance_check` (``endurance_check``).
+    (:attr:`~windnav.sysid.PowerFit.notes`, the lack-of-fit test), the samples slower than
+    0.5 m/s off the curve at their speeds (:func:`windnav.sysid.power.hover_check`), and
+    ``windnav power-curve``'s :func:`~windnav.experiments.power_curve.endurance_check`
+    (``endurance_check``).
     """
-    from windnav.sysid.power import DEFAULT_WINDS, HOVER_SPEED_M_S, fit_power, steady_level_mask
+    from windnav.sysid.power import (
+        DEFAULT_WINDS,
+        HOVER_SPEED_M_S,
+        fit_power,
+        hover_check,
+        steady_level_mask,
+    )
 
     speed = table.column(speed_col, where)
     power = table.column(power_col, where)
@@ -424,7 +431,7 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
                     winds=DEFAULT_WINDS if winds is None else winds, source=src)
     from windnav.experiments.power_curve import endurance_check
 
-    hover = _hover_check(fit, power[keep][speed[keep] < HOVER_SPEED_M_S], HOVER_SPEED_M_S)
+    hover = hover_check(fit, HOVER_SPEED_M_S)
     hover_note = hover.pop("note")
     # windnav power-curve's check: a fitted V_E that is a dip of the fit, not of the samples
     endurance = endurance_check(fit.curve, fit.speed, fit.power)
@@ -433,47 +440,6 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
     return fit, {**fit.to_dict(), "selection": selection, **hover,
                  "endurance_check": endurance, "notes": notes,
                  "columns": {"speed": speed_col, "power": power_col}}
-
-
-def _hover_check(fit, slow_power, hover_speed: float) -> dict:
-    """The measured hover power against the curve's ``P(0)``.
-
-    ``hover_measured_W`` is the median power of the samples slower than ``hover_speed`` (at
-    least three, else None), ``hover_measured_std_error_W`` its standard error
-    (:func:`windnav.sysid._fit.median_std_error`). ``hover_outside_fit`` is True,
-    with a note, when the median lies outside ``hover_W``'s 95 % interval and differs from
-    ``hover_W`` by more than Student's 97.5 % quantile (``n - 1`` degrees of freedom, 1.96 for
-    many samples) times the standard error of the two together: outside the interval
-    alone, a right curve's noise put 15 % of 300 samplings of the thesis's cubic there, the
-    rule 1 %. The Hummingbird's simulated curve, fitted with a cubic, gave 55.24 [54.84,
-    55.64] W for a measured 56.20 W, silently (audit).
-    """
-    import scipy.stats
-
-    from windnav.sysid._fit import median_std_error
-
-    slow = np.asarray(slow_power, dtype=np.float64)
-    if slow.size < 3:
-        return {"hover_measured_W": None, "hover_measured_std_error_W": None,
-                "hover_outside_fit": None, "note": None}
-    measured = float(np.median(slow))
-    se = median_std_error(slow)
-    lo, hi = fit.hover.ci95
-    diff = measured - fit.hover.value
-    z = abs(diff) / max(float(np.hypot(fit.hover.std_error, se)), 1e-300)
-    # Student's quantile for the few slow samples (1.96 held a 95 % rule to 84 % at n = 3)
-    crit = float(scipy.stats.t.ppf(0.975, slow.size - 1))
-    outside = bool(not lo <= measured <= hi and z > crit)
-    note = None
-    if outside:
-        note = (f"the {slow.size} samples slower than {hover_speed:g} m/s draw {measured:.5g} W "
-                f"(median), outside hover_W's 95 % interval [{lo:.5g}, {hi:.5g}] W and "
-                f"{diff:+.3g} W from it, {z:.1f} times the two's combined standard error: "
-                f"the degree-{fit.degree} curve misses the power at hover, so hover_W, "
-                "hover_ratio and the low-speed end of the curve (max_endurance_speed with "
-                "it) are biased")
-    return {"hover_measured_W": measured, "hover_measured_std_error_W": se,
-            "hover_outside_fit": outside, "note": note}
 
 
 def unsteadiness_study(samples, *, cell: float = 1.0, min_count: int = 1):
