@@ -435,3 +435,19 @@ def test_the_flight_selection_options_need_their_columns(tmp_path):
         with pytest.raises(ValueError, match=f"'{need}' parameter of windnav sysid power"):
             _power_doc(path, tmp_path, *extra)
     assert _power_doc(path, tmp_path)["hover_W"] == pytest.approx(60.0, abs=1e-6)
+
+
+def test_the_library_fit_says_what_the_command_says():
+    """A hover power extrapolated below the slowest sample and a max-range speed beyond the
+    fastest were noted only by ``windnav sysid power``; ``fit_power`` gave them silently
+    (API audit, 2026-12-05)."""
+    thesis = PowerCurve.crazyflie()
+    v = np.linspace(0.0, 10.0, 101)
+    high = fit_power(v[v >= 3.0], thesis(v[v >= 3.0]))
+    assert high.hover_extrapolated
+    assert any(n.startswith("hover_W is extrapolated below 3 m/s") for n in high.notes)
+    low = fit_power(v[v <= 7.0], thesis(v[v <= 7.0]), speed_max=12.0)
+    assert low.max_range_speed.value > 7.0
+    assert any("lies beyond the fastest sample (7 m/s)" in n for n in low.notes)
+    full = fit_power(v, thesis(v))
+    assert full.notes == []

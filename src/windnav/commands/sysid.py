@@ -477,7 +477,6 @@ def run_power(args) -> int:
         min_segment_s=positive_float(selection["min_segment_s"], "--min-segment-s", name,
                                      allow_zero=True),
         winds=winds, speed_range=_speed_range(args.speed_range, name), where=name)
-    payload["notes"] = [*payload["notes"], *_power_notes(fit, payload)]
     doc = document("sysid power", payload, args)
     title = f"{Path(table.source).name}: {args.power_col} vs {args.speed_col}"
     _write(args, doc, out, "power",
@@ -488,24 +487,6 @@ def run_power(args) -> int:
     for note in payload["notes"]:
         print(f"{name}: note: {note}", file=sys.stderr)
     return 0
-
-
-def _power_notes(fit, payload: dict) -> list[str]:
-    """Where the reported numbers lie outside the fitted speeds."""
-    notes = []
-    fastest = float(fit.speed.max())
-    if payload["max_range_at_speed_limit"]:  # an edge, not a minimum (CLI audit 2026-12-05)
-        notes.append(f"the max-range speed is the curve's top speed {payload['speed_max']:g} "
-                     "m/s, not a minimum inside it: fly faster, or raise --speed-max")
-    if payload["max_range_speed"] > fastest * (1 + 1e-9):
-        notes.append(f"the max-range speed {payload['max_range_speed']:.3g} m/s lies beyond "
-                     f"the fastest sample ({fastest:.3g} m/s): the curve is extrapolated there")
-    if payload["hover_extrapolated"]:  # 12.15 W for 10.56 W from 3.5 ... 6 m/s (audit)
-        notes.append(f"hover_W is extrapolated below {payload['slowest_speed']:.3g} m/s (the "
-                     "slowest fitted sample): P(0), hover_ratio and their intervals assume "
-                     "the polynomial holds down to hover; fit samples near hover, or widen "
-                     "--speed-range")
-    return notes
 
 
 # ------------------------------------------------------------------------------ similitude

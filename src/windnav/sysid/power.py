@@ -250,7 +250,11 @@ class PowerFit:
 
     @property
     def notes(self) -> list[str]:
-        """Caveats of the fit, one sentence each (empty when none)."""
+        """Caveats of the fit, one sentence each (empty when none): the lack-of-fit test, a
+        best speed on the bound of the speeds searched or beyond the fastest sample, a hover
+        power extrapolated below the slowest sample, dropped samples. (The last three were
+        said only by ``windnav sysid power`` until 2026-12-05: the library's fit gave them
+        with no note; API audit.)"""
         notes = []
         test = self.lack_of_fit
         if test is not None and test["rejected"]:
@@ -271,13 +275,30 @@ class PowerFit:
                    f"{self.fit.rmse / np.max(np.abs(self.power)):.2%} of the largest power, "
                    f"over the {NO_SCATTER_RESOLUTION:.1%} taken for rounding)"
                    if test["no_scatter"] else ""))
+        top = self.max_range_speed.value >= self.curve.speed_max * (1 - 1e-6)
+        fastest = float(self.speed.max())
         for name, e in (("max_endurance_speed", self.max_endurance_speed),
                         ("max_range_speed", self.max_range_speed)):
-            if np.isnan(e.std_error):
+            if name == "max_range_speed" and top:  # an edge, not a minimum (CLI audit)
+                notes.append(f"the max-range speed is the curve's top speed "
+                             f"{self.curve.speed_max:g} m/s, not a minimum inside it: fly "
+                             "faster, or raise speed_max (--speed-max)"
+                             + (": no 95 % interval is given for it"
+                                if np.isnan(e.std_error) else ""))
+            elif np.isnan(e.std_error):
                 notes.append(
                     f"{name} ({e.value:.3g} m/s) lies on the bound of the speeds searched (0 or "
                     f"speed_max {self.curve.speed_max:.3g} m/s): the optimum is not inside the "
                     "data, and no 95 % interval is given for it")
+        if self.max_range_speed.value > fastest * (1 + 1e-9):
+            notes.append(f"the max-range speed {self.max_range_speed.value:.3g} m/s lies beyond "
+                         f"the fastest sample ({fastest:.3g} m/s): the curve is extrapolated "
+                         "there")
+        if self.hover_extrapolated:  # 12.15 W for 10.56 W from 3.5 ... 6 m/s (audit)
+            notes.append(f"hover_W is extrapolated below {float(self.speed.min()):.3g} m/s (the "
+                         "slowest fitted sample): P(0), hover_ratio and their intervals assume "
+                         "the polynomial holds down to hover; fit samples near hover, or widen "
+                         "the speed range (--speed-range)")
         if self.n_dropped:
             notes.append(f"{self.n_dropped} sample(s) with a non-finite speed or power were "
                          "left out of the fit")
