@@ -135,11 +135,15 @@ TRAJECTORIES = ("hover", "line", "circle", "waypoints")
 
 
 def make_trajectory(kind: str, *, start=(0.0, 0.0, 0.0), size: float = 5.0,
-                    speed: float = 2.0, duration: float = 10.0):
+                    speed: float = 2.0):
     """Build a named trajectory starting at ``start`` (m).
 
-    ``size`` is the circle radius, the line length, or the waypoint square's side (m);
-    ``speed`` the reference speed (m/s; > 0 for a line or waypoints, which must get somewhere).
+    ``size`` is the circle radius (its centre ``size`` m along -x from ``start``), the line
+    length along +x, or the waypoint square's side (m); ``speed`` the reference speed (m/s; > 0
+    for a line or waypoints, which must get somewhere): a circle's constant speed, a line's
+    peak speed (its minimum-jerk leg takes ``max(1.875 size / speed, 1)`` s), the waypoints'
+    average speed per leg. How long the flight lasts is ``fly``'s ``duration``. (A
+    ``duration`` argument was accepted here and ignored until 2026-12-05; API audit.)
 
     Raises
     ------
