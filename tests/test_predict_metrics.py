@@ -276,3 +276,17 @@ def test_direction_breakdown_bad_input_names_the_argument(kw, name):
     args.update(kw)
     with pytest.raises(ValueError, match=name):
         direction_error_breakdown(**args)
+
+
+def test_one_inlet_speed_stands_for_every_sample():
+    """A float inlet speed is every sample's (it was refused as shape (), where
+    ``Decoder.predict`` takes one ``(2,)`` wind for a batch)."""
+    rng = np.random.default_rng(3)
+    true = rng.normal(size=(4, 2, 5, 5))
+    pred = true + 0.3 * rng.normal(size=true.shape)
+    free = np.ones((4, 5, 5), bool)
+    a = field_errors(pred, true, free, 2.5)
+    b = field_errors(pred, true, free, np.full(4, 2.5))
+    assert a == b
+    with pytest.raises(ValueError, match="inlet_speed"):
+        field_errors(pred, true, free, -1.0)

@@ -52,6 +52,8 @@ def _fields(pred, true, free, inlet_speed, where):
         raise _fail("free", where, f"a boolean array of shape {(b, h, h)}",
                     f"{free.dtype} of shape {free.shape}")
     speed = np.asarray(inlet_speed, dtype=np.float64)
+    if speed.ndim == 0:  # one inlet for every sample, as Decoder.predict takes a (2,) w_up
+        speed = np.full(b, float(speed))
     if speed.shape != (b,) or not np.all(np.isfinite(speed)) or np.any(speed < 0):
         raise _fail("inlet_speed", where, f"finite speeds >= 0 of shape ({b},), m/s",
                     f"shape {speed.shape}" if speed.shape != (b,) else "a negative or NaN speed")
@@ -80,8 +82,9 @@ def field_errors(pred, true, free, inlet_speed, *, min_speed_fraction: float = 0
         Predicted and true ``[u, v]``, m/s, indexed ``[b, :, iy, ix]``.
     free : ndarray of bool, shape (B, H, H)
         Cells that count (outside buildings, inside the solver grid).
-    inlet_speed : array_like of shape (B,)
-        Inlet speed of each sample, m/s, >= 0 (for the masked direction error).
+    inlet_speed : float or array_like of shape (B,)
+        Inlet speed of each sample (a float: the same for every sample), m/s, >= 0 (for the
+        masked direction error).
     min_speed_fraction : float
         The masked direction error keeps cells with ``|u| >= min_speed_fraction *
         inlet_speed``, >= 0.
