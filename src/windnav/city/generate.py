@@ -27,7 +27,15 @@ import numpy as np
 from windnav._validate import positive_float, positive_int
 from windnav.city.core import City
 
-_UNSET = object()
+
+class _Unset:
+    """The default of the deprecated positional random source (``help()`` shows its repr)."""
+
+    def __repr__(self) -> str:
+        return "<none: the positional rng is deprecated, pass rng=>"
+
+
+_UNSET = _Unset()
 
 
 def _generator(positional, rng, where: str) -> np.random.Generator:
