@@ -476,3 +476,24 @@ def test_gust_margin_rejects_what_it_cannot_use():
         reach_lattice(EMPTY, wind, dx=2.0, clearance=0.0, gust=gust[:-1])
     with pytest.raises(ValueError, match="'gust'.*gridded wind"):
         reach_lattice(EMPTY, (1.0, 0.0), dx=2.0, clearance=0.0, gust=gust)
+
+
+def test_a_move_the_held_wind_never_opens_is_not_waited_for():
+    """Past the last frame the wind is held, so a move it blocks stays blocked: with the
+    default ``t_end = inf`` the search waited for it for ever (metamorphic audit, 2026-12-05).
+    Two equal frames give the steady lattice's answer."""
+    from windnav.city import City
+    from windnav.plan.reach import least_time, reach_lattice
+    from windnav.wind import GriddedWind
+
+    city = City((0, 100, 0, 100), np.array([[40.0, 60.0, 40.0, 60.0]]), [10.0])
+    x = np.arange(1.0, 100.0, 2.0)
+    u = np.full((x.size, x.size), 3.0)
+    u[:, x > 80] = 12.0  # a strip the 10 m/s airspeed cannot fly against
+    v = np.zeros_like(u)
+    steady = least_time(reach_lattice(city, GriddedWind(x, x, u, v), dx=2.0), (10.0, 10.0),
+                        (30.0, 90.0), airspeed_max=10.0)
+    frames = GriddedWind(x, x, np.stack([u, u]), np.stack([v, v]), t=np.array([0.0, 10.0]))
+    held = least_time(reach_lattice(city, frames, dx=2.0), (10.0, 10.0), (30.0, 90.0),
+                      airspeed_max=10.0)
+    assert np.isfinite(steady.time_s) and held.time_s == pytest.approx(steady.time_s, rel=1e-12)

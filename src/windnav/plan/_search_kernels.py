@@ -412,7 +412,9 @@ def earliest_arrival(free, frames, t0_frames, dt_frames, moves, guards, dx, airs
                 if v > 0.0:
                     arr = dep + length / v
                     break
-                if T == 1 or dep > t_end:
+                if T == 1 or dep > t_end or s >= T - 1:
+                    # past the last frame the wind is held: waiting cannot open the move (with
+                    # t_end = inf the loop never ended; metamorphic audit, 2026-12-05)
                     break
                 dep += dt_frames
             k2 = j2 * nx + i2
