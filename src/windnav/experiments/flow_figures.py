@@ -150,15 +150,24 @@ def plot_strouhal(out, res: dict) -> list[str]:
         names.append("flow_strouhal_resolution.png")
     if "incidence" in res:
         inc = res["incidence"]
-        fig, ax = plt.subplots(figsize=(6.5, 3.8))
+        fig, ax = plt.subplots(figsize=(6.5, 4.4))
         unsettled = {(float(b), float(a)) for b, a in inc.get("unsettled", [])}
+        extended = {(float(b), float(a)) for b, a, _ in inc.get("extended", [])}
         for shape, vals in inc["strouhal"].items():
             line, = ax.plot(inc["angles"], vals, "o-", ms=3, label=f"computed {shape}:1")
+            longer = [(a, v) for a, v in zip(inc["angles"], vals, strict=True)
+                      if (float(shape), float(a)) in extended - unsettled]
+            if longer:  # settled only over a doubled record: a diamond
+                ax.plot(*zip(*longer, strict=True), "D", ms=4, color=line.get_color(),
+                        zorder=3)
             odd = [(a, v) for a, v in zip(inc["angles"], vals, strict=True)
                    if (float(shape), float(a)) in unsettled]
             if odd:  # runs that switch shedding states within their record: hollow
                 ax.plot(*zip(*odd, strict=True), "o", ms=6, mfc="w", mec=line.get_color(),
                         zorder=3)
+        if extended - unsettled:
+            ax.plot([], [], "D", ms=4, color="0.3",
+                    label="settled over a longer record (doubled, up to 1,280 H/U)")
         if unsettled:
             ax.plot([], [], "o", ms=6, mfc="w", mec="0.3",
                     label="unsettled (its longest record's halves differ > 3 %)")
@@ -170,7 +179,7 @@ def plot_strouhal(out, res: dict) -> list[str]:
         ax.set_ylabel("St = f H / U")
         ax.set_title(f"St against incidence, {fv.STUDY_CELLS} cells per height H, default "
                      "closure", fontsize=10)
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.17), ncol=2)
         fig.tight_layout()
         fig.savefig(out / "flow_strouhal_incidence.png", dpi=110)
         plt.close(fig)
@@ -179,6 +188,12 @@ def plot_strouhal(out, res: dict) -> list[str]:
         ar = res["aspect_ratio"]
         fig, ax = plt.subplots(figsize=(6.5, 3.8))
         ax.plot(ar["ratios"], ar["strouhal"], "o-", label="computed, 0 deg")
+        longer = [(r, v) for r, v in zip(ar["ratios"], ar["strouhal"], strict=True)
+                  if r in {b for b, _, _ in ar.get("extended", [])}
+                  and r not in set(ar.get("unsettled", []))]
+        if longer:
+            ax.plot(*zip(*longer, strict=True), "D", ms=8, color="C0", mec="k", zorder=3,
+                    label="settled over a longer record (doubled, up to 1,280 H/U)")
         odd = [(r, v) for r, v in zip(ar["ratios"], ar["strouhal"], strict=True)
                if r in set(ar.get("unsettled", []))]
         if odd:
