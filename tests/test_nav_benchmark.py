@@ -595,6 +595,30 @@ def test_table_ratio_interval_does_not_depend_on_the_other_rows():
     assert other["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]["table_ratio"]["ci95"] != ci[0]
 
 
+def test_the_table_is_a_function_of_the_records_not_of_their_order():
+    """A store's workers append records as flights finish; the table ratio's bootstrap
+    numbered the winds in the order met, so a shuffled store gave other intervals
+    (metamorphic audit, 2026-12-05)."""
+    recs = synthetic_records()
+    recs += [{**r, "scenario_id": r["scenario_id"].replace("m00", "m01"),
+              "energy_J": None if r.get("energy_J") is None else 1.3 * r["energy_J"]}
+             for r in recs]
+    recs = [{**r, "scenario_id": r["scenario_id"][:-1] + p} for r in recs for p in "01"]
+    a = benchmark_table(recs, n_boot=300)
+    latest = {}  # the last record of each flight counts: keep that order among duplicates
+    for i, r in enumerate(recs):
+        latest[(r["scenario_id"], r["variant"])] = i
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        order = rng.permutation(len(recs))
+        shuffled = sorted(order, key=lambda i: (latest[(recs[i]["scenario_id"],
+                                                       recs[i]["variant"])] == i))
+        b = benchmark_table([recs[i] for i in shuffled], n_boot=300)
+        ratio = [t["rows"]["ea-mppi-w"]["vs_reference"]["energy_J"]["table_ratio"]
+                 for t in (a, b)]
+        assert ratio[0] == ratio[1]
+
+
 @pytest.mark.parametrize("k, n, low, high", [
     (81, 263, 25.53, 36.62), (15, 148, 6.24, 16.05), (0, 20, 0.0, 16.11), (1, 29, 0.61, 17.18)])
 def test_failure_interval_is_wilsons_as_published(k, n, low, high):
