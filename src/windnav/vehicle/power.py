@@ -241,12 +241,17 @@ class PowerCurve:
         speeds, powers : array_like of shape (M,)
             Steady-flight samples; M must exceed ``degree``.
         degree : int
-            Polynomial degree (default 4).
+            Polynomial degree (default 4: the simulated curves' fits; the thesis's and
+            :func:`windnav.sysid.fit_power`'s default is 3, so the two give different curves
+            from the same samples unless ``degree`` is given).
 
         Returns
         -------
         PowerCurve
-            With ``speed_max = max(speeds)``.
+            With ``speed_max = max(speeds)``. No intervals or checks:
+            :func:`windnav.sysid.fit_power` fits the same polynomial with the coefficients'
+            95 % intervals, the best speeds' intervals and the notes (lack of fit, hover
+            extrapolated, optimum beyond the samples).
         """
         where = "PowerCurve.from_samples"
         deg = positive_int(degree, "degree", where)
