@@ -198,6 +198,35 @@ def _on_grid(grid: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
     return out
 
 
+def _commands(log, vehicle: int, where: str) -> tuple[np.ndarray, np.ndarray]:
+    """The rotor-speed commands of ``vehicle`` and their times: the log's, or the rotor-speed
+    sensor's where its samples are finer and it reads the commands exactly (its values equal
+    the log's at every common time: a noise-free sensor). With ``log_every`` = 10 the log's
+    were up to 9 physics steps stale and the estimate moved by up to 0.49 m/s (metamorphic
+    audit, 2026-12-05); a noisy sensor's readings are measurements, not the commands, and would
+    count its noise twice. Commands coarser than the controller's, from neither, are warned."""
+    t_cmd, cmd = log.t, log.rotor_speed_cmd[:, vehicle]
+    if log.t.size < 2:
+        return t_cmd, cmd
+    step_log = float(np.median(np.diff(log.t)))
+    rs = log.sensors.get("rotor_speeds")
+    if rs is not None and rs["t"].size > 1 and np.median(np.diff(rs["t"])) < step_log * (
+            1 - 1e-6):
+        i = np.minimum(np.searchsorted(log.t, rs["t"] - 1e-9), log.t.size - 1)
+        common = np.abs(log.t[i] - rs["t"]) <= 1e-9
+        if common.any() and np.array_equal(rs["cmd"][common, vehicle], cmd[i[common]]):
+            return rs["t"], rs["cmd"][:, vehicle]
+    rate = log.meta.get("control_rate_hz") if isinstance(log.meta, dict) else None
+    if rate and step_log > (1.0 + 1e-6) / float(rate):
+        warnings.warn(f"{where}: the log holds the rotor-speed commands every {step_log:g} s, "
+                      f"coarser than the controller's {1.0 / float(rate):g} s (log_every), and "
+                      "no noise-free rotor-speed sensor holds them finer: the filter's inputs "
+                      "lag the commands by up to that much, and its estimate differs from a "
+                      "full log's; fly with a log_every that keeps every control step",
+                      RuntimeWarning, stacklevel=3)
+    return t_cmd, cmd
+
+
 def _mapped(rotor_speed_map, t: np.ndarray, cmd: np.ndarray) -> np.ndarray:
     """``rotor_speed_map(t, cmd)`` checked to keep the shape (``cmd`` when no map)."""
     if rotor_speed_map is None:
@@ -229,8 +258,9 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
         pseudo-measurements (see :func:`run_wind_ukf`).
 
     The inputs ``u`` are the commands of the log, or of the ``rotor_speeds`` sensor where its
-    samples are finer (a log with ``log_every`` > 2 at 100 Hz control); the true wind is the
-    log's at the grid times it holds, NaN between them (the metrics leave those samples out).
+    samples are finer and it reads them without noise (a log with ``log_every`` > 2 at 100 Hz
+    control; otherwise such a log's stale commands are warned); the true wind is the log's at
+    the grid times it holds, NaN between them (the metrics leave those samples out).
 
     Returns
     -------
@@ -260,15 +290,7 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
                              f"(logged: {sorted(log.sensors)}).")
     grid, dt = _grid(log, use)
     N = log.rotor_speed_cmd.shape[2]
-    # the commands from the finer of the log and the rotor-speed sensor: with log_every = 10 the
-    # log's were up to 9 physics steps stale, and the estimate moved by up to 0.49 m/s
-    # (metamorphic audit, 2026-12-05); the log's at log_every 1 and 2, to the bit as before
-    t_cmd, cmd = log.t, log.rotor_speed_cmd[:, vehicle]
-    if "rotor_speeds" in log.sensors and log.t.size > 1:
-        rs = log.sensors["rotor_speeds"]
-        if rs["t"].size > 1 and np.median(np.diff(rs["t"])) < np.median(np.diff(log.t)) * (
-                1 - 1e-6):
-            t_cmd, cmd = rs["t"], rs["cmd"][:, vehicle]
+    t_cmd, cmd = _commands(log, vehicle, where)
     cmd = np.clip(_mapped(rotor_speed_map, t_cmd, cmd), params.rotor_speed_min,
                   params.rotor_speed_max)
     held = cmd[_at(t_cmd, np.r_[grid[0], grid[:-1]])]
