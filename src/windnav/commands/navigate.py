@@ -19,7 +19,11 @@ decoder at 50 Hz, planner at 10 Hz); its JSON adds the per-stage median times
 settings are ours (:class:`~windnav.experiments.onboard.OnboardOptions`): ``--outside robot``
 gives the planner the decoder's ``W_robot`` outside the decoder's window instead of zero, and
 ``--wrobot-tau S`` averages the UKF's estimate over ``S`` seconds before it becomes ``W_robot``
-(the benchmark's ``ea-mppi-w-hat@outside=robot@tau=8``).
+(the benchmark's ``ea-mppi-w-hat@outside=robot@tau=8``). It flies the shipped decoder; the
+benchmark's onboard flights were flown with the decoder of 2026-11-23 (``@decoder=`` picks
+another), so to re-fly one of its records use ``windnav benchmark-nav --replay SCENARIO_ID
+--variant V``, which loads the record's decoder (``navigate`` with the same scenario gives
+another flight: 1,749.6 against 1,745.2 J in one; pipeline audit, 2026-12-05).
 
 ``--variant ea-mppi-w-esc`` (EA-MPPI+W+esc) is EA-MPPI+W with the progress monitor and GS+W
 route escape of :mod:`windnav.plan.escape`; its JSON's ``settings.escapes`` lists the escapes.
