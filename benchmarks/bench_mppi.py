@@ -1,4 +1,4 @@
-"""Benchmark: one MPPI update (windnav, Numba, one core) against pytorch_mppi on the same problem.
+"""Benchmark: one MPPI update (windnav, Numba) against pytorch_mppi on the same problem.
 
 The problem, in both planners: the planner's point mass (4 states, 2 controls, quadratic drag
 in a uniform wind known inside a 60 m window), progress + obstacle + energy cost with the
@@ -7,11 +7,12 @@ map (obstacle cost by brute force over the points in torch, by the distance fiel
 and a goal 100 m away. Shapes: 1000 samples x 25 steps and 100 x 187 (the thesis's). windnav's
 update includes building the obstacle field from the scan; pytorch_mppi's ``command`` samples,
 rolls out, weights and updates. Before timing, the two costs of the same control samples are
-compared (they must agree). Timings are medians over interleaved repeats; windnav runs with
-NUMBA_NUM_THREADS=1 (single-threaded kernels); torch runs in ``--torch-dtype`` (default float32,
-its faster) at each of ``--torch-threads`` (default 1 and all cores: on a loaded machine its
-threads stall each other) and the fastest is the reference; the ratio against its one-thread
-time (one core each) is reported beside it. Each figure is the smallest of
+compared (they must agree). Timings are medians over interleaved repeats; windnav runs at each
+of ``--windnav-threads`` (``MPPIPlanner(threads=N)``, default 1 and all cores; 1 is the
+benchmark suite's planner) and torch in ``--torch-dtype`` (default float32, its faster) at each
+of ``--torch-threads`` (default 1 and all cores: on a loaded machine its threads stall each
+other); each planner's fastest count is its figure, and the ratio of the two at one thread
+each (one core each) is reported beside it. Each figure is the smallest of
 ``--repeats`` interleaved rounds' medians (load from other processes only adds time); every
 round is written to the JSON.
 
@@ -25,7 +26,8 @@ from __future__ import annotations
 
 import os
 
-os.environ["NUMBA_NUM_THREADS"] = "1"   # before numba is imported
+# before numba is imported: as many threads as windnav is timed on (1 runs no parallel region)
+os.environ["NUMBA_NUM_THREADS"] = str(os.cpu_count() or 1)
 for _var in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 # torch's OpenMP threads sleep when idle instead of spinning (GOMP's default): a spinning
@@ -132,6 +134,15 @@ class TorchProblem:
         return (cfg.obstacle_weight * cfg.lidar_range**2 / d2)[None]
 
 
+def numba_layer() -> str:
+    import numba
+
+    try:
+        return numba.threading_layer()
+    except ValueError:  # no parallel region ran (one thread only)
+        return "unused"
+
+
 def median_ms(fn, n: int) -> float:
     out = np.empty(n)
     for i in range(n):
@@ -149,6 +160,8 @@ def bench_shape(torch, pytorch_mppi, base, S, Kk, origin, scan, args):
     wind = LocalWind.uniform(WIND)
     planner = MPPIPlanner(cfg, goal_xy=goal, rng=args.seed)
     pts = scan_points(scan, max_range=cfg.lidar_range)
+    planners = {n: MPPIPlanner(cfg, goal_xy=goal, rng=args.seed, threads=n)
+                for n in args.windnav_threads}
 
     dtype = torch.float32 if args.torch_dtype == "float32" else torch.float64
     tp = TorchProblem(torch, cfg, goal_rel, pts, dtype)
@@ -172,6 +185,8 @@ def bench_shape(torch, pytorch_mppi, base, S, Kk, origin, scan, args):
 
     for _ in range(20):                                  # compile, warm caches
         planner.update(state, scan, wind)
+        for other in planners.values():
+            other.update(state, scan, wind)
     for _ in range(3):
         ref.command(x0)
     # the fused kernel split: dynamics + progress + energy alone, and with the obstacle cost
@@ -181,21 +196,29 @@ def bench_shape(torch, pytorch_mppi, base, S, Kk, origin, scan, args):
                                                  args.updates),
              "with_obstacle_cost": median_ms(lambda: fused_rollout_cost(cfg, u32, problem),
                                              args.updates)}
-    planner = MPPIPlanner(cfg, goal_xy=goal, rng=args.seed)
-    t_ours, t_ref = [], {n: [] for n in args.torch_threads}
+    planners = {n: MPPIPlanner(cfg, goal_xy=goal, rng=args.seed, threads=n)
+                for n in args.windnav_threads}
+    for p in planners.values():
+        p.update(state, scan, wind)
+    t_ours = {n: [] for n in args.windnav_threads}
+    t_ref = {n: [] for n in args.torch_threads}
     for _ in range(args.repeats):
-        t_ours.append(median_ms(lambda: planner.update(state, scan, wind), args.updates))
+        for n, p in planners.items():
+            t_ours[n].append(median_ms(lambda p=p: p.update(state, scan, wind), args.updates))
         for n in args.torch_threads:
             torch.set_num_threads(n)
             t_ref[n].append(median_ms(lambda: ref.command(x0), args.ref_updates))
     # other processes only ever add time: the best round's median is each planner's own cost;
-    # the reference is pytorch_mppi at its fastest thread count in this run
+    # each planner's figure is its fastest thread count in this run
     by_threads = {n: min(v) for n, v in t_ref.items()}
-    return {"windnav_ms": min(t_ours), "pytorch_mppi_ms": min(by_threads.values()),
+    ours = {n: min(v) for n, v in t_ours.items()}
+    first = min(args.windnav_threads)
+    return {"windnav_ms": min(ours.values()), "windnav_ms_by_threads": ours,
+            "pytorch_mppi_ms": min(by_threads.values()),
             "pytorch_mppi_ms_by_threads": by_threads,
-            "rounds_ms": {"windnav": t_ours, **{f"pytorch_mppi_{n}_threads": v
-                                                for n, v in t_ref.items()}},
-            "cost_agreement": agree, "profile_ms": planner.stats.mean_profile_ms(),
+            "rounds_ms": {**{f"windnav_{n}_threads": v for n, v in t_ours.items()},
+                          **{f"pytorch_mppi_{n}_threads": v for n, v in t_ref.items()}},
+            "cost_agreement": agree, "profile_ms": planners[first].stats.mean_profile_ms(),
             "kernel_split_ms": split, "n_points": int(len(pts))}
 
 
@@ -238,6 +261,10 @@ def main(argv=None) -> int:
     ap.add_argument("--torch-threads", type=int, nargs="+",
                     default=sorted({1, os.cpu_count() or 1}),
                     help="torch thread counts to try; the fastest is the reference")
+    ap.add_argument("--windnav-threads", type=int, nargs="+",
+                    default=sorted({1, os.cpu_count() or 1}),
+                    help="windnav thread counts (MPPIPlanner(threads=N)); the fastest is its "
+                         "figure")
     ap.add_argument("--torch-dtype", choices=("float32", "float64"), default="float32")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--skip-gs", action="store_true")
@@ -250,21 +277,26 @@ def main(argv=None) -> int:
     _, origin, scan = scene(args.seed)
     out = {"machine": machine(), "torch": torch.__version__,
            "torch_threads_tried": args.torch_threads, "torch_dtype": args.torch_dtype,
-           "numba_threads": int(os.environ["NUMBA_NUM_THREADS"])}
-    rows = ["| shape (samples x steps) | windnav ms | pytorch_mppi ms (fastest thread count) | "
-            "speed-up | speed-up, one core each | pytorch_mppi ms per thread count | windnav "
-            "mean profile ms (obstacles / sampling / rollout+cost / update) | fused kernel ms "
-            "(no obstacles / all costs) |",
-            "|---|---|---|---|---|---|---|---|"]
+           "numba_threads": int(os.environ["NUMBA_NUM_THREADS"]),
+           "windnav_threads_tried": args.windnav_threads}
+    rows = ["| shape (samples x steps) | windnav ms (fastest thread count) | pytorch_mppi ms "
+            "(fastest thread count) | speed-up | speed-up, one core each | windnav ms per "
+            "thread count | pytorch_mppi ms per thread count | windnav mean profile ms, "
+            f"{min(args.windnav_threads)} thread (obstacles / sampling / rollout+cost / update) "
+            "| fused kernel ms (no obstacles / all costs) |",
+            "|---|---|---|---|---|---|---|---|---|"]
     for S, Kk in SHAPES:
         r = bench_shape(torch, pytorch_mppi, base, S, Kk, origin, scan, args)
         tag = f"{S}x{Kk}"
         out[f"windnav_ms_{tag}"] = r["windnav_ms"]
         out[f"pytorch_mppi_ms_{tag}"] = r["pytorch_mppi_ms"]
         out[f"speedup_{tag}"] = r["pytorch_mppi_ms"] / r["windnav_ms"]
-        # like for like: windnav runs on one thread, so also against pytorch_mppi on one
+        # like for like: both on one thread
         one = r["pytorch_mppi_ms_by_threads"].get(1)
-        out[f"speedup_one_core_{tag}"] = None if one is None else one / r["windnav_ms"]
+        ours_one = r["windnav_ms_by_threads"].get(1)
+        out[f"speedup_one_core_{tag}"] = (None if one is None or ours_one is None
+                                          else one / ours_one)
+        out[f"windnav_ms_by_threads_{tag}"] = r["windnav_ms_by_threads"]
         out[f"pytorch_mppi_ms_by_threads_{tag}"] = r["pytorch_mppi_ms_by_threads"]
         out[f"rounds_ms_{tag}"] = r["rounds_ms"]
         out[f"profile_ms_{tag}"] = r["profile_ms"]
@@ -273,16 +305,18 @@ def main(argv=None) -> int:
         out["scan_points"] = r["n_points"]
         p, k = r["profile_ms"], r["kernel_split_ms"]
         threads = ", ".join(f"{n}: {v:.1f}" for n, v in r["pytorch_mppi_ms_by_threads"].items())
+        mine = ", ".join(f"{n}: {v:.2f}" for n, v in r["windnav_ms_by_threads"].items())
         ratio = out[f"speedup_one_core_{tag}"]
         one_core = "-" if ratio is None else f"{ratio:.0f}x"
         rows.append(f"| {tag} | {r['windnav_ms']:.2f} | {r['pytorch_mppi_ms']:.1f} | "
-                    f"**{out[f'speedup_{tag}']:.0f}x** | {one_core} | {threads} | "
+                    f"**{out[f'speedup_{tag}']:.0f}x** | {one_core} | {mine} | {threads} | "
                     f"{p['obstacles']:.2f} / "
                     f"{p['sampling']:.2f} / {p['rollout_cost']:.2f} / {p['update']:.2f} | "
                     f"{k['rollout_progress_energy']:.2f} / {k['with_obstacle_cost']:.2f} |")
     agree = ", ".join(f"{out[f'cost_agreement_{S}x{K}']:.1e}" for S, K in SHAPES)
     rows += ["", f"- scan: {out['scan_points']} LiDAR returns; torch {out['torch']}, "
-             f"{args.torch_dtype}; windnav one thread (Numba), float64 state, float32 samples",
+             f"{args.torch_dtype}; windnav on Numba's threads (the threading layer "
+             f"{numba_layer()}), float64 state, float32 samples",
              f"- same problem: the two planners' costs of the same control samples agree to "
              f"{agree} (relative)"]
     if not args.skip_gs:

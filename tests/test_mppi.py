@@ -708,3 +708,48 @@ def test_a_wind_aware_planner_given_no_wind_says_it_plans_in_still_air():
         uv[0] = 3.0
         given = MPPIPlanner(planner_config(p, "ea-mppi-w", horizon=25.0), (50.0, 0.0), rng=0)
         given.update([0.0, 0.0, 0.0, 0.0], scan, LocalWind.grid(uv, offsets, offsets))
+
+
+@pytest.mark.parametrize("threads", [2, 3])
+def test_threads_roll_out_the_same_costs_and_draw_reproducible_samples(base, threads):
+    """``threads`` > 1 splits the samples into chunks on Numba's threads: the rollout's costs
+    and parts are the serial kernel's to the bit, each chunk's smoothing is the serial sum of
+    its clipped samples, and the samples are a function of ``rng`` and the thread count."""
+    rng = np.random.default_rng(4)
+    cfg = dataclasses.replace(base, n_samples=301, n_steps=30)
+    city = wn.city.planning_map(rng=1)
+    pts = scan_points(city.lidar(np.array([[300.0, 300.0]]))[0], max_range=cfg.lidar_range)
+    off = np.arange(-20, 21) * 1.5
+    X, Y = np.meshgrid(off, off)
+    wind = LocalWind.grid(np.stack([3 + 0.1 * Y, -1 + 0.05 * X]), off)
+    problem = Problem(np.array([2.0, -1.0]), np.array([80.0, 30.0]), obstacle_field(pts),
+                      wind.pack(cfg.horizon))
+    u = rng.normal(0, 20, (cfg.n_steps, 2, cfg.n_samples)).astype(np.float32)
+    one = fused_rollout_cost(cfg, u, problem)
+    many = fused_rollout_cost(cfg, u, problem, threads=threads)
+    np.testing.assert_array_equal(many[0], one[0])
+    np.testing.assert_array_equal(many[1], one[1])
+    mean = rng.normal(size=(cfg.n_steps, 2))
+    work = np.empty((cfg.n_steps, 2, cfg.n_samples), np.float32)
+    a = sample_controls(cfg, mean, np.random.default_rng(7), threads=threads, work=work)
+    b = sample_controls(cfg, mean, np.random.default_rng(7), threads=threads)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, sample_controls(cfg, mean, np.random.default_rng(7)))
+    G = smoothing_matrix(cfg.n_steps, cfg.sigma_gf).astype(np.float32)
+    ref = np.zeros_like(a)
+    for k in range(cfg.n_steps):  # the serial kernel's order: taps from the band's first up
+        cols = np.flatnonzero(G[k])
+        for t in cols:
+            ref[k] = ref[k] + G[k, t] * work[t]
+    np.testing.assert_array_equal(a, ref)
+    assert abs(float(a.mean() - mean.mean())) < 0.2 and work.min() >= cfg.a_min
+    planner = MPPIPlanner(cfg, (60.0, 0.0), rng=0, threads=threads)
+    again = MPPIPlanner(cfg, (60.0, 0.0), rng=0, threads=threads)
+    scan = np.full(360, 100.0)
+    for _ in range(3):
+        np.testing.assert_array_equal(planner.update([0, 0, 1.0, 0], scan, wind),
+                                      again.update([0, 0, 1.0, 0], scan, wind))
+    with pytest.raises(ValueError, match="'threads' parameter of MPPIPlanner"):
+        MPPIPlanner(cfg, (60.0, 0.0), threads=cfg.n_samples + 1)
+    with pytest.raises(ValueError, match="'threads' parameter of sample_controls"):
+        sample_controls(cfg, mean, rng, threads=0)

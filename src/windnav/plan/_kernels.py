@@ -1,6 +1,8 @@
 """Numba kernels of the planners (private): power curve, obstacle field, fused rollout + cost.
 
-All kernels are single-threaded, float64 and compiled with ``cache=True``. The public modules
+All kernels are float64 and compiled with ``cache=True``, and single-threaded but for the two
+``..._chunks`` kernels, which run chunks of the samples on Numba's threads
+(``MPPIPlanner(threads=N)``; every sample's arithmetic is the serial kernels'). The public modules
 (:mod:`windnav.plan.mppi`, :mod:`windnav.plan.obstacles`, :mod:`windnav.plan.energy_search`)
 validate their inputs and call these; nothing here raises.
 
@@ -597,6 +599,62 @@ def perturb_clip_smooth(seed, clipped, mean, sigma, a_lo, a_hi, taps, lo, hi,
                 for m in range(row.size):
                     row[m] += w * src[m]
                 t += 1
+
+
+@numba.njit(cache=True, parallel=True)
+def perturb_clip_smooth_chunks(seeds, clipped, mean, sigma, a_lo, a_hi, taps, lo, hi, out,
+                               bounds):  # pragma: no cover - numba
+    """:func:`perturb_clip_smooth` with the samples in chunks ``bounds[c]:bounds[c + 1]`` run
+    in parallel, chunk ``c``'s normals from the stream of ``seeds[c]`` (so another stream
+    than the serial kernel's one). Each element's smoothing is the serial kernel's sum, in the
+    same order: the same ``clipped`` gives the same ``out`` to the bit."""
+    K = clipped.shape[0]
+    for c in numba.prange(seeds.size):
+        s0 = bounds[c]
+        s1 = bounds[c + 1]
+        fill_normal(seeds[c], clipped[:, :, s0:s1], mean, sigma, a_lo, a_hi, KN, WN, FN)
+        for j in range(2):
+            for m0 in range(s0, s1, _SMOOTH_BLOCK):
+                m1 = min(m0 + _SMOOTH_BLOCK, s1)
+                for k in range(K):
+                    row = out[k, j, m0:m1]
+                    row[:] = 0.0
+                    a = lo[k]
+                    n = hi[k] - a
+                    t = 0
+                    while t + 4 <= n:
+                        w0 = taps[k, t]
+                        w1 = taps[k, t + 1]
+                        w2 = taps[k, t + 2]
+                        w3 = taps[k, t + 3]
+                        x0 = clipped[a + t, j, m0:m1]
+                        x1 = clipped[a + t + 1, j, m0:m1]
+                        x2 = clipped[a + t + 2, j, m0:m1]
+                        x3 = clipped[a + t + 3, j, m0:m1]
+                        for m in range(row.size):
+                            row[m] = (((row[m] + w0 * x0[m]) + w1 * x1[m]) + w2 * x2[m]) \
+                                + w3 * x3[m]
+                        t += 4
+                    while t < n:
+                        w = taps[k, t]
+                        src = clipped[a + t, j, m0:m1]
+                        for m in range(row.size):
+                            row[m] += w * src[m]
+                        t += 1
+
+
+@numba.njit(cache=True, parallel=True)
+def rollout_cost_chunks(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab, mission,
+                        wmode, wgrid, wmeta, has_obs, node, fmeta, sx, sy, bstart, bmeta,
+                        costs, parts, bounds):  # pragma: no cover - numba
+    """:func:`rollout_cost` of the sample chunks ``bounds[c]:bounds[c + 1]`` in parallel: the
+    same costs and parts to the bit (every sample's rollout is its own)."""
+    for c in numba.prange(bounds.size - 1):
+        s0 = bounds[c]
+        s1 = bounds[c + 1]
+        rollout_cost(U[:, :, s0:s1], v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab,
+                     mission, wmode, wgrid, wmeta, has_obs, node, fmeta, sx, sy, bstart, bmeta,
+                     costs[s0:s1], parts[s0:s1])
 
 
 @numba.njit(cache=True)

@@ -41,6 +41,7 @@ dynamics vectorise), and the obstacle distance field (:mod:`windnav.plan.obstacl
 
 from __future__ import annotations
 
+import functools
 import time
 import warnings
 from collections import deque
@@ -184,9 +185,22 @@ def _shift_weights(n: int, steps: float) -> tuple[np.ndarray, np.ndarray, np.nda
     return i, j, a
 
 
+def _chunks(n_samples: int, threads: int) -> np.ndarray:
+    """The bounds of ``threads`` near-equal chunks of the samples, int64 (threads + 1,)."""
+    return np.array([n_samples * c // threads for c in range(threads + 1)], dtype=np.int64)
+
+
+def _threads(threads, config: PlannerConfig, where: str) -> int:
+    threads = positive_int(threads, "threads", where)
+    if threads > config.n_samples:
+        raise ValueError(f"The 'threads' parameter of {where} must be at most n_samples "
+                         f"({config.n_samples}). Got {threads} instead.")
+    return threads
+
+
 def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Generator, *,
-                    out: np.ndarray | None = None, work: np.ndarray | None = None
-                    ) -> np.ndarray:
+                    out: np.ndarray | None = None, work: np.ndarray | None = None,
+                    threads: int = 1) -> np.ndarray:
     """Draw ``N_tau`` control sequences, (K, 2, S) float32 (time-major, structure of arrays
     for the kernels), m/s^2.
 
@@ -195,7 +209,9 @@ def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Gene
     ``windnav.plan._random``); ``"uniform"``: ``U[a_min, a_max]`` per axis and step. The
     samples are float32 (planning tensors may be, DESIGN.md); the kernels clip them to the
     float64 bounds again. ``out`` and ``work`` (float32 buffers of that shape) are reused when
-    given.
+    given. ``threads`` > 1 draws ``"gaussian"`` samples in that many chunks on Numba's
+    threads, chunk ``c`` from its own stream (``threads`` draws of ``rng``): as random, but
+    not the numbers of ``threads = 1``, whose stream the benchmark's records were flown with.
 
     Raises
     ------
@@ -211,6 +227,7 @@ def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Gene
         if buf is not None and (buf.shape != shape or buf.dtype != np.float32):
             raise ValueError(f"The {name!r} parameter of sample_controls must be a float32 "
                              f"array of shape {shape}. Got {buf.dtype} {buf.shape} instead.")
+    threads = _threads(threads, config, "sample_controls")
     out = np.empty(shape, np.float32) if out is None else out
     if config.sampling == "uniform":
         rng.random(dtype=np.float32, out=out)
@@ -219,9 +236,14 @@ def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Gene
         return out
     clipped = work if work is not None else np.empty(shape, np.float32)
     taps, lo, hi = _smoothing_bands(config.n_steps, config.sigma_gf)
-    K.perturb_clip_smooth(rng.integers(0, 2**64, dtype=np.uint64), clipped,
-                          np.ascontiguousarray(mean, dtype=np.float64), config.sigma_u,
-                          config.a_min, config.a_max, taps, lo, hi, out)
+    mean = np.ascontiguousarray(mean, dtype=np.float64)
+    if threads == 1:
+        K.perturb_clip_smooth(rng.integers(0, 2**64, dtype=np.uint64), clipped, mean,
+                              config.sigma_u, config.a_min, config.a_max, taps, lo, hi, out)
+    else:
+        K.perturb_clip_smooth_chunks(rng.integers(0, 2**64, size=threads, dtype=np.uint64),
+                                     clipped, mean, config.sigma_u, config.a_min, config.a_max,
+                                     taps, lo, hi, out, _chunks(config.n_samples, threads))
     return out
 
 
@@ -254,20 +276,24 @@ def softmin_weights(costs: np.ndarray, temperature: float) -> np.ndarray:
     return w
 
 
-def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Problem
-                       ) -> tuple[np.ndarray, np.ndarray]:
+def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Problem,
+                       threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Costs (S,) and their parts (S, 4) ``[J_prog, J_obs, J_E, d_min (m)]`` of the
-    sequences ``controls`` (K, 2, S): the fused Numba rollout and cost."""
+    sequences ``controls`` (K, 2, S): the fused Numba rollout and cost (``threads`` > 1: in
+    that many chunks of the samples on Numba's threads, the same numbers to the bit)."""
     s = controls.shape[2]
     costs = np.empty(s)
     parts = np.empty((s, 4))
     mode, grid, meta = problem.wind
     f = problem.field
-    K.rollout_cost(controls, problem.velocity, problem.goal, config.dt, config.drag,
-                   1.0 / config.lidar_range, config.a_min, config.a_max, config.obstacle_weight,
-                   config.energy_weight, config.power_table(), problem.mission,
-                   mode, grid, meta, not f.empty,
-                   *f.kernel_args(), costs, parts)
+    args = (controls, problem.velocity, problem.goal, config.dt, config.drag,
+            1.0 / config.lidar_range, config.a_min, config.a_max, config.obstacle_weight,
+            config.energy_weight, config.power_table(), problem.mission,
+            mode, grid, meta, not f.empty, *f.kernel_args(), costs, parts)
+    if threads == 1:
+        K.rollout_cost(*args)
+    else:
+        K.rollout_cost_chunks(*args, _chunks(s, min(int(threads), s)))
     return costs, parts
 
 
@@ -326,7 +352,8 @@ def _pack_wind(config: PlannerConfig, wind: LocalWind | None) -> tuple:
 
 def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
               rng: np.random.Generator, *, rollout_cost: RolloutCost = fused_rollout_cost,
-              workspace: tuple | None = None, profile: dict | None = None) -> dict:
+              workspace: tuple | None = None, profile: dict | None = None,
+              threads: int = 1) -> dict:
     """One MPPI update (pure apart from ``rng`` and ``workspace``): sample, roll out and cost,
     reweight.
 
@@ -343,6 +370,9 @@ def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
         Float32 buffers ``(samples, clipped)``, each (K, 2, S), reused across updates.
     profile : dict, optional
         Filled with the milliseconds of ``sampling``, ``rollout_cost`` and ``update``.
+    threads : int
+        Chunks of the samples drawn on Numba's threads (:func:`sample_controls`); the
+        rollout's threads are ``rollout_cost``'s (:class:`MPPIPlanner` gives both).
 
     Returns
     -------
@@ -359,7 +389,7 @@ def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
                          "(2,), mission (5,) and wind (mode, grid, meta (7,)) as LocalWind.pack "
                          f"gives. Got {problem!r} instead.")
     u = sample_controls(config, mean, rng, out=None if workspace is None else workspace[0],
-                        work=None if workspace is None else workspace[1])
+                        work=None if workspace is None else workspace[1], threads=threads)
     t1 = time.perf_counter()
     costs, parts = rollout_cost(config, u, problem)
     t2 = time.perf_counter()
@@ -454,6 +484,12 @@ class MPPIPlanner:
     rollout_cost : callable, optional
         Injected ``(config, controls (K, 2, S), problem) -> (costs, parts)``; default the fused
         Numba kernel.
+    threads : int
+        Chunks of the samples drawn and rolled out on Numba's threads (default 1, the
+        benchmark's). The rollout gives the same costs at any count; the samples of 2 or more
+        come from other streams than those of 1 (as random), so a flight is reproducible at
+        its own thread count. On the 2-core AMD EPYC, 2 threads took a 1000 x 25 update from
+        0.55 to about 0.4 ms (``benchmarks/bench_mppi.py``).
 
     Examples
     --------
@@ -463,7 +499,7 @@ class MPPIPlanner:
 
     def __init__(self, config: PlannerConfig, goal_xy=None, *,
                  rng: np.random.Generator | int | None = None,
-                 rollout_cost: RolloutCost | None = None):
+                 rollout_cost: RolloutCost | None = None, threads: int = 1):
         if not isinstance(config, PlannerConfig):
             raise ValueError("The 'config' parameter of MPPIPlanner must be a PlannerConfig. "
                              f"Got {type(config).__name__} instead.")
@@ -472,7 +508,11 @@ class MPPIPlanner:
                              f"Got variant {config.variant!r} instead.")
         self.config = config
         self.rng = generator(rng, "rng", "MPPIPlanner")
-        self.rollout_cost = fused_rollout_cost if rollout_cost is None else rollout_cost
+        self.threads = _threads(threads, config, "MPPIPlanner")
+        if rollout_cost is None:
+            rollout_cost = (fused_rollout_cost if self.threads == 1 else
+                            functools.partial(fused_rollout_cost, threads=self.threads))
+        self.rollout_cost = rollout_cost
         self.goal = None if goal_xy is None else self._goal(goal_xy)
         shape = (config.n_steps, 2, config.n_samples)
         self._work = (np.empty(shape, np.float32), np.empty(shape, np.float32))
@@ -567,6 +607,7 @@ class MPPIPlanner:
         problem = Problem(vel, goal, field_, packed, mission)
         prof: dict = {}
         out = mppi_step(cfg, self.mean, problem, self.rng, rollout_cost=self.rollout_cost,
+                        threads=self.threads,
                         workspace=self._work, profile=prof)
         if not out["ok"]:
             return self._fallback("costs", self._brake(vel), t0)
