@@ -191,6 +191,7 @@ def _chunks(n_samples: int, threads: int) -> np.ndarray:
 
 
 def _threads(threads, config: PlannerConfig, where: str) -> int:
+    """``threads`` checked: a positive int, at most the config's ``n_samples``."""
     threads = positive_int(threads, "threads", where)
     if threads > config.n_samples:
         raise ValueError(f"The 'threads' parameter of {where} must be at most n_samples "
@@ -290,10 +291,11 @@ def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Pro
             1.0 / config.lidar_range, config.a_min, config.a_max, config.obstacle_weight,
             config.energy_weight, config.power_table(), problem.mission,
             mode, grid, meta, not f.empty, *f.kernel_args(), costs, parts)
+    threads = positive_int(threads, "threads", "fused_rollout_cost")
     if threads == 1:
         K.rollout_cost(*args)
-    else:
-        K.rollout_cost_chunks(*args, _chunks(s, min(int(threads), s)))
+    else:  # (more threads than samples: one sample each)
+        K.rollout_cost_chunks(*args, _chunks(s, min(threads, s)))
     return costs, parts
 
 
@@ -485,11 +487,12 @@ class MPPIPlanner:
         Injected ``(config, controls (K, 2, S), problem) -> (costs, parts)``; default the fused
         Numba kernel.
     threads : int
-        Chunks of the samples drawn and rolled out on Numba's threads (default 1, the
-        benchmark's). The rollout gives the same costs at any count; the samples of 2 or more
-        come from other streams than those of 1 (as random), so a flight is reproducible at
-        its own thread count. On the 2-core AMD EPYC, 2 threads took a 1000 x 25 update from
-        0.55 to about 0.4 ms (``benchmarks/bench_mppi.py``).
+        Chunks of the samples drawn, and rolled out by the default ``rollout_cost``, on
+        Numba's threads (default 1, the benchmark's). The rollout gives the same costs at any
+        count; the samples of 2 or more come from other streams than those of 1 (as random),
+        so a flight is reproducible at its own thread count. On the 2-core AMD EPYC, 2 threads
+        took a 1000 x 25 update from 0.54-0.58 to 0.49-0.52 ms, and to 0.39 ms with
+        ``OMP_WAIT_POLICY=ACTIVE`` (``benchmarks/bench_mppi.py``, ``docs/benchmarks.md``).
 
     Examples
     --------
