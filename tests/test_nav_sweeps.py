@@ -130,9 +130,11 @@ def test_qe_zero_with_wind_is_mppi_w_and_qe_five_is_ea_mppi_w():
     def fly(label):
         return fly_small_map(label).summary()
 
-    for label, same in (("ea-mppi-w@qe=0", "mppi-w"), ("ea-mppi-w@qe=5@h=inf", "ea-mppi-w")):
+    for label, same in (("ea-mppi-w@qe=0", "mppi-w"), ("ea-mppi-w@h=inf", "ea-mppi-w")):
         a, b = fly(label), fly(same)
         assert (a["energy_J"], a["distance_m"]) == (b["energy_J"], b["distance_m"])
+    with pytest.raises(ValueError, match="own value"):  # one flight, one label
+        fly("ea-mppi-w@qe=5")
     assert fly("ea-mppi-w@qe=1")["energy_J"] != fly("ea-mppi-w")["energy_J"]
 
 
@@ -192,7 +194,10 @@ def test_one_flight_has_one_label():
         assert parse_variant(label)[1]["planner_overrides"]["energy_weight"] == value
     assert parse_variant(tilt_label("mppi", 70.25))[1]["tilt_max_deg"] == 70.25
     for bad, want in (("ea-mppi-w@qe=2.0", "qe=2 for qe=2.0"), ("ea-mppi-w@h=050", "h=50"),
-                      ("mppi@tilt=7e1", "tilt=70")):
+                      ("mppi@tilt=7e1", "tilt=70"), ("ea-mppi-w@h=-0", "h=0 for h=-0"),
+                      ("ea-mppi-w@h=Infinity", "h=inf for h=Infinity"),
+                      ("ea-mppi-w@qe=5", "qe=5 is 'ea-mppi-w'"), ("mppi@tilt=55", "own value"),
+                      ("ea-mppi-w@qe=-2.0", "qe must be >= 0")):
         with pytest.raises(ValueError, match=want):
             parse_variant(bad)
     assert parse_variant("ea-mppi-w@h=inf")[1] == {"horizon": math.inf}

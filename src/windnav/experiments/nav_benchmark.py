@@ -467,9 +467,11 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     ValueError
         An unknown base variant or parameter, a parameter given twice, or a value that is not a
         number >= 0 (``h`` may be ``inf``), or a number not in its shortest form (``qe=2.0``
-        for ``qe=2``: the label is the key of the flight's records, so one flight has one).
+        for ``qe=2``, ``-0`` for ``0``, ``Infinity`` for ``inf``: the label is the key of the
+        flight's records, so one flight has one), or ``qe`` or ``tilt`` at the variant's own
+        value (``ea-mppi-w@qe=5``, ``mppi@tilt=55``: the bare label's flight).
     """
-    from windnav.experiments.navigate import POWER_SHAPES, TILT_LIMIT_DEG
+    from windnav.experiments.navigate import POWER_SHAPES, TILT_LIMIT_DEG, TILT_MAX_DEG
     from windnav.plan import VARIANTS
 
     label = str(label)
@@ -540,12 +542,15 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             value = float(text)
         except ValueError:
             raise fail(f"{text!r} is not a number") from None
-        if math.isfinite(value) and text != number_label(value):
+        if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
+            raise fail(f"{key} must be >= 0")
+        if text != number_label(value):
             # '@qe=2.0' and '@qe=2' fly one flight: the label is the records' key, so one form
             raise fail(f"write {key}={number_label(value)} for {key}={text} (numbers in their "
                        f"shortest form: the label is the key of the flight's records)")
-        if not value >= 0.0 or (key == "qe" and not math.isfinite(value)):
-            raise fail(f"{key} must be >= 0")
+        if (key, value) in (("qe", VARIANTS[base].energy_weight), ("tilt", TILT_MAX_DEG)):
+            raise fail(f"{key}={text} is {base!r}'s own value: leave it out (the label without "
+                       "it flies the same flight)")
         if key == "tilt":
             if not 0.0 < value < TILT_LIMIT_DEG:
                 raise fail(f"tilt must be in (0, {TILT_LIMIT_DEG:g}) degrees")
@@ -587,7 +592,10 @@ def number_label(value: float) -> str:
     """A variant label parameter's number in its one written form (what :func:`parse_variant`
     accepts, and what the sweeps write): the shortest that reads back as
     ``value`` (``repr``), without a trailing ``.0`` (``2``, ``0.5``, ``13.45``, ``1000``)."""
-    text = repr(float(value))
+    value = float(value)
+    if value == 0.0:  # -0.0 too
+        return "0"
+    text = repr(value)  # 'inf' for infinity, the one spelling accepted
     return text[:-2] if text.endswith(".0") else text
 
 
