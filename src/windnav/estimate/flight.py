@@ -162,8 +162,9 @@ def _mean_of_finite(values: np.ndarray, where: str, settle_s) -> np.ndarray:
     count = np.sum(ok, axis=0)
     total = np.sum(np.where(ok, values, 0.0), axis=0)
     if np.any(count == 0):
-        warnings.warn(f"{where}: the filter did not run (non-finite estimate) at any of the "
-                      f"{values.shape[0]} samples after settle_s = {float(settle_s):g} s"
+        warnings.warn(f"{where}: no estimate (the filter did not run) or no logged truth at "
+                      f"any of the {values.shape[0]} samples after settle_s = "
+                      f"{float(settle_s):g} s"
                       + ("" if values.ndim == 1 else " on some axis") + "; the result is NaN "
                       "there.", RuntimeWarning, stacklevel=3)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -198,13 +199,14 @@ def _on_grid(grid: np.ndarray, t: np.ndarray, values: np.ndarray) -> np.ndarray:
     return out
 
 
-def _commands(log, vehicle: int, where: str) -> tuple[np.ndarray, np.ndarray]:
+def _commands(log, vehicle: int, caller: tuple[str, int]) -> tuple[np.ndarray, np.ndarray]:
     """The rotor-speed commands of ``vehicle`` and their times: the log's, or the rotor-speed
     sensor's where its samples are finer and it reads the commands exactly (its values equal
-    the log's at every common time: a noise-free sensor). With ``log_every`` = 10 the log's
-    were up to 9 physics steps stale and the estimate moved by up to 0.49 m/s (metamorphic
-    audit, 2026-12-05); a noisy sensor's readings are measurements, not the commands, and would
-    count its noise twice. Commands coarser than the controller's, from neither, are warned."""
+    the log's at every common time: a noise-free sensor), fused or not. With ``log_every`` =
+    100 the log's were up to 99 physics steps stale and the estimate moved by up to 0.49 m/s
+    (0.23 m/s at 10; metamorphic audit, 2026-12-05); a noisy sensor's readings are
+    measurements, not the commands, and would count its noise twice. Commands coarser than the
+    controller's, from neither, are warned (``where``: the public function's name)."""
     t_cmd, cmd = log.t, log.rotor_speed_cmd[:, vehicle]
     if log.t.size < 2:
         return t_cmd, cmd
@@ -218,12 +220,13 @@ def _commands(log, vehicle: int, where: str) -> tuple[np.ndarray, np.ndarray]:
             return rs["t"], rs["cmd"][:, vehicle]
     rate = log.meta.get("control_rate_hz") if isinstance(log.meta, dict) else None
     if rate and step_log > (1.0 + 1e-6) / float(rate):
+        where, level = caller
         warnings.warn(f"{where}: the log holds the rotor-speed commands every {step_log:g} s, "
                       f"coarser than the controller's {1.0 / float(rate):g} s (log_every), and "
                       "no noise-free rotor-speed sensor holds them finer: the filter's inputs "
                       "lag the commands by up to that much, and its estimate differs from a "
                       "full log's; fly with a log_every that keeps every control step",
-                      RuntimeWarning, stacklevel=3)
+                      RuntimeWarning, stacklevel=level)
     return t_cmd, cmd
 
 
@@ -240,7 +243,8 @@ def _mapped(rotor_speed_map, t: np.ndarray, cmd: np.ndarray) -> np.ndarray:
 
 def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
                   sensors: tuple[str, ...] = _SENSORS,
-                  rotor_speed_map: Callable | None = None) -> dict[str, np.ndarray]:
+                  rotor_speed_map: Callable | None = None,
+                  _caller: tuple[str, int] = ("filter_inputs", 3)) -> dict[str, np.ndarray]:
     """The filter's inputs on its time grid, from a flight log.
 
     Parameters
@@ -257,19 +261,23 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
         Applied to the commands before they become the inputs ``u``, and to the logged
         pseudo-measurements (see :func:`run_wind_ukf`).
 
-    The inputs ``u`` are the commands of the log, or of the ``rotor_speeds`` sensor where its
-    samples are finer and it reads them without noise (a log with ``log_every`` > 2 at 100 Hz
-    control; otherwise such a log's stale commands are warned); the true wind is the log's at
-    the grid times it holds, NaN between them (the metrics leave those samples out).
-
     Returns
     -------
     dict
         ``t`` (T,) s; ``dt`` float s; ``u`` (T, N) command held over ``(t_{k-1}, t_k]``
         (row 0: the command at ``t_0``), rad/s; ``accel``, ``gyro`` (T, 3); ``odom`` (T, 6);
         ``rotor_speeds`` (T, N); ``wind_true`` (T, 3). Missing samples are NaN rows.
+
+    Notes
+    -----
+    The inputs ``u`` are the commands of the log, or of the ``rotor_speeds`` sensor (fused or
+    not) where its samples are finer and it reads them without noise (a log with ``log_every``
+    > 2 at 100 Hz control; otherwise such a log's stale commands are warned); the true wind is
+    the log's at the grid times it holds, NaN between them (the metrics leave those samples
+    out).
     """
     where = "filter_inputs"
+    caller = _caller
     B = log.position.shape[1]
     # 0.7 was read as 0, NaN raised "cannot convert float NaN to integer"
     if isinstance(vehicle, bool) or not isinstance(vehicle, (int, np.integer)):
@@ -290,7 +298,7 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
                              f"(logged: {sorted(log.sensors)}).")
     grid, dt = _grid(log, use)
     N = log.rotor_speed_cmd.shape[2]
-    t_cmd, cmd = _commands(log, vehicle, where)
+    t_cmd, cmd = _commands(log, vehicle, caller)
     cmd = np.clip(_mapped(rotor_speed_map, t_cmd, cmd), params.rotor_speed_min,
                   params.rotor_speed_max)
     held = cmd[_at(t_cmd, np.r_[grid[0], grid[:-1]])]
@@ -393,7 +401,7 @@ def run_wind_ukf(
         sensors = ukf_conditions(conditions).filter_sensors if sensors is None else sensors
     inp = filter_inputs(log, params_filter, vehicle=vehicle,
                         sensors=_SENSORS if sensors is None else sensors,
-                        rotor_speed_map=rotor_speed_map)
+                        rotor_speed_map=rotor_speed_map, _caller=(where, 4))
     T = inp["t"].size
     N = params_filter.n_rotors
     if inp["u"].shape[1] != N:
