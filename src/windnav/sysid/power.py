@@ -249,6 +249,12 @@ class PowerFit:
                                 scale=float(np.max(np.abs(self.power))))
 
     @property
+    def max_range_at_speed_limit(self) -> bool:
+        """Whether the max-range speed is the curve's top speed ``speed_max`` (an edge of the
+        speeds searched, not a minimum inside them)."""
+        return bool(self.max_range_speed.value >= self.curve.speed_max * (1 - 1e-6))
+
+    @property
     def notes(self) -> list[str]:
         """Caveats of the fit, one sentence each (empty when none): the lack-of-fit test, a
         best speed on the bound of the speeds searched or beyond the fastest sample, a hover
@@ -275,7 +281,7 @@ class PowerFit:
                    f"{self.fit.rmse / np.max(np.abs(self.power)):.2%} of the largest power, "
                    f"over the {NO_SCATTER_RESOLUTION:.1%} taken for rounding)"
                    if test["no_scatter"] else ""))
-        top = self.max_range_speed.value >= self.curve.speed_max * (1 - 1e-6)
+        top = self.max_range_at_speed_limit
         fastest = float(self.speed.max())
         for name, e in (("max_endurance_speed", self.max_endurance_speed),
                         ("max_range_speed", self.max_range_speed)):
@@ -321,8 +327,7 @@ class PowerFit:
             "max_endurance_speed_ci95": list(self.max_endurance_speed.ci95),
             "max_range_speed": self.max_range_speed.value,
             "max_range_speed_ci95": list(self.max_range_speed.ci95),
-            "max_range_at_speed_limit": bool(
-                self.max_range_speed.value >= self.curve.speed_max * (1 - 1e-6)),
+            "max_range_at_speed_limit": self.max_range_at_speed_limit,
             "max_endurance_at_speed_limit": _on_bound(self.max_endurance_speed.value,
                                                       self.curve.speed_max),
             "hover_ratio": self.hover_ratio,

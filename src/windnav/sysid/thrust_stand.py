@@ -423,8 +423,10 @@ def _settling_check(late: np.ndarray, step: np.ndarray, pwm, volt, omega,
     diffs = np.asarray(diffs)
     pval = float(scipy.stats.ttest_1samp(diffs, 0.0).pvalue) if np.ptp(diffs) > 0 else 1.0
     try:
-        second = _fit_motor(pwm[late], volt[late], omega[late], motor_fit.coef,
-                            f"{src}, second halves of the PWM steps", step[late])
+        with warnings.catch_warnings():  # a bound of the second halves shows as a null ci95
+            warnings.simplefilter("ignore", RuntimeWarning)
+            second = _fit_motor(pwm[late], volt[late], omega[late], motor_fit.coef,
+                                f"{src}, second halves of the PWM steps", step[late])
     except ValueError:  # too few points or steps, or they do not separate Kv, V0 and DZ
         return None
     full = {n: motor_fit.estimate(n) for n in _MOTOR_NAMES}
