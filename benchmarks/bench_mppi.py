@@ -196,6 +196,7 @@ def bench_shape(torch, pytorch_mppi, base, S, Kk, origin, scan, args):
                                                  args.updates),
              "with_obstacle_cost": median_ms(lambda: fused_rollout_cost(cfg, u32, problem),
                                              args.updates)}
+    # fresh planners for the timing (the warm-up's advanced their random streams)
     planners = {n: MPPIPlanner(cfg, goal_xy=goal, rng=args.seed, threads=n)
                 for n in args.windnav_threads}
     for p in planners.values():
@@ -282,7 +283,8 @@ def main(argv=None) -> int:
     rows = ["| shape (samples x steps) | windnav ms (fastest thread count) | pytorch_mppi ms "
             "(fastest thread count) | speed-up | speed-up, one core each | windnav ms per "
             "thread count | pytorch_mppi ms per thread count | windnav mean profile ms, "
-            f"{min(args.windnav_threads)} thread (obstacles / sampling / rollout+cost / update) "
+            f"{min(args.windnav_threads)} thread{'s' if min(args.windnav_threads) > 1 else ''} "
+            "(obstacles / sampling / rollout+cost / update) "
             "| fused kernel ms (no obstacles / all costs) |",
             "|---|---|---|---|---|---|---|---|---|"]
     for S, Kk in SHAPES:

@@ -401,8 +401,9 @@ def test_rows_with_a_non_finite_value_are_counted(tunnel, tmp_path):
 
 def test_a_sparse_log_gives_the_airspeed_of_a_full_one():
     """The body airspeed at the IMU's times took the next logged attitude: with ``log_every
-    = 4`` in a circle it was off by up to 0.59 m/s (metamorphic audit, 2026-12-05); the
-    attitude is now slerped between logged samples, as velocity and wind are interpolated."""
+    = 4`` in this circle it was off by up to 0.16 m/s (0.59 m/s in the metamorphic audit's
+    manoeuvres, 2026-12-05); the attitude is now slerped between logged samples, as velocity
+    and wind are interpolated."""
     import windnav as wn
     from windnav.sysid.aero import aero_from_flight_log
 

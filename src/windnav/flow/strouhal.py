@@ -240,10 +240,12 @@ class BluffBodyCase:
 
     def __post_init__(self):
         if not (self.record_time > 0):
-            raise ValueError(f"record_time must be > 0 H/U, got {self.record_time!r}")
+            raise ValueError(f"The 'record_time' parameter of BluffBodyCase must be > 0 H/U. "
+                             f"Got {self.record_time!r} instead.")
         if self.max_record_time is not None and not (self.max_record_time >= self.record_time):
-            raise ValueError(f"max_record_time must be None or >= record_time "
-                             f"({self.record_time!r} H/U), got {self.max_record_time!r}")
+            raise ValueError(f"The 'max_record_time' parameter of BluffBodyCase must be None or "
+                             f">= record_time ({self.record_time!r} H/U). Got "
+                             f"{self.max_record_time!r} instead.")
 
 
 def _body_faces(solid):

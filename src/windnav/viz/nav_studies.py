@@ -265,7 +265,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
         bx.barh(ys - 0.2, fail_r, height=0.4, color="#007aff", label="reachable scenarios")
         bx.legend(fontsize=8, loc="lower right")
         bx.set_title(f"{table['reachable']} of {table['n']} scenarios reachable", fontsize=10)
-    for y, f in zip(ys, fail_r, strict=True):
+    at = ys if table["reachable"] == table["n"] else ys - 0.2  # beside the blue bar
+    for y, f in zip(at, fail_r, strict=True):
         bx.annotate(f"{f:.1f}", (f, y), xytext=(3, 0), textcoords="offset points",
                     va="center", fontsize=7)
     bx.set_yticks(ys)
