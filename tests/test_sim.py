@@ -501,3 +501,10 @@ def test_a_vehicle_the_controller_cannot_steer_in_yaw_is_refused():
     log = fly(ring(5, [1, -1, 1, -1, 1]), make_trajectory("hover"), still, duration=5.0)
     assert np.abs(log.position[-1, 0]).max() < 1e-6
     assert np.abs(log.body_rates[-1, 0]).max() < 1e-6 and log.status[0] == 0
+
+
+def test_make_trajectory_s_unused_duration_is_deprecated():
+    """``duration`` was accepted and ignored (API audit, 2026-12-05): it now warns."""
+    with pytest.warns(DeprecationWarning, match="'duration' is deprecated"):
+        line = make_trajectory("line", size=10.0, speed=2.0, duration=99.0)
+    assert line.duration == pytest.approx(1.875 * 10.0 / 2.0)

@@ -6,6 +6,7 @@ arrays of shape (3,) and is shared by every vehicle of a batch.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,15 +136,16 @@ TRAJECTORIES = ("hover", "line", "circle", "waypoints")
 
 
 def make_trajectory(kind: str, *, start=(0.0, 0.0, 0.0), size: float = 5.0,
-                    speed: float = 2.0):
+                    speed: float = 2.0, duration: float | None = None):
     """Build a named trajectory starting at ``start`` (m).
 
     ``size`` is the circle radius (its centre ``size`` m along -x from ``start``), the line
     length along +x, or the waypoint square's side (m); ``speed`` the reference speed (m/s; > 0
     for a line or waypoints, which must get somewhere): a circle's constant speed, a line's
     peak speed (its minimum-jerk leg takes ``max(1.875 size / speed, 1)`` s), the waypoints'
-    average speed per leg. How long the flight lasts is ``fly``'s ``duration``. (A
-    ``duration`` argument was accepted here and ignored until 2026-12-05; API audit.)
+    average speed per leg. How long the flight lasts is ``fly``'s ``duration``: this
+    ``duration`` was accepted and ignored until 2026-12-05 (API audit); it is deprecated and
+    warns when given.
 
     Raises
     ------
@@ -151,6 +153,10 @@ def make_trajectory(kind: str, *, start=(0.0, 0.0, 0.0), size: float = 5.0,
         Naming ``trajectory``, ``start``, ``size`` or ``speed`` when it is out of range.
     """
     where = "make_trajectory"
+    if duration is not None:
+        warnings.warn(f"{where}: 'duration' is deprecated and was never used (a trajectory's "
+                      "length follows from size and speed); give the flight's duration to "
+                      "fly(..., duration=).", DeprecationWarning, stacklevel=2)
     s = batch_array(start, "start", where, (3,), batch=1)[0]
     if kind in ("line", "waypoints"):
         size = positive_float(size, "size", where, allow_zero=kind == "line")
