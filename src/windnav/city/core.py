@@ -356,6 +356,7 @@ class City:
         max_range: float = 100.0,
         min_range: float = 0.0,
         noise_std: float = 0.0,
+        *,
         rng=None,
         normals=None,
     ) -> np.ndarray:
@@ -373,7 +374,7 @@ class City:
             Smallest reading, m, >= 0.
         noise_std : float
             Standard deviation of Gaussian noise on returns, m, >= 0.
-        rng : numpy.random.Generator or int, optional
+        rng : numpy.random.Generator or int, optional, keyword-only
             Noise source or seed; required when ``noise_std > 0`` and ``normals`` is None.
         normals : array_like of shape (B, n_rays), optional
             The noise's standard normals, drawn by the caller, instead of ``rng``.

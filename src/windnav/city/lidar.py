@@ -78,6 +78,7 @@ def lidar_scan(
     max_range: float = 100.0,
     min_range: float = 0.0,
     noise_std: float = 0.0,
+    *,
     rng=None,
     normals=None,
 ) -> np.ndarray:
@@ -97,7 +98,7 @@ def lidar_scan(
         Smallest reading, m, >= 0.
     noise_std : float
         Standard deviation of the Gaussian range noise on returns, m, >= 0.
-    rng : numpy.random.Generator or int, optional
+    rng : numpy.random.Generator or int, optional, keyword-only
         Noise source (or its seed); required when ``noise_std > 0`` and ``normals`` is None.
     normals : array_like of shape (B, n_rays), optional
         The standard normals of the range noise, drawn by the caller (as
