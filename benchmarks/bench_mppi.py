@@ -190,7 +190,7 @@ def bench_shape(torch, pytorch_mppi, base, S, Kk, origin, scan, args):
     for _ in range(3):
         ref.command(x0)
     # the fused kernel split: dynamics + progress + energy alone, and with the obstacle cost
-    u32 = sample_controls(cfg, planner.mean, np.random.default_rng(args.seed))
+    u32 = sample_controls(cfg, planner.mean, rng=np.random.default_rng(args.seed))
     bare = Problem(state[2:], goal_rel, obstacle_field(np.zeros((0, 2))), problem.wind)
     split = {"rollout_progress_energy": median_ms(lambda: fused_rollout_cost(cfg, u32, bare),
                                                  args.updates),

@@ -81,7 +81,7 @@ def test_local_baseline_error_equals_the_metric_of_uniform_w_robot_by_hand(evalu
     city = maps[1][1]
     sol = simulate(city, speed=rec["speed"], direction_deg=rec["direction_deg"], dx=2.0,
                    dt=rec["dt"], **TINY_FLOW)
-    batch = draw_samples(field_from_solution(city, sol), 48, slot_rng(3, 1, 0), size=25)
+    batch = draw_samples(field_from_solution(city, sol), 48, rng=slot_rng(3, 1, 0), size=25)
     # Local: W_robot in every cell; speed error = mean over free cells of ||W_robot| - |u||
     speed_true = np.hypot(batch.labels[:, 0], batch.labels[:, 1])
     speed_local = np.hypot(*batch.w_robot.T)[:, None, None]

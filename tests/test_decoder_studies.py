@@ -500,7 +500,7 @@ def test_start_study_pairs_are_the_labels_scored_against_each_other():
         sol = simulate(city, speed=6.0, direction_deg=3.75, dx=2.0, dt=res["dt"],
                        spinup_steps=10, steps=20, symmetry_break=k)
         batches.append(draw_samples(field_from_solution(city, sol), 32,
-                                    np.random.default_rng([0, 7]), size=dec.size,
+                                    rng=np.random.default_rng([0, 7]), size=dec.size,
                                     spacing=dec.spacing, scan_noise=0.35))
     a, b = batches
     np.testing.assert_array_equal(a.positions, b.positions)  # the same robots for every kick

@@ -275,7 +275,7 @@ def test_sampling_bounds_smoothing_and_seed(base):
     g = smoothing_matrix(25, cfg.sigma_gf)
     np.testing.assert_allclose(g.sum(1), 1.0, rtol=1e-12)
     mean = np.tile([1.0, -2.0], (25, 1))
-    u = sample_controls(cfg, mean, np.random.default_rng(0))
+    u = sample_controls(cfg, mean, rng=np.random.default_rng(0))
     assert u.shape == (25, 2, 4000)   # time-major, structure of arrays
     tol = 1e-5 * cfg.a_max            # float32 samples
     assert u.min() >= cfg.a_min - tol and u.max() <= cfg.a_max + tol
@@ -283,10 +283,10 @@ def test_sampling_bounds_smoothing_and_seed(base):
     std = u[:, 0].std(axis=1)
     np.testing.assert_allclose(std, cfg.sigma_u * np.linalg.norm(g, axis=1), rtol=0.08)
     np.testing.assert_allclose(u.mean(axis=2), mean, atol=0.2)
-    again = sample_controls(cfg, mean, np.random.default_rng(0))
+    again = sample_controls(cfg, mean, rng=np.random.default_rng(0))
     np.testing.assert_array_equal(u, again)
     uni = sample_controls(dataclasses.replace(cfg, sampling="uniform"), mean,
-                          np.random.default_rng(0))
+                          rng=np.random.default_rng(0))
     assert uni.min() >= cfg.a_min - tol and uni.max() <= cfg.a_max + tol
     assert np.std(uni) == pytest.approx((cfg.a_max - cfg.a_min) / np.sqrt(12), rel=0.02)
 
@@ -597,15 +597,15 @@ def test_the_low_level_steps_refuse_arrays_their_kernels_would_read_past(base):
     rng = np.random.default_rng(0)
     for mean in (np.zeros((1, 2)), np.zeros((3, 2)), np.zeros(80)):
         with pytest.raises(ValueError, match="'mean' parameter of sample_controls"):
-            sample_controls(cfg, mean, rng)
+            sample_controls(cfg, mean, rng=rng)
     with pytest.raises(ValueError, match="'out' parameter of sample_controls"):
-        sample_controls(cfg, np.zeros((40, 2)), rng, out=np.empty((40, 2, 3), np.float32))
+        sample_controls(cfg, np.zeros((40, 2)), rng=rng, out=np.empty((40, 2, 3), np.float32))
     field = obstacle_field(np.zeros((0, 2)))
     good = Problem(np.zeros(2), np.array([10.0, 0.0]), field, NO_WIND)
-    assert mppi_step(cfg, np.zeros((40, 2)), good, rng)["controls"].shape == (40, 2)
+    assert mppi_step(cfg, np.zeros((40, 2)), good, rng=rng)["controls"].shape == (40, 2)
     short = Problem(np.zeros(2), np.array([10.0, 0.0]), field, (1, NO_WIND[1], np.zeros(2)))
     with pytest.raises(ValueError, match="'problem' parameter of mppi_step"):
-        mppi_step(cfg, np.zeros((40, 2)), short, rng)
+        mppi_step(cfg, np.zeros((40, 2)), short, rng=rng)
 
 
 def test_the_planner_helpers_refuse_degenerate_arguments(base):
@@ -731,10 +731,10 @@ def test_threads_roll_out_the_same_costs_and_draw_reproducible_samples(base, thr
     np.testing.assert_array_equal(many[1], one[1])
     mean = rng.normal(size=(cfg.n_steps, 2))
     work = np.empty((cfg.n_steps, 2, cfg.n_samples), np.float32)
-    a = sample_controls(cfg, mean, np.random.default_rng(7), threads=threads, work=work)
-    b = sample_controls(cfg, mean, np.random.default_rng(7), threads=threads)
+    a = sample_controls(cfg, mean, rng=np.random.default_rng(7), threads=threads, work=work)
+    b = sample_controls(cfg, mean, rng=np.random.default_rng(7), threads=threads)
     np.testing.assert_array_equal(a, b)
-    assert not np.array_equal(a, sample_controls(cfg, mean, np.random.default_rng(7)))
+    assert not np.array_equal(a, sample_controls(cfg, mean, rng=np.random.default_rng(7)))
     G = smoothing_matrix(cfg.n_steps, cfg.sigma_gf).astype(np.float32)
     ref = np.zeros_like(a)
     for k in range(cfg.n_steps):  # the serial kernel's order: taps from the band's first up
@@ -752,4 +752,4 @@ def test_threads_roll_out_the_same_costs_and_draw_reproducible_samples(base, thr
     with pytest.raises(ValueError, match="'threads' parameter of MPPIPlanner"):
         MPPIPlanner(cfg, (60.0, 0.0), threads=cfg.n_samples + 1)
     with pytest.raises(ValueError, match="'threads' parameter of sample_controls"):
-        sample_controls(cfg, mean, rng, threads=0)
+        sample_controls(cfg, mean, rng=rng, threads=0)

@@ -132,7 +132,7 @@ def test_pockets_the_solver_filled_are_not_free():
     uv, free = g.grid_values([[6.5, 6.5]], grid_offsets(5))
     assert not free[0, 2, 2] and free[0, 0, 0]
     np.testing.assert_array_equal(uv[0][:, ~free[0]], 0.0)
-    pos = robot_positions(g, 3000, 0, building_reach=60.0)
+    pos = robot_positions(g, 3000, rng=0, building_reach=60.0)
     assert not np.any((np.abs(pos[:, 0] - 6.0) < 1.0) & (np.abs(pos[:, 1] - 6.0) < 1.0))
 
 
@@ -141,7 +141,7 @@ def test_pockets_the_solver_filled_are_not_free():
 
 def test_robot_positions_keep_clearance_reach_and_margin_and_follow_the_seed():
     field = shear_field()
-    pos = robot_positions(field, 3000, 7, wall_clearance=1.0, building_reach=12.0,
+    pos = robot_positions(field, 3000, rng=7, wall_clearance=1.0, building_reach=12.0,
                           edge_margin=5.0)
     assert pos.shape == (3000, 2)
     d = distance_to_buildings(field.city, pos)
@@ -151,26 +151,26 @@ def test_robot_positions_keep_clearance_reach_and_margin_and_follow_the_seed():
     # uniform over the admissible set: both buildings get robots, close and far
     assert (d < 3.0).mean() > 0.05 and (d > 9.0).mean() > 0.05
     np.testing.assert_array_equal(pos, robot_positions(
-        field, 3000, np.random.default_rng(7), building_reach=12.0, edge_margin=5.0))
-    assert not np.array_equal(pos, robot_positions(field, 3000, 8, building_reach=12.0,
+        field, 3000, rng=np.random.default_rng(7), building_reach=12.0, edge_margin=5.0))
+    assert not np.array_equal(pos, robot_positions(field, 3000, rng=8, building_reach=12.0,
                                                    edge_margin=5.0))
-    on_city = robot_positions(field.city, 500, 1)
+    on_city = robot_positions(field.city, 500, rng=1)
     assert distance_to_buildings(field.city, on_city).min() >= 1.0
 
 
 def test_robot_positions_refuse_maps_without_admissible_area():
     empty = City((0.0, 50.0, 0.0, 50.0), np.zeros((0, 4)), [])
     with pytest.raises(ValueError, match="no buildings"):
-        robot_positions(empty, 10, 0)
+        robot_positions(empty, 10, rng=0)
     with pytest.raises(ValueError, match="no admissible area"):
-        robot_positions(small_city(), 10, 0, building_reach=2.0, edge_margin=35.0)
+        robot_positions(small_city(), 10, rng=0, building_reach=2.0, edge_margin=35.0)
     walled = City((0.0, 20.0, 0.0, 20.0), [[0.0, 20.0, 0.0, 20.0]], [5.0])
     with pytest.raises(ValueError, match="no admissible area"):
-        robot_positions(walled, 10, 0)
+        robot_positions(walled, 10, rng=0)
     with pytest.raises(ValueError, match="'building_reach'"):
-        robot_positions(small_city(), 10, 0, wall_clearance=5.0, building_reach=4.0)
+        robot_positions(small_city(), 10, rng=0, wall_clearance=5.0, building_reach=4.0)
     with pytest.raises(ValueError, match="'rng'"):
-        robot_positions(small_city(), 10, "seed")
+        robot_positions(small_city(), 10, rng="seed")
 
 
 # ----------------------------------------------------------------- samples
@@ -179,7 +179,7 @@ def test_robot_positions_refuse_maps_without_admissible_area():
 def test_draw_samples_labels_are_the_field_around_the_robot():
     field = shear_field()
     size, spacing = 7, 1.5
-    batch = draw_samples(field, 300, 3, size=size, spacing=spacing, scan_noise=0.0)
+    batch = draw_samples(field, 300, rng=3, size=size, spacing=spacing, scan_noise=0.0)
     o = grid_offsets(size, spacing)
     assert batch.labels.shape == (300, 2, size, size) and batch.labels.dtype == np.float32
     assert batch.free.shape == (300, size, size) and batch.free.dtype == bool
@@ -204,7 +204,7 @@ def test_draw_samples_labels_are_the_field_around_the_robot():
 
 def test_draw_samples_scans_are_noisy_lidar_at_the_positions():
     field = shear_field()
-    batch = draw_samples(field, 400, 11)
+    batch = draw_samples(field, 400, rng=11)
     clean = field.city.lidar(batch.positions, n_rays=N_RAYS, max_range=SCAN_MAX,
                              min_range=SCAN_MIN)
     assert batch.scans.shape == (400, N_RAYS)
@@ -223,18 +223,18 @@ def test_draw_samples_scans_are_noisy_lidar_at_the_positions():
 
 def test_draw_samples_is_deterministic_and_w_robot_noise_has_its_level():
     field = shear_field()
-    a = draw_samples(field, 500, 5, size=5, w_robot_noise=0.5)
-    b = draw_samples(field, 500, np.random.default_rng(5), size=5, w_robot_noise=0.5)
+    a = draw_samples(field, 500, rng=5, size=5, w_robot_noise=0.5)
+    b = draw_samples(field, 500, rng=np.random.default_rng(5), size=5, w_robot_noise=0.5)
     for x, y in zip(a, b, strict=True):
         np.testing.assert_array_equal(x, y)
-    c = draw_samples(field, 500, 6, size=5, w_robot_noise=0.5)
+    c = draw_samples(field, 500, rng=6, size=5, w_robot_noise=0.5)
     assert not np.array_equal(a.positions, c.positions)
     noise = a.w_robot - a.labels[:, :, 2, 2]
     assert noise.std() == pytest.approx(0.5, rel=0.1) and abs(noise.mean()) < 0.05
     with pytest.raises(ValueError, match="'w_robot_noise'"):
-        draw_samples(field, 5, 0, w_robot_noise=-1.0)
+        draw_samples(field, 5, rng=0, w_robot_noise=-1.0)
     with pytest.raises(ValueError, match="'field'"):
-        draw_samples(field.city, 5, 0)
+        draw_samples(field.city, 5, rng=0)
 
 
 def test_noise_stream_is_splitmix64():
@@ -268,9 +268,9 @@ def test_dataset_samples_are_fixed_whatever_the_batching():
     ds = DecoderDataset(fields, 37, seed=3, size=5, w_robot_noise=0.2)
     assert len(ds) == 74
     full = ds.materialize()
-    # field f's samples are draw_samples(fields[f], S, default_rng([seed, 0, f]))
+    # field f's samples are draw_samples(fields[f], S, rng=default_rng([seed, 0, f]))
     for f in range(2):
-        ref = draw_samples(fields[f], 37, np.random.default_rng([3, 0, f]), size=5,
+        ref = draw_samples(fields[f], 37, rng=np.random.default_rng([3, 0, f]), size=5,
                            w_robot_noise=0.2)
         for x, y in zip(ref, full, strict=True):
             np.testing.assert_array_equal(x, y[37 * f:37 * (f + 1)])
@@ -391,7 +391,7 @@ def test_robot_positions_fill_the_band_around_a_building_by_area():
     city = City(bounds=(0.0, 400.0, 0.0, 400.0), footprints=[[x0, x1, y0, y1]],
                 heights=[20.0])
     c, r, n = 5.0, 30.0, 20000
-    pos = robot_positions(city, n, 11, wall_clearance=c, building_reach=r)
+    pos = robot_positions(city, n, rng=11, wall_clearance=c, building_reach=r)
     x, y = pos[:, 0], pos[:, 1]
     west, east, south, north = x < x0, x > x1, y < y0, y > y1
     mid_x, mid_y = ~west & ~east, ~south & ~north
@@ -412,7 +412,7 @@ def test_robot_positions_at_zero_clearance_stay_outside_the_buildings():
     footprint, whose distance is 0 too (audit, 2026-12-05: 923 of 2,000 lay inside)."""
     city = City((0.0, 100.0, 0.0, 100.0), np.array([(30.0, 70.0, 30.0, 70.0)]),
                 np.array([20.0]))
-    pos = robot_positions(city, 2000, 3, wall_clearance=0.0, building_reach=10.0)
+    pos = robot_positions(city, 2000, rng=3, wall_clearance=0.0, building_reach=10.0)
     d = distance_to_buildings(city, pos)
     inside = (pos[:, 0] > 30) & (pos[:, 0] < 70) & (pos[:, 1] > 30) & (pos[:, 1] < 70)
     assert not inside.any() and d.min() > 0.0 and d.min() < 0.1

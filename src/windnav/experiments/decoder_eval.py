@@ -456,7 +456,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
             continue
         t_flow = time.perf_counter() - t0
         field = field_from_solution(city, sol, name=f"{name}/{j}")
-        batch = draw_samples(field, samples, slot_rng(seed, i, j), size=dec.size,
+        batch = draw_samples(field, samples, rng=slot_rng(seed, i, j), size=dec.size,
                              spacing=dec.spacing, scan_noise=0.35, w_robot_noise=0.0)
         errors, ps = _score(dec, batch, dec.size, dec.spacing, compared)
         seconds = time.perf_counter() - t0

@@ -191,7 +191,7 @@ def _draw(fields, samples_per_field: int, seed: int, size: int, spacing: float, 
     from windnav.predict import SampleBatch, draw_samples
 
     n = positive_int(samples_per_field, "samples_per_field", where)
-    parts = [draw_samples(f, n, np.random.default_rng([seed, 4, k]), size=size,
+    parts = [draw_samples(f, n, rng=np.random.default_rng([seed, 4, k]), size=size,
                           spacing=spacing) for k, f in enumerate(fields)]
     return SampleBatch(*(np.concatenate(a) for a in zip(*parts, strict=True)))
 
@@ -1221,7 +1221,7 @@ def _simulate_and_score(decoder, city, simulate, *, speed, direction_deg, dx, dt
                                       dx=dx, dt=dt, spinup_steps=spinup_steps, steps=steps,
                                       **solver)
     field = field_from_solution(city, sol, name=name)
-    batch = draw_samples(field, samples, np.random.default_rng([seed, 7]), size=decoder.size,
+    batch = draw_samples(field, samples, rng=np.random.default_rng([seed, 7]), size=decoder.size,
                          spacing=decoder.spacing, scan_noise=0.35, w_robot_noise=0.0)
     errors, _ = _score(decoder, batch, decoder.size, decoder.spacing)
     return ({"diagnostics": sol.diagnostics, "errors": errors,

@@ -199,7 +199,7 @@ def _threads(threads, config: PlannerConfig, where: str) -> int:
     return threads
 
 
-def sample_controls(config: PlannerConfig, mean: np.ndarray, rng: np.random.Generator, *,
+def sample_controls(config: PlannerConfig, mean: np.ndarray, *, rng: np.random.Generator,
                     out: np.ndarray | None = None, work: np.ndarray | None = None,
                     threads: int = 1) -> np.ndarray:
     """Draw ``N_tau`` control sequences, (K, 2, S) float32 (time-major, structure of arrays
@@ -352,8 +352,8 @@ def _pack_wind(config: PlannerConfig, wind: LocalWind | None) -> tuple:
     return wind.pack(config.horizon)
 
 
-def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
-              rng: np.random.Generator, *, rollout_cost: RolloutCost = fused_rollout_cost,
+def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem, *,
+              rng: np.random.Generator, rollout_cost: RolloutCost = fused_rollout_cost,
               workspace: tuple | None = None, profile: dict | None = None,
               threads: int = 1) -> dict:
     """One MPPI update (pure apart from ``rng`` and ``workspace``): sample, roll out and cost,
@@ -365,7 +365,7 @@ def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
     mean : ndarray of shape (K, 2)
         Warm start (the previous optimal sequence, already shifted), m/s^2.
     problem : Problem
-    rng : numpy.random.Generator
+    rng : numpy.random.Generator, keyword-only (required)
     rollout_cost : callable, optional
         ``(config, controls (K, 2, S), problem) -> (costs (S,), parts (S, 4))``.
     workspace : tuple of ndarray, optional
@@ -390,7 +390,7 @@ def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem,
         raise ValueError("The 'problem' parameter of mppi_step must hold velocity (2,), goal "
                          "(2,), mission (5,) and wind (mode, grid, meta (7,)) as LocalWind.pack "
                          f"gives. Got {problem!r} instead.")
-    u = sample_controls(config, mean, rng, out=None if workspace is None else workspace[0],
+    u = sample_controls(config, mean, rng=rng, out=None if workspace is None else workspace[0],
                         work=None if workspace is None else workspace[1], threads=threads)
     t1 = time.perf_counter()
     costs, parts = rollout_cost(config, u, problem)
@@ -609,7 +609,7 @@ class MPPIPlanner:
         t1 = time.perf_counter()
         problem = Problem(vel, goal, field_, packed, mission)
         prof: dict = {}
-        out = mppi_step(cfg, self.mean, problem, self.rng, rollout_cost=self.rollout_cost,
+        out = mppi_step(cfg, self.mean, problem, rng=self.rng, rollout_cost=self.rollout_cost,
                         threads=self.threads,
                         workspace=self._work, profile=prof)
         if not out["ok"]:

@@ -446,7 +446,7 @@ def _min_distance2(fp: np.ndarray, p: np.ndarray) -> np.ndarray:
     return out
 
 
-def robot_positions(field_or_city, n: int, rng, *, wall_clearance: float = 1.0,
+def robot_positions(field_or_city, n: int, *, rng, wall_clearance: float = 1.0,
                     building_reach: float = 40.0, edge_margin: float = 0.0) -> np.ndarray:
     """Random robot positions "around the buildings", uniform over the admissible set.
 
@@ -462,7 +462,7 @@ def robot_positions(field_or_city, n: int, rng, *, wall_clearance: float = 1.0,
     field_or_city : MeanField or City
     n : int
         Number of positions, >= 1.
-    rng : numpy.random.Generator, int or None
+    rng : numpy.random.Generator, int or None, keyword-only (required)
         Random source or seed (None: fresh entropy); same source, same positions.
     wall_clearance : float
         Smallest distance to every wall, m, >= 0.
@@ -611,12 +611,12 @@ def _check_noise(scan_noise, w_robot_noise, where: str) -> tuple[float, float]:
 def _draw(field, n, rng, offsets, clearance, reach, where):
     """Positions and noise key of ``n`` samples of ``field`` from ``rng`` (in this order)."""
     rng = _generator(rng, where)
-    positions = robot_positions(field, n, rng, wall_clearance=clearance, building_reach=reach,
+    positions = robot_positions(field, n, rng=rng, wall_clearance=clearance, building_reach=reach,
                                 edge_margin=float(offsets[-1]))
     return positions, int(rng.integers(0, 2**63, dtype=np.int64))
 
 
-def draw_samples(field: MeanField, n: int, rng, *, size: int = 25, spacing: float = 1.0,
+def draw_samples(field: MeanField, n: int, *, rng, size: int = 25, spacing: float = 1.0,
                  scan_noise: float = SCAN_NOISE, w_robot_noise: float = 0.0,
                  wall_clearance: float = 1.0, building_reach: float = 40.0) -> SampleBatch:
     """Draw ``n`` decoder samples from one mean field (see the module doc).
@@ -626,7 +626,7 @@ def draw_samples(field: MeanField, n: int, rng, *, size: int = 25, spacing: floa
     field : MeanField
     n : int
         Number of samples, >= 1.
-    rng : numpy.random.Generator, int or None
+    rng : numpy.random.Generator, int or None, keyword-only (required)
         Random source or seed (None: fresh entropy); same source, same batch bit for bit.
     size : int
         Label grid cells per side ``H``.
@@ -660,7 +660,7 @@ class DecoderDataset:
 
     Sample ``i`` is sample ``j = i % S`` of field ``f = i // S`` (``S = samples_per_field``),
     and the samples of field ``f`` are exactly ``draw_samples(fields[f], S,
-    numpy.random.default_rng([seed, 0, f]), ...)``: positions are drawn (and kept, 16 bytes
+    rng=numpy.random.default_rng([seed, 0, f]), ...)``: positions are drawn (and kept, 16 bytes
     each) at construction; scans, labels and noise are recomputed whenever asked for.
 
     Guarantees: sample ``i`` is the same, bit for bit, in every epoch, batch size, order,
