@@ -306,3 +306,35 @@ def test_fly_runs_the_filter_under_a_preset(tmp_path):
     # cm/s; the thesis's filter leaves out the Hummingbird's parasitic drag (c_dx = 5e-3, about
     # a tenth of its drag at 5 m/s airspeed) and errs by about that tenth of the airspeed
     assert 0 < rmse["windnav"] < 0.15 < rmse["thesis-0.038"] < 1.0
+
+
+@pytest.mark.parametrize("preset", ["thesis", "thesis-0.038"])
+def test_the_rotorpy_presets_noise_follows_the_sensor_rate(preset):
+    """The thesis presets' sensors draw a per-sample noise growing as sqrt(rate) (RotorPy's
+    arithmetic), but the filter kept the 100 Hz R at every rate: at 200 Hz it believed 1.03
+    m/s^2 where the accelerometer drew 1.44 (conventions audit, 2026-12-05). R is now the
+    sensors' at the filter's rate, and at 100 Hz exactly the preset's."""
+    cond = CONDITIONS[preset]
+    at100 = WindUKF(P_HB, dt=0.01, conditions=preset)
+    assert np.sqrt(at100.R["accel"][0, 0]) == cond.r["accel"]
+    assert cond.filter_options(100.0)["r"] == dict(cond.r)
+    assert cond.filter_options(1 / 0.009999999999999787)["r"] == dict(cond.r)  # grid rounding
+    for rate in (50.0, 200.0):
+        imu = cond.sensor_suite(rate).imu
+        drawn = imu.accel_noise_density * math.sqrt(rate)  # per-sample std, m/s^2
+        ukf = WindUKF(P_HB, dt=1.0 / rate, conditions=preset)
+        assert np.sqrt(ukf.R["accel"][0, 0]) == pytest.approx(math.hypot(drawn, 0.1), rel=1e-12)
+        odom = cond.sensor_suite(rate).odometry
+        r = cond.filter_options(rate)["r"]
+        assert r["odom_velocity"] / at100_std(cond, "odom_velocity") == pytest.approx(
+            odom.velocity_std / cond.sensor_suite(100.0).odometry.velocity_std, rel=1e-12)
+    # an accelerometer R the user set is theirs at any rate; other presets keep theirs
+    mine = UKFConditions("mine", sensors=preset, r={"accel": 2.0})
+    assert mine.filter_options(200.0)["r"]["accel"] == 2.0
+    assert CONDITIONS["windnav"].filter_options(200.0)["r"] == dict(CONDITIONS["windnav"].r)
+
+
+def at100_std(cond, key):
+    from windnav.estimate import DEFAULT_R
+
+    return cond.r.get(key, DEFAULT_R[key])

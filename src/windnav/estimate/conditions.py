@@ -176,10 +176,33 @@ class UKFConditions:
         """Logged sensors :func:`~windnav.estimate.run_wind_ukf` fuses."""
         return ("imu", "odometry") + (("rotor_speeds",) if self.rotor_speed_measurements else ())
 
-    def filter_options(self) -> dict:
+    def filter_options(self, rate_hz: float = 100.0) -> dict:
         """Keyword arguments of :class:`~windnav.estimate.WindUKF` for these conditions:
-        ``q, r, alpha, beta, kappa, wind_frame, accel_from_odometry``."""
-        return {"q": dict(self.q), "r": dict(self.r), "alpha": self.alpha, "beta": self.beta,
+        ``q, r, alpha, beta, kappa, wind_frame, accel_from_odometry``, for sensors sampled at
+        ``rate_hz`` (Hz).
+
+        The presets' ``r`` are set for sensors at 100 Hz. The RotorPy-arithmetic sensors of
+        ``thesis`` and ``thesis-0.038`` draw a per-sample noise that grows as
+        ``sqrt(rate_hz)``, so at another rate their accelerometer ``R`` is the model floor
+        over that rate's white noise (where ``r`` holds the preset's own value), and the
+        odometry's velocity and attitude ``R`` scale by ``sqrt(rate_hz / 100)`` (where ``r``
+        does not set them). Until 2026-12-05 every rate got the 100 Hz numbers: at 200 Hz the
+        filter believed 1.03 m/s^2 where the accelerometer drew 1.44, and its wind error was
+        0.651 m/s (NEES 3.15) against 0.547 m/s (1.60) with the matched ``R`` (conventions
+        audit). At 100 Hz, and for the other presets, ``r`` is returned as it is.
+        """
+        rate = positive_float(rate_hz, "rate_hz", "UKFConditions.filter_options")
+        r = dict(self.r)
+        density = _ROTORPY_ACCEL.get(self.sensors)
+        if density is not None and abs(rate / 100.0 - 1.0) > 1e-9:
+            from windnav.estimate.wind_ukf import DEFAULT_R
+
+            if r.get("accel") == _accel_r(_RATE_SCALE_100HZ * density):
+                r["accel"] = _accel_r(rotorpy_rate_scale(rate) * density)
+            for key in ("odom_velocity", "odom_euler"):
+                if key not in r:
+                    r[key] = DEFAULT_R[key] * math.sqrt(rate / 100.0)
+        return {"q": dict(self.q), "r": r, "alpha": self.alpha, "beta": self.beta,
                 "kappa": self.kappa, "wind_frame": self.wind_frame,
                 "accel_from_odometry": self.accel_from_odometry}
 
@@ -211,6 +234,9 @@ def _accel_r(per_sample_std: float) -> float:
 
 
 _RATE_SCALE_100HZ = rotorpy_rate_scale(100.0)
+_ROTORPY_ACCEL = {"thesis": ROTORPY_ACCEL_DENSITY, "thesis-0.038": ROTORPY_ACCEL_DENSITY_NUMPY}
+"""The sensor presets with RotorPy's arithmetic (noise growing as ``sqrt(rate)``) and their
+accelerometer densities."""
 
 CONDITIONS: dict[str, UKFConditions] = {c.name: c for c in (
     UKFConditions(

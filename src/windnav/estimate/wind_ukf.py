@@ -187,10 +187,13 @@ _OPTION_DEFAULTS = {"alpha": 1.0, "beta": 2.0, "kappa": 0.0, "wind_frame": "worl
                     "accel_from_odometry": False}
 
 
-def _resolve_options(conditions, q, r, **given) -> tuple[dict, dict, dict]:
-    """``(q, r, options)``: the conditions' filter settings (if any) under the explicit
-    arguments (``q``, ``r`` key by key; options not None), then the filter's defaults."""
-    preset = {} if conditions is None else ukf_conditions(conditions).filter_options()
+def _resolve_options(conditions, q, r, rate_hz: float = 100.0, **given
+                     ) -> tuple[dict, dict, dict]:
+    """``(q, r, options)``: the conditions' filter settings (if any) for sensors at
+    ``rate_hz`` under the explicit arguments (``q``, ``r`` key by key; options not None), then
+    the filter's defaults."""
+    preset = ({} if conditions is None
+              else ukf_conditions(conditions).filter_options(rate_hz))
     q = {**preset.get("q", {}), **(q or {})}
     r = {**preset.get("r", {}), **(r or {})}
     opt = {k: v if v is not None else preset.get(k, _OPTION_DEFAULTS[k])
@@ -235,7 +238,9 @@ class WindUKF:
         Sigma-point parameters; default 1, 2, 0 (or the conditions').
     conditions : str or UKFConditions, optional
         A preset whose filter settings are the defaults of the arguments above (see the module
-        docstring); None: windnav's defaults (:data:`DEFAULT_Q`, :data:`DEFAULT_R`).
+        docstring), for sensors sampled once per step (``1 / dt``:
+        :meth:`~windnav.estimate.UKFConditions.filter_options`); None: windnav's defaults
+        (:data:`DEFAULT_Q`, :data:`DEFAULT_R`).
 
     Examples
     --------
@@ -261,8 +266,10 @@ class WindUKF:
         # 0.1 m/s^2 measurement: 2.9 m/s of wind error and a NEES of 574; audit, 2026-12-05)
         accel_noise_given = "accel" in (r or {}) or (
             conditions is not None and ukf_conditions(conditions).accel != "imu")
-        q, r, opt = _resolve_options(conditions, q, r, alpha=alpha, beta=beta, kappa=kappa,
-                                     wind_frame=wind_frame,
+        # one step per sample of the sensors: the conditions' noise at that rate
+        q, r, opt = _resolve_options(conditions, q, r,
+                                     1.0 / positive_float(dt, "dt", where), alpha=alpha,
+                                     beta=beta, kappa=kappa, wind_frame=wind_frame,
                                      accel_from_odometry=accel_from_odometry)
         alpha, beta, kappa, wind_frame = (opt[k] for k in ("alpha", "beta", "kappa",
                                                              "wind_frame"))
