@@ -508,3 +508,22 @@ def test_make_trajectory_s_unused_duration_is_deprecated():
     with pytest.warns(DeprecationWarning, match="'duration' is deprecated"):
         line = make_trajectory("line", size=10.0, speed=2.0, duration=99.0)
     assert line.duration == pytest.approx(1.875 * 10.0 / 2.0)
+
+
+def test_a_flight_too_large_for_memory_is_refused_before_it_starts(monkeypatch):
+    """``fly`` kept every sensor tick's state and failed with a bare MemoryError after the
+    whole flight, or was killed, when they did not fit (scale audit, 2026-12-05: 10,000
+    vehicles for 2 s took 3.94 GB). Its estimate is checked against the memory limit first."""
+    from windnav.flow import MemoryEstimateError
+    from windnav.sim.runner import estimate_fly_memory
+
+    monkeypatch.setenv("WINDNAV_MEMORY_LIMIT", "50MB")
+    p = wn.vehicle.params("hummingbird")
+    with pytest.raises(MemoryEstimateError, match=r"fly: 2000 vehicle\(s\) for 2 s .* "
+                                                  r"WINDNAV_MEMORY_LIMIT"):
+        fly(p, make_trajectory("hover"), ConstantWind((1.0, 0.0, 0.0)), 2.0, batch=2000)
+    fly(p, make_trajectory("hover"), ConstantWind((1.0, 0.0, 0.0)), 0.2, batch=10)  # fits
+    # the estimate grows with vehicles and steps and drops without sensors
+    one = estimate_fly_memory(1, 4, 201, 201, 3)
+    assert estimate_fly_memory(1000, 4, 201, 201, 3) == pytest.approx(1000 * one)
+    assert estimate_fly_memory(1, 4, 201, 201, 0) < one / 2

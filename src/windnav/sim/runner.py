@@ -149,10 +149,14 @@ def fly(
         Log every k-th physics step (sensors are always logged at their own rate). The
         energy is then integrated over the logged power (an hour's circle in gusts: 0.04 %
         below every step's at ``log_every=100``). Memory: the true state is kept at every
-        sensor tick until the sensors are sampled at the end, about 0.8 kB per physics step
-        for one vehicle with the default sensors whatever ``log_every`` (an hour at 5 ms:
-        1.5 GB at its peak); ``sensors=SensorSuite(None, None, None)`` keeps only the log
-        (0.27 GB with ``log_every=100``; long-run audit, 2026-12-05).
+        sensor tick until the sensors are sampled at the end, and copied once then: about
+        1 kB per vehicle and physics step with the default sensors at ``log_every=1``, and
+        1.6-1.8 kB for one vehicle (0.93-0.98 kB per vehicle at 1,000-10,000; an hour at 5 ms:
+        1.5 GB at its peak; scale audit, 2026-12-05); ``sensors=SensorSuite(None, None,
+        None)`` keeps only the log (0.27 GB with ``log_every=100``; long-run audit). A flight
+        whose estimate exceeds the memory limit (:func:`windnav.flow.memory.default_memory_limit`:
+        ``WINDNAV_MEMORY_LIMIT``, or 75 % of the machine's) is refused before it starts
+        (:class:`~windnav.flow.MemoryEstimateError`).
     rng : numpy.random.Generator or int, optional
         Randomness of the sensor noise (default seed 0).
     seed : int or numpy.random.Generator, optional
@@ -209,6 +213,7 @@ def fly(
                          "instead.")
     held = _frames_end(wind, duration)
     rec = _Recorder(loop, duration, log_every, periods, lift_fraction, max_airspeed)
+    _check_memory(rec, len(sensor_list))
     state = initial_loop_state(loop, x0)
     n_steps = rec.n_steps
     bar = tqdm(total=n_steps, disable=not progress, desc="flying", unit="step", leave=False,
@@ -402,6 +407,44 @@ class _Recorder:
         }
         return FlightLog(**lg, outside_envelope=outside, status=status, sensors=sensors_out,
                          meta=meta)
+
+
+BYTES_PER_LOG_VALUE = 8 * 1.5
+"""Bytes per logged float of a vehicle (float64, with half again for the arrays' copies and
+the readings' temporaries)."""
+
+
+def estimate_fly_memory(batch: int, n_rotors: int, n_log: int, n_snaps: int,
+                        n_sensors: int) -> float:
+    """Peak bytes of :func:`fly`'s records: ``n_log`` logged rows (state, commands, flags,
+    wind: ``20 + 3 N`` floats per vehicle) and ``n_snaps`` sensor ticks (state, winds and
+    commands, kept, stacked once and sampled into readings: ``3 (16 + 2 N)`` floats per
+    vehicle when sensors are flown), each float :data:`BYTES_PER_LOG_VALUE`. Calibrated
+    against the peak resident set (scale audit, 2026-12-05): 0.93-0.98 kB per vehicle and step
+    with the default sensors at 1,000-10,000 vehicles; 2,000 vehicles for 2 s added 860 MB,
+    estimated 1.0 GB (errs on the side of refusing)."""
+    per_log = 20 + 3 * n_rotors
+    per_snap = 3 * (16 + 2 * n_rotors) if n_sensors else 0
+    return float(batch) * BYTES_PER_LOG_VALUE * (n_log * per_log + n_snaps * per_snap)
+
+
+def _check_memory(rec: _Recorder, n_sensors: int) -> None:
+    """Refuse a flight whose records would not fit the memory limit (a MemoryError after the
+    whole flight, or the out-of-memory killer, before; scale audit, 2026-12-05)."""
+    from windnav.flow.memory import ENV_VAR, MemoryEstimateError, default_memory_limit, format_bytes
+
+    limit = default_memory_limit()
+    n_snaps = rec.n_steps // rec.snap_every + 1 if rec.snap_every else 0
+    need = estimate_fly_memory(rec.loop.batch, rec.loop.n_rotors, rec.log_steps.size,
+                               n_snaps, n_sensors)
+    if limit is not None and need > limit:
+        raise MemoryEstimateError(
+            f"{_WHERE}: {rec.loop.batch} vehicle(s) for {rec.duration:g} s at dt = "
+            f"{rec.loop.dt:g} s ({rec.n_steps} steps) need an estimated {format_bytes(need)} of "
+            f"memory for the log and the sensors' states, above the limit of "
+            f"{format_bytes(limit)} (the {ENV_VAR} environment variable, or 75 % of this "
+            f"machine's memory). Fly fewer vehicles at once or a shorter flight, log less "
+            f"often (log_every) or with fewer sensors, or raise {ENV_VAR}.")
 
 
 def _status_names(status: np.ndarray) -> list[str]:
