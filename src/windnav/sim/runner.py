@@ -158,7 +158,10 @@ def fly(
         ``WINDNAV_MEMORY_LIMIT``, or 75 % of the machine's) is refused before it starts
         (:class:`~windnav.flow.MemoryEstimateError`).
     rng : numpy.random.Generator or int, optional
-        Randomness of the sensor noise (default seed 0).
+        Randomness of the sensor noise (default seed 0). Each sensor draws its noise over the
+        whole flight at once, time-major, so a longer flight or another batch size draws
+        other noise from t = 0 on, with the same seed (the physics is the same to the bit;
+        scale audit, 2026-12-05).
     seed : int or numpy.random.Generator, optional
         Deprecated alias of ``rng`` (a DeprecationWarning).
     progress : bool
