@@ -497,3 +497,24 @@ def test_a_move_the_held_wind_never_opens_is_not_waited_for():
     held = least_time(reach_lattice(city, frames, dx=2.0), (10.0, 10.0), (30.0, 90.0),
                       airspeed_max=10.0)
     assert np.isfinite(steady.time_s) and held.time_s == pytest.approx(steady.time_s, rel=1e-12)
+
+
+def test_a_route_search_too_large_for_memory_is_refused_before_its_graph(monkeypatch):
+    """``energy_route`` and ``grid_route`` built their graphs without a memory check: an 8 km
+    map at dx = 1 m needs about 47 GB, a bare MemoryError or the out-of-memory killer (scale
+    audit, 2026-12-05)."""
+    import windnav as wn
+    from windnav.flow import MemoryEstimateError
+    from windnav.plan import energy_route, grid_route, planner_config
+
+    city = wn.city.planning_map(rng=0, size=300.0)
+    cfg = planner_config(wn.vehicle.params("hummingbird"), "gs")
+    start, goal = (20.0, 20.0), (280.0, 280.0)
+    monkeypatch.setenv("WINDNAV_MEMORY_LIMIT", "1MB")
+    with pytest.raises(MemoryEstimateError, match=r"energy_route: a lattice of \d+ x \d+ "
+                                                  r"cells .* WINDNAV_MEMORY_LIMIT"):
+        energy_route(city, start, goal, cfg)
+    with pytest.raises(MemoryEstimateError, match="grid_route: a lattice"):
+        grid_route(city, start, goal)
+    monkeypatch.delenv("WINDNAV_MEMORY_LIMIT")
+    assert np.isfinite(energy_route(city, start, goal, cfg).energy)

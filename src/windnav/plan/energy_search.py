@@ -37,7 +37,7 @@ from windnav._validate import speed_range as check_speed_range
 from windnav.city.core import check_city
 from windnav.plan import _search_kernels as SK
 from windnav.plan.config import PlannerConfig
-from windnav.plan.graph_search import cell_path, free_cell, free_space
+from windnav.plan.graph_search import cell_path, check_lattice_memory, free_cell, free_space
 
 __all__ = ["MOVES", "EnergyRoute", "energy_route"]
 
@@ -207,6 +207,7 @@ def energy_route(
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
     goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
     x, y, free = free_space(city, dx, clearance)
+    check_lattice_memory(free, where)
     free = np.ascontiguousarray(free)
     wind_grid = _wind_grid(wind, x, y, altitude, config.use_wind, where)
     speeds = np.arange(v_lo, v_hi + 1e-9, step)

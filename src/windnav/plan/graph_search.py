@@ -17,6 +17,32 @@ import scipy.sparse.csgraph
 from windnav._validate import batch_array, positive_float
 from windnav.city.core import check_city
 
+BYTES_PER_FREE_CELL = {"grid_route": 650.0, "energy_route": 1000.0}
+"""Peak bytes per free lattice cell of each search's graph (edges, the sparse matrix, Dijkstra's
+arrays), with a margin over the measured 480 and 730 B per cell (scale audit, 2026-12-05)."""
+
+
+def check_lattice_memory(free: np.ndarray, where: str) -> None:
+    """Refuse a search whose graph over the ``free`` cells would not fit the memory limit
+    (an 8 km map at dx = 1 m needs about 47 GB: a bare ``MemoryError``, or the out-of-memory
+    killer, before; scale audit, 2026-12-05)."""
+    from windnav.flow.memory import (
+        ENV_VAR,
+        MemoryEstimateError,
+        default_memory_limit,
+        format_bytes,
+    )
+
+    limit = default_memory_limit()
+    need = BYTES_PER_FREE_CELL[where] * float(np.count_nonzero(free))
+    if limit is not None and need > limit:
+        raise MemoryEstimateError(
+            f"{where}: a lattice of {free.shape[0]} x {free.shape[1]} cells "
+            f"({np.count_nonzero(free)} free) needs an estimated {format_bytes(need)} of memory "
+            f"for its graph, above the limit of {format_bytes(limit)} (the {ENV_VAR} "
+            f"environment variable, or 75 % of this machine's memory). Use a larger dx or a "
+            f"smaller map, or raise {ENV_VAR}.")
+
 
 def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cell centres ``x`` (nx,), ``y`` (ny,) and the free mask (ny, nx) after inflation.
@@ -126,6 +152,7 @@ def grid_route(city, start_xy, goal_xy, *, dx: float = 2.0, clearance: float = 6
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
     goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
     x, y, free = free_space(city, dx, clearance)
+    check_lattice_memory(free, where)
 
     s = free_cell(start, "start_xy", x, y, free, dx, clearance, where)
     g = free_cell(goal, "goal_xy", x, y, free, dx, clearance, where)
