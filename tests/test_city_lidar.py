@@ -201,3 +201,19 @@ def test_origins_hugging_a_face_see_a_half_plane():
     np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)
     # the four face-huggers see the building over (almost) half the scan
     assert np.all(np.sum(got[:4] < 100.0, axis=1) >= 178)
+
+
+def test_a_positional_rng_still_works_with_a_deprecation_warning():
+    """``City.lidar`` is DESIGN's contract: its ``rng`` became keyword-only with a deprecation,
+    not a TypeError (thirty-fifth session)."""
+    city = City((0.0, 100.0, 0.0, 100.0), np.array([[40.0, 60.0, 40.0, 60.0]]), [10.0])
+    origins = np.array([[10.0, 50.0], [90.0, 20.0]])
+    want = city.lidar(origins, 90, 50.0, 0.0, 0.3, rng=3)
+    with pytest.warns(DeprecationWarning, match=r"City.lidar: pass rng= by keyword"):
+        got = city.lidar(origins, 90, 50.0, 0.0, 0.3, 3)
+    np.testing.assert_array_equal(got, want)
+    with pytest.raises(TypeError, match="multiple values for argument 'rng'"):
+        city.lidar(origins, 90, 50.0, 0.0, 0.3, 3, rng=3)
+    with pytest.warns(DeprecationWarning, match="lidar_scan: pass rng="):
+        from windnav.city.lidar import lidar_scan
+        np.testing.assert_array_equal(lidar_scan(city, origins, 90, 50.0, 0.0, 0.3, 3), want)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -145,3 +146,27 @@ def options_named(names: dict[str, str]):
         if text == str(exc):
             raise
         raise ValueError(text) from None
+
+
+
+def keyword_only(args: tuple, given: dict, where: str) -> dict:
+    """The keyword-only parameters ``given`` (name -> keyword value, None when not given), with
+    any passed positionally (``args``, in ``given``'s order) filled in and a DeprecationWarning:
+    DESIGN's convention is a keyword-only ``rng``, and a public name changes only with a
+    deprecation. A name given both ways, or too many positional values, is a TypeError, as
+    Python's own."""
+    if not args:
+        return given
+    names = list(given)
+    if len(args) > len(names):
+        raise TypeError(f"{where}() takes at most {len(names)} more positional argument(s) "
+                        f"({', '.join(names)}, deprecated); got {len(args)}")
+    out = dict(given)
+    for name, value in zip(names, args, strict=False):
+        if given[name] is not None:
+            raise TypeError(f"{where}() got multiple values for argument {name!r}")
+        out[name] = value
+    used = names[:len(args)]
+    warnings.warn(f"{where}: pass {', '.join(f'{n}=' for n in used)} by keyword; positional "
+                  "use is deprecated", DeprecationWarning, stacklevel=3)
+    return out

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav._validate import batch_array, positive_float
+from windnav._validate import batch_array, keyword_only, positive_float
 from windnav.city.lidar import lidar_scan
 from windnav.city.rotorpy_json import (
     DEFAULT_COLOR,  # noqa: F401  (re-exported: the colour of blocks written without one)
@@ -356,7 +356,7 @@ class City:
         max_range: float = 100.0,
         min_range: float = 0.0,
         noise_std: float = 0.0,
-        *,
+        *args,
         rng=None,
         normals=None,
     ) -> np.ndarray:
@@ -374,7 +374,7 @@ class City:
             Smallest reading, m, >= 0.
         noise_std : float
             Standard deviation of Gaussian noise on returns, m, >= 0.
-        rng : numpy.random.Generator or int, optional, keyword-only
+        rng : numpy.random.Generator or int, optional, keyword-only (positional: deprecated)
             Noise source or seed; required when ``noise_std > 0`` and ``normals`` is None.
         normals : array_like of shape (B, n_rays), optional
             The noise's standard normals, drawn by the caller, instead of ``rng``.
@@ -390,8 +390,10 @@ class City:
         --------
         windnav.city.lidar.lidar_scan : the implementation and its equations.
         """
+        kw = keyword_only(args, {"rng": rng, "normals": normals}, "City.lidar")
         return lidar_scan(self, origins_xy, n_rays=n_rays, max_range=max_range,
-                          min_range=min_range, noise_std=noise_std, rng=rng, normals=normals)
+                          min_range=min_range, noise_std=noise_std, rng=kw["rng"],
+                          normals=kw["normals"])
 
     # ------------------------------------------------------------------ files
     @classmethod

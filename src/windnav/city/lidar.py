@@ -29,7 +29,13 @@ import math
 import numba
 import numpy as np
 
-from windnav._validate import batch_array, generator, positive_float, positive_int
+from windnav._validate import (
+    batch_array,
+    generator,
+    keyword_only,
+    positive_float,
+    positive_int,
+)
 
 _WHERE = "City.lidar"
 _ONE_PASS = 4096
@@ -78,7 +84,7 @@ def lidar_scan(
     max_range: float = 100.0,
     min_range: float = 0.0,
     noise_std: float = 0.0,
-    *,
+    *args,
     rng=None,
     normals=None,
 ) -> np.ndarray:
@@ -98,7 +104,7 @@ def lidar_scan(
         Smallest reading, m, >= 0.
     noise_std : float
         Standard deviation of the Gaussian range noise on returns, m, >= 0.
-    rng : numpy.random.Generator or int, optional, keyword-only
+    rng : numpy.random.Generator or int, optional, keyword-only (positional: deprecated)
         Noise source (or its seed); required when ``noise_std > 0`` and ``normals`` is None.
     normals : array_like of shape (B, n_rays), optional
         The standard normals of the range noise, drawn by the caller (as
@@ -119,6 +125,8 @@ def lidar_scan(
         ``max_range <= min_range``, negative ``noise_std``, noise without ``rng`` or
         ``normals``, or ``normals`` not finite or of another shape.
     """
+    kw = keyword_only(args, {"rng": rng, "normals": normals}, "lidar_scan")
+    rng, normals = kw["rng"], kw["normals"]
     origins = batch_array(origins_xy, "origins_xy", _WHERE, (2,))
     n_rays = positive_int(n_rays, "n_rays", _WHERE)
     max_range = positive_float(max_range, "max_range", _WHERE)
