@@ -666,3 +666,16 @@ def test_the_planner_shifts_its_warm_start_by_the_loops_own_planning_interval(ci
     with pytest.raises(ValueError, match="rate_hz, 10 Hz"):
         fly(city, flow, plan_rate_hz=20.0, config=planner_config(params("hummingbird"), "mppi"),
             duration=2.0)
+
+
+def test_command_s_memory_refusal_names_its_own_options(city, tmp_path, monkeypatch):
+    """The flow's memory refusal advised simulate's dx and memory_limit, which the command
+    does not have (scale audit, 2026-12-05); it now says what the command can change."""
+    from windnav.flow import MemoryEstimateError
+
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    monkeypatch.setenv("WINDNAV_MEMORY_LIMIT", "1MB")
+    args = parse(["navigate", "--map", str(path), "--start", "10", "60", "--goal", "110", "60",
+                  "--speed", "2", "--out", str(tmp_path / "out")])
+    with pytest.raises(MemoryEstimateError, match=r"a shorter --record-s or a smaller map"):
+        args.func(args)

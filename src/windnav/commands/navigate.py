@@ -215,7 +215,15 @@ def run(args) -> int:
         dt = MAX_CFL / speed
         print(f"{name}: note: the wind is simulated at dt = {dt:.4g} s, not 0.25 s, to keep the "
               f"CFL number at {MAX_CFL:g} at {speed:g} m/s", file=sys.stderr)
-    flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record, dt=dt)
+    from windnav.flow import MemoryEstimateError
+
+    try:
+        flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record, dt=dt)
+    except MemoryEstimateError as exc:  # its advice named simulate's dx and memory_limit
+        raise MemoryEstimateError(
+            f"{exc} Here: {name} simulates the wind on a 1 m grid over the whole map and keeps "
+            f"--record-s ({record:g} s) of frames; a shorter --record-s or a smaller map "
+            "needs less.") from None
     result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                       variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
                       horizon=horizon, tilt_max_deg=args.tilt_max_deg, onboard=onboard,
