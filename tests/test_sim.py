@@ -519,8 +519,8 @@ def test_a_flight_too_large_for_memory_is_refused_before_it_starts(monkeypatch):
 
     monkeypatch.setenv("WINDNAV_MEMORY_LIMIT", "50MB")
     p = wn.vehicle.params("hummingbird")
-    with pytest.raises(MemoryEstimateError, match=r"fly: 2000 vehicle\(s\) for 2 s .* "
-                                                  r"WINDNAV_MEMORY_LIMIT"):
+    with pytest.raises(MemoryEstimateError, match=r"fly: the log .* of 2000 vehicle\(s\) for "
+                                                  r"2 s .* WINDNAV_MEMORY_LIMIT"):
         fly(p, make_trajectory("hover"), ConstantWind((1.0, 0.0, 0.0)), 2.0, batch=2000)
     fly(p, make_trajectory("hover"), ConstantWind((1.0, 0.0, 0.0)), 0.2, batch=10)  # fits
     # the estimate grows with vehicles and steps and drops without sensors

@@ -148,7 +148,6 @@ def options_named(names: dict[str, str]):
         raise ValueError(text) from None
 
 
-
 def keyword_only(args: tuple, given: dict, where: str) -> dict:
     """The keyword-only parameters ``given`` (name -> keyword value, None when not given), with
     any passed positionally (``args``, in ``given``'s order) filled in and a DeprecationWarning:

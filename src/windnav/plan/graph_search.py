@@ -26,22 +26,12 @@ def check_lattice_memory(free: np.ndarray, where: str) -> None:
     """Refuse a search whose graph over the ``free`` cells would not fit the memory limit
     (an 8 km map at dx = 1 m needs about 47 GB: a bare ``MemoryError``, or the out-of-memory
     killer, before; scale audit, 2026-12-05)."""
-    from windnav.flow.memory import (
-        ENV_VAR,
-        MemoryEstimateError,
-        default_memory_limit,
-        format_bytes,
-    )
+    from windnav.flow.memory import refuse_above_limit
 
-    limit = default_memory_limit()
-    need = BYTES_PER_FREE_CELL[where] * float(np.count_nonzero(free))
-    if limit is not None and need > limit:
-        raise MemoryEstimateError(
-            f"{where}: a lattice of {free.shape[0]} x {free.shape[1]} cells "
-            f"({np.count_nonzero(free)} free) needs an estimated {format_bytes(need)} of memory "
-            f"for its graph, above the limit of {format_bytes(limit)} (the {ENV_VAR} "
-            f"environment variable, or 75 % of this machine's memory). Use a larger dx or a "
-            f"smaller map, or raise {ENV_VAR}.")
+    n_free = int(np.count_nonzero(free))
+    refuse_above_limit(BYTES_PER_FREE_CELL[where] * n_free, where,
+                       f"a lattice of {free.shape[0]} x {free.shape[1]} cells ({n_free} free) "
+                       "for its graph", "Use a larger dx or a smaller map")
 
 
 def free_space(city, dx: float, clearance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

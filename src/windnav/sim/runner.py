@@ -434,20 +434,16 @@ def estimate_fly_memory(batch: int, n_rotors: int, n_log: int, n_snaps: int,
 def _check_memory(rec: _Recorder, n_sensors: int) -> None:
     """Refuse a flight whose records would not fit the memory limit (a MemoryError after the
     whole flight, or the out-of-memory killer, before; scale audit, 2026-12-05)."""
-    from windnav.flow.memory import ENV_VAR, MemoryEstimateError, default_memory_limit, format_bytes
+    from windnav.flow.memory import refuse_above_limit
 
-    limit = default_memory_limit()
     n_snaps = rec.n_steps // rec.snap_every + 1 if rec.snap_every else 0
     need = estimate_fly_memory(rec.loop.batch, rec.loop.n_rotors, rec.log_steps.size,
                                n_snaps, n_sensors)
-    if limit is not None and need > limit:
-        raise MemoryEstimateError(
-            f"{_WHERE}: {rec.loop.batch} vehicle(s) for {rec.duration:g} s at dt = "
-            f"{rec.loop.dt:g} s ({rec.n_steps} steps) need an estimated {format_bytes(need)} of "
-            f"memory for the log and the sensors' states, above the limit of "
-            f"{format_bytes(limit)} (the {ENV_VAR} environment variable, or 75 % of this "
-            f"machine's memory). Fly fewer vehicles at once or a shorter flight, log less "
-            f"often (log_every) or with fewer sensors, or raise {ENV_VAR}.")
+    refuse_above_limit(need, _WHERE,
+                       f"the log and the sensors' states of {rec.loop.batch} vehicle(s) for "
+                       f"{rec.duration:g} s at dt = {rec.loop.dt:g} s ({rec.n_steps} steps)",
+                       "Fly fewer vehicles at once or a shorter flight, log less often "
+                       "(log_every) or with fewer sensors")
 
 
 def _status_names(status: np.ndarray) -> list[str]:
