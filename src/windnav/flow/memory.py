@@ -269,10 +269,8 @@ def refuse_above_limit(need: float, where: str, what: str, advice: str) -> None:
     """Raise :class:`MemoryEstimateError` when ``need`` (bytes, an estimate) exceeds the default
     limit (:func:`default_memory_limit`): "``where``: ``what`` needs ... ``advice``, or raise
     the limit" (for estimates other than the flow's: ``fly``'s records, a route's graph)."""
-    limit = default_memory_limit()
+    limit, source = _limit_from(None, where)
     if limit is not None and need > limit:
-        source = (f"the {ENV_VAR} environment variable" if os.environ.get(ENV_VAR, "").strip()
-                  else f"{DEFAULT_FRACTION:.0%} of this machine's memory")
         raise MemoryEstimateError(
             f"{where}: {what} needs an estimated {format_bytes(need)} of memory, above the "
             f"limit of {format_bytes(limit)} ({source}). {advice}, or raise {ENV_VAR}.")
