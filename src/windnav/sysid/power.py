@@ -398,13 +398,11 @@ def hover_check(fit: PowerFit, hover_speed: float = HOVER_SPEED_M_S) -> dict:
                 "hover_outside_fit": None, "note": None}
     measured = float(np.median(fit.power[slow]))
     offset = float(np.median(fit.fit.residuals[slow]))
-    X = np.vander(fit.speed, fit.degree + 1, increasing=True)
-    scale = np.linalg.norm(X, axis=0)  # unit columns, as linear_fit solves them
-    _, r = np.linalg.qr(X / scale)
-    u = np.linalg.solve(r.T, X[slow].mean(axis=0) / scale)
-    h = float(u @ u)  # xbar^T (X^T X)^-1 xbar
+    # the fit's classical covariance is s^2 (X^T X)^-1, so the curve's variance at the slow
+    # samples' mean regressor, s^2 h, is xbar^T cov xbar
+    xbar = np.vander(fit.speed[slow], fit.degree + 1, increasing=True).mean(axis=0)
     s2 = float(np.sum(fit.fit.residuals**2)) / fit.fit.dof
-    se = float(np.sqrt(s2 * max(_median_variance(m) - h, 0.0)))
+    se = float(np.sqrt(max(s2 * _median_variance(m) - float(xbar @ fit.fit.cov @ xbar), 0.0)))
     z = abs(offset) / max(se, 1e-300)
     resolution = NO_SCATTER_RESOLUTION * float(np.max(np.abs(fit.power)))
     rounding = fit.fit.rmse <= resolution and abs(offset) <= resolution  # noise-free, rounded
