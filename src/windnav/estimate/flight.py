@@ -155,20 +155,18 @@ class WindTrack:
 
 def _mean_of_finite(values: np.ndarray, where: str, settle_s) -> np.ndarray:
     """The mean of ``values`` (K, ...) over axis 0, non-finite entries (samples where the
-    filter did not run) left out: :func:`numpy.nanmean`'s arithmetic, to the bit; NaN where
-    none is left, with a RuntimeWarning naming ``where`` (not NumPy's "Mean of empty
-    slice")."""
+    filter did not run) left out: :func:`numpy.nanmean`; NaN where none is left, with a
+    RuntimeWarning naming ``where`` (not NumPy's "Mean of empty slice")."""
     ok = np.isfinite(values)
-    count = np.sum(ok, axis=0)
-    total = np.sum(np.where(ok, values, 0.0), axis=0)
-    if np.any(count == 0):
+    if not np.all(ok.any(axis=0)):
         warnings.warn(f"{where}: no estimate (the filter did not run) or no logged truth at "
                       f"any of the {values.shape[0]} samples after settle_s = "
                       f"{float(settle_s):g} s"
                       + ("" if values.ndim == 1 else " on some axis") + "; the result is NaN "
                       "there.", RuntimeWarning, stacklevel=3)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+    with warnings.catch_warnings():  # said above, with the metric's name
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanmean(np.where(ok, values, np.nan), axis=0)
 
 
 def _grid(log, use: tuple[str, ...]) -> tuple[np.ndarray, float]:
