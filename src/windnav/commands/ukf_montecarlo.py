@@ -67,17 +67,19 @@ def workers_used(backend: str, workers: int | None, n_run: int) -> int:
     ran in) but at most one per trial; 1 serially; 0 when no trial ran (every one resumed).
     ``--workers`` was printed instead, and the CPU count by default: "on 16 workers" for 2
     trials (leftovers, 2026-12-05)."""
+    from windnav.experiments.executor import task_workers
+
     if n_run <= 0:
         return 0
     if backend == "serial":
         return 1
-    cpus = workers
     if backend == "ray":
         import ray
 
         if ray.is_initialized():  # started for these trials, or joined: its CPUs ran them
-            cpus = int(ray.cluster_resources().get("CPU", 0)) or None
-    return max(1, min(cpus or os.cpu_count() or 1, n_run))
+            workers = int(ray.cluster_resources().get("CPU", 0)) or None
+        workers = workers or os.cpu_count() or 1  # ray.init's own default: every CPU
+    return task_workers(backend, workers, n_run)
 
 
 def register(subparsers) -> None:

@@ -298,6 +298,17 @@ def _ray(fn, tasks, workers) -> Iterator[TaskResult]:
 _RUNNERS = {"serial": _serial, "process": _process, "ray": _ray}
 
 
+def task_workers(backend: str, workers: int | None, n_tasks: int) -> int | None:
+    """The worker count :func:`run_tasks` starts for ``n_tasks`` tasks: ``workers`` (checked;
+    for ``process`` by default the CPU count) at most one per task and at least one; None where
+    none is given and the backend picks (``ray``: its instance's CPUs; ``serial``)."""
+    if workers is not None:
+        workers = positive_int(workers, "workers", "run_tasks")
+    elif backend == "process":
+        workers = os.cpu_count() or 1
+    return None if workers is None else max(1, min(workers, n_tasks))
+
+
 def run_tasks(
     fn: Callable[[Any], Any],
     tasks: Iterable,
@@ -356,12 +367,7 @@ def run_tasks(
     """
     check_backend(backend)  # ray's now, with the install hint, rather than on first iteration
     tasks = list(tasks)
-    if workers is not None:
-        workers = positive_int(workers, "workers", "run_tasks")
-    elif backend == "process":
-        workers = os.cpu_count() or 1
-    if workers is not None:
-        workers = max(1, min(workers, len(tasks)))
+    workers = task_workers(backend, workers, len(tasks))
     if on_result is not None and not callable(on_result):
         raise ValueError(
             f"The 'on_result' parameter of run_tasks must be callable or None. "
