@@ -552,6 +552,34 @@ def rollout_states(U, v0, dt, drag, a_lo, a_hi, wmode, wgrid, wmeta,
             vel[s, k + 1, 1] = vy
 
 
+@numba.njit(cache=True, inline="always")
+def _smooth_row(row, src, j, m0, m1, taps, k, a, n):  # pragma: no cover - numba
+    """``row = sum_t taps[k, t] src[a + t, j, m0:m1]`` over ``t < n``, summed from ``t = 0`` up,
+    four taps per pass over the row (one load and store of the row per four taps). ``src`` is
+    the contiguous (K, J, M) array itself: its rows' views are then contiguous to Numba, and the
+    loops vectorise (a (K, width) view of a block took 2.6 x the time)."""
+    row[:] = 0.0
+    t = 0
+    while t + 4 <= n:     # four taps per pass over the row, added in the same order
+        w0 = taps[k, t]
+        w1 = taps[k, t + 1]
+        w2 = taps[k, t + 2]
+        w3 = taps[k, t + 3]
+        s0 = src[a + t, j, m0:m1]
+        s1 = src[a + t + 1, j, m0:m1]
+        s2 = src[a + t + 2, j, m0:m1]
+        s3 = src[a + t + 3, j, m0:m1]
+        for m in range(row.size):
+            row[m] = (((row[m] + w0 * s0[m]) + w1 * s1[m]) + w2 * s2[m]) + w3 * s3[m]
+        t += 4
+    while t < n:
+        w = taps[k, t]
+        s0 = src[a + t, j, m0:m1]
+        for m in range(row.size):
+            row[m] += w * s0[m]
+        t += 1
+
+
 @numba.njit(cache=True)
 def perturb_clip_smooth(seed, clipped, mean, sigma, a_lo, a_hi, taps, lo, hi,
                         out):  # pragma: no cover - numba
@@ -571,34 +599,12 @@ def perturb_clip_smooth(seed, clipped, mean, sigma, a_lo, a_hi, taps, lo, hi,
     K = clipped.shape[0]
     S = clipped.shape[2]
     fill_normal(seed, clipped, mean, sigma, a_lo, a_hi, KN, WN, FN)
-    flat = clipped.reshape(K, 2 * S)
+    flat = clipped.reshape(K, 1, 2 * S)
     res = out.reshape(K, 2 * S)
     for m0 in range(0, 2 * S, _SMOOTH_BLOCK):
         m1 = min(m0 + _SMOOTH_BLOCK, 2 * S)
-        for k in range(K):
-            row = res[k, m0:m1]   # views from 0: indices known non-negative, so it vectorises
-            row[:] = 0.0
-            a = lo[k]
-            n = hi[k] - a
-            t = 0
-            while t + 4 <= n:     # four taps per pass over the row, added in the same order
-                w0 = taps[k, t]
-                w1 = taps[k, t + 1]
-                w2 = taps[k, t + 2]
-                w3 = taps[k, t + 3]
-                s0 = flat[a + t, m0:m1]
-                s1 = flat[a + t + 1, m0:m1]
-                s2 = flat[a + t + 2, m0:m1]
-                s3 = flat[a + t + 3, m0:m1]
-                for m in range(row.size):
-                    row[m] = (((row[m] + w0 * s0[m]) + w1 * s1[m]) + w2 * s2[m]) + w3 * s3[m]
-                t += 4
-            while t < n:
-                w = taps[k, t]
-                src = flat[a + t, m0:m1]
-                for m in range(row.size):
-                    row[m] += w * src[m]
-                t += 1
+        for k in range(K):   # views from 0: indices known non-negative, so it vectorises
+            _smooth_row(res[k, m0:m1], flat, 0, m0, m1, taps, k, lo[k], hi[k] - lo[k])
 
 
 @numba.njit(cache=True, parallel=True)
@@ -617,30 +623,8 @@ def perturb_clip_smooth_chunks(seeds, clipped, mean, sigma, a_lo, a_hi, taps, lo
             for m0 in range(s0, s1, _SMOOTH_BLOCK):
                 m1 = min(m0 + _SMOOTH_BLOCK, s1)
                 for k in range(K):
-                    row = out[k, j, m0:m1]
-                    row[:] = 0.0
-                    a = lo[k]
-                    n = hi[k] - a
-                    t = 0
-                    while t + 4 <= n:
-                        w0 = taps[k, t]
-                        w1 = taps[k, t + 1]
-                        w2 = taps[k, t + 2]
-                        w3 = taps[k, t + 3]
-                        x0 = clipped[a + t, j, m0:m1]
-                        x1 = clipped[a + t + 1, j, m0:m1]
-                        x2 = clipped[a + t + 2, j, m0:m1]
-                        x3 = clipped[a + t + 3, j, m0:m1]
-                        for m in range(row.size):
-                            row[m] = (((row[m] + w0 * x0[m]) + w1 * x1[m]) + w2 * x2[m]) \
-                                + w3 * x3[m]
-                        t += 4
-                    while t < n:
-                        w = taps[k, t]
-                        src = clipped[a + t, j, m0:m1]
-                        for m in range(row.size):
-                            row[m] += w * src[m]
-                        t += 1
+                    _smooth_row(out[k, j, m0:m1], clipped, j, m0, m1, taps, k, lo[k],
+                                hi[k] - lo[k])
 
 
 @numba.njit(cache=True, parallel=True)
