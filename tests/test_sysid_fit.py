@@ -243,6 +243,27 @@ def test_slopes_of_a_line_and_of_a_step():
     assert np.all(np.abs(steepest_slope(t2, y2, 0.1)) < 1e-6)
 
 
+def test_slopes_of_a_long_log_equal_each_windows_own_least_squares():
+    """An hour at 100 Hz of a steady 1,500 rad/s with noise: every window's slope equals its
+    least-squares line computed about the window (NumPy's polyfit). Running sums over the whole
+    log lost it to cancellation: 1,410 rad/s^2 where the slopes are about 49, so a steady
+    sample crossed a 1,000 rad/s^2 steadiness threshold (reference audit, 2026-12-05)."""
+    rng = np.random.default_rng(5)
+    t = np.arange(360_000) / 100.0
+    y = 1500.0 + rng.normal(0.0, 2.0, t.size)
+    h = 5
+    picks = np.r_[np.arange(h, 200), np.arange(t.size - 5_000, t.size - h)]
+    left, right = steepest_slope(t, y, 0.1), local_slope(t, y, 0.1)
+    for i in picks[::7]:
+        before = np.polyfit(t[i - h : i + 1] - t[i], y[i - h : i + 1], 1)[0]
+        after = np.polyfit(t[i : i + h + 1] - t[i], y[i : i + h + 1], 1)[0]
+        steepest = before if abs(before) >= abs(after) else after
+        centred = np.polyfit(t[i - h : i + h + 1] - t[i], y[i - h : i + h + 1], 1)[0]
+        assert left[i] == pytest.approx(steepest, rel=1e-9, abs=1e-9)
+        assert right[i] == pytest.approx(centred, rel=1e-9, abs=1e-9)
+    assert np.abs(left[h:-h]).max() < 1000.0
+
+
 def test_min_run_drops_short_runs():
     t = np.arange(0, 10, 0.1)
     mask = (t > 1) & (t < 1.5) | (t > 3) & (t < 6)
