@@ -231,15 +231,22 @@ def unsteadiness_maps(samples: FlightSamples, *, cell: float = 1.0,
     if not np.all(np.isfinite(samples.xy)):  # "arange: cannot compute length" before
         raise ValueError(f"The 'samples' parameter of {where} must have finite positions. Got "
                          "NaN or inf in xy instead.")
-    lo = np.floor(samples.xy.min(axis=0) / cell) * cell
-    hi = (np.floor(samples.xy.max(axis=0) / cell) + 1) * cell
-    n_cells = float(np.prod(np.round((hi - lo) / cell)))
+    # whole cells from a multiple of `cell`, enough that every sample lies in a half-open
+    # bin: a sample on a multiple of a cell not exact in binary (55.2 m, cell 0.2) fell on
+    # or past the last edge and out of every bin (reference audit, 2026-12-05)
+    xy_min, xy_max = samples.xy.min(axis=0), samples.xy.max(axis=0)
+    lo = np.floor(xy_min / cell) * cell
+    lo = np.where(lo > xy_min, lo - cell, lo)
+    n = np.floor((xy_max - lo) / cell) + 1
+    n = n + (lo + n * cell <= xy_max)
+    hi = lo + n * cell
+    n_cells = float(np.prod(n))
     if n_cells > MAX_CELLS:  # a 1e-6 m cell tried to allocate 7.5 TiB
         raise ValueError(f"The 'cell' parameter of {where} must give at most {MAX_CELLS:.0e} "
                          f"cells over the samples' extent {(hi - lo).tolist()} m. Got {cell!r} "
                          f"instead ({n_cells:.3g} cells).")
-    x_edges = np.arange(lo[0], hi[0] + 0.5 * cell, cell)
-    y_edges = np.arange(lo[1], hi[1] + 0.5 * cell, cell)
+    x_edges = lo[0] + cell * np.arange(int(n[0]) + 1)
+    y_edges = lo[1] + cell * np.arange(int(n[1]) + 1)
     rate = np.linalg.norm(samples.body_rates, axis=1)
     values = np.column_stack([samples.wind_xy, samples.force_cmd_xy, rate])
     count, mean, var = bin_xy(samples.xy, values, x_edges, y_edges)
