@@ -245,3 +245,28 @@ def test_the_label_studies_and_the_mosaic_mark_their_clipped_colour_scales():
                                            colorbar_label="spread", title="t")
         assert axes[2].images[0].colorbar.extend == extend
         plt.close(fig)
+
+
+# ------------------------------------------------------------------------- flight figures
+
+def test_the_3d_flight_path_has_one_scale_on_its_three_axes(drawn, tmp_path):
+    """A 6 m circle flown at 2 m with a 5 cm altitude wobble: each axis scaled to its own
+    range made the wobble look as large as the circle (figures audit, 2026-12-05)."""
+    import windnav.viz.flight as vf
+
+    kept = drawn(vf, "_save")
+    t = np.linspace(0.0, 10.0, 200)
+    target = np.column_stack([3 * np.cos(t), 3 * np.sin(t), np.full_like(t, 2.0)])
+    flown = target + np.column_stack([0 * t, 0 * t, 0.05 * np.sin(5 * t)])
+    zeros = np.zeros((t.size, 1, 3))
+    log = SimpleNamespace(t=t, position=flown[:, None], target_position=target,
+                          velocity=zeros, wind=zeros, energy=np.zeros((t.size, 1)),
+                          power=np.zeros((t.size, 1)), rotor_speed=np.zeros((t.size, 1, 4)))
+    try:
+        vf.plot_flight(log, tmp_path)
+    except AttributeError:  # the time series want more of a log; the path is drawn first
+        pass
+    ax = kept[0].axes[0]
+    spans = [np.ptp(lim) for lim in (ax.get_xlim3d(), ax.get_ylim3d(), ax.get_zlim3d())]
+    np.testing.assert_allclose(spans, spans[0], rtol=1e-9)
+    assert spans[0] >= 5.9  # the circle, not the wobble

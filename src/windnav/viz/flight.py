@@ -23,8 +23,19 @@ def plot_flight(log, out_dir, *, vehicle: int = 0, prefix: str = "flight") -> li
     ax.set_xlabel("x east (m)")
     ax.set_ylabel("y north (m)")
     ax.set_zlabel("z up (m)")
+    # one scale on the three axes: each scaled to its own range, a 5 cm altitude wobble
+    # looked as large as a 6 m circle (figures audit, 2026-12-05)
+    both = np.concatenate([log.target_position, pos])
+    both = both[np.all(np.isfinite(both), axis=1)]
+    if both.size:
+        centre = 0.5 * (both.min(axis=0) + both.max(axis=0))
+        half = max(0.5 * float(np.ptp(both, axis=0).max()), 0.5)
+        ax.set_xlim(centre[0] - half, centre[0] + half)
+        ax.set_ylim(centre[1] - half, centre[1] + half)
+        ax.set_zlim(centre[2] - half, centre[2] + half)
+        ax.set_box_aspect((1.0, 1.0, 1.0))
     ax.legend()
-    ax.set_title("3D path")
+    ax.set_title("3D path (equal scales)")
     paths.append(_save(fig, out / f"{prefix}_path.png"))
 
     fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
