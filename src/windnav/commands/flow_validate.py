@@ -5,9 +5,11 @@ divergence after every projection (0), the normal velocity on building faces (0)
 flow without buildings (stays uniform), the Taylor-Green vortex in a free-slip box (an exact
 steady Euler solution: its decay is the scheme's numerical viscosity). ``--studies`` adds the
 Strouhal studies of the thesis's validation figure (St against incidence for 1:1, 2:1 and 3:1
-rectangles, St against the depth ratio B/H; 1.5-6 minutes on 2 cores), ``--full`` also the
+rectangles, St against the depth ratio B/H, runs that have not settled
+recorded for longer; 7 min 26 s on 2 shared cores, 2026-12-05), ``--full`` also the
 resolution series (a square at 0 and 90 deg, 8/16/32 cells per height), the closure comparison
-and the label-noise table of the thesis's averaging protocol (11-19 minutes).
+and the label-noise table of the thesis's averaging protocol (18 min 39 s on
+2 shared cores, 2026-12-05).
 
 The studies keep every finished run in ``--out``'s ``flow_validation.partial.jsonl`` until the
 outputs are written: after Ctrl-C (exit 130) or a kill, rerunning the same command runs only the
@@ -47,10 +49,10 @@ def register(subparsers) -> None:
                         "are kept there in flow_validation.partial.jsonl, to resume from)")
     p.add_argument("--studies", action="store_true",
                    help="also run the Strouhal studies against incidence and aspect ratio "
-                        "(1.5-6 minutes on 2 cores; resumable after an interrupt)")
+                        "(about 7.5 minutes on 2 cores; resumable after an interrupt)")
     p.add_argument("--full", action="store_true",
                    help="the studies, plus the resolution series (8/16/32 cells per height), "
-                        "the closure comparison and the label-noise table (11-19 minutes on 2 "
+                        "the closure comparison and the label-noise table (about 19 minutes on 2 "
                         "cores; resumable after an interrupt)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes for the Strouhal runs (default: all cores)")
