@@ -270,3 +270,23 @@ def test_the_3d_flight_path_has_one_scale_on_its_three_axes(drawn, tmp_path):
     spans = [np.ptp(lim) for lim in (ax.get_xlim3d(), ax.get_ylim3d(), ax.get_zlim3d())]
     np.testing.assert_allclose(spans, spans[0], rtol=1e-9)
     assert spans[0] >= 5.9  # the circle, not the wobble
+
+
+def test_a_flight_keeps_its_colour_between_the_paths_the_bars_and_the_energy_curves(drawn,
+                                                                                    tmp_path):
+    """`nav-study gs` and `cases` draw the same flights as paths (over the wind), bars and
+    energy curves: the energy curves took blue for the second flight, which the bars draw grey
+    and its path white, and the bars' blue is the fourth flight's (figures audit, 2026-12-05)."""
+    import matplotlib.colors as mc
+
+    import windnav.viz.nav_compare as nc
+    from windnav.viz.nav_compare import COLORS_ON_WHITE, plot_energy
+
+    kept = drawn(nc, "_save")
+    t = np.linspace(0.0, 5.0, 20)
+    flight = SimpleNamespace(t=t, airspeed=t, power=t, energy=t, rotor_energy=t, energy_J=5.0,
+                             rotor_energy_J=5.0, outcome="success")
+    plot_energy({name: flight for name in ("A", "B", "C", "D")}, tmp_path / "e.png")
+    solid = [ln for ln in kept[0].axes[0].get_lines()]
+    assert [mc.to_hex(ln.get_color()) for ln in solid] == [mc.to_hex(c) for c in COLORS_ON_WHITE]
+    assert mc.to_hex(COLORS_ON_WHITE[1]) == mc.to_hex("tab:gray")  # white's, on white

@@ -15,12 +15,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from windnav.viz.nav_compare import draw_paths, plot_energy
+from windnav.viz.nav_compare import COLORS_ON_WHITE, draw_paths, plot_energy
 
 __all__ = ["plot_gs_case", "plot_gs_case_energy"]
-
-_BAR_COLORS = ("tab:red", "tab:gray", "tab:orange", "tab:blue")
-"""Bar colours, in the order of the flights (the paths' colours, readable on white)."""
 
 
 def _title(case: Mapping) -> str:
@@ -63,7 +60,7 @@ def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
     rotor = [results[k].rotor_energy_J / 1e3 for k in labels]
     times = [results[k].time_s for k in labels]
     outcomes = [results[k].outcome for k in labels]
-    colors = [_BAR_COLORS[i % len(_BAR_COLORS)] for i in range(len(labels))]
+    colors = [COLORS_ON_WHITE[i % len(COLORS_ON_WHITE)] for i in range(len(labels))]
     pos = np.arange(len(labels))
     ax_e = fig.add_subplot(grid[0, 1])
     ax_t = fig.add_subplot(grid[1, 1], sharex=ax_e)

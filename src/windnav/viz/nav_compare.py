@@ -15,11 +15,16 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-__all__ = ["COLORS", "colour_extend", "draw_paths", "path_widths", "plot_energy", "plot_paths",
-           "wind_background", "wind_colorbar"]
+__all__ = ["COLORS", "COLORS_ON_WHITE", "colour_extend", "draw_paths", "path_widths",
+           "plot_energy", "plot_paths", "wind_background", "wind_colorbar"]
 
 COLORS = ("#ff2d55", "#ffffff", "#ff9500", "#5ac8fa")
 """Line colours of the flights, in order (drawn with a black outline over the wind)."""
+
+COLORS_ON_WHITE = ("tab:red", "tab:gray", "tab:orange", "tab:blue")
+"""The same flights' colours on a white background (curves, bars): white's is grey. One
+flight keeps one colour across a command's figures (the energy curves took blue for the
+second flight, which the paths draw white and the bars grey; figures audit, 2026-12-05)."""
 
 OUTLINE = [pe.Stroke(linewidth=3.2, foreground="k"), pe.Normal()]
 
@@ -191,10 +196,9 @@ def plot_energy(results: dict, path, *, title: str | None = None) -> Path:
     -------
     Path
     """
-    colors = ("tab:red", "tab:blue", "tab:orange", "tab:green")
     fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True)
     for i, (name, r) in enumerate(results.items()):
-        c = colors[i % len(colors)]
+        c = COLORS_ON_WHITE[i % len(COLORS_ON_WHITE)]
         axes[0].plot(r.t, r.airspeed, color=c, lw=1.2, label=name)
         axes[1].plot(r.t, r.power, color=c, lw=1.2, label=name)
         axes[2].plot(r.t, r.energy / 1e3, color=c, lw=1.6,
