@@ -290,3 +290,19 @@ def test_a_flight_keeps_its_colour_between_the_paths_the_bars_and_the_energy_cur
     solid = [ln for ln in kept[0].axes[0].get_lines()]
     assert [mc.to_hex(ln.get_color()) for ln in solid] == [mc.to_hex(c) for c in COLORS_ON_WHITE]
     assert mc.to_hex(COLORS_ON_WHITE[1]) == mc.to_hex("tab:gray")  # white's, on white
+
+
+def test_the_pace_legend_keys_do_not_cover_each_other(drawn, tmp_path):
+    """A markerscale for every key made the thesis's star cover the key of the row above it,
+    the green points the text points readers to (figures audit, 2026-12-05)."""
+    import windnav.viz.nav_sweeps as vs
+
+    kept = drawn(vs, "_save")
+    vs.plot_pace(_doc("img/navigation/nav_pace.json"), tmp_path / "pace.png")
+    fig = kept[0]
+    legend = fig.axes[0].get_legend()
+    rows = [t.get_window_extent() for t in legend.get_texts()]  # one row per key, top down
+    for i, handle in enumerate(legend.legend_handles):
+        if i == 0 or not handle.get_window_extent().height:  # lines without markers: flat
+            continue
+        assert handle.get_window_extent().y1 <= rows[i - 1].y0 + 1.0, legend.get_texts()[i]

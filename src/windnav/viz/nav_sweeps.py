@@ -12,6 +12,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.collections import PathCollection
 
 from windnav.experiments.thesis_nav import PAIRED_SAVING
 from windnav.viz.navigate import _save
@@ -128,7 +129,13 @@ def plot_pace(result: dict, path) -> Path:
     ax.plot([], [], "o", ms=11, mfc="0.8", mec="k", mew=1.2, ls="",
             label="large markers: each curve's means")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), markerscale=1.6)
+    # the scatter's keys enlarged alone: a markerscale for all made the star's key cover the
+    # key of the row above it (figures audit, 2026-12-05)
+    legend = ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14))
+    for handle in legend.legend_handles:
+        if isinstance(handle, PathCollection):
+            handle.set_sizes([25.0])
+            handle.set_alpha(0.8)
     ax.set_title("Energy = mean power x time: scenarios where neither failed", fontsize=10)
     return _save(fig, path)
 
