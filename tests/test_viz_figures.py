@@ -306,3 +306,27 @@ def test_the_pace_legend_keys_do_not_cover_each_other(drawn, tmp_path):
         if i == 0 or not handle.get_window_extent().height:  # lines without markers: flat
             continue
         assert handle.get_window_extent().y1 <= rows[i - 1].y0 + 1.0, legend.get_texts()[i]
+
+
+def test_the_predict_figure_draws_truth_and_prediction_arrows_on_one_scale(drawn, tmp_path):
+    """Each panel scaled its arrows to its own largest speed, so a prediction at half the
+    truth's speed drew arrows as long as the truth's; the direction error's colour scale was
+    always 0-180 deg, a black panel for errors of 20 deg (figures audit, 2026-12-05)."""
+    from matplotlib.collections import QuadMesh
+    from matplotlib.quiver import Quiver
+
+    kept = drawn(vd, "_save")
+    offsets = np.arange(-2.0, 3.0)
+    truth = np.stack([np.full((5, 5), 4.0), np.zeros((5, 5))])
+    guess = np.stack([np.full((5, 5), 2.0), np.full((5, 5), 0.5)])  # 14 deg off
+    metric = {"speed_error": 1.0, "direction_error_deg": 14.0, "vector_error": 1.0}
+    pred = {"offsets": offsets, "position": (10.0, 10.0), "free": np.ones((5, 5), bool),
+            "truth": truth, "prediction": guess, "w_up": (4.0, 0.0), "w_robot": (4.0, 0.0),
+            "metrics": {"decoder": metric, "local": metric, "upstream": metric}}
+    vd.plot_prediction(pred, tmp_path / "p.png")
+    axes = kept[0].axes
+    scales = [next(a for a in ax.get_children() if isinstance(a, Quiver)).scale
+              for ax in (axes[0], axes[1])]  # truth, prediction
+    assert scales[0] == scales[1]
+    mesh = next(a for a in axes[3].get_children() if isinstance(a, QuadMesh))
+    assert mesh.norm.vmax == pytest.approx(np.degrees(np.arctan2(0.5, 2.0)))  # 14.0 deg

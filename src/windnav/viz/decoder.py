@@ -85,7 +85,10 @@ def plot_evaluation(result: dict, path) -> Path:
     return _save(fig, path)
 
 
-def _panel(ax, offsets, centre, field, free, colour, cmap, label, vmin, vmax, arrows=None):
+def _panel(ax, offsets, centre, field, free, colour, cmap, label, vmin, vmax, arrows=None,
+           arrow_speed=None):
+    """One panel; ``arrow_speed`` (m/s) is drawn one cell long, the same in every panel that
+    passes it (each panel's own maximum made truth and prediction arrows incomparable)."""
     x = centre[0] + offsets
     y = centre[1] + offsets
     data = np.where(free, colour, np.nan)
@@ -94,8 +97,9 @@ def _panel(ax, offsets, centre, field, free, colour, cmap, label, vmin, vmax, ar
     if arrows is not None:
         u = np.where(free, arrows[0], np.nan)
         v = np.where(free, arrows[1], np.nan)
+        speed = arrow_speed if arrow_speed is not None else np.nanmax(np.hypot(u, v))
         ax.quiver(x, y, u, v, color="w", scale_units="xy", angles="xy",
-                  scale=max(np.nanmax(np.hypot(u, v)), 1e-6) / (offsets[1] - offsets[0])
+                  scale=max(speed, 1e-6) / (offsets[1] - offsets[0])
                   if offsets.size > 1 else None, width=0.004)
     ax.pcolormesh(x, y, np.where(free, np.nan, 1.0), shading="nearest",
                   cmap=ListedColormap(["0.3"]))  # buildings (and cells off the solver grid)
@@ -125,15 +129,21 @@ def plot_prediction(pred: dict, path, *, title: str = "") -> Path:
     cos = (truth * guess).sum(0) / np.maximum(st * sp, 1e-18)
     angle = np.degrees(np.arccos(np.clip(cos, -1, 1)))
     fig, axes = plt.subplots(2, 2, figsize=(11, 10))
-    _panel(axes[0, 0], o, c, truth, free, st, "viridis", "speed (m/s)", 0, vmax, truth)
-    axes[0, 0].set_title("truth (mean solver field)")
-    _panel(axes[0, 1], o, c, guess, free, sp, "viridis", "speed (m/s)", 0, vmax, guess)
-    axes[0, 1].set_title("decoder prediction")
+    _panel(axes[0, 0], o, c, truth, free, st, "viridis", "speed (m/s)", 0, vmax, truth,
+           arrow_speed=vmax)
+    axes[0, 0].set_title(f"truth (mean solver field); an arrow one cell long: {vmax:.2f} m/s")
+    _panel(axes[0, 1], o, c, guess, free, sp, "viridis", "speed (m/s)", 0, vmax, guess,
+           arrow_speed=vmax)
+    axes[0, 1].set_title("decoder prediction (arrows on the truth's scale)")
     err = np.abs(sp - st)
     _panel(axes[1, 0], o, c, None, free, err, "magma", "| |û| - |u| | (m/s)", 0,
            max(float(np.nanmax(np.where(free, err, np.nan))) if free.any() else 1.0, 1e-6))
     axes[1, 0].set_title("speed error")
-    _panel(axes[1, 1], o, c, None, free, angle, "magma", "direction error (deg)", 0, 180)
+    # the colour scale up to the largest error (at least 10 deg), not always 180: errors of
+    # 20 deg drew the whole panel black (figures audit, 2026-12-05)
+    worst = float(np.nanmax(np.where(free, angle, np.nan))) if free.any() else 180.0
+    _panel(axes[1, 1], o, c, None, free, angle, "magma", "direction error (deg)", 0,
+           min(max(worst, 10.0), 180.0))
     axes[1, 1].set_title("direction error")
     m = pred["metrics"]
     d, lo, up = m["decoder"], m["local"], m["upstream"]
