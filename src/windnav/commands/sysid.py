@@ -478,7 +478,7 @@ def run_power(args) -> int:
                                      allow_zero=True),
         winds=winds, speed_range=_speed_range(args.speed_range, name), where=name)
     doc = document("sysid power", payload, args)
-    title = f"{Path(table.source).name}: {args.power_col} vs {args.speed_col}"
+    title = f"{Path(table.source).name}:\n{args.power_col} vs {args.speed_col}"
     _write(args, doc, out, "power",
            lambda path: plot_power(fit, path, title=title, xlabel=f"{args.speed_col} (m/s)"))
     _print({k: payload[k] for k in ("coefficient_values", "hover_W", "min_power_W",

@@ -542,7 +542,11 @@ def plot_aero(fit, path) -> None:
         ax[0].plot(xs, fit.k_d.value * xs + b.value, "-", lw=1, label=f"fit f_{lab}")
     ax[0].set(xlabel="-v_a sum(eta) / m  (rad/s m/s / kg)", ylabel="specific force (m/s^2)",
               title=_ci_text("k_d", fit.k_d, "kg/rad") + f", R2 {fit.lateral.r2:.4f}")
-    ax[0].legend(fontsize=8)
+    legend = ax[0].legend(fontsize=8)
+    for handle in legend.legend_handles:  # the samples' 1.5-point dots, keyed visibly
+        if handle.get_marker() == ".":
+            handle.set_markersize(8)
+            handle.set_alpha(0.8)
     ax[1].plot(fit.vertical.fitted, d.specific_force_body[:, 2], ".", ms=1.5, alpha=0.3)
     lo, hi = fit.vertical.fitted.min(), fit.vertical.fitted.max()
     ax[1].plot([lo, hi], [lo, hi], "k-", lw=0.8)
@@ -570,7 +574,10 @@ def plot_power(fit, path, *, title: str = "power", xlabel: str = "airspeed (m/s)
     the maximum-range speed against the along-track wind. Writes a PNG."""
     fig, ax = _figure(1, 3, (15, 4.5))
     v = np.linspace(0, fit.curve.speed_max, 300)
-    ax[0].plot(fit.speed, fit.power, ".", ms=2, alpha=0.35, label="samples")
+    # a few samples drawn large enough to see under the fit; thousands small and faint
+    many = fit.speed.size > 2000
+    ax[0].plot(fit.speed, fit.power, ".", ms=2 if many else 5, alpha=0.35 if many else 0.8,
+               label=f"samples ({fit.speed.size})")
     ax[0].plot(v, fit.curve(v), "k-", label=f"degree-{len(fit.coefficients) - 1} fit "
                                             f"(R2 {fit.fit.r2:.3f})")
     ve, pm = fit.max_endurance_speed.value, fit.min_power.value
@@ -579,14 +586,18 @@ def plot_power(fit, path, *, title: str = "power", xlabel: str = "airspeed (m/s)
     vr = fit.max_range_speed.value
     edge = vr >= fit.curve.speed_max * (1 - 1e-6)
     ax[0].plot([0, vr], [0, float(fit.curve(vr))], "--", color="tab:green", lw=1,
-               label=f"max range {vr:.3g} m/s" + (" (at the search limit)" if edge else ""))
+               label=f"max range {vr:.3g} m/s (tangent from 0"
+                     + (", at the search limit)" if edge else ")"))
+    slowest = float(np.min(fit.speed))
     ax[0].plot([0], [fit.hover.value], "s", color="tab:purple",
-               label=f"hover {fit.hover.value:.4g} W")
+               label=f"hover {fit.hover.value:.4g} W (fit at 0 m/s"
+                     + (f", extrapolated below {slowest:.2g})" if slowest > 0.5 else ")"))
     top = max(float(np.max(fit.power)), float(fit.curve(v).max()))
-    ax[0].set(xlabel=xlabel, ylabel="power (W)", title=title,
-              ylim=(min(0.8 * pm, float(np.min(fit.power))), 1.05 * top))
+    # from 0 W: the range tangent starts at the origin (figures audit, 2026-12-05)
+    ax[0].set(xlabel=xlabel, ylabel="power (W)", title=title, ylim=(0.0, 1.05 * top))
     ax[0].legend(fontsize=8)
-    ax[1].plot(fit.speed, fit.fit.residuals, ".", ms=2, alpha=0.35)
+    ax[1].plot(fit.speed, fit.fit.residuals, ".", ms=2 if many else 5,
+               alpha=0.35 if many else 0.8)
     ax[1].axhline(0, color="k", lw=0.8)
     ax[1].set(xlabel=xlabel, ylabel="residual (W)", title=f"residuals (RMS {fit.fit.rmse:.3g} W)")
     rows = [r for r in fit.in_wind if r["ground_speed_m_s"] is not None]
