@@ -134,6 +134,26 @@ def test_eigenflow_counts_are_in_the_legend_not_written_over_the_curves(drawn, t
         assert _crossed(text.get_window_extent(), ax) == []
 
 
+def test_the_mode_panels_share_one_colour_scale_with_its_bar(drawn, tmp_path):
+    """The eigenflow and basis figures coloured each mode's magnitude on its own scale, with
+    no colour bar (figures audit, 2026-12-05)."""
+    figs = drawn(vd, "_save")
+    eigen = _doc("data/decoder_eigenflows.json")  # its modes are not in the JSON: drawn ones
+    modes = np.random.default_rng(0).normal(size=(8, 2, 25, 25))
+    eigen["world"]["modes"] = modes / np.linalg.norm(modes.reshape(8, -1), axis=1)[:, None,
+                                                                                   None, None]
+    vd.plot_eigenflows({**eigen, "size": 25, "spacing": 1.0}, tmp_path / "e.png")
+    basis = _doc("data/decoder_basis_windinet.json")  # nor are these fields
+    vd.plot_basis({**basis, "eigenflow_fields": modes[:4]}, tmp_path / "b.png")
+    for fig, label in zip(figs, ("|mode| per cell", "|eigenflow| per cell"), strict=True):
+        bars = [a for a in fig.axes if a.get_ylabel().startswith(label)]
+        assert len(bars) == 1
+        limits = {tuple(m.get_clim()) for a in fig.axes if a is not bars[0]
+                  for m in [*a.collections, *a.images] if m.get_array() is not None
+                  and m.get_cmap().name == "viridis"}
+        assert len(limits) == 1 and next(iter(limits))[0] == 0.0, limits
+
+
 # ------------------------------------------------------------------------- navigation
 
 

@@ -200,8 +200,8 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
     world, canon = result["world"], result["canonical"]
     n_show = min(n_show, world["modes"].shape[0])
     cols = max(4, (n_show + 1) // 2 + 1)
-    fig = plt.figure(figsize=(3.0 * cols, 7.0))
-    grid = fig.add_gridspec(2, cols)
+    fig = plt.figure(figsize=(3.0 * cols + 0.6, 7.0))
+    grid = fig.add_gridspec(2, cols + 1, width_ratios=[1.0] * cols + [0.06])  # + colour bar
     ax = fig.add_subplot(grid[:, 0])
     for res, label, colour in ((world, "world frame", "C0"), (canon, "canonical D4 frame", "C1")):
         cum = np.asarray(res["cumulative"])
@@ -221,11 +221,16 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
     h = result["size"]
     o = (np.arange(h) - (h - 1) / 2) * result["spacing"]
     ratio = world["explained_variance_ratio"]
+    # one colour scale for every mode, with its bar: the modes are unit-norm, so their cell
+    # magnitudes compare (a scale per panel, without a bar, said nothing; figures audit)
+    top = float(max(np.hypot(*world["modes"][m]).max() for m in range(n_show)))
+    mode_axes = []
     for m in range(n_show):
         a = fig.add_subplot(grid[m // (cols - 1), 1 + m % (cols - 1)])
+        mode_axes.append(a)
         mode = world["modes"][m]
         sp = np.hypot(mode[0], mode[1])
-        a.pcolormesh(o, o, sp, shading="nearest", cmap="viridis")
+        mesh = a.pcolormesh(o, o, sp, shading="nearest", cmap="viridis", vmin=0.0, vmax=top)
         step = max(1, h // 9)
         a.quiver(o[::step], o[::step], mode[0][::step, ::step], mode[1][::step, ::step],
                  color="w", width=0.006)
@@ -233,6 +238,9 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
         a.set_aspect("equal")
         a.set_xticks([])
         a.set_yticks([])
+    if mode_axes:
+        fig.colorbar(mesh, cax=fig.add_subplot(grid[:, -1]),
+                     label="|mode| per cell (unit-norm modes)")
     fig.suptitle(f"Eigenflows of {result['n_fields']} local label fields (H = {h}, divided by "
                  f"the inlet speed); modes in the world frame", fontsize=11)
     return _save(fig, path, dpi=80, palette=True)
@@ -395,17 +403,22 @@ def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
         c = np.asarray(result["offsets"], dtype=float)
         half = (c[1] - c[0]) / 2 if c.size > 1 else 0.5
         ext = (c[0] - half, c[-1] + half, c[0] - half, c[-1] + half)
-        sub = grid[1, :].subgridspec(1, eig.shape[0])
+        sub = grid[1, :].subgridspec(1, eig.shape[0] + 1,
+                                     width_ratios=[1.0] * eig.shape[0] + [0.04])
         step = max(1, c.size // 8)
+        top = float(max(np.hypot(*f).max() for f in eig))  # one scale, with its bar
         for i, f in enumerate(eig):
             ax = fig.add_subplot(sub[0, i])
-            ax.imshow(np.hypot(*f), origin="lower", extent=ext, cmap="viridis")
+            image = ax.imshow(np.hypot(*f), origin="lower", extent=ext, cmap="viridis",
+                              vmin=0.0, vmax=top)
             ax.quiver(c[::step], c[::step], f[0][::step, ::step], f[1][::step, ::step])
             ax.plot(0, 0, "r+")
             ax.set_title(f"eigenflow {i + 1}: {100 * modes['variance_share'][i]:.0f} % of the "
                          f"variance, decoder R^2 {modes['r2'][i]:.2f}", fontsize=9)
             ax.set_xlabel("m from the robot (canonical frame: the inlet toward +x to 45 deg)",
                           fontsize=8)
+        fig.colorbar(image, cax=fig.add_subplot(sub[0, -1]),
+                     label="|eigenflow| per cell (unit norm)")
     fig.suptitle(f"The decoder's {result['n_modes']} output modes: the best fit of each label "
                  f"(basis oracle) against the prediction; R^2 over all {result['n_modes']}: "
                  f"{result['r2_total']:.2f}; {result['n_samples']:,} samples", fontsize=10)
