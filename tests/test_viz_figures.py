@@ -350,3 +350,25 @@ def test_the_predict_figure_draws_truth_and_prediction_arrows_on_one_scale(drawn
     assert scales[0] == scales[1]
     mesh = next(a for a in axes[3].get_children() if isinstance(a, QuadMesh))
     assert mesh.norm.vmax == pytest.approx(np.degrees(np.arctan2(0.5, 2.0)))  # 14.0 deg
+
+
+def test_monte_carlo_tick_labels_within_a_decade_do_not_run_into_each_other(drawn, tmp_path):
+    """Trials whose tau_drag spans about a decade (an audit's six trials, 0.27-3.48 s):
+    matplotlib labelled minor ticks as 3x10^-1, 4x10^-1, ..., which overlapped (figures
+    audit, 2026-12-05)."""
+    import windnav.viz.ukf as vu
+
+    kept = drawn(vu, "_save")
+    rng = np.random.default_rng(0)
+    taus = [*rng.uniform(0.28, 0.9, 30), 0.952, 1.133, 3.479, 0.472, 0.842, 0.27]
+    trials = [{"tau_drag": float(t), "rmse": 0.1, "params": {"mass": 0.5}} for t in taus]
+    vu.plot_montecarlo({"trials": trials, "summary": {"n": 30, "median": 0.2}, "failed": 0},
+                       tmp_path / "mc.png")
+    ax = kept[0].axes[0]
+    labels = [t for t in [*ax.get_xticklabels(), *ax.get_xticklabels(minor=True)]
+              if t.get_text() and t.get_visible()
+              and ax.get_xlim()[0] <= t.get_position()[0] <= ax.get_xlim()[1]]
+    boxes = sorted((t.get_window_extent() for t in labels), key=lambda b: b.x0)
+    assert len(boxes) >= 3
+    apart = [a.x1 <= b.x0 for a, b in zip(boxes[:-1], boxes[1:], strict=True)]
+    assert all(apart), [t.get_text() for t in labels]

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import matplotlib.ticker as mticker
 import numpy as np
 
 __all__ = ["plot_montecarlo", "plot_wind_track"]
@@ -68,6 +69,13 @@ def plot_montecarlo(result: dict, path) -> Path:
         ax.axhline(s["median"], color="k", ls="--", lw=1, label=f"median {s['median']:.3f} m/s")
         ax.legend()
     ax.set_xscale("log")
+    if tau.size and np.ptp(np.log10(np.clip(tau, 1e-3, 1e4))) < 2.0:
+        # within a decade or two matplotlib labels minor ticks as 3x10^-1, 4x10^-1, ..., which
+        # run into each other: plain numbers instead (figures audit, 2026-12-05)
+        plain = mticker.FuncFormatter(lambda x, _: f"{x:g}")
+        ax.xaxis.set_major_formatter(plain)
+        ax.xaxis.set_minor_formatter(plain)
+        ax.tick_params(axis="x", which="minor", labelsize=8)
     ax.set_xlabel(r"mass-to-drag ratio $\tau_d = m / (k_d N \eta_{hover})$ (s)")
     ax.set_ylabel("3D wind RMSE (m/s)")
     ax.set_title(f"Wind UKF Monte Carlo: {len(ok)} trials, {result.get('failed', 0)} failed")
