@@ -308,6 +308,16 @@ def test_fly_runs_the_filter_under_a_preset(tmp_path):
     assert 0 < rmse["windnav"] < 0.15 < rmse["thesis-0.038"] < 1.0
 
 
+def test_fly_under_a_preset_draws_the_estimate_against_the_truth(tmp_path):
+    """`fly --conditions` ran the filter but drew no figure of it: only the summary's RMSE
+    (figures audit, 2026-12-05)."""
+    assert main(["fly", "--duration", "3", "--wind", "dryden", "--conditions", "windnav",
+                 "--out", str(tmp_path / "a")]) == 0
+    assert (tmp_path / "a" / "flight_wind_estimate.png").is_file()
+    assert main(["fly", "--duration", "3", "--out", str(tmp_path / "b")]) == 0
+    assert not (tmp_path / "b" / "flight_wind_estimate.png").exists()  # no filter, no figure
+
+
 @pytest.mark.parametrize("preset", ["thesis", "thesis-0.038"])
 def test_the_rotorpy_presets_noise_follows_the_sensor_rate(preset):
     """The thesis presets' sensors draw a per-sample noise growing as sqrt(rate) (RotorPy's

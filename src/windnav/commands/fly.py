@@ -4,14 +4,15 @@
 
     windnav fly --trajectory circle --wind dryden --duration 20 --out out/fly
     windnav fly --dt 0.01 --sensor-rate-hz 100 --json fly.json --overwrite
-    windnav fly --conditions thesis --out out/fly_thesis     # + the Wind UKF's RMSE
+    windnav fly --conditions thesis --out out/fly_thesis     # + the Wind UKF's RMSE and plot
 
 The harness is :mod:`windnav.experiments.flight`. The controller runs at 100 Hz and the
 sensors at their own rates (IMU 200 Hz, odometry and rotor speeds 100 Hz), each lowered to
 the fastest rate a physics step ``--dt`` allows; a rate given with ``--control-rate-hz`` or
 ``--sensor-rate-hz`` must be a whole number of steps. ``--conditions NAME`` (a Wind UKF preset,
 ``docs/ukf.md``) flies that preset's sensors (all at 100 Hz unless ``--sensor-rate-hz``) and runs
-the Wind UKF on the log under it; the summary adds the wind RMSE.
+the Wind UKF on the log under it; the summary adds the wind RMSE, and
+``flight_wind_estimate.png`` the estimate against the true wind.
 """
 
 from __future__ import annotations
@@ -150,10 +151,10 @@ def run(args) -> int:
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
     wind = make_wind(args.wind, mean, sigma, seed=args.seed)
-    log, metrics = run_flight(args.vehicle, args.trajectory, wind, size=size, speed=speed,
-                              duration=duration, dt=dt, control_rate_hz=control,
-                              sensor_rate_hz=sensor, hub_wind=args.hub_wind, rng=args.seed,
-                              conditions=args.conditions, progress=True)
+    log, metrics, track = run_flight(
+        args.vehicle, args.trajectory, wind, size=size, speed=speed, duration=duration, dt=dt,
+        control_rate_hz=control, sensor_rate_hz=sensor, hub_wind=args.hub_wind, rng=args.seed,
+        conditions=args.conditions, progress=True, return_track=True)
     log.meta.update(wind_kind=args.wind)
     status = " ".join(str(s) for s in (metrics.get("status") or []))
     rate = log.meta.get("control_rate_hz")
@@ -188,6 +189,11 @@ def run(args) -> int:
             from windnav.viz.flight import plot_flight
 
             plot_flight(log, stage.dir)
+            if track is not None:  # the estimate against the truth, with its 2-sigma band
+                from windnav.viz.ukf import plot_wind_track
+
+                plot_wind_track(track, stage.dir / "flight_wind_estimate.png",
+                                settle_s=min(2.0, duration / 2))
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
     print(json.dumps(json_ready(summary), indent=2))

@@ -71,8 +71,11 @@ def misfit_rates(dt: float, rates: dict[str, float]) -> dict[str, float]:
 def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float,
                duration: float, dt: float, control_rate_hz: float | None = None,
                sensor_rate_hz: float | None = None, hub_wind: bool = False, rng=0,
-               conditions=None, progress: bool = False):
-    """Fly ``trajectory`` (from (0, 0, 2) m) in ``wind``; returns ``(log, summary)``.
+               conditions=None, progress: bool = False, return_track: bool = False):
+    """Fly ``trajectory`` (from (0, 0, 2) m) in ``wind``; returns ``(log, summary)``, and with
+    ``return_track`` ``(log, summary, track)``: the Wind UKF's
+    :class:`~windnav.estimate.flight.WindTrack` (None without ``conditions`` or when the filter
+    diverged).
 
     Parameters as in :func:`windnav.sim.fly` and :func:`windnav.sim.make_trajectory`;
     ``sensor_rate_hz`` (optional) runs every sensor at one rate. Without rates the controller
@@ -91,9 +94,11 @@ def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float
                      rng=rng, progress=progress)
     log.meta.update(command="fly", trajectory_kind=trajectory)
     summary = flight_summary(log, duration)
+    track = None
     if conditions is not None:
-        summary.update(wind_estimate(log, params, conditions, duration, rng=rng))
-    return log, summary
+        estimate, track = _wind_estimate(log, params, conditions, duration, rng=rng)
+        summary.update(estimate)
+    return (log, summary, track) if return_track else (log, summary)
 
 
 def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
@@ -102,6 +107,11 @@ def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
     ``min(2 s, duration / 2)``, ``filter_covariance_repairs``; when the filter diverges
     (:class:`~windnav.estimate.FilterDivergedError`) these are None and
     ``wind_estimate_error`` says why."""
+    return _wind_estimate(log, params, conditions, duration, rng=rng)[0]
+
+
+def _wind_estimate(log, params, conditions, duration: float, *, rng=0):
+    """:func:`wind_estimate`'s summary and the track it scored (None when it diverged)."""
     from windnav.estimate import FilterDivergedError
     from windnav.experiments.ukf_conditions import estimate_wind
 
@@ -111,13 +121,13 @@ def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
     except FilterDivergedError as exc:  # the flight is kept; the summary says why no estimate
         name = conditions if isinstance(conditions, str) else conditions.name
         return {"conditions": name, "wind_rmse_m_s": None, "wind_rmse_axes_m_s": None,
-                "filter_covariance_repairs": None, "wind_estimate_error": str(exc)}
+                "filter_covariance_repairs": None, "wind_estimate_error": str(exc)}, None
     settle = min(2.0, duration / 2)
     return {"conditions": applied["conditions"], "wind_rmse_m_s": track.rmse_after(settle),
             "wind_rmse_axes_m_s": [track.rmse_after(settle, axis=k) for k in range(3)],
             "wind_mean_error_m_s": [float(e) for e in track.mean_error_after(settle)],
             **drag_model_note(log, params, conditions, settle),
-            "filter_covariance_repairs": int(track.repairs)}
+            "filter_covariance_repairs": int(track.repairs)}, track
 
 
 def drag_model_note(log, params, conditions, settle_s: float, *, believed=None) -> dict:

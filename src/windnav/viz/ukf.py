@@ -40,10 +40,23 @@ def plot_wind_track(track, path, *, settle_s: float = 2.0) -> Path:
         ax.plot(t, track.wind_true[:, j], "k", lw=1, label="true")
         ax.plot(t, track.wind_est[:, j], lw=1, label="estimate")
         ax.set_ylabel(f"wind {lab} (m/s)")
-    axes[0].legend(ncol=3, fontsize=8)
+        # the scale of the settled estimate: the start's wide prior squeezed the rest flat
+        after = t >= settle_s
+        seen = np.concatenate([track.wind_true[after, j],
+                               track.wind_est[after, j] - 2 * sd[after],
+                               track.wind_est[after, j] + 2 * sd[after]])
+        seen = seen[np.isfinite(seen)]
+        if seen.size and np.any(~after):
+            pad = 0.1 * max(float(np.ptp(seen)), 0.2)
+            ax.set_ylim(float(seen.min()) - pad, float(seen.max()) + pad)
+            ax.axvspan(t[0], settle_s, color="0.85", lw=0, zorder=0,
+                       label=f"settling (first {settle_s:g} s, off the scale)" if j == 0
+                       else None)
+    axes[0].legend(ncol=4, fontsize=8, loc="lower left", bbox_to_anchor=(0.0, 1.02),
+                   frameon=False)  # above the data, wherever it lies
     axes[-1].set_xlabel("time (s)")
-    axes[0].set_title(f"Wind UKF: 3D RMSE after {settle_s:g} s = "
-                      f"{track.rmse_after(settle_s):.3f} m/s")
+    fig.suptitle(f"Wind UKF: 3D RMSE after {settle_s:g} s = "
+                 f"{track.rmse_after(settle_s):.3f} m/s")
     return _save(fig, Path(path))
 
 
