@@ -18,7 +18,8 @@ The loop
   controller's own z gains (15 s^-2, 9 s^-1), clipped to ``+-0.5 g``; yaw is held at 0.
 * **Tilt cap.** The horizontal command is clipped to the disk ``|a_xy| <= g tan(tilt_max)``,
   ``tilt_max = 55 deg`` by default (thrust ``1.74 mg`` at the cap). 55 deg leaves margin above
-  the 46 deg of steady flight at 13 m/s, the last airspeed at which the power curve is valid, so
+  the 43.9 deg of steady flight at 13 m/s, the last airspeed at which the power curve is valid
+  (46.0 deg at 13.5 m/s, just past it), so
   the vehicle can hold every airspeed of the model and still manoeuvre. So that planner and
   flight agree, the MPPI planner's per-axis bound is the box inscribed in that disk,
   ``a_max = g tan(tilt_max) / sqrt(2)`` (9.9 m/s^2; :func:`planner_config` would otherwise

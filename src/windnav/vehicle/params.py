@@ -89,7 +89,9 @@ class MultirotorParams:
     rotor_speed_min, rotor_speed_max : float
         Rotor speed limits, rad/s. Commands are clipped to this range.
     motor_efficiency : float
-        Electrical-to-mechanical efficiency used by the rotor power model (0, 1].
+        Electrical-to-mechanical efficiency used by the rotor power model (0, 1]. Every preset
+        keeps 1.0 (no source gives one), so its "rotor power" is the rotors' shaft power
+        ``sum k_m eta^3``, not what a battery supplies.
     extra : dict
         Free-form metadata (not used by the physics).
     translational_lift : {"rotorpy", "bounded"}

@@ -29,6 +29,11 @@ The dynamics use ``k_eta`` from the stand (per rotor, the coefficient the PWM mo
 with); RotorPy's preset already carries the thesis's stand and tunnel values for k_eta, k_d,
 k_z and k_h, so the physics equals ``crazyflie_brushless``; this preset adds the motor model,
 the in-flight thrust coefficient and the power curve, and names the provenance.
+
+Two of RotorPy's values do not fit the thesis's measurements (kept: the thesis did not identify
+them; ``docs/sysid.md``): ``k_m`` gives 13.56 W of rotor shaft power in hover, above the
+10.56 W of electrical power the thesis measured (a consistent ``k_m`` is at most 6.07e-10), and
+``rotor_speed_max`` = 3,100 rad/s exceeds the PWM law's 2,506 rad/s at full PWM and 3.9 V.
 """
 
 from __future__ import annotations
