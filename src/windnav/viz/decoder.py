@@ -693,7 +693,9 @@ def plot_averaging(result: dict, path) -> Path:
     fig, axes = _label_study_figure(
         groups, result["difference"], vmax=1.0, colorbar_label="|mean(short) - mean(long)| / U",
         title=f"label noise: RMS {noise['rms_mps']:.2f} m/s ({noise['rms_over_U']:.2f} U)")
-    axes[0].legend(fontsize=7)
+    for ax in axes[:2]:  # headroom above the bars, where the legend goes (it covered the
+        ax.set_ylim(0.0, 1.5 * ax.get_ylim()[1])  # Upstream bars; figures audit, 2026-12-05)
+    axes[0].legend(fontsize=7, loc="upper left")
     fig.suptitle(f"{result['map']}: inlet {result['speed']:g} m/s toward "
                  f"{result['direction_deg']:g} deg, {result['samples']} robots at the same "
                  "positions for both means", fontsize=10)
