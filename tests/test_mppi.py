@@ -753,3 +753,23 @@ def test_threads_roll_out_the_same_costs_and_draw_reproducible_samples(base, thr
         MPPIPlanner(cfg, (60.0, 0.0), threads=cfg.n_samples + 1)
     with pytest.raises(ValueError, match="'threads' parameter of sample_controls"):
         sample_controls(cfg, mean, rng=rng, threads=0)
+
+
+def test_threads_edges_zero_samples_numpy_bools_and_a_fixed_count(base):
+    """Edges found by the thread audit (2026-12-05): no samples on 2 threads divided by zero;
+    ``np.True_`` was taken for 1 thread where ``True`` is refused; and setting a planner's
+    ``threads`` after construction left its rollout on the old count."""
+    cfg = dataclasses.replace(base, n_samples=8, n_steps=5)
+    problem = Problem(np.zeros(2), np.array([80.0, 0.0]), obstacle_field(np.zeros((0, 2))),
+                      LocalWind.uniform([0.0, 0.0]).pack(cfg.horizon))
+    none = np.zeros((cfg.n_steps, 2, 0), np.float32)
+    for threads in (1, 2):
+        costs, parts = fused_rollout_cost(cfg, none, problem, threads=threads)
+        assert costs.shape == (0,) and parts.shape == (0, 4)
+    for flag in (True, np.True_):
+        with pytest.raises(ValueError, match="'threads' parameter of MPPIPlanner"):
+            MPPIPlanner(cfg, (60.0, 0.0), threads=flag)
+    planner = MPPIPlanner(cfg, (60.0, 0.0), rng=0, threads=2)
+    with pytest.raises(AttributeError):
+        planner.threads = 1
+    assert planner.threads == 2

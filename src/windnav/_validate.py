@@ -92,7 +92,8 @@ def positive_int(value, name: str, where: str) -> int:
     """Return ``value`` as an int >= 1, else raise a named ValueError (NaN, inf, None and
     strings included)."""
     try:
-        ok = not isinstance(value, (bool, str, bytes)) and int(value) == value and value >= 1
+        ok = (not isinstance(value, (bool, np.bool_, str, bytes)) and int(value) == value
+              and value >= 1)
     except (TypeError, ValueError, OverflowError):
         ok = False
     if not ok:

@@ -299,7 +299,7 @@ def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Pro
             config.energy_weight, config.power_table(), problem.mission,
             mode, grid, meta, not f.empty, *f.kernel_args(), costs, parts)
     threads = positive_int(threads, "threads", "fused_rollout_cost")
-    if threads == 1:
+    if threads == 1 or s == 0:  # no samples: nothing to chunk
         K.rollout_cost(*args)
     else:  # (more threads than samples: one sample each)
         K.rollout_cost_chunks(*args, _chunks(s, min(threads, s)))
@@ -499,13 +499,26 @@ class MPPIPlanner:
         count; the samples of 2 or more come from other streams than those of 1 (as random),
         so a flight is reproducible at its own thread count. On the 2-core AMD EPYC, 2 threads
         took a 1000 x 25 update from 0.54-0.58 to 0.49-0.52 ms, and to 0.39 ms with
-        ``OMP_WAIT_POLICY=ACTIVE`` (``benchmarks/bench_mppi.py``, ``docs/benchmarks.md``).
+        ``OMP_WAIT_POLICY=ACTIVE`` (``benchmarks/bench_mppi.py``, ``docs/benchmarks.md``); at the
+        default 100 x 187 they are slower than one (0.41 against 0.31 ms, an audit on a loaded
+        machine), and more threads than cores gain nothing. Fixed at construction (read-only).
+        Numba's threads come from its threading layer: under GNU OpenMP (the layer picked
+        where ``libgomp`` is installed) a process that has used them cannot ``fork`` (a forked
+        worker that plans with them is killed: use a ``spawn`` pool, as windnav's executors
+        do), and under the ``workqueue`` fallback two Python threads running such planners at
+        once abort the process (thread audit, 2026-12-05).
 
     Examples
     --------
     >>> planner = MPPIPlanner(planner_config(params, "ea-mppi"), goal_xy=(500, 300), rng=0)
     >>> accel = planner.update([x, y, vx, vy], city.lidar([x, y])[0])   # every 0.1 s
     """
+
+    @property
+    def threads(self) -> int:
+        """The thread count, fixed at construction: the default rollout was built with it, so
+        changing it afterwards would leave sampling and rollout on different counts."""
+        return self._threads
 
     def __init__(self, config: PlannerConfig, goal_xy=None, *,
                  rng: np.random.Generator | int | None = None,
@@ -518,10 +531,10 @@ class MPPIPlanner:
                              f"Got variant {config.variant!r} instead.")
         self.config = config
         self.rng = generator(rng, "rng", "MPPIPlanner")
-        self.threads = _threads(threads, config, "MPPIPlanner")
+        self._threads = _threads(threads, config, "MPPIPlanner")
         if rollout_cost is None:
-            rollout_cost = (fused_rollout_cost if self.threads == 1 else
-                            functools.partial(fused_rollout_cost, threads=self.threads))
+            rollout_cost = (fused_rollout_cost if self._threads == 1 else
+                            functools.partial(fused_rollout_cost, threads=self._threads))
         self.rollout_cost = rollout_cost
         self.goal = None if goal_xy is None else self._goal(goal_xy)
         shape = (config.n_steps, 2, config.n_samples)
