@@ -2,7 +2,8 @@
 
 (a) Rotor mechanical power. Rotor ``i`` turning at ``eta_i`` (rad/s) feels the aerodynamic drag
 torque ``Q_i = k_m eta_i^2`` (the yaw-moment model of RotorPy), so its shaft power is
-``Q_i eta_i``; the battery supplies ::
+``Q_i eta_i``; at an electrical-to-mechanical ``efficiency`` (1 in every preset: shaft power)
+the power drawn is ::
 
     P = sum_i k_m |eta_i|^3 / efficiency                      (W)
 
