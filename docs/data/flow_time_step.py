@@ -9,6 +9,9 @@ Two protocols on one 200 m training map (seed 3, inlet toward +x, 1 m cells, def
   start moves the mean, for scale;
 - 6 m/s, the decoder recipe's protocol (100 + 200 steps at dt = 1/6 s: 16.7 s + 33.3 s) against
   the same physical times at dt = 0.25 s (the navigation benchmark's step) and 1/12 s.
+- the numerical viscosity of the MacCormack scheme against the CFL number: the energy decay
+  exp(-4 nu t) of the Taylor-Green vortex in a free-slip box [0, pi]^2 of 64 cells over 2 s,
+  inviscid, at CFL 0.25 and 2.5 (as ``flow-validate``'s check at CFL 0.5);
 - 5 and 10 m/s at dt = 0.25 s, 25 + 100 s: the closure's eddy viscosity diffused as now (at
   most 3 substeps, the corner faces beyond that updated point-implicitly, which applies
   nu / (1 + s) there) against as many explicit substeps as the corners need.
@@ -32,6 +35,28 @@ def _mean_flow(city, speed, dt, spinup_s, average_s, symmetry_break=0.05):
                             spinup_steps=int(round(spinup_s / dt)),
                             steps=int(round(average_s / dt)), symmetry_break=symmetry_break,
                             progress=False)
+
+
+def _taylor_green_nu(cfl, n=64, duration=2.0):
+    """The MacCormack scheme's numerical viscosity, m^2/s, at ``cfl`` (the vortex's peak
+    speed is 1 m/s)."""
+    dx = np.pi / n
+    grid = wn.flow.MACGrid((n, n), dx)
+    box = wn.flow.make_domain(grid, np.zeros((n, n), bool),
+                              wn.flow.BoundaryConditions(("wall",) * 4))
+    steps = int(round(duration / (cfl * dx)))
+    dt = duration / steps
+    step = wn.flow.make_flow_step(box, dt, wn.flow.make_advection(box, dt, "maccormack"))
+    u = np.sin(grid.x_faces)[None, :] * np.cos(grid.y)[:, None]
+    v = -np.cos(grid.x)[None, :] * np.sin(grid.y_faces)[:, None]
+    u[:, [0, -1]] = 0.0
+    v[[0, -1], :] = 0.0
+    u, v = step.project(u, v)
+    energy = []
+    for _ in range(steps + 1):
+        energy.append(np.sum(u**2) + np.sum(v**2))
+        u, v = step(u, v)
+    return float(-np.polyfit(dt * np.arange(steps + 1), np.log(energy), 1)[0] / 4.0)
 
 
 def _without_limiter(city, speed):
@@ -80,6 +105,8 @@ def main(path):
         "dt_0.25_vs_1/6": _difference(recipe[0.25], recipe[1.0 / 6.0], 6.0),
         "dt_1/12_vs_1/6": _difference(recipe[1.0 / 12.0], recipe[1.0 / 6.0], 6.0),
     }
+    out["maccormack_numerical_viscosity_m2_s"] = {f"cfl_{cfl:g}": _taylor_green_nu(cfl)
+                                                  for cfl in (0.25, 2.5)}
     out["corner_limiter"] = {
         f"{speed:g}_m_s": _difference(_without_limiter(city, speed),
                                       _mean_flow(city, speed, 0.25, 25.0, 100.0), speed)
