@@ -9,6 +9,7 @@ import pytest
 from windnav.city import City
 from windnav.experiments.nav_feasibility import _hold_ok, reach_table
 from windnav.plan.reach import (
+    ReachLattice,
     fastest_route,
     least_time,
     max_ground_speed,
@@ -518,3 +519,28 @@ def test_a_route_search_too_large_for_memory_is_refused_before_its_graph(monkeyp
         grid_route(city, start, goal)
     monkeypatch.delenv("WINDNAV_MEMORY_LIMIT")
     assert np.isfinite(energy_route(city, start, goal, cfg).energy)
+
+
+def test_waiting_before_a_move_it_could_fly_arrives_sooner_with_wait_best():
+    """A 2.9 m/s headwind that drops to calm after 1 s, a goal one 2 m cell downwind of it at
+    an airspeed of 3 m/s: flying at once crawls (the search detours by a side street, 3.55 s),
+    hovering for the calm and then flying arrives at 1 + 2/3 s. The search only waited before
+    a move it could not fly (a reference audit, 2026-12-05, found arrivals up to 23 % late in
+    gusty winds); ``wait="best"`` also tries departing at each later frame time. A steady wind
+    gives the same answer either way."""
+    nx, ny = 6, 3
+    frames = np.zeros((3, ny, nx, 2))
+    frames[0, ..., 0] = -2.9
+    axes = {"x": 2.0 * np.arange(nx), "y": 2.0 * np.arange(ny),
+            "free": np.ones((ny, nx), bool), "t0": 0.0, "dt_frames": 1.0, "dx": 2.0,
+            "clearance": 0.0}
+    lat = ReachLattice(frames=frames, **axes)
+    blocked = least_time(lat, (0.0, 2.0), (2.0, 2.0), airspeed_max=3.0).time_s
+    best = least_time(lat, (0.0, 2.0), (2.0, 2.0), airspeed_max=3.0, wait="best").time_s
+    assert best == pytest.approx(1.0 + 2.0 / 3.0, rel=1e-12)
+    assert blocked > best + 1.5
+    steady = ReachLattice(frames=frames[:1], **axes)
+    assert (least_time(steady, (0.0, 2.0), (8.0, 2.0), airspeed_max=3.0, wait="best").time_s
+            == least_time(steady, (0.0, 2.0), (8.0, 2.0), airspeed_max=3.0).time_s)
+    with pytest.raises(ValueError, match="'wait' parameter of least_time"):
+        least_time(lat, (0.0, 2.0), (2.0, 2.0), airspeed_max=3.0, wait="always")

@@ -4,7 +4,7 @@ reach a goal through a city's wind.
 A scenario of the navigation benchmark can only be flown if some path gets from the start to
 the goal before the recorded wind ends while the vehicle's airspeed stays inside the envelope
 where its aerodynamic model is trusted (:attr:`windnav.vehicle.MultirotorParams.airspeed_limit`,
-13.4 m/s for the Hummingbird). :func:`least_time` bounds that from below, for any planner:
+13.4 m/s for the Hummingbird). :func:`least_time` searches for the earliest such arrival:
 
 - Flying ``dL`` metres along the unit vector ``e`` in the wind ``w`` with airspeed at most
   ``A``, the ground speed is at most ``v_max = w.e + sqrt(A^2 - (w x e)^2)``
@@ -16,15 +16,23 @@ where its aerodynamic model is trusted (:attr:`windnav.vehicle.MultirotorParams.
   winds.
 - The wind is either steady (e.g. the mean field the ``+W`` planners know) or the recorded
   frames, linear in time: then a move takes the wind at its departure time, and where no
-  airspeed within ``A`` makes headway the vehicle may wait for the wind to change.
+  airspeed within ``A`` makes headway the vehicle may wait for the wind to change
+  (``wait="blocked"``, the default), or also wait before a move it could fly when a later
+  frame time arrives sooner (``wait="best"``).
 - Earliest arrival times are label-set by Dijkstra (exact for the steady wind; for the unsteady
   one, exact when the arrival time of a move never decreases with its departure time).
 
-Nothing else limits the vehicle: it turns and accelerates instantly, and hovering is free. So,
-up to the lattice's discretisation (directions within 3 degrees, 2 m cells, the wind of a move
-taken at its two ends, waits in whole frames), a goal that this search cannot reach before
-``t_end`` cannot be reached by the 6-DoF vehicle within the envelope either, whatever its
-planner; a goal it can reach may still be out of reach of a real vehicle.
+Nothing else limits the vehicle: it turns and accelerates instantly, and hovering is free. In a
+steady wind the result is the least time on the lattice. In the recorded frames it is the time
+of a route flown within the limit, so a goal reached is shown reachable (up to the lattice's
+discretisation: directions within 3 degrees, 2 m cells, the wind of a move taken at its two
+ends), but it is the least time only where departing later never arrives sooner: a reference
+audit (2026-12-05) found the default's arrivals up to 23 % late on test winds that change
+completely from frame to frame, and a goal it cannot reach is not proven out of reach.
+``wait="best"`` closes most of that (departures between frame times are still not tried); on
+the benchmark's recorded winds the two differ by what ``docs/navigation/reach_wait.py``
+measures (navigation.md, "Which scenarios can be flown at all?"). A goal it can reach may still
+be out of reach of a real vehicle.
 """
 
 from __future__ import annotations
@@ -291,6 +299,7 @@ def least_time(
     t_end: float = np.inf,
     goal_radius: float = 0.0,
     gust_k: float = 0.0,
+    wait: str = "blocked",
 ) -> ReachResult:
     """Earliest arrival at ``goal_xy`` (or within ``goal_radius`` of it) from ``start_xy``
     within an airspeed limit.
@@ -315,6 +324,13 @@ def least_time(
         deviations of the wind along it (the lattice's :attr:`~ReachLattice.gust`), so that
         routes avoid the streets whose gusts stop the vehicle more than their mean wind says.
         0: the mean wind alone. Steady lattices only.
+    wait : {"blocked", "best"}
+        When the vehicle may hover before a move, in an unsteady wind: ``"blocked"`` (the
+        default, the rule of the committed feasibility study) only where the move cannot be
+        flown, a frame at a time; ``"best"`` also before a move it could fly, at any later
+        frame time that arrives sooner. Neither changes a steady wind's answer. With
+        ``"blocked"`` the time is that of a route flown within the limit, and the least time
+        only where no move arrives sooner by departing later (see the module docstring).
 
     Returns
     -------
@@ -337,6 +353,9 @@ def least_time(
                          f"({t_start}). Got {t_end!r} instead.")
     radius = positive_float(goal_radius, "goal_radius", where, allow_zero=True)
     k = _gust_k(lattice, gust_k, where)
+    if wait not in ("blocked", "best"):
+        raise ValueError(f"The 'wait' parameter of {where} must be 'blocked' or 'best'. Got "
+                         f"{wait!r} instead.")
     start = batch_array(start_xy, "start_xy", where, (2,), batch=1)[0]
     goal = batch_array(goal_xy, "goal_xy", where, (2,), batch=1)[0]
     lat = lattice
@@ -347,7 +366,7 @@ def least_time(
     pred = np.empty(lat.free.size, np.int64)
     SK.earliest_arrival(lat.free, lat.frames, lat.t0, lat.dt_frames, MOVES, _guards(MOVES),
                         lat.dx, a_max, s, t_start, t_end, -1 if radius > 0 else g, arrival,
-                        pred, gust, k)
+                        pred, gust, k, wait == "best")
     if radius > 0:  # the first cell reached inside the goal's disk
         gx, gy = np.meshgrid(lat.x, lat.y)
         near = np.flatnonzero((np.hypot(gx - goal[0], gy - goal[1]) <= radius).ravel()
