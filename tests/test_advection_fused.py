@@ -209,3 +209,18 @@ def test_a_fixed_viscosity_decays_a_taylor_green_vortex_at_its_own_rate(nu):
 
     assert nu * dt / dx**2 > 0.6 or nu < 0.2  # 1.2 and 0.6: beyond 3 explicit substeps
     assert decay_rate(nu) - decay_rate(0.0) == pytest.approx(nu, rel=0.03)
+
+
+def test_raising_max_substeps_after_a_step_sizes_the_scratch_anew():
+    """The diffusion rings are sized on the first step, one row set per substep; a larger
+    ``max_substeps`` set afterwards made the kernel index past them (it has no bounds check;
+    review, 2026-12-05). They are sized anew, and the result is the reference's."""
+    domain = _domain(30.0, speed=2.0)
+    u, v = _fields(domain, 3.0, seed=7)
+    advect = make_advection(domain, 1.0, "semi_lagrangian", viscosity=40.0)
+    advect.max_substeps = MAX_DIFFUSION_SUBSTEPS
+    advect(u, v)  # sized for 3
+    advect.max_substeps = 200
+    out_u, _ = advect(u, v)
+    advected = _semi_lagrangian(u, u, u, v, domain, 1.0, True)[0]
+    np.testing.assert_array_equal(out_u, _diffused(advected, domain, 40.0, 1.0, True))

@@ -489,6 +489,7 @@ class Advection:
         self._clear = dict(zip(face_shapes, _trace_clearance(domain.solid), strict=True))
         self._ws = {}
         self._bufs = []
+        self._sized_for = None
         self._cs_delta2 = (self.smagorinsky * self.filter_width) ** 2
         self._nu_c = np.full((ny, nx), self.viscosity)
         self._corner = np.zeros((ny + 1, nx + 1))
@@ -514,9 +515,14 @@ class Advection:
         """The workspace of the u or v field (by its ``shape``): the scratch arrays of
         :func:`_scratch_shapes` (views of buffers that the two fields share, one at a time, so
         a step touches less memory) and the field's trace clearance."""
+        if self._bufs and self._sized_for != self.max_substeps:
+            # the rings hold one row set per substep, sized on the first step: a changed
+            # max_substeps would index past them in the kernel (no bounds check); size anew
+            self._bufs, self._ws = [], {}
         if shape not in self._ws:
             clear = self._clear[shape]
             if not self._bufs:
+                self._sized_for = self.max_substeps
                 both = zip(*(_scratch_shapes(s, self.max_substeps) for s in self._clear),
                            strict=True)
                 self._bufs = [np.zeros(max(math.prod(a), math.prod(b))) for a, b in both]
@@ -590,8 +596,9 @@ def make_advection(
     viscosity : float
         Kinematic viscosity ``nu``, m^2/s (>= 0; 0: inviscid, the scheme's numerical
         diffusion only). Applied after advection in explicit substeps, as many as it needs
-        (``ceil(5 nu dt / dx^2)``: a large viscosity costs a pass per substep); the
-        Smagorinsky closure's eddy viscosity adds at most :data:`MAX_DIFFUSION_SUBSTEPS`.
+        (``ceil(5 nu dt / dx^2)``: a large viscosity costs a pass per substep); with the
+        Smagorinsky closure the substeps are capped at ``max(MAX_DIFFUSION_SUBSTEPS, those)``
+        and its corner faces beyond the cap are updated point-implicitly.
 
     Returns
     -------

@@ -82,12 +82,15 @@ def plot_montecarlo(result: dict, path) -> Path:
         ax.axhline(s["median"], color="k", ls="--", lw=1, label=f"median {s['median']:.3f} m/s")
         ax.legend()
     ax.set_xscale("log")
-    if tau.size and np.ptp(np.log10(np.clip(tau, 1e-3, 1e4))) < 2.0:
+    decades = np.ptp(np.log10(np.clip(tau, 1e-3, 1e4))) if tau.size else np.inf
+    if decades < 2.0:
         # within a decade or two matplotlib labels minor ticks as 3x10^-1, 4x10^-1, ..., which
-        # run into each other: plain numbers instead (figures audit, 2026-12-05)
+        # run into each other (figures audit, 2026-12-05): plain numbers, every minor tick
+        # under a decade, only 2 and 5 of each decade above one
         plain = mticker.FuncFormatter(lambda x, _: f"{x:g}")
         ax.xaxis.set_major_formatter(plain)
-        ax.xaxis.set_minor_formatter(plain)
+        ax.xaxis.set_minor_formatter(plain if decades < 1.0 else mticker.FuncFormatter(
+            lambda x, _: f"{x:g}" if round(x / 10 ** np.floor(np.log10(x))) in (2, 5) else ""))
         ax.tick_params(axis="x", which="minor", labelsize=8)
     ax.set_xlabel(r"mass-to-drag ratio $\tau_d = m / (k_d N \eta_{hover})$ (s)")
     ax.set_ylabel("3D wind RMSE (m/s)")
