@@ -314,18 +314,28 @@ def test_a_flight_keeps_its_colour_between_the_paths_the_bars_and_the_energy_cur
 
 def test_the_pace_legend_keys_do_not_cover_each_other(drawn, tmp_path):
     """A markerscale for every key made the thesis's star cover the key of the row above it,
-    the green points the text points readers to (figures audit, 2026-12-05)."""
+    the green points the text points readers to (figures audit, 2026-12-05). The keys' drawn
+    extents, top down, must not overlap: a line's (with its marker) from its window extent, a
+    scatter key's from its offset and marker size (its own window extent is empty)."""
+    from matplotlib.collections import PathCollection
+
     import windnav.viz.nav_sweeps as vs
 
     kept = drawn(vs, "_save")
     vs.plot_pace(_doc("img/navigation/nav_pace.json"), tmp_path / "pace.png")
     fig = kept[0]
-    legend = fig.axes[0].get_legend()
-    rows = [t.get_window_extent() for t in legend.get_texts()]  # one row per key, top down
-    for i, handle in enumerate(legend.legend_handles):
-        if i == 0 or not handle.get_window_extent().height:  # lines without markers: flat
-            continue
-        assert handle.get_window_extent().y1 <= rows[i - 1].y0 + 1.0, legend.get_texts()[i]
+    spans = []  # (bottom, top) of each key, in pixels
+    for handle in fig.axes[0].get_legend().legend_handles:
+        if isinstance(handle, PathCollection):
+            y = handle.get_offset_transform().transform(handle.get_offsets())[:, 1]
+            r = np.sqrt(handle.get_sizes().max()) / 2 * fig.dpi / 72
+            spans.append((float(y.min() - r), float(y.max() + r)))
+        else:
+            box = handle.get_window_extent()
+            spans.append((box.y0, box.y1))
+    assert len(spans) == 7
+    for upper, lower in zip(spans[:-1], spans[1:], strict=True):
+        assert lower[1] <= upper[0], (upper, lower)
 
 
 def test_the_predict_figure_draws_truth_and_prediction_arrows_on_one_scale(drawn, tmp_path):

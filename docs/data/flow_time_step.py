@@ -1,5 +1,5 @@
 """How much the mean flow depends on the time step at a fixed physical time (flow_validation.md,
-"The time step"). Writes the JSON named on the command line; about 2 minutes on one core.
+"The time step"). Writes the JSON named on the command line; under a minute on one core.
 
     .venv/bin/python docs/data/flow_time_step.py docs/data/flow_time_step.json
 
