@@ -296,6 +296,11 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     fig.colorbar(im, ax=cx, label="failure (%)", fraction=0.05, pad=0.02)
     fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
     fig.tight_layout()
+    # the top panel from the figure's left margin: laid out with the bars' long variant labels
+    # below it, it began a third of the way in (figures audit, 2026-12-05)
+    top = ax.get_position()
+    x0 = min(top.x0, 0.06)
+    ax.set_position([x0, top.y0, top.x1 - x0, top.height])
     path = Path(path)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
