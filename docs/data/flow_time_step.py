@@ -27,6 +27,7 @@ import time
 import numpy as np
 
 import windnav as wn
+from windnav.experiments.flow_validation import taylor_green_field
 from windnav.flow import advection
 
 
@@ -47,11 +48,7 @@ def _taylor_green_nu(cfl, n=64, duration=2.0):
     steps = int(round(duration / (cfl * dx)))
     dt = duration / steps
     step = wn.flow.make_flow_step(box, dt, wn.flow.make_advection(box, dt, "maccormack"))
-    u = np.sin(grid.x_faces)[None, :] * np.cos(grid.y)[:, None]
-    v = -np.cos(grid.x)[None, :] * np.sin(grid.y_faces)[:, None]
-    u[:, [0, -1]] = 0.0
-    v[[0, -1], :] = 0.0
-    u, v = step.project(u, v)
+    u, v = step.project(*taylor_green_field(grid))
     energy = []
     for _ in range(steps + 1):
         energy.append(np.sum(u**2) + np.sum(v**2))
