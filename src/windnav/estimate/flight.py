@@ -275,7 +275,6 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
     out).
     """
     where = "filter_inputs"
-    caller = _caller
     B = log.position.shape[1]
     # 0.7 was read as 0, NaN raised "cannot convert float NaN to integer"
     if isinstance(vehicle, bool) or not isinstance(vehicle, (int, np.integer)):
@@ -296,7 +295,7 @@ def filter_inputs(log, params: MultirotorParams, *, vehicle: int = 0,
                              f"(logged: {sorted(log.sensors)}).")
     grid, dt = _grid(log, use)
     N = log.rotor_speed_cmd.shape[2]
-    t_cmd, cmd = _commands(log, vehicle, caller)
+    t_cmd, cmd = _commands(log, vehicle, _caller)
     cmd = np.clip(_mapped(rotor_speed_map, t_cmd, cmd), params.rotor_speed_min,
                   params.rotor_speed_max)
     held = cmd[_at(t_cmd, np.r_[grid[0], grid[:-1]])]
