@@ -214,6 +214,10 @@ class SE3Controller:
         self.n_rotors = plist[0].n_rotors
 
     def _run(self, x, pos, vel, acc, yaw, yaw_rate, accel_mode):
+        # float64, the physics' precision (a float32 state compiled a float32 kernel); no
+        # copy of float64 arrays
+        x, pos, vel, acc, yaw, yaw_rate = (np.asarray(a, dtype=np.float64)
+                                           for a in (x, pos, vel, acc, yaw, yaw_rate))
         B = x.shape[0]
         cmd = np.empty((B, self.n_rotors))
         wrench = np.empty((B, 4))

@@ -166,6 +166,7 @@ def robust_cholesky(P: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]:
     FilterDivergedError (a FloatingPointError)
         If ``P`` holds NaN or inf (the filter has diverged).
     """
+    P = np.asarray(P, dtype=np.float64)  # a float32 P was repaired in float32
     Ps = 0.5 * (P + P.T)
     L, info = lapack.dpotrf(Ps, lower=1, clean=1)
     if info == 0:
@@ -333,6 +334,8 @@ def ukf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, hx: Callable, R: np.
     FilterDivergedError (a FloatingPointError)
         If the innovation covariance is not positive definite.
     """
+    # float64, as the kernel is compiled for (float32 failed in Numba's typing); no copy else
+    x, P, R = (np.asarray(a, dtype=np.float64) for a in (x, P, R))
     X, P, repaired = _sigma(x, P, weights)
     Z = _model_output(hx(X), X.shape[0], z.shape[0], "hx")
     wrap = _NO_WRAP if wrap is None else np.asarray(wrap, dtype=np.intp)
@@ -572,6 +575,6 @@ class UKF:
                                          "instead.")
                     R[o:o + m, o:o + m] = block  # not positive definite: S fails below
         res = ukf_update(self.x, self.P, z, hx, R, self.weights, wrap)
-        self.x, self.P = res.x, res.P
+        self.x, self.P = res.x.copy(), res.P.copy()  # the result is the caller's to keep
         self._note_repair(res.repaired)
         return res

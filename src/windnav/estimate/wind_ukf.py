@@ -442,7 +442,9 @@ class WindUKF:
             meas.pop("accel", None)
             odom = meas.get("odom")
             if odom is not None:
-                odom = np.asarray(odom, dtype=np.float64)
+                # a copy: the next step differences against it, and a caller may refill
+                # one buffer every step
+                odom = np.array(odom, dtype=np.float64)
                 if odom.shape == (6,) and np.isfinite(odom).all():
                     meas["accel"], r_accel = self._accel_from_odom(odom)
                     if r_accel is not None:

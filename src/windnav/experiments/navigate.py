@@ -426,8 +426,10 @@ def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool
         fill = ((0.0, 0.0) if outside == "zero"
                 else tuple(mean_wind_at(uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1], px, py)))
         uv, x, y = uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1]
-        return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite, fill=fill)
-    return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite)
+        return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite, fill=fill,
+                              copy=False)  # the window of uv: a copy already
+    # uv: the caller's field, which it does not write (navigate's mean_uv), or stacked here
+    return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite, copy=False)
 
 
 def mean_wind_at(uv, x, y, px: float, py: float) -> np.ndarray:

@@ -116,15 +116,21 @@ class LocalWind:
 
     @classmethod
     def grid(cls, uv, offsets, offsets_y=None, *, known_finite: bool = False,
-             fill=(0.0, 0.0)) -> LocalWind:
+             fill=(0.0, 0.0), copy: bool = True) -> LocalWind:
         """A gridded wind ``uv`` (2, ny, nx) (m/s) on cell centres ``offsets`` (m).
 
         ``offsets`` are the x offsets and, unless ``offsets_y`` is given, the y offsets too
         (the decoder's ``dec.offsets``). ``known_finite``, ``fill``: see the attributes.
+        ``uv`` and the offsets are copied, so that a caller refilling one buffer does not change
+        a wind already built (nor a planner's :meth:`~windnav.plan.MPPIPlanner.plan` of it);
+        ``copy=False`` adopts a C-contiguous float64 ``uv`` as it is, for a caller that never
+        writes it afterwards (the closed loop's whole-map field, about 1 MB per update).
         """
-        arr = np.asarray(uv, dtype=np.float64)
+        arr = np.array(uv, dtype=np.float64, copy=None if not copy else True)
         x = _offsets(offsets, "offsets")
         y = x if offsets_y is None else _offsets(offsets_y, "offsets_y")
+        if copy:
+            x, y = x.copy(), (x.copy() if offsets_y is None else y.copy())
         if arr.shape != (2, y.size, x.size):
             raise ValueError(f"The 'uv' parameter of {_WHERE}.grid must have shape "
                              f"(2, {y.size}, {x.size}). Got shape {arr.shape} instead.")

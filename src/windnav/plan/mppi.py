@@ -657,7 +657,8 @@ class MPPIPlanner:
         mode, grid, meta = wind
         K.rollout_states(u, vel, self.config.dt, self.config.drag, self.config.a_min,
                          self.config.a_max, mode, grid, meta, p, v)
-        return PlanResult(controls, p[0] + pos, v[0], parts)
+        # copies: a caller writing the result must not change the next plan()
+        return PlanResult(controls.copy(), p[0] + pos, v[0], parts.copy())
 
     # ------------------------------------------------------------------------------------
     def _brake(self, vel: np.ndarray) -> np.ndarray:

@@ -203,7 +203,7 @@ class MeanField:
         if solid.shape != shape or solid.dtype.kind not in "biu":
             raise ValueError(f"The 'solid' parameter of {where} must be a boolean array of "
                              f"shape {shape}. Got {solid.dtype} of shape {solid.shape} instead.")
-        w_up = batch_array(self.w_up, "w_up", where, (2,), batch=1)[0]
+        w_up = batch_array(self.w_up, "w_up", where, (2,), batch=1)[0].copy()
         solid = solid.astype(bool)
         for arr in (x, y, *wind, solid, w_up):
             arr.setflags(write=False)

@@ -855,7 +855,8 @@ class Decoder:
     Parameters
     ----------
     weights : dict of str to ndarray
-        The parameters, named as in ``make_architecture(...).shapes()`` (cast to float32).
+        The parameters, named as in ``make_architecture(...).shapes()`` (copied as float32;
+        :attr:`weights` holds the copies, read-only: build a new ``Decoder`` to change them).
     metadata : dict
         At least ``architecture``, ``hyperparameters`` (with ``size``) and ``spacing`` (m).
     boundary : {"average", "floor"}
@@ -899,11 +900,14 @@ class Decoder:
                 f"The 'weights' parameter of {where} must hold the parameters of {name!r} with "
                 f"size {arch.hp['size']}. Got missing {missing}, unexpected {extra}, wrong "
                 f"shapes {bad} instead.")
-        self.weights = {k: np.ascontiguousarray(weights[k], dtype=np.float32) for k in shapes}
+        # the decoder's own read-only copies: the caller's arrays may change afterwards, and
+        # an edit of these would reach some layers and not those prepared below
+        self.weights = {k: np.array(weights[k], dtype=np.float32, order="C") for k in shapes}
         for k, v in self.weights.items():
             if not np.all(np.isfinite(v)):
                 raise ValueError(f"The 'weights' parameter of {where} must be finite. Got "
                                  f"non-finite values in {k!r} instead.")
+            v.setflags(write=False)
         self.architecture = name
         self.arch = arch
         self.hyperparameters = arch.hp

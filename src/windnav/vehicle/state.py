@@ -40,9 +40,9 @@ class VehicleState:
     def to_array(self) -> np.ndarray:
         """Packed ``(B, 13 + N)``: position, velocity, attitude, body rates, rotor speeds
         (the layout of :mod:`windnav.vehicle.layout`)."""
-        return np.concatenate(
+        return np.concatenate(  # float64 whatever the fields' dtype (the physics' precision)
             [self.position, self.velocity, self.attitude, self.body_rates, self.rotor_speeds],
-            axis=1,
+            axis=1, dtype=np.float64,
         )
 
     @classmethod

@@ -25,7 +25,7 @@ class ConstantWind:
     """
 
     def __init__(self, velocity=(2.0, 1.0, 0.0)):
-        v = batch_array(velocity, "velocity", "ConstantWind", (3,), batch=1)[0]
+        v = batch_array(velocity, "velocity", "ConstantWind", (3,), batch=1)[0].copy()
         v.setflags(write=False)
         self._velocity = v
 

@@ -322,7 +322,7 @@ class DrydenWind:
         time_step: float = 1e-3,
     ):
         where = "DrydenWind"
-        self._mean = batch_array(mean, "mean", where, (3,), batch=1)[0]
+        self._mean = batch_array(mean, "mean", where, (3,), batch=1)[0].copy()
         self._seed = _seed_entropy(seed, rng, where)
         self.airspeed = positive_float(airspeed, "airspeed", where)
         if length_scales is None:
@@ -333,7 +333,7 @@ class DrydenWind:
             scales = length_scales
         self._a, self._b, self._c = dryden_state_space(sigma, scales, self.airspeed,
                                                        where=where)
-        self._sigma = batch_array(sigma, "sigma", where, (3,), batch=1)[0]
+        self._sigma = batch_array(sigma, "sigma", where, (3,), batch=1)[0].copy()
         self._scales = np.asarray(scales, dtype=np.float64).copy()
         for arr in (self._mean, self._sigma, self._scales):
             arr.setflags(write=False)

@@ -23,7 +23,7 @@ from windnav.wind.base import check_query
 
 
 def _axis(values, name: str, where: str) -> np.ndarray:
-    arr = np.asarray(values, dtype=np.float64)
+    arr = np.array(values, dtype=np.float64)  # a copy: the field's own, made read-only
     if arr.ndim != 1 or arr.size < 2 or not np.all(np.isfinite(arr)):
         raise ValueError(
             f"The {name!r} parameter of {where} must be a finite 1-D array of at least 2 "
@@ -190,7 +190,7 @@ class GriddedWind:
                 raise ValueError(
                     f"The 't' parameter of {where} must be None for a steady (ny, nx) field."
                 )
-            t_arr = np.atleast_1d(np.asarray(t, dtype=np.float64))
+            t_arr = np.atleast_1d(np.array(t, dtype=np.float64))  # a copy, as the axes
             if t_arr.shape != (comps[0].shape[0],) or not np.all(np.isfinite(t_arr)):
                 raise ValueError(
                     f"The 't' parameter of {where} must be finite of shape "

@@ -1,0 +1,194 @@
+"""Objects keep their own copies of what they are given, and results are the caller's.
+
+An input-mutation audit (thirty-seventh session) found classes that kept a reference to the
+caller's array, so that a caller refilling one buffer (a loop's usual pattern) changed an
+object already built, and results that were the object's own state. Each test below fails
+on the code before that audit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import windnav as wn
+from windnav.estimate import UKF, WindUKF, merwe_weights, robust_cholesky, ukf_update
+from windnav.plan import LocalWind, MPPIPlanner, planner_config
+from windnav.vehicle import Multirotor, VehicleState, params
+
+
+def test_wind_ukf_differences_a_copy_of_the_odometry():
+    """A caller refilling one buffer each step: the 'previous' sample must not be this one."""
+    p = params("hummingbird")
+    dt, steps = 0.01, 200
+    vel = np.zeros((steps, 3))
+    vel[:, 0] = 0.5 * np.arange(steps) * dt  # accelerating at 0.5 m/s^2
+    odom = np.concatenate([vel, np.zeros((steps, 3))], axis=1)
+    u = np.full(4, p.hover_rotor_speed)
+
+    def run(reuse: bool):
+        f = WindUKF(p, dt, accel_from_odometry=True)
+        buf = np.empty(6)
+        for k in range(steps):
+            if reuse:
+                buf[:] = odom[k]
+            z = buf if reuse else odom[k].copy()
+            est = f.step(u, {"odom": z, "gyro": np.zeros(3), "rotor_speeds": u})
+        return est.wind_world
+
+    np.testing.assert_array_equal(run(True), run(False))
+
+
+def test_winds_keep_their_own_parameters():
+    mean = np.array([3.0, 0.0, 0.0])
+    sigma = np.array([1.5, 1.5, 0.7])
+    gust = wn.wind.DrydenWind(mean=mean, sigma=sigma, rng=0)
+    reference = wn.wind.DrydenWind(mean=(3.0, 0.0, 0.0), sigma=(1.5, 1.5, 0.7), rng=0)
+    gust.velocity(0.5, [[0.0, 0.0, 0.0]])
+    mean[0], sigma[0] = 10.0, 5.0
+    for t in (0.5, 50.0):
+        np.testing.assert_array_equal(gust.velocity(t, [[0.0, 0.0, 0.0]]),
+                                      reference.velocity(t, [[0.0, 0.0, 0.0]]))
+    np.testing.assert_array_equal(gust.mean, [3.0, 0.0, 0.0])
+    np.testing.assert_array_equal(gust.sigma, [1.5, 1.5, 0.7])
+
+    v = np.array([2.0, 1.0, 0.0])
+    const = wn.wind.ConstantWind(v)
+    v[0] = 99.0
+    np.testing.assert_array_equal(const.velocity(0.0, [[0.0, 0.0, 0.0]])[0], [2.0, 1.0, 0.0])
+    assert not const.mean.flags.writeable
+
+
+def test_gridded_wind_copies_its_axes_and_leaves_the_callers_flags():
+    base = np.arange(8.0)
+    x = base[:4]  # a view of a writable array
+    y = np.arange(4.0)
+    t = np.array([0.0, 1.0])
+    u = np.tile(x, (2, 4, 1))
+    w = wn.wind.GriddedWind(x, y, u, np.zeros_like(u), t=t)
+    assert x.flags.writeable and y.flags.writeable and t.flags.writeable
+    before = w.velocity(0.5, [[1.5, 2.0, 10.0]])
+    base[:4] *= 0.5
+    y += 100.0
+    t += 100.0
+    np.testing.assert_array_equal(w.velocity(0.5, [[1.5, 2.0, 10.0]]), before)
+    np.testing.assert_array_equal(before[0], [1.5, 0.0, 0.0])
+
+
+def test_mean_field_keeps_its_own_inlet():
+    city = wn.city.City((0, 60, 0, 40), [[20, 28, 15, 25]], [10.0])
+    x, y = np.arange(0.5, 60.0), np.arange(0.5, 40.0)
+    zero = np.zeros((y.size, x.size))
+    solid = np.zeros((y.size, x.size), dtype=bool)
+    w_up = np.empty(2)
+    fields = []
+    for d in (0.0, 90.0):
+        w_up[:] = 5.0 * np.array([np.cos(np.radians(d)), np.sin(np.radians(d))])
+        fields.append(wn.predict.MeanField(city, x, y, zero, zero, solid, w_up))
+    np.testing.assert_array_equal(fields[0].w_up, [5.0, 0.0])
+    assert fields[1].w_up[1] == 5.0
+
+
+def _planner_and_problem():
+    p = params("hummingbird")
+    cfg = planner_config(p, "ea-mppi-w", horizon=25.0)
+    city = wn.city.City((0, 400, 0, 400), [[150, 170, 150, 250]], [20.0])
+    planner = MPPIPlanner(cfg, (350.0, 300.0), rng=0)
+    xy = np.array([100.0, 200.0])
+    scan = city.lidar(xy[None], n_rays=360, max_range=100.0)[0]
+    return planner, xy, scan
+
+
+def test_mppi_plan_is_the_callers_to_keep():
+    planner, xy, scan = _planner_and_problem()
+    planner.update([*xy, 0.5, -0.2], scan, LocalWind.uniform((2.0, 1.0)))
+    first = planner.plan()
+    end = first.positions[-1].copy()
+    first.controls[...] = 5.0
+    first.cost_parts[...] = -1.0
+    again = planner.plan()
+    np.testing.assert_array_equal(again.positions[-1], end)
+    assert not np.any(again.cost_parts == -1.0)
+
+
+def test_local_wind_grid_copies_the_callers_buffer():
+    planner, xy, scan = _planner_and_problem()
+    offsets = np.arange(-12.0, 13.0)
+    uv = np.empty((2, 25, 25))
+    uv[0], uv[1] = 3.0, -1.0
+    known = LocalWind.grid(uv, offsets)
+    planner.update([*xy, 0.5, -0.2], scan, known)
+    end = planner.plan().positions[-1].copy()
+    uv[...] = -uv
+    offsets += 50.0
+    np.testing.assert_array_equal(planner.plan().positions[-1], end)
+    assert known.uv[0, 0, 0] == 3.0 and known.x[0] == -12.0
+    # copy=False adopts the array (the closed loop's own whole-map field)
+    adopted = LocalWind.grid(uv, np.arange(-12.0, 13.0), copy=False)
+    assert np.shares_memory(adopted.uv, uv)
+
+
+def test_decoder_keeps_read_only_copies_of_its_weights():
+    dec = wn.predict.load_decoder()
+    weights = {k: v.copy() for k, v in dec.weights.items()}
+    mine = wn.predict.Decoder(weights, dec.metadata)
+    scans = np.full((1, 360), 30.0)
+    before = mine.predict(scans, [[4.0, 1.5]], [[1.0, 0.5]])
+    for v in weights.values():
+        v *= 1.5
+    np.testing.assert_array_equal(mine.predict(scans, [[4.0, 1.5]], [[1.0, 0.5]]), before)
+    for name, v in mine.weights.items():
+        assert not v.flags.writeable, name  # an edit would reach some layers and not others
+
+
+def test_ukf_update_result_is_not_the_filter_state():
+    n = 3
+    eye = np.eye(n)
+    H = np.eye(2, n)
+    k = UKF(lambda X, dt, u: X, np.zeros(n), eye, 0.01 * eye, dt=0.1,
+            blocks={"h": (lambda X: X @ H.T, 0.1 * np.eye(2))})
+    res = k.update({"h": np.ones(2)})
+    x, P = k.x.copy(), k.P.copy()
+    res.x[...] = 1e9
+    res.P[...] = 1e9
+    np.testing.assert_array_equal(k.x, x)
+    np.testing.assert_array_equal(k.P, P)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_float32_inputs_compute_in_float64(dtype):
+    """float32 arrays are the values they hold, computed at the physics' float64 precision."""
+    n = 3
+    H = np.eye(2, n)
+    args = (np.ones(2), lambda X: X @ H.T, 0.1 * np.eye(2), merwe_weights(n))
+    got = ukf_update(np.zeros(n, dtype), np.eye(n, dtype=dtype), *args)
+    want = ukf_update(np.zeros(n), np.eye(n), *args)
+    np.testing.assert_array_equal(got.x, want.x)
+    assert got.x.dtype == np.float64
+
+    bad = np.array([[1.0, 2.0], [2.0, 1.0]], dtype=dtype)  # indefinite: repaired
+    L, _, repaired = robust_cholesky(bad)
+    assert repaired and L.dtype == np.float64
+    np.testing.assert_array_equal(L, robust_cholesky(bad.astype(np.float64))[0])
+
+    p = params("hummingbird")
+    m = Multirotor(p)
+    s = m.hover_state(np.array([[300.123, 200.456, 50.789]]))
+    fields = (s.position, s.velocity, s.attitude, s.body_rates, s.rotor_speeds)
+    s_typed = VehicleState(*(a.astype(dtype) for a in fields))
+    s_64 = VehicleState(*(a.astype(dtype).astype(np.float64) for a in fields))
+    cmd, wind = np.full((1, 4), 480.0), np.array([3.0, 0.0, 0.0])
+    a, b = m.step(s_typed, cmd, wind, 0.01), m.step(s_64, cmd, wind, 0.01)
+    assert a.position.dtype == np.float64
+    np.testing.assert_array_equal(a.position, b.position)
+
+    c = wn.control.SE3Controller(p)
+    x = s_typed.to_array()
+    target = np.array([[301.0, 200.0, 51.0]], dtype=dtype)
+    zero = np.zeros((1, 3), dtype=dtype)
+    yaw = np.zeros(1, dtype=dtype)
+    got_cmd, _ = c.track(x.astype(dtype), target, zero, zero, yaw, yaw)
+    want_cmd, _ = c.track(x.astype(dtype).astype(np.float64), target.astype(np.float64),
+                          zero.astype(np.float64), zero.astype(np.float64),
+                          yaw.astype(np.float64), yaw.astype(np.float64))
+    np.testing.assert_array_equal(got_cmd, want_cmd)
