@@ -207,7 +207,7 @@ def test_decoder_study_winds_quick_trains_the_four_configurations(runs, tmp_path
     # the baselines do not depend on the model: the same test samples for every variant
     assert len({v["errors"]["local"]["speed_error"] for v in variants.values()}) == 1
     assert (out / "decoder_winds.png").stat().st_size > 10_000
-    assert "wrote" in capsys.readouterr().out
+    assert "wrote" in capsys.readouterr().err  # stdout: the JSON summary alone
 
 
 def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys):

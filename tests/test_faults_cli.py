@@ -157,10 +157,11 @@ def test_overwrite_replaces_the_run_and_removes_its_stale_figures(tmp_path, caps
     assert {p.name: p.read_bytes() for p in out.iterdir()} == first  # untouched
     capsys.readouterr()
     assert main(FLY + ["--out", str(out), "--no-plots", "--seed", "1", "--overwrite"]) == 0
-    printed = capsys.readouterr().out
+    printed = capsys.readouterr()
     # the figures belonged to the earlier run: a folder never mixes two runs
     assert sorted(p.name for p in out.iterdir()) == ["log.npz", "summary.json"]
-    assert "removed" in printed and "flight_path.png" in printed
+    assert "removed" in printed.err and "flight_path.png" in printed.err
+    json.loads(printed.out)  # standard output is the summary alone, for a pipe
     assert json.loads((out / "summary.json").read_text())["seed"] == 1
 
 
@@ -466,7 +467,8 @@ def test_a_library_warning_is_one_prefixed_line_on_the_command_line(tmp_path):
                            "--out", str(tmp_path / "w")],
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    warned = [line for line in proc.stderr.splitlines() if "warning" in line.lower()]
+    warned = [line for line in proc.stderr.splitlines()  # not the "wrote" lines (stderr)
+              if "warning" in line.lower() and not line.startswith("wrote ")]
     assert warned and all(line.startswith("windnav wind: warning: ") for line in warned), warned
     assert "thinner than 2 cells" in proc.stderr and ".py:" not in proc.stderr
 

@@ -527,3 +527,25 @@ def test_a_flight_too_large_for_memory_is_refused_before_it_starts(monkeypatch):
     one = estimate_fly_memory(1, 4, 201, 201, 3)
     assert estimate_fly_memory(1000, 4, 201, 201, 3) == pytest.approx(1000 * one)
     assert estimate_fly_memory(1, 4, 201, 201, 0) < one / 2
+
+
+def test_a_flight_of_too_many_steps_is_refused_before_its_log_is_allocated(monkeypatch):
+    """The log's step indices and arrays were allocated before the memory check: ``fly --dt
+    1e-9 --duration 1`` took 7.9 GB and then failed on a 127 GiB array (side-effects audit,
+    thirty-seventh session). The check now comes first; here 1e8 steps, whose old allocation
+    alone was 0.8 GB of step indices, are refused with no large allocation."""
+    import tracemalloc
+
+    from windnav.flow import MemoryEstimateError
+
+    monkeypatch.setenv("WINDNAV_MEMORY_LIMIT", "50MB")
+    p = wn.vehicle.params("hummingbird")
+    tracemalloc.start()
+    try:
+        with pytest.raises(MemoryEstimateError, match=r"100000000 steps"):
+            fly(p, make_trajectory("hover"), ConstantWind((1.0, 0.0, 0.0)), 1.0, dt=1e-8,
+                sensors=())
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < 50e6

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import sys
 
 
@@ -16,3 +17,26 @@ def one_line_warning(where: str):
 
     show.where = where
     return show
+
+
+@functools.cache
+def _bar_class(auto: bool):
+    """tqdm's bar (``tqdm.auto``'s, a notebook widget in Jupyter, or the terminal's) without its
+    monitor thread (``monitor_interval = 0``)."""
+    if auto:
+        from tqdm.auto import tqdm
+    else:
+        from tqdm import tqdm
+    return type("ProgressBar", (tqdm,), {"monitor_interval": 0, "__module__": __name__})
+
+
+def progress_bar(*args, auto: bool = True, **kwargs):
+    """A tqdm progress bar (same arguments, ``disable=True`` for none) that starts no thread.
+
+    tqdm starts a monitor thread with its first bar, even a disabled one, and keeps it for the
+    life of the process: a program calling ``windnav.sim.fly`` (``progress=False``) became
+    multi-threaded, which a later ``fork`` can deadlock on (side-effects audit, thirty-seventh
+    session). The monitor only shortens the refresh of bars that stall, which these do not
+    need. ``auto``: ``tqdm.auto`` (a widget in notebooks) rather than the terminal's bar.
+    """
+    return _bar_class(auto)(*args, **kwargs)

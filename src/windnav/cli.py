@@ -74,6 +74,25 @@ def _named(exc: Exception) -> bool:
     return type(exc).__module__.split(".")[0] == "windnav"
 
 
+def _stdout_closed() -> bool:
+    """Whether standard output is a pipe whose reader has gone (``| head``); if so, it is
+    pointed at the null device, so that Python's flush at exit does not raise again. A closed
+    pipe was reported as ``error: [Errno 32] Broken pipe`` after every file was written
+    (side-effects audit, thirty-seventh session)."""
+    import select
+
+    try:
+        fd = sys.stdout.fileno()
+        poller = select.poll()
+        poller.register(fd, select.POLLOUT)
+        if not any(events & select.POLLERR for _, events in poller.poll(0)):
+            return False
+        os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+    except (AttributeError, OSError, ValueError):  # no such descriptor, no poll (Windows)
+        return False
+    return True
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     parser = build_parser()
@@ -114,6 +133,8 @@ def _run(args, where: str) -> int:
         print(f"{where}: error: {exc}{hint}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as exc:
+        if isinstance(exc, BrokenPipeError) and _stdout_closed():
+            return EXIT_FAILED  # `windnav ... | head`: the reader has what it wanted
         print(f"{where}: error: {exc}", file=sys.stderr)
         return EXIT_FAILED
     except Exception as exc:

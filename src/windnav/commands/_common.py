@@ -89,11 +89,16 @@ def outputs(args, *, out=None, files=None) -> Outputs:
 
 
 def print_written(out: Outputs) -> None:
-    """One ``wrote`` line per file written, one ``removed`` line per stale file removed."""
+    """One ``wrote`` line per file written, one ``removed`` line per stale file removed, on
+    stderr: a command's standard output is its JSON summary alone, for a pipe (the lines
+    followed the summary there, and ``json.load`` of it failed; side-effects audit,
+    thirty-seventh session)."""
+    import sys
+
     for path in out.written:
-        print(f"wrote {path}")
+        print(f"wrote {path}", file=sys.stderr)
     for path in out.removed:
-        print(f"removed {path} (from an earlier run)")
+        print(f"removed {path} (from an earlier run)", file=sys.stderr)
 
 
 def print_drag_model_note(bias, airspeed, conditions: str, prefix: str = "", *,

@@ -92,6 +92,7 @@ def register(sub) -> None:
                           "windnav's sensors and the filter's defaults")
     p.add_argument("--out", type=Path, default=Path("out/demo"),
                    help="output folder (default %(default)s)")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
 
@@ -177,7 +178,7 @@ def _run_navigate(args) -> int:
     t_start = time.perf_counter()
     cfg, n_frames = _nav_config(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    result = run_nav_demo(cfg, progress=True)
+    result = run_nav_demo(cfg, progress=not args.no_progress)
     summary = result["summary"]
     city, flow = result["city"], result["flow"]
     named = {LABELS[v]: r for v, r in result["results"].items()}
@@ -220,7 +221,7 @@ def _run_ukf(args) -> int:
 
     cfg = _config(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    result = run_demo(cfg, progress=True)
+    result = run_demo(cfg, progress=not args.no_progress)
     metrics = {"story": "ukf", "config": dataclasses.asdict(cfg), **result["metrics"]}
     summary = document("demo", metrics, args)
     with out.writing() as stage:

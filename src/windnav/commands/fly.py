@@ -80,6 +80,7 @@ def register(sub) -> None:
     p.add_argument("--out", type=Path, default=Path("out/fly"),
                    help="output folder (%(default)s)")
     p.add_argument("--no-plots", action="store_true", help="write no PNG figures")
+    p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
 
@@ -154,7 +155,7 @@ def run(args) -> int:
     log, metrics, track = run_flight(
         args.vehicle, args.trajectory, wind, size=size, speed=speed, duration=duration, dt=dt,
         control_rate_hz=control, sensor_rate_hz=sensor, hub_wind=args.hub_wind, rng=args.seed,
-        conditions=args.conditions, progress=True, return_track=True)
+        conditions=args.conditions, progress=not args.no_progress, return_track=True)
     log.meta.update(wind_kind=args.wind)
     status = " ".join(str(s) for s in (metrics.get("status") or []))
     rate = log.meta.get("control_rate_hz")

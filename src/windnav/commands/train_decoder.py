@@ -137,7 +137,7 @@ def _train(args, name, recipe, out_dir, store, out, simulate) -> int:
                 shutil.rmtree(path)
             else:
                 path.unlink()
-            print(f"removed {path} (from an earlier run)")
+            print(f"removed {path} (from an earlier run)", file=sys.stderr)
     out_dir.mkdir(parents=True, exist_ok=True)
     if not (out_dir / "checkpoint.pt").exists():  # a fresh run: the recipe it was made with
         (out_dir / "recipe.toml").write_text(

@@ -32,8 +32,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
-from tqdm.auto import tqdm
 
+from windnav._console import progress_bar
 from windnav._validate import finite_float, positive_int
 from windnav.estimate import wind_model as wm
 from windnav.estimate.conditions import UKFConditions, ukf_conditions
@@ -425,8 +425,8 @@ def run_wind_ukf(
     wind_est[0], wind_cov[0], xs[0] = est.wind_world, est.wind_world_cov, est.x
     blocks = ("accel", "gyro", "odom", "rotor_speeds")
     have = {b: np.all(np.isfinite(inp[b]), axis=1) for b in blocks}
-    for k in tqdm(range(1, T), disable=not progress, desc="wind ukf", unit="step",
-                  leave=False, mininterval=0.5):
+    for k in progress_bar(range(1, T), disable=not progress, desc="wind ukf", unit="step",
+                          leave=False, mininterval=0.5):
         meas = {b: inp[b][k] for b in blocks if have[b][k]}
         try:
             est = ukf.step(inp["u"][k], meas)

@@ -131,8 +131,7 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
         seconds, cached), ``failed`` (slots whose flow diverged, with the error) and
         ``config``.
     """
-    from tqdm.auto import tqdm
-
+    from windnav._console import progress_bar
     from windnav.experiments.decoder_eval import (
         PROTOCOL,
         _evaluation_maps,
@@ -161,7 +160,7 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
     todo = [(i, j) for i in range(len(cities)) for j in range(n_inlets)]
     if max_fields is not None:
         todo = todo[:positive_int(max_fields, "max_fields", where)]
-    for i, j in tqdm(todo, desc="flows", disable=not progress, unit="flow"):
+    for i, j in progress_bar(todo, desc="flows", disable=not progress, unit="flow"):
         name, _, city = cities[i]
         speed, direction = (float(v) for v in inlets[i, j])
         dt = float(settings.get("dt") or auto_dt(dx, speed))
@@ -657,8 +656,7 @@ def mosaic(decoder, field, *, scan_noise: float = 0.35, rng=None, batch_size: in
         ``n_moved``; ``coverage`` (covered free cells / free cells); ``metrics``: errors of
         ``decoder``, ``local``, ``upstream`` and ``improvement_pct`` over each baseline.
     """
-    from tqdm.auto import tqdm
-
+    from windnav._console import progress_bar
     from windnav.experiments.decoder_eval import _summary
     from windnav.predict import (
         SCAN_MAX,
@@ -708,8 +706,8 @@ def mosaic(decoder, field, *, scan_noise: float = 0.35, rng=None, batch_size: in
     w_up = np.broadcast_to(field.w_up, (tiles.size, 2)).astype(np.float64)
     w_robot = field.interpolate(robots) if tiles.size else np.zeros((0, 2))
     pred = np.zeros((tiles.size, 2, h, h), dtype=np.float32)
-    for a in tqdm(range(0, tiles.size, batch_size), desc="mosaic", disable=not progress,
-                  unit="batch"):
+    for a in progress_bar(range(0, tiles.size, batch_size), desc="mosaic", disable=not progress,
+                          unit="batch"):
         sl = slice(a, a + batch_size)
         scan = field.city.lidar(robots[sl], n_rays=decoder.n_rays, max_range=SCAN_MAX,
                                 noise_std=noise, rng=rng)

@@ -60,9 +60,7 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
-from tqdm import tqdm
-
-from windnav._console import one_line_warning
+from windnav._console import one_line_warning, progress_bar
 from windnav._extras import install_hint
 from windnav._validate import positive_int
 
@@ -380,7 +378,8 @@ def _stream(runner, fn, tasks, workers, progress, desc, on_result) -> Iterator[T
     if not tasks:
         return
     n_failed = 0
-    with tqdm(total=len(tasks), desc=desc, disable=not progress, unit="task") as bar:
+    with progress_bar(total=len(tasks), auto=False, desc=desc, disable=not progress,
+                      unit="task") as bar:
         results = runner(fn, tasks, workers)
         try:
             for result in results:

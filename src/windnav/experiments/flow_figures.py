@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from windnav.experiments import flow_validation as fv
+from windnav.viz._figure import save_and_close
 
 __all__ = ["CHECK_FIGURES", "STROUHAL_FIGURES", "plot_checks", "plot_mean_speed",
            "plot_strouhal"]
@@ -86,8 +87,7 @@ def plot_checks(out, proj: dict, tg: dict) -> list[str]:
     ax.legend(fontsize=8)
     ax.set_title("after every exact projection (0 shown as 1e-18)")
     fig.tight_layout()
-    fig.savefig(out / "flow_divergence.png", dpi=110)
-    plt.close(fig)
+    save_and_close(fig, out / "flow_divergence.png", dpi=110)
 
     g = proj["grid"]
     speed = np.hypot(0.5 * (proj["u"][:, :-1] + proj["u"][:, 1:]),
@@ -99,8 +99,7 @@ def plot_checks(out, proj: dict, tg: dict) -> list[str]:
     ax.set(xlabel="x (m)", ylabel="y (m)")
     ax.set_title("instantaneous speed, random city, 5 m/s at 15 deg")
     fig.tight_layout()
-    fig.savefig(out / "flow_city_speed.png", dpi=110)
-    plt.close(fig)
+    save_and_close(fig, out / "flow_city_speed.png", dpi=110)
 
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for scheme, r in tg.items():
@@ -111,8 +110,7 @@ def plot_checks(out, proj: dict, tg: dict) -> list[str]:
     ax.set_title("Taylor-Green vortex, free-slip box [0, pi]^2, 64^2")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out / "flow_taylor_green.png", dpi=110)
-    plt.close(fig)
+    save_and_close(fig, out / "flow_taylor_green.png", dpi=110)
     return ["flow_divergence.png", "flow_city_speed.png", "flow_taylor_green.png"]
 
 
@@ -145,8 +143,7 @@ def plot_strouhal(out, res: dict) -> list[str]:
         ax.set_title("square cylinder: St under grid refinement", fontsize=10)
         ax.legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(out / "flow_strouhal_resolution.png", dpi=110)
-        plt.close(fig)
+        save_and_close(fig, out / "flow_strouhal_resolution.png", dpi=110)
         names.append("flow_strouhal_resolution.png")
     if "incidence" in res:
         inc = res["incidence"]
@@ -181,8 +178,7 @@ def plot_strouhal(out, res: dict) -> list[str]:
                      "closure", fontsize=10)
         ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.17), ncol=2)
         fig.tight_layout()
-        fig.savefig(out / "flow_strouhal_incidence.png", dpi=110)
-        plt.close(fig)
+        save_and_close(fig, out / "flow_strouhal_incidence.png", dpi=110)
         names.append("flow_strouhal_incidence.png")
     if "aspect_ratio" in res:
         ar = res["aspect_ratio"]
@@ -211,7 +207,6 @@ def plot_strouhal(out, res: dict) -> list[str]:
                      fontsize=10)
         ax.legend(fontsize=7)
         fig.tight_layout()
-        fig.savefig(out / "flow_strouhal_aspect.png", dpi=110)
-        plt.close(fig)
+        save_and_close(fig, out / "flow_strouhal_aspect.png", dpi=110)
         names.append("flow_strouhal_aspect.png")
     return names

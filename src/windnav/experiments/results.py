@@ -376,17 +376,31 @@ def _nearest_existing(path: Path) -> Path:
 def check_output_path(path, flag: str, where: str, *, kind: str = "file") -> Path:
     """Check that ``path`` can be written as a ``kind`` (``"file"`` or ``"dir"``).
 
+    A file path that is a symbolic link is returned resolved: the result replaces the link's
+    target, and the link stays (it was replaced by a plain file).
+
     Raises
     ------
     OutputPathError
-        When the path is empty, an ancestor is a file, the nearest existing folder is not
-        writable, or the path is a folder where a file is expected (or the reverse).
+        When the path is empty or ``-``, an ancestor is a file, the nearest existing folder is
+        not writable, the path is a folder where a file is expected (or the reverse), or a file
+        path names something other than a regular file (a device, a pipe: results are written
+        to a temporary file and moved into place, which would replace it).
     """
-    if path is None or str(path) == "":
-        raise OutputPathError(f"The {flag!r} parameter of {where} must be a path. "
+    if path is None or str(path) == "" or (kind == "file" and str(path) == "-"):
+        hint = (" (standard output: each command prints its summary there)"
+                if str(path) == "-" else "")
+        raise OutputPathError(f"The {flag!r} parameter of {where} must be a path{hint}. "
                               f"Got {path!r} instead.")
     p = Path(path)
     rule = "a file path" if kind == "file" else "a folder path"
+    if kind == "file" and p.is_symlink():
+        p = Path(os.path.realpath(p))
+    if kind == "file" and p.exists() and not (p.is_file() or p.is_dir()):
+        raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule} to a regular "
+                              f"file. Got {str(path)!r} instead, which is a device, pipe or "
+                              "socket (results are moved into place, which would replace it; "
+                              "each command prints its summary on standard output).")
     if p.exists():
         if kind == "file" and p.is_dir():
             raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule}, not a "

@@ -761,9 +761,9 @@ def simulate_batch(
     ]
     iterator = range(1, spinup_steps + steps + 1)
     if progress:
-        from tqdm import tqdm
+        from windnav._console import progress_bar
 
-        iterator = tqdm(iterator, desc="flow", unit="step")
+        iterator = progress_bar(iterator, auto=False, desc="flow", unit="step")
     for n in iterator:
         for r in runs:
             r.step.advect.into(r.u, r.v, r.mid_u, r.mid_v)

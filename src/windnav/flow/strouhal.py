@@ -160,9 +160,9 @@ def square_cylinder_strouhal(case: SquareCylinderCase = SquareCylinderCase(), pr
     limit, basis = blowup_limit(case.speed, u, v)
     iterator = range(n_spin + n_rec)
     if progress:
-        from tqdm import tqdm
+        from windnav._console import progress_bar
 
-        iterator = tqdm(iterator, desc=f"St D/dx={n}", unit="step")
+        iterator = progress_bar(iterator, auto=False, desc=f"St D/dx={n}", unit="step")
     u_next, v_next = np.empty_like(u), np.empty_like(v)
     for k in iterator:
         step.advance(u, v, u_next, v_next)
@@ -337,10 +337,10 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
         rec = np.empty((max(n_end - first, 0), 2))
         iterator = range(k, n_end)
         if progress:
-            from tqdm import tqdm
+            from windnav._console import progress_bar
 
-            iterator = tqdm(iterator, desc=f"St a={case.angle_deg:g}", unit="step",
-                            leave=False)
+            iterator = progress_bar(iterator, auto=False, desc=f"St a={case.angle_deg:g}",
+                                    unit="step", leave=False)
         for i in iterator:
             step.advance(u, v, u_next, v_next, q_cells if i >= n_spin else None)
             u, v, u_next, v_next = u_next, v_next, u, v

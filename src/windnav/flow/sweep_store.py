@@ -409,13 +409,14 @@ class SweepStore:
             creation-time arrays. Also kept as ``last_verify``. Nothing is changed: mark the
             damaged cases for recomputation with :meth:`invalidate`.
         """
-        from tqdm import tqdm
+        from windnav._console import progress_bar
 
         keys = range(self.n_maps) if maps is None else [int(k) for k in maps]
         todo = [(k, int(c)) for k in keys for c in np.flatnonzero(self.done(k))]
         damaged, unverified, store = {}, [], list(self._verify_static(keys))
         groups = {}
-        for k, c in tqdm(todo, desc="verify", unit="case", disable=not progress):
+        for k, c in progress_bar(todo, auto=False, desc="verify", unit="case",
+                                 disable=not progress):
             if k not in groups:
                 groups[k] = self._case_checker(k)
             problems, checked = groups[k](c)

@@ -1241,8 +1241,8 @@ class _Run:
     def epoch(self, e: int, progress: bool) -> dict:
         """Train epoch ``e``, validate, keep the best model; returns the epoch's record."""
         from threadpoolctl import threadpool_limits
-        from tqdm.auto import tqdm
 
+        from windnav._console import progress_bar
         from windnav.predict.torch_models import export_weights
 
         tr, model = self.tr, self.model
@@ -1250,8 +1250,8 @@ class _Run:
         model.train()
         rng = np.random.default_rng([int(tr["seed"]), 2, e])
         total, count = 0.0, 0
-        bar = tqdm(self.batches.epoch(e), total=len(self.batches), disable=not progress,
-                   desc=f"epoch {e + 1}/{tr['epochs']}", leave=False)
+        bar = progress_bar(self.batches.epoch(e), total=len(self.batches), disable=not progress,
+                           desc=f"epoch {e + 1}/{tr['epochs']}", leave=False)
         # the teacher's NumPy products on one BLAS thread: beside torch's threads, two BLAS
         # threads spin against them (2026-12-02: 26 ms per batch of 256 for the 3-model
         # teacher instead of 6.7)

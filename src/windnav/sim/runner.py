@@ -20,8 +20,8 @@ from collections.abc import Sequence
 
 import numba
 import numpy as np
-from tqdm.auto import tqdm
 
+from windnav._console import progress_bar
 from windnav._validate import positive_float, positive_int
 from windnav.control.se3 import SE3Gains
 from windnav.sensors.base import Sensor, SensorTruth
@@ -217,12 +217,12 @@ def fly(
                          f"physics step dt ({loop.dt} s) to fly one step. Got {duration} "
                          "instead.")
     held = _frames_end(wind, duration)
-    rec = _Recorder(loop, duration, log_every, periods, lift_fraction, max_airspeed)
-    _check_memory(rec, len(sensor_list))
+    rec = _Recorder(loop, duration, log_every, periods, lift_fraction, max_airspeed,
+                    len(sensor_list))
     state = initial_loop_state(loop, x0)
     n_steps = rec.n_steps
-    bar = tqdm(total=n_steps, disable=not progress, desc="flying", unit="step", leave=False,
-               mininterval=0.5)
+    bar = progress_bar(total=n_steps, disable=not progress, desc="flying", unit="step",
+                       leave=False, mininterval=0.5)
     record = rec.record
     for step in range(n_steps + 1):
         state, seen = observe(loop, state, step)
@@ -307,7 +307,7 @@ class _Recorder:
     """
 
     def __init__(self, loop: ClosedLoop, duration, log_every, periods, lift_fraction,
-                 max_airspeed):
+                 max_airspeed, n_sensors: int):
         self.loop = loop
         self.n_steps = int(round(duration / loop.dt))
         self.duration = duration
@@ -321,6 +321,10 @@ class _Recorder:
         # every log_every-th step, and the last one: a duration that is not a whole number of
         # log intervals ended the log (and its energy) up to log_every - 1 steps early (10.3 s
         # of hover at log_every=100 logged 10.0 s and 2.9 % less energy; audit, 2026-12-05)
+        n_log = self.n_steps // log_every + 1 + (self.n_steps % log_every != 0)
+        # refused before anything is allocated (the log's own step indices took 7.9 GB before
+        # the check at dt = 1e-9 s; audit, thirty-seventh session)
+        _check_memory(self, n_log, n_sensors)
         self.log_steps = np.arange(0, self.n_steps + 1, log_every)
         if self.log_steps[-1] != self.n_steps:
             self.log_steps = np.append(self.log_steps, self.n_steps)
@@ -433,14 +437,14 @@ def estimate_fly_memory(batch: int, n_rotors: int, n_log: int, n_snaps: int,
     return float(batch) * BYTES_PER_LOG_VALUE * (n_log * per_log + n_snaps * per_snap)
 
 
-def _check_memory(rec: _Recorder, n_sensors: int) -> None:
-    """Refuse a flight whose records would not fit the memory limit (a MemoryError after the
-    whole flight, or the out-of-memory killer, before; scale audit, 2026-12-05)."""
+def _check_memory(rec: _Recorder, n_log: int, n_sensors: int) -> None:
+    """Refuse a flight whose records (``n_log`` logged rows and the sensor ticks) would not
+    fit the memory limit (a MemoryError after the whole flight, or the out-of-memory killer,
+    before; scale audit, 2026-12-05)."""
     from windnav.flow.memory import refuse_above_limit
 
     n_snaps = rec.n_steps // rec.snap_every + 1 if rec.snap_every else 0
-    need = estimate_fly_memory(rec.loop.batch, rec.loop.n_rotors, rec.log_steps.size,
-                               n_snaps, n_sensors)
+    need = estimate_fly_memory(rec.loop.batch, rec.loop.n_rotors, n_log, n_snaps, n_sensors)
     refuse_above_limit(need, _WHERE,
                        f"the log and the sensors' states of {rec.loop.batch} vehicle(s) for "
                        f"{rec.duration:g} s at dt = {rec.loop.dt:g} s ({rec.n_steps} steps)",

@@ -17,6 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import ListedColormap
 
+from windnav.viz._figure import save_and_close
 from windnav.viz.nav_compare import colour_extend
 
 __all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
@@ -167,13 +168,11 @@ def _save(fig, path, dpi: int = 110, palette: bool = False) -> Path:
         from PIL import Image
 
         buf = io.BytesIO()
-        fig.savefig(buf, dpi=dpi, format="png")
-        plt.close(fig)
+        save_and_close(fig, buf, dpi=dpi, format="png")
         buf.seek(0)
         Image.open(buf).convert("RGB").quantize(128).save(path, format="PNG", optimize=True)
         return path
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=dpi)
     return path
 
 

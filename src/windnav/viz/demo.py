@@ -8,6 +8,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Rectangle
 
+from windnav.viz._figure import save_and_close
+
 
 def plot_map(result: dict, path) -> Path:
     """Mean wind speed with streamlines, buildings, planned route and flown path."""
@@ -68,6 +70,5 @@ def _save(fig, path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=110)
     return path

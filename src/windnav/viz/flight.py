@@ -7,6 +7,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from windnav.viz._figure import save_and_close
+
 
 def plot_flight(log, out_dir, *, vehicle: int = 0, prefix: str = "flight") -> list[Path]:
     """Write PNG figures of one vehicle of ``log`` into ``out_dir``; returns their paths."""
@@ -62,6 +64,5 @@ def plot_flight(log, out_dir, *, vehicle: int = 0, prefix: str = "flight") -> li
 
 def _save(fig, path: Path) -> Path:
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=110)
     return path

@@ -15,6 +15,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from windnav.viz._figure import save_and_close
 from windnav.viz.nav_compare import COLORS_ON_WHITE, draw_paths, plot_energy
 
 __all__ = ["plot_gs_case", "plot_gs_case_energy"]
@@ -83,8 +84,7 @@ def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
     fig.suptitle(title or _title(case))
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=100)
     return path
 
 

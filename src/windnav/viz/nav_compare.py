@@ -15,6 +15,8 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
+from windnav.viz._figure import save_and_close
+
 __all__ = ["COLORS", "COLORS_ON_WHITE", "colour_extend", "draw_paths", "path_widths",
            "plot_energy", "plot_paths", "wind_background", "wind_colorbar"]
 
@@ -221,6 +223,5 @@ def plot_energy(results: dict, path, *, title: str | None = None) -> Path:
 def _save(fig, path) -> Path:
     path = Path(path)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=110)
     return path

@@ -27,6 +27,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.lines import Line2D
 
+from windnav.viz._figure import save_and_close
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background, wind_colorbar
 
 __all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
@@ -180,8 +181,7 @@ def _finish(fig, handles, title: str, path, *, bottom: float, ncol: int | None =
     fig.suptitle(title)
     fig.tight_layout(rect=(0, bottom, 1, 1))
     path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=110)
     return path
 
 
@@ -302,8 +302,7 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     x0 = min(top.x0, 0.06)
     ax.set_position([x0, top.y0, top.x1 - x0, top.height])
     path = Path(path)
-    fig.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(fig)
+    save_and_close(fig, path, dpi=110, bbox_inches="tight")
     return path
 
 

@@ -8,6 +8,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Rectangle
 
+from windnav.viz._figure import save_and_close
+
 __all__ = ["plot_navigation", "plot_path", "plot_time_series"]
 
 
@@ -74,6 +76,5 @@ def plot_navigation(result, city, flow, out_dir, *, prefix: str = "navigate") ->
 def _save(fig, path) -> Path:
     path = Path(path)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=110)
     return path

@@ -9,6 +9,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
+from windnav.viz._figure import save_and_close
+
 __all__ = ["plot_tuning"]
 
 
@@ -47,6 +49,5 @@ def plot_tuning(result: dict, path) -> Path:
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     path = Path(path)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=120)
     return path

@@ -8,14 +8,15 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker as mticker
 import numpy as np
 
+from windnav.viz._figure import save_and_close
+
 __all__ = ["plot_montecarlo", "plot_wind_track"]
 
 
 def _save(fig, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    save_and_close(fig, path, dpi=120)
     return path
 
 

@@ -1,0 +1,115 @@
+"""Calls that leave the caller's process as they found it (side-effects audit, thirty-seventh
+session)."""
+
+from __future__ import annotations
+
+import os
+
+import matplotlib
+import numpy as np
+import pytest
+
+import windnav as wn
+from windnav.sim import fly, make_trajectory
+from windnav.viz.flight import plot_flight
+from windnav.wind import ConstantWind
+
+
+def test_progress_bars_start_no_monitor_thread(monkeypatch, capsys):
+    """tqdm starts a monitor thread with its first bar, even a disabled one, and keeps it: a
+    program calling ``fly`` (``progress=False``) became multi-threaded, which a later fork can
+    deadlock on. windnav's bars start none, shown or not."""
+    import tqdm.std
+
+    started = []
+    monkeypatch.setattr(tqdm.std, "TMonitor", lambda *a: started.append(a))
+    monkeypatch.setattr(tqdm.std.tqdm, "monitor", None)
+    p = wn.vehicle.params("hummingbird")
+    for progress in (False, True):
+        fly(p, make_trajectory("hover"), ConstantWind((1.0, 0.0, 0.0)), 0.05, progress=progress)
+    wn.experiments.run_tasks(abs, [-1, 2], workers=1, progress=True)
+    capsys.readouterr()
+    assert started == []
+    tqdm.std.tqdm(disable=True).close()  # the check itself sees tqdm's own bar start one
+    assert len(started) == 1
+
+
+def test_a_figure_that_cannot_be_saved_is_closed(tmp_path):
+    """A figure whose file could not be written stayed open (``plt.get_fignums()``), one per
+    failed call, for the life of the process."""
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    p = wn.vehicle.params("hummingbird")
+    log = fly(p, make_trajectory("hover"), ConstantWind((1.0, 0.0, 0.0)), 0.2)
+    open_before = set(plt.get_fignums())
+    with pytest.raises(OSError):
+        plot_flight(log, tmp_path, prefix="missing/folder/x")
+    assert set(plt.get_fignums()) == open_before
+    assert np.isfinite(log.position).all()
+
+
+def test_json_to_a_symbolic_link_replaces_its_target_and_keeps_the_link(tmp_path, capsys):
+    """``--json LINK --overwrite`` replaced the link by a plain file (``os.replace`` onto the
+    link); a link to a device or pipe (``/dev/stdout``) would have been replaced too, and
+    ``--json -`` wrote a file named ``-``."""
+    import json
+
+    from windnav.cli import main
+
+    target = tmp_path / "results" / "power.json"
+    target.parent.mkdir()
+    target.write_text("{}")
+    link = tmp_path / "latest.json"
+    link.symlink_to(target)
+    base = ["similitude", "--full-scale-speed", "10", "--json"]
+    assert main(base + [str(link), "--overwrite"]) == 0
+    assert link.is_symlink()
+    assert json.loads(target.read_text())["full_scale_diameter_m"] == 1.8
+    printed = capsys.readouterr()
+    json.loads(printed.out)  # standard output: the summary alone ("wrote" goes to stderr)
+    assert f"wrote {target}" in printed.err
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    device = tmp_path / "stdout"
+    device.symlink_to(fifo)
+    for path in (fifo, device, "-"):
+        assert main(base + [str(path), "--overwrite"]) == 2
+        err = capsys.readouterr().err
+        assert "'--json'" in err and "standard output" in err
+    assert fifo.exists() and not fifo.is_file() and device.is_symlink()
+    assert not (tmp_path / "-").exists()
+
+
+def test_fly_and_demo_can_hide_their_progress_bars(tmp_path, capsys):
+    """``fly`` and ``demo`` always drew their bars; in a log file an error then shared a line
+    with a bar's carriage returns."""
+    from windnav.cli import main
+
+    assert main(["fly", "--duration", "0.2", "--no-plots", "--no-progress",
+                 "--out", str(tmp_path / "fly")]) == 0
+    assert "%|" not in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        main(["demo", "--help"])
+    assert info.value.code == 0 and "--no-progress" in capsys.readouterr().out
+
+
+def test_a_closed_pipe_on_standard_output_is_not_an_error(tmp_path):
+    """``windnav ... | head -1`` printed ``error: [Errno 32] Broken pipe`` after every file had
+    been written; the reader going away is now a quiet exit (status 1, as Python's own
+    advice)."""
+    import subprocess
+    import sys
+
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before the command prints
+    try:
+        proc = subprocess.run([sys.executable, "-m", "windnav", "similitude",
+                               "--full-scale-speed", "10", "--json", str(tmp_path / "s.json")],
+                              stdout=write, stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write)
+    assert proc.returncode == 1
+    assert proc.stderr == "", proc.stderr  # was "error: [Errno 32] Broken pipe"
+    assert (tmp_path / "s.json").is_file()
