@@ -113,3 +113,16 @@ def test_a_closed_pipe_on_standard_output_is_not_an_error(tmp_path):
     assert proc.returncode == 1
     assert proc.stderr == "", proc.stderr  # was "error: [Errno 32] Broken pipe"
     assert (tmp_path / "s.json").is_file()
+
+
+def test_an_unknown_option_shows_its_commands_usage(capsys):
+    """``windnav power-curve --speeds 0 1`` printed windnav's own usage line and
+    ``windnav: error``, not the command's."""
+    from windnav.cli import main
+
+    with pytest.raises(SystemExit) as info:
+        main(["power-curve", "--speeds", "0", "1"])
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert "usage: windnav power-curve" in err
+    assert "windnav power-curve: error: unrecognized arguments: --speeds 0 1" in err

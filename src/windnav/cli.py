@@ -60,6 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(f"windnav.commands.{name}").register(sub)
+    parser.commands = sub.choices  # each command's own parser, for its usage line in errors
     return parser
 
 
@@ -96,7 +97,9 @@ def _stdout_closed() -> bool:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:  # parse_args's error, with the command's usage rather than windnav's
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     args.argv = list(sys.argv[1:] if argv is None else argv)  # for a command that restarts
     where = f"windnav {args.command}"
     if argv is None:  # the command line itself: warnings as one line, not a source location
