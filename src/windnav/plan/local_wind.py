@@ -124,7 +124,8 @@ class LocalWind:
         ``uv`` and the offsets are copied, so that a caller refilling one buffer does not change
         a wind already built (nor a planner's :meth:`~windnav.plan.MPPIPlanner.plan` of it);
         ``copy=False`` adopts a C-contiguous float64 ``uv`` as it is, for a caller that never
-        writes it afterwards (the closed loop's whole-map field, about 1 MB per update).
+        writes it afterwards (the closed loop's own whole-map field, which would otherwise be
+        copied at every update).
         """
         arr = np.array(uv, dtype=np.float64, copy=None if not copy else True)
         x = _offsets(offsets, "offsets")
