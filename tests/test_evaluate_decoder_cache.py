@@ -70,7 +70,7 @@ def test_an_interrupted_run_resumes_from_out_without_a_flow_cache_option(tiny_ru
     assert resumed["flow_cache"] == str(out / "flows")
     assert len(entries(out / "flows")) == 2
     size = sum(f.stat().st_size for f in (out / "flows").rglob("*") if f.is_file())
-    assert f"flow cache: {str(out / 'flows')!r}, {size / 1e6:.1f} MB" in capsys.readouterr().out
+    assert f"flow cache: {str(out / 'flows')!r}, {size / 1e6:.1f} MB" in capsys.readouterr().err
 
     # --overwrite replaces the results and keeps the cache: nothing solved again
     solves["n"] = 0

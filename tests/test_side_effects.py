@@ -126,3 +126,21 @@ def test_an_unknown_option_shows_its_commands_usage(capsys):
     assert info.value.code == 2
     assert "usage: windnav power-curve" in err
     assert "windnav power-curve: error: unrecognized arguments: --speeds 0 1" in err
+
+
+@pytest.mark.parametrize("argv", [
+    ["fly", "--duration", "0.2", "--no-plots", "--no-progress", "--out", "{tmp}/fly"],
+    ["similitude", "--full-scale-speed", "10", "--json", "{tmp}/s.json"],
+    ["power-curve", "--points", "5", "--degree", "2", "--out", "{tmp}/pc"],
+])
+def test_a_json_summary_is_alone_on_standard_output(argv, tmp_path, capsys):
+    """The summary was followed by "wrote PATH" lines on standard output, so that ``windnav
+    similitude ... | python -c 'json.load(sys.stdin)'`` failed."""
+    import json
+
+    from windnav.cli import main
+
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 0
+    printed = capsys.readouterr()
+    assert isinstance(json.loads(printed.out), dict)
+    assert "wrote " in printed.err

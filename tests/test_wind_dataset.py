@@ -416,8 +416,9 @@ def test_cli_wind_end_to_end(tmp_path, capsys):
     assert cfg["seed"] == 1 and cfg["map_source"] == str(tiny)
     png = imread(tmp_path / "run" / "mean_speed.png")
     assert png.ndim == 3 and min(png.shape[:2]) > 200 and png.std() > 0.05  # a real picture
-    printed = capsys.readouterr().out
-    assert "flow.zarr" in printed
+    captured = capsys.readouterr()
+    printed, printed_err = captured.out, captured.err
+    assert "flow.zarr" in printed_err  # "wrote" lines: standard error
     # the averaging diagnostics: printed, stored in the attributes and loaded back
     length = 40.0 * (np.cos(np.deg2rad(30)) + np.sin(np.deg2rad(30)))  # domain along the wind
     assert sol.flow_throughs_spinup == pytest.approx(4.0 * 30 * 0.1 / length)

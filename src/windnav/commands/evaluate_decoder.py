@@ -169,7 +169,7 @@ def run(args, simulate=None, flow_settings=None) -> int:
         size = sum(f.stat().st_size for f in files)
         print(f"flow cache: {str(flow_cache)!r}, {size / 1e6:.1f} MB: reused by a rerun (and "
               "decoder-study --flow-cache); delete it to free the space, or pass "
-              "--no-flow-cache")
+              "--no-flow-cache", file=sys.stderr)
     return 0
 
 

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from windnav._console import save_and_close
 from windnav.experiments import flow_validation as fv
-from windnav.viz._figure import save_and_close
 
 __all__ = ["CHECK_FIGURES", "STROUHAL_FIGURES", "plot_checks", "plot_mean_speed",
            "plot_strouhal"]

@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import ListedColormap
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 from windnav.viz.nav_compare import colour_extend
 
 __all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",

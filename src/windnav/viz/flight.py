@@ -7,7 +7,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 
 
 def plot_flight(log, out_dir, *, vehicle: int = 0, prefix: str = "flight") -> list[Path]:

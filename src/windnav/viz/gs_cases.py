@@ -15,7 +15,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 from windnav.viz.nav_compare import COLORS_ON_WHITE, draw_paths, plot_energy
 
 __all__ = ["plot_gs_case", "plot_gs_case_energy"]

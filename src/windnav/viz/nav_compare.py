@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 
 __all__ = ["COLORS", "COLORS_ON_WHITE", "colour_extend", "draw_paths", "path_widths",
            "plot_energy", "plot_paths", "wind_background", "wind_colorbar"]

@@ -27,7 +27,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.lines import Line2D
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background, wind_colorbar
 
 __all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Rectangle
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 
 __all__ = ["plot_navigation", "plot_path", "plot_time_series"]
 

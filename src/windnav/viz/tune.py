@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 
 __all__ = ["plot_tuning"]
 

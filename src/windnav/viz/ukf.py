@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker as mticker
 import numpy as np
 
-from windnav.viz._figure import save_and_close
+from windnav._console import save_and_close
 
 __all__ = ["plot_montecarlo", "plot_wind_track"]
 
