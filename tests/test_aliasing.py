@@ -192,3 +192,85 @@ def test_float32_inputs_compute_in_float64(dtype):
                           zero.astype(np.float64), zero.astype(np.float64),
                           yaw.astype(np.float64), yaw.astype(np.float64))
     np.testing.assert_array_equal(got_cmd, want_cmd)
+
+
+# ---------------------------------------------------------------- pickling and copies
+
+
+def test_filters_pickle_and_continue_bitwise():
+    """``WindUKF`` built closures and ``UKF`` cached one after a joint update of two blocks:
+    neither pickled (a spawned worker, ``ProcessPoolExecutor``)."""
+    import pickle
+
+    p = params("hummingbird")
+    f = WindUKF(p, 0.01)
+    u = np.full(4, p.hover_rotor_speed)
+    meas = {"gyro": np.zeros(3), "rotor_speeds": u, "accel": np.array([0.1, 0.0, 9.81])}
+    f.step(u, meas)  # a joint update of three blocks
+    g = pickle.loads(pickle.dumps(f))
+    for _ in range(3):
+        a, b = f.step(u, meas), g.step(u, meas)
+    np.testing.assert_array_equal(a.wind_world, b.wind_world)
+    np.testing.assert_array_equal(f.P, g.P)
+
+
+def test_copies_keep_their_arrays_read_only():
+    """NumPy restores arrays writable: a copy lost the protection of its class, and a copied
+    ``FlowSolution`` took NaN frames past the finite check it had passed."""
+    import copy
+    import pickle
+
+    city = wn.city.City((0, 60, 0, 40), [[20, 28, 15, 25]], [10.0])
+    sol = wn.flow.simulate(city, speed=5.0, dx=1.0, dt=0.1, spinup_steps=5, steps=10,
+                           record_every=5)
+    objects = {
+        "City.footprints": (city, lambda o: o.footprints),
+        "FlowSolution.frames_u": (sol, lambda o: o.frames_u),
+        "MultirotorParams.inertia": (params("hummingbird"), lambda o: o.inertia),
+        "Decoder.weights": (wn.predict.load_decoder(), lambda o: o.weights["coeff.weight"]),
+        "GriddedWind.x": (sol.wind_field(), lambda o: o.x),
+        "ConstantWind.mean": (wn.wind.ConstantWind((1.0, 2.0, 0.0)), lambda o: o.mean),
+        "DrydenWind.mean": (wn.wind.DrydenWind(mean=(3, 0, 0), sigma=(1, 1, 1), rng=0),
+                            lambda o: o.mean),
+    }
+    for name, (obj, get) in objects.items():
+        assert not get(obj).flags.writeable, name
+        for how, clone in (("pickle", pickle.loads(pickle.dumps(obj))),
+                           ("deepcopy", copy.deepcopy(obj))):
+            assert not get(clone).flags.writeable, (name, how)
+            np.testing.assert_array_equal(get(clone), get(obj))
+
+
+def test_frame_buffers_hand_a_block_to_one_thread_only(monkeypatch):
+    """Between finding a free block and handing it out nothing held other threads off: two
+    threads could get one block, and two runs write their frames into the same memory."""
+    import threading
+    import time
+
+    from windnav.flow import FrameBuffers
+
+    pool = FrameBuffers()
+    for _ in range(4):
+        pool.take((4, 4))  # four free blocks, their arrays gone
+    slow_check = FrameBuffers._is_free
+
+    def is_free(entry):  # widen the window between the check and the hand-out
+        free = slow_check(entry)
+        time.sleep(0.002)
+        return free
+
+    monkeypatch.setattr(FrameBuffers, "_is_free", staticmethod(is_free))
+    taken = [None] * 4
+    start = threading.Barrier(4)
+
+    def take(i):
+        start.wait()
+        taken[i] = pool.take((4, 4))
+
+    threads = [threading.Thread(target=take, args=(i,)) for i in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    addresses = {a.__array_interface__["data"][0] for a in taken}
+    assert len(addresses) == 4

@@ -30,13 +30,22 @@ def local_ray():
     Ray workers import the task functions by module name, so this folder goes on their path
     (the ``process`` backend's spawned workers inherit ``sys.path`` instead).
     """
+    import shutil
+    import tempfile
+
     assert not ray.is_initialized(), "another test left Ray running"
     path = os.pathsep.join(p for p in (str(HERE), os.environ.get("PYTHONPATH")) if p)
-    ray.init(num_cpus=2, include_dashboard=False, runtime_env={"env_vars": {"PYTHONPATH": path}})
+    # Ray's session files (about 220 kB a start) in a folder removed afterwards: by default
+    # they stayed in /tmp/ray for good (isolation audit, thirty-seventh session); a short path,
+    # as Ray's socket names must fit 107 characters
+    temp = tempfile.mkdtemp(prefix="wn-ray-")
+    ray.init(num_cpus=2, include_dashboard=False, _temp_dir=temp,
+             runtime_env={"env_vars": {"PYTHONPATH": path}})
     try:
         yield ray
     finally:
         ray.shutdown()
+        shutil.rmtree(temp, ignore_errors=True)
 
 
 def _seeded_mean(task):

@@ -170,3 +170,34 @@ def keyword_only(args: tuple, given: dict, where: str) -> dict:
     warnings.warn(f"{where}: pass {', '.join(f'{n}=' for n in used)} by keyword; positional "
                   "use is deprecated", DeprecationWarning, stacklevel=3)
     return out
+
+
+class ReadOnlyOnCopy:
+    """Mixin: a pickled or deep-copied object's arrays are read-only where the original's were.
+
+    NumPy restores every array writable, so a copy (a spawned worker's, ``copy.deepcopy``'s)
+    lost the protection its class gives at construction: a copied ``FlowSolution`` took NaN
+    frames past the finite check it had passed, and a copied ``Decoder``'s edited weights
+    changed its fingerprint but not its predictions (pickling audit, thirty-seventh session).
+    Covers array attributes and the arrays of dict attributes.
+    """
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        frozen = []
+        for name, value in state.items():
+            if isinstance(value, np.ndarray) and not value.flags.writeable:
+                frozen.append((name, None))
+            elif isinstance(value, dict):
+                frozen += [(name, key) for key, item in value.items()
+                           if isinstance(item, np.ndarray) and not item.flags.writeable]
+        state["_read_only_arrays"] = frozen
+        return state
+
+    def __setstate__(self, state):
+        state = dict(state)
+        frozen = state.pop("_read_only_arrays", ())
+        self.__dict__.update(state)
+        for name, key in frozen:
+            value = self.__dict__[name]
+            (value if key is None else value[key]).setflags(write=False)

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav._validate import batch_array, keyword_only, positive_float
+from windnav._validate import ReadOnlyOnCopy, batch_array, keyword_only, positive_float
 from windnav.city.lidar import lidar_scan
 from windnav.city.rotorpy_json import (
     DEFAULT_COLOR,  # noqa: F401  (re-exported: the colour of blocks written without one)
@@ -40,7 +40,7 @@ def _block_text(i: int, fp, base: float, height: float) -> str:
 
 
 @dataclass(frozen=True, eq=False)
-class City:
+class City(ReadOnlyOnCopy):
     """A city map of cuboid buildings.
 
     Parameters

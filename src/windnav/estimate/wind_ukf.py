@@ -38,6 +38,7 @@ default IMU and motion-capture noise densities (e.g. accelerometer 0.038 m/s^2/s
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -201,6 +202,26 @@ def _resolve_options(conditions, q, r, rate_hz: float = 100.0, **given
     return q, r, opt
 
 
+def _process_model(X, dt, u, *, prm, nsub):
+    """The filter's process model (:func:`windnav.estimate.wind_model._process`)."""
+    return wm._process(X, dt, u, prm, nsub)
+
+
+def _accel_model(X, *, prm):
+    """Specific force (S, 3) of the sigma points."""
+    return wm._specific_force(X, prm)
+
+
+def _gyro_model(X):
+    """Body rates (S, 3) of the sigma points."""
+    return X[:, IDX_RATES]
+
+
+def _rotor_model(X):
+    """Rotor speeds (S, N) of the sigma points."""
+    return X[:, IDX_ROTORS]
+
+
 class WindUKF:
     """Wind estimator of the thesis: a 12 + N state UKF over the multirotor force model.
 
@@ -308,20 +329,11 @@ class WindUKF:
                 p0[sl] = _P0[key] ** 2
             P0 = np.diag(p0)
         self.R = self._measurement_covs(r, N)
-        prm, nsub = self._prm, self.n_substeps
-
-        def fx(X, dt, u):
-            return wm._process(X, dt, u, prm, nsub)
-
-        def h_accel(X):
-            return wm._specific_force(X, prm)
-
-        def h_gyro(X):
-            return X[:, IDX_RATES]
-
-        def h_rotor(X):
-            return X[:, IDX_ROTORS]
-
+        # module-level functions bound by partial, not closures: the filter pickles (spawned
+        # workers, ProcessPoolExecutor; audit, thirty-seventh session)
+        fx = functools.partial(_process_model, prm=self._prm, nsub=self.n_substeps)
+        h_accel = functools.partial(_accel_model, prm=self._prm)
+        h_gyro, h_rotor = _gyro_model, _rotor_model
         limit = sensor_range(params)
         blocks = {
             "accel": (h_accel, self.R["accel"], (), limit["accel"]),

@@ -30,13 +30,14 @@ from __future__ import annotations
 import gc
 import math
 import mmap
+import threading
 import weakref
 from dataclasses import dataclass
 
 import numba
 import numpy as np
 
-from windnav._validate import finite_float, nonnegative_int, positive_float
+from windnav._validate import ReadOnlyOnCopy, finite_float, nonnegative_int, positive_float
 from windnav.city.core import check_city
 from windnav.flow.advection import make_advection
 from windnav.flow.grid import (
@@ -293,11 +294,14 @@ class FrameBuffers:
 
     Each block is an anonymous memory map kept by the pool; a run gets an array over it, and
     since every view of that array has it as its ``base``, a weak reference to it tells when
-    the block is free. Free blocks of another size are dropped when a new one is made.
+    the block is free. Free blocks of another size are dropped when a new one is made. One pool
+    may serve several threads: :meth:`take` holds a lock between finding a free block and
+    handing it out (two threads could get one block; audit, thirty-seventh session).
     """
 
     def __init__(self):
         self._blocks: list[list] = []  # [mmap, weak reference to the array handed out]
+        self._lock = threading.Lock()
 
     def __len__(self) -> int:
         return len(self._blocks)
@@ -313,6 +317,10 @@ class FrameBuffers:
         nbytes = 8 * math.prod(shape)
         if nbytes == 0:
             return np.empty(shape)
+        with self._lock:
+            return self._take(shape, nbytes)
+
+    def _take(self, shape: tuple[int, ...], nbytes: int) -> np.ndarray:
         for attempt in range(2):
             for entry in self._blocks:
                 if len(entry[0]) == nbytes and self._is_free(entry):
@@ -345,7 +353,7 @@ def cell_centred(domain: FlowDomain, u, v) -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True, eq=False)
-class FlowSolution:
+class FlowSolution(ReadOnlyOnCopy):
     """Result of :func:`simulate`.
 
     Attributes

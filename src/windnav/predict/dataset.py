@@ -46,7 +46,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
-from windnav._validate import batch_array, positive_float, positive_int
+from windnav._validate import ReadOnlyOnCopy, batch_array, positive_float, positive_int
 from windnav.city import City
 
 N_RAYS = 360
@@ -146,7 +146,7 @@ def _bilinear_grids(u, v, ix, tx, iy, ty, free, out):  # pragma: no cover - numb
 
 
 @dataclass(frozen=True, eq=False)
-class MeanField:
+class MeanField(ReadOnlyOnCopy):
     """One time-averaged solver field of one map at one inlet: the source of decoder samples.
 
     Parameters

@@ -99,6 +99,7 @@ from pathlib import Path
 
 import numpy as np
 
+from windnav._validate import ReadOnlyOnCopy
 from windnav.predict.baselines import check_inputs
 from windnav.predict.dataset import grid_offsets
 
@@ -849,7 +850,7 @@ def ensemble_decoder(decoders, metadata: dict | None = None) -> Decoder:
 # --------------------------------------------------------------------------- Decoder
 
 
-class Decoder:
+class Decoder(ReadOnlyOnCopy):
     """A trained wind flow decoder, evaluated with NumPy.
 
     Parameters

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from windnav._validate import positive_float
+from windnav._validate import ReadOnlyOnCopy, positive_float
 
 GRAVITY = 9.81
 """Gravitational acceleration, m/s^2 (RotorPy's value)."""
@@ -55,7 +55,7 @@ def alternating_directions(n_rotors: int) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class MultirotorParams:
+class MultirotorParams(ReadOnlyOnCopy):
     """Physical parameters of a multirotor with N rotors whose thrust acts along +body z.
 
     Attributes

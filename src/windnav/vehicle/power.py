@@ -32,7 +32,7 @@ import numpy as np
 import scipy.integrate
 import scipy.optimize
 
-from windnav._validate import finite_float, positive_float, positive_int
+from windnav._validate import ReadOnlyOnCopy, finite_float, positive_float, positive_int
 
 _GRID = 2049  # coarse grid points that bracket the global minimum before the bounded search
 
@@ -109,7 +109,7 @@ def energy(t, power) -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class PowerCurve:
+class PowerCurve(ReadOnlyOnCopy):
     """Steady level-flight power versus airspeed, ``P(V) = sum_k coefficients[k] V^k``.
 
     Attributes

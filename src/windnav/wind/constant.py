@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from windnav._validate import batch_array
+from windnav._validate import ReadOnlyOnCopy, batch_array
 from windnav.wind.base import check_query
 
 
-class ConstantWind:
+class ConstantWind(ReadOnlyOnCopy):
     """Spatially uniform, steady wind.
 
     Parameters

@@ -71,7 +71,13 @@ import numba
 import numpy as np
 import scipy.linalg
 
-from windnav._validate import batch_array, finite_float, positive_float, positive_int
+from windnav._validate import (
+    ReadOnlyOnCopy,
+    batch_array,
+    finite_float,
+    positive_float,
+    positive_int,
+)
 from windnav.wind.base import check_query
 
 FOOT = 0.3048
@@ -255,7 +261,7 @@ def _interpolate(values: np.ndarray, i, frac) -> np.ndarray:
     return values[i] + frac * (values[i + 1] - values[i])
 
 
-class DrydenWind:
+class DrydenWind(ReadOnlyOnCopy):
     """Mean wind plus Dryden turbulence: a fixed function of time and seed.
 
     See the module docstring for the transfer functions, length scales and discretisation.
@@ -494,13 +500,15 @@ class DrydenWind:
             self._values.clear()
 
     def __getstate__(self):
-        state = self.__dict__.copy()
-        for name in ("_starts", "_frontier", "_values", "_lock"):
+        state = super().__getstate__()
+        dropped = ("_starts", "_frontier", "_values", "_lock")
+        for name in dropped:
             del state[name]
+        state["_read_only_arrays"] = [e for e in state["_read_only_arrays"] if e[0] not in dropped]
         return state
 
     def __setstate__(self, state):
-        self.__dict__.update(state)
+        super().__setstate__(state)
         self._init_cache()
 
     # Queries ----------------------------------------------------------------------------------

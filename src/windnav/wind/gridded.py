@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-from windnav._validate import batch_array
+from windnav._validate import ReadOnlyOnCopy, batch_array
 from windnav.wind.base import check_query
 
 
@@ -118,7 +118,7 @@ def _interleaved(u, v) -> np.ndarray | None:
     return frames
 
 
-class GriddedWind:
+class GriddedWind(ReadOnlyOnCopy):
     """Horizontal wind field on a rectilinear grid of cell centres (steady or unsteady).
 
     Parameters
