@@ -274,3 +274,69 @@ def test_frame_buffers_hand_a_block_to_one_thread_only(monkeypatch):
         t.join()
     addresses = {a.__array_interface__["data"][0] for a in taken}
     assert len(addresses) == 4
+
+
+# ------------------------------------------- the experiments layer, sysid and observability
+
+
+def test_decoder_offsets_are_read_only_and_the_onboard_stack_keeps_its_own():
+    """The onboard stack places its field by ``decoder.offsets``, and ``navigate`` shares one
+    decoder per process: an in-place edit moved every later flight's wind."""
+    from windnav.experiments.onboard import OnboardStack
+
+    dec = wn.predict.load_decoder()
+    assert not dec.offsets.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        dec.offsets += 10.0
+    p = params("hummingbird")
+    city = wn.city.City((0, 100, 0, 100), [[40, 60, 40, 60]], [20.0])
+    stack = OnboardStack(city, Multirotor(p), p, speed=5.0, direction_deg=0.0,
+                         control_rate_hz=100.0, plan_rate_hz=10.0, n_max=10,
+                         rng=np.random.default_rng(0), decoder=dec)
+    assert not np.shares_memory(stack.offsets, dec.offsets)
+
+
+def test_aero_data_keeps_what_it_checked():
+    """``AeroData`` is checked finite at construction; a caller refilling its buffer got NaN
+    into ``fit_aero`` (a NaN fit, no error), and ``to_columns`` handed out its own arrays."""
+    from windnav.sysid import AeroData
+
+    k = 50
+    rng = np.random.default_rng(0)
+    t = np.arange(k) * 0.1
+    va = rng.normal(size=(k, 3))
+    f = rng.normal(size=(k, 3)) + [0.0, 0.0, 9.81]
+    eta = 400.0 + rng.normal(size=(k, 4))
+    data = AeroData(t, va, f, eta)
+    f[:] = np.nan
+    assert np.isfinite(data.specific_force_body).all()
+    with pytest.raises(ValueError, match="read-only"):
+        data.to_columns()["time_s"][:] = -1.0
+
+
+def test_escapes_keep_their_own_route_and_goal():
+    from windnav.plan import EscapeConfig, FastestEscape, RouteEscape
+
+    route = np.column_stack([np.linspace(0.0, 100.0, 11), np.zeros(11)])
+    escape = RouteEscape(route, (100.0, 0.0))
+    route[:, 1] = 50.0
+    np.testing.assert_array_equal(escape.samples[:, 1], 0.0)
+    assert escape.length == 100.0
+    goal = np.array([100.0, 0.0])
+    fastest = FastestEscape(lambda p: None, goal, EscapeConfig(airspeed_mps=10.0,
+                                                               pace_margin_s=5.0),
+                            deadline_s=30.0)
+    goal[:] = 0.0
+    np.testing.assert_array_equal(fastest.goal, [100.0, 0.0])
+    np.testing.assert_array_equal(fastest.goal, fastest.monitor.goal)
+
+
+def test_observability_matrix_is_the_callers():
+    from windnav.estimate.observability import observability_matrix
+
+    p = params("hummingbird")
+    x = np.zeros(12 + p.n_rotors)
+    x[12:] = p.hover_rotor_speed
+    O = observability_matrix(p, x, order=1)
+    O *= 2.0  # was a read-only broadcast view
+    np.testing.assert_array_equal(O, 2.0 * observability_matrix(p, x, order=1))

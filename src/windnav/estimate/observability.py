@@ -223,7 +223,7 @@ def observability_matrix(params: MultirotorParams, state, order: int = 1,
                          f"{list(WIND_FRAMES)}. Got {wind_frame!r} instead.")
     fn = _lambdified(params.n_rotors, int(order), outputs, wind_frame)
     O = np.array(fn(list(x), _prm_values(params, eps)), dtype=np.float64)
-    return np.broadcast_to(O, O.shape).reshape(-1, n)
+    return O.reshape(-1, n)  # the caller's (a broadcast view was read-only)
 
 
 def rank_at(params: MultirotorParams, state, order: int = 1, rtol: float = 1e-9,

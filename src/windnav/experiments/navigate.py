@@ -397,7 +397,9 @@ def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool
     horizon : float
         ``H``, side of the window, m (``inf``: the whole map).
     uv : ndarray of shape (2, ny, nx), optional
-        ``[flow.mean_u, flow.mean_v]``, stacked once by a caller that queries many times.
+        ``[flow.mean_u, flow.mean_v]``, stacked once by a caller that queries many times. It
+        is not copied (a window that covers the whole grid is ``uv`` itself): do not write it
+        while a wind built from it is in use.
     known_finite : bool
         The caller checked ``uv`` finite once (:attr:`windnav.plan.LocalWind.known_finite`).
     outside : {"zero", "truth"}
@@ -427,8 +429,7 @@ def local_wind(flow, position_xy, horizon: float, *, uv=None, known_finite: bool
                 else tuple(mean_wind_at(uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1], px, py)))
         uv, x, y = uv[:, j0:j1, i0:i1], x[i0:i1], y[j0:j1]
         return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite, fill=fill,
-                              copy=False)  # the window of uv: a copy already
-    # uv: the caller's field, which it does not write (navigate's mean_uv), or stacked here
+                              copy=False)  # ``uv`` adopted, as documented
     return LocalWind.grid(uv, x - px, y - py, known_finite=known_finite, copy=False)
 
 

@@ -375,7 +375,7 @@ class OnboardStack:
         opt = OnboardOptions() if options is None else options
         self.options = opt
         self.decoder = default_decoder() if decoder is None else decoder
-        offsets = np.asarray(getattr(self.decoder, "offsets", None), dtype=np.float64)
+        offsets = np.array(getattr(self.decoder, "offsets", None), dtype=np.float64)  # its own
         if offsets.ndim != 1 or offsets.size < 2 or not hasattr(self.decoder, "predict"):
             raise ValueError(f"The 'decoder' parameter of {where} must have 1-D offsets of at "
                              "least 2 cell centres and a predict(scans, w_up, w_robot) method. "

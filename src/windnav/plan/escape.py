@@ -251,7 +251,7 @@ class RouteEscape:
     """
 
     def __init__(self, samples, goal_xy, config: EscapeConfig | None = None):
-        q = np.asarray(samples, dtype=np.float64)
+        q = np.array(samples, dtype=np.float64)  # its own: the length is computed once
         if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 1 or not np.all(np.isfinite(q)):
             raise ValueError("The 'samples' parameter of RouteEscape must be an (M, 2) array of "
                              f"finite points, M >= 1. Got shape {q.shape} instead.")
@@ -336,7 +336,7 @@ class FastestEscape:
         self.deadline_s = None if deadline_s is None else finite_float(
             deadline_s, "deadline_s", "FastestEscape")
         self._pace = deque()  # (t, distance to the goal) over the last pace window
-        self.goal = np.asarray(goal_xy, dtype=np.float64).reshape(2)
+        self.goal = np.array(goal_xy, dtype=np.float64).reshape(2)  # its own, as the monitor's
         self.route_fn = route_fn
         self.config = config
         self.monitor = ProgressMonitor(goal_xy, config)

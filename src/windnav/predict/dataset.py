@@ -705,6 +705,7 @@ class DecoderDataset:
         self.seed = int(seed)
         self.threads = positive_int(threads, "threads", where)
         self.offsets = grid_offsets(size, spacing)
+        self.offsets.setflags(write=False)
         self._noise = _check_noise(scan_noise, w_robot_noise, where)
         # positions and noise keys, drawn now so that a map without room fails here, not in
         # the middle of an epoch

@@ -916,6 +916,7 @@ class Decoder(ReadOnlyOnCopy):
         self.spacing = float(metadata.get("spacing", 1.0))
         self.n_rays = arch.hp["n_rays"]
         self.offsets = grid_offsets(self.size, self.spacing)
+        self.offsets.setflags(write=False)  # the onboard stack places its field by them
         self.metadata = {**metadata, "architecture": name, "hyperparameters": dict(arch.hp),
                          "size": self.size, "spacing": self.spacing, "n_rays": self.n_rays}
         self.prepared = arch.prepare(self.weights)

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from windnav._validate import positive_float
+from windnav._validate import ReadOnlyOnCopy, positive_float
 from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
 from windnav.sysid.io import Table
 
@@ -61,8 +61,8 @@ FRAME_DRAG_NAMES = ("c_Dx", "c_Dy", "c_Dz")
 
 
 def _float_array(value, name: str) -> np.ndarray:
-    try:
-        return np.asarray(value, dtype=np.float64)
+    try:  # a copy: AeroData is checked finite at construction, and keeps what it checked
+        return np.array(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise ValueError(f"The {name!r} parameter of AeroData must be an array of numbers. Got "
                          f"{type(value).__name__} instead.") from None
@@ -74,7 +74,7 @@ def aero_columns(n_rotors: int) -> tuple[str, ...]:
 
 
 @dataclass(frozen=True, eq=False)
-class AeroData:
+class AeroData(ReadOnlyOnCopy):
     """Samples of a hovering vehicle in a known airflow.
 
     Attributes
@@ -124,6 +124,7 @@ class AeroData:
             if not np.all(np.isfinite(a)):
                 raise ValueError(f"The {name!r} parameter of AeroData must be finite (drop the "
                                  "rows with NaN first). Got non-finite entries instead.")
+            a.setflags(write=False)  # a caller refilling its buffer got NaN past the check
             object.__setattr__(self, name, a)
 
     @property
@@ -150,7 +151,7 @@ class AeroData:
         return cls(t[ok], va[ok], f[ok], eta[ok], table.source, int(ok.size - ok.sum()))
 
     def to_columns(self) -> dict:
-        """``{column: (K,)}`` in the aero CSV layout."""
+        """``{column: (K,)}`` in the aero CSV layout (read-only views of the samples)."""
         cols = {"time_s": self.t}
         for j, a in enumerate("xyz"):
             cols[f"airspeed_{a}"] = self.airspeed_body[:, j]
