@@ -144,3 +144,43 @@ def test_a_json_summary_is_alone_on_standard_output(argv, tmp_path, capsys):
     printed = capsys.readouterr()
     assert isinstance(json.loads(printed.out), dict)
     assert "wrote " in printed.err
+
+
+def test_a_plot_that_fails_midway_closes_its_figure():
+    """A plotting function that raised after opening its figure (``plot_wind_track``'s default
+    settling time on a 1 s flight) left the figure open: about 1 MB a failed call."""
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from windnav.estimate import run_wind_ukf
+    from windnav.viz.ukf import plot_wind_track
+
+    p = wn.vehicle.params("hummingbird")
+    log = fly(p, make_trajectory("circle", size=2.0), ConstantWind((2.0, 0.0, 0.0)), 1.0, rng=0)
+    track = run_wind_ukf(log, p, conditions="windnav")
+    open_before = set(plt.get_fignums())
+    for _ in range(3):
+        with pytest.raises(ValueError):
+            plot_wind_track(track, "never-written.png")
+    assert set(plt.get_fignums()) == open_before
+
+
+def test_the_planners_sweep_cache_is_bounded(monkeypatch):
+    """``steady_flight`` kept every vehicle's sweep: a sweep over a vehicle's mass in one process
+    grew it by 3.5 kB a vehicle without end. It keeps the latest, and a sweep computed again
+    equals the one it replaces."""
+    import dataclasses
+
+    from windnav.plan import config
+
+    monkeypatch.setattr(config, "_SWEEPS", {})
+    monkeypatch.setattr(config, "_SWEEPS_KEPT", 2)
+    p = wn.vehicle.params("hummingbird")
+    vehicles = [dataclasses.replace(p, mass=p.mass * (1.0 + 0.01 * i)) for i in range(3)]
+    first = config.steady_flight(vehicles[0])
+    for v in vehicles[1:]:
+        config.steady_flight(v)
+    assert len(config._SWEEPS) == 2
+    again = config.steady_flight(vehicles[0])  # dropped, computed again
+    for key in ("speeds", "power", "drag_accel"):
+        np.testing.assert_array_equal(again[key], first[key])

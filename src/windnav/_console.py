@@ -53,3 +53,23 @@ def save_and_close(fig, path, **savefig_kwargs) -> None:
         fig.savefig(path, **savefig_kwargs)
     finally:
         plt.close(fig)
+
+
+def closes_figures_on_error(plot):
+    """Decorator: the pyplot figures that ``plot`` opened are closed when it raises (a failure
+    after ``plt.subplots``, such as a flight shorter than ``plot_wind_track``'s settling time,
+    left its figure open: about 1 MB a failed call, for the life of the process; leak audit,
+    thirty-seventh session). On success the function closes what it writes, as before."""
+    @functools.wraps(plot)
+    def closing(*args, **kwargs):
+        import matplotlib.pyplot as plt
+
+        before = set(plt.get_fignums())
+        try:
+            return plot(*args, **kwargs)
+        except BaseException:
+            for number in set(plt.get_fignums()) - before:
+                plt.close(number)
+            raise
+
+    return closing

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 from windnav.experiments import flow_validation as fv
 
 __all__ = ["CHECK_FIGURES", "STROUHAL_FIGURES", "plot_checks", "plot_mean_speed",
@@ -23,6 +23,7 @@ STROUHAL_FIGURES = ("flow_strouhal_resolution.png", "flow_strouhal_incidence.png
 """Files :func:`plot_strouhal` may write (those of the studies that ran)."""
 
 
+@closes_figures_on_error
 def plot_mean_speed(solution, city, path, title: str = "") -> Path:
     """Save a PNG of the mean wind speed with streamlines over the buildings.
 
@@ -72,6 +73,7 @@ def plot_mean_speed(solution, city, path, title: str = "") -> Path:
     return path
 
 
+@closes_figures_on_error
 def plot_checks(out, proj: dict, tg: dict) -> list[str]:
     """The figures of the solver checks (divergence and wall error per step, the random
     city's speed, Taylor-Green energy decay) into the folder ``out``; returns the file names."""
@@ -115,6 +117,7 @@ def plot_checks(out, proj: dict, tg: dict) -> list[str]:
 
 
 
+@closes_figures_on_error
 def plot_strouhal(out, res: dict) -> list[str]:
     """The Strouhal figures of whichever studies ran into the folder ``out``; returns the file
     names."""

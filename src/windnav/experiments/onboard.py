@@ -273,6 +273,8 @@ def _calibrated(params, cond):
     if key not in _BELIEVED:
         _, believed = calibrate(params, rng=CALIBRATION_SEED, sensors=cond.sensor_suite(100.0),
                                 parasitic=cond.parasitic_drag)
+        while len(_BELIEVED) >= 64:  # the oldest first: bounded in a sweep over vehicles
+            del _BELIEVED[next(iter(_BELIEVED))]
         _BELIEVED[key] = believed
     return _BELIEVED[key]
 

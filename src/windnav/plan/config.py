@@ -387,6 +387,9 @@ def _params_key(params: MultirotorParams) -> tuple:
 
 
 _SWEEPS: dict = {}
+_SWEEPS_KEPT = 64
+"""Vehicles whose sweep is kept (the oldest dropped first; a sweep of a vehicle's mass in one
+process grew the cache by 3.5 kB a vehicle without end; leak audit, thirty-seventh session)."""
 
 
 def steady_flight(params: MultirotorParams) -> dict:
@@ -410,6 +413,8 @@ def steady_flight(params: MultirotorParams) -> dict:
         valid = np.asarray(sweep.get("valid", np.ones(SWEEP_SPEEDS.size, bool)), bool)
         valid &= np.isfinite(sweep["power"]) & (np.asarray(sweep["saturated"]) == 0)
         tilt = np.radians(np.asarray(sweep["pitch_deg"]))
+        while len(_SWEEPS) >= _SWEEPS_KEPT:
+            del _SWEEPS[next(iter(_SWEEPS))]
         _SWEEPS[key] = {
             "speeds": SWEEP_SPEEDS[valid],
             "power": np.asarray(sweep["power"])[valid],

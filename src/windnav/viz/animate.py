@@ -24,6 +24,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
+from windnav._console import closes_figures_on_error
 from windnav.viz.nav_compare import COLORS, OUTLINE, wind_background
 
 __all__ = ["SPEED_LEVELS", "animate_flights", "frame_times"]
@@ -46,6 +47,7 @@ def _speed_frames(flow, times: np.ndarray) -> np.ndarray:
     return np.hypot(flow.frames_u[k], flow.frames_v[k])
 
 
+@closes_figures_on_error
 def animate_flights(results: dict, city, flow, path, *, n_frames: int = 80, fps: float = 10.0,
                     unsteady: bool = True, dpi: float = 72.0, title: str = "") -> Path:
     """Write a GIF of the flights over the wind.

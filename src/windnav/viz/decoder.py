@@ -17,7 +17,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import ListedColormap
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 from windnav.viz.nav_compare import colour_extend
 
 __all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
@@ -31,6 +31,7 @@ _METRICS = (("speed_error", "speed error (m/s)"),
             ("vector_error", "vector error (m/s)"))
 
 
+@closes_figures_on_error
 def plot_evaluation(result: dict, path) -> Path:
     """Bars of the pooled errors per model and map group; scatter of the per-slot errors.
 
@@ -110,6 +111,7 @@ def _panel(ax, offsets, centre, field, free, colour, cmap, label, vmin, vmax, ar
     ax.set_ylabel("y north (m)")
 
 
+@closes_figures_on_error
 def plot_prediction(pred: dict, path, *, title: str = "") -> Path:
     """Truth, prediction, speed error and direction error around one robot (one figure).
 
@@ -179,6 +181,7 @@ def _save(fig, path, dpi: int = 110, palette: bool = False) -> Path:
 # ------------------------------------------------------------------------------- studies
 
 
+@closes_figures_on_error
 def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
     """Cumulative explained variance of the eigenflows (both frames) and the first modes.
 
@@ -245,6 +248,7 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
     return _save(fig, path, dpi=80, palette=True)
 
 
+@closes_figures_on_error
 def plot_gradients(result: dict, path) -> Path:
     """Predicted against true wind gradients at the robot, one panel per component.
 
@@ -281,6 +285,7 @@ def _bin_labels(edges, unit: str) -> list[str]:
             for a, b in zip(edges[:-1], edges[1:], strict=True)]
 
 
+@closes_figures_on_error
 def plot_direction(result: dict, path) -> Path:
     """Mean direction error per bin of the true speed over the inlet's and of the distance
     from the robot, for the decoder and both baselines, with each bin's share of the cells
@@ -323,6 +328,7 @@ def plot_direction(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
     """The basis oracle beside the decoder and the baselines (speed and direction errors),
     and the decoder's ``R^2`` on each of the labels' eigenflows within its modes' span.
@@ -424,6 +430,7 @@ def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_mosaic(result: dict, path) -> Path:
     """Truth, mosaic prediction, speed error and direction error over a whole map.
 
@@ -490,6 +497,7 @@ def _variant_bars(ax, names, result, metric, label):
     ax.set_ylabel(label)
 
 
+@closes_figures_on_error
 def plot_winds_ablation(result: dict, path) -> Path:
     """Test errors of the models given no wind, W_up, W_robot or both, with the baselines.
 
@@ -522,6 +530,7 @@ def _settings(values) -> str:
                      for k, v in values.items())
 
 
+@closes_figures_on_error
 def plot_size_study(result: dict, path) -> Path:
     """Test errors of the models trained at each H against ``A_pred / A_total``.
 
@@ -554,6 +563,7 @@ def plot_size_study(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_noise(result: dict, path) -> Path:
     """Each model's errors against the noise on ``W_robot`` (fraction of the inlet speed).
 
@@ -605,6 +615,7 @@ def plot_noise(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_scaling(result: dict, path) -> Path:
     """Test and training errors of the models trained on fractions of the sweep's maps (and of
     the wider model), against the number of training maps; and each model's validation speed
@@ -673,6 +684,7 @@ def _label_study_figure(groups, image, *, vmax: float, colorbar_label: str, titl
     return fig, axes
 
 
+@closes_figures_on_error
 def plot_averaging(result: dict, path) -> Path:
     """The decoder and its baselines scored against a short and a long average, and the map of
     the difference between the two means.
@@ -701,6 +713,7 @@ def plot_averaging(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_start(result: dict, path) -> Path:
     """The decoder and its baselines against labels that differ only by the solver's start, the
     floor that spread sets (half the largest pairwise disagreement), and the map of the spread.

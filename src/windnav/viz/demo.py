@@ -8,9 +8,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Rectangle
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 
 
+@closes_figures_on_error
 def plot_map(result: dict, path) -> Path:
     """Mean wind speed with streamlines, buildings, planned route and flown path."""
     sol, city, log, route = result["solution"], result["city"], result["log"], result["route"]
@@ -43,6 +44,7 @@ def plot_map(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_wind_estimate(result: dict, path) -> Path:
     """Estimated (with 2-sigma band) and true wind per world axis over time."""
     track = result["track"]

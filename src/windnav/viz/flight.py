@@ -7,9 +7,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 
 
+@closes_figures_on_error
 def plot_flight(log, out_dir, *, vehicle: int = 0, prefix: str = "flight") -> list[Path]:
     """Write PNG figures of one vehicle of ``log`` into ``out_dir``; returns their paths."""
     out = Path(out_dir)

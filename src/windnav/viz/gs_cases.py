@@ -15,7 +15,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 from windnav.viz.nav_compare import COLORS_ON_WHITE, draw_paths, plot_energy
 
 __all__ = ["plot_gs_case", "plot_gs_case_energy"]
@@ -26,6 +26,7 @@ def _title(case: Mapping) -> str:
             f"seed {case.get('seed', '?')}")
 
 
+@closes_figures_on_error
 def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
     """One case in one PNG: paths over the mean wind, and energy and time per variant.
 
@@ -88,6 +89,7 @@ def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
     return path
 
 
+@closes_figures_on_error
 def plot_gs_case_energy(case: Mapping, path, *, title: str | None = None) -> Path:
     """Airspeed, power and cumulative energy against time of every flight of ``case``
     (:func:`~windnav.viz.nav_compare.plot_energy`); returns the PNG's path."""

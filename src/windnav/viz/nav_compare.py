@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 
 __all__ = ["COLORS", "COLORS_ON_WHITE", "colour_extend", "draw_paths", "path_widths",
            "plot_energy", "plot_paths", "wind_background", "wind_colorbar"]
@@ -123,6 +123,7 @@ def _endpoints(ax, result) -> None:
     ax.plot(*result.goal, "*", color="w", mec="k", ms=14, zorder=6, label="goal")
 
 
+@closes_figures_on_error
 def plot_paths(results: dict, city, flow, path, *, title: str | None = None) -> Path:
     """Every flight's path over the mean wind speed, its streamlines and the buildings.
 
@@ -180,6 +181,7 @@ def draw_paths(fig, ax, results: dict, city, flow, *, detail: bool = True,
               fontsize=8, framealpha=0.75)
 
 
+@closes_figures_on_error
 def plot_energy(results: dict, path, *, title: str | None = None) -> Path:
     """Airspeed, power (airspeed power curve) and cumulative energy against time.
 

@@ -27,7 +27,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.lines import Line2D
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background, wind_colorbar
 
 __all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
@@ -64,6 +64,7 @@ def _check_tags(cases: Mapping, tags: Mapping | None) -> dict:
     return dict(tags)
 
 
+@closes_figures_on_error
 def plot_cases(cases: Mapping, out_dir, *, tags: Mapping[str, str] | None = None,
                labels: Mapping[str, str] | None = None) -> list[Path]:
     """Write ``{tag}_paths.png`` and ``{tag}_energy.png`` for each case.
@@ -118,6 +119,7 @@ def plot_cases(cases: Mapping, out_dir, *, tags: Mapping[str, str] | None = None
     return written
 
 
+@closes_figures_on_error
 def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> Path:
     """The wind-scenario figure: one panel per inlet on one map, with the suite's pairs.
 
@@ -185,6 +187,7 @@ def _finish(fig, handles, title: str, path, *, bottom: float, ncol: int | None =
     return path
 
 
+@closes_figures_on_error
 def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path:
     """The reachability figure: least time to the goal per scenario, and failures.
 
@@ -306,6 +309,7 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     return path
 
 
+@closes_figures_on_error
 def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path:
     """One scenario's mean wind (left) and gust map (right), with each flight's path.
 
@@ -375,6 +379,7 @@ _INFLIGHT_MODELS = {"decoder_ukf": ("decoder, W_robot from the UKF (flown)", "ta
                     "upstream": ("Upstream", "tab:green", "-", "D")}
 
 
+@closes_figures_on_error
 def plot_inflight(result: Mapping, path, *, title: str | None = None,
                   labels: Mapping[str, str] | None = None) -> Path:
     """The decoder in flight (:func:`~windnav.experiments.nav_inflight.inflight_study`): per
@@ -455,6 +460,7 @@ def _decoder_label(name: str, files: Mapping, labels: Mapping) -> str:
     return f"{name} ({stem.removeprefix('decoder_')})"
 
 
+@closes_figures_on_error
 def plot_inflight_tau(result: Mapping, path, *, title: str | None = None) -> Path:
     """The in-flight study's averaged ``W_robot`` (its ``taus``): against the averaging time
     constant (0: the UKF's estimate itself), one line per inlet speed, the RMS distance of the

@@ -14,6 +14,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.collections import PathCollection
 
+from windnav._console import closes_figures_on_error
 from windnav.experiments.thesis_nav import PAIRED_SAVING
 from windnav.viz.navigate import _save
 
@@ -28,6 +29,7 @@ def _positions(values):
     return np.array([v if math.isfinite(v) else top + 1.5 * step for v in values])
 
 
+@closes_figures_on_error
 def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path:
     """Paired energy reduction (%) and failure rate (%) against the swept value.
 
@@ -87,6 +89,7 @@ _PACE_NAMES = {"vehicle": "the Hummingbird's curve", "crazyflie": "the thesis's 
                "mission": "the mission's energy as J_E"}
 
 
+@closes_figures_on_error
 def plot_pace(result: dict, path) -> Path:
     """Per pair, the mean-power ratio against the time ratio of a variant to MPPI
     (:func:`windnav.experiments.nav_pace.pace_study`), each curve's means and power floor, the
@@ -140,6 +143,7 @@ def plot_pace(result: dict, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_bound(result: dict, path) -> Path:
     """The largest table ratio any planner could reach at each failure rate, from the GS+W
     bound (:func:`windnav.experiments.nav_bound.bound_study`), with the issue's targets and
@@ -197,6 +201,7 @@ _TILT_STYLE = {"mppi": ("#7f7f7f", "o"), "mppi-w": ("#1f77b4", "s"),
                "ea-mppi": ("#ff7f0e", "^"), "ea-mppi-w": ("#d62728", "D")}
 
 
+@closes_figures_on_error
 def plot_tilt(result: dict, path) -> Path:
     """The thesis's four variants against the tilt cap
     (:func:`windnav.experiments.nav_tilt.tilt_study`): failure rate, paired energy reduction

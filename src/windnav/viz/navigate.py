@@ -8,11 +8,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Rectangle
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 
 __all__ = ["plot_navigation", "plot_path", "plot_time_series"]
 
 
+@closes_figures_on_error
 def plot_path(result, city, flow, path) -> Path:
     """The flown path (and the GS route) over the mean wind speed and its streamlines."""
     fig, ax = plt.subplots(figsize=(7, 6))
@@ -43,6 +44,7 @@ def plot_path(result, city, flow, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_time_series(result, path) -> Path:
     """Airspeed (and ground speed, wind speed), power and energy against time."""
     t = result.t
@@ -65,6 +67,7 @@ def plot_time_series(result, path) -> Path:
     return _save(fig, path)
 
 
+@closes_figures_on_error
 def plot_navigation(result, city, flow, out_dir, *, prefix: str = "navigate") -> list[Path]:
     """Write ``{prefix}_path.png`` and ``{prefix}_series.png`` into ``out_dir``."""
     out = Path(out_dir)

@@ -9,11 +9,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 
 __all__ = ["plot_tuning"]
 
 
+@closes_figures_on_error
 def plot_tuning(result: dict, path) -> Path:
     """Cost per trial (s), the running best, and the thesis defaults' cost.
 

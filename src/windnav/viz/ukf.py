@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import matplotlib.ticker as mticker
 import numpy as np
 
-from windnav._console import save_and_close
+from windnav._console import closes_figures_on_error, save_and_close
 
 __all__ = ["plot_montecarlo", "plot_wind_track"]
 
@@ -20,6 +20,7 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+@closes_figures_on_error
 def plot_wind_track(track, path, *, settle_s: float = 2.0) -> Path:
     """Estimated (with a 2-sigma band) and true wind per world axis against time.
 
@@ -61,6 +62,7 @@ def plot_wind_track(track, path, *, settle_s: float = 2.0) -> Path:
     return _save(fig, Path(path))
 
 
+@closes_figures_on_error
 def plot_montecarlo(result: dict, path) -> Path:
     """RMSE of each trial against the mass-to-drag ratio ``tau_drag`` (log axis).
 
