@@ -163,6 +163,7 @@ class PWMMotorModel:
         return np.clip(self.DZ + u**1.5, self.DZ, self.pwm_max)
 
     def to_dict(self) -> dict:
+        """``{"Kv", "V0", "DZ", "pwm_max"}`` for JSON (the attributes' units)."""
         return {"Kv": self.Kv, "V0": self.V0, "DZ": self.DZ, "pwm_max": self.pwm_max}
 
 

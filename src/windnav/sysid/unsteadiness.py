@@ -91,6 +91,7 @@ class FlightSamples:
 
     @staticmethod
     def concatenate(parts) -> FlightSamples:
+        """The samples of ``parts`` (FlightSamples), one after another."""
         parts = list(parts)
         return FlightSamples(*(np.concatenate([getattr(p, f) for p in parts]) for f in
                                ("xy", "wind_xy", "force_cmd_xy", "body_rates")))
