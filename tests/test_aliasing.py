@@ -250,8 +250,8 @@ def test_frame_buffers_hand_a_block_to_one_thread_only(monkeypatch):
     from windnav.flow import FrameBuffers
 
     pool = FrameBuffers()
-    for _ in range(4):
-        pool.take((4, 4))  # four free blocks, their arrays gone
+    held = [pool.take((4, 4)) for _ in range(4)]
+    del held  # four free blocks, their arrays gone
     slow_check = FrameBuffers._is_free
 
     def is_free(entry):  # widen the window between the check and the hand-out

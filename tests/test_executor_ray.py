@@ -38,7 +38,7 @@ def local_ray():
     # Ray's session files (about 220 kB a start) in a folder removed afterwards: by default
     # they stayed in /tmp/ray for good (isolation audit, thirty-seventh session); a short path,
     # as Ray's socket names must fit 107 characters
-    temp = tempfile.mkdtemp(prefix="wn-ray-")
+    temp = tempfile.mkdtemp(prefix="wn-ray-", dir="/tmp" if os.path.isdir("/tmp") else None)
     ray.init(num_cpus=2, include_dashboard=False, _temp_dir=temp,
              runtime_env={"env_vars": {"PYTHONPATH": path}})
     try:

@@ -75,31 +75,57 @@ def _named(exc: Exception) -> bool:
     return type(exc).__module__.split(".")[0] == "windnav"
 
 
-def _stdout_closed() -> bool:
-    """Whether standard output is a pipe whose reader has gone (``| head``); if so, it is
-    pointed at the null device, so that Python's flush at exit does not raise again. A closed
-    pipe was reported as ``error: [Errno 32] Broken pipe`` after every file was written
-    (side-effects audit, thirty-seventh session)."""
-    import select
+class _ClosedPipeSafe:
+    """Standard output that a reader leaving the pipe (``windnav ... | head -1``) cannot stop:
+    from the first ``BrokenPipeError`` on, what is printed goes to the null device and the
+    command goes on to write its files. It was an ``error: [Errno 32] Broken pipe`` after
+    every file had been written, or, if the break came first, a command stopped before its
+    files (side-effects audit and review, thirty-seventh session)."""
 
-    try:
-        fd = sys.stdout.fileno()
-        poller = select.poll()
-        poller.register(fd, select.POLLOUT)
-        if not any(events & select.POLLERR for _, events in poller.poll(0)):
-            return False
-        os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
-    except (AttributeError, OSError, ValueError):  # no such descriptor, no poll (Windows)
-        return False
-    return True
+    def __init__(self, stream):
+        self._stream = stream
+
+    def _closed(self) -> None:
+        try:  # the buffered rest, and Python's flush at exit, go nowhere
+            os.dup2(os.open(os.devnull, os.O_WRONLY), self._stream.fileno())
+        except (AttributeError, OSError, ValueError):
+            pass
+
+    def write(self, text):
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._closed()
+            return len(text)
+
+    def flush(self) -> None:
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._closed()
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _command_parser(parser: argparse.ArgumentParser, args) -> argparse.ArgumentParser:
+    """The parser of the command ``args`` ran, down to a subcommand's (``windnav sysid
+    similitude``)."""
+    command = parser.commands[args.command]
+    while True:
+        subs = [a for a in command._actions if isinstance(a, argparse._SubParsersAction)]
+        name = getattr(args, subs[0].dest, None) if subs else None
+        if name not in (subs[0].choices if subs else {}):
+            return command
+        command = subs[0].choices[name]
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
     parser = build_parser()
     args, extra = parser.parse_known_args(argv)
-    if extra:  # parse_args's error, with the command's usage rather than windnav's
-        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
+    if extra:  # parse_args's error, with the (sub)command's usage rather than windnav's
+        _command_parser(parser, args).error(f"unrecognized arguments: {' '.join(extra)}")
     args.argv = list(sys.argv[1:] if argv is None else argv)  # for a command that restarts
     where = f"windnav {args.command}"
     if argv is None:  # the command line itself: warnings as one line, not a source location
@@ -107,11 +133,16 @@ def main(argv: list[str] | None = None) -> int:
         # modules no longer switch it at import, which a notebook's import of them did): set
         # before matplotlib is imported, and inherited by the worker processes
         os.environ["MPLBACKEND"] = "Agg"
-        with warnings.catch_warnings():
-            from windnav._console import one_line_warning
+        stdout, sys.stdout = sys.stdout, _ClosedPipeSafe(sys.stdout)
+        try:
+            with warnings.catch_warnings():
+                from windnav._console import one_line_warning
 
-            warnings.showwarning = one_line_warning(where)
-            return _run(args, where)
+                warnings.showwarning = one_line_warning(where)
+                return _run(args, where)
+        finally:
+            sys.stdout.flush()
+            sys.stdout = stdout
     return _run(args, where)
 
 
@@ -136,8 +167,6 @@ def _run(args, where: str) -> int:
         print(f"{where}: error: {exc}{hint}", file=sys.stderr)
         return EXIT_ERROR
     except OSError as exc:
-        if isinstance(exc, BrokenPipeError) and _stdout_closed():
-            return EXIT_FAILED  # `windnav ... | head`: the reader has what it wanted
         print(f"{where}: error: {exc}", file=sys.stderr)
         return EXIT_FAILED
     except Exception as exc:

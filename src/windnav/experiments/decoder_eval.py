@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import sys
 import time
 import warnings
 from pathlib import Path
@@ -484,7 +485,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
             print(f"{name} inlet {j}: {speed:.2f} m/s {direction:.0f} deg; decoder speed "
                   f"{d['speed_error']:.3f} m/s dir {d['direction_error_deg']:.1f} deg (Local "
                   f"{lo['speed_error']:.3f}, {lo['direction_error_deg']:.1f}{others}); flow "
-                  f"{t_flow:.0f} s, total {seconds:.0f} s", flush=True)
+                  f"{t_flow:.0f} s, total {seconds:.0f} s", file=sys.stderr, flush=True)
 
     pooled = {}
     for group in ("dense", "windinet", "all"):

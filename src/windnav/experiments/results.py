@@ -384,23 +384,28 @@ def check_output_path(path, flag: str, where: str, *, kind: str = "file") -> Pat
     OutputPathError
         When the path is empty or ``-``, an ancestor is a file, the nearest existing folder is
         not writable, the path is a folder where a file is expected (or the reverse), or a file
-        path names something other than a regular file (a device, a pipe: results are written
-        to a temporary file and moved into place, which would replace it).
+        path names something other than a regular file (a device, a pipe, a socket, a path
+        under ``/dev`` or ``/proc``: results are written to a temporary file and moved into
+        place, which would replace it).
     """
     if path is None or str(path) == "" or (kind == "file" and str(path) == "-"):
-        hint = (" (standard output: each command prints its summary there)"
-                if str(path) == "-" else "")
+        hint = " (not standard output: name a file)" if str(path) == "-" else ""
         raise OutputPathError(f"The {flag!r} parameter of {where} must be a path{hint}. "
                               f"Got {path!r} instead.")
     p = Path(path)
     rule = "a file path" if kind == "file" else "a folder path"
-    if kind == "file" and p.is_symlink():
-        p = Path(os.path.realpath(p))
-    if kind == "file" and p.exists() and not (p.is_file() or p.is_dir()):
-        raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule} to a regular "
-                              f"file. Got {str(path)!r} instead, which is a device, pipe or "
-                              "socket (results are moved into place, which would replace it; "
-                              "each command prints its summary on standard output).")
+    if kind == "file":
+        real = os.path.realpath(p)
+        # a device, pipe or socket (through links too: /dev/stdout to a pipe), or a process's
+        # descriptor (/dev/stdout redirected to a file, whose contents --overwrite replaced)
+        if (p.exists() and not (p.is_file() or p.is_dir())) or any(
+                s.startswith(("/dev/", "/proc/")) for s in (str(p.absolute()), real)):
+            raise OutputPathError(
+                f"The {flag!r} parameter of {where} must be {rule} to a regular file. Got "
+                f"{str(path)!r} instead, a device, pipe, socket or descriptor (results are "
+                "written to a temporary file and moved into place, which would replace it).")
+        if p.is_symlink():
+            p = Path(real)
     if p.exists():
         if kind == "file" and p.is_dir():
             raise OutputPathError(f"The {flag!r} parameter of {where} must be {rule}, not a "
