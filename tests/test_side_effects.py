@@ -78,6 +78,16 @@ def test_json_to_a_symbolic_link_replaces_its_target_and_keeps_the_link(tmp_path
         assert "'--json'" in err and ("regular file" in err or "standard output" in err), err
     assert fifo.exists() and not fifo.is_file() and device.is_symlink()
     assert not (tmp_path / "-").exists()
+    if os.access("/dev/shm", os.W_OK):  # regular files under /dev are files
+        import tempfile
+
+        shm = tempfile.mkdtemp(dir="/dev/shm")
+        try:
+            assert main(base + [f"{shm}/s.json"]) == 0
+        finally:
+            import shutil
+
+            shutil.rmtree(shm)
 
 
 def test_fly_and_demo_can_hide_their_progress_bars(tmp_path, capsys):

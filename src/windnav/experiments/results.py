@@ -373,6 +373,9 @@ def _nearest_existing(path: Path) -> Path:
     return p
 
 
+_DESCRIPTORS = ("/dev/stdin", "/dev/stdout", "/dev/stderr")
+
+
 def check_output_path(path, flag: str, where: str, *, kind: str = "file") -> Path:
     """Check that ``path`` can be written as a ``kind`` (``"file"`` or ``"dir"``).
 
@@ -384,9 +387,9 @@ def check_output_path(path, flag: str, where: str, *, kind: str = "file") -> Pat
     OutputPathError
         When the path is empty or ``-``, an ancestor is a file, the nearest existing folder is
         not writable, the path is a folder where a file is expected (or the reverse), or a file
-        path names something other than a regular file (a device, a pipe, a socket, a path
-        under ``/dev`` or ``/proc``: results are written to a temporary file and moved into
-        place, which would replace it).
+        path names something other than a regular file (a device, a pipe, a socket, a process's
+        descriptor such as ``/dev/stdout``: results are written to a temporary file and moved
+        into place, which would replace it).
     """
     if path is None or str(path) == "" or (kind == "file" and str(path) == "-"):
         hint = " (not standard output: name a file)" if str(path) == "-" else ""
@@ -397,9 +400,11 @@ def check_output_path(path, flag: str, where: str, *, kind: str = "file") -> Pat
     if kind == "file":
         real = os.path.realpath(p)
         # a device, pipe or socket (through links too: /dev/stdout to a pipe), or a process's
-        # descriptor (/dev/stdout redirected to a file, whose contents --overwrite replaced)
-        if (p.exists() and not (p.is_file() or p.is_dir())) or any(
-                s.startswith(("/dev/", "/proc/")) for s in (str(p.absolute()), real)):
+        # descriptor (/dev/stdout redirected to a file, whose contents --overwrite replaced);
+        # /dev/shm holds regular files
+        given = str(p.absolute())
+        if (p.exists() and not (p.is_file() or p.is_dir())) or given in _DESCRIPTORS or any(
+                s.startswith(("/dev/fd/", "/proc/")) for s in (given, real)):
             raise OutputPathError(
                 f"The {flag!r} parameter of {where} must be {rule} to a regular file. Got "
                 f"{str(path)!r} instead, a device, pipe, socket or descriptor (results are "
