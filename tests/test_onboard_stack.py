@@ -504,3 +504,11 @@ def test_the_navigate_command_notes_a_biased_onboard_filter(capsys):
             "+0.95 m/s too strong") in err
     warn_envelope({**summary, "ukf_drag_model_bias_mps": 0.05})
     assert "drag model" not in capsys.readouterr().err
+
+
+def test_a_horizon_beyond_the_decoders_window_is_refused(city, flow):
+    """``navigate(variant="ea-mppi-w-hat", horizon=30)`` flew with 25 m, silently (CLI audit,
+    thirty-seventh session); the default (inf) is the window."""
+    with pytest.raises(ValueError, match=r"'horizon' parameter .* window 25 m"):
+        fly(city, flow, horizon=30.0, duration=1.0)
+    assert fly(city, flow, duration=1.0).settings["horizon"] == 25.0

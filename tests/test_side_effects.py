@@ -203,3 +203,19 @@ def test_the_planners_sweep_cache_is_bounded(monkeypatch):
     again = config.steady_flight(vehicles[0])  # dropped, computed again
     for key in ("speeds", "power", "drag_accel"):
         np.testing.assert_array_equal(again[key], first[key])
+
+
+@pytest.mark.parametrize("argv", [
+    ["fly", "--duration", "1e308", "--no-plots", "--out", "{tmp}/f"],
+    ["calibrate", "--duration", "1e308", "--out", "{tmp}/c"],
+    ["sysid", "simulate-stand", "--step-s", "1e308", "--out", "{tmp}/s"],
+])
+def test_a_value_too_large_to_compute_with_is_a_named_error(argv, tmp_path, capsys):
+    """``--duration 1e308`` and its kind ended in an OverflowError's traceback (CLI audit,
+    thirty-seventh session): now one line and status 2."""
+    from windnav.cli import main
+
+    assert main([a.replace("{tmp}", str(tmp_path)) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert "too large" in err and "Traceback" not in err
+    assert len([line for line in err.splitlines() if "error" in line]) == 1

@@ -5,8 +5,9 @@ Each subcommand lives in its own module under ``windnav.commands`` exposing
 command never disappears from ``--help``; a command's optional dependencies (Ray) are imported
 only when it runs, and a missing one is reported then, with an install hint.
 
-Errors: a named error (a ``ValueError``, an ``OSError`` on a path, an exception class defined
-by windnav, a missing optional dependency) is printed as one line and the exit status is
+Errors: a named error (a ``ValueError``, an ``OSError`` on a path, an ``OverflowError`` from a
+value too large to compute with, an exception class defined by windnav, a missing optional
+dependency) is printed as one line and the exit status is
 nonzero; Ctrl-C exits with 130 and one line. Any other exception is a bug and keeps its
 traceback.
 """
@@ -169,6 +170,10 @@ def _run(args, where: str) -> int:
     except OSError as exc:
         print(f"{where}: error: {exc}", file=sys.stderr)
         return EXIT_FAILED
+    except OverflowError as exc:  # `--duration 1e308`: a traceback from round(x / dt) (audit)
+        print(f"{where}: error: a value given is too large to compute with ({exc}); check the "
+              "options' magnitudes", file=sys.stderr)
+        return EXIT_ERROR
     except Exception as exc:
         if not _named(exc):
             raise

@@ -878,6 +878,11 @@ def navigate(
             raise ValueError(f"The 'config' parameter of {_WHERE} must have a horizon of at "
                              f"most the decoder's window {window:g} m for {variant!r}. Got "
                              f"{config.horizon!r} instead.")
+        if isinstance(horizon, (int, float)) and math.isfinite(horizon) and \
+                horizon > window + 1e-9:  # was cut to the window silently (CLI audit)
+            raise ValueError(f"The 'horizon' parameter of {_WHERE} must be at most the "
+                             f"decoder's window {window:g} m for {variant!r} (or inf: the "
+                             f"window). Got {horizon!r} instead.")
         if isinstance(horizon, (int, float)) and horizon > 0:  # else planner_config names it
             horizon = min(horizon, window)
     if outside not in ("zero", "truth") or (outside == "truth" and not (
