@@ -78,7 +78,8 @@ TRAINING_STUDIES = ("winds", "size", "scaling")
 """The studies that train models (they need the ``train`` extra's torch)."""
 
 STUDY_OPTIONS = {"epochs": ("winds", "size"), "samples_per_field": ("winds", "size"),
-                 "sizes": ("size",), "compare": ("noise",)}
+                 "sizes": ("size",), "compare": ("noise",), "runs": ("winds", "size", "scaling"),
+                 "speed": ("averaging", "start"), "direction_deg": ("averaging", "start")}
 """The studies that read each of these options; given to another, it is refused."""
 
 STUDIES = ("eigenflows", "gradients", "mosaic", "winds", "size", "averaging", "start",
@@ -94,6 +95,8 @@ WINDINET_STUDIES = ("averaging", "start", *WINDINET_FLOW_STUDIES)
 """The studies that read ``--windinet`` (refused with the others, and with ``--quick``)."""
 MAPS, INLETS = 1, 2
 """The defaults of ``--maps`` and ``--inlets``."""
+SPEED, DIRECTION_DEG = 6.0, 3.75
+"""The defaults of ``--speed`` (m/s) and ``--direction-deg`` (deg): averaging and start."""
 QUICK_FLOW = {"spinup_steps": 20, "steps": 20}
 """The ``--quick`` flow protocol (steps), on 2 m cells."""
 
@@ -144,11 +147,11 @@ def register(subparsers) -> None:
     p.add_argument("--sizes", type=int, nargs="+", default=None, metavar="H",
                    help="size: the grid sizes H, cells per side of the H x H window, odd "
                         "(default 5 15 25 35 45; quick 5 15 25)")
-    p.add_argument("--speed", type=float, default=6.0,
-                   help="averaging, start: inlet speed, m/s (%(default)s)")
-    p.add_argument("--direction-deg", type=float, default=3.75,
+    p.add_argument("--speed", type=float, default=None,
+                   help=f"averaging, start: inlet speed, m/s ({SPEED:g})")
+    p.add_argument("--direction-deg", type=float, default=None,
                    help="averaging, start: direction the inlet wind blows toward, deg CCW "
-                        "from +x (%(default)s)")
+                        f"from +x ({DIRECTION_DEG:g})")
     p.add_argument("--windinet", action="store_true",
                    help="averaging, start: the third-party windinet 1.1 km layout instead of the "
                         "default recipe's held-out district; direction, basis: instead of the "
@@ -171,6 +174,13 @@ def _windinet_map():
     from windnav.experiments.decoder_eval import windinet_layout
 
     return read_rotorpy_json(windinet_layout())
+
+
+def _inlet(args) -> tuple[float, float]:
+    """``(--speed, --direction-deg)`` of the averaging and start studies, defaults filled in
+    (the options default to None, so that another study can refuse them)."""
+    return (SPEED if args.speed is None else args.speed,
+            DIRECTION_DEG if args.direction_deg is None else args.direction_deg)
 
 
 def _fields(args, name, simulate, progress):
@@ -349,8 +359,8 @@ def run(args, simulate=None) -> int:
         city, map_name, kw = _averaging_map(args)
         with options_named({"'speed' parameter of averaging_study": f"'--speed' parameter of "
                                                                      f"{name}"}):
-            res = ds.averaging_study(dec, city, speed=args.speed,
-                                     direction_deg=args.direction_deg, samples=samples,
+            res = ds.averaging_study(dec, city, speed=_inlet(args)[0],
+                                     direction_deg=_inlet(args)[1], samples=samples,
                                      seed=args.seed, simulate=simulate, name=map_name, **kw)
         plot = figures.plot_averaging
     elif study == "start":
@@ -359,7 +369,7 @@ def run(args, simulate=None) -> int:
         protocols = kw.pop("protocols", None)
         if protocols is not None:  # --quick: the short protocol
             kw["spinup_steps"], kw["steps"] = protocols["thesis"]
-        res = ds.start_study(dec, city, speed=args.speed, direction_deg=args.direction_deg,
+        res = ds.start_study(dec, city, speed=_inlet(args)[0], direction_deg=_inlet(args)[1],
                              samples=samples, seed=args.seed, simulate=simulate,
                              name=map_name, **kw)
         plot = figures.plot_start
