@@ -105,8 +105,8 @@ def register(subparsers) -> None:
                         "resumed); "
                         "cases, pace, bound: the store whose records are read (no default: "
                         "these studies need it)")
-    p.add_argument("--suite", choices=tuple(SUITES), default="thesis",
-                   help="the suite (%(default)s)")
+    p.add_argument("--suite", choices=tuple(SUITES), default=None,
+                   help="the suite (default: the --store's own, with its seed; else thesis)")
     p.add_argument("--maps", default=None, metavar="LIST",
                    help="the suite's maps to fly, e.g. 0-1 (default: all)")
     p.add_argument("--values", type=float, nargs="+", default=None,
@@ -151,8 +151,8 @@ def register(subparsers) -> None:
                         "ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40)")
     p.add_argument("--gust-k", type=float, default=None,
                    help="gusts: the gust margin, standard deviations (default 0.5)")
-    p.add_argument("--executor", choices=BACKENDS, default="process",
-                   help="where the flights run (%(default)s)")
+    p.add_argument("--executor", choices=BACKENDS, default=None,
+                   help="qe, h, tilt, inflight, feasibility: where the flights run (process)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (default: all cores); each holds one 600 m wind, "
                         "2.3 GB")
@@ -167,6 +167,8 @@ STUDY_OPTIONS = {
     "values": ("qe", "h", "tilt"),
     "variant": ("cases", "pace", "inflight"),
     "workers": ("qe", "h", "tilt", "inflight", "feasibility"),
+    "executor": ("qe", "h", "tilt", "inflight", "feasibility"),
+    "suite": tuple(s for s in STUDIES if s != "gs"),
     "pairs": ("inflight",), "every": ("inflight",), "compare": ("inflight",),
     "tau": ("inflight",),
     "map": ("winds",),
@@ -177,7 +179,7 @@ STUDY_OPTIONS = {
 """The studies that read each option; given to another, it is refused."""
 
 LATE_DEFAULTS = {"pairs": "0,2", "every": 0.5, "map": 0, "seed": 0,
-                 "cache": Path("runs/reach"), "gust_k": 0.5}
+                 "cache": Path("runs/reach"), "gust_k": 0.5, "executor": "process"}
 """Defaults set once the options are checked (None until then, so that a given one shows)."""
 
 
@@ -213,18 +215,34 @@ def _write(out, args, payload: dict, json_name: str, draw) -> None:
             write_json(doc, stage.file("--json"))
 
 
+def study_suite(args):
+    """The suite of a study: ``--suite``, else the ``--store``'s own (its manifest's), else the
+    thesis suite; with the store's seed when it is the store's suite, else 0. The suite was
+    always the thesis suite with seed 0, so a store flown with ``benchmark-nav --seed 5`` (or
+    another suite) could not be studied: nav-study's ``--seed`` is the gs study's (CLI audit,
+    thirty-seventh session)."""
+    from windnav.commands.benchmark_nav import _manifest
+    from windnav.experiments.nav_suite import SUITES, get_suite
+
+    store = getattr(args, "store", None)
+    man = (_manifest(Path(store)) if store is not None else None) or {}
+    own = man.get("suite") if man.get("suite") in SUITES else None
+    suite = args.suite or own or "thesis"
+    value = man.get("seed", 0) if suite == own else 0
+    return get_suite(suite, seed=int(value) if isinstance(value, int) else 0)
+
+
 def run(args) -> int:
     """Run ``windnav nav-study``; 0 when every flight flew, 1 when some harness failed."""
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments import nav_sweeps
     from windnav.experiments.nav_benchmark import NavStore, run_benchmark
-    from windnav.experiments.nav_suite import get_suite
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_sweeps import plot_sweep
 
     name = where(args)
     study = args.study
-    spec = get_suite(args.suite)
+    spec = study_suite(args)
     _check_study_options(args, name)
     if study == "winds":
         return _winds(args, name, spec)
