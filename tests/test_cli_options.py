@@ -43,3 +43,30 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
     err = capsys.readouterr().err
     assert f"'{option}' parameter of windnav nav-study is for the" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("argv, option", [
+    (["similitude", "--full-scale-speed", "10", "--obstacle-width", "-1"], "--obstacle-width"),
+    (["sysid", "similitude", "--full-scale-speed", "10", "--obstacle-width", "nan"],
+     "--obstacle-width"),
+    (["navigate", "--map", "M", "--start", "10", "10", "--goal", "50", "50", "--variant", "gs",
+      "--horizon", "5", "--speed", "3", "--out", "O"], "--horizon"),
+    (["sysid", "unsteadiness", "--csv", "C", "--wind", "ukf", "--out", "O"], "--wind"),
+    (["sysid", "unsteadiness", "--csv", "C", "--vehicle", "hummingbird", "--out", "O"],
+     "--vehicle"),
+])
+def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, option,
+                                                                          tmp_path, capsys):
+    """Each ran to status 0: an invalid width, a horizon the graph search never reads, a Wind
+    UKF estimate for a table that holds its own wind (CLI audit, thirty-seventh session)."""
+    city = tmp_path / "city.json"
+    city.write_text(json.dumps({"bounds": {"extents": [0, 100, 0, 100, 0, 50]},
+                                "blocks": [{"extents": [40, 60, 40, 60, 0, 20]}]}))
+    table = tmp_path / "samples.csv"
+    table.write_text("x,y\n0,0\n")
+    argv = [{"M": str(city), "C": str(table), "O": str(tmp_path / "out")}.get(a, a)
+            for a in argv]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"'{option}' parameter of windnav" in err, err
+    assert not (tmp_path / "out").exists()

@@ -189,6 +189,10 @@ def run(args) -> int:
     if not horizon > 0:
         raise ValueError(f"The '--horizon' parameter of {name} must be > 0 (inf allowed). "
                          f"Got {args.horizon!r} instead.")
+    if args.variant.startswith("gs") and horizon != float("inf"):  # GS plans the whole map
+        raise ValueError(f"The '--horizon' parameter of {name} is for the MPPI variants (the "
+                         f"graph search plans over the whole map). Got {args.horizon!r} for "
+                         f"{args.variant!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
     onboard = _onboard(args, name)
     energy = _energy_mode(args, name)

@@ -542,8 +542,13 @@ def run_similitude(args) -> int:
                          positive_float(args.model_diameter, "--model-diameter", name),
                          None if args.scale is None else positive_float(args.scale, "--scale",
                                                                         name))
-    # checked here too: the report uses it only with a speed, a control rate and a width
+    # checked here too: the report uses them only with a speed, a control rate and a width
+    # (`--obstacle-width -1` and `nan` ran to status 0; CLI audit, thirty-seventh session)
     strouhal = positive_float(args.strouhal, "--strouhal", name)
+    positive_float(args.kinematic_viscosity, "--kinematic-viscosity", name)
+    for option in ("obstacle_width", "control_rate_hz"):
+        if getattr(args, option) is not None:
+            positive_float(getattr(args, option), f"--{option.replace('_', '-')}", name)
     out = Outputs(name, files={"--json": args.json}, overwrite=bool(args.overwrite))
     with options_named(options):
         report = sim.report(full_scale_speed=args.full_scale_speed,
@@ -604,6 +609,11 @@ def run_unsteadiness(args) -> int:
     if not (args.log or args.csv):
         raise ValueError(f"The '--log' parameter of {name} must name at least one file (or "
                          "give --csv).")
+    for option, given in (("--wind", args.wind != "truth"), ("--vehicle", args.vehicle)):
+        if given and not args.log:  # a CSV holds its wind and forces (CLI audit, 37th session)
+            raise ValueError(f"The '{option}' parameter of {name} is for flight logs (--log): "
+                             "a --csv table holds its own wind and forces. Got "
+                             f"{getattr(args, option[2:])!r} with --csv only instead.")
     if args.vehicle is not None and args.vehicle not in vehicle_names():
         raise ValueError(f"The '--vehicle' parameter of {name} must be one of "
                          f"{list(vehicle_names())}. Got {args.vehicle!r} instead.")
