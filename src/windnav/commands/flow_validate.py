@@ -108,6 +108,10 @@ def run(args) -> int:
     seed(args)
     if args.workers is not None:
         positive_int(args.workers, "--workers", name)
+        if not (args.studies or args.full):  # accepted and ignored (CLI audit, 37th session)
+            raise ValueError(f"The '--workers' parameter of {name} is for the Strouhal runs of "
+                             f"--studies and --full. Got {args.workers!r} without either "
+                             "instead.")
     out = outputs(args, out=("--out", args.out, products()))
     log = _record_log(args, name)
     try:

@@ -68,8 +68,8 @@ def register(subparsers) -> None:
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
     p.add_argument("--scan-noise", type=float, default=0.0, metavar="M",
                    help="LiDAR range noise standard deviation, m (default 0: noise-free)")
-    p.add_argument("--seed", type=int, default=0,
-                   help="seed of the scan noise (default %(default)s)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="seed of the scan noise, with --scan-noise (default 0)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder (figure, JSON)")
     p.add_argument("--no-progress", action="store_true", help="hide the solver's progress")
@@ -88,10 +88,14 @@ def run(args, flow_settings=None) -> int:
     from windnav.viz.decoder import plot_prediction
 
     name = where(args)
-    seed(args)
+    if args.seed is not None:
+        seed(args)
     speed = inlet_speed(args.speed, "--speed", name)
     dx = positive_float(args.dx, "--dx", name)
     noise = positive_float(args.scan_noise, "--scan-noise", name, allow_zero=True)
+    if args.seed is not None and noise == 0.0:  # accepted and ignored (CLI audit, 37th session)
+        raise ValueError(f"The '--seed' parameter of {name} is the scan noise's: give "
+                         f"--scan-noise with it. Got {args.seed!r} without noise instead.")
     city = load_city(args.map, "--map", name)
     at = check_point(city, args.at, "--at", name)
     with options_named({"'path' parameter of load_decoder": f"'--model' parameter of {name}"}):
@@ -119,7 +123,7 @@ def run(args, flow_settings=None) -> int:
     notes += truth_notes(verdict, travel)
     print_notes(notes, name)
     field = field_from_solution(city, sol, name=str(args.map))
-    pred = predict_at(dec, field, at, scan_noise=noise, rng=args.seed)
+    pred = predict_at(dec, field, at, scan_noise=noise, rng=0 if args.seed is None else args.seed)
     c = len(pred["offsets"]) // 2  # the robot's cell (H is odd: offsets centred on 0)
     at_robot = [float(v) for v in pred["prediction"][:, c, c]]
     payload = {"position": at, "speed": speed, "direction_deg": args.direction_deg,

@@ -138,6 +138,9 @@ def _config(args):
         kw["duration"] = (lo, hi)
     if args.workers is not None:
         positive_int(args.workers, "--workers", name)
+        if args.backend == "serial":  # accepted and ignored (CLI audit, 37th session)
+            raise ValueError(f"The '--workers' parameter of {name} is for the process and ray "
+                             f"backends. Got {args.workers!r} with --backend serial instead.")
     return MonteCarloConfig(**kw)
 
 
