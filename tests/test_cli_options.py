@@ -78,14 +78,21 @@ def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, o
       "O"], "--workers"),
     (["predict", "--map", "M", "--at", "20", "20", "--speed", "3", "--direction-deg", "0",
       "--seed", "7", "--out", "O"], "--seed"),
+    (["wind-sweep", "--maps", "M", "--speeds", "3", "--backend", "serial", "--workers", "2",
+      "--out", "O"], "--workers"),
+    (["sysid", "aero", "--csv", "C", "--settle-s", "5", "--out", "O"], "--settle-s"),
 ])
 def test_options_a_mode_ignores_are_refused(argv, option, tmp_path, capsys):
-    """``flow-validate --workers`` without the studies, ``ukf-montecarlo --backend serial
-    --workers 4`` and ``predict --seed`` without scan noise ran, the option ignored."""
+    """``flow-validate --workers`` without the studies, ``--workers`` with the serial backend,
+    ``predict --seed`` without scan noise and ``sysid aero --settle-s`` without a flight log
+    ran, the option ignored."""
     city = tmp_path / "city.json"
     city.write_text(json.dumps({"bounds": {"extents": [0, 100, 0, 100, 0, 50]},
                                 "blocks": [{"extents": [40, 60, 40, 60, 0, 20]}]}))
-    argv = [{"M": str(city), "O": str(tmp_path / "out")}.get(a, a) for a in argv]
+    table = tmp_path / "aero.csv"
+    table.write_text("time_s\n0\n")
+    argv = [{"M": str(city), "C": str(table), "O": str(tmp_path / "out")}.get(a, a)
+            for a in argv]
     assert cli.main(argv) == 2
     err = capsys.readouterr().err
     assert f"'{option}' parameter of windnav" in err, err

@@ -318,6 +318,10 @@ def run_aero(args) -> int:
                          "give --csv or --bag).")
     settle = (None if args.settle_s is None
               else positive_float(args.settle_s, "--settle-s", name, allow_zero=True))
+    if settle is not None and not args.log:  # accepted and ignored (CLI audit, 37th session)
+        raise ValueError(f"The '--settle-s' parameter of {name} is for flight logs (--log): a "
+                         f"--csv or --bag table holds steady samples already. Got "
+                         f"{args.settle_s!r} without --log instead.")
     out = _outputs(args, "aero")
     with options_named({"'path' parameter of FlightLog.load": f"'--log' parameter of {name}"}):
         logs = [(p, FlightLog.load(p)) for p in args.log]

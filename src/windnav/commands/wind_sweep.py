@@ -171,6 +171,9 @@ def run(args, simulate=None) -> int:
                          "give --generate N). Got none instead.")
     if args.workers is not None:  # "'workers' parameter of run_tasks" before
         positive_int(args.workers, "--workers", name)
+        if args.backend == "serial":  # accepted and ignored (CLI audit, 37th session)
+            raise ValueError(f"The '--workers' parameter of {name} is for the process and ray "
+                             f"backends. Got {args.workers!r} with --backend serial instead.")
     check_output_path(args.out, "--out", name, kind="dir")
     out = outputs(args)
     try:
