@@ -46,6 +46,8 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
 
 
 @pytest.mark.parametrize("argv, option", [
+    # each ran to status 0: an invalid width, a horizon the graph search never reads, a Wind
+    # UKF estimate for a table that holds its own wind
     (["similitude", "--full-scale-speed", "10", "--obstacle-width", "-1"], "--obstacle-width"),
     (["sysid", "similitude", "--full-scale-speed", "10", "--obstacle-width", "nan"],
      "--obstacle-width"),
@@ -54,25 +56,8 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
     (["sysid", "unsteadiness", "--csv", "C", "--wind", "ukf", "--out", "O"], "--wind"),
     (["sysid", "unsteadiness", "--csv", "C", "--vehicle", "hummingbird", "--out", "O"],
      "--vehicle"),
-])
-def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, option,
-                                                                          tmp_path, capsys):
-    """Each ran to status 0: an invalid width, a horizon the graph search never reads, a Wind
-    UKF estimate for a table that holds its own wind (CLI audit, thirty-seventh session)."""
-    city = tmp_path / "city.json"
-    city.write_text(json.dumps({"bounds": {"extents": [0, 100, 0, 100, 0, 50]},
-                                "blocks": [{"extents": [40, 60, 40, 60, 0, 20]}]}))
-    table = tmp_path / "samples.csv"
-    table.write_text("x,y\n0,0\n")
-    argv = [{"M": str(city), "C": str(table), "O": str(tmp_path / "out")}.get(a, a)
-            for a in argv]
-    assert cli.main(argv) == 2
-    err = capsys.readouterr().err
-    assert f"'{option}' parameter of windnav" in err, err
-    assert not (tmp_path / "out").exists()
-
-
-@pytest.mark.parametrize("argv, option", [
+    # options a mode ignores: --workers without the studies or with the serial backend, a seed
+    # without scan noise, a settling time without a flight log
     (["flow-validate", "--workers", "3", "--out", "O"], "--workers"),
     (["ukf-montecarlo", "--backend", "serial", "--workers", "4", "--trials", "1", "--json",
       "O"], "--workers"),
@@ -82,14 +67,14 @@ def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, o
       "--out", "O"], "--workers"),
     (["sysid", "aero", "--csv", "C", "--settle-s", "5", "--out", "O"], "--settle-s"),
 ])
-def test_options_a_mode_ignores_are_refused(argv, option, tmp_path, capsys):
-    """``flow-validate --workers`` without the studies, ``--workers`` with the serial backend,
-    ``predict --seed`` without scan noise and ``sysid aero --settle-s`` without a flight log
-    ran, the option ignored."""
+def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, option,
+                                                                          tmp_path, capsys):
+    """Each ran, the option ignored or invalid (CLI audit, thirty-seventh session): now refused
+    by name before any work."""
     city = tmp_path / "city.json"
     city.write_text(json.dumps({"bounds": {"extents": [0, 100, 0, 100, 0, 50]},
                                 "blocks": [{"extents": [40, 60, 40, 60, 0, 20]}]}))
-    table = tmp_path / "aero.csv"
+    table = tmp_path / "samples.csv"  # never read: each option is refused first
     table.write_text("time_s\n0\n")
     argv = [{"M": str(city), "C": str(table), "O": str(tmp_path / "out")}.get(a, a)
             for a in argv]
