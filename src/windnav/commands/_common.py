@@ -56,6 +56,21 @@ def seed(args) -> int:
     return int(value)
 
 
+def checked_workers(args, name: str) -> int | None:
+    """``--workers``, checked (None when not given): an integer >= 1, and refused with ``--backend
+    serial``, which runs no workers (it was accepted and ignored; CLI audit, thirty-seventh
+    session)."""
+    from windnav._validate import positive_int
+
+    if args.workers is None:
+        return None
+    count = positive_int(args.workers, "--workers", name)
+    if getattr(args, "backend", None) == "serial":
+        raise ValueError(f"The '--workers' parameter of {name} is for the process and ray "
+                         f"backends. Got {args.workers!r} with --backend serial instead.")
+    return count
+
+
 def cache_folder(path, option: str, name: str):
     """``path`` (a folder to keep a cache in, made when missing), or a ValueError naming
     ``option`` when it is a file ("[Errno 17] File exists" named nothing)."""

@@ -36,6 +36,7 @@ from windnav._validate import positive_float, positive_int
 from windnav.commands._choices import CONDITION_NAMES
 from windnav.commands._common import (
     add_output_arguments,
+    checked_workers,
     document,
     outputs,
     print_written,
@@ -136,11 +137,7 @@ def _config(args):
                              f"with {settle:g} s (the unscored settling time) < MIN <= MAX <= "
                              f"{MAX_DURATION_S:g} s. Got {lo:g} {hi:g} instead.")
         kw["duration"] = (lo, hi)
-    if args.workers is not None:
-        positive_int(args.workers, "--workers", name)
-        if args.backend == "serial":  # accepted and ignored (CLI audit, 37th session)
-            raise ValueError(f"The '--workers' parameter of {name} is for the process and ray "
-                             f"backends. Got {args.workers!r} with --backend serial instead.")
+    checked_workers(args, name)
     return MonteCarloConfig(**kw)
 
 

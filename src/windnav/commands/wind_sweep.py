@@ -34,6 +34,7 @@ from windnav._validate import finite_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
+    checked_workers,
     document,
     inlet_speed,
     outputs,
@@ -169,11 +170,7 @@ def run(args, simulate=None) -> int:
     if not maps:  # "'maps' parameter of sweep" before
         raise ValueError(f"The '--maps' parameter of {name} must name at least one map (or "
                          "give --generate N). Got none instead.")
-    if args.workers is not None:  # "'workers' parameter of run_tasks" before
-        positive_int(args.workers, "--workers", name)
-        if args.backend == "serial":  # accepted and ignored (CLI audit, 37th session)
-            raise ValueError(f"The '--workers' parameter of {name} is for the process and ray "
-                             f"backends. Got {args.workers!r} with --backend serial instead.")
+    checked_workers(args, name)  # "'workers' parameter of run_tasks" before
     check_output_path(args.out, "--out", name, kind="dir")
     out = outputs(args)
     try:
