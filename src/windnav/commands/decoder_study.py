@@ -359,9 +359,10 @@ def run(args, simulate=None) -> int:
         city, map_name, kw = _averaging_map(args)
         with options_named({"'speed' parameter of averaging_study": f"'--speed' parameter of "
                                                                      f"{name}"}):
-            res = ds.averaging_study(dec, city, speed=_inlet(args)[0],
-                                     direction_deg=_inlet(args)[1], samples=samples,
-                                     seed=args.seed, simulate=simulate, name=map_name, **kw)
+            speed, direction = _inlet(args)
+            res = ds.averaging_study(dec, city, speed=speed, direction_deg=direction,
+                                     samples=samples, seed=args.seed, simulate=simulate,
+                                     name=map_name, **kw)
         plot = figures.plot_averaging
     elif study == "start":
         dec = load_decoder(args.model)
@@ -369,7 +370,8 @@ def run(args, simulate=None) -> int:
         protocols = kw.pop("protocols", None)
         if protocols is not None:  # --quick: the short protocol
             kw["spinup_steps"], kw["steps"] = protocols["thesis"]
-        res = ds.start_study(dec, city, speed=_inlet(args)[0], direction_deg=_inlet(args)[1],
+        speed, direction = _inlet(args)
+        res = ds.start_study(dec, city, speed=speed, direction_deg=direction,
                              samples=samples, seed=args.seed, simulate=simulate,
                              name=map_name, **kw)
         plot = figures.plot_start

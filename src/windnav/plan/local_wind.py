@@ -127,11 +127,11 @@ class LocalWind:
         writes it afterwards (the closed loop's own whole-map field, which would otherwise be
         copied at every update).
         """
-        arr = np.array(uv, dtype=np.float64, copy=None if not copy else True)
+        arr = np.array(uv, dtype=np.float64, copy=True if copy else None)
         x = _offsets(offsets, "offsets")
         y = x if offsets_y is None else _offsets(offsets_y, "offsets_y")
         if copy:
-            x, y = x.copy(), (x.copy() if offsets_y is None else y.copy())
+            x, y = x.copy(), y.copy()  # y may be x: two arrays either way
         if arr.shape != (2, y.size, x.size):
             raise ValueError(f"The 'uv' parameter of {_WHERE}.grid must have shape "
                              f"(2, {y.size}, {x.size}). Got shape {arr.shape} instead.")
