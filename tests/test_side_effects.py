@@ -4,11 +4,13 @@ session)."""
 from __future__ import annotations
 
 import os
+import sys
 
 import numpy as np
 import pytest
 
 import windnav as wn
+from windnav import cli
 from windnav.sim import fly, make_trajectory
 from windnav.viz.flight import plot_flight
 from windnav.wind import ConstantWind
@@ -219,3 +221,16 @@ def test_a_value_too_large_to_compute_with_is_a_named_error(argv, tmp_path, caps
     err = capsys.readouterr().err
     assert "too large" in err and "Traceback" not in err
     assert len([line for line in err.splitlines() if "error" in line]) == 1
+
+
+@pytest.mark.parametrize("before", [None, "module://my_backend"])
+def test_the_command_line_restores_the_callers_matplotlib_backend(before, monkeypatch, capsys):
+    """``main()`` sets ``MPLBACKEND=Agg`` for its own figures and workers; a program that
+    calls it keeps its own setting afterwards (it was left at Agg: audit, 2026-12-05)."""
+    if before is None:
+        monkeypatch.delenv("MPLBACKEND", raising=False)
+    else:
+        monkeypatch.setenv("MPLBACKEND", before)
+    monkeypatch.setattr(sys, "argv", ["windnav", "fly", "--duration", "-1"])
+    assert cli.main() == 2
+    assert os.environ.get("MPLBACKEND") == before

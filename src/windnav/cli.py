@@ -133,6 +133,8 @@ def main(argv: list[str] | None = None) -> int:
         # and figures to files, never a window, whatever the user's backend (the plotting
         # modules no longer switch it at import, which a notebook's import of them did): set
         # before matplotlib is imported, and inherited by the worker processes
+        # (and restored after: a program that calls main() keeps its own backend setting)
+        backend = os.environ.get("MPLBACKEND")
         os.environ["MPLBACKEND"] = "Agg"
         stdout, sys.stdout = sys.stdout, _ClosedPipeSafe(sys.stdout)
         try:
@@ -144,6 +146,10 @@ def main(argv: list[str] | None = None) -> int:
         finally:
             sys.stdout.flush()
             sys.stdout = stdout
+            if backend is None:
+                os.environ.pop("MPLBACKEND", None)
+            else:
+                os.environ["MPLBACKEND"] = backend
     return _run(args, where)
 
 
