@@ -519,15 +519,19 @@ def test_version(capsys):
 def test_the_command_line_sets_the_agg_backend_itself(tmp_path, monkeypatch):
     """The plotting modules leave the backend alone (a notebook's import of one switched it
     to Agg); the command line itself, and only it (not main(argv) called from Python), sets
-    Agg for its figures and its workers."""
+    Agg for its figures and its workers, while the command runs (and restores the caller's
+    setting after it: tests/test_side_effects.py)."""
     import os
     import sys
 
-    from windnav.cli import main
+    from windnav import cli
 
+    seen = []
+    run = cli._run
+    monkeypatch.setattr(cli, "_run", lambda args, where: (
+        seen.append(os.environ.get("MPLBACKEND")), run(args, where))[1])
     monkeypatch.delenv("MPLBACKEND", raising=False)
-    assert main(["power-curve", "--out", str(tmp_path / "a")]) == 0
-    assert "MPLBACKEND" not in os.environ
+    assert cli.main(["power-curve", "--out", str(tmp_path / "a")]) == 0
     monkeypatch.setattr(sys, "argv", ["windnav", "power-curve", "--out", str(tmp_path / "b")])
-    assert main() == 0
-    assert os.environ["MPLBACKEND"] == "Agg"
+    assert cli.main() == 0
+    assert seen == [None, "Agg"]
