@@ -66,6 +66,33 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
     (["wind-sweep", "--maps", "M", "--speeds", "3", "--backend", "serial", "--workers", "2",
       "--out", "O"], "--workers"),
     (["sysid", "aero", "--csv", "C", "--settle-s", "5", "--out", "O"], "--settle-s"),
+    # a generator for no generated maps, and flying options for a table that flies nothing
+    # (left by the options audit; refused in the thirty-eighth session)
+    (["wind-sweep", "--maps", "M", "--speeds", "3", "--map-kind", "dense", "--out", "O"],
+     "--map-kind"),
+    (["benchmark-nav", "--table", "--workers", "2", "--out", "O"], "--workers"),
+    (["benchmark-nav", "--table", "--executor", "serial", "--out", "O"], "--executor"),
+    (["benchmark-nav", "--table", "--wind-batch", "1", "--out", "O"], "--wind-batch"),
+    (["benchmark-nav", "--table", "--native-arithmetic", "--out", "O"], "--native-arithmetic"),
+    (["benchmark-nav", "--table", "--portable", "--out", "O"], "--portable"),
+    # a direction of 1e308 deg flew some direction and recorded 1e308 (options audit)
+    (["wind", "--map", "M", "--speed", "3", "--direction-deg", "1e308", "--out", "O"],
+     "--direction-deg"),
+    (["navigate", "--map", "M", "--start", "10", "10", "--goal", "50", "50", "--speed", "3",
+      "--direction-deg", "-400", "--out", "O"], "--direction-deg"),
+    (["predict", "--map", "M", "--at", "20", "20", "--speed", "3", "--direction-deg", "1e6",
+      "--out", "O"], "--direction-deg"),
+    (["wind-sweep", "--maps", "M", "--speeds", "3", "--directions-deg", "0", "720", "--out",
+      "O"], "--directions-deg"),
+    (["wind-sweep", "--maps", "M", "--speeds", "3", "--directions", "0", "1e308", "--out",
+      "O"], "--directions"),
+    (["demo", "--story", "navigate", "--direction-deg", "361", "--out", "O"],
+     "--direction-deg"),
+    (["decoder-study", "averaging", "--direction-deg", "1e308", "--out", "O"],
+     "--direction-deg"),
+    # winds past Mach 0.3: the flight diverged and the command exited 0 (options audit)
+    (["fly", "--wind-mean", "1e5", "0", "0", "--out", "O"], "--wind-mean"),
+    (["fly", "--wind-sigma", "150", "1", "1", "--out", "O"], "--wind-sigma"),
 ])
 def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, option,
                                                                           tmp_path, capsys):

@@ -104,3 +104,25 @@ def test_bad_input_is_named():
         outside_envelope("hummingbird", s, np.zeros(3))
     with pytest.raises(ValueError, match="'wind_world'"):
         outside_envelope(HB, s, np.zeros(2))
+
+
+def test_a_diverged_flight_is_an_error_with_no_energy(tmp_path, monkeypatch, capsys):
+    """``fly`` in gusts of 1e5 m/s (the library takes them; the command now refuses them)
+    diverged at its first step, exited 0 and reported 0.42 J of energy, the log's energy held
+    from the step it stopped: a small, plausible number. Now no energy, the time it stopped,
+    an error line and exit status 1 (its files are still written, to look at)."""
+    import json
+
+    import windnav.experiments.flight as flight
+    from windnav import cli
+
+    make_wind = flight.make_wind
+    monkeypatch.setattr(flight, "make_wind", lambda kind, mean, sigma, seed: make_wind(
+        "dryden", (0.0, 0.0, 0.0), (1e5, 1e5, 1e5), seed=seed))
+    out = tmp_path / "fly"
+    assert cli.main(["fly", "--duration", "1", "--no-progress", "--no-plots",
+                     "--out", str(out)]) == 1
+    assert "error: the flight diverged" in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["energy_J"] is None and summary["mean_power_W"] is None
+    assert 0.0 < summary["non_finite_from_s"] < 1.0

@@ -80,6 +80,19 @@ def cache_folder(path, option: str, name: str):
     return path
 
 
+def inlet_direction(value, option: str, name: str) -> float:
+    """An inlet direction option, deg CCW from +x: finite and within one turn either way,
+    [-360, 360] (``wind --direction-deg 1e308`` flew some direction and recorded 1e308 deg:
+    options audit, 2026-12-05), checked before any work, named."""
+    from windnav._validate import finite_float
+
+    direction = finite_float(value, option, name)
+    if abs(direction) > 360.0:
+        raise ValueError(f"The {option!r} parameter of {name} must be a direction within one "
+                         f"turn, from -360 to 360 deg. Got {value!r} instead.")
+    return direction
+
+
 def inlet_speed(value, option: str, name: str) -> float:
     """An inlet speed option, m/s: > 0 and no faster than the flow solver's model holds
     (:data:`windnav.flow.solver.MAX_SPEED`), checked before any work, named."""

@@ -64,13 +64,13 @@ def register(subparsers) -> None:
     p.add_argument("--variants", default=None,
                    help=f"comma-separated planner variants (to fly: default {DEFAULT_VARIANTS}; "
                         "with --table or --check: default every variant the store holds)")
-    p.add_argument("--executor", choices=BACKENDS, default="process",
-                   help="where the tasks run (%(default)s)")
+    p.add_argument("--executor", choices=BACKENDS, default=None,
+                   help="where the tasks run (default process)")
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (default: all cores); each holds the winds of its "
                         "task, 2.3 GB each for a 600 m map")
-    p.add_argument("--wind-batch", type=int, default=3, metavar="N",
-                   help="most winds of a map simulated together, 1 to 3 (%(default)s): one "
+    p.add_argument("--wind-batch", type=int, default=None, metavar="N",
+                   help="most winds of a map simulated together, 1 to 3 (default 3): one "
                         "pressure solve per step for all, each wind the same to the bit; 1 "
                         "needs less memory (a worker peaked at 3.2 GB against 7.8 GB)")
     p.add_argument("--out", type=Path, default=None, metavar="STORE",
@@ -208,6 +208,19 @@ def _check_modes(args, name: str) -> None:
     if args.reference is not None and mode in ("--check", "--replay"):  # (None: not typed)
         raise ValueError(f"The '--reference' parameter of {name} applies only with --table or "
                          f"when flying a suite. Got it with {mode} instead.")
+    if mode == "--table":  # flies nothing: these were accepted and ignored (options audit)
+        for flag, given in (("--executor", args.executor is not None),
+                            ("--workers", args.workers is not None),
+                            ("--wind-batch", args.wind_batch is not None),
+                            ("--native-arithmetic", args.native_arithmetic),
+                            ("--portable", args.portable)):
+            if given:
+                raise ValueError(f"The '{flag}' parameter of {name} applies to flying; "
+                                 "--table flies nothing. Got it with --table instead.")
+    if args.executor is None:  # the defaults, as the JSON's arguments record them
+        args.executor = "process"
+    if args.wind_batch is None:
+        args.wind_batch = 3
 
 
 def _variants(args, name: str) -> tuple[str, ...]:

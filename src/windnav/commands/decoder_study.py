@@ -66,6 +66,7 @@ from windnav.commands._common import (
     add_output_arguments,
     cache_folder,
     document,
+    inlet_direction,
     options_named,
     outputs,
     print_written,
@@ -180,7 +181,8 @@ def _inlet(args) -> tuple[float, float]:
     """``(--speed, --direction-deg)`` of the averaging and start studies, defaults filled in
     (the options default to None, so that another study can refuse them)."""
     return (SPEED if args.speed is None else args.speed,
-            DIRECTION_DEG if args.direction_deg is None else args.direction_deg)
+            DIRECTION_DEG if args.direction_deg is None
+            else inlet_direction(args.direction_deg, "--direction-deg", where(args)))
 
 
 def _fields(args, name, simulate, progress):

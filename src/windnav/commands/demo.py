@@ -29,10 +29,11 @@ import sys
 import time
 from pathlib import Path
 
-from windnav._validate import finite_float, positive_float
+from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    inlet_direction,
     outputs,
     print_written,
     seed,
@@ -153,7 +154,8 @@ def _nav_config(args):
     fields = {"seed": args.seed, "wind_speed": positive_float(args.wind_speed, "--wind-speed",
                                                               name)}
     if args.direction_deg is not None:
-        fields["direction_deg"] = finite_float(args.direction_deg, "--direction-deg", name)
+        fields["direction_deg"] = inlet_direction(args.direction_deg, "--direction-deg",
+                                                  name)
     if args.map_size is not None:
         fields["map_size"] = positive_float(args.map_size, "--map-size", name)
     if args.record_s is not None:

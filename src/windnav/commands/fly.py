@@ -18,6 +18,7 @@ the Wind UKF on the log under it; the summary adds the wind RMSE, and
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -149,6 +150,15 @@ def run(args) -> int:
     _check_rates(dt, control, sensor, name)
     mean = [finite_float(v, "--wind-mean", name) for v in args.wind_mean]
     sigma = [positive_float(v, "--wind-sigma", name, allow_zero=True) for v in args.wind_sigma]
+    from windnav.flow.solver import MAX_SPEED
+
+    for flag, value, size in (("--wind-mean", mean, math.hypot(*mean)),
+                              ("--wind-sigma", sigma, max(sigma))):
+        if size > MAX_SPEED:  # 1e5 m/s flew, diverged, and exited 0 (options audit)
+            raise ValueError(f"The '{flag}' parameter of {name} must be a wind of at most "
+                             f"{MAX_SPEED:g} m/s: the vehicle's aerodynamics are "
+                             "incompressible-flow models, valid below Mach 0.3. Got "
+                             f"{' '.join(f'{v:g}' for v in value)} instead.")
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
     wind = make_wind(args.wind, mean, sigma, seed=args.seed)
@@ -177,6 +187,11 @@ def run(args) -> int:
         print_drag_model_note(metrics["drag_model_bias_m_s"],
                               metrics["median_horizontal_airspeed_m_s"], args.conditions,
                               f"{name}: ", measured=metrics.get("wind_mean_error_m_s"))
+    failed = metrics.get("non_finite_from_s")
+    if failed is not None:  # exit status 0 and a NON_FINITE flag were the only sign (audit)
+        print(f"{name}: error: the flight diverged: its state stopped being finite at "
+              f"{failed:g} s (mean wind {metrics['mean_wind_speed_m_s']:.3g} m/s); its energy "
+              "and power are not reported, and the log holds NaN from there", file=sys.stderr)
     if metrics.get("wind_estimate_error"):
         print(f"{name}: note: no wind estimate: {metrics['wind_estimate_error']}",
               file=sys.stderr)
@@ -199,4 +214,4 @@ def run(args) -> int:
             write_json(doc, stage.file("--json"))
     print(json.dumps(json_ready(summary), indent=2))
     print_written(out)
-    return 0
+    return 0 if failed is None else 1

@@ -40,6 +40,7 @@ from windnav._validate import finite_float, positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    inlet_direction,
     inlet_speed,
     outputs,
     print_written,
@@ -183,7 +184,7 @@ def run(args) -> int:
     name = where(args)
     seed(args)
     speed = inlet_speed(args.speed, "--speed", name)
-    direction = finite_float(args.direction_deg, "--direction-deg", name)
+    direction = inlet_direction(args.direction_deg, "--direction-deg", name)
     positive_float(args.altitude, "--altitude", name)
     horizon = float(args.horizon)
     if not horizon > 0:

@@ -33,6 +33,7 @@ from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    inlet_direction,
     inlet_speed,
     options_named,
     outputs,
@@ -91,6 +92,7 @@ def run(args, flow_settings=None) -> int:
     if args.seed is not None:
         seed(args)
     speed = inlet_speed(args.speed, "--speed", name)
+    direction = inlet_direction(args.direction_deg, "--direction-deg", name)
     dx = positive_float(args.dx, "--dx", name)
     noise = positive_float(args.scan_noise, "--scan-noise", name, allow_zero=True)
     if args.seed is not None and noise == 0.0:  # accepted and ignored (CLI audit, 37th session)
@@ -113,7 +115,7 @@ def run(args, flow_settings=None) -> int:
                         "simulate: City block": f"The '--dx' parameter of {name} is too coarse "
                                                 "for the map: its block",
                         "Use dx <=": "Use --dx <="}):
-        sol = simulate(city, speed=speed, direction_deg=args.direction_deg, dx=dx,
+        sol = simulate(city, speed=speed, direction_deg=direction, dx=dx,
                        progress=not args.no_progress, **settings)
     from windnav.flow.validity import averaging_verdict
 
@@ -126,7 +128,7 @@ def run(args, flow_settings=None) -> int:
     pred = predict_at(dec, field, at, scan_noise=noise, rng=0 if args.seed is None else args.seed)
     c = len(pred["offsets"]) // 2  # the robot's cell (H is odd: offsets centred on 0)
     at_robot = [float(v) for v in pred["prediction"][:, c, c]]
-    payload = {"position": at, "speed": speed, "direction_deg": args.direction_deg,
+    payload = {"position": at, "speed": speed, "direction_deg": direction,
                "flow": {"dx": dx, **settings}, "w_up": pred["w_up"],
                "w_robot": pred["w_robot"], "prediction_at_position": at_robot,
                "n_free_cells": int(pred["free"].sum()),
@@ -140,7 +142,7 @@ def run(args, flow_settings=None) -> int:
     with out.writing() as stage:
         plot_prediction(pred, stage.dir / "predict.png",
                         title=f"({at[0]:g}, {at[1]:g}) m, {speed:g} m/s toward "
-                              f"{args.direction_deg:g} deg - ")
+                              f"{direction:g} deg - ")
         doc = document("predict", payload, args)
         write_json(doc, stage.dir / "predict.json")
         if stage.file("--json") is not None:

@@ -25,10 +25,11 @@ import sys
 import warnings
 from pathlib import Path
 
-from windnav._validate import finite_float, nonnegative_int, positive_float, positive_int
+from windnav._validate import nonnegative_int, positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    inlet_direction,
     inlet_speed,
     options_named,
     outputs,
@@ -136,7 +137,7 @@ def run(args, simulate=None) -> int:
     name = where(args)
     seed(args)
     speed = inlet_speed(args.speed, "--speed", name)
-    direction_deg = finite_float(args.direction_deg, "--direction-deg", name)
+    direction_deg = inlet_direction(args.direction_deg, "--direction-deg", name)
     settings = solver_settings(args, speed)
     city = load_city(args.map)
     with options_named({"simulate: City block": f"The '--dx' parameter of {name} is too coarse "

@@ -30,12 +30,13 @@ import sys
 import warnings
 from pathlib import Path
 
-from windnav._validate import finite_float, positive_int
+from windnav._validate import positive_int
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     checked_workers,
     document,
+    inlet_direction,
     inlet_speed,
     outputs,
     print_written,
@@ -93,8 +94,8 @@ def register(subparsers) -> None:
                         "--generate)")
     p.add_argument("--generate", type=int, default=0, metavar="K",
                    help="also make K procedural maps (with --map-kind) (default %(default)s)")
-    p.add_argument("--map-kind", choices=MAP_KINDS, default="training",
-                   help="generator of the --generate maps (%(default)s)")
+    p.add_argument("--map-kind", choices=MAP_KINDS, default=None,
+                   help="generator of the --generate maps (default training)")
     p.add_argument("--out", required=True, help="the dataset store (a .zarr directory)")
     p.add_argument("--speeds", nargs="+", type=float, default=list(THESIS_SPEEDS),
                    help="inlet speeds, m/s, each above 0 and at most 100 (default: 0.1 2.575 "
@@ -129,7 +130,7 @@ def _directions_arg(args):
             raise ValueError("The '--directions' parameter of windnav wind-sweep cannot be given "
                              "with --directions-deg: give one of them. Got both instead.")
         # "'directions' parameter of directions_from" before
-        return [finite_float(d, "--directions-deg", name) for d in args.directions_deg]
+        return [inlet_direction(d, "--directions-deg", name) for d in args.directions_deg]
     if args.directions is None:
         return None
     if len(args.directions) == 1:
@@ -149,7 +150,7 @@ def _directions_arg(args):
                   f"directions, {360 / n:.3g} deg apart; for one direction of {int(n)} deg, "
                   f"give --directions-deg {int(n)}", file=sys.stderr)
         return directions_from(int(n)).tolist()
-    return [finite_float(d, "--directions", name) for d in args.directions]
+    return [inlet_direction(d, "--directions", name) for d in args.directions]
 
 
 def run(args, simulate=None) -> int:
@@ -166,7 +167,11 @@ def run(args, simulate=None) -> int:
             for f in _map_files(args.maps)]
     if args.generate:
         k = positive_int(args.generate, "--generate", name)
+        args.map_kind = args.map_kind or "training"  # as the summary's arguments record it
         maps += generated_maps(k, args.map_kind, seed=args.seed)
+    elif args.map_kind is not None:  # ignored before (options audit, 2026-12-05)
+        raise ValueError(f"The '--map-kind' parameter of {name} chooses the generator of the "
+                         "--generate maps; give --generate K with it, or leave it out.")
     if not maps:  # "'maps' parameter of sweep" before
         raise ValueError(f"The '--maps' parameter of {name} must name at least one map (or "
                          "give --generate N). Got none instead.")
