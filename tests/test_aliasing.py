@@ -194,6 +194,27 @@ def test_float32_inputs_compute_in_float64(dtype):
     np.testing.assert_array_equal(got_cmd, want_cmd)
 
 
+def test_hand_built_containers_hold_float64():
+    """``ReachLattice``, the sysid ``Table`` and ``FlightSamples``, built by hand from float32
+    arrays, held them as float32 and computed on them in float32 (last bits, 5e-8 relative:
+    the thirty-seventh session's aliasing audit, left then). float64 now, the same values."""
+    from windnav.plan.reach import ReachLattice
+    from windnav.sysid.io import Table
+    from windnav.sysid.unsteadiness import FlightSamples
+
+    f32 = np.linspace(0.1, 1.3, 6, dtype=np.float32)
+    lat = ReachLattice(x=f32, y=f32, free=np.ones((6, 6), bool),
+                       frames=np.zeros((1, 6, 6, 2), np.float32), t0=0.0, dt_frames=1.0,
+                       dx=0.24, clearance=1.0, gust=np.zeros((6, 6, 3), np.float32))
+    table = Table("by hand", {"t": f32, "thrust": 2 * f32})
+    samples = FlightSamples(*(np.tile(f32[:, None], (1, k)) for k in (2, 2, 2, 3)))
+    arrays = [lat.x, lat.y, lat.frames, lat.gust, *table.columns.values(), samples.xy,
+              samples.wind_xy, samples.force_cmd_xy, samples.body_rates]
+    assert all(a.dtype == np.float64 for a in arrays)
+    np.testing.assert_array_equal(table.columns["t"], f32.astype(np.float64))
+    assert lat.free.dtype == bool
+
+
 # ---------------------------------------------------------------- pickling and copies
 
 

@@ -167,6 +167,14 @@ class ReachLattice:
     clearance: float
     gust: np.ndarray | None = None
 
+    def __post_init__(self):
+        # float64, as reach_lattice builds them: a lattice built by hand from float32 arrays
+        # searched in float32 (last bits, 5e-8 relative; audit); float64 arrays are kept as given
+        for name in ("x", "y", "frames", "gust"):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, np.asarray(value, dtype=np.float64))
+
     @property
     def unsteady(self) -> bool:
         """Whether the wind has more than one frame."""

@@ -61,6 +61,11 @@ class Table:
     source: str
     columns: dict
 
+    def __post_init__(self):
+        # float64 columns, as read_table gives them, also for a table built by hand from float32
+        object.__setattr__(self, "columns", {k: np.asarray(v, dtype=np.float64)
+                                             for k, v in self.columns.items()})
+
     def __len__(self) -> int:
         return len(next(iter(self.columns.values()))) if self.columns else 0
 

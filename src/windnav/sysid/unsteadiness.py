@@ -77,6 +77,12 @@ class FlightSamples:
     force_cmd_xy: np.ndarray
     body_rates: np.ndarray
 
+    def __post_init__(self):
+        # float64, as from_table and flight_samples_from_log give them, also when built by hand
+        # from float32 arrays (which binned in float32: last bits, 5e-8 relative; audit)
+        for name in ("xy", "wind_xy", "force_cmd_xy", "body_rates"):
+            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
+
     @classmethod
     def from_table(cls, table: Table, where: str = "FlightSamples.from_table"
                    ) -> FlightSamples:
