@@ -93,6 +93,10 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
     # winds past Mach 0.3: the flight diverged and the command exited 0 (options audit)
     (["fly", "--wind-mean", "1e5", "0", "0", "--out", "O"], "--wind-mean"),
     (["fly", "--wind-sigma", "150", "1", "1", "--out", "O"], "--wind-sigma"),
+    # errors that named a library parameter or another option (options audit)
+    (["similitude", "--model-speed", "1e308"], "--model-speed"),
+    (["demo", "--wind-speed", "500", "--out", "O"], "--wind-speed"),
+    (["sysid", "simulate-stand", "--kv", "-1", "--out", "O"], "--kv"),
 ])
 def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, option,
                                                                           tmp_path, capsys):

@@ -142,8 +142,8 @@ def test_windnav_main_reports_bad_input_in_one_line(tmp_path, capsys):
     # a sample count of none (CSVs of a header alone, exit 0) or 1e9 (a 67 GiB MemoryError)
     (["simulate-stand", "--voltages", "3.7", "--rate-hz", "1e-3"], "'--rate-hz' parameter"),
     (["simulate-stand", "--voltages", "3.7", "--rate-hz", "1e9"], "'--rate-hz' parameter"),
-    (["simulate-stand", "--voltages", "3.7", "--v0", "nan"], "'V0' parameter"),  # NaN CSVs
-    (["simulate-stand", "--voltages", "3.7", "--dz", "1e9"], "'DZ' parameter"),  # never spins
+    (["simulate-stand", "--voltages", "3.7", "--v0", "nan"], "'--v0' parameter"),  # NaN CSVs
+    (["simulate-stand", "--voltages", "3.7", "--dz", "1e9"], "'--dz' parameter"),  # never spins
     (["simulate-tunnel", "--speed-step", "1e-9"], "'--speed-step' parameter"),
     (["simulate-stand", "--voltages", "3.7", "--seed", "-1"], "'--seed' parameter"),
     (["simulate-tunnel", "--seed", "-1"], "'--seed' parameter"),

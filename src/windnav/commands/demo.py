@@ -34,6 +34,7 @@ from windnav.commands._common import (
     add_output_arguments,
     document,
     inlet_direction,
+    inlet_speed,
     outputs,
     print_written,
     seed,
@@ -112,7 +113,7 @@ def _flow_dt(args, default, dx: float) -> float:
     from windnav.flow.solver import MAX_CFL
 
     name = where(args)
-    speed = positive_float(args.wind_speed, "--wind-speed", name)
+    speed = inlet_speed(args.wind_speed, "--wind-speed", name)
     if args.flow_dt is None:
         return default(speed, dx)
     flow_dt = positive_float(args.flow_dt, "--flow-dt", name)
@@ -151,8 +152,8 @@ def _nav_config(args):
     if isinstance(frames, bool) or int(frames) != frames or frames < 2:
         raise ValueError(f"The '--gif-frames' parameter of {name} must be an integer >= 2. "
                          f"Got {frames!r} instead.")
-    fields = {"seed": args.seed, "wind_speed": positive_float(args.wind_speed, "--wind-speed",
-                                                              name)}
+    fields = {"seed": args.seed, "wind_speed": inlet_speed(args.wind_speed, "--wind-speed",
+                                                           name)}
     if args.direction_deg is not None:
         fields["direction_deg"] = inlet_direction(args.direction_deg, "--direction-deg",
                                                   name)

@@ -727,8 +727,10 @@ def run_simulate_stand(args) -> int:
     else:
         base = {}
     spec = {**base, **{k: v for k, v in overrides.items() if v is not None}}
-    motor = PWMMotorModel(Kv=spec["Kv"], V0=spec["V0"], DZ=spec["DZ"],
-                          pwm_max=spec.get("pwm_max", 65535.0))
+    with options_named({f"'{k}' parameter of PWMMotorModel": f"'--{k.lower()}' parameter of "
+                        f"{name}" for k, v in overrides.items() if v is not None}):
+        motor = PWMMotorModel(Kv=spec["Kv"], V0=spec["V0"], DZ=spec["DZ"],
+                              pwm_max=spec.get("pwm_max", 65535.0))
     out = _outputs(args, "simulate-stand")
     runs = simulate_stand(params, voltages=volts, rate_hz=rate, step_s=step, motor=motor,
                           rng=nonnegative_int(args.seed, "--seed", name))

@@ -179,6 +179,10 @@ class Similitude:
         if model_speed is not None:
             full_scale_speed = self.full_scale_speed(positive_float(model_speed, "model_speed",
                                                                     where))
+            if not math.isfinite(full_scale_speed):  # was named full_scale_speed's (audit)
+                raise ValueError(f"The 'model_speed' parameter of {where} is too large: its "
+                                 "full-scale speed is not a finite number. Got "
+                                 f"{model_speed!r} instead.")
         if full_scale_speed is not None:
             u = positive_float(full_scale_speed, "full_scale_speed", where)
             um = self.model_speed(u)
