@@ -415,3 +415,42 @@ def test_a_sparse_log_gives_the_airspeed_of_a_full_one():
     np.testing.assert_array_equal(sparse.t, full.t)
     err = np.abs(sparse.airspeed_body - full.airspeed_body).max()
     assert err < 0.05, err
+
+
+@pytest.mark.parametrize("convention", ["frd", "air_velocity", "dead_z"])
+def test_samples_in_another_convention_are_refused_not_fitted(convention):
+    """An audit (thirty-eighth session) fitted k_eta = -4.06e-8 with a tight interval from
+    z-down (FRD) samples, k_d = -5.08e-6 from the air's velocity given for the airspeed, and
+    k_eta = 0 [0, 0] from a dead accelerometer z, each with status 0 and no note."""
+    d = _model_samples()
+    va, f = d.airspeed_body.copy(), d.specific_force_body.copy()
+    if convention == "frd":
+        va[:, 1:] *= -1
+        f[:, 1:] *= -1
+    elif convention == "air_velocity":
+        va *= -1
+    else:
+        f[:, 2] = 0.0
+    with pytest.raises(ValueError, match="where the physics makes it positive"):
+        fit_aero(AeroData(d.t, va, f, d.rotor_speeds, "model"), MASS)
+
+
+def test_coefficients_the_samples_do_not_determine_are_noted():
+    """Samples in still air only (|v_a| < 0.3 m/s): k_d came out 23 x low with an interval
+    over 0 and no note (audit). The fit is kept, with a note naming each such coefficient."""
+    d = _model_samples(n=600)
+    rng = np.random.default_rng(1)
+    va = d.airspeed_body * 0.03  # |v_a| < 0.3 m/s
+    eta = d.rotor_speeds
+    s1, s2 = eta.sum(1), (eta**2).sum(1)
+    f = np.column_stack([-TRUE["k_d"] * va[:, 0] * s1 / MASS,
+                         -TRUE["k_d"] * va[:, 1] * s1 / MASS,
+                         (TRUE["k_eta"] * s2 - TRUE["k_z"] * va[:, 2] * s1
+                          + 4 * TRUE["k_h"] * (va[:, 0] ** 2 + va[:, 1] ** 2)) / MASS])
+    f += rng.normal(0.0, 0.3, f.shape)
+    fit = fit_aero(AeroData(d.t, va, f, eta, "model"), MASS)
+    note = [n for n in fit.notes if n.startswith("the samples do not determine")]
+    assert len(note) == 1 and "k_h [" in note[0] and "k_eta" not in note[0]
+    assert fit.to_dict()["notes"] == fit.notes
+    assert not [n for n in fit_aero(_model_samples(), MASS).notes
+                if n.startswith("the samples do not determine")]

@@ -386,6 +386,13 @@ class AeroFit:
     def notes(self) -> list[str]:
         """Caveats of the fit, one sentence each (empty when none)."""
         notes = []
+        loose = [f"{n} [{e.ci95[0]:.3g}, {e.ci95[1]:.3g}]" for n in POSITIVE
+                 for e in (getattr(self, n),) if e.ci95[0] <= 0.0 <= e.ci95[1]]
+        if loose:  # hover-only samples: k_d 23 x low, its interval over 0, no note (audit)
+            notes.append(
+                f"the samples do not determine {', '.join(loose)}: each 95 % interval "
+                "includes 0, so the value is noise; fly airflows that excite it (several "
+                "lateral airspeeds for k_d and k_h, vertical ones for k_z)")
         r = self.kz_kh_correlation
         if r is not None and abs(r) > COLLINEAR_KZ_KH:
             notes.append(
@@ -521,6 +528,7 @@ def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *, parasitic: boo
     ver = linear_fit(X_ver, f[:, 2], names_ver,
                      source=f"{d.source} (columns 'specific_force_z', 'airspeed_*', "
                             "'rotor_speed_*')")
+    _check_signs(lat, ver, d.source)
     frame = check = None
     if parasitic:
         frame = (lat.estimate("c_Dx"), lat.estimate("c_Dy"), ver.estimate("c_Dz"))
@@ -529,6 +537,28 @@ def fit_aero(data: AeroData | Sequence[AeroData], mass: float, *, parasitic: boo
     return AeroFit(ver.estimate("k_eta"), lat.estimate("k_d"), ver.estimate("k_z"),
                    ver.estimate("k_h"), (lat.estimate("b_x"), lat.estimate("b_y")), lat, ver,
                    m, d, frame, check)
+
+
+POSITIVE = ("k_eta", "k_d", "k_z", "k_h")
+"""The coefficients the physics makes positive (thrust, rotor drag, induced inflow, lift)."""
+
+
+def _check_signs(lat, ver, source: str) -> None:
+    """Refuse a fit whose ``k_eta`` is not positive, or whose ``k_d``, ``k_z`` or ``k_h`` is
+    negative beyond its 95 % interval: the samples' sign conventions, not the vehicle (an
+    audit's z-down samples fitted k_eta = -4.06e-8 with a tight interval, status 0; the air's
+    velocity given for the airspeed fitted k_d = -5.08e-6; a dead accelerometer z, k_eta = 0)."""
+    for name in POSITIVE:
+        e = (lat if name == "k_d" else ver).estimate(name)
+        if (name == "k_eta" and not e.value > 0) or e.ci95[1] < 0:
+            raise ValueError(
+                f"The samples of {source} fit {name} = {e.value:.4g} (95 % interval "
+                f"[{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]), where the physics makes it positive: "
+                "check their conventions (body frame x forward, y left, z up, as FLU: a "
+                "z-down (FRD) frame must be converted; 'airspeed_*' is the vehicle's velocity "
+                "relative to the air, the opposite of the wind's; 'specific_force_*' is the "
+                "accelerometer's reading, about +9.81 m/s^2 along z in hover) and that the "
+                "columns carry a signal.")
 
 
 def _frame_drag_check(d: AeroData, m: float, k_d: Estimate, source: str) -> dict | None:
