@@ -426,3 +426,26 @@ def test_samples_just_after_a_pwm_change_are_not_steady():
     command.register(parser.add_subparsers(dest="command"))
     args = parser.parse_args(["sysid", "thrust-stand", "--csv", "x.csv"])
     assert args.settle_s == SETTLE_S
+
+
+def test_a_load_cell_that_read_noise_is_noted(stand, tmp_path):
+    """Thrust replaced by N(0.002, 0.02) N of noise: k_eta came out 195 x too small with an
+    interval clear of 0, R^2 = -0.008 and no note (failure audit, thirty-eighth session)."""
+    _, csvs, good = stand
+    assert not [n for n in good["notes"] if n.startswith("the thrust samples do not follow")]
+    rng = np.random.default_rng(0)
+    out = []
+    for k, c in enumerate(csvs):
+        lines = c.read_text().splitlines()
+        col = lines[0].split(",").index("thrust_N")
+        rows = [line.split(",") for line in lines[1:]]
+        for r in rows:
+            r[col] = repr(float(rng.normal(0.002, 0.02)))
+        path = tmp_path / f"noise_{k}.csv"
+        path.write_text("\n".join([lines[0], *[",".join(r) for r in rows]]) + "\n")
+        out.append(path)
+    _cli("sysid", "thrust-stand", "--csv", *out, "--n-rotors", 4, "--json",
+         tmp_path / "fit.json", "--out", tmp_path / "o")
+    doc = json.loads((tmp_path / "fit.json").read_text())
+    assert doc["r2_thrust"] < 0.9
+    assert [n for n in doc["notes"] if n.startswith("the thrust samples do not follow")]

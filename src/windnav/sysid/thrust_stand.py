@@ -91,6 +91,12 @@ whose jump is small, up to 1 % below steady with a 5 ms motor, which biased DZ b
 (1.6 standard deviations: its cluster-robust interval covered the truth 75 % of the time on the
 simulated stand, 95 % without those samples; 1,000 seeds, 2026-12-05)."""
 
+MIN_R2_THRUST = 0.9
+"""Below this R^2 of thrust per rotor against ``omega^2`` the thrust samples do not follow the
+rotor speed, and ``k_eta`` is noted as untrustworthy: a load cell that read noise gave k_eta
+195 x too small, its interval clear of 0, with R^2 = -0.008 and no note (an audit); the
+simulated stand's 0.999, which noise-free thrust physics cannot fall far below."""
+
 SETTLING_P = 1e-3
 """Below this p-value of the paired test of the first against the second halves of the PWM
 steps, the rotor speed has not settled (with a fast motor, ``tau_m`` = 5 ms, 0 of 20 seeds
@@ -297,6 +303,12 @@ class ThrustStandFit:
     def notes(self) -> list[str]:
         """Caveats of the fit, one sentence each (empty when none)."""
         notes = []
+        if not self.thrust.r2 >= MIN_R2_THRUST:
+            notes.append(
+                f"the thrust samples do not follow omega^2: R^2 = {self.thrust.r2:.3g} (below "
+                f"{MIN_R2_THRUST:g}), so k_eta = {self.k_eta.value:.4g} N/(rad/s)^2 describes "
+                "noise, not the rotor; check the load cell's column ('thrust_N': its units, "
+                "its zero, whether it recorded) before using it")
         flat = {src: c for src, c in self.saturation.items() if c["saturated"]}
         if flat:
             src, c = min(flat.items(), key=lambda item: item[1]["rise"])  # the flattest
