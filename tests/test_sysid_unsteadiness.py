@@ -136,3 +136,25 @@ def test_a_vehicle_other_than_the_logs_is_noted(tmp_path, capsys):
          "crazyflie_thesis", "--cell", 1.0, "--min-count", 1, "--out", tmp_path / "o")
     assert "flew 'crazyflie_brushless', not --vehicle 'crazyflie_thesis'" in \
         capsys.readouterr().err
+
+
+def test_bins_of_one_sample_have_no_spread_and_blanked_bins_are_not_occupied():
+    """A failure audit (thirty-eighth session): 44 of 47 bins of one sample each showed a
+    force-command spread of 0.0 N (perfectly steady, where the spread is undefined); with
+    every bin under min_count the maps were NaN, 'occupied_bins' 47, and status 0."""
+    from windnav.sysid.unsteadiness import FlightSamples, unsteadiness_maps
+
+    rng = np.random.default_rng(0)
+    n = 50
+    samples = FlightSamples(rng.uniform(0, 20, (n, 2)), rng.normal(0, 1, (n, 2)),
+                            rng.normal(0, 0.1, (n, 2)), rng.normal(0, 0.5, (n, 3)))
+    maps = unsteadiness_maps(samples, cell=1.0, min_count=1)
+    ones = maps.count == 1
+    assert ones.any() and np.isnan(maps.force_cmd_std[ones]).all()
+    assert np.isfinite(maps.force_cmd_std[maps.count >= 2]).all()
+    assert maps.to_dict()["occupied_bins"] == int((maps.count >= 1).sum())
+    two = unsteadiness_maps(samples, cell=5.0, min_count=2)
+    assert two.to_dict()["occupied_bins"] == int((two.count >= 2).sum()) < (two.count > 0).sum()
+    with pytest.raises(ValueError, match="'min_count' parameter of unsteadiness_maps must be "
+                                         "met by at least one bin"):
+        unsteadiness_maps(samples, cell=1.0, min_count=5)

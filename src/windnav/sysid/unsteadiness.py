@@ -181,9 +181,12 @@ class UnsteadinessMaps:
     wind_mean : ndarray of shape (ny, nx, 2)
         Mean wind per bin, world frame, m/s (NaN below ``min_count``).
     force_cmd_std : ndarray of shape (ny, nx)
-        ``sqrt(var F_x + var F_y)`` of the lateral force command, N.
+        ``sqrt(var F_x + var F_y)`` of the lateral force command, N (NaN in bins of fewer
+        than two samples, whose spread is undefined, as below ``min_count``).
     body_rate_mean : ndarray of shape (ny, nx)
         Mean ``|Omega|``, rad/s.
+    min_count : int
+        The least samples of a mapped bin (fewer: NaN).
     """
 
     x_edges: np.ndarray
@@ -192,6 +195,7 @@ class UnsteadinessMaps:
     wind_mean: np.ndarray
     force_cmd_std: np.ndarray
     body_rate_mean: np.ndarray
+    min_count: int = 1
 
     @property
     def centres(self) -> tuple[np.ndarray, np.ndarray]:
@@ -201,7 +205,7 @@ class UnsteadinessMaps:
 
     def to_dict(self) -> dict:
         """JSON payload (arrays as nested lists, NaN as null by the writer)."""
-        occupied = self.count > 0
+        occupied = self.count >= self.min_count  # blanked bins counted before (audit)
         return {
             "x_edges_m": self.x_edges, "y_edges_m": self.y_edges, "count": self.count,
             "wind_mean_x_m_s": self.wind_mean[..., 0], "wind_mean_y_m_s": self.wind_mean[..., 1],
@@ -258,8 +262,16 @@ def unsteadiness_maps(samples: FlightSamples, *, cell: float = 1.0,
     values = np.column_stack([samples.wind_xy, samples.force_cmd_xy, rate])
     count, mean, var = bin_xy(samples.xy, values, x_edges, y_edges)
     empty = count < min_count
+    if empty.all():  # every bin blanked: maps of NaN, NumPy's warnings, status 0 (audit)
+        raise ValueError(f"The 'min_count' parameter of {where} must be met by at least one "
+                         f"bin: no {cell:g} m bin holds {min_count} of the "
+                         f"{samples.xy.shape[0]} samples (the fullest holds "
+                         f"{int(count.max())}); lower it, or enlarge the bins.")
     mean[empty] = np.nan
     var[empty] = np.nan
+    # one sample has no spread: its population variance, 0, read as a perfectly steady bin
+    # (44 of 47 bins at min_count=1 in an audit)
+    var[count < 2] = np.nan
     return UnsteadinessMaps(x_edges, y_edges, count, mean[..., :2],
-                            np.sqrt(var[..., 2] + var[..., 3]), mean[..., 4])
+                            np.sqrt(var[..., 2] + var[..., 3]), mean[..., 4], min_count)
 
