@@ -451,3 +451,18 @@ def test_the_library_fit_says_what_the_command_says():
     assert any("lies beyond the fastest sample (7 m/s)" in n for n in low.notes)
     full = fit_power(v, thesis(v))
     assert full.notes == []
+
+
+def test_a_flat_power_column_determines_no_best_speed():
+    """A stuck power column (84 samples at 50 W, 0-10 m/s) fitted a max-endurance speed of
+    9.55 m/s with a 95 % interval of [1.15, 17.95] m/s, past the speeds searched, and no note
+    but the max-range edge (failure audit, thirty-eighth session)."""
+    from windnav.sysid import fit_power
+
+    v = np.repeat(np.linspace(0.0, 10.0, 21), 4)
+    fit = fit_power(v, np.full(v.size, 50.0))
+    assert any(n.startswith("the fitted curve is flat") for n in fit.notes)
+    rng = np.random.default_rng(0)
+    real = fit_power(v, 50.0 - 1.2 * v + 0.09 * v**2 + rng.normal(0.0, 0.2, v.size))
+    assert not [n for n in real.notes if n.startswith(("the fitted curve is flat",
+                                                       "the samples do not determine"))]

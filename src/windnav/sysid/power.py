@@ -296,6 +296,21 @@ class PowerFit:
                     f"{name} ({e.value:.3g} m/s) lies on the bound of the speeds searched (0 or "
                     f"speed_max {self.curve.speed_max:.3g} m/s): the optimum is not inside the "
                     "data, and no 95 % interval is given for it")
+        grid = np.linspace(float(self.speed.min()), fastest, 201)
+        span = float(np.ptp(self.curve(grid)))
+        if span < NO_SCATTER_RESOLUTION * float(np.max(np.abs(self.power))):
+            # a stuck power column fitted an "optimum" of rounding noise (failure audit)
+            notes.append(f"the fitted curve is flat: it varies by {span:.3g} W over the "
+                         "samples, under the rounding of its powers, so no speed draws less "
+                         "power than another and max_endurance_speed and max_range_speed "
+                         "are not determined (a power column that did not record?)")
+        for name, e in (("max_endurance_speed", self.max_endurance_speed),
+                        ("max_range_speed", self.max_range_speed)):
+            lo, hi = e.ci95
+            if np.isfinite(lo) and (lo < 0.0 or hi > self.curve.speed_max):
+                notes.append(f"the samples do not determine {name}: its 95 % interval "
+                             f"[{lo:.3g}, {hi:.3g}] m/s reaches past the speeds searched (0 "
+                             f"to {self.curve.speed_max:.3g} m/s)")
         if self.max_range_speed.value > fastest * (1 + 1e-9):
             notes.append(f"the max-range speed {self.max_range_speed.value:.3g} m/s lies beyond "
                          f"the fastest sample ({fastest:.3g} m/s): the curve is extrapolated "
