@@ -206,3 +206,21 @@ def test_the_summary_gives_the_filters_consistency_and_the_command_notes_it(
         out, err = capsys.readouterr()
         assert f"median NEES {nees:.2f}" in out
         assert (said in err) if said else "NEES" not in err
+
+
+def test_the_command_says_how_many_trials_saturated(monkeypatch, capsys):
+    """Trials whose rotors saturated (91 and 94 % of the flight, tracking errors of 25-70 m, in
+    a failure audit) entered the RMSE summary with their count in the JSON only."""
+    orig, real_run = mc.MonteCarloConfig, mc.run_montecarlo
+    monkeypatch.setattr(mc, "MonteCarloConfig", lambda **kw: orig(**{**SHORT, **kw}))
+    for count in (1, 0):
+        def run(*a, _count=count, **kw):
+            result = real_run(*a, **kw)
+            result["summary"]["n_saturated_over_1pct"] = _count
+            return result
+
+        monkeypatch.setattr(mc, "run_montecarlo", run)
+        assert main(["ukf-montecarlo", "--trials", "1", "--backend", "serial",
+                     "--no-progress"]) == 0
+        err = capsys.readouterr().err
+        assert ("1 of 1 trials saturated their rotors" in err) == bool(count)

@@ -236,6 +236,12 @@ def run(args) -> int:
                   "vehicle's envelope (trusted airspeed or lift) for part of the flight: their "
                   "RMSE is the filter's against extrapolated aerodynamics (each trial's "
                   "'outside_envelope_fraction' in --json)", file=sys.stderr)
+        if s.get("n_saturated_over_1pct"):  # in the JSON only before (failure audit)
+            print(f"{name}: note: {s['n_saturated_over_1pct']} of {s['n']} trials saturated "
+                  "their rotors for more than 1 % of the flight (the controller out of "
+                  "authority: tracking errors of tens of metres are possible): their RMSE is "
+                  "the filter's on a flight that did not follow its trajectory (each trial's "
+                  "'saturated_fraction' in --json)", file=sys.stderr)
     for t in result["trials"]:
         if t.get("error") is not None:
             first = t["error"].splitlines()[0] if t["error"] else "unknown error"
