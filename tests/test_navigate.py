@@ -588,6 +588,37 @@ def test_a_vehicle_that_leaves_the_model_ends_as_left_map_not_collision(city, fl
     last = res.position[-1:, :2]
     assert not city.contains(last)[0]
     assert res.outcome == "left_map"
+    # and the result says it (a failure audit, thirty-eighth session: the summary, the JSON and
+    # the benchmark's record read as a flight that left the map)
+    assert res.diverged_s == pytest.approx(0.5) and res.summary()["diverged_s"] == res.diverged_s
+
+
+def test_the_command_exits_1_when_the_simulation_diverged(tmp_path, monkeypatch, capsys):
+    import json
+
+    from windnav import cli
+    from windnav.vehicle.multirotor import Multirotor
+
+    step, calls = Multirotor.step_packed, [0]
+
+    def blow_up(self, x, cmd, wind_com, wind_hub, dt, out):
+        step(self, x, cmd, wind_com, wind_hub, dt, out)
+        calls[0] += x.shape[0] == 1
+        if calls[0] == 300:
+            out[...] = np.nan
+
+    monkeypatch.setattr(Multirotor, "step_packed", blow_up)
+    city = tmp_path / "city.json"
+    city.write_text(json.dumps({"bounds": {"extents": [0, 120, 0, 80, 0, 15]},
+                                "blocks": [{"extents": [50, 70, 30, 50, 0, 15]}]}))
+    with pytest.warns(RuntimeWarning, match="state became non-finite"):
+        status = cli.main(["navigate", "--map", str(city), "--start", "10", "10", "--goal",
+                           "110", "70", "--speed", "3", "--variant", "mppi", "--spinup-s", "2",
+                           "--record-s", "30", "--no-plots", "--out", str(tmp_path / "o")])
+    assert status == 1
+    assert "windnav navigate: error: the simulation diverged" in capsys.readouterr().err
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["diverged_s"] > 0 and summary["outcome"] == "left_map"
 
 
 def test_a_duration_past_the_flow_s_end_is_cut_with_a_warning(city, still):

@@ -254,7 +254,7 @@ def run(args) -> int:
             "mean_cmd_accel", "planner_ms_median", "fallbacks", "stage_ms_median",
             "real_time_fraction", "ukf_wind_rms_mps", "airspeed_max_mps", "outside_envelope_s")
     print(json.dumps(json_ready({k: summary[k] for k in keys if k in summary}), indent=2))
-    warn_envelope(summary)
+    warn_envelope(summary, prefix=f"{name}: ")
     tallest = float(np.max(city.heights)) if len(city.heights) else 0.0
     if len(city.heights) and args.altitude > tallest:  # the flight ignored the 3D gap
         print(f"{name}: note: --altitude {args.altitude:g} m is above the tallest building "
@@ -265,6 +265,11 @@ def run(args) -> int:
               f"({float(flow.t[-1]):g} s, --record-s); a longer record gives it more time",
               file=sys.stderr)
     print_written(out)
+    if summary.get("diverged_s") is not None:  # recorded as left_map, status 0 (audit)
+        print(f"{name}: error: the simulation diverged: the vehicle's state stopped being "
+              f"finite at {summary['diverged_s']:.2f} s, and the flight, recorded as "
+              f"{summary['outcome']!r} where it was, ends there", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -761,6 +761,8 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
         rec["loop_wall_s"] = summary.get("wall_s")
         rec.update({k: summary.get(k) for k in ENVELOPE_FIELDS})
         rec.update({k: summary[k] for k in ONBOARD_FIELDS if k in summary})
+        if summary.get("diverged_s") is not None:  # the simulation's failure, not the flight's
+            rec["diverged_s"] = summary["diverged_s"]  # (its warning stays in the worker)
         settings = summary.get("settings") or {}
         if "route_hold_energy_J" in settings:  # GS and GS+W
             rec.update({k: settings[k] for k in ROUTE_FIELDS})

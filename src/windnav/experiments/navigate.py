@@ -235,6 +235,10 @@ class NavigationResult:
     onboard : OnboardReport or None
         The onboard stack's errors and stage timings (``ea-mppi-w-hat``; see
         :mod:`windnav.experiments.onboard`), else None.
+    diverged_s : float or None
+        When the vehicle's state stopped being finite (the simulation left its model), s: the
+        flight ends there, its outcome classified by where it was (``collision`` or
+        ``left_map``); None for a flight simulated to its end.
     """
 
     outcome: str
@@ -265,6 +269,7 @@ class NavigationResult:
     settings: dict = field(default_factory=dict)
     wind_estimate: np.ndarray | None = None
     onboard: object = None
+    diverged_s: float | None = None
 
     def envelope(self) -> dict:
         """Where the flight left the envelope of its models: ``airspeed_max_mps`` (the largest
@@ -335,6 +340,7 @@ class NavigationResult:
             "final_position": self.position[-1].tolist(),
             "final_distance_to_goal_m": float(np.hypot(*(self.position[-1, :2] - self.goal))),
             **self.arrival(), **self.envelope(),
+            "diverged_s": self.diverged_s,
             "wall_s": self.wall_s, "settings": dict(self.settings), **extra,
         }
 
@@ -987,6 +993,7 @@ def navigate(
     goal_since = hover_since = holding = None
     cmd = None
     outcome = "timeout"
+    diverged_s = None
     n = n_max
     wall0 = time.perf_counter()
     for k in range(n_max):
@@ -1151,6 +1158,7 @@ def navigate(
         route=None if route is None else np.asarray(route.samples).copy(),
         wall_s=wall, settings=settings,
         wind_estimate=None if report is None else report.wind_estimate, onboard=report,
+        diverged_s=diverged_s,
     )
 
 
