@@ -1,6 +1,7 @@
 """Steady-flight power sweeps in the simulator (power model (a): sum k_m eta^3 / efficiency)."""
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -161,3 +162,25 @@ def test_fitted_curve_and_its_best_speed_stay_inside_the_envelope():
     assert 0.0 <= max_endurance_speed(curve) <= curve.speed_max
     with pytest.raises(ValueError, match="'max_speed'"):
         simulated_power_curve(p, max_speed=200.0, n=21)  # only the hover point is inside
+
+
+@pytest.mark.parametrize("direction", [(0.0, 0.0, 0.0), (math.inf, 0.0, 0.0), (1.0, 0.0)])
+def test_a_direction_of_no_length_is_refused(direction):
+    """``direction=(0, 0, 0)`` flew NaN winds: power NaN and ``envelope_speed`` 0.0, claiming
+    hover itself outside the envelope, with NumPy's divide warning only (warnings audit,
+    thirty-eighth session)."""
+    with pytest.raises(ValueError, match="'direction' parameter of power_sweep must be a "
+                                         "finite, non-zero 3-vector"):
+        power_sweep(wn.vehicle.params("hummingbird"), [0.0, 5.0], direction=direction)
+
+
+def test_an_unrealisable_gust_is_refused_without_a_nan_in_its_message():
+    """The refusal computed sqrt of a negative variance: 'standard deviation came out
+    array([1.5, nan, nan])' with NumPy's invalid-value warning (warnings audit)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(ValueError, match="variance came out") as info:
+            wn.wind.DrydenWind(length_scales=(1e5,) * 3, airspeed=0.01)
+    assert "nan" not in str(info.value)

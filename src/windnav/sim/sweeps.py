@@ -16,6 +16,8 @@ below it.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from windnav._validate import positive_float
@@ -81,7 +83,11 @@ def power_sweep(
                          f"Got {settle_s!r} instead.")
     steady_speed = positive_float(steady_speed, "steady_speed", where)
     d = np.asarray(direction, dtype=np.float64)
-    d = d / np.linalg.norm(d)
+    size = float(np.linalg.norm(d)) if d.shape == (3,) else math.nan
+    if not (math.isfinite(size) and size > 0):  # (0, 0, 0): NaN power, "hover is outside"
+        raise ValueError(f"The 'direction' parameter of {where} must be a finite, non-zero "
+                         f"3-vector. Got {direction!r} instead.")
+    d = d / size
     # flying at +V through still air == hovering in a wind blowing toward -direction
     wind = RowWind(-speeds[:, None] * d[None, :])
     log = fly(params, Hover((0.0, 0.0, 10.0)), wind, duration, dt=dt, batch=speeds.size,

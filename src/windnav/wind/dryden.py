@@ -65,6 +65,7 @@ from __future__ import annotations
 
 import math
 import threading
+import warnings
 from collections import OrderedDict
 
 import numba
@@ -346,15 +347,18 @@ class DrydenWind(ReadOnlyOnCopy):
         self._batch = None if batch_size is None else positive_int(batch_size, "batch_size", where)
         self._t0 = finite_float(t0, "t0", where)
         self._h = positive_float(time_step, "time_step", where)
-        self._p = stationary_covariance(self._a, self._b)
+        with warnings.catch_warnings():  # SciPy's perturbation notice: the check below decides
+            warnings.filterwarnings("ignore", message='Input "a" has an eigenvalue pair',
+                                    category=RuntimeWarning)
+            self._p = stationary_covariance(self._a, self._b)
         variance = np.einsum("ij,jk,ik->i", self._c, self._p, self._c)
         if not np.allclose(variance, self._sigma ** 2, rtol=1e-6, atol=1e-12):
             # time constants L / V of a microsecond or less: the Lyapunov solve loses the
             # covariance, and the gusts came out hundreds of times larger than sigma
             raise ValueError(f"The 'length_scales' parameter of {where} must give time "
                              "constants L / airspeed that double precision can realise (the "
-                             f"gust's standard deviation came out {np.sqrt(variance)!r} m/s "
-                             f"for sigma {self._sigma!r}). Got {self._scales!r} m at "
+                             f"gust's variance came out {variance!r} (m/s)^2 "
+                             f"for sigma^2 {self._sigma ** 2!r}). Got {self._scales!r} m at "
                              f"{self.airspeed} m/s instead.")
         self._fastest = float(np.max(np.abs(np.linalg.eigvals(self._a))))
         phi, q = _exact_step(self._a, self._b, self._p, self._fastest, self._h)
