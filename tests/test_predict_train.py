@@ -1119,3 +1119,14 @@ def test_train_decoder_trains_on_the_rest_when_a_sweep_task_fails(tmp_path, caps
     assert "failed: map 0 cases [1] (speeds 3 m/s, directions 125 deg): RuntimeError: a flow" in err
     assert "sweep task(s) failed and are left out of the training" in err
     assert (tmp_path / "run" / "model.npz").exists()
+
+
+def test_a_learning_rate_that_makes_the_training_diverge_is_named(tiny, tmp_path):
+    """``learning_rate = 1e6`` ended in "The 'weights' parameter of Decoder must be finite",
+    naming neither the recipe nor its learning rate, after the rest of the epoch ran on NaN
+    (failure audit, thirty-eighth session)."""
+    _, out, _ = tiny
+    with pytest.raises(ValueError, match=r"'train.learning_rate' parameter of the recipe made "
+                                         r"the training diverge: the loss became nan in epoch 1"):
+        train_decoder(tiny_recipe(learning_rate=1e6), store=out / "sweep.zarr",
+                      out_dir=tmp_path, progress=False, log=None)

@@ -1280,7 +1280,15 @@ class _Run:
                 if self.ema is not None:  # the schedule counts the optimizer's steps
                     _ema_update(self.ema, model.parameters(), tr["ema_decay"],
                                 self.sched.last_epoch)
-                total += float(loss.detach()) * labels.shape[0]
+                value = float(loss.detach())
+                if not math.isfinite(value):  # was "'weights' of Decoder must be finite"
+                    raise ValueError(
+                        f"The 'train.learning_rate' parameter of the recipe made the training "
+                        f"diverge: the loss became {value} in epoch {e + 1} (at "
+                        f"{tr['learning_rate']!r}, now {self.opt.param_groups[0]['lr']:.3g} in "
+                        "its schedule); lower it, or check the sweep's fields and the "
+                        "recipe's other train settings.")
+                total += value * labels.shape[0]
                 count += labels.shape[0]
                 bar.set_postfix(loss=f"{total / count:.4g}", refresh=False)
         model.eval()
