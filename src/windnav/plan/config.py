@@ -338,7 +338,10 @@ class PlannerConfig:
         return float(np.min(power_bar_array(air, self.power_table()) / v))
 
     def max_range_speed(self, wind_along: float = 0.0, *, speed_range=(0.5, 20.0)) -> float:
-        """``V_R(W) = argmin_V P(|V - W|) / V`` over ground speeds in ``speed_range``, m/s."""
+        """``V_R(W) = argmin_V P(|V - W|) / V`` over ground speeds in ``speed_range``, m/s: an
+        end of the range when the unconstrained optimum lies beyond it (a strong tail- or
+        headwind), the best speed the planner may fly, not a minimum of the curve (compare
+        the result with ``speed_range`` to tell)."""
         where = "PlannerConfig.max_range_speed"
         lo, hi = check_speed_range(speed_range, "speed_range", where)
         wind_along = finite_float(wind_along, "wind_along", where)  # NaN gave 0.5
