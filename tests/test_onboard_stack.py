@@ -41,7 +41,7 @@ SUMMARY_KEYS = {"outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "d
                 "planner_updates", "start", "goal", "final_position", "final_distance_to_goal_m",
                 "arrival_time_s", "arrival_energy_J", "arrival_rotor_energy_J", "wall_s",
                 "airspeed_max_mps", "outside_envelope_s", "power_extrapolated_s",
-                "goal_hold_at_cap_s", "goal_hold_at_cap_settled_s", "settings"}
+                "goal_hold_at_cap_s", "goal_hold_at_cap_settled_s", "diverged_s", "settings"}
 
 
 @pytest.fixture(scope="module")
