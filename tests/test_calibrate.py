@@ -1,6 +1,8 @@
 """Drag calibration: least squares on the force model, recovery from simulated steady flights."""
 
 import json
+import math
+import warnings
 from types import SimpleNamespace
 
 import numpy as np
@@ -77,6 +79,9 @@ def test_calibration_recovers_the_hummingbird_drag(hummingbird_fit):
     assert believed.k_d == fit.k_d and believed.mass == P_HB.mass
     # standard errors are honest: the fit lies within a few of them of the truth
     assert abs(fit.k_d - P_HB.k_d) < 5 * fit.stderr["k_d"] + 1e-3 * P_HB.k_d
+    # flights along every axis determine every coefficient: nothing to say
+    assert fit.undetermined == {} and fit.notes == ()
+    assert all(math.isfinite(v) for v in fit.stderr.values())
 
 
 def test_ignoring_parasitic_drag_inflates_the_rotor_drag():
@@ -91,10 +96,18 @@ def test_ignoring_parasitic_drag_inflates_the_rotor_drag():
 
 def test_calibration_of_a_heavy_high_drag_vehicle():
     p = P_HB.replace(mass=0.84, k_d=9.0e-4, k_z=1.25e-3, c_dx=4e-4, c_dy=5e-4, c_dz=5.5e-4)
-    fit, _ = calibrate(p, speeds=SHORT, duration=5.0, rng=2)
+    with warnings.catch_warnings(record=True) as got:
+        warnings.simplefilter("always")
+        fit, _ = calibrate(p, speeds=SHORT, duration=5.0, rng=2)
     assert fit.k_d == pytest.approx(p.k_d, rel=0.02)
     assert fit.k_z == pytest.approx(p.k_z, rel=0.02)
     assert all(getattr(fit, k) >= 0 for k in ("c_dx", "c_dy", "c_dz"))
+    # a small frame drag NNLS pins at 0 (c_dy, c_dz here) is said, without a standard error
+    pinned = {k for k, v in fit.coefficients.items() if v == 0.0}
+    assert set(fit.undetermined) == pinned
+    assert all(math.isnan(fit.stderr[k]) for k in pinned)
+    assert all("lie" in str(w.message) and "at 0, the bound" in str(w.message) for w in got)
+    assert len(got) == (1 if pinned else 0)
 
 
 def test_bad_input_is_named():
@@ -202,3 +215,75 @@ def test_the_linear_drag_matches_the_true_one_where_the_note_says():
     assert fit.k_d * s * v_eq == pytest.approx(P_HB.k_d * s * v_eq + P_HB.c_dx * v_eq**2)
     (note,) = calibration_notes(fit, P_HB)
     assert f"in-plane near {v_eq:.2g} m/s" in note and "k_d +10.0 % (119 standard errors)" in note
+
+
+def test_flights_along_x_alone_say_what_they_do_not_determine():
+    """Calibration audit: flights along x only gave c_dy = 0 (standard error 0.011), c_dz 3.9 x
+    and k_z -19 % from the truth, with ordinary standard errors, from no y or z airflow, and
+    apply() handed them to the Wind UKF without a word."""
+    with pytest.warns(RuntimeWarning, match=r"do not determine c_dy, k_z and c_dz") as got:
+        fit, believed = calibrate(P_HB, speeds={"x": (1.0, 2.0, 3.0)}, duration=4.0,
+                                  settle_s=2.0, rng=0)
+    assert "tilt of the horizontal flights" in str(got[0].message)
+    assert set(fit.undetermined) == {"c_dy", "k_z", "c_dz"}
+    assert "no airflow along y" in fit.undetermined["c_dy"]
+    assert "no airflow along z" in fit.undetermined["k_z"]
+    assert all(math.isnan(fit.stderr[k]) for k in fit.undetermined)
+    # what the flights do determine keeps its standard error, and is right
+    assert math.isfinite(fit.stderr["k_d"]) and math.isfinite(fit.stderr["c_dx"])
+    assert fit.k_d == pytest.approx(P_HB.k_d, rel=0.01)
+    assert any("no calibration row flew along y or z" in n for n in fit.notes)
+    # the values are the fit's, and so are the filter's, said when handed on
+    assert fit.c_dz > 2 * P_HB.c_dz and believed.c_dz == fit.c_dz
+    with pytest.warns(RuntimeWarning, match=r"DragFit.apply: .*c_dz = .*no airflow along z"):
+        applied = fit.apply(P_HB)
+    assert all(getattr(applied, k) == getattr(believed, k) == v
+               for k, v in fit.coefficients.items())
+    assert json.loads(fit.to_json())["stderr"]["c_dz"] is None  # valid JSON, not NaN
+
+
+def test_hover_alone_determines_nothing():
+    """Hover only: k_d = k_z = 0 and c_dx 237 x the truth, R^2 0.003 and -0.010, silently."""
+    with pytest.warns(RuntimeWarning) as got:
+        fit, _ = calibrate(P_HB, speeds={"x": (), "y": (), "z": ()}, duration=4.0,
+                           settle_s=2.0, rng=0)
+    text = " | ".join(str(w.message) for w in got)
+    assert "no calibration row flew along x, y or z" in text
+    assert "explains little of the specific force" in text and "below 0.1" in text
+    assert list(fit.undetermined) == ["k_d", "k_z", "c_dx", "c_dy", "c_dz"]
+    assert all(math.isnan(v) for v in fit.stderr.values())
+    assert max(fit.r2) < 0.1 and len(fit.notes) == 2
+
+
+def test_one_airspeed_does_not_separate_rotor_from_frame_drag():
+    """A single airspeed along x: k_d S V and c_dx V^2 are one column twice (k_d -36 %,
+    c_dx 9 x the truth)."""
+    with pytest.warns(RuntimeWarning) as got:
+        fit, _ = calibrate(P_HB, speeds={"x": (2.0,)}, duration=3.0, settle_s=1.5, rng=0)
+    assert any("do not separate k_d and c_dx" in str(w.message) for w in got)
+    assert "not separated from c_dx" in fit.undetermined["k_d"]
+    assert math.isnan(fit.stderr["k_d"]) and math.isnan(fit.stderr["c_dx"])
+
+
+def test_a_coefficient_at_the_bound_has_no_standard_error():
+    """Data that would put c_dx below 0: NNLS pins it at 0, its standard error NaN (as the
+    sys-id fits at a bound), the others' kept."""
+    p = P_HB.replace(k_d=4e-4, k_z=9e-4, c_dx=6e-4, c_dy=2e-4, c_dz=1.2e-2)
+    below = SimpleNamespace(**{k: getattr(p, k) for k in (
+        "mass", "k_eta", "k_h", "k_d", "k_z", "c_dy", "c_dz", "n_rotors", "hover_rotor_speed")},
+        c_dx=-6e-4)
+    with pytest.warns(RuntimeWarning, match=r"c_dx lies at 0, the bound"):
+        fit = fit_drag(synthetic_log(below, np.random.default_rng(0)), p, settle_s=0.0)
+    assert fit.c_dx == 0.0 and fit.undetermined == {"c_dx": "on the bound 0"}
+    assert math.isnan(fit.stderr["c_dx"])
+    assert all(math.isfinite(fit.stderr[k]) for k in ("k_d", "k_z", "c_dy", "c_dz"))
+
+
+def test_a_fit_by_hand_applies_without_a_word_unless_undetermined():
+    fit = DragFit(k_d=1e-4, k_z=2e-4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert fit.apply(P_HB).k_d == 1e-4
+    odd = DragFit(k_d=1e-4, k_z=0.0, stderr={"k_z": math.nan}, undetermined={"k_z": "x"})
+    with pytest.warns(RuntimeWarning, match=r"do not determine k_z = 0 \(x\)"):
+        assert odd.apply(P_HB).k_z == 0.0

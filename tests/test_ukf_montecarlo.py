@@ -3,6 +3,7 @@
 import dataclasses
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -46,7 +47,9 @@ def test_mil_vertical_ratio_and_mass_to_drag_ratio():
 
 def test_small_study_records_and_summary():
     cfg = mc.MonteCarloConfig(n_trials=3, seed=1, **SHORT)
-    out = mc.run_montecarlo(cfg, backend="serial", progress=False)
+    with warnings.catch_warnings():  # a calibration's caveats go into its trial's record
+        warnings.filterwarnings("error", message="fit_drag: ", category=RuntimeWarning)
+        out = mc.run_montecarlo(cfg, backend="serial", progress=False)
     assert out["failed"] == 0 and [t["index"] for t in out["trials"]] == [0, 1, 2]
     rmse = np.array([t["rmse"] for t in out["trials"]])
     gust = np.array([np.linalg.norm(t["sigma"]) for t in out["trials"]])
@@ -67,6 +70,14 @@ def test_small_study_records_and_summary():
     forced = [{**t, "outside_envelope_fraction": 0.2} if t["index"] == 1 else t
               for t in out["trials"]]
     assert mc.summarize(forced)["n_outside_envelope"] == 1
+    # a drawn frame drag the calibration pinned at 0 is said per trial and counted
+    assert all(isinstance(t["calibration_undetermined"], dict) for t in out["trials"])
+    assert s["n_calibration_undetermined"] == sum(bool(t["calibration_undetermined"])
+                                                  for t in out["trials"])
+    pinned = [{**t, "calibration_undetermined": {"c_dx": "on the bound 0"}}
+              if t["index"] == 1 else {**t, "calibration_undetermined": {}}
+              for t in out["trials"]]
+    assert mc.summarize(pinned)["n_calibration_undetermined"] == 1
     # the filter's drag model under the default conditions is the calibrated vehicle's: no
     # bias worth a note; the summary gives the largest (misspecification audit, 2026-12-05)
     for t in out["trials"]:

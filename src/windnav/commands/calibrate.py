@@ -18,6 +18,12 @@ no relative error: the table prints ``n/a`` with the absolute error, and the JSO
 With ``--linear`` on a vehicle that has frame drag (the Hummingbird), ``k_d`` and ``k_z``
 absorb it; the JSON's ``notes`` (and stderr) say by how much and where their drag is wrong
 (:func:`windnav.experiments.calibration.calibration_notes`).
+
+A coefficient the flights do not determine (:attr:`windnav.estimate.DragFit.undetermined`: no
+airflow along its axis, not separated from another, or at NNLS's bound 0) prints ``nan`` as its
+standard error; the fit's notes (and a coefficient of determination below
+:data:`windnav.estimate.calibrate.R2_MIN`) come on stderr as ``warning:`` lines, from
+:func:`windnav.estimate.fit_drag`, and in the JSON's ``notes``.
 """
 
 from __future__ import annotations
@@ -110,13 +116,15 @@ def run(args) -> int:
     record = document("calibrate", {
         "vehicle": truth.name, "seed": args.seed, "fit": json.loads(fit.to_json()),
         "true": {k: getattr(truth, k) for k in fit.coefficients}, "relative_error": rel,
-        "absolute_error": absolute, "notes": notes}, args)
+        "absolute_error": absolute, "notes": [*fit.notes, *notes]}, args)
     with out.writing() as stage:
         write_json(record, stage.dir / "calibration.json")
         log.save(stage.dir / "calibration_log.npz")
         if stage.file("--json") is not None:
             write_json(record, stage.file("--json"))
     print_written(out)
-    for note in notes:  # the linear model's k_d, k_z stand in for the frame drag it lacks
+    # the linear model's k_d, k_z stand in for the frame drag it lacks (the fit's own notes
+    # were fit_drag's warnings, above the table)
+    for note in notes:
         print(f"{name}: note: {note}", file=sys.stderr)
     return 0

@@ -242,6 +242,11 @@ def run(args) -> int:
                   "authority: tracking errors of tens of metres are possible): their RMSE is "
                   "the filter's on a flight that did not follow its trajectory (each trial's "
                   "'saturated_fraction' in --json)", file=sys.stderr)
+        if s.get("n_calibration_undetermined"):
+            print(f"{name}: note: {s['n_calibration_undetermined']} of {s['n']} trials' "
+                  "calibrations left a drag coefficient undetermined (no airflow along its "
+                  "axis, not separated, or pinned at 0), which the filter believed as fitted "
+                  "(each trial's 'calibration_undetermined' in --json)", file=sys.stderr)
     for t in result["trials"]:
         if t.get("error") is not None:
             first = t["error"].splitlines()[0] if t["error"] else "unknown error"

@@ -126,14 +126,17 @@ def calibrate(
     Returns
     -------
     fit : DragFit
+        Its ``undetermined`` coefficients (flights along too few axes, ``speeds={"x": ...}``)
+        have NaN standard errors, and ``fit_drag`` warns (``RuntimeWarning``) naming them.
     params_filter : MultirotorParams
-        ``params_true`` with the drag coefficients replaced by the fitted ones: what the
-        Wind UKF believes (mass, thrust and lift coefficients known).
+        ``params_true`` with the drag coefficients replaced by the fitted ones, undetermined or
+        not (:meth:`DragFit.apply`, whose warning would repeat ``fit_drag``'s): what the Wind
+        UKF believes (mass, thrust and lift coefficients known).
     """
     rng = _rng(rng, seed, "calibrate")
     log = calibration_flights(params_true, speeds, duration=duration, sensors=sensors, rng=rng)
     fit = fit_drag(log, params_true, settle_s=settle_s, parasitic=parasitic)
-    return fit, fit.apply(params_true)
+    return fit, params_true.replace(**fit.coefficients)
 
 
 def calibration_notes(fit: DragFit, truth: MultirotorParams, speeds: dict | None = None
