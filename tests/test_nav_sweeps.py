@@ -162,6 +162,10 @@ def test_command_cases_reflies_the_best_and_worst_and_winds_draws_a_map(tmp_path
     assert doc["best"]["reduction"] == pytest.approx(0.3)
     assert doc["worst"]["scenario_id"] == "quick/m00/w01/p1"
     assert set(doc["reflown_energy_J"]["best"]) == {"mppi", "ea-mppi-w"}
+    # the records are made up here, so every re-flown flight differs from its record, and the
+    # command says so (it drew them as the cases, silently: failure audit, 2026-12-06)
+    err = capsys.readouterr().err
+    assert err.count("re-flew as") == 4 and "not its record's success with 700.0 J" in err
     for t in ("best", "worst"):
         for k in ("paths", "energy"):
             assert (out / f"{t}_{k}.png").stat().st_size > 10_000
