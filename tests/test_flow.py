@@ -528,3 +528,22 @@ def test_a_cell_above_a_eighth_of_the_median_building_is_accepted_with_a_note():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         city.check_resolution(2.0, "simulate")  # validated: no warning
+
+
+def test_jets_past_mach_0_3_or_too_long_a_trace_are_warned():
+    """A 1 m street through a 40 m barrier at a 5 m/s inlet made a 205 m/s mean jet (41 x the
+    inlet), reported as an ordinary flow: the inlet alone was checked (failure audit,
+    2026-12-06). A wide street at the same inlet is not warned."""
+    import warnings
+
+    barrier = City((0.0, 60.0, 0.0, 41.0), np.array([[10, 50, 0, 20], [10, 50, 21, 41]], float),
+                   np.array([10.0, 10.0]))
+    kw = dict(speed=5.0, direction_deg=0.0, dx=1.0, dt=0.1, spinup_steps=20, steps=20)
+    with pytest.warns(RuntimeWarning, match=r"mean flow reaches 20\d m/s .* past Mach 0\.3 .* "
+                                            r"cells a step, past 10"):
+        wn.flow.simulate(barrier, **kw)
+    wide = City((0.0, 60.0, 0.0, 41.0), np.array([[10, 50, 0, 12], [10, 50, 29, 41]], float),
+                np.array([10.0, 10.0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        wn.flow.simulate(wide, **kw)
