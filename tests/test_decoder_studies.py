@@ -689,3 +689,17 @@ def test_the_full_study_recipes_load(study):
     r = study_recipe(study, quick=False)
     assert [g["name"] for g in r["sweep"]["maps"]] == ["dense", "sparse", "holdout"]
     assert r["data"]["map_weights"] == {} and r["data"]["validation_maps"] == ["holdout-0"]
+
+
+def test_studies_over_fewer_samples_than_their_modes_say_so(tiny_field):
+    """``decoder-study basis --samples 20`` gave modes 19-47 an R^2 of -4.9e14 to +2.0e15, and
+    ``--samples 1`` -inf and NaN shares; ``eigenflows --samples 16`` found 16 modes explaining
+    100 %: the sample's rank, not the flow's (failure audit, 2026-12-06)."""
+    from windnav.experiments.decoder_studies import basis_study
+
+    with pytest.raises(ValueError, match="'samples_per_field' parameter of basis_study must "
+                                         "give more samples than the decoder's"):
+        basis_study(tiny_decoder(seed=3), [tiny_field], HP["modes"], seed=0)
+    rng = np.random.default_rng(2)
+    with pytest.warns(RuntimeWarning, match="16 fields span at most 15 modes"):
+        eigenflows(rng.standard_normal((16, 2, 5, 5)))

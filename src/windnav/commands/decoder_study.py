@@ -348,7 +348,9 @@ def run(args, simulate=None) -> int:
             res = ds.direction_study(dec, fields, samples, seed=args.seed)
             plot = figures.plot_direction
         elif study == "basis":
-            res = ds.basis_study(dec, fields, samples, seed=args.seed)
+            with options_named({"'samples_per_field' parameter of basis_study":
+                                f"'--samples' parameter of {name}"}):
+                res = ds.basis_study(dec, fields, samples, seed=args.seed)
             plot = figures.plot_basis
         else:
             res = ds.mosaic(dec, fields[0], rng=args.seed, progress=progress)

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import copy
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -243,6 +244,10 @@ def eigenflows(fields, *, thresholds=THRESHOLDS, n_keep: int = 16) -> dict:
     cumulative = np.cumsum(ratio)
     # a level counts as reached within rounding (an exact k-mode set gives 1 - 1e-16)
     n_modes = {f"{t:g}": int(np.searchsorted(cumulative, t - 1e-12) + 1) for t in levels}
+    if max(n_modes.values()) >= n - 1:  # 16 fields "explained" by 16 modes (failure audit)
+        warnings.warn(f"{where}: {n} fields span at most {n - 1} modes, and a level needs "
+                      f"{max(n_modes.values())} of them: the mode counts are the sample's "
+                      "rank, not the flow's; draw more fields", RuntimeWarning, stacklevel=2)
     k = min(n_keep, vt.shape[0])
     return {"explained_variance_ratio": ratio, "cumulative": cumulative, "n_modes": n_modes,
             "modes": vt[:k].reshape(k, 2, h, h), "mean": mean.reshape(2, h, h),
@@ -485,8 +490,13 @@ def basis_study(decoder, fields, samples_per_field: int = 2048, *, seed: int = 0
         raise ValueError(f"The 'decoder' parameter of {where} must be a single-model d4-film "
                          f"(it has an output basis). Got {decoder.architecture!r} with "
                          f"{decoder.hyperparameters.get('members', 1)} member(s) instead.")
+    n_basis = decoder.weights["basis.weight"].shape[1]
     batch = _draw(fields, samples_per_field, _seed(seed, where), decoder.size,
                   decoder.spacing, where)
+    if batch.scans.shape[0] <= n_basis:  # R^2 of 2e15 and -inf, shares of NaN (failure audit)
+        raise ValueError(f"The 'samples_per_field' parameter of {where} must give more samples "
+                         f"than the decoder's {n_basis} modes, for the variance along each to "
+                         f"be estimated. Got {batch.scans.shape[0]} samples instead.")
     arch, w = decoder.arch, decoder.weights
     b = batch.scans.shape[0]
     f = arch.features(*(np.asarray(a, dtype=np.float32)
