@@ -140,6 +140,13 @@ def plot_strouhal(out, res: dict) -> list[str]:
                 ax.plot(r["resolutions"], vals, "o-", label=f"{angle} deg, default closure")
         ax.axhspan(lo, hi, color="0.92", label=f"accepted {lo}-{hi}")
         ax.axhline(0.132, color="k", lw=0.8, ls=":", label="Lyn et al. 1995 (Re 21,400)")
+        studies = [res[k] for k in ("closures", "resolution") if k in res]
+        if not np.any(np.isfinite(np.asarray(
+                [v for r in studies for vals in r["strouhal"].values() for v in vals],
+                dtype=float))):
+            # no run gave a St (NaN: no resolved shedding), so no point set the x range
+            tried = [n for r in studies for n in r["resolutions"]]
+            ax.set_xlim(min(tried) / 1.5, max(tried) * 1.5)
         ax.set_xscale("log", base=2)
         ax.set_xlabel("cells per body height H / dx (dt halved with dx)")
         ax.set_ylabel("St = f H / U")

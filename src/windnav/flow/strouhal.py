@@ -33,6 +33,93 @@ SETTLED_TOLERANCE = 0.03
 """Largest relative difference between the St of a record's two halves for the shedding to
 count as settled."""
 
+SETTLED_AMPLITUDE_RATIO = 2.0
+"""Largest ratio between the lift RMS of a record's two halves for the shedding to count as
+settled: an oscillation dying out (a wake that does not shed, whose start transient decays) or
+growing has not settled, even where both halves peak at one frequency. Measured (audit,
+2026-12-06): at most 1.18 over every record of the flow-validate studies and the tests (every
+record length, settled or not); 6 to 2e9 for squares at Re = 10-30, whose wakes do not shed (the
+Re = 20 square at 45 deg, 8 cells per side, rings at St 0.094 in both halves, its lift RMS
+falling 260x)."""
+
+
+PEAK_TO_FLOOR = 100.0
+"""Smallest ratio of a periodogram's peak power to the median power of the frequencies searched
+for the peak to count as an oscillation (:func:`spectral_peak`): 20 dB. Measured (audit,
+2026-12-06): white noise peaks at 5-23 times its median (the largest of 880 records of 64 to
+65,536 samples), while every lift record of the flow-validate studies and the tests (halves and
+wholes, every record length the studies ran) peaks at 5e6 or more, and a sine half as large as
+the noise's standard deviation, over 2,560 samples, at 110 or more. The floor tells an
+oscillation from noise, not from a smooth transient: the decaying lift of a wake that does
+not shed (squares at Re = 10-30) has its power at low frequencies and peaks at 5e2 to 1e13
+times the median; an edge peak, and in :func:`bluff_body_strouhal` the record's halves, tell
+those."""
+
+
+def _positive(value, name: str, unit: str, where: str) -> float:
+    x = float(value)
+    if not (np.isfinite(x) and x > 0.0):
+        raise ValueError(f"The '{name}' parameter of {where} must be a finite number > 0 "
+                         f"{unit}. Got {value!r} instead.")
+    return x
+
+
+def spectral_peak(signal: np.ndarray, dt: float) -> dict:
+    """The dominant frequency of ``signal`` from its periodogram, and whether it is resolved.
+
+    The periodogram is that of the de-meaned signal, Hann-windowed and zero-padded to 16x its
+    length; the peak is searched among frequencies of at least two cycles per record (slower
+    drifts are not shedding) up to the Nyquist frequency.
+
+    Parameters
+    ----------
+    signal : ndarray of shape (T,)
+        Uniformly sampled signal (any unit).
+    dt : float
+        Sampling interval, s.
+
+    Returns
+    -------
+    dict
+        ``frequency`` (Hz; NaN when no frequency is resolved), ``peak_to_floor`` (the peak's
+        power over the median power of the frequencies searched; NaN when there is no
+        spectrum to search) and ``reason`` (None, or why ``frequency`` is NaN:
+        ``"not finite"``, a NaN or infinite sample; ``"no variance"``, a constant signal
+        (or none); ``"too short"``, fewer than 5 samples, too few for a frequency between two
+        cycles per record and the Nyquist frequency; ``"edge of band"``, the largest power at
+        the lowest or highest frequency searched, i.e. a spectrum that falls or rises across
+        the band, as a drift gives, and no peak within it; ``"below floor"``, a peak
+        less than :data:`PEAK_TO_FLOOR` times the median power).
+    """
+    dt = _positive(dt, "dt", "s", "spectral_peak")
+    s = np.asarray(signal, dtype=np.float64)
+    if s.ndim != 1:
+        raise ValueError(f"The 'signal' parameter of spectral_peak must be 1-D (T,). Got an "
+                         f"array of shape {s.shape} instead.")
+    nan = float("nan")
+    if not np.all(np.isfinite(s)):
+        return {"frequency": nan, "peak_to_floor": nan, "reason": "not finite"}
+    s = s - s.mean() if s.size else s
+    if not np.any(s != s[:1]):
+        return {"frequency": nan, "peak_to_floor": nan, "reason": "no variance"}
+    n = 16 * s.size
+    power = np.abs(np.fft.rfft(s * np.hanning(s.size), n)) ** 2
+    freq = np.fft.rfftfreq(n, dt)
+    ok = freq >= 2.0 / (dt * s.size)  # a peak needs two cycles in the record
+    band, f_band = power[ok], freq[ok]
+    if band.size < 3:  # no frequency between the band's edges
+        return {"frequency": nan, "peak_to_floor": nan, "reason": "too short"}
+    i = int(np.argmax(band))
+    floor = float(np.median(band))
+    ratio = float(band[i] / floor) if floor > 0.0 else float("inf")
+    reason = None
+    if i == 0 or i == band.size - 1:
+        reason = "edge of band"
+    elif not ratio >= PEAK_TO_FLOOR:
+        reason = "below floor"
+    return {"frequency": float(f_band[i]) if reason is None else nan, "peak_to_floor": ratio,
+            "reason": reason}
+
 
 def strouhal_number(
     signal: np.ndarray, dt: float, length: float, speed: float, method: str = "crossings"
@@ -52,26 +139,34 @@ def strouhal_number(
     method : {"crossings", "spectrum"}
         Mean period between upward zero crossings (linearly interpolated), or the peak of a
         Hann-windowed periodogram zero-padded to 16x the length, among frequencies of at least
-        two cycles per record (slow drifts are not shedding).
+        two cycles per record (slow drifts are not shedding): :func:`spectral_peak`.
 
     Returns
     -------
     float
-        NaN if fewer than 3 upward crossings (no oscillation).
+        NaN where the signal gives no frequency: a non-finite sample (both methods); with
+        "crossings", fewer than 3 upward crossings (no oscillation); with "spectrum", a
+        constant signal, a peak at the lowest or highest frequency searched (a drift, noise:
+        no resolved frequency) or one less than :data:`PEAK_TO_FLOOR` times the spectrum's
+        median (no clear oscillation; :func:`spectral_peak` says which).
     """
+    dt = _positive(dt, "dt", "s", "strouhal_number")
+    length = _positive(length, "length", "m", "strouhal_number")
+    speed = _positive(speed, "speed", "m/s", "strouhal_number")
     s = np.asarray(signal, dtype=np.float64)
-    s = s - s.mean()
+    if s.ndim != 1:
+        raise ValueError(f"The 'signal' parameter of strouhal_number must be 1-D (T,). Got an "
+                         f"array of shape {s.shape} instead.")
     if method == "spectrum":
-        n = 16 * s.size
-        spec = np.abs(np.fft.rfft(s * np.hanning(s.size), n))
-        freq = np.fft.rfftfreq(n, dt)
-        ok = freq >= 2.0 / (dt * s.size)  # a peak needs two cycles in the record
-        return float(freq[ok][np.argmax(spec[ok])] * length / speed)
+        return float(spectral_peak(s, dt)["frequency"] * length / speed)
     if method != "crossings":
         raise ValueError(
             f"The 'method' parameter of strouhal_number must be 'crossings' or 'spectrum'. "
             f"Got {method!r} instead."
         )
+    if s.size < 2 or not np.all(np.isfinite(s)):
+        return float("nan")
+    s = s - s.mean()
     k = np.flatnonzero((s[:-1] < 0.0) & (s[1:] >= 0.0))
     if k.size < 3:
         return float("nan")
@@ -212,10 +307,12 @@ class BluffBodyCase:
     spinup_time, record_time : float
         Convective times (H / U) run before and during the force record.
     max_record_time : float or None
-        None (the default): the record is ``record_time`` long. A number: while the record's
-        two halves disagree on St by more than :data:`SETTLED_TOLERANCE` (a flow switching
-        between shedding states), the record is doubled, up to this many H / U, and St is
-        taken from the whole record. A run still unsettled at the cap is flagged as such.
+        None (the default): the record is ``record_time`` long. A number: while the run has
+        not settled (its record's two halves disagree on St by more than
+        :data:`SETTLED_TOLERANCE`, a flow switching between shedding states, or give no St, or
+        the record gives none; see :func:`bluff_body_strouhal`), the record is doubled, up to
+        this many H / U, and St is taken from the whole record. A run still unsettled at the
+        cap is flagged as such.
     smagorinsky, filter_width, viscosity : float
         Closure, as in :func:`windnav.flow.simulate` (``filter_width`` None:
         ``max(dx, min(H, B) / 8)``, the default rule for a map of this one building).
@@ -281,8 +378,9 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     """Run :class:`BluffBodyCase` and measure St from the cross-stream force history.
 
     St is the peak of the Hann-windowed, 16x zero-padded periodogram of the lift (the force
-    component across the wind), with ``H`` and ``U``. The viscous stress on the faces is left
-    out: on sharp-edged bodies it is a small part of the force and does not set its frequency.
+    component across the wind), with ``H`` and ``U`` (:func:`strouhal_number`, "spectrum": NaN
+    where the lift has no resolved peak). The viscous stress on the faces is left out: on
+    sharp-edged bodies it is a small part of the force and does not set its frequency.
 
     Returns
     -------
@@ -290,7 +388,10 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
         ``strouhal``, ``strouhal_crossings`` (mean period between upward zero crossings of the
         lift), ``strouhal_halves`` (St of the record's first and second halves) and ``settled``
         (whether they agree within :data:`SETTLED_TOLERANCE`: a flow still changing its
-        shedding gives a St of its transient, not of the flow; audit, 2026-12-05),
+        shedding gives a St of its transient, not of the flow; audit, 2026-12-05; and whether
+        the record and both halves give a St, not NaN, and the halves' lift RMS agree within
+        :data:`SETTLED_AMPLITUDE_RATIO`: a wake that does not shed, its start transient dying
+        out, has not settled into shedding; audit, 2026-12-06),
         ``record_time_used`` (H / U: ``record_time``, or more where ``max_record_time``
         doubled the record of an unsettled run),
         ``cd_mean`` and ``cl_rms`` (force coefficients on ``0.5 U^2 H``), ``t`` (T,) s,
@@ -353,21 +454,24 @@ def bluff_body_strouhal(case: BluffBodyCase = BluffBodyCase(), progress: bool = 
     def measure(force):
         cl = (-force[:, 0] * np.sin(th) + force[:, 1] * np.cos(th)) / norm
         half = cl.size // 2
-        halves = [strouhal_number(c, dt, H, case.speed, "spectrum")
-                  for c in (cl[:half], cl[half:])]
-        settled = bool(np.all(np.isfinite(halves))
-                       and abs(halves[0] - halves[1]) <= SETTLED_TOLERANCE * np.mean(halves))
-        return cl, halves, settled
+        parts = (cl[:half], cl[half:])
+        halves = [strouhal_number(c, dt, H, case.speed, "spectrum") for c in parts]
+        st = strouhal_number(cl, dt, H, case.speed, "spectrum")
+        rms = sorted(float(c.std()) for c in parts)
+        settled = bool(np.isfinite(st) and np.all(np.isfinite(halves))
+                       and abs(halves[0] - halves[1]) <= SETTLED_TOLERANCE * np.mean(halves)
+                       and rms[1] <= SETTLED_AMPLITUDE_RATIO * rms[0])
+        return cl, halves, st, settled
 
     force = run_to(n_spin + n_rec)
-    cl, halves, settled = measure(force)
+    cl, halves, st, settled = measure(force)
     while not settled and force.shape[0] < n_max:
         # double the record: its new second half is as long as everything recorded so far
         force = np.concatenate([force, run_to(k + min(force.shape[0], n_max - force.shape[0]))])
-        cl, halves, settled = measure(force)
+        cl, halves, st, settled = measure(force)
     drag = force[:, 0] * np.cos(th) + force[:, 1] * np.sin(th)
     return {
-        "strouhal": strouhal_number(cl, dt, H, case.speed, "spectrum"),
+        "strouhal": st,
         "strouhal_halves": halves,
         "settled": settled,
         "record_time_used": float(force.shape[0] * dt * case.speed / H),
