@@ -97,6 +97,9 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
     (["similitude", "--model-speed", "1e308"], "--model-speed"),
     (["demo", "--wind-speed", "500", "--out", "O"], "--wind-speed"),
     (["sysid", "simulate-stand", "--kv", "-1", "--out", "O"], "--kv"),
+    # within half a cell of the map's edge the mean field read 0 m/s in a 5 m/s flow (audit)
+    (["predict", "--map", "M", "--at", "0.2", "20", "--speed", "3", "--direction-deg", "0",
+      "--out", "O"], "--at"),
 ])
 def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, option,
                                                                           tmp_path, capsys):

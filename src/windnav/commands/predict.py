@@ -100,6 +100,15 @@ def run(args, flow_settings=None) -> int:
                          f"--scan-noise with it. Got {args.seed!r} without noise instead.")
     city = load_city(args.map, "--map", name)
     at = check_point(city, args.at, "--at", name)
+    from windnav.flow.grid import grid_for
+
+    grid = grid_for(city.bounds[:4], dx)
+    x, y = grid.x, grid.y
+    if not (x[0] <= at[0] <= x[-1] and y[0] <= at[1] <= y[-1]):  # read 0 m/s there (audit)
+        raise ValueError(f"The '--at' parameter of {name} must lie among the solver's cell "
+                         f"centres, [{x[0]:g}, {x[-1]:g}] x [{y[0]:g}, {y[-1]:g}] m at --dx "
+                         f"{dx:g}: half a cell or more from the map's edge. Got ({at[0]:g}, "
+                         f"{at[1]:g}) instead.")
     with options_named({"'path' parameter of load_decoder": f"'--model' parameter of {name}"}):
         dec = load_decoder(args.model)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
