@@ -296,6 +296,24 @@ def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, cap
     assert cli.main(["nav-study", "feasibility", "--suite", "quick", "--fly", "mppi",
                      "--out", str(tmp_path / "o2")]) == 2
     assert "'--store' parameter" in capsys.readouterr().err
+    # no reachable flight: no failure rate (it printed, and drew, 0/0 as 0.0 %: failure audit)
+    import windnav.experiments.nav_feasibility as feasibility
+
+    table = feasibility.reach_table
+
+    def unreachable(*a, **kw):
+        t = table(*a, **kw)
+        t["reachable"] = 0
+        for c in t["variants"].values():
+            c["reachable"] = c["failures_reachable"] = 0
+        return t
+
+    monkeypatch.setattr(feasibility, "reach_table", unreachable)
+    args[args.index("--airspeeds") + 1] = "2"
+    assert cli.main([*args, "--overwrite"]) == 0
+    brief = json.loads(capsys.readouterr().out)["airspeeds"]
+    assert all(t["failures_reachable_pct"] == {"mppi": None} for t in brief.values())
+    assert (tmp_path / "out" / "nav_feasibility.png").stat().st_size > 10_000
 
 
 def test_feasibility_flies_pending_flights_in_the_same_winds(tmp_path):

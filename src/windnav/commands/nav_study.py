@@ -673,7 +673,9 @@ def _feasibility(args, name: str, spec) -> int:
            lambda folder: plot_reach(reach, tables[f"{limit:g}"], folder / products[1]))
     brief = {k: {"reachable": t["reachable"], "n": t["n"],
                  "failures_reachable_pct": {
-                     v: round(100 * c["failures_reachable"] / max(c["reachable"], 1), 1)
+                     # no reachable flight: no rate (it printed 0.0 %: failure audit)
+                     v: (round(100 * c["failures_reachable"] / c["reachable"], 1)
+                         if c["reachable"] else None)
                      for v, c in t["variants"].items() if "@" not in v}}
              for k, t in tables.items()}
     print(json.dumps(json_ready({"study": "feasibility", "airspeeds": brief,

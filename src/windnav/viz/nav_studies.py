@@ -257,8 +257,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     names = [n for n in v if v[n]["flights"] == table["n"]] or list(v)
     ys = np.arange(len(names))
     fail = np.array([100 * v[n]["failures"] / max(v[n]["flights"], 1) for n in names])
-    fail_r = np.array([100 * v[n]["failures_reachable"] / max(v[n]["reachable"], 1)
-                       for n in names])
+    fail_r = np.array([100 * v[n]["failures_reachable"] / v[n]["reachable"]
+                       if v[n]["reachable"] else np.nan for n in names])  # 0/0 drew 0.0
     if table["reachable"] == table["n"]:  # the two rates are one: one bar each
         bx.barh(ys, fail_r, height=0.6, color="#007aff")
         bx.set_title(f"every scenario reachable ({table['n']}): failure over all flights",
@@ -270,7 +270,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
         bx.set_title(f"{table['reachable']} of {table['n']} scenarios reachable", fontsize=10)
     at = ys if table["reachable"] == table["n"] else ys - 0.2  # beside the blue bar
     for y, f in zip(at, fail_r, strict=True):
-        bx.annotate(f"{f:.1f}", (f, y), xytext=(3, 0), textcoords="offset points",
+        bx.annotate(f"{f:.1f}" if np.isfinite(f) else "no reachable flight",
+                    (f if np.isfinite(f) else 0.0, y), xytext=(3, 0), textcoords="offset points",
                     va="center", fontsize=7)
     bx.set_yticks(ys)
     bx.set_yticklabels(names, fontsize=8)
