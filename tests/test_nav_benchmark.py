@@ -1311,6 +1311,13 @@ def test_table_against_another_store_compares_the_same_flights(tmp_path, tiny_su
     with pytest.raises(ValueError, match="'--against' parameter"):
         command(["--out", a, "--table", "--against", tmp_path / "none"])
     assert capsys.readouterr().out == ""  # refused before the table was printed
+    # a store with none of the table's flights: "0 flights in both: 0 the same", status 0
+    # before (failure audit, 2026-12-06); refused as --check refuses it
+    (b / "records.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs
+                                             if r["variant"] != "mppi"))
+    with pytest.raises(ValueError, match="'--against' parameter .* holds none of them"):
+        command(["--out", a, "--table", "--against", b, "--variants", "mppi"])
+    assert capsys.readouterr().out == ""
     # a reference the store does not hold: the table lost its paired columns, silently
     with pytest.raises(ValueError, match=r"'--reference' parameter of .* must be a variant the "
                                          r"store holds: \['ea-mppi-w', 'mppi'\]"):

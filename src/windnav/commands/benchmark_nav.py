@@ -406,16 +406,22 @@ def _table(args, name: str) -> int:
             raise ValueError(f"The '--against' parameter of {name} must name a benchmark store "
                              f"(with manifest.json). Got {str(args.against)!r} instead.")
         other = NavStore(args.against, spec, create=False).latest()
-    out = outputs(args)
-    table = _print_table(records, variants, args.reference, spec)
-    payload = {"table": table}
+    checks = []
     if other is not None:
-        checks = []
         for (sid, v), rec in latest_records(records).items():
             theirs = other.get((sid, v))
             if v in variants and theirs is not None and ERROR not in (rec["outcome"],
                                                                        theirs["outcome"]):
                 checks.append(checked_flight(theirs, rec))
+        if not checks:  # "0 flights in both: 0 the same", status 0 (failure audit)
+            raise ValueError(f"The '--against' parameter of {name} must name a store holding "
+                             f"some of this table's flights (scenario and variant, flown "
+                             f"without a harness error). Got {str(args.against)!r} instead, "
+                             "which holds none of them.")
+    out = outputs(args)
+    table = _print_table(records, variants, args.reference, spec)
+    payload = {"table": table}
+    if other is not None:
         print()
         bad = _report(checks, f"{args.out} against {args.against}: {len(checks)} flights in "
                               "both", "the same", f"in {args.against}")
