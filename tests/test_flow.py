@@ -547,3 +547,15 @@ def test_jets_past_mach_0_3_or_too_long_a_trace_are_warned():
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         wn.flow.simulate(wide, **kw)
+
+
+def test_a_sealed_courtyard_filled_as_solid_is_warned():
+    """The solver fills air the outflow cannot reach (a courtyard walled in on every side) as
+    solid; ``predict`` inside one read 0 m/s, and nothing said the pocket was filled (failure
+    audit, 2026-12-06)."""
+    walls = np.array([[20, 40, 10, 12], [20, 40, 28, 30], [20, 22, 10, 30], [38, 40, 10, 30]],
+                     float)
+    city = City((0.0, 60.0, 0.0, 40.0), walls, np.full(4, 10.0))
+    with pytest.warns(RuntimeWarning, match=r"256 cells \(256 m\^2\) enclosed by buildings"):
+        wn.flow.simulate(city, speed=3.0, direction_deg=0.0, dx=1.0, dt=0.25, spinup_steps=2,
+                         steps=2)
