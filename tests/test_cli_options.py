@@ -100,6 +100,10 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
     # within half a cell of the map's edge the mean field read 0 m/s in a 5 m/s flow (audit)
     (["predict", "--map", "M", "--at", "0.2", "20", "--speed", "3", "--direction-deg", "0",
       "--out", "O"], "--at"),
+    # the same inlet twice was simulated twice into a training store (failure audit)
+    (["wind-sweep", "--maps", "M", "--speeds", "5", "5", "--out", "O"], "--speeds"),
+    (["wind-sweep", "--maps", "M", "--speeds", "5", "--directions-deg", "0", "360", "--out",
+      "O"], "--directions-deg"),
 ])
 def test_options_that_a_run_would_ignore_or_that_are_invalid_are_refused(argv, option,
                                                                           tmp_path, capsys):
