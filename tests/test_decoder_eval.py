@@ -417,9 +417,13 @@ def test_predict_rejects_a_point_inside_a_building(map_and_model, capsys):
 def test_predict_names_the_option_of_a_bad_inlet(map_and_model, capsys, extra, expected):
     # "The 'direction_deg' parameter of simulate must be finite" named no option of predict
     d, city = map_and_model
-    rc = main(["predict", "--map", str(d / "map.json"), "--at", "5", "5", "--speed", "5",
-               *extra, "--model", str(d / "model.npz"), "--out", str(d / "bad_inlet"),
-               "--no-progress"])
+    # a free point among the cell centres even at --dx 30 (15 m from the edge: 5, 5 is refused
+    # for lying outside them now, before the coarse grid is found)
+    pts = np.random.default_rng(0).uniform(20.0, 100.0, size=(200, 2))
+    at = pts[~city.contains(pts)][0]
+    rc = main(["predict", "--map", str(d / "map.json"), "--at", str(at[0]), str(at[1]),
+               "--speed", "5", *extra, "--model", str(d / "model.npz"), "--out",
+               str(d / "bad_inlet"), "--no-progress"])
     assert rc == 2
     err = capsys.readouterr().err
     assert expected in err
