@@ -202,36 +202,33 @@ def test_the_summary_gives_the_filters_consistency_and_the_command_notes_it(
     records = [{**base, "nees": v} for v in (2.0, 3.0, 9.0, float("nan"))]
     assert mc.summarize(records)["nees_median"] == 3.0
     assert mc.summarize([{**base}])["nees_median"] is None   # records from before
-    orig, real_run = mc.MonteCarloConfig, mc.run_montecarlo
-    monkeypatch.setattr(mc, "MonteCarloConfig", lambda **kw: orig(**{**SHORT, **kw}))
     for nees, said in ((8.79, "about 2.9 x too small for its errors"),
                        (1.15, "about 2.6 x too large for its errors"), (2.5, None)):
-        def run(*a, _nees=nees, **kw):
-            result = real_run(*a, **kw)
-            result["summary"]["nees_median"] = _nees
-            return result
-
-        monkeypatch.setattr(mc, "run_montecarlo", run)
-        assert main(["ukf-montecarlo", "--trials", "1", "--backend", "serial",
-                     "--no-progress"]) == 0
-        out, err = capsys.readouterr()
+        out, err = _one_trial_with_summary(monkeypatch, capsys, nees_median=nees)
         assert f"median NEES {nees:.2f}" in out
         assert (said in err) if said else "NEES" not in err
+
+
+def _one_trial_with_summary(monkeypatch, capsys, **summary):
+    """``(stdout, stderr)`` of a one-trial ``ukf-montecarlo`` whose summary is overridden by
+    ``summary``."""
+    orig, real_run = mc.MonteCarloConfig, mc.run_montecarlo
+    monkeypatch.setattr(mc, "MonteCarloConfig", lambda **kw: orig(**{**SHORT, **kw}))
+
+    def run(*a, **kw):
+        result = real_run(*a, **kw)
+        result["summary"].update(summary)
+        return result
+
+    monkeypatch.setattr(mc, "run_montecarlo", run)
+    assert main(["ukf-montecarlo", "--trials", "1", "--backend", "serial",
+                 "--no-progress"]) == 0
+    return capsys.readouterr()
 
 
 def test_the_command_says_how_many_trials_saturated(monkeypatch, capsys):
     """Trials whose rotors saturated (91 and 94 % of the flight, tracking errors of 25-70 m, in
     a failure audit) entered the RMSE summary with their count in the JSON only."""
-    orig, real_run = mc.MonteCarloConfig, mc.run_montecarlo
-    monkeypatch.setattr(mc, "MonteCarloConfig", lambda **kw: orig(**{**SHORT, **kw}))
     for count in (1, 0):
-        def run(*a, _count=count, **kw):
-            result = real_run(*a, **kw)
-            result["summary"]["n_saturated_over_1pct"] = _count
-            return result
-
-        monkeypatch.setattr(mc, "run_montecarlo", run)
-        assert main(["ukf-montecarlo", "--trials", "1", "--backend", "serial",
-                     "--no-progress"]) == 0
-        err = capsys.readouterr().err
+        err = _one_trial_with_summary(monkeypatch, capsys, n_saturated_over_1pct=count)[1]
         assert ("1 of 1 trials saturated their rotors" in err) == bool(count)

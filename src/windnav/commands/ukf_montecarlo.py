@@ -166,6 +166,24 @@ def _record_log(args, config):
     return log
 
 
+TRIAL_NOTES = {
+    "n_outside_envelope":
+        "trials flew outside the vehicle's envelope (trusted airspeed or lift) for part of the "
+        "flight: their RMSE is the filter's against extrapolated aerodynamics (each trial's "
+        "'outside_envelope_fraction' in --json)",
+    "n_saturated_over_1pct":
+        "trials saturated their rotors for more than 1 % of the flight (the controller out of "
+        "authority: tracking errors of tens of metres are possible): their RMSE is the "
+        "filter's on a flight that did not follow its trajectory (each trial's "
+        "'saturated_fraction' in --json)",
+    "n_calibration_undetermined":
+        "trials' calibrations left a drag coefficient undetermined (no airflow along its axis, "
+        "not separated, or pinned at 0), which the filter believed as fitted (each trial's "
+        "'calibration_undetermined' in --json)",
+}
+"""The summary's trial counts the command notes, each with what the counted trials mean."""
+
+
 def run(args) -> int:
     """Run the study; returns 0 when every trial succeeded, 1 otherwise, 130 on Ctrl-C."""
     from windnav.experiments.ukf_montecarlo import THESIS_MEDIAN, run_montecarlo
@@ -231,22 +249,9 @@ def run(args) -> int:
                       f"{nees:.2f} against 3): intervals from 'wind_cov' are "
                       f"{'too narrow' if small else 'too wide'} in these conditions ({why}; "
                       "each trial's 'nees' in --json)", file=sys.stderr)
-        if s.get("n_outside_envelope"):
-            print(f"{name}: note: {s['n_outside_envelope']} of {s['n']} trials flew outside the "
-                  "vehicle's envelope (trusted airspeed or lift) for part of the flight: their "
-                  "RMSE is the filter's against extrapolated aerodynamics (each trial's "
-                  "'outside_envelope_fraction' in --json)", file=sys.stderr)
-        if s.get("n_saturated_over_1pct"):  # in the JSON only before (failure audit)
-            print(f"{name}: note: {s['n_saturated_over_1pct']} of {s['n']} trials saturated "
-                  "their rotors for more than 1 % of the flight (the controller out of "
-                  "authority: tracking errors of tens of metres are possible): their RMSE is "
-                  "the filter's on a flight that did not follow its trajectory (each trial's "
-                  "'saturated_fraction' in --json)", file=sys.stderr)
-        if s.get("n_calibration_undetermined"):
-            print(f"{name}: note: {s['n_calibration_undetermined']} of {s['n']} trials' "
-                  "calibrations left a drag coefficient undetermined (no airflow along its "
-                  "axis, not separated, or pinned at 0), which the filter believed as fitted "
-                  "(each trial's 'calibration_undetermined' in --json)", file=sys.stderr)
+        for key, said in TRIAL_NOTES.items():  # (saturated and undetermined: JSON only before)
+            if s.get(key):
+                print(f"{name}: note: {s[key]} of {s['n']} {said}", file=sys.stderr)
     for t in result["trials"]:
         if t.get("error") is not None:
             first = t["error"].splitlines()[0] if t["error"] else "unknown error"
