@@ -126,3 +126,9 @@ def test_a_diverged_flight_is_an_error_with_no_energy(tmp_path, monkeypatch, cap
     summary = json.loads((out / "summary.json").read_text())
     assert summary["energy_J"] is None and summary["mean_power_W"] is None
     assert 0.0 < summary["non_finite_from_s"] < 1.0
+    # with the Wind UKF run on it: SciPy's "zero norm quaternions", status 2 and no files, before
+    # (the session's review)
+    assert cli.main(["fly", "--duration", "1", "--no-progress", "--no-plots", "--conditions",
+                     "windnav", "--out", str(tmp_path / "ukf")]) == 1
+    summary = json.loads((tmp_path / "ukf" / "summary.json").read_text())
+    assert summary["wind_estimate_error"].startswith("the flight diverged at")

@@ -133,7 +133,9 @@ def main(argv: list[str] | None = None) -> int:
         # and figures to files, never a window, whatever the user's backend (the plotting
         # modules no longer switch it at import, which a notebook's import of them did): set
         # before matplotlib is imported, and inherited by the worker processes
-        # (and restored after: a program that calls main() keeps its own backend setting)
+        # (and the variable restored after; matplotlib reads it once, at its first import, so a
+        # program whose matplotlib the command imported first keeps Agg: import matplotlib, or
+        # call matplotlib.use(), before calling main())
         backend = os.environ.get("MPLBACKEND")
         os.environ["MPLBACKEND"] = "Agg"
         stdout, sys.stdout = sys.stdout, _ClosedPipeSafe(sys.stdout)

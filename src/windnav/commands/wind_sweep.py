@@ -164,10 +164,11 @@ def run(args, simulate=None) -> int:
     settings = solver_settings(args, max(speeds))
     directions = _directions_arg(args)  # checked, and noted, before the maps are read
     # the same inlet twice simulated it twice into a training store (failure audit)
-    for flag, values in (("--speeds", speeds),
-                         ("--directions-deg" if args.directions_deg is not None
-                          else "--directions", [d % 360.0 for d in directions or ()])):
-        if len(set(values)) < len(values):
+    for flag, values, same in (("--speeds", speeds, speeds),
+                               ("--directions-deg" if args.directions_deg is not None
+                                else "--directions", directions or [],
+                                [d % 360.0 for d in directions or ()])):
+        if len(set(same)) < len(same):
             raise ValueError(f"The '{flag}' parameter of {name} must not repeat a value (a "
                              f"direction modulo 360 deg): each would be simulated again. Got "
                              f"{' '.join(f'{v:g}' for v in values)} instead.")

@@ -15,6 +15,7 @@ truth column, there because the data are simulated, showed it).
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -175,7 +176,8 @@ def calibration_notes(fit: DragFit, truth: MultirotorParams, speeds: dict | None
     for k in ("k_d", "k_z"):
         true, got = getattr(truth, k), getattr(fit, k)
         se = fit.stderr.get(k)
-        z = "" if not se else f" ({abs(got - true) / se:.3g} standard errors)"
+        z = ("" if not se or not math.isfinite(se)  # NaN: undetermined (fit.undetermined)
+             else f" ({abs(got - true) / se:.3g} standard errors)")
         errors.append(f"{k} {100 * (got / true - 1):+.1f} %{z}")
     where = []
     for name, k, c, top_v in (

@@ -496,7 +496,8 @@ def basis_study(decoder, fields, samples_per_field: int = 2048, *, seed: int = 0
     if batch.scans.shape[0] <= n_basis:  # R^2 of 2e15 and -inf, shares of NaN (failure audit)
         raise ValueError(f"The 'samples_per_field' parameter of {where} must give more samples "
                          f"than the decoder's {n_basis} modes, for the variance along each to "
-                         f"be estimated. Got {batch.scans.shape[0]} samples instead.")
+                         f"be estimated. Got {samples_per_field!r} per field instead "
+                         f"({batch.scans.shape[0]} samples).")
     arch, w = decoder.arch, decoder.weights
     b = batch.scans.shape[0]
     f = arch.features(*(np.asarray(a, dtype=np.float32)

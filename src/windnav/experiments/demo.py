@@ -171,7 +171,8 @@ def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
         "wind_rmse_m_s": track.rmse_after(cfg.settle_s),
         "wind_rmse_axes_m_s": [track.rmse_after(cfg.settle_s, axis=k) for k in range(3)],
         "rms_tracking_error_m": float(np.sqrt(np.mean(log.tracking_error ** 2))),
-        "energy_J": float(log.energy[-1, 0]),
+        # none for a diverged flight: the log holds its energy from the step it stopped (as fly)
+        "energy_J": float(log.energy[-1, 0]) if bool(log.finite[0]) else None,
         "rotor_saturation_fraction": log.saturation_fraction,
         # where the flight left the model's envelope (CLI audit C: --seed 1 spent 24.9 % of
         # its samples above the Hummingbird's trusted 13.45 m/s and the summary said nothing)

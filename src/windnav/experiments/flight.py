@@ -95,7 +95,11 @@ def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float
     log.meta.update(command="fly", trajectory_kind=trajectory)
     summary = flight_summary(log, duration)
     track = None
-    if conditions is not None:
+    if conditions is not None and summary["non_finite_from_s"] is not None:
+        # the filter on a log of NaN failed on SciPy's "zero norm quaternions" (review)
+        summary.update(conditions=conditions, wind_estimate_error=(
+            f"the flight diverged at {summary['non_finite_from_s']:g} s; no wind estimate"))
+    elif conditions is not None:
         estimate, track = _wind_estimate(log, params, conditions, duration, rng=rng)
         summary.update(estimate)
     return (log, summary, track) if return_track else (log, summary)

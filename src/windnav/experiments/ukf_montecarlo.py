@@ -390,6 +390,8 @@ def run_trial(spec: TrialSpec) -> dict:
         "fitted": None if fit is None else fit.coefficients,
         "calibration_residual_rms": None if fit is None else list(fit.residual_rms),
         "calibration_undetermined": None if fit is None else dict(fit.undetermined),
+        # every note of the fit (a low R^2 too), whose warnings the trial does not pass on
+        "calibration_notes": None if fit is None else list(fit.notes),
         "parameter_errors": applied["parameter_errors"], "kv_error": applied["kv_error"],
         "tau_drag": mass_to_drag(truth),
         "duration": spec.duration, "mean_wind": list(spec.mean_wind),

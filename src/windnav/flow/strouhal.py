@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from windnav._validate import positive_float
 from windnav.flow.grid import BoundaryConditions, MACGrid, make_domain
 from windnav.flow.solver import (
     FILTER_PER_BUILDING,
@@ -46,22 +47,14 @@ falling 260x)."""
 PEAK_TO_FLOOR = 100.0
 """Smallest ratio of a periodogram's peak power to the median power of the frequencies searched
 for the peak to count as an oscillation (:func:`spectral_peak`): 20 dB. Measured (audit,
-2026-12-06): white noise peaks at 5-23 times its median (the largest of 880 records of 64 to
+2026-12-06): white noise peaks at 3-23 times its median (the largest of 880 records of 64 to
 65,536 samples), while every lift record of the flow-validate studies and the tests (halves and
 wholes, every record length the studies ran) peaks at 5e6 or more, and a sine half as large as
-the noise's standard deviation, over 2,560 samples, at 110 or more. The floor tells an
+the noise's standard deviation, over 2,560 samples, at 107 or more (50 draws). The floor tells an
 oscillation from noise, not from a smooth transient: the decaying lift of a wake that does
 not shed (squares at Re = 10-30) has its power at low frequencies and peaks at 5e2 to 1e13
 times the median; an edge peak, and in :func:`bluff_body_strouhal` the record's halves, tell
 those."""
-
-
-def _positive(value, name: str, unit: str, where: str) -> float:
-    x = float(value)
-    if not (np.isfinite(x) and x > 0.0):
-        raise ValueError(f"The '{name}' parameter of {where} must be a finite number > 0 "
-                         f"{unit}. Got {value!r} instead.")
-    return x
 
 
 def spectral_peak(signal: np.ndarray, dt: float) -> dict:
@@ -91,7 +84,7 @@ def spectral_peak(signal: np.ndarray, dt: float) -> dict:
         the band, as a drift gives, and no peak within it; ``"below floor"``, a peak
         less than :data:`PEAK_TO_FLOOR` times the median power).
     """
-    dt = _positive(dt, "dt", "s", "spectral_peak")
+    dt = positive_float(dt, "dt", "spectral_peak")
     s = np.asarray(signal, dtype=np.float64)
     if s.ndim != 1:
         raise ValueError(f"The 'signal' parameter of spectral_peak must be 1-D (T,). Got an "
@@ -150,9 +143,9 @@ def strouhal_number(
         no resolved frequency) or one less than :data:`PEAK_TO_FLOOR` times the spectrum's
         median (no clear oscillation; :func:`spectral_peak` says which).
     """
-    dt = _positive(dt, "dt", "s", "strouhal_number")
-    length = _positive(length, "length", "m", "strouhal_number")
-    speed = _positive(speed, "speed", "m/s", "strouhal_number")
+    dt = positive_float(dt, "dt", "strouhal_number")
+    length = positive_float(length, "length", "strouhal_number")
+    speed = positive_float(speed, "speed", "strouhal_number")
     s = np.asarray(signal, dtype=np.float64)
     if s.ndim != 1:
         raise ValueError(f"The 'signal' parameter of strouhal_number must be 1-D (T,). Got an "
