@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
         # before matplotlib is imported, and inherited by the worker processes
         # (and the variable restored after; matplotlib reads it once, at its first import, so a
         # program whose matplotlib the command imported first keeps Agg: import matplotlib, or
-        # call matplotlib.use(), before calling main())
+        # choose its backend, before calling main())
         backend = os.environ.get("MPLBACKEND")
         os.environ["MPLBACKEND"] = "Agg"
         stdout, sys.stdout = sys.stdout, _ClosedPipeSafe(sys.stdout)
