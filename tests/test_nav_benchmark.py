@@ -1554,3 +1554,21 @@ def test_a_new_store_created_by_two_runs_at_once_belongs_to_the_first(tmp_path, 
     assert NavStore(tmp_path, TINY).manifest["seed"] == TINY.seed
     assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
     assert os.path.isfile(tmp_path / "manifest.json")
+
+
+def test_a_diverged_flight_keeps_its_time_in_the_record():
+    """A flight whose simulation diverged is classified by where it was (``left_map``); the
+    record keeps ``diverged_s`` (2026-12-06), and a flight that did not diverge has no such
+    field (the committed records replay unchanged)."""
+    sc = parse_scenario_id(TINY, "tiny/m00/w00/p0")
+
+    def flown(diverged_s):
+        def navigate_fn(city, start, goal, **kw):
+            summary = {"outcome": "left_map", "energy_J": 100.0, "diverged_s": diverged_s}
+            return SimpleNamespace(summary=lambda: summary)
+        return nb.fly_scenario(TINY, sc, "mppi", city=object(), flow=object(),
+                               navigate_fn=navigate_fn)
+
+    rec = flown(3.25)
+    assert rec["outcome"] == "left_map" and rec["diverged_s"] == 3.25
+    assert "diverged_s" not in flown(None)

@@ -232,3 +232,8 @@ def test_the_command_says_how_many_trials_saturated(monkeypatch, capsys):
     for count in (1, 0):
         err = _one_trial_with_summary(monkeypatch, capsys, n_saturated_over_1pct=count)[1]
         assert ("1 of 1 trials saturated their rotors" in err) == bool(count)
+    # and whose calibration left a drag coefficient undetermined (a warning per trial before)
+    for count in (1, 0):
+        err = _one_trial_with_summary(monkeypatch, capsys, n_calibration_undetermined=count)[1]
+        assert ("1 of 1 trials' calibrations left a drag coefficient undetermined"
+                in err) == bool(count)
