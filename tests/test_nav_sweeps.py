@@ -166,6 +166,7 @@ def test_command_cases_reflies_the_best_and_worst_and_winds_draws_a_map(tmp_path
     # command says so (it drew them as the cases, silently: failure audit, 2026-12-06)
     err = capsys.readouterr().err
     assert err.count("re-flew as") == 4 and "not its record's success with 700.0 J" in err
+    assert err.count("fields up to ") == 4  # every replayed field compared, as --check does
     for t in ("best", "worst"):
         for k in ("paths", "energy"):
             assert (out / f"{t}_{k}.png").stat().st_size > 10_000

@@ -302,8 +302,8 @@ def run(args) -> int:
 def _cases(args, name: str, spec) -> int:
     import argparse
 
-    from windnav.commands.benchmark_nav import _manifest, _pinned
-    from windnav.experiments.nav_benchmark import NavStore, check_variants
+    from windnav.commands.benchmark_nav import REPLAY_TOLERANCE, _manifest, _pinned
+    from windnav.experiments.nav_benchmark import NavStore, check_variants, compare_records
     from windnav.experiments.nav_cases import best_worst, fly_cases
     from windnav.experiments.nav_records import record_arithmetic
     from windnav.experiments.results import json_ready
@@ -337,14 +337,15 @@ def _cases(args, name: str, spec) -> int:
              for t, sid in ids.items()}
     for (sid, v), rec in records.items():
         again = cases[sid]["results"][v].summary()
-        if rec is not None and rec.get("energy_J") is not None and (
-                again["outcome"] != rec.get("outcome") or abs(
-                again["energy_J"] - rec["energy_J"]) > 1e-6 * abs(rec["energy_J"])):
+        check = None if rec is None else compare_records(again, rec)  # as --check compares
+        if check is not None and not (check["same_outcome"] and check[
+                "max_relative_difference"] <= REPLAY_TOLERANCE):
             print(f"{name}: warning: {v} in {sid} re-flew as {again['outcome']} with "
                   f"{again['energy_J']:.1f} J, not its record's {rec.get('outcome')} with "
-                  f"{rec['energy_J']:.1f} J: the figures show the re-flown flights (another "
-                  "arithmetic or another version of windnav; benchmark-nav --replay says "
-                  "which)", file=sys.stderr)
+                  f"{rec.get('energy_J')} J (fields up to "
+                  f"{check['max_relative_difference']:.2g} apart): the figures show the "
+                  "re-flown flights (another arithmetic or another version of windnav; "
+                  "benchmark-nav --replay says which)", file=sys.stderr)
     res = {"variant": variant, "reference": "mppi", "store": str(args.store), "n": ranked["n"],
            "best": ranked["best"], "worst": ranked["worst"], "reflown_energy_J": flown,
            "ranked": ranked["ranked"], "elapsed_s": time.perf_counter() - t0}
