@@ -302,10 +302,10 @@ def run(args) -> int:
 def _cases(args, name: str, spec) -> int:
     import argparse
 
-    from windnav.commands.benchmark_nav import REPLAY_TOLERANCE, _manifest, _pinned
+    from windnav.commands.benchmark_nav import _manifest, _pinned, _reproduced
     from windnav.experiments.nav_benchmark import NavStore, check_variants, compare_records
     from windnav.experiments.nav_cases import best_worst, fly_cases
-    from windnav.experiments.nav_records import record_arithmetic
+    from windnav.experiments.nav_records import latest_records, record_arithmetic
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_studies import plot_cases
 
@@ -315,14 +315,14 @@ def _cases(args, name: str, spec) -> int:
     products = ("nav_cases.json", *(f"{t}_{k}.png" for t in tags for k in ("paths", "energy")))
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
-    store = NavStore(args.store, spec, create=False)
-    ranked = best_worst(store.load(), variant=variant)
+    stored = NavStore(args.store, spec, create=False).load()  # read once: ranked and compared
+    ranked = best_worst(stored, variant=variant)
     ids = {t: ranked[t]["scenario_id"] for t in tags}
     variants = ["mppi", variant]
     # the re-flown flights are the recorded ones only under the records' arithmetic: flown
     # under this machine's, the best case's MPPI hovered out (6.69 kJ) where its record
     # succeeded with 7.08 kJ, and nothing said so (failure audit, 2026-12-06)
-    latest = store.latest()
+    latest = latest_records(stored)
     records = {(sid, v): latest.get((sid, v)) for sid in ids.values() for v in variants}
     first = next((r for r in records.values() if r is not None), None)
     if first is not None and getattr(args, "argv", None) is not None:  # (the command line)
@@ -338,8 +338,7 @@ def _cases(args, name: str, spec) -> int:
     for (sid, v), rec in records.items():
         again = cases[sid]["results"][v].summary()
         check = None if rec is None else compare_records(again, rec)  # as --check compares
-        if check is not None and not (check["same_outcome"] and check[
-                "max_relative_difference"] <= REPLAY_TOLERANCE):
+        if check is not None and not _reproduced(check):
             print(f"{name}: warning: {v} in {sid} re-flew as {again['outcome']} with "
                   f"{again['energy_J']:.1f} J, not its record's {rec.get('outcome')} with "
                   f"{rec.get('energy_J')} J (fields up to "
