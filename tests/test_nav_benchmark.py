@@ -1572,3 +1572,20 @@ def test_a_diverged_flight_keeps_its_time_in_the_record():
     rec = flown(3.25)
     assert rec["outcome"] == "left_map" and rec["diverged_s"] == 3.25
     assert "diverged_s" not in flown(None)
+
+
+def test_the_table_says_which_failures_were_the_simulation_diverging():
+    """A diverged flight is counted under the outcome where it stopped (``left_map``); the
+    table said nothing else, so the simulation's failure read as the planner's (leftover of
+    2026-12-06). Its row now counts them and the Markdown names them."""
+    recs = [{"scenario_id": f"s/m00/w00/p{i}", "variant": "mppi", "outcome": o, "speed": 5.0,
+             "energy_J": 1.0, **({"diverged_s": 2.5} if d else {})}
+            for i, (o, d) in enumerate([("success", False), ("left_map", True),
+                                        ("left_map", False), ("collision", True)])]
+    table = benchmark_table(recs)
+    assert table["rows"]["mppi"]["diverged"] == {
+        "n": 2, "by_outcome": {"collision": 1, "left_map": 1}}
+    md = render_table(table)
+    assert "| mppi | 2 of 4 | collision 1, left_map 1 |" in md
+    assert "diverged" not in benchmark_table(recs[:1] + recs[2:3])["rows"]["mppi"]
+    assert "simulation diverged" not in render_table(benchmark_table(recs[:1]))

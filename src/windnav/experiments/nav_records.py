@@ -524,7 +524,8 @@ def benchmark_table(
         records ``onboard``
         {``stage_ms`` {stage: {``median``, ``min``, ``max``, ``n``}}, ``real_time_fraction``,
         ``ukf_wind_rms_xy_mps``} over its flights; for variants whose records report the
-        envelope (flown since 2026-11-26) ``envelope`` (:func:`_envelope`).
+        envelope (flown since 2026-11-26) ``envelope`` (:func:`_envelope`); for variants with
+        flights whose simulation diverged ``diverged`` (:func:`_diverged`).
     """
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"The 'confidence' parameter of benchmark_table must be in (0, 1). "
@@ -560,6 +561,9 @@ def benchmark_table(
         envelope = _envelope(valid)
         if envelope:
             row["envelope"] = envelope
+        diverged = _diverged(valid)
+        if diverged:
+            row["diverged"] = diverged
         if v != reference and ref:
             # One stream per row, keyed by its label: a row's intervals do not depend on
             # which other rows the table shows.
@@ -631,6 +635,20 @@ def _envelope(valid: Sequence[Mapping]) -> dict:
             "mean_outside_s": float(np.mean(out)),
             "mean_power_extrapolated_s": float(np.mean(
                 [_num(r.get("power_extrapolated_s")) for r in rec]))}
+
+
+def _diverged(valid: Sequence[Mapping]) -> dict:
+    """The flights of ``valid`` whose simulated state stopped being finite (records with
+    ``diverged_s``, 2026-12-06): ``n`` and the count per recorded outcome. Such a flight is
+    classified by where it was (``left_map`` or ``collision``), so the failure columns alone
+    would pass the simulation's failure off as the planner's."""
+    rec = [r for r in valid if r.get("diverged_s") is not None]
+    if not rec:
+        return {}
+    by = {}
+    for r in rec:
+        by[r["outcome"]] = by.get(r["outcome"], 0) + 1
+    return {"n": len(rec), "by_outcome": dict(sorted(by.items()))}
 
 
 def _onboard(valid: Sequence[Mapping]) -> dict:
@@ -792,6 +810,7 @@ def render_table(table: Mapping) -> str:
             out.append(f"| {v} | {cells[0]} | {cells[1]} | {tr['n']} |")
     out += _render_failure_by(rows, variants)
     out += _render_envelope(rows, variants)
+    out += _render_diverged(rows, variants)
     out += _render_onboard(rows, variants)
     return "\n".join(out) + "\n"
 
@@ -831,6 +850,20 @@ def _render_envelope(rows: Mapping, variants: Sequence[str]) -> list[str]:
         out.append(f"| {v} | {e['outside']} of {e['n']} | {e['successes_outside']} of "
                    f"{e['successes']} | {e['mean_outside_s']:.2f} | "
                    f"{e['mean_power_extrapolated_s']:.2f} |")
+    return out
+
+
+def _render_diverged(rows: Mapping, variants: Sequence[str]) -> list[str]:
+    mine = [v for v in variants if rows[v].get("diverged")]
+    if not mine:
+        return []
+    out = ["", "Flights whose simulation diverged (the vehicle's state stopped being finite; "
+           "each is counted above under the outcome where it stopped, `diverged_s` in its "
+           "record):", "", "| variant | diverged | recorded as |", "|---|---|---|"]
+    for v in mine:
+        d = rows[v]["diverged"]
+        out.append(f"| {v} | {d['n']} of {rows[v]['flights']} | "
+                   + ", ".join(f"{o} {k}" for o, k in d["by_outcome"].items()) + " |")
     return out
 
 
