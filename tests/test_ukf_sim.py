@@ -163,3 +163,21 @@ def test_bad_input_is_named(logs):
     with pytest.raises(ValueError, match="'log' parameter of run_wind_ukf must hold at least "
                                          "one finite odometry sample"):
         run_wind_ukf(blind, P_HB)
+
+
+def test_fly_exits_1_when_the_wind_estimate_it_was_asked_for_diverged(tmp_path, capsys):
+    """``fly --conditions`` on a finite flight whose filter diverged printed a note, a null
+    RMSE and exited 0: the product asked for was missing and a script saw success (leftover
+    of 2026-12-06). Now an ``error:`` line and exit status 1, the files still written."""
+    import json
+
+    from windnav import cli
+
+    out = tmp_path / "fly"
+    assert cli.main(["fly", "--trajectory", "hover", "--wind", "constant", "--wind-mean", "2",
+                     "0", "0", "--duration", "5", "--dt", "0.2", "--conditions", "windnav",
+                     "--seed", "3", "--no-plots", "--no-progress", "--out", str(out)]) == 1
+    assert "error: no wind estimate: The process model" in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["non_finite_from_s"] is None and summary["wind_rmse_m_s"] is None
+    assert summary["energy_J"] > 0
