@@ -139,3 +139,29 @@ def test_an_unsettled_run_doubles_its_record_up_to_the_cap():
     np.testing.assert_array_equal(again["cl"], plain["cl"])
     with pytest.raises(ValueError, match="max_record_time"):
         BluffBodyCase(record_time=60.0, max_record_time=30.0)
+
+
+def test_incidence_checks_fail_when_a_run_did_not_shed(monkeypatch):
+    """A run without a resolved shedding peak has St = NaN. Python's max skips a NaN unless it
+    comes first, so the mirror check passed over a pair with one such run and the peak was
+    picked among the others (leftover of 2026-12-06): now each check a NaN enters is NaN and
+    False."""
+    import windnav.experiments.flow_validation as fv
+
+    def runs(st):
+        def fake(cases, *args):
+            return [{"aspect_ratio": c.aspect_ratio, "angle_deg": c.angle_deg,
+                     "strouhal": st[c.angle_deg], "settled": True} for c in cases]
+        return fake
+
+    angles = (0.0, 10.0, 20.0, 45.0, 70.0, 80.0)
+    good = {0.0: 0.13, 10.0: 0.16, 20.0: 0.15, 45.0: 0.12, 70.0: 0.15, 80.0: 0.16}
+    monkeypatch.setattr(fv, "_run", runs(good))
+    res = incidence_study(shapes=(1.0,), angles=angles, backend="serial", progress=False)
+    assert all(res["checks"].values()) and res["peak_angle"] == 10.0
+    monkeypatch.setattr(fv, "_run", runs({**good, 70.0: float("nan")}))
+    res = incidence_study(shapes=(1.0,), angles=angles, backend="serial", progress=False)
+    assert np.isnan(res["symmetry"]) and not res["checks"]["symmetric_within_3pct"]
+    monkeypatch.setattr(fv, "_run", runs({**good, 20.0: float("nan")}))
+    res = incidence_study(shapes=(1.0,), angles=angles, backend="serial", progress=False)
+    assert np.isnan(res["peak_angle"]) and not res["checks"]["peak_5_25_above_0"]

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from dataclasses import asdict, replace
 from importlib import resources
 
@@ -201,13 +202,18 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
     if 1.0 in shapes:
         sq = dict(zip(angles, st["1"], strict=True))
         pairs = [(a, 90.0 - a) for a in angles if a < 45.0 and (90.0 - a) in sq]
-        sym = max((abs(sq[a] - sq[b]) / sq[a] for a, b in pairs), default=float("nan"))
+        # a NaN St (no resolved shedding peak) makes each check it enters NaN and False:
+        # Python's max skips a NaN unless it comes first, so a pair without shedding could
+        # pass the mirror check (the thirty-eighth session's leftover)
+        sym = _max_or_nan([abs(sq[a] - sq[b]) / sq[a] for a, b in pairs])
         # a run whose record's halves disagree switches between shedding states: its St is a
         # window's, so the mirror check is also given over the settled pairs alone
         odd = {a for b, a in unsettled if b == 1.0}
-        sym_settled = max((abs(sq[a] - sq[b]) / sq[a] for a, b in pairs
-                           if a not in odd and b not in odd), default=float("nan"))
+        sym_settled = _max_or_nan([abs(sq[a] - sq[b]) / sq[a] for a, b in pairs
+                                   if a not in odd and b not in odd])
         band = [a for a in angles if 5.0 <= a <= 25.0]
+        if any(math.isnan(sq[a]) for a in band):
+            band = []  # no peak among runs of which one did not shed
         peak = max(band, key=lambda a: sq[a]) if band else float("nan")
         s0 = sq.get(0.0, float("nan"))
         lo, hi = ST_RANGE
@@ -219,12 +225,20 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
             "strouhal_0": float(s0),
             "checks": {
                 "symmetric_within_3pct": bool(sym <= 0.03),
-                "peak_5_25_above_0": bool(band and sq[peak] > s0 and sq[peak] >= max(
-                    v for a, v in sq.items() if a <= 45.0)),
+                "peak_5_25_above_0": bool(band and sq[peak] > s0 and sq[peak] >= _max_or_nan(
+                    [v for a, v in sq.items() if a <= 45.0])),
                 "st0_in_range": bool(lo <= s0 <= hi),
             },
         })
     return out
+
+
+def _max_or_nan(values) -> float:
+    """The largest of ``values``; NaN when there are none or any is NaN."""
+    values = [float(v) for v in values]
+    if not values or any(math.isnan(v) for v in values):
+        return float("nan")
+    return max(values)
 
 
 def aspect_ratio_study(ratios=ASPECT_RATIOS, backend="process", workers=None, progress=True,
