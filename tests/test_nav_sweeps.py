@@ -209,3 +209,47 @@ def test_one_flight_has_one_label():
     with pytest.raises(ValueError, match="names one flight twice"):
         check_variants(["mppi", "ea-mppi-w@qe=2@h=50", "ea-mppi-w@h=50@qe=2"], "test")
     assert check_variants("ea-mppi-w@qe=2@h=50,ea-mppi-w@qe=3@h=50", "test")
+
+
+def test_command_cases_restarts_under_the_records_arithmetic(tmp_path, quick_is_tiny_real,
+                                                             monkeypatch, capsys):
+    """``nav-study cases`` re-flies its cases under the records' arithmetic, as ``benchmark-nav
+    --replay`` does: a new process when it differs from this machine's and the CPU can run
+    it, not with ``--native-arithmetic`` (the option and this test: leftovers of the
+    thirty-eighth session, whose restart was checked only by hand)."""
+    import windnav.commands.benchmark_nav as bench_cmd
+    import windnav.experiments.arithmetic as ar
+    import windnav.experiments.nav_cases as nav_cases
+
+    store = NavStore(tmp_path / "store", SUITES["quick"])
+    for sid, e in (("quick/m00/w00/p0", 700.0), ("quick/m00/w01/p1", 1300.0)):
+        for v, energy in (("mppi", 1000.0), ("ea-mppi-w", e)):
+            store.append({**rec(sid, v, "success", energy, 3.0), "seed": 0,
+                          "blas_kernel": "OpenBLAS Older"})
+    restarts = []
+    monkeypatch.setattr(bench_cmd, "_restart",
+                        lambda args, env, why: restarts.append((args.argv, env, why)) or 7)
+    monkeypatch.setattr(ar, "pinned_environment",
+                        lambda rec, nearest: ({"OPENBLAS_CORETYPE": "Older"}, "blas_kernel "
+                                              "'OpenBLAS Older'"))
+
+    class Flown(Exception):
+        pass
+
+    def fly_cases(*args, **kwargs):
+        raise Flown
+
+    monkeypatch.setattr(nav_cases, "fly_cases", fly_cases)
+    argv = ["nav-study", "cases", "--store", str(store.path), "--out", str(tmp_path / "c"),
+            "--no-progress"]
+    assert cli.main(argv) == 7  # the new process's status; nothing flown here
+    assert restarts == [(argv, {"OPENBLAS_CORETYPE": "Older"},
+                         "re-flying the cases under their records' arithmetic (blas_kernel "
+                         "'OpenBLAS Older')")]
+    with pytest.raises(Flown):  # flown here, under this machine's arithmetic
+        cli.main(argv + ["--native-arithmetic"])
+    assert len(restarts) == 1
+    assert cli.main(["nav-study", "pace", "--store", str(store.path), "--out",
+                     str(tmp_path / "p"), "--native-arithmetic"]) == 2
+    assert "'--native-arithmetic' parameter of windnav nav-study is for the cases study" in (
+        capsys.readouterr().err)

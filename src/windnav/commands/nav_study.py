@@ -156,6 +156,11 @@ def register(subparsers) -> None:
     p.add_argument("--workers", type=int, default=None,
                    help="worker processes (default: all cores); each holds one 600 m wind, "
                         "2.3 GB")
+    p.add_argument("--native-arithmetic", action="store_true", default=None,
+                   help="cases: re-fly under this machine's own BLAS kernel and NumPy SIMD "
+                        "loops; by default the command restarts under the records' when they "
+                        "differ and this CPU can run them (a flight re-flies as recorded only "
+                        "under the arithmetic that flew it)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -175,11 +180,13 @@ STUDY_OPTIONS = {
     "case": ("gs",), "seed": ("gs",),
     "cache": ("feasibility",), "airspeeds": ("feasibility",), "fly": ("feasibility",),
     "scenario": ("gusts",), "base": ("gusts",), "gust_k": ("gusts",),
+    "native_arithmetic": ("cases",),
 }
 """The studies that read each option; given to another, it is refused."""
 
 LATE_DEFAULTS = {"pairs": "0,2", "every": 0.5, "map": 0, "seed": 0,
-                 "cache": Path("runs/reach"), "gust_k": 0.5, "executor": "process"}
+                 "cache": Path("runs/reach"), "gust_k": 0.5, "executor": "process",
+                 "native_arithmetic": False}
 """Defaults set once the options are checked (None until then, so that a given one shows)."""
 
 
@@ -326,7 +333,8 @@ def _cases(args, name: str, spec) -> int:
     records = {(sid, v): latest.get((sid, v)) for sid in ids.values() for v in variants}
     first = next((r for r in records.values() if r is not None), None)
     if first is not None and getattr(args, "argv", None) is not None:  # (the command line)
-        status = _pinned(argparse.Namespace(native_arithmetic=False, argv=args.argv),
+        status = _pinned(argparse.Namespace(native_arithmetic=args.native_arithmetic,
+                                            argv=args.argv),
                          record_arithmetic(first, _manifest(args.store)),
                          "re-flying the cases", "their records'")
         if status is not None:
