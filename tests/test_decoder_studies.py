@@ -219,6 +219,11 @@ def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys)
     assert '"n_modes"' in text and '"canonical"' in text
     assert (out / "decoder_eigenflows.png").stat().st_size > 10_000
     assert (doc["arguments"]["maps"], doc["arguments"]["inlets"]) == (1, 2)  # the defaults
+    # the quick flow is far too short to be a converged mean: said, as evaluate-decoder and
+    # predict say of their truths (the studies said nothing; leftover of 2026-12-06)
+    assert doc["flows"]["slots"][0]["averaging"]["level"] == "warning"
+    assert "note: 1 of 1 flows fail the averaging rule (1 not converged" in (
+        capsys.readouterr().err)
     # a second run refuses to overwrite without --overwrite
     assert cli.main(["decoder-study", "eigenflows", "--quick", "--out", str(out),
                      "--no-progress"]) == 2

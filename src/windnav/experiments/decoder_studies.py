@@ -129,8 +129,9 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
     -------
     dict
         ``fields`` (list of MeanField), ``slots`` (map, inlet, speed m/s, direction_deg, dt s,
-        seconds, cached), ``failed`` (slots whose flow diverged, with the error) and
-        ``config``.
+        seconds, cached, averaging: the flow's
+        :func:`~windnav.flow.validity.averaging_verdict`), ``failed`` (slots whose flow
+        diverged, with the error) and ``config``.
     """
     from windnav._console import progress_bar
     from windnav.experiments.decoder_eval import (
@@ -141,6 +142,7 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
     )
     from windnav.experiments.wind_sweep import auto_dt
     from windnav.flow.solver import FlowDivergedError
+    from windnav.flow.validity import averaging_verdict
     from windnav.predict import field_from_solution
 
     where = "evaluation_fields"
@@ -176,7 +178,8 @@ def evaluation_fields(maps=1, n_inlets: int = 2, *, seed: int = 0, dx: float = 1
             continue
         fields.append(field_from_solution(city, sol, name=f"{name}/{j}"))
         slots.append({"map": name, "inlet": j, "speed": speed, "direction_deg": direction,
-                      "dt": dt, "seconds": time.perf_counter() - t0, "cached": cached})
+                      "dt": dt, "seconds": time.perf_counter() - t0, "cached": cached,
+                      "averaging": averaging_verdict(sol)})
     if not fields:
         raise ValueError(f"{where}: every flow failed ({failed[0]['error'] if failed else ''}).")
     return {"fields": fields, "slots": slots, "failed": failed,
