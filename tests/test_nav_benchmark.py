@@ -680,7 +680,8 @@ def test_table_counts_means_and_both_energy_measures():
     assert "6 (+1 errors)" in md and f"{100 * (1 - mean_ea / 3000):.1f}%" in md
     assert f"{100 * np.mean(paired):.1f}%" in md
     assert "| 3 of 4 |" in md and "| ea-mppi-w | 33.3 (3) | 0.0 (3) |" in md
-    assert f"| ea-mppi-w | 1.000 [1.000, 1.000] | {1 - np.mean(paired):.3f} [" in md
+    # every pair took the same time: the ratio without an interval (statistics audit)
+    assert f"| ea-mppi-w | 1.000 - | {1 - np.mean(paired):.3f} [" in md
 
 
 def test_table_reports_failure_by_kind_and_the_onboard_stack_timings():
@@ -1618,3 +1619,21 @@ def test_the_table_says_which_failures_were_the_simulation_diverging():
     assert "| mppi | 2 of 4 | collision 1, left_map 1 |" in md
     assert "diverged" not in benchmark_table(recs[:1] + recs[2:3])["rows"]["mppi"]
     assert "simulation diverged" not in render_table(benchmark_table(recs[:1]))
+
+
+def test_identical_values_give_no_t_interval():
+    """Three flights of a variant identical to the reference's (an escape that never engaged)
+    gave a paired reduction of "0.0 % [0.0, 0.0] %" and a time ratio "1.000 [1.000, 1.000]":
+    a t interval of width 0 read as certainty (statistics audit). No interval now, with a
+    note; a spread keeps its interval."""
+    e = [1000.0, 2600.0, 3000.0]
+    recs = _energy_records("mppi", e) + _energy_records("ea-mppi-w", e)
+    table = benchmark_table(recs, n_boot=0)
+    row = table["rows"]["ea-mppi-w"]
+    pr = row["vs_reference"]["energy_J"]["paired_reduction"]
+    assert pr["mean"] == 0.0 and pr["n"] == 3 and pr["ci95"] is None
+    assert pr["ci95_note"] == "all 3 values are equal: no spread to give an interval from"
+    assert row["vs_reference"]["pace"]["time_ratio"]["ci95"] is None
+    assert row["metrics"]["time_s"]["ci95"] is None  # every flight took 30 s
+    assert row["metrics"]["energy_kJ"]["ci95"] is not None
+    assert "[0.0, 0.0]" not in render_table(table) and "[1.000, 1.000]" not in render_table(table)

@@ -390,7 +390,9 @@ def _t_quantile(confidence: float, dof: int) -> float:
 
 
 def _describe(values, confidence: float) -> dict:
-    """mean, std (ddof 1), n, and the Student-t interval of the mean."""
+    """mean, std (ddof 1), n, and the Student-t interval of the mean; no interval (None, and
+    ``ci95_note``) when every value is the same: a t interval of width 0 there read as
+    certainty (two identical flights gave "0.0 % [0.0, 0.0] %"; statistics audit)."""
     v = np.asarray([x for x in values if math.isfinite(x)], dtype=np.float64)
     n = int(v.size)
     if n == 0:
@@ -398,6 +400,9 @@ def _describe(values, confidence: float) -> dict:
     mean = float(v.mean())
     std = float(v.std(ddof=1)) if n > 1 else None
     ci = None
+    if n > 1 and np.all(v == v[0]):
+        return {"mean": mean, "std": std, "n": n, "ci95": None,
+                "ci95_note": f"all {n} values are equal: no spread to give an interval from"}
     if n > 1:
         half = _t_quantile(confidence, n - 1) * std / math.sqrt(n)
         ci = [mean - half, mean + half]

@@ -230,8 +230,11 @@ def plot_tilt(result: dict, path) -> Path:
         if v == ref:
             continue
         mean = 100.0 * np.array([r["paired"]["mean"] for r in rows])
-        lo = 100.0 * np.array([r["paired"]["ci95"][0] for r in rows])
-        hi = 100.0 * np.array([r["paired"]["ci95"][1] for r in rows])
+        # no interval (one pair, or every pair the same): a point without a bar
+        lo = np.array([100.0 * r["paired"]["ci95"][0] if r["paired"]["ci95"] else m
+                       for r, m in zip(rows, mean, strict=True)])
+        hi = np.array([100.0 * r["paired"]["ci95"][1] if r["paired"]["ci95"] else m
+                       for r, m in zip(rows, mean, strict=True)])
         axes[1].errorbar(x, mean, yerr=[mean - lo, hi - mean], marker=marker, color=color,
                          capsize=3, label=f"{v} (pairs {min(r['paired']['n'] for r in rows)}-"
                                           f"{max(r['paired']['n'] for r in rows)})")
