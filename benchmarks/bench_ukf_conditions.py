@@ -22,7 +22,12 @@ from pathlib import Path
 
 from windnav.estimate.conditions import CONDITIONS
 from windnav.experiments.results import write_json
-from windnav.experiments.ukf_montecarlo import THESIS_MEDIAN, MonteCarloConfig, run_montecarlo
+from windnav.experiments.ukf_montecarlo import (
+    THESIS_MEDIAN,
+    MonteCarloConfig,
+    quartiles_text,
+    run_montecarlo,
+)
 from windnav.viz.ukf import plot_montecarlo
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -77,7 +82,7 @@ def main() -> int:
         target = TARGETS.get(name)
         axes = " / ".join(f"{v:.3f}" for v in s["median_axes"])
         rows.append(f"| {name} | {s['n']}/{args.trials} | **{s['median']:.3f}** | {axes} | "
-                    f"{s['q1']:.3f} / {s['q3']:.3f} | {s['max']:.3f} | {thesis:g} | "
+                    f"{quartiles_text(s)} | {s['max']:.3f} | {thesis:g} | "
                     f"{'-' if target is None else f'<= {target:g}'} | {res['seconds']:.1f} |")
         print(rows[-1], flush=True)
         if args.out is not None:

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from windnav.experiments.results import write_json
-from windnav.experiments.ukf_montecarlo import MonteCarloConfig, run_montecarlo
+from windnav.experiments.ukf_montecarlo import MonteCarloConfig, quartiles_text, run_montecarlo
 from windnav.viz.ukf import plot_montecarlo
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -45,7 +45,7 @@ def main() -> int:
         s = res["summary"]
         busy = sum(t["seconds"] for t in res["trials"])
         rows.append(f"| {noise} | {s['n']}/{args.trials} | {s['median']:.3f} | "
-                    f"{s['q1']:.3f} / {s['q3']:.3f} | {s['max']:.3f} | "
+                    f"{quartiles_text(s)} | {s['max']:.3f} | "
                     f"{s['median'] / THESIS_MEDIAN:.2f} | {res['seconds']:.1f} | "
                     f"{busy / res['seconds']:.2f} |")
         print(rows[-1], flush=True)

@@ -59,7 +59,7 @@ def test_small_study_records_and_summary():
     assert np.all(rmse > 0.0) and np.all(rmse < 0.5) and np.all(rmse < 0.25 * gust)
     s = out["summary"]
     assert s["fraction_below_0.5"] == 1.0
-    assert s["median"] == pytest.approx(np.median(rmse)) and s["q1"] <= s["median"] <= s["q3"]
+    assert s["median"] == pytest.approx(np.median(rmse)) and s["q1"] is None  # 3 trials
     for t in out["trials"]:
         # 3D RMSE is the root of the summed per-axis mean squares
         assert t["rmse"] == pytest.approx(np.sqrt(np.sum(np.square(t["rmse_axes"]))))
@@ -204,9 +204,24 @@ def test_the_summary_gives_the_filters_consistency_and_the_command_notes_it(
     assert mc.summarize([{**base}])["nees_median"] is None   # records from before
     for nees, said in ((8.79, "about 2.9 x too small for its errors"),
                        (1.15, "about 2.6 x too large for its errors"), (2.5, None)):
-        out, err = _one_trial_with_summary(monkeypatch, capsys, nees_median=nees)
+        out, err = _one_trial_with_summary(monkeypatch, capsys, nees_median=nees, nees_n=5)
         assert f"median NEES {nees:.2f}" in out
         assert (said in err) if said else "NEES" not in err
+
+
+def test_few_trials_give_no_quartiles_and_no_verdict_on_the_covariance(monkeypatch, capsys):
+    """``--trials 1`` printed "quartiles 0.042 / 0.042" and called the filter's covariance
+    "5.4 x too large" in these conditions from that one trial (statistics audit): no quartiles
+    below 4 trials, no verdict from fewer than 5 trials' NEES."""
+    base = {"rmse_axes": [0.1, 0.1, 0.1], "nees": 3.0}
+    few = mc.summarize([{**base, "rmse": r} for r in (0.1, 0.2, 0.3)])
+    assert few["q1"] is None and few["q3_axes"] is None and few["median"] == 0.2
+    assert mc.quartiles_text(few) == "none from 3 trials"
+    four = mc.summarize([{**base, "rmse": r} for r in (0.1, 0.2, 0.3, 0.4)])
+    assert four["q1"] == pytest.approx(0.175) and four["nees_n"] == 4
+    out, err = _one_trial_with_summary(monkeypatch, capsys, nees_median=1.15)
+    assert "quartiles none from 1 trial," in out
+    assert "from 1 trial, too few to judge it (5 needed)" in out and "too large" not in err
 
 
 def _one_trial_with_summary(monkeypatch, capsys, **summary):

@@ -410,9 +410,16 @@ def run_trial(spec: TrialSpec) -> dict:
     }
 
 
+MIN_QUARTILE_TRIALS = 4
+"""Fewest finite trials whose quartiles are given (None below): the quartiles of one to three
+values are interpolations between them, not a spread (``--trials 1`` printed "quartiles
+0.042 / 0.042"; statistics audit)."""
+
+
 def summarize(records: list[dict]) -> dict:
     """Median, quartiles, mean and extremes of the 3D RMSE over the finite trials (m/s), the
-    median and quartiles of the per-axis RMSE (world x, y, z), and the numbers of trials whose
+    median and quartiles of the per-axis RMSE (world x, y, z) (quartiles None below
+    :data:`MIN_QUARTILE_TRIALS` trials), and the numbers of trials whose
     rotor commands saturated more than 1% of the time, that left the vehicle's envelope and
     whose calibration left a drag coefficient undetermined, and the largest drag-model bias of
     a trial (``max_drag_model_bias``, m/s; None for records written before it was kept), and
@@ -426,12 +433,14 @@ def summarize(records: list[dict]) -> dict:
     v = rmse[ok]
     axes = np.array([r["rmse_axes"] for r in records], dtype=np.float64)[ok]
     q1, med, q3 = np.percentile(v, [25, 50, 75])
+    spread = v.size >= MIN_QUARTILE_TRIALS
     return {
-        "n": int(v.size), "median": float(med), "q1": float(q1), "q3": float(q3),
+        "n": int(v.size), "median": float(med), "q1": float(q1) if spread else None,
+        "q3": float(q3) if spread else None,
         "mean": float(v.mean()), "min": float(v.min()), "max": float(v.max()),
         "median_axes": np.median(axes, axis=0).tolist(),
-        "q1_axes": np.percentile(axes, 25, axis=0).tolist(),
-        "q3_axes": np.percentile(axes, 75, axis=0).tolist(),
+        "q1_axes": np.percentile(axes, 25, axis=0).tolist() if spread else None,
+        "q3_axes": np.percentile(axes, 75, axis=0).tolist() if spread else None,
         "fraction_below_0.5": float(np.mean(v <= 0.5)),
         # heavy, high-drag draws can exceed the SE(3) controller's authority in strong wind:
         # they are kept (the filter sees the flight as flown) but counted
@@ -455,7 +464,17 @@ def summarize(records: list[dict]) -> dict:
         # when consistent
         "nees_median": _median_finite([r.get("nees") for r, good
                                        in zip(records, ok, strict=True) if good]),
+        "nees_n": sum(r.get("nees") is not None and math.isfinite(r["nees"])
+                      for r, good in zip(records, ok, strict=True) if good),
     }
+
+
+def quartiles_text(summary: dict) -> str:
+    """``"q1 / q3"`` of a :func:`summarize` result (m/s, 3 decimals), or why there are none."""
+    if summary.get("q1") is None:
+        n = summary.get("n", 0)
+        return f"none from {n} trial{'' if n == 1 else 's'}"
+    return f"{summary['q1']:.3f} / {summary['q3']:.3f}"
 
 
 def _median_finite(values) -> float | None:
