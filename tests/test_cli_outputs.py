@@ -395,10 +395,14 @@ def test_fly_json_equals_its_summary_and_names_its_arguments(tmp_path):
 
 def test_power_curve_and_calibrate_json(tmp_path):
     js = tmp_path / "p.json"
-    assert main(["power-curve", "--points", "3", "--degree", "2", "--max-speed", "4",
+    assert main(["power-curve", "--points", "4", "--degree", "2", "--max-speed", "4",
                  "--out", str(tmp_path / "p"), "--json", str(js)]) == 0
     doc = read_doc(js, "power-curve")
-    assert len(doc["power_W"]) == 3 and all(p > 0 for p in doc["power_W"])
+    assert len(doc["power_W"]) == 4 and all(p > 0 for p in doc["power_W"])
+    # degree + 1 points: an exact interpolation, whose endurance check could never fire, and
+    # read "endurance_within_fit_noise: false" as checked (statistics audit)
+    assert main(["power-curve", "--points", "3", "--degree", "2", "--max-speed", "4",
+                 "--out", str(tmp_path / "p3")]) == 2
     js = tmp_path / "c.json"
     assert main(["calibrate", "--duration", "2", "--settle", "1", "--out", str(tmp_path / "c"),
                  "--json", str(js)]) == 0

@@ -57,9 +57,10 @@ def run(args) -> int:
     max_speed = positive_float(args.max_speed, "--max-speed", name)
     degree = positive_int(args.degree, "--degree", name)
     points = positive_int(args.points, "--points", name)
-    if points <= degree:
-        raise ValueError(f"The '--points' parameter of {name} must exceed --degree {degree} "
-                         f"(a fit needs more points than its degree). Got {points} instead.")
+    if points < degree + 2:  # degree + 1 interpolated: no residual, so no check could fire
+        raise ValueError(f"The '--points' parameter of {name} must be at least --degree + 2 = "
+                         f"{degree + 2} (a fit of degree {degree} has {degree + 1} coefficients "
+                         f"and needs residuals to judge it by). Got {points} instead.")
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
     with options_named({"'max_speed' parameter of simulated_power_curve":

@@ -48,7 +48,8 @@ def power_curve_study(vehicle: str, max_speed: float = 12.0, points: int = 21,
     thesis = PowerCurve.crazyflie()
     fitted = sweep["fitted"]
     endurance = endurance_check(curve, sweep["speeds"][fitted], sweep["power"][fitted])
-    notes = [endurance.pop("note")] if endurance["endurance_within_fit_noise"] else []
+    note = endurance.pop("note")
+    notes = [note] if note is not None else []
     return {
         "vehicle": vehicle,
         "max_speed_m_s": float(max_speed),
@@ -80,8 +81,9 @@ def endurance_check(curve, speeds, powers) -> dict:
     is below that lowest sample by less than the fit's largest absolute residual at the sampled
     points. The samples then show no dip, and the one the fit shows is smaller than the fit's
     own misfit: the maximum-endurance speed is the slowest sample (hover, for a sweep from
-    0 m/s) to within the fit. (A fit through exactly ``degree + 1`` points has no residual and
-    is never flagged.)
+    0 m/s) to within the fit. A fit through no more samples than its coefficients
+    (``degree + 1``) has no residual: the check is None there, with a note (it read False,
+    as if checked; statistics audit).
 
     Parameters
     ----------
@@ -96,7 +98,8 @@ def endurance_check(curve, speeds, powers) -> dict:
         ``lowest_power_sample_speed_m_s`` and ``lowest_power_sample_W`` (the sample of least
         power), ``max_endurance_fit_power_W`` (the fit at its minimum), ``fit_residual_rms_W``
         and ``fit_residual_max_W`` (of the fit at the samples), ``endurance_within_fit_noise``
-        (bool), and ``note`` (a sentence saying so when flagged, else None).
+        (bool; None when the fit has no residual), and ``note`` (a sentence saying so when
+        flagged or unjudged, else None).
     """
     from windnav.vehicle.power import max_endurance_speed
 
@@ -111,7 +114,13 @@ def endurance_check(curve, speeds, powers) -> dict:
     slowest = float(v.min())
     flagged = bool(v[k] == slowest and v_fit > slowest and p[k] - p_fit < worst)
     note = None
-    if flagged:
+    if v.size <= np.asarray(curve.coefficients).size:
+        flagged = None
+        note = (f"the fit passes through its {v.size} samples exactly (as many as its "
+                f"{np.asarray(curve.coefficients).size} coefficients): with no residual, "
+                f"its maximum-endurance speed ({v_fit:.2f} m/s) cannot be told from a dip "
+                "of the fit; sample more speeds or fit a lower degree")
+    elif flagged:
         where = "hover, 0 m/s" if slowest == 0 else f"{slowest:.3g} m/s"
         note = (f"the sampled power is lowest at the slowest sample ({where}: {p[k]:.3f} W; "
                 f"every faster sample draws more); the fit's minimum at {v_fit:.2f} m/s "
