@@ -165,3 +165,19 @@ def test_incidence_checks_fail_when_a_run_did_not_shed(monkeypatch):
     monkeypatch.setattr(fv, "_run", runs({**good, 20.0: float("nan")}))
     res = incidence_study(shapes=(1.0,), angles=angles, backend="serial", progress=False)
     assert np.isnan(res["peak_angle"]) and not res["checks"]["peak_5_25_above_0"]
+
+
+def test_the_resolution_verdict_needs_two_resolutions_and_two_angles(monkeypatch):
+    """One resolution measured no halving and one angle no difference, and ``passes`` was True
+    over nothing measured (statistics audit): refused before any run."""
+    import windnav.experiments.flow_validation as fv
+
+    def never(*args):
+        raise AssertionError("no run before the check")
+
+    monkeypatch.setattr(fv, "_run", never)
+    for kw, key in (({"resolutions": (8,)}, "resolutions"), ({"resolutions": (8, 8)},
+                                                               "resolutions"),
+                    ({"angles": (0.0,)}, "angles")):
+        with pytest.raises(ValueError, match=f"'{key}' parameter of resolution_study"):
+            fv.resolution_study(backend="serial", progress=False, **kw)

@@ -157,6 +157,13 @@ def resolution_study(resolutions=RESOLUTIONS, angles=(0.0, 90.0), backend="proce
         ``halving_change`` {angle: [relative change per halving]}, ``angle_difference``
         (max over resolutions of |St(first) - St(second angle)| / St(first)), ``passes``.
     """
+    # one resolution measured no halving and one angle no difference, and the verdict passed
+    # over what it had not measured (all([]) is True; statistics audit)
+    for key, values in (("resolutions", resolutions), ("angles", angles)):
+        if len(set(values)) < 2:
+            raise ValueError(f"The '{key}' parameter of resolution_study must hold at least two "
+                             f"different values (the verdict compares them). Got {values!r} "
+                             "instead.")
     cases = [replace(base, cells_per_height=int(n), angle_deg=float(a))
              for a in angles for n in resolutions]
     runs = _run(cases, "resolution", backend, workers, progress, records)
