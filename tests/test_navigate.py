@@ -710,3 +710,34 @@ def test_command_s_memory_refusal_names_its_own_options(city, tmp_path, monkeypa
                   "--speed", "2", "--out", str(tmp_path / "out")])
     with pytest.raises(MemoryEstimateError, match=r"a shorter --record-s or a smaller map"):
         args.func(args)
+
+
+def test_compare_variants_says_how_many_pairs_its_verdict_rests_on(monkeypatch):
+    """``holds`` is issue 10's "less energy in every run where both succeed"; over the four
+    default scenarios it rests on one pair (docs/planner.md), which the result did not say
+    (statistics audit): ``pairs`` counts them."""
+    from types import SimpleNamespace
+
+    import windnav.city as city_mod
+    import windnav.experiments.navigate as nav
+
+    flights = {("mppi", 0): ("success", 10.0), ("ea-mppi-w", 0): ("success", 9.0),
+               ("mppi", 1): ("success", 10.0), ("ea-mppi-w", 1): ("hover", 1.0),
+               ("mppi", 2): ("timeout", 5.0), ("ea-mppi-w", 2): ("success", 4.0)}
+
+    def navigate(city, start, goal, *, variant, rng, **kw):
+        outcome, energy = flights[(variant, rng)]
+        return SimpleNamespace(outcome=outcome, energy_J=energy, rotor_energy_J=energy,
+                               time_s=1.0, wall_s=0.0, position=np.zeros((2, 3)),
+                               summary=lambda: {"outcome": outcome, "energy_J": energy})
+
+    monkeypatch.setattr(nav, "navigate", navigate)
+    monkeypatch.setattr(nav, "simulate_flow", lambda *a, **k: None)
+    monkeypatch.setattr(nav, "free_point", lambda city, xy, **k: np.asarray(xy, float))
+    monkeypatch.setattr(city_mod, "planning_map", lambda rng, size: None)
+    scenarios = [{"map_seed": i, "speed": 5.0, "direction_deg": 0.0} for i in range(3)]
+    res = nav.compare_variants(scenarios)
+    assert res["both_succeeded"] == [True, None, None]
+    assert res["pairs"] == 1 and res["holds"] is True
+    none = nav.compare_variants(scenarios[1:], rng=1)  # (flights keyed by rng + index)
+    assert none["pairs"] == 0 and none["holds"] is False

@@ -1225,8 +1225,10 @@ def compare_variants(
     dict
         ``records``: one per (scenario, variant), the :meth:`NavigationResult.summary` plus the
         scenario; ``both_succeeded``: per scenario, whether ``variants[-1]`` used less
-        ``energy_J`` than ``variants[0]`` where both succeeded (None otherwise); and
-        ``holds``: True when that is so in every such scenario.
+        ``energy_J`` than ``variants[0]`` where both succeeded (None otherwise); ``pairs``: how
+        many scenarios both succeeded in, the evidence ``holds`` rests on (one, on the four
+        default scenarios: ``docs/planner.md``); and ``holds``: True when that is so in every
+        such scenario (False when there is none).
     """
     from windnav.city import planning_map
 
@@ -1258,6 +1260,6 @@ def compare_variants(
         else:
             verdicts.append(None)
     decided = [v for v in verdicts if v is not None]
-    return {"records": records, "both_succeeded": verdicts,
+    return {"records": records, "both_succeeded": verdicts, "pairs": len(decided),
             "holds": bool(decided) and all(decided)}
 
