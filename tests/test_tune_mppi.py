@@ -136,12 +136,15 @@ def test_tune_is_deterministic_and_starts_from_the_thesis_defaults():
 def test_tune_validates_its_inputs():
     with pytest.raises(ValueError, match="'n_trials'"):
         tm.tune(0)
+    # one trial is the defaults alone, which it called the best (statistics audit)
+    with pytest.raises(ValueError, match="'n_trials' parameter of tune must be at least 2"):
+        tm.tune(1)
     with pytest.raises(ValueError, match="'seeds'"):
-        tm.tune(1, seeds=())
+        tm.tune(2, seeds=())
     with pytest.raises(ValueError, match="'search_space'.*'sigma_u'"):
-        tm.tune(1, search_space={"sigma_u": (6.0, 10.0)})  # leaves out the thesis value
+        tm.tune(2, search_space={"sigma_u": (6.0, 10.0)})  # leaves out the thesis value
     with pytest.raises(ValueError, match="'search_space'.*'variant'"):
-        tm.tune(1, search_space={"variant": (1.0, 2.0)})
+        tm.tune(2, search_space={"variant": (1.0, 2.0)})
 
 
 # ----------------------------------------------------------------------------- the command
@@ -161,29 +164,32 @@ def test_command_writes_json_and_figure_and_refuses_to_overwrite(tmp_path, capsy
     assert (out / "tune_mppi.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     before = (out / "tune_mppi.json").read_bytes()
     with pytest.raises(OutputExistsError, match="'--out'.*overwrite"):
-        command(["--trials", 1, "--out", out, "--no-progress"])
+        command(["--trials", 2, "--out", out, "--no-progress"])
     assert (out / "tune_mppi.json").read_bytes() == before
     with pytest.raises(ValueError, match="'--trials' parameter of windnav tune-mppi"):
         command(["--trials", 0, "--out", tmp_path / "other"])
+    with pytest.raises(ValueError, match="'--trials' parameter of windnav tune-mppi must be at "
+                                         "least 2"):
+        command(["--trials", 1, "--out", tmp_path / "other"])
     with pytest.raises(ValueError, match="'--holdout' parameter of windnav tune-mppi must be an "
                                          "integer >= 0"):  # it said ">= 1", but 0 is allowed
-        command(["--trials", 1, "--holdout", -1, "--out", tmp_path / "other"])
-    assert command(["--trials", 1, "--out", out, "--overwrite", "--no-progress",
+        command(["--trials", 2, "--holdout", -1, "--out", tmp_path / "other"])
+    assert command(["--trials", 2, "--out", out, "--overwrite", "--no-progress",
                     "--flight-seeds", 1, "--holdout", 1]) == 0
     doc = json.loads((out / "tune_mppi.json").read_text())
-    assert len(doc["trials"]) == 1 and doc["seeds"] == [0]
+    assert len(doc["trials"]) == 2 and doc["seeds"] == [0]
     # the held-out check flies seed 1, the first the study never saw
     assert doc["holdout"]["seeds"] == [1]
     assert doc["holdout"]["defaults"]["cost"] == pytest.approx(
         tm.evaluate(tm.thesis_defaults(), seeds=[1])["cost"])
     with pytest.raises(ValueError, match="'--flight-seeds' parameter"):
-        command(["--trials", 1, "--flight-seeds", 0, "--out", tmp_path / "x"])
+        command(["--trials", 2, "--flight-seeds", 0, "--out", tmp_path / "x"])
 
 
 def test_command_without_optuna_says_how_to_install_it(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "optuna", None)  # `import optuna` raises ImportError
     with pytest.raises(ImportError) as info:
-        command(["--trials", 1, "--out", tmp_path / "tune"])
+        command(["--trials", 2, "--out", tmp_path / "tune"])
     message = str(info.value)
     assert "pip install 'windnav[tune]'" in message and "\n" not in message
     assert not (tmp_path / "tune").exists()

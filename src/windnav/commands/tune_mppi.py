@@ -43,7 +43,8 @@ def register(subparsers) -> None:
                     "the thesis defaults. Writes tune_mppi.json and tune_mppi.png into --out. "
                     "Needs the 'tune' extra: pip install 'windnav[tune]'.",
     )
-    p.add_argument("--trials", type=int, default=20, help="Optuna trials (%(default)s)")
+    p.add_argument("--trials", type=int, default=20,
+                   help="Optuna trials, >= 2; the first flies the defaults (%(default)s)")
     p.add_argument("--seed", type=int, default=0, help="seed of the TPE sampler (%(default)s)")
     p.add_argument("--flight-seeds", type=int, default=3,
                    help="flights per trial, seeds 0..N-1 (%(default)s)")
@@ -65,6 +66,9 @@ def run(args) -> int:
     name = where(args)
     tune_mppi.require_optuna()  # a missing extra is reported before anything is written
     trials = positive_int(args.trials, "--trials", name)
+    if trials < 2:  # the defaults alone were reported as the best of one (statistics audit)
+        raise ValueError(f"The '--trials' parameter of {name} must be at least 2 (the first "
+                         f"trial flies the defaults). Got {trials} instead.")
     n_seeds = positive_int(args.flight_seeds, "--flight-seeds", name)
     holdout = nonnegative_int(args.holdout, "--holdout", name)  # 0: no held-out seeds
     sampler_seed = seed(args)

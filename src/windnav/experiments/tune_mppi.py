@@ -322,7 +322,8 @@ def tune(n_trials: int, *, seed: int = 0, seeds: Sequence[int] = SEEDS,
     Parameters
     ----------
     n_trials : int
-        Trials (>= 1), the thesis defaults first.
+        Trials (>= 2), the thesis defaults first: with one, the defaults were called "best"
+        among themselves (statistics audit).
     seed : int
         Seed of the TPE sampler (>= 0). Same seed, same trials.
     seeds : sequence of int
@@ -354,6 +355,10 @@ def tune(n_trials: int, *, seed: int = 0, seeds: Sequence[int] = SEEDS,
     where = "tune"
     optuna = require_optuna()
     n_trials = positive_int(n_trials, "n_trials", where)
+    if n_trials < 2:
+        raise ValueError(f"The 'n_trials' parameter of {where} must be at least 2 (the first "
+                         f"trial flies the defaults, the others search). Got {n_trials} "
+                         "instead.")
     nonnegative_int(seed, "seed", where)
     seeds = _check_seeds(seeds, where)
     space = _check_space(SEARCH_SPACE if search_space is None else search_space, where)
