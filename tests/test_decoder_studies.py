@@ -119,6 +119,20 @@ def test_gradient_samples_with_a_wall_next_to_the_robot_are_left_out():
         gradient_r2(true, true, free[:, :4], 1.0)
 
 
+def test_gradients_over_fewer_than_three_samples_give_no_r2():
+    """Over 2 samples the correlation is +-1 whatever is predicted (``pearson_r`` -1.0 for a
+    wrong prediction; statistics audit): NaN and a note below 3 counted samples."""
+    rng = np.random.default_rng(4)
+    true, _ = linear_fields(3, 5, rng)
+    other, _ = linear_fields(3, 5, rng)
+    free = np.ones((3, 5, 5), dtype=bool)
+    assert np.isfinite(gradient_r2(other, true, free, 1.0)["pearson_r"]["du/dx"])
+    free[0, 2, 1] = False  # one sample left out: two count
+    res = gradient_r2(other, true, free, 1.0)
+    assert res["n_samples"] == 2 and "fewer than the 3" in res["note"]
+    assert all(np.isnan(res[m][k]) for m in ("r2", "pearson_r") for k in GRADIENT_COMPONENTS)
+
+
 # -------------------------------------------------------------------------------- mosaic
 
 

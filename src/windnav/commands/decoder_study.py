@@ -278,7 +278,9 @@ def _summary(study: str, res: dict) -> dict:
                                   for k in ("variance_share", "error_share", "r2")}}
     if study == "gradients":
         return {k: {"r2": res[k]["r2"], "pearson_r": res[k].get("pearson_r"),
-                    "n_samples": res[k]["n_samples"]} for k in ("decoder", "decoder_per_U")}
+                    "n_samples": res[k]["n_samples"],
+                    **({"note": res[k]["note"]} if res[k].get("note") else {})}
+                for k in ("decoder", "decoder_per_U")}
     if study == "mosaic":
         return {"metrics": {m: {k: res["metrics"][m][k] for k in
                                 ("speed_error", "direction_error_deg", "vector_error")}

@@ -300,6 +300,12 @@ def eigenflow_study(fields, samples_per_field: int = 2048, *, seed: int = 0, siz
 # -------------------------------------------------------------------------- (c) gradients
 
 
+MIN_GRADIENT_SAMPLES = 3
+"""Fewest counted samples :func:`gradient_r2` scores (NaN below): two points fit any line, so
+their correlation is +-1 whatever the decoder predicts (statistics audit: ``pearson_r`` -1.0
+from 2 samples)."""
+
+
 def gradient_r2(pred, true, free, spacing: float) -> dict:
     """R^2 of the predicted wind gradients at the robot (the centre cell) against the true ones.
 
@@ -317,7 +323,8 @@ def gradient_r2(pred, true, free, spacing: float) -> dict:
     -------
     dict
         ``r2`` and ``pearson_r`` ``{component: float}`` over the samples that count (NaN when
-        the true component does not vary), ``n_samples``, ``n_excluded``, and ``pred``,
+        the true component does not vary, or fewer than :data:`MIN_GRADIENT_SAMPLES` count,
+        with ``note`` saying so), ``n_samples``, ``n_excluded``, and ``pred``,
         ``true`` (n, 4): the gradients in 1/s (columns :data:`GRADIENT_COMPONENTS`).
     """
     from windnav.predict import central_gradients
@@ -340,6 +347,13 @@ def gradient_r2(pred, true, free, spacing: float) -> dict:
           & free[:, c + 1, c])
     gt, gp = gt[ok], gp[ok]
     r2, r = {}, {}
+    if gt.shape[0] < MIN_GRADIENT_SAMPLES:
+        nan = {name: float("nan") for name in GRADIENT_COMPONENTS}
+        return {"r2": nan, "pearson_r": dict(nan), "n_samples": int(ok.sum()),
+                "n_excluded": int(b - ok.sum()), "pred": gp, "true": gt,
+                "note": f"{int(ok.sum())} samples count (a free centre and four free "
+                        f"neighbours), fewer than the {MIN_GRADIENT_SAMPLES} a correlation "
+                        "needs: no R^2"}
     for k, name in enumerate(GRADIENT_COMPONENTS):
         ss_tot = float(np.sum((gt[:, k] - gt[:, k].mean()) ** 2)) if gt.shape[0] else 0.0
         ss_res = float(np.sum((gp[:, k] - gt[:, k]) ** 2))
