@@ -66,7 +66,19 @@ def test_evaluation_reports_every_slot_and_the_documented_keys(evaluation):
                     "vector_error", "n_free"} <= set(rec[model])
     pooled = res["pooled"]["all"]
     assert set(pooled["acceptance"]) == {"speed_error", "direction_error_deg", "vs_local",
-                                         "vs_upstream", "all"}
+                                         "vs_upstream", "all", "note"}
+    # 48 samples a slot: the checks are not judged (``--samples 1`` printed them as a verdict;
+    # statistics audit)
+    assert pooled["acceptance"]["all"] is None
+    assert pooled["acceptance"]["note"] == ("not judged: 4 slots of 48 samples, where the "
+                                            "verdict needs at least 2 slots of the "
+                                            "protocol's 2048")
+    from windnav.experiments.decoder_eval import _acceptance
+
+    judged = _acceptance(pooled, 2048)
+    assert set(judged) == {"speed_error", "direction_error_deg", "vs_local", "vs_upstream",
+                           "all"} and isinstance(judged["all"], bool)
+    assert _acceptance({**pooled, "n_slots": 1}, 2048)["all"] is None
     # inlets are drawn per slot from the seed, whatever the budget
     slots = inlet_slots(2, 2, 3)
     got = {(r["map"], r["inlet"]): (r["speed"], r["direction_deg"]) for r in res["records"]}

@@ -127,6 +127,13 @@ PROTOCOL = {"spinup_steps": 100, "steps": 200}
 ACCEPTANCE = {"speed_error": 0.6, "direction_error_deg": 12.0, "vs_local": 35.0,
               "vs_upstream": 75.0}
 """Issue 9's accuracy targets at H = 25: errors (m/s, deg) and improvements (%)."""
+ACCEPTANCE_SAMPLES = 2048
+"""Samples per (map, inlet) slot the acceptance verdict needs: the thesis's protocol. A run
+with fewer (``--samples 1``) is a quick look, and its verdict was printed as one
+(statistics audit)."""
+ACCEPTANCE_SLOTS = 2
+"""Slots the acceptance verdict needs: one inlet says nothing about a distribution of
+inlets."""
 _IMPROVED = ("speed_error", "direction_error_deg", "direction_error_masked_deg", "vector_error")
 
 
@@ -154,7 +161,16 @@ def _summary(errors: dict) -> dict:
     return out
 
 
-def _acceptance(summary: dict) -> dict:
+def _acceptance(summary: dict, samples_per_slot: int) -> dict:
+    """Issue 9's checks on a pooled summary; each None (not judged), with ``note``, below
+    :data:`ACCEPTANCE_SAMPLES` samples per slot or :data:`ACCEPTANCE_SLOTS` slots."""
+    if samples_per_slot < ACCEPTANCE_SAMPLES or summary["n_slots"] < ACCEPTANCE_SLOTS:
+        return {**{k: None for k in ("speed_error", "direction_error_deg", "vs_local",
+                                     "vs_upstream", "all")},
+                "note": f"not judged: {summary['n_slots']} slot"
+                        f"{'' if summary['n_slots'] == 1 else 's'} of {samples_per_slot} "
+                        f"samples, where the verdict needs at least {ACCEPTANCE_SLOTS} slots "
+                        f"of the protocol's {ACCEPTANCE_SAMPLES}"}
     d, imp = summary["decoder"], summary["improvement_pct"]
     checks = {
         "speed_error": d["speed_error"] <= ACCEPTANCE["speed_error"],
@@ -400,10 +416,12 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         cache), errors of each model, improvement_pct), ``failed`` (slots whose flow
         failed, with the error),
         ``pooled`` (``{"dense": ..., "windinet": ..., "all": ...}``: errors per model,
-        improvement_pct and ``acceptance``), ``n_slots_run``, ``n_slots_planned``,
-        ``stopped_by_budget``, ``elapsed_s``; ``models`` (the names scored, in order) and
-        ``compared`` (each compared model's file and architecture). A compared model's
-        errors sit beside the decoder's, its improvements under ``compared_improvement_pct``.
+        improvement_pct and ``acceptance``: issue 9's checks, None with a ``note`` below
+        :data:`ACCEPTANCE_SLOTS` slots of :data:`ACCEPTANCE_SAMPLES` samples),
+        ``n_slots_run``, ``n_slots_planned``, ``stopped_by_budget``, ``elapsed_s``;
+        ``models`` (the names scored, in order) and ``compared`` (each compared model's file
+        and architecture). A compared model's errors sit beside the decoder's, its
+        improvements under ``compared_improvement_pct``.
     """
     from windnav.experiments.wind_sweep import auto_dt
     from windnav.flow.solver import FlowDivergedError
@@ -494,7 +512,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
             continue
         summary = _summary({m: _pool([ps[m] for ps in chosen]) for m in models})
         summary["n_slots"] = len(chosen)
-        summary["acceptance"] = _acceptance(summary)
+        summary["acceptance"] = _acceptance(summary, samples)
         pooled[group] = summary
     return {
         "config": {"maps": [n for n, _, _ in cities], "map_seed": EVAL_MAP_SEED,
