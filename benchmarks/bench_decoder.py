@@ -75,6 +75,11 @@ def inputs(batch: int, rng: np.random.Generator):
     return scans, w_up, w_robot
 
 
+MIN_JUDGED_REPEATS = 5
+"""Fewest timed calls whose median is held against issue 9's targets: below, not judged (one
+call gave "met"; statistics audit)."""
+
+
 def time_predict(decoder, batch: int, repeats: int, *, seed: int = 0) -> dict:
     """Median and minimum wall time of ``decoder.predict`` on a batch, ms (after a warm-up)."""
     x = inputs(batch, np.random.default_rng(seed))
@@ -118,8 +123,9 @@ def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
             "batch": time_predict(d, 1024, rb, seed=seed)}
     o, t = out["models"]["decoder"], out["models"]["thesis-mlp"]
     out["speedup"] = {k: t[k]["median_ms"] / o[k]["median_ms"] for k in ("one", "batch")}
-    out["meets_target"] = {"one": o["one"]["median_ms"] <= TARGETS_MS[1],
-                           "batch": o["batch"]["median_ms"] <= TARGETS_MS[1024]}
+    out["meets_target"] = {k: (o[k]["median_ms"] <= TARGETS_MS[n]
+                               if o[k]["repeats"] >= MIN_JUDGED_REPEATS else None)
+                           for k, n in (("one", 1), ("batch", 1024))}
     return out
 
 
@@ -130,7 +136,10 @@ def rows(res: dict) -> list[str]:
     def cell(m, k):
         return f"{m[k]['median_ms']:.3f} (min {m[k]['min_ms']:.3f})"
 
-    met = {k: "met" if v else "NOT met" for k, v in res["meets_target"].items()}
+    met = {k: (f"not judged from {o[k]['repeats']} timed call"
+               f"{'' if o[k]['repeats'] == 1 else 's'}; {MIN_JUDGED_REPEATS} needed"
+               if v is None else "met" if v else "NOT met")
+           for k, v in res["meets_target"].items()}
     return [
         f"NumPy {res['numpy']}, 1 thread; decoder: {o['architecture']} ({o['source']}, "
         f"{o['n_parameters']:,} parameters, H = {o['size']}); reference: thesis MLP "
