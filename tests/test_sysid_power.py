@@ -293,7 +293,9 @@ def test_thesis_cubic_samples_get_no_lack_of_fit_note(thesis_fit, tmp_path):
     """The thesis's cubic, sampled exactly (49 points) and as the figure of docs/sysid.md (4
     samples every 0.5 m/s, N(0, 0.05 W), seed 0): the right shape, no note."""
     _, doc = thesis_fit
-    assert doc["notes"] == [] and doc["lack_of_fit"] is None
+    # exact samples: only the note that the intervals reflect no noise (statistics audit)
+    assert len(doc["notes"]) == 1 and doc["lack_of_fit"] is None
+    assert doc["notes"][0].startswith("the curve passes through the samples exactly")
     assert doc["endurance_check"]["endurance_within_fit_noise"] is False
     thesis = PowerCurve.crazyflie()
     v = np.repeat(np.arange(0.0, 12.0001, 0.5), 4)
@@ -337,7 +339,13 @@ def test_samples_without_scatter_are_judged_alike_in_float32_float64_and_rounded
         fit = fit_power(speed, power)
         test = fit.lack_of_fit
         assert test["no_scatter"] and test["F"] is None and not test["rejected"]
-        assert fit.notes == []
+        # exact to float64 rounding: its intervals reflect no noise, and it is said
+        exact = power is p
+        assert fit.notes == (["the curve passes through the samples exactly (residual RMS "
+                              f"{fit.fit.rmse:.2g} W): the 95 % intervals have no "
+                              "measurement noise to reflect (noise-free, digitised or "
+                              "synthetic data) and are not the uncertainty of a measured "
+                              "curve"] if exact else [])
     # a misfit well over rounding is still rejected, and the note says there was no scatter
     bent = p + 2.0 * np.sin(v)
     fit = fit_power(v, bent)
@@ -450,7 +458,9 @@ def test_the_library_fit_says_what_the_command_says():
     assert low.max_range_speed.value > 7.0
     assert any("lies beyond the fastest sample (7 m/s)" in n for n in low.notes)
     full = fit_power(v, thesis(v))
-    assert full.notes == []
+    assert [n[:44] for n in full.notes] == ["the curve passes through the samples exactly"]
+    noisy = fit_power(v, thesis(v) + np.random.default_rng(1).normal(0.0, 0.05, v.size))
+    assert noisy.notes == []
 
 
 def test_a_flat_power_column_determines_no_best_speed():

@@ -67,6 +67,9 @@ less their bin mean, so the curve's own slope across the bin does not count as s
 LACK_OF_FIT_P = 0.01
 """Below this p-value of the lack-of-fit F test, the fitted shape is rejected (a note)."""
 
+EXACT_FIT_RESOLUTION = 1e-9
+"""A residual RMS under this fraction of the largest power is an exact fit (floating-point
+rounding): :attr:`PowerFit.notes` says that its intervals reflect no noise."""
 NO_SCATTER_RESOLUTION = 1e-3
 """Where the samples at repeated speeds agree exactly (noise-free, duplicated or rounded data),
 the F test has no scatter to weigh the misfit against: a residual RMS under this fraction of
@@ -323,6 +326,13 @@ class PowerFit:
         if self.n_dropped:
             notes.append(f"{self.n_dropped} sample(s) with a non-finite speed or power were "
                          "left out of the fit")
+        if (not (test is not None and test["rejected"])
+                and self.fit.rmse <= EXACT_FIT_RESOLUTION * np.max(np.abs(self.power))):
+            # a noise-free curve gave intervals of width 0, with no word (statistics audit)
+            notes.append(f"the curve passes through the samples exactly (residual RMS "
+                         f"{self.fit.rmse:.2g} W): the 95 % intervals have no measurement "
+                         "noise to reflect (noise-free, digitised or synthetic data) and are "
+                         "not the uncertainty of a measured curve")
         return notes
 
     def to_dict(self) -> dict:
