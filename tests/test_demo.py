@@ -100,9 +100,10 @@ def test_describe_reports_a_saving_or_its_absence():
                 "energy_saving_note": "not compared: EA-MPPI+W ended in timeout"}
 
     assert describe(summary(4000.0, 3000.0)).splitlines()[-1].startswith(
-        "EA-MPPI+W saves 25.0 % of MPPI's energy")
+        "EA-MPPI+W saves 25.0 % of MPPI's energy in this flight")
+    assert "one flight, not a rate" in describe(summary(4000.0, 3000.0))
     assert "25.0 % more energy than MPPI" in describe(summary(4000.0, 5000.0))
-    assert "no saving" in describe(summary(4000.0, 5000.0))
+    assert "no saving in this flight (one flight" in describe(summary(4000.0, 5000.0))
     assert describe(summary(4000.0, 3000.0, "timeout")).endswith("ended in timeout")
 
 

@@ -245,8 +245,10 @@ def describe(summary: dict) -> str:
     """The human summary of a run: one line per variant, then the energy comparison.
 
     ``MPPI: success, 3.47 kJ in 54.0 s (rotor 3.60 kJ, 290 m flown)``, one such line per
-    variant, then ``EA-MPPI+W saves 12.3 % of MPPI's energy (rotor energy: 11.8 %)``, or says
-    that it used more, or why the two were not compared.
+    variant, then ``EA-MPPI+W saves 12.3 % of MPPI's energy in this flight (rotor energy:
+    11.8 %; ...)``, or says that it used more, or why the two were not compared; either way
+    that it is one flight (the single-flight figure was printed as a saving without that;
+    statistics audit).
     """
     lines = []
     for v, r in summary["variants"].items():
@@ -260,9 +262,11 @@ def describe(summary: dict) -> str:
     rotor = summary["rotor_energy_saving_percent"]
     base, new = (LABELS[v] for v in VARIANTS)
     if pct >= 0:
-        lines.append(f"{new} saves {pct:.1f} % of {base}'s energy (rotor energy: "
-                     f"{rotor:+.1f} %)")
+        lines.append(f"{new} saves {pct:.1f} % of {base}'s energy in this flight (rotor "
+                     f"energy: {rotor:+.1f} %; one flight, not a rate: the benchmark's "
+                     "1,024 scenarios are the measure)")
     else:
         lines.append(f"{new} used {-pct:.1f} % more energy than {base} (rotor energy: "
-                     f"{-rotor:+.1f} %): no saving in this case")
+                     f"{-rotor:+.1f} %): no saving in this flight (one flight, not a rate: "
+                     "the benchmark's 1,024 scenarios are the measure)")
     return "\n".join(lines)
