@@ -86,9 +86,18 @@ def test_interpolate_reproduces_a_linear_field_and_is_zero_in_buildings_and_outs
     inside = p[city.contains(p)]
     assert inside.shape[0] > 50
     np.testing.assert_array_equal(field.interpolate(inside), 0.0)
-    outside = np.array([[0.2, 30.0], [89.9, 30.0], [40.0, -3.0], [45.0, 69.8]])
+    outside = np.array([[-0.2, 30.0], [90.1, 30.0], [40.0, -3.0], [45.0, 70.2]])
     np.testing.assert_array_equal(field.interpolate(outside), 0.0)
     assert field.interpolate([10.0, 10.0]).shape == (1, 2)
+    # within half a cell of the bounds, in open air: the nearest cell centres' wind, as the
+    # flight's GriddedWind reads it; it read 0 m/s there (API audit, thirty-ninth session)
+    edge = np.array([[0.2, 30.0], [89.9, 30.0], [40.0, 0.3], [45.0, 69.8], [0.0, 0.0]])
+    hull = np.clip(edge, [field.x[0], field.y[0]], [field.x[-1], field.y[-1]])
+    np.testing.assert_allclose(field.interpolate(edge), field.interpolate(hull), atol=1e-12)
+    assert np.all(np.abs(field.interpolate(edge)) > 0.1)
+    flight = GriddedWind(field.x, field.y, field.u, field.v).velocity(
+        0.0, np.column_stack([edge, np.zeros(len(edge))]))
+    np.testing.assert_allclose(field.interpolate(edge), flight[:, :2], atol=1e-12)
 
 
 def test_interpolation_is_the_degree_one_spline_and_the_flight_wind():

@@ -294,11 +294,21 @@ class MeanField(ReadOnlyOnCopy):
         -------
         ndarray of shape (N, 2)
             ``[u, v]``, m/s, world frame: the degree-1 spline (bilinear); 0 inside buildings
-            and outside the solver grid.
+            and outside the city's bounds. Between the outermost cell centres and the bounds
+            (half a cell) the point is moved onto the centres' hull, as
+            :class:`~windnav.wind.GriddedWind` reads it: it read 0 m/s there, in open air
+            (API audit, thirty-ninth session; the label grids of :meth:`grid_values` keep
+            such cells out, and training draws its robots 12 m inside).
         """
         p = batch_array(points_xy, "points_xy", "MeanField.interpolate", (2,))
+        x0, x1, y0, y1 = (float(b) for b in self.city.bounds)
+        inside = (p[:, 0] >= x0) & (p[:, 0] <= x1) & (p[:, 1] >= y0) & (p[:, 1] <= y1)
+        q = p.copy()
+        q[inside, 0] = np.clip(q[inside, 0], self.x[0], self.x[-1])
+        q[inside, 1] = np.clip(q[inside, 1], self.y[0], self.y[-1])
         out = np.empty((p.shape[0], 2, 1, 1))
-        self._evaluate(p[:, :1], p[:, 1:], out)
+        self._evaluate(q[:, :1], q[:, 1:], out)
+        out[self.city.contains(p)] = 0.0  # a point in a building, wherever its clamp lands
         return out[:, :, 0, 0]
 
 
