@@ -567,8 +567,8 @@ class MPPIPlanner:
             ``velocity`` arrays (the first row's x and y are used).
         scan : array_like, optional
             LiDAR: ranges (n_rays,) of one scan (ray k at ``2 pi k / n_rays``; readings at or
-            beyond ``lidar_range`` are no return), or points (P, 2) relative to the vehicle,
-            m. None: no obstacles.
+            beyond ``lidar_range`` are no return; ``City.lidar``'s (1, n_rays) too), or points
+            (P, 2) relative to the vehicle, m. None: no obstacles.
         wind : LocalWind, optional
             The local wind estimate (used only by the variants with wind; such a variant given
             None plans in still air, with a RuntimeWarning the first time).
@@ -701,6 +701,8 @@ def _scan_to_points(scan, lidar_range: float) -> np.ndarray | None:
     a = np.asarray(scan, dtype=np.float64)
     if not np.all(np.isfinite(a)):
         return None
+    if a.ndim == 2 and a.shape[0] == 1 and a.shape[1] != 2:
+        a = a[0]  # City.lidar's batch of one scan, (1, n_rays), taken as written (API audit)
     if a.ndim == 1:
         if (a < 0).any():
             raise ValueError("The 'scan' parameter of MPPIPlanner.update must hold ranges >= 0, "

@@ -126,7 +126,7 @@ class Instant(NamedTuple):
 
 
 def make_closed_loop(params, trajectory, wind, *, dt, control_rate_hz=None, gains=None,
-                     batch=1, hub_wind=False, substeps=None, controller=None) -> ClosedLoop:
+                     batch=None, hub_wind=False, substeps=None, controller=None) -> ClosedLoop:
     """Validate the parts of a flight once and build its :class:`ClosedLoop`.
 
     Parameters
@@ -162,7 +162,23 @@ def make_closed_loop(params, trajectory, wind, *, dt, control_rate_hz=None, gain
         raise ValueError(f"The 'trajectory' parameter of {_WHERE} must be callable as "
                          f"trajectory(t). Got {type(trajectory).__name__} instead.")
     plist = [params] if isinstance(params, MultirotorParams) else list(params)
-    B = len(plist) if len(plist) > 1 else positive_int(batch, "batch", _WHERE)
+    if len(plist) > 1 and batch is not None and batch != len(plist):
+        # it was ignored: a list of 2 with batch=3 flew 2 (API audit, thirty-ninth session)
+        raise ValueError(f"The 'batch' parameter of {_WHERE} must be {len(plist)}, the number "
+                         f"of vehicles in 'params', or not given. Got {batch!r} instead.")
+    B = len(plist) if len(plist) > 1 else positive_int(1 if batch is None else batch, "batch",
+                                                       _WHERE)
+    per_row = getattr(wind, "batch_size", None)  # a wind with one realisation per vehicle
+    if isinstance(per_row, int) and not isinstance(per_row, bool):
+        if per_row != B:  # named the library's 'xyz' at the first step
+            raise ValueError(f"The 'wind' parameter of {_WHERE} has batch_size {per_row}, one "
+                             f"realisation per vehicle, for {B} vehicle(s): give batch="
+                             f"{per_row} or a wind of batch_size {B}.")
+        if hub_wind:
+            raise ValueError(f"The 'hub_wind' parameter of {_WHERE} must be False with a wind "
+                             f"of one realisation per vehicle (batch_size {per_row}): it takes "
+                             "one point per vehicle, and such a wind (Dryden's gusts) is the "
+                             "same at every point of a vehicle, so the hubs would add nothing.")
     vehicles = plist if len(plist) > 1 else plist[0]
     if control_rate_hz is None:
         control_rate_hz = fitted_rate(DEFAULT_CONTROL_RATE_HZ, dt)

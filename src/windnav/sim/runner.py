@@ -105,7 +105,7 @@ def fly(
     sensors: SensorSuite | Sequence[Sensor] | None = None,
     gains: SE3Gains | None = None,
     initial_state: VehicleState | None = None,
-    batch: int = 1,
+    batch: int | None = None,
     hub_wind: bool = False,
     log_every: int = 1,
     rng: np.random.Generator | int | None = None,
@@ -141,8 +141,9 @@ def fly(
         Controller gains (default per vehicle).
     initial_state : VehicleState, optional
         Defaults to hover at the trajectory's start: its position and heading (yaw).
-    batch : int
-        Number of vehicles when ``params`` is a single vehicle.
+    batch : int, optional
+        Number of vehicles when ``params`` is a single vehicle (default 1); with a sequence,
+        its length or not given.
     hub_wind : bool
         Sample the wind at every rotor hub instead of once at the centre of mass.
     log_every : int

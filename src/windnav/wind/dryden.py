@@ -383,6 +383,11 @@ class DrydenWind(ReadOnlyOnCopy):
         return self._seed
 
     @property
+    def batch_size(self) -> int | None:
+        """Gust realisations, one per queried point (None: one shared by every point)."""
+        return self._batch
+
+    @property
     def time_step(self) -> float:
         """Spacing of the generation lattice, s."""
         return self._h

@@ -1,0 +1,54 @@
+"""What a researcher's own scripts met (an API audit of the thirty-ninth session): inputs the
+library accepted and ignored or refused by the wrong name, each now checked by name or
+accepted as written."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import windnav as wn
+
+HB = wn.vehicle.params("hummingbird")
+
+
+def _fly(params, wind, **kw):
+    return wn.sim.fly(params, wn.sim.make_trajectory("hover"), wind, duration=0.05, **kw)
+
+
+def test_fly_refuses_a_batch_that_is_not_its_list_of_vehicles():
+    """``batch=3`` with two vehicles flew two, silently."""
+    still = wn.wind.ConstantWind((0.0, 0.0, 0.0))
+    with pytest.raises(ValueError, match="'batch' parameter of fly must be 2, the number of "
+                                         "vehicles in 'params', or not given. Got 3"):
+        _fly([HB, HB], still, batch=3)
+    assert _fly([HB, HB], still, batch=2).position.shape[1] == 2
+    assert _fly([HB, HB], still).position.shape[1] == 2
+    assert _fly(HB, still).position.shape[1] == 1 and _fly(HB, still, batch=3).position.shape[
+        1] == 3
+
+
+def test_a_wind_of_one_realisation_per_vehicle_is_checked_against_the_flight():
+    """``DrydenWind(batch_size=2)`` with ``hub_wind=True``, or flown by 3 vehicles, failed at
+    the first step naming DrydenWind.velocity's 'xyz' (a batch of 8 hub points, of 3)."""
+    gusts = wn.wind.DrydenWind(rng=0, batch_size=2)
+    assert gusts.batch_size == 2 and wn.wind.DrydenWind(rng=0).batch_size is None
+    with pytest.raises(ValueError, match="'hub_wind' parameter of fly must be False"):
+        _fly(HB, gusts, batch=2, hub_wind=True)
+    with pytest.raises(ValueError, match="'wind' parameter of fly has batch_size 2, one "
+                                         "realisation per vehicle, for 3 vehicle"):
+        _fly(HB, gusts, batch=3)
+    log = _fly(HB, gusts, batch=2)
+    assert log.position.shape[1] == 2
+
+
+def test_the_planner_takes_city_lidar_scans_as_they_come():
+    """``City.lidar`` returns (1, n_rays) for one point; ``MPPIPlanner.update`` refused it, so
+    every script added ``[0]``. It is the same scan: the same plan."""
+    city = wn.city.City((0.0, 100.0, 0.0, 100.0), [[40.0, 60.0, 40.0, 60.0]], [10.0])
+    scan = city.lidar([10.0, 10.0], noise_std=0.0, rng=0)
+    assert scan.shape == (1, 360)
+    cfg = wn.plan.planner_config(HB, "mppi")
+    a = wn.plan.MPPIPlanner(cfg, (90.0, 90.0), rng=0).update([10.0, 10.0, 0.0, 0.0], scan)
+    b = wn.plan.MPPIPlanner(cfg, (90.0, 90.0), rng=0).update([10.0, 10.0, 0.0, 0.0], scan[0])
+    np.testing.assert_array_equal(a, b)
