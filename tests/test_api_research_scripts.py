@@ -52,3 +52,18 @@ def test_the_planner_takes_city_lidar_scans_as_they_come():
     a = wn.plan.MPPIPlanner(cfg, (90.0, 90.0), rng=0).update([10.0, 10.0, 0.0, 0.0], scan)
     b = wn.plan.MPPIPlanner(cfg, (90.0, 90.0), rng=0).update([10.0, 10.0, 0.0, 0.0], scan[0])
     np.testing.assert_array_equal(a, b)
+
+
+def test_a_max_range_speed_on_the_curves_top_speed_is_flagged():
+    """A curve valid to 6 m/s whose energy per metre still falls there gave
+    ``ground_speed=6.0``, exactly ``speed_max``, as the optimum, unflagged (``sysid.fit_power``
+    and ``power-curve`` flag it)."""
+    from windnav.vehicle import PowerCurve, max_range_speed
+
+    thesis = PowerCurve.crazyflie()  # max range at 7.73 m/s in still air
+    short = PowerCurve(thesis.coefficients, speed_max=6.0)
+    edge = max_range_speed(short)
+    assert edge.ground_speed == pytest.approx(6.0) and edge.at_speed_limit is True
+    inside = max_range_speed(thesis)
+    assert inside.ground_speed == pytest.approx(7.73, abs=0.01)
+    assert inside.at_speed_limit is False

@@ -148,8 +148,9 @@ def _max_range(curve, wind_along: float, max_speed: float) -> dict | None:
     if -wind_along >= max_speed:
         return None
     opt = max_range_speed(curve, wind_along)._asdict()
-    # the sweep's top airspeed is an edge of the search, not a minimum (CLI audit 2026-12-05)
-    opt["at_speed_max"] = bool(opt["airspeed"] >= curve.speed_max * (1 - 1e-6))
+    # the sweep's top airspeed is an edge of the search, not a minimum (CLI audit 2026-12-05);
+    # the JSON's name for max_range_speed's at_speed_limit
+    opt["at_speed_max"] = opt.pop("at_speed_limit")
     return opt
 
 

@@ -582,7 +582,7 @@ def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
         table.append({"wind_m_s": w, "ground_speed_m_s": opt.ground_speed,
                       "airspeed_m_s": opt.airspeed, "power_W": opt.power,
                       "energy_per_metre_J_m": opt.energy_per_metre,
-                      "at_speed_limit": bool(opt.airspeed >= vmax * (1 - 1e-6))})
+                      "at_speed_limit": opt.at_speed_limit})
     return PowerFit(tuple(fit.estimate(n) for n in names), fit, curve, fit.estimate("c0"),
                     _delta(pmin, fit.coef, fit.cov, fit.dof),
                     _inside(_delta(ve, fit.coef, fit.cov, fit.dof), vmax),

@@ -276,12 +276,16 @@ class PowerCurve(ReadOnlyOnCopy):
 
 class RangeOptimum(NamedTuple):
     """Best cruise for range: ``ground_speed`` (m/s), ``energy_per_metre`` (J/m), the
-    ``airspeed`` flown (m/s) and the ``power`` drawn (W)."""
+    ``airspeed`` flown (m/s), the ``power`` drawn (W), and ``at_speed_limit``: True when that
+    airspeed is the curve's ``speed_max``, an edge of the search rather than a minimum inside
+    it (the optimum lies beyond the curve's range; it was reported as the optimum, unflagged:
+    API audit, thirty-ninth session)."""
 
     ground_speed: float
     energy_per_metre: float
     airspeed: float
     power: float
+    at_speed_limit: bool = False
 
 
 def _global_min(f, lo: float, hi: float) -> float:
@@ -333,8 +337,9 @@ def max_range_speed(curve: PowerCurve, wind_along: float = 0.0) -> RangeOptimum:
     Returns
     -------
     RangeOptimum
-        ``(ground_speed, energy_per_metre, airspeed, power)``. Against a headwind the best
-        airspeed rises, with a tailwind it falls.
+        ``(ground_speed, energy_per_metre, airspeed, power, at_speed_limit)``. Against a
+        headwind the best airspeed rises, with a tailwind it falls; ``at_speed_limit`` says
+        that the best airspeed is ``speed_max`` itself (the true optimum lies past it).
 
     Raises
     ------
@@ -363,4 +368,6 @@ def max_range_speed(curve: PowerCurve, wind_along: float = 0.0) -> RangeOptimum:
 
     v_r = _global_min(per_metre, lo, hi)
     power = float(curve(abs(v_r - w)))
-    return RangeOptimum(v_r, power / v_r, abs(v_r - w), power)
+    air = abs(v_r - w)
+    return RangeOptimum(v_r, power / v_r, air, power,
+                        bool(air >= curve.speed_max * (1 - 1e-6)))
