@@ -860,36 +860,34 @@ def _render_failure_by(rows: Mapping, variants: Sequence[str]) -> list[str]:
     return out
 
 
+def _render_section(rows: Mapping, variants: Sequence[str], key: str, head: list[str],
+                    line) -> list[str]:
+    """A section under the table for the variants whose rows have ``key``: ``head`` (its
+    introduction and table head), then ``line(variant, row[key])`` per variant; [] when none
+    has it."""
+    mine = [v for v in variants if rows[v].get(key)]
+    return ["", *head, *(line(v, rows[v][key]) for v in mine)] if mine else []
+
+
 def _render_envelope(rows: Mapping, variants: Sequence[str]) -> list[str]:
-    mine = [v for v in variants if rows[v].get("envelope")]
-    if not mine:
-        return []
-    out = ["", "Outside the envelope (records flown since 2026-11-26): flights with any time "
-           "above the vehicle's trusted airspeed (13.45 m/s for the Hummingbird), and the mean "
-           "time above it and above the power curve's valid range (13 m/s), where energy_J "
-           "extrapolates:", "",
-           "| variant | flights outside | successes outside | mean s above the airspeed limit "
-           "| mean s above the power curve |", "|---|---|---|---|---|"]
-    for v in mine:
-        e = rows[v]["envelope"]
-        out.append(f"| {v} | {e['outside']} of {e['n']} | {e['successes_outside']} of "
-                   f"{e['successes']} | {e['mean_outside_s']:.2f} | "
-                   f"{e['mean_power_extrapolated_s']:.2f} |")
-    return out
+    head = ["Outside the envelope (records flown since 2026-11-26): flights with any time "
+            "above the vehicle's trusted airspeed (13.45 m/s for the Hummingbird), and the mean "
+            "time above it and above the power curve's valid range (13 m/s), where energy_J "
+            "extrapolates:", "",
+            "| variant | flights outside | successes outside | mean s above the airspeed limit "
+            "| mean s above the power curve |", "|---|---|---|---|---|"]
+    return _render_section(rows, variants, "envelope", head, lambda v, e: (
+        f"| {v} | {e['outside']} of {e['n']} | {e['successes_outside']} of "
+        f"{e['successes']} | {e['mean_outside_s']:.2f} | {e['mean_power_extrapolated_s']:.2f} |"))
 
 
 def _render_diverged(rows: Mapping, variants: Sequence[str]) -> list[str]:
-    mine = [v for v in variants if rows[v].get("diverged")]
-    if not mine:
-        return []
-    out = ["", "Flights whose simulation diverged (the vehicle's state stopped being finite; "
-           "each is counted above under the outcome where it stopped, `diverged_s` in its "
-           "record):", "", "| variant | diverged | recorded as |", "|---|---|---|"]
-    for v in mine:
-        d = rows[v]["diverged"]
-        out.append(f"| {v} | {d['n']} of {rows[v]['flights']} | "
-                   + ", ".join(f"{o} {k}" for o, k in d["by_outcome"].items()) + " |")
-    return out
+    head = ["Flights whose simulation diverged (the vehicle's state stopped being finite; "
+            "each is counted above under the outcome where it stopped, `diverged_s` in its "
+            "record):", "", "| variant | diverged | recorded as |", "|---|---|---|"]
+    return _render_section(rows, variants, "diverged", head, lambda v, d: (
+        f"| {v} | {d['n']} of {rows[v]['flights']} | "
+        + ", ".join(f"{o} {k}" for o, k in d["by_outcome"].items()) + " |"))
 
 
 def _render_onboard(rows: Mapping, variants: Sequence[str]) -> list[str]:
