@@ -89,3 +89,22 @@ def test_command_flies_every_variant_at_every_cap_and_plots_it(tmp_path, capsys)
     assert '"flights_now": 0' in capsys.readouterr().out  # a rerun flies nothing
     assert cli.main([*args[:7], "80", *args[9:], "--overwrite"]) == 2
     assert "'--values' parameter of windnav nav-study" in capsys.readouterr().err
+
+
+def test_the_figure_draws_caps_without_an_interval_or_without_a_pair(tmp_path):
+    """At 55 deg every variant flies MPPI's energy (the same value in both pairs: no interval,
+    which the figure indexed); at 70 deg MPPI fails both scenarios (no pair, whose None mean
+    the figure multiplied): the review of the thirty-ninth session."""
+    from windnav.viz.nav_sweeps import plot_tilt
+
+    recs = []
+    for sid in ("a", "b"):
+        for v in VARIANTS:
+            recs.append(_rec(sid, v, "success", 1000.0))
+            recs.append(_rec(sid, tilt_label(v, 70), "hover" if v == "mppi" else "success",
+                             1500.0))
+    res = tilt_study(recs, [55, 70])
+    same, none = res["rows"][55.0]["ea-mppi-w"]["paired"], res["rows"][70.0]["ea-mppi-w"]["paired"]
+    assert same["ci95"] is None and "all 2 values are equal" in same["ci95_note"]
+    assert none["mean"] is None and none["n"] == 0
+    assert plot_tilt(res, tmp_path / "tilt.png").stat().st_size > 10_000

@@ -123,9 +123,12 @@ def sweep_table(records: Iterable[Mapping], labels: Mapping[float, str], *,
         speeds |= set(pr["by_speed"])
         rows[value] = {"label": label, "flights": row["flights"],
                        "failure_pct": row["failure_pct"]["value"],
-                       "paired_reduction": {k: pr[k] for k in ("mean", "ci95", "n")},
+                       "paired_reduction": {k: pr[k] for k in ("mean", "ci95", "n", "ci95_note")
+                                            if k in pr},
                        "by_speed": pr["by_speed"],
-                       "table_ratio": {k: vs["table_ratio"][k] for k in ("value", "ci95")}}
+                       "table_ratio": {k: vs["table_ratio"][k] for k in ("value", "ci95",
+                                                                         "ci95_note")
+                                       if k in vs["table_ratio"]}}
     ref_row = table["rows"][reference]
     return {"reference": reference, "reference_failure_pct": ref_row["failure_pct"]["value"],
             "reference_flights": ref_row["flights"], "values": sorted(rows),

@@ -128,7 +128,9 @@ def tilt_study(records: Iterable[Mapping], tilts: Sequence[float] | None = None,
                 vs = row["vs_reference"]["energy_J"]
                 pr = vs["paired_reduction"]
                 out.update(paired={"mean": pr["mean"], "ci95": pr["ci95"], "n": pr["n"],
-                                   "less": pr["less"]},
+                                   "less": pr["less"],
+                                   **({"ci95_note": pr["ci95_note"]} if "ci95_note" in pr
+                                      else {})},
                            table_ratio=vs["table_ratio"]["value"],
                            time_ratio=row["vs_reference"]["pace"]["time_ratio"]["mean"],
                            power_ratio=row["vs_reference"]["pace"]["power_ratio"]["mean"])

@@ -229,7 +229,8 @@ def plot_tilt(result: dict, path) -> Path:
                 ax.plot(x_thesis, th[key], marker=marker, mfc="none", mec=color, ms=9, ls="")
         if v == ref:
             continue
-        mean = 100.0 * np.array([r["paired"]["mean"] for r in rows])
+        mean = np.array([np.nan if r["paired"]["mean"] is None else 100.0 * r["paired"]["mean"]
+                         for r in rows])  # no pair at a cap: no point (a TypeError before)
         # no interval (one pair, or every pair the same): a point without a bar
         lo = np.array([100.0 * r["paired"]["ci95"][0] if r["paired"]["ci95"] else m
                        for r, m in zip(rows, mean, strict=True)])
