@@ -1641,3 +1641,10 @@ def test_identical_values_give_no_t_interval():
     assert row["metrics"]["time_s"]["ci95"] is None  # every flight took 30 s
     assert row["metrics"]["energy_kJ"]["ci95"] is not None
     assert "[0.0, 0.0]" not in render_table(table) and "[1.000, 1.000]" not in render_table(table)
+    assert "every value it would be drawn from is the same" in render_table(table)
+    spread = _energy_records("mppi", e) + _energy_records("ea-mppi-w", [900.0, 2000.0, 3100.0])
+    for k, r in enumerate(spread):  # every metric and ratio with a spread
+        r.update(time_s=20.0 + 7 * k + k * k, mean_cmd_accel=1.0 + 0.1 * k,
+                 distance_m=300.0 + 3 * k)
+    assert "every value it would be drawn from" not in render_table(
+        benchmark_table(spread, n_boot=0))

@@ -850,6 +850,13 @@ def render_table(table: Mapping) -> str:
             cells = [("-" if d["mean"] is None else f"{d['mean']:.3f} {_ci(d['ci95'], 3)}")
                      for d in (tr, pw)]
             out.append(f"| {v} | {cells[0]} | {cells[1]} | {tr['n']} |")
+    described = [d for v in variants for d in rows[v]["metrics"].values()]
+    described += [d for v in others for d in (
+        *(rows[v]["vs_reference"][e]["paired_reduction"] for e in ENERGIES),
+        *rows[v]["vs_reference"]["pace"].values())]
+    if any(d.get("ci95_note") for d in described):  # "1.000 -" was left unexplained (review)
+        out += ["", "A t interval shown as \"-\" beside a value: every value it would be drawn "
+                "from is the same, so there is no spread to give one from."]
     out += _render_failure_by(rows, variants)
     out += _render_envelope(rows, variants)
     out += _render_diverged(rows, variants)
