@@ -106,7 +106,7 @@ def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
         dec, source = load_decoder(), "shipped model"
     else:
         dec, source = default_recipe_d4(), "default recipe d4-film, random weights"
-    rb = repeats_batch if repeats_batch is not None else max(3, repeats // 10)
+    rb = repeats_batch if repeats_batch is not None else max(MIN_JUDGED_REPEATS, repeats // 10)
     out = {"threads": 1, "numpy": np.__version__, "models": {}}
     # the decoder first: building the reference's 47 MB of weights frees large temporaries,
     # which raises glibc malloc's thresholds and so speeds up what runs after it (the decoder

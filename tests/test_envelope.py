@@ -130,5 +130,6 @@ def test_a_diverged_flight_is_an_error_with_no_energy(tmp_path, monkeypatch, cap
     # (the session's review)
     assert cli.main(["fly", "--duration", "1", "--no-progress", "--no-plots", "--conditions",
                      "windnav", "--out", str(tmp_path / "ukf")]) == 1
+    assert capsys.readouterr().err.count("error:") == 1  # one failure, one line (review)
     summary = json.loads((tmp_path / "ukf" / "summary.json").read_text())
     assert summary["wind_estimate_error"].startswith("the flight diverged at")

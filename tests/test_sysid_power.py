@@ -291,7 +291,8 @@ def test_power_curve_endurance_check_flags_a_dip_of_the_fit(tmp_path):
 
 def test_thesis_cubic_samples_get_no_lack_of_fit_note(thesis_fit, tmp_path):
     """The thesis's cubic, sampled exactly (49 points) and as the figure of docs/sysid.md (4
-    samples every 0.5 m/s, N(0, 0.05 W), seed 0): the right shape, no note."""
+    samples every 0.5 m/s, N(0, 0.05 W), seed 0): the right shape, no note on it (the exact
+    samples only the note that their intervals reflect no noise)."""
     _, doc = thesis_fit
     # exact samples: only the note that the intervals reflect no noise (statistics audit)
     assert len(doc["notes"]) == 1 and doc["lack_of_fit"] is None

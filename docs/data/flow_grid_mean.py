@@ -8,7 +8,7 @@ The fields are compared on the common 2 m grid (block means; every edge lies on 
 the RMS and 95th percentile over the free cells of |difference| / U against the 0.5 m field,
 and the mean speed over the free cells.
 
-    python docs/data/flow_grid_mean.py docs/data/flow_grid_mean.json    # about 2 minutes
+    python docs/data/flow_grid_mean.py docs/data/flow_grid_mean.json    # about 1 minute
 """
 
 from __future__ import annotations

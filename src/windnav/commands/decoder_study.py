@@ -212,16 +212,13 @@ def _note_truths(flows: dict, name: str) -> None:
     """One note on stderr when some of the study's flows fail the averaging rule, as
     ``evaluate-decoder`` and ``predict`` say of their truths (a leftover of the thirty-eighth
     session: the studies said nothing); per flow in the JSON's ``flows.slots[].averaging``."""
-    slots = flows["slots"]
-    bad = [s for s in slots if s["averaging"]["level"] in ("warning", "note")]
-    if bad:
-        young = sum(s["averaging"]["level"] == "note" for s in bad)
-        first = bad[0]
-        print(f"{name}: note: {len(bad)} of {len(slots)} flows fail the averaging rule "
-              f"({len(bad) - young} not converged, {young} young; e.g. {first['map']} inlet "
-              f"{first['inlet']}: {first['averaging']['reason']}); the study scores against "
-              "them as they are (per flow: flows.slots[].averaging in the JSON)",
-              file=sys.stderr)
+    from windnav.commands.evaluate_decoder import averaging_failures
+
+    failing = averaging_failures(flows["slots"])
+    if failing:
+        print(f"{name}: note: {failing[0]} of {len(flows['slots'])} flows fail the averaging "
+              f"rule {failing[1]}; the study scores against them as they are (per flow: "
+              "flows.slots[].averaging in the JSON)", file=sys.stderr)
 
 
 def _averaging_map(args):

@@ -244,19 +244,29 @@ def check_truths(res: dict, training: dict) -> dict:
     return counts
 
 
+def averaging_failures(items) -> tuple[int, str] | None:
+    """How many of ``items`` (dicts with ``averaging``, ``map`` and ``inlet``: evaluation
+    records or study slots) fail the averaging rule, and the words after the count
+    (``"(2 not converged, 1 young; e.g. dense-0 inlet 3: ...)"``); None when none does."""
+    bad = [r for r in items if r["averaging"]["level"] in ("warning", "note")]
+    if not bad:
+        return None
+    young = sum(r["averaging"]["level"] == "note" for r in bad)
+    first = bad[0]
+    return len(bad), (f"({len(bad) - young} not converged, {young} young; e.g. {first['map']} "
+                      f"inlet {first['inlet']}: {first['averaging']['reason']})")
+
+
 def truth_summary(res: dict) -> list[str]:
     """The note on the truths of an evaluation (empty when every one passes)."""
     from windnav.commands.predict import TRAVEL_TOLERANCE
 
-    c = res["truth_checks"]
-    n, parts = c["slots"], []
+    n, parts = res["truth_checks"]["slots"], []
     recs = res["records"]
-    bad = [r for r in recs if r["averaging"]["level"] in ("warning", "note")]
-    if bad:
-        first = bad[0]
-        parts.append(f"the truth flows of {len(bad)} of {n} slots fail the averaging rule "
-                     f"({c['not_converged']} not converged, {c['young']} young; e.g. "
-                     f"{first['map']} inlet {first['inlet']}: {first['averaging']['reason']})")
+    failing = averaging_failures(recs)
+    if failing:
+        parts.append(f"the truth flows of {failing[0]} of {n} slots fail the averaging rule "
+                     f"{failing[1]}")
     far = [r for r in recs if r["travel"]["outside"]]
     if far:
         lo, hi = far[0]["travel"]["training_travel_m"]

@@ -195,7 +195,8 @@ def run(args) -> int:
               f"{failed:g} s (mean wind {metrics['mean_wind_speed_m_s']:.3g} m/s); its energy "
               "and power are not reported, and the log holds NaN from there", file=sys.stderr)
     no_estimate = metrics.get("wind_estimate_error")
-    if no_estimate:  # asked for with --conditions: exit status 0 and a note before (leftover)
+    if no_estimate and failed is None:  # asked for with --conditions: exit status 0 and a
+        # note before (leftover); a diverged flight's error line above already says why
         print(f"{name}: error: no wind estimate: {no_estimate}", file=sys.stderr)
     summary = {"vehicle": args.vehicle, "wind": args.wind, "trajectory": args.trajectory,
                "duration_s": duration, "seed": args.seed, **metrics}

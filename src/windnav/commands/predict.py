@@ -104,7 +104,9 @@ def run(args, flow_settings=None) -> int:
 
     grid = grid_for(city.bounds[:4], dx)
     x, y = grid.x, grid.y
-    if not (x[0] <= at[0] <= x[-1] and y[0] <= at[1] <= y[-1]):  # read 0 m/s there (audit)
+    # the truth's label grid keeps out the cells past the outermost centres, so its robot
+    # cell would be blank there (W_robot read 0 m/s before MeanField.interpolate clamped)
+    if not (x[0] <= at[0] <= x[-1] and y[0] <= at[1] <= y[-1]):
         raise ValueError(f"The '--at' parameter of {name} must lie among the solver's cell "
                          f"centres, [{x[0]:g}, {x[-1]:g}] x [{y[0]:g}, {y[-1]:g}] m at --dx "
                          f"{dx:g}: half a cell or more from the map's edge. Got ({at[0]:g}, "
