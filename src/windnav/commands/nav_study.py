@@ -641,7 +641,7 @@ def _gusts(args, name: str, spec) -> int:
 def _feasibility(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments.nav_benchmark import NavStore
-    from windnav.experiments.nav_feasibility import reach_scenarios, reach_table
+    from windnav.experiments.nav_feasibility import check_cache, reach_scenarios, reach_table
     from windnav.experiments.results import json_ready
     from windnav.vehicle import params
     from windnav.viz.nav_studies import plot_reach
@@ -663,6 +663,8 @@ def _feasibility(args, name: str, spec) -> int:
     if args.store is not None and not fly:
         _check_store(args.store, name)
     check_output_path(args.cache, "--cache", name, kind="dir")
+    if Path(args.cache).is_dir():  # another suite's records, before anything is written
+        check_cache(spec, args.cache, name, option="--cache")
     products = ("nav_feasibility.json", "nav_feasibility.png")
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
@@ -674,7 +676,7 @@ def _feasibility(args, name: str, spec) -> int:
                [r for r in NavStore(args.store, spec, create=False).load()
                 if r.get("map_index") in maps])
     tables = {f"{a:g}": reach_table(reach, flights, airspeed=a) for a in airspeeds}
-    res = {"study": "feasibility", "suite": spec.name, "maps": list(maps),
+    res = {"study": "feasibility", "suite": spec.name, "seed": spec.seed, "maps": list(maps),
            "airspeed_limit": limit, "store": None if args.store is None else str(args.store),
            "cache": str(args.cache), "tables": tables, "elapsed_s": time.perf_counter() - t0}
     _write(out, args, res, products[0],

@@ -39,10 +39,17 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["MEAN_TIME_BINS", "ReachTask", "reach_scenarios", "reach_table", "reach_task"]
+__all__ = ["MEAN_TIME_BINS", "ReachTask", "cache_identity", "check_cache", "reach_scenarios",
+           "reach_table", "reach_task"]
 
 
 RECORDS = "reach.jsonl"
+MANIFEST = "reach_manifest.json"
+"""The cache folder's identity: the suite's name, seed and ``settings_hash`` and the search's
+settings. Records were keyed by scenario id alone, which names a scenario only within one seed
+and one suite's settings: ``nav-study feasibility --store runs/heldout`` (seed 1) read the
+seed-0 records of the shared default cache and printed their tables as its own (cache audit,
+thirty-ninth session)."""
 
 
 @dataclass(frozen=True)
@@ -192,6 +199,56 @@ def _append(path: Path, records: Sequence[Mapping]) -> None:
         os.fsync(fh.fileno())
 
 
+def cache_identity(spec) -> dict:
+    """What a reach record depends on besides its scenario id: the suite (name, seed, settings)
+    and the search's settings (lattice, clearance, the hold rule's constants)."""
+    from windnav.experiments.navigate import GOAL_RADIUS, GOAL_SPEED, HOLD_S
+
+    task = ReachTask(spec, 0, 0, ())
+    return {"suite": spec.name, "seed": int(spec.seed), "settings_hash": spec.settings_hash(),
+            "dx": task.dx, "clearance": task.clearance, "hold_s": HOLD_S,
+            "goal_radius": GOAL_RADIUS, "goal_speed": GOAL_SPEED}
+
+
+def check_cache(spec, out: Path, where: str = "reach_scenarios", option: str = "out") -> None:
+    """Refuse a cache folder that holds another suite's reach records; name a new one.
+
+    A folder without :data:`MANIFEST` gets one. If it already holds records (a cache from
+    before 2026-12-06, such as the committed ``thesis_reach.jsonl.gz`` restored), they are
+    taken for the suite's seed 0, the only seed they were computed for, when their suite name
+    and ``record_s`` match; for another seed the folder is refused."""
+    out = Path(out)
+    want = cache_identity(spec)
+    man = out / MANIFEST
+    if man.is_file():
+        try:
+            got = json.loads(man.read_text())
+        except (OSError, ValueError) as exc:
+            raise ValueError(f"The '{option}' parameter of {where} names a reach cache whose "
+                             f"{MANIFEST} cannot be read ({exc}). Got {str(out)!r}.") from None
+        if got != want:
+            diff = ", ".join(f"{k} {got.get(k)!r} there, {want.get(k)!r} here"
+                             for k in sorted(set(got) | set(want)) if got.get(k) != want.get(k))
+            raise ValueError(
+                f"The '{option}' parameter of {where} names a reach cache of another suite or "
+                f"search ({diff}): give another folder. Got {str(out)!r} instead.")
+        return
+    old = _done(out / RECORDS) if (out / RECORDS).is_file() else []
+    if old:
+        names = {r["scenario_id"].split("/")[0] for r in old}
+        record_s = {r.get("record_s") for r in old}
+        if names != {spec.name} or record_s != {spec.record_s} or spec.seed != 0:
+            raise ValueError(
+                f"The '{option}' parameter of {where} names a reach cache without {MANIFEST} "
+                f"whose records (suite {sorted(names)}, record_s "
+                f"{sorted(map(str, record_s))}, taken for seed 0) are not this suite's "
+                f"({spec.name!r}, record_s {spec.record_s:g}, seed {spec.seed}): give another "
+                f"folder. Got {str(out)!r} instead.")
+    from windnav.experiments.results import write_json
+
+    write_json(want, man)
+
+
 def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
                     airspeeds: Sequence[float], executor: str = "process",
                     workers: int | None = None, progress: bool = True,
@@ -217,6 +274,7 @@ def reach_scenarios(spec, out: Path, *, maps: Sequence[int] | None = None,
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / RECORDS
+    check_cache(spec, out, where)
     maps = tuple(spec.maps if maps is None else maps)
     keys = {f"{a:g}" for a in airspeeds}
     have = {r["scenario_id"]: r for r in _done(path) if set(r["limits"]) == keys}
