@@ -683,3 +683,17 @@ def test_predict_notes_a_map_without_buildings_as_outside_the_training():
                      "outside its training range"]
     one = City((0.0, 120.0, 0.0, 120.0), np.array([[50.0, 60.0, 50.0, 60.0]]), np.array([20.0]))
     assert input_notes(training, one, (45.0, 55.0), 1.0, 0.35) == []
+
+
+def test_the_flow_cache_tells_maps_of_the_same_buildings_on_other_domains_apart(tmp_path):
+    """The key hashed the buildings, not the bounds: the same block on a 120 x 90 m domain read
+    the 80 x 60 m domain's flow (grid (30, 40) for (45, 60)), silently (cache audit)."""
+    from windnav.city import City
+    from windnav.experiments.decoder_eval import flow_cache_name
+
+    small = City((0.0, 80.0, 0.0, 60.0), [[30.0, 40.0, 20.0, 30.0]], [10.0])
+    large = City((0.0, 120.0, 0.0, 90.0), [[30.0, 40.0, 20.0, 30.0]], [10.0])
+    args = (3.0, 10.0, 2.0, TINY_FLOW, 0.25)
+    assert flow_cache_name("m", small, *args) != flow_cache_name("m", large, *args)
+    assert flow_cache_name("m", small, *args) == flow_cache_name(
+        "m", City((0.0, 80.0, 0.0, 60.0), [[30.0, 40.0, 20.0, 30.0]], [25.0]), *args)

@@ -209,8 +209,11 @@ def slot_rng(seed: int, map_index: int, inlet_index: int) -> np.random.Generator
 def flow_cache_name(name: str, city, speed: float, direction: float, dx: float,
                     settings: dict, dt: float) -> str:
     """The folder name of one slot's cached solution: the map's name, then a hash of its
-    buildings, the inlet, ``dx``, ``dt`` and the protocol's steps (``settings``)."""
-    key = hashlib.sha256(np.ascontiguousarray(city.footprints).tobytes()
+    bounds and buildings, the inlet, ``dx``, ``dt`` and the protocol's steps (``settings``).
+    (The bounds since 2026-12-06: a map of the same buildings on a larger domain read the
+    smaller one's flow, silently; cache audit. Entries cached before are solved again.)"""
+    key = hashlib.sha256(np.asarray(city.bounds[:4], dtype=np.float64).tobytes()
+                         + np.ascontiguousarray(city.footprints).tobytes()
                          + repr((speed, direction, dx, dt, sorted(settings.items()))).encode())
     safe = "".join(ch if ch.isalnum() or ch in "-_" else "_" for ch in name)
     return f"{safe}-{key.hexdigest()[:16]}.zarr"
