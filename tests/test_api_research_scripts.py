@@ -67,3 +67,26 @@ def test_a_max_range_speed_on_the_curves_top_speed_is_flagged():
     inside = max_range_speed(thesis)
     assert inside.ground_speed == pytest.approx(7.73, abs=0.01)
     assert inside.at_speed_limit is False
+
+
+def test_the_onboard_calibration_is_cached_by_what_it_depends_on(monkeypatch):
+    """The onboard stack cached its drag calibration by the conditions' name: a custom
+    ``UKFConditions`` named "windnav" with the thesis's sensors and no parasitic drag got the
+    preset's calibration (c_dx 0.005 where its own is 0; cache audit)."""
+    import dataclasses
+
+    import windnav.experiments.calibration as calibration
+    import windnav.experiments.onboard as onboard
+    from windnav.estimate.conditions import CONDITIONS
+
+    calls = []
+    monkeypatch.setattr(calibration, "calibrate", lambda params, rng, sensors, parasitic: (
+        calls.append(parasitic) or (None, ("believed", len(calls)))))
+    monkeypatch.setattr(onboard, "_BELIEVED", {})
+    preset = CONDITIONS["windnav"]
+    custom = dataclasses.replace(preset, sensors="thesis", parasitic_drag=False)
+    assert custom.name == preset.name
+    a = onboard._calibrated(HB, preset)
+    b = onboard._calibrated(HB, custom)
+    assert a != b and len(calls) == 2
+    assert onboard._calibrated(HB, preset) == a and len(calls) == 2  # cached

@@ -269,7 +269,9 @@ def _calibrated(params, cond):
     from windnav.experiments.calibration import calibrate
     from windnav.plan.config import _params_key
 
-    key = (_params_key(params), cond.name)
+    # what the calibration depends on, not the conditions' name: a custom UKFConditions named
+    # "windnav" with the thesis's sensors read the preset's calibration (cache audit)
+    key = (_params_key(params), cond.sensors, bool(cond.parasitic_drag))
     if key not in _BELIEVED:
         _, believed = calibrate(params, rng=CALIBRATION_SEED, sensors=cond.sensor_suite(100.0),
                                 parasitic=cond.parasitic_drag)
