@@ -90,3 +90,21 @@ def test_the_onboard_calibration_is_cached_by_what_it_depends_on(monkeypatch):
     b = onboard._calibrated(HB, custom)
     assert a != b and len(calls) == 2
     assert onboard._calibrated(HB, preset) == a and len(calls) == 2  # cached
+
+
+def test_what_a_cache_was_built_from_cannot_be_changed_under_it():
+    """``DrydenWind.airspeed = 20`` changed ``time_scales`` and the repr but not the gusts,
+    generated at construction; an in-place edit of a UKF block's ``R`` went unseen by the
+    stacked model cached from it (cache audit). Both are read-only now."""
+    from windnav.estimate.ukf import UKF
+
+    gusts = wn.wind.DrydenWind(rng=0, airspeed=5.0)
+    with pytest.raises(AttributeError):
+        gusts.airspeed = 20.0
+    with pytest.raises(AttributeError):
+        gusts.altitude = 50.0
+    assert gusts.airspeed == 5.0 and gusts.altitude == 10.0
+    ukf = UKF(lambda x, dt, u: x, np.zeros(2), np.eye(2), 0.01 * np.eye(2), dt=0.1)
+    ukf.add_block("z", lambda x: x[:1], [[1.0]])
+    with pytest.raises(ValueError, match="read-only"):
+        ukf.blocks["z"].R[0, 0] = 1e6

@@ -474,6 +474,8 @@ class UKF:
             raise ValueError(f"The 'limit' parameter of UKF.add_block must be > 0 (inf: no "
                              f"limit), a scalar or one per component ({m}) of block {name!r}. "
                              f"Got {limit!r} instead.")
+        for arr in (R, wrap, lim):  # the stacked model is cached from them: an edit in place
+            arr.setflags(write=False)  # went unseen (cache audit); add_block again replaces
         self.blocks[name] = _Block(hx, R, wrap, lim)
         self.rejected.setdefault(name, 0)
         self._stack_cache.clear()

@@ -96,7 +96,8 @@ class SensorTruth:
         """Non-gravitational acceleration at the centre of mass, body axes, (K, B, 3) m/s^2.
 
         What an ideal accelerometer reads: ``force_body / mass`` of the dynamics at each sample
-        (evaluated on demand, once).
+        (evaluated on demand, once: arrays edited in place afterwards leave it as it was, so
+        build a new ``SensorTruth`` for other states; cache audit, thirty-ninth session).
         """
         K, B, n_x = self.state.shape
         N = n_x - layout.N_RIGID

@@ -331,12 +331,12 @@ class DrydenWind(ReadOnlyOnCopy):
         where = "DrydenWind"
         self._mean = batch_array(mean, "mean", where, (3,), batch=1)[0].copy()
         self._seed = _seed_entropy(seed, rng, where)
-        self.airspeed = positive_float(airspeed, "airspeed", where)
+        self._airspeed = positive_float(airspeed, "airspeed", where)
         if length_scales is None:
-            self.altitude = positive_float(altitude, "altitude", where)
-            scales = dryden_length_scales(self.altitude)
+            self._altitude = positive_float(altitude, "altitude", where)
+            scales = dryden_length_scales(self._altitude)
         else:
-            self.altitude = None
+            self._altitude = None
             scales = length_scales
         self._a, self._b, self._c = dryden_state_space(sigma, scales, self.airspeed,
                                                        where=where)
@@ -381,6 +381,19 @@ class DrydenWind(ReadOnlyOnCopy):
     def seed(self) -> int:
         """The integer seed of the gusts (from ``rng``, or ``seed``)."""
         return self._seed
+
+    @property
+    def airspeed(self) -> float:
+        """Reference airspeed ``V`` of the time scales ``L / V``, m/s. Read-only: the gusts
+        are generated from it at construction, and an assigned value changed ``time_scales``
+        and the repr but not the gusts (cache audit, thirty-ninth session)."""
+        return self._airspeed
+
+    @property
+    def altitude(self) -> float | None:
+        """Height of the MIL-F-8785C length scales, m (None when ``length_scales`` were
+        given). Read-only, as ``airspeed``."""
+        return self._altitude
 
     @property
     def batch_size(self) -> int | None:
