@@ -108,3 +108,16 @@ def test_what_a_cache_was_built_from_cannot_be_changed_under_it():
     ukf.add_block("z", lambda x: x[:1], [[1.0]])
     with pytest.raises(ValueError, match="read-only"):
         ukf.blocks["z"].R[0, 0] = 1e6
+
+
+def test_the_cached_symbolic_model_cannot_be_edited_by_one_caller():
+    """``symbolic_model`` is cached and its result shared: after ``f0[6] = 0`` every later call
+    returned the edit, and the observability Jacobians were built from it (cache audit)."""
+    from windnav.estimate.observability import symbolic_model
+
+    x, prm, f0, gs, h = symbolic_model(4)
+    with pytest.raises(TypeError):
+        f0[6] = 0
+    with pytest.raises(TypeError):
+        h[0] = 0
+    assert isinstance(x, tuple) and isinstance(gs, tuple) and symbolic_model(4)[2][6] != 0

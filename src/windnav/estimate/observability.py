@@ -100,16 +100,16 @@ def symbolic_model(n_rotors: int, wind_frame: str = "world"):
 
     Returns
     -------
-    x : list of sympy.Symbol, length 12 + n_rotors
+    x : tuple of sympy.Symbol, length 12 + n_rotors
         State symbols, ordered as in :mod:`windnav.estimate.wind_model`.
-    prm : list of sympy.Symbol
+    prm : tuple of sympy.Symbol
         ``m, k_eta, k_d, k_z, k_h, c_dx, c_dy, c_dz, tau_m, g, eps`` (``eps`` smooths
         ``|v_a| = sqrt(v_a . v_a + eps^2)``; 0 reproduces the model exactly).
-    f0 : sympy.Matrix of shape (12 + n_rotors, 1)
+    f0 : sympy.ImmutableMatrix of shape (12 + n_rotors, 1)
         Drift (``u = 0``).
-    g : list of sympy.Matrix
+    g : tuple of sympy.ImmutableMatrix
         Input vector fields ``e_(12+i) / tau_m``.
-    h : sympy.Matrix of shape (12, 1)
+    h : sympy.ImmutableMatrix of shape (12, 1)
         Outputs: specific force (3), body rates (3), world velocity (3), Euler angles (3).
     """
     import sympy as sp
@@ -149,7 +149,10 @@ def symbolic_model(n_rotors: int, wind_frame: str = "world"):
         gi[ROTORS + i] = 1 / tau
         gs.append(gi)
     h = sp.Matrix([*F, p, q, r, *(R * v), ps, th, ph])
-    return x, prm, f0, gs, h
+    # immutable: the result is cached and shared by every caller, and an edit of one (f0[6] = 0)
+    # reached every later call and the lambdified Jacobians built from it (cache audit)
+    return (tuple(x), tuple(prm), sp.ImmutableMatrix(f0),
+            tuple(sp.ImmutableMatrix(gi) for gi in gs), sp.ImmutableMatrix(h))
 
 
 @functools.lru_cache(maxsize=8)
