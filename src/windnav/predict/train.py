@@ -39,8 +39,9 @@ schedule. :func:`train_decoder` then
   (:func:`ema_decay_at`), and validates, keeps and ships the average instead of the raw
   weights (the raw weights' validation is recorded as ``val_raw``);
 - with ``train.members`` M > 1 (``d4-film`` only), does all of the above M times, for seeds
-  ``train.seed + i`` (:func:`member_recipe`; the same samples, another initialisation and
-  order), each in ``<out>/member<i>``, then writes their ensemble (the mean of their fields,
+  ``train.seed + i`` (:func:`member_recipe`; the same samples in the same order, which
+  ``data.seed`` sets, another initialisation and, with augmentation on, other augmentation
+  draws), each in ``<out>/member<i>``, then writes their ensemble (the mean of their fields,
   :func:`windnav.predict.decoder.ensemble_decoder`) as ``<out>/model.npz``, scored on the same
   validation and training samples, and an ``history.json`` with each member's summary.
 
