@@ -562,3 +562,57 @@ def test_waiting_before_a_move_it_could_fly_arrives_sooner_with_wait_best():
             == least_time(steady, (0.0, 2.0), (8.0, 2.0), airspeed_max=3.0).time_s)
     with pytest.raises(ValueError, match="'wait' parameter of least_time"):
         least_time(lat, (0.0, 2.0), (2.0, 2.0), airspeed_max=3.0, wait="always")
+
+
+def test_a_reach_cache_belongs_to_one_suite_seed_and_search(tmp_path, capsys):
+    """Reach records were keyed by scenario id alone: ``nav-study feasibility --store
+    runs/heldout`` (seed 1) read the default cache's seed-0 records and printed their tables as
+    its own, in 0.7 s (cache audit, thirty-ninth session). A cache folder now has a manifest;
+    one of another suite, seed or search is refused, as is a cache from before the manifest
+    whose records are not this suite's seed 0."""
+    import dataclasses
+    import json
+
+    from windnav import cli
+    from windnav.experiments.nav_feasibility import MANIFEST, RECORDS, check_cache
+    from windnav.experiments.nav_suite import SUITES
+
+    thesis = SUITES["thesis"]
+    check_cache(thesis, tmp_path / "a")  # a new folder: its manifest is written
+    man = json.loads((tmp_path / "a" / MANIFEST).read_text())
+    assert (man["suite"], man["seed"]) == ("thesis", 0)
+    check_cache(thesis, tmp_path / "a")  # the same suite again: fine
+    (tmp_path / "a" / MANIFEST).write_text(json.dumps({**man, "dx": 2, "hold_s": 5}))
+    check_cache(thesis, tmp_path / "a")  # whole numbers written as such: the same
+    held_out = dataclasses.replace(thesis, seed=1)
+    with pytest.raises(ValueError, match="'out' parameter of reach_scenarios names a reach cache "
+                                         "of another suite or search \\(seed 0 there, 1 here\\)"):
+        check_cache(held_out, tmp_path / "a")
+    for bad in ("[]", "null", "{"):  # not a manifest: named, not an AttributeError
+        (tmp_path / "b").mkdir(exist_ok=True)
+        (tmp_path / "b" / MANIFEST).write_text(bad)
+        with pytest.raises(ValueError, match="cannot be read"):
+            check_cache(thesis, tmp_path / "b")
+    # a cache from before the manifest (the committed thesis_reach.jsonl.gz restored): its
+    # records are taken for seed 0 when the suite's name, settings and search match, else
+    # refused
+    old = tmp_path / "old"
+    old.mkdir()
+    rec = {"scenario_id": "thesis/m00/w00/p0", "record_s": thesis.record_s, "dx": 2.0,
+           "clearance": 1.0, "hold_s": 5.0, "limits": {}}
+    (old / RECORDS).write_text(json.dumps(rec) + "\n")
+    for other in (held_out, dataclasses.replace(thesis, map_size=500.0),
+                  dataclasses.replace(thesis, maps=(0, 1))):
+        with pytest.raises(ValueError, match="taken for seed 0\\) are not this suite's"):
+            check_cache(other, old)
+    assert not (old / MANIFEST).exists()
+    check_cache(thesis, old)
+    assert json.loads((old / MANIFEST).read_text()) == man
+    # the command names its option, before writing anything
+    (tmp_path / "store").mkdir()
+    (tmp_path / "store" / "manifest.json").write_text(json.dumps(
+        {"suite": "thesis", "seed": 1, "settings_hash": held_out.settings_hash()}))
+    assert cli.main(["nav-study", "feasibility", "--store", str(tmp_path / "store"), "--cache",
+                     str(tmp_path / "a"), "--out", str(tmp_path / "out")]) == 2
+    assert "'--cache' parameter of windnav nav-study" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()

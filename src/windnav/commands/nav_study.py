@@ -136,7 +136,8 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=None, help="gs: the flights' seed (default 0)")
     p.add_argument("--cache", type=Path, default=None,
                    help="feasibility: folder of the per-scenario reach records (created or "
-                        "resumed; default runs/reach)")
+                        "resumed; one suite and seed per folder, refused for another; default "
+                        "runs/reach)")
     p.add_argument("--airspeeds", type=float, nargs="+", default=None,
                    help="feasibility: the airspeed limits searched, m/s (default: 10, the "
                         "Hummingbird's envelope limit 13.45, 16); the figure and table use the "

@@ -462,7 +462,7 @@ class UKF:
         if not _k.chol_lower(R, np.zeros((m, m))):
             raise ValueError(f"The 'R[{name!r}]' parameter of UKF.add_block must be positive "
                              "definite.")
-        wrap = np.asarray(wrap, dtype=np.intp).reshape(-1)
+        wrap = np.array(wrap, dtype=np.intp).reshape(-1)  # a copy: made read-only below
         if np.any((wrap < 0) | (wrap >= m)):
             raise ValueError(f"The 'wrap' parameter of UKF.add_block must index the {m} "
                              f"components of block {name!r}. Got {wrap.tolist()!r} instead.")

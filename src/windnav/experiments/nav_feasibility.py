@@ -215,14 +215,17 @@ def check_cache(spec, out: Path, where: str = "reach_scenarios", option: str = "
 
     A folder without :data:`MANIFEST` gets one. If it already holds records (a cache from
     before 2026-12-06, such as the committed ``thesis_reach.jsonl.gz`` restored), they are
-    taken for the suite's seed 0, the only seed they were computed for, when their suite name
-    and ``record_s`` match; for another seed the folder is refused."""
+    taken for the preset suite's seed 0, the only one they were computed for, when their suite
+    name, ``record_s`` and search (``dx``, ``clearance``, ``hold_s``) match and the suite's
+    settings are the preset's; otherwise the folder is refused."""
     out = Path(out)
     want = cache_identity(spec)
     man = out / MANIFEST
     if man.is_file():
         try:
             got = json.loads(man.read_text())
+            if not isinstance(got, dict):
+                raise ValueError(f"a JSON {type(got).__name__}, not an object")
         except (OSError, ValueError) as exc:
             raise ValueError(f"The '{option}' parameter of {where} names a reach cache whose "
                              f"{MANIFEST} cannot be read ({exc}). Got {str(out)!r}.") from None
@@ -235,9 +238,15 @@ def check_cache(spec, out: Path, where: str = "reach_scenarios", option: str = "
         return
     old = _done(out / RECORDS) if (out / RECORDS).is_file() else []
     if old:
+        from windnav.experiments.nav_suite import SUITES
+
         names = {r["scenario_id"].split("/")[0] for r in old}
         record_s = {r.get("record_s") for r in old}
-        if names != {spec.name} or record_s != {spec.record_s} or spec.seed != 0:
+        preset = SUITES.get(spec.name)  # such caches were computed for the presets, seed 0
+        search = {(r.get("dx"), r.get("clearance"), r.get("hold_s")) for r in old}
+        if (names != {spec.name} or record_s != {spec.record_s} or spec.seed != 0
+                or preset is None or spec.settings_hash() != preset.settings_hash()
+                or search != {(want["dx"], want["clearance"], want["hold_s"])}):
             raise ValueError(
                 f"The '{option}' parameter of {where} names a reach cache without {MANIFEST} "
                 f"whose records (suite {sorted(names)}, record_s "
