@@ -108,6 +108,10 @@ def test_what_a_cache_was_built_from_cannot_be_changed_under_it():
     ukf.add_block("z", lambda x: x[:1], [[1.0]])
     with pytest.raises(ValueError, match="read-only"):
         ukf.blocks["z"].R[0, 0] = 1e6
+    wrap = np.array([0], dtype=np.intp)  # the caller's array stays the caller's (review)
+    ukf.add_block("yaw", lambda x: x[:1], [[1.0]], wrap=wrap)
+    wrap[0] = 5
+    assert ukf.blocks["yaw"].wrap.tolist() == [0] and wrap.flags.writeable
 
 
 def test_the_cached_symbolic_model_cannot_be_edited_by_one_caller():
