@@ -125,3 +125,17 @@ def test_the_cached_symbolic_model_cannot_be_edited_by_one_caller():
     with pytest.raises(TypeError):
         h[0] = 0
     assert isinstance(x, tuple) and isinstance(gs, tuple) and symbolic_model(4)[2][6] != 0
+
+
+def test_fly_says_when_the_control_rate_was_lowered_to_fit_the_step(tmp_path, capsys):
+    """``fly --dt 0.02`` flies its controller at 50 Hz, the models' validation is at 100 Hz;
+    it was said only when the flight also saturated (discretisation audit)."""
+    from windnav import cli
+
+    argv = ["fly", "--duration", "1", "--no-plots", "--no-progress", "--out"]
+    assert cli.main([*argv, str(tmp_path / "a"), "--dt", "0.02"]) == 0
+    assert "note: the controller ran at 50 Hz" in capsys.readouterr().err
+    assert cli.main([*argv, str(tmp_path / "b")]) == 0
+    assert "controller ran at" not in capsys.readouterr().err
+    assert cli.main([*argv, str(tmp_path / "c"), "--dt", "0.02", "--control-rate-hz", "50"]) == 0
+    assert "controller ran at" not in capsys.readouterr().err  # asked for: not a surprise
