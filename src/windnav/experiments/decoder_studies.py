@@ -346,7 +346,6 @@ def gradient_r2(pred, true, free, spacing: float) -> dict:
     ok = (free[:, c, c] & free[:, c, c - 1] & free[:, c, c + 1] & free[:, c - 1, c]
           & free[:, c + 1, c])
     gt, gp = gt[ok], gp[ok]
-    r2, r = {}, {}
     if gt.shape[0] < MIN_GRADIENT_SAMPLES:
         nan = {name: float("nan") for name in GRADIENT_COMPONENTS}
         return {"r2": nan, "pearson_r": dict(nan), "n_samples": int(ok.sum()),
@@ -354,6 +353,7 @@ def gradient_r2(pred, true, free, spacing: float) -> dict:
                 "note": f"{int(ok.sum())} samples count (a free centre and four free "
                         f"neighbours), fewer than the {MIN_GRADIENT_SAMPLES} a correlation "
                         "needs: no R^2"}
+    r2, r = {}, {}
     for k, name in enumerate(GRADIENT_COMPONENTS):
         ss_tot = float(np.sum((gt[:, k] - gt[:, k].mean()) ** 2)) if gt.shape[0] else 0.0
         ss_res = float(np.sum((gp[:, k] - gt[:, k]) ** 2))

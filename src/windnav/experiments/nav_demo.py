@@ -241,6 +241,10 @@ def run_nav_demo(cfg: NavDemoConfig | None = None, *, progress: bool = False) ->
             "results": results, "summary": summary}
 
 
+ONE_FLIGHT = "one flight, not a rate: the benchmark's 1,024 scenarios are the measure"
+"""What :func:`describe` says of its energy comparison, either way."""
+
+
 def describe(summary: dict) -> str:
     """The human summary of a run: one line per variant, then the energy comparison.
 
@@ -263,10 +267,8 @@ def describe(summary: dict) -> str:
     base, new = (LABELS[v] for v in VARIANTS)
     if pct >= 0:
         lines.append(f"{new} saves {pct:.1f} % of {base}'s energy in this flight (rotor "
-                     f"energy: {rotor:+.1f} %; one flight, not a rate: the benchmark's "
-                     "1,024 scenarios are the measure)")
+                     f"energy: {rotor:+.1f} %; {ONE_FLIGHT})")
     else:
         lines.append(f"{new} used {-pct:.1f} % more energy than {base} (rotor energy: "
-                     f"{-rotor:+.1f} %): no saving in this flight (one flight, not a rate: "
-                     "the benchmark's 1,024 scenarios are the measure)")
+                     f"{-rotor:+.1f} %): no saving in this flight ({ONE_FLIGHT})")
     return "\n".join(lines)

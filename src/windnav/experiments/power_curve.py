@@ -114,10 +114,11 @@ def endurance_check(curve, speeds, powers) -> dict:
     slowest = float(v.min())
     flagged = bool(v[k] == slowest and v_fit > slowest and p[k] - p_fit < worst)
     note = None
-    if v.size <= np.asarray(curve.coefficients).size:
+    n_coef = np.asarray(curve.coefficients).size
+    if v.size <= n_coef:
         flagged = None
         note = (f"the fit passes through its {v.size} samples exactly (as many as its "
-                f"{np.asarray(curve.coefficients).size} coefficients): with no residual, "
+                f"{n_coef} coefficients): with no residual, "
                 f"its maximum-endurance speed ({v_fit:.2f} m/s) cannot be told from a dip "
                 "of the fit; sample more speeds or fit a lower degree")
     elif flagged:

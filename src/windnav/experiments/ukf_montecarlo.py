@@ -434,6 +434,8 @@ def summarize(records: list[dict]) -> dict:
     axes = np.array([r["rmse_axes"] for r in records], dtype=np.float64)[ok]
     q1, med, q3 = np.percentile(v, [25, 50, 75])
     spread = v.size >= MIN_QUARTILE_TRIALS
+    good = [r for r, g in zip(records, ok, strict=True) if g]
+    nees = _finite([r.get("nees") for r in good])
     return {
         "n": int(v.size), "median": float(med), "q1": float(q1) if spread else None,
         "q3": float(q3) if spread else None,
@@ -445,27 +447,22 @@ def summarize(records: list[dict]) -> dict:
         # heavy, high-drag draws can exceed the SE(3) controller's authority in strong wind:
         # they are kept (the filter sees the flight as flown) but counted
         "n_saturated_over_1pct": int(sum(r.get("saturated_fraction", 0.0) > 0.01
-                                         for r, good in zip(records, ok, strict=True) if good)),
+                                         for r in good)),
         # flown beyond the model's trusted airspeed or lift: their RMSE is the filter's
         # against an extrapolated vehicle (kept, counted)
         "n_outside_envelope": int(sum(r.get("outside_envelope_fraction", 0.0) > 0
-                                      for r, good in zip(records, ok, strict=True) if good)),
+                                      for r in good)),
         # the filter believed a drag coefficient its calibration did not determine (as fitted)
         "n_calibration_undetermined": int(sum(bool(r.get("calibration_undetermined"))
-                                              for r, good in zip(records, ok, strict=True)
-                                              if good)),
+                                              for r in good)),
         # a filter whose drag model is not the vehicle's (the thesis's presets leave the frame
         # drag out) is biased, by about this much at the trial's airspeed (m/s)
-        "max_drag_model_bias": max((abs(r["drag_model_bias"]) for r, good
-                                    in zip(records, ok, strict=True)
-                                    if good and r.get("drag_model_bias") is not None),
-                                   default=None),
+        "max_drag_model_bias": max((abs(r["drag_model_bias"]) for r in good
+                                    if r.get("drag_model_bias") is not None), default=None),
         # the covariance the filter reports against its errors: 3 (the wind's 3 components)
         # when consistent
-        "nees_median": _median_finite([r.get("nees") for r, good
-                                       in zip(records, ok, strict=True) if good]),
-        "nees_n": sum(r.get("nees") is not None and math.isfinite(r["nees"])
-                      for r, good in zip(records, ok, strict=True) if good),
+        "nees_median": float(np.median(nees)) if nees.size else None,
+        "nees_n": int(nees.size),
     }
 
 
@@ -477,11 +474,10 @@ def quartiles_text(summary: dict) -> str:
     return f"{summary['q1']:.3f} / {summary['q3']:.3f}"
 
 
-def _median_finite(values) -> float | None:
-    """The median of the finite numbers of ``values`` (None when there is none)."""
+def _finite(values) -> np.ndarray:
+    """The finite numbers of ``values`` (None left out)."""
     v = np.array([x for x in values if x is not None], dtype=np.float64)
-    v = v[np.isfinite(v)]
-    return float(np.median(v)) if v.size else None
+    return v[np.isfinite(v)]
 
 
 def config_dict(config: MonteCarloConfig) -> dict:

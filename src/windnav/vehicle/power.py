@@ -367,7 +367,7 @@ def max_range_speed(curve: PowerCurve, wind_along: float = 0.0) -> RangeOptimum:
         return curve(np.abs(v - w)) / v
 
     v_r = _global_min(per_metre, lo, hi)
-    power = float(curve(abs(v_r - w)))
     air = abs(v_r - w)
+    power = float(curve(air))
     return RangeOptimum(v_r, power / v_r, air, power,
                         bool(air >= curve.speed_max * (1 - 1e-6)))

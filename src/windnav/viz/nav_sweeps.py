@@ -232,10 +232,8 @@ def plot_tilt(result: dict, path) -> Path:
         mean = np.array([np.nan if r["paired"]["mean"] is None else 100.0 * r["paired"]["mean"]
                          for r in rows])  # no pair at a cap: no point (a TypeError before)
         # no interval (one pair, or every pair the same): a point without a bar
-        lo = np.array([100.0 * r["paired"]["ci95"][0] if r["paired"]["ci95"] else m
-                       for r, m in zip(rows, mean, strict=True)])
-        hi = np.array([100.0 * r["paired"]["ci95"][1] if r["paired"]["ci95"] else m
-                       for r, m in zip(rows, mean, strict=True)])
+        lo, hi = np.array([[100.0 * c for c in r["paired"]["ci95"]] if r["paired"]["ci95"]
+                           else [m, m] for r, m in zip(rows, mean, strict=True)]).T
         axes[1].errorbar(x, mean, yerr=[mean - lo, hi - mean], marker=marker, color=color,
                          capsize=3, label=f"{v} (pairs {min(r['paired']['n'] for r in rows)}-"
                                           f"{max(r['paired']['n'] for r in rows)})")
