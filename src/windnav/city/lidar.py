@@ -26,9 +26,9 @@ from __future__ import annotations
 import functools
 import math
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav._validate import (
     batch_array,
     generator,
@@ -172,7 +172,7 @@ def lidar_scan(
     return ranges
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _slab(ox, oy, c, s, x0, x1, y0, y1):
     """Distance along the unit ray to the closed box, or inf when missed."""
     if c == 0.0:
@@ -198,13 +198,13 @@ def _slab(ox, oy, c, s, x0, x1, y0, y1):
     return max(t_near, 0.0)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _wrap(a):
     """Angle wrapped into [-pi, pi)."""
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _scan(origins, rects, cos_k, sin_k, max_range, ranges, hit, blocked):
     """Fill ``ranges`` (B, n) with first-hit distances (``max_range`` if none) and flags."""
     n = cos_k.shape[0]

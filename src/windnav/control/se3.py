@@ -25,9 +25,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav.vehicle.dynamics import PackedParams, pack_params
 from windnav.vehicle.layout import K_ETA, MASS, POS, QUAT, RATES, VEL, G
 from windnav.vehicle.params import MultirotorParams
@@ -83,7 +83,7 @@ def default_gains(params: MultirotorParams) -> SE3Gains:
     return _DEFAULT_GAINS.get(params.name, _DEFAULT_GAINS["hummingbird"])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_rate_d,
                gains, accel_mode, out_cmd, out_wrench):
     """Batched SE(3) control law; writes rotor-speed commands (B, N) and wrenches (B, 4).

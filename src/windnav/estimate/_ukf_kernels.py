@@ -6,11 +6,12 @@ The user models stay Python callables; everything between their calls runs here,
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 
-@numba.njit(cache=True)
+
+@njit(cache=True)
 def chol_lower(A, L):
     """Lower Cholesky factor of the symmetric part of ``A`` into ``L``; False if not PD."""
     n = A.shape[0]
@@ -31,7 +32,7 @@ def chol_lower(A, L):
     return True
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sigma_from_chol(x, L, scale):
     """Sigma points ``x, x + sqrt(scale) L[:, i], x - sqrt(scale) L[:, i]`` (2n + 1, n)."""
     n = x.shape[0]
@@ -47,7 +48,7 @@ def sigma_from_chol(x, L, scale):
     return X
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sigma_from_cov(x, P, scale):
     """Sigma points from a covariance; ``ok`` False when P is not positive definite."""
     n = x.shape[0]
@@ -58,7 +59,7 @@ def sigma_from_cov(x, P, scale):
     return sigma_from_chol(x, L, scale), True
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def unscented(Y, wm, wc, noise, add_noise):
     """Weighted mean (m,) and symmetric covariance (m, m) of sigma points Y (S, m)."""
     S, m = Y.shape
@@ -83,7 +84,7 @@ def unscented(Y, wm, wc, noise, add_noise):
     return mean, cov
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def update(x, P, X, Z, z, R, wm, wc, wrap):
     """Measurement update from sigma points X (S, n) of the prior and their images Z (S, m).
 

@@ -38,7 +38,7 @@ Measurement models:
     odometry       (R v_b, psi, theta, phi)     world velocity m/s and Euler angles rad (6,)
     rotor speeds   eta                          rad/s (N,)
 
-Kernels are ``numba.njit(cache=True)`` loops over the sigma points. The force law is written
+Kernels are cached ``njit`` loops over the sigma points. The force law is written
 once (:func:`_specific_force_body`, used by the dynamics and the accelerometer model), the
 rotation once (:func:`windnav.vehicle.rotation.euler_zyx_to_rotation`), and the packed layouts
 of the state and constants are named in :mod:`windnav.estimate.layout`.
@@ -46,9 +46,9 @@ of the state and constants are named in :mod:`windnav.estimate.layout`.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav.estimate._ukf_kernels import chol_lower, sigma_from_chol, unscented
 from windnav.estimate.layout import (
     EULER,
@@ -133,7 +133,7 @@ def model_constants(params: MultirotorParams, *, wind_frame: str = "world") -> n
     return prm
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _specific_force_body(x, s_eta, s_eta2, n_rot, prm):
     """The force law: ``F / m`` in body axes (no gravity), given ``sum eta`` and
     ``sum eta^2`` of the ``n_rot`` rotors (see the module docstring)."""
@@ -149,7 +149,7 @@ def _specific_force_body(x, s_eta, s_eta2, n_rot, prm):
              - s_eta * prm[PRM_K_Z] * vaz - speed * prm[PRM_C_DZ] * vaz) / m)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _rotor_sums(x, n_rot):
     """``(sum eta_i, sum eta_i^2)`` of the rotor-speed states of ``x``."""
     s_eta = 0.0
@@ -161,7 +161,7 @@ def _rotor_sums(x, n_rot):
     return s_eta, s_eta2
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _deriv12(x, s_eta, s_eta2, n_rot, prm, k):
     """Derivative of the first 12 states into ``k`` (12,), given ``sum eta`` and
     ``sum eta^2``. Entries of the rates stay untouched (zero); those of the wind are written
@@ -188,7 +188,7 @@ def _deriv12(x, s_eta, s_eta2, n_rot, prm, k):
         k[WIND + 2] = -(p * wy - q * wx)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _state_derivative(X, u, prm):
     S, n = X.shape
     nr = n - N_BASE
@@ -204,7 +204,7 @@ def _state_derivative(X, u, prm):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _process(X, dt, u, prm, n_substeps):
     S, n = X.shape
     nr = n - N_BASE
@@ -260,7 +260,7 @@ def _process(X, dt, u, prm, n_substeps):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _specific_force(X, prm):
     S, n = X.shape
     nr = n - N_BASE
@@ -271,7 +271,7 @@ def _specific_force(X, prm):
     return out
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _rotate_euler(psi, theta, phi, vx, vy, vz):
     """``Rz(psi) Ry(theta) Rx(phi) v``."""
     r00, r01, r02, r10, r11, r12, r20, r21, r22 = euler_zyx_to_rotation(psi, theta, phi)
@@ -279,7 +279,7 @@ def _rotate_euler(psi, theta, phi, vx, vy, vz):
             r20 * vx + r21 * vy + r22 * vz)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _odometry(X):
     S = X.shape[0]
     out = np.empty((S, 6))
@@ -386,7 +386,7 @@ def euler_to_matrix(euler) -> np.ndarray:
 _WIND_MARGINAL = np.array([EULER, EULER + 1, EULER + 2, WIND, WIND + 1, WIND + 2])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _wind_world_sigma(x6, L, wm_, wc_, scale):
     """Unscented transform of ``R(euler) w_b`` from the mean ``x6`` (6,) of (euler, w_b) and
     the lower Cholesky factor ``L`` (6, 6) of its covariance: mean (3,), covariance (3, 3)."""
@@ -398,7 +398,7 @@ def _wind_world_sigma(x6, L, wm_, wc_, scale):
     return unscented(W, wm_, wc_, np.zeros((1, 1)), False)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _wind_world_ut(x, P, wm_, wc_, scale):
     """:func:`_wind_world_sigma` over the (euler, w_b) marginal of (x, P).
 

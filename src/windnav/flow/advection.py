@@ -40,10 +40,10 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 from scipy import ndimage
 
+from windnav._jit import njit
 from windnav.flow.grid import FlowDomain
 
 SCHEMES = ("semi_lagrangian", "maccormack")
@@ -51,7 +51,7 @@ MAX_DIFFUSION_SUBSTEPS = 3
 _SL, _FORWARD, _BACK = 0, 1, 2  # modes of _advect_pass
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _fill_ghosts(fp, sides, inflow_val):
     """Fill the ghost layer of the padded face field ``fp`` from its interior: the inlet
     value beyond an inflow side (``sides[k] == 0``), the edge value beyond any other."""
@@ -64,7 +64,7 @@ def _fill_ghosts(fp, sides, inflow_val):
         fp[j, nxf + 1] = inflow_val if sides[1] == 0 else fp[j, nxf]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _pad(f, sides, inflow_val, out):
     """Copy ``f`` into ``out[1:-1, 1:-1]`` and fill one ghost layer implementing the sides."""
     nyf, nxf = f.shape
@@ -94,7 +94,7 @@ def _trace_clearance(solid):
     return np.ascontiguousarray(clear_u), np.ascontiguousarray(clear_v)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _cell(p, n):
     """Index in a padded array (one ghost layer) of the cell holding position ``p`` (cell
     units, clamped to the ghost layer; ``n`` cells). The outer ``max`` changes nothing but
@@ -102,7 +102,7 @@ def _cell(p, n):
     return max(int(min(max(p + 1.0, 0.0), n + 1.0)), 0)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _trace_row(u, v, c, solid_p, clear, is_u, j, dxs, dys, near):
     """Displacements ``-c * velocity`` (cell units) of the faces of row ``j`` into ``dxs``,
     ``dys``, halved then zeroed where the end point falls in a building cell (``c < 0``
@@ -146,7 +146,7 @@ def _trace_row(u, v, c, solid_p, clear, is_u, j, dxs, dys, near):
             dys[i] = dY
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _sample_points(nyf, j, dxs, dys, aa, bb, kk):
     """Where the faces of row ``j`` (``nyf`` rows) displaced by ``dxs``, ``dys`` sample a
     padded face field: the bilinear weights ``aa`` (x), ``bb`` (y) and the flat index ``kk``
@@ -164,7 +164,7 @@ def _sample_points(nyf, j, dxs, dys, aa, bb, kk):
         kk[i] = j0 * w + i0
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _sample_row(src_p, f, code, j, mode, aa, bb, kk, los, his, out, off):
     """Row ``j`` of a pass of :func:`_advect_pass`: the samples of the padded ``src_p`` at
     the points of :func:`_sample_points`, used as ``mode`` says (fixed faces keep ``f``)."""
@@ -190,7 +190,7 @@ def _sample_row(src_p, f, code, j, mode, aa, bb, kk, los, his, out, off):
         out[j + off, i + off] = f_ij if code[j, i] == 0 else val
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _advect_pass(src_p, f, code, u, v, c, solid_p, clear, is_u, mode, los, his, out, off, rows):
     """One semi-Lagrangian pass over face field ``f``, row by row (fixed faces, ``code ==
     0``, keep ``f``).
@@ -216,7 +216,7 @@ def _advect_pass(src_p, f, code, u, v, c, solid_p, clear, is_u, mode, los, his, 
         _sample_row(src_p, f, code, j, mode, aa, bb, kk, los, his, out, off)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _advect_component(f, code, u, v, c, solid_p, sides, inflow_val, is_u, maccormack, ws, res):
     """Advect face field ``f`` into ``res``; ``ws`` is the field's workspace
     (:meth:`Advection._scratch`).
@@ -236,7 +236,7 @@ def _advect_component(f, code, u, v, c, solid_p, sides, inflow_val, is_u, maccor
     _advect_pass(fhat_p, f, code, u, v, -c, solid_p, clear, is_u, _BACK, los, his, res, 0, rows)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, corner, out):
     """Cell-centred kinematic viscosity ``nu0 + (C_s Delta)^2 |S|`` (Smagorinsky 1963), m^2/s.
 
@@ -271,7 +271,7 @@ def _eddy_viscosity(u, v, solid, nu0, cs_delta2, inv_dx, corner, out):
     return top
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _face_viscosity(nu_c, solid, is_u, out):
     """Viscosity on the faces, padded by one ghost layer (``out`` (nyf + 2, nxf + 2)): the mean
     of the two cells' values (fluid cells only); the ghosts repeat the edge."""
@@ -299,7 +299,7 @@ def _face_viscosity(nu_c, solid, is_u, out):
         out[j, nxf + 1] = out[j, nxf]
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _face_mean(nu_a, nu_b, solid_a, solid_b):
     """The viscosity of a face between cells a and b: the mean of the fluid cells' values
     (``nu_b`` when both are solid)."""
@@ -339,7 +339,7 @@ def _diffusion_weights(code, solid_p, sides, is_u):
     return mask | (mirror << 4)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _diffusion_row_weights(j, mask, nu_p, c, wts):
     """The flux weights of the faces of row ``j`` into ``wts``: ``a_k = w_k (nu + nu_k)`` of
     the (E, W, N, S) neighbours and the total weight ``s = c (sum(a_k) / 2 + 2 nu m)``.
@@ -360,7 +360,7 @@ def _diffusion_row_weights(j, mask, nu_p, c, wts):
         wts[4, i] = 0.5 * c * (a0 + a1 + a2 + a3) + 2.0 * c * nu * float(m >> 4)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy")
 def _diffuse_row(src, j, wts, c, dst, rd, off):
     """Row ``j`` of ``f + c * div(nu grad f)`` on the free faces (``c = dt / dx^2``; the
     fixed faces have zero weights and keep f) into ``dst[rd, i + off]``.
@@ -387,7 +387,7 @@ def _diffuse_row(src, j, wts, c, dst, rd, off):
         dst[rd, i + off] = explicit if total <= 1.0 else implicit
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _row_ghosts(row, sides, inflow_val):
     """The ghost ends of one padded row, as :func:`_fill_ghosts`."""
     n = row.size - 2
@@ -395,7 +395,7 @@ def _row_ghosts(row, sides, inflow_val):
     row[n + 1] = inflow_val if sides[1] == 0 else row[n]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _ghost_row(ghost, edge, side, sides, inflow_val):
     """The padded ghost row beyond y side ``side`` (2 or 3) from the padded edge row, as
     :func:`_fill_ghosts`."""
@@ -404,7 +404,7 @@ def _ghost_row(ghost, edge, side, sides, inflow_val):
     _row_ghosts(ghost, sides, inflow_val)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _diffuse_substeps(f, mask, nu_p, c, substeps, sides, inflow_val, rings, wts):
     """``substeps`` explicit diffusion steps of face field ``f`` in place, in one sweep.
 

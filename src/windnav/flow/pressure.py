@@ -33,19 +33,19 @@ import sys
 import threading
 from collections import OrderedDict
 
-import numba
 import numpy as np
 import scipy.sparse as sp
 from scipy import ndimage
 from scipy.sparse.linalg import splu
 
+from windnav._jit import njit
 from windnav.flow.grid import FACE_INTERIOR, FACE_OUTFLOW, FlowDomain
 
 ORDERINGS = ("red_black", "nested_dissection", "MMD_AT_PLUS_A", "COLAMD")
 FACTOR_BACKENDS = ("cholmod", "superlu")
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _divergence_raw(u, v):
     ny, nx = u.shape[0], v.shape[1]
     d = np.empty((ny, nx))
@@ -62,7 +62,7 @@ def divergence(domain: FlowDomain, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return d
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _rhs(u, v, idx, b):
     """``b = -div(u)`` (raw face differences) on the unknowns numbered by ``idx``."""
     ny, nx = idx.shape
@@ -74,7 +74,7 @@ def _rhs(u, v, idx, b):
     return b
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _subtract_gradient(q, idx, u_code, v_code, u_in, v_in, u, v):
     """``u = u_in - grad q``, ``v = v_in - grad q`` on the open faces, the other faces copied
     (``u`` may be ``u_in``); ``q`` indexed by ``idx``."""
@@ -525,7 +525,7 @@ def make_exact_projection(
     return Projection(domain, solve_q, idx, solve_many)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _jacobi(b_grid, diag, wE, wW, wN, wS, iterations):
     ny, nx = b_grid.shape
     q = np.zeros((ny, nx))

@@ -35,9 +35,9 @@ import warnings
 import weakref
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav._validate import ReadOnlyOnCopy, finite_float, nonnegative_int, positive_float
 from windnav.city.core import check_city
 from windnav.flow.advection import make_advection
@@ -195,7 +195,7 @@ _ABS_BITS = np.uint64(0x7FFF_FFFF_FFFF_FFFF)
 _INF_BITS = np.uint64(0x7FF0_0000_0000_0000)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _max_abs_bits(bits):
     """The largest of ``bits & ~sign`` over a flat uint64 view of float64 values: for finite
     values the bit pattern of ``max |a|`` (IEEE 754 magnitudes order as their bit patterns),
@@ -237,7 +237,7 @@ def blowup_limit(speed: float, u0, v0) -> tuple[float, str]:
     return inlet, f"{BLOWUP_FACTOR:g} x the inlet speed"
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _to_centres(u, v, solid, out_u, out_v, weight):
     ny, nx = solid.shape
     for j in range(ny):
@@ -247,7 +247,7 @@ def _to_centres(u, v, solid, out_u, out_v, weight):
                 out_v[j, i] += weight * 0.5 * (v[j, i] + v[j + 1, i])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _centres_into(u, v, solid, out_u, out_v):
     """Write the cell-centred velocity into every cell of ``out_u, out_v`` (0 in buildings):
     bitwise ``_to_centres`` into zeros with weight 1 (``0.0 + 0.5 * ...`` keeps its -0.0 -> 0.0),
@@ -263,7 +263,7 @@ def _centres_into(u, v, solid, out_u, out_v):
                 out_v[j, i] = 0.0 + 0.5 * (v[j, i] + v[j + 1, i])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _to_centres_recording(u, v, solid, out_u, out_v, weight, frame_u, frame_v):
     """:func:`_to_centres` and :func:`_centres_into` (into ``frame_u, frame_v``) in one pass
     over the faces, each value bitwise theirs (the face sum is formed once; both kernels

@@ -42,6 +42,7 @@ import math
 import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav.plan._random import FN, KN, WN, fill_normal
 
 _HUGE = 1e300
@@ -49,7 +50,7 @@ _MIN_D2 = 1e-6  # m^2: a sample through a LiDAR point costs D^2 / 1e-6, finite
 _SMOOTH_BLOCK = 256  # columns per block of the control smoothing (float32: 1 KB per row)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def power_bar(v, ptab):  # pragma: no cover - numba
     """Non-dimensional steady-flight power ``P(v) / P_hover`` at airspeed ``v`` (m/s).
 
@@ -64,7 +65,7 @@ def power_bar(v, ptab):  # pragma: no cover - numba
     return r + e * (ptab[2] + e * ptab[3])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _power_bar_flat(v, ptab, out):  # pragma: no cover - numba
     for i in range(v.size):
         out[i] = power_bar(v[i], ptab)
@@ -79,7 +80,7 @@ def power_bar_array(v: np.ndarray, ptab: np.ndarray) -> np.ndarray:
     return out.reshape(v.shape)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def evenly_increasing(a):  # pragma: no cover - numba
     """Whether the finite 1-D ``a`` (>= 2 values, all finite) increases in steps equal to
     ``1e-6`` of the first (the check of a wind grid's cell-centre offsets), in one pass:
@@ -98,7 +99,7 @@ def evenly_increasing(a):  # pragma: no cover - numba
     return hi - lo <= 1e-6 * first
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _bilinear(px, py, half, x0, y0, wmeta, nx, ny, wgrid):  # pragma: no cover - numba
     """Mode 2 of :func:`wind_at` with the window and grid read once by the caller: ``half``,
     ``x0``, ``y0`` from ``wmeta`` and the grid's ``nx``, ``ny``. The spacings stay reads of
@@ -127,7 +128,7 @@ def _bilinear(px, py, half, x0, y0, wmeta, nx, ny, wgrid):  # pragma: no cover -
     return u, v
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def wind_at(px, py, wmode, wgrid, wmeta):  # pragma: no cover - numba
     """Wind (u, v) at local position (px, py), m/s."""
     if wmode == 0:
@@ -141,7 +142,7 @@ def wind_at(px, py, wmode, wgrid, wmeta):  # pragma: no cover - numba
                      wgrid)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def distance_bounds(px, py, node, fmeta):  # pragma: no cover - numba
     """Lower bound on the distance from (px, py) to the nearest site (m), and an upper bound
     on its square (m^2).
@@ -169,7 +170,7 @@ def distance_bounds(px, py, node, fmeta):  # pragma: no cover - numba
     return math.sqrt(lx * lx + ly * ly), np.inf
 
 
-@numba.njit(cache=True, fastmath=True, inline="always")
+@njit(cache=True, fastmath=True, inline="always")
 def _range_d2(px, py, sx, sy, a, b, best):  # pragma: no cover - numba
     """``min(best, min_{a <= s < b} |q - site_s|^2)``, m^2 (the sites are finite; fast-math
     only reorders this minimum)."""
@@ -183,7 +184,7 @@ def _range_d2(px, py, sx, sy, a, b, best):  # pragma: no cover - numba
     return m
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def exact_d2(px, py, best2, sx, sy, bstart, bmeta):  # pragma: no cover - numba
     """``min(best2, d^2)``, ``d`` the exact distance to the nearest site (m^2).
 
@@ -212,7 +213,7 @@ def exact_d2(px, py, best2, sx, sy, bstart, bmeta):  # pragma: no cover - numba
     return _range_d2(px, py, sx, sy, 0, sx.size, best2)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def corner_bound(px, py, node, fmeta):  # pragma: no cover - numba
     """Lower bound on the distance (m) from the four nodes around (px, py):
     ``max_n d(n) - |q - n|``; ``-inf`` outside the node grid."""
@@ -234,7 +235,7 @@ def corner_bound(px, py, node, fmeta):  # pragma: no cover - numba
     return lo
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def min_distance(qx, qy, lb, ub2_min, node, fmeta, sx, sy, bstart,
                  bmeta):  # pragma: no cover - numba
     """Exact ``min_k d(q_k)`` (m) over points ``q_k`` with lower bounds ``lb`` (m), given the
@@ -250,7 +251,7 @@ def min_distance(qx, qy, lb, ub2_min, node, fmeta, sx, sy, bstart,
     return math.sqrt(best2)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def nearest_sites(sites, order, x0, y0, h, out, node):  # pragma: no cover - numba
     """Index of the nearest site (``out`` (ny, nx)), and its distance and coordinates
     (``node`` (ny, nx, 3)), at every node ``(x0 + i h, y0 + j h)``.
@@ -307,7 +308,7 @@ def nearest_sites(sites, order, x0, y0, h, out, node):  # pragma: no cover - num
             node[j, i, 2] = sites[q, 1]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def build_field(pts, h, pad, b):  # pragma: no cover - numba
     """Everything :class:`~windnav.plan.obstacles.ObstacleField` holds for the sites ``pts``
     (P >= 1, finite): ``(nodes, nearest, fmeta, order, bstart, bmeta, sx, sy)`` (see the
@@ -355,7 +356,7 @@ def build_field(pts, h, pad, b):  # pragma: no cover - numba
     return nodes, nearest, fmeta, order, start, bmeta, sx, sy
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def field_distance(points, node, fmeta, sx, sy, bstart, bmeta, out):  # pragma: no cover
     """Exact distance from each point (M, 2) to its nearest site, m."""
     for m in range(points.shape[0]):
@@ -365,7 +366,7 @@ def field_distance(points, node, fmeta, sx, sy, bstart, bmeta, out):  # pragma: 
         out[m] = math.sqrt(hi2)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _winds(px, py, wmode, wgrid, wmeta, wx, wy):  # pragma: no cover - numba
     """Wind at every sample's position into ``wx, wy`` (S,): the fill outside the window,
     uniform (branch-free, so the loop vectorises) or bilinear on the grid."""
@@ -385,7 +386,7 @@ def _winds(px, py, wmode, wgrid, wmeta, wx, wy):  # pragma: no cover - numba
             wy[s] = w0y if inside else fy
 
 
-@numba.njit(cache=True, fastmath={"contract", "arcp"})
+@njit(cache=True, fastmath={"contract", "arcp"})
 def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab, mission,
                  wmode, wgrid, wmeta, has_obs, node, fmeta, sx, sy, bstart, bmeta,
                  costs, parts):  # pragma: no cover - numba
@@ -519,7 +520,7 @@ def rollout_cost(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab, mis
         parts[s, 3] = d_min
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def rollout_states(U, v0, dt, drag, a_lo, a_hi, wmode, wgrid, wmeta,
                    pos, vel):  # pragma: no cover - numba
     """States of the rollouts of ``U`` (K, 2, S): ``pos``, ``vel`` (S, K + 1, 2), the model of
@@ -552,7 +553,7 @@ def rollout_states(U, v0, dt, drag, a_lo, a_hi, wmode, wgrid, wmeta,
             vel[s, k + 1, 1] = vy
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _smooth_row(row, src, j, m0, m1, taps, k, a, n):  # pragma: no cover - numba
     """``row = sum_t taps[k, t] src[a + t, j, m0:m1]`` over ``t < n``, summed from ``t = 0`` up,
     four taps per pass over the row (one load and store of the row per four taps). ``src`` is
@@ -580,7 +581,7 @@ def _smooth_row(row, src, j, m0, m1, taps, k, a, n):  # pragma: no cover - numba
         t += 1
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def perturb_clip_smooth(seed, clipped, mean, sigma, a_lo, a_hi, taps, lo, hi,
                         out):  # pragma: no cover - numba
     """``out = G @ clip(mean + sigma eps)``, ``eps ~ N(0, 1)`` (single-threaded).
@@ -607,7 +608,7 @@ def perturb_clip_smooth(seed, clipped, mean, sigma, a_lo, a_hi, taps, lo, hi,
             _smooth_row(res[k, m0:m1], flat, 0, m0, m1, taps, k, lo[k], hi[k] - lo[k])
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True)
 def perturb_clip_smooth_chunks(seeds, clipped, mean, sigma, a_lo, a_hi, taps, lo, hi, out,
                                bounds):  # pragma: no cover - numba
     """:func:`perturb_clip_smooth` with the samples in chunks ``bounds[c]:bounds[c + 1]`` run
@@ -627,7 +628,7 @@ def perturb_clip_smooth_chunks(seeds, clipped, mean, sigma, a_lo, a_hi, taps, lo
                                 hi[k] - lo[k])
 
 
-@numba.njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True)
 def rollout_cost_chunks(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, ptab, mission,
                         wmode, wgrid, wmeta, has_obs, node, fmeta, sx, sy, bstart, bmeta,
                         costs, parts, bounds):  # pragma: no cover - numba
@@ -641,7 +642,7 @@ def rollout_cost_chunks(U, v0, goal, dt, drag, inv_d, a_lo, a_hi, q_obs, q_e, pt
                      costs[s0:s1], parts[s0:s1])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def softmin_mean(costs, temperature, u, weights, out):  # pragma: no cover - numba
     """Softmin weights ``w_s ∝ exp(-(J_s - min J) / lambda)`` (0 where ``J_s`` is not finite)
     into ``weights`` (S,) and the weighted mean of ``u`` (K, 2, S) into ``out`` (K, 2).

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from windnav._jit import njit
 
 _R = 3.442619855899          # start of the tail
 _V = 9.91256303526217e-3     # area of each layer
@@ -51,7 +52,7 @@ _LOW7 = np.uint64(127)
 _TWO_M53 = 2.0 ** -53
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def splitmix64(state):  # pragma: no cover - numba
     """Advance the state; return ``(state, 64 random bits)``."""
     state = state + _GOLDEN
@@ -61,14 +62,14 @@ def splitmix64(state):  # pragma: no cover - numba
     return state, z ^ (z >> _S31)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def uniform(state):  # pragma: no cover - numba
     """``(state, u)`` with ``u`` uniform in (0, 1) (53 bits, never 0 or 1)."""
     state, z = splitmix64(state)
     return state, (float(z >> _S11) + 0.5) * _TWO_M53
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _normal_slow(state, hz, iz, kn, wn, fn):  # pragma: no cover - numba
     """The ziggurat's rare path (about 1.2% of draws): the wedges and the tail."""
     while True:
@@ -91,7 +92,7 @@ def _normal_slow(state, hz, iz, kn, wn, fn):  # pragma: no cover - numba
         hz = np.int64(z >> _S32) - 2147483648
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def fill_normal(seed, out, mean, sigma, lo, hi, kn, wn, fn):  # pragma: no cover - numba
     """``out[k, c, s] = clip(mean[k, c] + sigma z, lo, hi)`` with ``z`` standard normals
     (ziggurat) from the stream of ``seed`` (uint64), drawn in (k, c, s) order.

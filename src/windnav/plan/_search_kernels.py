@@ -4,15 +4,15 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav.plan._kernels import power_bar
 
 _GOLDEN = 0.5 * (math.sqrt(5.0) - 1.0)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def energy_per_metre(v, ex, ey, wx, wy, ptab):  # pragma: no cover - numba
     """``P(|v e - w|) / (P_hover v)``: energy per metre of track at ground speed ``v`` along
     the unit vector ``e`` in the wind ``w``, in units of ``P_hover`` (s/m)."""
@@ -21,7 +21,7 @@ def energy_per_metre(v, ex, ey, wx, wy, ptab):  # pragma: no cover - numba
     return power_bar(math.sqrt(ax * ax + ay * ay), ptab) / v
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def best_level(ex, ey, wx, wy, speeds, ptab):  # pragma: no cover - numba
     """Index of the speed level with the least energy per metre, and that energy."""
     best = np.inf
@@ -34,7 +34,7 @@ def best_level(ex, ey, wx, wy, speeds, ptab):  # pragma: no cover - numba
     return j, best
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def best_speed(ex, ey, wx, wy, speeds, ptab):  # pragma: no cover - numba
     """Continuous minimiser of the energy per metre over ``[speeds[0], speeds[-1]]``: the best
     level, then golden-section search between its neighbours. Returns ``(v, e)``."""
@@ -65,7 +65,7 @@ def best_speed(ex, ey, wx, wy, speeds, ptab):  # pragma: no cover - numba
     return speeds[j], e
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def move_ok(free, i, j, m, moves, guards):  # pragma: no cover - numba
     """Whether move ``m`` from cell ``(i, j)`` stays on the grid, ends in a free cell and passes
     only free guard cells (the cells the straight move crosses besides its ends)."""
@@ -80,7 +80,7 @@ def move_ok(free, i, j, m, moves, guards):  # pragma: no cover - numba
     return True
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def edge_weights(free, wind, moves, guards, dx, speeds, ptab, rows, cols, weights,
                  levels):  # pragma: no cover - numba
     """Directed edges of the lattice and their energies (units of ``P_hover`` seconds).
@@ -117,7 +117,7 @@ def edge_weights(free, wind, moves, guards, dx, speeds, ptab, rows, cols, weight
     return n
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _wind_bilinear(x, y, x0, y0, dx, wind):  # pragma: no cover - numba
     ny, nx = wind.shape[0], wind.shape[1]
     fx = min(max((x - x0) / dx, 0.0), nx - 1.0)
@@ -133,7 +133,7 @@ def _wind_bilinear(x, y, x0, y0, dx, wind):  # pragma: no cover - numba
     return wx, wy
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def segment(px, py, qx, qy, free, x0, y0, dx, wind, speeds, ptab, refine,
             out_v):  # pragma: no cover - numba
     """Energy (units of ``P_hover`` s) of the straight segment p -> q flown at the best speed
@@ -176,14 +176,14 @@ def segment(px, py, qx, qy, free, x0, y0, dx, wind, speeds, ptab, refine,
     return total, n
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _shortcut_ok(path, prefix, k, m, free, x0, y0, dx, wind, speeds, ptab, buf):  # pragma: no cover
     e, _ = segment(path[k, 0], path[k, 1], path[m, 0], path[m, 1], free, x0, y0, dx, wind,
                    speeds, ptab, False, buf)
     return e <= prefix[m] - prefix[k] + 1e-9 * (1.0 + prefix[m])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def prune(path, prefix, free, x0, y0, dx, wind, speeds, ptab, keep):  # pragma: no cover
     """Greedy shortcutting of a cell path (L, 2): from each kept point, the straight segment to
     the goal if it is free and costs no more energy than the lattice sub-path (``prefix``:
@@ -215,7 +215,7 @@ def prune(path, prefix, free, x0, y0, dx, wind, speeds, ptab, keep):  # pragma: 
 # ------------------------------------------------------------------ least time (reach.py)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def resample_frames(frames, i0, a, j0, b, out):  # pragma: no cover - numba
     """``out[k, j, i] = `` bilinear of ``frames[k]`` (T, ny_w, nx_w, 2) between columns
     ``i0[i], i0[i] + 1`` (weight ``a[i]`` on the second) and rows ``j0[j], j0[j] + 1``
@@ -234,7 +234,7 @@ def resample_frames(frames, i0, a, j0, b, out):  # pragma: no cover - numba
                                                + aa * frames[k, jj + 1, ii + 1, c]))
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def max_ground_speed(ex, ey, wx, wy, airspeed_max):  # pragma: no cover - numba
     """Largest ground speed ``v >= 0`` along the unit vector ``e`` with ``|v e - w| <=
     airspeed_max`` in the wind ``w`` (m/s): ``w.e + sqrt(A^2 - (w x e)^2)``, or 0 when no
@@ -248,7 +248,7 @@ def max_ground_speed(ex, ey, wx, wy, airspeed_max):  # pragma: no cover - numba
     return v if v > 0.0 else 0.0
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def gust_ground_speed(ex, ey, wx, wy, suu, suv, svv, airspeed_max, gust_k):  # pragma: no cover
     """:func:`max_ground_speed` less ``gust_k`` standard deviations of the wind along ``e``
     (``e^T S e``, ``S = [[suu, suv], [suv, svv]]`` the wind's covariance, m^2/s^2), or 0: the
@@ -263,7 +263,7 @@ def gust_ground_speed(ex, ey, wx, wy, suu, suv, svv, airspeed_max, gust_k):  # p
     return v
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def frame_covariance(frames_u, frames_v, every, out):  # pragma: no cover - numba
     """Covariance over frames ``0, every, 2 every, ...`` of the wind at each cell: ``out``
     (ny, nx, 3) receives ``(var u, cov uv, var v)``, m^2/s^2 (population, about the frames'
@@ -293,7 +293,7 @@ def frame_covariance(frames_u, frames_v, every, out):  # pragma: no cover - numb
             out[j, i, 2] = max(out[j, i, 2] / n - mv * mv, 0.0)
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _heap_push(keys, nodes, n, key, node):  # pragma: no cover - numba
     k = n
     keys[k] = key
@@ -308,7 +308,7 @@ def _heap_push(keys, nodes, n, key, node):  # pragma: no cover - numba
     return n + 1
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _heap_pop(keys, nodes, n):  # pragma: no cover - numba
     key = keys[0]
     node = nodes[0]
@@ -330,7 +330,7 @@ def _heap_pop(keys, nodes, n):  # pragma: no cover - numba
     return key, node, n
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _best_departure(frames, t0_frames, dt_frames, i, j, i2, j2, ex, ey, length, airspeed_max,
                     dep, arr, t_end):  # pragma: no cover - numba
     """The earliest arrival of the move from cell (i, j) to (i2, j2) departing at ``dep``
@@ -354,7 +354,7 @@ def _best_departure(frames, t0_frames, dt_frames, i, j, i2, j2, ex, ey, length, 
     return arr
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def earliest_arrival(free, frames, t0_frames, dt_frames, moves, guards, dx, airspeed_max,
                      source, t_start, t_end, target, arrival, pred, gust,
                      gust_k, lookahead=False):  # pragma: no cover - numba

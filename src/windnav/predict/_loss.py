@@ -14,14 +14,15 @@ from __future__ import annotations
 import functools
 import math
 
-import numba
 import numpy as np
+
+from windnav._jit import njit
 
 SPEED_REF = 10.0  # m/s, the reference speed of the loss weight (U / SPEED_REF)^p
 DIRECTION_FADE = 0.1  # U: the direction term fades out below this speed (train.direction_fade)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def free_count(free):  # pragma: no cover - numba
     """The number of free cells of ``free`` (B, M)."""
     n_free = 0
@@ -31,7 +32,7 @@ def free_count(free):  # pragma: no cover - numba
     return n_free
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy")
 def loss_rows(pred, labels, free, speed, power, norm, speed_weight, direction_weight, inv_n,
               grad, b0, b1, fade=DIRECTION_FADE):  # pragma: no cover - numba
     """Samples ``b0:b1`` of :func:`loss_and_grad`: their gradient into ``grad`` and their

@@ -43,9 +43,9 @@ from dataclasses import dataclass
 from functools import cached_property
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav._validate import ReadOnlyOnCopy, batch_array, positive_float, positive_int
 from windnav.city import City
 
@@ -99,7 +99,7 @@ def _locate(axis: np.ndarray, q: np.ndarray):
     return i, t, (q >= axis[0]) & (q <= axis[-1])
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _clear_footprints(fp, gx, gy, free):  # pragma: no cover - numba
     """Set ``free[b, r, c] = False`` where ``(gx[b, c], gy[b, r])`` lies in a footprint (closed).
 
@@ -120,7 +120,7 @@ def _clear_footprints(fp, gx, gy, free):  # pragma: no cover - numba
                         free[b, r, c] = False
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _bilinear_grids(u, v, ix, tx, iy, ty, free, out):  # pragma: no cover - numba
     """``out[b, :, r, c]`` = the bilinear interpolant of ``(u, v)`` (ny, nx) at column
     ``(ix, tx)[b, c]`` and row ``(iy, ty)[b, r]`` (lower index, weight), 0 where not free."""
@@ -556,7 +556,7 @@ _S11, _S27, _S30, _S31 = (np.uint64(k) for k in (11, 27, 30, 31))
 _TWO_M53 = 2.0**-53
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _mix(state):  # pragma: no cover - numba
     """SplitMix64's output function of ``state`` (uint64)."""
     z = (state ^ (state >> _S30)) * _MIX1
@@ -564,7 +564,7 @@ def _mix(state):  # pragma: no cover - numba
     return z ^ (z >> _S31)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _splitmix64(key, counter, out):  # pragma: no cover - numba
     """``out[k]`` = output ``counter[k]`` of the stream of ``key``:
     ``mix(key + (counter + 1) * golden)``, all uint64 (key 0, counter 0: 0xE220A8397B1DCDAF)."""
@@ -572,7 +572,7 @@ def _splitmix64(key, counter, out):  # pragma: no cover - numba
         out[k] = _mix(key + (counter[k] + np.uint64(1)) * _GOLDEN)
 
 
-@numba.njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True)
 def _normal_blocks(key, index, out):  # pragma: no cover - numba
     """Standard normals: row b of ``out`` (B, m), m even, from counters ``index[b] * m + r``
     of the stream of ``key``; pairs of 53-bit uniforms (u1, u2) in (0, 1) become

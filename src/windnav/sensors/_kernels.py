@@ -12,15 +12,16 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
+
+from windnav._jit import njit
 
 N_NORMALS = 21
 """Standard normals one IMU + odometry sample draws: bias walk (6), accelerometer (3),
 gyroscope (3), position (3), velocity (3), attitude (3)."""
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def imu_odometry_sample(sf, rates, vel, att, z, scales, accel, gyro, vel_out, att_out):
     """One IMU and odometry sample of one vehicle.
 

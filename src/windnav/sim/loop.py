@@ -18,9 +18,9 @@ import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav._validate import positive_float, positive_int
 from windnav.control.se3 import SE3Controller
 from windnav.vehicle import layout
@@ -206,7 +206,7 @@ def initial_loop_state(loop: ClosedLoop, x0: np.ndarray) -> LoopState:
 _EXPONENT = np.uint64(0x7FF0000000000000)  # all ones in exactly the NaN and inf float64s
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _all_finite(a):  # pragma: no cover - compiled
     """True when every entry of float64 ``a`` (any shape) is finite (a bit test that
     vectorises: no early exit to wait for)."""
@@ -217,7 +217,7 @@ def _all_finite(a):  # pragma: no cover - compiled
     return not bad
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _command_kernel(cmd, lo, hi, wind, clipped, sat):  # pragma: no cover - compiled
     """``clipped = np.clip(cmd, lo, hi)``, ``sat`` where it was clipped or sits at the lower
     limit (the values NumPy gives; a command equal to a limit is kept, so a zero keeps its sign,

@@ -18,10 +18,10 @@ import math
 import warnings
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 
 from windnav._console import progress_bar
+from windnav._jit import njit
 from windnav._validate import positive_float, positive_int
 from windnav.control.se3 import SE3Gains
 from windnav.sensors.base import Sensor, SensorTruth
@@ -283,7 +283,7 @@ def _initial_state(loop: ClosedLoop, initial_state) -> np.ndarray:
     return x
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _unpack_kernel(x, position, velocity, attitude, body_rates, rotor_speeds):  # pragma: no cover
     """Copy packed states ``x`` (M, 13 + N) into their blocks, each (M, k), in the order of
     :mod:`windnav.vehicle.layout`."""

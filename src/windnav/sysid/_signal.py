@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav._validate import positive_float
 
 __all__ = ["local_slope", "min_run", "steepest_slope"]
@@ -19,7 +19,7 @@ def _segments(t: np.ndarray) -> list[np.ndarray]:
     return np.split(np.arange(t.size), breaks)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _segment_slopes(ts, ys, w, before, after, out):
     """:func:`_window_slope` over one segment, each window's sums taken about its own sample
     (``t - t_i``, ``y - y_i``), so that no precision is lost to the size of ``t`` or ``y``."""

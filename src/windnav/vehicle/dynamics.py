@@ -42,9 +42,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav.vehicle.layout import (
     C_DX,
     C_DY,
@@ -192,7 +192,7 @@ def pack_params(
 BLOCK = 64
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _gather_params(scalars, inertia, inertia_inv, rpos, rdir, b0, n, sc, I, Iinv, rp, rd):
     """Per-vehicle parameters of the block ``b0 : b0 + n`` in SoA layout."""
     P = scalars.shape[0]
@@ -211,7 +211,7 @@ def _gather_params(scalars, inertia, inertia_inv, rpos, rdir, b0, n, sc, I, Iinv
                 rp[i, c, j] = rpos[p, i, c]
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _rotation_block(y, n, R):
     """Rotation matrices (body to world) of the block's quaternions into ``R`` (9, n)."""
     for j in range(n):
@@ -219,7 +219,7 @@ def _rotation_block(y, n, R):
          R[8, j]) = quat_to_rotation(y[QUAT, j], y[QUAT + 1, j], y[QUAT + 2, j], y[QUAT + 3, j])
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _hub_airspeed(R, y, wh, rp, i, j):
     """Body-frame airspeed of rotor ``i`` of vehicle ``j``: ``R^T (v - w_i) + Omega x r_i``."""
     o0 = y[RATES, j]
@@ -237,7 +237,7 @@ def _hub_airspeed(R, y, wh, rp, i, j):
     return vx, vy, vz
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _translational_lift(sc, j, thrust, vx, vy):
     """``L_i = k_h (v_x^2 + v_y^2) s_i`` with ``s_i = 1`` (RotorPy) or ``min(1, T_i / T_ref)``
     (bounded), selected without a branch by the LIFT_BOUNDED column (0 or 1)."""
@@ -246,7 +246,7 @@ def _translational_lift(sc, j, thrust, vx, vy):
     return sc[K_H, j] * (vx * vx + vy * vy) * scale
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _deriv_block(sc, I, Iinv, rp, rd, y, eta, wc, wh, n, dy, R, F, M):
     """Rigid-body derivative ``dy`` (13, n), body force F (3, n) and moment M (3, n)."""
     n_rot = rp.shape[0]
@@ -319,7 +319,7 @@ def _deriv_block(sc, I, Iinv, rp, rd, y, eta, wc, wh, n, dy, R, F, M):
         dy[RATES + 2, j] = Iinv[6, j] * t0 + Iinv[7, j] * t1 + Iinv[8, j] * t2
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _load_block(x, wind_com, wind_hub, b0, n, y, eta0, wc, wh):
     n_rot = eta0.shape[0]
     for j in range(n):
@@ -334,7 +334,7 @@ def _load_block(x, wind_com, wind_hub, b0, n, y, eta0, wc, wh):
             wc[c, j] = wind_com[b, c]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def step_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, eta_cmd, wind_com, wind_hub,
                 dt, substeps, out):
     """Advance packed states ``x`` (B, 13 + N) by ``dt``; write into ``out``.
@@ -423,7 +423,7 @@ def step_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, eta_cmd, wind_com,
                 out[b, ROTORS + i] = cmd[i, j] + (eta0[i, j] - cmd[i, j]) * full
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def derivative_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, wind_com, wind_hub,
                       out_dy, out_force, out_moment):
     """Rigid-body derivative (B, 13), body force (B, 3) and moment (B, 3) at states ``x``."""
@@ -456,7 +456,7 @@ def derivative_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, wind_com, wi
                 out_moment[b0 + j, c] = M[c, j]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def rotor_loads_kernel(scalars, inertia, inertia_inv, rpos, rdir, x, wind_com, wind_hub,
                        out_thrust, out_lift):
     """Per-rotor thrust ``k_eta eta_i^2`` and translational lift ``L_i`` (B, N), N, at the

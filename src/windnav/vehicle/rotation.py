@@ -17,8 +17,9 @@ overhead dominates for small batches. ``test_rotation.py`` checks them against S
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from windnav._jit import njit
 
 __all__ = [
     "euler_zyx_to_rotation",
@@ -30,7 +31,7 @@ __all__ = [
 ]
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def quat_to_rotation(qx, qy, qz, qw):
     """Row-major entries of the rotation matrix of a (not necessarily unit) quaternion."""
     n = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
@@ -43,7 +44,7 @@ def quat_to_rotation(qx, qy, qz, qw):
             2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y))
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def euler_zyx_to_rotation(psi, theta, phi):
     """Row-major entries of ``Rz(psi) Ry(theta) Rx(phi)`` (angles in rad)."""
     cps, sps = np.cos(psi), np.sin(psi)
@@ -54,7 +55,7 @@ def euler_zyx_to_rotation(psi, theta, phi):
             -sth, cth * sph, cth * cph)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _quat_matrices(q, out):
     for b in range(q.shape[0]):
         r = quat_to_rotation(q[b, 0], q[b, 1], q[b, 2], q[b, 3])
@@ -62,7 +63,7 @@ def _quat_matrices(q, out):
             out[b, k // 3, k % 3] = r[k]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _euler_matrices(e, out):
     for b in range(e.shape[0]):
         r = euler_zyx_to_rotation(e[b, 0], e[b, 1], e[b, 2])

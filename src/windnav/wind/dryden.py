@@ -68,10 +68,10 @@ import threading
 import warnings
 from collections import OrderedDict
 
-import numba
 import numpy as np
 import scipy.linalg
 
+from windnav._jit import njit
 from windnav._validate import (
     ReadOnlyOnCopy,
     batch_array,
@@ -206,7 +206,7 @@ def _exact_step(a, b, p, fastest: float, dt: float) -> tuple[np.ndarray, np.ndar
     return phi, 0.5 * (q + q.T)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _run_block(x, phi, s, noise, c, mean, out):  # pragma: no cover - numba
     """Gusts of one block: ``out[k] = mean + C x_k`` for ``k = 0..M`` (``out`` (M+1, R, 3)).
 

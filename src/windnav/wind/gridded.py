@@ -15,9 +15,9 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from windnav._jit import njit
 from windnav._validate import ReadOnlyOnCopy, batch_array
 from windnav.wind.base import check_query
 
@@ -42,7 +42,7 @@ def _bracket(axis: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return i, a
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _locate(axis, q):  # pragma: no cover - numba
     """Clamped bracket of ``q``: index ``i`` in [0, n-2] and weight in [0, 1] (binary search)."""
     n = axis.size
@@ -60,7 +60,7 @@ def _locate(axis, q):  # pragma: no cover - numba
     return lo, (q - axis[lo]) / (axis[lo + 1] - axis[lo])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _interpolate(x, y, frames, k0, k1, c, xyz, out):  # pragma: no cover - numba
     """Bilinear in space on ``frames[k0]`` and ``frames[k1]`` (ny, nx, 2), linear (weight c)
     between them; writes (u, v, 0) per position into ``out`` (B, 3)."""
@@ -84,7 +84,7 @@ def _interpolate(x, y, frames, k0, k1, c, xyz, out):  # pragma: no cover - numba
         out[p, 2] = 0.0
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _all_finite(a):  # pragma: no cover - numba
     """True when every value of the 3-D array ``a`` (any strides) is finite; no temporary
     (np.isfinite of 2.3 GB of strided frames allocates 144 M booleans and takes ~3x longer)."""
