@@ -697,3 +697,40 @@ def test_the_flow_cache_tells_maps_of_the_same_buildings_on_other_domains_apart(
     assert flow_cache_name("m", small, *args) != flow_cache_name("m", large, *args)
     assert flow_cache_name("m", small, *args) == flow_cache_name(
         "m", City((0.0, 80.0, 0.0, 60.0), [[30.0, 40.0, 20.0, 30.0]], [25.0]), *args)
+
+
+def test_a_flow_cached_by_other_solver_code_is_solved_again_with_a_warning(
+        evaluation, tmp_path, monkeypatch):
+    """The cache key held the map, the inlet and the settings, not the solver: after a change
+    of the solver's code a kept cache served the old flows, silently (cache audit). Each entry
+    now records the hash of the solver's source; another hash, or none (an entry from before),
+    is a miss named in a warning, solved again and replaced."""
+    import zarr
+
+    import windnav.experiments.decoder_eval as de
+    from windnav.flow import flow_attrs
+
+    maps, res = evaluation
+    cache = tmp_path / "flows"
+    _cache_run(maps, cache)
+    entries = sorted(cache.iterdir())
+    assert {flow_attrs(e)["config"]["solver_code"] for e in entries} == {
+        de.module_key(de.SOLVER_MODULE)}
+    root = zarr.open_group(str(entries[0]), mode="r+")     # an entry from before 2026-12-06
+    config = dict(root.attrs["config"])
+    del config["solver_code"]
+    root.attrs["config"] = config
+    with pytest.warns(UserWarning, match="did not record its solver code") as caught:
+        again = _cache_run(maps, cache)
+    assert entries[0].name in " ".join(str(w.message) for w in caught)
+    assert [r["flow_cached"] for r in again["records"]].count(False) == 1
+    _same_run(again, res)
+    monkeypatch.setattr(de, "module_key", lambda name: "0123456789abcdef")  # the solver edited
+    with pytest.warns(UserWarning, match="other solver code") as caught:
+        third = _cache_run(maps, cache)
+    assert sum("other solver code" in str(w.message) for w in caught) == len(entries)
+    assert not any(r["flow_cached"] for r in third["records"])
+    _same_run(third, res)
+    assert sorted(cache.iterdir()) == entries                # replaced in place, nothing else
+    fourth = _cache_run(maps, cache)
+    assert all(r["flow_cached"] for r in fourth["records"])

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from windnav import _jit
+from windnav import _jit, _source
 
 SRC = Path(_jit.__file__).resolve().parent
 
@@ -39,7 +39,7 @@ def _package(tmp_path: Path) -> Path:
 
 def test_the_closure_follows_absolute_relative_parenthesised_and_submodule_imports(tmp_path):
     root = _package(tmp_path)
-    got = {p.relative_to(root).as_posix() for p in _jit.source_closure(root / "kernel.py", root)}
+    got = {p.relative_to(root).as_posix() for p in _source.source_closure(root / "kernel.py", root)}
     assert got == {"kernel.py", "sub/__init__.py", "sub/helper.py", "sub/consts.py",
                    "unrelated.py", "__init__.py"}
 
@@ -47,19 +47,19 @@ def test_the_closure_follows_absolute_relative_parenthesised_and_submodule_impor
 def test_the_key_changes_with_a_dependency_and_not_with_a_file_outside_the_closure(tmp_path):
     root = _package(tmp_path)
     (root / "other.py").write_text("Y = 1\n")
-    key = _jit.source_key(root / "kernel.py", root)
+    key = _source.source_key(root / "kernel.py", root)
     (root / "other.py").write_text("Y = 2\n")
-    assert _jit.source_key(root / "kernel.py", root) == key
+    assert _source.source_key(root / "kernel.py", root) == key
     (root / "sub" / "consts.py").write_text("SCALE = 3.0\n")
-    assert _jit.source_key(root / "kernel.py", root) != key
+    assert _source.source_key(root / "kernel.py", root) != key
 
 
 def test_the_real_kernels_closures_hold_their_jitted_dependencies():
     closure = {p.relative_to(SRC).as_posix()
-               for p in _jit.source_closure(SRC / "plan" / "_kernels.py")}
+               for p in _source.source_closure(SRC / "plan" / "_kernels.py")}
     assert {"plan/_kernels.py", "plan/_random.py", "_jit.py"} <= closure
     closure = {p.relative_to(SRC).as_posix()
-               for p in _jit.source_closure(SRC / "vehicle" / "dynamics.py")}
+               for p in _source.source_closure(SRC / "vehicle" / "dynamics.py")}
     assert {"vehicle/layout.py", "vehicle/rotation.py", "vehicle/params.py"} <= closure
 
 

@@ -647,3 +647,33 @@ def test_two_processes_creating_one_store_at_once_both_finish_it(tmp_path):
         assert [p.returncode for p in procs] == [0, 0], errors
         store = SweepStore(path)
         assert store.n_maps == 2 and all(store.done(k).all() for k in range(2))
+
+
+def test_resuming_a_sweep_with_other_solver_code_is_said_and_recorded(tmp_path, monkeypatch):
+    """A sweep resumed after a change of the solver's code mixed cases of both solvers, and
+    nothing in the store or the output said so (cache audit). The store now records the
+    solver's source hash of every run; resuming with another one, when cases are done, warns."""
+    import warnings
+
+    import windnav.flow.sweep_store as ss
+
+    os.mkdir(tmp_path / "log")
+    kw = dict(directions_deg=[0.0, 90.0], backend="serial", progress=False,
+              simulate=FakeSolver(str(tmp_path / "log")), speeds=[2.0], settings=SETTINGS)
+    out = tmp_path / "s.zarr"
+    store, _ = sweep(MAPS[:1], out, **kw)
+    first = ss.module_key(ss.SOLVER_MODULE)
+    assert store.solver_code == [first]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                        # the same code: nothing to say
+        store, _ = sweep(MAPS[:1], out, **kw)
+    assert store.solver_code == [first]
+    monkeypatch.setattr(ss, "module_key", lambda name: "0123456789abcdef")
+    with pytest.warns(UserWarning, match=r"2 finished case\(s\) solved by other solver code"):
+        store, _ = sweep(MAPS[:1], out, **kw)
+    assert store.solver_code == [first, "0123456789abcdef"]
+    del zarr.open_group(str(out), mode="r+").attrs["solver_code"]   # a store from before
+    monkeypatch.setattr(ss, "module_key", lambda name: "fedcba9876543210")
+    with pytest.warns(UserWarning, match="did not record its solver code"):
+        store, _ = sweep(MAPS[:1], out, **kw)
+    assert store.solver_code == ["fedcba9876543210"]

@@ -49,6 +49,7 @@ from pathlib import Path
 
 import numpy as np
 
+from windnav._source import module_key
 from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
@@ -206,6 +207,10 @@ def slot_rng(seed: int, map_index: int, inlet_index: int) -> np.random.Generator
     return np.random.default_rng(np.random.SeedSequence([int(seed), 3, map_index, inlet_index]))
 
 
+SOLVER_MODULE = "windnav.flow.solver"
+"""The module whose source (with the windnav modules it imports) a cached flow is keyed by."""
+
+
 def flow_cache_name(name: str, city, speed: float, direction: float, dx: float,
                     settings: dict, dt: float) -> str:
     """The folder name of one slot's cached solution: the map's name, then a hash of its
@@ -232,8 +237,12 @@ def slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, dx
 
     An entry is written to a temporary sibling and renamed into place once complete
     (:func:`windnav.experiments.results.atomic_path`), so an interrupted write (Ctrl-C) leaves
-    no entry; its config records the map, the inlet and ``compute_s``, the seconds the
-    simulation took (what :func:`evaluate_decoder`'s budget charges a cached slot). An entry
+    no entry; its config records the map, the inlet, ``compute_s``, the seconds the
+    simulation took (what :func:`evaluate_decoder`'s budget charges a cached slot), and
+    ``solver_code``, the hash of the solver's source (:data:`SOLVER_MODULE` and the windnav
+    modules it imports; :func:`windnav._source.module_key`). An entry solved by other solver
+    code, or one from before 2026-12-06 that records none, is solved again and replaced, with a
+    warning: a cache kept across a change of the solver served the old flows. An entry
     that cannot be read (damaged, or left incomplete by a process killed while writing it with
     an older windnav) is a cache miss: a warning names it, and the flow is solved again and
     replaces it. The temporary copy a killed process left of the entry is removed when the
@@ -265,15 +274,25 @@ def _slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, d
 
     path = Path(cache_dir) / flow_cache_name(name, city, speed, direction, dx, steps, dt) \
         if cache_dir is not None else None
+    code = module_key(SOLVER_MODULE)
     if path is not None and path.is_dir():
         try:  # CorruptStoreError (a ValueError), or a folder that is no flow solution (yet)
             sol = load_flow(path)
-            return sol, True, _recorded_seconds(flow_attrs(path))
+            attrs = flow_attrs(path)
         except ValueError as exc:
             reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             warnings.warn(f"slot_flow: the flow cache entry {str(path)!r} cannot be read (an "
                           f"interrupted write, or damaged); solving it again to replace it. "
                           f"({reason})", stacklevel=3)
+        else:
+            recorded = (attrs.get("config") or {}).get("solver_code")
+            if recorded == code:
+                return sol, True, _recorded_seconds(attrs)
+            warnings.warn(f"slot_flow: the flow cache entry {str(path)!r} was solved by "
+                          + (f"other solver code (source hash {recorded})" if recorded else
+                             "a windnav that did not record its solver code")
+                          + f"; this solver's is {code} ({SOLVER_MODULE} and the modules it "
+                          "imports). Solving it again to replace it.", stacklevel=3)
     t0 = time.perf_counter()
     sol = (simulate or flow_simulate)(city, speed=speed, direction_deg=direction, dx=dx, dt=dt,
                                       **steps)
@@ -283,7 +302,8 @@ def _slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, d
         # a process killed while writing this entry left its temporary copy (tens of MB)
         _remove_dead_leftovers(path.parent, [glob.escape(path.name)])
         with atomic_path(path) as tmp:  # replaces an unreadable entry whole
-            save_flow(sol, tmp, config={"map": name, "inlet": inlet, "compute_s": compute_s})
+            save_flow(sol, tmp, config={"map": name, "inlet": inlet, "compute_s": compute_s,
+                                        "solver_code": code})
     return sol, False, compute_s
 
 

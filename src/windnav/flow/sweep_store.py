@@ -42,7 +42,9 @@ before the digests existed can only be checked for unreadable chunks and non-fin
 other finished cases are reported as unverified.
 
 Reopening a store with :meth:`SweepStore.create` and the same config resumes it; a different
-config is refused. One simulation on its own: :mod:`windnav.flow.solution_io`.
+config is refused. The store records the hash of the solver's source of every run that wrote it
+(``solver_code``); resuming with other solver code, when cases are already done, warns that the
+sweep mixes two solvers. One simulation on its own: :mod:`windnav.flow.solution_io`.
 """
 
 from __future__ import annotations
@@ -53,12 +55,14 @@ import hashlib
 import json
 import math
 import os
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import zarr
 
+from windnav._source import module_key
 from windnav.city import City
 from windnav.flow._zarr import (
     FORMAT_VERSION,
@@ -184,6 +188,30 @@ def _creation_lock(path: str):
         yield
     finally:
         os.close(fd)  # releases the lock
+
+SOLVER_MODULE = "windnav.flow.solver"
+"""The module whose source (with the windnav modules it imports) a store's runs record."""
+
+
+def _note_solver_code(store: SweepStore, where: str) -> None:
+    """Record this solver's source hash in a resumed store, and warn when cases already done
+    were solved by other code (or by a windnav that recorded none): the sweep then mixes two
+    solvers, which nothing else would show."""
+    code = module_key(SOLVER_MODULE)
+    before = store.solver_code
+    if code in before:
+        return
+    n_done = sum(int(np.count_nonzero(store.done(k))) for k in range(store.n_maps))
+    if n_done:
+        by = (f"other solver code (source hash {', '.join(before)})" if before else
+              "a windnav that did not record its solver code")
+        warnings.warn(
+            f"{where}: {store.path!r} holds {n_done} finished case(s) solved by {by}; this "
+            f"solver's is {code} ({SOLVER_MODULE} and the modules it imports). The cases left "
+            "are solved with this one, so the sweep mixes two solvers; delete the store to "
+            "solve every case with this one.", stacklevel=4)
+    store.group.attrs["solver_code"] = [*before, code]
+
 
 class SweepStore:
     """A dataset of flow simulations, ``maps x cases``, in one Zarr v3 store (see module doc).
@@ -322,6 +350,7 @@ class SweepStore:
             repaired = _repair(group, maps, static, case_speed.size, n_frames)
             store = cls(path, mode="r+")
             store.repaired = repaired
+            _note_solver_code(store, where)
             return store
         group = zarr.open_group(path, mode="w")
         group.attrs["windnav_format"] = SWEEP_FORMAT + ".unfinished"
@@ -343,12 +372,21 @@ class SweepStore:
                 "n_maps": len(maps),
                 "n_frames": n_frames,
                 "identity": ident,
+                "solver_code": [module_key(SOLVER_MODULE)],
                 "checksums": {p: digest(a) for p, a in static.items() if p.startswith("cases/")},
                 "format_version": FORMAT_VERSION,
                 "windnav_format": SWEEP_FORMAT,
             }
         )
         return cls(path, mode="r+")
+
+    @property
+    def solver_code(self) -> list[str]:
+        """The hashes of the solver's source (:func:`windnav._source.module_key` of
+        :data:`SOLVER_MODULE`) of every run that wrote this store, oldest first; empty for a
+        store from before 2026-12-06."""
+        codes = self.group.attrs.get("solver_code")
+        return [str(c) for c in codes] if isinstance(codes, list) else []
 
     def _map(self, k: int):
         try:
