@@ -202,7 +202,7 @@ def test_reach_table_counts():
     v = table["variants"]["v"]
     bins = v.pop("by_mean_time")
     assert v == {"flights": 3, "failures": 1, "reachable": 2, "failures_reachable": 1,
-                 "success_unreachable": 1}
+                 "success_unreachable": 1, "errors": 0}
     # 30 s falls in the first bin (upper edges inclusive), 55 s in 50-60, no route in "none"
     assert bins == {"0-30": [1, 0], "30-40": [0, 0], "40-50": [0, 0], "50-60": [1, 1],
                     "60-95": [0, 0], "none": [1, 0]}
@@ -287,7 +287,7 @@ def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, cap
     mppi = limit["variants"]["mppi"]
     assert sum(n for n, _ in mppi.pop("by_mean_time").values()) == 2
     assert mppi == {"flights": 2, "failures": 1, "reachable": 2, "failures_reachable": 1,
-                    "success_unreachable": 0}
+                    "success_unreachable": 0, "errors": 0}
     assert (tmp_path / "out" / "nav_feasibility.png").stat().st_size > 10_000
     capsys.readouterr()
     args[args.index("--airspeeds") + 1] = "-1"
@@ -616,3 +616,25 @@ def test_a_reach_cache_belongs_to_one_suite_seed_and_search(tmp_path, capsys):
                      str(tmp_path / "a"), "--out", str(tmp_path / "out")]) == 2
     assert "'--cache' parameter of windnav nav-study" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_reach_table_leaves_harness_errors_out_of_its_rates_as_the_benchmark_table_does():
+    """A flight whose latest record is a harness error (no flight flown) counted as a failure
+    here but in no rate of the benchmark's table: four flights (success, success, hover,
+    error), all reachable, gave 50 % failures where the table says 33 % (definitions audit)."""
+    from windnav.experiments.nav_records import benchmark_table
+
+    reach = [{"scenario_id": s, "speed": 6.0, "kind": "tailwind",
+              "limits": {"13": {"reachable": True, "recorded_time_s": 30.0,
+                                "mean_time_s": 30.0}}} for s in "abcd"]
+    flights = [{"scenario_id": s, "variant": "v", "outcome": o}
+               for s, o in zip("abcd", ("success", "success", "hover", "error"), strict=True)]
+    v = reach_table(reach, flights, airspeed=13.0)["variants"]["v"]
+    assert (v["flights"], v["failures"], v["failures_reachable"], v["errors"]) == (3, 1, 1, 1)
+    assert sum(n for n, _ in v["by_mean_time"].values()) == 3
+    full = [{**f, "energy_J": 1.0, "rotor_energy_J": 1.0, "time_s": 1.0, "distance_m": 1.0,
+             "mean_cmd_accel": 1.0, "speed": 6.0, "kind": "tailwind", "map_index": 0,
+             "wind_index": i, "pair_index": 0} for i, f in enumerate(flights)]
+    table = benchmark_table(full, reference="v")
+    assert 100.0 * v["failures"] / v["flights"] == pytest.approx(
+        table["rows"]["v"]["failure_pct"]["value"])

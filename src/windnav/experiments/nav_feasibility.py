@@ -355,9 +355,11 @@ def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
         count, the reachable count and the median least time (recorded wind) of the reachable
         ones, s; ``variants``: per variant, ``flights``, ``failures``, ``failures_reachable``
         (failures in reachable scenarios), ``reachable`` (its flights in reachable scenarios),
-        ``success_unreachable`` and ``by_mean_time``: per bin of the least time in the *mean*
-        wind (:data:`MEAN_TIME_BINS`, s; the wind the ``+W`` planners know),
-        ``[flights, failures]``.
+        ``success_unreachable``, ``errors`` (flights whose harness failed, outcome
+        ``"error"``: counted apart and in no other count, as in the benchmark's table) and
+        ``by_mean_time``: per bin of the least time in the *mean* wind
+        (:data:`MEAN_TIME_BINS`, s; the wind the ``+W`` planners know), ``[flights,
+        failures]``.
     """
     key = f"{airspeed:g}"
     reach = {r["scenario_id"]: r for r in reach}
@@ -373,7 +375,7 @@ def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
     for g in groups.values():
         times = g.pop("times")
         g["median_time_s"] = float(np.median(times)) if times else None
-    from windnav.experiments.nav_records import latest_records
+    from windnav.experiments.nav_records import ERROR, latest_records
 
     variants = {}
     for rec in latest_records(records).values():  # a re-flown flight counts once, as the table
@@ -382,7 +384,11 @@ def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
             continue
         v = variants.setdefault(rec["variant"], {
             "flights": 0, "failures": 0, "reachable": 0, "failures_reachable": 0,
-            "success_unreachable": 0, "by_mean_time": {b: [0, 0] for b in _bin_labels()}})
+            "success_unreachable": 0, "errors": 0,
+            "by_mean_time": {b: [0, 0] for b in _bin_labels()}})
+        if rec["outcome"] == ERROR:  # the harness failed: no flight, in no rate (as the table)
+            v["errors"] += 1
+            continue
         ok = rec["outcome"] == "success"
         v["flights"] += 1
         v["failures"] += not ok

@@ -254,7 +254,7 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     v = table["variants"]
     # the variants flown on every scenario of the table (studies flown on a part of the suite
     # would compare failure rates over other scenario sets); all when none is
-    names = [n for n in v if v[n]["flights"] == table["n"]] or list(v)
+    names = [n for n in v if v[n]["flights"] + v[n].get("errors", 0) == table["n"]] or list(v)
     ys = np.arange(len(names))
     fail = np.array([100 * v[n]["failures"] / max(v[n]["flights"], 1) for n in names])
     fail_r = np.array([100 * v[n]["failures_reachable"] / v[n]["reachable"]
