@@ -181,3 +181,4 @@ def test_fly_exits_1_when_the_wind_estimate_it_was_asked_for_diverged(tmp_path, 
     summary = json.loads((out / "summary.json").read_text())
     assert summary["non_finite_from_s"] is None and summary["wind_rmse_m_s"] is None
     assert summary["energy_J"] > 0
+    assert summary["rotor_energy_J"] == summary["energy_J"]   # navigate's name for it

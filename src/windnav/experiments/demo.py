@@ -33,6 +33,7 @@ from windnav._validate import positive_float
 from windnav.city.generate import training_map
 from windnav.estimate.conditions import ukf_conditions
 from windnav.estimate.flight import run_wind_ukf
+from windnav.experiments.flight import tracking_rms
 from windnav.experiments.ukf_conditions import estimate_wind
 from windnav.flow import simulate
 from windnav.plan.graph_search import free_space, grid_route
@@ -170,8 +171,11 @@ def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
         "max_wind_speed_along_path_m_s": float(np.linalg.norm(log.wind[:, 0], axis=-1).max()),
         "wind_rmse_m_s": track.rmse_after(cfg.settle_s),
         "wind_rmse_axes_m_s": [track.rmse_after(cfg.settle_s, axis=k) for k in range(3)],
-        "rms_tracking_error_m": float(np.sqrt(np.mean(log.tracking_error ** 2))),
-        # none for a diverged flight: the log holds its energy from the step it stopped (as fly)
+        "rms_tracking_error_m": tracking_rms(log, duration),   # after take-off, as fly's
+        # none for a diverged flight: the log holds its energy from the step it stopped (as
+        # fly); the rotors' energy, under the name navigate gives it, and under the older
+        # energy_J, which in the navigation story is the airspeed power curve's (as fly's)
+        "rotor_energy_J": float(log.energy[-1, 0]) if bool(log.finite[0]) else None,
         "energy_J": float(log.energy[-1, 0]) if bool(log.finite[0]) else None,
         "rotor_saturation_fraction": log.saturation_fraction,
         # where the flight left the model's envelope (CLI audit C: --seed 1 spent 24.9 % of
