@@ -290,3 +290,33 @@ def test_one_inlet_speed_stands_for_every_sample():
     assert a == b
     with pytest.raises(ValueError, match="inlet_speed"):
         field_errors(pred, true, free, -1.0)
+
+
+def test_the_per_cell_direction_error_is_the_metrics_and_blank_where_it_counts_none():
+    """The figures computed their own angle with a 1e-18 floor, so a calm cell (|u| = 0) drew
+    a 90-deg error that field_errors leaves out: a 3 x 3 field titled 0.0 deg showed a 90-deg
+    cell (definitions audit). direction_error_cells is the metric's angle, NaN where none."""
+    import pathlib
+
+    from windnav.predict import direction_error_cells, field_errors
+
+    rng = np.random.default_rng(5)
+    true = rng.normal(size=(3, 2, 7, 7))
+    pred = true + 0.3 * rng.normal(size=true.shape)
+    true[0, :, 3, 3] = 0.0                                   # calm air in the truth
+    pred[1, :, 2, 4] = 0.0                                   # and in a prediction
+    free = rng.random((3, 7, 7)) > 0.2
+    cells = direction_error_cells(pred, true, axis=1)
+    assert cells.shape == (3, 7, 7)
+    assert np.isnan(cells[0, 3, 3]) and np.isnan(cells[1, 2, 4])
+    counted = np.where(free, cells, np.nan)
+    want = field_errors(pred, true, free, 5.0)
+    assert np.nanmean(counted) == pytest.approx(want["direction_error_deg"], rel=1e-12)
+    assert np.isfinite(counted).sum() == want["n_direction"]
+    one = direction_error_cells(pred[0], true[0])            # components first, as the figures
+    assert np.array_equal(np.isnan(one), np.isnan(cells[0]))
+    assert np.allclose(one[~np.isnan(one)], cells[0][~np.isnan(one)], rtol=0, atol=0)
+    with pytest.raises(ValueError, match="pred"):
+        direction_error_cells(pred[0], true[0, :, :3])
+    viz = pathlib.Path(__file__).parents[1] / "src" / "windnav" / "viz" / "decoder.py"
+    assert "arccos" not in viz.read_text()                   # the figures draw this one

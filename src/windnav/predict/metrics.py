@@ -63,13 +63,36 @@ def _fields(pred, true, free, inlet_speed, where):
     return pred, true, free, speed
 
 
+def _angles(pu, pv, tu, tv):
+    """Predicted and true speeds and the angle between the vectors (deg), per cell."""
+    sp, st = np.hypot(pu, pv), np.hypot(tu, tv)
+    cos = (pu * tu + pv * tv) / np.maximum(sp * st, ZERO_SPEED**2)
+    return sp, st, np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
 def _cell_angles(p, t, f):
     """Per cell: predicted and true speeds, the angle between them (deg), and where the angle
     counts (free, both speeds >= :data:`ZERO_SPEED`); ``p``, ``t`` float64 (B, 2, H, H)."""
-    sp, st = np.hypot(p[:, 0], p[:, 1]), np.hypot(t[:, 0], t[:, 1])
-    cos = (p[:, 0] * t[:, 0] + p[:, 1] * t[:, 1]) / np.maximum(sp * st, ZERO_SPEED**2)
-    angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+    sp, st, angle = _angles(p[:, 0], p[:, 1], t[:, 0], t[:, 1])
     return sp, st, angle, f & (sp >= ZERO_SPEED) & (st >= ZERO_SPEED)
+
+
+def direction_error_cells(pred, true, *, axis: int = 0) -> np.ndarray:
+    """The direction error of each cell (deg), as :func:`field_errors` counts it: NaN where
+    either vector is shorter than :data:`ZERO_SPEED` (no direction; left out of its means).
+
+    ``pred`` and ``true`` are ``[u, v]`` fields of one shape, the components along ``axis``
+    (m/s); the result has that shape without ``axis``. The figures draw this, so a cell of
+    calm air no longer shows as a 90-deg error the metric does not count.
+    """
+    p = np.moveaxis(np.asarray(pred, dtype=np.float64), axis, 0)
+    t = np.moveaxis(np.asarray(true, dtype=np.float64), axis, 0)
+    if p.shape != t.shape or p.shape[:1] != (2,):
+        raise _fail("pred", "direction_error_cells",
+                    f"an array of the shape of 'true' with 2 components along axis {axis}",
+                    f"shapes {np.shape(pred)} and {np.shape(true)}")
+    sp, st, angle = _angles(p[0], p[1], t[0], t[1])
+    return np.where((sp >= ZERO_SPEED) & (st >= ZERO_SPEED), angle, np.nan)
 
 
 def field_errors(pred, true, free, inlet_speed, *, min_speed_fraction: float = 0.1,

@@ -18,6 +18,7 @@ import numpy as np
 from matplotlib.colors import ListedColormap
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.predict.metrics import direction_error_cells
 from windnav.viz.nav_compare import colour_extend
 
 __all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
@@ -129,8 +130,7 @@ def plot_prediction(pred: dict, path, *, title: str = "") -> Path:
     st, sp = np.hypot(*truth), np.hypot(*guess)
     vmax = max(np.nanmax(np.where(free, st, np.nan)) if free.any() else 1.0,
                np.nanmax(np.where(free, sp, np.nan)) if free.any() else 1.0)
-    cos = (truth * guess).sum(0) / np.maximum(st * sp, 1e-18)
-    angle = np.degrees(np.arccos(np.clip(cos, -1, 1)))
+    angle = direction_error_cells(guess, truth)  # NaN (blank) where the metric counts none
     fig, axes = plt.subplots(2, 2, figsize=(11, 10))
     _panel(axes[0, 0], o, c, truth, free, st, "viridis", "speed (m/s)", 0, vmax, truth,
            arrow_speed=vmax)
@@ -144,7 +144,8 @@ def plot_prediction(pred: dict, path, *, title: str = "") -> Path:
     axes[1, 0].set_title("speed error")
     # the colour scale up to the largest error (at least 10 deg), not always 180: errors of
     # 20 deg drew the whole panel black (figures audit, 2026-12-05)
-    worst = float(np.nanmax(np.where(free, angle, np.nan))) if free.any() else 180.0
+    counted = np.where(free, angle, np.nan)
+    worst = float(np.nanmax(counted)) if np.isfinite(counted).any() else 180.0
     _panel(axes[1, 1], o, c, None, free, angle, "magma", "direction error (deg)", 0,
            min(max(worst, 10.0), 180.0))
     axes[1, 1].set_title("direction error")
@@ -447,8 +448,7 @@ def plot_mosaic(result: dict, path) -> Path:
     ok = result["free"] & result["covered"]
     st, sp = np.hypot(*truth), np.hypot(*pred)
     vmax = float(np.quantile(st[result["free"]], 0.995)) if result["free"].any() else 1.0
-    cos = (truth * pred).sum(0) / np.maximum(st * sp, 1e-18)
-    angle = np.degrees(np.arccos(np.clip(cos, -1, 1)))
+    angle = direction_error_cells(pred, truth)  # NaN (blank) where the metric counts none
     err = np.abs(sp - st)
     fig, axes = plt.subplots(2, 2, figsize=(13, 12))
     panels = (
