@@ -157,8 +157,11 @@ def run(args, simulate=None, flow_settings=None) -> int:
             write_json(doc, stage.file("--json"))
     summary = {g: {m: {k: p[m][k] for k in ("speed_error", "direction_error_deg")}
                    for m in res["models"]}
-               | {"improvement_pct": p["improvement_pct"], "acceptance": p["acceptance"],
-                  "n_slots": p["n_slots"]}
+               | {"improvement_pct": p["improvement_pct"],
+                  # the intervals over the slots (bootstrap; None below 6 slots)
+                  "improvement_ci95": {b: {k: c["ci95"] for k, c in by.items()}
+                                       for b, by in p["improvement_ci95"]["decoder"].items()},
+                  "acceptance": p["acceptance"], "n_slots": p["n_slots"]}
                for g, p in res["pooled"].items()}
     print(json.dumps(json_ready({"pooled": summary, "n_slots_run": res["n_slots_run"],
                       "stopped_by_budget": res["stopped_by_budget"],

@@ -35,7 +35,9 @@ The protocol (the thesis's evaluation, ch. 4, on our maps):
   not change the estimate.
 
 Pooled errors weigh cells equally (:func:`windnav.predict.pooled_errors`); improvements are
-``1 - model / baseline`` (:func:`windnav.predict.improvement`), in percent.
+``1 - model / baseline`` (:func:`windnav.predict.improvement`), in percent, each with a paired
+bootstrap interval over the slots (:func:`improvement_interval`: none below 6 slots, called
+approximate below 64).
 """
 
 from __future__ import annotations
@@ -53,8 +55,8 @@ from windnav._source import module_key
 from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
-           "check_point", "flow_cache_name", "inlet_slots", "predict_at", "slot_flow",
-           "slot_rng", "windinet_layout"]
+           "check_point", "flow_cache_name", "improvement_interval", "inlet_slots", "predict_at",
+           "slot_flow", "slot_rng", "windinet_layout"]
 
 EVAL_MAP_SEED = 2000
 """Seed of the dense evaluation maps (the default recipe's training maps use 1001-1005)."""
@@ -149,6 +151,101 @@ def _improvement_pct(model: float, baseline: float) -> float:
 def _improvements(errors: dict, model: str) -> dict:
     return {base: {k: _improvement_pct(errors[model][k], errors[base][k]) for k in _IMPROVED}
             for base in BASELINES}
+
+
+IMPROVEMENT_BOOTSTRAP = 2000
+"""Resamples of the slots behind each improvement's interval (:func:`improvement_interval`)."""
+
+
+def improvement_interval(records, model: str = "decoder", baseline: str = "local",
+                         metric: str = "speed_error", *, group: str = "all",
+                         n_boot: int = IMPROVEMENT_BOOTSTRAP, confidence: float = 0.95,
+                         seed: int = 0) -> dict:
+    """A model's pooled improvement over a baseline (%) with a paired bootstrap interval
+    over the evaluation's slots (:func:`windnav.experiments.intervals.pooled_ratio_interval`).
+
+    Each (map, inlet) slot's samples share one flow, so the slots are resampled, the model's
+    and the baseline's cells of a drawn slot together; a resample's improvement is ``1 -
+    pooled(model) / pooled(baseline)`` over its slots, cells weighing equally, as the pooled
+    figures do.
+
+    Parameters
+    ----------
+    records : sequence of dict
+        :func:`evaluate_decoder`'s ``records`` (or those of its JSON): per slot ``group`` and,
+        per model, the metrics and their cell counts.
+    model, baseline : str
+        Names in the records (``"decoder"``, a compared model; ``"local"``, ``"upstream"``).
+    metric : str
+        One of :data:`windnav.predict.METRICS`.
+    group : str
+        ``"dense"``, ``"windinet"`` or ``"all"``: the slots taken.
+    n_boot, confidence, seed
+        Resamples, level and seed (the stream is the seed and the four names, so an interval
+        does not depend on which others are asked for).
+
+    Returns
+    -------
+    dict
+        ``value`` (%, the pooled improvement), ``ci95`` ([low, high] % or None), ``slots``
+        and, where the interval is missing or approximate, ``ci95_note`` (fewer than
+        :data:`~windnav.experiments.intervals.MIN_BOOTSTRAP_CLUSTERS` slots: none; fewer than
+        :data:`~windnav.experiments.intervals.COVERED_BOOTSTRAP_CLUSTERS`: approximate).
+    """
+    import zlib
+
+    from windnav.experiments.intervals import (
+        COVERED_BOOTSTRAP_CLUSTERS,
+        MIN_BOOTSTRAP_CLUSTERS,
+        pooled_ratio_interval,
+    )
+    from windnav.predict.metrics import _COUNTS
+
+    where = "improvement_interval"
+    if metric not in _COUNTS:
+        raise ValueError(f"The 'metric' parameter of {where} must be one of {sorted(_COUNTS)}. "
+                         f"Got {metric!r} instead.")
+    count = _COUNTS[metric]
+    chosen = [r for r in records if group == "all" or r.get("group") == group]
+    sums = []
+    for r in chosen:
+        row = []
+        for name in (model, baseline):
+            if name not in r:
+                raise ValueError(f"The 'records' parameter of {where} must hold {name!r} in "
+                                 f"every slot. Got a slot of {r.get('map')!r} without it.")
+            n = float(r[name][count])
+            row += [float(r[name][metric]) * n if n > 0 else 0.0, n]
+        sums.append(row)
+    s = np.asarray(sums, dtype=np.float64).reshape(-1, 4)
+    out = {"value": None, "ci95": None, "slots": len(chosen)}
+    if not (s[:, 1].sum() > 0 and s[:, 3].sum() > 0 and s[:, 2].sum() > 0):
+        return out
+    out["value"] = float(100.0 * (1.0 - (s[:, 0].sum() / s[:, 1].sum())
+                                  / (s[:, 2].sum() / s[:, 3].sum())))
+    if len(chosen) < MIN_BOOTSTRAP_CLUSTERS:
+        out["ci95_note"] = (f"no interval: {len(chosen)} slot{'s' if len(chosen) != 1 else ''}, "
+                            f"and a bootstrap over the slots needs at least "
+                            f"{MIN_BOOTSTRAP_CLUSTERS}")
+        return out
+    if len(chosen) < COVERED_BOOTSTRAP_CLUSTERS:
+        out["ci95_note"] = (f"approximate: from {len(chosen)} slots; on the navigation "
+                            "table's winds a bootstrap over so few clusters covered the truth "
+                            f"less often than it says (until {COVERED_BOOTSTRAP_CLUSTERS})")
+    label = zlib.crc32(f"{model}/{baseline}/{metric}/{group}".encode())
+    rng = np.random.default_rng([int(seed), label])
+    ci = pooled_ratio_interval(s, n_boot=n_boot, rng=rng, confidence=confidence)
+    out["ci95"] = None if ci is None else [100.0 * ci[0], 100.0 * ci[1]]
+    return out
+
+
+def _intervals(records, models, group: str) -> dict:
+    """:func:`improvement_interval` of every scored model over each baseline, for the speed
+    and direction errors (the acceptance's two)."""
+    return {m: {base: {k: improvement_interval(records, m, base, k, group=group)
+                       for k in ("speed_error", "direction_error_deg")}
+                for base in BASELINES}
+            for m in models if m not in BASELINES}
 
 
 def _summary(errors: dict) -> dict:
@@ -439,7 +536,10 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         cache), errors of each model, improvement_pct), ``failed`` (slots whose flow
         failed, with the error),
         ``pooled`` (``{"dense": ..., "windinet": ..., "all": ...}``: errors per model,
-        improvement_pct and ``acceptance``: issue 9's checks, None with a ``note`` below
+        improvement_pct, ``improvement_ci95`` (per model other than the baselines, per
+        baseline, for the speed and direction errors: :func:`improvement_interval`'s value,
+        interval over the slots and note) and ``acceptance``: issue 9's checks, None with a
+        ``note`` below
         :data:`ACCEPTANCE_SLOTS` slots of :data:`ACCEPTANCE_SAMPLES` samples),
         ``n_slots_run``, ``n_slots_planned``, ``stopped_by_budget``, ``elapsed_s``;
         ``models`` (the names scored, in order) and ``compared`` (each compared model's file
@@ -535,6 +635,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
             continue
         summary = _summary({m: _pool([ps[m] for ps in chosen]) for m in models})
         summary["n_slots"] = len(chosen)
+        summary["improvement_ci95"] = _intervals(records, models, group)
         summary["acceptance"] = _acceptance(summary, samples)
         pooled[group] = summary
     return {

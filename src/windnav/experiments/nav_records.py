@@ -46,6 +46,12 @@ from pathlib import Path
 import numpy as np
 
 from windnav.experiments.arithmetic import FIELDS
+from windnav.experiments.intervals import (
+    COVERAGE_NOTE,
+    COVERED_BOOTSTRAP_CLUSTERS,
+    MIN_BOOTSTRAP_CLUSTERS,
+    pooled_ratio_interval,
+)
 
 __all__ = [
     "FAILURES",
@@ -79,7 +85,7 @@ METRICS = (
 
 ENERGIES = ("energy_J", "rotor_energy_J")
 
-MIN_BOOTSTRAP_WINDS = 6
+MIN_BOOTSTRAP_WINDS = MIN_BOOTSTRAP_CLUSTERS
 """Fewest winds the table ratio's bootstrap interval is given for. Every resample lies between
 the ratios of the winds taken alone, so the interval is at most their range, and the range of
 ``G`` winds covers the middle of their distribution with probability ``1 - 2 ** (1 - G)``:
@@ -87,15 +93,14 @@ under 95 % below 6 winds (50 % for 2, 75 % for 3). With 2 winds the "95 %" inter
 the truth in 26 % of simulated suites, with 3 in 46 % (audit); ``ci95`` is None below it, with
 ``ci95_note`` saying why. Six winds are needed, not enough: see :data:`COVERED_BOOTSTRAP_WINDS`."""
 
-COVERED_BOOTSTRAP_WINDS = 64
+COVERED_BOOTSTRAP_WINDS = COVERED_BOOTSTRAP_CLUSTERS
 """Fewest winds at which the table ratio's interval covered the truth about as often as it says:
 90-94.5 % of simulated suites with 64 winds (coverage audit, ``docs/navigation.md``), but 71 %
 with 6 and 82 % with 16 (statistics audit, thirty-ninth session). Below it the interval is
 given with a ``ci95_note`` calling it approximate (the thesis suite has 256 winds; maps 0-3 of
 it, 64)."""
 
-_COVERAGE = ("a bootstrap over the winds covered the truth in 71 % (6 winds) to 82 % (16) of "
-             f"simulated suites, 90-94.5 % only at {COVERED_BOOTSTRAP_WINDS}")
+_COVERAGE = COVERAGE_NOTE
 """The measured coverage below :data:`COVERED_BOOTSTRAP_WINDS`, as the note and the table say it."""
 
 MANIFEST = "manifest.json"
@@ -476,13 +481,7 @@ def _table_ratio(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, rn
     elif nv > 1 and nr > 1 and n_boot > 0:
         if both < COVERED_BOOTSTRAP_WINDS:
             out["ci95_note"] = f"approximate: from {both} common winds, where {_COVERAGE}"
-        w = rng.multinomial(len(groups), np.full(len(groups), 1.0 / len(groups)), size=n_boot)
-        t = w @ s  # (n_boot, 4): each resample's sums and counts
-        with np.errstate(invalid="ignore", divide="ignore"):
-            boot = 1.0 - (t[:, 0] / t[:, 1]) / (t[:, 2] / t[:, 3])
-        boot = boot[np.isfinite(boot)]  # a resample without a success of either: no ratio
-        a = 0.5 * (1.0 - confidence)
-        out["ci95"] = [float(np.quantile(boot, a)), float(np.quantile(boot, 1.0 - a))]
+        out["ci95"] = pooled_ratio_interval(s, n_boot=n_boot, rng=rng, confidence=confidence)
     return out
 
 
