@@ -26,6 +26,7 @@ from scipy import stats
 import windnav.commands.benchmark_nav as bench_cmd
 import windnav.experiments.arithmetic as ar
 import windnav.experiments.nav_benchmark as nb
+from windnav._source import module_key
 from windnav.experiments.nav_records import (
     UNNAMED_ARITHMETIC,
     CorruptRecordError,
@@ -675,7 +676,10 @@ def test_table_counts_means_and_both_energy_measures():
     rot = ea["vs_reference"]["rotor_energy_J"]["paired_reduction"]
     assert rot["mean"] == pytest.approx(np.mean(paired))  # rotor = 2 x airspeed here
     md = render_table(t)
-    assert md.count("\n| mppi |") == 3 and md.count("| ea-mppi-w |") == 6
+    # the table's sections, and the last one: records that name no code are said
+    assert md.count("\n| mppi |") == 4 and md.count("| ea-mppi-w |") == 7
+    assert t["rows"]["mppi"]["codes"] == {"unrecorded": 6}
+    assert "| mppi | unrecorded 6 |" in md and "The table mixes code versions" in md
     assert "3.00 ± 1.58" in md and "16.7 (16.7, 0.0, 0.0, 0.0)" in md
     assert "6 (+1 errors)" in md and f"{100 * (1 - mean_ea / 3000):.1f}%" in md
     assert f"{100 * np.mean(paired):.1f}%" in md
@@ -903,8 +907,10 @@ def test_tiny_suite_flies_every_flight_once_per_wind(tiny_store):
     recs = NavStore(path, TINY).load()
     assert [r["error"] for r in recs] == [None] * 8
     assert list(recs[0]) == (list(nb.RECORD_FIELDS) + list(nb.ENVELOPE_FIELDS)
-                             + list(nb.KERNEL_FIELDS))
+                             + list(nb.KERNEL_FIELDS) + list(nb.CODE_FIELDS))
     assert recs[0]["blas_kernel"] == nb.blas_kernel()
+    # the code that flew them (a store resumed across a change of it mixed both, unsaid)
+    assert {r["code"] for r in recs} == {module_key(nb.CODE_MODULE)}
     # one wind simulation per (map, wind): every flight of a wind reports the same flow time
     for w in (0, 1):
         assert len({r["flow_s"] for r in recs if r["wind_index"] == w}) == 1
@@ -1655,3 +1661,20 @@ def test_identical_values_give_no_t_interval():
                  distance_m=300.0 + 3 * k)
     assert "every value it would be drawn from" not in render_table(
         benchmark_table(spread, n_boot=0))
+
+
+def test_the_table_says_when_its_records_were_flown_by_more_than_one_code():
+    """A store resumed across a change of the code holds records of both, and the table said
+    nothing (cache audit); records now name their code, and the table counts and says it."""
+    def rec(i, code):
+        out = {"scenario_id": f"s{i}", "variant": "mppi", "seed": 0, "outcome": "success",
+               "energy_J": 1.0, "rotor_energy_J": 1.0, "time_s": 1.0, "distance_m": 1.0,
+               "mean_cmd_accel": 1.0}
+        return out if code is None else {**out, "code": code}
+
+    one = benchmark_table([rec(i, "aaaa") for i in range(3)], n_boot=0)
+    assert one["rows"]["mppi"]["codes"] == {"aaaa": 3}
+    assert "flights by code" not in render_table(one)
+    mixed = benchmark_table([rec(0, "aaaa"), rec(1, "bbbb"), rec(2, None)], n_boot=0)
+    assert mixed["rows"]["mppi"]["codes"] == {"aaaa": 1, "bbbb": 1, "unrecorded": 1}
+    assert "| mppi | aaaa 1, bbbb 1, unrecorded 1 |" in render_table(mixed)

@@ -15,6 +15,7 @@ import pytest
 import windnav.commands.navigate as nav_cmd
 from windnav.city import City
 from windnav.experiments.nav_benchmark import (
+    CODE_FIELDS,
     ENVELOPE_FIELDS,
     KERNEL_FIELDS,
     ONBOARD_FIELDS,
@@ -388,8 +389,9 @@ def test_benchmark_records_carry_the_onboard_fields(city, flow):
     theirs = fly_scenario(spec, sc, "ea-mppi-w", city=city, flow=flow, navigate_fn=short)
     assert ours["error"] is None and theirs["error"] is None
     assert list(ours) == (list(RECORD_FIELDS) + list(ENVELOPE_FIELDS) + list(KERNEL_FIELDS)
-                          + list(ONBOARD_FIELDS))
-    assert list(theirs) == list(RECORD_FIELDS) + list(ENVELOPE_FIELDS) + list(KERNEL_FIELDS)
+                          + list(CODE_FIELDS) + list(ONBOARD_FIELDS))
+    assert list(theirs) == (list(RECORD_FIELDS) + list(ENVELOPE_FIELDS) + list(KERNEL_FIELDS)
+                            + list(CODE_FIELDS))
     assert 0 < theirs["airspeed_max_mps"] and theirs["outside_envelope_s"] >= 0
     assert ours["real_time_fraction"] > 0 and set(ours["stage_ms_median"]) == set(STAGES)
     assert ours["blas_kernel"] == blas_kernel()

@@ -52,6 +52,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from windnav._source import module_key
 from windnav._validate import options_named
 from windnav.experiments.arithmetic import FIELDS, arithmetic, blas_kernel
 from windnav.experiments.nav_records import (
@@ -78,6 +79,8 @@ from windnav.experiments.nav_suite import (
 __all__ = [
     "BENCHMARK_DECODER",
     "DECODERS",
+    "CODE_FIELDS",
+    "CODE_MODULE",
     "ENVELOPE_FIELDS",
     "KERNEL_FIELDS",
     "KERNEL_SENSITIVE_NOTE",
@@ -150,12 +153,22 @@ that day only name the kernel). A flight replays to 1e-6 only under the same ari
 (:data:`KERNEL_SENSITIVE_NOTE`); ``windnav benchmark-nav --replay`` pins the record's when this
 CPU can run it."""
 
+CODE_FIELDS = ("code",)
+"""The field after :data:`KERNEL_FIELDS` in every record flown since 2026-12-06 (the records
+before lack it): the hash of the code that flew it, this module and every windnav module it
+imports (:func:`windnav._source.module_key` of :data:`CODE_MODULE`; 90 files). A store resumed
+across a change of the code holds records of both; the table counts them (``codes``) and says
+so, and ``windnav benchmark-nav --check`` replays a sample of them under the code at hand."""
+
+CODE_MODULE = "windnav.experiments.nav_benchmark"
+"""The module whose import closure :data:`CODE_FIELDS`' hash covers."""
+
 ONBOARD_FIELDS = ("stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps",
                   "ukf_wind_rms_xy_mps")
 """Fields appended to the record of a flight with the onboard wind stack (``ea-mppi-w-hat``,
 :mod:`windnav.experiments.onboard`): per-stage median times (ms), the real-time load (s/s) and
 the Wind UKF's RMS errors (m/s). Other variants' records have exactly :data:`RECORD_FIELDS`,
-:data:`ENVELOPE_FIELDS` and :data:`KERNEL_FIELDS`."""
+:data:`ENVELOPE_FIELDS`, :data:`KERNEL_FIELDS` and :data:`CODE_FIELDS`."""
 
 KERNEL_SENSITIVE_NOTE = (
     "a closed-loop flight can amplify the last-bit differences between BLAS kernels and between "
@@ -165,7 +178,7 @@ KERNEL_SENSITIVE_NOTE = (
 
 
 ROUTE_FIELDS = ("route_energy_J", "route_hold_energy_J", "route_time_s", "route_length_m")
-"""Fields appended to the record of a GS or GS+W flight (after :data:`KERNEL_FIELDS`): the
+"""Fields appended to the record of a GS or GS+W flight (after :data:`CODE_FIELDS`): the
 planned route's energy in the wind it was planned in (the mean wind for GS+W; steady flight at
 each piece's optimal speed, no acceleration, no gusts; airspeed power curve, J), the goal hold
 it leaves out (``HOLD_S`` at rest in that wind at the goal, J), its time (s) and its length
@@ -739,8 +752,8 @@ def fly_scenario(spec: SuiteSpec, scenario: Scenario, variant: str, *, city=None
     Returns
     -------
     dict
-        :data:`RECORD_FIELDS`, :data:`ENVELOPE_FIELDS` and :data:`KERNEL_FIELDS` (then
-        :data:`ONBOARD_FIELDS` for
+        :data:`RECORD_FIELDS`, :data:`ENVELOPE_FIELDS`, :data:`KERNEL_FIELDS` and
+        :data:`CODE_FIELDS` (then :data:`ONBOARD_FIELDS` for
         the onboard stack, :data:`ROUTE_FIELDS` for GS and GS+W). When
         anything raised, ``outcome`` is ``"error"``, the metrics
         are None and ``error`` holds ``"Type: message"`` and the traceback.
@@ -868,13 +881,13 @@ def fly_group(spec: SuiteSpec, store, flights, *, city, flow, flow_s: float | No
 def error_record(scenario: Scenario, variant: str, error: str | None) -> dict:
     """The record of a flight that did not fly: ``outcome = "error"``, no metrics, ``error``
     (the traceback). Also the skeleton every record starts from (:data:`RECORD_FIELDS`)."""
-    rec = dict.fromkeys(RECORD_FIELDS + ENVELOPE_FIELDS + KERNEL_FIELDS)
+    rec = dict.fromkeys(RECORD_FIELDS + ENVELOPE_FIELDS + KERNEL_FIELDS + CODE_FIELDS)
     rec.update(scenario_id=scenario.scenario_id, variant=variant, seed=scenario.seed,
                outcome=ERROR, kind=scenario.kind, speed=scenario.speed,
                direction_deg=scenario.direction_deg, map_index=scenario.map_index,
                wind_index=scenario.wind_index, pair_index=scenario.pair_index,
                start=list(scenario.start), goal=list(scenario.goal), error=error,
-               **arithmetic())
+               code=module_key(CODE_MODULE), **arithmetic())
     return rec
 
 

@@ -107,6 +107,10 @@ MANIFEST = "manifest.json"
 RECORDS = "records.jsonl"
 CLAIMS = ".claims"
 
+UNRECORDED_CODE = "unrecorded"
+"""The table's name (``codes``) for the code of records that name none (``code``: flown before
+2026-12-06, :data:`windnav.experiments.nav_benchmark.CODE_FIELDS`)."""
+
 UNNAMED_ARITHMETIC = "unnamed_records_arithmetic"
 """Manifest key: the arithmetic (``blas_kernel``, ``numpy_simd``, as
 :func:`windnav.experiments.arithmetic.arithmetic` names them, and an optional ``found``: how it
@@ -556,7 +560,9 @@ def benchmark_table(
         the variant used less energy)}} and ``pace`` {``time_ratio``, ``power_ratio``: {``mean``,
         ``std``, ``n``, ``ci95``}} over the same pairs} (fractions, not %); ``failure_by``
         {``speed``, ``kind`` and ``goal_clearance_m`` (bands of :data:`GOAL_CLEARANCE_BANDS`,
-        for records that have the field): {group: {``pct``, ``n``}}}; for the onboard stack's
+        for records that have the field): {group: {``pct``, ``n``}}}; ``codes`` {the hash
+        of the code that flew the records (:data:`UNRECORDED_CODE` for those that name none):
+        how many}; for the onboard stack's
         records ``onboard``
         {``stage_ms`` {stage: {``median``, ``min``, ``max``, ``n``}}, ``real_time_fraction``,
         ``ukf_wind_rms_xy_mps``} over its flights; for variants whose records report the
@@ -600,6 +606,8 @@ def benchmark_table(
         diverged = _diverged(valid)
         if diverged:
             row["diverged"] = diverged
+        row["codes"] = dict(sorted(Counter(r.get("code") or UNRECORDED_CODE
+                                           for r in recs).items()))
         if v != reference and ref:
             # One stream per row, keyed by its label: a row's intervals do not depend on
             # which other rows the table shows.
@@ -863,7 +871,23 @@ def render_table(table: Mapping) -> str:
     out += _render_envelope(rows, variants)
     out += _render_diverged(rows, variants)
     out += _render_onboard(rows, variants)
+    out += _render_codes(rows, variants)
     return "\n".join(out) + "\n"
+
+
+def _render_codes(rows: Mapping, variants: Sequence[str]) -> list[str]:
+    """The code versions behind the rows, said when there is more than one or one unknown."""
+    codes = {c for v in variants for c in rows[v].get("codes", {})}
+    if len(codes) <= 1 and UNRECORDED_CODE not in codes:
+        return []
+    out = ["", "Records by the code that flew them (the hash of its source; \""
+           f"{UNRECORDED_CODE}\": flown before records named it). The table mixes code "
+           "versions; `windnav benchmark-nav --check N` replays a sample of the records under "
+           "the code at hand:", "", "| variant | flights by code |", "|---|---|"]
+    for v in variants:
+        parts = ", ".join(f"{c} {n}" for c, n in rows[v].get("codes", {}).items())
+        out.append(f"| {v} | {parts or '-'} |")
+    return out
 
 
 def _render_failure_by(rows: Mapping, variants: Sequence[str]) -> list[str]:
