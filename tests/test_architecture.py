@@ -13,9 +13,9 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "windnav"
 
 # the data flow, left to right; a package may import any package to its left
-LAYERS = ["_validate", "_extras", "_console", "city", "flow", "wind", "vehicle", "control",
-          "sensors", "sim", "estimate", "predict", "plan", "sysid", "experiments", "viz",
-          "commands", "cli"]
+LAYERS = ["_source", "_jit", "_validate", "_extras", "_console", "city", "flow", "wind",
+          "vehicle", "control", "sensors", "sim", "estimate", "predict", "plan", "sysid",
+          "experiments", "viz", "commands", "cli", "provenance"]
 
 # deliberate exceptions, each with its reason
 ALLOWED = {

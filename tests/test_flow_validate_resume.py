@@ -63,6 +63,7 @@ def untimed(folder):
     """The run's JSON document, without its output folder and the label-noise timings."""
     doc = json.loads((folder / "flow_validation.json").read_text())
     doc["arguments"].pop("out")
+    doc.pop("argv")                       # the words typed, --out's folder among them
     for row in doc.get("label_noise", {}).get("rows", []):
         row.pop("seconds_batch")
     return doc

@@ -1675,6 +1675,8 @@ def test_the_table_says_when_its_records_were_flown_by_more_than_one_code():
     one = benchmark_table([rec(i, "aaaa") for i in range(3)], n_boot=0)
     assert one["rows"]["mppi"]["codes"] == {"aaaa": 3}
     assert "flights by code" not in render_table(one)
+    # its "time to goal" is time_s, the flight's end: said under the table (units audit)
+    assert "includes the goal's capture and its 5 s hold" in render_table(one)
     mixed = benchmark_table([rec(0, "aaaa"), rec(1, "bbbb"), rec(2, None)], n_boot=0)
     assert mixed["rows"]["mppi"]["codes"] == {"aaaa": 1, "bbbb": 1, "unrecorded": 1}
     assert "| mppi | aaaa 1, bbbb 1, unrecorded 1 |" in render_table(mixed)

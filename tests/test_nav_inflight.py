@@ -254,7 +254,7 @@ def test_the_command_resumes_an_interrupted_study_with_the_same_result(tmp_path,
                          *more])
 
     def untimed(doc):
-        return {**{k: v for k, v in doc.items() if k not in ("elapsed_s", "arguments")},
+        return {**{k: v for k, v in doc.items() if k not in ("elapsed_s", "arguments", "argv")},
                 "arguments": {k: v for k, v in doc["arguments"].items() if k != "out"}}
 
     monkeypatch.setattr(ni, "_fly_wind", fly)

@@ -250,7 +250,9 @@ def _intervals(records, models, group: str) -> dict:
 
 def _summary(errors: dict) -> dict:
     """Per-model errors plus the decoder's improvement (%) over each baseline
-    (``improvement_pct``), and each compared model's (``compared_improvement_pct``)."""
+    (``improvement_pct``), and each compared model's (``compared_improvement_pct``). The
+    improvements are keyed by the metric improved: ``improvement_pct.local.direction_error_deg``
+    is a percentage (of the direction error, which is in degrees), not an angle."""
     out = dict(errors)
     out["improvement_pct"] = _improvements(errors, "decoder")
     compared = [m for m in errors if m not in MODELS]

@@ -811,7 +811,9 @@ def render_table(table: Mapping) -> str:
         n = f"{r['flights']}" + (f" (+{r['errors']} errors)" if r["errors"] else "")
         out.append(f"| {v} | {n} | " + " | ".join(_pm(r["metrics"][c], d) for c, _, d in _COLUMNS)
                    + f" | {fail_s} |")
-    out += ["", f"{pct_conf} confidence intervals (means: Student t over successful flights; "
+    out += ["", "Time to goal is the flight's end (`time_s`): for a success it includes the "
+            "goal's capture and its 5 s hold (`arrival_time_s` is the arrival).",
+            "", f"{pct_conf} confidence intervals (means: Student t over successful flights; "
             "failure %: Wilson):", "",
             "| variant | " + " | ".join(c[1] for c in _COLUMNS) + " | failure % |",
             "|" + "---|" * (len(_COLUMNS) + 2)]

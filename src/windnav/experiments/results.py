@@ -234,8 +234,9 @@ def machine() -> dict:
 
 def document(command: str, payload: Mapping, arguments=None) -> dict:
     """The JSON document of one run: ``command``, ``windnav_version``, ``machine``
-    (:func:`machine`), ``arguments`` (the parsed command line, when given) and the ``payload``
-    keys."""
+    (:func:`machine`), ``arguments`` (the parsed command line, when given), ``argv`` (the words
+    after ``windnav`` as typed, when the arguments carry them: since 2026-12-06) and the
+    ``payload`` keys."""
     from windnav import __version__
 
     doc = {"command": f"windnav {command}", "windnav_version": __version__,
@@ -243,6 +244,8 @@ def document(command: str, payload: Mapping, arguments=None) -> dict:
     if arguments is not None:
         args = vars(arguments) if not isinstance(arguments, Mapping) else dict(arguments)
         doc["arguments"] = {k: v for k, v in args.items() if k not in ("func", "command", "argv")}
+        if isinstance(args.get("argv"), list | tuple):  # the words typed: the exact line
+            doc["argv"] = [str(w) for w in args["argv"]]  # (windnav.provenance.command_line)
     doc.update(payload)
     return json_ready(doc)
 

@@ -1,0 +1,170 @@
+"""The command line that wrote a result file, rebuilt from the file itself.
+
+Every ``--json`` document a command writes records ``command`` (``"windnav NAME"``),
+``arguments`` (its parsed command line) and, since 2026-12-06, ``argv`` (the words as typed;
+:func:`windnav.experiments.results.document`). :func:`command_line` gives the typed line where
+the document has it, and otherwise rebuilds one from ``arguments`` that the current
+command-line interface parses to the same arguments, so a committed result names the one
+command that reproduces it without a document having to copy it out by hand. An option the
+current interface no longer has is an error naming it, not a line that would run something
+else::
+
+    >>> from windnav.provenance import command_line
+    >>> command_line("docs/data/decoder_eval_windinet.json")  # doctest: +SKIP
+    'windnav evaluate-decoder --maps 0 --inlets 8 --samples 2048 --budget-min 40 ... --out ...'
+
+A rebuilt line omits the values equal to the current defaults (a test rebuilds every committed
+result and parses it back, so a default that changes under one fails there). Some commands
+record a value they filled in themselves (``fly``'s ``--wind-sigma`` under ``--wind
+constant``), which the rebuilt line then gives and the command may refuse; the typed ``argv``
+has no such gap.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shlex
+from collections.abc import Mapping
+from pathlib import Path
+
+__all__ = ["command_line", "command_arguments"]
+
+_SKIPPED = ("func", "command", "argv")
+
+
+def _load(doc) -> Mapping:
+    if isinstance(doc, Mapping):
+        return doc
+    path = Path(doc)
+    if path.suffix == ".gz":
+        import gzip
+
+        with gzip.open(path, "rt") as f:
+            return json.load(f)
+    return json.loads(path.read_text())
+
+
+def _words(value) -> list[str]:
+    values = value if isinstance(value, list | tuple) else [value]
+    return [v if isinstance(v, str) else json.dumps(v) if isinstance(v, bool) else str(v)
+            for v in values]
+
+
+def _same(value, default) -> bool:
+    """``value`` (as JSON recorded it) equals the parser's ``default``."""
+    try:
+        return json.loads(json.dumps(default, default=str)) == value
+    except (TypeError, ValueError):
+        return False
+
+
+def _flag(action: argparse.Action, value) -> list[str] | None:
+    """The words that give ``action`` the value ``value``, or None where none are needed."""
+    if value is None or _same(value, action.default):
+        return None  # unset, or the default's
+    longest = max(action.option_strings, key=len)
+    if isinstance(action, argparse.BooleanOptionalAction):
+        positive = [s for s in action.option_strings if not s.startswith("--no-")]
+        negative = [s for s in action.option_strings if s.startswith("--no-")]
+        return [max(positive, key=len) if value else max(negative, key=len)]
+    if isinstance(action, argparse._StoreTrueAction | argparse._StoreFalseAction):
+        return [longest] if value != action.default else None
+    if isinstance(action, argparse._StoreConstAction):
+        return [longest] if value == action.const else None
+    if isinstance(action, argparse._CountAction):
+        return [longest] * int(value) if value else None
+    if isinstance(action, argparse._AppendAction):
+        out = []
+        for item in value:
+            out += [longest, *_words(item)]
+        return out or None
+    if isinstance(value, list | tuple) and not value and action.nargs in ("*", "?"):
+        return [longest]
+    return [longest, *_words(value)]
+
+
+def command_arguments(doc) -> list[str]:
+    """``["windnav", NAME, ...]``: the words of :func:`command_line` (a document, or the path
+    of a ``.json`` or ``.json.gz`` file)."""
+    from windnav.cli import build_parser
+
+    doc = _load(doc)
+    command, recorded = doc.get("command"), doc.get("arguments")
+    where = "command_line"
+    if not isinstance(command, str) or not command.startswith("windnav "):
+        raise ValueError(f"The 'doc' parameter of {where} must be a windnav result document "
+                         f"that records its 'command'. Got command={command!r} instead.")
+    if not isinstance(recorded, Mapping):
+        raise ValueError(f"The 'doc' parameter of {where} must record its 'arguments' (a "
+                         f"result of {command!r} written without them cannot be rebuilt).")
+    argv = doc.get("argv")
+    if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
+        return ["windnav", *argv]
+    parser = build_parser()
+    name = command.split()[1]
+    if name not in parser.commands:
+        raise ValueError(f"{where}: the command {name!r} that wrote this result is no longer a "
+                         "windnav command.")
+    words = ["windnav", name]
+    parser = parser.commands[name]
+    left = {k: v for k, v in recorded.items() if k not in _SKIPPED}
+    positionals: list[str] = []
+    while True:
+        sub = None
+        options: list[str] = []
+        for action in parser._actions:
+            if isinstance(action, argparse._HelpAction | argparse._VersionAction):
+                continue
+            if isinstance(action, argparse._SubParsersAction):
+                sub = action
+                continue
+            if action.dest not in left:
+                continue
+            value = left.pop(action.dest)
+            if not action.option_strings:
+                positionals += _words(value) if value is not None else []
+                continue
+            flag = _flag(action, value)
+            if flag:
+                options += flag
+        words += positionals + options
+        positionals = []
+        if sub is None or sub.dest not in left:
+            break
+        chosen = left.pop(sub.dest)
+        if chosen not in sub.choices:
+            raise ValueError(f"{where}: {name!r} has no {sub.dest} {chosen!r} any more.")
+        words.append(chosen)
+        parser = sub.choices[chosen]
+    unknown = sorted(k for k, v in left.items() if v is not None)
+    if unknown:
+        raise ValueError(f"{where}: the result records arguments that 'windnav {name}' no "
+                         f"longer has: {', '.join(unknown)}; the line it was written by cannot "
+                         "be rebuilt with this version.")
+    return words
+
+
+def command_line(doc) -> str:
+    """The command line (one shell line) that wrote the result ``doc``: a document (dict)
+    with ``command`` and ``arguments``, or the path of its ``.json`` / ``.json.gz`` file.
+
+    Raises
+    ------
+    ValueError
+        When the document records no command or arguments, or arguments the current command
+        no longer has (named).
+    """
+    return shlex.join(command_arguments(doc))
+
+
+def _main() -> None:  # pragma: no cover - python -m windnav.provenance FILE...
+    import sys
+
+    for path in sys.argv[1:]:
+        print(f"{os.fspath(path)}: {command_line(path)}")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    _main()
