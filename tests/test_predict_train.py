@@ -1130,3 +1130,29 @@ def test_a_learning_rate_that_makes_the_training_diverge_is_named(tiny, tmp_path
                                          r"the training diverge: the loss became nan in epoch 1"):
         train_decoder(tiny_recipe(learning_rate=1e6), store=out / "sweep.zarr",
                       out_dir=tmp_path, progress=False, log=None)
+
+
+def test_a_resume_under_other_training_code_is_said_and_recorded(tiny, tmp_path, monkeypatch):
+    """A checkpoint resumed after a change of the training code (the loss, the model, the
+    sampling) made one model of two codes, and nothing said so (cache audit's leftover). The
+    checkpoint and the history now record the code's hash; a resume under another warns, and
+    the history says from which epoch."""
+    import windnav.predict.train as tr
+
+    recipe, out, _ = tiny
+
+    def stop_after_one(epoch, record):
+        if epoch == 1:
+            raise Stop
+
+    with pytest.raises(Stop):
+        train_decoder(recipe, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                      log=None, callback=stop_after_one)
+    first = json.loads((tmp_path / "history.json").read_text())["code"]
+    assert first == tr.module_key(tr.TRAINING_MODULE)
+    monkeypatch.setattr(tr, "module_key", lambda name: "0123456789abcdef")
+    with pytest.warns(UserWarning, match=f"other training code \\(source hash {first}"):
+        h = train_decoder(recipe, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
+                          log=None)
+    assert h["code"] == first
+    assert h["resumed_by_code"] == [{"code": "0123456789abcdef", "from_epoch": 1}]

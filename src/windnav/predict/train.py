@@ -67,6 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
+from windnav._source import module_key
 from windnav.predict._loss import DIRECTION_FADE, SPEED_REF, fused_loss
 from windnav.predict.baselines import LocalBaseline, UpstreamBaseline
 from windnav.predict.dataset import DecoderDataset, fields_from_store
@@ -1110,6 +1111,11 @@ def _log_scalars(writer, record: dict) -> None:
     writer.flush()
 
 
+TRAINING_MODULE = "windnav.predict.train"
+"""The module whose source (with the windnav modules it imports) a checkpoint records
+(``code``); a resume under other code is warned."""
+
+
 class _Run:
     """The state of one training run: data, model, optimizer, history, and its files."""
 
@@ -1117,6 +1123,7 @@ class _Run:
         self.recipe, self.out, self.store = recipe, out, store
         self.data, self.tr, self.mdl = recipe["data"], recipe["train"], recipe["model"]
         self.fingerprint = _fingerprint(recipe)
+        self.code = module_key(TRAINING_MODULE)
         self.ckpt_path = out / "checkpoint.pt"
         self.hist_path = out / "history.json"
         self.model_path = out / "model.npz"
@@ -1132,6 +1139,14 @@ class _Run:
             raise ValueError(f"The 'config' parameter of {where} differs from the recipe of the "
                              f"checkpoint in {str(self.out)!r}; use another out folder, or delete "
                              "it (`windnav train-decoder --overwrite`) to start over.")
+        code = ckpt.get("code")
+        if code is not None and code != self.code:  # the epochs before and after differ
+            warnings.warn(
+                f"{where}: the checkpoint in {str(self.out)!r} was trained by other training "
+                f"code (source hash {code}; this one's is {self.code}: {TRAINING_MODULE} and "
+                "the modules it imports); resuming mixes the two in one model. Delete the "
+                "folder (`windnav train-decoder --overwrite`) to train it with this code "
+                "alone.", stacklevel=3)
         return ckpt
 
     def load_data(self, where: str) -> tuple:
@@ -1204,7 +1219,8 @@ class _Run:
         baselines = _baselines(self.val, data["size"], data["spacing"])
         self.history = {
             "recipe": self.meta["recipe"], "fingerprint": self.fingerprint,
-            "store": str(self.store), "n_train_fields": len(self.fields_train),
+            "code": self.code, "store": str(self.store),
+            "n_train_fields": len(self.fields_train),
             "n_val_fields": len(fields_val), "n_train_maps": n_train_maps,
             "n_val_maps": n_val_maps, "n_train_samples": len(self.batches.dataset),
             "n_val_samples": int(self.val.scans.shape[0]),
@@ -1238,6 +1254,9 @@ class _Run:
                 a.copy_(saved)
         self.history = ckpt["history"]
         self.start = len(self.history["epochs"])
+        if self.history.get("code") not in (None, self.code):  # said in the history too
+            self.history.setdefault("resumed_by_code", []).append(
+                {"code": self.code, "from_epoch": self.start})
 
     def epoch(self, e: int, progress: bool) -> dict:
         """Train epoch ``e``, validate, keep the best model; returns the epoch's record."""
@@ -1330,7 +1349,8 @@ class _Run:
     def save_checkpoint(self) -> None:
         import torch
 
-        state = {"fingerprint": self.fingerprint, "model": self.model.state_dict(),
+        state = {"fingerprint": self.fingerprint, "code": self.code,
+                 "model": self.model.state_dict(),
                  "optimizer": self.opt.state_dict(), "scheduler": self.sched.state_dict(),
                  "torch_rng": torch.get_rng_state(), "history": self.history}
         if self.ema is not None:
