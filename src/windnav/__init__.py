@@ -14,6 +14,11 @@ stays cheap. None of them loads torch: only training the decoder
 from __future__ import annotations
 
 import importlib
+import time
+
+IMPORTED_NS = time.time_ns()
+"""When windnav was first imported in this process (ns since the epoch): every windnav module
+it runs was read from disk after this (``windnav._jit`` compares source files' times with it)."""
 
 __version__ = "0.1.0"
 

@@ -18,11 +18,24 @@ from pathlib import Path
 PACKAGE = "windnav"
 ROOT = Path(__file__).resolve().parent
 
+# a statement starts a line, or follows ";" or ":" ("try: from ...", "x = 1; import ...")
 _FROM = re.compile(
-    r"^[ \t]*from[ \t]+(\.+[\w.]*|windnav(?:\.[\w.]+)?)[ \t]+import[ \t]+(\([^)]*\)|[^\n#]+)",
+    r"(?:^|[;:])[ \t]*from[ \t]+(\.+[\w.]*|windnav(?:\.[\w.]+)?)[ \t]+import[ \t]+"
+    r"(\([^)]*\)|[^\n;]+)",
     re.MULTILINE,
 )
-_IMPORT = re.compile(r"^[ \t]*import[ \t]+([^\n#]+)", re.MULTILINE)
+_IMPORT = re.compile(r"(?:^|[;:])[ \t]*import[ \t]+([^\n;]+)", re.MULTILINE)
+_PLAIN = re.compile(r"(?:^|[;:])[ \t]*import[ \t]+windnav\b", re.MULTILINE)
+_CHAIN = re.compile(r"\bwindnav(?:\.[A-Za-z_]\w*)+")
+_ALIAS = re.compile(r"(?:^|[;:])[ \t]*import[ \t]+windnav[ \t]+as[ \t]+([A-Za-z_]\w*)",
+                    re.MULTILINE)
+_COMMENT = re.compile(r"#[^\n]*")
+
+
+def _statements(text: str) -> str:
+    """``text`` with comments removed and backslash continuations joined (a comment's ``)``
+    ended a parenthesised import early; a continued line was missed: jit audit)."""
+    return _COMMENT.sub("", text).replace("\\\n", " ")
 
 
 def _module_file(dotted: str, root: Path) -> Path | None:
@@ -53,7 +66,7 @@ def _imports(path: Path, root: Path) -> frozenset[Path]:
 
 @functools.lru_cache(maxsize=None)
 def _imports_of(path: Path, root: Path, mtime_ns: int, size: int) -> frozenset[Path]:
-    text = path.read_text(encoding="utf-8")
+    text = _statements(path.read_text(encoding="utf-8"))
     own = dotted_name(path, root)
     package = own if path.name == "__init__.py" else own.rpartition(".")[0]
     found: set[Path] = set()
@@ -77,11 +90,25 @@ def _imports_of(path: Path, root: Path, mtime_ns: int, size: int) -> frozenset[P
                     found.add(sub)
     for line in _IMPORT.findall(text):
         for item in line.split(","):
-            dotted = item.strip().split(" ")[0]
+            words = item.split()
+            dotted = words[0] if words else ""
             if dotted.startswith(PACKAGE + ".") or dotted == PACKAGE:
                 target = _module_file(dotted, root)
                 if target is not None:
                     found.add(target)
+    chains = set(_CHAIN.findall(text)) if _PLAIN.search(text) else set()
+    for alias in set(_ALIAS.findall(text)):  # `import windnav as wn`, then wn.sim.fly
+        chains |= {PACKAGE + c[len(alias):] for c in
+                   re.findall(rf"\b{alias}(?:\.[A-Za-z_]\w*)+", text)}
+    if chains:  # `import windnav(.x)` or an alias, then windnav.a.b.X: each chain named
+        for chain in chains:
+            parts = chain.split(".")
+            while len(parts) > 1:
+                target = _module_file(".".join(parts), root)
+                if target is not None:
+                    found.add(target)
+                    break
+                parts.pop()
     found.discard(path)
     return frozenset(found)
 
@@ -114,11 +141,25 @@ def source_key(path: str | os.PathLike, root: str | os.PathLike = ROOT) -> str:
 
 
 def module_key(dotted: str) -> str:
-    """:func:`source_key` of the windnav module ``dotted`` (e.g. ``"windnav.flow.solver"``)."""
+    """:func:`source_key` of the windnav module ``dotted`` (e.g. ``"windnav.flow.solver"``),
+    with ``"-modified"`` after it where a file of the closure changed after windnav was
+    imported: the code this process runs may then not be the code the files hold (review)."""
     path = _module_file(dotted, ROOT)
     if path is None:
         raise ValueError(f"module_key: no windnav module {dotted!r}")
-    return _cached_key(str(path))
+    key = _cached_key(str(path))
+    return key + "-modified" if changed_since_import(path) else key
+
+
+def changed_since_import(path: str | os.PathLike, root: str | os.PathLike = ROOT) -> bool:
+    """Whether a file of ``path``'s closure was modified after windnav was imported in this
+    process (or cannot be read): every module it runs was read before that time."""
+    from windnav import IMPORTED_NS
+
+    try:
+        return any(f.stat().st_mtime_ns >= IMPORTED_NS for f in source_closure(path, root))
+    except OSError:
+        return True
 
 
 @functools.lru_cache(maxsize=None)
