@@ -35,9 +35,9 @@ The protocol (the thesis's evaluation, ch. 4, on our maps):
   not change the estimate.
 
 Pooled errors weigh cells equally (:func:`windnav.predict.pooled_errors`); improvements are
-``1 - model / baseline`` (:func:`windnav.predict.improvement`), in percent, each with a paired
-bootstrap interval over the slots (:func:`improvement_interval`: none below 6 slots, called
-approximate below 64).
+``1 - model / baseline`` (:func:`windnav.predict.improvement`), in percent; those of the speed
+and direction errors with a paired bootstrap interval over the slots
+(:func:`improvement_interval`: none below 6 slots, called approximate below 64).
 """
 
 from __future__ import annotations
@@ -181,8 +181,9 @@ def improvement_interval(records, model: str = "decoder", baseline: str = "local
     group : str
         ``"dense"``, ``"windinet"`` or ``"all"``: the slots taken.
     n_boot, confidence, seed
-        Resamples, level and seed (the stream is the seed and the four names, so an interval
-        does not depend on which others are asked for).
+        Resamples, level and seed (the stream is the seed, the three names and the slots
+        taken, so an interval does not depend on which others are asked for, nor on the
+        group's name when two groups hold the same slots).
 
     Returns
     -------
@@ -232,7 +233,10 @@ def improvement_interval(records, model: str = "decoder", baseline: str = "local
         out["ci95_note"] = (f"approximate: from {len(chosen)} slots; on the navigation "
                             "table's winds a bootstrap over so few clusters covered the truth "
                             f"less often than it says (until {COVERED_BOOTSTRAP_CLUSTERS})")
-    label = zlib.crc32(f"{model}/{baseline}/{metric}/{group}".encode())
+    # the stream: the seed, the names and the slots taken (not the group's name, so that a
+    # windinet-only run's "windinet" and "all" give one interval; review)
+    slots = sorted(f"{r.get('map')}/{r.get('inlet')}" for r in chosen)
+    label = zlib.crc32("|".join([model, baseline, metric, *slots]).encode())
     rng = np.random.default_rng([int(seed), label])
     ci = pooled_ratio_interval(s, n_boot=n_boot, rng=rng, confidence=confidence)
     out["ci95"] = None if ci is None else [100.0 * ci[0], 100.0 * ci[1]]

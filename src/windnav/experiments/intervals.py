@@ -7,9 +7,11 @@ means, ``1 - (a / b) / (c / d)``, where ``a / b`` is one method's sum over its c
 clusters. Items within a cluster share its flow, so the clusters, not the items, are resampled,
 and both methods' items of a drawn cluster are taken together (paired).
 
-Every resample's ratio lies between the clusters' own ratios, so with ``G`` clusters the
-interval is at most their range, which covers the middle of their distribution with
-probability ``1 - 2 ** (1 - G)``: none is given below :data:`MIN_BOOTSTRAP_CLUSTERS`. Above it
+Where the clusters' counts are alike between the two methods (the same flights, the same
+cells), every resample's ratio lies between the clusters' own ratios, so with ``G`` clusters
+the interval is at most their range, which covers the middle of their distribution with
+probability ``1 - 2 ** (1 - G)``: none is given below :data:`MIN_BOOTSTRAP_CLUSTERS`. (With
+counts far from proportional a resample can leave that range.) Above it
 the interval still covers the truth less often than it says until about
 :data:`COVERED_BOOTSTRAP_CLUSTERS` (measured on the navigation table's winds:
 ``docs/navigation.md``, "How far to trust the intervals").
