@@ -652,28 +652,36 @@ def test_two_processes_creating_one_store_at_once_both_finish_it(tmp_path):
 def test_resuming_a_sweep_with_other_solver_code_is_said_and_recorded(tmp_path, monkeypatch):
     """A sweep resumed after a change of the solver's code mixed cases of both solvers, and
     nothing in the store or the output said so (cache audit). The store now records the
-    solver's source hash of every run; resuming with another one, when cases are done, warns."""
+    solver's source hash of every run that solves cases; resuming with another one, when cases
+    are done and others left, warns. A finished store is not a mix (review)."""
     import warnings
 
     import windnav.flow.sweep_store as ss
 
-    os.mkdir(tmp_path / "log")
-    kw = dict(directions_deg=[0.0, 90.0], backend="serial", progress=False,
-              simulate=FakeSolver(str(tmp_path / "log")), speeds=[2.0], settings=SETTINGS)
+    kw = dict(directions_deg=[0.0, 90.0, 180.0], backend="serial", progress=False,
+              speeds=[2.0], settings=SETTINGS)
     out = tmp_path / "s.zarr"
-    store, _ = sweep(MAPS[:1], out, **kw)
+    for k in range(4):
+        os.mkdir(tmp_path / f"log{k}")
+    with pytest.raises(KeyboardInterrupt):                    # 1 of 3 cases solved
+        sweep(MAPS[:1], out, simulate=FakeSolver(str(tmp_path / "log0"), interrupt_after=1),
+              **kw)
     first = ss.module_key(ss.SOLVER_MODULE)
-    assert store.solver_code == [first]
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")                        # the same code: nothing to say
-        store, _ = sweep(MAPS[:1], out, **kw)
-    assert store.solver_code == [first]
+    assert SweepStore(out).solver_code == [first]
     monkeypatch.setattr(ss, "module_key", lambda name: "0123456789abcdef")
-    with pytest.warns(UserWarning, match=r"2 finished case\(s\) solved by other solver code"):
-        store, _ = sweep(MAPS[:1], out, **kw)
-    assert store.solver_code == [first, "0123456789abcdef"]
+    with pytest.raises(KeyboardInterrupt), pytest.warns(
+            UserWarning, match=r"1 finished case\(s\) solved by other solver code"):
+        sweep(MAPS[:1], out, simulate=FakeSolver(str(tmp_path / "log1"), interrupt_after=1),
+              **kw)
+    assert SweepStore(out).solver_code == [first, "0123456789abcdef"]
     del zarr.open_group(str(out), mode="r+").attrs["solver_code"]   # a store from before
     monkeypatch.setattr(ss, "module_key", lambda name: "fedcba9876543210")
-    with pytest.warns(UserWarning, match="did not record its solver code"):
-        store, _ = sweep(MAPS[:1], out, **kw)
+    with pytest.warns(UserWarning, match=r"2 finished case\(s\) solved by a windnav that did "
+                                         "not record its solver code"):
+        store, _ = sweep(MAPS[:1], out, simulate=FakeSolver(str(tmp_path / "log2")), **kw)
+    assert store.solver_code == ["fedcba9876543210"]
+    monkeypatch.setattr(ss, "module_key", lambda name: "1111111111111111")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")                        # finished: nothing is mixed
+        store, _ = sweep(MAPS[:1], out, simulate=FakeSolver(str(tmp_path / "log3")), **kw)
     assert store.solver_code == ["fedcba9876543210"]

@@ -194,14 +194,17 @@ SOLVER_MODULE = "windnav.flow.solver"
 
 
 def _note_solver_code(store: SweepStore, where: str) -> None:
-    """Record this solver's source hash in a resumed store, and warn when cases already done
-    were solved by other code (or by a windnav that recorded none): the sweep then mixes two
-    solvers, which nothing else would show."""
+    """Record this solver's source hash in a resumed store with cases left to solve, and warn
+    when cases already done were solved by other code (or by a windnav that recorded none): the
+    sweep then mixes two solvers, which nothing else would show. A finished store is left as it
+    is (a case a later ``verify`` finds damaged is solved again without its hash recorded)."""
     code = module_key(SOLVER_MODULE)
     before = store.solver_code
     if code in before:
         return
     n_done = sum(int(np.count_nonzero(store.done(k))) for k in range(store.n_maps))
+    if n_done == store.n_maps * store.n_cases:
+        return  # nothing left to solve: no case of this code, no mix (review)
     if n_done:
         by = (f"other solver code (source hash {', '.join(before)})" if before else
               "a windnav that did not record its solver code")
