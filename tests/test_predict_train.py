@@ -1156,3 +1156,20 @@ def test_a_resume_under_other_training_code_is_said_and_recorded(tiny, tmp_path,
                           log=None)
     assert h["code"] == first
     assert h["resumed_by_code"] == [{"code": "0123456789abcdef", "from_epoch": 1}]
+    # resumed again under the same (new) code: no new change to record (review)
+    def stop_after_two(epoch, record):
+        if epoch == 2:
+            raise Stop
+
+    out2 = tmp_path / "again"
+    monkeypatch.setattr(tr, "module_key", lambda name: "aaaaaaaaaaaaaaaa")
+    with pytest.raises(Stop):
+        train_decoder(recipe, store=out / "sweep.zarr", out_dir=out2, progress=False,
+                      log=None, callback=stop_after_one)
+    monkeypatch.setattr(tr, "module_key", lambda name: "bbbbbbbbbbbbbbbb")
+    with pytest.raises(Stop), pytest.warns(UserWarning, match="other training code"):
+        train_decoder(recipe, store=out / "sweep.zarr", out_dir=out2, progress=False,
+                      log=None, callback=stop_after_two)
+    h = train_decoder(recipe, store=out / "sweep.zarr", out_dir=out2, progress=False, log=None)
+    assert h["code"] == "aaaaaaaaaaaaaaaa"
+    assert h["resumed_by_code"] == [{"code": "bbbbbbbbbbbbbbbb", "from_epoch": 1}]

@@ -1254,9 +1254,9 @@ class _Run:
                 a.copy_(saved)
         self.history = ckpt["history"]
         self.start = len(self.history["epochs"])
-        if self.history.get("code") not in (None, self.code):  # said in the history too
-            self.history.setdefault("resumed_by_code", []).append(
-                {"code": self.code, "from_epoch": self.start})
+        if ckpt.get("code") not in (None, self.code):  # said in the history too: the code
+            self.history.setdefault("resumed_by_code", []).append(  # that trained last, not
+                {"code": self.code, "from_epoch": self.start})      # the first (review)
 
     def epoch(self, e: int, progress: bool) -> dict:
         """Train epoch ``e``, validate, keep the best model; returns the epoch's record."""
