@@ -87,7 +87,8 @@ ENERGIES = ("energy_J", "rotor_energy_J")
 
 MIN_BOOTSTRAP_WINDS = MIN_BOOTSTRAP_CLUSTERS
 """Fewest winds the table ratio's bootstrap interval is given for. Every resample lies between
-the ratios of the winds taken alone, so the interval is at most their range, and the range of
+the ratios of the winds taken alone (where the two variants' successes per wind are alike),
+so the interval is at most their range, and the range of
 ``G`` winds covers the middle of their distribution with probability ``1 - 2 ** (1 - G)``:
 under 95 % below 6 winds (50 % for 2, 75 % for 3). With 2 winds the "95 %" interval covered
 the truth in 26 % of simulated suites, with 3 in 46 % (audit); ``ci95`` is None below it, with
@@ -882,10 +883,16 @@ def _render_codes(rows: Mapping, variants: Sequence[str]) -> list[str]:
     codes = {c for v in variants for c in rows[v].get("codes", {})}
     if len(codes) <= 1 and UNRECORDED_CODE not in codes:
         return []
-    out = ["", "Records by the code that flew them (the hash of its source; \""
-           f"{UNRECORDED_CODE}\": flown before records named it). The table mixes code "
-           "versions; `windnav benchmark-nav --check N` replays a sample of the records under "
-           "the code at hand:", "", "| variant | flights by code |", "|---|---|"]
+    check = ("`windnav benchmark-nav --check N` replays a sample of them under the code at "
+             "hand")
+    if codes == {UNRECORDED_CODE}:  # unknown is not mixed (review)
+        head = ("The records name no code (flown before records named it): which version of "
+                f"the code flew them is not known; {check}:")
+    else:
+        head = (f"Records by the code that flew them (the hash of its source; "
+                f"\"{UNRECORDED_CODE}\": flown before records named it). The table mixes "
+                f"code versions; {check}:")
+    out = ["", head, "", "| variant | records by code (harness errors included) |", "|---|---|"]
     for v in variants:
         parts = ", ".join(f"{c} {n}" for c, n in rows[v].get("codes", {}).items())
         out.append(f"| {v} | {parts or '-'} |")
