@@ -195,8 +195,9 @@ def test_ukf_story_under_the_thesis_conditions_notes_the_drag_model(tmp_path, ca
 
 def test_ukf_story_tracking_error_and_energy_are_defined_as_fly_defines_them():
     """The UKF story's rms_tracking_error_m took in the take-off (0.60 m where fly's, after
-    it, gave 0.66 m for one flight), and its energy_J was the rotors' energy where the
-    navigation story's energy_J is the power curve's (definitions audit): now fly's window,
+    it, gave 0.66 m for one waypoint flight; about 1 % apart on the story's own flights),
+    and its energy_J was the rotors' energy where the navigation story's energy_J is the
+    power curve's (definitions audit): now fly's window,
     and the rotors' energy under navigate's name rotor_energy_J (energy_J kept, the same)."""
     from windnav.experiments.demo import DemoConfig, run_demo
     from windnav.experiments.flight import flight_summary
