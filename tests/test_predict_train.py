@@ -47,6 +47,14 @@ class Stop(Exception):
     """Raised by a callback to interrupt a training run."""
 
 
+def _stopping_after(n: int):
+    """A training callback that stops the run (``Stop``) after epoch ``n``."""
+    def stop(epoch, record):
+        if epoch == n:
+            raise Stop
+    return stop
+
+
 def tiny_recipe(**train):
     recipe = load_recipe(RECIPES / "tiny.toml")
     recipe["train"].update({"tensorboard": False, **train})
@@ -219,14 +227,9 @@ def test_a_resume_on_another_thread_count_says_it_will_not_match(tiny, tmp_path)
     out of its identity, so it may still be resumed, with a warning."""
     recipe, out, _ = tiny
     one, two = tiny_recipe(threads=1), tiny_recipe(threads=2)
-
-    def stop_after_one(epoch, record):
-        if epoch == 1:
-            raise Stop
-
     with pytest.raises(Stop):
         train_decoder(one, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
-                      log=None, callback=stop_after_one)
+                      log=None, callback=_stopping_after(1))
     with pytest.warns(UserWarning, match=r"resuming on 2 torch thread\(s\) a run begun on 1"):
         train_decoder(two, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
                       log=None)
@@ -1140,11 +1143,7 @@ def test_a_resume_under_other_training_code_is_said_and_recorded(tiny, tmp_path,
     import windnav.predict.train as tr
 
     recipe, out, _ = tiny
-
-    def stop_after_one(epoch, record):
-        if epoch == 1:
-            raise Stop
-
+    stop_after_one, stop_after_two = _stopping_after(1), _stopping_after(2)
     with pytest.raises(Stop):
         train_decoder(recipe, store=out / "sweep.zarr", out_dir=tmp_path, progress=False,
                       log=None, callback=stop_after_one)
@@ -1157,10 +1156,6 @@ def test_a_resume_under_other_training_code_is_said_and_recorded(tiny, tmp_path,
     assert h["code"] == first
     assert h["resumed_by_code"] == [{"code": "0123456789abcdef", "from_epoch": 1}]
     # resumed again under the same (new) code: no new change to record (review)
-    def stop_after_two(epoch, record):
-        if epoch == 2:
-            raise Stop
-
     out2 = tmp_path / "again"
     monkeypatch.setattr(tr, "module_key", lambda name: "aaaaaaaaaaaaaaaa")
     with pytest.raises(Stop):
