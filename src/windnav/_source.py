@@ -139,7 +139,6 @@ def source_key(path: str | os.PathLike, root: str | os.PathLike = ROOT) -> str:
     return digest.hexdigest()[:16]
 
 
-
 def module_key(dotted: str) -> str:
     """:func:`source_key` of the windnav module ``dotted`` (e.g. ``"windnav.flow.solver"``),
     with ``"-modified"`` after it where a file of the closure changed after windnav was
