@@ -1181,6 +1181,8 @@ def averaging_study(decoder, city, *, speed: float = 6.0, direction_deg: float =
         Seed of the samples (positions and scan noise).
     simulate : callable, optional
         Replaces :func:`windnav.flow.simulate` (tests).
+    name : str
+        The map's label in the result (``"map"``) and in its fields' names (default "map").
 
     Returns
     -------
@@ -1289,6 +1291,8 @@ def start_study(decoder, city, *, speed: float = 6.0, direction_deg: float = 3.7
         Robot samples (positions and scan noise from ``seed``, the same for every kick).
     simulate : callable, optional
         Replaces :func:`windnav.flow.simulate` (tests).
+    name : str
+        The map's label in the result (``"map"``) and in its fields' names (default "map").
 
     Returns
     -------

@@ -87,6 +87,9 @@ def bound_study(records: Iterable[Mapping], *, route_variant: str = "gs-w",
         The variants set against the bound (default: every variant flown on all of the route
         variant's scenarios, but the ``@power=`` counterfactuals, whose energies use another
         power curve).
+    confidence : float
+        Level of the paired intervals (``ideal_paired``, ``by_speed`` and each variant's
+        ``paired``; default 0.95).
 
     Returns
     -------

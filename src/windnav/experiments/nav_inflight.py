@@ -356,6 +356,9 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
     ------
     RecordMismatchError
         When ``records`` holds the records of another study (checked before any flight).
+    ValueError
+        Naming the argument: a variant that is not an onboard-stack variant, a bad
+        ``every_s``, ``taus`` or ``compare``.
     """
     from windnav.experiments.executor import run_tasks
     from windnav.experiments.nav_benchmark import check_scenario_ids, parse_variant

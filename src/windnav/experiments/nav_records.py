@@ -265,6 +265,8 @@ class NavStore:
             Naming the file and the (1-based) line of the first line that is not a record, or
             not one of the suite's flights (a scenario it does not fly, an unknown outcome, a
             success without a finite energy); a torn last line (no newline) is ignored.
+        SuiteMismatchError
+            When a record is of another suite (its scenario id names another).
         """
         if not self.records_path.exists():
             return []

@@ -117,6 +117,8 @@ def simulate_stand(params, *, voltages: Sequence[float] = STAND_VOLTAGES,
         Supply voltages, V.
     pwm_steps : sequence of float
         PWM commands of the ramp, counts, each held ``step_s`` seconds.
+    step_s : float
+        Hold time of each PWM step, s (default 1).
     rate_hz : float
         Logging rate, Hz.
     noise : StandNoise

@@ -264,6 +264,8 @@ def sweep(
 
     Raises
     ------
+    ValueError
+        Naming the argument: no maps, or invalid speeds, directions or settings.
     MemoryEstimateError
         (a ValueError) When one map's task needs more memory than the limit.
     SweepMismatchError

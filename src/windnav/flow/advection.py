@@ -599,6 +599,11 @@ def make_advection(
         (``ceil(5 nu dt / dx^2)``: a large viscosity costs a pass per substep); with the
         Smagorinsky closure the substeps are capped at ``max(MAX_DIFFUSION_SUBSTEPS, those)``
         and its corner faces beyond the cap are updated point-implicitly.
+    smagorinsky : float
+        Smagorinsky constant ``C_s`` of an eddy viscosity ``(C_s Delta)^2 |S|`` added to
+        ``viscosity`` (0, the default: none).
+    filter_width : float, optional
+        The filter width ``Delta`` of that eddy viscosity, m (default ``dx``).
 
     Returns
     -------

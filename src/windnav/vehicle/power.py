@@ -245,6 +245,8 @@ class PowerCurve(ReadOnlyOnCopy):
             Polynomial degree (default 4: the simulated curves' fits; the thesis's and
             :func:`windnav.sysid.fit_power`'s default is 3, so the two give different curves
             from the same samples unless ``degree`` is given).
+        name : str
+            Label of the fitted curve (default "fitted").
 
         Returns
         -------
