@@ -209,3 +209,7 @@ def test_ukf_story_tracking_error_and_energy_are_defined_as_fly_defines_them():
     assert m["rms_tracking_error_m"] != pytest.approx(
         float(np.sqrt(np.mean(log.tracking_error ** 2))), rel=1e-3)
     assert m["rotor_energy_J"] == m["energy_J"] == fly["rotor_energy_J"] == fly["energy_J"] > 0
+    # buildings and blocks counted as the navigation story counts them (output audit)
+    city = res["city"]
+    assert (m["n_buildings"], m["n_blocks"]) == (np.unique(city.building_labels()).size,
+                                                 city.n_buildings)

@@ -180,3 +180,14 @@ def test_froude_ratios_follow_from_the_dimensions(sim):
         sim.reynolds(u, 1.8), rel=1e-12)
     assert sim.reynolds(sim.model_speed(u), 1.8 * length) / sim.reynolds(u, 1.8) == (
         pytest.approx(froude["reynolds"], rel=1e-12))
+
+
+def test_a_rounded_length_scale_says_which_numbers_use_it():
+    """With --scale 32 for rotors 32.7 apart, froude.reynolds (32^-1.5) and the speed block's
+    Reynolds numbers (from the diameters) gave two ratios 2 % apart in one output, unsaid
+    (output audit). The report now says which uses which."""
+    r = Similitude.thesis().report(full_scale_speed=10.0)
+    ratio = r["speed"]["reynolds_model"] / r["speed"]["reynolds_full_scale"]
+    gap = 100.0 * abs(ratio / r["froude"]["reynolds"] - 1.0)
+    assert f"by {gap:.1f} %" in r["scale_note"] and round(gap, 1) == 2.2
+    assert "scale_note" not in Similitude(1.8, 0.055).report(full_scale_speed=10.0)

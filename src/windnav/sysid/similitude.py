@@ -173,6 +173,13 @@ class Similitude:
                        "power": lam**-3.5, "reynolds": lam**-1.5,
                        "note": "model / full-scale ratios under Froude similarity"},
         }
+        if not math.isclose(lam, self.exact_scale, rel_tol=1e-9):  # the thesis rounds 32.7
+            gap = 100.0 * abs(lam / self.exact_scale - 1.0)
+            out["scale_note"] = (
+                f"the length scale {lam:g} is not the rotors' ratio {self.exact_scale:.4g}: the "
+                "Froude ratios and speed.model_reynolds_m_s use the length scale, the Reynolds "
+                "numbers of 'speed' the diameters themselves, so their ratio differs from "
+                f"froude.reynolds by {gap:.1f} % (similitude audit)")
         if full_scale_speed is not None and model_speed is not None:
             raise ValueError(f"The 'model_speed' parameter of {where} must not be given with "
                              "full_scale_speed (one follows from the other).")
