@@ -84,8 +84,12 @@ def cache_folder(path: str | os.PathLike, root: str | os.PathLike = ROOT) -> Pat
     bases.append(Path(xdg) / PACKAGE / checkout)  # also where NUMBA_CACHE_DIR is not writable
     for base in bases:
         folder = base / leaf
+        fresh = not folder.exists()
         if _writable(folder):
             _prune(base, name, folder)
+            if fresh:  # numba's own files for the module, from before this layout: unused
+                for old in (path.parent / "__pycache__").glob(f"{glob.escape(path.stem)}.*.nb[ic]"):
+                    old.unlink(missing_ok=True)
             return folder
     return None
 

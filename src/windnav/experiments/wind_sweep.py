@@ -277,7 +277,7 @@ def sweep(
     """
     from windnav.experiments.executor import check_backend, run_tasks
     from windnav.experiments.results import exclusive_folder
-    from windnav.flow.sweep_store import SweepMap, SweepStore
+    from windnav.flow.sweep_store import SweepMap, SweepStore, note_solver_code
 
     where = "sweep"
     speeds = [positive_float(s, "speeds", where) for s in speeds]
@@ -310,6 +310,7 @@ def sweep(
                                                                 stacklevel=3)):
         if verify:
             store.invalidate(store.verify(progress=progress).damaged)
+        note_solver_code(store, where)  # the cases left are now known: say a mix of solvers
         groups: dict = {}
         for k, c in store.pending():
             key = (k, batch_of[float(store.directions_deg[c])]) if batch_of else (k, c)

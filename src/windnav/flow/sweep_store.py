@@ -43,8 +43,9 @@ other finished cases are reported as unverified.
 
 Reopening a store with :meth:`SweepStore.create` and the same config resumes it; a different
 config is refused. The store records the hash of the solver's source of every run that wrote it
-(``solver_code``); resuming with other solver code, when cases are already done, warns that the
-sweep mixes two solvers. One simulation on its own: :mod:`windnav.flow.solution_io`.
+(``solver_code``, :func:`note_solver_code`); resuming with other solver code, when cases are
+done and others left, warns that the sweep mixes two solvers. One simulation on its own:
+:mod:`windnav.flow.solution_io`.
 """
 
 from __future__ import annotations
@@ -89,6 +90,7 @@ __all__ = [
     "SweepStore",
     "VerifyReport",
     "map_fingerprint",
+    "note_solver_code",
 ]
 
 CASE_ARRAYS = ("wind", "solid", "frames", "diagnostics", "seconds")
@@ -193,11 +195,12 @@ SOLVER_MODULE = "windnav.flow.solver"
 """The module whose source (with the windnav modules it imports) a store's runs record."""
 
 
-def _note_solver_code(store: SweepStore, where: str) -> None:
-    """Record this solver's source hash in a resumed store with cases left to solve, and warn
-    when cases already done were solved by other code (or by a windnav that recorded none): the
+def note_solver_code(store: SweepStore, where: str) -> None:
+    """Record this solver's source hash in a store with cases left to solve, and warn when
+    cases already done were solved by other code (or by a windnav that recorded none): the
     sweep then mixes two solvers, which nothing else would show. A finished store is left as it
-    is (a case a later ``verify`` finds damaged is solved again without its hash recorded)."""
+    is. :func:`windnav.experiments.wind_sweep.sweep` calls it once it knows which cases are
+    left (after ``verify`` has marked damaged ones), before solving them."""
     code = module_key(SOLVER_MODULE)
     before = store.solver_code
     if code in before:
@@ -353,7 +356,6 @@ class SweepStore:
             repaired = _repair(group, maps, static, case_speed.size, n_frames)
             store = cls(path, mode="r+")
             store.repaired = repaired
-            _note_solver_code(store, where)
             return store
         group = zarr.open_group(path, mode="w")
         group.attrs["windnav_format"] = SWEEP_FORMAT + ".unfinished"
