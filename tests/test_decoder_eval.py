@@ -774,3 +774,26 @@ def test_an_evaluation_reports_its_improvements_intervals(evaluation):
                                         rel=1e-9)
     assert ci["slots"] == pooled["n_slots"]
     assert set(pooled["improvement_ci95"]) == {"decoder"}
+
+
+def test_a_solver_changed_during_the_run_bypasses_the_flow_cache(evaluation, tmp_path,
+                                                                  monkeypatch):
+    """A file of the solver changed after windnav's import marks the hash "-modified": the
+    entries it wrote matched no later run, and a valid entry was solved again (review). The
+    cache is now neither read nor written in such a process."""
+    import windnav.experiments.decoder_eval as de
+
+    maps, res = evaluation
+    cache = tmp_path / "flows"
+    _cache_run(maps, cache)
+    entries = sorted(cache.iterdir())
+    real = de.module_key
+    monkeypatch.setattr(de, "module_key", lambda name: real(name) + "-modified")
+    with pytest.warns(UserWarning, match="not read nor written") as caught:
+        again = _cache_run(maps, cache)
+    assert not any("other solver code" in str(w.message) for w in caught)
+    assert not any(r["flow_cached"] for r in again["records"])
+    _same_run(again, res)
+    monkeypatch.setattr(de, "module_key", real)
+    assert sorted(cache.iterdir()) == entries                    # untouched, and still read
+    assert all(r["flow_cached"] for r in _cache_run(maps, cache)["records"])

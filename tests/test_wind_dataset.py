@@ -707,3 +707,23 @@ def test_a_case_found_damaged_in_a_finished_store_is_solved_under_a_recorded_has
     with pytest.warns(UserWarning, match=r"1 finished case\(s\) solved by other solver code"):
         store, results = sweep(MAPS[:1], out, verify=True, **kw)
     assert len(results) == 1 and store.solver_code == [first, "0123456789abcdef"]
+
+
+def test_a_solver_changed_during_the_run_is_not_recorded_as_a_hash(tmp_path, monkeypatch):
+    """A "-modified" hash names no code a later run could match; the store records none and
+    says why (review)."""
+    import windnav.flow.sweep_store as ss
+
+    kw = dict(directions_deg=[0.0, 90.0], backend="serial", progress=False, speeds=[2.0],
+              settings=SETTINGS)
+    out = tmp_path / "s.zarr"
+    os.mkdir(tmp_path / "log0")
+    os.mkdir(tmp_path / "log1")
+    with pytest.raises(KeyboardInterrupt):
+        sweep(MAPS[:1], out, simulate=FakeSolver(str(tmp_path / "log0"), interrupt_after=1),
+              **kw)
+    first = SweepStore(out).solver_code
+    monkeypatch.setattr(ss, "module_key", lambda name: "0123456789abcdef-modified")
+    with pytest.warns(UserWarning, match="cannot name"):
+        store, _ = sweep(MAPS[:1], out, simulate=FakeSolver(str(tmp_path / "log1")), **kw)
+    assert store.solver_code == first

@@ -70,6 +70,15 @@ def _prune(base: Path, name: str, keep: Path) -> None:
             continue  # removed meanwhile by another process
 
 
+def _remove_old_layout(path: Path) -> None:
+    """Numba's own in-tree files of the module at ``path``, from before this layout (unused)."""
+    for old in (path.parent / "__pycache__").glob(f"{glob.escape(path.stem)}.*.nb[ic]"):
+        try:
+            old.unlink(missing_ok=True)
+        except OSError:  # a folder this process may read but not change (review)
+            return
+
+
 def cache_folder(path: str | os.PathLike, root: str | os.PathLike = ROOT) -> Path | None:
     """The folder the kernels of the module at ``path`` are cached in (made; folders of other
     hashes untouched for :data:`STALE_S` removed), or None where no folder is writable."""
@@ -87,9 +96,8 @@ def cache_folder(path: str | os.PathLike, root: str | os.PathLike = ROOT) -> Pat
         fresh = not folder.exists()
         if _writable(folder):
             _prune(base, name, folder)
-            if fresh:  # numba's own files for the module, from before this layout: unused
-                for old in (path.parent / "__pycache__").glob(f"{glob.escape(path.stem)}.*.nb[ic]"):
-                    old.unlink(missing_ok=True)
+            if fresh and base == path.parent / "__pycache__" / "numba":
+                _remove_old_layout(path)
             return folder
     return None
 
@@ -113,7 +121,8 @@ def njit(**options):
     def decorate(func):
         path = Path(func.__code__.co_filename).resolve()
         if not path.is_relative_to(ROOT):
-            return numba.njit(**options)(func)
+            with _LOCK:  # not while another decoration has CACHE_DIR set (review)
+                return numba.njit(**options)(func)
         folder = "" if changed_since_import(path) else _cache_folder_for(str(path))
         if not folder:
             return numba.njit(**{**options, "cache": False})(func)

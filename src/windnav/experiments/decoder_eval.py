@@ -345,7 +345,9 @@ def slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, dx
     ``solver_code``, the hash of the solver's source (:data:`SOLVER_MODULE` and the windnav
     modules it imports; :func:`windnav._source.module_key`). An entry solved by other solver
     code, or one from before 2026-12-06 that records none, is solved again and replaced, with a
-    warning: a cache kept across a change of the solver served the old flows. An entry
+    warning: a cache kept across a change of the solver served the old flows. Where a file of
+    the solver's code changed after windnav was imported (``module_key`` ends ``-modified``)
+    the cache is neither read nor written, with a warning. An entry
     that cannot be read (damaged, or left incomplete by a process killed while writing it with
     an older windnav) is a cache miss: a warning names it, and the flow is solved again and
     replaces it. The temporary copy a killed process left of the entry is removed when the
@@ -378,6 +380,11 @@ def _slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, d
     path = Path(cache_dir) / flow_cache_name(name, city, speed, direction, dx, steps, dt) \
         if cache_dir is not None else None
     code = module_key(SOLVER_MODULE)
+    if path is not None and code.endswith("-modified"):  # the running solver is not the files'
+        warnings.warn(f"slot_flow: a file of {SOLVER_MODULE}'s code changed after windnav was "
+                      "imported, so the solver running may not be the one on disk: the flow "
+                      "cache is not read nor written in this process.", stacklevel=3)
+        path = None  # (an entry marked so would match no later run: review)
     if path is not None and path.is_dir():
         try:  # CorruptStoreError (a ValueError), or a folder that is no flow solution (yet)
             sol = load_flow(path)

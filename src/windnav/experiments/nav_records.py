@@ -883,7 +883,8 @@ def render_table(table: Mapping) -> str:
 def _render_codes(rows: Mapping, variants: Sequence[str]) -> list[str]:
     """The code versions behind the rows, said when there is more than one or one unknown."""
     codes = {c for v in variants for c in rows[v].get("codes", {})}
-    if len(codes) <= 1 and UNRECORDED_CODE not in codes:
+    if (len(codes) <= 1 and UNRECORDED_CODE not in codes
+            and not any(c.endswith("-modified") for c in codes)):
         return []
     check = ("`windnav benchmark-nav --check N` replays a sample of them under the code at "
              "hand")
@@ -892,8 +893,9 @@ def _render_codes(rows: Mapping, variants: Sequence[str]) -> list[str]:
                 f"the code flew them is not known; {check}:")
     else:
         head = (f"Records by the code that flew them (the hash of its source; "
-                f"\"{UNRECORDED_CODE}\": flown before records named it). The table mixes "
-                f"code versions; {check}:")
+                f"\"{UNRECORDED_CODE}\": flown before records named it; \"-modified\": its "
+                "files changed during the run, so the code is not known exactly). The table "
+                f"mixes code versions or holds records of unknown code; {check}:")
     out = ["", head, "", "| variant | records by code (harness errors included) |", "|---|---|"]
     for v in variants:
         parts = ", ".join(f"{c} {n}" for c, n in rows[v].get("codes", {}).items())

@@ -308,6 +308,11 @@ def sweep(
     with exclusive_folder(store.path, f"the sweep store {str(store.path)!r}",
                           on_wait=lambda message: warnings.warn(f"{where}: {message}",
                                                                 stacklevel=3)):
+        # read again under the lock: a run that held it may have changed the attributes
+        # this handle read when it opened the store (a solver hash lost; review)
+        repaired = store.repaired
+        store = SweepStore(store.path, mode="r+")
+        store.repaired = repaired
         if verify:
             store.invalidate(store.verify(progress=progress).damaged)
         note_solver_code(store, where)  # the cases left are now known: say a mix of solvers

@@ -203,6 +203,12 @@ def note_solver_code(store: SweepStore, where: str) -> None:
     left (after ``verify`` has marked damaged ones), before solving them."""
     code = module_key(SOLVER_MODULE)
     before = store.solver_code
+    if code.endswith("-modified"):  # which code solves the cases left is not known
+        warnings.warn(f"{where}: a file of {SOLVER_MODULE}'s code changed after windnav was "
+                      f"imported, so the cases this run solves in {store.path!r} are of code "
+                      "this store cannot name; rerun the sweep in a new process to record "
+                      "it.", stacklevel=4)
+        return
     if code in before:
         return
     n_done = sum(int(np.count_nonzero(store.done(k))) for k in range(store.n_maps))
