@@ -1139,14 +1139,6 @@ class _Run:
             raise ValueError(f"The 'config' parameter of {where} differs from the recipe of the "
                              f"checkpoint in {str(self.out)!r}; use another out folder, or delete "
                              "it (`windnav train-decoder --overwrite`) to start over.")
-        code = ckpt.get("code")
-        if code is not None and code != self.code:  # the epochs before and after differ
-            warnings.warn(
-                f"{where}: the checkpoint in {str(self.out)!r} was trained by other training "
-                f"code (source hash {code}; this one's is {self.code}: {TRAINING_MODULE} and "
-                "the modules it imports); resuming mixes the two in one model. Delete the "
-                "folder (`windnav train-decoder --overwrite`) to train it with this code "
-                "alone.", stacklevel=3)
         return ckpt
 
     def load_data(self, where: str) -> tuple:
@@ -1254,9 +1246,16 @@ class _Run:
                 a.copy_(saved)
         self.history = ckpt["history"]
         self.start = len(self.history["epochs"])
-        if ckpt.get("code") not in (None, self.code):  # said in the history too: the code
-            self.history.setdefault("resumed_by_code", []).append(  # that trained last, not
-                {"code": self.code, "from_epoch": self.start})      # the first (review)
+        code = ckpt.get("code")  # the code that trained last, not the first (review)
+        if code is not None and code != self.code:  # the epochs before and after differ
+            warnings.warn(
+                f"train_decoder: the checkpoint in {str(self.out)!r} was trained by other "
+                f"training code (source hash {code}; this one's is {self.code}: "
+                f"{TRAINING_MODULE} and the modules it imports); resuming mixes the two in one "
+                "model. Delete the folder (`windnav train-decoder --overwrite`) to train it "
+                "with this code alone.", stacklevel=3)
+            self.history.setdefault("resumed_by_code", []).append(
+                {"code": self.code, "from_epoch": self.start})
 
     def epoch(self, e: int, progress: bool) -> dict:
         """Train epoch ``e``, validate, keep the best model; returns the epoch's record."""
