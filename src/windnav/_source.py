@@ -18,6 +18,10 @@ from pathlib import Path
 PACKAGE = "windnav"
 ROOT = Path(__file__).resolve().parent
 
+SOLVER_MODULE = "windnav.flow.solver"
+"""The module whose closure names the flow solver's code: the ``solver_code`` of a cached flow
+(:mod:`windnav.experiments.decoder_eval`) and of a sweep store (:mod:`windnav.flow.sweep_store`)."""
+
 # a statement starts a line, or follows ";" or ":" ("try: from ...", "x = 1; import ...")
 _FROM = re.compile(
     r"(?:^|[;:])[ \t]*from[ \t]+(\.+[\w.]*|windnav(?:\.[\w.]+)?)[ \t]+import[ \t]+"

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav._source import module_key
+from windnav._source import SOLVER_MODULE, module_key
 from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
@@ -308,10 +308,6 @@ def inlet_slots(n_maps: int, n_inlets: int, seed: int) -> np.ndarray:
 def slot_rng(seed: int, map_index: int, inlet_index: int) -> np.random.Generator:
     """The random source of the samples of slot (``map_index``, ``inlet_index``)."""
     return np.random.default_rng(np.random.SeedSequence([int(seed), 3, map_index, inlet_index]))
-
-
-SOLVER_MODULE = "windnav.flow.solver"
-"""The module whose source (with the windnav modules it imports) a cached flow is keyed by."""
 
 
 def flow_cache_name(name: str, city, speed: float, direction: float, dx: float,

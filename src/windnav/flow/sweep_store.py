@@ -63,7 +63,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import zarr
 
-from windnav._source import module_key
+from windnav._source import SOLVER_MODULE, module_key
 from windnav.city import City
 from windnav.flow._zarr import (
     FORMAT_VERSION,
@@ -190,10 +190,6 @@ def _creation_lock(path: str):
         yield
     finally:
         os.close(fd)  # releases the lock
-
-SOLVER_MODULE = "windnav.flow.solver"
-"""The module whose source (with the windnav modules it imports) a store's runs record."""
-
 
 def note_solver_code(store: SweepStore, where: str) -> None:
     """Record this solver's source hash in a store with cases left to solve, and warn when
@@ -383,7 +379,6 @@ class SweepStore:
                 "n_maps": len(maps),
                 "n_frames": n_frames,
                 "identity": ident,
-                "solver_code": [module_key(SOLVER_MODULE)],
                 "checksums": {p: digest(a) for p, a in static.items() if p.startswith("cases/")},
                 "format_version": FORMAT_VERSION,
                 "windnav_format": SWEEP_FORMAT,
@@ -394,8 +389,9 @@ class SweepStore:
     @property
     def solver_code(self) -> list[str]:
         """The hashes of the solver's source (:func:`windnav._source.module_key` of
-        :data:`SOLVER_MODULE`) of every run that wrote this store, oldest first; empty for a
-        store from before 2026-12-06."""
+        :data:`SOLVER_MODULE`) of every run that wrote this store, oldest first (recorded by
+        :func:`note_solver_code`, which a sweep runs before it solves); empty for a store from
+        before 2026-12-06."""
         codes = self.group.attrs.get("solver_code")
         return [str(c) for c in codes] if isinstance(codes, list) else []
 
