@@ -101,9 +101,6 @@ with 6 and 82 % with 16 (statistics audit, thirty-ninth session). Below it the i
 given with a ``ci95_note`` calling it approximate (the thesis suite has 256 winds; maps 0-3 of
 it, 64)."""
 
-_COVERAGE = COVERAGE_NOTE
-"""The measured coverage below :data:`COVERED_BOOTSTRAP_WINDS`, as the note and the table say it."""
-
 MANIFEST = "manifest.json"
 RECORDS = "records.jsonl"
 CLAIMS = ".claims"
@@ -487,7 +484,7 @@ def _table_ratio(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, rn
                             "far less than 95 % of the time)")
     elif nv > 1 and nr > 1 and n_boot > 0:
         if both < COVERED_BOOTSTRAP_WINDS:
-            out["ci95_note"] = f"approximate: from {both} common winds, where {_COVERAGE}"
+            out["ci95_note"] = f"approximate: from {both} common winds, where {COVERAGE_NOTE}"
         out["ci95"] = pooled_ratio_interval(s, n_boot=n_boot, rng=rng, confidence=confidence)
     return out
 
@@ -854,7 +851,7 @@ def render_table(table: Mapping) -> str:
         rough = sorted({r["winds_both"] for r in ratios if r.get("ci95_note") and r["ci95"]})
         if rough:
             out += ["", f"The table-ratio intervals over {' or '.join(map(str, rough))} winds "
-                    f"are approximate: {_COVERAGE}."]
+                    f"are approximate: {COVERAGE_NOTE}."]
         out += ["", f"Time and mean power against {ref} over the same pairs (time ratio "
                 f"T/T_{ref}; mean-power ratio (E/T)/(E_{ref}/T_{ref}), airspeed model; their "
                 "product is the energy ratio; t intervals):", "",
