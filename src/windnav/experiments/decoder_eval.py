@@ -198,6 +198,7 @@ def improvement_interval(records, model: str = "decoder", baseline: str = "local
     from windnav.experiments.intervals import (
         COVERED_BOOTSTRAP_CLUSTERS,
         MIN_BOOTSTRAP_CLUSTERS,
+        pooled_ratio,
         pooled_ratio_interval,
     )
     from windnav.predict.metrics import _COUNTS
@@ -222,8 +223,7 @@ def improvement_interval(records, model: str = "decoder", baseline: str = "local
     out = {"value": None, "ci95": None, "slots": len(chosen)}
     if not (s[:, 1].sum() > 0 and s[:, 3].sum() > 0 and s[:, 2].sum() > 0):
         return out
-    out["value"] = float(100.0 * (1.0 - (s[:, 0].sum() / s[:, 1].sum())
-                                  / (s[:, 2].sum() / s[:, 3].sum())))
+    out["value"] = 100.0 * pooled_ratio(s)
     if len(chosen) < MIN_BOOTSTRAP_CLUSTERS:
         out["ci95_note"] = (f"no interval: {len(chosen)} slot{'s' if len(chosen) != 1 else ''}, "
                             f"and a bootstrap over the slots needs at least "

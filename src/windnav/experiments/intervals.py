@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["COVERAGE_NOTE", "COVERED_BOOTSTRAP_CLUSTERS", "MIN_BOOTSTRAP_CLUSTERS",
-           "pooled_ratio_interval"]
+           "pooled_ratio", "pooled_ratio_interval"]
 
 MIN_BOOTSTRAP_CLUSTERS = 6
 """Fewest clusters an interval is given for (the module doc). With 2 winds the navigation
@@ -36,6 +36,13 @@ as it says: 90-94.5 % of simulated suites with 64 winds, but 71 % with 6 and 82 
 COVERAGE_NOTE = ("a bootstrap over the winds covered the truth in 71 % (6 winds) to 82 % (16) "
                  f"of simulated suites, 90-94.5 % only at {COVERED_BOOTSTRAP_CLUSTERS}")
 """The measured coverage below :data:`COVERED_BOOTSTRAP_CLUSTERS`, as the notes say it."""
+
+
+def pooled_ratio(sums) -> float:
+    """``1 - (a / b) / (c / d)`` over all clusters: the sums of the columns of ``sums``
+    (G, 4), as :func:`pooled_ratio_interval` resamples it."""
+    s = np.asarray(sums, dtype=np.float64).reshape(-1, 4)
+    return float(1.0 - (s[:, 0].sum() / s[:, 1].sum()) / (s[:, 2].sum() / s[:, 3].sum()))
 
 
 def pooled_ratio_interval(sums, *, n_boot: int, rng: np.random.Generator,

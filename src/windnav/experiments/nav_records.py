@@ -50,6 +50,7 @@ from windnav.experiments.intervals import (
     COVERAGE_NOTE,
     COVERED_BOOTSTRAP_CLUSTERS,
     MIN_BOOTSTRAP_CLUSTERS,
+    pooled_ratio,
     pooled_ratio_interval,
 )
 
@@ -475,7 +476,7 @@ def _table_ratio(mine: Mapping, ref: Mapping, field: str, confidence, n_boot, rn
            "winds": len(groups), "winds_both": both}
     if nv == 0 or nr == 0 or not s[:, 2].sum() > 0:
         return out
-    out["value"] = float(1.0 - (s[:, 0].sum() / nv) / (s[:, 2].sum() / nr))
+    out["value"] = pooled_ratio(s)
     if nv > 1 and nr > 1 and n_boot > 0 and both < MIN_BOOTSTRAP_WINDS:
         out["ci95_note"] = (f"no interval: the two variants flew in {both} common wind"
                             f"{'s' if both != 1 else ''}, and a bootstrap over the "
