@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 import windnav.cli as cli
+from windnav.experiments.results import NOT_ARGUMENTS
 from windnav.provenance import command_arguments, command_line
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -49,7 +50,7 @@ def test_every_committed_result_rebuilds_to_its_own_arguments(path, doc):
     words = command_arguments(doc)
     assert words[:2] == doc["command"].split()[:2]
     parsed = _parsed(words)
-    recorded = {k: v for k, v in doc["arguments"].items() if k not in ("func", "command", "argv")}
+    recorded = {k: v for k, v in doc["arguments"].items() if k not in NOT_ARGUMENTS}
     assert {k: parsed.get(k) for k in recorded} == recorded
 
 

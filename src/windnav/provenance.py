@@ -31,8 +31,6 @@ from pathlib import Path
 
 __all__ = ["command_line", "command_arguments"]
 
-_SKIPPED = ("func", "command", "argv")
-
 
 def _load(doc) -> Mapping:
     if isinstance(doc, Mapping):
@@ -89,6 +87,7 @@ def command_arguments(doc) -> list[str]:
     """``["windnav", NAME, ...]``: the words of :func:`command_line` (a document, or the path
     of a ``.json`` or ``.json.gz`` file)."""
     from windnav.cli import build_parser
+    from windnav.experiments.results import NOT_ARGUMENTS
 
     doc = _load(doc)
     command, recorded = doc.get("command"), doc.get("arguments")
@@ -109,7 +108,7 @@ def command_arguments(doc) -> list[str]:
                          "windnav command.")
     words = ["windnav", name]
     parser = parser.commands[name]
-    left = {k: v for k, v in recorded.items() if k not in _SKIPPED}
+    left = {k: v for k, v in recorded.items() if k not in NOT_ARGUMENTS}
     positionals: list[str] = []
     while True:
         sub = None

@@ -232,6 +232,11 @@ def machine() -> dict:
             "python": platform.python_version()}
 
 
+NOT_ARGUMENTS = ("func", "command", "argv")
+"""Attributes of a parsed command line that are the parser's bookkeeping, not options: left out
+of a document's ``arguments`` (``argv`` is kept apart, as typed)."""
+
+
 def document(command: str, payload: Mapping, arguments=None) -> dict:
     """The JSON document of one run: ``command``, ``windnav_version``, ``machine``
     (:func:`machine`), ``arguments`` (the parsed command line, when given), ``argv`` (the words
@@ -243,7 +248,7 @@ def document(command: str, payload: Mapping, arguments=None) -> dict:
            "machine": machine()}
     if arguments is not None:
         args = vars(arguments) if not isinstance(arguments, Mapping) else dict(arguments)
-        doc["arguments"] = {k: v for k, v in args.items() if k not in ("func", "command", "argv")}
+        doc["arguments"] = {k: v for k, v in args.items() if k not in NOT_ARGUMENTS}
         if isinstance(args.get("argv"), list | tuple):  # the words typed: the exact line
             doc["argv"] = [str(w) for w in args["argv"]]  # (windnav.provenance.command_line)
     doc.update(payload)
