@@ -159,6 +159,7 @@ def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
     pos = log.position[:, 0, :2]
     airspeed = np.linalg.norm(log.velocity[:, 0] - log.wind[:, 0], axis=-1)
     solid_hit = wind.is_solid(np.column_stack([pos, np.zeros(len(pos))]))
+    rotor_energy = float(log.energy[-1, 0]) if bool(log.finite[0]) else None
     metrics = {
         "seed": cfg.seed,
         "conditions": cfg.conditions,
@@ -178,8 +179,8 @@ def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
         # none for a diverged flight: the log holds its energy from the step it stopped (as
         # fly); the rotors' energy, under the name navigate gives it, and under the older
         # energy_J, which in the navigation story is the airspeed power curve's (as fly's)
-        "rotor_energy_J": float(log.energy[-1, 0]) if bool(log.finite[0]) else None,
-        "energy_J": float(log.energy[-1, 0]) if bool(log.finite[0]) else None,
+        "rotor_energy_J": rotor_energy,
+        "energy_J": rotor_energy,
         "rotor_saturation_fraction": log.saturation_fraction,
         # where the flight left the model's envelope (CLI audit C: --seed 1 spent 24.9 % of
         # its samples above the Hummingbird's trusted 13.45 m/s and the summary said nothing)

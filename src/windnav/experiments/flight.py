@@ -187,6 +187,7 @@ def flight_summary(log, duration: float) -> dict:
     settled_ = settled(log, duration)
     stopped = ~np.isfinite(np.asarray(log.power)).all(axis=1)
     err = log.tracking_error[settled_]
+    rotor_energy = None if stopped.any() else float(log.energy[-1, 0])
     airspeed = np.linalg.norm(log.velocity - log.wind, axis=-1)
     outside = np.asarray(log.outside_envelope, bool)
     return {
@@ -202,10 +203,10 @@ def flight_summary(log, duration: float) -> dict:
         "rms_tracking_error_m": tracking_rms(log, duration),
         "max_tracking_error_m": float(np.max(err)),
         "mean_power_W": float(log.power.mean()),
-        "rotor_energy_J": None if stopped.any() else float(log.energy[-1, 0]),
+        "rotor_energy_J": rotor_energy,
         # the same number under its old name, which elsewhere (navigate, the benchmark, the
         # navigation demo) is the airspeed power curve's energy (definitions audit)
-        "energy_J": None if stopped.any() else float(log.energy[-1, 0]),
+        "energy_J": rotor_energy,
         "non_finite_from_s": float(log.t[np.argmax(stopped)]) if stopped.any() else None,
         "rotor_saturation_fraction": log.saturation_fraction,
         "mean_wind_speed_m_s": float(np.linalg.norm(log.wind, axis=-1).mean()),
