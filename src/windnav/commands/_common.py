@@ -14,8 +14,9 @@ from pathlib import Path
 from windnav._validate import options_named  # noqa: F401  (the commands import it from here)
 from windnav.experiments.results import Outputs, check_output_path, document
 
-__all__ = ["add_output_arguments", "cache_folder", "check_output_path", "document",
-           "options_named", "outputs", "print_written", "seed", "where"]
+__all__ = ["add_output_arguments", "add_rotations_argument", "cache_folder", "check_output_path",
+           "document", "load_model", "options_named", "outputs", "print_written", "seed",
+           "where"]
 
 
 def add_output_arguments(parser, *, overwrite: bool = True) -> None:
@@ -27,6 +28,26 @@ def add_output_arguments(parser, *, overwrite: bool = True) -> None:
                             help="replace the results of an earlier run (its files that this run "
                                  "does not write again are removed); without it, existing "
                                  "results are never replaced")
+
+
+def add_rotations_argument(parser) -> None:
+    """Add ``--rotations-deg A [A ...]``: the decoder's turned views
+    (:class:`windnav.predict.Decoder`'s ``rotations_deg``)."""
+    parser.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
+                        help="predict the mean of the decoder over the scene turned by each "
+                             "of these angles, deg CCW, whole degrees within 45 of 0 (e.g. "
+                             "0 -3 3: three passes; default: the scene as given, one pass)")
+
+
+def load_model(args, name: str):
+    """``--model`` (default the shipped decoder) loaded with ``--rotations-deg``, their errors
+    naming the options."""
+    from windnav.predict import load_decoder
+
+    with options_named({"'path' parameter of load_decoder": f"'--model' parameter of {name}",
+                        "'rotations_deg' parameter of load_decoder":
+                            f"'--rotations-deg' parameter of {name}"}):
+        return load_decoder(args.model, rotations_deg=args.rotations_deg)
 
 
 def where(args) -> str:

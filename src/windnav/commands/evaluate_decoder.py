@@ -47,8 +47,10 @@ from pathlib import Path
 from windnav._validate import positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
+    add_rotations_argument,
     cache_folder,
     document,
+    load_model,
     outputs,
     print_written,
     seed,
@@ -70,6 +72,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
                    help="decoder file (default: the shipped model)")
+    add_rotations_argument(p)
     p.add_argument("--compare", action="append", default=[], metavar="[NAME=]FILE",
                    help="another decoder file scored beside the decoder on the same samples "
                         "(e.g. the thesis MLP trained on the same data); repeatable; NAME "
@@ -127,13 +130,13 @@ def run(args, simulate=None, flow_settings=None) -> int:
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     flow_cache = flow_cache_folder(args, name)
     from windnav.commands.predict import dx_notes, print_notes, training_conditions
-    from windnav.predict import load_decoder
     from windnav.predict.envelope import training_envelope
 
-    training = training_conditions(training_envelope(load_decoder(args.model)))
+    dec = load_model(args, name)
+    training = training_conditions(training_envelope(dec))
     notes = dx_notes(training, args.dx)
     try:
-        res = evaluate_decoder(args.model, maps=args.maps, windinet=args.windinet,
+        res = evaluate_decoder(args.model, decoder=dec, maps=args.maps, windinet=args.windinet,
                                compare=compare, n_inlets=args.inlets,
                                samples_per_inlet=args.samples, seed=args.seed,
                                budget_s=60.0 * budget, dx=args.dx, flow_settings=flow_settings,

@@ -32,9 +32,11 @@ from pathlib import Path
 from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
+    add_rotations_argument,
     document,
     inlet_direction,
     inlet_speed,
+    load_model,
     options_named,
     outputs,
     print_written,
@@ -66,6 +68,7 @@ def register(subparsers) -> None:
                    help="direction the inlet wind blows toward, deg CCW from +x")
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
                    help="decoder file (default: the shipped model)")
+    add_rotations_argument(p)
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
     p.add_argument("--scan-noise", type=float, default=0.0, metavar="M",
                    help="LiDAR range noise standard deviation, m (default 0: noise-free)")
@@ -85,7 +88,7 @@ def run(args, flow_settings=None) -> int:
     from windnav.experiments.results import json_ready, write_json
     from windnav.experiments.wind_sweep import auto_dt
     from windnav.flow import simulate
-    from windnav.predict import field_from_solution, load_decoder
+    from windnav.predict import field_from_solution
     from windnav.viz.decoder import plot_prediction
 
     name = where(args)
@@ -111,8 +114,7 @@ def run(args, flow_settings=None) -> int:
                          f"centres, [{x[0]:g}, {x[-1]:g}] x [{y[0]:g}, {y[-1]:g}] m at --dx "
                          f"{dx:g}: half a cell or more from the map's edge. Got ({at[0]:g}, "
                          f"{at[1]:g}) instead.")
-    with options_named({"'path' parameter of load_decoder": f"'--model' parameter of {name}"}):
-        dec = load_decoder(args.model)
+    dec = load_model(args, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     settings = {**PROTOCOL, "dt": auto_dt(dx, speed), **(flow_settings or {})}
     from windnav.predict.envelope import training_envelope
@@ -146,7 +148,7 @@ def run(args, flow_settings=None) -> int:
                "n_window_cells": int(pred["free"].size),
                "decoder": {"architecture": dec.architecture, "size": dec.size,
                            "path": str(args.model) if args.model else "default",
-                           "boundary": dec.boundary},
+                           "boundary": dec.boundary, "rotations_deg": dec.rotations_deg},
                "metrics": pred["metrics"],
                "flow_diagnostics": diagnostics, "averaging": verdict, "travel": travel,
                "training": training, "notes": notes}

@@ -668,7 +668,8 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
 def _describe(model, path) -> dict:
     return {"path": str(path) if path is not None else None,
             "architecture": model.architecture, "size": model.size, "spacing": model.spacing,
-            "n_parameters": model.n_parameters, "boundary": getattr(model, "boundary", None)}
+            "n_parameters": model.n_parameters, "boundary": getattr(model, "boundary", None),
+            "rotations_deg": getattr(model, "rotations_deg", None)}
 
 
 def check_point(city, at, flag: str = "at", where: str = "predict_at") -> np.ndarray:
