@@ -11,7 +11,10 @@ NumPy is imported). Reports the median and the minimum over ``--repeats``; issue
 are <= 1 ms for one sample and <= 20 ms for 1024.
 
     .venv/bin/python benchmarks/bench_decoder.py [--model FILE] [--repeats 200] [--json FILE]
-                                                 [--record]
+                                                 [--rotations-deg 0 -3 3] [--record]
+
+``--rotations-deg``: the decoder averaged over the scene turned by these angles (its views,
+``load_decoder(rotations_deg=...)``; one pass each), the thesis MLP as before.
 
 Prints a Markdown table; ``--record`` appends it to docs/benchmarks.md.
 """
@@ -95,17 +98,22 @@ def time_predict(decoder, batch: int, repeats: int, *, seed: int = 0) -> dict:
 
 
 def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
-        seed: int = 0) -> dict:
-    """Time the decoder and the thesis MLP; returns a JSON-ready dict."""
+        seed: int = 0, rotations_deg=None) -> dict:
+    """Time the decoder (with ``rotations_deg``'s views) and the thesis MLP; returns a
+    JSON-ready dict."""
     from windnav.predict import load_decoder
-    from windnav.predict.decoder import DEFAULT_MODEL
+    from windnav.predict.decoder import DEFAULT_MODEL, Decoder
 
     if model is not None:
-        dec, source = load_decoder(model), str(model)
+        dec, source = load_decoder(model, rotations_deg=rotations_deg), str(model)
     elif DEFAULT_MODEL.is_file():
-        dec, source = load_decoder(), "shipped model"
+        dec, source = load_decoder(rotations_deg=rotations_deg), "shipped model"
     else:
-        dec, source = default_recipe_d4(), "default recipe d4-film, random weights"
+        plain = default_recipe_d4()
+        dec = Decoder(plain.weights, plain.metadata, rotations_deg=rotations_deg)
+        source = "default recipe d4-film, random weights"
+    if dec.rotations_deg is not None:
+        source += f", views turned by {', '.join(f'{a:g}' for a in dec.rotations_deg)} deg"
     rb = repeats_batch if repeats_batch is not None else max(MIN_JUDGED_REPEATS, repeats // 10)
     out = {"threads": 1, "numpy": np.__version__, "models": {}}
     # the decoder first: building the reference's 47 MB of weights frees large temporaries,
@@ -118,6 +126,7 @@ def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
         d = make()
         out["models"][name] = {
             "source": src, "architecture": d.architecture, "size": d.size,
+            "rotations_deg": d.rotations_deg,
             "n_parameters": d.n_parameters,
             "one": time_predict(d, 1, repeats, seed=seed),
             "batch": time_predict(d, 1024, rb, seed=seed)}
@@ -167,12 +176,14 @@ def main(argv=None) -> int:
                     help="timed calls for the batch of 1024 (default repeats / 10)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
+    ap.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
+                    help="time the decoder averaged over these turned views (default: none)")
     ap.add_argument("--record", action="store_true", help="append to docs/benchmarks.md")
     args = ap.parse_args(argv)
     if args.repeats < 1 or (args.repeats_batch is not None and args.repeats_batch < 1):
         ap.error("--repeats and --repeats-batch must be >= 1")
     res = run(args.model, repeats=args.repeats, repeats_batch=args.repeats_batch,
-              seed=args.seed)
+              seed=args.seed, rotations_deg=args.rotations_deg)
     table = rows(res)
     print("\n".join(table))
     if args.json is not None:

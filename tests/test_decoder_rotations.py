@@ -5,7 +5,11 @@ quarter turn of the d4-film, and the mean of single views; bad angles are refuse
 
 from __future__ import annotations
 
+import importlib.util
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -128,3 +132,48 @@ def test_the_commands_take_the_views_and_record_them(tmp_path, capsys):
     assert main([*common, "--out", str(tmp_path / "bad"), "--rotations-deg", "2.5"]) == 2
     assert "'--rotations-deg' parameter of windnav predict" in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()
+
+
+# ------------------------------------------------ the benchmarks that time and choose views
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_bench_decoder_times_the_views_it_is_given(tmp_path):
+    tiny("d4-film").save(tmp_path / "model.npz")
+    out = tmp_path / "bench.json"
+    proc = subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / "bench_decoder.py"), "--model",
+         str(tmp_path / "model.npz"), "--repeats", "2", "--repeats-batch", "1", "--json",
+         str(out), "--rotations-deg", "0", "-3", "3"],
+        capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    res = json.loads(out.read_text())
+    assert res["models"]["decoder"]["rotations_deg"] == [0.0, -3.0, 3.0]
+    assert res["models"]["thesis-mlp"]["rotations_deg"] is None
+    assert "views turned by 0, -3, 3 deg" in res["models"]["decoder"]["source"]
+
+
+def _views_module():
+    spec = importlib.util.spec_from_file_location("decoder_views",
+                                                  ROOT / "benchmarks" / "decoder_views.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_views_are_chosen_by_the_mean_error_ratio_ties_to_the_smaller_angle(tmp_path):
+    dv = _views_module()
+    pooled = {"decoder": {"speed_error": 2.0, "direction_error_deg": 20.0},
+              "a1": {"speed_error": 1.9, "direction_error_deg": 19.0},   # ratios 0.95, 0.95
+              "a2": {"speed_error": 1.8, "direction_error_deg": 20.2},   # 0.90, 1.01: 0.955
+              "a3": {"speed_error": 1.8, "direction_error_deg": 18.0},   # 0.90, 0.90
+              "a4": {"speed_error": 1.9, "direction_error_deg": 17.0}}   # 0.95, 0.85: 0.90
+    res = dv.choose(pooled, [1, 2, 3, 4])
+    assert res["chosen_deg"] == 3.0 and res["chosen_rotations_deg"] == (0.0, -3.0, 3.0)
+    assert res["by_angle"]["2"]["mean_ratio"] == pytest.approx(0.955)
+    res.update(map="holdout-0", n_inlets=1, seed=1, samples=16, model="default",
+               local={"speed_error": 4.0, "direction_error_deg": 30.0})
+    lines = dv.table(res)
+    assert "| 3 (chosen) | 1.8000 | 18.000 | 0.9000 |" in lines
+    assert dv.plot(res, tmp_path / "v.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

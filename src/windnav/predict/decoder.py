@@ -1082,6 +1082,7 @@ class Decoder(ReadOnlyOnCopy):
         if self.rotations_deg is None:
             return self._sides(scans, w_up, w_robot)
         out = np.zeros((scans.shape[0], 2, self.size, self.size), dtype=np.float32)
+        scans = scans.astype(np.float32)  # as each pass takes them, converted once for all
         for angle in self.rotations_deg:
             if angle == 0.0:
                 out += self._sides(scans, w_up, w_robot)
