@@ -177,3 +177,15 @@ def test_the_views_are_chosen_by_the_mean_error_ratio_ties_to_the_smaller_angle(
     lines = dv.table(res)
     assert "| 3 (chosen) | 1.8000 | 18.000 | 0.9000 |" in lines
     assert dv.plot(res, tmp_path / "v.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_an_ensembles_views_turn_its_mean_field_back():
+    from windnav.predict.decoder import ensemble_decoder
+
+    members = [tiny("d4-film", seed=s) for s in (0, 1)]
+    ens = ensemble_decoder(members)
+    scans, w_up, w_robot = inputs()
+    turned = Decoder(ens.weights, ens.metadata, rotations_deg=[5])
+    want = turned_back_by_scipy(ens, scans, w_up, w_robot, 5.0)
+    np.testing.assert_allclose(turned.predict(scans, w_up, w_robot), want,
+                               atol=2e-5 * np.abs(want).max())
