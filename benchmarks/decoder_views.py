@@ -59,7 +59,7 @@ def choose(pooled: dict, angles) -> dict:
         rows[f"{a:g}"] = {"rotations_deg": views(a), **{m: e[m] for m in METRICS},
                           "ratio": ratios, "mean_ratio": float(np.mean(list(ratios.values())))}
     # ratios equal to 1e-9 are a tie (float rounding must not pick the larger angle)
-    best = min(angles, key=lambda a: (round(rows[f"{a:g}"]["mean_ratio"], 9), a))
+    best = min(angles, key=lambda a: (round(rows[f"{a:g}"]["mean_ratio"], 9), abs(a)))
     return {"reference": {m: ref[m] for m in METRICS}, "by_angle": rows,
             "chosen_deg": float(best), "chosen_rotations_deg": views(best)}
 
@@ -149,6 +149,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.inlets < 1:
         ap.error("--inlets must be >= 1")
+    from windnav.predict.decoder import ROTATIONS_LIMIT_DEG
+
+    bad = [a for a in args.angles if not (0 < a <= ROTATIONS_LIMIT_DEG and a == round(a))]
+    if bad or len(set(args.angles)) != len(args.angles):
+        ap.error(f"--angles must be distinct whole degrees in (0, {ROTATIONS_LIMIT_DEG:g}] (the "
+                 f"views are 0, -a and +a). Got {args.angles} instead.")
     res = run(args.model, angles=args.angles, n_inlets=args.inlets, seed=args.seed,
               flow_cache=args.flow_cache, progress=not args.no_progress)
     lines = table(res)

@@ -88,17 +88,35 @@ def test_several_views_predict_the_mean_of_the_views():
     np.testing.assert_allclose(got, np.mean(views, axis=0), atol=1e-6)
 
 
-def test_a_single_sample_and_a_boundary_inlet_go_through_the_views():
+def test_a_single_sample_goes_through_the_views_as_in_a_batch():
     dec = tiny("d4-film", rotations_deg=[0, -3, 3])
     scans, w_up, w_robot = inputs(3)
-    w_up[1] = [0.0, 4.0]  # on a sector boundary (90 deg): its sides averaged in each view
     batch = dec.predict(scans, w_up, w_robot)
+    assert batch.dtype == np.float32
     for i in range(3):
-        np.testing.assert_allclose(dec.predict(scans[i], w_up[i], w_robot[i])[0], batch[i],
-                                   atol=1e-5)
+        one = dec.predict(scans[i], w_up[i], w_robot[i])
+        assert one.dtype == np.float32
+        np.testing.assert_allclose(one[0], batch[i], atol=1e-5)
 
 
-@pytest.mark.parametrize("bad", [[], [float("nan")], [0.5], [46], [-90], "three"])
+@pytest.mark.parametrize("boundary", ["average", "floor"])
+def test_a_view_whose_turned_inlet_lies_on_a_sector_boundary_is_answered_by_the_rule(boundary):
+    """An inlet toward 42 deg turned by +3 deg lies on the 45 deg boundary: that view is the
+    decoder's answer there (by its ``boundary`` rule) turned back, not either side alone."""
+    scans, w_up, w_robot = inputs(4)
+    w_up[:] = 5.0 * np.array([np.cos(np.radians(42.0)), np.sin(np.radians(42.0))])
+    dec = tiny("d4-film", boundary=boundary)
+    got = tiny("d4-film", boundary=boundary, rotations_deg=[3]).predict(scans, w_up, w_robot)
+    want = turned_back_by_scipy(dec, scans, w_up, w_robot, 3.0)
+    np.testing.assert_allclose(got, want, atol=2e-5 * np.abs(want).max())
+    if boundary == "average":  # the two sides differ, so the rule is what the test sees
+        other = tiny("d4-film", boundary="floor", rotations_deg=[3]).predict(scans, w_up,
+                                                                             w_robot)
+        assert np.abs(got - other).max() > 1e-3
+
+
+@pytest.mark.parametrize("bad", [[], [float("nan")], [0.5], [46], [-90], "three", "3", 3,
+                                 [True], [[0, 3]], [3, "3"]])
 def test_bad_angles_are_refused_naming_the_parameter(bad):
     with pytest.raises(ValueError, match="'rotations_deg' parameter of Decoder"):
         tiny("d4-film", rotations_deg=bad)
@@ -107,10 +125,25 @@ def test_bad_angles_are_refused_naming_the_parameter(bad):
 
 
 def test_the_views_change_the_fingerprint_and_the_repr_only_when_set():
-    plain, same = tiny("d4-film"), tiny("d4-film", rotations_deg=None)
+    import hashlib
+
+    plain = tiny("d4-film")
+    # a decoder without views prints as before views existed: the hash of the same fields
+    h = hashlib.sha256(json.dumps({"architecture": plain.architecture,
+                                   "hyperparameters": plain.hyperparameters,
+                                   "spacing": plain.spacing, "boundary": plain.boundary},
+                                  sort_keys=True, default=str).encode())
+    for name in sorted(plain.weights):
+        h.update(f"{name}{plain.weights[name].shape}".encode())
+        h.update(np.ascontiguousarray(plain.weights[name], dtype=np.float32).tobytes())
+    assert plain.fingerprint() == h.hexdigest()
     turned = tiny("d4-film", rotations_deg=[0, -3, 3])
-    assert plain.fingerprint() == same.fingerprint() != turned.fingerprint()
+    assert turned.fingerprint() != plain.fingerprint()
     assert "rotations_deg" not in repr(plain) and "(0, -3, 3) deg" in repr(turned)
+    # -0 is 0: the same views, the same fingerprint and repr
+    minus_zero = tiny("d4-film", rotations_deg=[-0.0, -3, 3])
+    assert minus_zero.rotations_deg == (0.0, -3.0, 3.0)
+    assert minus_zero.fingerprint() == turned.fingerprint() and repr(minus_zero) == repr(turned)
 
 
 def test_the_commands_take_the_views_and_record_them(tmp_path, capsys):

@@ -34,9 +34,10 @@ def add_rotations_argument(parser) -> None:
     """Add ``--rotations-deg A [A ...]``: the decoder's turned views
     (:class:`windnav.predict.Decoder`'s ``rotations_deg``)."""
     parser.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
-                        help="predict the mean of the decoder over the scene turned by each "
-                             "of these angles, deg CCW, whole degrees within 45 of 0 (e.g. "
-                             "0 -3 3: three passes; default: the scene as given, one pass)")
+                        help="predict the mean of the decoder (--model; not --compare's "
+                             "models) over the scene turned by each of these angles, deg CCW, "
+                             "whole degrees within 45 of 0 (e.g. 0 -3 3: three passes; "
+                             "default: the scene as given, one pass)")
 
 
 def load_model(args, name: str):
