@@ -30,14 +30,16 @@ def add_output_arguments(parser, *, overwrite: bool = True) -> None:
                                  "results are never replaced")
 
 
-def add_rotations_argument(parser) -> None:
+def add_rotations_argument(parser, *, compare: bool = False) -> None:
     """Add ``--rotations-deg A [A ...]``: the decoder's turned views
-    (:class:`windnav.predict.Decoder`'s ``rotations_deg``)."""
+    (:class:`windnav.predict.Decoder`'s ``rotations_deg``); ``compare``: the command also
+    takes ``--compare`` models, which the help says run one pass."""
+    which = "--model; not --compare's models" if compare else "--model"
     parser.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
-                        help="predict the mean of the decoder (--model; not --compare's "
-                             "models) over the scene turned by each of these angles, deg CCW, "
-                             "whole degrees within 45 of 0 (e.g. 0 -3 3: three passes; "
-                             "default: the scene as given, one pass)")
+                        help=f"predict the mean of the decoder ({which}) over the scene turned "
+                             "by each of these angles, deg CCW, whole degrees within 45 of 0 "
+                             "(e.g. 0 -3 3: three passes; default: the scene as given, one "
+                             "pass)")
 
 
 def load_model(args, name: str):

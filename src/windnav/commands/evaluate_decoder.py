@@ -72,7 +72,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("--model", type=Path, default=None, metavar="FILE",
                    help="decoder file (default: the shipped model)")
-    add_rotations_argument(p)
+    add_rotations_argument(p, compare=True)
     p.add_argument("--compare", action="append", default=[], metavar="[NAME=]FILE",
                    help="another decoder file scored beside the decoder on the same samples "
                         "(e.g. the thesis MLP trained on the same data); repeatable; NAME "

@@ -183,10 +183,12 @@ CONV_BLOCK_MAX = 12
 
 ROTATIONS_LIMIT_DEG = 45.0
 """The largest turn of the scene :meth:`Decoder.predict` averages over (``rotations_deg``),
-deg: beyond it the corners of the output grid turn out of the window the model predicts (they
-take the nearest edge cell's value), and the views leave the training maps' street grid far
-behind (on the held-out district views at 0 and +-8 deg were already worse than one pass,
-docs/decoder.md, "Turned views")."""
+deg. At any turn some edge cells of the output grid come from points beyond the window the
+model predicts, and take the nearest edge cell's value: 48 of the 625 cells of the 25-cell
+grid at 1-3 deg, 68 at 10 deg, 144 at 45 deg. Wider turns also take the street grid further
+from the training maps' (on the held-out district, views at 0 and +-8 deg were already worse
+than one pass on speed, docs/decoder.md, "Turned views"); beyond 45 deg a quarter turn the
+other way is the same view, exactly, for the d4-film."""
 
 
 # ------------------------------------------------------------------------------ D4 frames
@@ -300,7 +302,8 @@ def check_rotations(rotations_deg, n_rays: int, where: str) -> tuple[float, ...]
 
 def rotation_resampler(offsets: np.ndarray, angle_deg: float):
     """The bilinear map from a field on the grid to its values at the grid's cells turned by
-    ``angle_deg`` counter-clockwise about the centre: ``P`` (H^2, H^2), sparse, with
+    ``angle_deg`` counter-clockwise about offset 0 (the robot, the grid's centre for
+    :func:`~windnav.predict.dataset.grid_offsets`): ``P`` (H^2, H^2), sparse, float32, with
     ``(P f)[p] = f(R p)`` for the cells ``p`` (row-major ``[iy, ix]``) and a point beyond the
     grid taking its nearest edge value. ``offsets`` (H,) are the cell centres, m, evenly
     spaced and the same for x and y."""
@@ -328,8 +331,15 @@ def rotation_resampler(offsets: np.ndarray, angle_deg: float):
 
 def turned_inputs(scans: np.ndarray, w_up: np.ndarray, w_robot: np.ndarray,
                   angle_deg: float) -> tuple:
-    """The scene turned ``angle_deg`` counter-clockwise: each scan shifted by that many rays
-    (ray ``k`` of the turned scan is ray ``k - angle`` of the scan) and both winds turned."""
+    """The scene turned ``angle_deg`` counter-clockwise, deg, a whole number of rays (as
+    :func:`check_rotations` requires; another angle is rounded to the nearest ray): each scan
+    ``(B, n_rays)`` m shifted by ``angle_deg n_rays / 360`` rays (the turned scan's ray ``k``
+    is the scan's ray ``k`` minus that shift) and both winds ``(B, 2)`` m/s turned.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``(scans, w_up, w_robot)`` of the turned scene, the same shapes (new arrays)."""
     n_rays = scans.shape[1]
     shift = int(round(angle_deg * n_rays / 360.0))
     c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
@@ -983,6 +993,13 @@ class Decoder(ReadOnlyOnCopy):
     n_parameters : int
     rotations_deg : tuple of float or None
         The views averaged (None: one pass on the scene as given).
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter: bad ``metadata`` or ``weights``, a ``boundary`` not in
+        :data:`BOUNDARIES`, or ``rotations_deg`` not a flat sequence of whole-ray angles within
+        :data:`ROTATIONS_LIMIT_DEG` of 0 (:func:`check_rotations`).
     """
 
     def __init__(self, weights: dict, metadata: dict, *, boundary: str = "average",
