@@ -64,6 +64,30 @@ def choose(pooled: dict, angles) -> dict:
             "chosen_deg": float(best), "chosen_rotations_deg": views(best)}
 
 
+def boundary_distance_deg(direction_deg: float) -> float:
+    """How far an inlet's direction lies from the nearest sector boundary of the d4-film's
+    frame (a multiple of 45 deg), deg in [0, 22.5]."""
+    m = float(direction_deg) % 45.0
+    return min(m, 45.0 - m)
+
+
+def per_inlet(records, angles) -> list[dict]:
+    """Per inlet: its speed, direction and distance from a sector boundary, the one pass's
+    errors and each ``a``'s, and each ``a``'s gain over the one pass (%)."""
+    out = []
+    for r in records:
+        row = {"speed": r["speed"], "direction_deg": r["direction_deg"],
+               "boundary_distance_deg": boundary_distance_deg(r["direction_deg"]),
+               "one_pass": {m: r["decoder"][m] for m in METRICS}, "by_angle": {}}
+        for a in angles:
+            e = r[f"a{a:g}"]
+            row["by_angle"][f"{a:g}"] = {
+                **{m: e[m] for m in METRICS},
+                "gain_pct": {m: 100.0 * (1.0 - e[m] / r["decoder"][m]) for m in METRICS}}
+        out.append(row)
+    return out
+
+
 def run(model=None, *, angles=ANGLES_DEG, n_inlets: int = 4, seed: int = 1,
         flow_cache=None, progress: bool = True) -> dict:
     """Score the one-pass decoder and its three-view variants on the held-out district."""
@@ -83,6 +107,7 @@ def run(model=None, *, angles=ANGLES_DEG, n_inlets: int = 4, seed: int = 1,
             "samples": sum(r["n_samples"] for r in res["records"]),
             "inlets": [{"speed": r["speed"], "direction_deg": r["direction_deg"]}
                        for r in res["records"]],
+            "per_inlet": per_inlet(res["records"], angles),
             "local": {m: pooled["local"][m] for m in METRICS},
             **choose(pooled, angles), "elapsed_s": time.perf_counter() - t0}
 
