@@ -972,7 +972,7 @@ class Decoder(ReadOnlyOnCopy):
         scene as given): each view's scan is shifted by its angle, its winds turned, and its
         field turned back onto the world-aligned grid by bilinear interpolation
         (:func:`turn_field_back`). A test-time ensemble of one model: ``(0, -3, 3)`` took the
-        shipped model's windinet speed error from 0.618 to 0.602 m/s at 3.5 x the time
+        shipped model's windinet speed error from 0.618 to 0.601 m/s at 3.5 x the time
         (docs/decoder.md, "Turned views"). Default: the scene as given, one pass.
 
     Attributes
