@@ -64,20 +64,16 @@ def choose(pooled: dict, angles) -> dict:
             "chosen_deg": float(best), "chosen_rotations_deg": views(best)}
 
 
-def boundary_distance_deg(direction_deg: float) -> float:
-    """How far an inlet's direction lies from the nearest sector boundary of the d4-film's
-    frame (a multiple of 45 deg), deg in [0, 22.5]."""
-    m = float(direction_deg) % 45.0
-    return min(m, 45.0 - m)
-
-
 def per_inlet(records, angles) -> list[dict]:
     """Per inlet: its speed, direction and distance from a sector boundary, the one pass's
     errors and each ``a``'s, and each ``a``'s gain over the one pass (%)."""
+    from windnav.predict.decoder import sector_boundary_distance_deg
+
     out = []
     for r in records:
         row = {"speed": r["speed"], "direction_deg": r["direction_deg"],
-               "boundary_distance_deg": boundary_distance_deg(r["direction_deg"]),
+               "boundary_distance_deg": float(
+                   sector_boundary_distance_deg(r["direction_deg"])),
                "one_pass": {m: r["decoder"][m] for m in METRICS}, "by_angle": {}}
         for a in angles:
             e = r[f"a{a:g}"]
@@ -93,10 +89,12 @@ def run(model=None, *, angles=ANGLES_DEG, n_inlets: int = 4, seed: int = 1,
     """Score the one-pass decoder and its three-view variants on the held-out district."""
     from windnav.experiments.decoder_eval import evaluate_decoder
     from windnav.predict import load_decoder
+    from windnav.predict.decoder import Decoder
 
     angles = sorted({float(a) for a in angles})
-    plain = load_decoder(model)
-    compare = {f"a{a:g}": load_decoder(model, rotations_deg=views(a)) for a in angles}
+    plain = load_decoder(model)  # the file read once; each view set shares its weights
+    compare = {f"a{a:g}": Decoder(plain.weights, plain.metadata, rotations_deg=views(a))
+               for a in angles}
     t0 = time.perf_counter()
     res = evaluate_decoder(model, decoder=plain, maps=[(VALIDATION_MAP, holdout_city())],
                            windinet=False, n_inlets=n_inlets, seed=seed, budget_s=3600.0,

@@ -225,9 +225,11 @@ def test_an_ensembles_views_turn_its_mean_field_back():
 
 
 def test_the_views_record_each_inlets_gain_and_distance_from_a_sector_boundary():
+    from windnav.predict.decoder import sector_boundary_distance_deg
+
     dv = _views_module()
-    assert [dv.boundary_distance_deg(d) for d in (44.9, 227.4, 0.0, 22.5, 315.0, 100.0)] == \
-        pytest.approx([0.1, 2.4, 0.0, 22.5, 0.0, 10.0])
+    assert [sector_boundary_distance_deg(d) for d in (44.9, 227.4, 0.0, 22.5, 315.0, 100.0)] \
+        == pytest.approx([0.1, 2.4, 0.0, 22.5, 0.0, 10.0])
     records = [{"speed": 5.0, "direction_deg": 227.4,
                 "decoder": {"speed_error": 2.0, "direction_error_deg": 20.0},
                 "a3": {"speed_error": 1.9, "direction_error_deg": 19.0}}]

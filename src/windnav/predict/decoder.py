@@ -131,6 +131,7 @@ __all__ = [
     "permute_cells",
     "rotation_resampler",
     "save_decoder",
+    "sector_boundary_distance_deg",
     "turn_field_back",
     "turned_inputs",
     "uncanonicalize",
@@ -250,12 +251,18 @@ def _check_boundary(boundary, where: str) -> str:
     return boundary
 
 
+def sector_boundary_distance_deg(direction_deg):
+    """How far each direction lies from the nearest sector boundary of the d4-film's frame (a
+    multiple of 45 deg), deg in [0, 22.5]; ``direction_deg`` a number or array, deg."""
+    alpha = np.asarray(direction_deg, dtype=np.float64)
+    return np.abs(alpha - 45.0 * np.round(alpha / 45.0))
+
+
 def on_sector_boundary(w_up: np.ndarray) -> np.ndarray:
     """Whether each free-stream wind's direction lies within :data:`BOUNDARY_TOLERANCE_DEG`
     of a multiple of 45 deg (a zero wind does not), ``(B,)`` bool."""
     w = np.asarray(w_up, dtype=np.float64)
-    alpha = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
-    off = np.abs(alpha - 45.0 * np.round(alpha / 45.0))
+    off = sector_boundary_distance_deg(np.degrees(np.arctan2(w[:, 1], w[:, 0])))
     return (off < BOUNDARY_TOLERANCE_DEG) & (np.hypot(w[:, 0], w[:, 1]) > 0)
 
 
