@@ -448,6 +448,62 @@ def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
         nb.benchmark_decoder("tomorrow")
 
 
+def test_the_onboard_stack_flies_the_decoders_turned_views_with_views():
+    """``@views=A`` flies the label's dated decoder (default the pinned one) with the turned
+    views (0, -A, +A) deg: the same predictions as that file loaded with those views, under the
+    benchmark's boundary rule; other variants and angles that are not whole degrees in (0, 45]
+    are refused by name."""
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    scenario = make_suite(TINY)[0]
+    flown = {}
+
+    def record(city, start, goal, **kw):
+        flown.clear()
+        flown.update(kw)
+        return "flown"
+
+    scans = np.random.default_rng(1).uniform(5.0, 100.0, (3, 360))
+    w_up = np.array([[3.0, 1.0], [-2.0, 4.0], [5.0, 0.0]])  # the last on a sector boundary
+    w_rob = np.array([[2.0, 1.5], [-1.0, 3.0], [4.0, -1.0]])
+    for label, file, angle in (
+            ("ea-mppi-w-hat@views=3", "decoder_2026-11-23.npz", 3.0),
+            ("ea-mppi-w-hat@decoder=2026-12-01@outside=robot@views=2", "decoder_default.npz",
+             2.0)):
+        assert nb.fly(TINY, scenario, label, city=None, flow=None,
+                      navigate_fn=record) == "flown"
+        assert "decoder_views" not in flown  # not a keyword of navigate
+        dec = flown["decoder"]
+        assert dec.rotations_deg == (0.0, -angle, angle)
+        want = load_decoder(DEFAULT_MODEL.parent / file, boundary="floor",
+                            rotations_deg=(0.0, -angle, angle))
+        np.testing.assert_array_equal(dec.predict(scans, w_up, w_rob),
+                                      want.predict(scans, w_up, w_rob))
+        single = load_decoder(DEFAULT_MODEL.parent / file, boundary="floor")
+        assert not np.allclose(dec.predict(scans, w_up, w_rob),
+                               single.predict(scans, w_up, w_rob))
+        assert nb.flight_decoder(nb.parse_variant(label)[1]) is dec  # loaded once
+    assert flown["onboard"] == {"outside": "robot"}
+    assert nb.parse_variant("ea-mppi-w-hat@views=45") == ("ea-mppi-w-hat",
+                                                          {"decoder_views": 45.0})
+    assert nb.benchmark_decoder("2026-11-23", 0) is nb.benchmark_decoder()
+    for bad, why in (("ea-mppi-w-hat@views=0", "whole number of degrees in"),
+                     ("ea-mppi-w-hat@views=2.5", "whole number of degrees in"),
+                     ("ea-mppi-w-hat@views=46", "whole number of degrees in"),
+                     ("ea-mppi-w-hat@views=inf", "whole number of degrees in"),
+                     ("ea-mppi-w-hat@views=-3", "views must be >= 0"),
+                     ("ea-mppi-w-hat@views=3.0", "shortest form"),
+                     ("ea-mppi-w-hat@views=3@views=2", "repeated"),
+                     ("ea-mppi-w@views=3", "takes no parameter 'views'"),
+                     ("ea-mppi-w-esc@views=3", "takes no parameter 'views'")):
+        with pytest.raises(ValueError, match=why):
+            nb.parse_variant(bad)
+    for bad in (2.5, -1, 46, float("nan")):
+        with pytest.raises(ValueError, match="'views_deg' parameter of benchmark_decoder"):
+            nb.benchmark_decoder("2026-11-23", bad)
+
+
 def test_a_dated_decoder_whose_file_changed_is_refused(tmp_path, monkeypatch):
     from windnav.predict.decoder import DEFAULT_MODEL
 

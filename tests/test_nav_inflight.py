@@ -309,6 +309,9 @@ def test_a_record_log_flown_with_another_decoder_is_refused(tmp_path, monkeypatc
                                  "sha256": sha[:16]}
     assert ni.records_header(TINY, f"{ni.INFLIGHT_VARIANT}@decoder=2026-11-26", 1.0,
                              ())["decoder"]["file"] == "decoder_2026-11-26.npz"
+    # the turned views (@views=) are part of the decoder flown, so of the header
+    viewed = ni.records_header(TINY, f"{ni.INFLIGHT_VARIANT}@views=3", 1.0, ())["decoder"]
+    assert viewed == {**header["decoder"], "rotations_deg": [0.0, -3.0, 3.0]}
     log = tmp_path / ni.RECORDS
     log.write_text(json.dumps({"header": header}) + "\n")
     flown = []

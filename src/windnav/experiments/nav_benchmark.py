@@ -98,6 +98,7 @@ __all__ = [
     "SuiteMismatchError",
     "SuiteSpec",
     "benchmark_decoder",
+    "flight_decoder",
     "blas_kernel",
     "benchmark_table",
     "check_against_suite",
@@ -372,21 +373,40 @@ twice on 2026-11-29, twice on 2026-11-30 and on 2026-12-01 (``ea-mppi-w-hat@deco
 pinning the benchmark's model keeps every recorded flight replayable to the bit."""
 
 
-def benchmark_decoder(name: str = BENCHMARK_DECODER):
+def benchmark_decoder(name: str = BENCHMARK_DECODER, views_deg: float = 0.0):
     """The decoder :data:`DECODERS` ``[name]``, its file's hash checked, loaded once per process,
     with the sector boundaries its recorded flights met (``boundary="floor"``,
-    :data:`windnav.predict.decoder.BOUNDARIES`).
+    :data:`windnav.predict.decoder.BOUNDARIES`); with ``views_deg`` > 0 (whole degrees, at most
+    :data:`windnav.predict.decoder.ROTATIONS_LIMIT_DEG`), its turned views
+    ``rotations_deg=(0, -views_deg, views_deg)`` (the label's ``@views=``; ``docs/decoder.md``,
+    "Turned views").
 
     Raises
     ------
     ValueError
-        An unknown name, or a file whose SHA-256 is not the recorded one.
+        An unknown name, a file whose SHA-256 is not the recorded one, or ``views_deg`` not a
+        whole number of degrees in [0, 45].
     """
-    return _dated_decoder(str(name))
+    from windnav.predict.decoder import ROTATIONS_LIMIT_DEG
+
+    views = float(views_deg)
+    if not (0.0 <= views <= ROTATIONS_LIMIT_DEG and views == round(views)):
+        raise ValueError(f"The 'views_deg' parameter of benchmark_decoder must be a whole number "
+                         f"of degrees in [0, {ROTATIONS_LIMIT_DEG:g}]. Got {views_deg!r} "
+                         "instead.")
+    return _dated_decoder(str(name), views + 0.0)
+
+
+def flight_decoder(options: dict):
+    """The decoder :func:`fly` gives the onboard stack of a label's ``options``
+    (:func:`parse_variant`): its ``decoder`` (default :data:`BENCHMARK_DECODER`) with its
+    ``decoder_views`` (default none)."""
+    return benchmark_decoder(options.get("decoder", BENCHMARK_DECODER),
+                             options.get("decoder_views", 0.0))
 
 
 @functools.lru_cache(maxsize=None)
-def _dated_decoder(name: str):
+def _dated_decoder(name: str, views_deg: float = 0.0):
     import hashlib
 
     from windnav.predict import load_decoder
@@ -403,14 +423,16 @@ def _dated_decoder(name: str):
                          f"(SHA-256 {sha[:12]}...): its flights would not replay.")
     # the sector boundaries as the recorded flights met them (the suite's 0 and 45 deg
     # incidences): windnav.predict.decoder.BOUNDARIES
-    return load_decoder(path, boundary="floor")
+    views = None if views_deg == 0.0 else (0.0, -views_deg, views_deg)
+    return load_decoder(path, boundary="floor", rotations_deg=views)
 
 
 PARAMETERS = {"qe": "energy_weight", "h": "horizon", "power": "power_shape",
               "decoder": "decoder", "esc": "escape", "escair": "escape_airspeed",
               "edge": "escape_edge", "pace": "escape_pace", "regain": "escape_regain",
               "launch": "escape_launch", "gust": "escape_gust", "tilt": "tilt_max_deg",
-              "outside": "outside", "energy": "energy_mode", "tau": "wrobot_tau_s"}
+              "outside": "outside", "energy": "energy_mode", "tau": "wrobot_tau_s",
+              "views": "decoder_views"}
 """Study parameters a variant label may set after ``@`` (:func:`parse_variant`): ``qe`` the
 energy weight ``Q_E``, ``h`` the side ``H`` of the wind window ``L_t``, m (``inf``: the whole
 map; ``0``: no wind), ``power`` the shape of the power curve that the planner and ``energy_J``
@@ -424,7 +446,10 @@ authority), ``energy=mission`` (``J_E`` is the energy of the mission instead of 
 the decoder was given instead of zero: :attr:`windnav.experiments.onboard.OnboardOptions.outside`,
 ours, not the thesis's) and ``tau`` (s, finite, > 0: ``W_robot`` is the UKF's estimate averaged
 with that time constant, :attr:`~windnav.experiments.onboard.OnboardOptions.wrobot_tau_s`,
-ours); for ``mppi-w`` and ``ea-mppi-w`` with a finite ``h``, ``outside=truth``
+ours) and ``views`` (whole degrees in (0, 45]: the decoder predicts the mean over the
+scene as given and turned by -``views`` and +``views`` degrees, its opt-in turned views,
+``docs/decoder.md``; three passes per decode); for ``mppi-w`` and ``ea-mppi-w`` with a finite
+``h``, ``outside=truth``
 (outside ``L_t`` the planner gets the true mean wind at the vehicle instead of zero:
 :func:`windnav.experiments.navigate.local_wind`, ours: the onboard option with a perfect
 estimate); and for
@@ -460,6 +485,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
     ``"ea-mppi-w-hat@decoder=2026-11-26"`` (another decoder), ``"ea-mppi-w-hat@outside=robot"``
     (the onboard stack's ``W_robot`` outside the decoder's window),
     ``"ea-mppi-w-hat@outside=robot@tau=5"`` (and its ``W_robot`` averaged over 5 s),
+    ``"ea-mppi-w-hat@views=3"`` (the decoder's turned views by 0 and +-3 deg),
     ``"ea-mppi-w@h=25@outside=truth"`` (the true mean wind at the vehicle outside the window),
     ``"ea-mppi-w@energy=mission"`` (the mission's energy as ``J_E``).
 
@@ -471,7 +497,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
         Extra keyword arguments of :func:`~windnav.experiments.navigate.navigate`:
         ``planner_overrides`` (``energy_weight``; ``use_wind=False`` for ``h=0``),
         ``horizon``, ``power_shape``, ``tilt_max_deg``, ``decoder`` (a key of
-        :data:`DECODERS`, which :func:`fly` loads), ``onboard`` (fields of
+        :data:`DECODERS`) and ``decoder_views`` (deg), which :func:`fly` loads
+        (:func:`flight_decoder`), ``onboard`` (fields of
         :class:`~windnav.experiments.onboard.OnboardOptions`: ``outside``, ``wrobot_tau_s``),
         ``outside`` (``"truth"``) and ``escape`` (an :class:`~windnav.plan.EscapeConfig`).
 
@@ -498,7 +525,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'@tilt=DEG' (in (0, {TILT_LIMIT_DEG:g})) and/or "
                           f"'@energy=mission', "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}) and/or "
-                          f"'@outside=robot' and/or '@tau=S' (s, finite, > 0), "
+                          f"'@outside=robot' and/or '@tau=S' (s, finite, > 0) and/or "
+                          f"'@views=DEG' (whole degrees in (0, 45]), "
                           f"'mppi-w' or 'ea-mppi-w' with '@h=H' and '@outside=truth', or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
@@ -521,7 +549,8 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             raise fail(f"bad or repeated parameter {item!r}")
         seen.add(key)
         if ((key != "energy"
-             and (key in ("decoder", "tau") or (key == "outside" and base not in _TRUTH_FILL))
+             and (key in ("decoder", "tau", "views")
+                  or (key == "outside" and base not in _TRUTH_FILL))
              != onboard)
                 or (key in _ESCAPE_KEYS and not VARIANTS[base].escape)):
             raise fail(f"{base!r} takes no parameter {key!r}")
@@ -568,6 +597,10 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
             if not 0.0 < value < TILT_LIMIT_DEG:
                 raise fail(f"tilt must be in (0, {TILT_LIMIT_DEG:g}) degrees")
             options["tilt_max_deg"] = value
+        elif key == "views":
+            if not (0.0 < value <= 45.0 and value == round(value)):
+                raise fail("views must be a whole number of degrees in (0, 45]")
+            options["decoder_views"] = value
         elif key in _ESCAPE_KEYS or key == "tau":
             if not (0.0 < value < math.inf):
                 raise fail(f"{key} must be finite and > 0")
@@ -716,9 +749,10 @@ def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
 
     base, options = parse_variant(variant, "fly")
     kwargs = {**spec.navigate_options, **options}
+    kwargs.pop("decoder_views", None)
     if VARIANTS[base].wind_source == "onboard":
-        if "decoder" in options:
-            kwargs["decoder"] = benchmark_decoder(options["decoder"])
+        if "decoder" in options or "decoder_views" in options:
+            kwargs["decoder"] = flight_decoder(options)
         elif "decoder" not in kwargs:
             kwargs["decoder"] = benchmark_decoder()
     if "onboard" in options and isinstance(spec.navigate_options.get("onboard"), dict):

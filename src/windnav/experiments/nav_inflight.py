@@ -223,22 +223,26 @@ def _decoder_name(variant: str) -> str:
 
 
 def _decoder(variant: str):
-    """The decoder ``fly`` gives the onboard stack of ``variant`` (:func:`_decoder_name`)."""
-    from windnav.experiments.nav_benchmark import benchmark_decoder
+    """The decoder ``fly`` gives the onboard stack of ``variant`` (:func:`_decoder_name`, with
+    the label's ``@views=``)."""
+    from windnav.experiments import nav_benchmark
 
-    return benchmark_decoder(_decoder_name(variant))
+    return nav_benchmark.flight_decoder(nav_benchmark.parse_variant(variant)[1])
 
 
 def _decoder_identity(variant: str) -> dict:
     """The flown decoder's identity: its name, file and the first 16 hex digits of the file's
     SHA-256 (the one :func:`~windnav.experiments.nav_benchmark.benchmark_decoder` checks the
-    file against before it loads it)."""
+    file against before it loads it), and its turned views (``rotations_deg``, deg) when the
+    label gives ``@views=``."""
     from windnav.experiments.nav_benchmark import DECODERS
 
     name = _decoder_name(variant)
-    _decoder(variant)  # an unknown name or a file not of its date: benchmark_decoder's error
+    decoder = _decoder(variant)  # an unknown name or a file not of its date: its error
     file, sha = DECODERS[name]
-    return {"name": name, "file": file, "sha256": sha[:16]}
+    views = getattr(decoder, "rotations_deg", None)
+    return {"name": name, "file": file, "sha256": sha[:16],
+            **({} if views is None else {"rotations_deg": list(views)})}
 
 
 def _fly_wind(task):
