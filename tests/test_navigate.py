@@ -519,6 +519,44 @@ def test_command_passes_the_onboard_settings_only_to_the_onboard_stack(command_k
         parse(base + hat + ["--outside", "truth"])
 
 
+def test_command_flies_the_decoders_turned_views_only_on_the_onboard_stack(command_kwargs):
+    """``--rotations-deg`` gives the onboard stack the shipped decoder with those turned views;
+    without it the stack's default (None: the shipped decoder as given); bad angles and other
+    variants are refused naming the option, before the flow is simulated."""
+    seen, base = command_kwargs
+    hat = ["--variant", "ea-mppi-w-hat"]
+    args = parse(base + hat)
+    with pytest.raises(_Stop):
+        args.func(args)
+    assert seen["decoder"] is None
+    seen.clear()
+    args = parse(base + hat + ["--rotations-deg", "0", "-3", "3"])
+    with pytest.raises(_Stop):
+        args.func(args)
+    assert seen["decoder"].rotations_deg == (0.0, -3.0, 3.0)
+    from windnav.predict import load_decoder
+
+    scans = np.random.default_rng(2).uniform(3.0, 100.0, (2, 360))
+    w = np.array([[4.0, 1.0], [-1.0, 2.5]])
+    np.testing.assert_array_equal(  # the shipped model's turned views
+        seen["decoder"].predict(scans, w, w),
+        load_decoder(rotations_deg=(0, -3, 3)).predict(scans, w, w))
+    for extra, match in ((["--variant", "ea-mppi-w", "--rotations-deg", "3"],
+                          "'--rotations-deg' parameter of windnav navigate applies only to "
+                          "the onboard stack.*'ea-mppi-w'"),
+                         (hat + ["--rotations-deg", "0", "2.5"],
+                          "'--rotations-deg' parameter of windnav navigate must hold whole"),
+                         (hat + ["--rotations-deg", "50"],
+                          "'--rotations-deg' parameter of windnav navigate must hold whole"),
+                         (hat + ["--rotations-deg", "nan"],
+                          "'--rotations-deg' parameter of windnav navigate")):
+        seen.clear()
+        args = parse(base + extra)
+        with pytest.raises(ValueError, match=match):
+            args.func(args)
+        assert not seen
+
+
 # ------------------------------------------------------------- what a result records
 # (against closed forms computed from its own series; mutation audit, 2026-12-05)
 

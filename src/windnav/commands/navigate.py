@@ -19,7 +19,8 @@ decoder at 50 Hz, planner at 10 Hz); its JSON adds the per-stage median times
 settings are ours (:class:`~windnav.experiments.onboard.OnboardOptions`): ``--outside robot``
 gives the planner the decoder's ``W_robot`` outside the decoder's window instead of zero, and
 ``--wrobot-tau S`` averages the UKF's estimate over ``S`` seconds before it becomes ``W_robot``
-(the benchmark's ``ea-mppi-w-hat@outside=robot@tau=8``). It flies the shipped decoder; the
+(the benchmark's ``ea-mppi-w-hat@outside=robot@tau=8``), and ``--rotations-deg 0 -3 3`` flies
+the decoder's turned views (the benchmark's ``@views=3``). It flies the shipped decoder; the
 benchmark's onboard flights were flown with the decoder of 2026-11-23 (``@decoder=`` picks
 another), so to re-fly one of its records use ``windnav benchmark-nav --replay SCENARIO_ID
 --variant V``, which loads the record's decoder (``navigate`` with the same scenario gives
@@ -90,6 +91,11 @@ def register(sub) -> None:
                    help="ea-mppi-w-hat only: time constant of the average of the Wind UKF's "
                         "estimate given as W_robot, s; 0 is the estimate itself, the thesis's "
                         "(%(default)s)")
+    p.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
+                   help="ea-mppi-w-hat only: the decoder predicts the mean over the scene "
+                        "turned by each of these angles, deg CCW, whole degrees within 45 of 0 "
+                        "(its turned views, docs/decoder.md; e.g. 0 -3 3: three passes per "
+                        "decode; default: the scene as given, one pass)")
     p.add_argument("--altitude", type=float, default=10.0,
                    help="flight altitude, m (%(default)s; the 2D wind is a slice below the "
                         "roofs)")
@@ -130,6 +136,25 @@ def _onboard(args, name: str) -> dict | None:
         raise ValueError(f"The {flags} parameter of {name} applies only to the onboard stack "
                          f"(--variant ea-mppi-w-hat). Got --variant {args.variant!r} instead.")
     return settings or None
+
+
+def _decoder(args, name: str):
+    """The shipped decoder with ``--rotations-deg`` (None: the onboard stack's default, the
+    shipped decoder as given); an error naming the option for another variant."""
+    from windnav.plan import VARIANTS
+
+    if args.rotations_deg is None:
+        return None
+    if VARIANTS[args.variant].wind_source != "onboard":
+        raise ValueError(f"The '--rotations-deg' parameter of {name} applies only to the "
+                         f"onboard stack's decoder (--variant ea-mppi-w-hat). Got --variant "
+                         f"{args.variant!r} instead.")
+    from windnav.commands._common import options_named
+    from windnav.predict import load_decoder
+
+    with options_named({"'rotations_deg' parameter of load_decoder":
+                        f"'--rotations-deg' parameter of {name}"}):
+        return load_decoder(rotations_deg=args.rotations_deg)
 
 
 def energy_aware_variants() -> tuple[str, ...]:
@@ -196,6 +221,7 @@ def run(args) -> int:
                          f"{args.variant!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
     onboard = _onboard(args, name)
+    decoder = _decoder(args, name)
     energy = _energy_mode(args, name)
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
@@ -232,7 +258,7 @@ def run(args) -> int:
     result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                       variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
                       horizon=horizon, tilt_max_deg=args.tilt_max_deg, onboard=onboard,
-                      planner_overrides=energy)
+                      planner_overrides=energy, decoder=decoder)
     summary = {"map": str(args.map), "seed": args.seed, **result.summary()}
     doc = document("navigate", summary, args)
     with out.writing() as stage:
