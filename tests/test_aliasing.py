@@ -132,7 +132,7 @@ def test_decoder_keeps_read_only_copies_of_its_weights():
     dec = wn.predict.load_decoder()
     weights = {k: v.copy() for k, v in dec.weights.items()}
     mine = wn.predict.Decoder(weights, dec.metadata)
-    scans = np.full((1, 360), 30.0)
+    scans = np.full((1, 360), 100.0)  # an open square: every ray a miss
     before = mine.predict(scans, [[4.0, 1.5]], [[1.0, 0.5]])
     for v in weights.values():
         v *= 1.5

@@ -36,13 +36,47 @@ def test_shipped_decoder_contract_and_scaling():
         dec.predict(scans[:, :359], w_up, w_robot)
 
 
+def test_a_scan_of_a_shorter_range_lidar_is_warned():
+    """A LiDAR whose misses read its own maximum range (30 m) gave a field without a word; the
+    decoder, trained on misses at 100 m, reads those rays as walls at 30 m. Its scans tie at
+    their largest range; City.lidar's 100 m scans, with or without noise, and scans beyond 100 m
+    do not warn."""
+    import warnings
+
+    from windnav.city import City
+
+    city = City((0.0, 200.0, 0.0, 200.0), np.array([[60.0, 80.0, 90.0, 120.0],
+                                                     [120.0, 140.0, 40.0, 70.0]]),
+                np.array([20.0, 20.0]))
+    at = np.array([[100.0, 100.0], [40.0, 150.0]])
+    dec = wn.predict.load_decoder()
+    w_up, w_rob = [4.0, 1.0], [3.0, 0.5]
+    rng = np.random.default_rng(0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for noise in (0.0, 0.35):
+            dec.predict(city.lidar(at, max_range=100.0, noise_std=noise, rng=rng), w_up, w_rob)
+        dec.predict(city.lidar(at, max_range=150.0), w_up, w_rob)  # clipped to 100 m inside
+        dec.predict(rng.uniform(1.0, 99.0, (2, 360)), w_up, w_rob)  # no miss, no ties
+    for noise in (0.0, 0.35):
+        short = city.lidar(at, max_range=30.0, noise_std=noise, rng=rng)
+        with pytest.warns(RuntimeWarning, match=r"2 of 2 scans have 3 or more rays at exactly "
+                                                r"their largest range, under the decoder's 100 m "
+                                                r"\(first: row 0, \d+ rays at 30 m\)"):
+            dec.predict(short, w_up, w_rob)
+    # a scan inside a building is warned once, as such, not as a short range
+    with pytest.warns(RuntimeWarning) as caught:
+        dec.predict(np.zeros((1, 360)), w_up, w_rob)
+    assert len(caught) == 1 and "0 m on every ray" in str(caught[0].message)
+
+
 def test_a_scan_from_inside_a_building_is_warned():
     """``City.lidar`` reads 0 m on every ray on or inside a building; the decoder returned a
     field for it (1.2 m/s of mean speed in the API audit) without a word."""
     import warnings
 
     dec = wn.predict.load_decoder()
-    scans = np.full((3, 360), 30.0)
+    scans = np.full((3, 360), 100.0)  # an open square: every ray a miss at the 100 m range
     scans[1] = 0.0
     with pytest.warns(RuntimeWarning, match=r"1 of 3 scans read 0 m on every ray \(first: row 1\)"):
         dec.predict(scans, [4.0, 1.0], [3.0, 0.5])

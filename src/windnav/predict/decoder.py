@@ -179,6 +179,12 @@ BOUNDARY_TOLERANCE_DEG = 1e-4
 BOUNDARY_NUDGE_DEG = 1e-3
 """How far to either side of a boundary :data:`BOUNDARIES` ``"average"`` evaluates the two
 sides, deg (above float32's resolution of the angle near 360 deg, 3e-5 deg)."""
+SHORT_RANGE_TIES = 3
+"""Rays of one scan at exactly its largest range, under the decoder's ``range_scale``, from
+which :meth:`Decoder.predict` warns of a LiDAR whose misses read a shorter maximum range (a
+scan of :meth:`windnav.city.City.lidar`'s 100 m reads 100 m on its misses; noisy hits never tie
+three times)."""
+
 CONV_BLOCK_MAX = 12
 """The largest block of sectors of the banded scan convolution (:func:`conv_block`)."""
 
@@ -1093,7 +1099,10 @@ class Decoder(ReadOnlyOnCopy):
         Warns
         -----
         RuntimeWarning
-            For scans that read 0 m on every ray (a robot on or inside a building).
+            For scans that read 0 m on every ray (a robot on or inside a building), and for
+            scans whose largest range, under the model's ``range_scale`` (100 m), is read by
+            :data:`SHORT_RANGE_TIES` rays or more (a LiDAR whose misses read a shorter
+            maximum range, which the decoder would read as walls: give a miss 100 m or more).
 
         A ``w_up`` whose direction is a multiple of 45 deg is answered as :attr:`boundary`
         says (:data:`BOUNDARIES`; by default the mean of the two sides: two forward passes
@@ -1111,6 +1120,7 @@ class Decoder(ReadOnlyOnCopy):
                           "City.lidar's reading on or inside a building; the decoder was "
                           "trained on robots 1-40 m from buildings, so those fields mean "
                           "nothing.", RuntimeWarning, stacklevel=2)
+        self._warn_short_range(scans)
         if self.rotations_deg is None:
             return self._sides(scans, w_up, w_robot)
         out = np.zeros((scans.shape[0], 2, self.size, self.size), dtype=np.float32)
@@ -1126,6 +1136,29 @@ class Decoder(ReadOnlyOnCopy):
                                        self._resamplers[angle], angle)
         out /= np.float32(len(self.rotations_deg))
         return out
+
+    def _warn_short_range(self, scans: np.ndarray) -> None:
+        """A RuntimeWarning for scans whose largest range, under the model's
+        ``range_scale`` (100 m), is read by :data:`SHORT_RANGE_TIES` rays or more: the
+        signature of a LiDAR whose misses read its own, shorter maximum range, which the
+        decoder reads as walls there (it was trained on misses at ``range_scale``)."""
+        full = np.float32(self.hyperparameters["range_scale"])
+        top = scans.max(axis=1)
+        rows = np.flatnonzero((top < full) & (top > 0.0))  # 0 m everywhere: warned above
+        if rows.size == 0:  # every scan reaches the model's range: the common case, one pass
+            return
+        ties = (scans[rows] == top[rows, None]).sum(axis=1)
+        short = rows[ties >= SHORT_RANGE_TIES]
+        if short.size:
+            first = int(short[0])
+            warnings.warn(f"Decoder.predict: {short.size} of {scans.shape[0]} scans have "
+                          f"{SHORT_RANGE_TIES} or more rays at exactly their largest range, "
+                          f"under the decoder's {float(full):g} m (first: row {first}, "
+                          f"{int(ties[np.searchsorted(rows, first)])} rays at "
+                          f"{float(top[first]):g} m): a LiDAR whose misses read a shorter "
+                          "maximum range? The decoder reads them as walls at that range; it "
+                          f"was trained with misses at {float(full):g} m, so give a miss "
+                          f"{float(full):g} m or more.", RuntimeWarning, stacklevel=3)
 
     def _sides(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
         """The network's field for checked inputs, a boundary's two sides averaged as
