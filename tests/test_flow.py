@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import importlib.util
 from collections import OrderedDict
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -169,20 +168,6 @@ def test_buildings_have_zero_velocity_and_solid_normal_faces_stay_zero():
     for field in (sol.mean_u, sol.mean_v, sol.frames_u, sol.frames_v):
         assert np.all(field[..., sol.solid] == 0.0)
     assert np.abs(sol.mean_u[~sol.solid]).max() > 1.0  # the fluid does move
-
-
-def test_a_solution_carries_its_averaging_verdict():
-    """``simulate`` does not warn; its solution says whether its mean is converged
-    (``FlowSolution.averaging``, the verdict the commands print), here a short run: 20 + 30
-    steps of 0.3 s at 3 m/s across 48 m is 0.38 + 0.56 flow-throughs."""
-    from windnav.flow.validity import averaging_verdict
-
-    sol = wn.flow.simulate(_city(), speed=3.0, direction_deg=0.0, dx=1.0, dt=0.3,
-                           spinup_steps=20, steps=30)
-    assert sol.averaging == averaging_verdict(sol.diagnostics)
-    assert sol.averaging["converged"] is False and sol.averaging["level"] in ("note", "warning")
-    assert "spin-up 0.38 flow-throughs" in sol.averaging["reason"]
-    assert replace(sol, flow_throughs_spinup=float("nan")).averaging["level"] == "unknown"
 
 
 @pytest.mark.parametrize("direction_deg", [0.0, 30.0, 90.0, 200.0])

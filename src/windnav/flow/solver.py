@@ -415,17 +415,6 @@ class FlowSolution(ReadOnlyOnCopy):
         return {k: float(getattr(self, k)) for k in DIAGNOSTICS}
 
     @property
-    def averaging(self) -> dict:
-        """Whether the mean wind is converged: :func:`windnav.flow.validity.averaging_verdict`
-        of :attr:`diagnostics` (``converged``, ``level`` -- ``"ok"``, ``"note"`` for a young
-        mean such as the thesis's protocol, ``"warning"`` for one not converged, or
-        ``"unknown"`` without diagnostics -- and ``reason`` in words). :func:`simulate` itself
-        does not warn; the commands print this verdict."""
-        from windnav.flow.validity import averaging_verdict
-
-        return averaging_verdict(self)
-
-    @property
     def inlet_xy(self) -> np.ndarray:
         """The inlet (free-stream) wind ``W_up``, ndarray of shape (2,), m/s, world x-y.
 
@@ -644,8 +633,7 @@ def simulate(
     -------
     FlowSolution
         With the averaging diagnostics ``flow_throughs_spinup``, ``flow_throughs_average``
-        and ``half_window_difference``, and their verdict, :attr:`FlowSolution.averaging`
-        (checked by no one here: a mean that is not converged is returned as it is).
+        and ``half_window_difference``.
 
     Raises
     ------
