@@ -485,10 +485,19 @@ def test_the_onboard_stack_flies_the_decoders_turned_views_with_views():
                                single.predict(scans, w_up, w_rob))
         assert nb.flight_decoder(nb.parse_variant(label)[1]) is dec  # loaded once
     assert flown["onboard"] == {"outside": "robot"}
-    assert nb.parse_variant("ea-mppi-w-hat@views=45") == ("ea-mppi-w-hat",
-                                                          {"decoder_views": 45.0})
+    assert nb.parse_variant("ea-mppi-w-hat@views=44") == ("ea-mppi-w-hat",
+                                                          {"decoder_views": 44.0})
     assert nb.benchmark_decoder("2026-11-23", 0) is nb.benchmark_decoder()
+    # a suite that names its own decoder object: the views are not put on another decoder
+    own = replace(TINY, navigate_options={"decoder": "mine"})
+    with pytest.raises(ValueError, match="suite names its own decoder object"):
+        nb.fly(own, scenario, "ea-mppi-w-hat@views=3", city=None, flow=None,
+               navigate_fn=record)
+    nb.fly(own, scenario, "ea-mppi-w-hat@decoder=2026-12-01@views=3", city=None, flow=None,
+           navigate_fn=record)  # a dated decoder named: the label's, as @decoder= alone
+    assert flown["decoder"].rotations_deg == (0.0, -3.0, 3.0)
     for bad, why in (("ea-mppi-w-hat@views=0", "whole number of degrees in"),
+                     ("ea-mppi-w-hat@views=45", "whole number of degrees in"),
                      ("ea-mppi-w-hat@views=2.5", "whole number of degrees in"),
                      ("ea-mppi-w-hat@views=46", "whole number of degrees in"),
                      ("ea-mppi-w-hat@views=inf", "whole number of degrees in"),
@@ -499,7 +508,7 @@ def test_the_onboard_stack_flies_the_decoders_turned_views_with_views():
                      ("ea-mppi-w-esc@views=3", "takes no parameter 'views'")):
         with pytest.raises(ValueError, match=why):
             nb.parse_variant(bad)
-    for bad in (2.5, -1, 46, float("nan")):
+    for bad in (2.5, -1, 45, 46, float("nan"), True, "3", [3]):
         with pytest.raises(ValueError, match="'views_deg' parameter of benchmark_decoder"):
             nb.benchmark_decoder("2026-11-23", bad)
 

@@ -312,6 +312,9 @@ def test_a_record_log_flown_with_another_decoder_is_refused(tmp_path, monkeypatc
     # the turned views (@views=) are part of the decoder flown, so of the header
     viewed = ni.records_header(TINY, f"{ni.INFLIGHT_VARIANT}@views=3", 1.0, ())["decoder"]
     assert viewed == {**header["decoder"], "rotations_deg": [0.0, -3.0, 3.0]}
+    # and the decoder the study scores is the one flown: with the views
+    assert ni._decoder(f"{ni.INFLIGHT_VARIANT}@views=3").rotations_deg == (0.0, -3.0, 3.0)
+    assert ni._decoder(ni.INFLIGHT_VARIANT) is nb.benchmark_decoder()
     log = tmp_path / ni.RECORDS
     log.write_text(json.dumps({"header": header}) + "\n")
     flown = []

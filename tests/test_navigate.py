@@ -523,6 +523,8 @@ def test_command_flies_the_decoders_turned_views_only_on_the_onboard_stack(comma
     """``--rotations-deg`` gives the onboard stack the shipped decoder with those turned views;
     without it the stack's default (None: the shipped decoder as given); bad angles and other
     variants are refused naming the option, before the flow is simulated."""
+    import windnav.experiments.navigate as nav
+
     seen, base = command_kwargs
     hat = ["--variant", "ea-mppi-w-hat"]
     args = parse(base + hat)
@@ -536,11 +538,15 @@ def test_command_flies_the_decoders_turned_views_only_on_the_onboard_stack(comma
     assert seen["decoder"].rotations_deg == (0.0, -3.0, 3.0)
     from windnav.predict import load_decoder
 
-    scans = np.random.default_rng(2).uniform(3.0, 100.0, (2, 360))
-    w = np.array([[4.0, 1.0], [-1.0, 2.5]])
-    np.testing.assert_array_equal(  # the shipped model's turned views
+    scans = np.random.default_rng(2).uniform(3.0, 100.0, (3, 360))
+    w = np.array([[4.0, 1.0], [-1.0, 2.5], [3.0, 3.0]])  # the last on a sector boundary
+    np.testing.assert_array_equal(  # the shipped model's turned views, its boundary rule
         seen["decoder"].predict(scans, w, w),
         load_decoder(rotations_deg=(0, -3, 3)).predict(scans, w, w))
+    def no_flow(*a, **kw):
+        raise AssertionError("the flow was simulated before the option was checked")
+
+    nav.simulate_flow = no_flow  # the fixture's monkeypatch restores the original after
     for extra, match in ((["--variant", "ea-mppi-w", "--rotations-deg", "3"],
                           "'--rotations-deg' parameter of windnav navigate applies only to "
                           "the onboard stack.*'ea-mppi-w'"),

@@ -64,10 +64,26 @@ def test_a_scan_of_a_shorter_range_lidar_is_warned():
                                                 r"their largest range, under the decoder's 100 m "
                                                 r"\(first: row 0, \d+ rays at 30 m\)"):
             dec.predict(short, w_up, w_rob)
-    # a scan inside a building is warned once, as such, not as a short range
-    with pytest.warns(RuntimeWarning) as caught:
-        dec.predict(np.zeros((1, 360)), w_up, w_rob)
-    assert len(caught) == 1 and "0 m on every ray" in str(caught[0].message)
+    # a scan inside a building is warned once, as such, not as a short range: 0 m on every
+    # ray, or the 0.25 m least range where the scan is clipped (the onboard stack's)
+    inside = city.lidar([[70.0, 100.0]], min_range=0.25, noise_std=0.35, rng=rng)
+    for scan in (np.zeros((1, 360)), inside):
+        with pytest.warns(RuntimeWarning) as caught:
+            dec.predict(scan, w_up, w_rob)
+        assert len(caught) == 1 and "0.25 m least range" in str(caught[0].message)
+    # the threshold (3 rays), the first flagged row of a mixed batch and its own numbers
+    open_square = np.full((1, 360), 100.0)
+    mixed = np.vstack([open_square, rng.uniform(1.0, 25.0, (2, 360))])
+    mixed[1, :2] = mixed[2, :3] = 30.0
+    with pytest.warns(RuntimeWarning, match=r"Decoder.predict: 1 of 3 scans .* \(first: row 2, "
+                                            r"3 rays at 30 m\)") as caught:
+        dec.predict(mixed, w_up, w_rob)
+    assert len(caught) == 1 and caught[0].filename == __file__  # the caller's line
+    # the turned views read the same scans: warned too, once
+    views = wn.predict.load_decoder(rotations_deg=(0, -3, 3))
+    with pytest.warns(RuntimeWarning, match="first: row 2, 3 rays at 30 m") as caught:
+        views.predict(mixed, w_up, w_rob)
+    assert len(caught) == 1 and caught[0].filename == __file__
 
 
 def test_a_scan_from_inside_a_building_is_warned():
@@ -78,7 +94,8 @@ def test_a_scan_from_inside_a_building_is_warned():
     dec = wn.predict.load_decoder()
     scans = np.full((3, 360), 100.0)  # an open square: every ray a miss at the 100 m range
     scans[1] = 0.0
-    with pytest.warns(RuntimeWarning, match=r"1 of 3 scans read 0 m on every ray \(first: row 1\)"):
+    with pytest.warns(RuntimeWarning, match=r"1 of 3 scans read 0 m on every ray, or no more "
+                                            r"than the 0.25 m least range \(first: row 1\)"):
         dec.predict(scans, [4.0, 1.0], [3.0, 0.5])
     scans[1, 7] = 0.3  # one return: a robot beside a wall, not in it
     with warnings.catch_warnings():

@@ -376,25 +376,28 @@ pinning the benchmark's model keeps every recorded flight replayable to the bit.
 def benchmark_decoder(name: str = BENCHMARK_DECODER, views_deg: float = 0.0):
     """The decoder :data:`DECODERS` ``[name]``, its file's hash checked, loaded once per process,
     with the sector boundaries its recorded flights met (``boundary="floor"``,
-    :data:`windnav.predict.decoder.BOUNDARIES`); with ``views_deg`` > 0 (whole degrees, at most
-    :data:`windnav.predict.decoder.ROTATIONS_LIMIT_DEG`), its turned views
-    ``rotations_deg=(0, -views_deg, views_deg)`` (the label's ``@views=``; ``docs/decoder.md``,
-    "Turned views").
+    :data:`windnav.predict.decoder.BOUNDARIES`); with ``views_deg`` > 0 (whole degrees under
+    :data:`VIEWS_LIMIT_DEG`), its turned views ``rotations_deg=(0, -views_deg, views_deg)``
+    (the label's ``@views=``; ``docs/decoder.md``, "Turned views").
 
     Raises
     ------
     ValueError
         An unknown name, a file whose SHA-256 is not the recorded one, or ``views_deg`` not a
-        whole number of degrees in [0, 45].
+        whole number of degrees in [0, 45) (a number, not a string or a boolean).
     """
-    from windnav.predict.decoder import ROTATIONS_LIMIT_DEG
-
-    views = float(views_deg)
-    if not (0.0 <= views <= ROTATIONS_LIMIT_DEG and views == round(views)):
+    views = views_deg
+    if (isinstance(views, bool) or not isinstance(views, numbers.Real)
+            or not (0.0 <= float(views) < VIEWS_LIMIT_DEG and float(views) == round(views))):
         raise ValueError(f"The 'views_deg' parameter of benchmark_decoder must be a whole number "
-                         f"of degrees in [0, {ROTATIONS_LIMIT_DEG:g}]. Got {views_deg!r} "
-                         "instead.")
-    return _dated_decoder(str(name), views + 0.0)
+                         f"of degrees in [0, {VIEWS_LIMIT_DEG:g}). Got {views_deg!r} instead.")
+    return _dated_decoder(str(name), float(views) + 0.0)
+
+
+VIEWS_LIMIT_DEG = 45.0
+"""The label's ``@views=A`` takes whole degrees ``0 < A <`` this: for the d4-film, whose answer
+is the same under quarter turns, the views at -45 and +45 deg are one view (1.2e-6 m/s apart),
+which would weigh twice in the mean."""
 
 
 def flight_decoder(options: dict):
@@ -446,7 +449,7 @@ authority), ``energy=mission`` (``J_E`` is the energy of the mission instead of 
 the decoder was given instead of zero: :attr:`windnav.experiments.onboard.OnboardOptions.outside`,
 ours, not the thesis's) and ``tau`` (s, finite, > 0: ``W_robot`` is the UKF's estimate averaged
 with that time constant, :attr:`~windnav.experiments.onboard.OnboardOptions.wrobot_tau_s`,
-ours) and ``views`` (whole degrees in (0, 45]: the decoder predicts the mean over the
+ours) and ``views`` (whole degrees in (0, 45): the decoder predicts the mean over the
 scene as given and turned by -``views`` and +``views`` degrees, its opt-in turned views,
 ``docs/decoder.md``; three passes per decode); for ``mppi-w`` and ``ea-mppi-w`` with a finite
 ``h``, ``outside=truth``
@@ -526,7 +529,7 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                           f"'@energy=mission', "
                           f"'ea-mppi-w-hat@decoder=DATE' (one of {list(DECODERS)}) and/or "
                           f"'@outside=robot' and/or '@tau=S' (s, finite, > 0) and/or "
-                          f"'@views=DEG' (whole degrees in (0, 45]), "
+                          f"'@views=DEG' (whole degrees in (0, 45)), "
                           f"'mppi-w' or 'ea-mppi-w' with '@h=H' and '@outside=truth', or "
                           f"'ea-mppi-w-esc@esc=LENGTH' (m, finite, > 0) and/or "
                           f"'@escair=AIRSPEED' (m/s, finite, > 0), with '@edge=M' (m, > 0) and/or "
@@ -598,8 +601,9 @@ def parse_variant(label: str, where: str = "parse_variant") -> tuple[str, dict]:
                 raise fail(f"tilt must be in (0, {TILT_LIMIT_DEG:g}) degrees")
             options["tilt_max_deg"] = value
         elif key == "views":
-            if not (0.0 < value <= 45.0 and value == round(value)):
-                raise fail("views must be a whole number of degrees in (0, 45]")
+            if not (0.0 < value < VIEWS_LIMIT_DEG and value == round(value)):
+                raise fail(f"views must be a whole number of degrees in "
+                           f"(0, {VIEWS_LIMIT_DEG:g})")
             options["decoder_views"] = value
         elif key in _ESCAPE_KEYS or key == "tau":
             if not (0.0 < value < math.inf):
@@ -750,6 +754,13 @@ def fly(spec: SuiteSpec, scenario: Scenario, variant: str, *, city, flow,
     base, options = parse_variant(variant, "fly")
     kwargs = {**spec.navigate_options, **options}
     kwargs.pop("decoder_views", None)
+    if ("decoder_views" in options and "decoder" not in options
+            and "decoder" in spec.navigate_options):
+        raise ValueError(f"The 'variant' parameter of fly gives {variant!r}, the turned views of "
+                         "a dated decoder, but the suite names its own decoder object, which "
+                         "the label would replace: give that decoder its views "
+                         "(load_decoder(rotations_deg=...)) in the suite, or name a dated "
+                         "decoder with '@decoder='.")
     if VARIANTS[base].wind_source == "onboard":
         if "decoder" in options or "decoder_views" in options:
             kwargs["decoder"] = flight_decoder(options)

@@ -101,7 +101,7 @@ import numpy as np
 
 from windnav._validate import ReadOnlyOnCopy
 from windnav.predict.baselines import N_RAYS, check_inputs
-from windnav.predict.dataset import grid_offsets
+from windnav.predict.dataset import SCAN_MIN, grid_offsets
 
 __all__ = [
     "ARCHITECTURES",
@@ -1113,14 +1113,19 @@ class Decoder(ReadOnlyOnCopy):
         if scans.shape[1] != self.n_rays:
             raise ValueError(f"The 'scans' parameter of Decoder.predict must have "
                              f"{self.n_rays} rays per scan. Got shape {scans.shape} instead.")
-        inside = ~np.any(scans > 0.0, axis=1)
+        # on or inside a building City.lidar reads 0 m on every ray, or its min_range where
+        # the scan is clipped to one (the onboard stack's and the datasets' 0.25 m)
+        top = scans.max(axis=1)
+        least = self.hyperparameters.get("range_min", SCAN_MIN)  # the samples' clip
+        inside = top <= least
         if inside.any():  # a field for a robot in a wall, unflagged until the API audit
             warnings.warn(f"Decoder.predict: {int(inside.sum())} of {scans.shape[0]} scans read "
-                          f"0 m on every ray (first: row {int(np.flatnonzero(inside)[0])}), "
-                          "City.lidar's reading on or inside a building; the decoder was "
-                          "trained on robots 1-40 m from buildings, so those fields mean "
-                          "nothing.", RuntimeWarning, stacklevel=2)
-        self._warn_short_range(scans)
+                          f"0 m on every ray, or no more than the {least:g} m least range "
+                          f"(first: row {int(np.flatnonzero(inside)[0])}), City.lidar's "
+                          "reading on or inside a building; the decoder was trained on robots "
+                          "1-40 m from buildings, so those fields mean nothing.",
+                          RuntimeWarning, stacklevel=2)
+        self._warn_short_range(scans, top, least)
         if self.rotations_deg is None:
             return self._sides(scans, w_up, w_robot)
         out = np.zeros((scans.shape[0], 2, self.size, self.size), dtype=np.float32)
@@ -1137,14 +1142,14 @@ class Decoder(ReadOnlyOnCopy):
         out /= np.float32(len(self.rotations_deg))
         return out
 
-    def _warn_short_range(self, scans: np.ndarray) -> None:
-        """A RuntimeWarning for scans whose largest range, under the model's
-        ``range_scale`` (100 m), is read by :data:`SHORT_RANGE_TIES` rays or more: the
+    def _warn_short_range(self, scans: np.ndarray, top: np.ndarray, least: float) -> None:
+        """A RuntimeWarning for scans whose largest range ``top``, under the model's
+        ``range_scale`` (100 m) and above its least range ``least`` (a scan inside a
+        building, warned as such), is read by :data:`SHORT_RANGE_TIES` rays or more: the
         signature of a LiDAR whose misses read its own, shorter maximum range, which the
         decoder reads as walls there (it was trained on misses at ``range_scale``)."""
         full = np.float32(self.hyperparameters["range_scale"])
-        top = scans.max(axis=1)
-        rows = np.flatnonzero((top < full) & (top > 0.0))  # 0 m everywhere: warned above
+        rows = np.flatnonzero((top < full) & (top > least))
         if rows.size == 0:  # every scan reaches the model's range: the common case, one pass
             return
         ties = (scans[rows] == top[rows, None]).sum(axis=1)
