@@ -32,25 +32,33 @@ def add_output_arguments(parser, *, overwrite: bool = True) -> None:
 
 def add_rotations_argument(parser, *, compare: bool = False) -> None:
     """Add ``--rotations-deg A [A ...]``: the decoder's turned views
-    (:class:`windnav.predict.Decoder`'s ``rotations_deg``); ``compare``: the command also
-    takes ``--compare`` models, which the help says run one pass."""
+    (:class:`windnav.predict.Decoder`'s ``rotations_deg``), and ``--boundary``, its rule at the
+    sector boundaries (``boundary``); ``compare``: the command also takes ``--compare``
+    models, which the help says run one pass under the default rule."""
     which = "--model; not --compare's models" if compare else "--model"
     parser.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
                         help=f"predict the mean of the decoder ({which}) over the scene turned "
                              "by each of these angles, deg CCW, whole degrees within 45 of 0 "
                              "(e.g. 0 -3 3: three passes; default: the scene as given, one "
                              "pass)")
+    parser.add_argument("--boundary", choices=("average", "floor", "blend"), default="average",
+                        help=f"how the decoder ({which}) answers inlets on a multiple of 45 deg, "
+                             "where its two symmetries meet: their mean, the side rounding "
+                             "picks, or 'blend': also blended within 8 deg of one, so that "
+                             "the field is continuous in the inlet direction (two passes "
+                             "there) (%(default)s)")
 
 
 def load_model(args, name: str):
-    """``--model`` (default the shipped decoder) loaded with ``--rotations-deg``, their errors
-    naming the options."""
+    """``--model`` (default the shipped decoder) loaded with ``--rotations-deg`` and
+    ``--boundary``, their errors naming the options."""
     from windnav.predict import load_decoder
 
     with options_named({"'path' parameter of load_decoder": f"'--model' parameter of {name}",
                         "'rotations_deg' parameter of load_decoder":
                             f"'--rotations-deg' parameter of {name}"}):
-        return load_decoder(args.model, rotations_deg=args.rotations_deg)
+        return load_decoder(args.model, rotations_deg=args.rotations_deg,
+                            boundary=args.boundary)
 
 
 def where(args) -> str:

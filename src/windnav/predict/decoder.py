@@ -105,6 +105,7 @@ from windnav.predict.dataset import SCAN_MIN, grid_offsets
 
 __all__ = [
     "ARCHITECTURES",
+    "BLEND_WIDTH_DEG",
     "BOUNDARIES",
     "DEFAULT_MODEL",
     "FORMAT",
@@ -159,7 +160,7 @@ working set is reused: 11.5 ms in both states (2026-12-02, docs/decoder.md; chun
 fresh process where they differ). A chunk's rows agree with the whole batch's to float32
 rounding (the matrix products' blocking differs)."""
 
-BOUNDARIES = ("average", "floor")
+BOUNDARIES = ("average", "floor", "blend")
 """How :meth:`Decoder.predict` treats a free-stream direction on a sector boundary of the
 d4-film's frame (a multiple of 45 deg: 0, 45, 90, ... 315), where two of its symmetries take
 the wind into [0, 45] deg and the network, never made symmetric there, answers differently
@@ -171,7 +172,20 @@ through each (up to 14 m/s in a cell, 0.6 m/s on average, on a real map):
 - ``"floor"``: the sector ``floor(angle / 45)`` of the direction as rounding leaves it (0 deg
   and 360 deg, whose sine rounds to -1e-15, fall on either side). The navigation benchmark's
   onboard stack flew its recorded flights so (the suite's incidences are 0, 15, 30 and 45 deg),
-  and :func:`windnav.experiments.nav_benchmark.benchmark_decoder` keeps it, so they replay."""
+  and :func:`windnav.experiments.nav_benchmark.benchmark_decoder` keeps it, so they replay;
+- ``"blend"`` (opt-in): ``"average"`` on a boundary, and within :data:`BLEND_WIDTH_DEG` of one
+  the network's answer through the direction's own symmetry blended with its answer through
+  the other side's, weight ``(1 - |s| / BLEND_WIDTH_DEG) / 2`` on the other at a distance
+  ``s`` from the boundary: the field is then continuous in the inlet direction, where with the
+  other rules it jumps across a boundary (2.0-2.7 m/s on average at 6 m/s on a dense map,
+  ``docs/decoder.md``, "Turned views"). Those samples take a second pass."""
+
+BLEND_WIDTH_DEG = 8.0
+"""How far from a sector boundary ``boundary="blend"`` blends the two symmetries' answers, deg:
+chosen on the default recipe's held-out district (16 inlets; among 1, 2, 3, 5, 8, 12 and 22.5
+deg, the lowest mean of the speed and direction error ratios to one pass:
+``docs/data/decoder_fold_blend.json``). Wider, the other symmetry answers inlets farther
+outside the sector it was trained in, and the error grows again."""
 
 BOUNDARY_TOLERANCE_DEG = 1e-4
 """A free-stream direction within this of a multiple of 45 deg is on the boundary, deg."""
@@ -687,11 +701,18 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         shapes["basis.bias"] = (2 * hp["size"] ** 2,)
         return shapes
 
-    def features(self, scans, w_up, w_robot) -> dict:
+    def features(self, scans, w_up, w_robot, g=None) -> dict:
         """``g`` (B,), ``channels`` (B, 2, n_rays / pool), ``winds`` (B, 5), ``scale`` (B,) m/s,
-        ``w_robot`` (B, 2) m/s canonical, ``w_robot_world`` (B, 2) m/s."""
+        ``w_robot`` (B, 2) m/s canonical, ``w_robot_world`` (B, 2) m/s. ``g``: the D4 elements
+        to take the inputs into the model frame by (default :func:`canonical_elements` of
+        ``w_up``; another puts the inlet outside [0, 45] deg, as ``boundary="blend"`` does)."""
         hp = self.hp
-        g, up, scale = self._upstream(w_up)
+        if g is None:
+            g, up, scale = self._upstream(w_up)
+        else:
+            g = np.asarray(g, dtype=np.int64)
+            up, scale = upstream_features(np.einsum("bij,bj->bi", _D4[g], np.asarray(w_up)),
+                                          hp["speed_floor"])
         # centred_min_pool, then the sectors into the canonical frame: one gather of each
         # canonical sector's rays (the same minimum of the same ranges)
         b, n_rays = scans.shape
@@ -826,8 +847,8 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
                 "conv.bias_circulant": np.tile(w["conv.bias"], n),
                 "basis.folded": np.concatenate([folded, folded_bias[:, None], uniform], axis=1)}
 
-    def predict(self, w: dict, scans, w_up, w_robot) -> np.ndarray:
-        f = self.features(scans, w_up, w_robot)
+    def predict(self, w: dict, scans, w_up, w_robot, g=None) -> np.ndarray:
+        f = self.features(scans, w_up, w_robot, g)
         a = (np.concatenate([self.coefficients(m, f) for m in w["members"]], axis=1)
              if "members" in w else self.coefficients(w, f))
         b, k = a.shape
@@ -976,9 +997,11 @@ class Decoder(ReadOnlyOnCopy):
         :attr:`weights` holds the copies, read-only: build a new ``Decoder`` to change them).
     metadata : dict
         At least ``architecture``, ``hyperparameters`` (with ``size``) and ``spacing`` (m).
-    boundary : {"average", "floor"}
+    boundary : {"average", "floor", "blend"}
         A free-stream direction on a sector boundary of the d4-film's frame (a multiple of 45
-        deg): the mean of the two sides, or the side rounding picks (:data:`BOUNDARIES`).
+        deg): the mean of the two sides, or the side rounding picks; ``"blend"`` also blends
+        the two sides' answers within :data:`BLEND_WIDTH_DEG` of one, so that the field is
+        continuous in the inlet direction (:data:`BOUNDARIES`).
     rotations_deg : sequence of float, optional
         Predict the mean over views of the scene turned by each of these angles, deg
         counter-clockwise (whole rays, within :data:`ROTATIONS_LIMIT_DEG` of 0; 0 is the
@@ -1149,17 +1172,18 @@ class Decoder(ReadOnlyOnCopy):
         signature of a LiDAR whose misses read its own, shorter maximum range, which the
         decoder reads as walls there (it was trained on misses at ``range_scale``)."""
         full = np.float32(self.hyperparameters["range_scale"])
-        rows = np.flatnonzero((top < full) & (top > least))
-        if rows.size == 0:  # every scan reaches the model's range: the common case, one pass
+        candidates = (top < full) & (top > least)
+        if not candidates.any():  # every scan reaches the model's range: the common case
             return
-        ties = (scans[rows] == top[rows, None]).sum(axis=1)
-        short = rows[ties >= SHORT_RANGE_TIES]
+        # counted over the whole batch: a boolean temporary, not a copy of the rows' ranges
+        ties = np.count_nonzero(scans == top[:, None], axis=1)
+        short = np.flatnonzero(candidates & (ties >= SHORT_RANGE_TIES))
         if short.size:
             first = int(short[0])
             warnings.warn(f"Decoder.predict: {short.size} of {scans.shape[0]} scans have "
                           f"{SHORT_RANGE_TIES} or more rays at exactly their largest range, "
                           f"under the decoder's {float(full):g} m (first: row {first}, "
-                          f"{int(ties[np.searchsorted(rows, first)])} rays at "
+                          f"{int(ties[first])} rays at "
                           f"{float(top[first]):g} m): a LiDAR whose misses read a shorter "
                           "maximum range? The decoder reads them as walls at that range; it "
                           f"was trained with misses at {float(full):g} m, so give a miss "
@@ -1167,35 +1191,88 @@ class Decoder(ReadOnlyOnCopy):
 
     def _sides(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
         """The network's field for checked inputs, a boundary's two sides averaged as
-        :attr:`boundary` says; ``prepared``: other prepared weights (a turned view's)."""
+        :attr:`boundary` says (and blended near one for ``"blend"``); ``prepared``: other
+        prepared weights (a turned view's)."""
+        d4 = isinstance(self.arch, D4FilmArchitecture)
         on = (on_sector_boundary(w_up)
-              if self.boundary == "average" and isinstance(self.arch, D4FilmArchitecture)
-              else None)
+              if self.boundary in ("average", "blend") and d4 else None)
+        near = (self._blend_rows(w_up, on) if self.boundary == "blend" and d4 else None)
+        if near is not None and near[0].size and (on is None or not on.any()):
+            return self._blended(scans, w_up, w_robot, prepared, *near)
         if on is None or not on.any():
-            return self._predict(scans, w_up, w_robot, prepared)
-        # the mean of the two sides on a boundary: the symmetry holds there too
-        out = np.empty((scans.shape[0], 2, self.size, self.size), dtype=np.float32)
-        off = np.flatnonzero(~on)
-        if off.size:
-            out[off] = self._predict(scans[off], w_up[off], w_robot[off], prepared)
-        rows = np.flatnonzero(on)
-        sides = [self._predict(scans[rows], boundary_side(w_up[rows], sign), w_robot[rows],
-                               prepared) for sign in (1.0, -1.0)]
-        out[rows] = 0.5 * (sides[0] + sides[1])
+            out = self._predict(scans, w_up, w_robot, prepared)
+        else:  # the mean of the two sides on a boundary: the symmetry holds there too
+            out = np.empty((scans.shape[0], 2, self.size, self.size), dtype=np.float32)
+            off = np.flatnonzero(~on)
+            if off.size:
+                out[off] = self._sides_off(scans[off], w_up[off], w_robot[off], prepared)
+            rows = np.flatnonzero(on)
+            sides = [self._predict(scans[rows], boundary_side(w_up[rows], sign), w_robot[rows],
+                                   prepared) for sign in (1.0, -1.0)]
+            out[rows] = 0.5 * (sides[0] + sides[1])
         return out
 
-    def _predict(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
+    def _sides_off(self, scans, w_up, w_robot, prepared) -> np.ndarray:
+        """:meth:`_sides` for inlets off every boundary (blended near one for ``"blend"``)."""
+        if self.boundary == "blend" and isinstance(self.arch, D4FilmArchitecture):
+            near = self._blend_rows(w_up, None)
+            if near[0].size:
+                return self._blended(scans, w_up, w_robot, prepared, *near)
+        return self._predict(scans, w_up, w_robot, prepared)
+
+    @staticmethod
+    def _blend_rows(w_up, on):
+        """``boundary="blend"``'s rows (within :data:`BLEND_WIDTH_DEG` of a sector boundary, not
+        on one), the D4 elements of the boundary's other side for them, and their weights
+        ``(1 - |s| / BLEND_WIDTH_DEG) / 2``, ``s`` the distance from the boundary, deg."""
+        w = np.asarray(w_up, dtype=np.float64)
+        alpha = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
+        edge = 45.0 * np.round(alpha / 45.0)
+        s = alpha - edge  # signed distance from the nearest boundary, deg
+        near = (np.abs(s) < BLEND_WIDTH_DEG) & (np.hypot(w[:, 0], w[:, 1]) > 0)
+        if on is not None:
+            near &= ~on
+        rows = np.flatnonzero(near)
+        mirrored = np.radians(edge[rows] - s[rows])  # the same distance on the other side
+        g_other = canonical_elements(np.column_stack([np.cos(mirrored), np.sin(mirrored)]))
+        weight = (0.5 * (1.0 - np.abs(s[rows]) / BLEND_WIDTH_DEG)).astype(np.float32)
+        return rows, g_other, weight
+
+    def _blended(self, scans, w_up, w_robot, prepared, rows, g_other, weight) -> np.ndarray:
+        """The network's field for inlets off every boundary, ``rows`` blended with its answer
+        through ``g_other``: one pass as :meth:`_predict`, then the rows' second passes in
+        chunks of :data:`PREDICT_CHUNK`, each blended into its rows as it comes (no further
+        batch-sized temporaries: their fresh pages cost as much as the second passes)."""
+        prepared = self.prepared if prepared is None else prepared
+        out = self._predict(scans, w_up, w_robot, prepared)
+        h = self.size
+        scans_r = np.asarray(scans[rows], dtype=np.float32)
+        w_up_r = np.asarray(w_up[rows], dtype=np.float32)
+        w_robot_r = np.asarray(w_robot[rows], dtype=np.float32)
+        for i in range(0, rows.size, PREDICT_CHUNK):
+            j = min(rows.size, i + PREDICT_CHUNK)
+            field = self.arch.predict(prepared, scans_r[i:j], w_up_r[i:j], w_robot_r[i:j],
+                                      g_other[i:j]).reshape(j - i, 2, h, h)
+            at = rows[i:j]
+            own = out[at]
+            own += weight[i:j, None, None, None] * (field - own)
+            out[at] = own
+        return out
+
+    def _predict(self, scans, w_up, w_robot, prepared=None, g=None) -> np.ndarray:
         """The network's field for checked inputs, in chunks of :data:`PREDICT_CHUNK`, with
-        :attr:`prepared` or the ``prepared`` weights given."""
+        :attr:`prepared` or the ``prepared`` weights given; ``g``: the D4 elements into the
+        model frame (the d4-film only; default its own, :func:`canonical_elements`)."""
         prepared = self.prepared if prepared is None else prepared
         b, h = scans.shape[0], self.size
         out = np.empty((b, 2, h, h), dtype=np.float32)
         for i in range(0, b, PREDICT_CHUNK):
             j = min(b, i + PREDICT_CHUNK)
+            extra = () if g is None else (g[i:j],)
             out[i:j] = self.arch.predict(prepared,
                                          np.asarray(scans[i:j], dtype=np.float32),
                                          np.asarray(w_up[i:j], dtype=np.float32),
-                                         np.asarray(w_robot[i:j], dtype=np.float32)
+                                         np.asarray(w_robot[i:j], dtype=np.float32), *extra
                                          ).reshape(j - i, 2, h, h)
         return out
 
@@ -1273,8 +1350,9 @@ def load_decoder(path=None, *, boundary: str = "average", rotations_deg=None) ->
     path : str or path-like, optional
         A decoder file (.npz) written by :func:`save_decoder` or ``windnav train-decoder``.
         Default: the model shipped with windnav (``windnav/predict/data/decoder_default.npz``).
-    boundary : {"average", "floor"}
-        Free-stream directions on a multiple of 45 deg (:data:`BOUNDARIES`).
+    boundary : {"average", "floor", "blend"}
+        Free-stream directions on (and for ``"blend"`` near) a multiple of 45 deg
+        (:data:`BOUNDARIES`).
     rotations_deg : sequence of float, optional
         Average the prediction over the scene turned by these angles, deg (:class:`Decoder`).
 
