@@ -17,7 +17,9 @@ are <= 1 ms for one sample and <= 20 ms for 1024.
 ``--rotations-deg``: the decoder averaged over the scene turned by these angles (its views,
 ``load_decoder(rotations_deg=...)``; one pass each), the thesis MLP as before. ``--boundary``:
 its rule at the sector boundaries (``load_decoder(boundary=...)``; ``blend`` takes a second
-pass for the random inlets within 8 deg of one, about 36 % of them).
+pass for the random inlets within 8 deg of one, about 36 % of them). ``--direction-deg D``:
+every inlet toward ``D`` (one flight's or evaluation slot's batch), e.g. 44 for the blend's
+worst case, a second pass for every sample.
 
 Prints a Markdown table; ``--record`` appends it to docs/benchmarks.md.
 """
@@ -71,10 +73,13 @@ def default_recipe_d4():
                           **recipe["model"].get("hyperparameters", {}))
 
 
-def inputs(batch: int, rng: np.random.Generator):
-    """Scans (B, 360) m, W_up and W_robot (B, 2) m/s."""
+def inputs(batch: int, rng: np.random.Generator, direction_deg: float | None = None):
+    """Scans (B, 360) m, W_up and W_robot (B, 2) m/s; every inlet toward ``direction_deg``
+    when given (a batch of one flight's or one evaluation slot's samples), else random."""
     scans = rng.uniform(0.25, 100.0, size=(batch, 360)).astype(np.float32)
     a = rng.uniform(0, 2 * np.pi, size=batch)
+    if direction_deg is not None:
+        a[:] = np.radians(direction_deg)
     u = rng.uniform(2.0, 10.0, size=batch)
     w_up = np.stack([u * np.cos(a), u * np.sin(a)], axis=1).astype(np.float32)
     w_robot = (w_up * rng.uniform(0.0, 1.5, size=(batch, 1))).astype(np.float32)
@@ -86,9 +91,10 @@ MIN_JUDGED_REPEATS = 5
 call gave "met"; statistics audit)."""
 
 
-def time_predict(decoder, batch: int, repeats: int, *, seed: int = 0) -> dict:
+def time_predict(decoder, batch: int, repeats: int, *, seed: int = 0,
+                 direction_deg: float | None = None) -> dict:
     """Median and minimum wall time of ``decoder.predict`` on a batch, ms (after a warm-up)."""
-    x = inputs(batch, np.random.default_rng(seed))
+    x = inputs(batch, np.random.default_rng(seed), direction_deg)
     for _ in range(min(3, repeats)):
         decoder.predict(*x)
     times = np.empty(repeats)
@@ -101,7 +107,8 @@ def time_predict(decoder, batch: int, repeats: int, *, seed: int = 0) -> dict:
 
 
 def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
-        seed: int = 0, rotations_deg=None, boundary: str = "average") -> dict:
+        seed: int = 0, rotations_deg=None, boundary: str = "average",
+        direction_deg: float | None = None) -> dict:
     """Time the decoder (with ``rotations_deg``'s views and the ``boundary`` rule) and the
     thesis MLP; returns a JSON-ready dict."""
     from windnav.predict import load_decoder
@@ -122,8 +129,11 @@ def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
         source += f", views turned by {', '.join(f'{a:g}' for a in dec.rotations_deg)} deg"
     if boundary != "average":
         source += f", boundary rule {boundary!r}"
+    if direction_deg is not None:
+        source += f", every inlet toward {direction_deg:g} deg"
     rb = repeats_batch if repeats_batch is not None else max(MIN_JUDGED_REPEATS, repeats // 10)
-    out = {"threads": 1, "numpy": np.__version__, "models": {}}
+    out = {"threads": 1, "numpy": np.__version__, "models": {},
+           "direction_deg": direction_deg}
     # the decoder first: building the reference's 47 MB of weights frees large temporaries,
     # which raises glibc malloc's thresholds and so speeds up what runs after it (the decoder
     # was timed after it until 2026-12-02: 9.2 ms per 1,024 then, 18.8 ms in a fresh process)
@@ -136,8 +146,8 @@ def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
             "source": src, "architecture": d.architecture, "size": d.size,
             "rotations_deg": d.rotations_deg, "boundary": d.boundary,
             "n_parameters": d.n_parameters,
-            "one": time_predict(d, 1, repeats, seed=seed),
-            "batch": time_predict(d, 1024, rb, seed=seed)}
+            "one": time_predict(d, 1, repeats, seed=seed, direction_deg=direction_deg),
+            "batch": time_predict(d, 1024, rb, seed=seed, direction_deg=direction_deg)}
     o, t = out["models"]["decoder"], out["models"]["thesis-mlp"]
     out["speedup"] = {k: t[k]["median_ms"] / o[k]["median_ms"] for k in ("one", "batch")}
     out["meets_target"] = {k: (o[k]["median_ms"] <= TARGETS_MS[n]
@@ -188,12 +198,16 @@ def main(argv=None) -> int:
                     help="time the decoder averaged over these turned views (default: none)")
     ap.add_argument("--boundary", choices=("average", "floor", "blend"), default="average",
                     help="the decoder's rule at the sector boundaries (default average)")
+    ap.add_argument("--direction-deg", type=float, default=None,
+                    help="every inlet toward this direction, deg (one flight's or evaluation "
+                         "slot's batch; default: random directions)")
     ap.add_argument("--record", action="store_true", help="append to docs/benchmarks.md")
     args = ap.parse_args(argv)
     if args.repeats < 1 or (args.repeats_batch is not None and args.repeats_batch < 1):
         ap.error("--repeats and --repeats-batch must be >= 1")
     res = run(args.model, repeats=args.repeats, repeats_batch=args.repeats_batch,
-              seed=args.seed, rotations_deg=args.rotations_deg, boundary=args.boundary)
+              seed=args.seed, rotations_deg=args.rotations_deg, boundary=args.boundary,
+              direction_deg=args.direction_deg)
     table = rows(res)
     print("\n".join(table))
     if args.json is not None:

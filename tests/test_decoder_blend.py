@@ -98,6 +98,47 @@ def test_the_blend_is_the_documented_mix_of_the_two_sides(decoders):
                                       plain.predict(scans, w_up, w_robot))
 
 
+def test_a_large_batch_is_blended_row_by_row_as_alone(decoders):
+    """Batches of several chunks (PREDICT_CHUNK rows each): near, far and on-boundary rows
+    mixed, and a batch whose rows are all near a boundary (one inlet's), each row as when
+    predicted alone (a chunk offset in the second passes moved fields by up to 9.5 m/s in a
+    review's patch, unseen by batches of one chunk)."""
+    from windnav.predict.decoder import PREDICT_CHUNK
+
+    plain, blend = decoders
+    n = 2 * PREDICT_CHUNK + 61
+    scans, w_robot = scenes(n, seed=6)
+    rng = np.random.default_rng(6)
+    mixed = 45.0 * rng.integers(0, 8, n) + rng.uniform(-12.0, 12.0, n)
+    mixed[::17] = 45.0 * rng.integers(0, 8, mixed[::17].size)  # on a boundary
+    for directions in (mixed, np.full(n, 44.0)):
+        w_up = inlets(directions, speed=rng.uniform(1.0, 9.0, n)[:, None])
+        whole = blend.predict(scans, w_up, w_robot)
+        for k in rng.choice(n, 12, replace=False):
+            alone = blend.predict(scans[k:k + 1], w_up[k:k + 1], w_robot[k:k + 1])[0]
+            np.testing.assert_allclose(whole[k], alone, rtol=0, atol=2e-5 * np.abs(alone).max())
+        near = np.abs((directions + 22.5) % 45.0 - 22.5) < BLEND_WIDTH_DEG
+        assert near.sum() > PREDICT_CHUNK  # second passes over several chunks
+
+
+def test_the_turned_views_are_continuous_with_the_blend(decoders):
+    """A +-3 deg view of an inlet at 42 or 48 deg crosses the 45 deg boundary: with the blend
+    applied in each view (with that view's own weights), the views' field is continuous there
+    too."""
+    plain, _ = decoders
+    views = Decoder(plain.weights, plain.metadata, boundary="blend", rotations_deg=(0, -3, 3))
+    average = Decoder(plain.weights, plain.metadata, rotations_deg=(0, -3, 3))
+    scans, w_robot = scenes(24, seed=7)
+    for direction in (42.0, 48.0, 45.0, 87.0):
+        jumps = {}
+        for name, dec in (("blend", views), ("average", average)):
+            lo, hi = (dec.predict(scans, inlets(np.full(24, direction + e)), w_robot)
+                      for e in (-0.01, 0.01))
+            jumps[name] = np.hypot(*(hi - lo).transpose(1, 0, 2, 3)).mean()
+        assert jumps["average"] > 0.2, (direction, jumps)
+        assert jumps["blend"] < 0.02 * jumps["average"], (direction, jumps)
+
+
 @pytest.mark.parametrize("h", range(8))
 def test_the_blend_keeps_the_square_symmetry(decoders, h):
     """The blend's weights depend on the distance from a boundary, which the square's eight
