@@ -1273,20 +1273,18 @@ class Decoder(ReadOnlyOnCopy):
             out[at] = own
         return out
 
-    def _predict(self, scans, w_up, w_robot, prepared=None, g=None) -> np.ndarray:
+    def _predict(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
         """The network's field for checked inputs, in chunks of :data:`PREDICT_CHUNK`, with
-        :attr:`prepared` or the ``prepared`` weights given; ``g``: the D4 elements into the
-        model frame (the d4-film only; default its own, :func:`canonical_elements`)."""
+        :attr:`prepared` or the ``prepared`` weights given."""
         prepared = self.prepared if prepared is None else prepared
         b, h = scans.shape[0], self.size
         out = np.empty((b, 2, h, h), dtype=np.float32)
         for i in range(0, b, PREDICT_CHUNK):
             j = min(b, i + PREDICT_CHUNK)
-            extra = () if g is None else (g[i:j],)
             out[i:j] = self.arch.predict(prepared,
                                          np.asarray(scans[i:j], dtype=np.float32),
                                          np.asarray(w_up[i:j], dtype=np.float32),
-                                         np.asarray(w_robot[i:j], dtype=np.float32), *extra
+                                         np.asarray(w_robot[i:j], dtype=np.float32)
                                          ).reshape(j - i, 2, h, h)
         return out
 
