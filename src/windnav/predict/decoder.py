@@ -274,8 +274,13 @@ def _check_boundary(boundary, where: str) -> str:
 def sector_boundary_distance_deg(direction_deg):
     """How far each direction lies from the nearest sector boundary of the d4-film's frame (a
     multiple of 45 deg), deg in [0, 22.5]; ``direction_deg`` a number or array, deg."""
+    return np.abs(_boundary_offset_deg(direction_deg))
+
+
+def _boundary_offset_deg(direction_deg):
+    """Each direction minus its nearest multiple of 45 deg, deg in [-22.5, 22.5] (signed)."""
     alpha = np.asarray(direction_deg, dtype=np.float64)
-    return np.abs(alpha - 45.0 * np.round(alpha / 45.0))
+    return alpha - 45.0 * np.round(alpha / 45.0)
 
 
 def on_sector_boundary(w_up: np.ndarray) -> np.ndarray:
@@ -707,12 +712,7 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
         to take the inputs into the model frame by (default :func:`canonical_elements` of
         ``w_up``; another puts the inlet outside [0, 45] deg, as ``boundary="blend"`` does)."""
         hp = self.hp
-        if g is None:
-            g, up, scale = self._upstream(w_up)
-        else:
-            g = np.asarray(g, dtype=np.int64)
-            up, scale = upstream_features(np.einsum("bij,bj->bi", _D4[g], np.asarray(w_up)),
-                                          hp["speed_floor"])
+        g, up, scale = self._upstream(w_up, g)
         # centred_min_pool, then the sectors into the canonical frame: one gather of each
         # canonical sector's rays (the same minimum of the same ranges)
         b, n_rays = scans.shape
@@ -724,16 +724,18 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
                 "winds": robot_features(up, w_robot_c, scale), "scale": scale,
                 "w_robot": w_robot_c, "w_robot_world": np.asarray(w_robot, dtype=np.float32)}
 
-    def _upstream(self, w_up):
-        """``g``, ``W_up / U`` and ``U`` of a batch of inlet winds (fresh arrays). The last
-        batch's are kept: a flight asks with the same inlet wind at every prediction."""
+    def _upstream(self, w_up, g=None):
+        """``g``, ``W_up / U`` and ``U`` of a batch of inlet winds (fresh arrays), ``g`` the
+        given D4 elements or :func:`canonical_elements`. The last batch's of the latter are
+        kept: a flight asks with the same inlet wind at every prediction."""
         w_up = np.asarray(w_up)
+        if g is not None:  # another frame (boundary="blend"'s second passes): not kept
+            g = np.asarray(g, dtype=np.int64)
+            return (g, *upstream_features(np.einsum("bij,bj->bi", _D4[g], w_up),
+                                          self.hp["speed_floor"]))
         key = (w_up.shape, w_up.dtype.str, w_up.tobytes())
         if self._upstream_memo is None or self._upstream_memo[0] != key:
-            g = canonical_elements(w_up)
-            up, scale = upstream_features(np.einsum("bij,bj->bi", _D4[g], w_up),
-                                          self.hp["speed_floor"])
-            self._upstream_memo = (key, g, up, scale)
+            self._upstream_memo = (key, *self._upstream(w_up, canonical_elements(w_up)))
         return tuple(a.copy() for a in self._upstream_memo[1:])
 
     def coefficients(self, w: dict, f: dict) -> np.ndarray:
@@ -1198,44 +1200,33 @@ class Decoder(ReadOnlyOnCopy):
         d4 = isinstance(self.arch, D4FilmArchitecture)
         on = (on_sector_boundary(w_up)
               if self.boundary in ("average", "blend") and d4 else None)
-        near = (self._blend_rows(w_up, on) if self.boundary == "blend" and d4 else None)
-        if near is not None and near[0].size and (on is None or not on.any()):
-            return self._blended(scans, w_up, w_robot, prepared, *near)
-        if on is None or not on.any():
-            out = self._predict(scans, w_up, w_robot, prepared)
-        else:  # the mean of the two sides on a boundary: the symmetry holds there too
+        if on is not None and on.any():  # the mean of the two sides: the symmetry holds too
             out = np.empty((scans.shape[0], 2, self.size, self.size), dtype=np.float32)
             off = np.flatnonzero(~on)
             if off.size:
-                out[off] = self._sides_off(scans[off], w_up[off], w_robot[off], prepared)
+                out[off] = self._sides(scans[off], w_up[off], w_robot[off], prepared)
             rows = np.flatnonzero(on)
             sides = [self._predict(scans[rows], boundary_side(w_up[rows], sign), w_robot[rows],
                                    prepared) for sign in (1.0, -1.0)]
             out[rows] = 0.5 * (sides[0] + sides[1])
-        return out
-
-    def _sides_off(self, scans, w_up, w_robot, prepared) -> np.ndarray:
-        """:meth:`_sides` for inlets off every boundary (blended near one for ``"blend"``)."""
-        if self.boundary == "blend" and isinstance(self.arch, D4FilmArchitecture):
-            near = self._blend_rows(w_up, None)
+            return out
+        if self.boundary == "blend" and d4:
+            near = self._blend_rows(w_up)
             if near[0].size:
                 return self._blended(scans, w_up, w_robot, prepared, *near)
         return self._predict(scans, w_up, w_robot, prepared)
 
     @staticmethod
-    def _blend_rows(w_up, on):
-        """``boundary="blend"``'s rows (within :data:`BLEND_WIDTH_DEG` of a sector boundary, not
-        on one), the D4 elements of the boundary's other side for them, and their weights
+    def _blend_rows(w_up):
+        """``boundary="blend"``'s rows of inlets off every boundary (:meth:`_sides` answers
+        those on one): those within :data:`BLEND_WIDTH_DEG` of a sector boundary, the D4
+        elements of the boundary's other side for them, and their weights
         ``(1 - |s| / BLEND_WIDTH_DEG) / 2``, ``s`` the distance from the boundary, deg."""
         w = np.asarray(w_up, dtype=np.float64)
         alpha = np.degrees(np.arctan2(w[:, 1], w[:, 0]))
-        edge = 45.0 * np.round(alpha / 45.0)
-        s = alpha - edge  # signed distance from the nearest boundary, deg
-        near = (np.abs(s) < BLEND_WIDTH_DEG) & (np.hypot(w[:, 0], w[:, 1]) > 0)
-        if on is not None:
-            near &= ~on
-        rows = np.flatnonzero(near)
-        mirrored = np.radians(edge[rows] - s[rows])  # the same distance on the other side
+        s = _boundary_offset_deg(alpha)  # signed distance from the nearest boundary, deg
+        rows = np.flatnonzero((np.abs(s) < BLEND_WIDTH_DEG) & (np.hypot(w[:, 0], w[:, 1]) > 0))
+        mirrored = np.radians(alpha[rows] - 2.0 * s[rows])  # as far on the other side
         g_other = canonical_elements(np.column_stack([np.cos(mirrored), np.sin(mirrored)]))
         weight = (0.5 * (1.0 - np.abs(s[rows]) / BLEND_WIDTH_DEG)).astype(np.float32)
         return rows, g_other, weight
@@ -1244,33 +1235,25 @@ class Decoder(ReadOnlyOnCopy):
         """The network's field for inlets off every boundary, ``rows`` blended with its answer
         through ``g_other``: one pass as :meth:`_predict`, then the rows' second passes in
         chunks of :data:`PREDICT_CHUNK`, each blended into its rows as it comes (no further
-        batch-sized temporaries: their fresh pages cost as much as the second passes)."""
+        batch-sized temporaries: their fresh pages cost as much as the second passes; a batch
+        whose every row is blended, one inlet's, is not gathered at all)."""
         prepared = self.prepared if prepared is None else prepared
         out = self._predict(scans, w_up, w_robot, prepared)
         h = self.size
-        if rows.size == scans.shape[0]:  # every sample near a boundary (one inlet's batch)
-            for i in range(0, rows.size, PREDICT_CHUNK):
-                j = min(rows.size, i + PREDICT_CHUNK)
-                field = self.arch.predict(
-                    prepared, np.asarray(scans[i:j], dtype=np.float32),
-                    np.asarray(w_up[i:j], dtype=np.float32),
-                    np.asarray(w_robot[i:j], dtype=np.float32), g_other[i:j]
-                ).reshape(j - i, 2, h, h)
-                field -= out[i:j]
-                field *= weight[i:j, None, None, None]
-                out[i:j] += field
-            return out
-        scans_r = np.asarray(scans[rows], dtype=np.float32)
-        w_up_r = np.asarray(w_up[rows], dtype=np.float32)
-        w_robot_r = np.asarray(w_robot[rows], dtype=np.float32)
+        every = rows.size == scans.shape[0]
+        src = [np.asarray(a if every else a[rows], dtype=np.float32)
+               for a in (scans, w_up, w_robot)]
         for i in range(0, rows.size, PREDICT_CHUNK):
             j = min(rows.size, i + PREDICT_CHUNK)
-            field = self.arch.predict(prepared, scans_r[i:j], w_up_r[i:j], w_robot_r[i:j],
+            field = self.arch.predict(prepared, *(a[i:j] for a in src),
                                       g_other[i:j]).reshape(j - i, 2, h, h)
-            at = rows[i:j]
-            own = out[at]
-            own += weight[i:j, None, None, None] * (field - own)
-            out[at] = own
+            at = slice(i, j) if every else rows[i:j]
+            own = out[at]  # a view of out for a slice, a copy for rows
+            field -= own
+            field *= weight[i:j, None, None, None]
+            own += field
+            if not every:
+                out[at] = own
         return out
 
     def _predict(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
