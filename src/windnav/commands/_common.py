@@ -30,17 +30,22 @@ def add_output_arguments(parser, *, overwrite: bool = True) -> None:
                                  "results are never replaced")
 
 
-def add_rotations_argument(parser, *, compare: bool = False) -> None:
+def add_rotations_argument(parser, *, compare: bool = False, which: str | None = None,
+                           boundary: bool = True) -> None:
     """Add ``--rotations-deg A [A ...]``: the decoder's turned views
-    (:class:`windnav.predict.Decoder`'s ``rotations_deg``), and ``--boundary``, its rule at the
-    sector boundaries (``boundary``); ``compare``: the command also takes ``--compare``
-    models, which the help says run one pass under the default rule."""
-    which = "--model; not --compare's models" if compare else "--model"
+    (:class:`windnav.predict.Decoder`'s ``rotations_deg``), and with ``boundary``
+    ``--boundary``, its rule at the sector boundaries (``boundary``); ``compare``: the command
+    also takes ``--compare`` models, which the help says run one pass under the default rule;
+    ``which``: the decoder the help names (default ``--model``)."""
+    if which is None:
+        which = "--model; not --compare's models" if compare else "--model"
     parser.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
                         help=f"predict the mean of the decoder ({which}) over the scene turned "
                              "by each of these angles, deg CCW, whole degrees within 45 of 0 "
                              "(e.g. 0 -3 3: three passes; default: the scene as given, one "
                              "pass)")
+    if not boundary:
+        return
     parser.add_argument("--boundary", choices=("average", "floor", "blend"), default="average",
                         help=f"how the decoder ({which}) answers inlets on a multiple of 45 deg, "
                              "where its two symmetries meet: their mean, the side rounding "

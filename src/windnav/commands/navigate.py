@@ -40,6 +40,7 @@ from pathlib import Path
 from windnav._validate import finite_float, positive_float
 from windnav.commands._common import (
     add_output_arguments,
+    add_rotations_argument,
     document,
     inlet_direction,
     inlet_speed,
@@ -91,11 +92,8 @@ def register(sub) -> None:
                    help="ea-mppi-w-hat only: time constant of the average of the Wind UKF's "
                         "estimate given as W_robot, s; 0 is the estimate itself, the thesis's "
                         "(%(default)s)")
-    p.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
-                   help="ea-mppi-w-hat only: the decoder predicts the mean over the scene "
-                        "turned by each of these angles, deg CCW, whole degrees within 45 of 0 "
-                        "(its turned views, docs/decoder.md; e.g. 0 -3 3: three passes per "
-                        "decode; default: the scene as given, one pass)")
+    add_rotations_argument(p, which="ea-mppi-w-hat only: the onboard stack's shipped decoder",
+                           boundary=False)
     p.add_argument("--altitude", type=float, default=10.0,
                    help="flight altitude, m (%(default)s; the 2D wind is a slice below the "
                         "roofs)")
