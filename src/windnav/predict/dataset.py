@@ -145,6 +145,49 @@ def _bilinear_grids(u, v, ix, tx, iy, ty, free, out):  # pragma: no cover - numb
                                    + w10 * v[j + 1, i] + w11 * v[j + 1, i + 1])
 
 
+@njit(cache=True, nogil=True)
+def _clear_footprints_points(fp, px, py, free):  # pragma: no cover - numba
+    """Set ``free[b, k] = False`` where ``(px[b, k], py[b, k])`` lies in a footprint (closed):
+    one bounding-box test per (row, footprint), then the row's points against the few
+    footprints its box meets."""
+    for b in range(px.shape[0]):
+        x0, x1 = px[b, 0], px[b, 0]
+        y0, y1 = py[b, 0], py[b, 0]
+        for k in range(1, px.shape[1]):
+            x0, x1 = min(x0, px[b, k]), max(x1, px[b, k])
+            y0, y1 = min(y0, py[b, k]), max(y1, py[b, k])
+        for m in range(fp.shape[0]):
+            if fp[m, 0] > x1 or fp[m, 1] < x0 or fp[m, 2] > y1 or fp[m, 3] < y0:
+                continue
+            for k in range(px.shape[1]):
+                if (px[b, k] >= fp[m, 0] and px[b, k] <= fp[m, 1] and py[b, k] >= fp[m, 2]
+                        and py[b, k] <= fp[m, 3]):
+                    free[b, k] = False
+
+
+@njit(cache=True, nogil=True)
+def _bilinear_points(u, v, ix, tx, iy, ty, free, out):  # pragma: no cover - numba
+    """``out[b, :, k]`` = the bilinear interpolant of ``(u, v)`` (ny, nx) at the point of
+    column ``(ix, tx)[b, k]`` and row ``(iy, ty)[b, k]`` (lower index, weight), 0 where not
+    free: :func:`_bilinear_grids`'s arithmetic, point by point."""
+    for b in range(ix.shape[0]):
+        for k in range(ix.shape[1]):
+            if not free[b, k]:
+                out[b, 0, k] = 0.0
+                out[b, 1, k] = 0.0
+                continue
+            i, a = ix[b, k], tx[b, k]
+            j, t = iy[b, k], ty[b, k]
+            w00 = (1.0 - a) * (1.0 - t)
+            w01 = a * (1.0 - t)
+            w10 = (1.0 - a) * t
+            w11 = a * t
+            out[b, 0, k] = (w00 * u[j, i] + w01 * u[j, i + 1]
+                            + w10 * u[j + 1, i] + w11 * u[j + 1, i + 1])
+            out[b, 1, k] = (w00 * v[j, i] + w01 * v[j, i + 1]
+                            + w10 * v[j + 1, i] + w11 * v[j + 1, i + 1])
+
+
 @dataclass(frozen=True, eq=False)
 class MeanField(ReadOnlyOnCopy):
     """One time-averaged solver field of one map at one inlet: the source of decoder samples.
@@ -281,6 +324,59 @@ class MeanField(ReadOnlyOnCopy):
         uv = np.empty((c.shape[0], 2, o.size, o.size), dtype=dtype)
         free = self._evaluate(c[:, :1] + o, c[:, 1:] + o, uv)
         return uv, free
+
+    def turned_grid_values(self, centres_xy, offsets, angles_deg, dtype=np.float64):
+        """The label grids of the scene turned about each centre: :meth:`grid_values` of the
+        world turned ``angles_deg`` counter-clockwise about the robot.
+
+        The turned world's wind at its cell ``o`` is ``R u(c + R^T o)``, ``R`` the turn: the
+        field at the world's point that the turn carries onto the cell, its vector turned
+        with it (as :func:`windnav.predict.decoder.turned_inputs` turns a scene's scan and
+        winds). An angle of 0 gives :meth:`grid_values`'s numbers to the bit.
+
+        Parameters
+        ----------
+        centres_xy : array_like of shape (B, 2)
+            Grid centres (robot positions), m, world frame.
+        offsets : array_like of shape (H,)
+            As in :meth:`grid_values`.
+        angles_deg : array_like of shape (B,)
+            Each grid's turn, deg counter-clockwise.
+        dtype : numpy dtype
+            Of the returned wind.
+
+        Returns
+        -------
+        uv : ndarray of shape (B, 2, H, H)
+            ``[u, v]`` of the turned scene, m/s, indexed ``[b, :, iy, ix]``; 0 where not free.
+        free : ndarray of bool, shape (B, H, H)
+            Cells whose world point lies inside the solver grid's hull and outside every
+            building (footprints, and pockets the solver filled).
+        """
+        where = "MeanField.turned_grid_values"
+        c = batch_array(centres_xy, "centres_xy", where, (2,))
+        o = np.asarray(offsets, dtype=np.float64)
+        a = np.radians(np.asarray(angles_deg, dtype=np.float64).reshape(-1))
+        if a.size != c.shape[0] or not np.all(np.isfinite(a)):
+            raise ValueError(f"The 'angles_deg' parameter of {where} must hold one finite angle "
+                             f"per centre ({c.shape[0]}). Got shape {a.shape} instead.")
+        b, h = c.shape[0], o.size
+        ox, oy = (g.reshape(1, -1) for g in np.meshgrid(o, o))  # cells [iy, ix], row-major
+        cos, sin = np.cos(a)[:, None], np.sin(a)[:, None]
+        px = c[:, :1] + cos * ox + sin * oy  # c + R^T o
+        py = c[:, 1:] - sin * ox + cos * oy
+        ix, tx, okx = _locate(self.x, px)
+        iy, ty, oky = _locate(self.y, py)
+        free = okx & oky
+        _clear_footprints_points(self.city.footprints, px, py, free)
+        if self._pockets is not None:
+            free &= ~self._pockets[iy + (ty >= 0.5), ix + (tx >= 0.5)]
+        uv = np.empty((b, 2, h * h))
+        _bilinear_points(self.u, self.v, ix, tx, iy, ty, free, uv)
+        u, v = uv[:, 0].copy(), uv[:, 1]
+        uv[:, 0] = cos * u - sin * v  # R u
+        uv[:, 1] = sin * u + cos * v
+        return uv.astype(dtype, copy=False).reshape(b, 2, h, h), free.reshape(b, h, h)
 
     def interpolate(self, points_xy) -> np.ndarray:
         """The mean wind at points.
@@ -597,20 +693,54 @@ def _normals(key: int, index: np.ndarray, m: int) -> np.ndarray:
     return out
 
 
+_TURN_SALT = 0x7475726E5F646567  # "turn_deg": the turns' stream of a key, apart from its noise
+
+
+def turn_angles(key: int, index: np.ndarray, turn_deg: int) -> np.ndarray:
+    """The turns of samples ``index`` of ``key``, whole degrees uniform in ``[-turn_deg,
+    turn_deg]`` (int64): output ``index[b]`` of the SplitMix64 stream of ``key ^ salt``, modulo
+    ``2 turn_deg + 1`` (a bias under 1e-17). A pure function of (key, index), as the noise."""
+    out = np.empty(np.size(index), dtype=np.uint64)
+    _splitmix64(np.uint64(int(key) ^ _TURN_SALT),
+                np.ascontiguousarray(index, dtype=np.int64).astype(np.uint64), out)
+    return (out % np.uint64(2 * turn_deg + 1)).astype(np.int64) - turn_deg
+
+
 def _samples(field: MeanField, positions: np.ndarray, key: int, index: np.ndarray,
-             offsets: np.ndarray, scan_noise: float, w_robot_noise: float) -> SampleBatch:
-    """Samples of ``field`` at ``positions``, with the noise blocks ``index`` of ``key``."""
+             offsets: np.ndarray, scan_noise: float, w_robot_noise: float,
+             turn_deg: int = 0) -> SampleBatch:
+    """Samples of ``field`` at ``positions``, with the noise blocks ``index`` of ``key``; each
+    scene turned by its :func:`turn_angles` when ``turn_deg`` > 0."""
     b = positions.shape[0]
     clean = field.city.lidar(positions, n_rays=N_RAYS, max_range=SCAN_MAX, min_range=0.0)
     z = _normals(key, index, _NOISE_PER_SAMPLE)
     # returns only: a ray that hits nothing reads SCAN_MAX exactly, as City.lidar's noise does
     scans = clean + (scan_noise * (clean < SCAN_MAX)) * z[:, :N_RAYS]
     np.clip(scans, SCAN_MIN, SCAN_MAX, out=scans)
-    labels, free = field.grid_values(positions, offsets, dtype=np.float32)
     w_robot = field.interpolate(positions) + w_robot_noise * z[:, N_RAYS:]
-    w_up = np.broadcast_to(field.w_up.astype(np.float32), (b, 2)).copy()
-    return SampleBatch(scans.astype(np.float32), w_up, w_robot.astype(np.float32), labels, free,
-                       positions.copy(), np.full(b, field.inlet_speed, dtype=np.float32))
+    w_up = np.broadcast_to(field.w_up, (b, 2))
+    if turn_deg:
+        # the world turned about the robot: ray k of the turned scan is ray k - angle (1 deg
+        # rays), both winds and the labels' vectors turned, the labels read where the turn
+        # carries the world's points (MeanField.turned_grid_values)
+        angles = turn_angles(key, index, turn_deg)
+        rays = (np.arange(N_RAYS) - angles[:, None]) % N_RAYS
+        scans = np.take_along_axis(scans, rays, axis=1)
+        a = np.radians(angles)
+        turn = np.stack([np.stack([np.cos(a), -np.sin(a)], -1),
+                         np.stack([np.sin(a), np.cos(a)], -1)], 1)  # (B, 2, 2)
+        w_up = np.einsum("bij,bj->bi", turn, w_up)
+        w_robot = np.einsum("bij,bj->bi", turn, w_robot)
+        labels, free = field.turned_grid_values(positions, offsets, angles, dtype=np.float32)
+    else:
+        labels, free = field.grid_values(positions, offsets, dtype=np.float32)
+    return SampleBatch(scans.astype(np.float32), w_up.astype(np.float32),
+                       w_robot.astype(np.float32), labels, free, positions.copy(),
+                       np.full(b, field.inlet_speed, dtype=np.float32))
+
+
+TURN_LIMIT_DEG = 45
+"""The largest ``turn_deg`` of the decoder's samples, deg."""
 
 
 def _check_noise(scan_noise, w_robot_noise, where: str) -> tuple[float, float]:
@@ -618,17 +748,29 @@ def _check_noise(scan_noise, w_robot_noise, where: str) -> tuple[float, float]:
             positive_float(w_robot_noise, "w_robot_noise", where, allow_zero=True))
 
 
-def _draw(field, n, rng, offsets, clearance, reach, where):
-    """Positions and noise key of ``n`` samples of ``field`` from ``rng`` (in this order)."""
+def _check_turn(turn_deg, where: str) -> int:
+    if (isinstance(turn_deg, bool) or not isinstance(turn_deg, int | np.integer)
+            or not 0 <= turn_deg <= TURN_LIMIT_DEG):
+        raise ValueError(f"The 'turn_deg' parameter of {where} must be a whole number of "
+                         f"degrees in [0, {TURN_LIMIT_DEG}]. Got {turn_deg!r} instead.")
+    return int(turn_deg)
+
+
+def _draw(field, n, rng, offsets, clearance, reach, where, turn_deg: int = 0):
+    """Positions and noise key of ``n`` samples of ``field`` from ``rng`` (in this order); the
+    label grid, turned by up to ``turn_deg``, inside the solver grid."""
     rng = _generator(rng, where)
+    a = math.radians(turn_deg)  # a turned grid's corner reaches (cos a + sin a) of the half-width
+    margin = float(offsets[-1]) * ((math.cos(a) + math.sin(a)) if turn_deg else 1.0)
     positions = robot_positions(field, n, rng=rng, wall_clearance=clearance, building_reach=reach,
-                                edge_margin=float(offsets[-1]))
+                                edge_margin=margin)
     return positions, int(rng.integers(0, 2**63, dtype=np.int64))
 
 
 def draw_samples(field: MeanField, n: int, *, rng, size: int = 25, spacing: float = 1.0,
                  scan_noise: float = SCAN_NOISE, w_robot_noise: float = 0.0,
-                 wall_clearance: float = 1.0, building_reach: float = 40.0) -> SampleBatch:
+                 wall_clearance: float = 1.0, building_reach: float = 40.0,
+                 turn_deg: int = 0) -> SampleBatch:
     """Draw ``n`` decoder samples from one mean field (see the module doc).
 
     Parameters
@@ -649,6 +791,14 @@ def draw_samples(field: MeanField, n: int, *, rng, size: int = 25, spacing: floa
     wall_clearance, building_reach : float
         Of the robot positions, m (:func:`robot_positions`); the positions also keep the
         label grid's half-width from the solver grid's edge.
+    turn_deg : int
+        Turn each sample's scene about its robot by a whole number of degrees drawn uniformly
+        from ``[-turn_deg, turn_deg]`` (:func:`turn_angles`): its scan shifted by as many
+        rays, both winds turned, and its labels the turned world's
+        (:meth:`MeanField.turned_grid_values`), so that a field simulated at one inlet
+        direction teaches the directions around it. 0 (default): as simulated. The positions
+        keep the turned grid's half-width from the solver grid's edge, so 0 and > 0 draw
+        other positions.
 
     Returns
     -------
@@ -660,9 +810,10 @@ def draw_samples(field: MeanField, n: int, *, rng, size: int = 25, spacing: floa
                          f"Got {type(field).__name__} instead.")
     offsets = grid_offsets(size, spacing)
     noise = _check_noise(scan_noise, w_robot_noise, where)
+    turn = _check_turn(turn_deg, where)
     positions, key = _draw(field, positive_int(n, "n", where), rng, offsets, wall_clearance,
-                           building_reach, where)
-    return _samples(field, positions, key, np.arange(positions.shape[0]), offsets, *noise)
+                           building_reach, where, turn)
+    return _samples(field, positions, key, np.arange(positions.shape[0]), offsets, *noise, turn)
 
 
 class DecoderDataset:
@@ -684,7 +835,7 @@ class DecoderDataset:
         Samples drawn from each field, >= 1 (the thesis uses 2048).
     seed : int
         Root seed.
-    size, spacing, scan_noise, w_robot_noise, wall_clearance, building_reach
+    size, spacing, scan_noise, w_robot_noise, wall_clearance, building_reach, turn_deg
         As in :func:`draw_samples`.
     threads : int
         Threads deriving the samples of different fields at once (>= 1; the same samples bit
@@ -702,7 +853,7 @@ class DecoderDataset:
     def __init__(self, fields: Sequence[MeanField], samples_per_field: int, *, seed: int = 0,
                  size: int = 25, spacing: float = 1.0, scan_noise: float = SCAN_NOISE,
                  w_robot_noise: float = 0.0, wall_clearance: float = 1.0,
-                 building_reach: float = 40.0, threads: int = 1):
+                 building_reach: float = 40.0, threads: int = 1, turn_deg: int = 0):
         where = "DecoderDataset"
         self.fields = tuple(fields)
         if not self.fields or not all(isinstance(f, MeanField) for f in self.fields):
@@ -717,6 +868,7 @@ class DecoderDataset:
         self.offsets = grid_offsets(size, spacing)
         self.offsets.setflags(write=False)
         self._noise = _check_noise(scan_noise, w_robot_noise, where)
+        self.turn_deg = _check_turn(turn_deg, where)
         # positions and noise keys, drawn now so that a map without room fails here, not in
         # the middle of an epoch
         self._draws = []
@@ -724,7 +876,7 @@ class DecoderDataset:
             rng = np.random.default_rng([self.seed, 0, k])
             try:
                 self._draws.append(_draw(f, self.samples_per_field, rng, self.offsets,
-                                         wall_clearance, building_reach, where))
+                                         wall_clearance, building_reach, where, self.turn_deg))
             except ValueError as exc:
                 raise ValueError(f"{where}: field {k} ({f.name!r}): {exc}") from exc
 
@@ -756,7 +908,8 @@ class DecoderDataset:
             f, rows = group
             positions, key = self._draws[f]
             j = j_of[rows]
-            part = _samples(self.fields[f], positions[j], key, j, self.offsets, *self._noise)
+            part = _samples(self.fields[f], positions[j], key, j, self.offsets, *self._noise,
+                            self.turn_deg)
             for dst, src in zip(out, part, strict=True):
                 dst[rows] = src
 

@@ -11,7 +11,9 @@ schedule. :func:`train_decoder` then
   curves on a subset of a sweep);
 - draws the training samples (kept in memory with ``train.cache``), new ones every
   ``train.resample_every`` epochs (fresh robot positions and noise), and the validation
-  samples once; optionally turns each training sample by a random D4 element
+  samples once; optionally turns each training scene about its robot by a random whole
+  number of degrees up to ``data.turn_deg`` (:func:`windnav.predict.dataset.draw_samples`;
+  the directions between the sweep's), and each training sample by a random D4 element
   (``train.augment_d4``) and rescales it to a random inlet speed (``train.augment_speed``),
   both exact symmetries of the solver, which the ``thesis-mlp`` must learn and the
   ``d4-film`` has built in;
@@ -70,7 +72,7 @@ import numpy as np
 from windnav._source import module_key
 from windnav.predict._loss import DIRECTION_FADE, SPEED_REF, fused_loss
 from windnav.predict.baselines import LocalBaseline, UpstreamBaseline
-from windnav.predict.dataset import DecoderDataset, fields_from_store
+from windnav.predict.dataset import TURN_LIMIT_DEG, DecoderDataset, fields_from_store
 from windnav.predict.decoder import (
     Decoder,
     canonicalize_field,
@@ -114,6 +116,7 @@ DEFAULTS = {
         "w_robot_noise": 0.0,
         "wall_clearance": 1.0,
         "building_reach": 40.0,
+        "turn_deg": 0,
         "seed": 0,
     },
     "model": {"architecture": "d4-film", "hyperparameters": {}},
@@ -406,6 +409,10 @@ def _check_recipe(r: dict, where: str) -> None:
     if not isinstance(d["validation_maps"], list) or not d["validation_maps"]:
         fail("data.validation_maps", "a non-empty list of store map names (held out)",
              d["validation_maps"])
+    v = d["turn_deg"]
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= TURN_LIMIT_DEG:
+        fail("data.turn_deg", f"a whole number of degrees in [0, {TURN_LIMIT_DEG}] (each "
+             "training scene turned by up to that much; 0: as simulated)", v)
     ex = d["exclude_maps"]
     if not isinstance(ex, list) or not all(isinstance(m, str) for m in ex) or set(ex) & set(
             d["validation_maps"]):
@@ -557,19 +564,22 @@ def _split_fields(store_path, validation_maps, where, exclude_maps=(), map_weigh
     return fields_train, fields_val, len(train), len(val)
 
 
-def _dataset(fields, per_field, data: dict, seed_offset: int, threads: int = 1
-             ) -> DecoderDataset:
+def _dataset(fields, per_field, data: dict, seed_offset: int, threads: int = 1,
+             turn_deg: int = 0) -> DecoderDataset:
     return DecoderDataset(fields, per_field, seed=int(data["seed"]) + seed_offset,
                           size=data["size"], spacing=data["spacing"],
                           scan_noise=data["scan_noise"], w_robot_noise=data["w_robot_noise"],
                           wall_clearance=data["wall_clearance"],
-                          building_reach=data["building_reach"], threads=threads)
+                          building_reach=data["building_reach"], threads=threads,
+                          turn_deg=turn_deg)
 
 
 def _train_block(fields, data: dict, block: int, threads: int = 1) -> DecoderDataset:
     """The training samples of block ``block`` (seed ``data.seed + 1000 * block``), derived on
-    ``threads`` threads (the same samples for any count)."""
-    return _dataset(fields, data["samples_per_field"], data, 1000 * block, threads)
+    ``threads`` threads (the same samples for any count), each scene turned by up to
+    ``data.turn_deg`` (the validation samples never are: scored as simulated)."""
+    return _dataset(fields, data["samples_per_field"], data, 1000 * block, threads,
+                    data["turn_deg"])
 
 
 def _augment(batch, rng: np.random.Generator):
