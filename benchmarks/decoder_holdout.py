@@ -17,11 +17,12 @@ seed 1 and 12 of seed 2, 16 in all, whose flows ``--flow-cache runs/flows`` may 
         [--boundary average|floor|blend] [--runs 4:1 12:2] [--flow-cache runs/flows]
 
 Each model is scored under ``--boundary`` (default ``average``, the package's default rule).
-Reports per model the pooled speed and direction errors (mean over the inlets' pooled cells,
-as ``evaluate-decoder`` pools), and against the reference a paired bootstrap interval of the
-improvement over the inlets (``windnav.experiments.decoder_eval.improvement_interval``), with
-the count of inlets where it is better. Writes ``decoder_holdout.json`` into ``--out``;
-``--record`` appends the table to docs/benchmarks.md.
+Reports per model the speed and direction errors pooled over every inlet's cells (each cell
+weighing equally, as ``evaluate-decoder`` pools), and against the reference the improvement of
+those pooled errors with a paired bootstrap interval over the inlets
+(``windnav.experiments.decoder_eval.improvement_interval``, the same pooling), and the count of
+inlets where it is better. Inlets that failed or that the budget stopped are listed. Writes
+``decoder_holdout.json`` into ``--out``; ``--record`` appends the table to docs/benchmarks.md.
 """
 
 from __future__ import annotations
@@ -63,6 +64,16 @@ def parse_compare(text: str) -> tuple[str, Path]:
     return name, Path(path)
 
 
+def pooled_error(records, name: str, metric: str) -> float:
+    """``metric`` of model ``name`` pooled over the records' cells, each cell weighing equally
+    (the cell counts :data:`windnav.predict.metrics` keeps beside each metric)."""
+    from windnav.predict.metrics import _COUNTS
+
+    n = np.array([float(r[name][_COUNTS[metric]]) for r in records])
+    e = np.array([float(r[name][metric]) for r in records])
+    return float((e * n).sum() / n.sum()) if n.sum() > 0 else float("nan")
+
+
 def run(model=None, compare=(), *, boundary: str = "average", runs=RUNS, flow_cache=None,
         progress: bool = True) -> dict:
     """Score ``model`` (default: shipped) and the ``compare`` files on the held-out district."""
@@ -72,24 +83,24 @@ def run(model=None, compare=(), *, boundary: str = "average", runs=RUNS, flow_ca
     reference = load_decoder(model, boundary=boundary)
     others = {name: load_decoder(path, boundary=boundary) for name, path in compare}
     t0 = time.perf_counter()
-    records = []
+    records, failed, stopped = [], [], False
     for n_inlets, seed in runs:
         res = evaluate_decoder(model, decoder=reference,
                                maps=[(views.VALIDATION_MAP, views.holdout_city())],
                                windinet=False, n_inlets=n_inlets, seed=seed, budget_s=3600.0,
                                compare=others, flow_cache=flow_cache, progress=progress)
-        for r in res["records"]:  # one slot per inlet: the runs' slots kept apart
-            r["group"] = "dense"
+        for r in res["records"]:  # the seed of its run beside each inlet's record
             r["run_seed"] = seed
         records += res["records"]
+        failed += [{**f, "run_seed": seed} for f in res.get("failed", [])]
+        stopped = stopped or bool(res.get("stopped_by_budget"))
     names = ["decoder", *others, "local"]
-    pooled = {n: {m: float(np.mean([r[n][m] for r in records])) for m in METRICS}
-              for n in names}
+    pooled = {n: {m: pooled_error(records, n, m) for m in METRICS} for n in names}
     versus = {}
     for n in others:
         versus[n] = {}
         for m in METRICS:
-            iv = improvement_interval(records, n, "decoder", m, group="dense")
+            iv = improvement_interval(records, n, "decoder", m, group="all")
             better = sum(r[n][m] < r["decoder"][m] for r in records)
             versus[n][m] = {**iv, "better_inlets": int(better)}
     per_inlet = [{"seed": r["run_seed"], "speed": r["speed"], "direction_deg": r["direction_deg"],
@@ -98,7 +109,8 @@ def run(model=None, compare=(), *, boundary: str = "average", runs=RUNS, flow_ca
             "compare": {n: str(p) for n, p in compare}, "map": views.VALIDATION_MAP,
             "runs": [list(r) for r in runs], "inlets": len(records),
             "samples": int(sum(r["n_samples"] for r in records)), "pooled": pooled,
-            "versus_reference": versus, "per_inlet": per_inlet,
+            "versus_reference": versus, "per_inlet": per_inlet, "failed": failed,
+            "stopped_by_budget": stopped,
             "elapsed_s": time.perf_counter() - t0}
 
 
@@ -106,9 +118,9 @@ def table(res: dict) -> list[str]:
     """The Markdown table of a :func:`run` result."""
     lines = [f"Held-out district `{res['map']}` (never trained on), {res['inlets']} random "
              f"inlets (runs {', '.join(f'{n} of seed {s}' for n, s in res['runs'])}), "
-             f"{res['samples']:,} samples; boundary rule `{res['boundary']}`. Errors: mean "
-             "over the inlets; improvement on the reference: pooled cells, paired bootstrap "
-             "over the inlets (95 %).", "",
+             f"{res['samples']:,} samples; boundary rule `{res['boundary']}`. Errors pooled "
+             "over the cells; improvement on the reference: the pooled errors', paired "
+             "bootstrap over the inlets (95 %).", "",
              "| model | speed error (m/s) | direction error (deg) | speed vs reference | "
              "direction vs reference |", "|---|---|---|---|---|"]
     for n, e in res["pooled"].items():
@@ -125,6 +137,9 @@ def table(res: dict) -> list[str]:
                          f"{res['inlets']}")
         lines.append(f"| {label} | {e['speed_error']:.4f} | {e['direction_error_deg']:.3f} | "
                      f"{cells[0]} | {cells[1]} |")
+    if res.get("failed") or res.get("stopped_by_budget"):
+        lines += ["", f"Not scored: {len(res.get('failed', []))} inlets failed"
+                  f"{'; the budget stopped a run' if res.get('stopped_by_budget') else ''}."]
     return lines
 
 

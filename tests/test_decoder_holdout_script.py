@@ -29,19 +29,20 @@ def _module():
     return module
 
 
-def _slot(speed_err: dict, dir_err: dict, direction_deg: float) -> dict:
+def _slot(speed_err: dict, dir_err: dict, direction_deg: float, cells: int) -> dict:
     rec = {"map": "holdout-0", "group": "dense", "speed": 5.0, "direction_deg": direction_deg,
            "n_samples": 16}
     for name in speed_err:
         rec[name] = {"speed_error": speed_err[name], "direction_error_deg": dir_err[name],
-                     "n_free": 1000, "n_direction": 1000}
+                     "n_free": cells, "n_direction": cells}
     return rec
 
 
 @pytest.fixture()
 def stubbed(tmp_path, monkeypatch):
     """Two decoder files, and evaluate_decoder answering one slot per inlet: the candidate
-    10 % better on speed at every inlet, on direction better at the first and worse after."""
+    10 % better on speed at every inlet, on direction better at the first and worse after;
+    inlet i has 1000 (i + 1) cells, and seed 2's run has one failed inlet."""
     paths = {}
     for name, seed in (("ref", 0), ("cand", 1)):
         paths[name] = tiny("d4-film", seed=seed).save(tmp_path / f"{name}.npz")
@@ -57,8 +58,9 @@ def stubbed(tmp_path, monkeypatch):
             base = 2.0 + seed + i
             recs.append(_slot({"decoder": base, "cand": 0.9 * base, "local": 2 * base},
                               {"decoder": 20.0, "cand": 19.0 if i == 0 else 21.0,
-                               "local": 30.0}, 10.0 * i))
-        return {"records": recs}
+                               "local": 30.0}, 10.0 * i, 1000 * (i + 1)))
+        failed = [{"map": "holdout-0", "inlet": n_inlets, "error": "diverged"}] * (seed == 2)
+        return {"records": recs, "failed": failed, "stopped_by_budget": False}
 
     monkeypatch.setattr(de, "evaluate_decoder", evaluate)
     return paths, calls
@@ -74,17 +76,23 @@ def test_the_candidate_is_compared_on_the_held_out_district_inlet_by_inlet(stubb
     assert all(c["compare"] == ["cand"] and c["boundary"] == ("blend", "blend") for c in calls)
     assert res["inlets"] == 5 and res["samples"] == 80
     assert [r["seed"] for r in res["per_inlet"]] == [1, 1, 2, 2, 2]
-    speeds = [3.0, 4.0, 4.0, 5.0, 6.0]
-    assert res["pooled"]["decoder"]["speed_error"] == pytest.approx(np.mean(speeds))
-    assert res["pooled"]["cand"]["speed_error"] == pytest.approx(0.9 * np.mean(speeds))
+    speeds, cells = np.array([3.0, 4.0, 4.0, 5.0, 6.0]), np.array([1, 2, 1, 2, 3])
+    pooled = (speeds * cells).sum() / cells.sum()  # each cell weighing equally
+    assert res["pooled"]["decoder"]["speed_error"] == pytest.approx(pooled)
+    assert res["pooled"]["cand"]["speed_error"] == pytest.approx(0.9 * pooled)
+    cand_dir = (np.array([19.0, 21.0, 19.0, 21.0, 21.0]) * cells).sum() / cells.sum()
+    assert res["pooled"]["cand"]["direction_error_deg"] == pytest.approx(cand_dir)
     v = res["versus_reference"]["cand"]
     assert v["speed_error"]["value"] == pytest.approx(10.0)
     assert v["speed_error"]["better_inlets"] == 5
     assert v["direction_error_deg"]["better_inlets"] == 2  # the first inlet of each run
-    assert v["direction_error_deg"]["value"] == pytest.approx(100 * (1 - 101 / 100))
+    assert v["direction_error_deg"]["value"] == pytest.approx(100 * (1 - cand_dir / 20.0))
+    assert res["failed"] == [{"map": "holdout-0", "inlet": 3, "error": "diverged",
+                              "run_seed": 2}]
     lines = mod.table(res)
     assert any(line.startswith("| cand (") and "+10.00 %" in line and "better at 5 of 5" in line
                for line in lines)
+    assert "Not scored: 1 inlets failed." in lines
 
 
 def test_the_command_writes_its_json_and_refuses_what_it_cannot_run(stubbed, tmp_path,

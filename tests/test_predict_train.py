@@ -904,6 +904,10 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"train": {"tensorboard": 0}}, "train.tensorboard"),
     ({"train": {"loss_speed_power": -1.0}}, "train.loss_speed_power"),
     ({"data": {"validation_maps": []}}, "data.validation_maps"),
+    ({"data": {"turn_deg": 46}}, "data.turn_deg"),
+    ({"data": {"turn_deg": -1}}, "data.turn_deg"),
+    ({"data": {"turn_deg": 4.0}}, "data.turn_deg"),
+    ({"data": {"turn_deg": True}}, "data.turn_deg"),
     ({"data": {"exclude_maps": "train-1"}}, "data.exclude_maps"),
     ({"data": {"exclude_maps": ["holdout-0"]}}, "data.exclude_maps"),
     ({"data": {"map_weights": {"nowhere": 2}}}, "data.map_weights"),
@@ -1168,3 +1172,42 @@ def test_a_resume_under_other_training_code_is_said_and_recorded(tiny, tmp_path,
     h = train_decoder(recipe, store=out / "sweep.zarr", out_dir=out2, progress=False, log=None)
     assert h["code"] == "aaaaaaaaaaaaaaaa"
     assert h["resumed_by_code"] == [{"code": "bbbbbbbbbbbbbbbb", "from_epoch": 1}]
+
+
+def test_turned_scenes_train_and_the_validation_is_scored_as_simulated(tiny):
+    """``data.turn_deg`` turns the training blocks' scenes, never the validation samples (a
+    validation of turned scenes would score another set than the runs before)."""
+    from windnav.predict.train import _Run
+
+    recipe, out, _ = tiny
+    turned = copy.deepcopy(recipe)
+    turned["data"]["turn_deg"] = 3
+    run = _Run(turned, out, out / "sweep.zarr")
+    run.load_data("test")
+    plain = _Run(recipe, out, out / "sweep.zarr")
+    plain.load_data("test")
+    for a, b in zip(run.val, plain.val, strict=True):
+        np.testing.assert_array_equal(a, b)
+    block, unturned = run.train_set(0), plain.train_set(0)
+    assert block.turn_deg == 3 and unturned.turn_deg == 0
+    idx = np.arange(0, len(block), 7)
+    got = block.samples(idx)
+    data = turned["data"]
+    want = DecoderDataset(run.fields_train, data["samples_per_field"], seed=data["seed"],
+                          size=data["size"], spacing=data["spacing"],
+                          scan_noise=data["scan_noise"], turn_deg=3).samples(idx)
+    for a, b in zip(got, want, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(got.scans, unturned.samples(idx).scans)
+
+
+def test_no_turn_keeps_earlier_fingerprints_and_a_turn_changes_it():
+    recipe = load_recipe("default")
+    assert recipe["data"]["turn_deg"] == 0
+    older = copy.deepcopy(recipe)
+    del older["data"]["turn_deg"]
+    assert _fingerprint(older) == _fingerprint(recipe) == "0fe7330b88b78d73"  # benchmarks.md
+    turned = copy.deepcopy(recipe)
+    turned["data"]["turn_deg"] = 4
+    assert _fingerprint(turned) != _fingerprint(recipe)
+    assert load_recipe(RECIPES / "turned.toml")["data"]["turn_deg"] == 4

@@ -160,3 +160,38 @@ def test_turned_grid_values_refuses_a_wrong_count_of_angles():
         field.turned_grid_values([[20.0, 20.0], [30.0, 50.0]], grid_offsets(5), [1.0])
     with pytest.raises(ValueError, match="'angles_deg'"):
         field.turned_grid_values([[20.0, 20.0]], grid_offsets(5), [np.nan])
+
+
+def test_a_turned_grid_keeps_pockets_the_hull_and_wall_cells_out():
+    """Cells in a pocket the solver filled, beyond the solver grid, or exactly on a wall are
+    not free in a turned grid either (the quarter turn of a field with a pocket, checked
+    against the unturned grid of the world turned as arrays)."""
+    f = shear_field()
+    solid = f.solid.copy()
+    solid[5:8, 5:8] = True  # a filled pocket around (6, 6) m, outside every footprint
+    g = MeanField(f.city, f.x, f.y, np.where(solid, 0.0, f.u), np.where(solid, 0.0, f.v),
+                  solid, f.w_up)
+    o = grid_offsets(9)
+    # robots near the pocket and near the grid's corner (cells beyond the hull); off the
+    # half-cells, where the pocket's nearest cell is a tie that the quarter turn's
+    # cos(90 deg) = 6e-17 can break either way
+    c = np.array([[6.3, 9.2], [3.3, 3.2], [86.3, 66.2]])
+    got, free = g.turned_grid_values(c, o, np.full(3, 90.0))
+    turned = quarter_turned(g)
+    want, want_free = turned.grid_values(np.column_stack([-c[:, 1], c[:, 0]]), o)
+    np.testing.assert_array_equal(free, want_free)
+    assert not free[0].all() and not free[1].all() and not free[2].all()
+    np.testing.assert_allclose(got, want, atol=1e-12)
+    # a cell exactly on a wall (the footprint's edge x = 30 m) is in the building
+    at, free = g.turned_grid_values([[26.0, 30.0]], grid_offsets(9), [0.0])
+    assert not free[0, 4, 8]  # offset (+4, 0): the point (30, 30)
+
+
+def test_the_largest_turn_is_taken_and_bad_offsets_are_refused():
+    field = shear_field()
+    batch = draw_samples(field, 50, rng=4, size=5, scan_noise=0.0, turn_deg=45)
+    assert batch.labels.shape == (50, 2, 5, 5) and batch.w_up.flags.c_contiguous
+    assert draw_samples(field, 3, rng=4, size=5).w_up.flags.c_contiguous
+    for bad in ([[-1.0, 0.0, 1.0]] * 2, [1.0, 0.0, -1.0], [np.nan, 0.0, 1.0], []):
+        with pytest.raises(ValueError, match="'offsets' parameter of MeanField.turned_grid"):
+            field.turned_grid_values([[20.0, 20.0]], bad, [1.0])

@@ -12,7 +12,10 @@ sample is drawn from a :class:`MeanField` (one map at one inlet) as
   nothing read 100 m exactly, as ``City.lidar`` does), clipped to [0.25, 100] m;
 - ``W_up``; ``W_robot`` = the mean field at the robot, plus optional ``N(0, w_robot_noise)``
   per component (in flight it comes from the Wind UKF);
-- the labels: the mean field at ``position + (offsets[ix], offsets[iy])``, 0 inside buildings.
+- the labels: the mean field at ``position + (offsets[ix], offsets[iy])``, 0 inside buildings;
+- optionally (``turn_deg`` > 0, training only) the whole scene turned about the robot by a
+  whole number of degrees: scan, winds and labels those of the world turned by that angle
+  (:meth:`MeanField.turned_grid_values`), so the sample is no longer the world frame's.
 
 Interpolation: the thesis interpolates with ``scipy.interpolate.RectBivariateSpline``; here its
 degree is 1 (``kx = ky = 1``, ``s = 0``), the tensor B-spline through the cell centres, which
@@ -188,6 +191,14 @@ def _bilinear_points(u, v, ix, tx, iy, ty, free, out):  # pragma: no cover - num
                             + w10 * v[j + 1, i] + w11 * v[j + 1, i + 1])
 
 
+def _offsets(offsets, where: str) -> np.ndarray:
+    o = np.asarray(offsets, dtype=np.float64)
+    if o.ndim != 1 or o.size < 1 or not np.all(np.isfinite(o)) or np.any(np.diff(o) <= 0):
+        raise ValueError(f"The 'offsets' parameter of {where} must be a finite, increasing "
+                         f"1-D array, m. Got shape {o.shape} instead.")
+    return o
+
+
 @dataclass(frozen=True, eq=False)
 class MeanField(ReadOnlyOnCopy):
     """One time-averaged solver field of one map at one inlet: the source of decoder samples.
@@ -317,10 +328,7 @@ class MeanField(ReadOnlyOnCopy):
         """
         where = "MeanField.grid_values"
         c = batch_array(centres_xy, "centres_xy", where, (2,))
-        o = np.asarray(offsets, dtype=np.float64)
-        if o.ndim != 1 or o.size < 1 or not np.all(np.isfinite(o)) or np.any(np.diff(o) <= 0):
-            raise ValueError(f"The 'offsets' parameter of {where} must be a finite, increasing "
-                             f"1-D array, m. Got shape {o.shape} instead.")
+        o = _offsets(offsets, where)
         uv = np.empty((c.shape[0], 2, o.size, o.size), dtype=dtype)
         free = self._evaluate(c[:, :1] + o, c[:, 1:] + o, uv)
         return uv, free
@@ -355,7 +363,7 @@ class MeanField(ReadOnlyOnCopy):
         """
         where = "MeanField.turned_grid_values"
         c = batch_array(centres_xy, "centres_xy", where, (2,))
-        o = np.asarray(offsets, dtype=np.float64)
+        o = _offsets(offsets, where)
         a = np.radians(np.asarray(angles_deg, dtype=np.float64).reshape(-1))
         if a.size != c.shape[0] or not np.all(np.isfinite(a)):
             raise ValueError(f"The 'angles_deg' parameter of {where} must hold one finite angle "
@@ -513,7 +521,9 @@ class SampleBatch(NamedTuple):
         Time-averaged wind at the robot (plus the optional noise), m/s, world frame.
     labels : ndarray of float32, shape (B, 2, H, H)
         ``[u, v]`` mean wind, m/s, indexed ``[b, :, iy, ix]`` at
-        ``position + (offsets[ix], offsets[iy])``; 0 where not ``free``.
+        ``position + (offsets[ix], offsets[iy])``; 0 where not ``free``. A sample drawn with
+        ``turn_deg`` > 0 is its scene turned about the robot: scan, winds and labels those of
+        the turned world (:meth:`MeanField.turned_grid_values`).
     free : ndarray of bool, shape (B, H, H)
         Cells outside buildings and inside the solver grid.
     positions : ndarray of float64, shape (B, 2)
@@ -718,7 +728,7 @@ def _samples(field: MeanField, positions: np.ndarray, key: int, index: np.ndarra
     scans = clean + (scan_noise * (clean < SCAN_MAX)) * z[:, :N_RAYS]
     np.clip(scans, SCAN_MIN, SCAN_MAX, out=scans)
     w_robot = field.interpolate(positions) + w_robot_noise * z[:, N_RAYS:]
-    w_up = np.broadcast_to(field.w_up, (b, 2))
+    w_up = np.broadcast_to(field.w_up, (b, 2)).copy()
     if turn_deg:
         # the world turned about the robot: ray k of the turned scan is ray k - angle (1 deg
         # rays), both winds and the labels' vectors turned, the labels read where the turn

@@ -509,10 +509,10 @@ def resolve_paths(recipe: dict, out_dir=None) -> tuple[Path, Path]:
 def _fingerprint(recipe: dict) -> str:
     """What must not change between a run and its resumption (not paths or workers)."""
     sweep = {k: v for k, v in recipe["sweep"].items() if k not in ("store", "backend", "workers")}
-    # an empty exclude_maps or map_weights (added later) leaves the fingerprints of earlier runs
-    # as they were
+    # an empty exclude_maps or map_weights, or no turn (added later), leaves the fingerprints
+    # of earlier runs as they were
     data = {k: v for k, v in recipe["data"].items()
-            if k not in ("exclude_maps", "map_weights") or v}
+            if k not in ("exclude_maps", "map_weights", "turn_deg") or v}
     # the loss keys added on 2026-11-30 likewise, at their defaults
     added = {k: DEFAULTS["train"][k] for k in ("vector_loss", "speed_loss_weight",
                                               "direction_loss", "members", "teacher",
