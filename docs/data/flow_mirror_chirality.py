@@ -9,10 +9,13 @@ steps) is young, so a mirrored city does not give the mirrored mean. This script
 gap: the district at an inlet, and the district mirrored across the x axis at the mirrored
 inlet, each solved under the protocol; the second's field is mirrored back and compared with
 the first's, over the fluid cells where the decoder's robots stand (1-40 m from a building,
-13 m inside the domain). The same without the kick is the control.
+13 m inside the domain). The same without the kick is the control. With ``--decoder``, the
+shipped decoder and the mirror trial's view (``decoder_mirror_trial.py``) are also scored in
+both worlds at the first direction: 2,048 robots of the district, the same positions
+mirrored in the mirrored city.
 
     .venv/bin/python docs/data/flow_mirror_chirality.py --out runs/chirality
-        [--directions 17.9 33.5]
+        [--directions 17.9 33.5] [--decoder]
 
 Writes ``flow_mirror_chirality.json`` into ``--out``.
 """
@@ -53,7 +56,32 @@ def robot_cells(city, x, y, margin: float = 13.0):
     return (d >= 1.0) & (d <= 40.0) & inside
 
 
-def compare(city, direction_deg: float, kick: float) -> dict:
+def decoder_in_both_worlds(city, a, b, n: int = 2048) -> dict:
+    """Speed and direction errors of the shipped decoder and of its mirror view on ``n``
+    robots of ``city``'s solution ``a`` and at the mirrored positions of the mirrored city's
+    ``b`` (noisy scans; the mirrored city's scan noise drawn anew)."""
+    from decoder_mirror_trial import MirrorView
+
+    from windnav.predict import load_decoder
+    from windnav.predict.dataset import _samples, draw_samples, field_from_solution, grid_offsets
+    from windnav.predict.metrics import field_errors
+
+    dec = load_decoder()
+    models = {"one pass": dec, "mirror view": MirrorView(dec.weights, dec.metadata)}
+    world = draw_samples(field_from_solution(city, a), n, rng=0)
+    mirrored = _samples(field_from_solution(mirrored_city(city), b), world.positions * [1, -1],
+                        12345, np.arange(n), grid_offsets(dec.size), 0.35, 0.0)
+    out = {}
+    for place, s in (("district", world), ("mirrored city", mirrored)):
+        for name, model in models.items():
+            e = field_errors(model.predict(s.scans, s.w_up, s.w_robot), s.labels, s.free,
+                             s.inlet_speed)
+            out[f"{place}: {name}"] = {m: float(e[m]) for m in ("speed_error",
+                                                                 "direction_error_deg")}
+    return out
+
+
+def compare(city, direction_deg: float, kick: float, decoder: bool = False) -> dict:
     """The protocol's mean at ``direction_deg`` against the mirror of the mirrored city's."""
     from windnav.flow import simulate
 
@@ -66,7 +94,8 @@ def compare(city, direction_deg: float, kick: float) -> dict:
     cells = robot_cells(city, a.x, a.y)
     gap = np.hypot(ua - ub, va - vb)[cells]
     speed_gap = np.abs(np.hypot(ua, va) - np.hypot(ub, vb))[cells]
-    return {"direction_deg": direction_deg, "kick": kick, "cells": int(cells.sum()),
+    scored = {"decoder": decoder_in_both_worlds(city, a, b)} if decoder else {}
+    return {**scored, "direction_deg": direction_deg, "kick": kick, "cells": int(cells.sum()),
             "vector_gap_mean": float(gap.mean()),
             "vector_gap_mean_over_U": float(gap.mean() / SPEED),
             "speed_gap_mean": float(speed_gap.mean()),
@@ -80,9 +109,13 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--directions", type=float, nargs="+", default=[17.9, 33.5])
+    p.add_argument("--decoder", action="store_true",
+                   help="also score the decoder and its mirror view in both worlds")
     args = p.parse_args(argv)
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
     city = views.holdout_city()
-    rows = [compare(city, d, k) for d in args.directions for k in (0.05, 0.0)]
+    rows = [compare(city, d, k, args.decoder and i == 0 and k > 0)
+            for i, d in enumerate(args.directions) for k in (0.05, 0.0)]
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "flow_mirror_chirality.json").write_text(json.dumps(
         {"map": views.VALIDATION_MAP, "speed": SPEED, "rows": rows}, indent=1) + "\n")
@@ -91,6 +124,8 @@ def main(argv=None) -> int:
               f"{r['vector_gap_mean']:.3f} m/s mean ({r['vector_gap_mean_over_U']:.3f} U), "
               f"speed {r['speed_gap_mean']:.3f} m/s, p90 {r['vector_gap_p90']:.3f} "
               f"({r['cells']} cells, {r['seconds']:.0f} s)")
+        for k, v in r.get("decoder", {}).items():
+            print(f"    {k}: {v['speed_error']:.4f} m/s, {v['direction_error_deg']:.3f} deg")
     return 0
 
 
