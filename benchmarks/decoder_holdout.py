@@ -16,7 +16,8 @@ seed 1 and 12 of seed 2, 16 in all, whose flows ``--flow-cache runs/flows`` may 
         --compare turned=runs/turned/model.npz [--compare NAME=FILE ...] [--model FILE]
         [--boundary average|floor|blend] [--runs 4:1 12:2] [--flow-cache runs/flows]
 
-Each model is scored under ``--boundary`` (default ``average``, the package's default rule).
+Each model is scored under ``--boundary`` (default ``average``, the package's default rule)
+and, with ``--rotations-deg``, averaged over those turned views (``load_decoder(rotations_deg=)``).
 Reports per model the speed and direction errors pooled over every inlet's cells (each cell
 weighing equally, as ``evaluate-decoder`` pools), and against the reference the improvement of
 those pooled errors with a paired bootstrap interval over the inlets
@@ -74,14 +75,15 @@ def pooled_error(records, name: str, metric: str) -> float:
     return float((e * n).sum() / n.sum()) if n.sum() > 0 else float("nan")
 
 
-def run(model=None, compare=(), *, boundary: str = "average", runs=RUNS, flow_cache=None,
-        progress: bool = True) -> dict:
+def run(model=None, compare=(), *, boundary: str = "average", rotations_deg=None, runs=RUNS,
+        flow_cache=None, progress: bool = True) -> dict:
     """Score ``model`` (default: shipped) and the ``compare`` files on the held-out district."""
     from windnav.experiments.decoder_eval import evaluate_decoder, improvement_interval
     from windnav.predict import load_decoder
 
-    reference = load_decoder(model, boundary=boundary)
-    others = {name: load_decoder(path, boundary=boundary) for name, path in compare}
+    reference = load_decoder(model, boundary=boundary, rotations_deg=rotations_deg)
+    others = {name: load_decoder(path, boundary=boundary, rotations_deg=rotations_deg)
+              for name, path in compare}
     t0 = time.perf_counter()
     records, failed, stopped = [], [], False
     for n_inlets, seed in runs:
@@ -106,6 +108,7 @@ def run(model=None, compare=(), *, boundary: str = "average", runs=RUNS, flow_ca
     per_inlet = [{"seed": r["run_seed"], "speed": r["speed"], "direction_deg": r["direction_deg"],
                   **{n: {m: r[n][m] for m in METRICS} for n in names}} for r in records]
     return {"reference": str(model) if model is not None else "shipped", "boundary": boundary,
+            "rotations_deg": None if rotations_deg is None else [float(a) for a in rotations_deg],
             "compare": {n: str(p) for n, p in compare}, "map": views.VALIDATION_MAP,
             "runs": [list(r) for r in runs], "inlets": len(records),
             "samples": int(sum(r["n_samples"] for r in records)), "pooled": pooled,
@@ -118,7 +121,11 @@ def table(res: dict) -> list[str]:
     """The Markdown table of a :func:`run` result."""
     lines = [f"Held-out district `{res['map']}` (never trained on), {res['inlets']} random "
              f"inlets (runs {', '.join(f'{n} of seed {s}' for n, s in res['runs'])}), "
-             f"{res['samples']:,} samples; boundary rule `{res['boundary']}`. Errors pooled "
+             f"{res['samples']:,} samples; boundary rule `{res['boundary']}`"
+             + ("" if not res.get("rotations_deg") else
+                f", every model averaged over its views turned by "
+                f"{', '.join(f'{a:g}' for a in res['rotations_deg'])} deg")
+             + ". Errors pooled "
              "over the cells; improvement on the reference: the pooled errors', paired "
              "bootstrap over the inlets (95 %).", "",
              "| model | speed error (m/s) | direction error (deg) | speed vs reference | "
@@ -154,6 +161,9 @@ def main(argv=None) -> int:
                     metavar="NAME=FILE", help="a decoder scored beside it (repeatable)")
     ap.add_argument("--boundary", choices=sorted(BOUNDARIES), default="average",
                     help="every model's rule at the sector boundaries (default average)")
+    ap.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
+                    help="every model averaged over the scene turned by these angles, whole "
+                         "deg (e.g. 0 -3 3; default: one pass)")
     ap.add_argument("--runs", type=parse_run, nargs="+", default=list(RUNS), metavar="N:SEED",
                     help="random inlets and their seed per run (default 4:1 12:2)")
     ap.add_argument("--flow-cache", type=Path, default=None, metavar="DIR",
@@ -165,7 +175,8 @@ def main(argv=None) -> int:
         ap.error("give at least one --compare NAME=FILE")
     if len({n for n, _ in args.compare}) != len(args.compare):
         ap.error("--compare names must differ")
-    res = run(args.model, args.compare, boundary=args.boundary, runs=args.runs,
+    res = run(args.model, args.compare, boundary=args.boundary,
+              rotations_deg=args.rotations_deg, runs=args.runs,
               flow_cache=args.flow_cache, progress=not args.no_progress)
     res["command"] = "python benchmarks/decoder_holdout.py " + " ".join(
         sys.argv[1:] if argv is None else argv)

@@ -52,7 +52,9 @@ def stubbed(tmp_path, monkeypatch):
                  flow_cache, progress):
         calls.append({"model": model_path, "seed": seed, "n": n_inlets,
                       "compare": sorted(compare), "map": maps[0][0], "boundary":
-                      (decoder.boundary, *(d.boundary for d in compare.values()))})
+                      (decoder.boundary, *(d.boundary for d in compare.values())),
+                      "views": (decoder.rotations_deg,
+                                *(d.rotations_deg for d in compare.values()))})
         recs = []
         for i in range(n_inlets):
             base = 2.0 + seed + i
@@ -73,7 +75,8 @@ def test_the_candidate_is_compared_on_the_held_out_district_inlet_by_inlet(stubb
                   runs=[(2, 1), (3, 2)], progress=False)
     assert [(c["n"], c["seed"], c["map"]) for c in calls] == [(2, 1, "holdout-0"),
                                                               (3, 2, "holdout-0")]
-    assert all(c["compare"] == ["cand"] and c["boundary"] == ("blend", "blend") for c in calls)
+    assert all(c["compare"] == ["cand"] and c["boundary"] == ("blend", "blend")
+               and c["views"] == (None, None) for c in calls)
     assert res["inlets"] == 5 and res["samples"] == 80
     assert [r["seed"] for r in res["per_inlet"]] == [1, 1, 2, 2, 2]
     speeds, cells = np.array([3.0, 4.0, 4.0, 5.0, 6.0]), np.array([1, 2, 1, 2, 3])
@@ -104,6 +107,13 @@ def test_the_command_writes_its_json_and_refuses_what_it_cannot_run(stubbed, tmp
                      f"cand={paths['cand']}", "--runs", "2:1", "--no-progress"]) == 0
     res = json.loads((out / "decoder_holdout.json").read_text())
     assert res["boundary"] == "average" and res["runs"] == [[2, 1]]
+    assert res["rotations_deg"] is None
+    assert mod.main(["--out", str(out), "--compare", f"cand={paths['cand']}", "--runs", "1:1",
+                     "--rotations-deg", "0", "-3", "3", "--no-progress"]) == 0
+    res = json.loads((out / "decoder_holdout.json").read_text())
+    assert res["rotations_deg"] == [0.0, -3.0, 3.0]
+    assert stubbed[1][-1]["views"] == ((0.0, -3.0, 3.0),) * 2
+    assert "turned by 0, -3, 3 deg" in capsys.readouterr().out
     assert res["command"].startswith("python benchmarks/decoder_holdout.py --out")
     for argv in (["--out", str(out)],  # nothing to compare
                  ["--out", str(out), "--compare", "x=a.npz", "--compare", "x=b.npz"],
