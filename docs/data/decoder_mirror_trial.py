@@ -5,8 +5,11 @@ Mirroring a scene across the line through the robot along the inlet wind is a sy
 the flow (the solver's start kick aside: docs/reliability.md): the mirrored city under the
 same inlet has the mirrored mean field. The d4-film sees the mirrored scene at the same
 folded inlet angle, through other weights than the scene itself, so its two answers differ
-(at a sector boundary this mirror is the other fold: the fold trial found them 2.0-2.7 m/s
-apart at 6 m/s). This trial predicts the mean of the two, as the turned views average turns:
+(exactly on a sector boundary, under the "floor" rule, this mirror is the other fold: the fold
+trial found them 2.0-2.7 m/s apart at 6 m/s; within 0.25 deg of one the rounded axis is a
+mirror of the square, which the d4-film answers exactly, so under the default rule the view is
+the one pass there). This trial predicts the mean of the two, as the turned views average
+turns:
 
 - the axis: the inlet direction rounded to the nearest half degree ``phi``, so that the
   1-degree scan mirrors exactly: ray ``k`` of the mirrored scan is ray ``2 phi - k``;
