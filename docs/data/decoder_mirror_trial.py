@@ -42,28 +42,6 @@ from windnav.predict.baselines import check_inputs
 METRICS = ("speed_error", "direction_error_deg")
 
 
-def reflection_resampler(offsets: np.ndarray, phi_deg: float):
-    """``P`` (H^2, H^2), sparse: ``(P f)[p] = f(M p)``, ``M`` the reflection across the line at
-    ``phi_deg`` through offset 0; bilinear, the nearest edge value beyond the grid."""
-    from scipy.sparse import csr_matrix
-
-    off = np.asarray(offsets, dtype=np.float64)
-    h, spacing = off.size, off[1] - off[0]
-    x, y = np.meshgrid(off, off)
-    c, s = math.cos(math.radians(2 * phi_deg)), math.sin(math.radians(2 * phi_deg))
-    fx = np.clip((c * x + s * y - off[0]) / spacing, 0.0, h - 1.0).ravel()
-    fy = np.clip((s * x - c * y - off[0]) / spacing, 0.0, h - 1.0).ravel()
-    x0 = np.minimum(np.floor(fx).astype(np.int64), h - 2)
-    y0 = np.minimum(np.floor(fy).astype(np.int64), h - 2)
-    tx, ty = fx - x0, fy - y0
-    rows = np.repeat(np.arange(h * h), 4)
-    cols = np.column_stack([y0 * h + x0, y0 * h + x0 + 1, (y0 + 1) * h + x0,
-                            (y0 + 1) * h + x0 + 1]).ravel()
-    vals = np.column_stack([(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty,
-                            tx * ty]).ravel()
-    return csr_matrix((vals, (rows, cols)), shape=(h * h, h * h))
-
-
 class MirrorView(D.Decoder):
     """The decoder's mean with its mirrored scene's answer brought back."""
 
@@ -81,7 +59,7 @@ class MirrorView(D.Decoder):
             rays = (n - np.arange(scans.shape[1])) % scans.shape[1]
             mirrored = super().predict(scans[rows][:, rays], w_up[rows] @ m.T,
                                        w_robot[rows] @ m.T)
-            p = reflection_resampler(self.offsets, value)
+            p = D.linear_resampler(self.offsets, m)  # f(M p)
             b = rows.size
             at = (p @ mirrored.reshape(b * 2, h * h).T.astype(np.float64)).T.reshape(b, 2, h, h)
             back = np.einsum("ij,bjyx->biyx", m, at)

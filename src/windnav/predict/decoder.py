@@ -339,17 +339,25 @@ def rotation_resampler(offsets: np.ndarray, angle_deg: float):
     ``(P f)[p] = f(R p)`` for the cells ``p`` (row-major ``[iy, ix]``) and a point beyond the
     grid taking its nearest edge value. ``offsets`` (H,) are the cell centres, m, evenly
     spaced and the same for x and y."""
+    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    return linear_resampler(offsets, ((c, -s), (s, c)))
+
+
+def linear_resampler(offsets: np.ndarray, matrix):
+    """:func:`rotation_resampler` for any linear map ``A`` of the plane (``matrix``, 2 x 2):
+    ``(P f)[p] = f(A p)``, bilinear, the nearest edge value beyond the grid (a turn, or a
+    mirror such as the trial of ``docs/data/decoder_mirror_trial.py``)."""
     from scipy.sparse import csr_matrix
 
     off = np.asarray(offsets, dtype=np.float64)
     h = off.size
-    if h == 1:  # one cell, the centre: a turn about it leaves it where it is
+    if h == 1:  # one cell, the centre: a linear map leaves it where it is
         return csr_matrix(np.ones((1, 1), dtype=np.float32))
     spacing = off[1] - off[0]
     x, y = np.meshgrid(off, off)  # [iy, ix]
-    c, s = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
-    fx = np.clip((c * x - s * y - off[0]) / spacing, 0.0, h - 1.0).ravel()
-    fy = np.clip((s * x + c * y - off[0]) / spacing, 0.0, h - 1.0).ravel()
+    (a, b), (c, d) = matrix
+    fx = np.clip((a * x + b * y - off[0]) / spacing, 0.0, h - 1.0).ravel()
+    fy = np.clip((c * x + d * y - off[0]) / spacing, 0.0, h - 1.0).ravel()
     x0 = np.minimum(np.floor(fx).astype(np.int64), h - 2)
     y0 = np.minimum(np.floor(fy).astype(np.int64), h - 2)
     tx, ty = fx - x0, fy - y0
