@@ -237,3 +237,27 @@ def test_the_views_record_each_inlets_gain_and_distance_from_a_sector_boundary()
     assert row["boundary_distance_deg"] == pytest.approx(2.4)
     assert row["by_angle"]["3"]["gain_pct"] == pytest.approx(
         {"speed_error": 5.0, "direction_error_deg": 5.0})
+
+
+def test_the_linear_resampler_mirrors_and_turns_the_grid_exactly_where_cells_map_to_cells():
+    """``linear_resampler(offsets, A)`` reads ``f(A p)``: the identity, the mirror across x
+    (rows reversed), the mirror across the diagonal (transposed) and a quarter turn are exact
+    permutations of the cells; a general map is bilinear (checked against SciPy)."""
+    from windnav.predict.decoder import linear_resampler, rotation_resampler
+
+    off = load_decoder().offsets
+    h = off.size
+    f = np.random.default_rng(3).normal(size=(h, h))
+    for matrix, want in ((((1, 0), (0, 1)), f), (((1, 0), (0, -1)), f[::-1]),
+                         (((0, 1), (1, 0)), f.T), (((0, -1), (1, 0)), np.rot90(f))):
+        got = (linear_resampler(off, matrix) @ f.ravel()).reshape(h, h)
+        np.testing.assert_allclose(got, want, atol=1e-6)
+    np.testing.assert_allclose(
+        (rotation_resampler(off, 90.0) @ f.ravel()).reshape(h, h), np.rot90(f), atol=1e-6)
+    c, s = np.cos(np.radians(40.0)), np.sin(np.radians(40.0))
+    m = ((c, s), (s, -c))  # the mirror across the line at 20 deg
+    x, y = np.meshgrid(off, off)
+    at = np.array([(s * x - c * y - off[0]), (c * x + s * y - off[0])]) / (off[1] - off[0])
+    want = map_coordinates(f, at, order=1, mode="nearest")
+    np.testing.assert_allclose((linear_resampler(off, m) @ f.ravel()).reshape(h, h), want,
+                               atol=1e-5)
