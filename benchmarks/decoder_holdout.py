@@ -75,27 +75,40 @@ def pooled_error(records, name: str, metric: str) -> float:
     return float((e * n).sum() / n.sum()) if n.sum() > 0 else float("nan")
 
 
+def holdout_records(reference, others: dict, *, model_path=None, runs=RUNS, flow_cache=None,
+                    progress: bool = False) -> tuple[list, list, bool]:
+    """``evaluate_decoder``'s records of the decoder ``reference`` and the ``others`` (name ->
+    decoder) on the held-out district, run by run (``runs``: (inlets, seed) pairs), each with
+    ``run_seed``; the failed inlets, likewise; and whether the budget stopped a run. The
+    trial scripts of ``docs/data`` score their own decoder objects through it."""
+    from windnav.experiments.decoder_eval import evaluate_decoder
+
+    maps = [(views.VALIDATION_MAP, views.holdout_city())]  # the map drawn once for every run
+    records, failed, stopped = [], [], False
+    for n_inlets, seed in runs:
+        res = evaluate_decoder(model_path, decoder=reference, maps=maps, windinet=False,
+                               n_inlets=n_inlets, seed=seed, budget_s=3600.0, compare=others,
+                               flow_cache=flow_cache, progress=progress)
+        for r in res["records"]:  # the seed of its run beside each inlet's record
+            r["run_seed"] = seed
+        records += res["records"]
+        failed += [{**f, "run_seed": seed} for f in res.get("failed", [])]
+        stopped = stopped or bool(res.get("stopped_by_budget"))
+    return records, failed, stopped
+
+
 def run(model=None, compare=(), *, boundary: str = "average", rotations_deg=None, runs=RUNS,
         flow_cache=None, progress: bool = True) -> dict:
     """Score ``model`` (default: shipped) and the ``compare`` files on the held-out district."""
-    from windnav.experiments.decoder_eval import evaluate_decoder, improvement_interval
+    from windnav.experiments.decoder_eval import improvement_interval
     from windnav.predict import load_decoder
 
     reference = load_decoder(model, boundary=boundary, rotations_deg=rotations_deg)
     others = {name: load_decoder(path, boundary=boundary, rotations_deg=rotations_deg)
               for name, path in compare}
     t0 = time.perf_counter()
-    records, failed, stopped = [], [], False
-    for n_inlets, seed in runs:
-        res = evaluate_decoder(model, decoder=reference,
-                               maps=[(views.VALIDATION_MAP, views.holdout_city())],
-                               windinet=False, n_inlets=n_inlets, seed=seed, budget_s=3600.0,
-                               compare=others, flow_cache=flow_cache, progress=progress)
-        for r in res["records"]:  # the seed of its run beside each inlet's record
-            r["run_seed"] = seed
-        records += res["records"]
-        failed += [{**f, "run_seed": seed} for f in res.get("failed", [])]
-        stopped = stopped or bool(res.get("stopped_by_budget"))
+    records, failed, stopped = holdout_records(reference, others, model_path=model, runs=runs,
+                                               flow_cache=flow_cache, progress=progress)
     names = ["decoder", *others, "local"]
     pooled = {n: {m: pooled_error(records, n, m) for m in METRICS} for n in names}
     versus = {}

@@ -103,9 +103,8 @@ def jump(plain, n: int = 1000, speed: float = 6.0) -> dict:
 
 def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
-    import decoder_views as views
+    import decoder_holdout as dh
 
-    from windnav.experiments.decoder_eval import evaluate_decoder
     from windnav.predict import load_decoder
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -119,13 +118,8 @@ def main(argv=None) -> int:
         compare[f"blend{d:g}"] = FoldBlend(plain.weights, plain.metadata)
         compare[f"blend{d:g}"].delta = float(d)
     compare["views3"] = D.Decoder(plain.weights, plain.metadata, rotations_deg=(0, -3, 3))
-    records = []
-    for n_inlets, seed in ((4, 1), (12, 2)):
-        res = evaluate_decoder(None, decoder=plain, maps=[(views.VALIDATION_MAP,
-                                                           views.holdout_city())],
-                               windinet=False, n_inlets=n_inlets, seed=seed, budget_s=3600.0,
-                               compare=compare, flow_cache=args.flow_cache, progress=False)
-        records += res["records"]
+    records, _, _ = dh.holdout_records(plain, compare, runs=((4, 1), (12, 2)),
+                                       flow_cache=args.flow_cache)
     names = ["decoder", *compare]
     per_inlet = [{"direction_deg": r["direction_deg"], "speed": r["speed"],
                   "boundary_distance_deg": float(D.sector_boundary_distance_deg(
@@ -133,7 +127,7 @@ def main(argv=None) -> int:
                   **{n: {m: r[n][m] for m in METRICS} for n in names}} for r in records]
     pooled = {n: {m: float(np.mean([r[n][m] for r in records])) for m in METRICS}
               for n in names}
-    result = {"jump": jump(plain), "map": views.VALIDATION_MAP, "inlets": len(records),
+    result = {"jump": jump(plain), "map": dh.views.VALIDATION_MAP, "inlets": len(records),
               "per_inlet": per_inlet, "pooled_mean_over_inlets": pooled,
               "elapsed_s": time.perf_counter() - t0}
     args.out.mkdir(parents=True, exist_ok=True)

@@ -71,7 +71,7 @@ def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import decoder_holdout as dh
 
-    from windnav.experiments.decoder_eval import evaluate_decoder, improvement_interval
+    from windnav.experiments.decoder_eval import improvement_interval
     from windnav.predict import load_decoder
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -82,13 +82,7 @@ def main(argv=None) -> int:
     plain = load_decoder()
     compare = {"mirror": MirrorView(plain.weights, plain.metadata),
                "views3": D.Decoder(plain.weights, plain.metadata, rotations_deg=(0, -3, 3))}
-    records = []
-    for n_inlets, seed in dh.RUNS:
-        res = evaluate_decoder(None, decoder=plain, maps=[(dh.views.VALIDATION_MAP,
-                                                           dh.views.holdout_city())],
-                               windinet=False, n_inlets=n_inlets, seed=seed, budget_s=3600.0,
-                               compare=compare, flow_cache=args.flow_cache, progress=False)
-        records += res["records"]
+    records, _, _ = dh.holdout_records(plain, compare, flow_cache=args.flow_cache)
     names = ["decoder", *compare, "local"]
     pooled = {n: {m: dh.pooled_error(records, n, m) for m in METRICS} for n in names}
     versus = {n: {m: improvement_interval(records, n, "decoder", m) for m in METRICS}
