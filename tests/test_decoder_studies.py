@@ -232,7 +232,11 @@ def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys)
     text = json.dumps(doc)
     assert '"n_modes"' in text and '"canonical"' in text
     assert (out / "decoder_eigenflows.png").stat().st_size > 10_000
-    assert (doc["arguments"]["maps"], doc["arguments"]["inlets"]) == (1, 2)  # the defaults
+    # the line as typed, the defaults resolved where they are used: windnav.provenance rebuilds
+    # the recorded arguments from the words (the gradients and mosaic JSONs of 2026-12-06
+    # recorded the defaults, 1 and 2, under the words that left them out)
+    assert (doc["arguments"]["maps"], doc["arguments"]["inlets"]) == (None, None)
+    assert doc["argv"][:2] == ["decoder-study", "eigenflows"]
     # the quick flow is far too short to be a converged mean: said, as evaluate-decoder and
     # predict say of their truths (the studies said nothing; leftover of 2026-12-06)
     assert doc["flows"]["slots"][0]["averaging"]["level"] == "warning"
@@ -309,7 +313,7 @@ def test_decoder_study_windinet_keeps_its_inlets_and_other_studies_their_maps():
     """Only a typed ``--maps`` is refused with ``--windinet``: unset it takes its default, and
     ``--inlets`` (the windinet slots) is read; a study that runs on the dense maps whatever
     ``--windinet`` says keeps ``--maps``."""
-    from windnav.commands.decoder_study import INLETS, MAPS, _check_flow_options
+    from windnav.commands.decoder_study import _check_flow_options
 
     def namespace(study, **kw):
         return argparse.Namespace(**{"study": study, "quick": False, "windinet": True,
@@ -317,10 +321,10 @@ def test_decoder_study_windinet_keeps_its_inlets_and_other_studies_their_maps():
 
     args = namespace("direction", inlets=8)
     _check_flow_options(args, "windnav decoder-study")
-    assert (args.maps, args.inlets) == (MAPS, 8)
+    assert (args.maps, args.inlets) == (None, 8)   # left as typed (the recorded arguments)
     args = namespace("basis")
     _check_flow_options(args, "windnav decoder-study")
-    assert (args.maps, args.inlets) == (MAPS, INLETS)
+    assert (args.maps, args.inlets) == (None, None)
     args = namespace("gradients", maps=3, windinet=False)
     _check_flow_options(args, "windnav decoder-study")
     assert args.maps == 3
@@ -609,6 +613,17 @@ def test_decoder_study_direction_windinet_scores_the_third_party_layout(monkeypa
     args.study = "gradients"
     cmd._fields(args, "decoder-study", None, False)
     assert seen["maps"] == 1
+    # unset, the defaults (cmd.MAPS, cmd.INLETS) are what the flows are drawn with
+    args.maps = args.inlets = None
+    cmd._fields(args, "decoder-study", None, False)
+    assert (seen["maps"], seen["n_inlets"]) == (cmd.MAPS, cmd.INLETS) == (1, 2)
+    args.study, args.windinet = "direction", True
+    cmd._fields(args, "decoder-study", None, False)
+    assert [n for n, _ in seen["maps"]] == ["windinet"] and seen["n_inlets"] == cmd.INLETS
+    for bad in (0, 2.5):
+        args.inlets = bad
+        with pytest.raises(ValueError, match="'--inlets' parameter"):
+            cmd._fields(args, "decoder-study", None, False)
 
 
 # ----------------------------------------------------------------------- the output basis

@@ -196,14 +196,15 @@ def _fields(args, name, simulate, progress):
         return evaluation_fields(maps, 1, seed=args.seed, dx=2.0, flow_settings=QUICK_FLOW,
                                  cache_dir=args.flow_cache, simulate=simulate,
                                  max_fields=first, progress=progress)
-    positive_int(args.maps, "--maps", name)
-    positive_int(args.inlets, "--inlets", name)
-    maps = args.maps
+    # the defaults resolved here, not written into ``args``: its recorded ``arguments`` are
+    # the parsed line, which windnav.provenance rebuilds from the words typed (``argv``)
+    maps = positive_int(MAPS if args.maps is None else args.maps, "--maps", name)
+    inlets = positive_int(INLETS if args.inlets is None else args.inlets, "--inlets", name)
     if args.windinet and args.study in WINDINET_FLOW_STUDIES:
         # one map, its inlets drawn as map 0's: evaluate-decoder's windinet inlets only with
         # its --maps 0 (and the same --seed and --inlets), where the layout is map 0 there too
         maps = [("windinet", _windinet_map())]
-    return evaluation_fields(maps, args.inlets, seed=args.seed,
+    return evaluation_fields(maps, inlets, seed=args.seed,
                              cache_dir=args.flow_cache, simulate=simulate, max_fields=first,
                              progress=progress)
 
@@ -434,8 +435,9 @@ def _check_flow_options(args, name: str) -> None:
     """Refuse ``--windinet``, ``--flow-cache``, ``--maps`` and ``--inlets`` where the study
     would ignore them (a study without a windinet variant; a study that simulates no
     evaluation flows; ``--quick``, whose one map and inlet are fixed; ``--maps`` for direction
-    and basis with ``--windinet``, whose one map is the windinet layout), before any work;
-    then set ``--maps`` and ``--inlets`` to their defaults when unset (None: not typed)."""
+    and basis with ``--windinet``, whose one map is the windinet layout), before any work.
+    ``args`` is left as parsed (unset ``--maps`` and ``--inlets`` stay None: :func:`_fields`
+    resolves them), so the result records the line as typed."""
     study = args.study
     if args.windinet and study not in WINDINET_STUDIES:
         raise ValueError(f"The '--windinet' parameter of {name} is for the studies "
@@ -464,10 +466,6 @@ def _check_flow_options(args, name: str) -> None:
                              f"for the {study} study (its one map is the windinet layout; "
                              f"--inlets sets its inlets). Got {value!r} with --windinet "
                              "instead.")
-    if args.maps is None:
-        args.maps = MAPS
-    if args.inlets is None:
-        args.inlets = INLETS
 
 
 def _drop_bulk(study: str, res: dict) -> dict:
