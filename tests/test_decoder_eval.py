@@ -749,15 +749,24 @@ def test_the_documented_improvement_intervals_come_from_improvement_interval():
     got = improvement_interval(recs, "ensemble", "local", "speed_error", group="windinet")
     assert round(got["value"], 2) == 35.02 and [round(x, 2) for x in got["ci95"]] == [33.57, 36.79]
     assert got["slots"] == 8 and got["ci95_note"].startswith("approximate: from 8 slots")
-    recs = json.loads((DATA / "decoder_eval_windinet.json").read_text())["records"]
+    # the model of 2026-12-01 against the one it replaced (decoder.md, "Eight clusters")
+    recs = json.loads((DATA / "decoder_eval_windinet_2026-12-01.json").read_text())["records"]
     got = improvement_interval(recs, "decoder", "2026-11-30-clusters", group="windinet")
     assert [round(x, 1) for x in [got["value"], *got["ci95"]]] == [1.9, 0.9, 2.9]
     # the same slots under another group's name: the same interval (review)
     assert improvement_interval(recs, "decoder", "2026-11-30-clusters", group="all") == got
-    pooled = json.loads((DATA / "decoder_eval_windinet.json").read_text())["pooled"]["windinet"]
+    pooled = json.loads((DATA / "decoder_eval_windinet_2026-12-01.json").read_text())[
+        "pooled"]["windinet"]
     for metric in ("speed_error", "direction_error_deg"):
         assert improvement_interval(recs, metric=metric, group="windinet")["value"] == \
             pytest.approx(pooled["improvement_pct"]["local"][metric], rel=1e-6)
+    # the shipped model of 2026-12-06 against that of 2026-12-01 (decoder.md, "Evaluation")
+    recs_now = json.loads((DATA / "decoder_eval_windinet.json").read_text())["records"]
+    got = improvement_interval(recs_now, "decoder", "2026-12-01", group="windinet")
+    assert [round(x, 2) for x in [got["value"], *got["ci95"]]] == [0.11, -0.68, 0.84]
+    dense = json.loads((DATA / "decoder_eval.json").read_text())["records"]
+    got = improvement_interval(dense, "decoder", "2026-12-01", "direction_error_deg", group="all")
+    assert [round(x, 2) for x in [got["value"], *got["ci95"]]] == [0.84, 0.51, 1.17]
     assert improvement_interval(recs[:5], group="windinet")["ci95"] is None   # too few slots
     assert "no interval: 5 slots" in improvement_interval(recs[:5])["ci95_note"]
     with pytest.raises(ValueError, match="metric"):

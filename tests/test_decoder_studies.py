@@ -723,6 +723,29 @@ def test_the_full_study_recipes_load(study):
     r = study_recipe(study, quick=False)
     assert [g["name"] for g in r["sweep"]["maps"]] == ["dense", "sparse", "holdout"]
     assert r["data"]["map_weights"] == {} and r["data"]["validation_maps"] == ["holdout-0"]
+    # the scenes untouched, as when the studies' figures were measured: the default recipe's
+    # turned scenes (2026-12-06) do not reach them
+    assert r["data"]["turn_deg"] == 0
+
+
+def test_the_scaling_study_is_the_default_recipe_before_the_turned_scenes():
+    """Its committed figures (decoder_scaling.json) were measured with the default recipe
+    of 2026-12-01; its full-sweep arm is that recipe's run, fingerprint and all."""
+    import copy
+
+    from windnav.experiments.decoder_studies import WIDE, scaling_recipe
+    from windnav.predict.train import RECIPES, _fingerprint, load_recipe
+
+    r, wide = scaling_recipe()
+    default = load_recipe(RECIPES / "default.toml")
+    assert r["data"]["turn_deg"] == 0 and default["data"]["turn_deg"] == 4
+    assert _fingerprint(r) == "0fe7330b88b78d73"
+    assert wide == {**default["model"]["hyperparameters"], **WIDE}
+    unturned = copy.deepcopy(default)
+    unturned["data"]["turn_deg"] = 0
+    for key in ("sweep", "data", "model"):
+        assert r[key] == unturned[key], key
+    assert r["train"]["members"] == 1 and r["train"]["tensorboard"] is False
 
 
 def test_studies_over_fewer_samples_than_their_modes_say_so(tiny_field):

@@ -380,13 +380,13 @@ def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
     np.testing.assert_array_equal(
         pinned.predict(scans, w, w),
         load_decoder(DEFAULT_MODEL.parent / "decoder_2026-11-23.npz").predict(scans, w, w))
-    newer = decoder_of("ea-mppi-w-hat@decoder=2026-12-01")
+    newer = decoder_of("ea-mppi-w-hat@decoder=2026-12-06")
     np.testing.assert_array_equal(newer.predict(scans, w, w),
                                   load_decoder().predict(scans, w, w))
     assert not np.array_equal(newer.predict(scans, w, w), pinned.predict(scans, w, w))
     # the defaults it replaced
-    for date in ("2026-11-30-clusters", "2026-11-30", "2026-11-29-area", "2026-11-29",
-                 "2026-11-26"):
+    for date in ("2026-12-01", "2026-11-30-clusters", "2026-11-30", "2026-11-29-area",
+                 "2026-11-29", "2026-11-26"):
         older = decoder_of(f"ea-mppi-w-hat@decoder={date}")
         np.testing.assert_array_equal(
             older.predict(scans, w, w),
@@ -469,8 +469,8 @@ def test_the_onboard_stack_flies_the_decoders_turned_views_with_views():
     w_rob = np.array([[2.0, 1.5], [-1.0, 3.0], [4.0, -1.0]])
     for label, file, angle in (
             ("ea-mppi-w-hat@views=3", "decoder_2026-11-23.npz", 3.0),
-            ("ea-mppi-w-hat@decoder=2026-12-01@outside=robot@views=2", "decoder_default.npz",
-             2.0)):
+            ("ea-mppi-w-hat@decoder=2026-12-01@outside=robot@views=2",
+             "decoder_2026-12-01.npz", 2.0)):
         assert nb.fly(TINY, scenario, label, city=None, flow=None,
                       navigate_fn=record) == "flown"
         assert "decoder_views" not in flown  # not a keyword of navigate

@@ -11,6 +11,7 @@ import functools
 import importlib.util
 import json
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -41,6 +42,8 @@ from windnav.predict.train import (  # noqa: E402
 from windnav.predict.train import (
     _loss as train_loss,
 )
+
+DOCS_DATA = Path(__file__).resolve().parents[1] / "docs" / "data"
 
 
 class Stop(Exception):
@@ -982,6 +985,8 @@ def test_wrobot_recipes_are_the_default_but_for_the_noise(name, noise):
         "squared", 0.0)
     assert (default["train"].pop("vector_loss"), default["train"].pop("speed_loss_weight")) == (
         "norm", 1.0)
+    # and no turned scenes (the default's since 2026-12-06)
+    assert (noisy["data"].pop("turn_deg"), default["data"].pop("turn_deg")) == (0, 4)
     for key in ("sweep", "data", "model", "train"):
         assert noisy[key] == default[key], key
 
@@ -993,6 +998,7 @@ def test_ensemble_recipe_is_the_default_in_two_members_of_half_the_epochs():
     default = load_recipe(RECIPES / "default.toml")
     assert (ens["train"].pop("members"), ens["train"].pop("epochs")) == (2, 20)
     assert (default["train"].pop("members"), default["train"].pop("epochs")) == (1, 40)
+    assert (ens["data"].pop("turn_deg"), default["data"].pop("turn_deg")) == (0, 4)
     for key in ("sweep", "data", "model", "train"):
         assert ens[key] == default[key], key
     # its members are the default recipe at 20 epochs from seeds 0 and 1: the same runs
@@ -1000,6 +1006,7 @@ def test_ensemble_recipe_is_the_default_in_two_members_of_half_the_epochs():
     for i in range(2):
         single = load_recipe(RECIPES / "default.toml")
         single["train"].update(epochs=20, seed=i)
+        single["data"]["turn_deg"] = 0
         assert _fingerprint(member_recipe(ens, i)) == _fingerprint(single)
 
 
@@ -1203,11 +1210,29 @@ def test_turned_scenes_train_and_the_validation_is_scored_as_simulated(tiny):
 
 def test_no_turn_keeps_earlier_fingerprints_and_a_turn_changes_it():
     recipe = load_recipe("default")
-    assert recipe["data"]["turn_deg"] == 0
+    assert recipe["data"]["turn_deg"] == 4   # since 2026-12-06
+    unturned = copy.deepcopy(recipe)
+    unturned["data"]["turn_deg"] = 0
     older = copy.deepcopy(recipe)
     del older["data"]["turn_deg"]
-    assert _fingerprint(older) == _fingerprint(recipe) == "0fe7330b88b78d73"  # benchmarks.md
-    turned = copy.deepcopy(recipe)
-    turned["data"]["turn_deg"] = 4
-    assert _fingerprint(turned) != _fingerprint(recipe)
-    assert load_recipe(RECIPES / "turned.toml")["data"]["turn_deg"] == 4
+    # the recipe before 2026-12-06, whose model is decoder_2026-12-01.npz (benchmarks.md)
+    assert _fingerprint(older) == _fingerprint(unturned) == "0fe7330b88b78d73"
+    assert _fingerprint(recipe) == "8eab07857d7435de"   # the shipped model's (benchmarks.md)
+    # the trial of the turned scenes is the default since
+    assert _fingerprint(load_recipe(RECIPES / "turned.toml")) == _fingerprint(recipe)
+
+
+@pytest.mark.parametrize(("path", "fingerprint"), [
+    (RECIPES / "ensemble.toml", "8bde9713598e5c73"),
+    (RECIPES / "thesis_mlp.toml", "4031057be4d60171"),
+    (RECIPES / "wrobot_noise.toml", "86f818972f337ae1"),
+    (RECIPES / "wrobot_flight.toml", "e434da5beafeb1b8"),
+    (DOCS_DATA / "decoder_trial_wd02.toml", "b2809d3f49d0097d"),
+    (DOCS_DATA / "decoder_trial_e80.toml", "bd4fcb5daf035816"),
+    (DOCS_DATA / "decoder_trial_fade0.toml", "c9b940d2eb49ed56")])
+def test_recipes_on_the_default_keep_the_fingerprints_of_their_runs(path, fingerprint):
+    """They were trained without turned scenes; the default's turn (2026-12-06) must not reach
+    them, or their runs could not resume and their records would not be theirs."""
+    recipe = load_recipe(path)
+    assert recipe["data"]["turn_deg"] == 0
+    assert _fingerprint(recipe) == fingerprint

@@ -58,8 +58,8 @@ from windnav._validate import positive_float, positive_int
 __all__ = ["AVERAGING_PROTOCOLS", "GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS",
            "START_KICKS", "area_fraction", "averaging_study", "basis_study", "direction_study",
            "start_study", "eigenflow_study", "eigenflows", "evaluation_fields", "gradient_r2",
-           "gradient_study", "masked_least_squares", "mosaic", "size_study", "study_recipe",
-           "train_variants", "winds_ablation"]
+           "gradient_study", "masked_least_squares", "mosaic", "scaling_recipe", "size_study",
+           "study_recipe", "train_variants", "winds_ablation"]
 
 THRESHOLDS = (0.90, 0.95, 0.98, 0.99)
 """Explained-variance levels reported by :func:`eigenflows`."""
@@ -844,6 +844,9 @@ def study_recipe(study: str, *, quick: bool = False, epochs: int | None = None,
         r["data"]["map_weights"] = {}
         r["data"]["exclude_maps"] = []
         r["data"]["validation_samples_per_field"] = 512
+        # the scenes untouched, as when the studies' figures were measured (the default recipe
+        # turns its training scenes since 2026-12-06; a study compares winds and sizes, not that)
+        r["data"]["turn_deg"] = 0
         r["train"].update(epochs=STUDY_SCHEDULE[study]["epochs"], resample_every=0, threads=1,
                           members=1)
         r["data"]["samples_per_field"] = STUDY_SCHEDULE[study]["samples_per_field"]
@@ -1068,6 +1071,27 @@ def map_subset(recipe: dict, fraction: float) -> list[str]:
     return out
 
 
+def scaling_recipe(*, quick: bool = False) -> tuple[dict, dict]:
+    """The scaling study's recipe and its wide model's hyperparameters (:func:`scaling_study`):
+    the default recipe as it was until 2026-12-06, without turned training scenes (the study's
+    figures were measured so; it compares maps and model sizes), single models; ``quick``: the
+    tiny recipe for 2 epochs, the wide model at twice its widths."""
+    from windnav.predict.train import RECIPES, load_recipe
+
+    if quick:
+        r = load_recipe(RECIPES / "tiny.toml")
+        r["train"]["epochs"] = 2
+        hp = r["model"]["hyperparameters"]
+        wide_hp = {**hp, **{k: 2 * hp[k] for k in ("embed", "width")}}
+    else:
+        r = load_recipe(RECIPES / "default.toml")
+        r["train"]["members"] = 1   # the study compares single models
+        r["data"]["turn_deg"] = 0
+        wide_hp = {**r["model"]["hyperparameters"], **WIDE}
+    r["train"]["tensorboard"] = False
+    return r, wide_hp
+
+
 def scaling_study(runs_dir, *, fractions=SCALING_FRACTIONS, wide: bool = True,
                   quick: bool = False, progress: bool = False, seed: int = 0) -> dict:
     """What limits the decoder: the number of training maps, or the model's size?
@@ -1076,10 +1100,10 @@ def scaling_study(runs_dir, *, fractions=SCALING_FRACTIONS, wide: bool = True,
     training maps (:func:`map_subset`), each fraction with its samples per field scaled up so
     that every model sees as many training samples per epoch, and the same number of steps; and
     at the full sweep a wider d4-film (:data:`WIDE`). The full-sweep arm is the default recipe
-    itself (so a ``maps-1`` folder linked to a finished ``windnav train-decoder`` run of it is
-    reused). Scored on fresh test samples of the held-out map, with the training-set errors
-    (the gap between the two is what more maps can close; the training error, what a bigger
-    model can).
+    as it was until 2026-12-06, without turned training scenes (so a ``maps-1`` folder linked to
+    a finished ``windnav train-decoder`` run of that recipe is reused; :func:`scaling_recipe`).
+    Scored on fresh test samples of the held-out map, with the training-set errors (the gap
+    between the two is what more maps can close; the training error, what a bigger model can).
 
     Parameters
     ----------
@@ -1104,23 +1128,12 @@ def scaling_study(runs_dir, *, fractions=SCALING_FRACTIONS, wide: bool = True,
         fractions, the ratio of the test errors per doubling of the maps,
         ``(e2 / e1) ** (1 / log2(n2 / n1))``.
     """
-    from windnav.predict.train import RECIPES, load_recipe
-
     where = "scaling_study"
     fractions = sorted({float(f) for f in fractions})
     if not fractions:
         raise ValueError(f"The 'fractions' parameter of {where} must list at least one "
                          "fraction. Got none.")
-    if quick:
-        r = load_recipe(RECIPES / "tiny.toml")
-        r["train"]["epochs"] = 2
-        hp = r["model"]["hyperparameters"]
-        wide_hp = {**hp, **{k: 2 * hp[k] for k in ("embed", "width")}}
-    else:
-        r = load_recipe(RECIPES / "default.toml")
-        r["train"]["members"] = 1   # the study compares single models
-        wide_hp = {**r["model"]["hyperparameters"], **WIDE}
-    r["train"]["tensorboard"] = False
+    r, wide_hp = scaling_recipe(quick=quick)
     base = r["data"]["samples_per_field"]
     n_all = _training_draws(r)
     variants, kept = {}, {}
