@@ -1241,28 +1241,35 @@ class Decoder(ReadOnlyOnCopy):
         return rows, g_other, weight
 
     def _blended(self, scans, w_up, w_robot, prepared, rows, g_other, weight) -> np.ndarray:
-        """The network's field for inlets off every boundary, ``rows`` blended with its answer
-        through ``g_other``: one pass as :meth:`_predict`, then the rows' second passes in
-        chunks of :data:`PREDICT_CHUNK`, each blended into its rows as it comes (no further
-        batch-sized temporaries: their fresh pages cost as much as the second passes; a batch
-        whose every row is blended, one inlet's, is not gathered at all)."""
+        """The network's field for inlets off every boundary, ``rows`` (sorted) blended with its
+        answer through ``g_other``. Chunk by chunk of :data:`PREDICT_CHUNK`: the chunk's pass
+        as :meth:`_predict`, then the second pass of its rows in ``rows``, blended into them
+        before the next chunk, so the working set stays one chunk's (a first pass over the
+        whole batch, then the second passes, held a batch-sized output and its temporaries
+        at once: 16.9 against 11-12 ms per 1,024 random inlets in a fresh process, the
+        difference fresh pages from the kernel; docs/decoder.md)."""
         prepared = self.prepared if prepared is None else prepared
-        out = self._predict(scans, w_up, w_robot, prepared)
-        h = self.size
-        every = rows.size == scans.shape[0]
-        src = [np.asarray(a if every else a[rows], dtype=np.float32)
-               for a in (scans, w_up, w_robot)]
-        for i in range(0, rows.size, PREDICT_CHUNK):
-            j = min(rows.size, i + PREDICT_CHUNK)
-            field = self.arch.predict(prepared, *(a[i:j] for a in src),
-                                      g_other[i:j]).reshape(j - i, 2, h, h)
-            at = slice(i, j) if every else rows[i:j]
-            own = out[at]  # a view of out for a slice, a copy for rows
-            field -= own
-            field *= weight[i:j, None, None, None]
-            own += field
+        b, h = scans.shape[0], self.size
+        out = np.empty((b, 2, h, h), dtype=np.float32)
+        bounds = np.searchsorted(rows, np.arange(0, b + PREDICT_CHUNK, PREDICT_CHUNK))
+        for c, i in enumerate(range(0, b, PREDICT_CHUNK)):
+            j = min(b, i + PREDICT_CHUNK)
+            src = [np.asarray(a[i:j], dtype=np.float32) for a in (scans, w_up, w_robot)]
+            own = out[i:j]
+            own[...] = self.arch.predict(prepared, *src).reshape(j - i, 2, h, h)
+            lo, hi = bounds[c], bounds[c + 1]
+            if lo == hi:
+                continue
+            local = rows[lo:hi] - i
+            every = local.size == j - i  # the chunk's every row (one inlet's batch): no gather
+            field = self.arch.predict(prepared, *(a if every else a[local] for a in src),
+                                      g_other[lo:hi]).reshape(hi - lo, 2, h, h)
+            near = own if every else own[local]
+            field -= near
+            field *= weight[lo:hi, None, None, None]
+            near += field
             if not every:
-                out[at] = own
+                own[local] = near
         return out
 
     def _predict(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
