@@ -12,12 +12,13 @@ are <= 1 ms for one sample and <= 20 ms for 1024.
 
     .venv/bin/python benchmarks/bench_decoder.py [--model FILE] [--repeats 200] [--json FILE]
                                                  [--rotations-deg 0 -3 3]
-                                                 [--boundary blend] [--record]
+                                                 [--boundary average] [--record]
 
 ``--rotations-deg``: the decoder averaged over the scene turned by these angles (its views,
 ``load_decoder(rotations_deg=...)``; one pass each), the thesis MLP as before. ``--boundary``:
-its rule at the sector boundaries (``load_decoder(boundary=...)``; ``blend`` takes a second
-pass for the random inlets within 8 deg of one, about 36 % of them). ``--direction-deg D``:
+its rule at the sector boundaries (``load_decoder(boundary=...)``; ``blend``, the default as
+``load_decoder``'s since 2026-12-06, takes a second pass for the random inlets within 8 deg of
+one, about 36 % of them; ``average``: one pass, the default before). ``--direction-deg D``:
 every inlet toward ``D`` (one flight's or evaluation slot's batch), e.g. 44 for the blend's
 worst case, a second pass for every sample.
 
@@ -107,7 +108,7 @@ def time_predict(decoder, batch: int, repeats: int, *, seed: int = 0,
 
 
 def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
-        seed: int = 0, rotations_deg=None, boundary: str = "average",
+        seed: int = 0, rotations_deg=None, boundary: str = "blend",
         direction_deg: float | None = None) -> dict:
     """Time the decoder (with ``rotations_deg``'s views and the ``boundary`` rule) and the
     thesis MLP; returns a JSON-ready dict."""
@@ -127,8 +128,7 @@ def run(model=None, *, repeats: int = 200, repeats_batch: int | None = None,
         source = "default recipe d4-film, random weights"
     if dec.rotations_deg is not None:
         source += f", views turned by {', '.join(f'{a:g}' for a in dec.rotations_deg)} deg"
-    if boundary != "average":
-        source += f", boundary rule {boundary!r}"
+    source += f", boundary rule {boundary!r}"
     if direction_deg is not None:
         source += f", every inlet toward {direction_deg:g} deg"
     rb = repeats_batch if repeats_batch is not None else max(MIN_JUDGED_REPEATS, repeats // 10)
@@ -196,8 +196,9 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=Path, default=None, help="also write the figures here")
     ap.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
                     help="time the decoder averaged over these turned views (default: none)")
-    ap.add_argument("--boundary", choices=("average", "floor", "blend"), default="average",
-                    help="the decoder's rule at the sector boundaries (default average)")
+    ap.add_argument("--boundary", choices=("blend", "average", "floor"), default="blend",
+                    help="the decoder's rule at the sector boundaries (default blend, "
+                         "load_decoder's since 2026-12-06; average: one pass)")
     ap.add_argument("--direction-deg", type=float, default=None,
                     help="every inlet toward this direction, deg (one flight's or evaluation "
                          "slot's batch; default: random directions)")

@@ -16,8 +16,10 @@ seed 1 and 12 of seed 2, 16 in all, whose flows ``--flow-cache runs/flows`` may 
         --compare turned=runs/turned/model.npz [--compare NAME=FILE ...] [--model FILE]
         [--boundary average|floor|blend] [--runs 4:1 12:2] [--flow-cache runs/flows]
 
-Each model is scored under ``--boundary`` (default ``average``, the package's default rule)
-and, with ``--rotations-deg``, averaged over those turned views (``load_decoder(rotations_deg=)``).
+Each model is scored under ``--boundary`` (default ``average``: the one pass, the package's
+default rule until 2026-12-06 and the committed comparisons'; ``load_decoder``'s is ``blend``
+since) and, with ``--rotations-deg``, averaged over those turned views
+(``load_decoder(rotations_deg=)``).
 Reports per model the speed and direction errors pooled over every inlet's cells (each cell
 weighing equally, as ``evaluate-decoder`` pools), and against the reference the improvement of
 those pooled errors with a paired bootstrap interval over the inlets
@@ -173,7 +175,8 @@ def main(argv=None) -> int:
     ap.add_argument("--compare", type=parse_compare, action="append", default=[],
                     metavar="NAME=FILE", help="a decoder scored beside it (repeatable)")
     ap.add_argument("--boundary", choices=sorted(BOUNDARIES), default="average",
-                    help="every model's rule at the sector boundaries (default average)")
+                    help="every model's rule at the sector boundaries (default average: one "
+                         "pass, the committed comparisons' rule; load_decoder's is blend)")
     ap.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
                     help="every model averaged over the scene turned by these angles, whole "
                          "deg (e.g. 0 -3 3; default: one pass)")

@@ -92,7 +92,8 @@ def run(model=None, *, angles=ANGLES_DEG, n_inlets: int = 4, seed: int = 1,
     from windnav.predict.decoder import Decoder
 
     angles = sorted({float(a) for a in angles})
-    plain = load_decoder(model)  # the file read once; each view set shares its weights
+    # the one pass (the views' reference); the file read once, each view set shares its weights
+    plain = load_decoder(model, boundary="average")
     compare = {f"a{a:g}": Decoder(plain.weights, plain.metadata, rotations_deg=views(a))
                for a in angles}
     t0 = time.perf_counter()

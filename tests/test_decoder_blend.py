@@ -29,7 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def decoders():
-    plain = load_decoder()
+    plain = load_decoder(boundary="average")
     return plain, Decoder(plain.weights, plain.metadata, boundary="blend")
 
 
@@ -212,9 +212,9 @@ def test_the_commands_take_the_rule(tmp_path):
         args = parser.parse_args(base + ["--boundary", "blend"])
         args.model = None
         assert load_model(args, command).boundary == "blend"
-        assert parser.parse_args(base).boundary == "average"
+        assert parser.parse_args(base).boundary == "blend"
         with pytest.raises(SystemExit):
             parser.parse_args(base + ["--boundary", "round"])
     action = next(a for a in cli.build_parser()._subparsers._group_actions[0].choices[
         "predict"]._actions if a.dest == "boundary")
-    assert tuple(action.choices) == BOUNDARIES
+    assert set(action.choices) == set(BOUNDARIES)

@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     p.add_argument("--flow-cache", type=Path, default=None)
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    plain = load_decoder()
+    plain = load_decoder(boundary="average")  # the one pass the trial compares against
     compare = {"mirror": MirrorView(plain.weights, plain.metadata),
                "views3": D.Decoder(plain.weights, plain.metadata, rotations_deg=(0, -3, 3))}
     records, _, _ = dh.holdout_records(plain, compare, flow_cache=args.flow_cache)

@@ -66,7 +66,7 @@ def decoder_in_both_worlds(city, a, b, n: int = 2048) -> dict:
     from windnav.predict.dataset import _samples, draw_samples, field_from_solution, grid_offsets
     from windnav.predict.metrics import field_errors
 
-    dec = load_decoder()
+    dec = load_decoder(boundary="average")  # the one pass
     models = {"one pass": dec, "mirror view": MirrorView(dec.weights, dec.metadata)}
     world = draw_samples(field_from_solution(city, a), n, rng=0)
     mirrored = _samples(field_from_solution(mirrored_city(city), b), world.positions * [1, -1],

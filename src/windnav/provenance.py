@@ -13,8 +13,12 @@ else::
     >>> command_line("docs/data/decoder_eval_windinet.json")  # doctest: +SKIP
     'windnav evaluate-decoder --maps 0 --inlets 8 --samples 2048 --budget-min 40 ... --out ...'
 
-A rebuilt line omits the values equal to the current defaults (a test rebuilds every committed
-result and parses it back, so a default that changes under one fails there). Some commands
+A rebuilt line omits the values equal to the current defaults. Where a default has changed
+since a result was written (or an option was added with a default other than what the result
+was made with: :data:`VALUES_BEFORE`), the line names the recorded value after the typed
+words, so that it still reproduces the result: the decoder's ``--boundary`` became ``blend`` on
+2026-12-06, and a result made with one pass rebuilds with ``--boundary average``. A test
+rebuilds every committed result and parses it back to its own arguments. Some commands
 record a value they filled in themselves (``fly``'s ``--wind-sigma`` under ``--wind
 constant``), which the rebuilt line then gives and the command may refuse; the typed ``argv``
 has no such gap.
@@ -29,7 +33,19 @@ import shlex
 from collections.abc import Mapping
 from pathlib import Path
 
-__all__ = ["command_line", "command_arguments"]
+__all__ = ["command_line", "command_arguments", "VALUES_BEFORE"]
+
+VALUES_BEFORE = {
+    "evaluate-decoder": {"boundary": "average", "compare_boundary": "average"},
+    "predict": {"boundary": "average"},
+    "decoder-study": {"boundary": "average"},
+}
+"""Per command, options a result may not record because they came later, with the value it
+was made with: the decoder's rule at the sector boundaries. ``--boundary`` came to
+``evaluate-decoder`` and ``predict`` on 2026-12-05 and to ``decoder-study`` on 2026-12-06, and
+``--compare-boundary`` on 2026-12-06, when ``blend`` became the default; before, the decoders
+took one pass (``average``; the side rounding picked until 2026-12-05, the same answer for every
+inlet off a multiple of 45 deg, where no random evaluation inlet falls)."""
 
 
 def _load(doc) -> Mapping:
@@ -58,9 +74,10 @@ def _same(value, default) -> bool:
         return False
 
 
-def _flag(action: argparse.Action, value) -> list[str] | None:
-    """The words that give ``action`` the value ``value``, or None where none are needed."""
-    if value is None or _same(value, action.default):
+def _flag(action: argparse.Action, value, check_default: bool = True) -> list[str] | None:
+    """The words that give ``action`` the value ``value``, or None where none are needed
+    (``check_default``: none for the parser's default)."""
+    if value is None or (check_default and _same(value, action.default)):
         return None  # unset, or the default's
     longest = max(action.option_strings, key=len)
     if isinstance(action, argparse.BooleanOptionalAction):
@@ -98,11 +115,11 @@ def command_arguments(doc) -> list[str]:
     if not isinstance(recorded, Mapping):
         raise ValueError(f"The 'doc' parameter of {where} must record its 'arguments' (a "
                          f"result of {command!r} written without them cannot be rebuilt).")
-    argv = doc.get("argv")
-    if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
-        return ["windnav", *argv]
     parser = build_parser()
     name = command.split()[1]
+    argv = doc.get("argv")
+    if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
+        return _changed_defaults(["windnav", *argv], parser, name, recorded)
     if name not in parser.commands:
         raise ValueError(f"{where}: the command {name!r} that wrote this result is no longer a "
                          "windnav command.")
@@ -142,7 +159,37 @@ def command_arguments(doc) -> list[str]:
         raise ValueError(f"{where}: the result records arguments that 'windnav {name}' no "
                          f"longer has: {', '.join(unknown)}; the line it was written by cannot "
                          "be rebuilt with this version.")
-    return words
+    return _changed_defaults(words, build_parser(), name, recorded)
+
+
+def _changed_defaults(words: list[str], parser, name: str, recorded: Mapping) -> list[str]:
+    """``words`` and, after them, the options of :data:`VALUES_BEFORE` (a default changed
+    since) whose value the words now parse to differs from the one the result was made with
+    (recorded, else the value before). Only those: some commands record values they filled in
+    themselves, which the typed line rightly leaves out."""
+    if name not in parser.commands or name not in VALUES_BEFORE:
+        return words
+    parsed = vars(parser.parse_args(words[1:]))
+    made = {k: recorded.get(k, v) for k, v in VALUES_BEFORE[name].items()}
+    actions = {a.dest: a for a in _actions(parser.commands[name])}
+    extra: list[str] = []
+    for dest, value in made.items():
+        action = actions.get(dest)
+        if action is None or not action.option_strings or _same(value, parsed.get(dest)):
+            continue
+        extra += _flag(action, value, check_default=False) or []
+    return words + extra
+
+
+def _actions(parser) -> list[argparse.Action]:
+    """The actions of ``parser`` and of its subcommands' parsers."""
+    out = []
+    for action in parser._actions:
+        out.append(action)
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                out += _actions(sub)
+    return out
 
 
 def command_line(doc) -> str:

@@ -14,7 +14,8 @@ from pathlib import Path
 from windnav._validate import options_named  # noqa: F401  (the commands import it from here)
 from windnav.experiments.results import Outputs, check_output_path, document
 
-__all__ = ["add_output_arguments", "add_rotations_argument", "cache_folder", "check_output_path",
+__all__ = ["add_boundary_argument", "add_compare_boundary_argument", "add_output_arguments",
+           "add_rotations_argument", "compare_boundary", "cache_folder", "check_output_path",
            "document", "load_model", "options_named", "outputs", "print_written", "seed",
            "where"]
 
@@ -35,8 +36,9 @@ def add_rotations_argument(parser, *, compare: bool = False, which: str | None =
     """Add ``--rotations-deg A [A ...]``: the decoder's turned views
     (:class:`windnav.predict.Decoder`'s ``rotations_deg``), and with ``boundary``
     ``--boundary``, its rule at the sector boundaries (``boundary``); ``compare``: the command
-    also takes ``--compare`` models, which the help says run one pass under the default rule;
-    ``which``: the decoder the help names (default ``--model``)."""
+    also takes ``--compare`` models, which the help says run one pass without the views and
+    under ``--boundary`` unless ``--compare-boundary`` (:func:`add_compare_boundary_argument`)
+    says otherwise; ``which``: the decoder the help names (default ``--model``)."""
     if which is None:
         which = "--model; not --compare's models" if compare else "--model"
     parser.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
@@ -46,12 +48,38 @@ def add_rotations_argument(parser, *, compare: bool = False, which: str | None =
                              "pass)")
     if not boundary:
         return
-    parser.add_argument("--boundary", choices=("average", "floor", "blend"), default="average",
-                        help=f"how the decoder ({which}) answers inlets on a multiple of 45 deg, "
-                             "where its two symmetries meet: their mean, the side rounding "
-                             "picks, or 'blend': also blended within 8 deg of one, so that "
-                             "the field is continuous in the inlet direction (two passes "
-                             "there) (%(default)s)")
+    add_boundary_argument(parser, "--model, and --compare's models unless --compare-boundary"
+                          if compare else which)
+    if compare:
+        add_compare_boundary_argument(parser)
+
+
+BOUNDARY_HELP = ("how {which} answers inlets near a multiple of 45 deg, where its two symmetries "
+                 "meet: 'blend' (default since 2026-12-06): the two blended within 8 deg of one, "
+                 "so that the field is continuous in the inlet direction (two passes there); "
+                 "'average': one pass, their mean only on a boundary (the rule of the results "
+                 "made before); 'floor': the side rounding picks")
+
+
+def add_boundary_argument(parser, which: str = "--model") -> None:
+    """Add ``--boundary`` (:data:`windnav.predict.decoder.BOUNDARIES`, default ``blend``, as
+    :func:`windnav.predict.load_decoder`): the rule of the decoder ``which`` names."""
+    parser.add_argument("--boundary", choices=("blend", "average", "floor"), default="blend",
+                        help=BOUNDARY_HELP.format(which=f"the decoder ({which})"))
+
+
+def add_compare_boundary_argument(parser) -> None:
+    """Add ``--compare-boundary``: the ``--compare`` models' rule (default: ``--boundary``'s)."""
+    parser.add_argument("--compare-boundary", choices=("blend", "average", "floor"),
+                        default=None,
+                        help="the --compare models' rule at the sector boundaries, as "
+                             "--boundary (default: --boundary's)")
+
+
+def compare_boundary(args) -> str:
+    """The ``--compare`` models' boundary rule: ``--compare-boundary``, else ``--boundary``."""
+    rule = getattr(args, "compare_boundary", None)
+    return args.boundary if rule is None else rule
 
 
 def load_model(args, name: str):

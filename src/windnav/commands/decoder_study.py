@@ -64,6 +64,7 @@ from pathlib import Path
 from windnav._extras import require
 from windnav._validate import positive_int
 from windnav.commands._common import (
+    add_boundary_argument,
     add_output_arguments,
     cache_folder,
     document,
@@ -124,6 +125,7 @@ def register(subparsers) -> None:
     p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
                    help="noise: another decoder scored beside --model on the same samples "
                         "(repeatable)")
+    add_boundary_argument(p, "--model, and --compare's")
     p.add_argument("--maps", type=int, default=None, metavar="N",
                    help="dense 1.2 km evaluation maps (default 1; the mosaic uses the first; "
                         "not with --quick, whose one map is fixed, nor with direction or "
@@ -344,8 +346,9 @@ def run(args, simulate=None) -> int:
         compare = _named_compare_files(args.compare, name)
         flows = _fields(args, name, simulate, progress)
         _note_truths(flows, name)
-        decoders = {"decoder": load_decoder(args.model),
-                    **{n: load_decoder(f) for n, f in compare.items()}}
+        decoders = {"decoder": load_decoder(args.model, boundary=args.boundary),
+                    **{n: load_decoder(f, boundary=args.boundary)
+                       for n, f in compare.items()}}
         res = ds.noise_study(decoders, flows["fields"], samples, seed=args.seed)
         res["flows"] = {k: v for k, v in flows.items() if k != "fields"}
         res["models"] = {"decoder": str(args.model) if args.model else "default",
@@ -355,7 +358,7 @@ def run(args, simulate=None) -> int:
         flows = _fields(args, name, simulate, progress)
         _note_truths(flows, name)
         fields = flows["fields"]
-        dec = load_decoder(args.model)
+        dec = load_decoder(args.model, boundary=args.boundary)
         if study == "eigenflows":
             res = ds.eigenflow_study(fields, samples, seed=args.seed, size=dec.size,
                                      spacing=dec.spacing)
@@ -376,9 +379,10 @@ def run(args, simulate=None) -> int:
             plot = figures.plot_mosaic
         res["flows"] = {k: v for k, v in flows.items() if k != "fields"}
         res["model"] = {"path": str(args.model) if args.model else "default",
-                          "architecture": dec.architecture, "size": dec.size}
+                          "architecture": dec.architecture, "size": dec.size,
+                          "boundary": dec.boundary}
     elif study == "averaging":
-        dec = load_decoder(args.model)
+        dec = load_decoder(args.model, boundary=args.boundary)
         city, map_name, kw = _averaging_map(args)
         with options_named({"'speed' parameter of averaging_study": f"'--speed' parameter of "
                                                                      f"{name}"}):
@@ -388,7 +392,7 @@ def run(args, simulate=None) -> int:
                                      name=map_name, **kw)
         plot = figures.plot_averaging
     elif study == "start":
-        dec = load_decoder(args.model)
+        dec = load_decoder(args.model, boundary=args.boundary)
         city, map_name, kw = _averaging_map(args)
         protocols = kw.pop("protocols", None)
         if protocols is not None:  # --quick: the short protocol

@@ -49,6 +49,7 @@ from windnav.commands._common import (
     add_output_arguments,
     add_rotations_argument,
     cache_folder,
+    compare_boundary,
     document,
     load_model,
     outputs,
@@ -137,7 +138,8 @@ def run(args, simulate=None, flow_settings=None) -> int:
     notes = dx_notes(training, args.dx)
     try:
         res = evaluate_decoder(args.model, decoder=dec, maps=args.maps, windinet=args.windinet,
-                               compare=compare, n_inlets=args.inlets,
+                               compare=compare, compare_boundary=compare_boundary(args),
+                               n_inlets=args.inlets,
                                samples_per_inlet=args.samples, seed=args.seed,
                                budget_s=60.0 * budget, dx=args.dx, flow_settings=flow_settings,
                                progress=not args.no_progress,

@@ -443,10 +443,11 @@ def _evaluation_maps(maps, windinet, where):
     return out
 
 
-def _compared(compare, dec, where) -> tuple[dict, dict]:
+def _compared(compare, dec, where, boundary=None) -> tuple[dict, dict]:
     """``{name: Decoder}`` and ``{name: file or None}`` from ``compare`` (a mapping of names
     to decoder files or objects, or a sequence of them, then named by their architecture);
-    each must predict on ``dec``'s grid."""
+    each must predict on ``dec``'s grid. Files load with the ``boundary`` rule (default
+    :func:`~windnav.predict.load_decoder`'s)."""
     from windnav.predict import load_decoder
 
     if compare is None:
@@ -454,7 +455,8 @@ def _compared(compare, dec, where) -> tuple[dict, dict]:
     items = compare.items() if isinstance(compare, dict) else [(None, c) for c in compare]
     out, paths = {}, {}
     for name, item in items:
-        model = item if hasattr(item, "predict") else load_decoder(item)
+        model = (item if hasattr(item, "predict") else load_decoder(item) if boundary is None
+                 else load_decoder(item, boundary=boundary))
         name = model.architecture if name is None else str(name)
         if name in MODELS or name in out:
             raise ValueError(f"The 'compare' parameter of {where} must name each model once, "
@@ -495,8 +497,8 @@ def _pool(per_sample_list: list[dict]) -> dict:
 def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 8,
                      samples_per_inlet: int = 2048, seed: int = 0, budget_s: float = 1200.0,
                      dx: float = 1.0, flow_settings: dict | None = None, decoder=None,
-                     compare=None, progress: bool = False, simulate=None,
-                     flow_cache=None) -> dict:
+                     compare=None, compare_boundary: str | None = None,
+                     progress: bool = False, simulate=None, flow_cache=None) -> dict:
     """Score the decoder and its baselines on simulated evaluation fields (module doc).
 
     Parameters
@@ -525,6 +527,8 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         Other models scored on the same fields and samples, reported beside the decoder (e.g.
         the thesis MLP trained on the same data): ``{name: file or Decoder}``, or files or
         Decoders named by their architecture. Each must predict on the decoder's grid.
+    compare_boundary : {"blend", "average", "floor"}, optional
+        The rule the compared files load with (default :func:`windnav.predict.load_decoder`'s).
     progress : bool
         Print one line per slot.
     simulate : callable, optional
@@ -572,7 +576,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         raise ValueError(f"The 'flow_settings' parameter of {where} must only set "
                          f"spinup_steps, steps, dt. Got {unknown} instead.")
     dec = decoder if decoder is not None else load_decoder(model_path)
-    compared, compared_paths = _compared(compare, dec, where)
+    compared, compared_paths = _compared(compare, dec, where, compare_boundary)
     models = ("decoder", *compared, *BASELINES)
     if windinet is True:
         windinet = windinet_layout()  # found and checked once (its SHA-256 reads the file)

@@ -935,7 +935,7 @@ def train_variants(recipe: dict, variants: dict, runs_dir, *, progress: bool = F
         t0 = time.perf_counter()
         hist = train_decoder(r, store=store, out_dir=runs / tag, progress=progress, log=None)
         seconds = time.perf_counter() - t0
-        dec = load_decoder(runs / tag / "model.npz")
+        dec = load_decoder(runs / tag / "model.npz", boundary="average")  # as validated
         _, fields_val, _, _ = _split_fields(store, r["data"]["validation_maps"],
                                             "train_variants")
         test = _dataset(fields_val, r["data"]["validation_samples_per_field"], r["data"],

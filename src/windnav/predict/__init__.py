@@ -2,7 +2,7 @@
 
 Public API::
 
-    load_decoder(path=None, *, boundary="average", rotations_deg=None) -> Decoder
+    load_decoder(path=None, *, boundary="blend", rotations_deg=None) -> Decoder
                                                 the shipped default model, or a model file
     Decoder.offsets, Decoder.predict(scans, w_up, w_robot) -> (B, 2, H, H)
     UpstreamBaseline, LocalBaseline             uniform W_up / uniform W_robot, same signature

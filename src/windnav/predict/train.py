@@ -851,6 +851,10 @@ def _schedule(total_steps: int, warmup: float, final: float):
 
 
 def _evaluate(decoder: Decoder, samples, batch_size: int) -> dict:
+    # the one pass (boundary="average"), whatever the decoder's rule: the validation that
+    # picks the kept epoch, and the metrics recorded, are of the network as trained
+    if decoder.boundary != "average":
+        decoder = Decoder(decoder.weights, decoder.metadata, boundary="average")
     # on one BLAS thread: a batch's float32 products otherwise change in their last bits with
     # the BLAS thread count (6e-6 m/s under OpenBLAS's Haswell kernel), and so could the
     # validation errors that pick the shipped epoch (thread audit, 2026-12-05)
@@ -1197,7 +1201,7 @@ class _Run:
                                  **mdl["hyperparameters"]).to(self.device)
         self.teacher = None
         if tr["teacher_weight"] > 0:
-            self.teacher = load_decoder(tr["teacher"])
+            self.teacher = load_decoder(tr["teacher"], boundary="average")  # as trained
             if self.teacher.size != data["size"] or self.teacher.spacing != data["spacing"]:
                 raise ValueError(
                     f"The 'config' parameter of {where} must have train.teacher predict on the "
@@ -1322,12 +1326,14 @@ class _Run:
                 bar.set_postfix(loss=f"{total / count:.4g}", refresh=False)
         model.eval()
         decoder = Decoder(export_weights(model), {**self.meta, "architecture": self.arch.name,
-                                                  "hyperparameters": self.arch.hp})
+                                                  "hyperparameters": self.arch.hp},
+                          boundary="average")
         metrics = _evaluate(decoder, self.val, tr["eval_batch_size"])
         raw_metrics = None
         if self.ema is not None:  # the average is the model kept; the raw one is recorded
             raw_metrics = metrics
-            decoder = Decoder(self._ema_weights(decoder.weights), decoder.metadata)
+            decoder = Decoder(self._ema_weights(decoder.weights), decoder.metadata,
+                              boundary="average")
             metrics = _evaluate(decoder, self.val, tr["eval_batch_size"])
         h = self.history
         score = _score(metrics, h["baselines"]["local"])
@@ -1373,7 +1379,7 @@ class _Run:
         """The kept model (``train.keep``) on training samples (with the baselines), into its
         file, the history and the checkpoint (which then marks the run finished)."""
         h, tr = self.history, self.tr
-        best = load_decoder(self.model_path)
+        best = load_decoder(self.model_path, boundary="average")  # as validated
         subset = self.train_subset()
         h["train_metrics"] = {"decoder": _evaluate(best, subset, tr["eval_batch_size"]),
                               **_baselines(subset, self.data["size"], self.data["spacing"])}
