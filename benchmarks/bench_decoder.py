@@ -15,7 +15,8 @@ are <= 1 ms for one sample and <= 20 ms for 1024.
                                                  [--boundary average] [--record]
 
 ``--rotations-deg``: the decoder averaged over the scene turned by these angles (its views,
-``load_decoder(rotations_deg=...)``; one pass each), the thesis MLP as before. ``--boundary``:
+``load_decoder(rotations_deg=...)``; a pass each, under the boundary rule), the thesis MLP as
+before. ``--boundary``:
 its rule at the sector boundaries (``load_decoder(boundary=...)``; ``blend``, the default as
 ``load_decoder``'s since 2026-12-06, takes a second pass for the random inlets within 8 deg of
 one, about 36 % of them; ``average``: one pass, the default before). ``--direction-deg D``:

@@ -84,6 +84,15 @@ def test_the_compared_files_load_with_the_rule_given():
         assert paths["other"] == str(DEFAULT_MODEL)
 
 
+def test_the_python_api_compares_files_under_the_decoders_own_rule():
+    from windnav.experiments.decoder_eval import _compared_rule
+
+    one = load_decoder(boundary="average")
+    assert _compared_rule(None, one) == "average"
+    assert _compared_rule(None, load_decoder()) == "blend"
+    assert _compared_rule("floor", one) == "floor"
+
+
 def test_decoder_study_loads_its_models_with_the_rule(tmp_path, monkeypatch):
     """The studies that score a model load it (and noise's compared models) with --boundary."""
     import windnav.predict as wp
@@ -111,27 +120,41 @@ def _doc(command, arguments, argv=None):
     return d
 
 
+def _compared_rule(parsed):
+    """The compared models' rule: --compare-boundary, else --boundary's."""
+    return parsed["compare_boundary"] or parsed["boundary"]
+
+
 def _parsed(words):
     return vars(cli.build_parser().parse_args(words[1:]))
 
 
 def test_a_result_made_with_one_pass_rebuilds_with_its_rule():
     typed = ["evaluate-decoder", "--maps", "0", "--out", "runs/x"]
-    # recorded with the then default: named after the typed words
+    # recorded with the then default: named after the command's name; no compared models,
+    # so no --compare-boundary
     words = command_arguments(_doc("evaluate-decoder", {"boundary": "average", "maps": 0,
                                                         "out": "runs/x"}, typed))
-    assert words[:len(typed) + 1] == ["windnav", *typed]
-    p = _parsed(words)
-    assert (p["boundary"], p["compare_boundary"]) == ("average", "average")
+    assert words == ["windnav", "evaluate-decoder", "--boundary", "average", *typed[1:]]
+    # with compared models, made before --compare-boundary: theirs named too
+    cmp = [*typed, "--compare", "a=m.npz"]
+    p = _parsed(command_arguments(_doc("evaluate-decoder", {"boundary": "average",
+                                                            "compare": ["a=m.npz"]}, cmp)))
+    assert (p["boundary"], _compared_rule(p)) == ("average", "average")
+    blend_then = [*cmp, "--boundary", "blend"]   # the blend trial: compared one pass
+    words = command_arguments(_doc("evaluate-decoder", {"boundary": "blend",
+                                                        "compare": ["a=m.npz"]}, blend_then))
+    assert words[2:4] == ["--compare-boundary", "average"]
     # made before the option: the value before (VALUES_BEFORE), typed or rebuilt
     for argv in (typed, None):
         p = _parsed(command_arguments(_doc("evaluate-decoder", {"maps": 0, "out": "runs/x"},
                                            argv)))
         assert p["boundary"] == VALUES_BEFORE["evaluate-decoder"]["boundary"] == "average"
-    # made with the new default: the line as typed, nothing added
-    blend = ["evaluate-decoder", "--out", "runs/y"]
+    # made with the new default, compared models following it: the line as typed
+    blend = ["evaluate-decoder", "--out", "runs/y", "--compare", "a=m.npz"]
     assert command_arguments(_doc("evaluate-decoder", {"boundary": "blend",
                                                        "compare_boundary": None,
+                                                       "compare": ["a=m.npz"],
                                                        "out": "runs/y"}, blend)) == \
         ["windnav", *blend]
     # a study, and a command with no such option: untouched
@@ -142,11 +165,67 @@ def test_a_result_made_with_one_pass_rebuilds_with_its_rule():
     assert command_arguments(_doc("fly", {"duration": 1.0}, fly)) == ["windnav", *fly]
 
 
+def test_the_added_words_survive_a_list_option_and_a_line_that_no_longer_parses_is_named():
+    typed = ["evaluate-decoder", "--out", "x", "--rotations-deg", "0", "-3", "3"]
+    words = command_arguments(_doc("evaluate-decoder", {"boundary": "average"}, typed))
+    p = _parsed(words)
+    assert p["rotations_deg"] == [0.0, -3.0, 3.0] and p["boundary"] == "average"
+    with pytest.raises(ValueError, match="no longer parses"):
+        command_arguments(_doc("evaluate-decoder", {"boundary": "average"},
+                               ["evaluate-decoder", "--out", "x", "--frobnicate"]))
+
+
 def test_the_committed_one_pass_evaluation_names_its_rule():
     words = command_arguments(json.loads((DOCS / "decoder_eval_windinet.json").read_text()))
     p = _parsed(words)
-    assert (p["boundary"], p["compare_boundary"]) == ("average", "average")
+    assert (p["boundary"], _compared_rule(p)) == ("average", "average")
     words = command_arguments(json.loads((DOCS / "decoder_eval_windinet_blend.json")
                                          .read_text()))
     p = _parsed(words)
-    assert (p["boundary"], p["compare_boundary"]) == ("blend", "average")
+    assert (p["boundary"], _compared_rule(p)) == ("blend", "average")
+
+
+def _card_commands(text):
+    """The model card's decoder commands (line number, words): fenced lines (joined over
+    backslash continuations) and inline code spans of three words or more."""
+    import re
+
+    pat = re.compile(r"windnav (evaluate-decoder|predict|decoder-study (gradients|mosaic|"
+                     r"direction|averaging|start|noise|basis))\b")
+    fences = [m.start() for m in re.finditer(r"^```", text, flags=re.M)]
+    assert len(fences) % 2 == 0
+    ranges = list(zip(fences[::2], fences[1::2], strict=True))
+    out = []
+    for a, b in ranges:
+        lines = text[a:b].split("\n")
+        i = 0
+        while i < len(lines):
+            j = i
+            while lines[j].rstrip().endswith("\\") and j + 1 < len(lines):
+                j += 1
+            line = " ".join(lines[i:j + 1]).split("  #")[0]
+            if pat.search(line):
+                out.append((text[:a].count("\n") + i + 1, line.split()))
+            i = j + 1
+    for m in re.finditer(r"`([^`]*)`", text):
+        if any(a <= m.start() < b for a, b in ranges) or not pat.search(m.group(1)):
+            continue
+        words = m.group(1).split()
+        if len(words) >= 3 and words[-1] != "--seed" and words[-2:] != ["--seed", "0"]:
+            out.append((text[:m.start()].count("\n") + 1, words))
+    return out
+
+
+def test_every_decoder_command_of_the_model_card_names_its_rule():
+    """Since blend became the default, a command in docs/decoder.md that made a one-pass
+    figure must say --boundary average, or rerunning it gives the blend's figures; the new
+    ones say --boundary blend. Compared models under another rule say --compare-boundary."""
+    text = (DOCS.parent / "decoder.md").read_text()
+    found = _card_commands(text)
+    assert len(found) >= 40
+    unnamed = [(line, " ".join(w)[:80]) for line, w in found if "--boundary" not in w]
+    assert unnamed == []
+    for line, words in found:
+        rule = words[words.index("--boundary") + 1]
+        if rule == "blend" and any(w.startswith("one-pass=") for w in words):
+            assert "--compare-boundary" in words, line

@@ -20,8 +20,11 @@ The other fold is reached by replacing ``windnav.predict.decoder.canonical_eleme
 call: a trial, not an API.
 
     .venv/bin/python docs/data/decoder_fold_blend.py --out runs/fold_blend --flow-cache runs/flows
+        [--model FILE]
 
-Writes ``decoder_fold_blend.json`` into ``--out``.
+``--model``: the decoder (default ``decoder_2026-12-01.npz``, the model the trial ran on and
+the committed JSON is of: the shipped file since 2026-12-06 is another model). Writes
+``decoder_fold_blend.json`` into ``--out``.
 """
 
 from __future__ import annotations
@@ -38,6 +41,8 @@ import windnav.predict.decoder as D
 from windnav.predict.baselines import check_inputs
 
 DELTAS_DEG = (1, 2, 3, 5, 8, 12, 22.5)
+TRIAL_MODEL = Path(D.__file__).resolve().parent / "data" / "decoder_2026-12-01.npz"
+"""The model the trial ran on (the default file from 2026-12-01 to 2026-12-06)."""
 METRICS = ("speed_error", "direction_error_deg")
 
 
@@ -110,9 +115,11 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--flow-cache", type=Path, default=None)
+    p.add_argument("--model", type=Path, default=TRIAL_MODEL,
+                   help="decoder file (default: the model of 2026-12-01, the trial's)")
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    plain = load_decoder(boundary="average")  # the one pass the trial compares against
+    plain = load_decoder(args.model, boundary="average")  # the one pass the trial compares with
     compare = {}
     for d in DELTAS_DEG:
         compare[f"blend{d:g}"] = FoldBlend(plain.weights, plain.metadata)
@@ -127,7 +134,8 @@ def main(argv=None) -> int:
                   **{n: {m: r[n][m] for m in METRICS} for n in names}} for r in records]
     pooled = {n: {m: float(np.mean([r[n][m] for r in records])) for m in METRICS}
               for n in names}
-    result = {"jump": jump(plain), "map": dh.views.VALIDATION_MAP, "inlets": len(records),
+    result = {"model": str(args.model), "jump": jump(plain), "map": dh.views.VALIDATION_MAP,
+              "inlets": len(records),
               "per_inlet": per_inlet, "pooled_mean_over_inlets": pooled,
               "elapsed_s": time.perf_counter() - t0}
     args.out.mkdir(parents=True, exist_ok=True)

@@ -67,6 +67,11 @@ class MirrorView(D.Decoder):
         return out
 
 
+
+TRIAL_MODEL = (Path(__file__).resolve().parents[2] / "src" / "windnav" / "predict" / "data"
+               / "decoder_2026-12-01.npz")
+"""The model the trial ran on."""
+
 def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
     import decoder_holdout as dh
@@ -79,7 +84,9 @@ def main(argv=None) -> int:
     p.add_argument("--flow-cache", type=Path, default=None)
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    plain = load_decoder(boundary="average")  # the one pass the trial compares against
+    # the one pass of the model the trial ran on (the default file from 2026-12-01 to
+    # 2026-12-06; the shipped file since is another model)
+    plain = load_decoder(TRIAL_MODEL, boundary="average")
     compare = {"mirror": MirrorView(plain.weights, plain.metadata),
                "views3": D.Decoder(plain.weights, plain.metadata, rotations_deg=(0, -3, 3))}
     records, _, _ = dh.holdout_records(plain, compare, flow_cache=args.flow_cache)

@@ -34,6 +34,11 @@ SPEED = 6.0
 """Inlet speed, m/s (the training sweep's)."""
 
 
+
+TRIAL_MODEL = (Path(__file__).resolve().parents[2] / "src" / "windnav" / "predict" / "data"
+               / "decoder_2026-12-01.npz")
+"""The model the trial ran on."""
+
 def mirrored_city(city):
     """``city`` mirrored across the x axis: ``(x, y) -> (x, -y)``."""
     from windnav.city import City
@@ -66,7 +71,9 @@ def decoder_in_both_worlds(city, a, b, n: int = 2048) -> dict:
     from windnav.predict.dataset import _samples, draw_samples, field_from_solution, grid_offsets
     from windnav.predict.metrics import field_errors
 
-    dec = load_decoder(boundary="average")  # the one pass
+    # the one pass of the model the trial ran on (the default file from 2026-12-01 to
+    # 2026-12-06; the shipped file since is another model)
+    dec = load_decoder(TRIAL_MODEL, boundary="average")
     models = {"one pass": dec, "mirror view": MirrorView(dec.weights, dec.metadata)}
     world = draw_samples(field_from_solution(city, a), n, rng=0)
     mirrored = _samples(field_from_solution(mirrored_city(city), b), world.positions * [1, -1],

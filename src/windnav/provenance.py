@@ -163,22 +163,43 @@ def command_arguments(doc) -> list[str]:
 
 
 def _changed_defaults(words: list[str], parser, name: str, recorded: Mapping) -> list[str]:
-    """``words`` and, after them, the options of :data:`VALUES_BEFORE` (a default changed
-    since) whose value the words now parse to differs from the one the result was made with
-    (recorded, else the value before). Only those: some commands record values they filled in
-    themselves, which the typed line rightly leaves out."""
+    """``words`` with the options of :data:`VALUES_BEFORE` (a default changed since) whose
+    value the words now parse to differs from the one the result was made with (recorded, else
+    the value before), inserted after the command's name (so that no ``--`` or option of
+    several values in the typed words swallows them). Only those: some commands record values
+    they filled in themselves, which the typed line rightly leaves out. ``compare_boundary``
+    counts by its effect: unset, the compared models take ``--boundary``'s rule, and a result
+    without compared models needs none."""
     if name not in parser.commands or name not in VALUES_BEFORE:
         return words
-    parsed = vars(parser.parse_args(words[1:]))
+    parsed = _parse(parser, words, name)
     made = {k: recorded.get(k, v) for k, v in VALUES_BEFORE[name].items()}
+    if "compare_boundary" in made:
+        if not recorded.get("compare"):
+            made.pop("compare_boundary")
+        elif made["compare_boundary"] is None:  # they followed the decoder's rule
+            made["compare_boundary"] = made.get("boundary", parsed.get("boundary"))
     actions = {a.dest: a for a in _actions(parser.commands[name])}
     extra: list[str] = []
     for dest, value in made.items():
         action = actions.get(dest)
-        if action is None or not action.option_strings or _same(value, parsed.get(dest)):
+        now = parsed.get(dest)
+        if dest == "compare_boundary" and now is None:
+            now = made.get("boundary", parsed.get("boundary"))
+        if action is None or not action.option_strings or _same(value, now):
             continue
         extra += _flag(action, value, check_default=False) or []
-    return words + extra
+    return words[:2] + extra + words[2:]
+
+
+def _parse(parser, words: list[str], name: str) -> dict:
+    """The arguments ``words`` parse to, or a ValueError naming the line (argparse would exit)."""
+    try:
+        return vars(parser.parse_args(words[1:]))
+    except SystemExit as exc:
+        raise ValueError(f"command_line: the line of this result, {shlex.join(words)!r}, no "
+                         f"longer parses with 'windnav {name}' (argparse's message above)."
+                         ) from exc
 
 
 def _actions(parser) -> list[argparse.Action]:

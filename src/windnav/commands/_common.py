@@ -44,8 +44,7 @@ def add_rotations_argument(parser, *, compare: bool = False, which: str | None =
     parser.add_argument("--rotations-deg", type=float, nargs="+", default=None, metavar="DEG",
                         help=f"predict the mean of the decoder ({which}) over the scene turned "
                              "by each of these angles, deg CCW, whole degrees within 45 of 0 "
-                             "(e.g. 0 -3 3: three passes; default: the scene as given, one "
-                             "pass)")
+                             "(e.g. 0 -3 3: three views; default: the scene as given)")
     if not boundary:
         return
     add_boundary_argument(parser, "--model, and --compare's models unless --compare-boundary"

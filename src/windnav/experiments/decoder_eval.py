@@ -443,6 +443,12 @@ def _evaluation_maps(maps, windinet, where):
     return out
 
 
+def _compared_rule(compare_boundary, dec):
+    """The rule compared files load with: ``compare_boundary``, else the decoder's own (a
+    like-for-like comparison), else :func:`~windnav.predict.load_decoder`'s default (None)."""
+    return compare_boundary if compare_boundary is not None else getattr(dec, "boundary", None)
+
+
 def _compared(compare, dec, where, boundary=None) -> tuple[dict, dict]:
     """``{name: Decoder}`` and ``{name: file or None}`` from ``compare`` (a mapping of names
     to decoder files or objects, or a sequence of them, then named by their architecture);
@@ -528,7 +534,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         the thesis MLP trained on the same data): ``{name: file or Decoder}``, or files or
         Decoders named by their architecture. Each must predict on the decoder's grid.
     compare_boundary : {"blend", "average", "floor"}, optional
-        The rule the compared files load with (default :func:`windnav.predict.load_decoder`'s).
+        The rule the compared files load with (default: the decoder's own rule).
     progress : bool
         Print one line per slot.
     simulate : callable, optional
@@ -576,7 +582,8 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         raise ValueError(f"The 'flow_settings' parameter of {where} must only set "
                          f"spinup_steps, steps, dt. Got {unknown} instead.")
     dec = decoder if decoder is not None else load_decoder(model_path)
-    compared, compared_paths = _compared(compare, dec, where, compare_boundary)
+    compared, compared_paths = _compared(compare, dec, where,
+                                         _compared_rule(compare_boundary, dec))
     models = ("decoder", *compared, *BASELINES)
     if windinet is True:
         windinet = windinet_layout()  # found and checked once (its SHA-256 reads the file)

@@ -182,9 +182,9 @@ through each (up to 14 m/s in a cell, 0.6 m/s on average, on a real map):
   ``s`` from the boundary: the field is then continuous in the inlet direction, where with the
   other rules it jumps across a boundary (2.0-2.7 m/s on average at 6 m/s on a dense map,
   ``docs/decoder.md``, "Turned views"). Those samples take a second pass: 12.9 against 8.9 ms
-  per 1,024 random inlets on one thread, the windinet errors 2 % lower (docs/decoder.md,
-  "Blended folds"). Training validates and scores the one pass (``"average"``), the rule the
-  results committed before that day were made with."""
+  per 1,024 random inlets on one thread, the windinet errors 2.1 % (speed) and 1.6 %
+  (direction) lower (docs/decoder.md, "Blended folds"). Training validates and scores the one
+  pass (``"average"``), the rule the results committed before that day were made with."""
 
 BLEND_WIDTH_DEG = 8.0
 """How far from a sector boundary ``boundary="blend"`` blends the two symmetries' answers, deg:
@@ -1256,7 +1256,7 @@ class Decoder(ReadOnlyOnCopy):
         as :meth:`_predict`, then the second pass of its rows in ``rows``, blended into them
         before the next chunk, so the working set stays one chunk's (a first pass over the
         whole batch, then the second passes, held a batch-sized output and its temporaries
-        at once: 16.9 against 11-12 ms per 1,024 random inlets in a fresh process, the
+        at once: 16.7-17.1 against 12.9-13.7 ms per 1,024 random inlets in a fresh process, the
         difference fresh pages from the kernel; docs/decoder.md)."""
         prepared = self.prepared if prepared is None else prepared
         b, h = scans.shape[0], self.size
