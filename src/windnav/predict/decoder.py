@@ -1149,9 +1149,12 @@ class Decoder(ReadOnlyOnCopy):
             maximum range, which the decoder would read as walls: give a miss 100 m or more).
 
         A ``w_up`` whose direction is a multiple of 45 deg is answered as :attr:`boundary`
-        says (:data:`BOUNDARIES`; by default the mean of the two sides: two forward passes
-        for those samples, twice the time of a batch whose inlets all lie on one). With
-        :attr:`rotations_deg` the answer is the mean over those views (one pass each).
+        says (:data:`BOUNDARIES`): under ``"average"`` and ``"blend"`` the mean of the two
+        sides, two forward passes for those samples; under ``"blend"`` (:func:`load_decoder`'s
+        default) also every sample within :data:`BLEND_WIDTH_DEG` of one takes a second pass
+        (12.9 against 8.9 ms per 1,024 random inlets on one thread). With
+        :attr:`rotations_deg` the answer is the mean over those views (a pass each, under the
+        same rule).
         """
         scans, w_up, w_robot = check_inputs(scans, w_up, w_robot, "Decoder.predict")
         if scans.shape[1] != self.n_rays:
