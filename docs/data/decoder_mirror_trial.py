@@ -67,10 +67,10 @@ class MirrorView(D.Decoder):
         return out
 
 
-
 TRIAL_MODEL = (Path(__file__).resolve().parents[2] / "src" / "windnav" / "predict" / "data"
                / "decoder_2026-12-01.npz")
 """The model the trial ran on."""
+
 
 def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))

@@ -32,12 +32,10 @@ import numpy as np
 
 SPEED = 6.0
 """Inlet speed, m/s (the training sweep's)."""
-
-
-
 TRIAL_MODEL = (Path(__file__).resolve().parents[2] / "src" / "windnav" / "predict" / "data"
                / "decoder_2026-12-01.npz")
 """The model the trial ran on."""
+
 
 def mirrored_city(city):
     """``city`` mirrored across the x axis: ``(x, y) -> (x, -y)``."""

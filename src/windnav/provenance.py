@@ -15,10 +15,10 @@ else::
 
 A rebuilt line omits the values equal to the current defaults. Where a default has changed
 since a result was written (or an option was added with a default other than what the result
-was made with: :data:`VALUES_BEFORE`), the line names the recorded value after the typed
-words, so that it still reproduces the result: the decoder's ``--boundary`` became ``blend`` on
-2026-12-06, and a result made with one pass rebuilds with ``--boundary average``. A test
-rebuilds every committed result and parses it back to its own arguments. Some commands
+was made with: :data:`VALUES_BEFORE`), the line names the recorded value right after the
+command's name, so that it still reproduces the result: the decoder's ``--boundary`` became
+``blend`` on 2026-12-06, and a result made with one pass rebuilds with ``--boundary average``.
+A test rebuilds every committed result and parses it back to its own arguments. Some commands
 record a value they filled in themselves (``fly``'s ``--wind-sigma`` under ``--wind
 constant``), which the rebuilt line then gives and the command may refuse; the typed ``argv``
 has no such gap.

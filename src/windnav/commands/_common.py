@@ -36,8 +36,8 @@ def add_rotations_argument(parser, *, compare: bool = False, which: str | None =
     """Add ``--rotations-deg A [A ...]``: the decoder's turned views
     (:class:`windnav.predict.Decoder`'s ``rotations_deg``), and with ``boundary``
     ``--boundary``, its rule at the sector boundaries (``boundary``); ``compare``: the command
-    also takes ``--compare`` models, which the help says run one pass without the views and
-    under ``--boundary`` unless ``--compare-boundary`` (:func:`add_compare_boundary_argument`)
+    also takes ``--compare`` models, which the help says run without the views and under
+    ``--boundary`` unless ``--compare-boundary`` (:func:`add_compare_boundary_argument`)
     says otherwise; ``which``: the decoder the help names (default ``--model``)."""
     if which is None:
         which = "--model; not --compare's models" if compare else "--model"
