@@ -115,16 +115,16 @@ def command_arguments(doc) -> list[str]:
     if not isinstance(recorded, Mapping):
         raise ValueError(f"The 'doc' parameter of {where} must record its 'arguments' (a "
                          f"result of {command!r} written without them cannot be rebuilt).")
-    parser = build_parser()
+    root = build_parser()
     name = command.split()[1]
     argv = doc.get("argv")
     if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
-        return _changed_defaults(["windnav", *argv], parser, name, recorded)
-    if name not in parser.commands:
+        return _changed_defaults(["windnav", *argv], root, name, recorded)
+    if name not in root.commands:
         raise ValueError(f"{where}: the command {name!r} that wrote this result is no longer a "
                          "windnav command.")
     words = ["windnav", name]
-    parser = parser.commands[name]
+    parser = root.commands[name]
     left = {k: v for k, v in recorded.items() if k not in NOT_ARGUMENTS}
     positionals: list[str] = []
     while True:
@@ -159,7 +159,7 @@ def command_arguments(doc) -> list[str]:
         raise ValueError(f"{where}: the result records arguments that 'windnav {name}' no "
                          f"longer has: {', '.join(unknown)}; the line it was written by cannot "
                          "be rebuilt with this version.")
-    return _changed_defaults(words, build_parser(), name, recorded)
+    return _changed_defaults(words, root, name, recorded)
 
 
 def _changed_defaults(words: list[str], parser, name: str, recorded: Mapping) -> list[str]:
