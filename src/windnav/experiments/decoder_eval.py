@@ -459,10 +459,10 @@ def _compared(compare, dec, where, boundary=None) -> tuple[dict, dict]:
     if compare is None:
         return {}, {}
     items = compare.items() if isinstance(compare, dict) else [(None, c) for c in compare]
+    rule = {} if boundary is None else {"boundary": boundary}
     out, paths = {}, {}
     for name, item in items:
-        model = (item if hasattr(item, "predict") else load_decoder(item) if boundary is None
-                 else load_decoder(item, boundary=boundary))
+        model = item if hasattr(item, "predict") else load_decoder(item, **rule)
         name = model.architecture if name is None else str(name)
         if name in MODELS or name in out:
             raise ValueError(f"The 'compare' parameter of {where} must name each model once, "
