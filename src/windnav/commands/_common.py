@@ -53,6 +53,10 @@ def add_rotations_argument(parser, *, compare: bool = False, which: str | None =
         add_compare_boundary_argument(parser)
 
 
+BOUNDARY_RULES = ("blend", "average", "floor")
+"""``--boundary``'s and ``--compare-boundary``'s choices, the default first:
+:data:`windnav.predict.decoder.BOUNDARIES` (not imported here: every command's start-up reads
+this module)."""
 BOUNDARY_HELP = ("how {which} answers inlets near a multiple of 45 deg, where its two symmetries "
                  "meet: 'blend' (default since 2026-12-06): the two blended within 8 deg of one, "
                  "so that the field is continuous in the inlet direction (two passes there); "
@@ -63,13 +67,13 @@ BOUNDARY_HELP = ("how {which} answers inlets near a multiple of 45 deg, where it
 def add_boundary_argument(parser, which: str = "--model") -> None:
     """Add ``--boundary`` (:data:`windnav.predict.decoder.BOUNDARIES`, default ``blend``, as
     :func:`windnav.predict.load_decoder`): the rule of the decoder ``which`` names."""
-    parser.add_argument("--boundary", choices=("blend", "average", "floor"), default="blend",
+    parser.add_argument("--boundary", choices=BOUNDARY_RULES, default=BOUNDARY_RULES[0],
                         help=BOUNDARY_HELP.format(which=f"the decoder ({which})"))
 
 
 def add_compare_boundary_argument(parser) -> None:
     """Add ``--compare-boundary``: the ``--compare`` models' rule (default: ``--boundary``'s)."""
-    parser.add_argument("--compare-boundary", choices=("blend", "average", "floor"),
+    parser.add_argument("--compare-boundary", choices=BOUNDARY_RULES,
                         default=None,
                         help="the --compare models' rule at the sector boundaries, as "
                              "--boundary (default: --boundary's)")
