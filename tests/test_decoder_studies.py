@@ -412,7 +412,7 @@ def test_map_subset_keeps_every_kind_of_map_in_proportion():
     from windnav.experiments.decoder_studies import map_subset
     from windnav.predict.train import RECIPES, load_recipe
 
-    recipe = load_recipe(RECIPES / "default.toml")
+    recipe = load_recipe(RECIPES / "default_2026-12-06.toml")   # the scaling study's
     assert map_subset(recipe, 1.0) == []
     left_out = map_subset(recipe, 0.25)
     counts = {g["name"]: g["count"] for g in recipe["sweep"]["maps"]}
@@ -730,16 +730,21 @@ def test_the_full_study_recipes_load(study):
 
 def test_the_scaling_study_is_the_default_recipe_before_the_turned_scenes():
     """Its committed figures (decoder_scaling.json) were measured with the default recipe
-    of 2026-12-01; its full-sweep arm is that recipe's run, fingerprint and all."""
+    of 2026-12-01 (69 maps, no turned scenes); its full-sweep arm is that recipe's run,
+    fingerprint and all, whatever the default has become since (turned scenes on 2026-12-06,
+    twice the 300 m maps in the forty-sixth session)."""
     import copy
 
     from windnav.experiments.decoder_studies import WIDE, scaling_recipe
     from windnav.predict.train import RECIPES, _fingerprint, load_recipe
 
     r, wide = scaling_recipe()
-    default = load_recipe(RECIPES / "default.toml")
+    default = load_recipe(RECIPES / "default_2026-12-06.toml")
     assert r["data"]["turn_deg"] == 0 and default["data"]["turn_deg"] == 4
     assert _fingerprint(r) == "0fe7330b88b78d73"
+    assert len(load_recipe(RECIPES / "default.toml")["sweep"]["maps"]) == len(
+        default["sweep"]["maps"])   # the same groups; the default's have more maps
+    assert r["sweep"]["maps"] != load_recipe(RECIPES / "default.toml")["sweep"]["maps"]
     assert wide == {**default["model"]["hyperparameters"], **WIDE}
     unturned = copy.deepcopy(default)
     unturned["data"]["turn_deg"] = 0

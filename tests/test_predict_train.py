@@ -961,8 +961,8 @@ def test_recipe_files_are_checked(tmp_path):
         load_recipe(bad)
 
 
-@pytest.mark.parametrize("name", ["default", "tiny", "thesis_mlp", "wrobot_noise", "wrobot_flight",
-                                  "ensemble"])
+@pytest.mark.parametrize("name", ["default", "default_2026-12-06", "tiny", "thesis_mlp",
+                                  "wrobot_noise", "wrobot_flight", "ensemble"])
 def test_shipped_recipes_are_complete(name):
     recipe = load_recipe(RECIPES / f"{name}.toml")
     names = [group["name"] for group in recipe["sweep"]["maps"]]
@@ -976,7 +976,8 @@ def test_shipped_recipes_are_complete(name):
 @pytest.mark.parametrize(("name", "noise"), [("wrobot_noise", 0.85), ("wrobot_flight", 2.7)])
 def test_wrobot_recipes_are_the_default_but_for_the_noise(name, noise):
     noisy = load_recipe(RECIPES / f"{name}.toml")
-    default = load_recipe(RECIPES / "default.toml")
+    # the default recipe of 2026-12-06 (69 maps), which their committed results were made on
+    default = load_recipe(RECIPES / "default_2026-12-06.toml")
     assert noisy["name"] == name
     assert noisy["data"].pop("w_robot_noise") == noise and default["data"].pop("w_robot_noise") == 0
     # and the squared loss their models were trained with (the default's since 2026-11-30 has
@@ -995,7 +996,7 @@ def test_ensemble_recipe_is_the_default_in_two_members_of_half_the_epochs():
     from windnav.predict.train import member_recipe
 
     ens = load_recipe(RECIPES / "ensemble.toml")
-    default = load_recipe(RECIPES / "default.toml")
+    default = load_recipe(RECIPES / "default_2026-12-06.toml")
     assert (ens["train"].pop("members"), ens["train"].pop("epochs")) == (2, 20)
     assert (default["train"].pop("members"), default["train"].pop("epochs")) == (1, 40)
     assert (ens["data"].pop("turn_deg"), default["data"].pop("turn_deg")) == (0, 4)
@@ -1004,7 +1005,7 @@ def test_ensemble_recipe_is_the_default_in_two_members_of_half_the_epochs():
     # its members are the default recipe at 20 epochs from seeds 0 and 1: the same runs
     ens = load_recipe(RECIPES / "ensemble.toml")
     for i in range(2):
-        single = load_recipe(RECIPES / "default.toml")
+        single = load_recipe(RECIPES / "default_2026-12-06.toml")
         single["train"].update(epochs=20, seed=i)
         single["data"]["turn_deg"] = 0
         assert _fingerprint(member_recipe(ens, i)) == _fingerprint(single)
@@ -1027,7 +1028,40 @@ def test_default_recipe_has_windinet_like_clusters():
         assert f[:, [0, 2]].min() >= 300.0 and f[:, [1, 3]].max() <= 800.0, name
     for _, city in extra[:6]:   # single blocks, as many as windinet's
         assert len(city.footprints) == 52
-    assert len(maps) == 69
+    assert len(maps) == 125
+
+
+def _samples_per_group(recipe):
+    """Training samples per block of each sweep group: maps x directions x weight x samples."""
+    d = recipe["data"]
+    return {g["name"]: g.get("count", 1) * len(recipe["sweep"]["directions_deg"])
+            * len(recipe["sweep"]["speeds"]) * d["map_weights"].get(g["name"], 1)
+            * d["samples_per_field"]
+            for g in recipe["sweep"]["maps"] if f"{g['name']}-0" not in d["validation_maps"]}
+
+
+def test_default_recipe_doubles_the_300_m_maps_and_keeps_each_groups_share():
+    """The default since the forty-sixth session (2026-12-06): twice the 300 m maps of the
+    recipe before (default_2026-12-06.toml), whose maps are the first half of each group, and
+    every group's samples per block as before (the 300 m groups' spread over twice the maps)."""
+    new = load_recipe(RECIPES / "default.toml")
+    old = load_recipe(RECIPES / "default_2026-12-06.toml")
+    counts = {g["name"]: g.get("count", 1) for g in new["sweep"]["maps"]}
+    before = {g["name"]: g.get("count", 1) for g in old["sweep"]["maps"]}
+    assert {k: counts[k] // before[k] for k in counts} == {
+        "dense": 2, "dense12": 2, "sparse": 2, "district": 1, "holdout": 1, "scattered": 2,
+        "cluster": 1, "cluster-stacked": 1}
+    assert _samples_per_group(new) == _samples_per_group(old)
+    assert sum(_samples_per_group(new).values()) == 552_960
+    for key in ("speeds", "directions_deg", "settings", "seed"):
+        assert new["sweep"][key] == old["sweep"][key], key
+    assert new["model"] == old["model"] and new["train"] == old["train"]
+    # the first maps of each group are the recipe's before, building for building
+    old_maps = {name: city for name, _, city in recipe_maps(old)}
+    for name, _, city in recipe_maps(new):
+        if name in old_maps:
+            np.testing.assert_array_equal(city.footprints, old_maps[name].footprints)
+    assert len(old_maps) == 69
 
 
 def test_a_file_map_is_read_from_its_rotorpy_json(tmp_path):
@@ -1068,12 +1102,13 @@ def test_a_recipe_starts_from_its_base(tmp_path):
     for key in ("sweep", "train"):
         assert b[key] == a[key] == tiny[key]
     assert a["model"]["hyperparameters"] == {"pool": 3, "modes": 8}
-    # the shipped recipes that start from default.toml resolve to it but for what they set
+    # the shipped recipes that start from default_2026-12-06.toml resolve to it but for what
+    # they set
     thesis = load_recipe(RECIPES / "thesis_mlp.toml")
-    default = load_recipe(RECIPES / "default.toml")
+    default = load_recipe(RECIPES / "default_2026-12-06.toml")
     assert thesis["model"]["hyperparameters"] == {"width": 2048, "depth": 3}
     assert thesis["sweep"]["maps"] == default["sweep"]["maps"]
-    assert thesis["sweep"]["store"] == "../default/sweep.zarr"
+    assert thesis["sweep"]["store"] == "../default_2026-12-06/sweep.zarr"
 
 
 def test_a_recipe_file_without_a_section_is_warned(tmp_path):
@@ -1209,7 +1244,7 @@ def test_turned_scenes_train_and_the_validation_is_scored_as_simulated(tiny):
 
 
 def test_no_turn_keeps_earlier_fingerprints_and_a_turn_changes_it():
-    recipe = load_recipe("default")
+    recipe = load_recipe("default_2026-12-06")
     assert recipe["data"]["turn_deg"] == 4   # since 2026-12-06
     unturned = copy.deepcopy(recipe)
     unturned["data"]["turn_deg"] = 0
@@ -1217,9 +1252,13 @@ def test_no_turn_keeps_earlier_fingerprints_and_a_turn_changes_it():
     del older["data"]["turn_deg"]
     # the recipe before 2026-12-06, whose model is decoder_2026-12-01.npz (benchmarks.md)
     assert _fingerprint(older) == _fingerprint(unturned) == "0fe7330b88b78d73"
-    assert _fingerprint(recipe) == "8eab07857d7435de"   # the shipped model's (benchmarks.md)
-    # the trial of the turned scenes is the default since
+    assert _fingerprint(recipe) == "8eab07857d7435de"   # decoder_2026-12-06.npz's (benchmarks.md)
+    # the trial of the turned scenes was the default from then
     assert _fingerprint(load_recipe(RECIPES / "turned.toml")) == _fingerprint(recipe)
+    # and the default since the forty-sixth session is the trial with twice the 300 m maps,
+    # whose run is the shipped model (benchmarks.md)
+    assert _fingerprint(load_recipe("default")) == _fingerprint(
+        load_recipe(DOCS_DATA / "decoder_trial_maps2w.toml")) == "d932fca1ed95f341"
 
 
 @pytest.mark.parametrize(("path", "fingerprint"), [
@@ -1229,10 +1268,13 @@ def test_no_turn_keeps_earlier_fingerprints_and_a_turn_changes_it():
     (RECIPES / "wrobot_flight.toml", "e434da5beafeb1b8"),
     (DOCS_DATA / "decoder_trial_wd02.toml", "b2809d3f49d0097d"),
     (DOCS_DATA / "decoder_trial_e80.toml", "bd4fcb5daf035816"),
-    (DOCS_DATA / "decoder_trial_fade0.toml", "c9b940d2eb49ed56")])
+    (DOCS_DATA / "decoder_trial_fade0.toml", "c9b940d2eb49ed56"),
+    (DOCS_DATA / "decoder_trial_maps2.toml", "b57fa4cc6b5d5a21")])
 def test_recipes_on_the_default_keep_the_fingerprints_of_their_runs(path, fingerprint):
-    """They were trained without turned scenes; the default's turn (2026-12-06) must not reach
-    them, or their runs could not resume and their records would not be theirs."""
+    """They were trained without turned scenes, on the 69 maps of default_2026-12-06.toml (the
+    trial of twice the 300 m maps on 125, with turns); neither the default's turn (2026-12-06)
+    nor its doubled maps (since the forty-sixth session) must reach them, or their runs could
+    not resume and their records would not be theirs."""
     recipe = load_recipe(path)
-    assert recipe["data"]["turn_deg"] == 0
+    assert recipe["data"]["turn_deg"] == (4 if "maps2" in path.name else 0)
     assert _fingerprint(recipe) == fingerprint

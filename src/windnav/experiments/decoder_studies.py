@@ -793,8 +793,8 @@ def area_fraction(size, spacing: float = 1.0, d_max: float = D_MAX):
 
 STUDY_SCHEDULE = {"winds": {"epochs": 20, "samples_per_field": 384, "learning_rate": 3e-4},
                   "size": {"epochs": 12, "samples_per_field": 384}}
-"""The studies' reduced training schedules (the default recipe: 40 epochs x 768 samples per
-field over 264 fields). The thesis MLP's learning rate is 3e-4, not the thesis's 1e-3: at 1e-3
+"""The studies' reduced training schedules (the default recipe: 40 epochs of about 553k
+samples). The thesis MLP's learning rate is 3e-4, not the thesis's 1e-3: at 1e-3
 the models given no ``W_robot`` stopped learning in the first epoch (every ReLU unit dead: a
 constant output), at 3e-4 they learn."""
 
@@ -828,7 +828,8 @@ def study_recipe(study: str, *, quick: bool = False, epochs: int | None = None,
         r = load_recipe(RECIPES / "tiny.toml")
         r["train"]["epochs"] = 2
     else:
-        r = load_recipe(RECIPES / "default.toml")
+        # the default recipe as the studies' figures were measured with (its maps are replaced)
+        r = load_recipe(RECIPES / "default_2026-12-06.toml")
         r["name"] = "decoder-studies"
         r["sweep"]["backend"] = "serial"
         r["sweep"]["workers"] = 1
@@ -1073,9 +1074,10 @@ def map_subset(recipe: dict, fraction: float) -> list[str]:
 
 def scaling_recipe(*, quick: bool = False) -> tuple[dict, dict]:
     """The scaling study's recipe and its wide model's hyperparameters (:func:`scaling_study`):
-    the default recipe as it was until 2026-12-06, without turned training scenes (the study's
-    figures were measured so; it compares maps and model sizes), single models; ``quick``: the
-    tiny recipe for 2 epochs, the wide model at twice its widths."""
+    the default recipe as it was until 2026-12-06 (69 maps, ``default_2026-12-06.toml``, without
+    its turned training scenes: the study's figures were measured so; it compares maps and model
+    sizes), single models; ``quick``: the tiny recipe for 2 epochs, the wide model at twice its
+    widths."""
     from windnav.predict.train import RECIPES, load_recipe
 
     if quick:
@@ -1084,7 +1086,7 @@ def scaling_recipe(*, quick: bool = False) -> tuple[dict, dict]:
         hp = r["model"]["hyperparameters"]
         wide_hp = {**hp, **{k: 2 * hp[k] for k in ("embed", "width")}}
     else:
-        r = load_recipe(RECIPES / "default.toml")
+        r = load_recipe(RECIPES / "default_2026-12-06.toml")
         r["train"]["members"] = 1   # the study compares single models
         r["data"]["turn_deg"] = 0
         wide_hp = {**r["model"]["hyperparameters"], **WIDE}
@@ -1096,9 +1098,10 @@ def scaling_study(runs_dir, *, fractions=SCALING_FRACTIONS, wide: bool = True,
                   quick: bool = False, progress: bool = False, seed: int = 0) -> dict:
     """What limits the decoder: the number of training maps, or the model's size?
 
-    The default recipe (sweep, samples, 40-epoch schedule) trained on a fraction of its
-    training maps (:func:`map_subset`), each fraction with its samples per field scaled up so
-    that every model sees as many training samples per epoch, and the same number of steps; and
+    The default recipe of 2026-12-06 (sweep, samples, 40-epoch schedule) trained on a fraction
+    of its 68 training maps (:func:`map_subset`), each fraction with its samples per field
+    scaled up so that every model sees as many training samples per epoch, and the same number
+    of steps; and
     at the full sweep a wider d4-film (:data:`WIDE`). The full-sweep arm is the default recipe
     as it was until 2026-12-06, without turned training scenes (so a ``maps-1`` folder linked to
     a finished ``windnav train-decoder`` run of that recipe is reused; :func:`scaling_recipe`).
