@@ -176,7 +176,8 @@ def test_the_added_words_survive_a_list_option_and_a_line_that_no_longer_parses_
 
 
 def test_the_committed_one_pass_evaluation_names_its_rule():
-    words = command_arguments(json.loads((DOCS / "decoder_eval_windinet.json").read_text()))
+    words = command_arguments(json.loads((DOCS / "decoder_eval_windinet_2026-12-06.json")
+                                         .read_text()))
     p = _parsed(words)
     assert (p["boundary"], _compared_rule(p)) == ("average", "average")
     words = command_arguments(json.loads((DOCS / "decoder_eval_windinet_blend.json")

@@ -761,10 +761,11 @@ def test_the_documented_improvement_intervals_come_from_improvement_interval():
         assert improvement_interval(recs, metric=metric, group="windinet")["value"] == \
             pytest.approx(pooled["improvement_pct"]["local"][metric], rel=1e-6)
     # the shipped model of 2026-12-06 against that of 2026-12-01 (decoder.md, "Evaluation")
-    recs_now = json.loads((DATA / "decoder_eval_windinet.json").read_text())["records"]
+    recs_now = json.loads((DATA / "decoder_eval_windinet_2026-12-06.json").read_text())[
+        "records"]
     got = improvement_interval(recs_now, "decoder", "2026-12-01", group="windinet")
     assert [round(x, 2) for x in [got["value"], *got["ci95"]]] == [0.11, -0.68, 0.84]
-    dense = json.loads((DATA / "decoder_eval.json").read_text())["records"]
+    dense = json.loads((DATA / "decoder_eval_2026-12-06.json").read_text())["records"]
     got = improvement_interval(dense, "decoder", "2026-12-01", "direction_error_deg", group="all")
     assert [round(x, 2) for x in [got["value"], *got["ci95"]]] == [0.84, 0.51, 1.17]
     assert improvement_interval(recs[:5], group="windinet")["ci95"] is None   # too few slots

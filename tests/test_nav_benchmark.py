@@ -380,13 +380,13 @@ def test_the_onboard_stack_flies_the_pinned_decoder_not_the_shipped_default():
     np.testing.assert_array_equal(
         pinned.predict(scans, w, w),
         load_decoder(DEFAULT_MODEL.parent / "decoder_2026-11-23.npz").predict(scans, w, w))
-    newer = decoder_of("ea-mppi-w-hat@decoder=2026-12-06")
+    newer = decoder_of("ea-mppi-w-hat@decoder=2026-12-06-maps")
     np.testing.assert_array_equal(newer.predict(scans, w, w),
                                   load_decoder().predict(scans, w, w))
     assert not np.array_equal(newer.predict(scans, w, w), pinned.predict(scans, w, w))
     # the defaults it replaced
-    for date in ("2026-12-01", "2026-11-30-clusters", "2026-11-30", "2026-11-29-area",
-                 "2026-11-29", "2026-11-26"):
+    for date in ("2026-12-06", "2026-12-01", "2026-11-30-clusters", "2026-11-30",
+                 "2026-11-29-area", "2026-11-29", "2026-11-26"):
         older = decoder_of(f"ea-mppi-w-hat@decoder={date}")
         np.testing.assert_array_equal(
             older.predict(scans, w, w),

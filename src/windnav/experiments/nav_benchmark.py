@@ -345,8 +345,10 @@ DECODERS = {
                             "db58e11bab470127aa5c748254ba27813ba32438910c5609cdaf52ca51c25b3f"),
     "2026-12-01": ("decoder_2026-12-01.npz",
                    "e02053ddc7e3f8b7a7d3a4351fc5644c189772a849bc52d60bc456d030786a43"),
-    "2026-12-06": ("decoder_default.npz",
+    "2026-12-06": ("decoder_2026-12-06.npz",
                    "7551605058863134abac688d638cd3e1c29a5e85727b371c578679a1348eb0b3"),
+    "2026-12-06-maps": ("decoder_default.npz",
+                        "6af94e9470f4f9e7bc39964088878813ecc2f7de4df5d4dccbb63a7890a0b1d3"),
     "2026-11-29-flight": ("decoder_2026-11-29-flight.npz",
                           "5c1fcadb03ad19b08326fcc1238a4851b725d35548b6340e72782a9461cda14e"),
 }
@@ -361,8 +363,10 @@ metrics' own forms as the loss; ``2026-11-30-clusters``, the second default of t
 that recipe with the six 1.1 km clusters drawn twice as often (``map_weights`` 8 instead of 4);
 ``2026-12-01``, the default until 2026-12-06, has eight clusters (two more of 52 single
 blocks), each drawn 6 times over, for the same number of samples; ``2026-12-06``, the default
-since, is that recipe with every training scene turned about its robot by up to 4 deg
-(``data.turn_deg``).
+from the forty-fifth session of 2026-12-06 to the forty-sixth, is that recipe with every
+training scene turned about its robot by up to 4 deg (``data.turn_deg``); ``2026-12-06-maps``,
+the default since, is that recipe with twice the 300 m maps, each group keeping its share of
+the samples.
 ``2026-11-29-flight`` is not a default: the recipe ``wrobot_flight.toml`` (the default's with
 0.45 U of noise on ``W_robot``, the in-flight error of the onboard estimate against the mean
 wind)."""
@@ -371,10 +375,10 @@ BENCHMARK_DECODER = "2026-11-23"
 """The decoder (a key of :data:`DECODERS`) that the benchmark's onboard stack
 (``ea-mppi-w-hat``) flies: the model its committed flights (``docs/navigation/``) were flown
 with. The shipped default (:func:`windnav.predict.load_decoder`) was retrained on 2026-11-26,
-twice on 2026-11-29, twice on 2026-11-30, on 2026-12-01 and on 2026-12-06
+twice on 2026-11-29, twice on 2026-11-30, on 2026-12-01 and twice on 2026-12-06
 (``ea-mppi-w-hat@decoder=2026-11-26``, ``@decoder=2026-11-29``, ``@decoder=2026-11-29-area``,
-``@decoder=2026-11-30``, ``@decoder=2026-11-30-clusters``, ``@decoder=2026-12-01`` and
-``@decoder=2026-12-06`` fly them);
+``@decoder=2026-11-30``, ``@decoder=2026-11-30-clusters``, ``@decoder=2026-12-01``,
+``@decoder=2026-12-06`` and ``@decoder=2026-12-06-maps`` fly them);
 pinning the benchmark's model keeps every recorded flight replayable to the bit."""
 
 

@@ -1029,7 +1029,7 @@ class Decoder(ReadOnlyOnCopy):
         field turned back onto the world-aligned grid by bilinear interpolation
         (:func:`turn_field_back`). A test-time ensemble of one model: ``(0, -3, 3)`` took the
         windinet speed error of the model of 2026-12-01 from 0.618 to 0.601 m/s at 3.5 x the
-        time, and the shipped model's (2026-12-06) from 0.6175 to 0.6006 (docs/decoder.md,
+        time, and that of the model of 2026-12-06 from 0.6175 to 0.6006 (docs/decoder.md,
         "Turned views"). Default: the scene as given, one pass.
 
     Attributes
