@@ -962,7 +962,8 @@ def test_recipe_files_are_checked(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["default", "default_2026-12-06", "tiny", "thesis_mlp",
-                                  "wrobot_noise", "wrobot_flight", "ensemble"])
+                                  "thesis_mlp_2026-12-06", "wrobot_noise", "wrobot_flight",
+                                  "ensemble"])
 def test_shipped_recipes_are_complete(name):
     recipe = load_recipe(RECIPES / f"{name}.toml")
     names = [group["name"] for group in recipe["sweep"]["maps"]]
@@ -1011,8 +1012,9 @@ def test_ensemble_recipe_is_the_default_in_two_members_of_half_the_epochs():
         assert _fingerprint(member_recipe(ens, i)) == _fingerprint(single)
 
 
-def test_thesis_mlp_recipe_keeps_the_thesis_loss():
-    t = load_recipe(RECIPES / "thesis_mlp.toml")["train"]
+@pytest.mark.parametrize("name", ["thesis_mlp", "thesis_mlp_2026-12-06"])
+def test_thesis_mlp_recipe_keeps_the_thesis_loss(name):
+    t = load_recipe(RECIPES / f"{name}.toml")["train"]
     assert (t["vector_loss"], t["speed_loss_weight"], t["direction_loss_weight"],
             t["loss_speed_power"], t["weight_decay"]) == ("squared", 0.0, 0.0, 2.0, 0.002)
 
@@ -1102,13 +1104,16 @@ def test_a_recipe_starts_from_its_base(tmp_path):
     for key in ("sweep", "train"):
         assert b[key] == a[key] == tiny[key]
     assert a["model"]["hyperparameters"] == {"pool": 3, "modes": 8}
-    # the shipped recipes that start from default_2026-12-06.toml resolve to it but for what
-    # they set
-    thesis = load_recipe(RECIPES / "thesis_mlp.toml")
-    default = load_recipe(RECIPES / "default_2026-12-06.toml")
-    assert thesis["model"]["hyperparameters"] == {"width": 2048, "depth": 3}
-    assert thesis["sweep"]["maps"] == default["sweep"]["maps"]
-    assert thesis["sweep"]["store"] == "../default_2026-12-06/sweep.zarr"
+    # the shipped recipes that start from another resolve to it but for what they set: the
+    # thesis MLP on the default's data, and that of 2026-12-06 on that recipe's
+    for name, base, store in (("thesis_mlp", "default", "../default/sweep.zarr"),
+                              ("thesis_mlp_2026-12-06", "default_2026-12-06",
+                               "../default_2026-12-06/sweep.zarr")):
+        thesis = load_recipe(RECIPES / f"{name}.toml")
+        default = load_recipe(RECIPES / f"{base}.toml")
+        assert thesis["model"]["hyperparameters"] == {"width": 2048, "depth": 3}
+        assert thesis["sweep"] == {**default["sweep"], "store": store}
+        assert thesis["data"] == {**default["data"], "turn_deg": 0}
 
 
 def test_a_recipe_file_without_a_section_is_warned(tmp_path):
@@ -1263,7 +1268,7 @@ def test_no_turn_keeps_earlier_fingerprints_and_a_turn_changes_it():
 
 @pytest.mark.parametrize(("path", "fingerprint"), [
     (RECIPES / "ensemble.toml", "8bde9713598e5c73"),
-    (RECIPES / "thesis_mlp.toml", "4031057be4d60171"),
+    (RECIPES / "thesis_mlp_2026-12-06.toml", "4031057be4d60171"),
     (RECIPES / "wrobot_noise.toml", "86f818972f337ae1"),
     (RECIPES / "wrobot_flight.toml", "e434da5beafeb1b8"),
     (DOCS_DATA / "decoder_trial_wd02.toml", "b2809d3f49d0097d"),
