@@ -1266,20 +1266,20 @@ def test_no_turn_keeps_earlier_fingerprints_and_a_turn_changes_it():
         load_recipe(DOCS_DATA / "decoder_trial_maps2w.toml")) == "d932fca1ed95f341"
 
 
-@pytest.mark.parametrize(("path", "fingerprint"), [
-    (RECIPES / "ensemble.toml", "8bde9713598e5c73"),
-    (RECIPES / "thesis_mlp_2026-12-06.toml", "4031057be4d60171"),
-    (RECIPES / "wrobot_noise.toml", "86f818972f337ae1"),
-    (RECIPES / "wrobot_flight.toml", "e434da5beafeb1b8"),
-    (DOCS_DATA / "decoder_trial_wd02.toml", "b2809d3f49d0097d"),
-    (DOCS_DATA / "decoder_trial_e80.toml", "bd4fcb5daf035816"),
-    (DOCS_DATA / "decoder_trial_fade0.toml", "c9b940d2eb49ed56"),
-    (DOCS_DATA / "decoder_trial_maps2.toml", "b57fa4cc6b5d5a21")])
-def test_recipes_on_the_default_keep_the_fingerprints_of_their_runs(path, fingerprint):
+@pytest.mark.parametrize(("path", "fingerprint", "turn_deg"), [
+    (RECIPES / "ensemble.toml", "8bde9713598e5c73", 0),
+    (RECIPES / "thesis_mlp_2026-12-06.toml", "4031057be4d60171", 0),
+    (RECIPES / "wrobot_noise.toml", "86f818972f337ae1", 0),
+    (RECIPES / "wrobot_flight.toml", "e434da5beafeb1b8", 0),
+    (DOCS_DATA / "decoder_trial_wd02.toml", "b2809d3f49d0097d", 0),
+    (DOCS_DATA / "decoder_trial_e80.toml", "bd4fcb5daf035816", 0),
+    (DOCS_DATA / "decoder_trial_fade0.toml", "c9b940d2eb49ed56", 0),
+    (DOCS_DATA / "decoder_trial_maps2.toml", "b57fa4cc6b5d5a21", 4)])
+def test_recipes_on_the_default_keep_the_fingerprints_of_their_runs(path, fingerprint, turn_deg):
     """They were trained without turned scenes, on the 69 maps of default_2026-12-06.toml (the
     trial of twice the 300 m maps on 125, with turns); neither the default's turn (2026-12-06)
     nor its doubled maps (since the forty-sixth session) must reach them, or their runs could
     not resume and their records would not be theirs."""
     recipe = load_recipe(path)
-    assert recipe["data"]["turn_deg"] == (4 if "maps2" in path.name else 0)
+    assert recipe["data"]["turn_deg"] == turn_deg
     assert _fingerprint(recipe) == fingerprint
