@@ -104,8 +104,10 @@ def run(model=None, compare=(), *, boundary: str = "average", rotations_deg=None
     """Score ``model`` (default: shipped) and the ``compare`` files on the held-out district."""
     from windnav.experiments.decoder_eval import improvement_interval
     from windnav.predict import load_decoder
+    from windnav.predict.decoder import model_sha256
 
     reference = load_decoder(model, boundary=boundary, rotations_deg=rotations_deg)
+    sha256 = {"decoder": model_sha256(model), **{n: model_sha256(p) for n, p in compare}}
     others = {name: load_decoder(path, boundary=boundary, rotations_deg=rotations_deg)
               for name, path in compare}
     t0 = time.perf_counter()
@@ -124,7 +126,8 @@ def run(model=None, compare=(), *, boundary: str = "average", rotations_deg=None
                   **{n: {m: r[n][m] for m in METRICS} for n in names}} for r in records]
     return {"reference": str(model) if model is not None else "shipped", "boundary": boundary,
             "rotations_deg": None if rotations_deg is None else [float(a) for a in rotations_deg],
-            "compare": {n: str(p) for n, p in compare}, "map": views.VALIDATION_MAP,
+            "compare": {n: str(p) for n, p in compare}, "sha256": sha256,
+            "map": views.VALIDATION_MAP,
             "runs": [list(r) for r in runs], "inlets": len(records),
             "samples": int(sum(r["n_samples"] for r in records)), "pooled": pooled,
             "versus_reference": versus, "per_inlet": per_inlet, "failed": failed,

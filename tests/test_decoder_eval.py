@@ -6,6 +6,7 @@ random weights: the numbers are checked against the metrics computed by hand, no
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import subprocess
@@ -402,6 +403,9 @@ def test_predict_writes_its_figure_and_json(map_and_model, capsys):
     assert doc["command"] == "windnav predict"
     assert set(doc["metrics"]) == {"decoder", "local", "upstream", "improvement_pct"}
     assert doc["metrics"]["upstream"]["n_free"] > 0
+    assert doc["model_files"]["model"] == {
+        "path": str(d / "model.npz"),
+        "sha256": hashlib.sha256((d / "model.npz").read_bytes()).hexdigest()}
     # the prediction itself, not only its errors (CLI audit, 2026-12-05)
     u, v = doc["prediction_at_position"]
     assert np.isfinite([u, v]).all() and doc["n_window_cells"] >= doc["n_free_cells"] > 0
@@ -465,6 +469,12 @@ def test_evaluate_decoder_command_writes_json_and_figure(map_and_model, monkeypa
     assert doc["records"][0]["decoder"]["n_free"] > 0
     assert doc["compared"]["other"]["path"] == str(d / "other.npz")
     assert doc["records"][0]["other"]["n_free"] == doc["records"][0]["decoder"]["n_free"]
+    # the weights read, by hash (windnav.provenance names a replaced default's dated file)
+    sha = {f: hashlib.sha256((d / f).read_bytes()).hexdigest() for f in ("model.npz", "other.npz")}
+    assert doc["model_files"] == {
+        "model": {"path": str(d / "model.npz"), "sha256": sha["model.npz"]},
+        "compare": {f"other={d / 'other.npz'}": {"path": str(d / "other.npz"),
+                                                 "sha256": sha["other.npz"]}}}
     # standard output: the summary alone (the "wrote" lines and the cache's on standard error)
     assert "other" in json.loads(capsys.readouterr().out)["pooled"]["all"]
 

@@ -5,6 +5,7 @@ are checked."""
 
 from __future__ import annotations
 
+import hashlib
 import importlib.util
 import json
 import sys
@@ -107,6 +108,8 @@ def test_the_command_writes_its_json_and_refuses_what_it_cannot_run(stubbed, tmp
                      f"cand={paths['cand']}", "--runs", "2:1", "--no-progress"]) == 0
     res = json.loads((out / "decoder_holdout.json").read_text())
     assert res["boundary"] == "average" and res["runs"] == [[2, 1]]
+    assert res["sha256"] == {n: hashlib.sha256(paths[f].read_bytes()).hexdigest()
+                             for n, f in (("decoder", "ref"), ("cand", "cand"))}
     assert res["rotations_deg"] is None
     assert mod.main(["--out", str(out), "--compare", f"cand={paths['cand']}", "--runs", "1:1",
                      "--rotations-deg", "0", "-3", "3", "--no-progress"]) == 0

@@ -26,7 +26,7 @@ from windnav.experiments.decoder_studies import (
     mosaic,
 )
 from windnav.predict import field_errors, grid_offsets
-from windnav.predict.decoder import Decoder, make_architecture
+from windnav.predict.decoder import Decoder, make_architecture, model_sha256
 
 HP = {"conv_channels": 2, "embed": 8, "film_hidden": 4, "width": 8, "depth": 1, "modes": 4}
 
@@ -214,6 +214,7 @@ def test_decoder_study_winds_quick_trains_the_four_configurations(runs, tmp_path
     assert doc["study"] == "winds" and doc["schedule"]["epochs"] == 2
     variants = doc["variants"]
     assert list(variants) == ["none", "up", "robot", "both"]
+    assert "model_files" not in doc  # it trains its own models
     for v in variants.values():
         for model in ("model", "local", "upstream"):
             assert np.isfinite(v["errors"][model]["speed_error"])
@@ -237,6 +238,9 @@ def test_decoder_study_eigenflows_quick_writes_figure_and_json(tmp_path, capsys)
     # recorded the defaults, 1 and 2, under the words that left them out)
     assert (doc["arguments"]["maps"], doc["arguments"]["inlets"]) == (None, None)
     assert doc["argv"][:2] == ["decoder-study", "eigenflows"]
+    # the default decoder's file by its hash, so the line still names it once it is replaced
+    assert doc["model_files"] == {"model": {"path": "default", "sha256": model_sha256()},
+                                  "compare": {}}
     # the quick flow is far too short to be a converged mean: said, as evaluate-decoder and
     # predict say of their truths (the studies said nothing; leftover of 2026-12-06)
     assert doc["flows"]["slots"][0]["averaging"]["level"] == "warning"

@@ -17,6 +17,7 @@ import pytest
 
 import windnav.cli as cli
 from windnav.experiments.results import NOT_ARGUMENTS
+from windnav.predict.decoder import DEFAULT_MODEL, model_sha256, shipped_model_file
 from windnav.provenance import command_arguments, command_line
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
@@ -51,6 +52,11 @@ def test_every_committed_result_rebuilds_to_its_own_arguments(path, doc):
     assert words[:2] == doc["command"].split()[:2]
     parsed = _parsed(words)
     recorded = {k: v for k, v in doc["arguments"].items() if k not in NOT_ARGUMENTS}
+    made = (doc.get("model_files") or {}).get("model") or {}
+    if made.get("sha256") and recorded.get("model") is None:  # the default of its day
+        # by its hash: the current default, or the dated file the line names
+        assert model_sha256(parsed["model"]) == made["sha256"]
+        parsed["model"] = None
     assert {k: parsed.get(k) for k in recorded} == recorded
 
 
@@ -93,3 +99,44 @@ def test_a_result_the_interface_can_no_longer_rebuild_is_an_error_naming_why():
         command_line({"command": "windnav fly"})
     with pytest.raises(ValueError, match="no longer a windnav command"):
         command_line({"command": "windnav teleport", "arguments": {}})
+
+
+def _predict_result(model_files: dict, model=None) -> dict:
+    """A result of ``windnav predict`` as it records its arguments and model files."""
+    typed = ["predict", "--map", "m.json", "--at", "10", "20", "--speed", "5",
+             "--direction-deg", "30", "--out", "runs/p"]
+    if model is not None:
+        typed += ["--model", model]
+    args = _parsed(["windnav", *typed])
+    return {"command": "windnav predict", "argv": typed, "model_files": model_files,
+            "arguments": {k: v for k, v in args.items() if k not in NOT_ARGUMENTS}}
+
+
+def test_a_result_of_a_replaced_default_model_names_its_dated_file():
+    # Results made with the default decoder named no model, so once a new model was shipped
+    # their line ran the new one. Since the forty-seventh session they record its hash.
+    dated = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})
+    assert dated, "the dated files of replaced models are installed"
+    old = dated[-1]
+    assert shipped_model_file(model_sha256(old)) == old
+    assert shipped_model_file(model_sha256()) == DEFAULT_MODEL
+    assert shipped_model_file("0" * 64) is None
+
+    then = _predict_result({"model": {"path": "default", "sha256": model_sha256(old)}})
+    words = command_arguments(then)
+    assert words[:4] == ["windnav", "predict", "--model", str(old.relative_to(Path.cwd()))
+                         if old.is_relative_to(Path.cwd()) else str(old)]
+    assert model_sha256(_parsed(words)["model"]) == model_sha256(old)
+    assert words[4:] == then["argv"][1:]                    # the rest as typed
+
+    now = _predict_result({"model": {"path": "default", "sha256": model_sha256()}})
+    assert command_arguments(now) == ["windnav", *now["argv"]]   # still the default
+    given = _predict_result({"model": {"path": "x.npz", "sha256": "0" * 64}}, model="x.npz")
+    assert command_arguments(given) == ["windnav", *given["argv"]]   # named: as typed
+    before = _predict_result({})                            # no hash recorded: as typed
+    assert command_arguments(before) == ["windnav", *before["argv"]]
+
+    gone = _predict_result({"model": {"path": "default", "sha256": "0" * 64}})
+    with pytest.raises(ValueError, match=r"default decoder of its day \(SHA-256 0{64}\), "
+                                         "which this windnav no longer installs"):
+        command_line(gone)

@@ -18,6 +18,12 @@ since a result was written (or an option was added with a default other than wha
 was made with: :data:`VALUES_BEFORE`), the line names the recorded value right after the
 command's name, so that it still reproduces the result: the decoder's ``--boundary`` became
 ``blend`` on 2026-12-06, and a result made with one pass rebuilds with ``--boundary average``.
+A result made with the default decoder (no ``--model``) records, since 2026-12-06 (the
+forty-seventh session), the SHA-256 of the file it read (``model_files``); where the shipped
+model has been replaced since, the rebuilt line names the dated file kept of the one the result
+was made with (``--model src/windnav/predict/data/decoder_<label>.npz``), and a model no longer
+installed is an error naming its hash. Results written before then record no hash, and their
+line names no model: they ran with the default of their day, which their documents name.
 A test rebuilds every committed result and parses it back to its own arguments. Some commands
 record a value they filled in themselves (``fly``'s ``--wind-sigma`` under ``--wind
 constant``), which the rebuilt line then gives and the command may refuse; the typed ``argv``
@@ -33,7 +39,7 @@ import shlex
 from collections.abc import Mapping
 from pathlib import Path
 
-__all__ = ["command_line", "command_arguments", "VALUES_BEFORE"]
+__all__ = ["command_line", "command_arguments", "VALUES_BEFORE", "MODEL_COMMANDS"]
 
 VALUES_BEFORE = {
     "evaluate-decoder": {"boundary": "average", "compare_boundary": "average"},
@@ -46,6 +52,11 @@ was made with: the decoder's rule at the sector boundaries. ``--boundary`` came 
 ``--compare-boundary`` on 2026-12-06, when ``blend`` became the default; before, the decoders
 took one pass (``average``; the side rounding picked until 2026-12-05, the same answer for every
 inlet off a multiple of 45 deg, where no random evaluation inlet falls)."""
+
+
+MODEL_COMMANDS = ("evaluate-decoder", "decoder-study", "predict")
+"""The commands whose ``--model`` defaults to the shipped decoder, which changes with each
+model shipped: their results record the file's hash (``model_files``)."""
 
 
 def _load(doc) -> Mapping:
@@ -119,7 +130,8 @@ def command_arguments(doc) -> list[str]:
     name = command.split()[1]
     argv = doc.get("argv")
     if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
-        return _changed_defaults(["windnav", *argv], root, name, recorded)
+        return _default_model(_changed_defaults(["windnav", *argv], root, name, recorded),
+                              root, name, doc)
     if name not in root.commands:
         raise ValueError(f"{where}: the command {name!r} that wrote this result is no longer a "
                          "windnav command.")
@@ -159,7 +171,40 @@ def command_arguments(doc) -> list[str]:
         raise ValueError(f"{where}: the result records arguments that 'windnav {name}' no "
                          f"longer has: {', '.join(unknown)}; the line it was written by cannot "
                          "be rebuilt with this version.")
-    return _changed_defaults(words, root, name, recorded)
+    return _default_model(_changed_defaults(words, root, name, recorded), root, name, doc)
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the working folder where it lies under it (a checkout's
+    ``src/windnav/...``), else absolute."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd().resolve()))
+    except ValueError:
+        return str(path.resolve())
+
+
+def _default_model(words: list[str], parser, name: str, doc: Mapping) -> list[str]:
+    """``words`` with ``--model FILE`` inserted after the command's name where the result was
+    made with the default decoder (no ``--model`` in the words) whose file, by its recorded
+    SHA-256, is no longer the default: FILE is the installed file with that hash (the dated
+    copy kept of a replaced model), or a ValueError names the hash when none is installed."""
+    made = (doc.get("model_files") or {}).get("model") or {}
+    sha = made.get("sha256") if isinstance(made, Mapping) else None
+    if name not in MODEL_COMMANDS or not isinstance(sha, str) or not sha:
+        return words
+    if _parse(parser, words, name).get("model") is not None:
+        return words
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256, shipped_model_file
+
+    if DEFAULT_MODEL.is_file() and model_sha256() == sha:
+        return words
+    file = shipped_model_file(sha)
+    if file is None:
+        raise ValueError(f"command_line: the result was made with the default decoder of its "
+                         f"day (SHA-256 {sha}), which this windnav no longer installs (not "
+                         f"{str(DEFAULT_MODEL)!r} nor a dated file beside it); its line cannot "
+                         "name the model that made it.")
+    return words[:2] + ["--model", _shown(file)] + words[2:]
 
 
 def _changed_defaults(words: list[str], parser, name: str, recorded: Mapping) -> list[str]:

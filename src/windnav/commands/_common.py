@@ -85,6 +85,26 @@ def compare_boundary(args) -> str:
     return args.boundary if rule is None else rule
 
 
+def model_files(args) -> dict:
+    """The decoder files a command read, as its result records them (since 2026-12-06, the
+    forty-seventh session): ``{"model": {"path", "sha256"}, "compare": {ITEM: {"path",
+    "sha256"}}}`` for ``--model`` (``"default"``: the shipped model's file, hashed) and each
+    ``--compare`` item as given. :func:`windnav.provenance.command_line` names the dated file
+    of a default model that has since been replaced."""
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
+
+    def one(path):  # a missing file (refused by the command, naming it): no hash
+        exists = Path(DEFAULT_MODEL if path is None else path).is_file()
+        return {"path": "default" if path is None else str(path),
+                "sha256": model_sha256(path) if exists else None}
+
+    compare = {}
+    for item in getattr(args, "compare", None) or []:
+        text = str(item)  # [NAME=]FILE, read as evaluate-decoder's _compare_files reads it
+        compare[text] = one(text.split("=", 1)[1] if "=" in text else text)
+    return {"model": one(args.model), "compare": compare}
+
+
 def load_model(args, name: str):
     """``--model`` (default the shipped decoder) loaded with ``--rotations-deg`` and
     ``--boundary``, their errors naming the options."""

@@ -69,6 +69,7 @@ from windnav.commands._common import (
     cache_folder,
     document,
     inlet_direction,
+    model_files,
     options_named,
     outputs,
     print_written,
@@ -330,6 +331,8 @@ def run(args, simulate=None) -> int:
     if args.model is not None and not Path(args.model).is_file():
         raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
                          f"{str(args.model)!r} instead, which does not exist.")
+    # the weights a study that predicts reads, by hash (the training studies train their own)
+    files = None if study in TRAINING_STUDIES else model_files(args)
     products = (f"decoder_{study}.json", f"decoder_{study}.png")
     out = outputs(args, out=("--out", args.out, products))
     if study in TRAINING_STUDIES:  # before their sweep, which ran whole before this failed
@@ -423,6 +426,8 @@ def run(args, simulate=None) -> int:
         res["runs"] = str(runs)
     res["elapsed_s"] = time.perf_counter() - t0
     res["quick"] = bool(args.quick)
+    if files is not None:
+        res["model_files"] = files
     with out.writing() as stage:
         plot(res, stage.dir / products[1])
         doc = document("decoder-study", {"study": study, **_drop_bulk(study, res)}, args)

@@ -52,6 +52,7 @@ from windnav.commands._common import (
     compare_boundary,
     document,
     load_model,
+    model_files,
     outputs,
     print_written,
     seed,
@@ -134,6 +135,7 @@ def run(args, simulate=None, flow_settings=None) -> int:
     from windnav.predict.envelope import training_envelope
 
     dec = load_model(args, name)
+    files = model_files(args)  # the weights read, by hash
     training = training_conditions(training_envelope(dec))
     notes = dx_notes(training, args.dx)
     try:
@@ -152,6 +154,7 @@ def run(args, simulate=None, flow_settings=None) -> int:
         print(f"{name}: interrupted; {kept}", file=sys.stderr)
         return 130
     res["flow_cache"] = str(flow_cache) if flow_cache is not None else None
+    res["model_files"] = files
     res["truth_checks"] = check_truths(res, training)
     print_notes(notes + truth_summary(res), name)  # once the run is not refused
     with out.writing() as stage:

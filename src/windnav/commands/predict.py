@@ -37,6 +37,7 @@ from windnav.commands._common import (
     inlet_direction,
     inlet_speed,
     load_model,
+    model_files,
     options_named,
     outputs,
     print_written,
@@ -115,6 +116,7 @@ def run(args, flow_settings=None) -> int:
                          f"{dx:g}: half a cell or more from the map's edge. Got ({at[0]:g}, "
                          f"{at[1]:g}) instead.")
     dec = load_model(args, name)
+    files = model_files(args)  # the weights read, by hash
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     settings = {**PROTOCOL, "dt": auto_dt(dx, speed), **(flow_settings or {})}
     from windnav.predict.envelope import training_envelope
@@ -149,7 +151,7 @@ def run(args, flow_settings=None) -> int:
                "decoder": {"architecture": dec.architecture, "size": dec.size,
                            "path": str(args.model) if args.model else "default",
                            "boundary": dec.boundary, "rotations_deg": dec.rotations_deg},
-               "metrics": pred["metrics"],
+               "model_files": files, "metrics": pred["metrics"],
                "flow_diagnostics": diagnostics, "averaging": verdict, "travel": travel,
                "training": training, "notes": notes}
     with out.writing() as stage:

@@ -90,6 +90,7 @@ made by training, ``recipe``, ``metrics`` and ``training`` summaries.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -128,11 +129,13 @@ __all__ = [
     "load_decoder",
     "make_architecture",
     "member_weights",
+    "model_sha256",
     "on_sector_boundary",
     "permute_cells",
     "rotation_resampler",
     "save_decoder",
     "sector_boundary_distance_deg",
+    "shipped_model_file",
     "turn_field_back",
     "turned_inputs",
     "uncanonicalize",
@@ -146,6 +149,25 @@ FORMAT_VERSION = 1
 METADATA_KEY = "__metadata__"
 DEFAULT_MODEL = Path(__file__).resolve().parent / "data" / "decoder_default.npz"
 DEFAULT_RECIPE = "src/windnav/predict/recipes/default.toml"
+
+
+def model_sha256(path=None) -> str:
+    """The SHA-256 (64 hex digits) of the decoder file ``path`` (default: the shipped model's,
+    :data:`DEFAULT_MODEL`). A result records it beside the path it read (since 2026-12-06,
+    the forty-seventh session): a path names a file whose content can change, and the default
+    names a new model each time one is shipped (:mod:`windnav.provenance`)."""
+    return hashlib.sha256((DEFAULT_MODEL if path is None else Path(path)).read_bytes()).hexdigest()
+
+
+def shipped_model_file(sha256: str) -> Path | None:
+    """The decoder file installed with windnav whose SHA-256 is ``sha256``: the shipped
+    model's (:data:`DEFAULT_MODEL`) or one of the dated files kept of the models it replaced
+    (``decoder_<label>.npz`` beside it); None when none is."""
+    folder = DEFAULT_MODEL.parent
+    for path in [DEFAULT_MODEL, *sorted(set(folder.glob("decoder_*.npz")) - {DEFAULT_MODEL})]:
+        if path.is_file() and model_sha256(path) == sha256:
+            return path
+    return None
 N_WIND_FEATURES = 5
 """Wind features of d4-film (see :func:`wind_features`)."""
 PREDICT_CHUNK = 128
