@@ -107,9 +107,9 @@ def run(model=None, compare=(), *, boundary: str = "average", rotations_deg=None
     from windnav.predict.decoder import model_sha256
 
     reference = load_decoder(model, boundary=boundary, rotations_deg=rotations_deg)
-    sha256 = {"decoder": model_sha256(model), **{n: model_sha256(p) for n, p in compare}}
     others = {name: load_decoder(path, boundary=boundary, rotations_deg=rotations_deg)
               for name, path in compare}
+    sha256 = {"decoder": model_sha256(model), **{n: model_sha256(p) for n, p in compare}}
     t0 = time.perf_counter()
     records, failed, stopped = holdout_records(reference, others, model_path=model, runs=runs,
                                                flow_cache=flow_cache, progress=progress)

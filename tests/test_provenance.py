@@ -52,11 +52,17 @@ def test_every_committed_result_rebuilds_to_its_own_arguments(path, doc):
     assert words[:2] == doc["command"].split()[:2]
     parsed = _parsed(words)
     recorded = {k: v for k, v in doc["arguments"].items() if k not in NOT_ARGUMENTS}
-    made = (doc.get("model_files") or {}).get("model") or {}
+    files = doc.get("model_files") or {}
+    made = files.get("model") or {}
     if made.get("sha256") and recorded.get("model") is None:  # the default of its day
         # by its hash: the current default, or the dated file the line names
         assert model_sha256(parsed["model"]) == made["sha256"]
         parsed["model"] = None
+    for i, (text, rec) in enumerate((files.get("compare") or {}).items()):
+        if parsed["compare"][i] != text:  # the shipped file by path, since replaced
+            assert text.endswith(DEFAULT_MODEL.name) and rec["sha256"]
+            assert model_sha256(parsed["compare"][i].rpartition("=")[2]) == rec["sha256"]
+            parsed["compare"][i] = text
     assert {k: parsed.get(k) for k in recorded} == recorded
 
 
@@ -140,3 +146,72 @@ def test_a_result_of_a_replaced_default_model_names_its_dated_file():
     with pytest.raises(ValueError, match=r"default decoder of its day \(SHA-256 0{64}\), "
                                          "which this windnav no longer installs"):
         command_line(gone)
+
+
+def _shown(path: Path) -> str:
+    return str(path.relative_to(Path.cwd())) if path.is_relative_to(Path.cwd()) else str(path)
+
+
+def _result(typed: list[str], model_files, **recorded) -> dict:
+    """A result of the command ``typed[0]`` with its arguments (``recorded`` over the parsed
+    ones: values of options added since) and model files."""
+    args = {k: v for k, v in _parsed(["windnav", *typed]).items() if k not in NOT_ARGUMENTS}
+    return {"command": f"windnav {typed[0]}", "argv": typed, "model_files": model_files,
+            "arguments": {**args, **recorded}}
+
+
+@pytest.mark.parametrize("typed", [
+    ["evaluate-decoder", "--maps", "0", "--inlets", "2", "--out", "runs/e"],
+    ["decoder-study", "eigenflows", "--out", "runs/s", "--quick"],
+], ids=["evaluate-decoder", "decoder-study"])
+@pytest.mark.parametrize("typed_argv", [True, False], ids=["argv", "arguments"])
+def test_every_model_command_names_the_dated_file_of_its_replaced_default(typed, typed_argv):
+    old = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})[-1]
+    doc = _result(typed, {"model": {"path": "default", "sha256": model_sha256(old)},
+                          "compare": {}}, boundary="average")
+    if not typed_argv:                                      # a result from before argv
+        del doc["argv"]
+    words = command_arguments(doc)
+    parsed = _parsed(words)
+    assert words[2:4] == ["--model", _shown(old)]           # before the study's name
+    assert model_sha256(parsed["model"]) == model_sha256(old)
+    assert parsed["boundary"] == "average"                  # the changed default, too
+    assert parsed.get("study", typed[1]) == typed[1]
+    assert {k: parsed[k] for k in doc["arguments"] if k not in ("model", "out")} == {
+        k: v for k, v in doc["arguments"].items() if k not in ("model", "out")}
+
+
+def test_the_shipped_file_named_by_path_is_redirected_to_its_dated_file():
+    # A compare item (or --model) naming decoder_default.npz by path read the model of its
+    # day; once replaced, the line would compare against the new one.
+    old = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})[-1]
+    shipped = "src/windnav/predict/data/decoder_default.npz"
+    then = {"path": "default", "sha256": model_sha256(old)}
+    typed = ["evaluate-decoder", "--maps", "0", "--out", "runs/e", "--compare",
+             f"one-pass={shipped}", f"--compare=x={shipped}", "--compare", "runs/m.npz"]
+    doc = _result(typed, {"model": then, "compare": {
+        f"one-pass={shipped}": then, f"x={shipped}": then,
+        "runs/m.npz": {"path": "runs/m.npz", "sha256": "1" * 64}}})
+    words = command_arguments(doc)
+    assert words[2:4] == ["--model", _shown(old)]
+    assert _parsed(words)["compare"] == [f"one-pass={_shown(old)}", f"x={_shown(old)}",
+                                         "runs/m.npz"]        # another file: as typed
+    now = {"path": "default", "sha256": model_sha256()}
+    same = _result(typed, {"model": now, "compare": {f"one-pass={shipped}": now,
+                                                     f"x={shipped}": now}})
+    assert command_arguments(same) == ["windnav", *typed]   # still the shipped model
+    named = _result(["predict", "--map", "m.json", "--at", "1", "2", "--speed", "5",
+                     "--direction-deg", "0", "--out", "runs/p", f"--model=./{shipped}"],
+                    {"model": {"path": shipped, "sha256": model_sha256(old)}})
+    assert command_arguments(named)[-1] == f"--model={_shown(old)}"
+    gone = _result(typed, {"model": now, "compare": {
+        f"one-pass={shipped}": {"path": shipped, "sha256": "0" * 64}}})
+    with pytest.raises(ValueError, match=r"SHA-256 0{64}\), which this windnav no longer"):
+        command_line(gone)
+
+
+@pytest.mark.parametrize("files", [["not", "a", "mapping"], "x", {"model": 3},
+                                   {"model": {"path": "default"}}, {"compare": [1]}])
+def test_a_malformed_model_record_leaves_the_typed_line(files):
+    doc = _predict_result(files)
+    assert command_arguments(doc) == ["windnav", *doc["argv"]]

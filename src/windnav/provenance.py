@@ -22,8 +22,10 @@ A result made with the default decoder (no ``--model``) records, since 2026-12-0
 forty-seventh session), the SHA-256 of the file it read (``model_files``); where the shipped
 model has been replaced since, the rebuilt line names the dated file kept of the one the result
 was made with (``--model src/windnav/predict/data/decoder_<label>.npz``), and a model no longer
-installed is an error naming its hash. Results written before then record no hash, and their
-line names no model: they ran with the default of their day, which their documents name.
+installed is an error naming its hash; so does a ``--model`` or ``--compare`` that names the
+shipped file by its path. Results written before then record no hash, and their line names no
+model: they ran with the default of their day, which ``docs/decoder.md`` and
+``docs/benchmarks.md`` name (by date) beside each.
 A test rebuilds every committed result and parses it back to its own arguments. Some commands
 record a value they filled in themselves (``fly``'s ``--wind-sigma`` under ``--wind
 constant``), which the rebuilt line then gives and the command may refuse; the typed ``argv``
@@ -184,27 +186,74 @@ def _shown(path: Path) -> str:
 
 
 def _default_model(words: list[str], parser, name: str, doc: Mapping) -> list[str]:
-    """``words`` with ``--model FILE`` inserted after the command's name where the result was
-    made with the default decoder (no ``--model`` in the words) whose file, by its recorded
-    SHA-256, is no longer the default: FILE is the installed file with that hash (the dated
-    copy kept of a replaced model), or a ValueError names the hash when none is installed."""
-    made = (doc.get("model_files") or {}).get("model") or {}
-    sha = made.get("sha256") if isinstance(made, Mapping) else None
-    if name not in MODEL_COMMANDS or not isinstance(sha, str) or not sha:
+    """``words`` naming, for each decoder the result read from the shipped file (by default or
+    by that file's path, ``--model`` or a ``--compare`` item) whose recorded SHA-256 is no
+    longer the shipped file's, the dated file with that hash: ``--model FILE`` inserted after
+    the command's name where the words name no model, the path replaced where they name the
+    shipped file. A hash no installed file has is a ValueError naming it."""
+    files = doc.get("model_files")
+    if name not in MODEL_COMMANDS or not isinstance(files, Mapping):
         return words
-    if _parse(parser, words, name).get("model") is not None:
-        return words
+    made = files.get("model")
+    compare = files.get("compare")
+    recorded = [("--model", made.get("path"), made)] if isinstance(made, Mapping) else []
+    if isinstance(compare, Mapping):
+        recorded += [("--compare", text, rec) for text, rec in compare.items()]
+    swaps: dict[tuple[str, str], str] = {}
+    insert = None
+    for option, text, rec in recorded:
+        sha = rec.get("sha256") if isinstance(rec, Mapping) else None
+        if not isinstance(text, str) or not isinstance(sha, str) or not sha:
+            continue
+        label, _, file = text.rpartition("=") if option == "--compare" else ("", "", text)
+        if text == "default" and option == "--model":
+            if _parse(parser, words, name).get("model") is None:
+                dated = _dated_default(sha)
+                insert = None if dated is None else _shown(dated)
+        elif _names_shipped_file(file):
+            dated = _dated_default(sha)
+            if dated is not None:
+                swaps[option, text] = (f"{label}=" if label else "") + _shown(dated)
+    def key(option: str, value: str) -> tuple[str, str]:  # --model's path as recorded
+        return option, str(Path(value)) if option == "--model" and value else value
+
+    out = []
+    for i, word in enumerate(words):
+        option, eq, value = word.partition("=")
+        if eq and key(option, value) in swaps:
+            word = f"{option}={swaps[key(option, value)]}"
+        elif i and key(words[i - 1], word) in swaps:
+            word = swaps[key(words[i - 1], word)]
+        out.append(word)
+    return out[:2] + ["--model", insert] + out[2:] if insert else out
+
+
+def _names_shipped_file(file: str) -> bool:
+    """Whether a recorded path names the shipped decoder's file (resolved from here, or as the
+    path of a checkout's ``src/windnav/predict/data/decoder_default.npz`` written from
+    elsewhere)."""
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    path = Path(file)
+    tail = Path(*DEFAULT_MODEL.parts[-4:]).as_posix()  # windnav/predict/data/decoder_default.npz
+    return path.resolve() == DEFAULT_MODEL or path.as_posix().endswith(tail)
+
+
+def _dated_default(sha: str) -> Path | None:
+    """None where ``sha`` is the shipped decoder file's SHA-256, else the installed dated file
+    with that hash (a model the shipped one replaced); a ValueError names a hash no installed
+    file has."""
     from windnav.predict.decoder import DEFAULT_MODEL, model_sha256, shipped_model_file
 
     if DEFAULT_MODEL.is_file() and model_sha256() == sha:
-        return words
+        return None
     file = shipped_model_file(sha)
     if file is None:
         raise ValueError(f"command_line: the result was made with the default decoder of its "
                          f"day (SHA-256 {sha}), which this windnav no longer installs (not "
                          f"{str(DEFAULT_MODEL)!r} nor a dated file beside it); its line cannot "
                          "name the model that made it.")
-    return words[:2] + ["--model", _shown(file)] + words[2:]
+    return file
 
 
 def _changed_defaults(words: list[str], parser, name: str, recorded: Mapping) -> list[str]:

@@ -16,8 +16,8 @@ from windnav.experiments.results import Outputs, check_output_path, document
 
 __all__ = ["add_boundary_argument", "add_compare_boundary_argument", "add_output_arguments",
            "add_rotations_argument", "compare_boundary", "cache_folder", "check_output_path",
-           "document", "load_model", "options_named", "outputs", "print_written", "seed",
-           "where"]
+           "document", "load_model", "model_files", "options_named", "outputs",
+           "print_written", "seed", "where"]
 
 
 def add_output_arguments(parser, *, overwrite: bool = True) -> None:

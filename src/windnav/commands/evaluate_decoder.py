@@ -35,6 +35,8 @@ the decoder's training flows' (``travel``, read from the decoder's recipe:
 :func:`windnav.predict.envelope.training_envelope`) and its ``notes``; ``truth_checks`` counts
 them, and one ``note`` on stderr says how many slots' truths fail the averaging rule or travel
 more than 25 % farther or shorter than the training's (as ``windnav predict`` does for one).
+``model_files`` gives the SHA-256 of ``--model``'s file (the shipped one's when not given) and
+of each ``--compare``'s (:func:`windnav.commands._common.model_files`).
 """
 
 from __future__ import annotations

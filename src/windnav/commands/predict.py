@@ -20,7 +20,8 @@ the truth flow's mean fails the averaging rule
 averaging, more than :data:`TRAVEL_TOLERANCE` farther or shorter than the training flows' (the
 time step ``min(0.25 s, dx / U)`` makes the flow of an inlet under 4 m/s younger). The notes,
 the truth's diagnostics and the training conditions are in ``predict.json`` (``notes``,
-``flow_diagnostics``, ``averaging``, ``training``).
+``flow_diagnostics``, ``averaging``, ``training``), with the SHA-256 of the decoder file read
+(``model_files``: :func:`windnav.commands._common.model_files`).
 """
 
 from __future__ import annotations

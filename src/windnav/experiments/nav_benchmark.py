@@ -419,17 +419,15 @@ def flight_decoder(options: dict):
 
 @functools.lru_cache(maxsize=None)
 def _dated_decoder(name: str, views_deg: float = 0.0):
-    import hashlib
-
     from windnav.predict import load_decoder
-    from windnav.predict.decoder import DEFAULT_MODEL
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
 
     if name not in DECODERS:
         raise ValueError(f"The 'decoder' parameter of benchmark_decoder must be one of "
                          f"{list(DECODERS)}. Got {name!r} instead.")
     file, sha = DECODERS[name]
     path = DEFAULT_MODEL.parent / file
-    if not path.is_file() or hashlib.sha256(path.read_bytes()).hexdigest() != sha:
+    if not path.is_file() or model_sha256(path) != sha:
         raise ValueError(f"The 'decoder' parameter of benchmark_decoder names {name!r}, whose "
                          f"file {str(path)!r} is missing or not the model of that date "
                          f"(SHA-256 {sha[:12]}...): its flights would not replay.")

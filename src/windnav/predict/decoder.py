@@ -156,7 +156,8 @@ def model_sha256(path=None) -> str:
     :data:`DEFAULT_MODEL`). A result records it beside the path it read (since 2026-12-06,
     the forty-seventh session): a path names a file whose content can change, and the default
     names a new model each time one is shipped (:mod:`windnav.provenance`)."""
-    return hashlib.sha256((DEFAULT_MODEL if path is None else Path(path)).read_bytes()).hexdigest()
+    with open(DEFAULT_MODEL if path is None else Path(path), "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def shipped_model_file(sha256: str) -> Path | None:
@@ -168,6 +169,8 @@ def shipped_model_file(sha256: str) -> Path | None:
         if path.is_file() and model_sha256(path) == sha256:
             return path
     return None
+
+
 N_WIND_FEATURES = 5
 """Wind features of d4-film (see :func:`wind_features`)."""
 PREDICT_CHUNK = 128
