@@ -215,3 +215,21 @@ def test_the_shipped_file_named_by_path_is_redirected_to_its_dated_file():
 def test_a_malformed_model_record_leaves_the_typed_line(files):
     doc = _predict_result(files)
     assert command_arguments(doc) == ["windnav", *doc["argv"]]
+
+
+def test_only_the_shipped_file_is_redirected():
+    old = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})[-1]
+    then = {"path": "default", "sha256": model_sha256()}
+    elsewhere = "/elsewhere/src/windnav/predict/data/decoder_default.npz"   # another checkout
+    windows = r"src\windnav\predict\data\decoder_default.npz"
+    lookalike = "runs/xwindnav/predict/data/decoder_default.npz"
+    items = [f"a={elsewhere}", f"b={windows}", lookalike]
+    typed = ["evaluate-decoder", "--maps", "0", "--out", "runs/e"]
+    for item in items:
+        typed += ["--compare", item]
+    doc = _result(typed, {"model": then, "compare": {
+        items[0]: {"path": elsewhere, "sha256": "0" * 64},       # its own model: no error
+        items[1]: {"path": windows, "sha256": model_sha256(old)},
+        items[2]: {"path": lookalike, "sha256": model_sha256(old)}}})
+    assert _parsed(command_arguments(doc))["compare"] == [
+        items[0], f"b={_shown(old)}", lookalike]

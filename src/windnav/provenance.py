@@ -205,13 +205,20 @@ def _default_model(words: list[str], parser, name: str, doc: Mapping) -> list[st
         sha = rec.get("sha256") if isinstance(rec, Mapping) else None
         if not isinstance(text, str) or not isinstance(sha, str) or not sha:
             continue
-        label, _, file = text.rpartition("=") if option == "--compare" else ("", "", text)
+        # [NAME=]FILE split at the first "=", as the commands read it
+        label, _, file = (text.partition("=") if "=" in text else ("", "", text)) \
+            if option == "--compare" else ("", "", text)
         if text == "default" and option == "--model":
             if _parse(parser, words, name).get("model") is None:
                 dated = _dated_default(sha)
                 insert = None if dated is None else _shown(dated)
         elif _names_shipped_file(file):
-            dated = _dated_default(sha)
+            try:
+                dated = _dated_default(sha)
+            except ValueError:  # another checkout's file of that name: its own model
+                if Path(file).resolve() == _shipped():
+                    raise
+                dated = None
             if dated is not None:
                 swaps[option, text] = (f"{label}=" if label else "") + _shown(dated)
     def key(option: str, value: str) -> tuple[str, str]:  # --model's path as recorded
@@ -232,11 +239,16 @@ def _names_shipped_file(file: str) -> bool:
     """Whether a recorded path names the shipped decoder's file (resolved from here, or as the
     path of a checkout's ``src/windnav/predict/data/decoder_default.npz`` written from
     elsewhere)."""
+    shipped = _shipped()
+    path = Path(file.replace("\\", "/"))  # a path written on Windows
+    tail = shipped.parts[-4:]  # windnav/predict/data/decoder_default.npz
+    return path.resolve() == shipped or path.parts[-4:] == tail
+
+
+def _shipped() -> Path:
     from windnav.predict.decoder import DEFAULT_MODEL
 
-    path = Path(file)
-    tail = Path(*DEFAULT_MODEL.parts[-4:]).as_posix()  # windnav/predict/data/decoder_default.npz
-    return path.resolve() == DEFAULT_MODEL or path.as_posix().endswith(tail)
+    return DEFAULT_MODEL
 
 
 def _dated_default(sha: str) -> Path | None:
