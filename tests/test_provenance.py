@@ -61,7 +61,7 @@ def test_every_committed_result_rebuilds_to_its_own_arguments(path, doc):
     for i, (text, rec) in enumerate((files.get("compare") or {}).items()):
         if parsed["compare"][i] != text:  # the shipped file by path, since replaced
             assert text.endswith(DEFAULT_MODEL.name) and rec["sha256"]
-            assert model_sha256(parsed["compare"][i].rpartition("=")[2]) == rec["sha256"]
+            assert model_sha256(parsed["compare"][i].split("=", 1)[-1]) == rec["sha256"]
             parsed["compare"][i] = text
     assert {k: parsed.get(k) for k in recorded} == recorded
 
@@ -111,27 +111,39 @@ def _predict_result(model_files: dict, model=None) -> dict:
     """A result of ``windnav predict`` as it records its arguments and model files."""
     typed = ["predict", "--map", "m.json", "--at", "10", "20", "--speed", "5",
              "--direction-deg", "30", "--out", "runs/p"]
-    if model is not None:
-        typed += ["--model", model]
-    args = _parsed(["windnav", *typed])
-    return {"command": "windnav predict", "argv": typed, "model_files": model_files,
-            "arguments": {k: v for k, v in args.items() if k not in NOT_ARGUMENTS}}
+    return _result(typed + (["--model", model] if model is not None else []), model_files)
+
+
+def _result(typed: list[str], model_files, **recorded) -> dict:
+    """A result of the command ``typed[0]`` with its arguments (``recorded`` over the parsed
+    ones: values of options added since) and model files."""
+    args = {k: v for k, v in _parsed(["windnav", *typed]).items() if k not in NOT_ARGUMENTS}
+    return {"command": f"windnav {typed[0]}", "argv": typed, "model_files": model_files,
+            "arguments": {**args, **recorded}}
+
+
+def _replaced_model() -> Path:
+    """The newest dated file kept of a model the shipped one replaced."""
+    dated = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})
+    assert dated, "the dated files of replaced models are installed"
+    return dated[-1]
+
+
+def _shown(path: Path) -> str:
+    return str(path.relative_to(Path.cwd())) if path.is_relative_to(Path.cwd()) else str(path)
 
 
 def test_a_result_of_a_replaced_default_model_names_its_dated_file():
     # Results made with the default decoder named no model, so once a new model was shipped
     # their line ran the new one. Since the forty-seventh session they record its hash.
-    dated = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})
-    assert dated, "the dated files of replaced models are installed"
-    old = dated[-1]
+    old = _replaced_model()
     assert shipped_model_file(model_sha256(old)) == old
     assert shipped_model_file(model_sha256()) == DEFAULT_MODEL
     assert shipped_model_file("0" * 64) is None
 
     then = _predict_result({"model": {"path": "default", "sha256": model_sha256(old)}})
     words = command_arguments(then)
-    assert words[:4] == ["windnav", "predict", "--model", str(old.relative_to(Path.cwd()))
-                         if old.is_relative_to(Path.cwd()) else str(old)]
+    assert words[:4] == ["windnav", "predict", "--model", _shown(old)]
     assert model_sha256(_parsed(words)["model"]) == model_sha256(old)
     assert words[4:] == then["argv"][1:]                    # the rest as typed
 
@@ -148,25 +160,13 @@ def test_a_result_of_a_replaced_default_model_names_its_dated_file():
         command_line(gone)
 
 
-def _shown(path: Path) -> str:
-    return str(path.relative_to(Path.cwd())) if path.is_relative_to(Path.cwd()) else str(path)
-
-
-def _result(typed: list[str], model_files, **recorded) -> dict:
-    """A result of the command ``typed[0]`` with its arguments (``recorded`` over the parsed
-    ones: values of options added since) and model files."""
-    args = {k: v for k, v in _parsed(["windnav", *typed]).items() if k not in NOT_ARGUMENTS}
-    return {"command": f"windnav {typed[0]}", "argv": typed, "model_files": model_files,
-            "arguments": {**args, **recorded}}
-
-
 @pytest.mark.parametrize("typed", [
     ["evaluate-decoder", "--maps", "0", "--inlets", "2", "--out", "runs/e"],
     ["decoder-study", "eigenflows", "--out", "runs/s", "--quick"],
 ], ids=["evaluate-decoder", "decoder-study"])
 @pytest.mark.parametrize("typed_argv", [True, False], ids=["argv", "arguments"])
 def test_every_model_command_names_the_dated_file_of_its_replaced_default(typed, typed_argv):
-    old = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})[-1]
+    old = _replaced_model()
     doc = _result(typed, {"model": {"path": "default", "sha256": model_sha256(old)},
                           "compare": {}}, boundary="average")
     if not typed_argv:                                      # a result from before argv
@@ -184,7 +184,7 @@ def test_every_model_command_names_the_dated_file_of_its_replaced_default(typed,
 def test_the_shipped_file_named_by_path_is_redirected_to_its_dated_file():
     # A compare item (or --model) naming decoder_default.npz by path read the model of its
     # day; once replaced, the line would compare against the new one.
-    old = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})[-1]
+    old = _replaced_model()
     shipped = "src/windnav/predict/data/decoder_default.npz"
     then = {"path": "default", "sha256": model_sha256(old)}
     typed = ["evaluate-decoder", "--maps", "0", "--out", "runs/e", "--compare",
@@ -218,7 +218,7 @@ def test_a_malformed_model_record_leaves_the_typed_line(files):
 
 
 def test_only_the_shipped_file_is_redirected():
-    old = sorted(set(DEFAULT_MODEL.parent.glob("decoder_*.npz")) - {DEFAULT_MODEL})[-1]
+    old = _replaced_model()
     then = {"path": "default", "sha256": model_sha256()}
     elsewhere = "/elsewhere/src/windnav/predict/data/decoder_default.npz"   # another checkout
     windows = r"src\windnav\predict\data\decoder_default.npz"

@@ -132,7 +132,7 @@ def command_arguments(doc) -> list[str]:
     name = command.split()[1]
     argv = doc.get("argv")
     if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
-        return _default_model(_changed_defaults(["windnav", *argv], root, name, recorded),
+        return _replaced_models(_changed_defaults(["windnav", *argv], root, name, recorded),
                               root, name, doc)
     if name not in root.commands:
         raise ValueError(f"{where}: the command {name!r} that wrote this result is no longer a "
@@ -173,7 +173,7 @@ def command_arguments(doc) -> list[str]:
         raise ValueError(f"{where}: the result records arguments that 'windnav {name}' no "
                          f"longer has: {', '.join(unknown)}; the line it was written by cannot "
                          "be rebuilt with this version.")
-    return _default_model(_changed_defaults(words, root, name, recorded), root, name, doc)
+    return _replaced_models(_changed_defaults(words, root, name, recorded), root, name, doc)
 
 
 def _shown(path: Path) -> str:
@@ -185,7 +185,7 @@ def _shown(path: Path) -> str:
         return str(path.resolve())
 
 
-def _default_model(words: list[str], parser, name: str, doc: Mapping) -> list[str]:
+def _replaced_models(words: list[str], parser, name: str, doc: Mapping) -> list[str]:
     """``words`` naming, for each decoder the result read from the shipped file (by default or
     by that file's path, ``--model`` or a ``--compare`` item) whose recorded SHA-256 is no
     longer the shipped file's, the dated file with that hash: ``--model FILE`` inserted after
@@ -194,6 +194,8 @@ def _default_model(words: list[str], parser, name: str, doc: Mapping) -> list[st
     files = doc.get("model_files")
     if name not in MODEL_COMMANDS or not isinstance(files, Mapping):
         return words
+    from windnav.predict.decoder import DEFAULT_MODEL
+
     made = files.get("model")
     compare = files.get("compare")
     recorded = [("--model", made.get("path"), made)] if isinstance(made, Mapping) else []
@@ -206,21 +208,21 @@ def _default_model(words: list[str], parser, name: str, doc: Mapping) -> list[st
         if not isinstance(text, str) or not isinstance(sha, str) or not sha:
             continue
         # [NAME=]FILE split at the first "=", as the commands read it
-        label, _, file = (text.partition("=") if "=" in text else ("", "", text)) \
-            if option == "--compare" else ("", "", text)
+        label, file = text.split("=", 1) if option == "--compare" and "=" in text else ("", text)
         if text == "default" and option == "--model":
             if _parse(parser, words, name).get("model") is None:
                 dated = _dated_default(sha)
                 insert = None if dated is None else _shown(dated)
-        elif _names_shipped_file(file):
+        elif _names_shipped_file(file, DEFAULT_MODEL):
             try:
                 dated = _dated_default(sha)
             except ValueError:  # another checkout's file of that name: its own model
-                if Path(file).resolve() == _shipped():
+                if Path(file).resolve() == DEFAULT_MODEL:
                     raise
                 dated = None
             if dated is not None:
                 swaps[option, text] = (f"{label}=" if label else "") + _shown(dated)
+
     def key(option: str, value: str) -> tuple[str, str]:  # --model's path as recorded
         return option, str(Path(value)) if option == "--model" and value else value
 
@@ -235,20 +237,12 @@ def _default_model(words: list[str], parser, name: str, doc: Mapping) -> list[st
     return out[:2] + ["--model", insert] + out[2:] if insert else out
 
 
-def _names_shipped_file(file: str) -> bool:
-    """Whether a recorded path names the shipped decoder's file (resolved from here, or as the
-    path of a checkout's ``src/windnav/predict/data/decoder_default.npz`` written from
-    elsewhere)."""
-    shipped = _shipped()
+def _names_shipped_file(file: str, shipped: Path) -> bool:
+    """Whether a recorded path names the shipped decoder's file ``shipped`` (resolved from
+    here, or as the path of a checkout's ``src/windnav/predict/data/decoder_default.npz``
+    written from elsewhere)."""
     path = Path(file.replace("\\", "/"))  # a path written on Windows
-    tail = shipped.parts[-4:]  # windnav/predict/data/decoder_default.npz
-    return path.resolve() == shipped or path.parts[-4:] == tail
-
-
-def _shipped() -> Path:
-    from windnav.predict.decoder import DEFAULT_MODEL
-
-    return DEFAULT_MODEL
+    return path.resolve() == shipped or path.parts[-4:] == shipped.parts[-4:]
 
 
 def _dated_default(sha: str) -> Path | None:
