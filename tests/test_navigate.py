@@ -563,6 +563,68 @@ def test_command_flies_the_decoders_turned_views_only_on_the_onboard_stack(comma
         assert not seen
 
 
+def test_command_flies_the_decoder_file_given_only_on_the_onboard_stack(command_kwargs):
+    """``--model FILE`` gives the onboard stack that file's decoder (with ``--rotations-deg``'s
+    views when given); a missing file and another variant are refused naming the option, before
+    the flow is simulated."""
+    import windnav.experiments.navigate as nav
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    seen, base = command_kwargs
+    hat = ["--variant", "ea-mppi-w-hat"]
+    old = DEFAULT_MODEL.with_name("decoder_2026-11-23.npz")
+    scans = np.random.default_rng(3).uniform(3.0, 100.0, (2, 360))
+    w = np.array([[4.0, 1.0], [-1.0, 2.5]])
+    for extra, views in (([], None), (["--rotations-deg", "0", "3"], (0, 3))):
+        seen.clear()
+        args = parse(base + hat + ["--model", str(old)] + extra)
+        with pytest.raises(_Stop):
+            args.func(args)
+        np.testing.assert_array_equal(seen["decoder"].predict(scans, w, w),
+                                      load_decoder(old, rotations_deg=views).predict(scans, w, w))
+        assert not np.array_equal(seen["decoder"].predict(scans, w, w),
+                                  load_decoder(rotations_deg=views).predict(scans, w, w))
+
+    def no_flow(*a, **kw):
+        raise AssertionError("the flow was simulated before the option was checked")
+
+    nav.simulate_flow = no_flow  # the fixture's monkeypatch restores the original after
+    for extra, match in ((["--variant", "mppi-w", "--model", str(old)],
+                          "'--model' parameter of windnav navigate applies only to the onboard "
+                          "stack.*'mppi-w'"),
+                         (hat + ["--model", str(old.with_name("none.npz"))],
+                          "'--model' parameter of windnav navigate")):
+        seen.clear()
+        args = parse(base + extra)
+        with pytest.raises(ValueError, match=match):
+            args.func(args)
+        assert not seen
+
+
+def test_an_onboard_flight_records_the_hash_of_the_decoder_it_flew(city, tmp_path):
+    """The JSON's ``model_files`` (windnav.provenance rebuilds the line of a replaced default
+    from it): the given file's SHA-256, the shipped one's without ``--model``, none for a
+    variant that reads no decoder."""
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
+
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    old = DEFAULT_MODEL.with_name("decoder_2026-11-23.npz")
+    base = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+            "--speed", "2", "--spinup-s", "2", "--record-s", "2", "--no-plots"]
+    for i, (extra, want) in enumerate(((["--variant", "ea-mppi-w-hat", "--model", str(old)],
+                                        {"path": str(old), "sha256": model_sha256(old)}),
+                                       (["--variant", "ea-mppi-w-hat"],
+                                        {"path": "default", "sha256": model_sha256()}),
+                                       (["--variant", "mppi"], None))):
+        out = tmp_path / f"out{i}"
+        args = parse(base + extra + ["--out", str(out)])
+        assert args.func(args) == 0
+        doc = json.loads((out / "summary.json").read_text())
+        assert doc.get("model_files") == (None if want is None else
+                                          {"model": want, "compare": {}})
+
+
 # ------------------------------------------------------------- what a result records
 # (against closed forms computed from its own series; mutation audit, 2026-12-05)
 

@@ -233,3 +233,41 @@ def test_only_the_shipped_file_is_redirected():
         items[2]: {"path": lookalike, "sha256": model_sha256(old)}}})
     assert _parsed(command_arguments(doc))["compare"] == [
         items[0], f"b={_shown(old)}", lookalike]
+
+
+def test_an_abbreviated_model_option_is_redirected_as_the_full_one():
+    # argparse reads a unique prefix (--mod, --compa) as the option; the redirect found only
+    # the full name, so such a line named the new shipped model (left alone 2026-12-06).
+    old = _replaced_model()
+    shipped = "src/windnav/predict/data/decoder_default.npz"
+    then = {"path": shipped, "sha256": model_sha256(old)}
+    typed = ["evaluate-decoder", "--maps", "0", "--out", "runs/e", "--mod", shipped,
+             f"--compare=x={shipped}"]
+    doc = _result(typed, {"model": then, "compare": {f"x={shipped}": then}})
+    parsed = _parsed(command_arguments(doc))
+    assert str(parsed["model"]) == _shown(old)
+    assert parsed["compare"] == [f"x={_shown(old)}"]
+    # a prefix of two options is no abbreviation (argparse refuses it): left as typed
+    from windnav.provenance import _unabbreviated
+
+    sub = cli.build_parser().commands["evaluate-decoder"]
+    assert _unabbreviated(["windnav", "evaluate-decoder", "--comp", "x", "--mo=y"], sub,
+                          ("--model", "--compare")) == [
+        "windnav", "evaluate-decoder", "--comp", "x", "--model=y"]
+
+
+def test_an_onboard_flight_names_the_dated_file_of_its_replaced_default():
+    # windnav navigate records the decoder it flew (ea-mppi-w-hat) since 2026-12-07
+    old = _replaced_model()
+    typed = ["navigate", "--map", "m.json", "--start", "10", "20", "--goal", "90", "20",
+             "--speed", "5", "--variant", "ea-mppi-w-hat", "--out", "runs/n"]
+    doc = _result(typed, {"model": {"path": "default", "sha256": model_sha256(old)},
+                          "compare": {}})
+    words = command_arguments(doc)
+    assert words[2:4] == ["--model", _shown(old)]
+    assert words[4:] == typed[1:]
+    now = _result(typed, {"model": {"path": "default", "sha256": model_sha256()},
+                          "compare": {}})
+    assert command_arguments(now) == ["windnav", *typed]
+    other = _result(typed[:-4] + typed[-2:], None)      # ea-mppi-w: no decoder, no record
+    assert command_arguments(other) == ["windnav", *other["argv"]]

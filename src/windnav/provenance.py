@@ -56,9 +56,10 @@ took one pass (``average``; the side rounding picked until 2026-12-05, the same 
 inlet off a multiple of 45 deg, where no random evaluation inlet falls)."""
 
 
-MODEL_COMMANDS = ("evaluate-decoder", "decoder-study", "predict")
+MODEL_COMMANDS = ("evaluate-decoder", "decoder-study", "predict", "navigate")
 """The commands whose ``--model`` defaults to the shipped decoder, which changes with each
-model shipped: their results record the file's hash (``model_files``)."""
+model shipped: their results record the file's hash (``model_files``; ``navigate`` since
+2026-12-07, for the onboard stack's variant only)."""
 
 
 def _load(doc) -> Mapping:
@@ -196,6 +197,7 @@ def _replaced_models(words: list[str], parser, name: str, doc: Mapping) -> list[
         return words
     from windnav.predict.decoder import DEFAULT_MODEL
 
+    words = _unabbreviated(words, parser.commands[name], ("--model", "--compare"))
     made = files.get("model")
     compare = files.get("compare")
     recorded = [("--model", made.get("path"), made)] if isinstance(made, Mapping) else []
@@ -235,6 +237,24 @@ def _replaced_models(words: list[str], parser, name: str, doc: Mapping) -> list[
             word = swaps[key(words[i - 1], word)]
         out.append(word)
     return out[:2] + ["--model", insert] + out[2:] if insert else out
+
+
+def _unabbreviated(words: list[str], parser, flags: tuple[str, ...]) -> list[str]:
+    """``words`` with each abbreviation of one of ``flags`` (a prefix that argparse would read
+    as it: no other option of ``parser`` starts with it) written out in full, so that a typed
+    ``--mod FILE`` is found as ``--model FILE``."""
+    if not parser.allow_abbrev:
+        return words
+    strings = [s for a in parser._actions for s in a.option_strings if s.startswith("--")]
+    out = []
+    for word in words:
+        flag, eq, value = word.partition("=")
+        if flag.startswith("--") and len(flag) > 2 and flag not in strings:
+            found = [s for s in strings if s.startswith(flag)]
+            if len(found) == 1 and found[0] in flags:
+                word = found[0] + eq + value
+        out.append(word)
+    return out
 
 
 def _names_shipped_file(file: str, shipped: Path) -> bool:

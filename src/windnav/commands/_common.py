@@ -107,14 +107,16 @@ def model_files(args) -> dict:
 
 def load_model(args, name: str):
     """``--model`` (default the shipped decoder) loaded with ``--rotations-deg`` and
-    ``--boundary``, their errors naming the options."""
+    ``--boundary`` (load_decoder's default for a command without it), their errors naming the
+    options."""
     from windnav.predict import load_decoder
 
+    rule = getattr(args, "boundary", None)
     with options_named({"'path' parameter of load_decoder": f"'--model' parameter of {name}",
                         "'rotations_deg' parameter of load_decoder":
                             f"'--rotations-deg' parameter of {name}"}):
         return load_decoder(args.model, rotations_deg=args.rotations_deg,
-                            boundary=args.boundary)
+                            **({} if rule is None else {"boundary": rule}))
 
 
 def where(args) -> str:

@@ -20,11 +20,16 @@ settings are ours (:class:`~windnav.experiments.onboard.OnboardOptions`): ``--ou
 gives the planner the decoder's ``W_robot`` outside the decoder's window instead of zero, and
 ``--wrobot-tau S`` averages the UKF's estimate over ``S`` seconds before it becomes ``W_robot``
 (the benchmark's ``ea-mppi-w-hat@outside=robot@tau=8``), and ``--rotations-deg 0 -3 3`` flies
-the decoder's turned views (the benchmark's ``@views=3``). It flies the shipped decoder; the
-benchmark's onboard flights were flown with the decoder of 2026-11-23 (``@decoder=`` picks
-another), so to re-fly one of its records use ``windnav benchmark-nav --replay SCENARIO_ID
---variant V``, which loads the record's decoder (``navigate`` with the same scenario gives
-another flight: 1,749.6 against 1,745.2 J in one; pipeline audit, 2026-12-05).
+the decoder's turned views (the benchmark's ``@views=3``). It flies the shipped decoder, or
+``--model FILE`` (a file of ``windnav train-decoder``, or a dated shipped one such as
+``src/windnav/predict/data/decoder_2026-11-23.npz``); the JSON's ``model_files`` records the
+SHA-256 of the file read (since 2026-12-07), so that
+:func:`windnav.provenance.command_line` names the dated file once the shipped model is
+replaced. The benchmark's onboard flights were flown with the decoder of 2026-11-23
+(``@decoder=`` picks another), so to re-fly one of its records use ``windnav benchmark-nav
+--replay SCENARIO_ID --variant V``, which loads the record's decoder (``navigate`` with the
+same scenario gives another flight: 1,749.6 against 1,745.2 J in one; pipeline audit,
+2026-12-05).
 
 ``--variant ea-mppi-w-esc`` (EA-MPPI+W+esc) is EA-MPPI+W with the progress monitor and GS+W
 route escape of :mod:`windnav.plan.escape`; its JSON's ``settings.escapes`` lists the escapes.
@@ -44,6 +49,8 @@ from windnav.commands._common import (
     document,
     inlet_direction,
     inlet_speed,
+    load_model,
+    model_files,
     outputs,
     print_written,
     seed,
@@ -92,7 +99,10 @@ def register(sub) -> None:
                    help="ea-mppi-w-hat only: time constant of the average of the Wind UKF's "
                         "estimate given as W_robot, s; 0 is the estimate itself, the thesis's "
                         "(%(default)s)")
-    add_rotations_argument(p, which="ea-mppi-w-hat only: the onboard stack's shipped decoder",
+    p.add_argument("--model", type=Path, default=None, metavar="FILE",
+                   help="ea-mppi-w-hat only: the decoder file the onboard stack flies, e.g. "
+                        "a model of 'windnav train-decoder' (default: the shipped decoder)")
+    add_rotations_argument(p, which="ea-mppi-w-hat only: the onboard stack's --model",
                            boundary=False)
     p.add_argument("--altitude", type=float, default=10.0,
                    help="flight altitude, m (%(default)s; the 2D wind is a slice below the "
@@ -137,22 +147,24 @@ def _onboard(args, name: str) -> dict | None:
 
 
 def _decoder(args, name: str):
-    """The shipped decoder with ``--rotations-deg`` (None: the onboard stack's default, the
-    shipped decoder as given); an error naming the option for another variant."""
+    """``--model`` (default the shipped decoder) with ``--rotations-deg`` and the SHA-256 of
+    the file read (:func:`~windnav.commands._common.model_files`), for the onboard stack; (None,
+    None) for another variant, which reads no decoder (then either option is an error naming
+    it). The decoder is None, the stack's default (the shipped decoder as given), where neither
+    option is given."""
     from windnav.plan import VARIANTS
 
-    if args.rotations_deg is None:
-        return None
+    given = [flag for flag, value in (("--model", args.model),
+                                      ("--rotations-deg", args.rotations_deg))
+             if value is not None]
     if VARIANTS[args.variant].wind_source != "onboard":
-        raise ValueError(f"The '--rotations-deg' parameter of {name} applies only to the "
-                         f"onboard stack's decoder (--variant ea-mppi-w-hat). Got --variant "
-                         f"{args.variant!r} instead.")
-    from windnav.commands._common import options_named
-    from windnav.predict import load_decoder
-
-    with options_named({"'rotations_deg' parameter of load_decoder":
-                        f"'--rotations-deg' parameter of {name}"}):
-        return load_decoder(rotations_deg=args.rotations_deg)
+        if given:
+            raise ValueError(f"The '{given[0]}' parameter of {name} applies only to the "
+                             f"onboard stack's decoder (--variant ea-mppi-w-hat). Got "
+                             f"--variant {args.variant!r} instead.")
+        return None, None
+    decoder = load_model(args, name) if given else None
+    return decoder, model_files(args)
 
 
 def energy_aware_variants() -> tuple[str, ...]:
@@ -219,7 +231,7 @@ def run(args) -> int:
                          f"{args.variant!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
     onboard = _onboard(args, name)
-    decoder = _decoder(args, name)
+    decoder, files = _decoder(args, name)
     energy = _energy_mode(args, name)
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
@@ -258,6 +270,8 @@ def run(args) -> int:
                       horizon=horizon, tilt_max_deg=args.tilt_max_deg, onboard=onboard,
                       planner_overrides=energy, decoder=decoder)
     summary = {"map": str(args.map), "seed": args.seed, **result.summary()}
+    if files is not None:  # the decoder's weights, by hash (windnav.provenance)
+        summary["model_files"] = files
     doc = document("navigate", summary, args)
     with out.writing() as stage:
         write_json(doc, stage.dir / "summary.json")
