@@ -1115,6 +1115,63 @@ def test_command_runs_resumes_prints_the_table_and_writes_json(tmp_path, tiny_su
         "mppi", "ea-mppi-w"]
 
 
+def test_command_flies_the_onboard_stack_with_the_decoder_file_given(tmp_path, monkeypatch,
+                                                                    tiny_suite, capsys):
+    """``--decoder FILE``: the onboard stack flies that file's decoder (not the pinned one; the
+    other variants read none); the store's suite records it by fingerprint, and every mode on that
+    store needs the same file again; a JSON records its SHA-256."""
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
+
+    given = {}
+
+    class Seeing(Fake):
+        def __call__(self, *a, variant, **kw):
+            given[variant] = kw.get("decoder")
+            return super().__call__(*a, variant=variant, **kw)
+
+    monkeypatch.setattr(nb, "fly_scenario", lambda spec, scenario, variant, *, city=None,
+                        flow=None, navigate_fn=None: REAL_FLY(spec, scenario, variant, city=city,
+                                                              flow=flow, navigate_fn=Seeing()))
+    mine = DEFAULT_MODEL.with_name("decoder_2026-12-01.npz")      # not the pinned 2026-11-23
+    store, plain = tmp_path / "store", tmp_path / "plain"
+    assert command(["--suite", "quick", "--variants", "mppi,ea-mppi-w-hat", "--executor",
+                    "serial", "--out", store, "--decoder", mine, "--no-progress", "--json",
+                    tmp_path / "run.json"]) == 0
+    assert given["ea-mppi-w-hat"].fingerprint() == load_decoder(mine).fingerprint()
+    doc = json.loads((tmp_path / "run.json").read_text())
+    assert doc["decoder_file"] == {"path": str(mine), "sha256": model_sha256(mine)}
+    manifest = json.loads((store / "manifest.json").read_text())
+    assert manifest["settings"]["navigate_options"] == {
+        "decoder": f"Decoder sha256:{load_decoder(mine).fingerprint()}"}
+    capsys.readouterr()
+    assert command(["--out", store, "--table", "--decoder", mine]) == 0
+    assert "| ea-mppi-w-hat | 4 |" in capsys.readouterr().out
+    given.clear()
+    assert command(["--out", store, "--replay", "quick/m00/w00/p0", "--variant",
+                    "ea-mppi-w-hat", "--decoder", mine]) == 0
+    assert given["ea-mppi-w-hat"].fingerprint() == load_decoder(mine).fingerprint()
+    # without it, with another file, and against a store of the pinned decoder: refused
+    assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial",
+                    "--out", plain, "--no-progress"]) == 0
+    other = DEFAULT_MODEL.with_name("decoder_2026-11-26.npz")
+    for argv, match in (
+            (["--out", store, "--table"], r"'--decoder' parameter .* must name the decoder "
+                                          r"file that the store .* \(Decoder sha256:"),
+            (["--out", store, "--table", "--decoder", other],
+             r"'--decoder' parameter .* another decoder \(Decoder sha256:"),
+            (["--out", plain, "--table", "--decoder", mine],
+             "'--decoder' parameter .* the benchmark's pinned decoder"),
+            (["--out", store, "--table", "--decoder", tmp_path / "none.npz"],
+             "'--decoder' parameter of windnav benchmark-nav"),
+            (["--suite", "quick", "--variants", "ea-mppi-w-hat@views=3", "--out",
+              tmp_path / "views", "--decoder", mine], r"'--variants' parameter .* \('@views=' "
+                                                       r"without '@decoder='\)")):
+        with pytest.raises(ValueError, match=match):
+            command(argv)
+    assert not (tmp_path / "views").exists()
+
+
 def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_path, monkeypatch,
                                                                          no_wind, capsys):
     two = TINY.__class__(**{**TINY.__dict__, "name": "quick", "maps": (0, 1), "winds": (0,),

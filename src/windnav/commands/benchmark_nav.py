@@ -23,6 +23,20 @@ records' arithmetic (BLAS kernel, NumPy's SIMD loops) when it differs from this 
 the CPU can run it; ``--portable`` flies a run under the arithmetic every AVX2 CPU can run.
 ``--json`` writes the run's counts and the table as data; the store itself is never replaced
 (``--overwrite`` applies to ``--json`` only).
+
+``--decoder FILE`` (since 2026-12-07) flies the onboard stack (``ea-mppi-w-hat``, without
+``@decoder=``) with that decoder file, e.g. a model of ``windnav train-decoder``, instead of the
+benchmark's pinned one (:data:`windnav.experiments.nav_benchmark.BENCHMARK_DECODER`), under
+``load_decoder``'s default rule at the sector boundaries (``blend``)::
+
+    windnav benchmark-nav --suite thesis --variants mppi,ea-mppi-w-hat \
+                          --decoder runs/mine/model.npz --out runs/thesis_mine
+
+The decoder is part of the suite's settings (by its fingerprint: weights, architecture, rule),
+so its flights need a store of their own, with the variants they are compared with (the
+reference) flown into it too; ``--table``, ``--check`` and ``--replay`` of that store take the
+same ``--decoder`` again (another file, or none, is refused naming the option), and a JSON
+records the file's SHA-256 (``decoder_file``).
 """
 
 from __future__ import annotations
@@ -117,6 +131,11 @@ def register(subparsers) -> None:
                    help="fly under OpenBLAS's Haswell kernels and NumPy's X86_V3 (AVX2) loops, "
                         "which every x86-64 CPU with AVX2 can run, so that the records replay "
                         "on any of them (the command restarts itself under them)")
+    p.add_argument("--decoder", type=Path, default=None, metavar="FILE",
+                   help="the decoder file the onboard stack (ea-mppi-w-hat without "
+                        "'@decoder=') flies, e.g. a model of 'windnav train-decoder' (default: "
+                        "the benchmark's pinned decoder); part of the suite's settings, so a "
+                        "store of its own, and every mode on that store needs it again")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -148,7 +167,55 @@ def _spec(args, name: str, prefer: str | None = None):
         value = man.get("seed", 0) if man.get("suite") == suite else 0
     else:
         value = seed(args)
-    return get_suite(suite, seed=value)
+    return _with_decoder(args, name, get_suite(suite, seed=value), man)
+
+
+def _with_decoder(args, name: str, spec, man: dict):
+    """``spec`` whose onboard stack flies ``--decoder`` (a ``decoder`` among its
+    ``navigate_options``, in its settings by fingerprint); a ValueError naming the option where
+    the store ``man`` describes (of this suite) was flown with another decoder object, or
+    without one."""
+    import dataclasses
+
+    settings = man.get("settings") if man.get("suite") == spec.name else None
+    options = settings.get("navigate_options") if isinstance(settings, dict) else None
+    recorded = options.get("decoder") if isinstance(options, dict) else None
+    if args.decoder is None:
+        if recorded is not None:
+            raise ValueError(f"The '--decoder' parameter of {name} must name the decoder file "
+                             f"that the store {str(args.out)!r} was flown with ({recorded}). "
+                             "Got None instead.")
+        return spec
+    flown = dataclasses.replace(spec, navigate_options={**spec.navigate_options,
+                                                        "decoder": _decoder(args, name)})
+    mine = flown.settings()["navigate_options"]["decoder"]  # "Decoder sha256:<fingerprint>"
+    if settings is not None and recorded != mine:
+        theirs = ("the benchmark's pinned decoder" if recorded is None
+                  else f"another decoder ({recorded})")
+        raise ValueError(f"The '--decoder' parameter of {name} must name the decoder the store "
+                         f"{str(args.out)!r} was flown with: {theirs}. Got "
+                         f"{str(args.decoder)!r} instead ({mine}); a decoder's flights need a "
+                         "store of their own.")
+    return flown
+
+
+def _decoder(args, name: str):
+    """``--decoder``'s file loaded (as ``load_decoder`` loads it), its errors naming the option."""
+    from windnav.predict import load_decoder
+
+    with options_named({"'path' parameter of load_decoder": f"'--decoder' parameter of {name}"}):
+        return load_decoder(args.decoder)
+
+
+def _document(payload: dict, args) -> dict:
+    """The JSON document of this run, with ``decoder_file`` (the path and SHA-256 of
+    ``--decoder``) when given."""
+    if args.decoder is not None:
+        from windnav.predict.decoder import model_sha256
+
+        payload = {**payload, "decoder_file": {"path": str(args.decoder),
+                                               "sha256": model_sha256(args.decoder)}}
+    return document("benchmark-nav", payload, args)
 
 
 def run(args) -> int:
@@ -315,6 +382,16 @@ def _run(args, name: str, reference_given: bool) -> int:
 
     variants = _variants(args, name)
     spec = _spec(args, name)
+    if args.decoder is not None:  # each of its flights would be recorded as an error
+        from windnav.experiments.nav_benchmark import parse_variant
+
+        views = [v for v in variants if "decoder_views" in parse_variant(v, name)[1]
+                 and "decoder" not in parse_variant(v, name)[1]]
+        if views:
+            raise ValueError(f"The '--variants' parameter of {name} must not ask, with "
+                             "--decoder, the turned views of the benchmark's pinned decoder "
+                             "('@views=' without '@decoder='): the flight would not fly "
+                             f"--decoder's file. Got {', '.join(views)} instead.")
     out = outputs(args)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     maps = suite_maps(args.maps, spec, name)
@@ -362,7 +439,7 @@ def _run(args, name: str, reference_given: bool) -> int:
     table = _print_table(records, variants, args.reference, spec)
     if args.json is not None:
         with out.writing() as stage:
-            write_json(document("benchmark-nav", {"summary": summary, "table": table}, args),
+            write_json(_document({"summary": summary, "table": table}, args),
                        stage.file("--json"))
         print_written(out)
     return 1 if summary["errors_now"] or summary["pending"] else 0
@@ -429,7 +506,7 @@ def _table(args, name: str) -> int:
                               "same": len(checks) - len(bad), "checks": checks}
     if args.json is not None:
         with out.writing() as stage:
-            write_json(document("benchmark-nav", payload, args), stage.file("--json"))
+            write_json(_document(payload, args), stage.file("--json"))
         print_written(out)
     return 0
 
@@ -537,7 +614,7 @@ def _check(args, name: str) -> int:
         if pins:
             summary["groups"] = pins
         with out.writing() as stage:
-            write_json(document("benchmark-nav", {"summary": summary, "flights": checks}, args),
+            write_json(_document({"summary": summary, "flights": checks}, args),
                        stage.file("--json"))
         print_written(out)
     return 0 if not bad else 1
@@ -714,6 +791,6 @@ def _replay(args, name: str) -> int:
         print(record["error"], file=sys.stderr)
     if args.json is not None:
         with out.writing() as stage:
-            write_json(document("benchmark-nav", payload, args), stage.file("--json"))
+            write_json(_document(payload, args), stage.file("--json"))
         print_written(out)
     return 1 if record["error"] else 0
