@@ -888,31 +888,49 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
                 "conv.bias_circulant": np.tile(w["conv.bias"], n),
                 "basis.folded": np.concatenate([folded, folded_bias[:, None], uniform], axis=1)}
 
-    def predict(self, w: dict, scans, w_up, w_robot, g=None) -> np.ndarray:
+    def augmented(self, w: dict, scans, w_up, w_robot, g=None) -> tuple:
+        """``(aug, g)``: each sample's row ``[U a, U, W_robot]`` (B, members x modes + 3),
+        float32, whose product with ``basis.folded[g]`` is its world field (scale, bias and
+        residual in one product: :meth:`expand`), and its D4 element ``g`` (B,) (the given
+        ones, or :func:`canonical_elements` of ``w_up``). The field is linear in the row, so a
+        blend of two fields is the sum of the products of the rows weighted."""
         f = self.features(scans, w_up, w_robot, g)
         a = (np.concatenate([self.coefficients(m, f) for m in w["members"]], axis=1)
              if "members" in w else self.coefficients(w, f))
         b, k = a.shape
-        # world field = [U a, U, W_robot] @ folded[g]: scale, bias and residual in one product
         aug = np.empty((b, k + 3), dtype=np.float32)
         np.multiply(a, f["scale"][:, None], out=aug[:, :k])
         aug[:, k] = f["scale"]
         aug[:, k + 1:] = f["w_robot_world"]
+        return aug, f["g"]
+
+    @staticmethod
+    def expand(w: dict, aug, g, out=None, rows=None) -> np.ndarray:
+        """The world fields ``aug @ basis.folded[g]`` row by row, ``(B, 2 H^2)`` float32; with
+        ``out``, added into its ``rows`` (default: written to a new array). The rows are
+        grouped by element, :data:`PREDICT_CHUNK` per product, so each element's basis is read
+        once per group and the temporaries stay a chunk's; a batch of one element (one inlet's,
+        or one sample: the onboard stack's) is one product."""
         basis = w["basis.folded"]
-        g = f["g"]
-        if (g == g[0]).all():
-            return (aug @ basis[g[0]]).reshape(b, 2, -1)
+        if out is None:
+            out = np.empty((aug.shape[0], basis.shape[2]), dtype=np.float32)
+            if (g == g[0]).all():
+                return np.matmul(aug, basis[g[0]], out=out)
         order = np.argsort(g, kind="stable")
         bounds = np.searchsorted(g[order], np.arange(9))
-        aug = aug[order]
-        sorted_out = np.empty((b, basis.shape[2]), dtype=np.float32)
         for e in range(8):
-            lo, hi = bounds[e], bounds[e + 1]
-            if hi > lo:
-                np.matmul(aug[lo:hi], basis[e], out=sorted_out[lo:hi])
-        out = np.empty_like(sorted_out)
-        out[order] = sorted_out
-        return out.reshape(b, 2, -1)
+            for lo in range(bounds[e], bounds[e + 1], PREDICT_CHUNK):
+                group = order[lo:min(lo + PREDICT_CHUNK, bounds[e + 1])]
+                part = aug[group] @ basis[e]
+                if rows is None:
+                    out[group] = part
+                else:
+                    out[rows[group]] += part
+        return out
+
+    def predict(self, w: dict, scans, w_up, w_robot, g=None) -> np.ndarray:
+        aug, g = self.augmented(w, scans, w_up, w_robot, g)
+        return self.expand(w, aug, g).reshape(aug.shape[0], 2, -1)
 
 
 ARCHITECTURES = {a.name: a for a in (ThesisMLPArchitecture, D4FilmArchitecture)}
@@ -1280,41 +1298,50 @@ class Decoder(ReadOnlyOnCopy):
 
     def _blended(self, scans, w_up, w_robot, prepared, rows, g_other, weight) -> np.ndarray:
         """The network's field for inlets off every boundary, ``rows`` (sorted) blended with its
-        answer through ``g_other``. Chunk by chunk of :data:`PREDICT_CHUNK`: the chunk's pass
-        as :meth:`_predict`, then the second pass of its rows in ``rows``, blended into them
-        before the next chunk, so the working set stays one chunk's (a first pass over the
-        whole batch, then the second passes, held a batch-sized output and its temporaries
-        at once: 16.7-17.1 against 12.9-13.7 ms per 1,024 random inlets in a fresh process, the
-        difference fresh pages from the kernel; docs/decoder.md)."""
+        answer through ``g_other``: ``(1 - weight)`` times the first pass plus ``weight`` times
+        the second, taken on the augmented rows (the field is linear in them,
+        :meth:`D4FilmArchitecture.augmented`), so the second passes add one grouped product
+        into the output instead of a field each to gather, blend and scatter (docs/decoder.md,
+        "Speed")."""
         prepared = self.prepared if prepared is None else prepared
         b, h = scans.shape[0], self.size
-        out = np.empty((b, 2, h, h), dtype=np.float32)
-        bounds = np.searchsorted(rows, np.arange(0, b + PREDICT_CHUNK, PREDICT_CHUNK))
-        for c, i in enumerate(range(0, b, PREDICT_CHUNK)):
+        aug, g = self._augmented(scans, w_up, w_robot, prepared)
+        near = (scans, w_up, w_robot) if rows.size == b else (  # one inlet's batch: no gather
+            scans[rows], w_up[rows], w_robot[rows])
+        aug_other, g_other = self._augmented(*near, prepared, g_other)
+        aug[rows] *= (1.0 - weight)[:, None]
+        aug_other *= weight[:, None]
+        out = self.arch.expand(prepared, aug, g)
+        self.arch.expand(prepared, aug_other, g_other, out=out, rows=rows)
+        return out.reshape(b, 2, h, h)
+
+    def _augmented(self, scans, w_up, w_robot, prepared, g=None) -> tuple:
+        """:meth:`D4FilmArchitecture.augmented` of a batch, chunk by chunk of
+        :data:`PREDICT_CHUNK` (inputs as float32; ``g``: the D4 elements to take, as there)."""
+        b = scans.shape[0]
+        aug = elements = None
+        for i in range(0, b, PREDICT_CHUNK):
             j = min(b, i + PREDICT_CHUNK)
-            src = [np.asarray(a[i:j], dtype=np.float32) for a in (scans, w_up, w_robot)]
-            own = out[i:j]
-            own[...] = self.arch.predict(prepared, *src).reshape(j - i, 2, h, h)
-            lo, hi = bounds[c], bounds[c + 1]
-            if lo == hi:
-                continue
-            local = rows[lo:hi] - i
-            every = local.size == j - i  # the chunk's every row (one inlet's batch): no gather
-            field = self.arch.predict(prepared, *(a if every else a[local] for a in src),
-                                      g_other[lo:hi]).reshape(hi - lo, 2, h, h)
-            near = own if every else own[local]
-            field -= near
-            field *= weight[lo:hi, None, None, None]
-            near += field
-            if not every:
-                own[local] = near
-        return out
+            part, e = self.arch.augmented(
+                prepared, *(np.asarray(a[i:j], dtype=np.float32) for a in (scans, w_up, w_robot)),
+                None if g is None else g[i:j])
+            if aug is None:
+                aug = np.empty((b, part.shape[1]), dtype=np.float32)
+                elements = np.empty(b, dtype=np.int64)
+            aug[i:j], elements[i:j] = part, e
+        return aug, elements
 
     def _predict(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
         """The network's field for checked inputs, in chunks of :data:`PREDICT_CHUNK`, with
-        :attr:`prepared` or the ``prepared`` weights given."""
+        :attr:`prepared` or the ``prepared`` weights given; for the d4-film the mode
+        coefficients by chunks, then the fields of the whole batch grouped by D4 element
+        (:meth:`D4FilmArchitecture.expand`: each element's basis read once per group, not
+        once per chunk)."""
         prepared = self.prepared if prepared is None else prepared
         b, h = scans.shape[0], self.size
+        if isinstance(self.arch, D4FilmArchitecture):
+            aug, g = self._augmented(scans, w_up, w_robot, prepared)
+            return self.arch.expand(prepared, aug, g).reshape(b, 2, h, h)
         out = np.empty((b, 2, h, h), dtype=np.float32)
         for i in range(0, b, PREDICT_CHUNK):
             j = min(b, i + PREDICT_CHUNK)
