@@ -1151,6 +1151,11 @@ def test_command_flies_the_onboard_stack_with_the_decoder_file_given(tmp_path, m
     assert command(["--out", store, "--replay", "quick/m00/w00/p0", "--variant",
                     "ea-mppi-w-hat", "--decoder", mine]) == 0
     assert given["ea-mppi-w-hat"].fingerprint() == load_decoder(mine).fingerprint()
+    given.clear()
+    assert command(["--out", store, "--check", "2", "--variants", "ea-mppi-w-hat",
+                    "--decoder", mine, "--executor", "serial", "--no-progress"]) == 0
+    assert "2 reproduced" in capsys.readouterr().out
+    assert given["ea-mppi-w-hat"].fingerprint() == load_decoder(mine).fingerprint()
     # without it, with another file, and against a store of the pinned decoder: refused
     assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial",
                     "--out", plain, "--no-progress"]) == 0
@@ -1164,12 +1169,21 @@ def test_command_flies_the_onboard_stack_with_the_decoder_file_given(tmp_path, m
              "'--decoder' parameter .* the benchmark's pinned decoder"),
             (["--out", store, "--table", "--decoder", tmp_path / "none.npz"],
              "'--decoder' parameter of windnav benchmark-nav"),
+            (["--out", store, "--check", "2", "--variants", "ea-mppi-w-hat"],
+             "'--decoder' parameter .* must name the decoder file"),
             (["--suite", "quick", "--variants", "ea-mppi-w-hat@views=3", "--out",
               tmp_path / "views", "--decoder", mine], r"'--variants' parameter .* \('@views=' "
-                                                       r"without '@decoder='\)")):
+                                                       r"without '@decoder='\)"),
+            (["--out", store, "--replay", "quick/m00/w00/p0", "--variant",
+              "ea-mppi-w-hat@views=3", "--decoder", mine], r"'--variant' parameter .* "
+                                                           r"\('@views=' without")):
         with pytest.raises(ValueError, match=match):
             command(argv)
     assert not (tmp_path / "views").exists()
+    # a store of that decoder whose run flies none of it: said, not refused
+    assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out",
+                    tmp_path / "ref", "--decoder", mine, "--no-progress"]) == 0
+    assert "note: no variant of this run flies --decoder's file" in capsys.readouterr().err
 
 
 def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_path, monkeypatch,

@@ -150,9 +150,26 @@ def test_a_large_batch_goes_through_in_chunks_with_the_whole_batchs_result():
     # the last chunk's rows alone agree with them to float32 rounding, not to the bit
     np.testing.assert_allclose(got[2 * PREDICT_CHUNK:], last, rtol=0,
                                atol=1e-5 * np.abs(last).max())
-    one = dec.predict(scans[5:6], w_up[5:6], w_robot[5:6])   # one sample: one product, as before
-    np.testing.assert_array_equal(one, dec.arch.predict(dec.prepared, scans[5:6], w_up[5:6],
-                                                        w_robot[5:6]).reshape(one.shape))
+    # one sample (the onboard stack's call): the network's coefficients, then one product of
+    # the row [U a, U, W_robot] with its element's folded basis, built here by hand
+    arch, w = dec.arch, dec.prepared
+    for k in (5, 6, 7):
+        f = arch.features(scans[k:k + 1], w_up[k:k + 1], w_robot[k:k + 1])
+        row = np.concatenate([arch.coefficients(w, f)[0] * f["scale"][0], f["scale"],
+                              f["w_robot_world"][0]]).astype(np.float32)[None]
+        np.testing.assert_array_equal(
+            dec.predict(scans[k:k + 1], w_up[k:k + 1], w_robot[k:k + 1]).reshape(1, -1),
+            row @ w["basis.folded"][f["g"][0]])
+
+
+@pytest.mark.parametrize("boundary", ["blend", "average", "floor"])
+def test_an_empty_batch_gives_an_empty_field(boundary):
+    from windnav.predict import load_decoder
+
+    dec = load_decoder(boundary=boundary)
+    for w in (np.zeros((0, 2)), np.array([3.0, 1.0])):
+        got = dec.predict(np.zeros((0, 360)), w, w)
+        assert got.shape == (0, 2, 25, 25) and got.dtype == np.float32
 
 
 # ------------------------------------------------------------------------------ D4

@@ -26,8 +26,8 @@ the CPU can run it; ``--portable`` flies a run under the arithmetic every AVX2 C
 
 ``--decoder FILE`` (since 2026-12-07) flies the onboard stack (``ea-mppi-w-hat``, without
 ``@decoder=``) with that decoder file, e.g. a model of ``windnav train-decoder``, instead of the
-benchmark's pinned one (:data:`windnav.experiments.nav_benchmark.BENCHMARK_DECODER`), under
-``load_decoder``'s default rule at the sector boundaries (``blend``)::
+benchmark's pinned one (:data:`windnav.experiments.nav_benchmark.BENCHMARK_DECODER`), with its
+two folds blended near a sector boundary (:data:`DECODER_RULE`, pinned)::
 
     windnav benchmark-nav --suite thesis --variants mppi,ea-mppi-w-hat \
                           --decoder runs/mine/model.npz --out runs/thesis_mine
@@ -36,7 +36,8 @@ The decoder is part of the suite's settings (by its fingerprint: weights, archit
 so its flights need a store of their own, with the variants they are compared with (the
 reference) flown into it too; ``--table``, ``--check`` and ``--replay`` of that store take the
 same ``--decoder`` again (another file, or none, is refused naming the option), and a JSON
-records the file's SHA-256 (``decoder_file``).
+records the file's SHA-256, taken when it is loaded (``decoder_file``). ``windnav nav-study
+--store`` does not open such a store.
 """
 
 from __future__ import annotations
@@ -189,7 +190,7 @@ def _with_decoder(args, name: str, spec, man: dict):
     flown = dataclasses.replace(spec, navigate_options={**spec.navigate_options,
                                                         "decoder": _decoder(args, name)})
     mine = flown.settings()["navigate_options"]["decoder"]  # "Decoder sha256:<fingerprint>"
-    if settings is not None and recorded != mine:
+    if isinstance(options, dict) and recorded != mine:  # (a malformed one: NavStore says so)
         theirs = ("the benchmark's pinned decoder" if recorded is None
                   else f"another decoder ({recorded})")
         raise ValueError(f"The '--decoder' parameter of {name} must name the decoder the store "
@@ -199,23 +200,54 @@ def _with_decoder(args, name: str, spec, man: dict):
     return flown
 
 
+DECODER_RULE = "blend"
+"""The rule at the sector boundaries ``--decoder``'s file is flown with (``load_decoder``'s
+default since 2026-12-06), pinned: it is part of the decoder's fingerprint in the store's
+settings, which a change of the default would otherwise change under the same file."""
+
+_DECODER_FILES: dict = {}
+"""``--decoder``'s path -> ``{"path", "sha256"}`` of the file as it was loaded (hashed then,
+not when a JSON is written hours of flights later: ``decoder_file``)."""
+
+
 def _decoder(args, name: str):
-    """``--decoder``'s file loaded (as ``load_decoder`` loads it), its errors naming the option."""
+    """``--decoder``'s file loaded under :data:`DECODER_RULE` and hashed, its errors naming the
+    option."""
     from windnav.predict import load_decoder
+    from windnav.predict.decoder import model_sha256
 
     with options_named({"'path' parameter of load_decoder": f"'--decoder' parameter of {name}"}):
-        return load_decoder(args.decoder)
+        decoder = load_decoder(args.decoder, boundary=DECODER_RULE)
+    _DECODER_FILES[str(args.decoder)] = {"path": str(args.decoder),
+                                         "sha256": model_sha256(args.decoder)}
+    return decoder
 
 
 def _document(payload: dict, args) -> dict:
     """The JSON document of this run, with ``decoder_file`` (the path and SHA-256 of
-    ``--decoder``) when given."""
+    ``--decoder`` when it was loaded) when given."""
     if args.decoder is not None:
-        from windnav.predict.decoder import model_sha256
-
-        payload = {**payload, "decoder_file": {"path": str(args.decoder),
-                                               "sha256": model_sha256(args.decoder)}}
+        payload = {**payload, "decoder_file": _DECODER_FILES[str(args.decoder)]}
     return document("benchmark-nav", payload, args)
+
+
+def _refuse_other_views(args, name: str, labels, flag: str) -> None:
+    """With ``--decoder``, a ValueError naming ``flag`` for labels asking the turned views of
+    the benchmark's pinned decoder (``@views=`` without ``@decoder=``): their flights would
+    fly that decoder, not ``--decoder``'s, and each would be recorded as an error
+    (:func:`windnav.experiments.nav_benchmark.fly`)."""
+    if args.decoder is None:
+        return
+    from windnav.experiments.nav_benchmark import parse_variant
+
+    with options_named({f"'variants' parameter of {name}": f"'{flag}' parameter of {name}"}):
+        views = [v for v, o in ((v, parse_variant(v, name)[1]) for v in labels)
+                 if "decoder_views" in o and "decoder" not in o]
+    if views:
+        raise ValueError(f"The '{flag}' parameter of {name} must not ask, with --decoder, the "
+                         "turned views of the benchmark's pinned decoder ('@views=' without "
+                         "'@decoder='): the flight would not fly --decoder's file. Got "
+                         f"{', '.join(views)} instead.")
 
 
 def run(args) -> int:
@@ -381,17 +413,11 @@ def _run(args, name: str, reference_given: bool) -> int:
     from windnav.experiments.results import write_json
 
     variants = _variants(args, name)
+    _refuse_other_views(args, name, variants, "--variants")
     spec = _spec(args, name)
-    if args.decoder is not None:  # each of its flights would be recorded as an error
-        from windnav.experiments.nav_benchmark import parse_variant
-
-        views = [v for v in variants if "decoder_views" in parse_variant(v, name)[1]
-                 and "decoder" not in parse_variant(v, name)[1]]
-        if views:
-            raise ValueError(f"The '--variants' parameter of {name} must not ask, with "
-                             "--decoder, the turned views of the benchmark's pinned decoder "
-                             "('@views=' without '@decoder='): the flight would not fly "
-                             f"--decoder's file. Got {', '.join(views)} instead.")
+    if args.decoder is not None and not _flies_decoder(variants, name):
+        print(f"{name}: note: no variant of this run flies --decoder's file (ea-mppi-w-hat "
+              "without '@decoder='); its store is that decoder's all the same", file=sys.stderr)
     out = outputs(args)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
     maps = suite_maps(args.maps, spec, name)
@@ -443,6 +469,19 @@ def _run(args, name: str, reference_given: bool) -> int:
                        stage.file("--json"))
         print_written(out)
     return 1 if summary["errors_now"] or summary["pending"] else 0
+
+
+def _flies_decoder(labels, name: str) -> bool:
+    """Whether one of the variant ``labels`` flies the suite's own decoder object (the onboard
+    stack without ``@decoder=``)."""
+    from windnav.experiments.nav_benchmark import parse_variant
+    from windnav.plan import VARIANTS
+
+    for label in labels:
+        base, options = parse_variant(label, name)
+        if VARIANTS[base].wind_source == "onboard" and "decoder" not in options:
+            return True
+    return False
 
 
 def _stored(args, name: str):
@@ -746,6 +785,7 @@ def _replay(args, name: str) -> int:
     if args.variant is None:
         raise ValueError(f"The '--variant' parameter of {name} must name the variant to "
                          "replay with --replay. Got None instead.")
+    _refuse_other_views(args, name, [args.variant], "--variant")
     suite = str(args.replay).split("/", 1)[0]
     from windnav.experiments.nav_suite import SUITES
 

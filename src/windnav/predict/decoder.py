@@ -174,15 +174,16 @@ def shipped_model_file(sha256: str) -> Path | None:
 N_WIND_FEATURES = 5
 """Wind features of d4-film (see :func:`wind_features`)."""
 PREDICT_CHUNK = 128
-"""Samples per forward pass in :meth:`Decoder.predict`: a larger batch goes through in chunks
-of this many, each written into the output. Why: one pass over 1,024 samples allocates about
-25 MB of temporaries, more than glibc's malloc keeps between calls, so every call's arrays
-came back as fresh pages from the kernel: 18.8 ms per 1,024 on one thread of the AMD EPYC in
-a fresh process, 9.2 ms only after some large free had raised malloc's thresholds (as the
-thesis MLP's construction did in ``benchmarks/bench_decoder.py``). In chunks of 128 the
-working set is reused: 11.5 ms in both states (2026-12-02, docs/decoder.md; chunks of 64, 96,
-192, 256, 512: 14.3, 12.5-12.9, 10.9-15.7, 10.1-14.9, 16.2-17.8 ms, the first figure in a
-fresh process where they differ). A chunk's rows agree with the whole batch's to float32
+"""Samples per forward pass in :meth:`Decoder.predict`: a larger batch's mode coefficients are
+computed in chunks of this many, and its fields written in groups of at most this many rows of
+one D4 element (since 2026-12-07, :meth:`D4FilmArchitecture.expand`). Why: one pass over 1,024
+samples allocates about 25 MB of temporaries, more than glibc's malloc keeps between calls, so
+every call's arrays came back as fresh pages from the kernel: 18.8 ms per 1,024 on one thread of
+the AMD EPYC in a fresh process, 9.2 ms only after some large free had raised malloc's
+thresholds (as the thesis MLP's construction did in ``benchmarks/bench_decoder.py``). In chunks
+of 128 the working set is reused: 11.5 ms in both states (2026-12-02, docs/decoder.md; chunks of
+64, 96, 192, 256, 512: 14.3, 12.5-12.9, 10.9-15.7, 10.1-14.9, 16.2-17.8 ms, the first figure in
+a fresh process where they differ). A chunk's rows agree with the whole batch's to float32
 rounding (the matrix products' blocking differs)."""
 
 BOUNDARIES = ("average", "floor", "blend")
@@ -906,16 +907,17 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
 
     @staticmethod
     def expand(w: dict, aug, g, out=None, rows=None) -> np.ndarray:
-        """The world fields ``aug @ basis.folded[g]`` row by row, ``(B, 2 H^2)`` float32; with
-        ``out``, added into its ``rows`` (default: written to a new array). The rows are
+        """The world fields ``aug @ basis.folded[g]`` row by row, ``(B, 2 H^2)`` float32, m/s,
+        ``[u cells, v cells]``: written to a new array, or with ``out``, added into
+        ``out[rows]`` (``rows``: distinct rows of ``out``, one per row of ``aug``). The rows are
         grouped by element, :data:`PREDICT_CHUNK` per product, so each element's basis is read
         once per group and the temporaries stay a chunk's; a batch of one element (one inlet's,
         or one sample: the onboard stack's) is one product."""
         basis = w["basis.folded"]
         if out is None:
             out = np.empty((aug.shape[0], basis.shape[2]), dtype=np.float32)
-            if (g == g[0]).all():
-                return np.matmul(aug, basis[g[0]], out=out)
+            if not g.size or (g == g[0]).all():
+                return np.matmul(aug, basis[g[0] if g.size else 0], out=out)
         order = np.argsort(g, kind="stable")
         bounds = np.searchsorted(g[order], np.arange(9))
         for e in range(8):
@@ -1297,38 +1299,36 @@ class Decoder(ReadOnlyOnCopy):
         return rows, g_other, weight
 
     def _blended(self, scans, w_up, w_robot, prepared, rows, g_other, weight) -> np.ndarray:
-        """The network's field for inlets off every boundary, ``rows`` (sorted) blended with its
-        answer through ``g_other``: ``(1 - weight)`` times the first pass plus ``weight`` times
-        the second, taken on the augmented rows (the field is linear in them,
-        :meth:`D4FilmArchitecture.augmented`), so the second passes add one grouped product
-        into the output instead of a field each to gather, blend and scatter (docs/decoder.md,
+        """The network's field for inlets off every boundary, ``rows`` (distinct) blended with
+        its answer through ``g_other``: ``(1 - weight)`` times the first pass plus ``weight``
+        times the second, taken on the augmented rows (the field is linear in them,
+        :meth:`D4FilmArchitecture.augmented`), so a second pass adds its grouped product into
+        the output rows instead of a field of its own blended with theirs (docs/decoder.md,
         "Speed")."""
         prepared = self.prepared if prepared is None else prepared
         b, h = scans.shape[0], self.size
         aug, g = self._augmented(scans, w_up, w_robot, prepared)
-        near = (scans, w_up, w_robot) if rows.size == b else (  # one inlet's batch: no gather
-            scans[rows], w_up[rows], w_robot[rows])
-        aug_other, g_other = self._augmented(*near, prepared, g_other)
+        aug_other, g_other = self._augmented(scans, w_up, w_robot, prepared, rows, g_other)
         aug[rows] *= (1.0 - weight)[:, None]
         aug_other *= weight[:, None]
         out = self.arch.expand(prepared, aug, g)
         self.arch.expand(prepared, aug_other, g_other, out=out, rows=rows)
         return out.reshape(b, 2, h, h)
 
-    def _augmented(self, scans, w_up, w_robot, prepared, g=None) -> tuple:
-        """:meth:`D4FilmArchitecture.augmented` of a batch, chunk by chunk of
-        :data:`PREDICT_CHUNK` (inputs as float32; ``g``: the D4 elements to take, as there)."""
-        b = scans.shape[0]
-        aug = elements = None
-        for i in range(0, b, PREDICT_CHUNK):
-            j = min(b, i + PREDICT_CHUNK)
-            part, e = self.arch.augmented(
-                prepared, *(np.asarray(a[i:j], dtype=np.float32) for a in (scans, w_up, w_robot)),
+    def _augmented(self, scans, w_up, w_robot, prepared, rows=None, g=None) -> tuple:
+        """:meth:`D4FilmArchitecture.augmented` of the batch's ``rows`` (default all), chunk by
+        chunk of :data:`PREDICT_CHUNK` (each chunk's rows gathered and made float32 in turn;
+        ``g``: the D4 elements to take, one per row, as there)."""
+        n = scans.shape[0] if rows is None else rows.size
+        hp = self.hyperparameters
+        aug = np.empty((n, hp.get("members", 1) * hp["modes"] + 3), dtype=np.float32)
+        elements = np.empty(n, dtype=np.int64)
+        for i in range(0, n, PREDICT_CHUNK):
+            j = min(n, i + PREDICT_CHUNK)
+            take = slice(i, j) if rows is None else rows[i:j]
+            aug[i:j], elements[i:j] = self.arch.augmented(
+                prepared, *(np.asarray(a[take], dtype=np.float32) for a in (scans, w_up, w_robot)),
                 None if g is None else g[i:j])
-            if aug is None:
-                aug = np.empty((b, part.shape[1]), dtype=np.float32)
-                elements = np.empty(b, dtype=np.int64)
-            aug[i:j], elements[i:j] = part, e
         return aug, elements
 
     def _predict(self, scans, w_up, w_robot, prepared=None) -> np.ndarray:
