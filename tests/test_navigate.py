@@ -523,7 +523,6 @@ def test_command_flies_the_decoders_turned_views_only_on_the_onboard_stack(comma
     """``--rotations-deg`` gives the onboard stack the shipped decoder with those turned views;
     without it the stack's default (None: the shipped decoder as given); bad angles and other
     variants are refused naming the option, before the flow is simulated."""
-    import windnav.experiments.navigate as nav
 
     seen, base = command_kwargs
     hat = ["--variant", "ea-mppi-w-hat"]
@@ -543,19 +542,29 @@ def test_command_flies_the_decoders_turned_views_only_on_the_onboard_stack(comma
     np.testing.assert_array_equal(  # the shipped model's turned views, its boundary rule
         seen["decoder"].predict(scans, w, w),
         load_decoder(rotations_deg=(0, -3, 3)).predict(scans, w, w))
+    _refused_before_the_flow(command_kwargs, (
+        (["--variant", "ea-mppi-w", "--rotations-deg", "3"],
+         "'--rotations-deg' parameter of windnav navigate applies only to the onboard "
+         "stack.*'ea-mppi-w'"),
+        (hat + ["--rotations-deg", "0", "2.5"],
+         "'--rotations-deg' parameter of windnav navigate must hold whole"),
+        (hat + ["--rotations-deg", "50"],
+         "'--rotations-deg' parameter of windnav navigate must hold whole"),
+        (hat + ["--rotations-deg", "nan"], "'--rotations-deg' parameter of windnav navigate")))
+
+
+def _refused_before_the_flow(command_kwargs, cases) -> None:
+    """Each (extra words, message) of ``cases`` is a ValueError matching the message, raised
+    before the flow is simulated and the flight flown."""
+    import windnav.experiments.navigate as nav
+
+    seen, base = command_kwargs
+
     def no_flow(*a, **kw):
         raise AssertionError("the flow was simulated before the option was checked")
 
     nav.simulate_flow = no_flow  # the fixture's monkeypatch restores the original after
-    for extra, match in ((["--variant", "ea-mppi-w", "--rotations-deg", "3"],
-                          "'--rotations-deg' parameter of windnav navigate applies only to "
-                          "the onboard stack.*'ea-mppi-w'"),
-                         (hat + ["--rotations-deg", "0", "2.5"],
-                          "'--rotations-deg' parameter of windnav navigate must hold whole"),
-                         (hat + ["--rotations-deg", "50"],
-                          "'--rotations-deg' parameter of windnav navigate must hold whole"),
-                         (hat + ["--rotations-deg", "nan"],
-                          "'--rotations-deg' parameter of windnav navigate")):
+    for extra, match in cases:
         seen.clear()
         args = parse(base + extra)
         with pytest.raises(ValueError, match=match):
@@ -567,7 +576,6 @@ def test_command_flies_the_decoder_file_given_only_on_the_onboard_stack(command_
     """``--model FILE`` gives the onboard stack that file's decoder (with ``--rotations-deg``'s
     views when given); a missing file and another variant are refused naming the option, before
     the flow is simulated."""
-    import windnav.experiments.navigate as nav
     from windnav.predict import load_decoder
     from windnav.predict.decoder import DEFAULT_MODEL
 
@@ -586,20 +594,11 @@ def test_command_flies_the_decoder_file_given_only_on_the_onboard_stack(command_
         assert not np.array_equal(seen["decoder"].predict(scans, w, w),
                                   load_decoder(rotations_deg=views).predict(scans, w, w))
 
-    def no_flow(*a, **kw):
-        raise AssertionError("the flow was simulated before the option was checked")
-
-    nav.simulate_flow = no_flow  # the fixture's monkeypatch restores the original after
-    for extra, match in ((["--variant", "mppi-w", "--model", str(old)],
-                          "'--model' parameter of windnav navigate applies only to the onboard "
-                          "stack.*'mppi-w'"),
-                         (hat + ["--model", str(old.with_name("none.npz"))],
-                          "'--model' parameter of windnav navigate")):
-        seen.clear()
-        args = parse(base + extra)
-        with pytest.raises(ValueError, match=match):
-            args.func(args)
-        assert not seen
+    _refused_before_the_flow(command_kwargs, (
+        (["--variant", "mppi-w", "--model", str(old)],
+         "'--model' parameter of windnav navigate applies only to the onboard stack.*'mppi-w'"),
+        (hat + ["--model", str(old.with_name("none.npz"))],
+         "'--model' parameter of windnav navigate")))
 
 
 def test_an_onboard_flight_records_the_hash_of_the_decoder_it_flew(city, tmp_path):
