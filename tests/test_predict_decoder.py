@@ -535,3 +535,27 @@ def test_the_benchmark_decoder_keeps_the_boundaries_its_flights_met():
 
     assert benchmark_decoder().boundary == "floor"
     assert load_decoder().boundary == "blend"
+
+
+def test_expand_is_each_rows_product_with_its_elements_basis_written_or_added():
+    """``D4FilmArchitecture.expand``: row i's field is ``aug[i] @ basis.folded[g[i]]`` however
+    the rows are grouped (more rows of one element than a chunk); with ``out`` it is added into
+    ``out[rows]``, the other rows untouched."""
+    from windnav.predict.decoder import PREDICT_CHUNK, D4FilmArchitecture
+
+    rng = np.random.default_rng(4)
+    w = {"basis.folded": rng.normal(size=(8, 5, 7)).astype(np.float32)}
+    n = PREDICT_CHUNK + 40
+    aug = rng.normal(size=(n, 5)).astype(np.float32)
+    g = rng.integers(0, 8, n)
+    g[:PREDICT_CHUNK + 5] = 3                                # one element over two groups
+    want = np.einsum("ik,ikn->in", aug, w["basis.folded"][g])
+    got = D4FilmArchitecture.expand(w, aug, g)
+    np.testing.assert_allclose(got, want, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(D4FilmArchitecture.expand(w, aug, np.full(n, 6)),
+                               aug @ w["basis.folded"][6], rtol=1e-5, atol=1e-5)
+    out = np.ones((n + 3, 7), dtype=np.float32)
+    rows = rng.permutation(n + 3)[:n]
+    D4FilmArchitecture.expand(w, aug, g, out=out, rows=rows)
+    np.testing.assert_allclose(out[rows], 1.0 + want, rtol=1e-5, atol=1e-5)
+    assert (np.delete(out, rows, axis=0) == 1.0).all()

@@ -909,12 +909,14 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
     def expand(w: dict, aug, g, out=None, rows=None) -> np.ndarray:
         """The world fields ``aug @ basis.folded[g]`` row by row, ``(B, 2 H^2)`` float32, m/s,
         ``[u cells, v cells]``: written to a new array, or with ``out``, added into
-        ``out[rows]`` (``rows``: distinct rows of ``out``, one per row of ``aug``). The rows are
+        ``out[rows]`` (``rows``: distinct rows of ``out``, one per row of ``aug``; default its
+        first rows). The rows are
         grouped by element, :data:`PREDICT_CHUNK` per product, so each element's basis is read
         once per group and the temporaries stay a chunk's; a batch of one element (one inlet's,
         or one sample: the onboard stack's) is one product."""
         basis = w["basis.folded"]
-        if out is None:
+        add = out is not None
+        if not add:
             out = np.empty((aug.shape[0], basis.shape[2]), dtype=np.float32)
             if not g.size or (g == g[0]).all():
                 return np.matmul(aug, basis[g[0] if g.size else 0], out=out)
@@ -924,10 +926,11 @@ class D4FilmArchitecture(ThesisMLPArchitecture):
             for lo in range(bounds[e], bounds[e + 1], PREDICT_CHUNK):
                 group = order[lo:min(lo + PREDICT_CHUNK, bounds[e + 1])]
                 part = aug[group] @ basis[e]
-                if rows is None:
-                    out[group] = part
+                dest = group if rows is None else rows[group]
+                if add:
+                    out[dest] += part
                 else:
-                    out[rows[group]] += part
+                    out[dest] = part
         return out
 
     def predict(self, w: dict, scans, w_up, w_robot, g=None) -> np.ndarray:
