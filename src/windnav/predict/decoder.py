@@ -1323,8 +1323,8 @@ class Decoder(ReadOnlyOnCopy):
         chunk of :data:`PREDICT_CHUNK` (each chunk's rows gathered and made float32 in turn;
         ``g``: the D4 elements to take, one per row, as there)."""
         n = scans.shape[0] if rows is None else rows.size
-        hp = self.hyperparameters
-        aug = np.empty((n, hp.get("members", 1) * hp["modes"] + 3), dtype=np.float32)
+        # a row per sample as wide as the folded basis it multiplies (members x modes + 3)
+        aug = np.empty((n, prepared["basis.folded"].shape[1]), dtype=np.float32)
         elements = np.empty(n, dtype=np.int64)
         for i in range(0, n, PREDICT_CHUNK):
             j = min(n, i + PREDICT_CHUNK)
