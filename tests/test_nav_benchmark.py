@@ -13,6 +13,7 @@ import json
 import math
 import os
 import platform
+import re
 import subprocess
 import sys
 import zlib
@@ -1184,6 +1185,51 @@ def test_command_flies_the_onboard_stack_with_the_decoder_file_given(tmp_path, m
     assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial", "--out",
                     tmp_path / "ref", "--decoder", mine, "--no-progress"]) == 0
     assert "note: no variant of this run flies --decoder's file" in capsys.readouterr().err
+
+
+def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, tiny_suite,
+                                                                      capsys):
+    """A store of ``benchmark-nav --decoder FILE`` holds the decoder in its settings: the
+    studies on a store take the same ``--decoder`` (it was refused as another suite's store,
+    with no way to give it), fly into it with it, and record the file in their JSON; without
+    it, the error names the option."""
+    from windnav import cli
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
+
+    mine = DEFAULT_MODEL.with_name("decoder_2026-12-01.npz")
+    store = tmp_path / "store"
+    assert command(["--suite", "quick", "--variants", "mppi,ea-mppi-w-hat", "--executor",
+                    "serial", "--out", store, "--decoder", mine, "--no-progress"]) == 0
+    pace = ["nav-study", "pace", "--store", str(store), "--variant", "ea-mppi-w-hat",
+            "--out", str(tmp_path / "pace")]
+    capsys.readouterr()
+    assert cli.main(pace) == 2
+    assert "'--decoder' parameter of windnav nav-study must name the decoder file" in \
+        capsys.readouterr().err
+    assert cli.main([*pace, "--decoder", str(mine)]) == 0
+    doc = json.loads((tmp_path / "pace" / "nav_pace.json").read_text())
+    assert doc["decoder_file"] == {"path": str(mine), "sha256": model_sha256(mine)}
+    assert doc["curves"]["vehicle"]["time_ratio"]["n"] > 0
+    # a study that flies (the Q_E sweep's MPPI and EA-MPPI+W) flies into that store
+    assert cli.main(["nav-study", "qe", "--store", str(store), "--values", "5", "--executor",
+                     "serial", "--out", str(tmp_path / "qe"), "--decoder", str(mine),
+                     "--no-progress"]) == 0
+    lines = (store / "records.jsonl").read_text().splitlines()
+    assert {json.loads(line)["variant"] for line in lines} == {"mppi", "ea-mppi-w-hat",
+                                                              "ea-mppi-w"}
+    # refused: another study, another decoder, the pinned decoder's views, --fly
+    other = DEFAULT_MODEL.with_name("decoder_2026-11-26.npz")
+    for argv, match in (
+            (["winds", "--decoder", str(mine)], "'--decoder' parameter .* is for the qe, h"),
+            ([*pace[1:], "--decoder", str(other), "--overwrite"],
+             r"another decoder \(Decoder sha256:"),
+            (["cases", "--store", str(store), "--variant", "ea-mppi-w-hat@views=3",
+              "--decoder", str(mine)], r"'--variant' parameter .* \('@views=' without"),
+            (["feasibility", "--store", str(store), "--fly", "mppi", "--decoder", str(mine)],
+             "'--decoder' parameter .* not to --fly")):
+        assert cli.main(["nav-study", *argv, "--out", str(tmp_path / "x")]) == 2
+        assert re.search(match, capsys.readouterr().err), argv
+    assert not (tmp_path / "x").exists()
 
 
 def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_path, monkeypatch,

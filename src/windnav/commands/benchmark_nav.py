@@ -36,8 +36,9 @@ The decoder is part of the suite's settings (by its fingerprint: weights, archit
 so its flights need a store of their own, with the variants they are compared with (the
 reference) flown into it too; ``--table``, ``--check`` and ``--replay`` of that store take the
 same ``--decoder`` again (another file, or none, is refused naming the option), and a JSON
-records the file's SHA-256, taken when it is loaded (``decoder_file``). ``windnav nav-study
---store`` does not open such a store.
+records the file's SHA-256, taken when it is loaded (``decoder_file``). The studies of
+``windnav nav-study --store`` on such a store take the same ``--decoder`` (since the fiftieth
+session). The option's pieces shared by both commands are :mod:`windnav.commands._decoder_file`.
 """
 
 from __future__ import annotations
@@ -56,6 +57,13 @@ from windnav.commands._common import (
     print_written,
     seed,
     where,
+)
+from windnav.commands._decoder_file import (
+    DECODER_RULE,  # noqa: F401  (named by the docstring above)
+    decoder_file,
+    decoder_labels,
+    refuse_other_views,
+    with_decoder,
 )
 
 DEFAULT_VARIANTS = "mppi,mppi-w,ea-mppi,ea-mppi-w"
@@ -168,86 +176,13 @@ def _spec(args, name: str, prefer: str | None = None):
         value = man.get("seed", 0) if man.get("suite") == suite else 0
     else:
         value = seed(args)
-    return _with_decoder(args, name, get_suite(suite, seed=value), man)
-
-
-def _with_decoder(args, name: str, spec, man: dict):
-    """``spec`` whose onboard stack flies ``--decoder`` (a ``decoder`` among its
-    ``navigate_options``, in its settings by fingerprint); a ValueError naming the option where
-    the store ``man`` describes (of this suite) was flown with another decoder object, or
-    without one."""
-    import dataclasses
-
-    settings = man.get("settings") if man.get("suite") == spec.name else None
-    options = settings.get("navigate_options") if isinstance(settings, dict) else None
-    recorded = options.get("decoder") if isinstance(options, dict) else None
-    if args.decoder is None:
-        if recorded is not None:
-            raise ValueError(f"The '--decoder' parameter of {name} must name the decoder file "
-                             f"that the store {str(args.out)!r} was flown with ({recorded}). "
-                             "Got None instead.")
-        return spec
-    flown = dataclasses.replace(spec, navigate_options={**spec.navigate_options,
-                                                        "decoder": _decoder(args, name)})
-    mine = flown.settings()["navigate_options"]["decoder"]  # "Decoder sha256:<fingerprint>"
-    if isinstance(options, dict) and recorded != mine:  # (a malformed one: NavStore says so)
-        theirs = ("the benchmark's pinned decoder" if recorded is None
-                  else f"another decoder ({recorded})")
-        raise ValueError(f"The '--decoder' parameter of {name} must name the decoder the store "
-                         f"{str(args.out)!r} was flown with: {theirs}. Got "
-                         f"{str(args.decoder)!r} instead ({mine}); a decoder's flights need a "
-                         "store of their own.")
-    return flown
-
-
-DECODER_RULE = "blend"
-"""The rule at the sector boundaries ``--decoder``'s file is flown with (``load_decoder``'s
-default since 2026-12-06), pinned: it is part of the decoder's fingerprint in the store's
-settings, which a change of the default would otherwise change under the same file."""
-
-_DECODER_FILES: dict = {}
-"""``--decoder``'s path -> ``{"path", "sha256"}`` of the file as it was loaded (hashed then,
-not when a JSON is written hours of flights later: ``decoder_file``)."""
-
-
-def _decoder(args, name: str):
-    """``--decoder``'s file loaded under :data:`DECODER_RULE` and hashed, its errors naming the
-    option."""
-    from windnav.predict import load_decoder
-    from windnav.predict.decoder import model_sha256
-
-    with options_named({"'path' parameter of load_decoder": f"'--decoder' parameter of {name}"}):
-        decoder = load_decoder(args.decoder, boundary=DECODER_RULE)
-    _DECODER_FILES[str(args.decoder)] = {"path": str(args.decoder),
-                                         "sha256": model_sha256(args.decoder)}
-    return decoder
+    return with_decoder(args, name, get_suite(suite, seed=value), man)
 
 
 def _document(payload: dict, args) -> dict:
     """The JSON document of this run, with ``decoder_file`` (the path and SHA-256 of
     ``--decoder`` when it was loaded) when given."""
-    if args.decoder is not None:
-        payload = {**payload, "decoder_file": _DECODER_FILES[str(args.decoder)]}
-    return document("benchmark-nav", payload, args)
-
-
-def _refuse_other_views(args, name: str, labels, flag: str) -> None:
-    """With ``--decoder``, a ValueError naming ``flag`` for labels asking the turned views of
-    the benchmark's pinned decoder (``@views=`` without ``@decoder=``): their flights would
-    fly that decoder, not ``--decoder``'s, and each would be recorded as an error
-    (:func:`windnav.experiments.nav_benchmark.fly`)."""
-    if args.decoder is None:
-        return
-    from windnav.experiments.nav_benchmark import parse_variant
-
-    with options_named({f"'variants' parameter of {name}": f"'{flag}' parameter of {name}"}):
-        views = [v for v, o in ((v, parse_variant(v, name)[1]) for v in labels)
-                 if "decoder_views" in o and "decoder" not in o]
-    if views:
-        raise ValueError(f"The '{flag}' parameter of {name} must not ask, with --decoder, the "
-                         "turned views of the benchmark's pinned decoder ('@views=' without "
-                         "'@decoder='): the flight would not fly --decoder's file. Got "
-                         f"{', '.join(views)} instead.")
+    return document("benchmark-nav", {**payload, **decoder_file(args)}, args)
 
 
 def run(args) -> int:
@@ -413,9 +348,9 @@ def _run(args, name: str, reference_given: bool) -> int:
     from windnav.experiments.results import write_json
 
     variants = _variants(args, name)
-    _refuse_other_views(args, name, variants, "--variants")
+    refuse_other_views(args, name, variants, "--variants")
     spec = _spec(args, name)
-    if args.decoder is not None and not _flies_decoder(variants, name):
+    if args.decoder is not None and not decoder_labels(variants, name)[1]:
         print(f"{name}: note: no variant of this run flies --decoder's file (ea-mppi-w-hat "
               "without '@decoder='); its store is that decoder's all the same", file=sys.stderr)
     out = outputs(args)
@@ -469,19 +404,6 @@ def _run(args, name: str, reference_given: bool) -> int:
                        stage.file("--json"))
         print_written(out)
     return 1 if summary["errors_now"] or summary["pending"] else 0
-
-
-def _flies_decoder(labels, name: str) -> bool:
-    """Whether one of the variant ``labels`` flies the suite's own decoder object (the onboard
-    stack without ``@decoder=``)."""
-    from windnav.experiments.nav_benchmark import parse_variant
-    from windnav.plan import VARIANTS
-
-    for label in labels:
-        base, options = parse_variant(label, name)
-        if VARIANTS[base].wind_source == "onboard" and "decoder" not in options:
-            return True
-    return False
 
 
 def _stored(args, name: str):
@@ -785,7 +707,7 @@ def _replay(args, name: str) -> int:
     if args.variant is None:
         raise ValueError(f"The '--variant' parameter of {name} must name the variant to "
                          "replay with --replay. Got None instead.")
-    _refuse_other_views(args, name, [args.variant], "--variant")
+    refuse_other_views(args, name, [args.variant], "--variant")
     suite = str(args.replay).split("/", 1)[0]
     from windnav.experiments.nav_suite import SUITES
 

@@ -59,6 +59,15 @@ instantaneous ``W_robot`` (and, with ``--tau``, the UKF's estimate averaged over
 flights in ``--out``'s ``nav_inflight.partial.jsonl`` until its outputs are written: after
 Ctrl-C (exit 130) or a kill, rerunning the same command flies only the winds not yet done, with
 the uninterrupted run's result.
+
+A store flown by ``windnav benchmark-nav --decoder FILE`` (the onboard stack flying a decoder
+file of your own) holds that decoder in its suite's settings: the studies on a store (``qe``,
+``h``, ``cases``, ``pace``, ``bound``, ``tilt``, ``feasibility``) take the same ``--decoder
+FILE``, and the flights they fly into it fly it (``cases --variant ea-mppi-w-hat``); without
+it, or with another file, such a store is refused naming the option. ``feasibility --fly``
+takes none (its reach cache is the suite's without a decoder): fly into such a store with
+``benchmark-nav --decoder``. ``inflight`` flies the benchmark's decoders (``--variant
+ea-mppi-w-hat@decoder=DATE``) and scores others with ``--compare NAME=FILE``.
 """
 
 from __future__ import annotations
@@ -79,6 +88,7 @@ from windnav.commands._common import (
     refuse_other_studies,
     where,
 )
+from windnav.commands._decoder_file import decoder_file, refuse_other_views, with_decoder
 
 STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "bound", "tilt",
            "inflight")
@@ -162,6 +172,10 @@ def register(subparsers) -> None:
                         "loops; by default the command restarts under the records' when they "
                         "differ and this CPU can run them (a flight re-flies as recorded only "
                         "under the arithmetic that flew it)")
+    p.add_argument("--decoder", type=Path, default=None, metavar="FILE",
+                   help="the decoder file the store's onboard stack flew: a store of "
+                        "'benchmark-nav --decoder FILE' needs the same file again, and the "
+                        "flights a study flies into it (cases: ea-mppi-w-hat) fly it")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -182,6 +196,7 @@ STUDY_OPTIONS = {
     "cache": ("feasibility",), "airspeeds": ("feasibility",), "fly": ("feasibility",),
     "scenario": ("gusts",), "base": ("gusts",), "gust_k": ("gusts",),
     "native_arithmetic": ("cases",),
+    "decoder": ("qe", "h", "cases", "pace", "bound", "tilt", "feasibility"),
 }
 """The studies that read each option; given to another, it is refused."""
 
@@ -202,6 +217,24 @@ def _check_study_options(args, name: str) -> None:
             setattr(args, key, default)
 
 
+def _with_decoder(args, name: str, spec):
+    """``spec`` whose onboard stack flies ``--decoder``
+    (:func:`windnav.commands._decoder_file.with_decoder`): a store flown by ``benchmark-nav
+    --decoder FILE`` holds that decoder in its suite's settings, and was refused as another
+    suite's without a way to give it (the forty-ninth session's note). ``--decoder`` with
+    ``feasibility --fly`` is refused: the reach cache is the suite's without a decoder, its
+    flights the store's with one."""
+    from windnav.commands.benchmark_nav import _manifest
+
+    if args.decoder is not None and args.study == "feasibility" and args.fly:
+        raise ValueError(f"The '--decoder' parameter of {name} applies to feasibility's store, "
+                         "not to --fly: fly the variants into a decoder's store with "
+                         "'windnav benchmark-nav --decoder FILE'. Got --decoder with --fly "
+                         f"{args.fly!r} instead.")
+    store = None if args.store is None else _manifest(Path(args.store))
+    return with_decoder(args, name, spec, store or {})
+
+
 def _check_store(store: Path, name: str) -> None:
     """``--store`` names an existing benchmark store (the studies that only read one)."""
     if not (store / "manifest.json").is_file():
@@ -217,7 +250,7 @@ def _write(out, args, payload: dict, json_name: str, draw) -> None:
 
     with out.writing() as stage:
         draw(stage.dir)
-        doc = document("nav-study", payload, args)
+        doc = document("nav-study", {**payload, **decoder_file(args)}, args)
         write_json(doc, stage.dir / json_name)
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
@@ -252,6 +285,8 @@ def run(args) -> int:
     study = args.study
     spec = study_suite(args)
     _check_study_options(args, name)
+    if study in STUDY_OPTIONS["decoder"]:
+        spec = _with_decoder(args, name, spec)
     if study == "winds":
         return _winds(args, name, spec)
     if study == "gs":
@@ -319,6 +354,7 @@ def _cases(args, name: str, spec) -> int:
 
     _check_store(args.store, name)
     (variant,) = check_variants([args.variant], name)
+    refuse_other_views(args, name, [variant], "--variant")
     tags = ("best", "worst")
     products = ("nav_cases.json", *(f"{t}_{k}.png" for t in tags for k in ("paths", "energy")))
     out = outputs(args, out=("--out", args.out, products))
