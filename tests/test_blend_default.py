@@ -135,7 +135,9 @@ def test_a_result_made_with_one_pass_rebuilds_with_its_rule():
     # so no --compare-boundary
     words = command_arguments(_doc("evaluate-decoder", {"boundary": "average", "maps": 0,
                                                         "out": "runs/x"}, typed))
-    assert words == ["windnav", "evaluate-decoder", "--boundary", "average", *typed[1:]]
+    # (and --windinet: its default became None, resolved by --map, in the fiftieth session)
+    assert words == ["windnav", "evaluate-decoder", "--boundary", "average", "--windinet",
+                     *typed[1:]]
     # with compared models, made before --compare-boundary: theirs named too
     cmp = [*typed, "--compare", "a=m.npz"]
     p = _parsed(command_arguments(_doc("evaluate-decoder", {"boundary": "average",
@@ -154,7 +156,8 @@ def test_a_result_made_with_one_pass_rebuilds_with_its_rule():
     blend = ["evaluate-decoder", "--out", "runs/y", "--compare", "a=m.npz"]
     assert command_arguments(_doc("evaluate-decoder", {"boundary": "blend",
                                                        "compare_boundary": None,
-                                                       "compare": ["a=m.npz"],
+                                                       "compare": ["a=m.npz"], "maps": None,
+                                                       "windinet": None,
                                                        "out": "runs/y"}, blend)) == \
         ["windnav", *blend]
     # a study, and a command with no such option: untouched

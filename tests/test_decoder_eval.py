@@ -509,6 +509,69 @@ def test_evaluate_decoder_command_refuses_a_file_as_flow_cache_and_a_folder_as_m
         assert not (d / "refused").exists()
 
 
+def test_a_map_of_your_own_is_scored_as_the_same_map_given_in_memory(evaluation, tmp_path):
+    """``files``: a RotorPy world JSON scored in its own group ("file"), after the others, with
+    the same slots (inlets, samples) as the same map in ``maps``, and recorded by its hash."""
+    maps, res = evaluation
+    path = tmp_path / "mine.json"
+    maps[1][1].to_rotorpy_json(path)
+    own = evaluate_decoder(maps=maps[:1], windinet=False, files=[("tiny-1", path)], n_inlets=2,
+                           samples_per_inlet=48, seed=3, dx=2.0, flow_settings=TINY_FLOW,
+                           decoder=tiny_decoder())
+    assert set(own["pooled"]) == {"dense", "file", "all"}
+    assert [(r["map"], r["group"]) for r in own["records"]] == [
+        ("tiny-0", "dense"), ("tiny-1", "file")] * 2
+    assert own["config"]["files"] == [{"map": "tiny-1", "path": str(path), "sha256":
+                                       hashlib.sha256(path.read_bytes()).hexdigest()}]
+    drop = {"group", "seconds", "flow_seconds"}
+    assert [{k: v for k, v in r.items() if k not in drop} for r in own["records"]] == [
+        {k: v for k, v in r.items() if k not in drop} for r in res["records"]]
+    assert own["pooled"]["all"]["decoder"] == res["pooled"]["all"]["decoder"]
+    for files, match in (([("mine", tmp_path / "none.json")], "'files' parameter .* not a file"),
+                         ([("tiny-0", path)], r"'files' parameter .* \['tiny-0'\] more than")):
+        with pytest.raises(ValueError, match=match):
+            evaluate_decoder(maps=maps[:1], windinet=False, files=files, n_inlets=1,
+                             samples_per_inlet=8, dx=2.0, flow_settings=TINY_FLOW,
+                             decoder=tiny_decoder())
+
+
+def test_evaluate_decoder_command_scores_a_map_of_your_own(map_and_model, monkeypatch, capsys):
+    """``--map [NAME=]FILE``: the map alone by default (``--maps 0 --no-windinet``, as the
+    JSON's config says), pooled as "file"; a missing, unreadable or twice-named map is
+    refused naming the option, before any flow."""
+    import windnav.commands.evaluate_decoder as cmd
+
+    d, _ = map_and_model
+    run = cmd.run
+    monkeypatch.setattr(cmd, "run", lambda args: run(args, flow_settings=TINY_FLOW))
+    out = d / "eval_mine"
+    assert main(["evaluate-decoder", "--model", str(d / "model.npz"), "--map", str(d / "map.json"),
+                 "--inlets", "1", "--samples", "16", "--dx", "2", "--out", str(out),
+                 "--no-progress", "--no-flow-cache"]) == 0
+    doc = json.loads((out / "decoder_eval.json").read_text())
+    assert [(r["map"], r["group"]) for r in doc["records"]] == [("map", "file")]
+    assert set(doc["pooled"]) == {"file", "all"}
+    assert (doc["arguments"]["maps"], doc["arguments"]["windinet"]) == (None, None)
+    assert doc["config"]["maps"] == ["map"] and doc["config"]["windinet_layout"] is None
+    assert doc["config"]["files"][0]["map"] == "map"
+    capsys.readouterr()
+    (d / "garbage.json").write_text("{")
+    (d / "empty.json").write_text('{"bounds": {"extents": [0, 100, 0, 100, 0, 30]}, '
+                                  '"blocks": []}')
+    for argv, match in (
+            (["--map", str(d / "none.json")], "'--map' parameter .* which does not exist"),
+            (["--map", str(d / "garbage.json")], "'--map' parameter .* not valid JSON"),
+            (["--map", str(d / "empty.json")], "'--map' parameter .* which has none"),
+            (["--map", f"={d / 'map.json'}"], "'--map' parameter .* a name before '='"),
+            (["--map", str(d / "map.json"), "--map", str(d / "map.json")],
+             r"'--map' parameter .* \['map'\] more than once")):
+        rc = main(["evaluate-decoder", "--model", str(d / "model.npz"), "--out",
+                   str(d / "refused"), "--no-progress", "--no-flow-cache", "--dx", "2", *argv])
+        assert rc == 2, argv
+        assert re.search(match, capsys.readouterr().err), argv
+        assert not (d / "refused").exists()
+
+
 def test_evaluate_decoder_ctrl_c_says_what_is_kept(map_and_model, capsys, monkeypatch):
     """Ctrl-C said only "interrupted": the solved flows are kept for the rerun (in --out's
     flows folder, or --flow-cache DIR), or with --no-flow-cache lost (interrupt audit,

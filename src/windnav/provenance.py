@@ -44,7 +44,8 @@ from pathlib import Path
 __all__ = ["command_line", "command_arguments", "VALUES_BEFORE", "MODEL_COMMANDS"]
 
 VALUES_BEFORE = {
-    "evaluate-decoder": {"boundary": "average", "compare_boundary": "average"},
+    "evaluate-decoder": {"boundary": "average", "compare_boundary": "average", "maps": 3,
+                         "windinet": True},
     "predict": {"boundary": "average"},
     "decoder-study": {"boundary": "average"},
 }
@@ -53,7 +54,9 @@ was made with: the decoder's rule at the sector boundaries. ``--boundary`` came 
 ``evaluate-decoder`` and ``predict`` on 2026-12-05 and to ``decoder-study`` on 2026-12-06, and
 ``--compare-boundary`` on 2026-12-06, when ``blend`` became the default; before, the decoders
 took one pass (``average``; the side rounding picked until 2026-12-05, the same answer for every
-inlet off a multiple of 45 deg, where no random evaluation inlet falls)."""
+inlet off a multiple of 45 deg, where no random evaluation inlet falls). ``evaluate-decoder``'s
+``--maps`` (3) and ``--windinet`` (yes) default to None since the fiftieth session (2026-12-07),
+resolved by the command (0 and no with ``--map``); the results before recorded the values."""
 
 
 MODEL_COMMANDS = ("evaluate-decoder", "decoder-study", "predict", "navigate")

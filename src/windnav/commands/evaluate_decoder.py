@@ -7,13 +7,17 @@
         --out runs/eval_own
     windnav evaluate-decoder --compare thesis-mlp=runs/thesis_mlp/model.npz --out runs/eval
     windnav evaluate-decoder --maps 0 --out runs/eval_wi --flow-cache runs/flows  # flows shared
+    windnav evaluate-decoder --map my_city.json --out runs/eval_mine  # your own city alone
 
 Simulates the mean flow of dense 1.2 km evaluation maps (never trained on) and of the windinet
 1.1 km layout at random inlets (speed U[2, 10] m/s, direction U[0, 360) deg), draws samples
 from each field and reports the speed, direction and vector errors of the decoder, the Local
 baseline (uniform W_robot) and the Upstream baseline (uniform W_up), per (map, inlet) and
 pooled, with the improvements over each baseline and issue 9's acceptance checks; models given
-with ``--compare`` are scored on the same fields and samples beside it. Inlets are
+with ``--compare`` are scored on the same fields and samples beside it. ``--map [NAME=]FILE``
+(repeatable) adds a city of your own, a RotorPy world JSON, pooled apart as the group
+``file``; with it the dense maps and windinet are left out unless ``--maps`` or
+``--windinet`` is given. Inlets are
 added, map by map, while they fit in the budget. Each solved flow is kept in the flow cache,
 ``--out``'s ``flows`` folder unless ``--flow-cache DIR`` names another (``--no-flow-cache``:
 none), so the same command run again after Ctrl-C or a kill resumes: an inlet whose flow comes
@@ -55,12 +59,15 @@ from windnav.commands._common import (
     document,
     load_model,
     model_files,
+    options_named,
     outputs,
     print_written,
     seed,
     where,
 )
 
+MAPS = 3
+"""``--maps``'s default without ``--map``."""
 PRODUCTS = ("decoder_eval.json", "decoder_eval.png")
 """The results a run writes into ``--out`` (what ``--overwrite`` replaces)."""
 FLOW_CACHE = "flows"
@@ -81,8 +88,14 @@ def register(subparsers) -> None:
                    help="another decoder file scored beside the decoder on the same samples "
                         "(e.g. the thesis MLP trained on the same data); repeatable; NAME "
                         "defaults to its architecture")
-    p.add_argument("--maps", type=int, default=3, metavar="N",
-                   help="dense 1.2 km evaluation maps (default 3; 0: only windinet)")
+    p.add_argument("--maps", type=int, default=None, metavar="N",
+                   help=f"dense 1.2 km evaluation maps (default {MAPS}, 0 with --map; 0: only "
+                        "windinet and --map's)")
+    p.add_argument("--map", action="append", default=[], metavar="[NAME=]FILE",
+                   help="a map of your own, a RotorPy world JSON file, evaluated as the "
+                        "others are (group 'file', pooled apart); repeatable; NAME defaults "
+                        "to the file's name without .json; with it --maps defaults to 0 and "
+                        "--windinet to no")
     p.add_argument("--inlets", type=int, default=8, metavar="N",
                    help="random inlets per map at most (default 8; the budget may stop earlier)")
     p.add_argument("--samples", type=int, default=2048, metavar="N",
@@ -91,8 +104,9 @@ def register(subparsers) -> None:
                    help="wall-clock budget in minutes (default 20): no inlet starts that would "
                         "end past it; an inlet read from the flow cache is charged the "
                         "simulation time recorded with it, as if solved again")
-    p.add_argument("--windinet", action=argparse.BooleanOptionalAction, default=True,
-                   help="also evaluate the third-party windinet 1.1 km layout (default: yes)")
+    p.add_argument("--windinet", action=argparse.BooleanOptionalAction, default=None,
+                   help="also evaluate the third-party windinet 1.1 km layout (default: yes; "
+                        "no with --map)")
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder (JSON, figure)")
@@ -123,9 +137,14 @@ def run(args, simulate=None, flow_settings=None) -> int:
     positive_int(args.samples, "--samples", name)
     budget = positive_float(args.budget_min, "--budget-min", name)
     positive_float(args.dx, "--dx", name)
-    if isinstance(args.maps, bool) or args.maps < 0 or (args.maps == 0 and not args.windinet):
+    own = map_files(args.map, name)
+    # the defaults resolved, not written back: the JSON's arguments keep what was typed (None:
+    # the default), its config what ran (windnav.provenance rebuilds older lines)
+    maps = (0 if own else MAPS) if args.maps is None else args.maps
+    windinet = not own if args.windinet is None else args.windinet
+    if isinstance(maps, bool) or maps < 0 or (maps == 0 and not windinet and not own):
         raise ValueError(f"The '--maps' parameter of {name} must be an integer >= 0 (>= 1 with "
-                         f"--no-windinet). Got {args.maps!r} instead.")
+                         f"--no-windinet and no --map). Got {args.maps!r} instead.")
     if args.model is not None and not Path(args.model).is_file():
         what = "a folder" if Path(args.model).is_dir() else "which does not exist"
         raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
@@ -141,13 +160,15 @@ def run(args, simulate=None, flow_settings=None) -> int:
     training = training_conditions(training_envelope(dec))
     notes = dx_notes(training, args.dx)
     try:
-        res = evaluate_decoder(args.model, decoder=dec, maps=args.maps, windinet=args.windinet,
-                               compare=compare, compare_boundary=compare_boundary(args),
-                               n_inlets=args.inlets,
-                               samples_per_inlet=args.samples, seed=args.seed,
-                               budget_s=60.0 * budget, dx=args.dx, flow_settings=flow_settings,
-                               progress=not args.no_progress,
-                               simulate=simulate, flow_cache=flow_cache)
+        with options_named({"'files' parameter of evaluate_decoder":
+                            f"'--map' parameter of {name}"}):
+            res = evaluate_decoder(args.model, decoder=dec, maps=maps, windinet=windinet,
+                                   files=own, compare=compare,
+                                   compare_boundary=compare_boundary(args),
+                                   n_inlets=args.inlets, samples_per_inlet=args.samples,
+                                   seed=args.seed, budget_s=60.0 * budget, dx=args.dx,
+                                   flow_settings=flow_settings, progress=not args.no_progress,
+                                   simulate=simulate, flow_cache=flow_cache)
     except KeyboardInterrupt:  # said only "interrupted": the solved flows were lost unsaid
         kept = (f"the flows solved so far are kept in {str(flow_cache)!r}; rerun the same "
                 "command to reuse them (the same result)" if flow_cache is not None else
@@ -206,6 +227,40 @@ def flow_cache_folder(args, name: str) -> Path | None:
                          f"{str(args.out)!r} instead, where {str(path)!r} is a file; pass "
                          "--flow-cache DIR or --no-flow-cache.")
     return path
+
+
+def map_files(items, name: str) -> list[tuple[str, Path]]:
+    """``--map`` values ``[NAME=]FILE``: ``[(NAME, FILE)]``, NAME defaulting to the file's name
+    without ``.json``; each file read before any flow is solved (a missing or unreadable one
+    is refused naming the option)."""
+    from windnav.city import read_rotorpy_json
+
+    out = []
+    for item in items:
+        given, sep, file = item.partition("=")
+        if not sep:
+            given, file = None, item
+        path = Path(file)
+        if not path.is_file():
+            what = "a folder" if path.is_dir() else "which does not exist"
+            raise ValueError(f"The '--map' parameter of {name} must be a RotorPy world JSON "
+                             f"file ([NAME=]FILE). Got {file!r} instead, {what}.")
+        try:
+            city = read_rotorpy_json(path)
+        except ValueError as exc:
+            raise ValueError(f"The '--map' parameter of {name} must be a RotorPy world JSON "
+                             f"file ([NAME=]FILE). Got {file!r} instead: {exc}") from None
+        if not len(city.footprints):  # (its samples lie near buildings: after the flow, said)
+            raise ValueError(f"The '--map' parameter of {name} must be a map with buildings: "
+                             "the decoder is scored at robots near them. Got "
+                             f"{file!r} instead, which has none.")
+        label = given if given is not None else (path.stem if path.suffix == ".json"
+                                                 else path.name)
+        if not label:
+            raise ValueError(f"The '--map' parameter of {name} must give a name before '=' "
+                             f"(NAME=FILE). Got {item!r} instead.")
+        out.append((label, path))
+    return out
 
 
 def _compare_files(items, name) -> dict | list:

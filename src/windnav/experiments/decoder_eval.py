@@ -13,7 +13,9 @@ The protocol (the thesis's evaluation, ch. 4, on our maps):
   default recipe trains on seeds 1001-1005, so these maps are never trained on. ``windinet``:
   the third-party 1.1 km layout ``windinet/example_layout.json`` of the project's shared data
   folder (Weihao-Li-2001/windinet, Apache-2.0; :func:`windinet_layout` says where it is
-  looked for).
+  looked for). ``files`` (group ``file``, since the fiftieth session): maps of your own,
+  RotorPy world JSON files (``windnav evaluate-decoder --map FILE``), after the others, so the
+  slots of the dense maps and windinet are the same with them or without.
 - **Inlets.** Speed ``U[2, 10]`` m/s and direction ``U[0, 360)`` deg, drawn from ``seed`` for
   every (map, inlet) slot before anything runs (:func:`inlet_slots`), and the samples of each
   slot from its own stream (:func:`slot_rng`), so a slot does not depend on the budget.
@@ -123,6 +125,9 @@ MODELS = ("decoder", "local", "upstream")
 """The predictors always scored, in report order (the compared models, when any, come after
 the decoder)."""
 BASELINES = ("local", "upstream")
+GROUPS = ("dense", "windinet", "file")
+"""The map groups, in report order: the dense evaluation maps, the windinet layout, the maps of
+``files`` (each pooled apart, then all together)."""
 SPEED_RANGE = (2.0, 10.0)
 """Inlet speeds, m/s (uniform)."""
 PROTOCOL = {"spinup_steps": 100, "steps": 200}
@@ -179,7 +184,7 @@ def improvement_interval(records, model: str = "decoder", baseline: str = "local
     metric : str
         One of :data:`windnav.predict.METRICS`.
     group : str
-        ``"dense"``, ``"windinet"`` or ``"all"``: the slots taken.
+        ``"dense"``, ``"windinet"``, ``"file"`` or ``"all"``: the slots taken.
     n_boot, confidence, seed
         Resamples, level and seed (the stream is the seed, the three names and the slots
         taken, so an interval does not depend on which others are asked for, nor on the
@@ -443,6 +448,25 @@ def _evaluation_maps(maps, windinet, where):
     return out
 
 
+def _with_files(cities, files, where):
+    """``cities`` (:func:`_evaluation_maps`), then the maps of ``files`` (``(name, path)`` of
+    RotorPy world JSON files, group ``file``); every name once."""
+    from windnav.city import read_rotorpy_json
+
+    out = list(cities)
+    for name, path in files:
+        if not Path(path).is_file():
+            raise ValueError(f"The 'files' parameter of {where} must name RotorPy world JSON "
+                             f"files. Got {str(path)!r} instead, which is not a file.")
+        out.append((str(name), "file", read_rotorpy_json(path)))
+    names = [n for n, _, _ in out]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:  # a slot is named by its map (its records, its bootstrap stream, its cache entry)
+        raise ValueError(f"The 'files' parameter of {where} must name each map once, apart "
+                         f"from the others ({names}). Got {twice} more than once instead.")
+    return out
+
+
 def _compared_rule(compare_boundary, dec):
     """The rule compared files load with: ``compare_boundary``, else the decoder's own (a
     like-for-like comparison), else :func:`~windnav.predict.load_decoder`'s default (None)."""
@@ -500,7 +524,7 @@ def _pool(per_sample_list: list[dict]) -> dict:
     return pooled_errors(joined)
 
 
-def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 8,
+def evaluate_decoder(model_path=None, *, maps=3, windinet=True, files=(), n_inlets: int = 8,
                      samples_per_inlet: int = 2048, seed: int = 0, budget_s: float = 1200.0,
                      dx: float = 1.0, flow_settings: dict | None = None, decoder=None,
                      compare=None, compare_boundary: str | None = None,
@@ -515,6 +539,10 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         The number of dense evaluation maps (``dense-i``, see the module doc), or the maps.
     windinet : bool or path
         Also evaluate the third-party windinet layout (or the RotorPy JSON at this path).
+    files : sequence of (str, path)
+        Maps of your own, each a name and a RotorPy world JSON file, evaluated after the others
+        (group ``"file"``); the names must differ from each other and from ``dense-i`` and
+        ``windinet``.
     n_inlets : int
         Random inlets per map, >= 1 (at most; the budget may stop earlier).
     samples_per_inlet : int
@@ -554,7 +582,8 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         flow_diagnostics (the truth flow's averaging diagnostics, solved or read from the
         cache), errors of each model, improvement_pct), ``failed`` (slots whose flow
         failed, with the error),
-        ``pooled`` (``{"dense": ..., "windinet": ..., "all": ...}``: errors per model,
+        ``pooled`` (``{"dense": ..., "windinet": ..., "file": ..., "all": ...}``: errors per
+        model,
         improvement_pct, ``improvement_ci95`` (per model other than the baselines, per
         baseline, for the speed and direction errors: :func:`improvement_interval`'s value,
         interval over the slots and note) and ``acceptance``: issue 9's checks, None with a
@@ -587,7 +616,11 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     models = ("decoder", *compared, *BASELINES)
     if windinet is True:
         windinet = windinet_layout()  # found and checked once (its SHA-256 reads the file)
-    cities = _evaluation_maps(maps, windinet, where)
+    files = list(files or ())
+    no_other = (not windinet and isinstance(maps, int | np.integer)
+                and not isinstance(maps, bool) and maps == 0)
+    cities = _with_files([] if no_other and files else _evaluation_maps(maps, windinet, where),
+                         files, where)
     inlets = inlet_slots(len(cities), n_inlets, int(seed))
     slots = [(i, j) for j in range(n_inlets) for i in range(len(cities))]
 
@@ -649,7 +682,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
                   f"{t_flow:.0f} s, total {seconds:.0f} s", file=sys.stderr, flush=True)
 
     pooled = {}
-    for group in ("dense", "windinet", "all"):
+    for group in (*GROUPS, "all"):
         chosen = [ps for g, ps in per_sample if group in ("all", g)]
         if not chosen:
             continue
@@ -661,6 +694,8 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
     return {
         "config": {"maps": [n for n, _, _ in cities], "map_seed": EVAL_MAP_SEED,
                    "windinet_layout": str(windinet) if windinet else None,
+                   "files": [{"map": str(n), "path": str(f), "sha256": _sha256(f)}
+                             for n, f in files],
                    "n_inlets": n_inlets, "samples_per_inlet": samples, "seed": int(seed),
                    "budget_s": budget_s, "dx": dx, **settings,
                    "dt_rule": "0.25 s, shortened to U dt / dx <= 1" if "dt" not in
@@ -674,6 +709,12 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, n_inlets: int = 
         "n_slots_run": len(records) + len(failed), "n_slots_planned": len(slots),
         "stopped_by_budget": stopped, "elapsed_s": time.perf_counter() - t_start,
     }
+
+
+def _sha256(path) -> str:
+    """The SHA-256 of the file ``path`` (a map of ``files``, as its result records it)."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
 
 
 def _describe(model, path) -> dict:

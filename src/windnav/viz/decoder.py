@@ -43,7 +43,7 @@ def plot_evaluation(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
-    groups = [g for g in ("dense", "windinet") if g in result["pooled"]]
+    groups = [g for g in ("dense", "windinet", "file") if g in result["pooled"]]
     models = tuple(result.get("models", _MODELS))
     compared = [m for m in models if m not in _MODELS]
     colours = {**_COLOURS, **{m: f"C{3 + k}" for k, m in enumerate(compared)}}
@@ -59,7 +59,7 @@ def plot_evaluation(result: dict, path) -> Path:
         ax.set_title(label, fontsize=10)
     axes[0, 0].legend(fontsize=8)
     for ax, (metric, label) in zip(axes[1], _METRICS, strict=True):
-        for group, marker in (("dense", "o"), ("windinet", "s")):
+        for group, marker in (("dense", "o"), ("windinet", "s"), ("file", "D")):
             recs = [r for r in result["records"] if r["group"] == group]
             if not recs:
                 continue
