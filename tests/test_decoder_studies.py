@@ -9,6 +9,7 @@ accuracy), and the tiny recipe's sweep for the trained studies.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import re
 
@@ -321,7 +322,8 @@ def test_decoder_study_windinet_keeps_its_inlets_and_other_studies_their_maps():
 
     def namespace(study, **kw):
         return argparse.Namespace(**{"study": study, "quick": False, "windinet": True,
-                                     "flow_cache": None, "maps": None, "inlets": None, **kw})
+                                     "flow_cache": None, "maps": None, "inlets": None,
+                                     "map": None, **kw})
 
     args = namespace("direction", inlets=8)
     _check_flow_options(args, "windnav decoder-study")
@@ -344,6 +346,49 @@ def test_decoder_study_windinet_keeps_its_inlets_and_other_studies_their_maps():
         _check_flow_options(namespace(study), "windnav decoder-study")
         with pytest.raises(ValueError, match="'--windinet' parameter .* with --quick"):
             _check_flow_options(namespace(study, quick=True), "windnav decoder-study")
+
+
+def test_decoder_study_runs_on_a_map_of_your_own(tmp_path, monkeypatch, capsys):
+    """``--map [NAME=]FILE``: the studies on evaluation flows run on that city, its inlets drawn
+    as map 0's (those of ``evaluate-decoder --map FILE`` alone); refused where a study reads no
+    evaluation flows, with ``--maps``, ``--windinet`` or ``--quick``, and for a missing file,
+    before any flow."""
+    from windnav.city import dense_map
+    from windnav.commands.decoder_study import QUICK_FLOW
+    from windnav.experiments import decoder_studies as ds
+
+    city = dense_map(rng=7, size=150.0, lots_per_side=2, n_buildings=4)
+    city.to_rotorpy_json(tmp_path / "mine.json")
+    seen, real = {}, ds.evaluation_fields
+
+    def quick(maps, inlets, **kw):  # the study's own call, on 2 m cells and short flows
+        seen.update(maps=maps, inlets=inlets, seed=kw["seed"])
+        return real(maps, inlets, **{**kw, "dx": 2.0, "flow_settings": QUICK_FLOW})
+
+    monkeypatch.setattr(ds, "evaluation_fields", quick)
+    out = tmp_path / "out"
+    assert cli.main(["decoder-study", "mosaic", "--map", f"mine={tmp_path / 'mine.json'}",
+                     "--inlets", "1", "--seed", "4", "--out", str(out), "--no-progress"]) == 0
+    assert [n for n, _ in seen["maps"]] == ["mine"] and (seen["inlets"], seen["seed"]) == (1, 4)
+    np.testing.assert_array_equal(seen["maps"][0][1].footprints, city.footprints)
+    doc = json.loads((out / "decoder_mosaic.json").read_text())
+    assert doc["arguments"]["map"] == f"mine={tmp_path / 'mine.json'}"
+    assert doc["flows"]["map_file"] == {
+        "map": "mine", "path": str(tmp_path / "mine.json"),
+        "sha256": hashlib.sha256((tmp_path / "mine.json").read_bytes()).hexdigest()}
+    assert (out / "decoder_mosaic.png").stat().st_size > 10_000
+    seen.clear()
+    mine = str(tmp_path / "mine.json")
+    for argv, match in ((["averaging", "--map", mine], "'--map' parameter .* for 'averaging'"),
+                        (["mosaic", "--map", mine, "--maps", "2"], "not with --maps"),
+                        (["direction", "--map", mine, "--windinet"], "not with --windinet"),
+                        (["gradients", "--map", mine, "--quick"], "not with --quick"),
+                        (["gradients", "--map", str(tmp_path / "none.json")],
+                         "'--map' parameter .* which does not exist")):
+        assert cli.main(["decoder-study", *argv, "--out", str(tmp_path / "x"),
+                         "--no-progress"]) == 2, argv
+        assert re.search(match, capsys.readouterr().err), argv
+    assert not seen and not (tmp_path / "x").exists()
 
 
 def test_decoder_study_size_quick_trains_one_model_per_grid_size(runs, tmp_path):

@@ -48,8 +48,16 @@ a 150 m map and short flows, or the tiny recipe's sweep and models. ``--maps``, 
 and ``--flow-cache`` are for the studies on evaluation flows (eigenflows, gradients, mosaic,
 noise, direction, basis), ``--maps`` and ``--inlets`` not with ``--quick`` (one map, one
 inlet), and ``--maps`` not with ``--windinet`` for direction and basis (the windinet layout is
-their one map): where a study would ignore them they are refused, before any work. The harness is
-:mod:`windnav.experiments.decoder_studies`, the figures :mod:`windnav.viz.decoder`.
+their one map): where a study would ignore them they are refused, before any work. ``--map
+[NAME=]FILE`` (since the fiftieth session) runs the studies on evaluation flows on a city of
+your own, a RotorPy world JSON, instead (its inlets those of ``windnav evaluate-decoder --map
+FILE`` alone with the same ``--seed`` and ``--inlets``, its flows shared through
+``--flow-cache`` under the same NAME), e.g. the mosaic of your city::
+
+    windnav decoder-study mosaic --map my_city.json --out runs/mosaic_mine --flow-cache runs/flows
+
+The harness is :mod:`windnav.experiments.decoder_studies`, the figures
+:mod:`windnav.viz.decoder`.
 
 Writes into ``--out``: ``decoder_<study>.json`` and ``decoder_<study>.png``.
 """
@@ -161,6 +169,11 @@ def register(subparsers) -> None:
                    help="averaging, start: the third-party windinet 1.1 km layout instead of the "
                         "default recipe's held-out district; direction, basis: instead of the "
                         "dense evaluation maps (at --inlets inlets; not with --maps)")
+    p.add_argument("--map", default=None, metavar="[NAME=]FILE",
+                   help="eigenflows, gradients, mosaic, noise, direction, basis: a city of your "
+                        "own (RotorPy world JSON) instead of the dense evaluation maps, at "
+                        "--inlets inlets drawn as evaluate-decoder --map draws them alone (not "
+                        "with --maps, --windinet or --quick)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -207,9 +220,20 @@ def _fields(args, name, simulate, progress):
         # one map, its inlets drawn as map 0's: evaluate-decoder's windinet inlets only with
         # its --maps 0 (and the same --seed and --inlets), where the layout is map 0 there too
         maps = [("windinet", _windinet_map())]
-    return evaluation_fields(maps, inlets, seed=args.seed,
-                             cache_dir=args.flow_cache, simulate=simulate, max_fields=first,
-                             progress=progress)
+    own = None
+    if args.map is not None:  # likewise map 0: evaluate-decoder --map FILE's, alone
+        from windnav.city import read_rotorpy_json
+        from windnav.commands.evaluate_decoder import map_files
+        from windnav.experiments.decoder_eval import map_sha256
+
+        ((label, path),) = map_files([args.map], name)
+        maps = [(label, read_rotorpy_json(path))]
+        own = {"map": label, "path": str(path), "sha256": map_sha256(path)}
+    flows = evaluation_fields(maps, inlets, seed=args.seed, cache_dir=args.flow_cache,
+                              simulate=simulate, max_fields=first, progress=progress)
+    if own is not None:  # the file read, by hash (the JSON's flows.map_file)
+        flows["map_file"] = own
+    return flows
 
 
 def _note_truths(flows: dict, name: str) -> None:
@@ -448,6 +472,17 @@ def _check_flow_options(args, name: str) -> None:
     ``args`` is left as parsed (unset ``--maps`` and ``--inlets`` stay None: :func:`_fields`
     resolves them), so the result records the line as typed."""
     study = args.study
+    if args.map is not None:
+        if study not in FLOW_STUDIES:
+            raise ValueError(f"The '--map' parameter of {name} is for the studies on "
+                             f"evaluation flows ({', '.join(FLOW_STUDIES)}). Got {args.map!r} "
+                             f"for {study!r} instead.")
+        for flag, given in (("--maps", args.maps is not None), ("--windinet", args.windinet),
+                            ("--quick", args.quick)):
+            if given:
+                raise ValueError(f"The '--map' parameter of {name} names the one map of the "
+                                 f"{study} study: not with {flag}. Got --map {args.map!r} with "
+                                 f"{flag} instead.")
     if args.windinet and study not in WINDINET_STUDIES:
         raise ValueError(f"The '--windinet' parameter of {name} is for the studies "
                          f"{', '.join(WINDINET_STUDIES)}; the {study} study would ignore it. "

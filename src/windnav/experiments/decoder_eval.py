@@ -57,7 +57,8 @@ from windnav._source import SOLVER_MODULE, module_key
 from windnav._validate import nonnegative_int, positive_float, positive_int
 
 __all__ = ["ACCEPTANCE", "EVAL_MAP_SEED", "MODELS", "WINDINET_LAYOUT", "evaluate_decoder",
-           "check_point", "flow_cache_name", "improvement_interval", "inlet_slots", "predict_at",
+           "check_point", "flow_cache_name", "improvement_interval", "inlet_slots", "map_sha256",
+           "predict_at",
            "slot_flow", "slot_rng", "windinet_layout"]
 
 EVAL_MAP_SEED = 2000
@@ -694,7 +695,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, files=(), n_inle
     return {
         "config": {"maps": [n for n, _, _ in cities], "map_seed": EVAL_MAP_SEED,
                    "windinet_layout": str(windinet) if windinet else None,
-                   "files": [{"map": str(n), "path": str(f), "sha256": _sha256(f)}
+                   "files": [{"map": str(n), "path": str(f), "sha256": map_sha256(f)}
                              for n, f in files],
                    "n_inlets": n_inlets, "samples_per_inlet": samples, "seed": int(seed),
                    "budget_s": budget_s, "dx": dx, **settings,
@@ -711,8 +712,9 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, files=(), n_inle
     }
 
 
-def _sha256(path) -> str:
-    """The SHA-256 of the file ``path`` (a map of ``files``, as its result records it)."""
+def map_sha256(path) -> str:
+    """The SHA-256 (64 hex digits) of the map file ``path`` (one of ``files``, as a result
+    records it; ``windnav decoder-study --map`` too)."""
     with open(path, "rb") as f:
         return hashlib.file_digest(f, "sha256").hexdigest()
 
