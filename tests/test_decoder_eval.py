@@ -527,7 +527,12 @@ def test_a_map_of_your_own_is_scored_as_the_same_map_given_in_memory(evaluation,
     assert [{k: v for k, v in r.items() if k not in drop} for r in own["records"]] == [
         {k: v for k, v in r.items() if k not in drop} for r in res["records"]]
     assert own["pooled"]["all"]["decoder"] == res["pooled"]["all"]["decoder"]
+    alone = evaluate_decoder(maps=[], windinet=False, files=[("tiny-1", path)], n_inlets=2,
+                             samples_per_inlet=48, seed=3, dx=2.0, flow_settings=TINY_FLOW,
+                             decoder=tiny_decoder())  # an empty list of maps: the file alone
+    assert [r["map"] for r in alone["records"]] == ["tiny-1"] * 2
     for files, match in (([("mine", tmp_path / "none.json")], "'files' parameter .* not a file"),
+                         ([path], "'files' parameter .* must be \\(name, path\\) pairs"),
                          ([("tiny-0", path)], r"'files' parameter .* \['tiny-0'\] more than")):
         with pytest.raises(ValueError, match=match):
             evaluate_decoder(maps=maps[:1], windinet=False, files=files, n_inlets=1,
@@ -555,6 +560,12 @@ def test_evaluate_decoder_command_scores_a_map_of_your_own(map_and_model, monkey
     assert doc["config"]["maps"] == ["map"] and doc["config"]["windinet_layout"] is None
     assert doc["config"]["files"][0]["map"] == "map"
     capsys.readouterr()
+
+    def no_flow(*a, **kw):  # a refusal after a flow was solved would fail here, loudly
+        raise AssertionError("a flow was solved before the refusal")
+
+    monkeypatch.setattr(cmd, "run", lambda args: run(args, simulate=no_flow,
+                                                     flow_settings=TINY_FLOW))
     (d / "garbage.json").write_text("{")
     (d / "empty.json").write_text('{"bounds": {"extents": [0, 100, 0, 100, 0, 30]}, '
                                   '"blocks": []}')

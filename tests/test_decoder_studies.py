@@ -656,7 +656,7 @@ def test_decoder_study_direction_windinet_scores_the_third_party_layout(monkeypa
 
     monkeypatch.setattr(ds, "evaluation_fields", fake_fields)
     args = argparse.Namespace(quick=False, study="direction", windinet=True, maps=1, inlets=8,
-                              seed=0, flow_cache=None)
+                              seed=0, flow_cache=None, map=None)
     cmd._fields(args, "decoder-study", None, False)
     assert [n for n, _ in seen["maps"]] == ["windinet"] and seen["n_inlets"] == 8
     args.study = "gradients"

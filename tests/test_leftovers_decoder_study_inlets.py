@@ -39,7 +39,7 @@ def test_the_windinet_inlets_are_evaluate_decoders_only_with_its_maps_0(tmp_path
     path = write_rotorpy_json(layout, tmp_path / "layout.json")
     monkeypatch.setattr(decoder_study, "_windinet_map", lambda: layout)
     args = argparse.Namespace(study="direction", windinet=True, quick=False, maps=1, inlets=3,
-                              seed=5, flow_cache=None)
+                              seed=5, flow_cache=None, map=None)
     study, simulate = recorder(layout)
     with pytest.raises(ValueError, match="every flow failed"):
         decoder_study._fields(args, "windnav decoder-study", simulate, False)

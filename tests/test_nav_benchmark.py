@@ -1188,12 +1188,13 @@ def test_command_flies_the_onboard_stack_with_the_decoder_file_given(tmp_path, m
 
 
 def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, tiny_suite,
-                                                                      capsys):
+                                                                      capsys, monkeypatch):
     """A store of ``benchmark-nav --decoder FILE`` holds the decoder in its settings: the
     studies on a store take the same ``--decoder`` (it was refused as another suite's store,
     with no way to give it), fly into it with it, and record the file in their JSON; without
     it, the error names the option."""
     from windnav import cli
+    from windnav.predict import load_decoder
     from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
 
     mine = DEFAULT_MODEL.with_name("decoder_2026-12-01.npz")
@@ -1214,6 +1215,7 @@ def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, t
     assert cli.main(["nav-study", "qe", "--store", str(store), "--values", "5", "--executor",
                      "serial", "--out", str(tmp_path / "qe"), "--decoder", str(mine),
                      "--no-progress"]) == 0
+    assert "note: the qe study's variants fly no decoder" in capsys.readouterr().err
     lines = (store / "records.jsonl").read_text().splitlines()
     assert {json.loads(line)["variant"] for line in lines} == {"mppi", "ea-mppi-w-hat",
                                                               "ea-mppi-w"}
@@ -1226,10 +1228,23 @@ def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, t
             (["cases", "--store", str(store), "--variant", "ea-mppi-w-hat@views=3",
               "--decoder", str(mine)], r"'--variant' parameter .* \('@views=' without"),
             (["feasibility", "--store", str(store), "--fly", "mppi", "--decoder", str(mine)],
-             "'--decoder' parameter .* not to --fly")):
+             "'--fly' parameter .* with --decoder")):
         assert cli.main(["nav-study", *argv, "--out", str(tmp_path / "x")]) == 2
         assert re.search(match, capsys.readouterr().err), argv
     assert not (tmp_path / "x").exists()
+    # cases re-flies the onboard stack with the file
+    import windnav.experiments.nav_cases as nav_cases
+
+    seen = {}
+
+    def stop(spec, *a, **kw):
+        seen["decoder"] = spec.navigate_options.get("decoder")
+        raise ValueError("stopped before flying")
+
+    monkeypatch.setattr(nav_cases, "fly_cases", stop)
+    assert cli.main(["nav-study", "cases", "--store", str(store), "--variant", "ea-mppi-w-hat",
+                     "--decoder", str(mine), "--out", str(tmp_path / "cases")]) == 2
+    assert seen["decoder"].fingerprint() == load_decoder(mine).fingerprint()
 
 
 def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_path, monkeypatch,

@@ -2,6 +2,7 @@
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -314,6 +315,56 @@ def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, cap
     brief = json.loads(capsys.readouterr().out)["airspeeds"]
     assert all(t["failures_reachable_pct"] == {"mppi": None} for t in brief.values())
     assert (tmp_path / "out" / "nav_feasibility.png").stat().st_size > 10_000
+
+
+def test_feasibility_reads_a_decoder_store_with_the_suites_own_reach_cache(tmp_path,
+                                                                           monkeypatch, capsys):
+    """A store of ``benchmark-nav --decoder FILE``: ``feasibility --decoder FILE`` reads it with
+    the reach cache of the suite without a decoder (the cache's identity does not change with
+    the decoder: review, fiftieth session), its ``--fly`` into such a store is refused naming
+    ``--fly``, and ``--decoder`` without ``--store`` naming ``--decoder``."""
+    import dataclasses
+    import json
+
+    from windnav import cli
+    from windnav.experiments.nav_benchmark import NavStore
+    from windnav.experiments.nav_feasibility import RECORDS
+    from windnav.experiments.nav_suite import SUITES, SuiteSpec
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    spec = SuiteSpec(
+        "quick", maps=(0,), winds=(0,), pairs=(0, 1), speeds=(3.0,), incidences_deg=(0.0,),
+        n_tailwind=1, n_headwind=1, pair_distance=100.0, clearance=25.0, edge=15.0,
+        map_size=200.0, map_options={"n_buildings": 2, "side_range": (10.0, 20.0)},
+        spinup_s=5.0, record_s=30.0)
+    monkeypatch.setitem(SUITES, "quick", spec)
+    mine = DEFAULT_MODEL.with_name("decoder_2026-12-01.npz")
+    flown = dataclasses.replace(spec, navigate_options={
+        "decoder": load_decoder(mine, boundary="blend")})
+    store = NavStore(tmp_path / "store", flown, create=True)
+    store.append({"scenario_id": "quick/m00/w00/p0", "variant": "ea-mppi-w-hat",
+                  "map_index": 0, "outcome": "success", "energy_J": 1000.0})
+    cache = tmp_path / "reach"
+    base = ["nav-study", "feasibility", "--suite", "quick", "--cache", str(cache),
+            "--airspeeds", "13", "--executor", "serial", "--no-progress"]
+    assert cli.main([*base, "--out", str(tmp_path / "plain")]) == 0  # the suite's cache
+    searched = (cache / RECORDS).read_text()
+    assert cli.main([*base, "--store", str(store.path), "--decoder", str(mine), "--out",
+                     str(tmp_path / "mine")]) == 0
+    assert (cache / RECORDS).read_text() == searched  # read, not searched again
+    doc = json.loads((tmp_path / "mine" / "nav_feasibility.json").read_text())
+    assert doc["tables"]["13"]["variants"]["ea-mppi-w-hat"]["flights"] == 1
+    assert doc["decoder_file"]["path"] == str(mine)
+    capsys.readouterr()
+    for extra, match in (
+            (["--store", str(store.path), "--fly", "mppi"], "'--fly' parameter .* such a store"),
+            (["--store", str(store.path), "--fly", "mppi", "--decoder", str(mine)],
+             "'--fly' parameter .* with --decoder"),
+            (["--decoder", str(mine)], "'--decoder' parameter .* without --store")):
+        assert cli.main([*base, *extra, "--out", str(tmp_path / "x")]) == 2, extra
+        assert re.search(match, capsys.readouterr().err), extra
+    assert not (tmp_path / "x").exists()
 
 
 def test_feasibility_flies_pending_flights_in_the_same_winds(tmp_path):

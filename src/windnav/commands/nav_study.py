@@ -64,10 +64,11 @@ A store flown by ``windnav benchmark-nav --decoder FILE`` (the onboard stack fly
 file of your own) holds that decoder in its suite's settings: the studies on a store (``qe``,
 ``h``, ``cases``, ``pace``, ``bound``, ``tilt``, ``feasibility``) take the same ``--decoder
 FILE``, and the flights they fly into it fly it (``cases --variant ea-mppi-w-hat``); without
-it, or with another file, such a store is refused naming the option. ``feasibility --fly``
-takes none (its reach cache is the suite's without a decoder): fly into such a store with
-``benchmark-nav --decoder``. ``inflight`` flies the benchmark's decoders (``--variant
-ea-mppi-w-hat@decoder=DATE``) and scores others with ``--compare NAME=FILE``.
+it, or with another file, such a store is refused naming the option. ``feasibility`` keeps its
+reach cache the suite's (without a decoder) and reads such a store; its ``--fly`` does not fly
+into one (refused, naming it): fly with ``benchmark-nav --decoder``. ``inflight`` flies the
+benchmark's decoders (``--variant ea-mppi-w-hat@decoder=DATE``) and scores others with
+``--compare NAME=FILE``.
 """
 
 from __future__ import annotations
@@ -221,18 +222,30 @@ def _with_decoder(args, name: str, spec):
     """``spec`` whose onboard stack flies ``--decoder``
     (:func:`windnav.commands._decoder_file.with_decoder`): a store flown by ``benchmark-nav
     --decoder FILE`` holds that decoder in its suite's settings, and was refused as another
-    suite's without a way to give it (the forty-ninth session's note). ``--decoder`` with
-    ``feasibility --fly`` is refused: the reach cache is the suite's without a decoder, its
-    flights the store's with one."""
+    suite's without a way to give it (the forty-ninth session's note). ``feasibility --fly``
+    into such a store, or with ``--decoder``, is refused naming ``--fly`` (its flights are
+    flown with the reach cache's suite, which has no decoder), and ``--decoder`` without
+    ``--store``, which it would only name. The sweeps (``qe``, ``h``, ``tilt``) fly no decoder
+    into such a store: a note says so, as ``benchmark-nav`` does."""
     from windnav.commands.benchmark_nav import _manifest
 
-    if args.decoder is not None and args.study == "feasibility" and args.fly:
-        raise ValueError(f"The '--decoder' parameter of {name} applies to feasibility's store, "
-                         "not to --fly: fly the variants into a decoder's store with "
-                         "'windnav benchmark-nav --decoder FILE'. Got --decoder with --fly "
-                         f"{args.fly!r} instead.")
-    store = None if args.store is None else _manifest(Path(args.store))
-    return with_decoder(args, name, spec, store or {})
+    man = (None if args.store is None else _manifest(Path(args.store))) or {}
+    options = (man.get("settings") or {}).get("navigate_options") if isinstance(
+        man.get("settings"), dict) else None
+    if args.study == "feasibility" and args.fly and (
+            args.decoder is not None or (isinstance(options, dict) and "decoder" in options)):
+        raise ValueError(f"The '--fly' parameter of {name} flies into a store of the suite "
+                         "without a decoder: a store of 'benchmark-nav --decoder FILE' is "
+                         "flown with that command. Got --fly "
+                         f"{args.fly!r} with {'--decoder' if args.decoder else 'such a store'} "
+                         "instead.")
+    if args.decoder is not None and args.store is None:
+        raise ValueError(f"The '--decoder' parameter of {name} names the decoder of --store's "
+                         f"flights. Got {str(args.decoder)!r} without --store instead.")
+    if args.decoder is not None and args.study in ("qe", "h", "tilt"):
+        print(f"{name}: note: the {args.study} study's variants fly no decoder; --decoder "
+              "names the store's", file=sys.stderr)
+    return with_decoder(args, name, spec, man)
 
 
 def _check_store(store: Path, name: str) -> None:
@@ -285,6 +298,7 @@ def run(args) -> int:
     study = args.study
     spec = study_suite(args)
     _check_study_options(args, name)
+    plain = spec  # the suite without --decoder: feasibility's reach cache is the suite's
     if study in STUDY_OPTIONS["decoder"]:
         spec = _with_decoder(args, name, spec)
     if study == "winds":
@@ -292,7 +306,7 @@ def run(args) -> int:
     if study == "gs":
         return _gs(args, name)
     if study == "feasibility":
-        return _feasibility(args, name, spec)
+        return _feasibility(args, name, plain, spec)
     if study == "gusts":
         return _gusts(args, name, spec)
     if study == "inflight":
@@ -675,7 +689,11 @@ def _gusts(args, name: str, spec) -> int:
     return 0
 
 
-def _feasibility(args, name: str, spec) -> int:
+def _feasibility(args, name: str, spec, stored=None) -> int:
+    """The feasibility study: the reach cache and its searches of the suite ``spec``, the
+    flights of ``--store`` read (and flown, ``--fly``) with ``stored`` (``spec`` whose onboard
+    stack flies ``--decoder``: the store's suite; default ``spec``)."""
+    stored = spec if stored is None else stored
     from windnav.commands.benchmark_nav import suite_maps
     from windnav.experiments.nav_benchmark import NavStore
     from windnav.experiments.nav_feasibility import check_cache, reach_scenarios, reach_table
@@ -710,7 +728,7 @@ def _feasibility(args, name: str, spec) -> int:
                                 executor=args.executor, workers=workers,
                                 progress=not args.no_progress, fly=fly, store=args.store)
     flights = ([] if args.store is None else
-               [r for r in NavStore(args.store, spec, create=False).load()
+               [r for r in NavStore(args.store, stored, create=False).load()
                 if r.get("map_index") in maps])
     tables = {f"{a:g}": reach_table(reach, flights, airspeed=a) for a in airspeeds}
     res = {"study": "feasibility", "suite": spec.name, "seed": spec.seed, "maps": list(maps),

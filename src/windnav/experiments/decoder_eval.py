@@ -449,23 +449,31 @@ def _evaluation_maps(maps, windinet, where):
     return out
 
 
-def _with_files(cities, files, where):
+def _with_files(cities, files, where) -> tuple[list, list]:
     """``cities`` (:func:`_evaluation_maps`), then the maps of ``files`` (``(name, path)`` of
-    RotorPy world JSON files, group ``file``); every name once."""
+    RotorPy world JSON files, group ``file``), every name once; and each file's record
+    ``{"map", "path", "sha256"}``, hashed as it is read (not when the result is written, after
+    the flows)."""
     from windnav.city import read_rotorpy_json
 
-    out = list(cities)
-    for name, path in files:
+    out, records = list(cities), []
+    for item in files:
+        if not (isinstance(item, list | tuple) and len(item) == 2):
+            raise ValueError(f"The 'files' parameter of {where} must be (name, path) pairs. "
+                             f"Got {item!r} instead.")
+        name, path = item
         if not Path(path).is_file():
             raise ValueError(f"The 'files' parameter of {where} must name RotorPy world JSON "
                              f"files. Got {str(path)!r} instead, which is not a file.")
+        records.append({"map": str(name), "path": str(path), "sha256": map_sha256(path)})
         out.append((str(name), "file", read_rotorpy_json(path)))
     names = [n for n, _, _ in out]
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:  # a slot is named by its map (its records, its bootstrap stream, its cache entry)
         raise ValueError(f"The 'files' parameter of {where} must name each map once, apart "
-                         f"from the others ({names}). Got {twice} more than once instead.")
-    return out
+                         f"from the others ({names}). Got {twice} more than once instead "
+                         "(give each its own name; on the command line --map NAME=FILE).")
+    return out, records
 
 
 def _compared_rule(compare_boundary, dec):
@@ -618,10 +626,10 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, files=(), n_inle
     if windinet is True:
         windinet = windinet_layout()  # found and checked once (its SHA-256 reads the file)
     files = list(files or ())
-    no_other = (not windinet and isinstance(maps, int | np.integer)
-                and not isinstance(maps, bool) and maps == 0)
-    cities = _with_files([] if no_other and files else _evaluation_maps(maps, windinet, where),
-                         files, where)
+    no_other = not windinet and (isinstance(maps, list | tuple) and not maps or (
+        isinstance(maps, int | np.integer) and not isinstance(maps, bool) and maps == 0))
+    cities, file_records = _with_files(
+        [] if no_other and files else _evaluation_maps(maps, windinet, where), files, where)
     inlets = inlet_slots(len(cities), n_inlets, int(seed))
     slots = [(i, j) for j in range(n_inlets) for i in range(len(cities))]
 
@@ -695,8 +703,7 @@ def evaluate_decoder(model_path=None, *, maps=3, windinet=True, files=(), n_inle
     return {
         "config": {"maps": [n for n, _, _ in cities], "map_seed": EVAL_MAP_SEED,
                    "windinet_layout": str(windinet) if windinet else None,
-                   "files": [{"map": str(n), "path": str(f), "sha256": map_sha256(f)}
-                             for n, f in files],
+                   "files": file_records,
                    "n_inlets": n_inlets, "samples_per_inlet": samples, "seed": int(seed),
                    "budget_s": budget_s, "dx": dx, **settings,
                    "dt_rule": "0.25 s, shortened to U dt / dx <= 1" if "dt" not in
