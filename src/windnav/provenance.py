@@ -56,7 +56,9 @@ was made with: the decoder's rule at the sector boundaries. ``--boundary`` came 
 took one pass (``average``; the side rounding picked until 2026-12-05, the same answer for every
 inlet off a multiple of 45 deg, where no random evaluation inlet falls). ``evaluate-decoder``'s
 ``--maps`` (3) and ``--windinet`` (yes) default to None since the fiftieth session (2026-12-07),
-resolved by the command (0 and no with ``--map``); the results before recorded the values."""
+resolved by the command (0 and no with ``--map``); the results before recorded the values, so
+their rebuilt lines name them (``--windinet``, ``--maps 3``: what the line without them does
+again, as long as it gives no ``--map``)."""
 
 
 MODEL_COMMANDS = ("evaluate-decoder", "decoder-study", "predict", "navigate")
