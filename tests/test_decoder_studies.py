@@ -377,6 +377,13 @@ def test_decoder_study_runs_on_a_map_of_your_own(tmp_path, monkeypatch, capsys):
         "map": "mine", "path": str(tmp_path / "mine.json"),
         "sha256": hashlib.sha256((tmp_path / "mine.json").read_bytes()).hexdigest()}
     assert (out / "decoder_mosaic.png").stat().st_size > 10_000
+    # noise takes its flows in a branch of its own: the same map, hashed the same
+    assert cli.main(["decoder-study", "noise", "--map", str(tmp_path / "mine.json"), "--inlets",
+                     "1", "--samples", "64", "--out", str(tmp_path / "noise"),
+                     "--no-progress"]) == 0
+    assert [n for n, _ in seen["maps"]] == ["mine"]
+    noise = json.loads((tmp_path / "noise" / "decoder_noise.json").read_text())
+    assert noise["flows"]["map_file"] == doc["flows"]["map_file"]
     seen.clear()
     mine = str(tmp_path / "mine.json")
     for argv, match in ((["averaging", "--map", mine], "'--map' parameter .* for 'averaging'"),

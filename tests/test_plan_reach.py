@@ -365,6 +365,18 @@ def test_feasibility_reads_a_decoder_store_with_the_suites_own_reach_cache(tmp_p
         assert cli.main([*base, *extra, "--out", str(tmp_path / "x")]) == 2, extra
         assert re.search(match, capsys.readouterr().err), extra
     assert not (tmp_path / "x").exists()
+    # a malformed store is refused before the searches (it was after them: review)
+    import windnav.experiments.nav_feasibility as feasibility
+
+    def no_search(*a, **kw):
+        raise AssertionError("searched before the store was checked")
+
+    monkeypatch.setattr(feasibility, "reach_scenarios", no_search)
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "manifest.json").write_text("[1]")
+    assert cli.main([*base, "--store", str(bad), "--out", str(tmp_path / "x")]) == 2
+    assert "not a benchmark manifest" in capsys.readouterr().err
 
 
 def test_feasibility_flies_pending_flights_in_the_same_winds(tmp_path):

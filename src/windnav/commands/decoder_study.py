@@ -54,7 +54,8 @@ your own, a RotorPy world JSON, instead (its inlets those of ``windnav evaluate-
 FILE`` alone with the same ``--seed`` and ``--inlets``, its flows shared through
 ``--flow-cache`` under the same NAME), e.g. the mosaic of your city::
 
-    windnav decoder-study mosaic --map my_city.json --out runs/mosaic_mine --flow-cache runs/flows
+    windnav decoder-study mosaic --map my_city.json --inlets 8 --out runs/mosaic_mine \
+        --flow-cache runs/flows   # the first flow of evaluate-decoder --map my_city.json's
 
 The harness is :mod:`windnav.experiments.decoder_studies`, the figures
 :mod:`windnav.viz.decoder`.

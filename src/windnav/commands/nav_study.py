@@ -224,14 +224,15 @@ def _with_decoder(args, name: str, spec):
     --decoder FILE`` holds that decoder in its suite's settings, and was refused as another
     suite's without a way to give it (the forty-ninth session's note). ``feasibility --fly``
     into such a store, or with ``--decoder``, is refused naming ``--fly`` (its flights are
-    flown with the reach cache's suite, which has no decoder), and ``--decoder`` without
-    ``--store``, which it would only name. The sweeps (``qe``, ``h``, ``tilt``) fly no decoder
-    into such a store: a note says so, as ``benchmark-nav`` does."""
+    flown with the reach cache's suite, which has no decoder), and ``feasibility --decoder``
+    without ``--store`` (the other studies need a store: theirs is the error). The sweeps
+    (``qe``, ``h``, ``tilt``) fly no decoder into such a store: a note says so, as
+    ``benchmark-nav`` does."""
     from windnav.commands.benchmark_nav import _manifest
 
     man = (None if args.store is None else _manifest(Path(args.store))) or {}
-    options = (man.get("settings") or {}).get("navigate_options") if isinstance(
-        man.get("settings"), dict) else None
+    settings = man.get("settings") if man.get("suite") == spec.name else None
+    options = settings.get("navigate_options") if isinstance(settings, dict) else None
     if args.study == "feasibility" and args.fly and (
             args.decoder is not None or (isinstance(options, dict) and "decoder" in options)):
         raise ValueError(f"The '--fly' parameter of {name} flies into a store of the suite "
@@ -239,7 +240,7 @@ def _with_decoder(args, name: str, spec):
                          "flown with that command. Got --fly "
                          f"{args.fly!r} with {'--decoder' if args.decoder else 'such a store'} "
                          "instead.")
-    if args.decoder is not None and args.store is None:
+    if args.decoder is not None and args.store is None and args.study == "feasibility":
         raise ValueError(f"The '--decoder' parameter of {name} names the decoder of --store's "
                          f"flights. Got {str(args.decoder)!r} without --store instead.")
     if args.decoder is not None and args.study in ("qe", "h", "tilt"):
@@ -715,8 +716,9 @@ def _feasibility(args, name: str, spec, stored=None) -> int:
     if fly and args.store is None:
         raise ValueError(f"The '--store' parameter of {name} must name the benchmark store the "
                          f"--fly flights go to. Got None instead.")
-    if args.store is not None and not fly:
-        _check_store(args.store, name)
+    if args.store is not None and not fly:  # the store checked before the searches: a
+        _check_store(args.store, name)      # malformed or another suite's was refused after
+        NavStore(args.store, stored, create=False)  # them (review, fiftieth session)
     check_output_path(args.cache, "--cache", name, kind="dir")
     if Path(args.cache).is_dir():  # another suite's records, before anything is written
         check_cache(spec, args.cache, name, option="--cache")
