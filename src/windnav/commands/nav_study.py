@@ -174,9 +174,10 @@ def register(subparsers) -> None:
                         "differ and this CPU can run them (a flight re-flies as recorded only "
                         "under the arithmetic that flew it)")
     p.add_argument("--decoder", type=Path, default=None, metavar="FILE",
-                   help="the decoder file the store's onboard stack flew: a store of "
-                        "'benchmark-nav --decoder FILE' needs the same file again, and the "
-                        "flights a study flies into it (cases: ea-mppi-w-hat) fly it")
+                   help="qe, h, cases, pace, bound, tilt, feasibility: the decoder file the "
+                        "store's onboard stack flew: a store of 'benchmark-nav --decoder FILE' "
+                        "needs the same file again, and the flights a study flies into it "
+                        "(cases: ea-mppi-w-hat) fly it")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
