@@ -559,6 +559,13 @@ def test_evaluate_decoder_command_scores_a_map_of_your_own(map_and_model, monkey
     assert (doc["arguments"]["maps"], doc["arguments"]["windinet"]) == (None, None)
     assert doc["config"]["maps"] == ["map"] and doc["config"]["windinet_layout"] is None
     assert doc["config"]["files"][0]["map"] == "map"
+    from windnav.commands.evaluate_decoder import map_files
+
+    odd = d / "x=1"
+    odd.mkdir(exist_ok=True)
+    (odd / "city.json").write_bytes((d / "map.json").read_bytes())
+    assert map_files([str(odd / "city.json"), f"mine={odd / 'city.json'}"], "w") == [
+        ("city", odd / "city.json"), ("mine", odd / "city.json")]
     capsys.readouterr()
 
     def no_flow(*a, **kw):  # a refusal after a flow was solved would fail here, loudly

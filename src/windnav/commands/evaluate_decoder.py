@@ -238,7 +238,7 @@ def map_files(items, name: str) -> list[tuple[str, Path]]:
     out = []
     for item in items:
         given, sep, file = item.partition("=")
-        if not sep:
+        if not sep or Path(item).is_file():  # (a path with '=' in it is a file, not NAME=)
             given, file = None, item
         path = Path(file)
         if not path.is_file():
