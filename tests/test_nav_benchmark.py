@@ -1211,6 +1211,9 @@ def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, t
     doc = json.loads((tmp_path / "pace" / "nav_pace.json").read_text())
     assert doc["decoder_file"] == {"path": str(mine), "sha256": model_sha256(mine)}
     assert doc["curves"]["vehicle"]["time_ratio"]["n"] > 0
+    # the arguments as typed: the defaults the command filled in are not recorded as given
+    assert (doc["arguments"]["every"], doc["arguments"]["executor"]) == (None, None)
+    assert "filled_defaults" not in doc["arguments"]
     # a study that flies (the Q_E sweep's MPPI and EA-MPPI+W) flies into that store
     assert cli.main(["nav-study", "qe", "--store", str(store), "--values", "5", "--executor",
                      "serial", "--out", str(tmp_path / "qe"), "--decoder", str(mine),

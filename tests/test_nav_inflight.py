@@ -293,6 +293,81 @@ def test_the_command_resumes_an_interrupted_study_with_the_same_result(tmp_path,
     assert "--overwrite" in err and (other / ni.RECORDS).exists()
 
 
+def test_the_suites_own_decoder_is_flown_scored_and_named_in_the_header(monkeypatch):
+    """``nav-study inflight --decoder FILE`` puts the file's decoder among the suite's
+    ``navigate_options``: the onboard stack flies it (``fly``), the study scores that decoder
+    (it scored the benchmark's pinned one), and the record log's header names it by its
+    fingerprint, so a log of another decoder is another study's. A label's ``@decoder=`` still
+    flies its dated file."""
+    from dataclasses import replace
+
+    import windnav.experiments.navigate as navigate_module
+    from windnav.experiments import nav_benchmark as nb
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    mine = load_decoder(DEFAULT_MODEL.with_name("decoder_2026-12-01.npz"), boundary="blend")
+    spec = replace(TINY, navigate_options={"decoder": mine})
+    assert ni._decoder(ni.INFLIGHT_VARIANT, spec) is mine
+    assert ni._decoder(f"{ni.INFLIGHT_VARIANT}@decoder=2026-11-26", spec) is \
+        nb.benchmark_decoder("2026-11-26")
+    header = ni.records_header(spec, ni.INFLIGHT_VARIANT, 1.0, ())
+    assert header["decoder"] == {"name": "suite", "fingerprint": mine.fingerprint()}
+    assert header["settings_hash"] != ni.records_header(TINY, ni.INFLIGHT_VARIANT, 1.0,
+                                                        ())["settings_hash"]
+    flown, scored = [], []
+    real_navigate, real_errors = navigate_module.navigate, ni.inflight_errors
+
+    def spy_navigate(*a, **kw):
+        flown.append(kw.get("decoder"))
+        return real_navigate(*a, **kw)
+
+    def spy_errors(samples, decoder, compare=None):
+        scored.append(decoder)
+        return real_errors(samples, decoder, compare)
+
+    monkeypatch.setattr(navigate_module, "navigate", spy_navigate)
+    monkeypatch.setattr(ni, "inflight_errors", spy_errors)
+    res = ni.inflight_study(spec, ["tiny/m00/w00/p0"], every_s=1.0, executor="serial",
+                            progress=False)
+    assert res["errors"] == {} and flown == [mine] and scored and all(d is mine for d in scored)
+
+
+def test_the_command_flies_and_scores_the_decoder_file_given(tmp_path, monkeypatch, capsys):
+    """``nav-study inflight --decoder FILE``: the study gets the suite with that decoder, and
+    the JSON records the file; the pinned decoder's views with it are refused."""
+    import json
+    from dataclasses import replace
+
+    from windnav import cli
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
+
+    file = DEFAULT_MODEL.with_name("decoder_2026-12-01.npz")
+    real, asked = ni.inflight_study, {}
+
+    def on_tiny(spec, ids, **kw):  # the command's suite, decoder included, on a tiny flight
+        asked["decoder"] = spec.navigate_options.get("decoder")
+        return real(replace(TINY, navigate_options=spec.navigate_options), ["tiny/m00/w00/p0"],
+                    **{**kw, "executor": "serial"})
+
+    monkeypatch.setattr(ni, "inflight_study", on_tiny)
+    out = tmp_path / "mine"
+    assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0", "--pairs", "0",
+                     "--every", "1", "--decoder", str(file), "--out", str(out),
+                     "--no-progress"]) == 0
+    from windnav.predict import load_decoder
+
+    assert asked["decoder"].fingerprint() == load_decoder(file).fingerprint()
+    doc = json.loads((out / "nav_inflight.json").read_text())
+    assert doc["decoder_file"] == {"path": str(file), "sha256": model_sha256(file)}
+    capsys.readouterr()
+    assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0", "--variant",
+                     f"{ni.INFLIGHT_VARIANT}@views=3", "--decoder", str(file), "--out",
+                     str(tmp_path / "x")]) == 2
+    assert re.search(r"'--variant' parameter .* \('@views=' without", capsys.readouterr().err)
+    assert not (tmp_path / "x").exists()
+
+
 def test_a_record_log_flown_with_another_decoder_is_refused(tmp_path, monkeypatch):
     """Audit: the record log's header named the variant but not the decoder it flew, so a log
     flown with the benchmark's earlier pinned decoder was resumed after a re-pin and its winds

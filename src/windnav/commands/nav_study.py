@@ -66,9 +66,10 @@ file of your own) holds that decoder in its suite's settings: the studies on a s
 FILE``, and the flights they fly into it fly it (``cases --variant ea-mppi-w-hat``); without
 it, or with another file, such a store is refused naming the option. ``feasibility`` keeps its
 reach cache the suite's (without a decoder) and reads such a store; its ``--fly`` does not fly
-into one (refused, naming it): fly with ``benchmark-nav --decoder``. ``inflight`` flies the
-benchmark's decoders (``--variant ea-mppi-w-hat@decoder=DATE``) and scores others with
-``--compare NAME=FILE``.
+into one (refused, naming it): fly with ``benchmark-nav --decoder``. ``inflight --decoder
+FILE`` (it needs no store) flies that file in the onboard stack and scores it along the paths
+(the variant without ``@decoder=``; ``--compare NAME=FILE`` scores others on the same samples
+without flying them).
 """
 
 from __future__ import annotations
@@ -177,7 +178,8 @@ def register(subparsers) -> None:
                    help="qe, h, cases, pace, bound, tilt, feasibility: the decoder file the "
                         "store's onboard stack flew: a store of 'benchmark-nav --decoder FILE' "
                         "needs the same file again, and the flights a study flies into it "
-                        "(cases: ea-mppi-w-hat) fly it")
+                        "(cases: ea-mppi-w-hat) fly it; inflight: the decoder file the "
+                        "onboard stack flies and is scored (the variant without '@decoder=')")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -198,7 +200,7 @@ STUDY_OPTIONS = {
     "cache": ("feasibility",), "airspeeds": ("feasibility",), "fly": ("feasibility",),
     "scenario": ("gusts",), "base": ("gusts",), "gust_k": ("gusts",),
     "native_arithmetic": ("cases",),
-    "decoder": ("qe", "h", "cases", "pace", "bound", "tilt", "feasibility"),
+    "decoder": ("qe", "h", "cases", "pace", "bound", "tilt", "feasibility", "inflight"),
 }
 """The studies that read each option; given to another, it is refused."""
 
@@ -212,11 +214,14 @@ def _check_study_options(args, name: str) -> None:
     """Refuse an option the study does not read, then fill in :data:`LATE_DEFAULTS`: such
     options were accepted and ignored, only the JSON's ``arguments`` differing (``bound
     --variant mppi --values 3 --seed 7`` wrote the plain ``bound``'s results; CLI audit,
-    2026-12-05)."""
+    2026-12-05). The keys filled are kept in ``args.filled_defaults`` (not an argument:
+    :data:`windnav.experiments.results.NOT_ARGUMENTS`), so that the JSON's ``arguments`` stay
+    the line as typed (:func:`_write`), which ``windnav.provenance`` parses back to them."""
     refuse_other_studies(args, name, STUDY_OPTIONS)
-    for key, default in LATE_DEFAULTS.items():
-        if getattr(args, key) is None:
-            setattr(args, key, default)
+    filled = [key for key in LATE_DEFAULTS if getattr(args, key) is None]
+    for key in filled:
+        setattr(args, key, LATE_DEFAULTS[key])
+    args.filled_defaults = tuple(filled)
 
 
 def _with_decoder(args, name: str, spec):
@@ -261,11 +266,17 @@ def _write(out, args, payload: dict, json_name: str, draw) -> None:
     """Write a study's outputs together: its figures (``draw(folder)``) and its JSON
     (``payload`` as a ``nav-study`` document) into the output folder, the JSON also to
     ``--json``."""
+    import argparse
+
     from windnav.experiments.results import write_json
 
+    # the arguments as typed: the defaults the command filled in are None again (a result
+    # recorded them, and its typed line, which has none of them, did not parse back to it)
+    typed = argparse.Namespace(**{k: None if k in getattr(args, "filled_defaults", ()) else v
+                                  for k, v in vars(args).items()})
     with out.writing() as stage:
         draw(stage.dir)
-        doc = document("nav-study", {**payload, **decoder_file(args)}, args)
+        doc = document("nav-study", {**payload, **decoder_file(args)}, typed)
         write_json(doc, stage.dir / json_name)
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
@@ -524,6 +535,7 @@ def _inflight(args, name: str, spec) -> int:
 
     maps = suite_maps(args.maps, spec, name)
     workers = None if args.workers is None else positive_int(args.workers, "--workers", name)
+    refuse_other_views(args, name, [args.variant or nav_inflight.INFLIGHT_VARIANT], "--variant")
     try:
         pairs = sorted({int(p) for p in str(args.pairs).split(",") if p.strip()})
     except ValueError:

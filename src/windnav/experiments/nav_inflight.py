@@ -222,21 +222,42 @@ def _decoder_name(variant: str) -> str:
     return nav_benchmark.BENCHMARK_DECODER if name is None else str(name)
 
 
-def _decoder(variant: str):
-    """The decoder ``fly`` gives the onboard stack of ``variant`` (:func:`_decoder_name`, with
-    the label's ``@views=``)."""
+def _spec_decoder(spec, variant: str):
+    """The suite's own decoder object (``spec.navigate_options["decoder"]``, e.g. ``windnav
+    nav-study inflight --decoder FILE``'s) when ``fly`` gives it to the onboard stack of
+    ``variant`` (a label without ``@decoder=`` or ``@views=``); else None."""
     from windnav.experiments import nav_benchmark
 
+    options = nav_benchmark.parse_variant(variant)[1]
+    own = (getattr(spec, "navigate_options", None) or {}).get("decoder")
+    if own is None or "decoder" in options or "decoder_views" in options:
+        return None
+    return own
+
+
+def _decoder(variant: str, spec=None):
+    """The decoder ``fly`` gives the onboard stack of ``variant`` in the suite ``spec``: the
+    suite's own decoder object (:func:`_spec_decoder`), else :func:`_decoder_name`'s, with the
+    label's ``@views=``."""
+    from windnav.experiments import nav_benchmark
+
+    own = None if spec is None else _spec_decoder(spec, variant)
+    if own is not None:
+        return own
     return nav_benchmark.flight_decoder(nav_benchmark.parse_variant(variant)[1])
 
 
-def _decoder_identity(variant: str) -> dict:
+def _decoder_identity(variant: str, spec=None) -> dict:
     """The flown decoder's identity: its name, file and the first 16 hex digits of the file's
     SHA-256 (the one :func:`~windnav.experiments.nav_benchmark.benchmark_decoder` checks the
     file against before it loads it), and its turned views (``rotations_deg``, deg) when the
-    label gives ``@views=``."""
+    label gives ``@views=``; the suite's own decoder object (:func:`_spec_decoder`) by its
+    fingerprint (``{"name": "suite", "fingerprint": ...}``)."""
     from windnav.experiments.nav_benchmark import DECODERS
 
+    own = None if spec is None else _spec_decoder(spec, variant)
+    if own is not None:
+        return {"name": "suite", "fingerprint": own.fingerprint()}
     name = _decoder_name(variant)
     decoder = _decoder(variant)  # an unknown name or a file not of its date: its error
     file, sha = DECODERS[name]
@@ -256,7 +277,7 @@ def _fly_wind(task):
     first = scenarios[0]
     city = suite_map(spec, first.map_index)
     flow = suite_flow(spec, city, first.speed, first.direction_deg)
-    offsets = _decoder(variant).offsets
+    offsets = _decoder(variant, spec).offsets
     out = []
     for sc in scenarios:
         res = fly(spec, sc, variant, city=city, flow=flow)
@@ -277,7 +298,8 @@ def records_header(spec, variant: str, every_s: float, taus: Sequence[float]) ->
     flown before the benchmark's pinned decoder changed is another study's."""
     return {"study": "windnav.experiments.nav_inflight", "suite": spec.name, "seed": spec.seed,
             "settings_hash": spec.settings_hash(), "variant": variant,
-            "decoder": _decoder_identity(variant), "every_s": every_s, "taus": list(taus)}
+            "decoder": _decoder_identity(variant, spec), "every_s": every_s,
+            "taus": list(taus)}
 
 
 def _packed(a: np.ndarray) -> dict:
@@ -326,7 +348,9 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
     Parameters
     ----------
     spec : SuiteSpec
-        The suite (a :data:`~windnav.experiments.nav_suite.SUITES` name and seed).
+        The suite (a :data:`~windnav.experiments.nav_suite.SUITES` name and seed); a
+        ``decoder`` among its ``navigate_options`` is the one flown and scored for a label
+        without ``@decoder=`` (``windnav nav-study inflight --decoder FILE``).
     scenario_ids : sequence of str
         Scenarios of ``spec``, at least one.
     variant : str
@@ -379,7 +403,7 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
     check_scenario_ids(spec, ids, where)
     every = positive_float(every_s, "every_s", where)
     taus = tuple(sorted({positive_float(tau, "taus", where) for tau in taus}))
-    decoder = _decoder(variant)
+    decoder = _decoder(variant, spec)
     compare = _check_compare(compare, np.asarray(decoder.offsets, dtype=np.float64), where)
     winds = {}
     for sid in ids:

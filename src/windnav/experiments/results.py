@@ -232,9 +232,10 @@ def machine() -> dict:
             "python": platform.python_version()}
 
 
-NOT_ARGUMENTS = ("func", "command", "argv")
+NOT_ARGUMENTS = ("func", "command", "argv", "filled_defaults")
 """Attributes of a parsed command line that are the parser's bookkeeping, not options: left out
-of a document's ``arguments`` (``argv`` is kept apart, as typed)."""
+of a document's ``arguments`` (``argv`` is kept apart, as typed; ``filled_defaults``: the
+options a command filled in after parsing, ``nav-study``'s)."""
 
 
 def document(command: str, payload: Mapping, arguments=None) -> dict:
