@@ -43,6 +43,17 @@ def decoder_file(args) -> dict:
     return {"decoder_file": _LOADED[str(args.decoder)]}
 
 
+def store_decoder(man: dict, spec) -> tuple[bool, str | None]:
+    """Of a store's manifest ``man`` (of the suite ``spec``; another suite's, or a malformed
+    one, reads as none): whether it records ``navigate_options`` at all, and the decoder among
+    them (``"Decoder sha256:<fingerprint>"``), None where the store flew the pinned one."""
+    settings = man.get("settings") if man.get("suite") == spec.name else None
+    options = settings.get("navigate_options") if isinstance(settings, dict) else None
+    if not isinstance(options, dict):
+        return False, None
+    return True, options.get("decoder")
+
+
 def with_decoder(args, name: str, spec, man: dict):
     """``spec`` whose onboard stack flies ``--decoder`` (a ``decoder`` among its
     ``navigate_options``, in its settings by fingerprint); a ValueError naming the option where
@@ -50,9 +61,7 @@ def with_decoder(args, name: str, spec, man: dict):
     object, or without one."""
     import dataclasses
 
-    settings = man.get("settings") if man.get("suite") == spec.name else None
-    options = settings.get("navigate_options") if isinstance(settings, dict) else None
-    recorded = options.get("decoder") if isinstance(options, dict) else None
+    known, recorded = store_decoder(man, spec)
     if args.decoder is None:
         if recorded is not None:
             raise ValueError(f"The '--decoder' parameter of {name} must name the decoder file "
@@ -62,7 +71,7 @@ def with_decoder(args, name: str, spec, man: dict):
     flown = dataclasses.replace(spec, navigate_options={**spec.navigate_options,
                                                         "decoder": load(args, name)})
     mine = flown.settings()["navigate_options"]["decoder"]  # "Decoder sha256:<fingerprint>"
-    if isinstance(options, dict) and recorded != mine:  # (a malformed one: NavStore says so)
+    if known and recorded != mine:  # (a malformed one: NavStore says so)
         theirs = ("the benchmark's pinned decoder" if recorded is None
                   else f"another decoder ({recorded})")
         raise ValueError(f"The '--decoder' parameter of {name} must name the decoder the store "

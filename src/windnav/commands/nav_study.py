@@ -90,7 +90,12 @@ from windnav.commands._common import (
     refuse_other_studies,
     where,
 )
-from windnav.commands._decoder_file import decoder_file, refuse_other_views, with_decoder
+from windnav.commands._decoder_file import (
+    decoder_file,
+    refuse_other_views,
+    store_decoder,
+    with_decoder,
+)
 
 STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "bound", "tilt",
            "inflight")
@@ -214,9 +219,10 @@ def _check_study_options(args, name: str) -> None:
     """Refuse an option the study does not read, then fill in :data:`LATE_DEFAULTS`: such
     options were accepted and ignored, only the JSON's ``arguments`` differing (``bound
     --variant mppi --values 3 --seed 7`` wrote the plain ``bound``'s results; CLI audit,
-    2026-12-05). The keys filled are kept in ``args.filled_defaults`` (not an argument:
-    :data:`windnav.experiments.results.NOT_ARGUMENTS`), so that the JSON's ``arguments`` stay
-    the line as typed (:func:`_write`), which ``windnav.provenance`` parses back to them."""
+    2026-12-05). The keys filled are kept in ``args.filled_defaults``, which
+    :func:`windnav.experiments.results.document` records as None, so that the JSON's
+    ``arguments`` stay the line as typed, which ``windnav.provenance`` parses back to them (a
+    result recorded the filled values, and its typed line did not parse back to it)."""
     refuse_other_studies(args, name, STUDY_OPTIONS)
     filled = [key for key in LATE_DEFAULTS if getattr(args, key) is None]
     for key in filled:
@@ -237,10 +243,8 @@ def _with_decoder(args, name: str, spec):
     from windnav.commands.benchmark_nav import _manifest
 
     man = (None if args.store is None else _manifest(Path(args.store))) or {}
-    settings = man.get("settings") if man.get("suite") == spec.name else None
-    options = settings.get("navigate_options") if isinstance(settings, dict) else None
     if args.study == "feasibility" and args.fly and (
-            args.decoder is not None or (isinstance(options, dict) and "decoder" in options)):
+            args.decoder is not None or store_decoder(man, spec)[1] is not None):
         raise ValueError(f"The '--fly' parameter of {name} flies into a store of the suite "
                          "without a decoder: a store of 'benchmark-nav --decoder FILE' is "
                          "flown with that command. Got --fly "
@@ -266,17 +270,11 @@ def _write(out, args, payload: dict, json_name: str, draw) -> None:
     """Write a study's outputs together: its figures (``draw(folder)``) and its JSON
     (``payload`` as a ``nav-study`` document) into the output folder, the JSON also to
     ``--json``."""
-    import argparse
-
     from windnav.experiments.results import write_json
 
-    # the arguments as typed: the defaults the command filled in are None again (a result
-    # recorded them, and its typed line, which has none of them, did not parse back to it)
-    typed = argparse.Namespace(**{k: None if k in getattr(args, "filled_defaults", ()) else v
-                                  for k, v in vars(args).items()})
     with out.writing() as stage:
         draw(stage.dir)
-        doc = document("nav-study", {**payload, **decoder_file(args)}, typed)
+        doc = document("nav-study", {**payload, **decoder_file(args)}, args)
         write_json(doc, stage.dir / json_name)
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))

@@ -234,22 +234,27 @@ def machine() -> dict:
 
 NOT_ARGUMENTS = ("func", "command", "argv", "filled_defaults")
 """Attributes of a parsed command line that are the parser's bookkeeping, not options: left out
-of a document's ``arguments`` (``argv`` is kept apart, as typed; ``filled_defaults``: the
-options a command filled in after parsing, ``nav-study``'s)."""
+of a document's ``arguments`` (``argv`` is kept apart, as typed; ``filled_defaults``: the names
+of the options a command filled in after parsing, ``nav-study``'s, which :func:`document`
+records as None, as typed)."""
 
 
 def document(command: str, payload: Mapping, arguments=None) -> dict:
     """The JSON document of one run: ``command``, ``windnav_version``, ``machine``
     (:func:`machine`), ``arguments`` (the parsed command line, when given), ``argv`` (the words
     after ``windnav`` as typed, when the arguments carry them: since 2026-12-06) and the
-    ``payload`` keys."""
+    ``payload`` keys. The options named by the arguments' ``filled_defaults`` (filled in by the
+    command after parsing) are recorded as None: ``arguments`` is the line as typed, which
+    :mod:`windnav.provenance` parses back to it."""
     from windnav import __version__
 
     doc = {"command": f"windnav {command}", "windnav_version": __version__,
            "machine": machine()}
     if arguments is not None:
         args = vars(arguments) if not isinstance(arguments, Mapping) else dict(arguments)
-        doc["arguments"] = {k: v for k, v in args.items() if k not in NOT_ARGUMENTS}
+        filled = args.get("filled_defaults") or ()
+        doc["arguments"] = {k: None if k in filled else v for k, v in args.items()
+                            if k not in NOT_ARGUMENTS}
         if isinstance(args.get("argv"), list | tuple):  # the words typed: the exact line
             doc["argv"] = [str(w) for w in args["argv"]]  # (windnav.provenance.command_line)
     doc.update(payload)
