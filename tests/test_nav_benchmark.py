@@ -1187,6 +1187,92 @@ def test_command_flies_the_onboard_stack_with_the_decoder_file_given(tmp_path, m
     assert "note: no variant of this run flies --decoder's file" in capsys.readouterr().err
 
 
+def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, tiny_suite,
+                                                       capsys):
+    """``--map NAME=FILE``: the suite's winds and pair rule on the file's city as its one map
+    (ids ``NAME/m00/...``, pairs inside the city's bounds and clear of its buildings); the
+    store's settings record the city by fingerprint, so the table, --check and --replay of
+    that store need the same map (by content, not by path) and find the suite by themselves;
+    another map, none, or a preset's name are refused naming --map, as is nav-study on it."""
+    from windnav import cli
+    from windnav.city import City, planning_map
+
+    own = planning_map(rng=11, size=240.0, n_buildings=3, side_range=(10.0, 20.0))
+    shifted = City(bounds=(1000.0, 1240.0, -50.0, 190.0),
+                   footprints=own.footprints + [1000.0, 1000.0, -50.0, -50.0],
+                   heights=own.heights)
+    file, copy_, other = tmp_path / "own.json", tmp_path / "copy.json", tmp_path / "other.json"
+    shifted.to_rotorpy_json(file)
+    shifted.to_rotorpy_json(copy_)
+    planning_map(rng=12, size=240.0, n_buildings=3,
+                 side_range=(10.0, 20.0)).to_rotorpy_json(other)
+    flown = []
+
+    class Seeing(Fake):
+        def __call__(self, city, start, goal, **kw):
+            flown.append((city.fingerprint(), tuple(start), tuple(goal)))
+            return super().__call__(city, start, goal, **kw)
+
+    monkeypatch.setattr(nb, "fly_scenario", lambda spec, scenario, variant, *, city=None,
+                        flow=None, navigate_fn=None: REAL_FLY(spec, scenario, variant, city=city,
+                                                              flow=flow, navigate_fn=Seeing()))
+    store = tmp_path / "store"
+    assert command(["--suite", "quick", "--map", f"town={file}", "--variants", "mppi,ea-mppi-w",
+                    "--executor", "serial", "--out", store, "--no-progress", "--json",
+                    tmp_path / "run.json"]) == 0
+    assert "suite town (seed 0), 8/8 flights recorded" in capsys.readouterr().out
+    records = [json.loads(line) for line in (store / "records.jsonl").read_text().splitlines()]
+    assert sorted({r["scenario_id"] for r in records}) == [
+        "town/m00/w00/p0", "town/m00/w00/p1", "town/m00/w01/p0", "town/m00/w01/p1"]
+    assert {f for f, _, _ in flown} == {shifted.fingerprint()}
+    x0, x1, y0, y1 = shifted.bounds
+    for _, start, goal in flown:  # drawn in the city's own bounds (not [0, 240]^2)
+        for x, y in (start, goal):
+            assert x0 + 15.0 <= x <= x1 - 15.0 and y0 + 15.0 <= y <= y1 - 15.0
+        assert clearance_to_buildings(shifted, [start, goal]).min() >= 25.0
+    manifest = json.loads((store / "manifest.json").read_text())
+    assert manifest["suite"] == "town"
+    assert manifest["settings"]["city"] == f"City sha256:{shifted.fingerprint()}"
+    assert manifest["settings"]["maps"] == [0] and manifest["settings"]["map_size"] == 240.0
+    doc = json.loads((tmp_path / "run.json").read_text())
+    assert doc["map_file"] == {"suite": "town", "path": f"town={file}",
+                               "city": f"City sha256:{shifted.fingerprint()}"}
+    # the same map under another path: the table, a check and a replay, without --suite
+    assert command(["--out", store, "--table", "--map", f"town={copy_}"]) == 0
+    assert "| ea-mppi-w | 4 |" in capsys.readouterr().out
+    assert command(["--out", store, "--check", "2", "--map", f"town={copy_}", "--executor",
+                    "serial", "--no-progress"]) == 0
+    assert "4 reproduced" in capsys.readouterr().out
+    assert command(["--out", store, "--replay", "town/m00/w01/p1", "--variant", "mppi",
+                    "--map", f"town={file}"]) == 0
+    assert "largest relative difference 0" in capsys.readouterr().out
+    # a rerun flies nothing new
+    assert command(["--variants", "mppi", "--executor", "serial", "--out", store,
+                    "--map", f"town={file}", "--no-progress"]) == 0
+    assert "(0 now, 4 already" in capsys.readouterr().out
+    for argv, match in (
+            (["--out", store, "--table"], r"'--map' parameter .* must name the map file that "
+                                          r"the store .* \(suite 'town', City sha256:"),
+            (["--out", store, "--table", "--map", f"town={other}"],
+             r"'--map' parameter .* must name the map the store .* another map needs a store"),
+            (["--out", store, "--table", "--suite", "quick"], "'--map' parameter"),
+            (["--suite", "quick", "--map", f"quick={file}", "--out", tmp_path / "q"],
+             "'--map' parameter .* apart from"),
+            (["--map", str(file), "--out", tmp_path / "new"],
+             "'--suite' parameter .* must be given with --map for a new store"),
+            (["--suite", "quick", "--map", str(tmp_path / "none.json"), "--out",
+              tmp_path / "n"], "'--map' parameter .* which does not exist"),
+            (["--suite", "thesis", "--map", str(file), "--out", tmp_path / "t"],
+             r"'--map' parameter .* holds the thesis suite's start/goal pairs \(282 m")):
+        with pytest.raises(ValueError, match=match):
+            command(argv)
+    for folder in ("q", "new", "n", "t"):
+        assert not (tmp_path / folder).exists()
+    assert cli.main(["nav-study", "pace", "--store", str(store), "--out",
+                     str(tmp_path / "pace")]) == 2
+    assert "the studies do not read a store of 'benchmark-nav --map'" in capsys.readouterr().err
+
+
 def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, tiny_suite,
                                                                       capsys, monkeypatch):
     """A store of ``benchmark-nav --decoder FILE`` holds the decoder in its settings: the

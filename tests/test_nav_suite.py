@@ -114,3 +114,42 @@ def test_the_settings_hash_tells_two_decoders_apart():
               for d in (shipped, older, load_decoder())]
     assert hashes[0] != hashes[1] and hashes[0] == hashes[2]
     assert str(shipped) == str(older)
+
+
+def test_a_suite_on_a_city_of_ones_own_flies_it_as_its_one_map():
+    """``SuiteSpec(city=...)``: the city is map 0 (no other), its pairs obey the rule inside the
+    city's bounds, and it enters the settings by its fingerprint: its blocks' geometry, not
+    their colours, and not the object."""
+    from dataclasses import replace
+
+    from windnav.experiments.nav_suite import SuiteSpec, parse_scenario_id, suite_map
+
+    city = two_buildings()
+    spec = replace(get_suite("quick"), name="two", maps=(0,), city=city)
+    assert suite_map(spec, 0) is city
+    with pytest.raises(ValueError, match="'m' parameter of suite_map must be 0"):
+        suite_map(spec, 1)
+    scenarios = make_suite(spec)
+    assert [s.scenario_id for s in scenarios] == ["two/m00/w04/p0", "two/m00/w04/p2",
+                                                  "two/m00/w10/p0", "two/m00/w10/p2"]
+    for s in scenarios:
+        points = np.array([s.start, s.goal])
+        assert math.dist(s.start, s.goal) == pytest.approx(282.0)
+        assert np.all((points >= 25.0) & (points <= 375.0))
+        assert clearance_to_buildings(city, points).min() >= 15.0
+    assert parse_scenario_id(spec, "two/m00/w10/p2") == scenarios[3]
+    same = City(bounds=city.bounds, footprints=FOOTPRINTS, heights=[20.0, 30.0],
+                block_attrs=[{"color": "red"}, {}])
+    taller = City(bounds=city.bounds, footprints=FOOTPRINTS, heights=[20.0, 31.0])
+    assert same.fingerprint() == city.fingerprint() != taller.fingerprint()
+    hashes = {replace(spec, city=c).settings_hash() for c in (city, same)}
+    assert hashes == {spec.settings_hash()} and replace(spec, city=taller).settings_hash() \
+        not in hashes
+    assert spec.settings()["city"] == f"City sha256:{city.fingerprint()}"
+    assert "city" not in get_suite("quick").settings()
+    for bad, match in (({"maps": (0, 1)}, "'maps' parameter of SuiteSpec must be \\(0,\\)"),
+                       ({"city": "city.json"}, "'city' parameter of SuiteSpec must be a City"),
+                       ({"pair_distance": 500.0}, "'pair_distance' parameter .* \\(494.975 m\\)"),
+                       ({"name": "my town"}, "'name' parameter .* white space")):
+        with pytest.raises(ValueError, match=match):
+            SuiteSpec(**{**spec.__dict__, **bad})

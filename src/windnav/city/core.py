@@ -348,6 +348,20 @@ class City(ReadOnlyOnCopy):
         return (f"cell size above the validated resolution (s/8 = {side / 8:.3g} m, s the "
                 f"median building's smaller side; dx = {dx:g} m): results grid-dependent")
 
+    def fingerprint(self) -> str:
+        """SHA-256 (hex) of the geometry every flow, scan and flight depends on: the bounds, the
+        vertical extent and each block's footprint, height and floor (float64 bytes). Not the
+        blocks' colours or other JSON keys, which change nothing flown; two files of the same
+        blocks print alike."""
+        import hashlib
+
+        h = hashlib.sha256(b"City/1")
+        for part in (self.bounds, self.z_bounds, self.footprints, self.heights, self.base_z):
+            a = np.ascontiguousarray(part, dtype=np.float64)
+            h.update(f"{a.shape}".encode())
+            h.update(a.tobytes())
+        return h.hexdigest()
+
     # ------------------------------------------------------------------ sensing
     def lidar(
         self,

@@ -16,7 +16,7 @@ from windnav.experiments.results import Outputs, check_output_path, document
 
 __all__ = ["add_boundary_argument", "add_compare_boundary_argument", "add_output_arguments",
            "add_rotations_argument", "compare_boundary", "cache_folder", "check_output_path",
-           "document", "load_model", "model_files", "options_named", "outputs",
+           "document", "load_model", "map_argument", "model_files", "options_named", "outputs",
            "print_written", "seed", "where"]
 
 
@@ -195,6 +195,32 @@ def inlet_speed(value, option: str, name: str) -> float:
                          "wind solver is incompressible, valid below Mach 0.3. Got "
                          f"{value!r} instead.")
     return speed
+
+
+def map_argument(item: str, flag: str, name: str):
+    """A map option's value ``[NAME=]FILE``: ``(NAME, FILE, City)``, NAME defaulting to the
+    file's name without ``.json`` (a path with ``=`` in it that names a file is the file); the
+    file read now, so a missing or unreadable one is refused naming ``flag``."""
+    from windnav.city import read_rotorpy_json
+
+    given, sep, file = str(item).partition("=")
+    if not sep or Path(item).is_file():
+        given, file = None, str(item)
+    path = Path(file)
+    if not path.is_file():
+        what = "a folder" if path.is_dir() else "which does not exist"
+        raise ValueError(f"The {flag!r} parameter of {name} must be a RotorPy world JSON file "
+                         f"([NAME=]FILE). Got {file!r} instead, {what}.")
+    try:
+        city = read_rotorpy_json(path)
+    except ValueError as exc:
+        raise ValueError(f"The {flag!r} parameter of {name} must be a RotorPy world JSON file "
+                         f"([NAME=]FILE). Got {file!r} instead: {exc}") from None
+    label = given if given is not None else (path.stem if path.suffix == ".json" else path.name)
+    if not label:
+        raise ValueError(f"The {flag!r} parameter of {name} must give a name before '=' "
+                         f"(NAME=FILE). Got {item!r} instead.")
+    return label, path, city
 
 
 def outputs(args, *, out=None, files=None) -> Outputs:

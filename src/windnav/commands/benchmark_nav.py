@@ -145,6 +145,12 @@ def register(subparsers) -> None:
                         "'@decoder=') flies, e.g. a model of 'windnav train-decoder' (default: "
                         "the benchmark's pinned decoder); part of the suite's settings, so a "
                         "store of its own, and every mode on that store needs it again")
+    p.add_argument("--map", default=None, metavar="[NAME=]FILE",
+                   help="fly the suite's winds and start/goal rule on a city of your own (a "
+                        "RotorPy world JSON) as its one map, instead of its planning maps: "
+                        "the scenario ids are NAME/m00/wWW/pP (NAME: default the file's name); "
+                        "part of the suite's settings (by the city's fingerprint), so a store "
+                        "of its own, and every mode on that store needs it again")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -164,10 +170,18 @@ def _manifest(store: Path | None) -> dict | None:
 
 def _spec(args, name: str, prefer: str | None = None):
     """The suite: ``--suite``, else ``prefer`` (a replayed id's suite), else the store's
-    manifest; the seed: ``--seed``, else the store's (for its own suite), else 0."""
+    manifest; the seed: ``--seed``, else the store's (for its own suite), else 0. With
+    ``--map``, that suite's rule on the city of the file (:func:`city_suite`)."""
     from windnav.experiments.nav_suite import SUITES, get_suite
 
     man = _manifest(args.out) or {}
+    if args.map is not None:
+        return with_decoder(args, name, city_suite(args, name, man), man)
+    recorded = _store_city(man)
+    if recorded is not None:
+        raise ValueError(f"The '--map' parameter of {name} must name the map file that the "
+                         f"store {str(args.out)!r} was flown on (suite {man.get('suite')!r}, "
+                         f"{recorded}). Got None instead.")
     suite = args.suite or prefer or (man.get("suite") if man.get("suite") in SUITES else None)
     if suite is None:
         raise ValueError(f"The '--suite' parameter of {name} must be given for a new store "
@@ -179,10 +193,70 @@ def _spec(args, name: str, prefer: str | None = None):
     return with_decoder(args, name, get_suite(suite, seed=value), man)
 
 
-def _document(payload: dict, args) -> dict:
+def _store_city(man: dict) -> str | None:
+    """The city a store's manifest ``man`` records among its settings (``"City sha256:..."``,
+    a store of ``--map``), None for a store of planning maps (or a malformed manifest)."""
+    settings = man.get("settings")
+    city = settings.get("city") if isinstance(settings, dict) else None
+    return city if isinstance(city, str) else None
+
+
+def city_suite(args, name: str, man: dict):
+    """The suite of ``--map [NAME=]FILE``: for a new store, ``--suite``'s winds, start/goal
+    rule and flight options on the file's city, its one map (``m00``), named NAME; for an
+    existing store of that name, the suite its manifest records (``--suite`` not needed),
+    whose city must be the file's (by :meth:`~windnav.city.City.fingerprint`). The seed:
+    ``--seed``, else the store's, else 0."""
+    import dataclasses
+
+    from windnav.commands._common import map_argument
+    from windnav.experiments.nav_suite import SUITES, SuiteSpec, get_suite
+
+    label, path, city = map_argument(args.map, "--map", name)
+    if label in SUITES:
+        raise ValueError(f"The '--map' parameter of {name} must name its suite apart from "
+                         f"{list(SUITES)} (NAME=FILE). Got the name {label!r} instead.")
+    own = man.get("suite") == label
+    value = seed(args) if args.seed is not None else (man.get("seed", 0) if own else 0)
+    settings = man.get("settings") if own else None
+    if args.suite is not None or not isinstance(settings, dict):
+        if args.suite is None:
+            raise ValueError(f"The '--suite' parameter of {name} must be given with --map for "
+                             f"a new store: the suite whose winds and start/goal rule fly on "
+                             f"the map (one of {list(SUITES)}). Got None instead.")
+        base = get_suite(args.suite, seed=value)
+        try:
+            return dataclasses.replace(base, name=label, maps=(0,), map_options={},
+                                       map_size=float(max(city.size)), city=city)
+        except ValueError as exc:
+            raise ValueError(f"The '--map' parameter of {name} must be a map that holds the "
+                             f"{args.suite} suite's start/goal pairs ({base.pair_distance:g} m "
+                             f"apart, {base.edge:g} m inside its edge). Got {str(path)!r} "
+                             f"instead: {exc}") from None
+    mine = f"City sha256:{city.fingerprint()}"
+    if settings.get("city") != mine:
+        raise ValueError(f"The '--map' parameter of {name} must name the map the store "
+                         f"{str(args.out)!r} was flown on ({settings.get('city')}). Got "
+                         f"{str(path)!r} instead ({mine}); another map needs a store of its "
+                         "own.")
+    options = {k: v for k, v in settings.items() if k != "city"}
+    options["navigate_options"] = dict(options.get("navigate_options") or {})
+    try:  # (its recorded decoder, a fingerprint, stays: with_decoder asks for the file)
+        return SuiteSpec(name=label, seed=value, city=city, **options)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"The '--out' parameter of {name} must name a store whose manifest "
+                         f"this version reads. Got {str(args.out)!r} instead: {exc}") from None
+
+
+def _document(payload: dict, args, spec=None) -> dict:
     """The JSON document of this run, with ``decoder_file`` (the path and SHA-256 of
-    ``--decoder`` when it was loaded) when given."""
-    return document("benchmark-nav", {**payload, **decoder_file(args)}, args)
+    ``--decoder`` when it was loaded) when given, and with ``--map`` ``map_file``: its path
+    and the flown city's fingerprint."""
+    extra = decoder_file(args)
+    if spec is not None and spec.city is not None:
+        extra["map_file"] = {"suite": spec.name, "path": str(args.map),
+                             "city": spec.settings()["city"]}
+    return document("benchmark-nav", {**payload, **extra}, args)
 
 
 def run(args) -> int:
@@ -400,7 +474,7 @@ def _run(args, name: str, reference_given: bool) -> int:
     table = _print_table(records, variants, args.reference, spec)
     if args.json is not None:
         with out.writing() as stage:
-            write_json(_document({"summary": summary, "table": table}, args),
+            write_json(_document({"summary": summary, "table": table}, args, spec),
                        stage.file("--json"))
         print_written(out)
     return 1 if summary["errors_now"] or summary["pending"] else 0
@@ -467,7 +541,7 @@ def _table(args, name: str) -> int:
                               "same": len(checks) - len(bad), "checks": checks}
     if args.json is not None:
         with out.writing() as stage:
-            write_json(_document(payload, args), stage.file("--json"))
+            write_json(_document(payload, args, spec), stage.file("--json"))
         print_written(out)
     return 0
 
@@ -575,7 +649,7 @@ def _check(args, name: str) -> int:
         if pins:
             summary["groups"] = pins
         with out.writing() as stage:
-            write_json(_document({"summary": summary, "flights": checks}, args),
+            write_json(_document({"summary": summary, "flights": checks}, args, spec),
                        stage.file("--json"))
         print_written(out)
     return 0 if not bad else 1
@@ -711,7 +785,7 @@ def _replay(args, name: str) -> int:
     suite = str(args.replay).split("/", 1)[0]
     from windnav.experiments.nav_suite import SUITES
 
-    if args.suite is None and suite not in SUITES:
+    if args.suite is None and suite not in SUITES and args.map is None:
         raise ValueError(f"The '--replay' parameter of {name} must be a scenario id of a suite "
                          f"in {list(SUITES)} (e.g. thesis/m03/w07/p2). Got {args.replay!r} "
                          "instead.")
@@ -753,6 +827,6 @@ def _replay(args, name: str) -> int:
         print(record["error"], file=sys.stderr)
     if args.json is not None:
         with out.writing() as stage:
-            write_json(_document(payload, args), stage.file("--json"))
+            write_json(_document(payload, args, spec), stage.file("--json"))
         print_written(out)
     return 1 if record["error"] else 0

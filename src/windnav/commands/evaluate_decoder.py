@@ -58,6 +58,7 @@ from windnav.commands._common import (
     compare_boundary,
     document,
     load_model,
+    map_argument,
     model_files,
     options_named,
     outputs,
@@ -230,35 +231,15 @@ def flow_cache_folder(args, name: str) -> Path | None:
 
 
 def map_files(items, name: str) -> list[tuple[str, Path]]:
-    """``--map`` values ``[NAME=]FILE``: ``[(NAME, FILE)]``, NAME defaulting to the file's name
-    without ``.json``; each file read before any flow is solved (a missing or unreadable one
-    is refused naming the option)."""
-    from windnav.city import read_rotorpy_json
-
+    """``--map`` values ``[NAME=]FILE``: ``[(NAME, FILE)]`` (:func:`map_argument`), each file
+    read before any flow is solved, and refused when it has no buildings."""
     out = []
     for item in items:
-        given, sep, file = item.partition("=")
-        if not sep or Path(item).is_file():  # (a path with '=' in it is a file, not NAME=)
-            given, file = None, item
-        path = Path(file)
-        if not path.is_file():
-            what = "a folder" if path.is_dir() else "which does not exist"
-            raise ValueError(f"The '--map' parameter of {name} must be a RotorPy world JSON "
-                             f"file ([NAME=]FILE). Got {file!r} instead, {what}.")
-        try:
-            city = read_rotorpy_json(path)
-        except ValueError as exc:
-            raise ValueError(f"The '--map' parameter of {name} must be a RotorPy world JSON "
-                             f"file ([NAME=]FILE). Got {file!r} instead: {exc}") from None
+        label, path, city = map_argument(item, "--map", name)
         if not len(city.footprints):  # (its samples lie near buildings: after the flow, said)
             raise ValueError(f"The '--map' parameter of {name} must be a map with buildings: "
                              "the decoder is scored at robots near them. Got "
-                             f"{file!r} instead, which has none.")
-        label = given if given is not None else (path.stem if path.suffix == ".json"
-                                                 else path.name)
-        if not label:
-            raise ValueError(f"The '--map' parameter of {name} must give a name before '=' "
-                             f"(NAME=FILE). Got {item!r} instead.")
+                             f"{str(path)!r} instead, which has none.")
         out.append((label, path))
     return out
 

@@ -286,11 +286,17 @@ def study_suite(args):
     always the thesis suite with seed 0, so a store flown with ``benchmark-nav --seed 5`` (or
     another suite) could not be studied: nav-study's ``--seed`` is the gs study's (CLI audit,
     thirty-seventh session)."""
-    from windnav.commands.benchmark_nav import _manifest
+    from windnav.commands.benchmark_nav import _manifest, _store_city
     from windnav.experiments.nav_suite import SUITES, get_suite
 
     store = getattr(args, "store", None)
     man = (_manifest(Path(store)) if store is not None else None) or {}
+    if _store_city(man) is not None:  # (it was refused as another suite's, naming none)
+        raise ValueError(f"The '--store' parameter of {where(args)} must be a store of the "
+                         f"suites {list(SUITES)}: the studies do not read a store of "
+                         "'benchmark-nav --map' (a city of one's own), whose table, --check "
+                         f"and --replay are benchmark-nav's. Got {str(store)!r} instead "
+                         f"(suite {man.get('suite')!r}).")
     own = man.get("suite") if man.get("suite") in SUITES else None
     suite = args.suite or own or "thesis"
     value = man.get("seed", 0) if suite == own else 0

@@ -282,7 +282,8 @@ def fit_wind_batch(spec: SuiteSpec, wind_batch: int, processes: int) -> int:
     limit = default_memory_limit()
     if limit is None:
         return wind_batch
-    shape = grid_shape((0.0, spec.map_size, 0.0, spec.map_size), spec.dx)
+    bounds = (0.0, spec.map_size, 0.0, spec.map_size) if spec.city is None else spec.city.bounds
+    shape = grid_shape(bounds, spec.dx)
     frames = max(2, int(round(spec.record_s / spec.dt)))
     for batch in range(wind_batch, 1, -1):
         if processes * estimate_flow_memory(shape, batch, frames) <= limit:

@@ -36,6 +36,7 @@ key, flown in the same wind with the same seed.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import json
 import math
@@ -64,6 +65,7 @@ KINDS = ("tailwind", "headwind")
 
 # ASCII digits, the whole string: "\d" took Arabic-Indic digits and "$" a trailing newline
 _ID = re.compile(r"(?P<name>[^/\s]+)/m(?P<m>[0-9]+)/w(?P<w>[0-9]+)/p(?P<p>[0-9]+)")
+_NAME = re.compile(r"[^/\s]+")
 
 
 def _settings_value(obj) -> str:
@@ -128,6 +130,13 @@ class SuiteSpec:
     navigate_options : dict
         Further keyword arguments of :func:`windnav.experiments.navigate.navigate`
         (``capture_radius``, ``tilt_max_deg``, ``horizon``, ...); default: its defaults.
+    city : City, optional
+        A map of one's own (:class:`~windnav.city.City`, e.g. read from a RotorPy world JSON),
+        flown as the suite's one map, ``m00``, instead of a :func:`~windnav.city.planning_map`:
+        ``maps`` must then be ``(0,)`` and ``map_options`` empty, and the pairs are drawn
+        inside the city's own bounds (``map_size`` is not used). In the settings by its
+        :meth:`~windnav.city.City.fingerprint`; absent from them when None, so the suites
+        without one keep their settings hash.
     """
 
     name: str
@@ -150,12 +159,14 @@ class SuiteSpec:
     dx: float = 1.0
     dt: float = 0.25
     navigate_options: dict = field(default_factory=dict)
+    city: object = None
 
     def __post_init__(self):
         where = "SuiteSpec"
-        if not isinstance(self.name, str) or not self.name or "/" in self.name:
+        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
             raise ValueError(f"The 'name' parameter of {where} must be a non-empty string "
-                             f"without '/'. Got {self.name!r} instead.")
+                             f"without '/' or white space (the first part of every scenario "
+                             f"id). Got {self.name!r} instead.")
         object.__setattr__(self, "seed", nonnegative_int(self.seed, "seed", where))
         for name in ("speeds", "incidences_deg"):
             vals = tuple(float(v) for v in getattr(self, name))
@@ -187,10 +198,29 @@ class SuiteSpec:
         if not 0.0 < float(self.cone_deg) <= 90.0:
             raise ValueError(f"The 'cone_deg' parameter of {where} must be in (0, 90]. "
                              f"Got {self.cone_deg!r} instead.")
-        if self.pair_distance >= math.sqrt(2.0) * (self.map_size - 2.0 * self.edge):
+        if self.city is not None:
+            self._check_city(where)
+            x0, x1, y0, y1 = self.city.bounds
+            width, depth = x1 - x0 - 2.0 * self.edge, y1 - y0 - 2.0 * self.edge
+        else:
+            width = depth = self.map_size - 2.0 * self.edge
+        if min(width, depth) <= 0.0 or self.pair_distance >= math.hypot(width, depth):
             raise ValueError(f"The 'pair_distance' parameter of {where} must be shorter than "
-                             f"the diagonal of the map inside its edge. Got "
+                             f"the diagonal of the map inside its edge "
+                             f"({math.hypot(max(width, 0.0), max(depth, 0.0)):g} m). Got "
                              f"{self.pair_distance!r} instead.")
+
+    def _check_city(self, where: str) -> None:
+        from windnav.city import City
+
+        if not isinstance(self.city, City):
+            raise ValueError(f"The 'city' parameter of {where} must be a City or None. Got "
+                             f"{type(self.city).__name__} instead.")
+        if self.maps != (0,) or self.map_options:
+            raise ValueError(f"The 'maps' parameter of {where} must be (0,), without "
+                             "map_options, when a city is given: the city is the suite's one "
+                             f"map. Got maps {self.maps!r} and map_options "
+                             f"{self.map_options!r} instead.")
 
     # -------------------------------------------------------------------------- identity
 
@@ -199,9 +229,16 @@ class SuiteSpec:
         object among ``navigate_options`` with a ``fingerprint()`` (a decoder) is written as
         its fingerprint: its ``str`` is the same for every decoder of one architecture, so one
         store took the flights of two decoders as one suite's (audit, 2026-12-05)."""
-        d = asdict(self)
+        bare = self
+        if self.city is not None:  # (a copy without it: asdict would take the City apart)
+            bare = copy.copy(self)
+            object.__setattr__(bare, "city", None)
+        d = asdict(bare)
         d.pop("name")
         d.pop("seed")
+        d.pop("city")
+        if self.city is not None:
+            d["city"] = _settings_value(self.city)
         return json.loads(json.dumps(d, sort_keys=True, default=_settings_value))
 
     def settings_hash(self) -> str:
@@ -289,9 +326,15 @@ def _key(m: int, w: int) -> str:
 
 
 def suite_map(spec: SuiteSpec, m: int):
-    """Map ``m`` of the suite: :func:`windnav.city.planning_map` from its derived seed."""
+    """Map ``m`` of the suite: :func:`windnav.city.planning_map` from its derived seed, or the
+    suite's own ``city`` (its one map, ``m = 0``)."""
     from windnav.city import planning_map
 
+    if spec.city is not None:
+        if m != 0:
+            raise ValueError(f"The 'm' parameter of suite_map must be 0 for the suite "
+                             f"{spec.name!r}, whose one map is its city. Got {m!r} instead.")
+        return spec.city
     return planning_map(rng=derive_seed(spec.seed, f"map/m{m:02d}"), size=spec.map_size,
                         **spec.map_options)
 
