@@ -1271,6 +1271,17 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
     assert cli.main(["nav-study", "pace", "--store", str(store), "--out",
                      str(tmp_path / "pace")]) == 2
     assert "the studies do not read a store of 'benchmark-nav --map'" in capsys.readouterr().err
+    # with a decoder file of one's own as well: both are the store's, both asked again
+    from windnav.predict.decoder import DEFAULT_MODEL
+
+    mine, both = DEFAULT_MODEL.with_name("decoder_2026-12-01.npz"), tmp_path / "both"
+    assert command(["--suite", "quick", "--map", f"town={file}", "--decoder", mine,
+                    "--variants", "mppi,ea-mppi-w-hat", "--executor", "serial", "--out", both,
+                    "--no-progress"]) == 0
+    assert command(["--out", both, "--table", "--map", f"town={file}", "--decoder", mine]) == 0
+    assert "| ea-mppi-w-hat | 4 |" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="'--decoder' parameter .* must name the decoder file"):
+        command(["--out", both, "--table", "--map", f"town={file}"])
 
 
 def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, tiny_suite,

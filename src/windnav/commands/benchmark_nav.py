@@ -39,6 +39,19 @@ same ``--decoder`` again (another file, or none, is refused naming the option), 
 records the file's SHA-256, taken when it is loaded (``decoder_file``). The studies of
 ``windnav nav-study --store`` on such a store take the same ``--decoder`` (since the fiftieth
 session). The option's pieces shared by both commands are :mod:`windnav.commands._decoder_file`.
+
+``--map [NAME=]FILE`` (since the fifty-first session) flies the suite's winds, start/goal rule
+and flight options on a city of one's own (a RotorPy world JSON) as its one map, ``m00``,
+instead of its planning maps; the scenario ids are ``NAME/m00/wWW/pP``::
+
+    windnav benchmark-nav --suite thesis --map my_city.json --variants mppi,ea-mppi-w \
+                          --out runs/nav_mine
+
+The city is part of the suite's settings (by :meth:`windnav.city.City.fingerprint`, its
+geometry), so its flights need a store of their own; ``--table``, ``--check``, ``--replay`` and
+further runs on that store take the same map again (any path to the same blocks) and read the
+suite's rule from its manifest, ``--suite`` not needed. ``nav-study`` does not read such a
+store (it says so).
 """
 
 from __future__ import annotations
