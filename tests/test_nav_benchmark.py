@@ -1271,6 +1271,14 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
     assert cli.main(["nav-study", "pace", "--store", str(store), "--out",
                      str(tmp_path / "pace")]) == 2
     assert "the studies do not read a store of 'benchmark-nav --map'" in capsys.readouterr().err
+    # where each variant failed, on the city itself
+    import matplotlib.pyplot as plt
+
+    assert command(["--out", store, "--table", "--map", f"town={file}", "--variants",
+                    "ea-mppi-w,mppi", "--figure", tmp_path / "outcomes.png"]) == 0
+    assert "outcomes.png" in capsys.readouterr().err
+    height, width = plt.imread(tmp_path / "outcomes.png").shape[:2]
+    assert width > 1.5 * height  # two panels side by side
     # with a decoder file of one's own as well: both are the store's, both asked again
     from windnav.predict.decoder import DEFAULT_MODEL
 
@@ -1363,6 +1371,15 @@ def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_pa
     assert "| mppi | 1 |" in capsys.readouterr().out
     with pytest.raises(ValueError, match="'--maps' parameter"):
         command(["--out", store, "--table", "--maps", "7"])
+    # --figure draws one map: of --maps N, else refused before the table is printed
+    with pytest.raises(ValueError, match=r"'--figure' parameter .* draws one map: give --maps "
+                                         r"N \(the records of this table lie on the maps \[0, 1\]"):
+        command(["--out", store, "--table", "--figure", tmp_path / "both.png"])
+    assert not (tmp_path / "both.png").exists() and capsys.readouterr().out == ""
+    assert command(["--out", store, "--table", "--maps", "1", "--figure",
+                    tmp_path / "one.png"]) == 0
+    assert (tmp_path / "one.png").read_bytes()[:4] == b"\x89PNG"
+    capsys.readouterr()
     # the chosen scenarios: flown alone into a new store, then tabulated alone
     chosen = tmp_path / "chosen"
     assert command(["--suite", "quick", "--variants", "mppi", "--executor", "serial",
@@ -1379,6 +1396,7 @@ def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_pa
                         (["--check", "2", "--replay", "quick/m00/w00/p0", "--variant", "mppi"],
                          "'--replay' parameter .* with --check"),
                         (["--against", store], "'--against' parameter .* only with --table"),
+                        (["--figure", "x.png"], "'--figure' parameter .* only with --table"),
                         (["--table", "--retry-errors"], "'--retry-errors' .* only when flying"),
                         (["--table", "--variant", "mppi"], "'--variant' .* only with --replay")):
         with pytest.raises(ValueError, match=match):

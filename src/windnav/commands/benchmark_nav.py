@@ -126,6 +126,10 @@ def register(subparsers) -> None:
                    help="also re-fly the flights whose harness failed in an earlier run")
     p.add_argument("--table", action="store_true",
                    help="print the table of the store's records; fly nothing")
+    p.add_argument("--figure", type=Path, default=None, metavar="PNG",
+                   help="with --table: also draw where each variant succeeds and fails on the "
+                        "map, a panel per variant (the records of one map: a store of --map, "
+                        "or --maps N)")
     p.add_argument("--against", type=Path, default=None, metavar="STORE",
                    help="with --table: also compare each flight with the same flight (scenario "
                         "and variant) of another store of the same suite, e.g. one flown on "
@@ -319,6 +323,7 @@ def _check_modes(args, name: str) -> None:
                          f"{' and '.join(modes)} instead.")
     mode = modes[0] if modes else None
     for flag, given, belongs in (("--against", args.against is not None, "--table"),
+                                 ("--figure", args.figure is not None, "--table"),
                                  ("--variant", args.variant is not None, "--replay"),
                                  ("--retry-errors", args.retry_errors, None)):
         if given and mode != belongs:
@@ -543,7 +548,12 @@ def _table(args, name: str) -> int:
                              f"some of this table's flights (scenario and variant, flown "
                              f"without a harness error). Got {str(args.against)!r} instead, "
                              "which holds none of them.")
-    out = outputs(args)
+    if args.figure is not None and len({r.get("map_index") for r in records}) > 1:
+        raise ValueError(f"The '--figure' parameter of {name} draws one map: give --maps N "
+                         "(the records of this table lie on the maps "
+                         f"{sorted({r.get('map_index') for r in records})}). Got "
+                         f"{str(args.figure)!r} for all of them instead.")
+    out = outputs(args, files={"--json": args.json, "--figure": args.figure})
     table = _print_table(records, variants, args.reference, spec)
     payload = {"table": table}
     if other is not None:
@@ -552,11 +562,27 @@ def _table(args, name: str) -> int:
                               "both", "the same", f"in {args.against}")
         payload["against"] = {"store": args.against, "flights": len(checks),
                               "same": len(checks) - len(bad), "checks": checks}
-    if args.json is not None:
+    if args.json is not None or args.figure is not None:
         with out.writing() as stage:
-            write_json(_document(payload, args, spec), stage.file("--json"))
+            if args.figure is not None:
+                _draw_outcomes(spec, records, list(table["rows"]), stage.file("--figure"))
+            if args.json is not None:
+                write_json(_document(payload, args, spec), stage.file("--json"))
         print_written(out)
     return 0
+
+
+def _draw_outcomes(spec, records, variants, path) -> None:
+    """``--figure``: each variant's latest flight of each scenario on their one map."""
+    from windnav.experiments.nav_records import latest_records
+    from windnav.experiments.nav_suite import suite_map
+    from windnav.viz.nav_studies import plot_outcome_map
+
+    latest = list(latest_records(records).values())
+    (m,) = {r["map_index"] for r in latest}
+    plot_outcome_map(suite_map(spec, m), latest, variants, path,
+                     title=f"{spec.name} suite, map m{m:02d}: each variant's outcome at each "
+                           f"of {len({r['scenario_id'] for r in latest})} scenarios")
 
 
 def _report(checks: list, head: str, same: str, other: str) -> list:

@@ -12,7 +12,8 @@ speed and pair kind, and each variant's failures among the reachable scenarios.
 flown with and without the gust margin (:func:`windnav.experiments.nav_gusts.gust_routes`).
 :func:`plot_inflight`: the onboard stack's wind in flight by inlet speed, the input errors of
 ``W_robot`` and the decoder's and the baselines' errors against the mean field
-(:func:`windnav.experiments.nav_inflight.inflight_study`).
+(:func:`windnav.experiments.nav_inflight.inflight_study`). :func:`plot_outcome_map`: each
+variant's outcome at each scenario of one map (``benchmark-nav --table --figure``).
 """
 
 from __future__ import annotations
@@ -30,8 +31,8 @@ from matplotlib.lines import Line2D
 from windnav._console import closes_figures_on_error, save_and_close
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background, wind_colorbar
 
-__all__ = ["KIND_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
-           "plot_inflight_tau", "plot_reach", "plot_wind_scenarios"]
+__all__ = ["KIND_COLORS", "OUTCOME_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
+           "plot_inflight_tau", "plot_outcome_map", "plot_reach", "plot_wind_scenarios"]
 
 KIND_COLORS = {"tailwind": "#ff9500", "headwind": "#ff2d55"}
 """Marker colours of the start/goal pairs, by kind (drawn with a black edge over the wind)."""
@@ -172,6 +173,89 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
     return _finish(fig, handles, title or f"{result['suite']} suite, map "
                    f"m{result['map_index']:02d}: mean wind of {n} inlet{'s' if n > 1 else ''}",
                    path, bottom=0.04)
+
+
+OUTCOME_COLORS = {"success": "#34c759", "hover": "#ff9500", "timeout": "#ff3b30",
+                  "left_map": "#af52de", "collision": "#000000", "error": "#8e8e93"}
+"""Colours of a flight's outcome in :func:`plot_outcome_map`."""
+
+
+@closes_figures_on_error
+def plot_outcome_map(city, records, variants, path, *, title: str | None = None) -> Path:
+    """Where each variant fails on one map: a panel per variant with the map's buildings and
+    each of its scenarios as a line from the start (a small grey dot) to the goal (a circle),
+    both in :data:`OUTCOME_COLORS` by the flight's outcome, failures drawn over successes.
+
+    Parameters
+    ----------
+    city : windnav.city.City
+        The map every record was flown on.
+    records : sequence of dict
+        Benchmark records (``variant``, ``outcome``, ``start``, ``goal``; the latest record of
+        each scenario and variant, as the table takes them).
+    variants : sequence of str
+        The panels, in order; a variant without records is left out.
+    path : str or Path
+        The PNG to write.
+    title : str, optional
+        Default: the number of scenarios.
+
+    Returns
+    -------
+    Path
+    """
+    by_variant = {v: [r for r in records if r["variant"] == v] for v in variants}
+    by_variant = {v: rs for v, rs in by_variant.items() if rs}
+    if not by_variant:
+        raise ValueError("The 'records' parameter of plot_outcome_map must hold flights of "
+                         f"the variants {list(variants)}. Got none of them instead.")
+    n = len(by_variant)
+    ncols = min(n, 3)
+    nrows = math.ceil(n / ncols)
+    x0, x1, y0, y1 = city.bounds
+    side = 4.6
+    fig, axes = plt.subplots(nrows, ncols, figsize=(side * ncols, side * nrows * (y1 - y0)
+                                                    / (x1 - x0) + 0.6 * nrows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    for ax, (variant, rs) in zip(axes.flat[:n], by_variant.items(), strict=True):
+        for fx0, fx1, fy0, fy1 in city.footprints:
+            ax.add_patch(plt.Rectangle((fx0, fy0), fx1 - fx0, fy1 - fy0, fc="0.55", ec="0.3",
+                                       lw=0.4, zorder=1))
+        for r in sorted(rs, key=lambda r: r["outcome"] != "success"):
+            c = OUTCOME_COLORS.get(r["outcome"], OUTCOME_COLORS["error"])
+            (sx, sy), (gx, gy) = r["start"], r["goal"]
+            ax.plot([sx, gx], [sy, gy], "-", color=c, lw=0.8, alpha=0.8, zorder=2)
+            ax.plot(sx, sy, "o", color="0.4", ms=2.5, zorder=3)
+            ax.plot(gx, gy, "o", color=c, mec="k", mew=0.4, ms=5, zorder=4)
+        failed = sum(r["outcome"] != "success" for r in rs)
+        label = _wrap_label(str(variant), 40)
+        ax.set_title(f"{label}: {100.0 * failed / len(rs):.1f} % failed ({failed} of "
+                     f"{len(rs)})", fontsize=9)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.set_aspect("equal")
+        ax.tick_params(labelsize=7)
+    present = {r["outcome"] for rs in by_variant.values() for r in rs}
+    handles = [Line2D([], [], color=c, marker="o", mec="k", ms=6, label=k.replace("_", " "))
+               for k, c in OUTCOME_COLORS.items() if k in present]
+    handles.append(Line2D([], [], ls="none", marker="o", color="0.4", ms=3, label="start"))
+    count = len({r["scenario_id"] for rs in by_variant.values() for r in rs})
+    return _finish(fig, handles, title or f"outcomes of {count} scenarios (start to goal)",
+                   path, bottom=0.05)
+
+
+def _wrap_label(label: str, width: int) -> str:
+    """A variant label broken into lines of at most about ``width`` characters before its
+    ``@`` parameters."""
+    head, *params = label.split("@")
+    lines = [head]
+    for p in params:
+        if len(lines[-1]) + 1 + len(p) > width:
+            lines.append(f"@{p}")
+        else:
+            lines[-1] += f"@{p}"
+    return "\n".join(lines)
 
 
 def _finish(fig, handles, title: str, path, *, bottom: float, ncol: int | None = None) -> Path:
