@@ -1084,6 +1084,7 @@ def command(argv):
 
 
 REAL_FLY = nb.fly_scenario
+REAL_FLOWS = nb.suite_flows
 
 
 def fake_fly(spec, scenario, variant, *, city=None, flow=None, navigate_fn=None):
@@ -1268,9 +1269,35 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
             command(argv)
     for folder in ("q", "new", "n", "t"):
         assert not (tmp_path / folder).exists()
-    assert cli.main(["nav-study", "pace", "--store", str(store), "--out",
-                     str(tmp_path / "pace")]) == 2
-    assert "the studies do not read a store of 'benchmark-nav --map'" in capsys.readouterr().err
+    # nav-study on that store takes the same map; without it, the error names --map
+    pace = ["nav-study", "pace", "--store", str(store), "--out", str(tmp_path / "pace")]
+    assert cli.main(pace) == 2
+    assert ("'--map' parameter of windnav nav-study must name the map file that the store"
+            in capsys.readouterr().err)
+    assert cli.main([*pace, "--map", f"town={copy_}"]) == 0
+    doc = json.loads((tmp_path / "pace" / "nav_pace.json").read_text())
+    assert doc["curves"]["vehicle"]["time_ratio"]["n"] > 0
+    assert doc["arguments"]["map"] == f"town={copy_}"
+    # the winds study draws the suite's pairs on the city (no store: --suite's rule), over
+    # its real mean wind
+    monkeypatch.setattr(nb, "suite_flows", REAL_FLOWS)
+    assert cli.main(["nav-study", "winds", "--suite", "quick", "--map", f"town={file}",
+                     "--out", str(tmp_path / "winds"), "--no-progress"]) == 0
+    winds = json.loads((tmp_path / "winds" / "nav_winds.json").read_text())
+    assert winds["suite"] == "town" and winds["map_index"] == 0
+    drawn = [w["wind_index"] for w in winds["winds"]]
+    assert drawn and {p["scenario_id"] for w in winds["winds"] for p in w["pairs"]} == {
+        r["scenario_id"] for r in records if r["wind_index"] in drawn}
+    for argv, match in (
+            (["pace", "--store", str(store), "--map", "0"],
+             "'--map' parameter .* a map index for the winds study only"),
+            (["pace", "--store", str(store)], "'--map' parameter .* must name the map file "
+                                              "that the store .* Got None instead"),
+            (["pace", "--store", str(store), "--map", f"village={file}"],
+             r"'--map' parameter .* must match the store .* 'town'=FILE"),
+            (["gs", "--map", f"town={file}"], "'--map' parameter .* is for the")):
+        assert cli.main(["nav-study", *argv, "--out", str(tmp_path / "x")]) == 2
+        assert re.search(match, capsys.readouterr().err), argv
     # where each variant failed, on the city itself
     import matplotlib.pyplot as plt
 

@@ -219,7 +219,8 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
                             ("bound", ["--values", "3"], "'--values' parameter"),
                             ("bound", ["--seed", "7"], "'--seed' parameter .* gs study"),
                             ("winds", ["--maps", "0"], "'--maps' parameter"),
-                            ("gs", ["--map", "0"], "'--map' parameter .* winds study"),
+                            ("gs", ["--map", "0"], "'--map' parameter .* is for the qe, h, cases, "
+                                                  "winds"),
                             ("gusts", ["--every", "1"], "'--every' parameter")):
         assert cli.main(["nav-study", study, "--out", str(tmp_path / "o"), "--store",
                          str(tmp_path / "s"), *bad] if study == "bound" else

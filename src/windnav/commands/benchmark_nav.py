@@ -193,7 +193,9 @@ def _spec(args, name: str, prefer: str | None = None):
 
     man = _manifest(args.out) or {}
     if args.map is not None:
-        return with_decoder(args, name, city_suite(args, name, man), man)
+        value = None if args.seed is None else seed(args)
+        return with_decoder(args, name, city_suite(args.map, name, man, suite=args.suite,
+                                                   seed_value=value, store=args.out), man)
     recorded = _store_city(man)
     if recorded is not None:
         raise ValueError(f"The '--map' parameter of {name} must name the map file that the "
@@ -218,42 +220,50 @@ def _store_city(man: dict) -> str | None:
     return city if isinstance(city, str) else None
 
 
-def city_suite(args, name: str, man: dict):
-    """The suite of ``--map [NAME=]FILE``: for a new store, ``--suite``'s winds, start/goal
-    rule and flight options on the file's city, its one map (``m00``), named NAME; for an
-    existing store of that name, the suite its manifest records (``--suite`` not needed),
-    whose city must be the file's (by :meth:`~windnav.city.City.fingerprint`). The seed:
-    ``--seed``, else the store's, else 0."""
+def city_suite(text: str, name: str, man: dict, *, suite: str | None,
+               seed_value: int | None, store):
+    """The suite of ``--map [NAME=]FILE`` (``text``): without ``suite``, the suite the
+    manifest ``man`` of the store ``store`` records under NAME (``--suite`` not needed),
+    whose city must be the file's (by :meth:`~windnav.city.City.fingerprint`); with it (a key
+    of :data:`~windnav.experiments.nav_suite.SUITES`, for a new store), that suite's winds,
+    start/goal rule and flight options on the file's city, its one map (``m00``), named NAME.
+    The seed: ``seed_value``, else the store's, else 0."""
     import dataclasses
 
     from windnav.commands._common import map_argument
     from windnav.experiments.nav_suite import SUITES, SuiteSpec, get_suite
 
-    label, path, city = map_argument(args.map, "--map", name)
+    label, path, city = map_argument(text, "--map", name)
     if label in SUITES:
         raise ValueError(f"The '--map' parameter of {name} must name its suite apart from "
                          f"{list(SUITES)} (NAME=FILE). Got the name {label!r} instead.")
     own = man.get("suite") == label
-    value = seed(args) if args.seed is not None else (man.get("seed", 0) if own else 0)
+    if man.get("suite") is not None and not own:  # another suite's store: refused by name
+        theirs = _store_city(man)
+        what = (f"the name of the suite it was flown as, {man.get('suite')!r}=FILE"
+                if theirs is not None else "no --map: its suite flew planning maps")
+        raise ValueError(f"The '--map' parameter of {name} must match the store "
+                         f"{str(store)!r}: {what}. Got the name {label!r} instead.")
+    value = seed_value if seed_value is not None else (man.get("seed", 0) if own else 0)
     settings = man.get("settings") if own else None
-    if args.suite is not None or not isinstance(settings, dict):
-        if args.suite is None:
+    if suite is not None or not isinstance(settings, dict):
+        if suite is None:
             raise ValueError(f"The '--suite' parameter of {name} must be given with --map for "
                              f"a new store: the suite whose winds and start/goal rule fly on "
                              f"the map (one of {list(SUITES)}). Got None instead.")
-        base = get_suite(args.suite, seed=value)
+        base = get_suite(suite, seed=value)
         try:
             return dataclasses.replace(base, name=label, maps=(0,), map_options={},
                                        map_size=float(max(city.size)), city=city)
         except ValueError as exc:
             raise ValueError(f"The '--map' parameter of {name} must be a map that holds the "
-                             f"{args.suite} suite's start/goal pairs ({base.pair_distance:g} m "
+                             f"{suite} suite's start/goal pairs ({base.pair_distance:g} m "
                              f"apart, {base.edge:g} m inside its edge). Got {str(path)!r} "
                              f"instead: {exc}") from None
     mine = f"City sha256:{city.fingerprint()}"
     if settings.get("city") != mine:
         raise ValueError(f"The '--map' parameter of {name} must name the map the store "
-                         f"{str(args.out)!r} was flown on ({settings.get('city')}). Got "
+                         f"{str(store)!r} was flown on ({settings.get('city')}). Got "
                          f"{str(path)!r} instead ({mine}); another map needs a store of its "
                          "own.")
     options = {k: v for k, v in settings.items() if k != "city"}
@@ -261,8 +271,8 @@ def city_suite(args, name: str, man: dict):
     try:  # (its recorded decoder, a fingerprint, stays: with_decoder asks for the file)
         return SuiteSpec(name=label, seed=value, city=city, **options)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"The '--out' parameter of {name} must name a store whose manifest "
-                         f"this version reads. Got {str(args.out)!r} instead: {exc}") from None
+        raise ValueError(f"The store {str(store)!r} of {name} must have a manifest this "
+                         f"version reads: {exc}") from None
 
 
 def _document(payload: dict, args, spec=None) -> dict:

@@ -146,7 +146,11 @@ def register(subparsers) -> None:
                    help="inflight: also score the decoder and Local given the UKF's estimate "
                         "averaged over time with each time constant, s (> 0; the onboard "
                         "stack's '@tau=S'); nothing flies differently (default: none)")
-    p.add_argument("--map", type=int, default=None, help="winds: the suite's map (default 0)")
+    p.add_argument("--map", type=map_option, default=None, metavar="N|[NAME=]FILE",
+                   help="winds: the suite's map N (default 0); every study but gs: "
+                        "[NAME=]FILE, a city of your own (a RotorPy world JSON) as the suite's "
+                        "one map, as 'benchmark-nav --map' flies it (a store of that command "
+                        "needs the same map again)"),
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
                         "all)")
@@ -200,7 +204,7 @@ STUDY_OPTIONS = {
     "suite": tuple(s for s in STUDIES if s != "gs"),
     "pairs": ("inflight",), "every": ("inflight",), "compare": ("inflight",),
     "tau": ("inflight",),
-    "map": ("winds",),
+    "map": tuple(s for s in STUDIES if s != "gs"),
     "case": ("gs",), "seed": ("gs",),
     "cache": ("feasibility",), "airspeeds": ("feasibility",), "fly": ("feasibility",),
     "scenario": ("gusts",), "base": ("gusts",), "gust_k": ("gusts",),
@@ -224,6 +228,10 @@ def _check_study_options(args, name: str) -> None:
     ``arguments`` stay the line as typed, which ``windnav.provenance`` parses back to them (a
     result recorded the filled values, and its typed line did not parse back to it)."""
     refuse_other_studies(args, name, STUDY_OPTIONS)
+    if isinstance(args.map, int) and args.study != "winds":
+        raise ValueError(f"The '--map' parameter of {name} is a map index for the winds study "
+                         "only; the other studies take a city of your own, [NAME=]FILE. Got "
+                         f"{args.map!r} for {args.study!r} instead.")
     filled = [key for key in LATE_DEFAULTS if getattr(args, key) is None]
     for key in filled:
         setattr(args, key, LATE_DEFAULTS[key])
@@ -280,23 +288,35 @@ def _write(out, args, payload: dict, json_name: str, draw) -> None:
             write_json(doc, stage.file("--json"))
 
 
+def map_option(text: str) -> int | str:
+    """``--map``'s value: a map index (ASCII digits) as an int, anything else as the text of a
+    city file, ``[NAME=]FILE`` (``./3`` for a file named ``3``)."""
+    return int(text) if text.isascii() and text.isdigit() else text
+
+
 def study_suite(args):
     """The suite of a study: ``--suite``, else the ``--store``'s own (its manifest's), else the
     thesis suite; with the store's seed when it is the store's suite, else 0. The suite was
     always the thesis suite with seed 0, so a store flown with ``benchmark-nav --seed 5`` (or
     another suite) could not be studied: nav-study's ``--seed`` is the gs study's (CLI audit,
-    thirty-seventh session)."""
-    from windnav.commands.benchmark_nav import _manifest, _store_city
+    thirty-seventh session). With ``--map [NAME=]FILE``, the suite on that city
+    (:func:`windnav.commands.benchmark_nav.city_suite`): the store's, else ``--suite``'s
+    (default thesis) rule on it; a store of a city without ``--map`` is refused naming it."""
+    from windnav.commands.benchmark_nav import _manifest, _store_city, city_suite
     from windnav.experiments.nav_suite import SUITES, get_suite
 
     store = getattr(args, "store", None)
     man = (_manifest(Path(store)) if store is not None else None) or {}
-    if _store_city(man) is not None:  # (it was refused as another suite's, naming none)
-        raise ValueError(f"The '--store' parameter of {where(args)} must be a store of the "
-                         f"suites {list(SUITES)}: the studies do not read a store of "
-                         "'benchmark-nav --map' (a city of one's own), whose table, --check "
-                         f"and --replay are benchmark-nav's. Got {str(store)!r} instead "
-                         f"(suite {man.get('suite')!r}).")
+    recorded = _store_city(man)
+    given = getattr(args, "map", None)
+    if isinstance(given, str):  # a city of one's own: the store's suite, else --suite's
+        suite = args.suite or (None if recorded is not None else "thesis")
+        return city_suite(given, where(args), man, suite=suite, seed_value=None, store=store)
+    if recorded is not None:  # (it was refused as another suite's, naming no option)
+        given = None if "map" in getattr(args, "filled_defaults", ()) else given
+        raise ValueError(f"The '--map' parameter of {where(args)} must name the map file that "
+                         f"the store {str(store)!r} was flown on (suite {man.get('suite')!r}, "
+                         f"{recorded}). Got {given!r} instead.")
     own = man.get("suite") if man.get("suite") in SUITES else None
     suite = args.suite or own or "thesis"
     value = man.get("seed", 0) if suite == own else 0
@@ -313,8 +333,8 @@ def run(args) -> int:
 
     name = where(args)
     study = args.study
+    _check_study_options(args, name)  # (first: gs reads no suite, and --map 3 is winds')
     spec = study_suite(args)
-    _check_study_options(args, name)
     plain = spec  # the suite without --decoder: feasibility's reach cache is the suite's
     if study in STUDY_OPTIONS["decoder"]:
         spec = _with_decoder(args, name, spec)
@@ -613,14 +633,15 @@ def _winds(args, name: str, spec) -> int:
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_studies import plot_wind_scenarios
 
-    if args.map not in spec.maps:
+    m = args.map if isinstance(args.map, int) else 0  # (a city: the suite's one map)
+    if m not in spec.maps:
         raise ValueError(f"The '--map' parameter of {name} must be a map of the {spec.name} "
                          f"suite, among {list(spec.maps)}. Got {args.map!r} instead.")
     products = ("nav_winds.json", "nav_winds.png")
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
-    res = wind_scenarios(spec, args.map, progress=not args.no_progress)
-    summary = {"suite": spec.name, "map_index": args.map,
+    res = wind_scenarios(spec, m, progress=not args.no_progress)
+    summary = {"suite": spec.name, "map_index": m,
                "winds": [{"wind_index": w["wind_index"], "speed": w["speed"],
                           "direction_deg": w["direction_deg"],
                           "pairs": [{"scenario_id": sc.scenario_id, "kind": sc.kind,
@@ -629,7 +650,7 @@ def _winds(args, name: str, spec) -> int:
                "elapsed_s": time.perf_counter() - t0}
     _write(out, args, {"study": "winds", **summary}, products[0],
            lambda folder: plot_wind_scenarios(res, folder / products[1]))
-    print(json.dumps(json_ready({"study": "winds", "map_index": args.map,
+    print(json.dumps(json_ready({"study": "winds", "map_index": m,
                                  "winds": [w["wind_index"] for w in summary["winds"]],
                                  "elapsed_s": round(summary["elapsed_s"], 1)}), indent=1))
     print_written(out)
