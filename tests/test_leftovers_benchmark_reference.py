@@ -54,10 +54,15 @@ def test_a_run_refuses_a_reference_it_does_not_fly_before_any_flight(tmp_path, f
 
 def test_the_default_reference_and_one_the_store_holds_still_fly(tmp_path, flights, capsys):
     store = tmp_path / "store"
-    # the defaults: the four variants, paired with mppi; the JSON's arguments name mppi
+    # the defaults: the four variants, paired with mppi; the table names mppi, the JSON's
+    # arguments the line as typed (None), which rebuilds to them (windnav.provenance)
+    from windnav.provenance import command_arguments
+
     assert command([*FLY, "--out", store, "--json", tmp_path / "run.json"]) == 0
     doc = json.loads((tmp_path / "run.json").read_text())
-    assert doc["arguments"]["reference"] == "mppi" and doc["table"]["reference"] == "mppi"
+    assert doc["arguments"]["reference"] is None and doc["table"]["reference"] == "mppi"
+    assert (doc["arguments"]["executor"], doc["arguments"]["wind_batch"]) == ("serial", None)
+    assert "--reference" not in command_arguments(doc)
     assert "vs_reference" in doc["table"]["rows"]["ea-mppi-w"] and len(flights) == 16
     # a reference this run does not fly but the store holds: paired with the store's flights
     assert command([*FLY, "--variants", "gs", "--reference", "ea-mppi", "--out", store,

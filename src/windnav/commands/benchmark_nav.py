@@ -293,8 +293,9 @@ def run(args) -> int:
         seed(args)
     _check_modes(args, name)
     reference_given = args.reference is not None
-    if not reference_given:  # (None: not typed; the JSON's arguments name the default)
+    if not reference_given:  # (None: not typed, and so recorded: filled_defaults)
         args.reference = DEFAULT_REFERENCE
+        args.filled_defaults = (*getattr(args, "filled_defaults", ()), "reference")
     if args.portable and (args.replay is not None or args.check is not None):
         raise ValueError(f"The '--portable' parameter of {name} applies to flying a suite; a "
                          "replay or a check runs under the arithmetic of its records. Got "
@@ -353,10 +354,15 @@ def _check_modes(args, name: str) -> None:
             if given:
                 raise ValueError(f"The '{flag}' parameter of {name} applies to flying; "
                                  "--table flies nothing. Got it with --table instead.")
-    if args.executor is None:  # the defaults, as the JSON's arguments record them
-        args.executor = "process"
-    if args.wind_batch is None:
-        args.wind_batch = 3
+    # the defaults, filled in now; the JSON's arguments record them as None, as typed (a
+    # result's typed line did not parse back to its recorded arguments: the fifty-first
+    # session's provenance test), like nav-study's (windnav.experiments.results.document)
+    filled = []
+    for key, value in (("executor", "process"), ("wind_batch", 3)):
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+            filled.append(key)
+    args.filled_defaults = (*getattr(args, "filled_defaults", ()), *filled)
 
 
 def _variants(args, name: str) -> tuple[str, ...]:
@@ -590,9 +596,13 @@ def _draw_outcomes(spec, records, variants, path) -> None:
 
     latest = list(latest_records(records).values())
     (m,) = {r["map_index"] for r in latest}
+    speeds = sorted({float(r["speed"]) for r in latest})
+    toward = sorted({float(r["direction_deg"]) for r in latest})
     plot_outcome_map(suite_map(spec, m), latest, variants, path,
                      title=f"{spec.name} suite, map m{m:02d}: each variant's outcome at each "
-                           f"of {len({r['scenario_id'] for r in latest})} scenarios")
+                           f"of {len({r['scenario_id'] for r in latest})} scenarios (winds of "
+                           f"{speeds[0]:g}-{speeds[-1]:g} m/s toward {toward[0]:g}-"
+                           f"{toward[-1]:g}°)")
 
 
 def _report(checks: list, head: str, same: str, other: str) -> list:
