@@ -153,3 +153,23 @@ def test_a_suite_on_a_city_of_ones_own_flies_it_as_its_one_map():
                        ({"name": "my town"}, "'name' parameter .* white space")):
         with pytest.raises(ValueError, match=match):
             SuiteSpec(**{**spec.__dict__, **bad})
+
+
+def test_the_committed_windinet_store_is_the_thesis_suite_on_that_layout():
+    """docs/navigation/windinet_manifest.json (``benchmark-nav --suite thesis --map
+    windinet=FILE``) names the suite this code builds from the layout: its settings hash, and
+    the city's fingerprint, stay what the committed records were flown under."""
+    import json
+
+    from windnav.commands.benchmark_nav import city_suite
+    from windnav.experiments.decoder_eval import windinet_layout
+
+    manifest = json.loads((Path(__file__).parents[1] / "docs" / "navigation"
+                           / "windinet_manifest.json").read_text())
+    spec = city_suite(f"windinet={windinet_layout()}", "test", {}, suite="thesis",
+                      seed_value=None, store=None)
+    assert spec.settings() == manifest["settings"]
+    assert spec.settings_hash() == manifest["settings_hash"] == "0a34e6b85db41218"
+    again = city_suite(f"windinet={windinet_layout()}", "test", manifest, suite=None,
+                       seed_value=None, store="docs/navigation")  # the store's own: the same
+    assert again.settings() == spec.settings() and again.name == "windinet"

@@ -70,6 +70,14 @@ into one (refused, naming it): fly with ``benchmark-nav --decoder``. ``inflight 
 FILE`` (it needs no store) flies that file in the onboard stack and scores it along the paths
 (the variant without ``@decoder=``; ``--compare NAME=FILE`` scores others on the same samples
 without flying them).
+
+``--map [NAME=]FILE`` (since the fifty-first session) studies a city of your own, as
+``windnav benchmark-nav --map`` flies it: a store of that command (``--store``) holds its
+suite, and every study on it takes the same map again (refused without it, naming it); with no
+store, ``--suite``'s rule (default thesis) on that city (``winds``, ``inflight``, ``gusts``,
+``feasibility``). ``--map N`` remains the winds study's map index::
+
+    windnav nav-study winds --suite thesis --map my_city.json --out runs/winds_mine
 """
 
 from __future__ import annotations
