@@ -1207,6 +1207,9 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
     shifted.to_rotorpy_json(copy_)
     planning_map(rng=12, size=240.0, n_buildings=3,
                  side_range=(10.0, 20.0)).to_rotorpy_json(other)
+    crowded = tmp_path / "crowded.json"  # room for the pairs, none clear of its one block
+    City(bounds=(0.0, 240.0, 0.0, 240.0), footprints=[[40.0, 200.0, 40.0, 200.0]],
+         heights=[30.0]).to_rotorpy_json(crowded)
     flown = []
 
     class Seeing(Fake):
@@ -1260,14 +1263,20 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
             (["--suite", "quick", "--map", f"quick={file}", "--out", tmp_path / "q"],
              "'--map' parameter .* apart from"),
             (["--map", str(file), "--out", tmp_path / "new"],
-             "'--suite' parameter .* must be given with --map for a new store"),
+             "'--suite' parameter .* must be given with --map without a store of that map"),
             (["--suite", "quick", "--map", str(tmp_path / "none.json"), "--out",
               tmp_path / "n"], "'--map' parameter .* which does not exist"),
             (["--suite", "thesis", "--map", str(file), "--out", tmp_path / "t"],
-             r"'--map' parameter .* holds the thesis suite's start/goal pairs \(282 m")):
+             r"'--map' parameter .* holds the thesis suite's start/goal pairs \(282 m"),
+            (["--suite", "quick", "--map", f"crowded={crowded}", "--out", tmp_path / "c"],
+             r"'--map' parameter .* holds the quick suite's start/goal pairs .* Got none in"),
+            (["--out", store, "--table", "--suite", "quick", "--map", f"town={other}"],
+             r"'--map' parameter .* must name the map the store"),
+            (["--suite", "quick", "--map", f"my town={file}", "--out", tmp_path / "w"],
+             r"'--map' parameter .* without '/' or white space")):
         with pytest.raises(ValueError, match=match):
             command(argv)
-    for folder in ("q", "new", "n", "t"):
+    for folder in ("q", "new", "n", "t", "c", "w"):
         assert not (tmp_path / folder).exists()
     # nav-study on that store takes the same map; without it, the error names --map
     pace = ["nav-study", "pace", "--store", str(store), "--out", str(tmp_path / "pace")]
@@ -1295,7 +1304,10 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
                                               "that the store .* Got None instead"),
             (["pace", "--store", str(store), "--map", f"village={file}"],
              r"'--map' parameter .* must match the store .* 'town'=FILE"),
-            (["gs", "--map", f"town={file}"], "'--map' parameter .* is for the")):
+            (["gs", "--map", f"town={file}"], "'--map' parameter .* is for the"),
+            (["gusts", "--map", f"town={file}", "--suite", "quick"],
+             r"'--scenario' parameter .* with --map \(e.g. town/m00/w14/p2"),
+            (["winds", "--map", "-1"], r"'--map' parameter .* among \[0")):
         assert cli.main(["nav-study", *argv, "--out", str(tmp_path / "x")]) == 2
         assert re.search(match, capsys.readouterr().err), argv
     # where each variant failed, on the city itself

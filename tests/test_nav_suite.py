@@ -147,6 +147,10 @@ def test_a_suite_on_a_city_of_ones_own_flies_it_as_its_one_map():
         not in hashes
     assert spec.settings()["city"] == f"City sha256:{city.fingerprint()}"
     assert "city" not in get_suite("quick").settings()
+    import pickle  # (as the process executor sends it to its workers)
+
+    sent = pickle.loads(pickle.dumps(spec))
+    assert sent.settings_hash() == spec.settings_hash() and make_suite(sent) == scenarios
     for bad, match in (({"maps": (0, 1)}, "'maps' parameter of SuiteSpec must be \\(0,\\)"),
                        ({"city": "city.json"}, "'city' parameter of SuiteSpec must be a City"),
                        ({"pair_distance": 500.0}, "'pair_distance' parameter .* \\(494.975 m\\)"),

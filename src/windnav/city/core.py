@@ -352,7 +352,8 @@ class City(ReadOnlyOnCopy):
         """SHA-256 (hex) of the geometry every flow, scan and flight depends on: the bounds, the
         vertical extent and each block's footprint, height and floor (float64 bytes). Not the
         blocks' colours or other JSON keys, which change nothing flown; two files of the same
-        blocks print alike."""
+        blocks in the same order print alike (the order is kept: a reordered file is another
+        fingerprint, though it flies the same)."""
         import hashlib
 
         h = hashlib.sha256(b"City/1")

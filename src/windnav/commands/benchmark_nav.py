@@ -50,8 +50,9 @@ instead of its planning maps; the scenario ids are ``NAME/m00/wWW/pP``::
 The city is part of the suite's settings (by :meth:`windnav.city.City.fingerprint`, its
 geometry), so its flights need a store of their own; ``--table``, ``--check``, ``--replay`` and
 further runs on that store take the same map again (any path to the same blocks) and read the
-suite's rule from its manifest, ``--suite`` not needed. ``nav-study`` does not read such a
-store (it says so).
+suite's rule from its manifest, ``--suite`` not needed; so do the studies of ``windnav
+nav-study --store`` on it (``nav-study --map``). ``--table --figure PNG`` draws where each
+variant fails on the map.
 """
 
 from __future__ import annotations
@@ -228,15 +229,14 @@ def city_suite(text: str, name: str, man: dict, *, suite: str | None,
     of :data:`~windnav.experiments.nav_suite.SUITES`, for a new store), that suite's winds,
     start/goal rule and flight options on the file's city, its one map (``m00``), named NAME.
     The seed: ``seed_value``, else the store's, else 0."""
-    import dataclasses
-
     from windnav.commands._common import map_argument
     from windnav.experiments.nav_suite import SUITES, SuiteSpec, get_suite
 
     label, path, city = map_argument(text, "--map", name)
-    if label in SUITES:
+    if label in SUITES or not label or "/" in label or any(c.isspace() for c in label):
         raise ValueError(f"The '--map' parameter of {name} must name its suite apart from "
-                         f"{list(SUITES)} (NAME=FILE). Got the name {label!r} instead.")
+                         f"{list(SUITES)}, without '/' or white space (the first part of every "
+                         f"scenario id; NAME=FILE names it). Got the name {label!r} instead.")
     own = man.get("suite") == label
     if man.get("suite") is not None and not own:  # another suite's store: refused by name
         theirs = _store_city(man)
@@ -246,26 +246,19 @@ def city_suite(text: str, name: str, man: dict, *, suite: str | None,
                          f"{str(store)!r}: {what}. Got the name {label!r} instead.")
     value = seed_value if seed_value is not None else (man.get("seed", 0) if own else 0)
     settings = man.get("settings") if own else None
-    if suite is not None or not isinstance(settings, dict):
-        if suite is None:
-            raise ValueError(f"The '--suite' parameter of {name} must be given with --map for "
-                             f"a new store: the suite whose winds and start/goal rule fly on "
-                             f"the map (one of {list(SUITES)}). Got None instead.")
-        base = get_suite(suite, seed=value)
-        try:
-            return dataclasses.replace(base, name=label, maps=(0,), map_options={},
-                                       map_size=float(max(city.size)), city=city)
-        except ValueError as exc:
-            raise ValueError(f"The '--map' parameter of {name} must be a map that holds the "
-                             f"{suite} suite's start/goal pairs ({base.pair_distance:g} m "
-                             f"apart, {base.edge:g} m inside its edge). Got {str(path)!r} "
-                             f"instead: {exc}") from None
     mine = f"City sha256:{city.fingerprint()}"
-    if settings.get("city") != mine:
+    if isinstance(settings, dict) and settings.get("city") != mine:  # (with --suite too)
         raise ValueError(f"The '--map' parameter of {name} must name the map the store "
                          f"{str(store)!r} was flown on ({settings.get('city')}). Got "
                          f"{str(path)!r} instead ({mine}); another map needs a store of its "
                          "own.")
+    if suite is not None or not isinstance(settings, dict):
+        if suite is None:
+            raise ValueError(f"The '--suite' parameter of {name} must be given with --map "
+                             f"without a store of that map: the suite whose winds and "
+                             f"start/goal rule fly on it (one of {list(SUITES)}). Got None "
+                             "instead.")
+        return _new_city_suite(get_suite(suite, seed=value), label, city, path, name)
     options = {k: v for k, v in settings.items() if k != "city"}
     options["navigate_options"] = dict(options.get("navigate_options") or {})
     try:  # (its recorded decoder, a fingerprint, stays: with_decoder asks for the file)
@@ -273,6 +266,25 @@ def city_suite(text: str, name: str, man: dict, *, suite: str | None,
     except (TypeError, ValueError) as exc:
         raise ValueError(f"The store {str(store)!r} of {name} must have a manifest this "
                          f"version reads: {exc}") from None
+
+
+def _new_city_suite(base, label: str, city, path, name: str):
+    """``base``'s rule on ``city``, named ``label``, its pairs drawn now (a map too small or too
+    crowded for them is refused naming ``--map`` before a store is made)."""
+    import dataclasses
+
+    from windnav.experiments.nav_suite import make_suite
+
+    try:
+        spec = dataclasses.replace(base, name=label, maps=(0,), map_options={},
+                                   map_size=float(max(city.size)), city=city)
+        make_suite(spec)
+    except ValueError as exc:
+        raise ValueError(f"The '--map' parameter of {name} must be a map that holds the "
+                         f"{base.name} suite's start/goal pairs ({base.pair_distance:g} m apart, "
+                         f"{base.clearance:g} m from the buildings, {base.edge:g} m inside its "
+                         f"edge). Got {str(path)!r} instead: {exc}") from None
+    return spec
 
 
 def _document(payload: dict, args, spec=None) -> dict:
@@ -589,12 +601,13 @@ def _table(args, name: str) -> int:
 
 
 def _draw_outcomes(spec, records, variants, path) -> None:
-    """``--figure``: each variant's latest flight of each scenario on their one map."""
-    from windnav.experiments.nav_records import latest_records
+    """``--figure``: each variant's latest flight of each scenario on their one map, but the
+    harness errors, which the table leaves out too (so the panels' failure rates are its)."""
+    from windnav.experiments.nav_records import ERROR, latest_records
     from windnav.experiments.nav_suite import suite_map
     from windnav.viz.nav_studies import plot_outcome_map
 
-    latest = list(latest_records(records).values())
+    latest = [r for r in latest_records(records).values() if r["outcome"] != ERROR]
     (m,) = {r["map_index"] for r in latest}
     speeds = sorted({float(r["speed"]) for r in latest})
     toward = sorted({float(r["direction_deg"]) for r in latest})

@@ -297,9 +297,10 @@ def _write(out, args, payload: dict, json_name: str, draw) -> None:
 
 
 def map_option(text: str) -> int | str:
-    """``--map``'s value: a map index (ASCII digits) as an int, anything else as the text of a
-    city file, ``[NAME=]FILE`` (``./3`` for a file named ``3``)."""
-    return int(text) if text.isascii() and text.isdigit() else text
+    """``--map``'s value: a map index (ASCII digits, signed) as an int, anything else as the
+    text of a city file, ``[NAME=]FILE`` (``./3`` for a file named ``3``)."""
+    body = text[1:] if text.startswith("-") else text
+    return int(text) if body.isascii() and body.isdigit() else text
 
 
 def study_suite(args):
@@ -702,6 +703,11 @@ def _gusts(args, name: str, spec) -> int:
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_studies import plot_gust_routes
 
+    if args.scenario is None and spec.city is not None:  # (its default is the thesis suite's)
+        raise ValueError(f"The '--scenario' parameter of {name} must name a scenario of the "
+                         f"suite {spec.name!r} with --map (e.g. {spec.name}/m00/w14/p2; the "
+                         f"default, {nav_gusts.DEFAULT_SCENARIO}, is the thesis suite's). Got "
+                         "None instead.")
     scenario = args.scenario or nav_gusts.DEFAULT_SCENARIO
     with options_named({"'scenario_ids'": "'--scenario'"}):
         check_scenario_ids(spec, [scenario], name)

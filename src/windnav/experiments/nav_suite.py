@@ -134,7 +134,8 @@ class SuiteSpec:
         A map of one's own (:class:`~windnav.city.City`, e.g. read from a RotorPy world JSON),
         flown as the suite's one map, ``m00``, instead of a :func:`~windnav.city.planning_map`:
         ``maps`` must then be ``(0,)`` and ``map_options`` empty, and the pairs are drawn
-        inside the city's own bounds (``map_size`` is not used). In the settings by its
+        inside the city's own bounds (``map_size`` draws nothing; it stays in the settings,
+        where ``benchmark-nav --map`` records the city's larger side). In the settings by its
         :meth:`~windnav.city.City.fingerprint`; absent from them when None, so the suites
         without one keep their settings hash.
     """
