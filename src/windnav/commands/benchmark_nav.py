@@ -608,6 +608,10 @@ def _draw_outcomes(spec, records, variants, path) -> None:
     from windnav.viz.nav_studies import plot_outcome_map
 
     latest = [r for r in latest_records(records).values() if r["outcome"] != ERROR]
+    if not latest:
+        raise ValueError(f"The '--figure' parameter of windnav benchmark-nav draws flown "
+                         f"records. Got {str(path)!r} for a table of none (harness errors "
+                         "only, or no flight) instead.")
     (m,) = {r["map_index"] for r in latest}
     speeds = sorted({float(r["speed"]) for r in latest})
     toward = sorted({float(r["direction_deg"]) for r in latest})

@@ -158,7 +158,7 @@ def register(subparsers) -> None:
                    help="winds: the suite's map N (default 0); every study but gs: "
                         "[NAME=]FILE, a city of your own (a RotorPy world JSON) as the suite's "
                         "one map, as 'benchmark-nav --map' flies it (a store of that command "
-                        "needs the same map again)"),
+                        "needs the same map again)")
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
                         "all)")
