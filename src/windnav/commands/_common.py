@@ -16,8 +16,8 @@ from windnav.experiments.results import Outputs, check_output_path, document
 
 __all__ = ["add_boundary_argument", "add_compare_boundary_argument", "add_output_arguments",
            "add_rotations_argument", "compare_boundary", "cache_folder", "check_output_path",
-           "document", "load_model", "map_argument", "model_files", "options_named", "outputs",
-           "print_written", "seed", "where"]
+           "document", "fill_defaults", "load_model", "map_argument", "model_files",
+           "options_named", "outputs", "print_written", "seed", "where"]
 
 
 def add_output_arguments(parser, *, overwrite: bool = True) -> None:
@@ -195,6 +195,17 @@ def inlet_speed(value, option: str, name: str) -> float:
                          "wind solver is incompressible, valid below Mach 0.3. Got "
                          f"{value!r} instead.")
     return speed
+
+
+def fill_defaults(args, defaults) -> None:
+    """Set each option of ``defaults`` (attribute name to value) that ``args`` leaves None, and
+    name those set in ``args.filled_defaults``, which
+    :func:`windnav.experiments.results.document` records as None: a result's ``arguments``
+    stay the line as typed, which :mod:`windnav.provenance` parses back to them."""
+    filled = [key for key in defaults if getattr(args, key) is None]
+    for key in filled:
+        setattr(args, key, defaults[key])
+    args.filled_defaults = (*getattr(args, "filled_defaults", ()), *filled)
 
 
 def map_argument(item: str, flag: str, name: str):

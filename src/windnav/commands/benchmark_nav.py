@@ -66,6 +66,8 @@ from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     document,
+    fill_defaults,
+    map_argument,
     options_named,
     outputs,
     print_written,
@@ -229,11 +231,10 @@ def city_suite(text: str, name: str, man: dict, *, suite: str | None,
     of :data:`~windnav.experiments.nav_suite.SUITES`, for a new store), that suite's winds,
     start/goal rule and flight options on the file's city, its one map (``m00``), named NAME.
     The seed: ``seed_value``, else the store's, else 0."""
-    from windnav.commands._common import map_argument
-    from windnav.experiments.nav_suite import SUITES, SuiteSpec, get_suite
+    from windnav.experiments.nav_suite import SUITES, SuiteSpec, get_suite, suite_name_ok
 
     label, path, city = map_argument(text, "--map", name)
-    if label in SUITES or not label or "/" in label or any(c.isspace() for c in label):
+    if label in SUITES or not suite_name_ok(label):
         raise ValueError(f"The '--map' parameter of {name} must name its suite apart from "
                          f"{list(SUITES)}, without '/' or white space (the first part of every "
                          f"scenario id; NAME=FILE names it). Got the name {label!r} instead.")
@@ -305,9 +306,7 @@ def run(args) -> int:
         seed(args)
     _check_modes(args, name)
     reference_given = args.reference is not None
-    if not reference_given:  # (None: not typed, and so recorded: filled_defaults)
-        args.reference = DEFAULT_REFERENCE
-        args.filled_defaults = (*getattr(args, "filled_defaults", ()), "reference")
+    fill_defaults(args, {"reference": DEFAULT_REFERENCE})  # (recorded as None: as typed)
     if args.portable and (args.replay is not None or args.check is not None):
         raise ValueError(f"The '--portable' parameter of {name} applies to flying a suite; a "
                          "replay or a check runs under the arithmetic of its records. Got "
@@ -366,15 +365,9 @@ def _check_modes(args, name: str) -> None:
             if given:
                 raise ValueError(f"The '{flag}' parameter of {name} applies to flying; "
                                  "--table flies nothing. Got it with --table instead.")
-    # the defaults, filled in now; the JSON's arguments record them as None, as typed (a
-    # result's typed line did not parse back to its recorded arguments: the fifty-first
-    # session's provenance test), like nav-study's (windnav.experiments.results.document)
-    filled = []
-    for key, value in (("executor", "process"), ("wind_batch", 3)):
-        if getattr(args, key) is None:
-            setattr(args, key, value)
-            filled.append(key)
-    args.filled_defaults = (*getattr(args, "filled_defaults", ()), *filled)
+    # the defaults, filled in now and recorded as None, as typed (a result's typed line did
+    # not parse back to its recorded arguments: the fifty-first session's provenance test)
+    fill_defaults(args, {"executor": "process", "wind_batch": 3})
 
 
 def _variants(args, name: str) -> tuple[str, ...]:

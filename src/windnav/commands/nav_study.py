@@ -92,6 +92,7 @@ from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     document,
+    fill_defaults,
     options_named,
     outputs,
     print_written,
@@ -240,10 +241,7 @@ def _check_study_options(args, name: str) -> None:
         raise ValueError(f"The '--map' parameter of {name} is a map index for the winds study "
                          "only; the other studies take a city of your own, [NAME=]FILE. Got "
                          f"{args.map!r} for {args.study!r} instead.")
-    filled = [key for key in LATE_DEFAULTS if getattr(args, key) is None]
-    for key in filled:
-        setattr(args, key, LATE_DEFAULTS[key])
-    args.filled_defaults = tuple(filled)
+    fill_defaults(args, LATE_DEFAULTS)
 
 
 def _with_decoder(args, name: str, spec):

@@ -57,6 +57,7 @@ __all__ = [
     "make_suite",
     "parse_scenario_id",
     "suite_map",
+    "suite_name_ok",
     "wind_of",
 ]
 
@@ -66,6 +67,12 @@ KINDS = ("tailwind", "headwind")
 # ASCII digits, the whole string: "\d" took Arabic-Indic digits and "$" a trailing newline
 _ID = re.compile(r"(?P<name>[^/\s]+)/m(?P<m>[0-9]+)/w(?P<w>[0-9]+)/p(?P<p>[0-9]+)")
 _NAME = re.compile(r"[^/\s]+")
+
+
+def suite_name_ok(name) -> bool:
+    """Whether ``name`` can name a suite: a non-empty string without ``/`` or white space (the
+    first part of every scenario id, :data:`_ID`)."""
+    return isinstance(name, str) and _NAME.fullmatch(name) is not None
 
 
 def _settings_value(obj) -> str:
@@ -164,7 +171,7 @@ class SuiteSpec:
 
     def __post_init__(self):
         where = "SuiteSpec"
-        if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
+        if not suite_name_ok(self.name):
             raise ValueError(f"The 'name' parameter of {where} must be a non-empty string "
                              f"without '/' or white space (the first part of every scenario "
                              f"id). Got {self.name!r} instead.")

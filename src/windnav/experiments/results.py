@@ -235,8 +235,9 @@ def machine() -> dict:
 NOT_ARGUMENTS = ("func", "command", "argv", "filled_defaults")
 """Attributes of a parsed command line that are the parser's bookkeeping, not options: left out
 of a document's ``arguments`` (``argv`` is kept apart, as typed; ``filled_defaults``: the names
-of the options a command filled in after parsing, ``nav-study``'s, which :func:`document`
-records as None, as typed)."""
+of the options a command filled in after parsing,
+:func:`windnav.commands._common.fill_defaults`'s, which :func:`document` records as None, as
+typed)."""
 
 
 def document(command: str, payload: Mapping, arguments=None) -> dict:
