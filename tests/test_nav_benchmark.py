@@ -1267,9 +1267,10 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
             (["--suite", "quick", "--map", str(tmp_path / "none.json"), "--out",
               tmp_path / "n"], "'--map' parameter .* which does not exist"),
             (["--suite", "thesis", "--map", str(file), "--out", tmp_path / "t"],
-             r"'--map' parameter .* holds the thesis suite's start/goal pairs \(282 m"),
+             r"'--map' parameter .* holds the start/goal pairs of the thesis suite \(282 m"),
             (["--suite", "quick", "--map", f"crowded={crowded}", "--out", tmp_path / "c"],
-             r"'--map' parameter .* holds the quick suite's start/goal pairs .* Got none in"),
+             r"'--map' parameter .* holds the start/goal pairs of the quick suite .* Got none "
+             r"in"),
             (["--out", store, "--table", "--suite", "quick", "--map", f"town={other}"],
              r"'--map' parameter .* must name the map the store"),
             (["--suite", "quick", "--map", f"my town={file}", "--out", tmp_path / "w"],
@@ -1329,6 +1330,90 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
     assert "| ea-mppi-w-hat | 4 |" in capsys.readouterr().out
     with pytest.raises(ValueError, match="'--decoder' parameter .* must name the decoder file"):
         command(["--out", both, "--table", "--map", f"town={file}"])
+
+
+def test_a_small_city_takes_a_start_goal_rule_of_its_own(tmp_path, monkeypatch, tiny_suite,
+                                                         capsys):
+    """``--pair-distance``, ``--edge``, ``--clearance`` with ``--map``: a city too small for the
+    suite's pairs (the tiny suite's 100 m, 15 m inside a 90 m map) flies pairs of the rule
+    given, which the store records; a rerun, the table and nav-study read it back, and a store
+    refuses another value (or --suite's own) naming the option, as do the options without a
+    city of one's own."""
+    from windnav import cli
+    from windnav.city import City
+
+    city = City(bounds=(0.0, 90.0, 0.0, 90.0), footprints=[[40.0, 50.0, 40.0, 50.0]],
+                heights=[20.0])
+    file = tmp_path / "yard.json"
+    city.to_rotorpy_json(file)
+    store = tmp_path / "store"
+    rule = ["--pair-distance", "50", "--edge", "10", "--clearance", "10"]
+    run = ["--suite", "quick", "--map", str(file), "--variants", "mppi,ea-mppi-w",
+           "--executor", "serial", "--out", store, "--no-progress"]
+    with pytest.raises(ValueError, match=r"'--map' parameter .* holds the start/goal pairs of "
+                                         r"the quick suite \(100 m apart, 25 m from the "
+                                         r"buildings, 15 m inside its edge; --pair-distance"):
+        command(run)
+    with pytest.raises(ValueError, match=r"holds the start/goal pairs of the quick suite with "
+                                         r"--pair-distance 150, --edge 10 \(150 m apart"):
+        command([*run, "--pair-distance", "150", "--edge", "10"])
+    assert not store.exists()
+    assert command([*run, *rule, "--json", tmp_path / "run.json"]) == 0
+    assert "8/8 flights recorded" in capsys.readouterr().out
+    settings = json.loads((store / "manifest.json").read_text())["settings"]
+    assert (settings["pair_distance"], settings["edge"], settings["clearance"]) == (50, 10, 10)
+    assert json.loads((tmp_path / "run.json").read_text())["arguments"]["pair_distance"] == 50
+    records = [json.loads(line) for line in (store / "records.jsonl").read_text().splitlines()]
+    for r in records:
+        start, goal = np.array(r["start"]), np.array(r["goal"])
+        assert np.linalg.norm(goal - start) == pytest.approx(50.0)
+        assert np.all((10.0 <= np.r_[start, goal]) & (np.r_[start, goal] <= 80.0))
+        assert clearance_to_buildings(city, [start, goal]).min() >= 10.0
+    # the same line again, the rule left out, or repeated: read from the store
+    assert command([*run, *rule]) == 0
+    assert "(0 now, 8 already" in capsys.readouterr().out
+    table = ["--out", store, "--table", "--map", str(file)]
+    assert command(table) == 0
+    assert command([*table, "--edge", "10"]) == 0
+    capsys.readouterr()
+    for argv, match in (
+            ([*table, "--pair-distance", "40"],
+             r"'--pair-distance' parameter .* must be the value the store .* records, 50.0 m "
+             r".* Got 40.0 instead; another rule needs a store of its own"),
+            ([*table, "--suite", "quick"], r"'--pair-distance' parameter .* records, 50.0 m .* "
+                                           r"Got none instead: with --suite quick, the "
+                                           r"suite's 100.0"),
+            ([*table, "--suite", "quick", *rule[:4]], r"'--clearance' parameter .* records, "
+                                                      r"10.0 m .* the suite's 25.0"),
+            (["--suite", "quick", "--out", tmp_path / "q", "--edge", "10"],
+             r"'--edge' parameter .* sets the start/goal rule on a city of your own, with --map"),
+            ([*run[:-3], "--out", tmp_path / "n", "--edge", "-1"], r"'--edge' parameter .* >= 0"),
+            ([*run[:-3], "--out", tmp_path / "n", "--pair-distance", "0"],
+             r"'--pair-distance' parameter .* > 0")):
+        with pytest.raises(ValueError, match=match):
+            command(argv)
+    assert not (tmp_path / "q").exists() and not (tmp_path / "n").exists()
+    # nav-study: the store's rule; with no store, the rule given (the same pairs)
+    pace = ["nav-study", "pace", "--store", str(store), "--map", str(file), "--out",
+            str(tmp_path / "pace")]
+    assert cli.main([*pace, "--edge", "10"]) == 0
+    assert cli.main([*pace, "--edge", "12", "--overwrite"]) == 2
+    assert "'--edge' parameter of windnav nav-study must be the value" in capsys.readouterr().err
+    monkeypatch.setattr(nb, "suite_flows", REAL_FLOWS)
+    assert cli.main(["nav-study", "winds", "--suite", "quick", "--map", str(file), *rule,
+                     "--out", str(tmp_path / "winds"), "--no-progress"]) == 0
+    winds = json.loads((tmp_path / "winds" / "nav_winds.json").read_text())
+    drawn = {p["scenario_id"]: (p["start"], p["goal"]) for w in winds["winds"]
+             for p in w["pairs"]}
+    assert drawn and all(np.allclose(drawn[r["scenario_id"]], (r["start"], r["goal"]))
+                         for r in records if r["scenario_id"] in drawn)
+    for argv, match in ((["winds", "--map", "0", "--edge", "5"], "'--edge' parameter .* with "
+                                                                  "--map"),
+                        (["gs", "--edge", "5"], "'--edge' parameter .* is for the"),
+                        (["pace", "--store", str(store), "--clearance", "5"],
+                         "'--clearance' parameter .* with --map")):
+        assert cli.main(["nav-study", *argv, "--out", str(tmp_path / "x")]) == 2
+        assert re.search(match, capsys.readouterr().err), argv
 
 
 def test_nav_study_reads_and_flies_a_decoder_store_given_its_decoder(tmp_path, tiny_suite,

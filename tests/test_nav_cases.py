@@ -174,6 +174,10 @@ def test_default_winds_are_one_per_speed_at_different_incidences():
     assert {thesis.wind(w) for w in default_winds(thesis)} == {
         (2.0, 15.0), (5.0, 30.0), (7.0, 45.0), (10.0, 0.0)}
     assert default_winds(TINY) == (1,)
+    # a suite that flies none of the diagonal: its own winds (was an empty choice, refused)
+    assert default_winds(SUITES["quick"]) == (4, 10)
+    assert default_winds(replace(thesis, winds=tuple(range(16))[::-1])) == (1, 6, 11, 12)
+    assert default_winds(replace(thesis, winds=(0, 2, 3, 5, 7, 8))) == (0, 2, 3, 5)
 
 
 def test_wind_scenarios_figure(tmp_path):

@@ -198,6 +198,12 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
     assert (out2 / "nav_inflight_tau.png").stat().st_size > 10_000
     assert not (out / "nav_inflight_tau.png").exists()
     assert doc2["compare"] == ["shipped"] and doc2["models"] == {"shipped": str(DEFAULT_MODEL)}
+    # the compared file by hash, so that its line names the dated file once it is replaced
+    from windnav.predict.decoder import model_sha256
+
+    assert doc2["model_files"] == {"compare": {f"shipped={DEFAULT_MODEL}": {
+        "path": str(DEFAULT_MODEL), "sha256": model_sha256(DEFAULT_MODEL)}}}
+    assert "model_files" not in doc
     assert "shipped_ukf" in doc2["all"]["errors"]
     assert "| inlet (m/s) | decoder, UKF |" in capsys.readouterr().out
     for bad, why in ((["--pairs", "7"], "'--pairs' parameter"),

@@ -81,6 +81,16 @@ def test_a_store_without_the_variants_is_refused(tmp_path):
     assert path.stat().st_size > 10_000
 
 
+def test_a_store_where_the_two_never_both_succeeded_still_draws(tmp_path):
+    """No scenario where neither failed: no pair, no means; the figure says 0 pairs (its
+    label formatted the missing mean energy ratio, a TypeError, on a small city's store)."""
+    failed = [dict(r, outcome="left_map") if r["variant"] == "mppi" else r for r in records()]
+    res = pace_study(failed)
+    c = res["curves"]["vehicle"]
+    assert c["time_ratio"]["n"] == 0 and c["energy_ratio"]["mean"] is None
+    assert plot_pace(res, tmp_path / "pace.png").stat().st_size > 10_000
+
+
 def test_command_reads_the_store_and_writes_the_figure(tmp_path, monkeypatch, capsys):
     monkeypatch.setitem(SUITES, "quick", TINY.__class__(**{**TINY.__dict__, "name": "quick"}))
     store = NavStore(tmp_path / "store", SUITES["quick"])

@@ -177,3 +177,24 @@ def test_the_committed_windinet_store_is_the_thesis_suite_on_that_layout():
     again = city_suite(f"windinet={windinet_layout()}", "test", manifest, suite=None,
                        seed_value=None, store="docs/navigation")  # the store's own: the same
     assert again.settings() == spec.settings() and again.name == "windinet"
+
+
+def test_the_committed_town300_store_is_the_thesis_suite_with_a_rule_of_its_own():
+    """docs/navigation/town300_manifest.json (``benchmark-nav --suite thesis --map
+    town300=docs/img/navigation/town300/city.json --pair-distance 180 --edge 60``): the suite
+    this code builds from the committed map and that rule, and from the store alone."""
+    import json
+
+    from windnav.commands.benchmark_nav import city_suite
+
+    docs = Path(__file__).parents[1] / "docs"
+    manifest = json.loads((docs / "navigation" / "town300_manifest.json").read_text())
+    text = f"town300={docs / 'img' / 'navigation' / 'town300' / 'city.json'}"
+    spec = city_suite(text, "test", {}, suite="thesis", seed_value=None, store=None,
+                      rule={"pair_distance": 180.0, "edge": 60.0})
+    assert spec.settings() == manifest["settings"]
+    assert spec.settings_hash() == manifest["settings_hash"]
+    assert (spec.pair_distance, spec.edge, spec.clearance) == (180.0, 60.0, 15.0)
+    again = city_suite(text, "test", manifest, suite=None, seed_value=None,
+                       store="docs/navigation")
+    assert again.settings() == spec.settings() and again.name == "town300"

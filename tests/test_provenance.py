@@ -256,6 +256,40 @@ def test_an_abbreviated_model_option_is_redirected_as_the_full_one():
         "windnav", "evaluate-decoder", "--comp", "x", "--model=y"]
 
 
+@pytest.mark.parametrize("typed", [
+    ["nav-study", "inflight", "--maps", "0", "--out", "runs/i"],
+    ["nav-study", "pace", "--store", "runs/b", "--out", "runs/p"],
+    ["benchmark-nav", "--suite", "quick", "--variants", "ea-mppi-w-hat", "--out", "runs/b"],
+], ids=["inflight", "pace", "benchmark-nav"])
+def test_a_decoder_flown_or_compared_from_the_shipped_file_names_its_dated_file(typed):
+    # nav-study and benchmark-nav record --decoder's hash (decoder_file) and nav-study
+    # inflight --compare's (model_files, since the fifty-second session); a line naming
+    # decoder_default.npz by path flew, or compared, the model of its day (the committed
+    # in-flight study of the shipped model did), and was not redirected once it was replaced.
+    old = _replaced_model()
+    shipped = "src/windnav/predict/data/decoder_default.npz"
+    then = {"path": shipped, "sha256": model_sha256(old)}
+    compare = typed[1] == "inflight"
+    words = [*typed, "--dec", f"./{shipped}"] + (["--compare", f"s={shipped}"] if compare else [])
+    doc = _result(words, {"compare": {f"s={shipped}": then}} if compare else None)
+    doc["decoder_file"] = then
+    parsed = _parsed(command_arguments(doc))
+    assert str(parsed["decoder"]) == _shown(old)
+    assert not compare or parsed["compare"] == [f"s={_shown(old)}"]
+    assert parsed["study" if typed[0] == "nav-study" else "suite"] == typed[1 + (
+        typed[0] == "benchmark-nav")]
+    now = dict(doc, decoder_file={"path": shipped, "sha256": model_sha256()},
+               model_files={"compare": {f"s={shipped}": {"path": shipped,
+                                                         "sha256": model_sha256()}}})
+    assert _parsed(command_arguments(now)) == _parsed(["windnav", *words])   # still shipped
+    mine = dict(doc, decoder_file={"path": "runs/m.npz", "sha256": "1" * 64},
+                argv=[*typed, "--decoder", "runs/m.npz"], model_files=None)
+    assert command_arguments(mine) == ["windnav", *mine["argv"]]   # its own file: as typed
+    gone = dict(now, decoder_file={"path": shipped, "sha256": "0" * 64})
+    with pytest.raises(ValueError, match=r"SHA-256 0{64}\), which this windnav no longer"):
+        command_line(gone)
+
+
 def test_an_onboard_flight_names_the_dated_file_of_its_replaced_default():
     # windnav navigate records the decoder it flew (ea-mppi-w-hat) since 2026-12-07
     old = _replaced_model()

@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     "calibrate",
     "sysid",
     "similitude",
+    "city",
     "navigate",
     "demo",
     "benchmark_nav",

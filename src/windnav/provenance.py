@@ -23,8 +23,10 @@ forty-seventh session), the SHA-256 of the file it read (``model_files``); where
 model has been replaced since, the rebuilt line names the dated file kept of the one the result
 was made with (``--model src/windnav/predict/data/decoder_<label>.npz``), and a model no longer
 installed is an error naming its hash; so does a ``--model`` or ``--compare`` that names the
-shipped file by its path. Results written before then record no hash, and their line names no
-model: they ran with the default of their day, which ``docs/decoder.md`` and
+shipped file by its path, and (since the fifty-second session) a ``--decoder`` of
+``benchmark-nav`` or ``nav-study`` and a ``--compare`` of ``nav-study inflight`` that does.
+Results written before then record no hash, and their line names no model: they ran with the
+default of their day, which ``docs/decoder.md`` and
 ``docs/benchmarks.md`` name (by date) beside each.
 A test rebuilds every committed result and parses it back to its own arguments. Some commands
 record a value they filled in themselves (``fly``'s ``--wind-sigma`` under ``--wind
@@ -193,21 +195,29 @@ def _shown(path: Path) -> str:
 
 def _replaced_models(words: list[str], parser, name: str, doc: Mapping) -> list[str]:
     """``words`` naming, for each decoder the result read from the shipped file (by default or
-    by that file's path, ``--model`` or a ``--compare`` item) whose recorded SHA-256 is no
-    longer the shipped file's, the dated file with that hash: ``--model FILE`` inserted after
-    the command's name where the words name no model, the path replaced where they name the
-    shipped file. A hash no installed file has is a ValueError naming it."""
+    by that file's path, ``--model``, a ``--compare`` item, or ``--decoder``) whose recorded
+    SHA-256 is no longer the shipped file's, the dated file with that hash: ``--model FILE``
+    inserted after the command's name where the words name no model, the path replaced where
+    they name the shipped file. A hash no installed file has is a ValueError naming it. The
+    files read: ``model_files`` (:data:`MODEL_COMMANDS`, and ``nav-study inflight``'s
+    ``--compare`` since the fifty-second session) and ``decoder_file`` (``benchmark-nav`` and
+    ``nav-study``'s ``--decoder``, recorded since the fiftieth session)."""
     files = doc.get("model_files")
-    if name not in MODEL_COMMANDS or not isinstance(files, Mapping):
+    files = files if isinstance(files, Mapping) else {}
+    decoder = doc.get("decoder_file")
+    decoder = decoder if isinstance(decoder, Mapping) else None
+    if not files and decoder is None:
         return words
     from windnav.predict.decoder import DEFAULT_MODEL
 
-    words = _unabbreviated(words, parser.commands[name], ("--model", "--compare"))
-    made = files.get("model")
+    words = _unabbreviated(words, parser.commands[name], ("--model", "--compare", "--decoder"))
+    made = files.get("model") if name in MODEL_COMMANDS else None
     compare = files.get("compare")
     recorded = [("--model", made.get("path"), made)] if isinstance(made, Mapping) else []
     if isinstance(compare, Mapping):
         recorded += [("--compare", text, rec) for text, rec in compare.items()]
+    if decoder is not None:
+        recorded.append(("--decoder", decoder.get("path"), decoder))
     swaps: dict[tuple[str, str], str] = {}
     insert = None
     for option, text, rec in recorded:
@@ -230,8 +240,9 @@ def _replaced_models(words: list[str], parser, name: str, doc: Mapping) -> list[
             if dated is not None:
                 swaps[option, text] = (f"{label}=" if label else "") + _shown(dated)
 
-    def key(option: str, value: str) -> tuple[str, str]:  # --model's path as recorded
-        return option, str(Path(value)) if option == "--model" and value else value
+    def key(option: str, value: str) -> tuple[str, str]:  # a file option's path as recorded
+        return option, (str(Path(value)) if option in ("--model", "--decoder") and value
+                        else value)
 
     out = []
     for i, word in enumerate(words):

@@ -89,8 +89,9 @@ def model_files(args) -> dict:
     """The decoder files a command read, as its result records them (since 2026-12-06, the
     forty-seventh session): ``{"model": {"path", "sha256"}, "compare": {ITEM: {"path",
     "sha256"}}}`` for ``--model`` (``"default"``: the shipped model's file, hashed) and each
-    ``--compare`` item as given. :func:`windnav.provenance.command_line` names the dated file
-    of a default model that has since been replaced."""
+    ``--compare`` item as given; without ``"model"`` for a command that has no ``--model``
+    (``nav-study inflight``'s ``--compare``). :func:`windnav.provenance.command_line` names the
+    dated file of a default model that has since been replaced."""
     from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
 
     def one(path):  # a missing file (refused by the command, naming it): no hash
@@ -102,6 +103,8 @@ def model_files(args) -> dict:
     for item in getattr(args, "compare", None) or []:
         text = str(item)  # [NAME=]FILE, read as evaluate-decoder's _compare_files reads it
         compare[text] = one(text.split("=", 1)[1] if "=" in text else text)
+    if not hasattr(args, "model"):
+        return {"compare": compare}
     return {"model": one(args.model), "compare": compare}
 
 

@@ -52,7 +52,13 @@ geometry), so its flights need a store of their own; ``--table``, ``--check``, `
 further runs on that store take the same map again (any path to the same blocks) and read the
 suite's rule from its manifest, ``--suite`` not needed; so do the studies of ``windnav
 nav-study --store`` on it (``nav-study --map``). ``--table --figure PNG`` draws where each
-variant fails on the map.
+variant fails on the map. ``--pair-distance``, ``--edge`` and ``--clearance`` (since the
+fifty-second session) change the suite's start/goal rule for a new store of such a city (a
+small city cannot hold the presets' 282 m pairs); the store records them, and on a store they
+may only repeat its values::
+
+    windnav benchmark-nav --suite quick --map small.json --pair-distance 150 --edge 15 \\
+                          --out runs/nav_small
 """
 
 from __future__ import annotations
@@ -61,7 +67,7 @@ import os
 import sys
 from pathlib import Path
 
-from windnav._validate import positive_int
+from windnav._validate import positive_float, positive_int
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
@@ -84,6 +90,47 @@ from windnav.commands._decoder_file import (
 
 DEFAULT_VARIANTS = "mppi,mppi-w,ea-mppi,ea-mppi-w"
 DEFAULT_REFERENCE = "mppi"
+
+CITY_RULE = {"pair_distance": "--pair-distance", "edge": "--edge", "clearance": "--clearance"}
+"""The start/goal rule options of a suite on a city of one's own (:class:`SuiteSpec` field:
+option), shared with ``nav-study``."""
+
+
+def add_city_rule_arguments(parser) -> None:
+    """``--pair-distance``, ``--edge``, ``--clearance``: the start/goal rule on ``--map``'s
+    city (default: the suite's, 282 m, 25 m and 15 m for both presets)."""
+    parser.add_argument("--pair-distance", type=float, default=None, metavar="M",
+                        help="with --map: the distance from start to goal, m (default: the "
+                             "suite's, 282; a new store only: a store keeps its own)")
+    parser.add_argument("--edge", type=float, default=None, metavar="M",
+                        help="with --map: the least distance from a start or goal to the "
+                             "map's edge, m (default: the suite's, 25)")
+    parser.add_argument("--clearance", type=float, default=None, metavar="M",
+                        help="with --map: the least distance from a start or goal to a "
+                             "building, m (default: the suite's, 15)")
+
+
+def city_rule(args, name: str | None = None, *, city: bool | None = None) -> dict:
+    """The rule options given (:data:`CITY_RULE` field: value, m), checked: each a finite
+    number, the distance > 0 and the others >= 0, and only with ``--map FILE`` (a preset's
+    planning maps keep the preset's rule: its stores and scenario ids are the preset's).
+    ``name``: the command's, default ``where(args)`` (read only when an option is given);
+    ``city``: whether the command has a city of one's own (default: ``--map`` is a file)."""
+    rule = {}
+    if city is None:
+        city = isinstance(getattr(args, "map", None), str)
+    for key, flag in CITY_RULE.items():
+        value = getattr(args, key, None)
+        if value is None:
+            continue
+        name = name or where(args)
+        if not city:
+            raise ValueError(f"The '{flag}' parameter of {name} sets the start/goal rule on a "
+                             "city of your own, with --map [NAME=]FILE: a preset suite's "
+                             "planning maps keep its rule. Got "
+                             f"{flag} {value!r} without it instead.")
+        rule[key] = positive_float(value, flag, name, allow_zero=key != "pair_distance")
+    return rule
 
 
 def register(subparsers) -> None:
@@ -171,6 +218,7 @@ def register(subparsers) -> None:
                         "the scenario ids are NAME/m00/wWW/pP (NAME: default the file's name); "
                         "part of the suite's settings (by the city's fingerprint), so a store "
                         "of its own, and every mode on that store needs it again")
+    add_city_rule_arguments(p)
     p.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_output_arguments(p)
     p.set_defaults(func=run)
@@ -197,8 +245,10 @@ def _spec(args, name: str, prefer: str | None = None):
     man = _manifest(args.out) or {}
     if args.map is not None:
         value = None if args.seed is None else seed(args)
-        return with_decoder(args, name, city_suite(args.map, name, man, suite=args.suite,
-                                                   seed_value=value, store=args.out), man)
+        spec = city_suite(args.map, name, man, suite=args.suite, seed_value=value,
+                          store=args.out, rule=city_rule(args, name))
+        return with_decoder(args, name, spec, man)
+    city_rule(args, name)  # (refused without --map)
     recorded = _store_city(man)
     if recorded is not None:
         raise ValueError(f"The '--map' parameter of {name} must name the map file that the "
@@ -224,13 +274,14 @@ def _store_city(man: dict) -> str | None:
 
 
 def city_suite(text: str, name: str, man: dict, *, suite: str | None,
-               seed_value: int | None, store):
+               seed_value: int | None, store, rule: dict | None = None):
     """The suite of ``--map [NAME=]FILE`` (``text``): without ``suite``, the suite the
     manifest ``man`` of the store ``store`` records under NAME (``--suite`` not needed),
     whose city must be the file's (by :meth:`~windnav.city.City.fingerprint`); with it (a key
     of :data:`~windnav.experiments.nav_suite.SUITES`, for a new store), that suite's winds,
     start/goal rule and flight options on the file's city, its one map (``m00``), named NAME.
-    The seed: ``seed_value``, else the store's, else 0."""
+    The seed: ``seed_value``, else the store's, else 0. ``rule`` (:func:`city_rule`'s) sets
+    the start/goal rule of a new store; on a store, each value must be the one it records."""
     from windnav.experiments.nav_suite import SUITES, SuiteSpec, get_suite, suite_name_ok
 
     label, path, city = map_argument(text, "--map", name)
@@ -253,13 +304,15 @@ def city_suite(text: str, name: str, man: dict, *, suite: str | None,
                          f"{str(store)!r} was flown on ({settings.get('city')}). Got "
                          f"{str(path)!r} instead ({mine}); another map needs a store of its "
                          "own.")
+    if isinstance(settings, dict):
+        _check_store_rule(settings, rule or {}, suite, name, store)
     if suite is not None or not isinstance(settings, dict):
         if suite is None:
             raise ValueError(f"The '--suite' parameter of {name} must be given with --map "
                              f"without a store of that map: the suite whose winds and "
                              f"start/goal rule fly on it (one of {list(SUITES)}). Got None "
                              "instead.")
-        return _new_city_suite(get_suite(suite, seed=value), label, city, path, name)
+        return _new_city_suite(get_suite(suite, seed=value), label, city, path, name, rule)
     options = {k: v for k, v in settings.items() if k != "city"}
     options["navigate_options"] = dict(options.get("navigate_options") or {})
     try:  # (its recorded decoder, a fingerprint, stays: with_decoder asks for the file)
@@ -269,22 +322,50 @@ def city_suite(text: str, name: str, man: dict, *, suite: str | None,
                          f"version reads: {exc}") from None
 
 
-def _new_city_suite(base, label: str, city, path, name: str):
-    """``base``'s rule on ``city``, named ``label``, its pairs drawn now (a map too small or too
-    crowded for them is refused naming ``--map`` before a store is made)."""
+def _check_store_rule(settings: dict, rule: dict, suite: str | None, name: str,
+                      store) -> None:
+    """Each rule value given (``rule``, :func:`city_rule`'s), and with ``--suite`` its preset's
+    value of an option not given, must be the one the store's ``settings`` record: a store's
+    rule is its own (another needs a store of its own), and a value that differs is refused
+    naming its option rather than as another suite's store."""
+    from windnav.experiments.nav_suite import get_suite
+
+    preset = get_suite(suite) if suite is not None else None
+    for key, flag in CITY_RULE.items():
+        given = rule.get(key, None if preset is None else getattr(preset, key))
+        if given is None or settings.get(key) == given:
+            continue
+        how = (f"Got {given!r} instead" if key in rule else
+               f"Got none instead: with --suite {suite}, the suite's {given!r}")
+        raise ValueError(f"The '{flag}' parameter of {name} must be the value the store "
+                         f"{str(store)!r} records, {settings.get(key)!r} m (its rule is read "
+                         f"from its manifest: leave out --suite and {flag}, or give {flag} "
+                         f"{settings.get(key)!r}). {how}; another rule needs a store of its "
+                         "own.")
+
+
+def _new_city_suite(base, label: str, city, path, name: str, rule: dict | None = None):
+    """``base``'s rule, with ``rule``'s values, on ``city``, named ``label``, its pairs drawn now
+    (a map too small or too crowded for them is refused naming ``--map`` and the rule options
+    before a store is made)."""
     import dataclasses
 
     from windnav.experiments.nav_suite import make_suite
 
+    rule = dict(rule or {})
+    want = {**{k: getattr(base, k) for k in CITY_RULE}, **rule}
     try:
         spec = dataclasses.replace(base, name=label, maps=(0,), map_options={},
-                                   map_size=float(max(city.size)), city=city)
+                                   map_size=float(max(city.size)), city=city, **rule)
         make_suite(spec)
     except ValueError as exc:
+        given = " with " * bool(rule) + ", ".join(f"{CITY_RULE[k]} {v:g}" for k, v in rule.items())
         raise ValueError(f"The '--map' parameter of {name} must be a map that holds the "
-                         f"{base.name} suite's start/goal pairs ({base.pair_distance:g} m apart, "
-                         f"{base.clearance:g} m from the buildings, {base.edge:g} m inside its "
-                         f"edge). Got {str(path)!r} instead: {exc}") from None
+                         f"start/goal pairs of the {base.name} suite{given} "
+                         f"({want['pair_distance']:g} m apart, "
+                         f"{want['clearance']:g} m from the buildings, {want['edge']:g} m inside "
+                         f"its edge; {', '.join(CITY_RULE.values())} change them). Got "
+                         f"{str(path)!r} instead: {exc}") from None
     return spec
 
 

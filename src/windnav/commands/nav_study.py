@@ -78,6 +78,9 @@ store, ``--suite``'s rule (default thesis) on that city (``winds``, ``inflight``
 ``feasibility``). ``--map N`` remains the winds study's map index::
 
     windnav nav-study winds --suite thesis --map my_city.json --out runs/winds_mine
+
+``--pair-distance``, ``--edge`` and ``--clearance`` (since the fifty-second session) change that
+rule on the city, as ``benchmark-nav`` takes them; on a store they may only repeat its own.
 """
 
 from __future__ import annotations
@@ -93,6 +96,7 @@ from windnav.commands._common import (
     check_output_path,
     document,
     fill_defaults,
+    model_files,
     options_named,
     outputs,
     print_written,
@@ -113,6 +117,7 @@ STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "b
 
 def register(subparsers) -> None:
     """Add the ``nav-study`` subcommand."""
+    from windnav.commands.benchmark_nav import add_city_rule_arguments
     from windnav.experiments.executor import BACKENDS
     from windnav.experiments.nav_suite import SUITES
 
@@ -160,6 +165,7 @@ def register(subparsers) -> None:
                         "[NAME=]FILE, a city of your own (a RotorPy world JSON) as the suite's "
                         "one map, as 'benchmark-nav --map' flies it (a store of that command "
                         "needs the same map again)")
+    add_city_rule_arguments(p)
     p.add_argument("--case", default=None,
                    help="gs: one case (intersection, single-building, evaluation-map; default "
                         "all)")
@@ -214,6 +220,8 @@ STUDY_OPTIONS = {
     "pairs": ("inflight",), "every": ("inflight",), "compare": ("inflight",),
     "tau": ("inflight",),
     "map": tuple(s for s in STUDIES if s != "gs"),
+    **dict.fromkeys(("pair_distance", "edge", "clearance"), tuple(s for s in STUDIES
+                                                                 if s != "gs")),
     "case": ("gs",), "seed": ("gs",),
     "cache": ("feasibility",), "airspeeds": ("feasibility",), "fly": ("feasibility",),
     "scenario": ("gusts",), "base": ("gusts",), "gust_k": ("gusts",),
@@ -309,16 +317,18 @@ def study_suite(args):
     thirty-seventh session). With ``--map [NAME=]FILE``, the suite on that city
     (:func:`windnav.commands.benchmark_nav.city_suite`): the store's, else ``--suite``'s
     (default thesis) rule on it; a store of a city without ``--map`` is refused naming it."""
-    from windnav.commands.benchmark_nav import _manifest, _store_city, city_suite
+    from windnav.commands.benchmark_nav import _manifest, _store_city, city_rule, city_suite
     from windnav.experiments.nav_suite import SUITES, get_suite
 
     store = getattr(args, "store", None)
     man = (_manifest(Path(store)) if store is not None else None) or {}
     recorded = _store_city(man)
     given = getattr(args, "map", None)
+    rule = city_rule(args)  # (refused without a city)
     if isinstance(given, str):  # a city of one's own: the store's suite, else --suite's
         suite = args.suite or (None if recorded is not None else "thesis")
-        return city_suite(given, where(args), man, suite=suite, seed_value=None, store=store)
+        return city_suite(given, where(args), man, suite=suite, seed_value=None, store=store,
+                          rule=rule)
     if recorded is not None:  # (it was refused as another suite's, naming no option)
         given = None if "map" in getattr(args, "filled_defaults", ()) else given
         raise ValueError(f"The '--map' parameter of {where(args)} must name the map file that "
@@ -581,6 +591,7 @@ def _inflight(args, name: str, spec) -> int:
                 *(("nav_inflight_tau.png",) if args.tau else ()))
     out = outputs(args, out=("--out", args.out, products))
     compare = _named_compare_files(args.compare, name)
+    files = model_files(args)  # the compared files' SHA-256, before they are read
     log = Path(args.out) / nav_inflight.RECORDS  # each finished wind, until the outputs are in
 
     def study():
@@ -619,6 +630,8 @@ def _inflight(args, name: str, spec) -> int:
     res.update(study="inflight", suite=spec.name, seed=spec.seed, maps=list(maps),
                pairs=pairs, models={n: str(f) for n, f in compare.items()},
                elapsed_s=time.perf_counter() - t0)
+    if compare:  # (by hash: a line naming the shipped file is redirected once it is replaced)
+        res["model_files"] = files
 
     def draw(folder):
         plot_inflight(res, folder / products[1])

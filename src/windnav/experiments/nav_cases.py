@@ -250,11 +250,14 @@ def default_winds(spec: SuiteSpec) -> tuple[int, ...]:
     that the suite flies. For the thesis suite: ``w01`` (2 m/s toward 15 deg), ``w06`` (5 m/s,
     30 deg), ``w11`` (7 m/s, 45 deg) and ``w12`` (10 m/s, 0 deg): every inlet speed and every
     incidence appears once (a diagonal of the 4 x 4 wind grid), so the four panels span both the
-    Reynolds-number range and the angles at which the wind meets the street grid.
+    Reynolds-number range and the angles at which the wind meets the street grid. A suite that
+    flies none of the diagonal's winds gets its own first four: the ``quick`` suite's ``w04``
+    and ``w10`` were an empty choice that ``nav-study winds --suite quick`` refused
+    (fifty-second session).
     """
     k = len(spec.incidences_deg)
     diagonal = [i * k + (i + 1) % k for i in range(len(spec.speeds))]
-    return tuple(w for w in diagonal if w in spec.winds)[:4]
+    return tuple(w for w in diagonal if w in spec.winds)[:4] or tuple(spec.winds[:4])
 
 
 def wind_scenarios(spec, map_index: int, winds: Sequence[int] | None = None, *,

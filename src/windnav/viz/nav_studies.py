@@ -172,7 +172,7 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
                 for kind, c in KIND_COLORS.items()]
     return _finish(fig, handles, title or f"{result['suite']} suite, map "
                    f"m{result['map_index']:02d}: mean wind of {n} inlet{'s' if n > 1 else ''}",
-                   path, bottom=0.04)
+                   path, bottom=0.08 / nrows)  # (one row: the legend overlapped the x label)
 
 
 OUTCOME_COLORS = {"success": "#34c759", "hover": "#ff9500", "timeout": "#ff3b30",

@@ -104,10 +104,10 @@ def plot_pace(result: dict, path) -> Path:
         t_all += list(t)
         p_all += list(p)
         color = _PACE_COLORS.get(name, "0.4")
-        e = c["energy_ratio"]["mean"]
+        e = c["energy_ratio"]["mean"]  # (None without a pair: no scenario where neither failed)
         ax.scatter(t, p, s=10, alpha=0.45, color=color, lw=0,
                    label=f"{_PACE_NAMES.get(name, name)}: {c['variant']} / {c['reference']}, "
-                         f"{len(t)} pairs (energy x{e:.2f})")
+                         f"{len(t)} pairs" + ("" if e is None else f" (energy x{e:.2f})"))
         if c["time_ratio"]["mean"] is not None:
             ax.plot(c["time_ratio"]["mean"], c["power_ratio"]["mean"], "o", ms=11, mfc=color,
                     mec="k", mew=1.2, zorder=5)

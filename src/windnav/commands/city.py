@@ -1,0 +1,216 @@
+"""``windnav city``: make a map, or look at one, before simulating, flying or training on it.
+
+::
+
+    windnav city --kind planning --seed 5 --size 300 --out runs/town   # -> city.json, city.png
+    windnav city --map my_city.json --suite thesis --out runs/look      # its plan and the pairs
+    windnav city --map my_city.json --suite quick --pair-distance 150 --edge 20 --out runs/look
+
+``--kind`` writes a generated map (:func:`windnav.city.planning_map`, ``training_map`` or
+``dense_map``, with ``--seed``, ``--size`` and ``--buildings`` when given) as a RotorPy world
+JSON, ``city.json``, which every ``--map`` option reads; ``--map [NAME=]FILE`` reads one. Both
+draw the map's blocks by height (``city.png``) and print its summary (extent, buildings and
+blocks, heights, the built-up share, the median block's smaller side and whether the flow
+solver's 1 m grid resolves it).
+
+``--suite`` (with the rule options of ``windnav benchmark-nav --map``: ``--pair-distance``,
+``--edge``, ``--clearance``) draws the start/goal pairs that ``benchmark-nav --suite S --map
+FILE`` would fly on the map, every wind's, without simulating any wind, and estimates one
+wind's memory there. A map that cannot hold them is said, with the reason and the options
+that change the rule, and the exit status is 1 (the figure and JSON are still written): a
+check to run before a long benchmark.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from windnav.commands._common import (
+    add_output_arguments,
+    document,
+    map_argument,
+    options_named,
+    outputs,
+    print_written,
+    where,
+)
+
+KINDS = ("planning", "training", "dense")
+"""The generators of ``--kind``: :func:`windnav.city.planning_map` (the navigation suites'),
+:func:`~windnav.city.training_map` (the decoder's training maps) and
+:func:`~windnav.city.dense_map` (its 1.2 km evaluation maps)."""
+
+PRODUCTS = ("city.json", "city.png", "city_summary.json")
+"""What a run writes into ``--out`` (``city.json`` only for ``--kind``)."""
+
+
+def register(subparsers) -> None:
+    """Add the ``city`` subcommand."""
+    from windnav.commands.benchmark_nav import add_city_rule_arguments
+    from windnav.experiments.nav_suite import SUITES
+
+    p = subparsers.add_parser(
+        "city",
+        help="make a city map (RotorPy world JSON) or look at one, with a suite's "
+             "start/goal pairs on it",
+        description="Generate a map (--kind) or read one (--map); draw its blocks by height "
+                    "and summarise it; with --suite, draw the start/goal pairs that "
+                    "'benchmark-nav --map' would fly on it, or say why it cannot hold them.",
+    )
+    source = p.add_mutually_exclusive_group(required=True)
+    source.add_argument("--kind", choices=KINDS, default=None,
+                        help="generate a map: planning (the navigation suites', 600 m), "
+                             "training (the decoder's, 300 m) or dense (its evaluation maps, "
+                             "1.2 km), written as OUT/city.json")
+    source.add_argument("--map", default=None, metavar="[NAME=]FILE",
+                        help="a RotorPy world JSON of your own (NAME: default the file's name)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="--kind: the generator's seed (default 0)")
+    p.add_argument("--size", type=float, default=None, metavar="M",
+                   help="--kind: the side of the square map, m (default: the generator's)")
+    p.add_argument("--buildings", type=int, default=None, metavar="N",
+                   help="--kind: the number of buildings (default: the generator's draw)")
+    p.add_argument("--suite", choices=tuple(SUITES), default=None,
+                   help="draw the start/goal pairs this suite's rule draws on the map (as "
+                        "'benchmark-nav --suite S --map FILE' with its default seed, 0); exit "
+                        "status 1 when it holds none")
+    add_city_rule_arguments(p)
+    p.add_argument("--out", required=True, help="output folder")
+    add_output_arguments(p)
+    p.set_defaults(func=run)
+
+
+def _generate(args, name: str):
+    """The map of ``--kind`` with ``--seed``, ``--size`` and ``--buildings`` (errors naming
+    them)."""
+    from windnav.city import dense_map, planning_map, training_map
+
+    make = {"planning": planning_map, "training": training_map, "dense": dense_map}[args.kind]
+    kwargs = {"rng": 0 if args.seed is None else args.seed}
+    if args.size is not None:
+        kwargs["size"] = args.size
+    if args.buildings is not None:
+        kwargs["n_buildings"] = args.buildings
+    where_ = make.__name__
+    with options_named({f"'rng' parameter of {where_}": f"'--seed' parameter of {name}",
+                        f"'size' parameter of {where_}": f"'--size' parameter of {name}",
+                        f"'n_buildings' parameter of {where_}":
+                            f"'--buildings' parameter of {name}",
+                        f"{where_} drew": f"{name} (--kind {args.kind}) drew",
+                        "Pass a smaller n_buildings= or a larger size.":
+                            "Pass a smaller --buildings or a larger --size."}):
+        return make(**kwargs)
+
+
+def summarize_city(city) -> dict:
+    """The summary of ``city``: its bounds and extent (m), buildings (connected blocks) and
+    blocks, the heights (m), the built-up share of its area (on a 1 m raster), the median
+    block's smaller side (m) and the flow solver's resolution note at 1 m (None when the 1 m
+    grid resolves it)."""
+    import numpy as np
+
+    x, y = city.grid(1.0)
+    solid = city.rasterize(x, y)
+    heights = np.asarray(city.heights, dtype=float)
+    return {
+        "bounds": [float(b) for b in city.bounds],
+        "size_m": [float(s) for s in city.size],
+        "buildings": int(np.unique(city.building_labels()).size) if city.n_buildings else 0,
+        "blocks": city.n_buildings,
+        "height_m": [float(heights.min()), float(heights.max())] if heights.size else None,
+        "built_fraction": float(solid.mean()),
+        "median_block_side_m": city.median_building_side,
+        "resolution_note": city.resolution_note(1.0),
+        "fingerprint": city.fingerprint(),
+    }
+
+
+def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *,
+                what: str = "the map") -> dict:
+    """The start/goal pairs of ``suite``'s rule (with ``rule``'s values, as ``benchmark-nav
+    --map`` takes them, with its default suite seed, 0) on ``city``, named ``label``:
+    ``holds`` (bool), the rule, each pair
+    (``scenario_id``, ``kind``, ``speed``, ``direction_deg``, ``start``, ``goal``) or ``why`` it
+    cannot hold them (naming the map as ``what``), and the memory one wind of the suite takes
+    to simulate there."""
+    from windnav.city import grid_shape
+    from windnav.commands.benchmark_nav import CITY_RULE, _new_city_suite
+    from windnav.experiments.nav_suite import get_suite, make_suite
+    from windnav.flow.memory import estimate_flow_memory, fluid_fraction, format_bytes
+
+    base = get_suite(suite)
+    out = {"name": label, "suite": suite, "seed": base.seed,
+           "rule": {k: float(rule.get(k, getattr(base, k))) for k in CITY_RULE},
+           "holds": False, "pairs": [], "why": None}
+    frames = max(2, int(round(base.record_s / base.dt)))
+    wind = estimate_flow_memory(grid_shape(city.bounds, base.dx), 1, frames,
+                                fluid_fraction=fluid_fraction(city))
+    out["wind_memory_bytes"] = int(wind)
+    out["wind_memory"] = format_bytes(wind)
+    try:
+        spec = _new_city_suite(base, label, city, what, name, rule)
+    except ValueError as exc:
+        out["why"] = str(exc)
+        return out
+    out["holds"] = True
+    out["pairs"] = [{"scenario_id": s.scenario_id, "kind": s.kind, "speed": s.speed,
+                     "direction_deg": s.direction_deg, "start": [float(v) for v in s.start],
+                     "goal": [float(v) for v in s.goal]} for s in make_suite(spec)]
+    return out
+
+
+def run(args) -> int:
+    """Run ``windnav city``; 1 when ``--suite``'s pairs do not fit the map, else 0."""
+    from windnav.commands.benchmark_nav import CITY_RULE, city_rule
+    from windnav.experiments.results import json_ready, write_json
+    from windnav.viz.city import plot_city
+
+    name = where(args)
+    if args.map is not None:
+        for flag, value in (("--seed", args.seed), ("--size", args.size),
+                            ("--buildings", args.buildings)):
+            if value is not None:
+                raise ValueError(f"The '{flag}' parameter of {name} applies to --kind (a map "
+                                 f"made here); --map reads one. Got {flag} {value!r} with "
+                                 "--map instead.")
+    rule = city_rule(args, name, city=True)  # (a made map is one's own too)
+    if rule and args.suite is None:
+        flag = CITY_RULE[next(iter(rule))]
+        raise ValueError(f"The '{flag}' parameter of {name} changes --suite's start/goal rule. "
+                         f"Got it without --suite instead.")
+    made = args.kind is not None
+    products = PRODUCTS if made else PRODUCTS[1:]
+    out = outputs(args, out=("--out", args.out, products))
+    if made:
+        city = _generate(args, name)
+        label, path = f"{args.kind}{0 if args.seed is None else args.seed}", None
+    else:
+        label, path, city = map_argument(args.map, "--map", name)
+    summary = {"map": None if path is None else str(path), "name": label,
+               "kind": args.kind, **summarize_city(city)}
+    if args.suite is not None:
+        summary["suite"] = suite_pairs(city, label, args.suite, rule, name,
+                                       what=args.map if not made else f"--kind {args.kind}")
+    with out.writing() as stage:
+        if made:
+            city.to_rotorpy_json(stage.dir / PRODUCTS[0])
+        plot_city(city, summary, stage.dir / PRODUCTS[1])
+        doc = document("city", json_ready(summary), args)
+        write_json(doc, stage.dir / PRODUCTS[2])
+        if stage.file("--json") is not None:
+            write_json(doc, stage.file("--json"))
+    brief = {k: v for k, v in summary.items() if k not in ("suite", "fingerprint")}
+    if args.suite is not None:
+        s = summary["suite"]
+        brief["suite"] = {"suite": s["suite"], "rule": s["rule"], "holds": s["holds"],
+                          "pairs": len(s["pairs"]), "wind_memory": s["wind_memory"]}
+    print(json.dumps(json_ready(brief), indent=1))
+    if summary["resolution_note"]:
+        print(f"{name}: note: {summary['resolution_note']}", file=sys.stderr)
+    print_written(out)
+    if args.suite is not None and not summary["suite"]["holds"]:
+        print(f"{name}: the map cannot hold the suite's pairs: {summary['suite']['why']}",
+              file=sys.stderr)
+        return 1
+    return 0
