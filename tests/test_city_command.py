@@ -68,7 +68,13 @@ def test_the_pairs_drawn_are_those_the_benchmark_flew_on_the_windinet_layout(tmp
         assert (p["kind"], p["speed"]) == (kind, speed)
         np.testing.assert_allclose([p["start"], p["goal"]], [start, goal], rtol=0, atol=1e-9)
     # one wind of the thesis suite there: the estimate the benchmark's batching uses
-    assert brief["suite"]["wind_memory"].endswith("GB")
+    from windnav.commands._city_suite import city_suite
+    from windnav.experiments.nav_benchmark import wind_memory
+
+    spec = city_suite(f"windinet={windinet_layout()}", "test", {}, suite="thesis",
+                      seed_value=None, store=None)
+    summary = json.loads((out / "city_summary.json").read_text())
+    assert summary["suite"]["wind_memory_bytes"] == wind_memory(spec) > 4e9
 
 
 def test_a_map_too_small_for_the_rule_is_said_and_a_rule_of_its_own_fits(tmp_path, capsys):
@@ -87,6 +93,18 @@ def test_a_map_too_small_for_the_rule_is_said_and_a_rule_of_its_own_fits(tmp_pat
                      "--edge", "20", "--out", str(tmp_path / "b")]) == 0
     brief = json.loads(capsys.readouterr().out)
     assert brief["suite"]["holds"] and brief["suite"]["pairs"] == 4
+    # a generated map is named as benchmark-nav names its file (city.json), and one that
+    # cannot hold the pairs is said naming --kind
+    assert cli.main(["city", "--kind", "training", "--seed", "1", "--size", "150",
+                     "--suite", "quick", "--out", str(tmp_path / "k")]) == 1
+    assert "The '--kind' parameter of windnav city must be a map that holds" in (
+        capsys.readouterr().err)
+    assert cli.main(["city", "--kind", "training", "--seed", "1", "--suite", "quick",
+                     "--pair-distance", "150", "--out", str(tmp_path / "k2")]) == 0
+    capsys.readouterr()
+    doc = json.loads((tmp_path / "k2" / "city_summary.json").read_text())
+    assert doc["name"] == "city" and doc["suite"]["pairs"][0]["scenario_id"].startswith(
+        "city/m00/")
     pairs = json.loads((tmp_path / "b" / "city_summary.json").read_text())["suite"]["pairs"]
     for p in pairs:
         pts = np.array([p["start"], p["goal"]])
@@ -104,6 +122,10 @@ def test_a_map_too_small_for_the_rule_is_said_and_a_rule_of_its_own_fits(tmp_pat
      r"windnav city \(--kind planning\) drew .* Pass a smaller --buildings or a larger --size"),
     (["--kind", "training", "--size", "-5"], "'--size' parameter"),
     (["--map", "none.json"], "'--map' parameter .* which does not exist"),
+    (["--kind", "planning", "--seed", "-1"], "'--seed' parameter .* >= 0"),
+    (["--map", "my town=M", "--suite", "thesis"], "'--map' parameter .* without '/' or white"),
+    (["--map", "thesis=M", "--suite", "thesis"], "'--map' parameter .* apart from"),
+    (["--map", "M", "--json", "M", "--overwrite"], "'--json' parameter .* must not be the map"),
 ])
 def test_bad_input_is_refused_naming_the_option(tmp_path, capsys, argv, match):
     import re
@@ -111,8 +133,9 @@ def test_bad_input_is_refused_naming_the_option(tmp_path, capsys, argv, match):
     small = tmp_path / "m.json"
     City(bounds=(0.0, 100.0, 0.0, 100.0), footprints=np.zeros((0, 4)),
          heights=np.zeros(0)).to_rotorpy_json(small)
-    argv = [str(small) if a == "M" else str(tmp_path / a) if a == "none.json" else a
-            for a in argv]
+    argv = [str(small) if a == "M" else str(tmp_path / a) if a == "none.json"
+            else a.replace("=M", f"={small}") for a in argv]
     assert cli.main(["city", *argv, "--out", str(tmp_path / "x")]) == 2
     assert re.search(match, capsys.readouterr().err), argv
     assert not (tmp_path / "x").exists()
+    assert read_rotorpy_json(small).n_buildings == 0   # the map read is never written over

@@ -1240,7 +1240,9 @@ def test_command_flies_the_suite_on_a_city_of_ones_own(tmp_path, monkeypatch, ti
     assert manifest["settings"]["maps"] == [0] and manifest["settings"]["map_size"] == 240.0
     doc = json.loads((tmp_path / "run.json").read_text())
     assert doc["map_file"] == {"suite": "town", "path": f"town={file}",
-                               "city": f"City sha256:{shifted.fingerprint()}"}
+                               "city": f"City sha256:{shifted.fingerprint()}",
+                               "rule": {"pair_distance": 100.0, "edge": 15.0,
+                                        "clearance": 25.0}}
     # the same map under another path: the table, a check and a replay, without --suite
     assert command(["--out", store, "--table", "--map", f"town={copy_}"]) == 0
     assert "| ea-mppi-w | 4 |" in capsys.readouterr().out
@@ -1378,13 +1380,17 @@ def test_a_small_city_takes_a_start_goal_rule_of_its_own(tmp_path, monkeypatch, 
     capsys.readouterr()
     for argv, match in (
             ([*table, "--pair-distance", "40"],
-             r"'--pair-distance' parameter .* must be the value the store .* records, 50.0 m "
-             r".* Got 40.0 instead; another rule needs a store of its own"),
-            ([*table, "--suite", "quick"], r"'--pair-distance' parameter .* records, 50.0 m .* "
-                                           r"Got none instead: with --suite quick, the "
-                                           r"suite's 100.0"),
-            ([*table, "--suite", "quick", *rule[:4]], r"'--clearance' parameter .* records, "
-                                                      r"10.0 m .* the suite's 25.0"),
+             r"'--pair-distance' parameter .* must give the start/goal rule the store .* "
+             r"records, --pair-distance 50, --edge 10, --clearance 10 \(read from its manifest "
+             r".*\)\. Got --pair-distance 40 given instead; another rule needs a store of its "
+             r"own"),
+            ([*table, "--suite", "quick"],  # every value that differs, in one error
+             r"'--pair-distance' parameter .* Got --pair-distance not given, so --suite quick's "
+             r"100; --edge not given, so --suite quick's 15; --clearance not given, so --suite "
+             r"quick's 25 instead"),
+            ([*table, "--suite", "quick", *rule[:4]],
+             r"'--clearance' parameter .* Got --clearance not given, so --suite quick's 25 "
+             r"instead"),
             (["--suite", "quick", "--out", tmp_path / "q", "--edge", "10"],
              r"'--edge' parameter .* sets the start/goal rule on a city of your own, with --map"),
             ([*run[:-3], "--out", tmp_path / "n", "--edge", "-1"], r"'--edge' parameter .* >= 0"),
@@ -1398,7 +1404,8 @@ def test_a_small_city_takes_a_start_goal_rule_of_its_own(tmp_path, monkeypatch, 
             str(tmp_path / "pace")]
     assert cli.main([*pace, "--edge", "10"]) == 0
     assert cli.main([*pace, "--edge", "12", "--overwrite"]) == 2
-    assert "'--edge' parameter of windnav nav-study must be the value" in capsys.readouterr().err
+    assert ("'--edge' parameter of windnav nav-study must give the start/goal rule"
+            in capsys.readouterr().err)
     monkeypatch.setattr(nb, "suite_flows", REAL_FLOWS)
     assert cli.main(["nav-study", "winds", "--suite", "quick", "--map", str(file), *rule,
                      "--out", str(tmp_path / "winds"), "--no-progress"]) == 0
@@ -1407,8 +1414,10 @@ def test_a_small_city_takes_a_start_goal_rule_of_its_own(tmp_path, monkeypatch, 
              for p in w["pairs"]}
     assert drawn and all(np.allclose(drawn[r["scenario_id"]], (r["start"], r["goal"]))
                          for r in records if r["scenario_id"] in drawn)
-    for argv, match in ((["winds", "--map", "0", "--edge", "5"], "'--edge' parameter .* with "
-                                                                  "--map"),
+    for argv, match in ((["winds", "--map", "0", "--edge", "5"],
+                         r"'--edge' parameter .* Got --edge 5.0 with --map 0, a map index of "
+                         r"the winds study instead"),
+                        (["winds", "--edge", "5"], r"'--edge' parameter .* without it instead"),
                         (["gs", "--edge", "5"], "'--edge' parameter .* is for the"),
                         (["pace", "--store", str(store), "--clearance", "5"],
                          "'--clearance' parameter .* with --map")):

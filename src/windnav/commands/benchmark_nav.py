@@ -67,13 +67,18 @@ import os
 import sys
 from pathlib import Path
 
-from windnav._validate import positive_float, positive_int
+from windnav._validate import positive_int
+from windnav.commands._city_suite import (
+    add_city_rule_arguments,
+    city_rule,
+    city_suite,
+)
+from windnav.commands._city_suite import store_city as _store_city
 from windnav.commands._common import (
     add_output_arguments,
     check_output_path,
     document,
     fill_defaults,
-    map_argument,
     options_named,
     outputs,
     print_written,
@@ -90,47 +95,6 @@ from windnav.commands._decoder_file import (
 
 DEFAULT_VARIANTS = "mppi,mppi-w,ea-mppi,ea-mppi-w"
 DEFAULT_REFERENCE = "mppi"
-
-CITY_RULE = {"pair_distance": "--pair-distance", "edge": "--edge", "clearance": "--clearance"}
-"""The start/goal rule options of a suite on a city of one's own (:class:`SuiteSpec` field:
-option), shared with ``nav-study``."""
-
-
-def add_city_rule_arguments(parser) -> None:
-    """``--pair-distance``, ``--edge``, ``--clearance``: the start/goal rule on ``--map``'s
-    city (default: the suite's, 282 m, 25 m and 15 m for both presets)."""
-    parser.add_argument("--pair-distance", type=float, default=None, metavar="M",
-                        help="with --map: the distance from start to goal, m (default: the "
-                             "suite's, 282; a new store only: a store keeps its own)")
-    parser.add_argument("--edge", type=float, default=None, metavar="M",
-                        help="with --map: the least distance from a start or goal to the "
-                             "map's edge, m (default: the suite's, 25)")
-    parser.add_argument("--clearance", type=float, default=None, metavar="M",
-                        help="with --map: the least distance from a start or goal to a "
-                             "building, m (default: the suite's, 15)")
-
-
-def city_rule(args, name: str | None = None, *, city: bool | None = None) -> dict:
-    """The rule options given (:data:`CITY_RULE` field: value, m), checked: each a finite
-    number, the distance > 0 and the others >= 0, and only with ``--map FILE`` (a preset's
-    planning maps keep the preset's rule: its stores and scenario ids are the preset's).
-    ``name``: the command's, default ``where(args)`` (read only when an option is given);
-    ``city``: whether the command has a city of one's own (default: ``--map`` is a file)."""
-    rule = {}
-    if city is None:
-        city = isinstance(getattr(args, "map", None), str)
-    for key, flag in CITY_RULE.items():
-        value = getattr(args, key, None)
-        if value is None:
-            continue
-        name = name or where(args)
-        if not city:
-            raise ValueError(f"The '{flag}' parameter of {name} sets the start/goal rule on a "
-                             "city of your own, with --map [NAME=]FILE: a preset suite's "
-                             "planning maps keep its rule. Got "
-                             f"{flag} {value!r} without it instead.")
-        rule[key] = positive_float(value, flag, name, allow_zero=key != "pair_distance")
-    return rule
 
 
 def register(subparsers) -> None:
@@ -265,118 +229,18 @@ def _spec(args, name: str, prefer: str | None = None):
     return with_decoder(args, name, get_suite(suite, seed=value), man)
 
 
-def _store_city(man: dict) -> str | None:
-    """The city a store's manifest ``man`` records among its settings (``"City sha256:..."``,
-    a store of ``--map``), None for a store of planning maps (or a malformed manifest)."""
-    settings = man.get("settings")
-    city = settings.get("city") if isinstance(settings, dict) else None
-    return city if isinstance(city, str) else None
-
-
-def city_suite(text: str, name: str, man: dict, *, suite: str | None,
-               seed_value: int | None, store, rule: dict | None = None):
-    """The suite of ``--map [NAME=]FILE`` (``text``): without ``suite``, the suite the
-    manifest ``man`` of the store ``store`` records under NAME (``--suite`` not needed),
-    whose city must be the file's (by :meth:`~windnav.city.City.fingerprint`); with it (a key
-    of :data:`~windnav.experiments.nav_suite.SUITES`, for a new store), that suite's winds,
-    start/goal rule and flight options on the file's city, its one map (``m00``), named NAME.
-    The seed: ``seed_value``, else the store's, else 0. ``rule`` (:func:`city_rule`'s) sets
-    the start/goal rule of a new store; on a store, each value must be the one it records."""
-    from windnav.experiments.nav_suite import SUITES, SuiteSpec, get_suite, suite_name_ok
-
-    label, path, city = map_argument(text, "--map", name)
-    if label in SUITES or not suite_name_ok(label):
-        raise ValueError(f"The '--map' parameter of {name} must name its suite apart from "
-                         f"{list(SUITES)}, without '/' or white space (the first part of every "
-                         f"scenario id; NAME=FILE names it). Got the name {label!r} instead.")
-    own = man.get("suite") == label
-    if man.get("suite") is not None and not own:  # another suite's store: refused by name
-        theirs = _store_city(man)
-        what = (f"the name of the suite it was flown as, {man.get('suite')!r}=FILE"
-                if theirs is not None else "no --map: its suite flew planning maps")
-        raise ValueError(f"The '--map' parameter of {name} must match the store "
-                         f"{str(store)!r}: {what}. Got the name {label!r} instead.")
-    value = seed_value if seed_value is not None else (man.get("seed", 0) if own else 0)
-    settings = man.get("settings") if own else None
-    mine = f"City sha256:{city.fingerprint()}"
-    if isinstance(settings, dict) and settings.get("city") != mine:  # (with --suite too)
-        raise ValueError(f"The '--map' parameter of {name} must name the map the store "
-                         f"{str(store)!r} was flown on ({settings.get('city')}). Got "
-                         f"{str(path)!r} instead ({mine}); another map needs a store of its "
-                         "own.")
-    if isinstance(settings, dict):
-        _check_store_rule(settings, rule or {}, suite, name, store)
-    if suite is not None or not isinstance(settings, dict):
-        if suite is None:
-            raise ValueError(f"The '--suite' parameter of {name} must be given with --map "
-                             f"without a store of that map: the suite whose winds and "
-                             f"start/goal rule fly on it (one of {list(SUITES)}). Got None "
-                             "instead.")
-        return _new_city_suite(get_suite(suite, seed=value), label, city, path, name, rule)
-    options = {k: v for k, v in settings.items() if k != "city"}
-    options["navigate_options"] = dict(options.get("navigate_options") or {})
-    try:  # (its recorded decoder, a fingerprint, stays: with_decoder asks for the file)
-        return SuiteSpec(name=label, seed=value, city=city, **options)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"The store {str(store)!r} of {name} must have a manifest this "
-                         f"version reads: {exc}") from None
-
-
-def _check_store_rule(settings: dict, rule: dict, suite: str | None, name: str,
-                      store) -> None:
-    """Each rule value given (``rule``, :func:`city_rule`'s), and with ``--suite`` its preset's
-    value of an option not given, must be the one the store's ``settings`` record: a store's
-    rule is its own (another needs a store of its own), and a value that differs is refused
-    naming its option rather than as another suite's store."""
-    from windnav.experiments.nav_suite import get_suite
-
-    preset = get_suite(suite) if suite is not None else None
-    for key, flag in CITY_RULE.items():
-        given = rule.get(key, None if preset is None else getattr(preset, key))
-        if given is None or settings.get(key) == given:
-            continue
-        how = (f"Got {given!r} instead" if key in rule else
-               f"Got none instead: with --suite {suite}, the suite's {given!r}")
-        raise ValueError(f"The '{flag}' parameter of {name} must be the value the store "
-                         f"{str(store)!r} records, {settings.get(key)!r} m (its rule is read "
-                         f"from its manifest: leave out --suite and {flag}, or give {flag} "
-                         f"{settings.get(key)!r}). {how}; another rule needs a store of its "
-                         "own.")
-
-
-def _new_city_suite(base, label: str, city, path, name: str, rule: dict | None = None):
-    """``base``'s rule, with ``rule``'s values, on ``city``, named ``label``, its pairs drawn now
-    (a map too small or too crowded for them is refused naming ``--map`` and the rule options
-    before a store is made)."""
-    import dataclasses
-
-    from windnav.experiments.nav_suite import make_suite
-
-    rule = dict(rule or {})
-    want = {**{k: getattr(base, k) for k in CITY_RULE}, **rule}
-    try:
-        spec = dataclasses.replace(base, name=label, maps=(0,), map_options={},
-                                   map_size=float(max(city.size)), city=city, **rule)
-        make_suite(spec)
-    except ValueError as exc:
-        given = " with " * bool(rule) + ", ".join(f"{CITY_RULE[k]} {v:g}" for k, v in rule.items())
-        raise ValueError(f"The '--map' parameter of {name} must be a map that holds the "
-                         f"start/goal pairs of the {base.name} suite{given} "
-                         f"({want['pair_distance']:g} m apart, "
-                         f"{want['clearance']:g} m from the buildings, {want['edge']:g} m inside "
-                         f"its edge; {', '.join(CITY_RULE.values())} change them). Got "
-                         f"{str(path)!r} instead: {exc}") from None
-    return spec
-
-
 def _document(payload: dict, args, spec=None) -> dict:
     """The JSON document of this run, with ``decoder_file`` (the path and SHA-256 of
-    ``--decoder`` when it was loaded) when given, and with ``--map`` ``map_file``: its path
-    and the flown city's fingerprint."""
+    ``--decoder`` when it was loaded) when given, and with ``--map`` ``map_file``: its path,
+    the flown city's fingerprint and the suite's start/goal ``rule`` (m; since the
+    fifty-second session, when a store may have a rule of its own)."""
+    from windnav.commands._city_suite import CITY_RULE
+
     extra = decoder_file(args)
     if spec is not None and spec.city is not None:
         extra["map_file"] = {"suite": spec.name, "path": str(args.map),
-                             "city": spec.settings()["city"]}
+                             "city": spec.settings()["city"],
+                             "rule": {k: getattr(spec, k) for k in CITY_RULE}}
     return document("benchmark-nav", {**payload, **extra}, args)
 
 
@@ -656,6 +520,11 @@ def _table(args, name: str) -> int:
                          f"{sorted({r.get('map_index') for r in records})}). Got "
                          f"{str(args.figure)!r} for all of them instead.")
     out = outputs(args, files={"--json": args.json, "--figure": args.figure})
+    if spec.city is not None:  # (its rule may be its own: said above the table)
+        from windnav.experiments.nav_suite import rule_words
+
+        print(f"suite {spec.name} on the map {args.map}: start/goal pairs "
+              f"{rule_words(spec.pair_distance, spec.clearance, spec.edge)}\n")
     table = _print_table(records, variants, args.reference, spec)
     payload = {"table": table}
     if other is not None:

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 
 from windnav.commands._common import (
     add_output_arguments,
@@ -47,7 +48,7 @@ PRODUCTS = ("city.json", "city.png", "city_summary.json")
 
 def register(subparsers) -> None:
     """Add the ``city`` subcommand."""
-    from windnav.commands.benchmark_nav import add_city_rule_arguments
+    from windnav.commands._city_suite import add_city_rule_arguments
     from windnav.experiments.nav_suite import SUITES
 
     p = subparsers.add_parser(
@@ -84,10 +85,11 @@ def register(subparsers) -> None:
 def _generate(args, name: str):
     """The map of ``--kind`` with ``--seed``, ``--size`` and ``--buildings`` (errors naming
     them)."""
+    from windnav._validate import nonnegative_int
     from windnav.city import dense_map, planning_map, training_map
 
     make = {"planning": planning_map, "training": training_map, "dense": dense_map}[args.kind]
-    kwargs = {"rng": 0 if args.seed is None else args.seed}
+    kwargs = {"rng": 0 if args.seed is None else nonnegative_int(args.seed, "--seed", name)}
     if args.size is not None:
         kwargs["size"] = args.size
     if args.buildings is not None:
@@ -126,34 +128,33 @@ def summarize_city(city) -> dict:
     }
 
 
-def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *,
-                what: str = "the map") -> dict:
+def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *, path: str,
+                flag: str) -> dict:
     """The start/goal pairs of ``suite``'s rule (with ``rule``'s values, as ``benchmark-nav
     --map`` takes them, with its default suite seed, 0) on ``city``, named ``label``:
-    ``holds`` (bool), the rule, each pair
-    (``scenario_id``, ``kind``, ``speed``, ``direction_deg``, ``start``, ``goal``) or ``why`` it
-    cannot hold them (naming the map as ``what``), and the memory one wind of the suite takes
-    to simulate there."""
-    from windnav.city import grid_shape
-    from windnav.commands.benchmark_nav import CITY_RULE, _new_city_suite
+    ``holds`` (bool), the rule, each pair (``scenario_id``, ``kind``, ``speed``,
+    ``direction_deg``, ``start``, ``goal``) and the memory one wind of the suite takes to
+    simulate there, as ``benchmark-nav`` counts it to batch its winds
+    (:func:`windnav.experiments.nav_benchmark.wind_memory`); or ``why`` the map cannot hold
+    them (naming ``flag``, the map's option, and ``path``)."""
+    from windnav.commands._city_suite import CITY_RULE, new_city_suite
+    from windnav.experiments.nav_benchmark import wind_memory
     from windnav.experiments.nav_suite import get_suite, make_suite
-    from windnav.flow.memory import estimate_flow_memory, fluid_fraction, format_bytes
+    from windnav.flow.memory import format_bytes
 
     base = get_suite(suite)
     out = {"name": label, "suite": suite, "seed": base.seed,
            "rule": {k: float(rule.get(k, getattr(base, k))) for k in CITY_RULE},
-           "holds": False, "pairs": [], "why": None}
-    frames = max(2, int(round(base.record_s / base.dt)))
-    wind = estimate_flow_memory(grid_shape(city.bounds, base.dx), 1, frames,
-                                fluid_fraction=fluid_fraction(city))
-    out["wind_memory_bytes"] = int(wind)
-    out["wind_memory"] = format_bytes(wind)
+           "holds": False, "pairs": [], "why": None, "wind_memory_bytes": None,
+           "wind_memory": None}
     try:
-        spec = _new_city_suite(base, label, city, what, name, rule)
+        spec = new_city_suite(base, label, city, path, name, rule, flag=flag)
     except ValueError as exc:
         out["why"] = str(exc)
         return out
     out["holds"] = True
+    out["wind_memory_bytes"] = wind_memory(spec)
+    out["wind_memory"] = format_bytes(out["wind_memory_bytes"])
     out["pairs"] = [{"scenario_id": s.scenario_id, "kind": s.kind, "speed": s.speed,
                      "direction_deg": s.direction_deg, "start": [float(v) for v in s.start],
                      "goal": [float(v) for v in s.goal]} for s in make_suite(spec)]
@@ -162,7 +163,7 @@ def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *,
 
 def run(args) -> int:
     """Run ``windnav city``; 1 when ``--suite``'s pairs do not fit the map, else 0."""
-    from windnav.commands.benchmark_nav import CITY_RULE, city_rule
+    from windnav.commands._city_suite import CITY_RULE, city_label, city_rule
     from windnav.experiments.results import json_ready, write_json
     from windnav.viz.city import plot_city
 
@@ -184,14 +185,20 @@ def run(args) -> int:
     out = outputs(args, out=("--out", args.out, products))
     if made:
         city = _generate(args, name)
-        label, path = f"{args.kind}{0 if args.seed is None else args.seed}", None
+        label, path = "city", None  # (the file's name, as benchmark-nav --map names it)
     else:
         label, path, city = map_argument(args.map, "--map", name)
+        if args.suite is not None:
+            city_label(label, "--map", name)
+        if args.json is not None and Path(args.json).resolve() == path.resolve():
+            raise ValueError(f"The '--json' parameter of {name} must not be the map file it "
+                             f"reads. Got {str(args.json)!r} instead.")
     summary = {"map": None if path is None else str(path), "name": label,
                "kind": args.kind, **summarize_city(city)}
     if args.suite is not None:
-        summary["suite"] = suite_pairs(city, label, args.suite, rule, name,
-                                       what=args.map if not made else f"--kind {args.kind}")
+        summary["suite"] = suite_pairs(
+            city, label, args.suite, rule, name, flag="--kind" if made else "--map",
+            path=f"the {args.kind} map" if made else str(path))
     with out.writing() as stage:
         if made:
             city.to_rotorpy_json(stage.dir / PRODUCTS[0])

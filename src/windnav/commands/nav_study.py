@@ -117,7 +117,7 @@ STUDIES = ("qe", "h", "cases", "winds", "gs", "pace", "feasibility", "gusts", "b
 
 def register(subparsers) -> None:
     """Add the ``nav-study`` subcommand."""
-    from windnav.commands.benchmark_nav import add_city_rule_arguments
+    from windnav.commands._city_suite import add_city_rule_arguments
     from windnav.experiments.executor import BACKENDS
     from windnav.experiments.nav_suite import SUITES
 
@@ -209,6 +209,8 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+_SUITE_STUDIES = tuple(s for s in STUDIES if s != "gs")  # (gs reads no suite)
+
 STUDY_OPTIONS = {
     "store": ("qe", "h", "cases", "pace", "bound", "tilt", "feasibility"),
     "maps": ("qe", "h", "pace", "bound", "tilt", "inflight", "feasibility"),
@@ -216,12 +218,11 @@ STUDY_OPTIONS = {
     "variant": ("cases", "pace", "inflight"),
     "workers": ("qe", "h", "tilt", "inflight", "feasibility"),
     "executor": ("qe", "h", "tilt", "inflight", "feasibility"),
-    "suite": tuple(s for s in STUDIES if s != "gs"),
+    "suite": _SUITE_STUDIES,
     "pairs": ("inflight",), "every": ("inflight",), "compare": ("inflight",),
     "tau": ("inflight",),
-    "map": tuple(s for s in STUDIES if s != "gs"),
-    **dict.fromkeys(("pair_distance", "edge", "clearance"), tuple(s for s in STUDIES
-                                                                 if s != "gs")),
+    "map": _SUITE_STUDIES,
+    **dict.fromkeys(("pair_distance", "edge", "clearance"), _SUITE_STUDIES),
     "case": ("gs",), "seed": ("gs",),
     "cache": ("feasibility",), "airspeeds": ("feasibility",), "fly": ("feasibility",),
     "scenario": ("gusts",), "base": ("gusts",), "gust_k": ("gusts",),
@@ -315,14 +316,15 @@ def study_suite(args):
     always the thesis suite with seed 0, so a store flown with ``benchmark-nav --seed 5`` (or
     another suite) could not be studied: nav-study's ``--seed`` is the gs study's (CLI audit,
     thirty-seventh session). With ``--map [NAME=]FILE``, the suite on that city
-    (:func:`windnav.commands.benchmark_nav.city_suite`): the store's, else ``--suite``'s
+    (:func:`windnav.commands._city_suite.city_suite`): the store's, else ``--suite``'s
     (default thesis) rule on it; a store of a city without ``--map`` is refused naming it."""
-    from windnav.commands.benchmark_nav import _manifest, _store_city, city_rule, city_suite
+    from windnav.commands._city_suite import city_rule, city_suite, store_city
+    from windnav.commands.benchmark_nav import _manifest
     from windnav.experiments.nav_suite import SUITES, get_suite
 
     store = getattr(args, "store", None)
     man = (_manifest(Path(store)) if store is not None else None) or {}
-    recorded = _store_city(man)
+    recorded = store_city(man)
     given = getattr(args, "map", None)
     rule = city_rule(args)  # (refused without a city)
     if isinstance(given, str):  # a city of one's own: the store's suite, else --suite's

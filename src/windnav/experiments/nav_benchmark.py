@@ -270,23 +270,31 @@ def wind_batches(spec: SuiteSpec, groups, size: int) -> list[tuple[int, tuple[in
     return sorted(batches)
 
 
+def wind_memory(spec: SuiteSpec, batch: int = 1) -> int:
+    """Bytes that simulating ``batch`` winds of one of the suite's maps together takes, by
+    :func:`~windnav.flow.memory.estimate_flow_memory`: the suite's grid (its planning maps'
+    square, or its city's bounds) and recorded frames, the map counted open (the conservative
+    case: buildings take cells out of the pressure solve)."""
+    from windnav.city import grid_shape
+    from windnav.flow.memory import estimate_flow_memory
+
+    bounds = (0.0, spec.map_size, 0.0, spec.map_size) if spec.city is None else spec.city.bounds
+    frames = max(2, int(round(spec.record_s / spec.dt)))
+    return estimate_flow_memory(grid_shape(bounds, spec.dx), batch, frames)
+
+
 def fit_wind_batch(spec: SuiteSpec, wind_batch: int, processes: int) -> int:
     """The largest batch of at most ``wind_batch`` winds whose simulation in ``processes``
     workers at once fits the memory limit (:func:`windnav.flow.memory.default_memory_limit`)
-    by :func:`~windnav.flow.memory.estimate_flow_memory` (the suite's grid and frames, the map
-    counted open, the conservative case); 1 when none does (the solver's own check then
-    decides). A smaller batch changes no value, only the time."""
-    from windnav.city import grid_shape
-    from windnav.flow.memory import default_memory_limit, estimate_flow_memory
+    by :func:`wind_memory`; 1 when none does (the solver's own check then decides). A smaller
+    batch changes no value, only the time."""
+    from windnav.flow.memory import default_memory_limit
 
     limit = default_memory_limit()
     if limit is None:
         return wind_batch
-    bounds = (0.0, spec.map_size, 0.0, spec.map_size) if spec.city is None else spec.city.bounds
-    shape = grid_shape(bounds, spec.dx)
-    frames = max(2, int(round(spec.record_s / spec.dt)))
     for batch in range(wind_batch, 1, -1):
-        if processes * estimate_flow_memory(shape, batch, frames) <= limit:
+        if processes * wind_memory(spec, batch) <= limit:
             return batch
     return 1
 

@@ -56,6 +56,7 @@ __all__ = [
     "get_suite",
     "make_suite",
     "parse_scenario_id",
+    "rule_words",
     "suite_map",
     "suite_name_ok",
     "wind_of",
@@ -82,6 +83,13 @@ def _settings_value(obj) -> str:
     if callable(fingerprint):
         return f"{type(obj).__name__} sha256:{fingerprint()}"
     return str(obj)
+
+
+def rule_words(pair_distance: float, clearance: float, edge: float) -> str:
+    """A suite's start/goal rule in words (m): ``"282 m apart, 15 m from the buildings, 25 m
+    inside its edge"``."""
+    return (f"{pair_distance:g} m apart, {clearance:g} m from the buildings, {edge:g} m inside "
+            "its edge")
 
 
 def derive_seed(seed: int, key: str) -> int:

@@ -13,6 +13,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.experiments.nav_suite import rule_words
 from windnav.viz.nav_studies import KIND_COLORS
 
 __all__ = ["plot_city"]
@@ -69,24 +70,25 @@ def plot_city(city, summary: dict, path) -> Path:
         handles += [Line2D([], [], ls="none", marker="*", color="0.7", mec="k", ms=8,
                            label="goal"),
                     Line2D([], [], ls="--", color="0.4", label=f"{edge:g} m inside the edge")]
-        ax.legend(handles=handles, fontsize=7, loc="upper center", ncol=4,
-                  bbox_to_anchor=(0.5, -0.09), frameon=False)
+        fig.legend(handles=handles, fontsize=7, loc="lower center", ncol=4, frameon=False)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
     ax.set_aspect("equal")
     ax.set_xlabel("x east (m)")
     ax.set_ylabel("y north (m)")
-    title = (f"{summary['name']}: {x1 - x0:g} x {y1 - y0:g} m, {summary['buildings']} "
-             f"buildings ({summary['blocks']} blocks), {100 * summary['built_fraction']:.1f} % "
+    def count(n: int, word: str) -> str:
+        return f"{n} {word}{'' if n == 1 else 's'}"
+
+    title = (f"{summary['name']}: {x1 - x0:g} x {y1 - y0:g} m, "
+             f"{count(summary['buildings'], 'building')} ("
+             f"{count(summary['blocks'], 'block')}), {100 * summary['built_fraction']:.1f} % "
              "built")
     if suite is not None:
-        rule = suite["rule"]
-        what = (f"{len(suite['pairs'])} start/goal pairs" if suite["holds"]
+        what = (count(len(suite["pairs"]), "start/goal pair") if suite["holds"]
                 else "cannot hold the start/goal pairs")
-        title += (f"\n{suite['suite']} suite's rule ({rule['pair_distance']:g} m apart, "
-                  f"{rule['clearance']:g} m from buildings): {what}")
+        title += f"\n{suite['suite']} suite's rule ({rule_words(**suite['rule'])}): {what}"
     ax.set_title(title, fontsize=9)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.05 if handles else 0, 1, 1))
     path = Path(path)
     save_and_close(fig, path, dpi=110)
     return path
