@@ -473,3 +473,24 @@ def test_regain_flies_back_to_the_goal_from_where_a_gust_left_the_vehicle(city, 
     with pytest.raises(ValueError, match="regain_m"):
         fly(city, flow, planner=Brake(), duration=40.0,
             escape=EscapeConfig(airspeed_mps=8.0, regain_m=10.0))
+
+
+def test_the_edge_band_leaves_a_goal_inside_it_reachable(city, flow):
+    """A goal nearer the map's edge than the edge guard (a small city's rule may keep goals
+    10 m in while the sixth variant guards 15 m): the route's lattice narrows its band to
+    leave the goal a cell clear of it. The goal's cell was taken out, and the first escape's
+    search raised "the 'goal_xy' parameter of least_time lies inside a building or within
+    6.0 m of one", ending the flight in a harness error."""
+    from windnav.experiments.navigate import _FastestRouteFn
+
+    goal = np.array([130.0, 60.0])  # 10 m from the east edge
+    guarded = _FastestRouteFn(city, flow, goal, 8.0, dx=2.0, clearance=6.0, edge_m=15.0)
+    route = guarded(np.array([60.0, 20.0]))
+    assert np.allclose(route.samples[-1], goal) and route.time_s > 0
+    assert route.samples[:, 0].max() <= 130.0 + 1e-9
+    # a goal clear of the band: the band as before (no cell within 15 m of the edge)
+    far = _FastestRouteFn(city, flow, np.asarray(GOAL), 8.0, dx=2.0, clearance=6.0,
+                          edge_m=15.0)
+    lat = far.lattice
+    assert not lat.free[:, lat.x > 140.0 - 15.0].any() and not lat.free[lat.y < 15.0].any()
+    assert guarded.lattice.free[:, lat.x > 140.0 - 15.0].any()

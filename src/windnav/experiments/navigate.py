@@ -596,10 +596,16 @@ class _FastestRouteFn:
         t0 = time.perf_counter()
         gust = wind_covariance(flow) if gust_k > 0 else None
         lattice = reach_lattice(city, flow.wind_field(), dx=dx, clearance=clearance, gust=gust)
-        if edge_m > 0:  # the edge guard's band is no place for the route either
-            x0, x1, y0, y1 = city.bounds
-            inside_x = (lattice.x >= x0 + edge_m) & (lattice.x <= x1 - edge_m)
-            inside_y = (lattice.y >= y0 + edge_m) & (lattice.y <= y1 - edge_m)
+        x0, x1, y0, y1 = city.bounds
+        # the edge guard's band is no place for the route either, but for a goal inside it (a
+        # suite whose rule keeps goals nearer the edge than the guard, as a small city's may)
+        # the band narrows to leave the goal's cell a cell clear of it: the goal was refused as
+        # "within 6 m of a building", and the flight ended in a harness error
+        near = min(goal[0] - x0, x1 - goal[0], goal[1] - y0, y1 - goal[1]) - lattice.dx
+        band = min(edge_m, near)
+        if band > 0:
+            inside_x = (lattice.x >= x0 + band) & (lattice.x <= x1 - band)
+            inside_y = (lattice.y >= y0 + band) & (lattice.y <= y1 - band)
             lattice = dataclasses.replace(
                 lattice, free=lattice.free & inside_y[:, None] & inside_x[None, :])
         self.lattice = lattice

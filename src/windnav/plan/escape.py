@@ -98,7 +98,9 @@ class EscapeConfig:
     edge_m : float
         With ``airspeed_mps`` set: the escape also begins when the vehicle comes within this
         distance of the map's edge (m, >= 0; 0: never), where the wind would carry it off
-        the map before any stall; and the route keeps out of that band.
+        the map before any stall; and the route keeps out of that band (narrowed to leave
+        a goal inside it a lattice cell clear, since the fifty-second session: a small city's
+        suite may keep its goals nearer the edge).
     pace_margin_s : float
         With ``airspeed_mps`` set: the escape also begins when, at its closing speed over the
         last ``pace_window_s``, the vehicle would reach the goal later than ``pace_margin_s``

@@ -279,7 +279,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     (:func:`~windnav.experiments.nav_feasibility.reach_table`'s ``airspeed``), grouped by inlet
     speed and pair kind (jittered points, in :data:`KIND_COLORS`); unreachable scenarios as
     crosses above the record's end; the dashed line is the last arrival that leaves the 5 s
-    hold. Bottom left: per variant of ``table`` flown on all its scenarios, the failure rate over
+    hold. Without variants in ``table`` (no benchmark store given), that panel alone. Bottom
+    left: per variant of ``table`` flown on all its scenarios, the failure rate over
     all its flights and over the flights in reachable scenarios (one bar when every scenario is
     reachable). Bottom right: the same variants' failure rates (rows, in the bars' order) by the
     scenario's least time in the mean wind (columns, ``by_mean_time``, with the number of
@@ -305,12 +306,14 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     reach = list(reach)
     groups = list(table["groups"])
     rng = np.random.default_rng(0)
+    v = table["variants"]
     # the scatter across the top; the two failure panels below it, whose variant labels (long
-    # label parameters of the sixth variant) need the width
-    fig = plt.figure(figsize=(16, 10.5))
-    grid = fig.add_gridspec(2, 2, width_ratios=[1, 1.15], height_ratios=[1, 1.1])
+    # label parameters of the sixth variant) need the width; without flights, the scatter alone
+    # (its two panels were drawn empty)
+    fig = plt.figure(figsize=(16, 10.5 if v else 5.5))
+    grid = fig.add_gridspec(2 if v else 1, 2, width_ratios=[1, 1.15],
+                            height_ratios=[1, 1.1] if v else [1])
     ax = fig.add_subplot(grid[0, :])
-    bx, cx = fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])
     record_s = max(r["record_s"] for r in reach)
     hold_s = max(r["hold_s"] for r in reach)
     for g, name in enumerate(groups):
@@ -331,11 +334,18 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
             ha="right", va="top", fontsize=8)
     ax.set_xticks(range(len(groups)))
     ax.set_xticklabels([n.replace("/", " m/s\n") for n in groups], fontsize=9)
+    ax.set_xlim(-0.5, len(groups) - 0.5)  # (the hold line's label inside, at the right)
     ax.set_ylim(0, record_s + 13)
     ax.set_ylabel("least time to the goal, recorded wind (s)")
     ax.set_title(f"least time within {table['airspeed']:.2f} m/s of airspeed "
                  f"(x: not reachable; n reachable/n)", fontsize=10)
-    v = table["variants"]
+    if not v:
+        fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
+        fig.tight_layout()
+        path = Path(path)
+        save_and_close(fig, path, dpi=110)
+        return path
+    bx, cx = fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])
     # the variants flown on every scenario of the table (studies flown on a part of the suite
     # would compare failure rates over other scenario sets); all when none is
     names = [n for n in v if v[n]["flights"] + v[n].get("errors", 0) == table["n"]] or list(v)
