@@ -15,7 +15,7 @@ import pytest
 from scipy import stats
 
 from windnav.city import City
-from windnav.experiments.nav_suite import clearance_to_buildings, get_suite, make_suite
+from windnav.experiments.nav_suite import SuiteSpec, clearance_to_buildings, get_suite, make_suite
 
 # two buildings [x_min, x_max, y_min, y_max], m
 FOOTPRINTS = [[100.0, 140.0, 200.0, 220.0], [300.0, 310.0, 50.0, 120.0]]
@@ -198,3 +198,24 @@ def test_the_committed_town300_store_is_the_thesis_suite_with_a_rule_of_its_own(
     again = city_suite(text, "test", manifest, suite=None, seed_value=None,
                        store="docs/navigation")
     assert again.settings() == spec.settings() and again.name == "town300"
+
+
+def test_a_suite_built_by_hand_on_a_city_is_the_command_s():
+    """``SuiteSpec(name, maps=(0,), city=...)`` with the thesis defaults is the suite that
+    ``benchmark-nav --suite thesis --map windinet=FILE`` flew (the committed store's hash):
+    ``map_size`` is the city's larger side (it kept the preset's 600 m, and hashed apart), and
+    a rule given as ints is the same suite as with floats (it wrote 282, not 282.0)."""
+    import json
+
+    from windnav.city import read_rotorpy_json
+    from windnav.experiments.decoder_eval import windinet_layout
+
+    manifest = json.loads((Path(__file__).parents[1] / "docs" / "navigation"
+                           / "windinet_manifest.json").read_text())
+    city = read_rotorpy_json(windinet_layout())
+    by_hand = SuiteSpec("windinet", maps=(0,), city=city)
+    assert by_hand.map_size == max(city.size) and by_hand.settings() == manifest["settings"]
+    ints = SuiteSpec("windinet", maps=(0,), city=city, pair_distance=282, edge=25,
+                     clearance=15, record_s=100, map_size=600)
+    assert ints.settings_hash() == by_hand.settings_hash() == manifest["settings_hash"]
+    assert isinstance(ints.pair_distance, float) and isinstance(ints.edge, float)

@@ -149,8 +149,8 @@ class SuiteSpec:
         A map of one's own (:class:`~windnav.city.City`, e.g. read from a RotorPy world JSON),
         flown as the suite's one map, ``m00``, instead of a :func:`~windnav.city.planning_map`:
         ``maps`` must then be ``(0,)`` and ``map_options`` empty, and the pairs are drawn
-        inside the city's own bounds (``map_size`` draws nothing; it stays in the settings,
-        where ``benchmark-nav --map`` records the city's larger side). In the settings by its
+        inside the city's own bounds (``map_size`` draws nothing: it is set to the city's
+        larger side, which the settings record). In the settings by its
         :meth:`~windnav.city.City.fingerprint`; absent from them when None, so the suites
         without one keep their settings hash.
     """
@@ -207,15 +207,22 @@ class SuiteSpec:
                 raise ValueError(f"The {name!r} parameter of {where} must be a non-empty "
                                  f"sequence of {rule}. Got {vals!r} instead.")
             object.__setattr__(self, name, tuple(int(v) for v in vals))
+        # as floats: an int (pair_distance=180) wrote 180 into the settings, and its store
+        # hashed apart from the same suite's with 180.0 (review, fifty-second session)
         for name in ("pair_distance", "map_size", "record_s", "dx", "dt"):
-            positive_float(getattr(self, name), name, where)
+            object.__setattr__(self, name, positive_float(getattr(self, name), name, where))
         for name in ("clearance", "edge", "spinup_s"):
-            positive_float(getattr(self, name), name, where, allow_zero=True)
+            object.__setattr__(self, name, positive_float(getattr(self, name), name, where,
+                                                          allow_zero=True))
         if not 0.0 < float(self.cone_deg) <= 90.0:
             raise ValueError(f"The 'cone_deg' parameter of {where} must be in (0, 90]. "
                              f"Got {self.cone_deg!r} instead.")
+        object.__setattr__(self, "cone_deg", float(self.cone_deg))
         if self.city is not None:
             self._check_city(where)
+            # the city's larger side, as benchmark-nav --map records it: a suite built by hand
+            # kept the preset's 600 m, and hashed apart from the command's for the same city
+            object.__setattr__(self, "map_size", float(max(self.city.size)))
             x0, x1, y0, y1 = self.city.bounds
             width, depth = x1 - x0 - 2.0 * self.edge, y1 - y0 - 2.0 * self.edge
         else:
