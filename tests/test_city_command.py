@@ -88,6 +88,14 @@ def test_a_map_too_small_for_the_rule_is_said_and_a_rule_of_its_own_fits(tmp_pat
     assert "--pair-distance, --edge, --clearance change them" in captured.err
     doc = json.loads((out / "city_summary.json").read_text())  # still written
     assert not doc["suite"]["holds"] and doc["suite"]["pairs"] == []
+    # the one 20 m block closes a tenth of a cross-section along an axis, a little more
+    # across it at 15-30 deg (20 (cos + sin) m of a section 200 / cos m long)
+    block = doc["blockage"]
+    assert block["by_direction_deg"]["0"] == pytest.approx(0.1)
+    assert block["by_direction_deg"]["90"] == pytest.approx(0.1)
+    assert 0.1 <= block["max"] < 0.12 and block["at_deg"] not in (0.0, 90.0)
+    assert (block["along_axis"], block["axis_deg"]) == (pytest.approx(0.1), 0.0)
+    assert block["mean_wind_factor"] == pytest.approx(1 / 0.9)  # along an axis only
     assert (out / "city.png").is_file()
     assert cli.main(["city", "--map", str(small), "--suite", "quick", "--pair-distance", "150",
                      "--edge", "20", "--out", str(tmp_path / "b")]) == 0

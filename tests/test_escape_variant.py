@@ -488,6 +488,10 @@ def test_the_edge_band_leaves_a_goal_inside_it_reachable(city, flow):
     route = guarded(np.array([60.0, 20.0]))
     assert np.allclose(route.samples[-1], goal) and route.time_s > 0
     assert route.samples[:, 0].max() <= 130.0 + 1e-9
+    lat = guarded.lattice  # only the goal's side narrows: the other three keep 15 m
+    assert not lat.free[:, lat.x < 15.0].any() and not lat.free[lat.y < 15.0].any()
+    assert not lat.free[lat.y > 120.0 - 15.0].any()
+    assert not lat.free[:, lat.x > 140.0 - 8.0].any() and lat.free[:, lat.x > 125.0].any()
     # a goal clear of the band: the band as before (no cell within 15 m of the edge)
     far = _FastestRouteFn(city, flow, np.asarray(GOAL), 8.0, dx=2.0, clearance=6.0,
                           edge_m=15.0)

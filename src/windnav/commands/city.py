@@ -108,13 +108,23 @@ def _generate(args, name: str):
 def summarize_city(city) -> dict:
     """The summary of ``city``: its bounds and extent (m), buildings (connected blocks) and
     blocks, the heights (m), the built-up share of its area (on a 1 m raster), the median
-    block's smaller side (m) and the flow solver's resolution note at 1 m (None when the 1 m
-    grid resolves it)."""
+    block's smaller side (m), the flow solver's resolution note at 1 m (None when the 1 m
+    grid resolves it), and the blockage of a cross-section across the wind for winds every
+    15 deg (:func:`windnav.flow.validity.blockage`; a wind and its opposite block alike), the
+    largest, and the largest along a map axis with ``mean_wind_factor``, ``1 / (1 - b)``: the
+    solver's mean wind through that section over the inlet's, exact by continuity along an
+    axis only (None when a section is closed: no wind passes)."""
     import numpy as np
+
+    from windnav.flow.validity import blockage
 
     x, y = city.grid(1.0)
     solid = city.rasterize(x, y)
     heights = np.asarray(city.heights, dtype=float)
+    angles = np.arange(0.0, 180.0, 15.0)
+    shares = blockage(city, angles)
+    worst = int(np.argmax(shares))
+    axis = 0 if shares[0] >= shares[6] else 6  # 0 or 90 deg
     return {
         "bounds": [float(b) for b in city.bounds],
         "size_m": [float(s) for s in city.size],
@@ -124,6 +134,12 @@ def summarize_city(city) -> dict:
         "built_fraction": float(solid.mean()),
         "median_block_side_m": city.median_building_side,
         "resolution_note": city.resolution_note(1.0),
+        "blockage": {"by_direction_deg": {f"{a:g}": float(b)
+                                          for a, b in zip(angles, shares, strict=True)},
+                     "max": float(shares[worst]), "at_deg": float(angles[worst]),
+                     "along_axis": float(shares[axis]), "axis_deg": float(angles[axis]),
+                     "mean_wind_factor": (float(1.0 / (1.0 - shares[axis]))
+                                          if shares[axis] < 1.0 else None)},
         "fingerprint": city.fingerprint(),
     }
 
@@ -207,7 +223,9 @@ def run(args) -> int:
         write_json(doc, stage.dir / PRODUCTS[2])
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
-    brief = {k: v for k, v in summary.items() if k not in ("suite", "fingerprint")}
+    brief = {k: v for k, v in summary.items() if k not in ("suite", "fingerprint", "blockage")}
+    brief["blockage"] = {k: summary["blockage"][k] for k in (
+        "max", "at_deg", "along_axis", "axis_deg", "mean_wind_factor")}
     if args.suite is not None:
         s = summary["suite"]
         brief["suite"] = {"suite": s["suite"], "rule": s["rule"], "holds": s["holds"],

@@ -597,15 +597,15 @@ class _FastestRouteFn:
         gust = wind_covariance(flow) if gust_k > 0 else None
         lattice = reach_lattice(city, flow.wind_field(), dx=dx, clearance=clearance, gust=gust)
         x0, x1, y0, y1 = city.bounds
-        # the edge guard's band is no place for the route either, but for a goal inside it (a
-        # suite whose rule keeps goals nearer the edge than the guard, as a small city's may)
-        # the band narrows to leave the goal's cell a cell clear of it: the goal was refused as
-        # "within 6 m of a building", and the flight ended in a harness error
-        near = min(goal[0] - x0, x1 - goal[0], goal[1] - y0, y1 - goal[1]) - lattice.dx
-        band = min(edge_m, near)
-        if band > 0:
-            inside_x = (lattice.x >= x0 + band) & (lattice.x <= x1 - band)
-            inside_y = (lattice.y >= y0 + band) & (lattice.y <= y1 - band)
+        # the edge guard's band is no place for the route either, but on a side with the goal
+        # inside it (a suite whose rule keeps goals nearer the edge than the guard, as a small
+        # city's may) the band narrows to leave the goal a cell clear of it: the goal was
+        # refused as "within 6 m of a building", and the flight ended in a harness error
+        if edge_m > 0:
+            w, e, s, n = (min(edge_m, d - lattice.dx) for d in
+                          (goal[0] - x0, x1 - goal[0], goal[1] - y0, y1 - goal[1]))
+            inside_x = (lattice.x >= x0 + w) & (lattice.x <= x1 - e)
+            inside_y = (lattice.y >= y0 + s) & (lattice.y <= y1 - n)
             lattice = dataclasses.replace(
                 lattice, free=lattice.free & inside_y[:, None] & inside_x[None, :])
         self.lattice = lattice

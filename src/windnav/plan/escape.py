@@ -98,9 +98,10 @@ class EscapeConfig:
     edge_m : float
         With ``airspeed_mps`` set: the escape also begins when the vehicle comes within this
         distance of the map's edge (m, >= 0; 0: never), where the wind would carry it off
-        the map before any stall; and the route keeps out of that band (narrowed to leave
-        a goal inside it a lattice cell clear, since the fifty-second session: a small city's
-        suite may keep its goals nearer the edge).
+        the map before any stall; and the route keeps out of that band (narrowed on the
+        goal's side to leave a goal inside it a lattice cell clear, since the fifty-second
+        session: a small city's suite may keep its goals nearer the edge; a start or goal
+        inside the band then begins the escape as soon as the vehicle is there).
     pace_margin_s : float
         With ``airspeed_mps`` set: the escape also begins when, at its closing speed over the
         last ``pace_window_s``, the vehicle would reach the goal later than ``pace_margin_s``
