@@ -10,8 +10,11 @@
 ``dense_map``, with ``--seed``, ``--size`` and ``--buildings`` when given) as a RotorPy world
 JSON, ``city.json``, which every ``--map`` option reads; ``--map [NAME=]FILE`` reads one. Both
 draw the map's blocks by height (``city.png``) and print its summary (extent, buildings and
-blocks, heights, the built-up share, the median block's smaller side and whether the flow
-solver's 1 m grid resolves it).
+blocks, heights, the built-up share, the median block's smaller side, whether the flow
+solver's 1 m grid resolves it, and how much of a cross-section across the wind its blocks
+close: :func:`windnav.flow.validity.blockage`, with the mean wind's factor through that
+section along a map axis). ``--kind dense --seed N`` is the evaluation maps' generator, not
+those maps (``evaluate-decoder`` draws them from its own seed).
 
 ``--suite`` (with the rule options of ``windnav benchmark-nav --map``: ``--pair-distance``,
 ``--edge``, ``--clearance``) draws the start/goal pairs that ``benchmark-nav --suite S --map
@@ -62,8 +65,8 @@ def register(subparsers) -> None:
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument("--kind", choices=KINDS, default=None,
                         help="generate a map: planning (the navigation suites', 600 m), "
-                             "training (the decoder's, 300 m) or dense (its evaluation maps, "
-                             "1.2 km), written as OUT/city.json")
+                             "training (the decoder's, 300 m) or dense (the generator of its "
+                             "1.2 km evaluation maps), written as OUT/city.json")
     source.add_argument("--map", default=None, metavar="[NAME=]FILE",
                         help="a RotorPy world JSON of your own (NAME: default the file's name)")
     p.add_argument("--seed", type=int, default=None,
