@@ -22,6 +22,17 @@ from windnav.wind.gridded import GriddedWind
 EMPTY = City((0, 200, 0, 200), np.zeros((0, 4)), np.zeros(0))
 
 
+def tiny_suite(name: str):
+    """A suite of 4 scenarios on one 200 m map (2 winds at 3 m/s, 100 m pairs, 30 s records)."""
+    from windnav.experiments.nav_suite import SuiteSpec
+
+    return SuiteSpec(
+        name, maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,),
+        incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1, pair_distance=100.0,
+        clearance=25.0, edge=15.0, map_size=200.0,
+        map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+
+
 def test_max_ground_speed_closed_form():
     e = [[1, 0], [1, 0], [1, 0], [1, 0], [3, 4]]
     w = [[-5, 0], [0, 5], [-14, 0], [0, 14], [3, 4]]
@@ -211,13 +222,8 @@ def test_reach_table_counts():
 
 def test_reach_scenarios_on_a_tiny_suite_resumes_and_bounds_the_flights(tmp_path):
     from windnav.experiments.nav_feasibility import RECORDS, reach_scenarios
-    from windnav.experiments.nav_suite import SuiteSpec
 
-    spec = SuiteSpec(
-        "tiny", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,),
-        incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1, pair_distance=100.0,
-        clearance=25.0, edge=15.0, map_size=200.0,
-        map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+    spec = tiny_suite("tiny")
     reach = reach_scenarios(spec, tmp_path, airspeeds=(2.0, 13.0), executor="serial",
                             progress=False)
     assert [r["scenario_id"] for r in reach] == [f"tiny/m00/w0{w}/p{p}" for w in (0, 1)
@@ -265,13 +271,9 @@ def test_feasibility_command_writes_tables_and_figure(tmp_path, monkeypatch, cap
 
     from windnav import cli
     from windnav.experiments.nav_benchmark import NavStore
-    from windnav.experiments.nav_suite import SUITES, SuiteSpec
+    from windnav.experiments.nav_suite import SUITES
 
-    spec = SuiteSpec(
-        "quick", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,),
-        incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1, pair_distance=100.0,
-        clearance=25.0, edge=15.0, map_size=200.0,
-        map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+    spec = tiny_suite("quick")
     monkeypatch.setitem(SUITES, "quick", spec)
     store = NavStore(tmp_path / "store", spec, create=True)
     for w, outcome in ((0, "success"), (1, "timeout")):
@@ -714,13 +716,9 @@ def test_feasibility_and_gusts_study_a_city_file_without_a_store(tmp_path, monke
 
     from windnav import cli
     from windnav.city import City
-    from windnav.experiments.nav_suite import SUITES, SuiteSpec
+    from windnav.experiments.nav_suite import SUITES
 
-    spec = SuiteSpec(
-        "quick", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,),
-        incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1, pair_distance=100.0,
-        clearance=25.0, edge=15.0, map_size=200.0,
-        map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
+    spec = tiny_suite("quick")
     monkeypatch.setitem(SUITES, "quick", spec)
     file = tmp_path / "yard.json"
     City(bounds=(0.0, 90.0, 0.0, 90.0), footprints=[[40.0, 50.0, 40.0, 50.0]],
