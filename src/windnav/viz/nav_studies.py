@@ -339,13 +339,26 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     ax.set_ylabel("least time to the goal, recorded wind (s)")
     ax.set_title(f"least time within {table['airspeed']:.2f} m/s of airspeed "
                  f"(x: not reachable; n reachable/n)", fontsize=10)
-    if not v:
-        fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
-        fig.tight_layout()
-        path = Path(path)
-        save_and_close(fig, path, dpi=110)
-        return path
-    bx, cx = fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1])
+    if v:
+        _reach_failures(fig, fig.add_subplot(grid[1, 0]), fig.add_subplot(grid[1, 1]), table)
+    fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
+    fig.tight_layout()
+    # the top panel from the figure's left margin: laid out with the bars' long variant labels
+    # below it, it began a third of the way in (figures audit, 2026-12-05)
+    top = ax.get_position()
+    x0 = min(top.x0, 0.06)
+    ax.set_position([x0, top.y0, top.x1 - x0, top.height])
+    path = Path(path)
+    save_and_close(fig, path, dpi=110, bbox_inches="tight")
+    return path
+
+
+def _reach_failures(fig, bx, cx, table: Mapping) -> None:
+    """:func:`plot_reach`'s two failure panels of the variants of ``table`` (at least one):
+    the bars on ``bx``, the rates by least time in the mean wind on ``cx``."""
+    import numpy as np
+
+    v = table["variants"]
     # the variants flown on every scenario of the table (studies flown on a part of the suite
     # would compare failure rates over other scenario sets); all when none is
     names = [n for n in v if v[n]["flights"] + v[n].get("errors", 0) == table["n"]] or list(v)
@@ -374,8 +387,8 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     bx.set_xlabel("failure (%)")
     # failures by the least time in the mean wind: one row per variant (the bars' rows), one
     # column per bin with scenarios, the rate written in each cell
-    bins = [b for b in next(iter(v.values()))["by_mean_time"]] if v else []
-    counts = [v[names[0]]["by_mean_time"][b][0] for b in bins] if names else []
+    bins = list(next(iter(v.values()))["by_mean_time"])
+    counts = [v[names[0]]["by_mean_time"][b][0] for b in bins]
     shown = [i for i, c in enumerate(counts) if c > 0]
     rates = np.array([[100 * v[n]["by_mean_time"][bins[i]][1] / v[n]["by_mean_time"][bins[i]][0]
                        for i in shown] for n in names]).reshape(len(names), len(shown))
@@ -392,16 +405,6 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     cx.set_xlabel("least time to the goal in the mean wind (s; scenarios per bin)")
     cx.set_title("failure (%) by the least time in the mean wind", fontsize=10)
     fig.colorbar(im, ax=cx, label="failure (%)", fraction=0.05, pad=0.02)
-    fig.suptitle(title or "Which scenarios can be flown within the airspeed envelope?")
-    fig.tight_layout()
-    # the top panel from the figure's left margin: laid out with the bars' long variant labels
-    # below it, it began a third of the way in (figures audit, 2026-12-05)
-    top = ax.get_position()
-    x0 = min(top.x0, 0.06)
-    ax.set_position([x0, top.y0, top.x1 - x0, top.height])
-    path = Path(path)
-    save_and_close(fig, path, dpi=110, bbox_inches="tight")
-    return path
 
 
 @closes_figures_on_error
