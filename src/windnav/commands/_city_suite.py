@@ -19,6 +19,12 @@ CITY_RULE = {"pair_distance": "--pair-distance", "edge": "--edge", "clearance": 
 option)."""
 
 
+def suite_rule(spec) -> dict:
+    """The start/goal rule of the suite ``spec`` (:data:`CITY_RULE` field: value, m), in that
+    order: what ``--pair-distance``, ``--edge`` and ``--clearance`` set."""
+    return {k: getattr(spec, k) for k in CITY_RULE}
+
+
 def add_city_rule_arguments(parser) -> None:
     """``--pair-distance``, ``--edge``, ``--clearance``: the start/goal rule on ``--map``'s
     city (default: the suite's, 282 m, 25 m and 15 m for both presets)."""
@@ -166,7 +172,7 @@ def new_city_suite(base, label: str, city, path, name: str, rule: dict | None = 
     from windnav.experiments.nav_suite import make_suite, rule_words
 
     rule = {k: float(v) for k, v in (rule or {}).items()}  # (an int would hash apart)
-    want = {**{k: getattr(base, k) for k in CITY_RULE}, **rule}
+    want = {**suite_rule(base), **rule}
     try:
         spec = dataclasses.replace(base, name=label, maps=(0,), map_options={},
                                    map_size=float(max(city.size)), city=city, **rule)

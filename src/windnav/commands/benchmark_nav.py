@@ -234,13 +234,13 @@ def _document(payload: dict, args, spec=None) -> dict:
     ``--decoder`` when it was loaded) when given, and with ``--map`` ``map_file``: its path,
     the flown city's fingerprint and the suite's start/goal ``rule`` (m; since the
     fifty-second session, when a store may have a rule of its own)."""
-    from windnav.commands._city_suite import CITY_RULE
+    from windnav.commands._city_suite import suite_rule
 
     extra = decoder_file(args)
     if spec is not None and spec.city is not None:
         extra["map_file"] = {"suite": spec.name, "path": str(args.map),
                              "city": spec.settings()["city"],
-                             "rule": {k: getattr(spec, k) for k in CITY_RULE}}
+                             "rule": suite_rule(spec)}
     return document("benchmark-nav", {**payload, **extra}, args)
 
 
@@ -521,10 +521,11 @@ def _table(args, name: str) -> int:
                          f"{str(args.figure)!r} for all of them instead.")
     out = outputs(args, files={"--json": args.json, "--figure": args.figure})
     if spec.city is not None:  # (its rule may be its own: said above the table)
+        from windnav.commands._city_suite import suite_rule
         from windnav.experiments.nav_suite import rule_words
 
         print(f"suite {spec.name} on the map {args.map}: start/goal pairs "
-              f"{rule_words(spec.pair_distance, spec.clearance, spec.edge)}\n")
+              f"{rule_words(**suite_rule(spec))}\n")
     table = _print_table(records, variants, args.reference, spec)
     payload = {"table": table}
     if other is not None:

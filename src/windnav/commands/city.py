@@ -156,14 +156,14 @@ def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *, path: st
     simulate there, as ``benchmark-nav`` counts it to batch its winds
     (:func:`windnav.experiments.nav_benchmark.wind_memory`); or ``why`` the map cannot hold
     them (naming ``flag``, the map's option, and ``path``)."""
-    from windnav.commands._city_suite import CITY_RULE, new_city_suite
+    from windnav.commands._city_suite import new_city_suite, suite_rule
     from windnav.experiments.nav_benchmark import wind_memory
     from windnav.experiments.nav_suite import get_suite, make_suite
     from windnav.flow.memory import format_bytes
 
     base = get_suite(suite)
     out = {"name": label, "suite": suite, "seed": base.seed,
-           "rule": {k: float(rule.get(k, getattr(base, k))) for k in CITY_RULE},
+           "rule": {**suite_rule(base), **rule},
            "holds": False, "pairs": [], "why": None, "wind_memory_bytes": None,
            "wind_memory": None}
     try:
