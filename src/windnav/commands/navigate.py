@@ -33,6 +33,24 @@ same scenario gives another flight: 1,749.6 against 1,745.2 J in one; pipeline a
 
 ``--variant ea-mppi-w-esc`` (EA-MPPI+W+esc) is EA-MPPI+W with the progress monitor and GS+W
 route escape of :mod:`windnav.plan.escape`; its JSON's ``settings.escapes`` lists the escapes.
+
+**Labels and several variants (2026-12-07).** ``--variant`` takes the labels of ``windnav
+benchmark-nav`` (:func:`windnav.experiments.nav_benchmark.parse_variant`): the sixth variant
+as the benchmark flew it last,
+``ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40@gust=0.5`` (the bare
+``ea-mppi-w-esc`` is its first, 60 m escapes), ``ea-mppi-w@energy=mission``,
+``ea-mppi-w-hat@outside=robot@tau=8``, ... Up to :data:`MAX_VARIANTS` of them, separated by
+commas, fly the same start, goal and seed in one simulated wind (simulated once); the summary
+then holds ``variants`` (label -> the flight's summary), ``reference`` (the first) and
+``energy_vs_reference_percent`` (``100 (E_ref - E) / E_ref`` where both reached the goal, else
+None: one flight each, not a rate), ``series_K.npz`` the K-th flight's series, and the figures
+are ``navigate_paths.png`` and ``navigate_energy.png``. One variant keeps the outputs above.
+With a label or several variants, ``--horizon``, ``--energy``, ``--outside`` and
+``--wrobot-tau`` are refused: each label carries its own (``@h=``, ``@energy=mission``,
+``@outside=robot``, ``@tau=``; :func:`flights`). ``--model`` and ``--rotations-deg`` set the
+decoder of each onboard label that names none: ``@decoder=DATE`` flies the benchmark's dated
+file under its boundary rule, as ``benchmark-nav`` does, but a label without it flies
+``--model`` or the shipped decoder, where ``benchmark-nav`` flies its pinned ``2026-11-23``.
 """
 
 from __future__ import annotations
@@ -57,7 +75,11 @@ from windnav.commands._common import (
     where,
 )
 
-PRODUCTS = ("summary.json", "series.npz", "navigate_*.png")
+MAX_VARIANTS = 4
+"""The most variants one run flies (``--variant a,b,...``): the colours of the comparison
+figures (:data:`windnav.viz.nav_compare.COLORS`)."""
+
+PRODUCTS = ("summary.json", "series.npz", "series_*.npz", "navigate_*.png")
 """What a run writes into ``--out``."""
 
 
@@ -80,8 +102,14 @@ def register(sub) -> None:
                         "shortened)")
     p.add_argument("--direction-deg", type=float, default=0.0,
                    help="direction the wind blows toward, deg CCW from +x (%(default)s)")
-    p.add_argument("--variant", choices=NAV_VARIANTS, default="ea-mppi-w",
-                   help="planner (%(default)s; docs/planner.md)")
+    p.add_argument("--variant", default="ea-mppi-w", metavar="LABEL[,LABEL...]",
+                   help="planner (%(default)s; docs/planner.md): one of "
+                        + ", ".join(NAV_VARIANTS)
+                        + ", or a label with benchmark-nav's study parameters (e.g. "
+                          "ea-mppi-w@energy=mission, ea-mppi-w-esc@escair=13.45); several, "
+                          f"separated by commas (at most {MAX_VARIANTS}), fly the same start, "
+                          "goal and seed in one simulated wind and are compared with the "
+                          "first")
     p.add_argument("--horizon", type=float, default=math.inf,
                    help="side H of the window in which the -w MPPI variants know the wind, m "
                         "(default: inf, the whole map; ea-mppi-w-hat: the decoder's 25 m grid)")
@@ -190,6 +218,117 @@ def _energy_mode(args, name: str) -> dict | None:
     return {"energy_mode": args.energy}
 
 
+FLAG_LABELS = {"horizon": ("--horizon", "@h=H"), "energy": ("--energy", "@energy=mission"),
+               "outside": ("--outside", "@outside=robot"),
+               "wrobot_tau": ("--wrobot-tau", "@tau=S")}
+"""The options that set one variant's study parameter, with the label parameter that sets it
+for each of several (:data:`windnav.experiments.nav_benchmark.PARAMETERS`)."""
+FLAG_DEFAULTS = {"horizon": math.inf, "energy": "horizon", "outside": "zero", "wrobot_tau": 0.0}
+
+
+def labels(args, name: str) -> tuple[str, ...]:
+    """``--variant``'s labels, checked (:func:`~windnav.experiments.nav_benchmark.check_variants`:
+    distinct, each a variant or a label with study parameters), at most :data:`MAX_VARIANTS`."""
+    from windnav.experiments.nav_benchmark import check_variants
+
+    where_ = f"{name} (--variant)"
+    try:
+        found = check_variants(str(args.variant), where_)
+    except ValueError as exc:
+        raise ValueError(str(exc).replace(f"'variants' parameter of {where_}",
+                                          f"'--variant' parameter of {name}")) from None
+    if len(found) > MAX_VARIANTS:
+        raise ValueError(f"The '--variant' parameter of {name} must name at most "
+                         f"{MAX_VARIANTS} variants (the comparison figures' colours). Got "
+                         f"{len(found)} instead: {args.variant!r}.")
+    return found
+
+
+def flights(args, name: str) -> list[dict]:
+    """One dict per ``--variant`` label: ``label``, ``base`` (the key of
+    :data:`windnav.plan.VARIANTS`), ``kwargs`` (navigate's keyword arguments beyond the
+    scenario: ``horizon``, ``tilt_max_deg``, ``onboard``, ``planner_overrides``, ``decoder``,
+    and a label's ``power_shape``, ``outside``, ``escape``) and ``reads_model`` (the flight's
+    decoder is ``--model`` or the shipped file, whose hash the result records).
+
+    One variant without ``@`` parameters takes ``--horizon``, ``--energy``, ``--outside`` and
+    ``--wrobot-tau`` as before. A label with parameters, or several variants, take them from
+    each label (:func:`~windnav.experiments.nav_benchmark.parse_variant`, the benchmark's
+    grammar), and those options are refused: one run, several variants, would apply them to
+    some and not others. ``--model`` and ``--rotations-deg`` give the decoder of every onboard
+    variant whose label names none (``@decoder=DATE`` flies the benchmark's dated file, as
+    ``benchmark-nav`` does; ``@views=V`` turns ``--model`` or the shipped decoder by 0 and
+    ``+-V`` deg, as ``--rotations-deg 0 -V V``); ``--tilt-max-deg`` the tilt of every label
+    without ``@tilt=``."""
+    from windnav.experiments.nav_benchmark import flight_decoder, parse_variant
+    from windnav.experiments.navigate import TILT_MAX_DEG
+    from windnav.plan import VARIANTS
+
+    found = labels(args, name)
+    plain = len(found) == 1 and "@" not in found[0]
+    if plain:
+        base = found[0]
+        decoder, files = _decoder(args, name)
+        return [{"label": base, "base": base, "reads_model": files is not None,
+                 "kwargs": {"horizon": float(args.horizon), "tilt_max_deg": args.tilt_max_deg,
+                            "onboard": _onboard(args, name),
+                            "planner_overrides": _energy_mode(args, name),
+                            "decoder": decoder}}]
+    for key, (flag, param) in FLAG_LABELS.items():
+        value = getattr(args, key)
+        if value != FLAG_DEFAULTS[key]:
+            what = "several variants" if len(found) > 1 else "a label"
+            raise ValueError(f"The '{flag}' parameter of {name} applies to one variant named "
+                             f"without parameters; with {what} give it in each label that "
+                             f"takes it ('{param}'). Got {flag} "
+                             f"{value!r} with --variant {args.variant!r} instead.")
+    given = [flag for flag, value in (("--model", args.model),
+                                      ("--rotations-deg", args.rotations_deg))
+             if value is not None]
+    out, reads = [], False
+    for label in found:
+        base, options = parse_variant(label, f"{name} (--variant)")
+        kwargs = {k: v for k, v in options.items() if k not in ("decoder", "decoder_views")}
+        if "tilt_max_deg" in options and args.tilt_max_deg != TILT_MAX_DEG:
+            raise ValueError(f"The '--tilt-max-deg' parameter of {name} would set the tilt "
+                             f"that {label!r} sets itself (@tilt=). Got --tilt-max-deg "
+                             f"{args.tilt_max_deg!r} instead; leave one of them out.")
+        kwargs.setdefault("tilt_max_deg", args.tilt_max_deg)
+        onboard = VARIANTS[base].wind_source == "onboard"
+        reads_model = False
+        if onboard and "decoder" in options:
+            if given:
+                raise ValueError(f"The '{given[0]}' parameter of {name} sets the decoder of "
+                                 f"the onboard variants whose label names none, and {label!r} "
+                                 "names one (@decoder=). Got both instead; leave one out.")
+            kwargs["decoder"] = flight_decoder(options)
+        elif onboard:
+            views = options.get("decoder_views")
+            if views is not None and args.rotations_deg is not None:
+                raise ValueError(f"The '--rotations-deg' parameter of {name} would turn the "
+                                 f"decoder that {label!r} turns itself (@views=). Got both "
+                                 "instead; leave one of them out.")
+            if views is not None or given:
+                turned = args.rotations_deg if views is None else [0.0, -views, views]
+                kwargs["decoder"] = load_model(_with(args, rotations_deg=turned), name)
+            reads_model = True
+        out.append({"label": label, "base": base, "kwargs": kwargs,
+                    "reads_model": reads_model})
+        reads |= reads_model
+    if given and not reads:
+        raise ValueError(f"The '{given[0]}' parameter of {name} applies only to the onboard "
+                         f"stack's decoder (a variant ea-mppi-w-hat without @decoder=). Got "
+                         f"--variant {args.variant!r} instead.")
+    return out
+
+
+def _with(args, **changes):
+    """A copy of ``args`` with ``changes`` (its own attributes kept)."""
+    import argparse
+
+    return argparse.Namespace(**{**vars(args), **changes})
+
+
 def _check_route(city, start, goal, variant: str, name: str) -> None:
     """For a variant that flies or keeps a GS route, that one exists in still air, before the
     flow simulation: the search refused a start or goal near a wall, or a goal walled in, only
@@ -225,14 +364,12 @@ def run(args) -> int:
     if not horizon > 0:
         raise ValueError(f"The '--horizon' parameter of {name} must be > 0 (inf allowed). "
                          f"Got {args.horizon!r} instead.")
-    if args.variant.startswith("gs") and horizon != float("inf"):  # GS plans the whole map
+    if str(args.variant).startswith("gs") and horizon != float("inf"):  # GS: the whole map
         raise ValueError(f"The '--horizon' parameter of {name} is for the MPPI variants (the "
                          f"graph search plans over the whole map). Got {args.horizon!r} for "
                          f"{args.variant!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
-    onboard = _onboard(args, name)
-    decoder, files = _decoder(args, name)
-    energy = _energy_mode(args, name)
+    planned = flights(args, name)
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
     goal = [finite_float(v, "--goal", name) for v in args.goal]
@@ -244,7 +381,8 @@ def run(args) -> int:
 
     check_point(city, start, "--start", name)
     check_point(city, goal, "--goal", name)
-    _check_route(city, start, goal, args.variant, name)
+    for flight in planned:
+        _check_route(city, start, goal, flight["base"], name)
     tilt = finite_float(args.tilt_max_deg, "--tilt-max-deg", name)
     if not 0.0 < tilt < TILT_LIMIT_DEG:
         raise ValueError(f"The '--tilt-max-deg' parameter of {name} must be in "
@@ -265,50 +403,150 @@ def run(args) -> int:
             f"{exc} Here: {name} simulates the wind on a 1 m grid over the whole map and keeps "
             f"--record-s ({record:g} s) of frames; a shorter --record-s or a smaller map "
             "needs less.") from None
-    result = navigate(city, start, goal, speed=speed, direction_deg=direction,
-                      variant=args.variant, rng=args.seed, flow=flow, altitude=args.altitude,
-                      horizon=horizon, tilt_max_deg=args.tilt_max_deg, onboard=onboard,
-                      planner_overrides=energy, decoder=decoder)
-    summary = {"map": str(args.map), "seed": args.seed, **result.summary()}
+    results, summaries = {}, {}
+    for flight in planned:
+        if len(planned) > 1:
+            print(f"{name}: flying {flight['label']}", file=sys.stderr, flush=True)
+        result = navigate(city, start, goal, speed=speed, direction_deg=direction,
+                          variant=flight["base"], rng=args.seed, flow=flow,
+                          altitude=args.altitude, **flight["kwargs"])
+        results[flight["label"]] = result
+        summary = result.summary()
+        if flight["label"] != flight["base"]:
+            summary["label"] = flight["label"]
+        summaries[flight["label"]] = summary
+    files = model_files(args) if any(f["reads_model"] for f in planned) else None
+    if len(planned) == 1:
+        summary = {"map": str(args.map), "seed": args.seed, **summaries[planned[0]["label"]]}
+    else:
+        summary = {"map": str(args.map), "seed": args.seed, "variants": summaries,
+                   **compare_energies(summaries)}
     if files is not None:  # the decoder's weights, by hash (windnav.provenance)
         summary["model_files"] = files
     doc = document("navigate", summary, args)
     with out.writing() as stage:
         write_json(doc, stage.dir / "summary.json")
-        extra = ({} if result.wind_estimate is None
-                 else {"wind_estimate": result.wind_estimate})
-        np.savez_compressed(stage.dir / "series.npz", t=result.t, position=result.position,
-                            velocity=result.velocity, wind=result.wind,
-                            airspeed=result.airspeed, accel_cmd=result.accel_cmd,
-                            power=result.power, rotor_power=result.rotor_power,
-                            energy=result.energy, rotor_energy=result.rotor_energy, **extra)
+        for k, result in enumerate(results.values(), start=1):
+            series = "series.npz" if len(results) == 1 else f"series_{k}.npz"
+            _write_series(result, stage.dir / series)
         if not args.no_plots:
-            from windnav.viz.navigate import plot_navigation
-
-            plot_navigation(result, city, flow, stage.dir)
+            _plot(results, city, flow, stage.dir, inlet=f"{speed:g} m/s toward {direction:g} deg")
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
-    keys = ("outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "distance_m",
-            "mean_cmd_accel", "planner_ms_median", "fallbacks", "stage_ms_median",
-            "real_time_fraction", "ukf_wind_rms_mps", "airspeed_max_mps", "outside_envelope_s")
-    print(json.dumps(json_ready({k: summary[k] for k in keys if k in summary}), indent=2))
-    warn_envelope(summary, prefix=f"{name}: ")
+    keys = ("outcome", "variant", "label", "energy_J", "rotor_energy_J", "time_s",
+            "distance_m", "mean_cmd_accel", "planner_ms_median", "fallbacks",
+            "stage_ms_median", "real_time_fraction", "ukf_wind_rms_mps", "airspeed_max_mps",
+            "outside_envelope_s")
+    if len(planned) == 1:
+        print(json.dumps(json_ready({k: summary[k] for k in keys if k in summary}), indent=2))
+    else:
+        print(json.dumps(json_ready({
+            "variants": {label: {k: s[k] for k in keys if k in s and k not in ("variant", "label")}
+                         for label, s in summaries.items()},
+            **{k: summary[k] for k in ("reference", "energy_vs_reference_percent")}}),
+            indent=2))
+        print(describe_comparison(summary), file=sys.stderr)
+    for label, s in summaries.items():
+        warn_envelope(s, prefix=f"{name}: " if len(planned) == 1 else f"{name} ({label}): ")
     tallest = float(np.max(city.heights)) if len(city.heights) else 0.0
     if len(city.heights) and args.altitude > tallest:  # the flight ignored the 3D gap
         print(f"{name}: note: --altitude {args.altitude:g} m is above the tallest building "
               f"({tallest:g} m): the 2D wind is a slice between the buildings, and the planner "
               "still avoids their footprints", file=sys.stderr)
-    if summary["outcome"] == "timeout":  # the flight lasts as long as the recorded wind
-        print(f"{name}: note: the flight timed out when the recorded wind ended "
+    timed_out = [label for label, s in summaries.items() if s["outcome"] == "timeout"]
+    if timed_out:  # the flight lasts as long as the recorded wind
+        which = "the flight" if len(planned) == 1 else ", ".join(timed_out)
+        print(f"{name}: note: {which} timed out when the recorded wind ended "
               f"({float(flow.t[-1]):g} s, --record-s); a longer record gives it more time",
               file=sys.stderr)
     print_written(out)
-    if summary.get("diverged_s") is not None:  # recorded as left_map, status 0 (audit)
-        print(f"{name}: error: the simulation diverged: the vehicle's state stopped being "
-              f"finite at {summary['diverged_s']:.2f} s, and the flight, recorded as "
-              f"{summary['outcome']!r} where it was, ends there", file=sys.stderr)
-        return 1
-    return 0
+    status = 0
+    for label, s in summaries.items():
+        if s.get("diverged_s") is not None:  # recorded as left_map, status 0 (audit)
+            which = "" if len(planned) == 1 else f" ({label})"
+            print(f"{name}: error: the simulation{which} diverged: the vehicle's state stopped "
+                  f"being finite at {s['diverged_s']:.2f} s, and the flight, recorded as "
+                  f"{s['outcome']!r} where it was, ends there", file=sys.stderr)
+            status = 1
+    return status
+
+
+def _write_series(result, path) -> None:
+    """The flight's time series (``series.npz``; the onboard stack's adds its estimate)."""
+    import numpy as np
+
+    extra = {} if result.wind_estimate is None else {"wind_estimate": result.wind_estimate}
+    np.savez_compressed(path, t=result.t, position=result.position, velocity=result.velocity,
+                        wind=result.wind, airspeed=result.airspeed, accel_cmd=result.accel_cmd,
+                        power=result.power, rotor_power=result.rotor_power,
+                        energy=result.energy, rotor_energy=result.rotor_energy, **extra)
+
+
+def _plot(results: dict, city, flow, out_dir, *, inlet: str) -> None:
+    """One flight: ``navigate_path.png`` and ``navigate_series.png``; several:
+    ``navigate_paths.png`` (every path over the mean wind) and ``navigate_energy.png``
+    (airspeed, power and energy, one colour each)."""
+    if len(results) == 1:
+        from windnav.viz.navigate import plot_navigation
+
+        plot_navigation(next(iter(results.values())), city, flow, out_dir)
+        return
+    from windnav.viz.nav_compare import plot_energy, plot_paths
+
+    results = {legend_name(label): r for label, r in results.items()}
+    plot_paths(results, city, flow, out_dir / "navigate_paths.png",
+               title=f"{len(results)} variants, wind {inlet}")
+    plot_energy(results, out_dir / "navigate_energy.png",
+                title=f"Wind {inlet}: airspeed, power and energy")
+
+
+def legend_name(label: str, width: int = 36) -> str:
+    """A label as the figures' legends show it: the variant's display name
+    (:data:`windnav.experiments.nav_demo.LABELS`), then its parameters, broken before an ``@``
+    into lines of about ``width`` characters (a label of six parameters ran off the figure)."""
+    from windnav.experiments.nav_demo import LABELS
+
+    base, *params = label.split("@")
+    lines = [LABELS.get(base, base)]
+    for param in params:
+        if len(lines[-1]) + 1 + len(param) > width:
+            lines.append("")
+        lines[-1] += "@" + param
+    return "\n".join(lines)
+
+
+def compare_energies(summaries: dict) -> dict:
+    """The comparison of several flights with the first (the reference): ``reference`` (its
+    label) and ``energy_vs_reference_percent``: for each other label, ``100 (E_ref - E) /
+    E_ref`` (positive: less energy than the reference), or None where either flight failed
+    (energies compare only when both reach the goal: one flight each, not a rate)."""
+    ref, *others = summaries
+    base = summaries[ref]
+    pct = {}
+    for label in others:
+        s = summaries[label]
+        both = base["outcome"] == "success" and s["outcome"] == "success"
+        pct[label] = (100.0 * (base["energy_J"] - s["energy_J"]) / base["energy_J"] if both
+                      else None)
+    return {"reference": ref, "energy_vs_reference_percent": pct}
+
+
+def describe_comparison(summary: dict) -> str:
+    """One line per flight, then each one's energy against the reference's, or why not."""
+    lines = []
+    for label, s in summary["variants"].items():
+        lines.append(f"{label}: {s['outcome']}, {s['energy_J'] / 1e3:.2f} kJ in "
+                     f"{s['time_s']:.1f} s ({s['distance_m']:.0f} m flown)")
+    ref = summary["reference"]
+    for label, pct in summary["energy_vs_reference_percent"].items():
+        if pct is None:
+            failed = [v for v in (ref, label) if summary["variants"][v]["outcome"] != "success"]
+            lines.append(f"{label} against {ref}: not compared ({' and '.join(failed)} did not "
+                         "reach the goal)")
+        else:
+            lines.append(f"{label} used {abs(pct):.1f} % {'less' if pct >= 0 else 'more'} "
+                         f"energy than {ref} (one flight each, not a rate)")
+    return "\n".join(lines)
 
 
 def warn_envelope(summary: dict, prefix: str = "") -> None:

@@ -1,0 +1,160 @@
+"""``windnav navigate --variant a,b,...``: several planners, each a benchmark label, flown from
+one start to one goal in one simulated wind, and compared with the first.
+
+The small map and weak wind of ``tests/test_navigate.py`` (140 m x 120 m, one building, 2 m/s);
+the command's flow simulation is replaced by that one flow, so each flight can be compared to
+the bit with ``navigate`` called directly in the same wind.
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+import windnav.commands.navigate as nav_cmd
+import windnav.experiments.navigate as nav_mod
+from windnav import cli
+from windnav.city import City
+from windnav.plan import EscapeConfig
+
+START = (10.0, 60.0)
+GOAL = (110.0, 60.0)
+SPEED = 2.0
+ESC = "ea-mppi-w-esc@escair=13.45@edge=15@pace=20"
+
+
+@pytest.fixture(scope="module")
+def city():
+    return City((0.0, 140.0, 0.0, 120.0), np.array([(35.0, 45.0, 45.0, 75.0)]),
+                np.array([20.0]))
+
+
+@pytest.fixture(scope="module")
+def flow(city):
+    return nav_mod.simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
+
+
+@pytest.fixture
+def command(city, flow, tmp_path, monkeypatch):
+    """``windnav navigate`` on the module's map, in the module's flow (simulated once)."""
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    monkeypatch.setattr(nav_mod, "simulate_flow", lambda *a, **kw: flow)
+
+    def run(variant, *extra, out="out"):
+        argv = ["navigate", "--map", str(path), "--start", *map(str, START), "--goal",
+                *map(str, GOAL), "--speed", str(SPEED), "--variant", variant, "--out",
+                str(tmp_path / out), *extra]
+        status = cli.main(argv)
+        return status, json.loads((tmp_path / out / "summary.json").read_text())
+
+    return run
+
+
+def direct(city, flow, variant, **kw):
+    return nav_mod.navigate(city, START, GOAL, speed=SPEED, direction_deg=0.0, variant=variant,
+                            rng=0, flow=flow, **kw).summary()
+
+
+def test_several_variants_fly_what_each_label_flies_and_compare_with_the_first(
+        city, flow, command, tmp_path, capsys):
+    labels = ["mppi", "ea-mppi-w@energy=mission", ESC]
+    status, doc = command(",".join(labels))
+    assert status == 0
+    assert list(doc["variants"]) == labels and doc["reference"] == "mppi"
+    # each flight is the label's flight: navigate with the parameters the label stands for
+    wanted = {"mppi": direct(city, flow, "mppi"),
+              labels[1]: direct(city, flow, "ea-mppi-w",
+                                planner_overrides={"energy_mode": "mission"}),
+              ESC: direct(city, flow, "ea-mppi-w-esc",
+                          escape=EscapeConfig(airspeed_mps=13.45, edge_m=15.0,
+                                              pace_margin_s=20.0))}
+    for label in labels:
+        got = doc["variants"][label]
+        for key in ("outcome", "energy_J", "rotor_energy_J", "time_s", "distance_m"):
+            assert got[key] == wanted[label][key], (label, key)
+        assert got.get("label") == (None if label == "mppi" else label)
+    assert doc["variants"][ESC]["settings"]["escapes"] == wanted[ESC]["settings"]["escapes"]
+    # the comparison: the reference's energy against each, where both reached the goal
+    ref = doc["variants"]["mppi"]
+    for label in labels[1:]:
+        s = doc["variants"][label]
+        pct = doc["energy_vs_reference_percent"][label]
+        if ref["outcome"] == s["outcome"] == "success":
+            assert pct == pytest.approx(100 * (ref["energy_J"] - s["energy_J"]) / ref["energy_J"])
+        else:
+            assert pct is None
+    err = capsys.readouterr().err
+    assert f"{ESC}: {doc['variants'][ESC]['outcome']}" in err
+    assert "(one flight each, not a rate)" in err or "not compared" in err
+    out = tmp_path / "out"
+    assert {p.name for p in out.iterdir()} == {
+        "summary.json", "series_1.npz", "series_2.npz", "series_3.npz",
+        "navigate_paths.png", "navigate_energy.png"}
+    series = np.load(out / "series_2.npz")
+    assert series["energy"][-1] == pytest.approx(doc["variants"][labels[1]]["energy_J"])
+
+
+def test_one_label_flies_as_the_options_do_and_keeps_the_one_flight_outputs(command, tmp_path):
+    status, labelled = command("ea-mppi-w@energy=mission", "--no-plots", out="a")
+    assert status == 0
+    status, flagged = command("ea-mppi-w", "--energy", "mission", "--no-plots", out="b")
+    assert status == 0
+    for key in ("outcome", "energy_J", "time_s", "distance_m", "variant"):
+        assert labelled[key] == flagged[key]
+    assert labelled["label"] == "ea-mppi-w@energy=mission" and "label" not in flagged
+    assert {p.name for p in (tmp_path / "a").iterdir()} == {"summary.json", "series.npz"}
+
+
+@pytest.mark.parametrize("variant, extra, match", [
+    ("mppi,ea-mppi-w", ["--horizon", "50"], r"'--horizon' parameter of windnav navigate "
+     r"applies to one variant named without parameters; with several variants give it in each "
+     r"label that takes it \('@h=H'\)"),
+    ("ea-mppi-w@h=50", ["--outside", "robot"], r"with a label give it in each label .*"
+     r"'@outside=robot'"),
+    ("ea-mppi-w@qe=2", ["--energy", "mission"], r"'@energy=mission'"),
+    ("mppi,ea-mppi-w-hat", ["--wrobot-tau", "8"], r"'@tau=S'"),
+    ("mppi,ea-mppi-w", ["--model", "x.npz"], r"'--model' parameter of windnav navigate "
+     r"applies only to the onboard stack's decoder"),
+    ("ea-mppi-w-hat@decoder=2026-11-23", ["--rotations-deg", "0", "-3", "3"],
+     r"names one \(@decoder=\)"),
+    ("ea-mppi-w-hat@views=3", ["--rotations-deg", "0", "-3", "3"], r"turns itself \(@views=\)"),
+    ("ea-mppi-w@tilt=70", ["--tilt-max-deg", "60"], r"'ea-mppi-w@tilt=70' sets itself"),
+    ("mppi,mppi", [], r"'--variant' parameter of windnav navigate must be distinct"),
+    ("mppi,ea-mppi,ea-mppi-w,mppi-w,gs", [], r"must name at most 4 variants"),
+    ("mppi@h=5@qe=1,mppi@qe=1@h=5", [], r"names one flight twice"),
+    ("mppi@foo=1", [], r"'--variant' parameter of windnav navigate must be distinct names"),
+])
+def test_refused_before_the_wind_is_simulated(variant, extra, match, tmp_path, monkeypatch,
+                                              capsys):
+    def no_flow(*a, **kw):
+        raise AssertionError("simulated the wind")
+
+    monkeypatch.setattr(nav_mod, "simulate_flow", no_flow)
+    argv = ["navigate", "--map", "M", "--start", "10", "10", "--goal", "50", "50", "--speed",
+            "3", "--variant", variant, *extra, "--out", str(tmp_path / "o")]
+    assert cli.main(argv) == 2
+    import re
+
+    assert re.search(match, capsys.readouterr().err)
+    assert not (tmp_path / "o").exists()
+
+
+def test_legend_names_break_long_labels_before_an_at_sign():
+    assert nav_cmd.legend_name("ea-mppi-w") == "EA-MPPI+W"
+    long = "ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40@gust=0.5"
+    lines = nav_cmd.legend_name(long).split("\n")
+    assert lines[0].startswith("EA-MPPI+W+esc@escair=13.45") and len(lines) == 3
+    assert all(len(line) <= 36 for line in lines)
+    assert "".join(lines) == "EA-MPPI+W+esc" + long[len("ea-mppi-w-esc"):]
+
+
+def test_energies_compare_only_where_both_reached_the_goal():
+    flown = {"time_s": 30.0, "distance_m": 120.0}
+    runs = {"a": {"outcome": "success", "energy_J": 200.0, **flown},
+            "b": {"outcome": "success", "energy_J": 150.0, **flown},
+            "c": {"outcome": "timeout", "energy_J": 100.0, **flown}}
+    got = nav_cmd.compare_energies(runs)
+    assert got == {"reference": "a", "energy_vs_reference_percent": {"b": 25.0, "c": None}}
+    text = nav_cmd.describe_comparison({"variants": runs, **got})
+    assert "b used 25.0 % less energy than a" in text
+    assert "c against a: not compared (c did not reach the goal)" in text
