@@ -219,3 +219,18 @@ def test_a_suite_built_by_hand_on_a_city_is_the_command_s():
                      clearance=15, record_s=100, map_size=600)
     assert ints.settings_hash() == by_hand.settings_hash() == manifest["settings_hash"]
     assert isinstance(ints.pair_distance, float) and isinstance(ints.edge, float)
+
+
+def test_a_map_size_other_than_the_city_s_is_refused_not_replaced():
+    """With a city, ``map_size`` draws nothing and became the city's larger side whatever it
+    was given: 400 m on a 300 m city flew the city, unsaid (left by the fifty-second session)."""
+    from windnav.city import planning_map
+
+    city = planning_map(rng=3, size=300.0)
+    rule = {"pair_distance": 150.0, "edge": 30.0}
+    with pytest.raises(ValueError, match=r"'map_size' parameter of SuiteSpec draws nothing "
+                                         r"with a city: it is the city's larger side, 300 m\. "
+                                         r"Got 400\.0 instead"):
+        SuiteSpec("c", maps=(0,), city=city, map_size=400.0, **rule)
+    for size in (300.0, 600.0):  # its own side, or the default: the same suite
+        assert SuiteSpec("c", maps=(0,), city=city, map_size=size, **rule).map_size == 300.0

@@ -101,6 +101,10 @@ def derive_seed(seed: int, key: str) -> int:
     return int.from_bytes(digest[:4], "little")
 
 
+MAP_SIZE_DEFAULT = 600.0
+""":class:`SuiteSpec`'s ``map_size`` by default: the thesis's planning maps, m."""
+
+
 @dataclass(frozen=True)
 class SuiteSpec:
     """Everything a benchmark suite's flights depend on (a frozen value).
@@ -150,7 +154,8 @@ class SuiteSpec:
         flown as the suite's one map, ``m00``, instead of a :func:`~windnav.city.planning_map`:
         ``maps`` must then be ``(0,)`` and ``map_options`` empty, and the pairs are drawn
         inside the city's own bounds (``map_size`` draws nothing: it is set to the city's
-        larger side, which the settings record). In the settings by its
+        larger side, which the settings record; another value than that and the default is
+        refused). In the settings by its
         :meth:`~windnav.city.City.fingerprint`; absent from them when None, so the suites
         without one keep their settings hash.
     """
@@ -168,7 +173,7 @@ class SuiteSpec:
     cone_deg: float = 45.0
     clearance: float = 15.0
     edge: float = 25.0
-    map_size: float = 600.0
+    map_size: float = 600.0  # MAP_SIZE_DEFAULT
     map_options: dict = field(default_factory=dict)
     spinup_s: float = 25.0
     record_s: float = 100.0
@@ -222,7 +227,12 @@ class SuiteSpec:
             self._check_city(where)
             # the city's larger side, as benchmark-nav --map records it: a suite built by hand
             # kept the preset's 600 m, and hashed apart from the command's for the same city
-            object.__setattr__(self, "map_size", float(max(self.city.size)))
+            side = float(max(self.city.size))
+            if self.map_size not in (side, MAP_SIZE_DEFAULT):  # it was replaced, unsaid
+                raise ValueError(f"The 'map_size' parameter of {where} draws nothing with a "
+                                 f"city: it is the city's larger side, {side:g} m. Got "
+                                 f"{self.map_size!r} instead; leave it out.")
+            object.__setattr__(self, "map_size", side)
             x0, x1, y0, y1 = self.city.bounds
             width, depth = x1 - x0 - 2.0 * self.edge, y1 - y0 - 2.0 * self.edge
         else:
