@@ -158,3 +158,36 @@ def test_energies_compare_only_where_both_reached_the_goal():
     text = nav_cmd.describe_comparison({"variants": runs, **got})
     assert "b used 25.0 % less energy than a" in text
     assert "c against a: not compared (c did not reach the goal)" in text
+
+
+def test_the_labels_fly_the_benchmark_s_flights_of_a_scenario_to_the_bit(tmp_path):
+    """``navigate`` given a scenario's start, goal, inlet and seed flies, for each label, the
+    record ``benchmark-nav`` writes for it (its own flow simulation against the suite's: the
+    same wind). Measured on the windinet store too: MPPI, ``ea-mppi-w@energy=mission`` and the
+    sixth variant's last setting on ``windinet/m00/w01/p3`` gave their records' energies to
+    the bit (docs/navigation.md)."""
+    from windnav.experiments.nav_benchmark import fly_scenario, suite_flow
+    from windnav.experiments.nav_suite import SuiteSpec, make_suite, suite_map
+
+    spec = SuiteSpec("tiny", maps=(0,), winds=(1,), pairs=(0,), speeds=(3.0,),
+                     incidences_deg=(0.0, 90.0), n_tailwind=1, n_headwind=1,
+                     pair_distance=100.0, clearance=25.0, edge=15.0, map_size=200.0,
+                     map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0,
+                     record_s=30.0)
+    sc = make_suite(spec)[0]
+    city = suite_map(spec, sc.map_index)
+    flow = suite_flow(spec, city, sc.speed, sc.direction_deg)
+    labels = ["mppi", "ea-mppi-w-esc@escair=13.45@edge=15"]
+    records = {v: fly_scenario(spec, sc, v, city=city, flow=flow) for v in labels}
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    argv = ["navigate", "--map", str(path), "--start", *map(repr, sc.start), "--goal",
+            *map(repr, sc.goal), "--speed", repr(sc.speed), "--direction-deg",
+            repr(sc.direction_deg), "--seed", str(sc.seed), "--spinup-s", repr(spec.spinup_s),
+            "--record-s", repr(spec.record_s), "--variant", ",".join(labels), "--no-plots",
+            "--out", str(tmp_path / "o")]
+    assert cli.main(argv) == 0
+    doc = json.loads((tmp_path / "o" / "summary.json").read_text())
+    for label in labels:
+        got, rec = doc["variants"][label], records[label]
+        for key in ("outcome", "energy_J", "rotor_energy_J", "time_s", "distance_m"):
+            assert got[key] == rec[key], (label, key)
