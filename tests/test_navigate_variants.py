@@ -94,11 +94,15 @@ def test_several_variants_fly_what_each_label_flies_and_compare_with_the_first(
     assert series["energy"][-1] == pytest.approx(doc["variants"][labels[1]]["energy_J"])
 
 
-def test_one_label_flies_as_the_options_do_and_keeps_the_one_flight_outputs(command, tmp_path):
+def test_one_label_flies_as_the_options_do_and_keeps_the_one_flight_outputs(command, tmp_path,
+                                                                             capsys):
     status, labelled = command("ea-mppi-w@energy=mission", "--no-plots", out="a")
     assert status == 0
-    status, flagged = command("ea-mppi-w", "--energy", "mission", "--no-plots", out="b")
+    assert "windnav navigate: flying ea-mppi-w@energy=mission" in capsys.readouterr().err
+    status, flagged = command("ea-mppi-w", "--energy", "mission", "--no-plots", "--no-progress",
+                              out="b")
     assert status == 0
+    assert "flying" not in capsys.readouterr().err
     for key in ("outcome", "energy_J", "time_s", "distance_m", "variant"):
         assert labelled[key] == flagged[key]
     assert labelled["label"] == "ea-mppi-w@energy=mission" and "label" not in flagged

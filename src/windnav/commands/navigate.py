@@ -146,6 +146,9 @@ def register(sub) -> None:
     p.add_argument("--out", type=Path, default=Path("out/navigate"),
                    help="output folder (%(default)s)")
     p.add_argument("--no-plots", action="store_true", help="write no PNG figures")
+    p.add_argument("--no-progress", action="store_true",
+                   help="hide the wind simulation's progress bar and the line each flight "
+                        "starts with")
     add_output_arguments(p)
     p.set_defaults(func=run)
 
@@ -397,7 +400,8 @@ def run(args) -> int:
     from windnav.flow import MemoryEstimateError
 
     try:
-        flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record, dt=dt)
+        flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record, dt=dt,
+                             progress=not getattr(args, "no_progress", False))
     except MemoryEstimateError as exc:  # its advice named simulate's dx and memory_limit
         raise MemoryEstimateError(
             f"{exc} Here: {name} simulates the wind on a 1 m grid over the whole map and keeps "
@@ -405,7 +409,7 @@ def run(args) -> int:
             "needs less.") from None
     results, summaries = {}, {}
     for flight in planned:
-        if len(planned) > 1:
+        if not getattr(args, "no_progress", False):
             print(f"{name}: flying {flight['label']}", file=sys.stderr, flush=True)
         result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                           variant=flight["base"], rng=args.seed, flow=flow,
