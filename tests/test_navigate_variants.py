@@ -107,6 +107,11 @@ def test_one_label_flies_as_the_options_do_and_keeps_the_one_flight_outputs(comm
         assert labelled[key] == flagged[key]
     assert labelled["label"] == "ea-mppi-w@energy=mission" and "label" not in flagged
     assert {p.name for p in (tmp_path / "a").iterdir()} == {"summary.json", "series.npz"}
+    status, _ = command("mppi", "--no-plots", "--no-progress", "--gif-frames", "3", out="c")
+    from PIL import Image
+
+    with Image.open(tmp_path / "c" / "navigate_flight.gif") as gif:
+        assert status == 0 and gif.n_frames == 3
 
 
 @pytest.mark.parametrize("variant, extra, match", [
@@ -127,6 +132,8 @@ def test_one_label_flies_as_the_options_do_and_keeps_the_one_flight_outputs(comm
     ("mppi,ea-mppi,ea-mppi-w,mppi-w,gs", [], r"must name at most 4 variants"),
     ("mppi@h=5@qe=1,mppi@qe=1@h=5", [], r"names one flight twice"),
     ("mppi@foo=1", [], r"'--variant' parameter of windnav navigate must be distinct names"),
+    ("mppi", ["--gif-frames", "1"], r"'--gif-frames' parameter of windnav navigate must be an "
+     r"integer >= 2"),
 ])
 def test_refused_before_the_wind_is_simulated(variant, extra, match, tmp_path, monkeypatch,
                                               capsys):

@@ -45,6 +45,8 @@ then holds ``variants`` (label -> the flight's summary), ``reference`` (the firs
 ``energy_vs_reference_percent`` (``100 (E_ref - E) / E_ref`` where both reached the goal, else
 None: one flight each, not a rate), ``series_K.npz`` the K-th flight's series, and the figures
 are ``navigate_paths.png`` and ``navigate_energy.png``. One variant keeps the outputs above.
+``--gif-frames N`` also writes ``navigate_flight.gif``, the flights over the unsteady wind (the
+demo's animation).
 With a label or several variants, ``--horizon``, ``--energy``, ``--outside`` and
 ``--wrobot-tau`` are refused: each label carries its own (``@h=``, ``@energy=mission``,
 ``@outside=robot``, ``@tau=``; :func:`flights`). ``--model`` and ``--rotations-deg`` set the
@@ -79,7 +81,8 @@ MAX_VARIANTS = 4
 """The most variants one run flies (``--variant a,b,...``): the colours of the comparison
 figures (:data:`windnav.viz.nav_compare.COLORS`)."""
 
-PRODUCTS = ("summary.json", "series.npz", "series_*.npz", "navigate_*.png")
+PRODUCTS = ("summary.json", "series.npz", "series_*.npz", "navigate_*.png",
+            "navigate_flight.gif")
 """What a run writes into ``--out``."""
 
 
@@ -146,6 +149,10 @@ def register(sub) -> None:
     p.add_argument("--out", type=Path, default=Path("out/navigate"),
                    help="output folder (%(default)s)")
     p.add_argument("--no-plots", action="store_true", help="write no PNG figures")
+    p.add_argument("--gif-frames", type=int, default=None, metavar="N",
+                   help="also write navigate_flight.gif: the flights over the unsteady wind in "
+                        "N frames from take-off to the last landing, 10 per second (default: "
+                        "no GIF)")
     p.add_argument("--no-progress", action="store_true",
                    help="hide the wind simulation's progress bar and the line each flight "
                         "starts with")
@@ -373,6 +380,10 @@ def run(args) -> int:
                          f"{args.variant!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
     planned = flights(args, name)
+    gif_frames = getattr(args, "gif_frames", None)
+    if gif_frames is not None and (isinstance(gif_frames, bool) or gif_frames < 2):
+        raise ValueError(f"The '--gif-frames' parameter of {name} must be an integer >= 2. "
+                         f"Got {gif_frames!r} instead.")
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
     goal = [finite_float(v, "--goal", name) for v in args.goal]
@@ -433,8 +444,17 @@ def run(args) -> int:
         for k, result in enumerate(results.values(), start=1):
             series = "series.npz" if len(results) == 1 else f"series_{k}.npz"
             _write_series(result, stage.dir / series)
+        inlet = f"{speed:g} m/s toward {direction:g} deg"
         if not args.no_plots:
-            _plot(results, city, flow, stage.dir, inlet=f"{speed:g} m/s toward {direction:g} deg")
+            _plot(results, city, flow, stage.dir, inlet=inlet)
+        if gif_frames is not None:
+            from windnav.viz.animate import animate_flights
+
+            named = {legend_name(label).replace("\n", ""): r for label, r in results.items()}
+            animate_flights(named, city, flow, stage.dir / "navigate_flight.gif",
+                            n_frames=gif_frames, fps=10.0,
+                            title=(f"{' vs '.join(named)}, wind {inlet}" if len(named) < 3
+                                   else f"Wind {inlet}"))
         if stage.file("--json") is not None:
             write_json(doc, stage.file("--json"))
     keys = ("outcome", "variant", "label", "energy_J", "rotor_energy_J", "time_s",
