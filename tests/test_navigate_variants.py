@@ -123,11 +123,21 @@ def test_one_label_flies_as_the_options_do_and_keeps_the_one_flight_outputs(comm
     ("ea-mppi-w@qe=2", ["--energy", "mission"], r"'@energy=mission'"),
     ("mppi,ea-mppi-w-hat", ["--wrobot-tau", "8"], r"'@tau=S'"),
     ("mppi,ea-mppi-w", ["--model", "x.npz"], r"'--model' parameter of windnav navigate "
-     r"applies only to the onboard stack's decoder"),
+     r"applies only to an onboard label"),
     ("ea-mppi-w-hat@decoder=2026-11-23", ["--rotations-deg", "0", "-3", "3"],
-     r"names one \(@decoder=\)"),
-    ("ea-mppi-w-hat@views=3", ["--rotations-deg", "0", "-3", "3"], r"turns itself \(@views=\)"),
-    ("ea-mppi-w@tilt=70", ["--tilt-max-deg", "60"], r"'ea-mppi-w@tilt=70' sets itself"),
+     r"'--rotations-deg' parameter of windnav navigate applies only to an onboard label "
+     r"without @decoder= or @views="),
+    ("ea-mppi-w-hat@views=3", ["--rotations-deg", "0", "-3", "3"], r"no label takes it"),
+    ("ea-mppi-w-hat@decoder=2026-11-23", ["--model", "x.npz"], r"'--model' parameter of "
+     r"windnav navigate applies only to an onboard label without @decoder="),
+    ("ea-mppi-w@tilt=70", ["--tilt-max-deg", "60"], r"'--tilt-max-deg' parameter of windnav "
+     r"navigate applies only to a label without @tilt="),
+    ("ea-mppi-w@tilt=70", ["--tilt-max-deg", "nan"], r"'--tilt-max-deg' parameter of windnav "
+     r"navigate must be"),
+    ("mppi,ea-mppi-w-esc@escair=13.45@regain=5", [], r"'--variant' parameter of windnav "
+     r"navigate must give regain larger than the capture radius, 10 m"),
+    ("gs,", ["--horizon", "5"], r"'--horizon' parameter of windnav navigate is for the MPPI "
+     r"variants"),
     ("mppi,mppi", [], r"'--variant' parameter of windnav navigate must be distinct"),
     ("mppi,ea-mppi,ea-mppi-w,mppi-w,gs", [], r"must name at most 4 variants"),
     ("mppi@h=5@qe=1,mppi@qe=1@h=5", [], r"names one flight twice"),
@@ -135,19 +145,55 @@ def test_one_label_flies_as_the_options_do_and_keeps_the_one_flight_outputs(comm
     ("mppi", ["--gif-frames", "1"], r"'--gif-frames' parameter of windnav navigate must be an "
      r"integer >= 2"),
 ])
-def test_refused_before_the_wind_is_simulated(variant, extra, match, tmp_path, monkeypatch,
-                                              capsys):
+def test_refused_before_the_wind_is_simulated(variant, extra, match, city, tmp_path,
+                                              monkeypatch, capsys):
     def no_flow(*a, **kw):
         raise AssertionError("simulated the wind")
 
     monkeypatch.setattr(nav_mod, "simulate_flow", no_flow)
-    argv = ["navigate", "--map", "M", "--start", "10", "10", "--goal", "50", "50", "--speed",
-            "3", "--variant", variant, *extra, "--out", str(tmp_path / "o")]
+    path = city.to_rotorpy_json(tmp_path / "city.json")  # a real map: only the refusal stops it
+    argv = ["navigate", "--map", str(path), "--start", *map(str, START), "--goal",
+            *map(str, GOAL), "--speed", "3", "--variant", variant, *extra, "--out",
+            str(tmp_path / "o")]
     assert cli.main(argv) == 2
     import re
 
     assert re.search(match, capsys.readouterr().err)
     assert not (tmp_path / "o").exists()
+
+
+def test_a_stray_comma_or_space_is_read_as_the_one_label(command):
+    """``--variant "mppi,"`` ended in a KeyError: the one-variant path looked the raw string up
+    (review, fifty-third session)."""
+    status, doc = command(" mppi, ", "--no-plots", "--no-progress")
+    assert status == 0 and doc["variant"] == "mppi" and "label" not in doc
+
+
+def test_onboard_labels_fly_model_or_a_dated_decoder_and_the_line_rebuilds(
+        city, flow, command, tmp_path):
+    """``--model`` flies the onboard labels without ``@decoder=``; ``@decoder=DATE`` flies the
+    benchmark's dated file; the result records ``--model``'s hash, and its command line, rebuilt
+    by windnav.provenance, parses to the arguments it ran with."""
+    from windnav.experiments.nav_benchmark import benchmark_decoder
+    from windnav.predict import load_decoder
+    from windnav.predict.decoder import DEFAULT_MODEL, model_sha256
+    from windnav.provenance import command_arguments
+
+    model = DEFAULT_MODEL.parent / "decoder_2026-12-01.npz"
+    labels = ["ea-mppi-w-hat@outside=robot", "ea-mppi-w-hat@decoder=2026-11-23"]
+    status, doc = command(",".join(labels), "--model", str(model), "--no-plots", "--no-progress")
+    assert status == 0
+    assert doc["model_files"]["model"] == {"path": str(model), "sha256": model_sha256(model)}
+    mine = direct(city, flow, "ea-mppi-w-hat", onboard={"outside": "robot"},
+                  decoder=load_decoder(model))
+    dated = direct(city, flow, "ea-mppi-w-hat", decoder=benchmark_decoder("2026-11-23"))
+    for label, want in zip(labels, (mine, dated), strict=True):
+        for key in ("outcome", "energy_J", "time_s"):
+            assert doc["variants"][label][key] == want[key], (label, key)
+    words = command_arguments(doc)
+    parsed = vars(cli.build_parser().parse_args(words[1:]))
+    assert {k: parsed[k] for k in ("variant", "model", "start", "goal")} == {
+        "variant": ",".join(labels), "model": model, "start": list(START), "goal": list(GOAL)}
 
 
 def test_legend_names_break_long_labels_before_an_at_sign():

@@ -49,10 +49,11 @@ are ``navigate_paths.png`` and ``navigate_energy.png``. One variant keeps the ou
 demo's animation).
 With a label or several variants, ``--horizon``, ``--energy``, ``--outside`` and
 ``--wrobot-tau`` are refused: each label carries its own (``@h=``, ``@energy=mission``,
-``@outside=robot``, ``@tau=``; :func:`flights`). ``--model`` and ``--rotations-deg`` set the
-decoder of each onboard label that names none: ``@decoder=DATE`` flies the benchmark's dated
-file under its boundary rule, as ``benchmark-nav`` does, but a label without it flies
-``--model`` or the shipped decoder, where ``benchmark-nav`` flies its pinned ``2026-11-23``.
+``@outside=robot``, ``@tau=``; :func:`flights`). ``--model`` sets the decoder of each onboard
+label without ``@decoder=DATE`` (which flies the benchmark's dated file under its boundary rule,
+as ``benchmark-nav`` does), and ``--rotations-deg`` turns it for each of those without
+``@views=``: a label without ``@decoder=`` flies ``--model`` or the shipped decoder, where
+``benchmark-nav`` flies its pinned ``2026-11-23``.
 """
 
 from __future__ import annotations
@@ -265,24 +266,30 @@ def flights(args, name: str) -> list[dict]:
     ``--wrobot-tau`` as before. A label with parameters, or several variants, take them from
     each label (:func:`~windnav.experiments.nav_benchmark.parse_variant`, the benchmark's
     grammar), and those options are refused: one run, several variants, would apply them to
-    some and not others. ``--model`` and ``--rotations-deg`` give the decoder of every onboard
-    variant whose label names none (``@decoder=DATE`` flies the benchmark's dated file, as
-    ``benchmark-nav`` does; ``@views=V`` turns ``--model`` or the shipped decoder by 0 and
-    ``+-V`` deg, as ``--rotations-deg 0 -V V``); ``--tilt-max-deg`` the tilt of every label
-    without ``@tilt=``."""
+    some and not others. ``--model`` gives the decoder of each onboard label without
+    ``@decoder=`` (which flies the benchmark's dated file, as ``benchmark-nav`` does), and
+    ``--rotations-deg`` turns it for each of those without ``@views=V`` (which turns it by 0 and
+    ``+-V`` deg, as ``--rotations-deg 0 -V V``); ``--tilt-max-deg`` is the tilt of each label
+    without ``@tilt=``. Each of the three is refused when no label takes it. A label's
+    ``@regain`` no larger than the capture radius is refused here, before the wind is
+    simulated (:func:`~windnav.experiments.nav_benchmark.check_against_suite`'s rule)."""
     from windnav.experiments.nav_benchmark import flight_decoder, parse_variant
-    from windnav.experiments.navigate import TILT_MAX_DEG
+    from windnav.experiments.navigate import CAPTURE_RADIUS, TILT_MAX_DEG
     from windnav.plan import VARIANTS
 
     found = labels(args, name)
-    plain = len(found) == 1 and "@" not in found[0]
-    if plain:
+    if len(found) == 1 and "@" not in found[0]:  # (the label as parsed: "mppi," is "mppi")
         base = found[0]
-        decoder, files = _decoder(args, name)
+        one = _with(args, variant=base)
+        if base.startswith("gs") and float(args.horizon) != float("inf"):  # the whole map
+            raise ValueError(f"The '--horizon' parameter of {name} is for the MPPI variants "
+                             f"(the graph search plans over the whole map). Got "
+                             f"{args.horizon!r} for {base!r} instead.")
+        decoder, files = _decoder(one, name)
         return [{"label": base, "base": base, "reads_model": files is not None,
                  "kwargs": {"horizon": float(args.horizon), "tilt_max_deg": args.tilt_max_deg,
-                            "onboard": _onboard(args, name),
-                            "planner_overrides": _energy_mode(args, name),
+                            "onboard": _onboard(one, name),
+                            "planner_overrides": _energy_mode(one, name),
                             "decoder": decoder}}]
     for key, (flag, param) in FLAG_LABELS.items():
         value = getattr(args, key)
@@ -292,43 +299,40 @@ def flights(args, name: str) -> list[dict]:
                              f"without parameters; with {what} give it in each label that "
                              f"takes it ('{param}'). Got {flag} "
                              f"{value!r} with --variant {args.variant!r} instead.")
-    given = [flag for flag, value in (("--model", args.model),
-                                      ("--rotations-deg", args.rotations_deg))
-             if value is not None]
-    out, reads = [], False
+    out, used = [], set()
     for label in found:
         base, options = parse_variant(label, f"{name} (--variant)")
+        escape = options.get("escape")
+        if escape is not None and escape.regain_inside(CAPTURE_RADIUS):
+            raise ValueError(f"The '--variant' parameter of {name} must give regain larger "
+                             f"than the capture radius, {CAPTURE_RADIUS:g} m (the hold begins "
+                             f"within it). Got {label!r} instead.")
         kwargs = {k: v for k, v in options.items() if k not in ("decoder", "decoder_views")}
-        if "tilt_max_deg" in options and args.tilt_max_deg != TILT_MAX_DEG:
-            raise ValueError(f"The '--tilt-max-deg' parameter of {name} would set the tilt "
-                             f"that {label!r} sets itself (@tilt=). Got --tilt-max-deg "
-                             f"{args.tilt_max_deg!r} instead; leave one of them out.")
-        kwargs.setdefault("tilt_max_deg", args.tilt_max_deg)
-        onboard = VARIANTS[base].wind_source == "onboard"
+        if "tilt_max_deg" not in options:
+            kwargs["tilt_max_deg"] = args.tilt_max_deg
+            used.add("--tilt-max-deg")
         reads_model = False
-        if onboard and "decoder" in options:
-            if given:
-                raise ValueError(f"The '{given[0]}' parameter of {name} sets the decoder of "
-                                 f"the onboard variants whose label names none, and {label!r} "
-                                 "names one (@decoder=). Got both instead; leave one out.")
-            kwargs["decoder"] = flight_decoder(options)
-        elif onboard:
-            views = options.get("decoder_views")
-            if views is not None and args.rotations_deg is not None:
-                raise ValueError(f"The '--rotations-deg' parameter of {name} would turn the "
-                                 f"decoder that {label!r} turns itself (@views=). Got both "
-                                 "instead; leave one of them out.")
-            if views is not None or given:
+        if VARIANTS[base].wind_source == "onboard":
+            if "decoder" in options:  # the benchmark's dated file, with its views
+                kwargs["decoder"] = flight_decoder(options)
+            else:
+                views = options.get("decoder_views")
                 turned = args.rotations_deg if views is None else [0.0, -views, views]
-                kwargs["decoder"] = load_model(_with(args, rotations_deg=turned), name)
-            reads_model = True
+                used |= {"--model"} | ({"--rotations-deg"} if views is None else set())
+                if args.model is not None or turned is not None:
+                    kwargs["decoder"] = load_model(_with(args, rotations_deg=turned), name)
+                reads_model = True
         out.append({"label": label, "base": base, "kwargs": kwargs,
                     "reads_model": reads_model})
-        reads |= reads_model
-    if given and not reads:
-        raise ValueError(f"The '{given[0]}' parameter of {name} applies only to the onboard "
-                         f"stack's decoder (a variant ea-mppi-w-hat without @decoder=). Got "
-                         f"--variant {args.variant!r} instead.")
+    for flag, value, default, takers in (
+            ("--model", args.model, None, "an onboard label without @decoder="),
+            ("--rotations-deg", args.rotations_deg, None,
+             "an onboard label without @decoder= or @views="),
+            ("--tilt-max-deg", args.tilt_max_deg, TILT_MAX_DEG, "a label without @tilt=")):
+        if value != default and flag not in used:
+            raise ValueError(f"The '{flag}' parameter of {name} applies only to {takers} "
+                             f"(ea-mppi-w-hat for the decoder's). Got {flag} {value!r} with "
+                             f"--variant {args.variant!r}, where no label takes it, instead.")
     return out
 
 
@@ -374,11 +378,13 @@ def run(args) -> int:
     if not horizon > 0:
         raise ValueError(f"The '--horizon' parameter of {name} must be > 0 (inf allowed). "
                          f"Got {args.horizon!r} instead.")
-    if str(args.variant).startswith("gs") and horizon != float("inf"):  # GS: the whole map
-        raise ValueError(f"The '--horizon' parameter of {name} is for the MPPI variants (the "
-                         f"graph search plans over the whole map). Got {args.horizon!r} for "
-                         f"{args.variant!r} instead.")
     spinup = positive_float(args.spinup_s, "--spinup-s", name, allow_zero=True)
+    from windnav.experiments.navigate import TILT_LIMIT_DEG, check_point
+
+    tilt = finite_float(args.tilt_max_deg, "--tilt-max-deg", name)
+    if not 0.0 < tilt < TILT_LIMIT_DEG:
+        raise ValueError(f"The '--tilt-max-deg' parameter of {name} must be in "
+                         f"(0, {TILT_LIMIT_DEG:g}). Got {args.tilt_max_deg!r} instead.")
     planned = flights(args, name)
     gif_frames = getattr(args, "gif_frames", None)
     if gif_frames is not None and (isinstance(gif_frames, bool) or gif_frames < 2):
@@ -390,17 +396,11 @@ def run(args) -> int:
     city = _city(args.map, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
-    # check the start, the goal and the tilt before the (long) flow simulation
-    from windnav.experiments.navigate import TILT_LIMIT_DEG, check_point
-
+    # check the start and the goal before the (long) flow simulation
     check_point(city, start, "--start", name)
     check_point(city, goal, "--goal", name)
     for flight in planned:
         _check_route(city, start, goal, flight["base"], name)
-    tilt = finite_float(args.tilt_max_deg, "--tilt-max-deg", name)
-    if not 0.0 < tilt < TILT_LIMIT_DEG:
-        raise ValueError(f"The '--tilt-max-deg' parameter of {name} must be in "
-                         f"(0, {TILT_LIMIT_DEG:g}). Got {args.tilt_max_deg!r} instead.")
     from windnav.flow.solver import MAX_CFL
 
     dt = 0.25  # the thesis's frames; shorter above 10 m/s, where the CFL number would pass 2.5
