@@ -211,10 +211,16 @@ def test_energies_compare_only_where_both_reached_the_goal():
             "b": {"outcome": "success", "energy_J": 150.0, **flown},
             "c": {"outcome": "timeout", "energy_J": 100.0, **flown}}
     got = nav_cmd.compare_energies(runs)
-    assert got == {"reference": "a", "energy_vs_reference_percent": {"b": 25.0, "c": None}}
+    assert got == {"reference": "a", "energy_vs_reference_percent": {"b": 25.0, "c": None},
+                   "energy_not_compared": {"c": "c did not reach the goal"}}
     text = nav_cmd.describe_comparison({"variants": runs, **got})
     assert "b used 25.0 % less energy than a" in text
     assert "c against a: not compared (c did not reach the goal)" in text
+    # a counterfactual power curve (@power=crazyflie) prices its flight on another curve
+    other = nav_cmd.compare_energies(runs, {"b": "crazyflie"})
+    assert other["energy_vs_reference_percent"]["b"] is None
+    assert "another power curve (crazyflie's against the vehicle's" in \
+        other["energy_not_compared"]["b"]
 
 
 def test_the_labels_fly_the_benchmark_s_flights_of_a_scenario_to_the_bit(tmp_path):

@@ -42,8 +42,9 @@ as the benchmark flew it last,
 ``ea-mppi-w-hat@outside=robot@tau=8``, ... Up to :data:`MAX_VARIANTS` of them, separated by
 commas, fly the same start, goal and seed in one simulated wind (simulated once); the summary
 then holds ``variants`` (label -> the flight's summary), ``reference`` (the first) and
-``energy_vs_reference_percent`` (``100 (E_ref - E) / E_ref`` where both reached the goal, else
-None: one flight each, not a rate), ``series_K.npz`` the K-th flight's series, and the figures
+``energy_vs_reference_percent`` (``100 (E_ref - E) / E_ref`` where both reached the goal on
+the same power curve, else None and ``energy_not_compared`` says why: one flight each, not a
+rate), ``series_K.npz`` the K-th flight's series, and the figures
 are ``navigate_paths.png`` and ``navigate_energy.png``. One variant keeps the outputs above.
 ``--gif-frames N`` also writes ``navigate_flight.gif``, the flights over the unsteady wind (the
 demo's animation).
@@ -435,7 +436,8 @@ def run(args) -> int:
         summary = {"map": str(args.map), "seed": args.seed, **summaries[planned[0]["label"]]}
     else:
         summary = {"map": str(args.map), "seed": args.seed, "variants": summaries,
-                   **compare_energies(summaries)}
+                   **compare_energies(summaries, {f["label"]: f["kwargs"].get("power_shape")
+                                                  for f in planned})}
     if files is not None:  # the decoder's weights, by hash (windnav.provenance)
         summary["model_files"] = files
     doc = document("navigate", summary, args)
@@ -467,7 +469,8 @@ def run(args) -> int:
         print(json.dumps(json_ready({
             "variants": {label: {k: s[k] for k in keys if k in s and k not in ("variant", "label")}
                          for label, s in summaries.items()},
-            **{k: summary[k] for k in ("reference", "energy_vs_reference_percent")}}),
+            **{k: summary[k] for k in ("reference", "energy_vs_reference_percent",
+                                       "energy_not_compared")}}),
             indent=2))
         print(describe_comparison(summary), file=sys.stderr)
     for label, s in summaries.items():
@@ -539,20 +542,30 @@ def legend_name(label: str, width: int = 36) -> str:
     return "\n".join(lines)
 
 
-def compare_energies(summaries: dict) -> dict:
+def compare_energies(summaries: dict, power_shapes: dict | None = None) -> dict:
     """The comparison of several flights with the first (the reference): ``reference`` (its
-    label) and ``energy_vs_reference_percent``: for each other label, ``100 (E_ref - E) /
-    E_ref`` (positive: less energy than the reference), or None where either flight failed
-    (energies compare only when both reach the goal: one flight each, not a rate)."""
+    label), ``energy_vs_reference_percent``: for each other label, ``100 (E_ref - E) / E_ref``
+    (positive: less energy than the reference), or None where either flight failed (energies
+    compare only when both reach the goal: one flight each, not a rate) or where the two
+    flights' ``energy_J`` come from different power curves (``power_shapes``, label -> a
+    label's ``@power=`` shape or None); and ``energy_not_compared``: label -> why, for each
+    None."""
+    shapes = power_shapes or {}
     ref, *others = summaries
     base = summaries[ref]
-    pct = {}
+    pct, why = {}, {}
     for label in others:
         s = summaries[label]
-        both = base["outcome"] == "success" and s["outcome"] == "success"
-        pct[label] = (100.0 * (base["energy_J"] - s["energy_J"]) / base["energy_J"] if both
-                      else None)
-    return {"reference": ref, "energy_vs_reference_percent": pct}
+        failed = [v for v, r in ((ref, base), (label, s)) if r["outcome"] != "success"]
+        pct[label] = None
+        if failed:
+            why[label] = f"{' and '.join(failed)} did not reach the goal"
+        elif shapes.get(label) != shapes.get(ref):
+            why[label] = (f"energy_J on another power curve ({shapes.get(label) or 'the vehicle'}"
+                          f"'s against {shapes.get(ref) or 'the vehicle'}'s, @power=)")
+        else:
+            pct[label] = 100.0 * (base["energy_J"] - s["energy_J"]) / base["energy_J"]
+    return {"reference": ref, "energy_vs_reference_percent": pct, "energy_not_compared": why}
 
 
 def describe_comparison(summary: dict) -> str:
@@ -564,9 +577,8 @@ def describe_comparison(summary: dict) -> str:
     ref = summary["reference"]
     for label, pct in summary["energy_vs_reference_percent"].items():
         if pct is None:
-            failed = [v for v in (ref, label) if summary["variants"][v]["outcome"] != "success"]
-            lines.append(f"{label} against {ref}: not compared ({' and '.join(failed)} did not "
-                         "reach the goal)")
+            lines.append(f"{label} against {ref}: not compared "
+                         f"({summary['energy_not_compared'][label]})")
         else:
             lines.append(f"{label} used {abs(pct):.1f} % {'less' if pct >= 0 else 'more'} "
                          f"energy than {ref} (one flight each, not a rate)")
