@@ -254,3 +254,24 @@ def test_the_labels_fly_the_benchmark_s_flights_of_a_scenario_to_the_bit(tmp_pat
         got, rec = doc["variants"][label], records[label]
         for key in ("outcome", "energy_J", "rotor_energy_J", "time_s", "distance_m"):
             assert got[key] == rec[key], (label, key)
+
+
+def test_one_diverged_flight_of_several_exits_1_naming_it(command, monkeypatch, capsys):
+    """The run exits 1 when any of its flights diverged, and says which; the others are
+    written as flown."""
+    import dataclasses
+
+    real = nav_mod.navigate
+
+    def second_diverges(*a, **kw):
+        res = real(*a, **kw)
+        return dataclasses.replace(res, diverged_s=1.5) if kw["variant"] == "ea-mppi" else res
+
+    monkeypatch.setattr(nav_mod, "navigate", second_diverges)
+    status, doc = command("mppi,ea-mppi", "--no-plots", "--no-progress")
+    assert status == 1
+    assert doc["variants"]["ea-mppi"]["diverged_s"] == 1.5
+    assert doc["variants"]["mppi"]["diverged_s"] is None
+    err = capsys.readouterr().err
+    assert "windnav navigate: error: the simulation (ea-mppi) diverged" in err
+    assert "(mppi) diverged" not in err
