@@ -52,21 +52,30 @@ def test_the_pairs_drawn_are_those_the_benchmark_flew_on_the_windinet_layout(tmp
     out = tmp_path / "look"
     assert cli.main(["city", "--map", f"windinet={windinet_layout()}", "--suite", "thesis",
                      "--out", str(out)]) == 0
-    brief = json.loads(capsys.readouterr().out)
+    printed = capsys.readouterr()
+    brief = json.loads(printed.out)
     assert brief["suite"]["holds"] and brief["suite"]["pairs"] == 64
     assert brief["suite"]["rule"] == {"pair_distance": 282.0, "edge": 25.0, "clearance": 15.0}
     drawn = {p["scenario_id"]: p for p in json.loads(
         (out / "city_summary.json").read_text())["suite"]["pairs"]}
     with gzip.open(DOCS / "navigation" / "windinet_records.jsonl.gz", "rt") as f:
-        flown = {}
+        flown, seeds = {}, {}
         for line in f:
             r = json.loads(line)
             flown[r["scenario_id"]] = (r["start"], r["goal"], r["kind"], r["speed"])
+            seeds[r["scenario_id"]] = r["seed"]
     assert set(drawn) == set(flown) and len(flown) == 64
     for sid, (start, goal, kind, speed) in flown.items():
         p = drawn[sid]
         assert (p["kind"], p["speed"]) == (kind, speed)
         np.testing.assert_allclose([p["start"], p["goal"]], [start, goal], rtol=0, atol=1e-9)
+        assert p["seed"] == seeds[sid]
+    # and the line that flies the first one as the benchmark would (its record's seed)
+    err = printed.err
+    first = drawn["windinet/m00/w00/p0"]
+    assert (f"--seed {seeds['windinet/m00/w00/p0']} --variant mppi,ea-mppi-w-esc@escair=13.45"
+            in err)
+    assert f"--start {first['start'][0]!r} {first['start'][1]!r}" in err
     # one wind of the thesis suite there: the estimate the benchmark's batching uses
     from windnav.commands._city_suite import city_suite
     from windnav.experiments.nav_benchmark import wind_memory

@@ -21,7 +21,10 @@ those maps (``evaluate-decoder`` draws them from its own seed).
 FILE`` would fly on the map, every wind's, without simulating any wind, and estimates one
 wind's memory there. A map that cannot hold them is said, with the reason and the options
 that change the rule, and the exit status is 1 (the figure and JSON are still written): a
-check to run before a long benchmark.
+check to run before a long benchmark. The JSON's ``suite.pairs`` give each pair's scenario id,
+inlet, start, goal and flight seed, and the command prints the ``windnav navigate`` line that
+flies the first as the benchmark would (:func:`fly_one`; its flights equal the records of
+``benchmark-nav``'s for the same labels, to the bit on the same arithmetic).
 """
 
 from __future__ import annotations
@@ -176,8 +179,29 @@ def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *, path: st
     out["wind_memory"] = format_bytes(out["wind_memory_bytes"])
     out["pairs"] = [{"scenario_id": s.scenario_id, "kind": s.kind, "speed": s.speed,
                      "direction_deg": s.direction_deg, "start": [float(v) for v in s.start],
-                     "goal": [float(v) for v in s.goal]} for s in make_suite(spec)]
+                     "goal": [float(v) for v in s.goal], "seed": int(s.seed)}
+                    for s in make_suite(spec)]
     return out
+
+
+def fly_one(path, pair: dict) -> str:
+    """The ``windnav navigate`` line that flies ``pair`` (one of :func:`suite_pairs`'s) on the
+    map file ``path`` as the benchmark would: its start, goal, inlet and flight seed, with the
+    thesis's baseline and the sixth variant's last setting (``benchmark-nav``'s labels; a
+    label's flight equals the benchmark's record of it, docs/navigation.md)."""
+    import shlex
+
+    words = ["windnav", "navigate", "--map", str(path),
+             "--start", *(repr(v) for v in pair["start"]),
+             "--goal", *(repr(v) for v in pair["goal"]),
+             "--speed", repr(pair["speed"]), "--direction-deg", repr(pair["direction_deg"]),
+             "--seed", str(pair["seed"]), "--variant", f"mppi,{SIXTH}",
+             "--out", f"runs/{pair['scenario_id'].replace('/', '_')}"]
+    return shlex.join(words)
+
+
+SIXTH = "ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40@gust=0.5"
+"""The sixth variant's last setting (docs/navigation.md), the label :func:`fly_one` names."""
 
 
 def run(args) -> int:
@@ -237,6 +261,12 @@ def run(args) -> int:
     if summary["resolution_note"]:
         print(f"{name}: note: {summary['resolution_note']}", file=sys.stderr)
     print_written(out)
+    if args.suite is not None and summary["suite"]["holds"]:
+        where_map = path if path is not None else Path(args.out) / PRODUCTS[0]
+        print(f"{name}: the pairs, their inlets and flight seeds are in "
+              f"{Path(args.out) / PRODUCTS[2]} (suite.pairs); to fly the first as the "
+              f"benchmark would:\n  {fly_one(where_map, summary['suite']['pairs'][0])}",
+              file=sys.stderr)
     if args.suite is not None and not summary["suite"]["holds"]:
         print(f"{name}: the map cannot hold the suite's pairs: {summary['suite']['why']}",
               file=sys.stderr)
