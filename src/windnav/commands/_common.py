@@ -173,6 +173,16 @@ def cache_folder(path, option: str, name: str):
     return path
 
 
+def gif_frames(value, name: str, default: int | None = None) -> int | None:
+    """``--gif-frames``, checked: an integer >= 2 (``value`` None: ``default``), the frames of
+    :func:`windnav.viz.animate.animate_flights` (``windnav demo`` and ``windnav navigate``)."""
+    frames = default if value is None else value
+    if frames is not None and (isinstance(frames, bool) or int(frames) != frames or frames < 2):
+        raise ValueError(f"The '--gif-frames' parameter of {name} must be an integer >= 2. "
+                         f"Got {frames!r} instead.")
+    return None if frames is None else int(frames)
+
+
 def inlet_direction(value, option: str, name: str) -> float:
     """An inlet direction option, deg CCW from +x: finite and within one turn either way,
     [-360, 360] (``wind --direction-deg 1e308`` flew some direction and recorded 1e308 deg:

@@ -33,6 +33,7 @@ from windnav._validate import positive_float
 from windnav.commands._common import (
     add_output_arguments,
     document,
+    gif_frames,
     inlet_direction,
     inlet_speed,
     outputs,
@@ -148,10 +149,7 @@ def _nav_config(args):
     name = where(args)
     seed(args)
     _only(args, "ukf", {"--vehicle": args.vehicle, "--conditions": args.conditions})
-    frames = GIF_FRAMES if args.gif_frames is None else args.gif_frames
-    if isinstance(frames, bool) or int(frames) != frames or frames < 2:
-        raise ValueError(f"The '--gif-frames' parameter of {name} must be an integer >= 2. "
-                         f"Got {frames!r} instead.")
+    frames = gif_frames(args.gif_frames, name, default=GIF_FRAMES)
     fields = {"seed": args.seed, "wind_speed": inlet_speed(args.wind_speed, "--wind-speed",
                                                            name)}
     if args.direction_deg is not None:

@@ -69,6 +69,7 @@ from windnav.commands._common import (
     add_output_arguments,
     add_rotations_argument,
     document,
+    gif_frames,
     inlet_direction,
     inlet_speed,
     load_model,
@@ -387,10 +388,8 @@ def run(args) -> int:
         raise ValueError(f"The '--tilt-max-deg' parameter of {name} must be in "
                          f"(0, {TILT_LIMIT_DEG:g}). Got {args.tilt_max_deg!r} instead.")
     planned = flights(args, name)
-    gif_frames = getattr(args, "gif_frames", None)
-    if gif_frames is not None and (isinstance(gif_frames, bool) or gif_frames < 2):
-        raise ValueError(f"The '--gif-frames' parameter of {name} must be an integer >= 2. "
-                         f"Got {gif_frames!r} instead.")
+    frames = gif_frames(getattr(args, "gif_frames", None), name)
+    progress = not getattr(args, "no_progress", False)
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
     goal = [finite_float(v, "--goal", name) for v in args.goal]
@@ -413,7 +412,7 @@ def run(args) -> int:
 
     try:
         flow = simulate_flow(city, speed, direction, spinup_s=spinup, record_s=record, dt=dt,
-                             progress=not getattr(args, "no_progress", False))
+                             progress=progress)
     except MemoryEstimateError as exc:  # its advice named simulate's dx and memory_limit
         raise MemoryEstimateError(
             f"{exc} Here: {name} simulates the wind on a 1 m grid over the whole map and keeps "
@@ -421,7 +420,7 @@ def run(args) -> int:
             "needs less.") from None
     results, summaries = {}, {}
     for flight in planned:
-        if not getattr(args, "no_progress", False):
+        if progress:
             print(f"{name}: flying {flight['label']}", file=sys.stderr, flush=True)
         result = navigate(city, start, goal, speed=speed, direction_deg=direction,
                           variant=flight["base"], rng=args.seed, flow=flow,
@@ -449,12 +448,12 @@ def run(args) -> int:
         inlet = f"{speed:g} m/s toward {direction:g} deg"
         if not args.no_plots:
             _plot(results, city, flow, stage.dir, inlet=inlet)
-        if gif_frames is not None:
+        if frames is not None:
             from windnav.viz.animate import animate_flights
 
-            named = {legend_name(label).replace("\n", ""): r for label, r in results.items()}
+            named = {legend_name(label, width=math.inf): r for label, r in results.items()}
             animate_flights(named, city, flow, stage.dir / "navigate_flight.gif",
-                            n_frames=gif_frames, fps=10.0,
+                            n_frames=frames, fps=10.0,
                             title=(f"{' vs '.join(named)}, wind {inlet}" if len(named) < 3
                                    else f"Wind {inlet}"))
         if stage.file("--json") is not None:
@@ -527,10 +526,11 @@ def _plot(results: dict, city, flow, out_dir, *, inlet: str) -> None:
                 title=f"Wind {inlet}: airspeed, power and energy")
 
 
-def legend_name(label: str, width: int = 36) -> str:
+def legend_name(label: str, width: float = 36) -> str:
     """A label as the figures' legends show it: the variant's display name
     (:data:`windnav.experiments.nav_demo.LABELS`), then its parameters, broken before an ``@``
-    into lines of about ``width`` characters (a label of six parameters ran off the figure)."""
+    into lines of about ``width`` characters (a label of six parameters ran off the figure;
+    ``math.inf``: one line, the GIF's title)."""
     from windnav.experiments.nav_demo import LABELS
 
     base, *params = label.split("@")
