@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+from PIL import Image
 
 from windnav.cli import main
 
@@ -16,11 +17,16 @@ RECORD_KEYS = ("outcome", "energy_J", "rotor_energy_J", "time_s", "distance_m",
 TIMED = ("planner_ms_median", "wall_s")
 
 
+def _flights(summary: dict) -> dict:
+    """Each flight's record without its wall-clock measurements."""
+    return {v: {k: x for k, x in r.items() if k not in TIMED}
+            for v, r in summary["variants"].items()}
+
+
 def _numbers(summary: dict) -> dict:
     keep = {k: summary[k] for k in ("start", "goal", "energy_saving_percent",
                                     "rotor_energy_saving_percent", "energy_saving_note")}
-    keep["variants"] = {v: {k: x for k, x in r.items() if k not in TIMED}
-                        for v, r in summary["variants"].items()}
+    keep["variants"] = _flights(summary)
     return keep
 
 
@@ -38,8 +44,6 @@ def nav_runs(tmp_path_factory):
 
 
 def test_navigate_story_writes_figures_gif_and_summary(nav_runs):
-    from PIL import Image
-
     from windnav.city import planning_map
 
     out, doc = nav_runs[0]
@@ -107,7 +111,103 @@ def test_describe_reports_a_saving_or_its_absence():
     assert describe(summary(4000.0, 3000.0, "timeout")).endswith("ended in timeout")
 
 
+def test_variant_labels_fly_in_the_demo_s_wind_and_the_default_pair_to_the_bit(nav_runs,
+                                                                               tmp_path, capsys):
+    """``--variant``: three of benchmark-nav's labels in the story's city and wind. The two the
+    demo flies by default give the default run's records to the bit (the same flights in the
+    same wind), and each of the others is compared with the first."""
+    labels = ["mppi", "ea-mppi-w", "ea-mppi-w@energy=mission"]
+    out, js = tmp_path / "run", tmp_path / "demo.json"
+    assert main(["demo", "--seed", "0", *SMALL, "--variant", ",".join(labels), "--out", str(out),
+                 "--json", str(js)]) == 0
+    doc = json.loads(js.read_text())
+    default = nav_runs[0][1]
+    assert list(doc["variants"]) == labels and doc["start"] == default["start"]
+    flown = _flights(doc)
+    assert {v: flown[v] for v in labels[:2]} == _flights(default)
+    mission = doc["variants"][labels[2]]
+    assert mission["label"] == labels[2] and mission["variant"] == "ea-mppi-w"
+    assert mission["settings"] != doc["variants"]["ea-mppi-w"]["settings"]
+    assert "energy_saving_percent" not in doc and doc["reference"] == "mppi"
+    base = doc["variants"]["mppi"]
+    for label in labels[1:]:
+        r, pct = doc["variants"][label], doc["energy_vs_reference_percent"][label]
+        if base["outcome"] == r["outcome"] == "success":
+            assert pct == pytest.approx(100.0 * (base["energy_J"] - r["energy_J"])
+                                        / base["energy_J"])
+        else:
+            assert pct is None and "did not reach the goal" in doc["energy_not_compared"][label]
+    assert doc["arguments"]["variant"] == ",".join(labels)
+    assert set(doc["timings_s"]) >= {*labels, "flow", "figures", "gif"}
+    printed = capsys.readouterr().out
+    assert f"EA-MPPI+W@energy=mission: {mission['outcome']}, " in printed
+    with Image.open(out / "flight.gif") as im:
+        assert im.n_frames == 12
+    assert (out / "paths.png").read_bytes()[:8] == PNG
+
+
+@pytest.mark.parametrize("variant, says", [
+    ("bogus", "'--variant' parameter of windnav demo"),
+    ("mppi,mppi", "'--variant' parameter of windnav demo"),
+    ("mppi,ea-mppi,mppi-w,ea-mppi-w,gs", "must name at most 4 variants"),
+    ("ea-mppi-w-esc@escair=13.45@regain=5", "must give regain larger than the capture radius"),
+])
+def test_bad_variant_labels_are_refused_before_the_wind(tmp_path, capsys, variant, says):
+    assert main(["demo", "--variant", variant, "--out", str(tmp_path / "run")]) == 2
+    assert says in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
+
+
+def test_describe_compares_three_flights_with_the_first_and_one_with_none():
+    from windnav.experiments.nav_demo import _saving, compare_energies, describe
+
+    rec = {"outcome": "success", "energy_J": 4000.0, "rotor_energy_J": 4100.0, "time_s": 50.0,
+           "distance_m": 300.0}
+    runs = {"mppi": rec, "ea-mppi-w": {**rec, "energy_J": 3000.0},
+            "ea-mppi-w@power=crazyflie": {**rec, "energy_J": 100.0}}
+    shapes = {"ea-mppi-w@power=crazyflie": "crazyflie"}
+    text = describe({"variants": runs, **compare_energies(runs, shapes)}).splitlines()
+    assert text[2].startswith("EA-MPPI+W@power=crazyflie: success, 0.10 kJ in 50.0 s")
+    assert text[3] == "EA-MPPI+W used 25.0 % less energy than MPPI (one flight each, not a rate)"
+    assert text[4].startswith("EA-MPPI+W@power=crazyflie against MPPI: not compared (energy_J "
+                              "on another power curve")
+    assert describe({"variants": {"mppi": rec}}) == ("MPPI: success, 4.00 kJ in 50.0 s (rotor "
+                                                     "4.10 kJ, 300 m flown)")
+    # two flights on different power curves: not compared, and said so
+    pair = {k: runs[k] for k in ("mppi", "ea-mppi-w@power=crazyflie")}
+    pct, note = _saving(pair, "energy_J", shapes)
+    assert pct is None and note.startswith("not compared: EA-MPPI+W@power=crazyflie's energy_J "
+                                           "is on another power curve than MPPI's")
+    assert _saving({k: runs[k] for k in ("mppi", "ea-mppi-w")}, "energy_J", {}) == (
+        25.0, "EA-MPPI+W used 25.0 % less energy than MPPI")
+
+
+def test_a_decoder_file_is_refused_where_no_flight_reads_one(tmp_path, capsys):
+    for argv, says in ((["--model", "m.npz"], "applies only to an ea-mppi-w-hat label of "
+                                              "--variant"),
+                       (["--variant", "mppi,ea-mppi-w", "--model", "m.npz"],
+                        "applies only to an onboard label without @decoder=")):
+        assert main(["demo", *argv, "--out", str(tmp_path / "run")]) == 2
+        assert f"'--model' parameter of windnav demo {says}" in capsys.readouterr().err
+        assert not (tmp_path / "run").exists()
+
+
+def test_a_diverged_flight_is_an_error_naming_it(capsys):
+    from windnav.commands.demo import _diverged
+
+    args = type("Args", (), {"command": "demo"})()
+    ok = {"outcome": "success", "diverged_s": None}
+    assert _diverged(args, {"variants": {"mppi": ok}}) == 0
+    bad = {"outcome": "left_map", "diverged_s": 12.5}
+    assert _diverged(args, {"variants": {"mppi": ok, "ea-mppi-w@energy=mission": bad}}) == 1
+    assert capsys.readouterr().err.startswith(
+        "windnav demo: error: the simulation (EA-MPPI+W@energy=mission) diverged: the "
+        "vehicle's state stopped being finite at 12.50 s")
+
+
 @pytest.mark.parametrize("argv, flag", [
+    (["--story", "ukf", "--variant", "mppi"], "--variant"),
+    (["--story", "ukf", "--model", "m.npz"], "--model"),
     (["--story", "ukf", "--map-size", "300"], "--map-size"),
     (["--story", "ukf", "--direction-deg", "90"], "--direction-deg"),
     (["--vehicle", "crazyflie_brushless"], "--vehicle"),

@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-import windnav.commands.navigate as nav_cmd
+import windnav.experiments.nav_demo as nav_demo
 import windnav.experiments.navigate as nav_mod
 from windnav import cli
 from windnav.city import City
@@ -197,9 +197,9 @@ def test_onboard_labels_fly_model_or_a_dated_decoder_and_the_line_rebuilds(
 
 
 def test_legend_names_break_long_labels_before_an_at_sign():
-    assert nav_cmd.legend_name("ea-mppi-w") == "EA-MPPI+W"
+    assert nav_demo.legend_name("ea-mppi-w") == "EA-MPPI+W"
     long = "ea-mppi-w-esc@escair=13.45@edge=15@pace=20@regain=20@launch=40@gust=0.5"
-    lines = nav_cmd.legend_name(long).split("\n")
+    lines = nav_demo.legend_name(long).split("\n")
     assert lines[0].startswith("EA-MPPI+W+esc@escair=13.45") and len(lines) == 3
     assert all(len(line) <= 36 for line in lines)
     assert "".join(lines) == "EA-MPPI+W+esc" + long[len("ea-mppi-w-esc"):]
@@ -210,14 +210,14 @@ def test_energies_compare_only_where_both_reached_the_goal():
     runs = {"a": {"outcome": "success", "energy_J": 200.0, **flown},
             "b": {"outcome": "success", "energy_J": 150.0, **flown},
             "c": {"outcome": "timeout", "energy_J": 100.0, **flown}}
-    got = nav_cmd.compare_energies(runs)
+    got = nav_demo.compare_energies(runs)
     assert got == {"reference": "a", "energy_vs_reference_percent": {"b": 25.0, "c": None},
                    "energy_not_compared": {"c": "c did not reach the goal"}}
-    text = nav_cmd.describe_comparison({"variants": runs, **got})
+    text = nav_demo.describe_comparison({"variants": runs, **got})
     assert "b used 25.0 % less energy than a" in text
     assert "c against a: not compared (c did not reach the goal)" in text
     # a counterfactual power curve (@power=crazyflie) prices its flight on another curve
-    other = nav_cmd.compare_energies(runs, {"b": "crazyflie"})
+    other = nav_demo.compare_energies(runs, {"b": "crazyflie"})
     assert other["energy_vs_reference_percent"]["b"] is None
     assert "another power curve (crazyflie's against the vehicle's" in \
         other["energy_not_compared"]["b"]

@@ -290,11 +290,15 @@ def test_a_decoder_flown_or_compared_from_the_shipped_file_names_its_dated_file(
         command_line(gone)
 
 
-def test_an_onboard_flight_names_the_dated_file_of_its_replaced_default():
-    # windnav navigate records the decoder it flew (ea-mppi-w-hat) since 2026-12-07
+@pytest.mark.parametrize("typed", [
+    ["navigate", "--map", "m.json", "--start", "10", "20", "--goal", "90", "20", "--speed", "5",
+     "--variant", "ea-mppi-w-hat", "--out", "runs/n"],
+    ["demo", "--variant", "mppi,ea-mppi-w-hat", "--out", "runs/d"],
+], ids=["navigate", "demo"])
+def test_an_onboard_flight_names_the_dated_file_of_its_replaced_default(typed):
+    # windnav navigate records the decoder it flew (ea-mppi-w-hat) since 2026-12-07, and
+    # windnav demo's --variant since the fifty-fourth session
     old = _replaced_model()
-    typed = ["navigate", "--map", "m.json", "--start", "10", "20", "--goal", "90", "20",
-             "--speed", "5", "--variant", "ea-mppi-w-hat", "--out", "runs/n"]
     doc = _result(typed, {"model": {"path": "default", "sha256": model_sha256(old)},
                           "compare": {}})
     words = command_arguments(doc)

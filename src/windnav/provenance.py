@@ -63,10 +63,11 @@ their rebuilt lines name them (``--windinet``, ``--maps 3``: what the line witho
 again, as long as it gives no ``--map``)."""
 
 
-MODEL_COMMANDS = ("evaluate-decoder", "decoder-study", "predict", "navigate")
+MODEL_COMMANDS = ("evaluate-decoder", "decoder-study", "predict", "navigate", "demo")
 """The commands whose ``--model`` defaults to the shipped decoder, which changes with each
 model shipped: their results record the file's hash (``model_files``; ``navigate`` since
-2026-12-07, for the onboard stack's variant only)."""
+2026-12-07, for the onboard stack's variant only; ``demo`` since the fifty-fourth session, for
+its ``--variant`` labels of the onboard stack)."""
 
 
 def _load(doc) -> Mapping:

@@ -1,7 +1,8 @@
 """``windnav demo``: the end-to-end demo, in one of two stories.
 
-``--story navigate`` (the default): a city and its wind; MPPI and EA-MPPI+W fly the same start
-and goal through it; the energy each used, and an animated GIF of the flight. The harness is
+``--story navigate`` (the default): a city and its wind; MPPI and EA-MPPI+W (or up to four
+``--variant`` labels of ``benchmark-nav``) fly the same start and goal through it; the energy
+each used, and an animated GIF of the flight. The harness is
 :mod:`windnav.experiments.nav_demo`; writes ``summary.json``, ``paths.png``, ``energy.png`` and
 ``flight.gif``.
 
@@ -14,6 +15,8 @@ UKF's estimate of the wind (:mod:`windnav.experiments.demo`); writes ``map_wind_
     windnav demo --out out/demo --seed 0                       # the navigation story
     windnav demo --wind-speed 8 --direction-deg 180 --out out/demo8   # into the wind: with
                                                    # seed 0 both flights fail, and it says so
+    windnav demo --variant mppi,ea-mppi-w,ea-mppi-w@energy=mission --out out/demo3
+                                                   # three of benchmark-nav's labels
     windnav demo --story ukf --seed 1 --out out/demo_ukf
     windnav demo --story ukf --conditions thesis --out out/demo_thesis
 
@@ -63,10 +66,10 @@ def register(sub) -> None:
     p = sub.add_parser("demo", help="end-to-end demo: urban wind, MPPI vs EA-MPPI+W (or the "
                                     "Wind UKF)",
                        description="Simulate the wind of a random city and fly through it. "
-                                   "--story navigate (default): MPPI and EA-MPPI+W fly the same "
-                                   "start and goal; their energies, figures and a GIF. --story "
-                                   "ukf: a route flown with sensors, the wind estimated by the "
-                                   "Wind UKF.")
+                                   "--story navigate (default): MPPI and EA-MPPI+W (or up to "
+                                   "four --variant labels) fly the same start and goal; their "
+                                   "energies, figures and a GIF. --story ukf: a route flown "
+                                   "with sensors, the wind estimated by the Wind UKF.")
     p.add_argument("--story", choices=STORIES, default="navigate",
                    help="which demo (default: %(default)s)")
     p.add_argument("--seed", type=int, default=0,
@@ -87,6 +90,14 @@ def register(sub) -> None:
                           f"flight (default {Nav.record_s:g})")
     nav.add_argument("--gif-frames", type=int, default=None,
                      help=f"frames of flight.gif, shown at 10 per second (default {GIF_FRAMES})")
+    nav.add_argument("--variant", default=None, metavar="LABEL[,LABEL...]",
+                     help="the flights, separated by commas (at most 4): variants or "
+                          "benchmark-nav's labels (e.g. ea-mppi-w@energy=mission, "
+                          "ea-mppi-w-esc@escair=13.45), each compared with the first "
+                          "(default: mppi,ea-mppi-w)")
+    nav.add_argument("--model", type=Path, default=None, metavar="FILE",
+                     help="the decoder file of each ea-mppi-w-hat label without @decoder= "
+                          "(default: the shipped decoder; @decoder=DATE flies a dated one)")
     ukf = p.add_argument_group("ukf story")
     ukf.add_argument("--vehicle", default=None, choices=VEHICLES,
                      help="vehicle (default hummingbird)")
@@ -134,7 +145,8 @@ def _config(args):
     seed(args)
     _only(args, "navigate", {"--direction-deg": args.direction_deg,
                              "--map-size": args.map_size, "--record-s": args.record_s,
-                             "--gif-frames": args.gif_frames})
+                             "--gif-frames": args.gif_frames, "--variant": args.variant,
+                             "--model": args.model})
     flow_dt = _flow_dt(args, auto_flow_dt, DemoConfig.dx)
     return DemoConfig(seed=args.seed, vehicle=args.vehicle or "hummingbird",
                       wind_speed=float(args.wind_speed), flow_dt=flow_dt,
@@ -164,6 +176,28 @@ def _nav_config(args):
     return NavDemoConfig(**fields), int(frames)
 
 
+def _nav_flights(args):
+    """``--variant``'s flights (:func:`windnav.commands.navigate.flights`, with navigate's
+    defaults for the options the demo does not have) and the namespace they were read with;
+    (None, None) without ``--variant``: :func:`~windnav.experiments.nav_demo.default_flights`."""
+    import argparse
+    import math
+
+    from windnav.commands.navigate import flights
+    from windnav.experiments.navigate import TILT_MAX_DEG
+
+    if args.variant is None:
+        if args.model is not None:
+            raise ValueError(f"The '--model' parameter of {where(args)} applies only to an "
+                             "ea-mppi-w-hat label of --variant (the default flights read no "
+                             f"decoder). Got {str(args.model)!r} without --variant instead.")
+        return None, None
+    ns = argparse.Namespace(command=args.command, variant=args.variant, model=args.model,
+                            rotations_deg=None, tilt_max_deg=TILT_MAX_DEG, horizon=math.inf,
+                            energy="horizon", outside="zero", wrobot_tau=0.0)
+    return flights(ns, where(args)), ns
+
+
 def run(args) -> int:
     if args.story == "ukf":
         return _run_ukf(args)
@@ -171,37 +205,45 @@ def run(args) -> int:
 
 
 def _run_navigate(args) -> int:
-    from windnav.experiments.nav_demo import LABELS, describe, run_nav_demo
+    import math
+
+    from windnav.commands._common import model_files
+    from windnav.experiments.nav_demo import describe, legend_name, run_nav_demo
     from windnav.experiments.results import write_json
     from windnav.viz.animate import animate_flights
     from windnav.viz.nav_compare import plot_energy, plot_paths
 
     t_start = time.perf_counter()
     cfg, n_frames = _nav_config(args)
+    planned, read_with = _nav_flights(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    result = run_nav_demo(cfg, progress=not args.no_progress)
+    result = run_nav_demo(cfg, flights=planned, progress=not args.no_progress)
     summary = result["summary"]
     city, flow = result["city"], result["flow"]
-    named = {LABELS[v]: r for v, r in result["results"].items()}
+    named = {legend_name(v): r for v, r in result["results"].items()}
+    flown = [legend_name(v, math.inf) for v in result["results"]]
+    who = " vs ".join(flown) + ", wind" if len(flown) < 3 else "Wind"
     inlet = f"{cfg.wind_speed:g} m/s toward {cfg.direction_deg:g} deg"
     timings = summary["timings_s"]
     with out.writing() as stage:
         print("drawing the figures and the GIF", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
         plot_paths(named, city, flow, stage.dir / "paths.png",
-                   title=f"Seed {cfg.seed}: {' vs '.join(named)}, wind {inlet}")
+                   title=f"Seed {cfg.seed}: {who} {inlet}")
         plot_energy(named, stage.dir / "energy.png",
                     title=f"Seed {cfg.seed}, wind {inlet}: airspeed, power and energy")
         timings["figures"] = time.perf_counter() - t0
         t0 = time.perf_counter()
-        gif = animate_flights(named, city, flow, stage.dir / "flight.gif",
-                              n_frames=n_frames, fps=10.0,
-                              title=f"{' vs '.join(named)}, wind {inlet}")
+        gif = animate_flights({legend_name(v, math.inf): r for v, r in result["results"].items()},
+                              city, flow, stage.dir / "flight.gif", n_frames=n_frames, fps=10.0,
+                              title=f"{who} {inlet}")
         timings["gif"] = time.perf_counter() - t0
         timings["total"] = time.perf_counter() - t_start
         payload = {"story": "navigate", "config": dataclasses.asdict(cfg), **summary,
                    "gif": {"frames": n_frames, "fps": 10.0,
                            "bytes": gif.stat().st_size}}
+        if planned is not None and any(f["reads_model"] for f in planned):
+            payload["model_files"] = model_files(read_with)  # the decoder, by hash
         doc = document("demo", payload, args)
         write_json(doc, stage.dir / "summary.json")
         if stage.file("--json") is not None:
@@ -212,7 +254,7 @@ def _run_navigate(args) -> int:
           f"{sum(timings[v] for v in result['results']):.0f} s, figures and GIF "
           f"{timings['figures'] + timings['gif']:.0f} s)")
     print_written(out)
-    return 0
+    return _diverged(args, summary)
 
 
 def _run_ukf(args) -> int:
@@ -242,12 +284,32 @@ def _warn_variants(args, summary: dict) -> None:
     """:func:`windnav.commands.navigate.warn_envelope` for each variant flown, its lines named
     by the command and the variant (the JSON holds the numbers; the console said only
     ``EA-MPPI+W: success, 4.54 kJ`` of a flight with 1.41 s of extrapolated power)."""
+    import math
+
     from windnav.commands.navigate import warn_envelope
-    from windnav.experiments.nav_demo import LABELS
+    from windnav.experiments.nav_demo import legend_name
 
     name = where(args)
     for v, record in summary["variants"].items():
-        warn_envelope(record, prefix=f"{name}: {LABELS.get(v, v)}: ")
+        warn_envelope(record, prefix=f"{name}: {legend_name(v, math.inf)}: ")
+
+
+def _diverged(args, summary: dict) -> int:
+    """1, with an error line naming each, when a flight's simulation diverged (recorded as
+    ``left_map`` where it was, as ``windnav navigate`` records and reports it); else 0."""
+    import math
+
+    from windnav.experiments.nav_demo import legend_name
+
+    status = 0
+    for v, record in summary["variants"].items():
+        if record.get("diverged_s") is not None:
+            print(f"{where(args)}: error: the simulation ({legend_name(v, math.inf)}) "
+                  f"diverged: the vehicle's state stopped being finite at "
+                  f"{record['diverged_s']:.2f} s, and the flight, recorded as "
+                  f"{record['outcome']!r} where it was, ends there", file=sys.stderr)
+            status = 1
+    return status
 
 
 def _warn_ukf_envelope(args, metrics: dict) -> None:

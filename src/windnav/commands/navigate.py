@@ -368,6 +368,7 @@ def _check_route(city, start, goal, variant: str, name: str) -> None:
 def run(args) -> int:
     import numpy as np
 
+    from windnav.experiments.nav_demo import compare_energies, describe_comparison, legend_name
     from windnav.experiments.navigate import navigate, simulate_flow
     from windnav.experiments.results import json_ready, write_json
 
@@ -517,6 +518,7 @@ def _plot(results: dict, city, flow, out_dir, *, inlet: str) -> None:
 
         plot_navigation(next(iter(results.values())), city, flow, out_dir)
         return
+    from windnav.experiments.nav_demo import legend_name
     from windnav.viz.nav_compare import plot_energy, plot_paths
 
     results = {legend_name(label): r for label, r in results.items()}
@@ -524,65 +526,6 @@ def _plot(results: dict, city, flow, out_dir, *, inlet: str) -> None:
                title=f"{len(results)} variants, wind {inlet}")
     plot_energy(results, out_dir / "navigate_energy.png",
                 title=f"Wind {inlet}: airspeed, power and energy")
-
-
-def legend_name(label: str, width: float = 36) -> str:
-    """A label as the figures' legends show it: the variant's display name
-    (:data:`windnav.experiments.nav_demo.LABELS`), then its parameters, broken before an ``@``
-    into lines of about ``width`` characters (a label of six parameters ran off the figure;
-    ``math.inf``: one line, the GIF's title)."""
-    from windnav.experiments.nav_demo import LABELS
-
-    base, *params = label.split("@")
-    lines = [LABELS.get(base, base)]
-    for param in params:
-        if len(lines[-1]) + 1 + len(param) > width:
-            lines.append("")
-        lines[-1] += "@" + param
-    return "\n".join(lines)
-
-
-def compare_energies(summaries: dict, power_shapes: dict | None = None) -> dict:
-    """The comparison of several flights with the first (the reference): ``reference`` (its
-    label), ``energy_vs_reference_percent``: for each other label, ``100 (E_ref - E) / E_ref``
-    (positive: less energy than the reference), or None where either flight failed (energies
-    compare only when both reach the goal: one flight each, not a rate) or where the two
-    flights' ``energy_J`` come from different power curves (``power_shapes``, label -> a
-    label's ``@power=`` shape or None); and ``energy_not_compared``: label -> why, for each
-    None."""
-    shapes = power_shapes or {}
-    ref, *others = summaries
-    base = summaries[ref]
-    pct, why = {}, {}
-    for label in others:
-        s = summaries[label]
-        failed = [v for v, r in ((ref, base), (label, s)) if r["outcome"] != "success"]
-        pct[label] = None
-        if failed:
-            why[label] = f"{' and '.join(failed)} did not reach the goal"
-        elif shapes.get(label) != shapes.get(ref):
-            why[label] = (f"energy_J on another power curve ({shapes.get(label) or 'the vehicle'}"
-                          f"'s against {shapes.get(ref) or 'the vehicle'}'s, @power=)")
-        else:
-            pct[label] = 100.0 * (base["energy_J"] - s["energy_J"]) / base["energy_J"]
-    return {"reference": ref, "energy_vs_reference_percent": pct, "energy_not_compared": why}
-
-
-def describe_comparison(summary: dict) -> str:
-    """One line per flight, then each one's energy against the reference's, or why not."""
-    lines = []
-    for label, s in summary["variants"].items():
-        lines.append(f"{label}: {s['outcome']}, {s['energy_J'] / 1e3:.2f} kJ in "
-                     f"{s['time_s']:.1f} s ({s['distance_m']:.0f} m flown)")
-    ref = summary["reference"]
-    for label, pct in summary["energy_vs_reference_percent"].items():
-        if pct is None:
-            lines.append(f"{label} against {ref}: not compared "
-                         f"({summary['energy_not_compared'][label]})")
-        else:
-            lines.append(f"{label} used {abs(pct):.1f} % {'less' if pct >= 0 else 'more'} "
-                         f"energy than {ref} (one flight each, not a rate)")
-    return "\n".join(lines)
 
 
 def warn_envelope(summary: dict, prefix: str = "") -> None:

@@ -11,7 +11,9 @@
 4. MPPI and EA-MPPI+W fly from the start to the goal in the same wind with the same seed
    (:func:`~windnav.experiments.navigate.navigate`: 6-DoF Hummingbird, 10 Hz planner, 100 Hz
    SE(3) control); the energy of each (airspeed power curve and rotor energy) and the saving of
-   EA-MPPI+W over MPPI, ``100 (E_mppi - E_ea) / E_mppi`` %, when both succeeded.
+   EA-MPPI+W over MPPI, ``100 (E_mppi - E_ea) / E_mppi`` %, when both succeeded. Other
+   flights (``flights``, ``windnav demo --variant``: any of ``benchmark-nav``'s labels, up to
+   four) fly instead, the first the reference of the comparison.
 
 Why this size and grid
 ----------------------
@@ -47,10 +49,11 @@ import numpy as np
 from windnav._validate import finite_float, nonnegative_int, positive_float
 from windnav.experiments.results import say
 
-__all__ = ["LABELS", "RECORD_KEYS", "VARIANTS", "NavDemoConfig", "describe", "run_nav_demo"]
+__all__ = ["LABELS", "RECORD_KEYS", "VARIANTS", "NavDemoConfig", "compare_energies",
+           "default_flights", "describe", "describe_comparison", "legend_name", "run_nav_demo"]
 
 VARIANTS = ("mppi", "ea-mppi-w")
-"""The baseline and the energy-aware, wind-aware planner the demo compares."""
+"""The baseline and the energy-aware, wind-aware planner the demo compares by default."""
 
 LABELS = {"mppi": "MPPI", "mppi-w": "MPPI+W", "ea-mppi": "EA-MPPI", "ea-mppi-w": "EA-MPPI+W",
           "gs": "GS", "gs-w": "GS+W", "ea-mppi-w-hat": "EA-MPPI+Ŵ",
@@ -154,28 +157,46 @@ def _endpoints(city, cfg: NavDemoConfig) -> tuple[np.ndarray, np.ndarray]:
     return points[0], points[1]
 
 
-def _saving(records: dict, key: str) -> tuple[float | None, str]:
-    """``100 (E_base - E_new) / E_base`` of ``key`` when both flights succeeded, and why not."""
-    base, new = (records[v] for v in VARIANTS)
-    failed = [f"{LABELS[v]} ended in {records[v]['outcome']}" for v in VARIANTS
+def _saving(records: dict, key: str, shapes: dict) -> tuple[float | None, str]:
+    """``100 (E_base - E_new) / E_base`` of ``key`` for the two flights of ``records`` (the
+    first is the base) when both succeeded on the same power curve (``shapes``: label -> its
+    ``@power=`` shape or None), and why not."""
+    labels = list(records)
+    names = [legend_name(v, math.inf) for v in labels]
+    failed = [f"{n} ended in {records[v]['outcome']}" for v, n in zip(labels, names, strict=True)
               if records[v]["outcome"] != "success"]
     if failed:
         return None, "not compared: " + " and ".join(failed) + " (energies compare only when " \
                      "both reach the goal)"
+    if shapes.get(labels[0]) != shapes.get(labels[1]):
+        return None, (f"not compared: {names[1]}'s energy_J is on another power curve than "
+                      f"{names[0]}'s (@power=)")
+    base, new = (records[v] for v in labels)
     pct = 100.0 * (base[key] - new[key]) / base[key]
     verb = "less" if pct >= 0 else "more"
-    return pct, (f"{LABELS[VARIANTS[1]]} used {abs(pct):.1f} % {verb} energy than "
-                 f"{LABELS[VARIANTS[0]]}")
+    return pct, f"{names[1]} used {abs(pct):.1f} % {verb} energy than {names[0]}"
 
 
-def run_nav_demo(cfg: NavDemoConfig | None = None, *, progress: bool = False) -> dict:
-    """Simulate the city's wind and fly MPPI and EA-MPPI+W through it.
+def default_flights() -> list[dict]:
+    """The demo's two flights: :data:`VARIANTS` with navigate's defaults."""
+    return [{"label": v, "base": v, "kwargs": {}} for v in VARIANTS]
+
+
+def run_nav_demo(cfg: NavDemoConfig | None = None, *, flights: list[dict] | None = None,
+                 progress: bool = False) -> dict:
+    """Simulate the city's wind and fly MPPI and EA-MPPI+W (or ``flights``) through it.
 
     Parameters
     ----------
     cfg : NavDemoConfig, optional
         Default ``NavDemoConfig()`` (built at the call: a default built at import imported
         the flow solver with the module).
+    flights : list of dict, optional
+        The flights, in order, each ``label`` (distinct), ``base`` (a key of
+        :data:`windnav.plan.VARIANTS`) and ``kwargs`` (navigate's keyword arguments beyond the
+        scenario; a label's ``power_shape`` among them), as
+        :func:`windnav.commands.navigate.flights` gives them for ``--variant``. Default
+        :func:`default_flights`, MPPI then EA-MPPI+W.
     progress : bool
         Report each stage (and the flow's progress bar) on stderr.
 
@@ -183,12 +204,24 @@ def run_nav_demo(cfg: NavDemoConfig | None = None, *, progress: bool = False) ->
     -------
     dict
         ``config``; ``city``; ``flow`` (the :class:`~windnav.flow.FlowSolution`); ``start``,
-        ``goal`` (ndarray of shape (2,), m); ``results``: variant -> ``NavigationResult``;
-        ``summary``: the JSON-ready scalars (see :func:`describe`), with ``timings_s``.
+        ``goal`` (ndarray of shape (2,), m); ``results``: label -> ``NavigationResult``;
+        ``summary``: the JSON-ready scalars (see :func:`describe`), with ``timings_s``. Its
+        ``variants`` holds each flight's record by label (with ``label`` where it has
+        parameters). Two flights compare the second with the first:
+        ``energy_saving_percent``, ``rotor_energy_saving_percent`` and ``energy_saving_note``
+        (the rotor energy, the simulator's, compares across ``@power=`` curves too); three or
+        more compare each with the first: :func:`compare_energies`'s ``reference``,
+        ``energy_vs_reference_percent`` and ``energy_not_compared``; one flight compares
+        nothing.
     """
     from windnav.experiments.navigate import navigate, simulate_flow
 
     cfg = NavDemoConfig() if cfg is None else cfg
+    flights = default_flights() if flights is None else list(flights)
+    labels = [f["label"] for f in flights]
+    if not flights or len(set(labels)) != len(labels):
+        raise ValueError(f"The 'flights' parameter of run_nav_demo must name one flight or "
+                         f"more, each label once. Got {labels!r} instead.")
     timings = {}
     t0 = time.perf_counter()
     city = _city(cfg)
@@ -206,18 +239,28 @@ def run_nav_demo(cfg: NavDemoConfig | None = None, *, progress: bool = False) ->
     timings["flow"] = time.perf_counter() - t0
 
     results, records = {}, {}
-    for v in VARIANTS:
-        say(progress, f"flying {LABELS[v]} from {np.round(start).tolist()} to "
-                       f"{np.round(goal).tolist()} m")
+    for flight in flights:
+        label = flight["label"]
+        say(progress, f"flying {legend_name(label, math.inf)} from "
+                       f"{np.round(start).tolist()} to {np.round(goal).tolist()} m")
         t0 = time.perf_counter()
         res = navigate(city, start, goal, speed=cfg.wind_speed, direction_deg=cfg.direction_deg,
-                       variant=v, rng=cfg.seed, flow=flow, altitude=cfg.altitude)
-        timings[v] = time.perf_counter() - t0
-        results[v] = res
-        records[v] = res.summary()
+                       variant=flight["base"], rng=cfg.seed, flow=flow, altitude=cfg.altitude,
+                       **flight["kwargs"])
+        timings[label] = time.perf_counter() - t0
+        results[label] = res
+        records[label] = res.summary()
+        if label != flight["base"]:
+            records[label]["label"] = label
 
-    saving, note = _saving(records, "energy_J")
-    rotor_saving, _ = _saving(records, "rotor_energy_J")
+    shapes = {f["label"]: f["kwargs"].get("power_shape") for f in flights}
+    if len(flights) == 2:
+        saving, note = _saving(records, "energy_J", shapes)
+        rotor_saving, _ = _saving(records, "rotor_energy_J", {})  # the vehicle's, always
+        comparison = {"energy_saving_percent": saving,
+                      "rotor_energy_saving_percent": rotor_saving, "energy_saving_note": note}
+    else:
+        comparison = compare_energies(records, shapes) if len(flights) > 2 else {}
     summary = {
         "seed": cfg.seed,
         "map_size_m": cfg.map_size,
@@ -229,9 +272,7 @@ def run_nav_demo(cfg: NavDemoConfig | None = None, *, progress: bool = False) ->
         "goal": goal.tolist(),
         "straight_line_m": float(math.hypot(*(goal - start))),
         "variants": records,
-        "energy_saving_percent": saving,
-        "rotor_energy_saving_percent": rotor_saving,
-        "energy_saving_note": note,
+        **comparison,
         "flow": {"flow_throughs_spinup": flow.flow_throughs_spinup,
                  "flow_throughs_average": flow.flow_throughs_average,
                  "filter_width_m": flow.filter_width},
@@ -249,22 +290,28 @@ def describe(summary: dict) -> str:
     """The human summary of a run: one line per variant, then the energy comparison.
 
     ``MPPI: success, 3.47 kJ in 54.0 s (rotor 3.60 kJ, 290 m flown)``, one such line per
-    variant, then ``EA-MPPI+W saves 12.3 % of MPPI's energy in this flight (rotor energy:
-    11.8 %; ...)``, or says that it used more, or why the two were not compared; either way
-    that it is one flight (the single-flight figure was printed as a saving without that;
-    statistics audit).
+    variant, then, for two flights, ``EA-MPPI+W saves 12.3 % of MPPI's energy in this flight
+    (rotor energy: 11.8 %; ...)``, or says that it used more, or why the two were not compared;
+    either way that it is one flight (the single-flight figure was printed as a saving without
+    that; statistics audit). For three or more, each one's energy against the first's
+    (:func:`describe_comparison`'s lines); for one, its line alone. Flights are named as the
+    figures name them (:func:`legend_name` on one line).
     """
     lines = []
     for v, r in summary["variants"].items():
-        lines.append(f"{LABELS.get(v, v)}: {r['outcome']}, {r['energy_J'] / 1e3:.2f} kJ in "
-                     f"{r['time_s']:.1f} s (rotor {r['rotor_energy_J'] / 1e3:.2f} kJ, "
+        lines.append(f"{legend_name(v, math.inf)}: {r['outcome']}, {r['energy_J'] / 1e3:.2f} kJ "
+                     f"in {r['time_s']:.1f} s (rotor {r['rotor_energy_J'] / 1e3:.2f} kJ, "
                      f"{r['distance_m']:.0f} m flown)")
+    if "reference" in summary:
+        return "\n".join(lines + _comparison_lines(summary, lambda v: legend_name(v, math.inf)))
+    if "energy_saving_percent" not in summary:  # one flight
+        return "\n".join(lines)
     pct = summary["energy_saving_percent"]
     if pct is None:
         lines.append(summary["energy_saving_note"])
         return "\n".join(lines)
     rotor = summary["rotor_energy_saving_percent"]
-    base, new = (LABELS[v] for v in VARIANTS)
+    base, new = (legend_name(v, math.inf) for v in summary["variants"])
     if pct >= 0:
         lines.append(f"{new} saves {pct:.1f} % of {base}'s energy in this flight (rotor "
                      f"energy: {rotor:+.1f} %; {ONE_FLIGHT})")
@@ -272,3 +319,68 @@ def describe(summary: dict) -> str:
         lines.append(f"{new} used {-pct:.1f} % more energy than {base} (rotor energy: "
                      f"{-rotor:+.1f} %): no saving in this flight ({ONE_FLIGHT})")
     return "\n".join(lines)
+
+
+def legend_name(label: str, width: float = 36) -> str:
+    """A label as the figures' legends show it: the variant's display name
+    (:data:`LABELS`), then its parameters, broken before an ``@``
+    into lines of about ``width`` characters (a label of six parameters ran off the figure;
+    ``math.inf``: one line, the GIF's title)."""
+    base, *params = label.split("@")
+    lines = [LABELS.get(base, base)]
+    for param in params:
+        if len(lines[-1]) + 1 + len(param) > width:
+            lines.append("")
+        lines[-1] += "@" + param
+    return "\n".join(lines)
+
+
+def compare_energies(summaries: dict, power_shapes: dict | None = None) -> dict:
+    """The comparison of several flights with the first (the reference): ``reference`` (its
+    label), ``energy_vs_reference_percent``: for each other label, ``100 (E_ref - E) / E_ref``
+    (positive: less energy than the reference), or None where either flight failed (energies
+    compare only when both reach the goal: one flight each, not a rate) or where the two
+    flights' ``energy_J`` come from different power curves (``power_shapes``, label -> a
+    label's ``@power=`` shape or None); and ``energy_not_compared``: label -> why, for each
+    None."""
+    shapes = power_shapes or {}
+    ref, *others = summaries
+    base = summaries[ref]
+    pct, why = {}, {}
+    for label in others:
+        s = summaries[label]
+        failed = [v for v, r in ((ref, base), (label, s)) if r["outcome"] != "success"]
+        pct[label] = None
+        if failed:
+            why[label] = f"{' and '.join(failed)} did not reach the goal"
+        elif shapes.get(label) != shapes.get(ref):
+            why[label] = (f"energy_J on another power curve ({shapes.get(label) or 'the vehicle'}"
+                          f"'s against {shapes.get(ref) or 'the vehicle'}'s, @power=)")
+        else:
+            pct[label] = 100.0 * (base["energy_J"] - s["energy_J"]) / base["energy_J"]
+    return {"reference": ref, "energy_vs_reference_percent": pct, "energy_not_compared": why}
+
+
+def describe_comparison(summary: dict) -> str:
+    """One line per flight, then each one's energy against the reference's, or why not."""
+    lines = []
+    for label, s in summary["variants"].items():
+        lines.append(f"{label}: {s['outcome']}, {s['energy_J'] / 1e3:.2f} kJ in "
+                     f"{s['time_s']:.1f} s ({s['distance_m']:.0f} m flown)")
+    return "\n".join(lines + _comparison_lines(summary))
+
+
+def _comparison_lines(summary: dict, name=str) -> list[str]:
+    """Each flight's energy against the reference's (:func:`compare_energies`), or why not;
+    ``name(label)`` names a flight in them."""
+    lines = []
+    ref = name(summary["reference"])
+    for label, pct in summary["energy_vs_reference_percent"].items():
+        if pct is None:
+            lines.append(f"{name(label)} against {ref}: not compared "
+                         f"({summary['energy_not_compared'][label]})")
+        else:
+            lines.append(f"{name(label)} used {abs(pct):.1f} % "
+                         f"{'less' if pct >= 0 else 'more'} energy than {ref} (one flight "
+                         "each, not a rate)")
+    return lines
