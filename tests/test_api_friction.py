@@ -33,11 +33,6 @@ START, GOAL = (10.0, 60.0), (110.0, 60.0)
 
 
 @pytest.fixture(scope="module")
-def city():
-    return City((0.0, 140.0, 0.0, 120.0), np.array([[35.0, 45.0, 45.0, 75.0]]), np.array([20.0]))
-
-
-@pytest.fixture(scope="module")
 def flow(city):
     return simulate_flow(city, 2.0, 10.0, spinup_s=5.0, record_s=10.0)
 

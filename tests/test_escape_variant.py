@@ -10,9 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from windnav.city import City
 from windnav.experiments.nav_demo import LABELS
-from windnav.experiments.navigate import navigate, simulate_flow
+from windnav.experiments.navigate import navigate
 from windnav.plan import (
     VARIANTS,
     EscapeConfig,
@@ -30,16 +29,6 @@ GOAL = (110.0, 60.0)
 BUILDING = (35.0, 45.0, 45.0, 75.0)
 SPEED = 2.0
 VARIANT = "ea-mppi-w-esc"
-
-
-@pytest.fixture(scope="module")
-def city():
-    return City((0.0, 140.0, 0.0, 120.0), np.array([BUILDING]), np.array([20.0]))
-
-
-@pytest.fixture(scope="module")
-def flow(city):
-    return simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
 
 
 @pytest.fixture(scope="module")

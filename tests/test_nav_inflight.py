@@ -7,10 +7,9 @@ import numpy as np
 import pytest
 from scipy.interpolate import RegularGridInterpolator
 
-from windnav.city import City
 from windnav.experiments import nav_inflight as ni
 from windnav.experiments.nav_suite import SuiteSpec, make_suite
-from windnav.experiments.navigate import navigate, simulate_flow
+from windnav.experiments.navigate import navigate
 from windnav.experiments.onboard import smooth_wind
 from windnav.predict import LocalBaseline, field_errors
 from windnav.predict.dataset import field_from_solution
@@ -20,17 +19,6 @@ TINY = SuiteSpec(
     "tiny", maps=(0,), winds=(0, 1), pairs=(0, 1), speeds=(3.0,), incidences_deg=(0.0, 90.0),
     n_tailwind=1, n_headwind=1, pair_distance=100.0, clearance=25.0, edge=15.0, map_size=200.0,
     map_options={"n_buildings": 2, "side_range": (10.0, 20.0)}, spinup_s=5.0, record_s=30.0)
-
-
-@pytest.fixture(scope="module")
-def city():
-    return City((0.0, 140.0, 0.0, 120.0), np.array([(35.0, 45.0, 45.0, 75.0)]),
-                np.array([20.0]))
-
-
-@pytest.fixture(scope="module")
-def flow(city):
-    return simulate_flow(city, 2.0, 0.0, spinup_s=10.0, record_s=40.0)
 
 
 @pytest.fixture(scope="module")

@@ -14,14 +14,12 @@ import numpy as np
 import pytest
 
 import windnav.commands.navigate as nav_cmd
-from windnav.city import City
 from windnav.experiments.navigate import (
     GOAL_RADIUS,
     HOLD_S,
     HOVER_SPEED,
     OUTCOMES,
     navigate,
-    simulate_flow,
 )
 from windnav.plan import planner_config
 from windnav.vehicle import params
@@ -32,16 +30,6 @@ START = (10.0, 60.0)
 GOAL = (110.0, 60.0)
 BUILDING = (35.0, 45.0, 45.0, 75.0)
 SPEED = 2.0
-
-
-@pytest.fixture(scope="module")
-def city():
-    return City((0.0, 140.0, 0.0, 120.0), np.array([BUILDING]), np.array([20.0]))
-
-
-@pytest.fixture(scope="module")
-def flow(city):
-    return simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
 
 
 @pytest.fixture(scope="module")

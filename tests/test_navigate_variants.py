@@ -14,7 +14,6 @@ import pytest
 import windnav.experiments.nav_demo as nav_demo
 import windnav.experiments.navigate as nav_mod
 from windnav import cli
-from windnav.city import City
 from windnav.plan import EscapeConfig
 
 START = (10.0, 60.0)
@@ -23,20 +22,9 @@ SPEED = 2.0
 ESC = "ea-mppi-w-esc@escair=13.45@edge=15@pace=20"
 
 
-@pytest.fixture(scope="module")
-def city():
-    return City((0.0, 140.0, 0.0, 120.0), np.array([(35.0, 45.0, 45.0, 75.0)]),
-                np.array([20.0]))
-
-
-@pytest.fixture(scope="module")
-def flow(city):
-    return nav_mod.simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
-
-
 @pytest.fixture
 def command(city, flow, tmp_path, monkeypatch):
-    """``windnav navigate`` on the module's map, in the module's flow (simulated once)."""
+    """``windnav navigate`` on the yard's map, in its flow (conftest's, simulated once)."""
     path = city.to_rotorpy_json(tmp_path / "city.json")
     monkeypatch.setattr(nav_mod, "simulate_flow", lambda *a, **kw: flow)
 

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 import windnav.commands.navigate as nav_cmd
-from windnav.city import City
 from windnav.experiments.nav_benchmark import (
     CODE_FIELDS,
     ENVELOPE_FIELDS,
@@ -25,14 +24,13 @@ from windnav.experiments.nav_benchmark import (
     fly_scenario,
 )
 from windnav.experiments.nav_suite import Scenario, SuiteSpec
-from windnav.experiments.navigate import navigate, simulate_flow
+from windnav.experiments.navigate import navigate
 from windnav.experiments.onboard import STAGES, OnboardOptions, default_decoder, smooth_wind
 from windnav.plan import VARIANTS, LocalWind, planner_config
 from windnav.vehicle import params
 
 START = (10.0, 60.0)
 GOAL = (110.0, 60.0)
-BUILDING = (35.0, 45.0, 45.0, 75.0)
 SPEED = 2.0
 VARIANT = "ea-mppi-w-hat"
 
@@ -43,16 +41,6 @@ SUMMARY_KEYS = {"outcome", "variant", "energy_J", "rotor_energy_J", "time_s", "d
                 "arrival_time_s", "arrival_energy_J", "arrival_rotor_energy_J", "wall_s",
                 "airspeed_max_mps", "outside_envelope_s", "power_extrapolated_s",
                 "goal_hold_at_cap_s", "goal_hold_at_cap_settled_s", "diverged_s", "settings"}
-
-
-@pytest.fixture(scope="module")
-def city():
-    return City((0.0, 140.0, 0.0, 120.0), np.array([BUILDING]), np.array([20.0]))
-
-
-@pytest.fixture(scope="module")
-def flow(city):
-    return simulate_flow(city, SPEED, 0.0, spinup_s=10.0, record_s=40.0)
 
 
 def fly(city, flow, variant=VARIANT, **kw):
