@@ -86,6 +86,35 @@ def test_the_pairs_drawn_are_those_the_benchmark_flew_on_the_windinet_layout(tmp
     assert summary["suite"]["wind_memory_bytes"] == wind_memory(spec) > 4e9
 
 
+def test_a_suite_seed_draws_the_pairs_benchmark_nav_flies_with_that_seed(tmp_path, capsys):
+    """``--suite-seed 2``: the pairs of ``benchmark-nav --suite thesis --seed 2 --map
+    windinet=FILE`` (its suite, through the benchmark's own reading of ``--map``), not seed
+    0's."""
+    from windnav.commands._city_suite import city_suite
+    from windnav.experiments.decoder_eval import windinet_layout
+    from windnav.experiments.nav_suite import make_suite
+
+    drawn = {}
+    for value in (None, 2):
+        out = tmp_path / f"s{value}"
+        extra = [] if value is None else ["--suite-seed", str(value)]
+        assert cli.main(["city", "--map", f"windinet={windinet_layout()}", "--suite", "thesis",
+                         *extra, "--out", str(out)]) == 0
+        capsys.readouterr()
+        doc = json.loads((out / "city_summary.json").read_text())
+        assert doc["suite"]["seed"] == (value or 0)
+        drawn[value] = doc["suite"]["pairs"]
+    spec = city_suite(f"windinet={windinet_layout()}", "test", {}, suite="thesis",
+                      seed_value=2, store=None)
+    flown = make_suite(spec)
+    assert [p["scenario_id"] for p in drawn[2]] == [s.scenario_id for s in flown]
+    for p, s in zip(drawn[2], flown, strict=True):
+        assert (p["speed"], p["direction_deg"], p["seed"]) == (s.speed, s.direction_deg, s.seed)
+        assert [p["start"], p["goal"]] == [list(map(float, s.start)), list(map(float, s.goal))]
+    assert [p["start"] for p in drawn[2]] != [p["start"] for p in drawn[None]]
+    assert [p["seed"] for p in drawn[2]] != [p["seed"] for p in drawn[None]]
+
+
 def test_a_map_too_small_for_the_rule_is_said_and_a_rule_of_its_own_fits(tmp_path, capsys):
     small = tmp_path / "yard.json"
     City(bounds=(0.0, 200.0, 0.0, 200.0), footprints=[[90.0, 110.0, 90.0, 110.0]],
@@ -140,6 +169,8 @@ def test_a_map_too_small_for_the_rule_is_said_and_a_rule_of_its_own_fits(tmp_pat
     (["--kind", "training", "--size", "-5"], "'--size' parameter"),
     (["--map", "none.json"], "'--map' parameter .* which does not exist"),
     (["--kind", "planning", "--seed", "-1"], "'--seed' parameter .* >= 0"),
+    (["--kind", "planning", "--suite-seed", "2"], "'--suite-seed' parameter .* without --suite"),
+    (["--map", "M", "--suite", "quick", "--suite-seed", "-1"], "'--suite-seed' parameter .* >= 0"),
     (["--map", "my town=M", "--suite", "thesis"], "'--map' parameter .* without '/' or white"),
     (["--map", "thesis=M", "--suite", "thesis"], "'--map' parameter .* apart from"),
     (["--map", "M", "--json", "M", "--overwrite"], "'--json' parameter .* must not be the map"),

@@ -5,6 +5,7 @@
     windnav city --kind planning --seed 5 --size 300 --out runs/town   # -> city.json, city.png
     windnav city --map my_city.json --suite thesis --out runs/look      # its plan and the pairs
     windnav city --map my_city.json --suite quick --pair-distance 150 --edge 20 --out runs/look
+    windnav city --map my_city.json --suite thesis --suite-seed 2 --out runs/look2  # seed 2's
 
 ``--kind`` writes a generated map (:func:`windnav.city.planning_map`, ``training_map`` or
 ``dense_map``, with ``--seed``, ``--size`` and ``--buildings`` when given) as a RotorPy world
@@ -24,7 +25,8 @@ that change the rule, and the exit status is 1 (the figure and JSON are still wr
 check to run before a long benchmark. The JSON's ``suite.pairs`` give each pair's scenario id,
 inlet, start, goal and flight seed, and the command prints the ``windnav navigate`` line that
 flies the first as the benchmark would (:func:`fly_one`; its flights equal the records of
-``benchmark-nav``'s for the same labels, to the bit on the same arithmetic).
+``benchmark-nav``'s for the same labels, to the bit on the same arithmetic). ``--suite-seed N``
+draws the pairs of ``benchmark-nav --seed N`` (default 0, its default): a held-out suite's.
 """
 
 from __future__ import annotations
@@ -80,8 +82,11 @@ def register(subparsers) -> None:
                    help="--kind: the number of buildings (default: the generator's draw)")
     p.add_argument("--suite", choices=tuple(SUITES), default=None,
                    help="draw the start/goal pairs this suite's rule draws on the map (as "
-                        "'benchmark-nav --suite S --map FILE' with its default seed, 0); exit "
+                        "'benchmark-nav --suite S --map FILE' with --suite-seed); exit "
                         "status 1 when it holds none")
+    p.add_argument("--suite-seed", type=int, default=None, metavar="N",
+                   help="with --suite: the suite seed, as 'benchmark-nav --seed N' (default: "
+                        "0, its default)")
     add_city_rule_arguments(p)
     p.add_argument("--out", required=True, help="output folder")
     add_output_arguments(p)
@@ -151,9 +156,9 @@ def summarize_city(city) -> dict:
 
 
 def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *, path: str,
-                flag: str) -> dict:
+                flag: str, seed: int = 0) -> dict:
     """The start/goal pairs of ``suite``'s rule (with ``rule``'s values, as ``benchmark-nav
-    --map`` takes them, with its default suite seed, 0) on ``city``, named ``label``:
+    --map`` takes them, with the suite seed ``seed``: its default 0) on ``city``, named ``label``:
     ``holds`` (bool), the rule, each pair (``scenario_id``, ``kind``, ``speed``,
     ``direction_deg``, ``start``, ``goal``) and the memory one wind of the suite takes to
     simulate there, as ``benchmark-nav`` counts it to batch its winds
@@ -164,7 +169,7 @@ def suite_pairs(city, label: str, suite: str, rule: dict, name: str, *, path: st
     from windnav.experiments.nav_suite import get_suite, make_suite
     from windnav.flow.memory import format_bytes
 
-    base = get_suite(suite)
+    base = get_suite(suite, seed=seed)
     out = {"name": label, "suite": suite, "seed": base.seed,
            "rule": {**suite_rule(base), **rule},
            "holds": False, "pairs": [], "why": None, "wind_memory_bytes": None,
@@ -219,6 +224,14 @@ def run(args) -> int:
                                  f"made here); --map reads one. Got {flag} {value!r} with "
                                  "--map instead.")
     rule = city_rule(args, name, city=True)  # (a made map is one's own too)
+    suite_seed = 0
+    if args.suite_seed is not None:
+        if args.suite is None:
+            raise ValueError(f"The '--suite-seed' parameter of {name} is the seed of --suite's "
+                             f"pairs. Got {args.suite_seed!r} without --suite instead.")
+        from windnav._validate import nonnegative_int
+
+        suite_seed = nonnegative_int(args.suite_seed, "--suite-seed", name)
     if rule and args.suite is None:
         flag = CITY_RULE[next(iter(rule))]
         raise ValueError(f"The '{flag}' parameter of {name} changes --suite's start/goal rule. "
@@ -241,7 +254,7 @@ def run(args) -> int:
     if args.suite is not None:
         summary["suite"] = suite_pairs(
             city, label, args.suite, rule, name, flag="--kind" if made else "--map",
-            path=f"the {args.kind} map" if made else str(path))
+            path=f"the {args.kind} map" if made else str(path), seed=suite_seed)
     with out.writing() as stage:
         if made:
             city.to_rotorpy_json(stage.dir / PRODUCTS[0])
