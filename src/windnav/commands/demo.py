@@ -181,9 +181,8 @@ def _nav_flights(args):
     defaults for the options the demo does not have) and the namespace they were read with;
     (None, None) without ``--variant``: :func:`~windnav.experiments.nav_demo.default_flights`."""
     import argparse
-    import math
 
-    from windnav.commands.navigate import flights
+    from windnav.commands.navigate import FLAG_DEFAULTS, flights
     from windnav.experiments.navigate import TILT_MAX_DEG
 
     if args.variant is None:
@@ -193,8 +192,7 @@ def _nav_flights(args):
                              f"decoder). Got {str(args.model)!r} without --variant instead.")
         return None, None
     ns = argparse.Namespace(command=args.command, variant=args.variant, model=args.model,
-                            rotations_deg=None, tilt_max_deg=TILT_MAX_DEG, horizon=math.inf,
-                            energy="horizon", outside="zero", wrobot_tau=0.0)
+                            rotations_deg=None, tilt_max_deg=TILT_MAX_DEG, **FLAG_DEFAULTS)
     return flights(ns, where(args)), ns
 
 
