@@ -46,7 +46,10 @@ def block_divergence(size: int, spacing: float = 1.0):
 
     iy, ix = np.meshgrid(np.arange(size - 1), np.arange(size - 1), indexing="ij")
     row = (iy * (size - 1) + ix).ravel()
-    cell = lambda c, y, x: (c * size * size + y * size + x).ravel()  # noqa: E731
+
+    def cell(c, y, x):  # the flat index of component c at cells (y, x)
+        return (c * size * size + y * size + x).ravel()
+
     h = 0.5 / spacing
     terms = [(cell(0, iy, ix + 1), h), (cell(0, iy + 1, ix + 1), h), (cell(0, iy, ix), -h),
              (cell(0, iy + 1, ix), -h), (cell(1, iy + 1, ix), h), (cell(1, iy + 1, ix + 1), h),
