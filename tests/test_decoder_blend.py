@@ -3,11 +3,9 @@ field is continuous in the inlet direction (windnav.predict.decoder; docs/decode
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
+from _scripts import load_script
 
 from windnav.predict import load_decoder
 from windnav.predict.decoder import (
@@ -23,8 +21,6 @@ from windnav.predict.decoder import (
     range_channels,
     wind_features,
 )
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -160,10 +156,7 @@ def test_the_option_is_the_trial_it_was_chosen_by(decoders):
     chosen width predicts what ``boundary="blend"`` predicts, to float32 rounding (the option
     computes both answers in one batch and blends as ``a + w (b - a)``)."""
     plain, blend = decoders
-    spec = importlib.util.spec_from_file_location(
-        "decoder_fold_blend", ROOT / "docs" / "data" / "decoder_fold_blend.py")
-    trial = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(trial)
+    trial = load_script("docs/data/decoder_fold_blend.py")
     fold = trial.FoldBlend(plain.weights, plain.metadata)
     fold.delta = BLEND_WIDTH_DEG
     scans, w_robot = scenes(40, seed=3)

@@ -3,22 +3,14 @@ divergence is known in closed form, and the smoothing towards divergence-free fi
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
+from _scripts import load_script
 
 
 @pytest.fixture(scope="module")
 def mod():
-    spec = importlib.util.spec_from_file_location(
-        "decoder_divergence", ROOT / "benchmarks" / "decoder_divergence.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("benchmarks/decoder_divergence.py")
 
 
 def linear_field(size, spacing, a, b, c, d):

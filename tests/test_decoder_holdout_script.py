@@ -6,7 +6,6 @@ are checked."""
 from __future__ import annotations
 
 import hashlib
-import importlib.util
 import json
 import sys
 from pathlib import Path
@@ -17,17 +16,12 @@ import pytest
 import windnav.experiments.decoder_eval as de
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _scripts import load_script  # noqa: E402
 from test_decoder_rotations import tiny  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location(
-        "decoder_holdout", ROOT / "benchmarks" / "decoder_holdout.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("benchmarks/decoder_holdout.py")
 
 
 def _slot(speed_err: dict, dir_err: dict, direction_deg: float, cells: int) -> dict:

@@ -5,7 +5,6 @@ quarter turn of the d4-film, and the mean of single views; bad angles are refuse
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import subprocess
 import sys
@@ -13,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _scripts import load_script
 from scipy.ndimage import map_coordinates
 
 from windnav.cli import main
@@ -188,11 +188,7 @@ def test_bench_decoder_times_the_views_it_is_given(tmp_path):
 
 
 def _views_module():
-    spec = importlib.util.spec_from_file_location("decoder_views",
-                                                  ROOT / "benchmarks" / "decoder_views.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("benchmarks/decoder_views.py")
 
 
 def test_the_views_are_chosen_by_the_mean_error_ratio_ties_to_the_smaller_angle(tmp_path):
