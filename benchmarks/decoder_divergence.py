@@ -97,32 +97,26 @@ def masked_projection(fields: np.ndarray, blocks: np.ndarray, div, mu: float) ->
 def run(model=None, *, n_inlets: int = 8, samples: int = 2048, flow_cache=None,
         progress: bool = True) -> dict:
     """Score the decoder and its divergence-smoothed fields on windinet's evaluation slots."""
-    from windnav.experiments import decoder_eval as de
-    from windnav.experiments.wind_sweep import auto_dt
-    from windnav.predict import (
-        draw_samples,
-        field_errors,
-        field_from_solution,
-        load_decoder,
-        pooled_errors,
-    )
+    from windnav.city import read_rotorpy_json
+    from windnav.experiments.decoder_eval import slot_rng, windinet_layout
+    from windnav.experiments.decoder_studies import evaluation_fields
+    from windnav.predict import draw_samples, field_errors, load_decoder, pooled_errors
 
     t0 = time.perf_counter()
     dec = load_decoder(model)
-    name, _, city = de._evaluation_maps(0, de.windinet_layout(), "decoder_divergence")[0]
-    inlets = de.inlet_slots(1, n_inlets, 0)[0]
+    # the flows of evaluate-decoder's windinet slots (its cache entries), as the studies get them
+    flows = evaluation_fields([("windinet", read_rotorpy_json(windinet_layout()))], n_inlets,
+                              seed=0, cache_dir=flow_cache, progress=progress)
     div = block_divergence(dec.size, dec.spacing)
     filters = {f"global mu={mu:g}": global_filter(div, mu) for mu in GLOBAL_MU}
-    per_sample, sq, counts = {}, {}, {}
-    for j, (speed, direction) in enumerate(inlets):
-        sol, _ = de.slot_flow(city, name, j, float(speed), float(direction), dx=1.0,
-                              dt=float(auto_dt(1.0, speed)), steps=de.PROTOCOL,
-                              cache_dir=flow_cache)
-        b = draw_samples(field_from_solution(city, sol, name=f"{name}/{j}"), samples,
-                         rng=de.slot_rng(0, 0, j), size=dec.size, spacing=dec.spacing,
-                         scan_noise=0.35, w_robot_noise=0.0)
+    per_sample, sq, n_blocks = {}, {}, 0  # sq: each arm's sum of squared divergences
+    for field, slot in zip(flows["fields"], flows["slots"], strict=True):
+        # evaluate-decoder's samples of the slot, so the decoder's row is its windinet row
+        b = draw_samples(field, samples, rng=slot_rng(0, 0, slot["inlet"]), size=dec.size,
+                         spacing=dec.spacing, scan_noise=0.35, w_robot_noise=0.0)
         pred = dec.predict(b.scans, b.w_up, b.w_robot)
         blocks = free_blocks(b.free)
+        n_blocks += int(blocks.sum())
         arms = {"truth": b.labels, "decoder": pred}
         flat = pred.reshape(pred.shape[0], -1).astype(np.float64)
         for arm, f in filters.items():
@@ -131,30 +125,29 @@ def run(model=None, *, n_inlets: int = 8, samples: int = 2048, flow_cache=None,
             arms[f"masked mu={mu:g}"] = masked_projection(pred, blocks, div, mu)
         for arm, fields in arms.items():
             rms = divergence_rms(fields, blocks, b.inlet_speed, div, dec.spacing)
-            n = int(blocks.sum())
-            sq[arm] = sq.get(arm, 0.0) + rms ** 2 * n
-            counts[arm] = counts.get(arm, 0) + n
+            sq[arm] = sq.get(arm, 0.0) + rms ** 2 * int(blocks.sum())
             if arm == "truth":
                 continue
             e = field_errors(fields, b.labels, b.free, b.inlet_speed, per_sample=True)
             per_sample.setdefault(arm, []).append(e["per_sample"])
         if progress:
-            print(f"{name} inlet {j}: {speed:.2f} m/s {direction:.0f} deg done "
-                  f"({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+            print(f"windinet inlet {slot['inlet']}: {slot['speed']:.2f} m/s "
+                  f"{slot['direction_deg']:.0f} deg scored ({time.perf_counter() - t0:.0f} s)",
+                  file=sys.stderr, flush=True)
     rows = {}
     for arm, parts in per_sample.items():
         joined = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
         e = pooled_errors(joined)
         rows[arm] = {**{m: float(e[m]) for m in METRICS},
-                     "divergence_rms": float(np.sqrt(sq[arm] / counts[arm]))}
+                     "divergence_rms": float(np.sqrt(sq[arm] / n_blocks))}
     ref = rows["decoder"]
     for r in rows.values():
         r["change_pct"] = {m: 100.0 * (r[m] / ref[m] - 1.0) for m in METRICS}
     return {"model": str(model) if model is not None else "default", "boundary": dec.boundary,
-            "map": name, "inlets": [{"speed": float(s), "direction_deg": float(d)}
-                                    for s, d in inlets],
-            "samples": samples * len(inlets),
-            "truth_divergence_rms": float(np.sqrt(sq["truth"] / counts["truth"])),
+            "map": "windinet", "inlets": [{k: slot[k] for k in ("speed", "direction_deg")}
+                                          for slot in flows["slots"]],
+            "failed": flows["failed"], "samples": samples * len(flows["fields"]),
+            "truth_divergence_rms": float(np.sqrt(sq["truth"] / n_blocks)),
             "arms": rows, "elapsed_s": time.perf_counter() - t0}
 
 
