@@ -230,6 +230,10 @@ def test_a_part_of_the_maps_now_the_rest_later_into_the_same_store(tmp_path, no_
         bench_cmd.suite_maps("0-a", thesis, "x")
     with pytest.raises(ValueError, match="'--maps' parameter of x must be distinct"):
         bench_cmd.suite_maps("1,16", thesis, "x")
+    # a reversed range said "Got [] instead" (CLI audit, 2026-12-07)
+    with pytest.raises(ValueError, match=r"'--maps' parameter of x must give each range "
+                                         r"low-high, e\.g\. 1-3\. Got '3-1' in '0,3-1'"):
+        bench_cmd.suite_maps("0,3-1", thesis, "x")
 
 
 HOLD_CLAIM = """
@@ -1509,6 +1513,11 @@ def test_command_flies_and_tabulates_only_the_maps_or_scenarios_asked_for(tmp_pa
                                          r"N \(the records of this table lie on the maps \[0, 1\]"):
         command(["--out", store, "--table", "--figure", tmp_path / "both.png"])
     assert not (tmp_path / "both.png").exists() and capsys.readouterr().out == ""
+    # a figure format Matplotlib cannot write: refused before the table, not after it
+    with pytest.raises(ValueError, match=r"'--figure' parameter .* must end in a figure "
+                                         r"format \(.*png.*\)\. Got '.*one\.txt' instead"):
+        command(["--out", store, "--table", "--maps", "1", "--figure", tmp_path / "one.txt"])
+    assert not (tmp_path / "one.txt").exists() and capsys.readouterr().out == ""
     assert command(["--out", store, "--table", "--maps", "1", "--figure",
                     tmp_path / "one.png"]) == 0
     assert (tmp_path / "one.png").read_bytes()[:4] == b"\x89PNG"
@@ -2030,6 +2039,23 @@ def test_a_manifest_that_is_not_an_object_is_named(tmp_path, no_wind, capsys):
     assert cli.main(["benchmark-nav", "--out", str(tmp_path), "--table"]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and "must name a benchmark store" in err
+
+
+@pytest.mark.parametrize(("manifest", "said"), [
+    ("{not json", "whose manifest.json is readable JSON. Got '.*' instead, whose manifest.json "
+                  "gives: Expecting property name"),
+    ("{}", r"whose manifest.json names its suite \(a JSON object with 'suite'\)"),
+])
+def test_a_manifest_that_is_not_a_stores_says_why(tmp_path, manifest, said, capsys):
+    """A manifest.json that was not JSON read as a missing one ("with manifest.json", though
+    one was there), and one of {} asked for --suite "for a new store" in table mode, which
+    creates nothing (CLI audit, 2026-12-07)."""
+    from windnav import cli
+
+    (tmp_path / "manifest.json").write_text(manifest)
+    assert cli.main(["benchmark-nav", "--out", str(tmp_path), "--table"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and re.search(f"'--out' parameter .* {said}", err), err
 
 
 def test_a_new_store_created_by_two_runs_at_once_belongs_to_the_first(tmp_path, monkeypatch):

@@ -290,3 +290,16 @@ def print_drag_model_note(bias, airspeed, conditions: str, prefix: str = "", *,
           f"{airspeed:.3g} m/s it reads the airflow {bias:+.2f} m/s too strong "
           f"(drag_model_bias, at hover rotor speed){got}; the bias grows with the square of "
           "the airspeed", file=sys.stderr)
+
+
+def check_figure_format(path, flag: str, name: str) -> None:
+    """Refuse a figure file ``path`` (``flag``) whose suffix Matplotlib cannot write, before
+    any computation (a table or a Monte Carlo printed first, then refused; CLI audit)."""
+    if path is None:
+        return
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    kinds = FigureCanvasAgg.get_supported_filetypes()
+    if Path(path).suffix.lstrip(".").lower() not in kinds:
+        raise ValueError(f"The '{flag}' parameter of {name} must end in a figure format "
+                         f"({', '.join(sorted(kinds))}). Got {str(path)!r} instead.")

@@ -76,6 +76,7 @@ from windnav.commands._city_suite import (
 from windnav.commands._city_suite import store_city as _store_city
 from windnav.commands._common import (
     add_output_arguments,
+    check_figure_format,
     check_output_path,
     document,
     fill_defaults,
@@ -198,6 +199,28 @@ def _manifest(store: Path | None) -> dict | None:
     except (OSError, ValueError):
         return None  # NavStore names the problem
     return found if isinstance(found, dict) else None  # ([1]: an AttributeError; files audit)
+
+
+def _existing_store(store: Path | None, flag: str, name: str) -> None:
+    """Refuse ``store`` (``flag``) unless it is a benchmark store to read: a folder whose
+    ``manifest.json`` is a JSON object naming its suite. The message says which of these
+    fails (a manifest that was not JSON read as a missing one; CLI audit, 2026-12-07)."""
+    import json
+
+    manifest = None if store is None else store / "manifest.json"
+    if manifest is None or not manifest.is_file():
+        raise ValueError(f"The '{flag}' parameter of {name} must name a benchmark store (with "
+                         f"manifest.json). Got {str(store)!r} instead.")
+    try:
+        found = json.loads(manifest.read_text())
+    except (OSError, ValueError) as exc:
+        raise ValueError(f"The '{flag}' parameter of {name} must name a benchmark store whose "
+                         f"manifest.json is readable JSON. Got {str(store)!r} instead, whose "
+                         f"manifest.json gives: {exc}") from None
+    if not isinstance(found, dict) or "suite" not in found:
+        raise ValueError(f"The '{flag}' parameter of {name} must name a benchmark store whose "
+                         f"manifest.json names its suite (a JSON object with 'suite'). Got "
+                         f"{str(store)!r} instead.")
 
 
 def _spec(args, name: str, prefer: str | None = None):
@@ -335,8 +358,14 @@ def suite_maps(text, spec, name: str) -> tuple[int, ...]:
         try:
             for part in str(text).split(","):
                 lo, sep, hi = part.strip().partition("-")
+                if sep and int(hi) < int(lo):  # ("Got [] instead": CLI audit, 2026-12-07)
+                    raise ValueError(f"The '--maps' parameter of {name} must give each range "
+                                     f"low-high, e.g. 1-3. Got {part.strip()!r} in {text!r} "
+                                     "instead.")
                 out += list(range(int(lo), int(hi) + 1)) if sep else [int(lo)]
-        except ValueError:
+        except ValueError as exc:
+            if "low-high" in str(exc):
+                raise
             raise ValueError(f"The '--maps' parameter of {name} must be map indices and "
                              f"ranges, e.g. 0,1 or 0-3. Got {text!r} instead.") from None
     with options_named({"'maps'": "'--maps'"}):
@@ -469,9 +498,7 @@ def _stored(args, name: str):
     asked for (``--variants``; by default every variant among those records)."""
     from windnav.experiments.nav_benchmark import NavStore, check_variants
 
-    if _manifest(args.out) is None:
-        raise ValueError(f"The '--out' parameter of {name} must name a benchmark store (with "
-                         f"manifest.json). Got {str(args.out)!r} instead.")
+    _existing_store(args.out, "--out", name)
     spec = _spec(args, name)
     records = NavStore(args.out, spec, create=False).load()
     if args.maps is not None:
@@ -498,9 +525,7 @@ def _table(args, name: str) -> int:
                          f"holds: {flown}. Got {args.reference!r} instead.")
     other = None
     if args.against is not None:  # checked before the table is printed
-        if _manifest(args.against) is None:
-            raise ValueError(f"The '--against' parameter of {name} must name a benchmark store "
-                             f"(with manifest.json). Got {str(args.against)!r} instead.")
+        _existing_store(args.against, "--against", name)
         other = NavStore(args.against, spec, create=False).latest()
     checks = []
     if other is not None:
@@ -519,6 +544,7 @@ def _table(args, name: str) -> int:
                          "(the records of this table lie on the maps "
                          f"{sorted({r.get('map_index') for r in records})}). Got "
                          f"{str(args.figure)!r} for all of them instead.")
+    check_figure_format(args.figure, "--figure", name)  # before the table is printed
     out = outputs(args, files={"--json": args.json, "--figure": args.figure})
     if spec.city is not None:  # (its rule may be its own: said above the table)
         from windnav.commands._city_suite import suite_rule

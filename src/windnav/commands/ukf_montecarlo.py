@@ -36,6 +36,7 @@ from windnav._validate import positive_float, positive_int
 from windnav.commands._choices import CONDITION_NAMES
 from windnav.commands._common import (
     add_output_arguments,
+    check_figure_format,
     checked_workers,
     document,
     outputs,
@@ -195,13 +196,7 @@ def run(args) -> int:
 
     name = where(args)
     config = _config(args)
-    if args.plot is not None:  # checked before the trials, not after them
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-        kinds = FigureCanvasAgg.get_supported_filetypes()
-        if args.plot.suffix.lstrip(".").lower() not in kinds:
-            raise ValueError(f"The '--plot' parameter of {name} must end in a figure format "
-                             f"({', '.join(sorted(kinds))}). Got {str(args.plot)!r} instead.")
+    check_figure_format(args.plot, "--plot", name)  # before the trials, not after them
     out = outputs(args, files={"--json": args.json, "--plot": args.plot})
     log = _record_log(args, config)
     try:
