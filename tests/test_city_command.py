@@ -167,6 +167,14 @@ def test_a_map_too_small_for_the_rule_is_said_and_a_rule_of_its_own_fits(tmp_pat
     (["--kind", "planning", "--size", "150"],
      r"windnav city \(--kind planning\) drew .* Pass a smaller --buildings or a larger --size"),
     (["--kind", "training", "--size", "-5"], "'--size' parameter"),
+    # the layouts' own parameters, which no flag sets, were named (CLI audit, 2026-12-07)
+    (["--kind", "training", "--size", "5"], r"'--size' parameter of windnav city must leave "
+     r"room for a --kind training map's buildings, streets and margins: give a larger --size\. "
+     r"Got 5 m instead \(training_map: "),
+    (["--kind", "dense", "--size", "100"], r"'--size' parameter .* --kind dense map's .* Got "
+     r"100 m instead \(dense_map: The 'lots_per_side'"),
+    (["--kind", "training", "--size", "1e7"], r"'--size' parameter of windnav city must give a "
+     r"map the summary can raster at 1 m \(at most 1e9 cells\)\. Got 1e\+07 x 1e\+07 m"),
     (["--map", "none.json"], "'--map' parameter .* which does not exist"),
     (["--kind", "planning", "--seed", "-1"], "'--seed' parameter .* >= 0"),
     (["--kind", "planning", "--suite-seed", "2"], "'--suite-seed' parameter .* without --suite"),

@@ -113,7 +113,17 @@ def _generate(args, name: str):
                         f"{where_} drew": f"{name} (--kind {args.kind}) drew",
                         "Pass a smaller n_buildings= or a larger size.":
                             "Pass a smaller --buildings or a larger --size."}):
-        return make(**kwargs)
+        try:
+            return make(**kwargs)
+        except ValueError as exc:  # the layout's own parameters, which no flag sets (CLI audit)
+            text = str(exc)
+            if not any(f"'{p}' parameter of {where_}" in text
+                       for p in ("side_range", "lots_per_side")):
+                raise
+            size = "its default" if args.size is None else f"{args.size:g} m"
+            raise ValueError(f"The '--size' parameter of {name} must leave room for a --kind "
+                             f"{args.kind} map's buildings, streets and margins: give a larger "
+                             f"--size. Got {size} instead ({where_}: {text})") from None
 
 
 def summarize_city(city) -> dict:
@@ -249,8 +259,16 @@ def run(args) -> int:
         if args.json is not None and Path(args.json).resolve() == path.resolve():
             raise ValueError(f"The '--json' parameter of {name} must not be the map file it "
                              f"reads. Got {str(args.json)!r} instead.")
-    summary = {"map": None if path is None else str(path), "name": label,
-               "kind": args.kind, **summarize_city(city)}
+    try:
+        summary = {"map": None if path is None else str(path), "name": label,
+                   "kind": args.kind, **summarize_city(city)}
+    except ValueError as exc:  # the summary's 1 m raster; city has no --dx (CLI audit)
+        if "'dx' parameter of grid_shape" not in str(exc):
+            raise
+        x0, x1, y0, y1 = city.bounds
+        raise ValueError(f"The '{'--size' if made else '--map'}' parameter of {name} must give "
+                         f"a map the summary can raster at 1 m (at most 1e9 cells). Got "
+                         f"{x1 - x0:g} x {y1 - y0:g} m instead.") from None
     if args.suite is not None:
         summary["suite"] = suite_pairs(
             city, label, args.suite, rule, name, flag="--kind" if made else "--map",
