@@ -221,6 +221,26 @@ def test_options_of_the_other_story_are_refused(tmp_path, capsys, argv, flag):
     assert not (tmp_path / "run").exists()
 
 
+@pytest.mark.parametrize("size, said", [
+    ("20", r"'--map-size' parameter of windnav demo must be 40-63244 m \(20 to 31622 cells a "
+           r"side of the flow's 2 m grid\)\. Got 20 instead"),
+    ("1e6", r"'--map-size' parameter of windnav demo must be 40-63244 m .* Got 1e\+06 instead"),
+    ("60", r"'--map-size' parameter of windnav demo must leave room for the city of seed 0 "
+           r"\(planning_map drew .* no room was found for building \d+\.\)\. Got 60\.0 "
+           r"instead; use a larger map"),
+])
+def test_a_map_size_out_of_reach_names_map_size(tmp_path, capsys, size, said):
+    """--map-size 20 named NavDemoConfig's 'dx', 1e6 grid_shape's 'dx' and 60 run_nav_demo's
+    'map_size' with 'Pass a smaller n_buildings=' (no flag sets either; CLI audit)."""
+    import re
+
+    assert main(["demo", "--map-size", size, "--no-progress", "--out",
+                 str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert re.search(said, err) and "n_buildings=" not in err and "'dx'" not in err, err
+    assert not (tmp_path / "run").exists()
+
+
 def test_navigate_story_warns_of_each_variant_outside_the_envelope(tmp_path, capsys):
     # CLI audit C: at 8 m/s the JSON held 3.15 s outside the envelope for MPPI, 4.53 / 1.41 s of
     # extrapolated power and 6.3 s of goal hold at the tilt cap, and the console said only

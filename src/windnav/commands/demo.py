@@ -39,6 +39,7 @@ from windnav.commands._common import (
     gif_frames,
     inlet_direction,
     inlet_speed,
+    options_named,
     outputs,
     print_written,
     seed,
@@ -169,6 +170,17 @@ def _nav_config(args):
                                                   name)
     if args.map_size is not None:
         fields["map_size"] = positive_float(args.map_size, "--map-size", name)
+        import math
+
+        from windnav.city.core import MAX_GRID_CELLS
+
+        # NavDemoConfig's and grid_shape's rules, said in this flag's terms (CLI audit)
+        dx = NavDemoConfig.dx
+        least, most = 20 * dx, dx * math.isqrt(MAX_GRID_CELLS)
+        if not least <= fields["map_size"] <= most:
+            raise ValueError(f"The '--map-size' parameter of {name} must be {least:g}-{most:g} "
+                             f"m (20 to {math.isqrt(MAX_GRID_CELLS)} cells a side of the flow's "
+                             f"{dx:g} m grid). Got {args.map_size:g} instead.")
     if args.record_s is not None:
         fields["record_s"] = positive_float(args.record_s, "--record-s", name)
     fields["flow_dt"] = _flow_dt(args, lambda speed, dx: min(NAV_FLOW_DT, dx / speed),
@@ -215,7 +227,11 @@ def _run_navigate(args) -> int:
     cfg, n_frames = _nav_config(args)
     planned, read_with = _nav_flights(args)
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    result = run_nav_demo(cfg, flights=planned, progress=not args.no_progress)
+    # the library's names for what --map-size sets (no flag sets n_buildings; CLI audit)
+    with options_named({"'map_size' parameter of run_nav_demo":
+                        f"'--map-size' parameter of {where(args)}",
+                        " Pass a smaller n_buildings= or a larger size.": ""}):
+        result = run_nav_demo(cfg, flights=planned, progress=not args.no_progress)
     summary = result["summary"]
     city, flow = result["city"], result["flow"]
     named = {legend_name(v): r for v, r in result["results"].items()}
