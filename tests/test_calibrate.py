@@ -171,6 +171,17 @@ def test_calibrate_command_names_settle_when_it_leaves_no_sample(tmp_path, capsy
     assert not (tmp_path / "c").exists()
 
 
+def test_calibrate_command_names_duration_when_the_log_would_not_fit(tmp_path, capsys):
+    # the memory check advised "a shorter flight, log less often (log_every)", which no flag
+    # of the command sets (CLI audit, 2026-12-07)
+    assert main(["calibrate", "--out", str(tmp_path / "c"), "--duration", "1e6"]) == 2
+    err = capsys.readouterr().err
+    assert "error: the log and the sensors' states of 29 vehicle(s) for 1e+06 s" in err
+    assert "Give a shorter --duration, or raise WINDNAV_MEMORY_LIMIT." in err
+    assert "log_every" not in err and "fly:" not in err
+    assert not (tmp_path / "c").exists()
+
+
 def test_estimate_imports_neither_the_simulator_nor_the_experiments():
     """The fitting math is pure: no module of windnav.estimate imports windnav.sim or
     windnav.experiments at import time."""

@@ -91,8 +91,12 @@ def run(args) -> int:
         raise ValueError(f"The '--settle' parameter of {name} must be below --duration "
                          f"{duration:g}. Got {settle:g} instead.")
     out = outputs(args, out=("--out", args.out, PRODUCTS))
-    log = calibration_flights(truth, duration=duration, rng=args.seed,
-                              sensors=sensor_suite(100.0, args.sensor_noise))
+    # (the flights' memory check names the library's knobs; --duration is this command's)
+    with options_named({"fly: the log": "the log",
+                        "Fly fewer vehicles at once or a shorter flight, log less often "
+                        "(log_every) or with fewer sensors": "Give a shorter --duration"}):
+        log = calibration_flights(truth, duration=duration, rng=args.seed,
+                                  sensors=sensor_suite(100.0, args.sensor_noise))
     with options_named({"'settle_s' parameter of fit_drag": f"'--settle' parameter of {name}"}):
         fit = fit_drag(log, truth, settle_s=settle, parasitic=not args.linear)
     print(f"drag calibration of {truth.name}: {fit.rows_used} rows ({fit.rows_dropped} "
