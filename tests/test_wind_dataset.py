@@ -559,7 +559,9 @@ def test_cli_wind_sweep_refuses_a_direction_count_that_is_no_count(tmp_path, cap
         err = capsys.readouterr().err
         assert ("'--directions' parameter of windnav wind-sweep must be, as one value, a count "
                 "of directions from 1 to 360" in err), err
-        assert f"for a single direction of {count} deg, give --directions-deg {count}." in err
+        # (400 and 361 deg were suggested, which --directions-deg refuses: CLI audit)
+        assert (f"for a single direction of {count} deg, give --directions-deg {count}." in err
+                ) == (abs(int(count)) <= 360), err
         assert "is a count" not in err  # refused, not noted
     for extra, flag in ((["--directions", "0", "nan"], "--directions"),
                         (["--directions-deg", "inf"], "--directions-deg")):
@@ -571,6 +573,23 @@ def test_cli_wind_sweep_refuses_a_direction_count_that_is_no_count(tmp_path, cap
     assert "a COUNT N of directions (an integer, 1 to 360)" in text
     assert "never an angle" in text and "two or more values: the directions themselves" in text
     assert not (tmp_path / "s.zarr").exists()
+
+
+def test_cli_wind_sweep_into_a_folder_of_other_files_names_out(tmp_path, capsys):
+    # "SweepStore.create: cannot open the Zarr store ...: No group found in store" before
+    from windnav.cli import main
+
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    junk = tmp_path / "junk"
+    junk.mkdir()
+    (junk / "a.txt").write_text("mine")
+    assert main(["wind-sweep", "--maps", str(tiny), "--out", str(junk), "--speeds", "3",
+                 "--directions-deg", "0", "--backend", "serial", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert (f"'--out' parameter of windnav wind-sweep must be a new or empty folder, or the "
+            f"store of a sweep to resume. Got {str(junk)!r} instead, a folder of other files "
+            "(no zarr.json)." in err), err
+    assert sorted(p.name for p in junk.iterdir()) == ["a.txt"]
 
 
 def test_cli_wind_sweep_into_a_store_of_another_sweep_names_out(tmp_path, capsys):

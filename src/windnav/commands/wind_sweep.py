@@ -143,7 +143,7 @@ def _directions_arg(args):
                 f"count of directions from 1 to {MAX_DIRECTIONS} (evenly spaced from 0 deg), "
                 f"or two or more directions in deg. Got {n:g} instead"
                 + (f"; for a single direction of {n:g} deg, give --directions-deg {n:g}."
-                   if math.isfinite(n) else ".")
+                   if math.isfinite(n) and abs(n) <= 360 else ".")
             )
         if n > 36:  # "--directions 90" meant 90 deg, and flew 90 directions (CLI audit)
             print(f"windnav wind-sweep: note: --directions {int(n)} is a count: {int(n)} "
@@ -186,6 +186,13 @@ def run(args, simulate=None) -> int:
                          "give --generate N). Got none instead.")
     checked_workers(args, name)  # "'workers' parameter of run_tasks" before
     check_output_path(args.out, "--out", name, kind="dir")
+    found = Path(args.out)
+    if (found.is_dir() and any(found.iterdir())
+            and not any((found / m).is_file() for m in ("zarr.json", ".zgroup"))):
+        # (Zarr's "No group found in store" before; CLI audit, 2026-12-07)
+        raise ValueError(f"The '--out' parameter of {name} must be a new or empty folder, or "
+                         f"the store of a sweep to resume. Got {str(args.out)!r} instead, a "
+                         "folder of other files (no zarr.json).")
     out = outputs(args)
     try:
         with warnings.catch_warnings():  # said once per map, at the end, as a note
