@@ -129,6 +129,19 @@ def test_a_torn_last_record_is_run_again(tmp_path, ran):
     assert_same_outputs(out, whole)
 
 
+def test_a_damaged_record_log_is_said_to_be_no_record_log(tmp_path, ran, capsys):
+    """A log whose first line is no header was "the runs of another validation" (CLI audit)."""
+    out, log = tmp_path / "v", tmp_path / "v" / fv.RECORDS
+    out.mkdir()
+    log.write_text("garbage\n{}\n")
+    assert command(out, "--studies") == 2 and ran == []
+    err = capsys.readouterr().err
+    assert (f"whose record log {str(log)!r} is not a record log (its first line is no JSON "
+            "header: damaged, or another file); pass --overwrite to discard it, or choose "
+            "another --out." in err), err
+    assert log.read_text() == "garbage\n{}\n"
+
+
 def test_the_record_log_of_another_validation_is_refused_or_discarded(tmp_path, ran, capsys):
     """Runs kept by --full --seed 1 are not mixed into --studies or --full --seed 0: refused
     before anything runs, and with --overwrite discarded."""

@@ -64,6 +64,18 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+def _is_record_log(path: Path) -> bool:
+    """Whether the file at ``path`` starts as a record log does: a JSON object with a
+    ``header`` on its first line (:class:`windnav.experiments.results.RecordLog`)."""
+    with open(path, "rb") as f:
+        first = f.readline()
+    try:
+        head = json.loads(first.decode("utf-8", errors="replace"))
+    except ValueError:
+        return False
+    return isinstance(head, dict) and "header" in head
+
+
 def products() -> tuple[str, ...]:
     """What a run writes into ``--out``."""
     from windnav.experiments.flow_figures import CHECK_FIGURES, STROUHAL_FIGURES
@@ -85,11 +97,16 @@ def _record_log(args, name: str):
         log = open_records(path, **config)
     except RecordMismatchError:
         if not args.overwrite:
+            if _is_record_log(path):
+                what = ("holds the runs of another validation (--studies or --full, or --seed, "
+                        "differ); rerun that validation to finish it, pass --overwrite to "
+                        "discard them")
+            else:  # (said to be another validation's before; CLI audit, 2026-12-07)
+                what = ("is not a record log (its first line is no JSON header: damaged, or "
+                        "another file); pass --overwrite to discard it")
             raise ValueError(
                 f"The '--out' parameter of {name} names {str(args.out)!r}, whose record log "
-                f"{str(path)!r} holds the runs of another validation (--studies or --full, or "
-                "--seed, differ); rerun that validation to finish it, pass --overwrite to "
-                "discard them, or choose another --out.") from None
+                f"{str(path)!r} {what}, or choose another --out.") from None
         path.unlink()
         log = open_records(path, **config)
     n = len(log.load())
