@@ -1818,6 +1818,11 @@ def test_table_against_another_store_compares_the_same_flights(tmp_path, tiny_su
     with pytest.raises(ValueError, match="'--against' parameter"):
         command(["--out", a, "--table", "--against", tmp_path / "none"])
     assert capsys.readouterr().out == ""  # refused before the table was printed
+    # the store against itself: every flight "the same", with no note (CLI audit)
+    with pytest.raises(ValueError, match="'--against' parameter .* must name another store "
+                                         "than --out"):
+        command(["--out", a, "--table", "--against", a])
+    assert capsys.readouterr().out == ""
     # a store with none of the table's flights: "0 flights in both: 0 the same", status 0
     # before (failure audit, 2026-12-06); refused as --check refuses it
     (b / "records.jsonl").write_text("".join(json.dumps(r) + "\n" for r in recs

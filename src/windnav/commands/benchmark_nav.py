@@ -526,6 +526,10 @@ def _table(args, name: str) -> int:
     other = None
     if args.against is not None:  # checked before the table is printed
         _existing_store(args.against, "--against", name)
+        if Path(args.against).resolve() == Path(args.out).resolve():  # all "the same" (audit)
+            raise ValueError(f"The '--against' parameter of {name} must name another store "
+                             f"than --out. Got {str(args.against)!r}, the --out store, "
+                             "instead.")
         other = NavStore(args.against, spec, create=False).latest()
     checks = []
     if other is not None:
