@@ -125,6 +125,21 @@ def test_only_unsteady_points_names_file_and_column(tmp_path):
         _cli("sysid", "thrust-stand", "--csv", path, "--out", tmp_path / "o")
 
 
+@pytest.mark.parametrize("rows", [[], [[0.01, 1e4, "inf", 0, 3000, 3.7, 1],
+                                      [0.02, 1e4, "inf", 0, 3000, 3.7, 1]]],
+                         ids=["header-only", "inf-thrust"])
+def test_a_stand_log_without_a_finite_row_names_csv_and_the_file(tmp_path, capsys, rows):
+    # an IndexError traceback from inside the fit (_step_halves) before (CLI audit)
+    from windnav import cli
+
+    path = _write(tmp_path / "empty.csv", rows)
+    status = cli.main(["sysid", "thrust-stand", "--csv", str(path), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1, err
+    assert "empty.csv" in err and "(--csv) has no row with finite timestamp/pwm/thrust_N" in err
+    assert not (tmp_path / "o").exists()
+
+
 def test_windnav_main_reports_bad_input_in_one_line(tmp_path, capsys):
     from windnav import cli
 

@@ -167,6 +167,27 @@ def _register_thrust_stand(ss) -> None:
     p.set_defaults(func=run_thrust_stand)
 
 
+def _stand_tables(args, name: str) -> list:
+    """The stand logs, bags first then ``--csv`` files, each with a row whose
+    :data:`~windnav.sysid.thrust_stand.STAND_COLUMNS` are all finite: a file of a header alone
+    (or of inf thrust throughout) was an IndexError traceback from inside the fit (CLI audit),
+    where one such row gets the fit's "no steady point" message."""
+    import numpy as np
+
+    from windnav.sysid.io import read_table
+    from windnav.sysid.thrust_stand import STAND_COLUMNS
+
+    tables = [("--bag", t) for t in _bag_tables(args, "timestamp")]
+    tables += [("--csv", read_table(p, where=name)) for p in args.csv]
+    for option, tab in tables:
+        tab.require(STAND_COLUMNS, name)
+        if not np.logical_and.reduce([np.isfinite(tab.columns[c]) for c in STAND_COLUMNS]).any():
+            raise ValueError(f"The file {tab.source!r} given to {name} ({option}) has no row "
+                             f"with finite {'/'.join(STAND_COLUMNS)} values: none of its "
+                             f"{len(tab)} row(s) can be fitted.")
+    return [tab for _, tab in tables]
+
+
 def run_thrust_stand(args) -> int:
     from windnav.experiments.sysid import plot_thrust_stand, thrust_stand_study
 
@@ -180,9 +201,9 @@ def run_thrust_stand(args) -> int:
         raise ValueError(f"The '--csv' parameter of {name} must name at least one file (or "
                          "give --bag).")
     out = _outputs(args, "thrust-stand")
-    fit, payload = thrust_stand_study(args.csv, n_rotors, max_accel=max_accel,
+    fit, payload = thrust_stand_study([], n_rotors, max_accel=max_accel,
                                       min_speed=min_speed, window_s=window, settle_s=settle,
-                                      tables=_bag_tables(args, "timestamp"), where=name)
+                                      tables=_stand_tables(args, name), where=name)
     doc = document("sysid thrust-stand", payload, args)
     _write(args, doc, out, "thrust_stand", lambda path: plot_thrust_stand(fit, path))
     _print({**_coefficients(payload, ("k_eta", "Kv", "V0", "DZ")), "r2": payload["r2"]}, out)
