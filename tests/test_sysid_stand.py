@@ -164,8 +164,11 @@ def test_windnav_main_reports_bad_input_in_one_line(tmp_path, capsys):
     (["simulate-tunnel", "--seed", "-1"], "'--seed' parameter"),
     (["power", "--csv", "x.csv", "--speed-col", "s", "--power-col", "p",
       "--wind", "-5", "5", "1e-5"], "'--wind' parameter"),  # 1e6 winds: minutes of silence
+    # two ramps written to one stand_3.70V.csv, truth.json listing both (CLI audit)
+    (["simulate-stand", "--voltages", "3.7", "3.7"], "'--voltages' parameter"),
+    (["simulate-stand", "--voltages", "3.7", "3.70001"], "stand_3.70V.csv would be written"),
 ], ids=["rate-low", "rate-high", "v0-nan", "dz", "tunnel-step", "stand-seed", "tunnel-seed",
-        "power-wind-step"])
+        "power-wind-step", "stand-same-voltage", "stand-same-file"])
 def test_sysid_commands_refuse_sizes_and_values_that_break_them(tmp_path, capsys, argv,
                                                                 match):
     from windnav import cli

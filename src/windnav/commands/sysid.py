@@ -693,10 +693,11 @@ def _register_simulate_stand(ss) -> None:
                       description="PWM ramp 10k..50k in 5k steps, 1 s each, at each supply "
                                   "voltage; first-order motor driven by the PWM model; noisy "
                                   "thrust, rpm, voltage, current. Writes stand_<V>V.csv and "
-                                  "truth.json into --out.")
+                                  "truth.json into --out (V to two decimals: the voltages "
+                                  "must differ there).")
     _vehicle_argument(p)
     p.add_argument("--voltages", type=float, nargs="+", default=list(STAND_VOLTAGES),
-                   metavar="V", help="supply voltages, V (default "
+                   metavar="V", help="supply voltages, V, distinct to two decimals (default "
                                      + " ".join(f"{v:g}" for v in STAND_VOLTAGES) + ")")
     p.add_argument("--rate-hz", type=float, default=100.0, help="log rate, Hz (%(default)s)")
     p.add_argument("--step-s", type=float, default=1.0,
@@ -728,6 +729,13 @@ def run_simulate_stand(args) -> int:
 
     name = _where(args)
     volts = [positive_float(v, "--voltages", name) for v in args.voltages]
+    files = [f"stand_{v:.2f}V.csv" for v in volts]  # write_stand_csvs's names
+    same = sorted({f for f in files if files.count(f) > 1})
+    if same:  # 3.7 3.7: truth.json listed both, one CSV was written (CLI audit)
+        raise ValueError(f"The '--voltages' parameter of {name} must give distinct voltages "
+                         "to two decimals (each ramp is written to stand_<V>V.csv, V to two "
+                         f"decimals). Got {[float(v) for v in volts]} instead, whose "
+                         f"{', '.join(same)} would be written more than once.")
     rate = positive_float(args.rate_hz, "--rate-hz", name)
     step = positive_float(args.step_s, "--step-s", name)
     per_step = round(step * rate)  # samples per PWM step of the ramp
