@@ -167,8 +167,14 @@ def test_windnav_main_reports_bad_input_in_one_line(tmp_path, capsys):
     # two ramps written to one stand_3.70V.csv, truth.json listing both (CLI audit)
     (["simulate-stand", "--voltages", "3.7", "3.7"], "'--voltages' parameter"),
     (["simulate-stand", "--voltages", "3.7", "3.70001"], "stand_3.70V.csv would be written"),
+    # 0 m/s alone (unsaid), an airflow-free set that cannot fit k_d, every condition twice
+    (["simulate-tunnel", "--axes", "x", "--speed-step", "10", "--max-speed", "2"],
+     "'--speed-step' parameter"),
+    (["simulate-tunnel", "--axes", "x", "--max-speed", "0"], "'--max-speed' parameter"),
+    (["simulate-tunnel", "--axes", "x", "x"], "'--axes' parameter"),
 ], ids=["rate-low", "rate-high", "v0-nan", "dz", "tunnel-step", "stand-seed", "tunnel-seed",
-        "power-wind-step", "stand-same-voltage", "stand-same-file"])
+        "power-wind-step", "stand-same-voltage", "stand-same-file", "tunnel-step-above-max",
+        "tunnel-max-zero", "tunnel-same-axis"])
 def test_sysid_commands_refuse_sizes_and_values_that_break_them(tmp_path, capsys, argv,
                                                                 match):
     from windnav import cli

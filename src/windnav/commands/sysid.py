@@ -792,11 +792,12 @@ def _register_simulate_tunnel(ss) -> None:
     _vehicle_argument(p)
     p.add_argument("--axes", nargs="+", default=["x", "y", "xy", "z", "neg_z"],
                    choices=list(AXES),
-                   help="airspeed directions, body axes (%(default)s)")
+                   help="airspeed directions, body axes, each once (%(default)s)")
     p.add_argument("--max-speed", type=float, default=6.0,
                    help="largest airspeed, m/s (%(default)s)")
     p.add_argument("--speed-step", type=float, default=0.5,
-                   help="airspeed step from 0 to --max-speed, m/s (%(default)s)")
+                   help="airspeed step from 0 to --max-speed (> 0), at most --max-speed, m/s "
+                        "(%(default)s)")
     p.add_argument("--settle-s", type=float, default=2.5,
                    help="transient dropped by the fits, s (%(default)s)")
     p.add_argument("--record-s", type=float, default=1.5,
@@ -816,8 +817,16 @@ def run_simulate_tunnel(args) -> int:
     from windnav.sysid.io import write_csv
 
     name = _where(args)
-    vmax = positive_float(args.max_speed, "--max-speed", name, allow_zero=True)
+    vmax = positive_float(args.max_speed, "--max-speed", name)  # 0: no airflow, no k_d
     step = positive_float(args.speed_step, "--speed-step", name)
+    if step > vmax:  # --speed-step 10 --max-speed 2 flew 0 m/s alone, unsaid (CLI audit)
+        raise ValueError(f"The '--speed-step' parameter of {name} must be at most --max-speed "
+                         f"({vmax:g} m/s), or only 0 m/s is flown. Got {args.speed_step!r} "
+                         "instead.")
+    repeated = sorted({a for a in args.axes if args.axes.count(a) > 1})
+    if repeated:  # --axes x x flew every condition twice
+        raise ValueError(f"The '--axes' parameter of {name} must name each axis once. Got "
+                         f"{args.axes} instead ({', '.join(repeated)} repeated).")
     settle = positive_float(args.settle_s, "--settle-s", name, allow_zero=True)
     record = positive_float(args.record_s, "--record-s", name)
     out = _outputs(args, "simulate-tunnel")
