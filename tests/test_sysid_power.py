@@ -139,6 +139,27 @@ def test_only_unsteady_points_name_file_and_column(tmp_path):
              "--time-col", "t", "--out", tmp_path / "o")
 
 
+@pytest.mark.parametrize("order", ["reversed", "constant", "two-rows-swapped"])
+def test_a_time_column_that_does_not_increase_is_named(tmp_path, capsys, order):
+    # a reversed or constant time gave "no steady level point", a swapped pair of rows was
+    # fitted (CLI audit); thrust-stand refuses its 'timestamp' alike
+    from windnav import cli
+
+    t = np.arange(0.0, 40.0, 0.1)
+    v = 2.0 + np.floor(t / 5.0)  # eight steady levels of 5 s
+    t = {"reversed": t[::-1], "constant": np.zeros_like(t),
+         "two-rows-swapped": t[np.r_[0:100, 101, 100, 102:t.size]]}[order]
+    path = write_csv(tmp_path / "p.csv", {"time": t, "speed": v, "power": 50 + (v - 6) ** 2})
+    status = cli.main(["sysid", "power", "--csv", str(path), "--speed-col", "speed",
+                       "--power-col", "power", "--time-col", "time", "--out",
+                       str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1, err
+    assert "The column 'time' of" in err and "p.csv' (--time-col) must increase from row to " \
+        "row" in err
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_max_range_speed_at_the_edge_or_beyond_the_data_is_noted(tmp_path, capsys):
     # 6.0 m/s at the data's edge, or 9.1 m/s extrapolated past it, were printed as the answer
     v = np.linspace(0.0, 6.0, 40)

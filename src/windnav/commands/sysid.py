@@ -427,8 +427,8 @@ def _register_power(ss) -> None:
     p.add_argument("--speed-col", required=True, help="speed column, m/s")
     p.add_argument("--power-col", required=True, help="electrical power column, W")
     p.add_argument("--time-col", default=None,
-                   help="time column, s: select steady level flight (default: none, every "
-                        "sample is used)")
+                   help="time column, s: select steady level flight; its values must "
+                        "increase from row to row (default: none, every sample is used)")
     p.add_argument("--vertical-speed-col", default=None,
                    help="climb-rate column, m/s (default: none)")
     p.add_argument("--altitude-col", default=None, help="height column, m (default: none)")
@@ -468,6 +468,7 @@ def _speed_range(value, name: str):
 
 
 def run_power(args) -> int:
+    import numpy as np
 
     from windnav.experiments.sysid import plot_power, power_study
     from windnav.sysid.io import read_table
@@ -492,6 +493,13 @@ def run_power(args) -> int:
     out = _outputs(args, "power")
     table = (read_table(args.csv, layout=args.layout, where=name) if args.csv is not None
              else _bag_tables(args, args.time_col or "time_s")[0])
+    if args.time_col is not None and args.time_col in table.names:
+        t = table.columns[args.time_col]
+        t = t[np.isfinite(t)]
+        if t.size > 1 and np.any(np.diff(t) <= 0):  # as thrust-stand's 'timestamp'; a
+            # reversed or constant time was "no steady level point", others fitted (CLI audit)
+            raise ValueError(f"The column {args.time_col!r} of {table.source!r} (--time-col) "
+                             "must increase from row to row.")
     fit, payload = power_study(
         table, args.speed_col, args.power_col, degree=degree, speed_max=speed_max,
         time_col=args.time_col, vertical_speed_col=args.vertical_speed_col,
