@@ -111,6 +111,37 @@ def test_similitude_command_checks_a_strouhal_number_it_would_not_use():
         _cli("similitude", "--strouhal", -1)
 
 
+@pytest.mark.parametrize("command", [["similitude"], ["sysid", "similitude"]])
+@pytest.mark.parametrize("argv, option, missing", [
+    (["--obstacle-width", 1], "--obstacle-width", "without --control-rate-hz and a speed"),
+    (["--model-speed", 1, "--obstacle-width", 1], "--obstacle-width",
+     "without --control-rate-hz instead"),
+    (["--control-rate-hz", 500, "--obstacle-width", 1], "--obstacle-width",
+     "without a speed instead"),
+    (["--model-speed", 1, "--control-rate-hz", 500, "--strouhal", 0.13], "--strouhal",
+     "without --obstacle-width"),
+    (["--control-rate-hz", 500, "--kinematic-viscosity", 1e-6], "--kinematic-viscosity",
+     "without a speed"),
+])
+def test_similitude_command_refuses_options_the_report_would_not_use(command, argv, option,
+                                                                     missing, capsys):
+    # the shedding needs a width, a speed and a control rate: without them --obstacle-width
+    # and --strouhal were accepted and ignored, the output silent (CLI audit)
+    from windnav import cli
+
+    assert cli.main([*command, *[str(a) for a in argv]]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert f"The '{option}' parameter of windnav {' '.join(command)} is for the" in err
+    assert missing in err
+    # given what it needs, the same option is used
+    _cli(*command, "--model-speed", 1, "--control-rate-hz", 500, "--obstacle-width", 1,
+         "--strouhal", 0.13, "--kinematic-viscosity", 1e-6)
+    report = json.loads(capsys.readouterr().out)
+    assert report["shedding"]["strouhal"] == 0.13
+    assert report["shedding"]["kinematic_viscosity_m2_s"] == 1e-6
+
+
 def test_the_shedding_notes_an_obstacle_reynolds_number_without_constant_strouhal(capsys):
     # a 5 mm obstacle at 0.1 m/s (Re 33: no shedding at all) got shedding.model_hz 4.0 with
     # notes [] (audit)

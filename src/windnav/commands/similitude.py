@@ -9,7 +9,10 @@ The same command as ``windnav sysid similitude`` (:class:`windnav.sysid.Similitu
 length scale is the ratio of rotor diameters (default the thesis's 1.8 m air-taxi rotor against
 the Crazyflie's 55 mm); it prints, and writes with ``--json``, the model speed, mass and
 frequencies under Froude similarity, the speed Reynolds similarity would need, and the ratio of
-the control rate to the shedding frequency at both scales.
+the control rate to the shedding frequency at both scales. The shedding needs
+``--obstacle-width`` with ``--control-rate-hz`` and a speed; an option the report would not
+use (``--obstacle-width`` without them, ``--strouhal`` without ``--obstacle-width``,
+``--kinematic-viscosity`` without a speed) is refused, not ignored.
 """
 
 from __future__ import annotations

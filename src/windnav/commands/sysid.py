@@ -525,6 +525,11 @@ def run_power(args) -> int:
 # ------------------------------------------------------------------------------ similitude
 
 
+SIMILITUDE_DEFAULTS = {"strouhal": 0.2, "kinematic_viscosity": 1.5e-5}
+"""Defaults of ``similitude``'s ``--strouhal`` and ``--kinematic-viscosity``: another value
+without the quantities that use it is refused (:func:`run_similitude`)."""
+
+
 def add_similitude_arguments(p) -> None:
     """The arguments of ``windnav sysid similitude`` and ``windnav similitude``."""
     p.add_argument("--full-scale-diameter", type=float, default=1.8,
@@ -546,13 +551,44 @@ def add_similitude_arguments(p) -> None:
     p.add_argument("--control-rate-hz", type=float, default=None,
                    help="the model's control rate, Hz (default: none)")
     p.add_argument("--obstacle-width", type=float, default=None,
-                   help="width of the model's obstacle, m (for the shedding frequency, with a "
+                   help="width of the model's obstacle, m (for the shedding frequency; needs a "
                         "speed and --control-rate-hz; default: none)")
-    p.add_argument("--strouhal", type=float, default=0.2,
-                   help="Strouhal number of the shedding, dimensionless (%(default)s)")
-    p.add_argument("--kinematic-viscosity", type=float, default=1.5e-5,
-                   help="kinematic viscosity of the air, m^2/s (%(default)s: air at 20 degC)")
+    p.add_argument("--strouhal", type=float, default=SIMILITUDE_DEFAULTS["strouhal"],
+                   help="Strouhal number of the shedding, dimensionless; another value needs "
+                        "--obstacle-width (%(default)s)")
+    p.add_argument("--kinematic-viscosity", type=float,
+                   default=SIMILITUDE_DEFAULTS["kinematic_viscosity"],
+                   help="kinematic viscosity of the air, m^2/s; another value needs a speed "
+                        "(%(default)s: air at 20 degC)")
     add_output_arguments(p)
+
+
+def _check_similitude_inputs(args, name: str) -> None:
+    """Refuse the options the report would leave unused: ``--obstacle-width`` without
+    ``--control-rate-hz`` or a speed, ``--strouhal`` without ``--obstacle-width``,
+    ``--kinematic-viscosity`` without a speed (each was accepted and ignored, the output
+    silent about it; CLI audit). A ``--strouhal`` or ``--kinematic-viscosity`` equal to its
+    default cannot be told from one not typed, and changes nothing."""
+    speed = args.full_scale_speed is not None or args.model_speed is not None
+    if args.obstacle_width is not None:
+        missing = [what for what, given in (
+            ("--control-rate-hz", args.control_rate_hz is not None),
+            ("a speed", speed)) if not given]
+        if missing:
+            raise ValueError(f"The '--obstacle-width' parameter of {name} is for the shedding "
+                             "frequency, reported against the control rate: it needs "
+                             "--control-rate-hz and a speed (--full-scale-speed or "
+                             f"--model-speed). Got {args.obstacle_width!r} without "
+                             f"{' and '.join(missing)} instead.")
+    if args.strouhal != SIMILITUDE_DEFAULTS["strouhal"] and args.obstacle_width is None:
+        raise ValueError(f"The '--strouhal' parameter of {name} is for the shedding of an "
+                         "obstacle (--obstacle-width, with --control-rate-hz and a speed). Got "
+                         f"{args.strouhal!r} without --obstacle-width instead.")
+    if (args.kinematic_viscosity != SIMILITUDE_DEFAULTS["kinematic_viscosity"]
+            and not speed):
+        raise ValueError(f"The '--kinematic-viscosity' parameter of {name} is for the "
+                         "Reynolds numbers of a speed (--full-scale-speed or --model-speed). "
+                         f"Got {args.kinematic_viscosity!r} without a speed instead.")
 
 
 def run_similitude(args) -> int:
@@ -582,6 +618,7 @@ def run_similitude(args) -> int:
     for option in ("obstacle_width", "control_rate_hz"):
         if getattr(args, option) is not None:
             positive_float(getattr(args, option), f"--{option.replace('_', '-')}", name)
+    _check_similitude_inputs(args, name)
     out = Outputs(name, files={"--json": args.json}, overwrite=bool(args.overwrite))
     with options_named(options):
         report = sim.report(full_scale_speed=args.full_scale_speed,
