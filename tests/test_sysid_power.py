@@ -131,6 +131,22 @@ def test_missing_column_and_too_few_speeds_name_file_and_column(tmp_path):
             fit_power(v, bad)
 
 
+@pytest.mark.parametrize("column, value, message", [
+    ("power", -70.0, "powers of .*'power'\\) must be > 0 W. Got -70.0 instead"),
+    ("speed", -2.0, "speeds of .*'power'\\) must be >= 0. Got -2.0 instead"),
+])
+def test_a_negative_speed_or_power_is_printed_as_a_plain_number(tmp_path, column, value,
+                                                                message):
+    # "Got np.float64(-70.0) instead" (CLI audit)
+    cols = {"speed": [1.0, 2.0, 3.0, 4.0, 5.0], "power": [50.0, 55.0, 60.0, 62.0, 70.0]}
+    cols[column][1] = value
+    path = write_csv(tmp_path / "p.csv", cols)
+    with pytest.raises(ValueError, match=message) as info:
+        _cli("sysid", "power", "--csv", path, "--speed-col", "speed", "--power-col", "power",
+             "--out", tmp_path / "o")
+    assert "np." not in str(info.value)
+
+
 def test_only_unsteady_points_name_file_and_column(tmp_path):
     t = np.arange(0, 20, 0.1)
     path = write_csv(tmp_path / "accel.csv", {"t": t, "v": 2.0 * t, "P": 100 + t})

@@ -11,6 +11,7 @@ import pytest
 import windnav as wn
 import windnav.commands.sysid
 from windnav.sysid import (
+    UNSTEADINESS_COLUMNS,
     FlightSamples,
     bin_xy,
     lateral_force_command,
@@ -89,6 +90,24 @@ def test_unsteadiness_maps_of_known_samples(tmp_path):
     with pytest.raises(ValueError, match="'--cell' parameter of windnav sysid unsteadiness "
                                          "must give at most"):
         _cli("sysid", "unsteadiness", "--csv", path, "--cell", 1e-9, "--out", tmp_path / "p")
+
+
+def test_csv_files_without_a_finite_row_are_named_with_the_option(tmp_path, capsys):
+    # "The 'samples' parameter of unsteadiness_maps holds no finite sample." named neither
+    # --csv nor the file (CLI audit)
+    from windnav import cli
+
+    header = ",".join(UNSTEADINESS_COLUMNS)
+    (tmp_path / "header.csv").write_text(header + "\n")
+    (tmp_path / "nan.csv").write_text(header + "\nnan" + ",0" * 8 + "\n")
+    status = cli.main(["sysid", "unsteadiness", "--csv", str(tmp_path / "header.csv"),
+                       str(tmp_path / "nan.csv"), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert status == 2 and len(err.splitlines()) == 1, err
+    assert "header.csv'" in err and "nan.csv' given to windnav sysid unsteadiness (--csv) " \
+        "hold no sample to bin: no row with finite x/y/wind_x/" in err
+    assert "unsteadiness_maps" not in err
+    assert not (tmp_path / "o").exists()
 
 
 @pytest.mark.parametrize("cell", [0.2, 0.1, 0.3, 0.7, 1.1, 0.05])

@@ -671,7 +671,11 @@ def run_unsteadiness(args) -> int:
     )
     from windnav.sim import FlightLog
     from windnav.sysid.io import read_table
-    from windnav.sysid.unsteadiness import FlightSamples, flight_samples_from_log
+    from windnav.sysid.unsteadiness import (
+        UNSTEADINESS_COLUMNS,
+        FlightSamples,
+        flight_samples_from_log,
+    )
 
     name = _where(args)
     cell = positive_float(args.cell, "--cell", name)
@@ -707,11 +711,19 @@ def run_unsteadiness(args) -> int:
         wind = ukf_wind_on_log(log, params) if args.wind == "ukf" else None
         parts.append(flight_samples_from_log(log, params.k_eta, wind_xy=wind))
     parts += [FlightSamples.from_table(read_table(p, where=name), name) for p in args.csv]
+    samples = FlightSamples.concatenate(parts)
+    if samples.xy.shape[0] == 0:  # "The 'samples' parameter of unsteadiness_maps holds no
+        # finite sample." named neither the option nor the file (CLI audit)
+        given = [(o, paths) for o, paths in (("--log", args.log), ("--csv", args.csv)) if paths]
+        raise ValueError(
+            f"The file(s) {', '.join(repr(str(p)) for _, paths in given for p in paths)} given "
+            f"to {name} ({' and '.join(o for o, _ in given)}) hold no sample to bin"
+            + ("" if args.log else
+               f": no row with finite {'/'.join(UNSTEADINESS_COLUMNS)} values") + ".")
     with options_named({"'cell' parameter of unsteadiness_maps": f"'--cell' parameter of {name}",
                         "'min_count' parameter of unsteadiness_maps":
                         f"'--min-count' parameter of {name}"}):
-        maps, payload = unsteadiness_study(FlightSamples.concatenate(parts), cell=cell,
-                                           min_count=min_count)
+        maps, payload = unsteadiness_study(samples, cell=cell, min_count=min_count)
     payload["wind_source"] = args.wind if args.log else "csv"
     doc = document("sysid unsteadiness", payload, args)
     _write(args, doc, out, "unsteadiness", lambda path: plot_unsteadiness(maps, path))

@@ -547,9 +547,9 @@ def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
     ok = np.isfinite(v) & np.isfinite(p)
     v, p = v[ok], p[ok]
     if np.any(v < 0):
-        raise ValueError(f"The speeds of {source} must be >= 0. Got {v.min()!r} instead.")
+        raise ValueError(f"The speeds of {source} must be >= 0. Got {float(v.min())!r} instead.")
     if p.size and not np.all(p > 0):  # zeros gave a ZeroDivisionError, negatives a curve
-        raise ValueError(f"The powers of {source} must be > 0 W. Got {p.min()!r} instead.")
+        raise ValueError(f"The powers of {source} must be > 0 W. Got {float(p.min())!r} instead.")
     if np.unique(v).size <= deg:
         raise ValueError(f"The data of {source} hold {np.unique(v).size} distinct speeds, "
                          f"fewer than the {deg + 1} needed to fit a degree-{deg} curve with an "
