@@ -482,13 +482,23 @@ def test_evaluate_decoder_command_writes_json_and_figure(map_and_model, monkeypa
 @pytest.mark.parametrize(("compare", "match"), [
     (["missing.npz"], "'--compare' parameter .* does not exist"),
     (["a={model}", "{model}"], "name every model or none"),
+    # they named load_decoder's 'path' and evaluate_decoder's 'compare' (CLI audit)
+    (["x={other}"], "'--compare' parameter of windnav evaluate-decoder must name a windnav "
+                    "decoder file"),
+    (["x={text}"], "'--compare' parameter of windnav evaluate-decoder must name a readable "
+                   "decoder file"),
+    (["decoder={model}"], "'--compare' parameter of windnav evaluate-decoder must name each "
+                          "model once"),
 ])
 def test_evaluate_decoder_command_refuses_bad_comparisons(map_and_model, capsys, compare,
                                                           match):
     import re
 
     d, _ = map_and_model
-    args = [c.format(model=d / "model.npz") for c in compare]
+    np.savez(d / "not_a_decoder.npz", a=np.zeros(3))
+    (d / "not_a_decoder.txt").write_text("hello\n")
+    args = [c.format(model=d / "model.npz", other=d / "not_a_decoder.npz",
+                     text=d / "not_a_decoder.txt") for c in compare]
     rc = main(["evaluate-decoder", "--out", str(d / "refused"), "--no-progress",
                *[x for a in args for x in ("--compare", a)]])
     assert rc == 2

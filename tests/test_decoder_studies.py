@@ -314,6 +314,46 @@ def test_decoder_study_refuses_maps_with_windinet_for_direction_and_basis(study,
     assert list(tmp_path.iterdir()) == []  # nothing made, no flow simulated
 
 
+@pytest.mark.parametrize("argv, match", [
+    (["gradients", "--model", "{text}"], "'--model' parameter of windnav decoder-study must name "
+                                         "a readable decoder file"),
+    (["mosaic", "--model", "{npz}"], "'--model' parameter of windnav decoder-study must name a "
+                                     "windnav decoder file"),
+    (["noise", "--compare", "x={npz}"], "'--compare' parameter of windnav decoder-study must "
+                                        "name a windnav decoder file"),
+    (["noise", "--compare", "x={text}"], "'--compare' parameter of windnav decoder-study must "
+                                         "name a readable decoder file"),
+    (["noise", "--compare", "x={small}"], "'--compare' parameter of windnav decoder-study must "
+                                          "hold models on --model's grid"),
+    (["noise", "--compare", "decoder={tiny}"], "'--compare' parameter of windnav decoder-study "
+                                               "must name each model other than decoder"),
+])
+def test_decoder_study_reads_its_decoders_before_any_flow(argv, match, tmp_path, capsys,
+                                                          monkeypatch):
+    """A --model or --compare file that is no decoder (a text file, another .npz) was read only
+    after the flows, minutes later, and named load_decoder's 'path' (CLI audit): refused first,
+    naming the option; so is a --compare model on another grid, or named as the study's own."""
+    from windnav.experiments import decoder_studies as ds
+
+    def no_flows(*args, **kwargs):
+        raise AssertionError("a bad decoder file was not refused before the flows")
+
+    monkeypatch.setattr(ds, "evaluation_fields", no_flows)
+    inputs = tmp_path / "inputs"
+    inputs.mkdir()
+    (inputs / "model.txt").write_text("not a decoder\n")
+    np.savez(inputs / "other.npz", a=np.zeros(3))
+    tiny_decoder(5).save(inputs / "small.npz")
+    tiny_decoder(25).save(inputs / "tiny.npz")
+    files = {"text": inputs / "model.txt", "npz": inputs / "other.npz",
+             "small": inputs / "small.npz", "tiny": inputs / "tiny.npz"}
+    model = [] if "--model" in argv else ["--model", str(files["tiny"])]
+    assert cli.main(["decoder-study", *[a.format(**files) for a in argv], *model, "--out",
+                     str(tmp_path / "out"), "--no-progress"]) == 2
+    assert match in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_decoder_study_windinet_keeps_its_inlets_and_other_studies_their_maps():
     """Only a typed ``--maps`` is refused with ``--windinet``: unset it takes its default, and
     ``--inlets`` (the windinet slots) is read; a study that runs on the dense maps whatever

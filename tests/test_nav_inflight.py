@@ -198,7 +198,11 @@ def test_the_command_writes_the_table_json_and_figure(tmp_path, monkeypatch, cap
                      (["--variant", "ea-mppi-w"], "'--variant' parameter"),
                      (["--every", "0"], "'--every' parameter"),
                      (["--tau", "0"], "'--tau' parameter"),
-                     (["--compare", str(tmp_path / "none.npz")], "'--compare' parameter")):
+                     (["--compare", str(tmp_path / "none.npz")], "'--compare' parameter"),
+                     # read before the study, naming the option, not load_decoder's 'path'
+                     (["--compare", f"x={tmp_path / 'x.npz'}"], "'--compare' parameter of "
+                      "windnav nav-study must name a windnav decoder file")):
+        np.savez(tmp_path / "x.npz", a=np.zeros(3))
         monkeypatch.setattr(ni, "inflight_study", real)
         assert cli.main(["nav-study", "inflight", "--suite", "quick", "--maps", "0",
                          "--out", str(tmp_path / "bad"), *bad]) == 2

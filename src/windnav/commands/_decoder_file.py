@@ -35,6 +35,20 @@ def load(args, name: str):
     return decoder
 
 
+def load_files(files, flag: str, name: str, **kwargs):
+    """The decoder ``files`` (a mapping of names to files, or a sequence of files; None: the
+    shipped decoder) loaded now with ``kwargs`` (:func:`windnav.predict.load_decoder`'s), so
+    that a file that is no decoder is refused before any work, naming ``flag`` (a text file
+    given to ``decoder-study gradients --model`` was read only after minutes of flows, and
+    named load_decoder's 'path': CLI audit). The same mapping or list, of Decoders."""
+    from windnav.predict import load_decoder
+
+    with options_named({"'path' parameter of load_decoder": f"'{flag}' parameter of {name}"}):
+        if isinstance(files, dict):
+            return {key: load_decoder(file, **kwargs) for key, file in files.items()}
+        return [load_decoder(file, **kwargs) for file in files]
+
+
 def decoder_file(args) -> dict:
     """``{"decoder_file": {"path", "sha256"}}`` of ``--decoder`` as :func:`load` read it (to
     merge into a result's JSON), or ``{}`` when the option is not given."""

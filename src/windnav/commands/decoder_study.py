@@ -133,8 +133,8 @@ def register(subparsers) -> None:
                    help="decoder file for gradients, mosaic, direction, averaging, start and "
                         "noise (default: the shipped model; eigenflows uses only its grid)")
     p.add_argument("--compare", action="append", default=[], metavar="NAME=FILE",
-                   help="noise: another decoder scored beside --model on the same samples "
-                        "(repeatable)")
+                   help="noise: another decoder, on --model's grid, scored beside --model "
+                        "on the same samples (repeatable; read before any flow)")
     add_boundary_argument(p, "--model, and --compare's")
     p.add_argument("--maps", type=int, default=None, metavar="N",
                    help="dense 1.2 km evaluation maps (default 1; the mosaic uses the first; "
@@ -337,9 +337,10 @@ def _summary(study: str, res: dict) -> dict:
 
 def run(args, simulate=None) -> int:
     """Run ``windnav decoder-study``; returns 0."""
+    from windnav.commands._decoder_file import load_files
+    from windnav.commands.evaluate_decoder import _named_compare_files
     from windnav.experiments import decoder_studies as ds
     from windnav.experiments.results import json_ready, write_json
-    from windnav.predict import load_decoder
     from windnav.viz import decoder as figures
 
     name = where(args)
@@ -356,6 +357,14 @@ def run(args, simulate=None) -> int:
     if args.model is not None and not Path(args.model).is_file():
         raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
                          f"{str(args.model)!r} instead, which does not exist.")
+    dec, compare, decoders = None, {}, {}
+    if study not in TRAINING_STUDIES:  # (they train their own)
+        # the decoders read now, not after minutes of flows: a file that is no decoder (a text
+        # file, another .npz) was refused only then, naming load_decoder's 'path' (CLI audit)
+        compare = _named_compare_files(args.compare, name)
+        (dec,) = load_files([args.model], "--model", name, boundary=args.boundary)
+        decoders = load_files(compare, "--compare", name, boundary=args.boundary)
+        _check_compared(decoders, dec, name)
     # the weights a study that predicts reads, by hash (the training studies train their own)
     files = None if study in TRAINING_STUDIES else model_files(args)
     products = (f"decoder_{study}.json", f"decoder_{study}.png")
@@ -369,15 +378,10 @@ def run(args, simulate=None) -> int:
     samples = 64 if args.quick else (2048 if args.samples is None else args.samples)
     flows = None
     if study == "noise":
-        from windnav.commands.evaluate_decoder import _named_compare_files
-
-        compare = _named_compare_files(args.compare, name)
         flows = _fields(args, name, simulate, progress)
         _note_truths(flows, name)
-        decoders = {"decoder": load_decoder(args.model, boundary=args.boundary),
-                    **{n: load_decoder(f, boundary=args.boundary)
-                       for n, f in compare.items()}}
-        res = ds.noise_study(decoders, flows["fields"], samples, seed=args.seed)
+        res = ds.noise_study({"decoder": dec, **decoders}, flows["fields"], samples,
+                             seed=args.seed)
         res["flows"] = {k: v for k, v in flows.items() if k != "fields"}
         res["models"] = {"decoder": str(args.model) if args.model else "default",
                          **{n: str(f) for n, f in compare.items()}}
@@ -386,7 +390,6 @@ def run(args, simulate=None) -> int:
         flows = _fields(args, name, simulate, progress)
         _note_truths(flows, name)
         fields = flows["fields"]
-        dec = load_decoder(args.model, boundary=args.boundary)
         if study == "eigenflows":
             res = ds.eigenflow_study(fields, samples, seed=args.seed, size=dec.size,
                                      spacing=dec.spacing)
@@ -410,7 +413,6 @@ def run(args, simulate=None) -> int:
                           "architecture": dec.architecture, "size": dec.size,
                           "boundary": dec.boundary}
     elif study == "averaging":
-        dec = load_decoder(args.model, boundary=args.boundary)
         city, map_name, kw = _averaging_map(args)
         with options_named({"'speed' parameter of averaging_study": f"'--speed' parameter of "
                                                                      f"{name}"}):
@@ -420,7 +422,6 @@ def run(args, simulate=None) -> int:
                                      name=map_name, **kw)
         plot = figures.plot_averaging
     elif study == "start":
-        dec = load_decoder(args.model, boundary=args.boundary)
         city, map_name, kw = _averaging_map(args)
         protocols = kw.pop("protocols", None)
         if protocols is not None:  # --quick: the short protocol
@@ -463,6 +464,22 @@ def run(args, simulate=None) -> int:
                                  "elapsed_s": round(res["elapsed_s"], 1)}), indent=1))
     print_written(out)
     return 0
+
+
+def _check_compared(decoders: dict, dec, name: str) -> None:
+    """Refuse, before any flow, ``--compare`` models the noise study cannot score beside
+    ``--model``'s ``dec``: one named as a model it scores itself (``decoder`` replaced the
+    decoder, unsaid; ``local``, ``upstream``), or on another grid (refused after the flows)."""
+    for label, model in decoders.items():
+        if label in ("decoder", "local", "upstream"):
+            raise ValueError(f"The '--compare' parameter of {name} must name each model other "
+                             "than decoder, local and upstream (the study's own). Got "
+                             f"{label!r} instead.")
+        if (model.size, model.spacing) != (dec.size, dec.spacing):
+            raise ValueError(f"The '--compare' parameter of {name} must hold models on "
+                             f"--model's grid ({dec.size} cells of {dec.spacing:g} m). Got "
+                             f"{label!r} with {model.size} cells of {model.spacing:g} m "
+                             "instead.")
 
 
 def _check_flow_options(args, name: str) -> None:

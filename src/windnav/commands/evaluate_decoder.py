@@ -161,8 +161,14 @@ def run(args, simulate=None, flow_settings=None) -> int:
     training = training_conditions(training_envelope(dec))
     notes = dx_notes(training, args.dx)
     try:
+        # --compare's files are read first, before any flow: their errors name the option,
+        # not load_decoder's 'path' (CLI audit)
         with options_named({"'files' parameter of evaluate_decoder":
-                            f"'--map' parameter of {name}"}):
+                            f"'--map' parameter of {name}",
+                            "'compare' parameter of evaluate_decoder":
+                            f"'--compare' parameter of {name}",
+                            "'path' parameter of load_decoder":
+                            f"'--compare' parameter of {name}"}):
             res = evaluate_decoder(args.model, decoder=dec, maps=maps, windinet=windinet,
                                    files=own, compare=compare,
                                    compare_boundary=compare_boundary(args),

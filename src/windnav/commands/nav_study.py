@@ -105,6 +105,7 @@ from windnav.commands._common import (
 )
 from windnav.commands._decoder_file import (
     decoder_file,
+    load_files,
     refuse_other_views,
     store_decoder,
     with_decoder,
@@ -573,7 +574,6 @@ def _inflight(args, name: str, spec) -> int:
     from windnav.commands.evaluate_decoder import _named_compare_files
     from windnav.experiments import nav_inflight
     from windnav.experiments.results import RecordMismatchError, json_ready
-    from windnav.predict import load_decoder
     from windnav.viz.nav_studies import plot_inflight, plot_inflight_tau
 
     maps = suite_maps(args.maps, spec, name)
@@ -594,15 +594,16 @@ def _inflight(args, name: str, spec) -> int:
     out = outputs(args, out=("--out", args.out, products))
     compare = _named_compare_files(args.compare, name)
     files = model_files(args)  # the compared files' SHA-256, before they are read
+    # read now, their errors naming --compare (they named load_decoder's 'path': CLI audit)
+    # the suite's 0 and 45 deg inlets sit on the decoder's sector boundaries: scored as the
+    # flown decoder meets them (benchmark_decoder), as the study's records were
+    compared = load_files(compare, "--compare", name, boundary="floor")
     log = Path(args.out) / nav_inflight.RECORDS  # each finished wind, until the outputs are in
 
     def study():
         return nav_inflight.inflight_study(
             spec, ids, variant=args.variant or nav_inflight.INFLIGHT_VARIANT,
-            every_s=args.every,
-            # the suite's 0 and 45 deg inlets sit on the decoder's sector boundaries: scored
-            # as the flown decoder meets them (benchmark_decoder), as the study's records were
-            compare={n: load_decoder(f, boundary="floor") for n, f in compare.items()},
+            every_s=args.every, compare=compared,
             taus=args.tau, executor=args.executor, workers=workers,
             progress=not args.no_progress, records=log)
 
