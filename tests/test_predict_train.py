@@ -941,6 +941,14 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
       "data": {"exclude_maps": ["nowhere-0"]}}, "data.exclude_maps"),
     ({"sweep": {"maps": [{"name": "holdout", "kind": "training", "count": 0}]}},
      r"sweep.maps\[0\].count"),
+    # an even window has no centre cell (decoder-study --sizes refused it; CLI audit)
+    ({"data": {"size": 24}}, r"data.size an odd integer >= 3"),
+    ({"data": {"size": 1}}, r"data.size an odd integer >= 3"),
+    # as every --direction-deg: within one turn (720 was accepted; CLI audit)
+    ({"sweep": {"directions_deg": [10, 720]}}, r"sweep.directions_deg .* from -360 to 360"),
+    ({"sweep": {"directions_deg": [float("nan")]}}, r"sweep.directions_deg"),
+    ({"sweep": {"directions_deg": []}}, r"sweep.directions_deg"),
+    ({"sweep": {"directions_deg": "90"}}, r"sweep.directions_deg"),
 ])
 def test_bad_recipes_are_refused(change, match):
     base = {"data": {"validation_maps": ["holdout-0"]}}
@@ -948,6 +956,28 @@ def test_bad_recipes_are_refused(change, match):
         base[key] = {**base.get(key, {}), **value}
     with pytest.raises(ValueError, match=match):
         load_recipe(base)
+
+
+@pytest.mark.parametrize("name", ["../../escape", "a/b", "a\\b", "..", ".", "", 5, None])
+def test_a_recipe_name_must_be_a_folder_name(name, tmp_path, capsys):
+    """The run's folder is runs/<name>: "../../escape" wrote outside runs/, and 5 was accepted
+    (CLI audit); refused by load_recipe, and by train-decoder before any sweep."""
+    import windnav.cli as cli
+
+    base = {"data": {"validation_maps": ["holdout-0"]}, "name": name}
+    with pytest.raises(ValueError, match=r"must have name a non-empty name without path "
+                                         r"separators, not '\.' or '\.\.'"):
+        load_recipe(base)
+    recipe = tmp_path / "recipe.toml"
+    text = name if isinstance(name, int) else json.dumps(name) if name is not None else '""'
+    recipe.write_text(f'base = "{(RECIPES / "tiny.toml").as_posix()}"\nname = {text}\n')
+    assert cli.main(["train-decoder", "--config", str(recipe), "--out",
+                     str(tmp_path / "out")]) == 2
+    assert "'--config' parameter of windnav train-decoder must have name" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+    for fine in ("default", "thesis-mlp", "wrobot_noise", "a.b"):
+        assert load_recipe({**base, "name": fine})["name"] == fine
 
 
 def test_recipe_files_are_checked(tmp_path):

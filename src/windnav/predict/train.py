@@ -363,6 +363,20 @@ def _check_recipe(r: dict, where: str) -> None:
                          f"{got!r} instead.")
 
     t, d = r["train"], r["data"]
+    # the run's folder under runs/ (resolve_paths) and its members' names: "../../x" wrote
+    # outside runs/, and 5 was accepted (CLI audit)
+    v = r["name"]
+    if not isinstance(v, str) or not v or v in (".", "..") or set(v) & {"/", "\\", "\0"}:
+        fail("name", "a non-empty name without path separators, not '.' or '..' (the run's "
+             "folder is runs/<name>)", v)
+    # as every --direction-deg of the commands (commands._common.inlet_direction refuses
+    # |deg| > 360): 720 was accepted here (CLI audit)
+    v = r["sweep"]["directions_deg"]
+    if not isinstance(v, list) or not v or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) <= 360.0
+            for x in v):
+        fail("sweep.directions_deg", "a non-empty list of directions within one turn, from "
+             "-360 to 360 deg", v)
     for key in ("epochs", "batch_size", "threads", "eval_batch_size", "train_eval_samples",
                 "pca_samples", "members"):
         v = t[key]
@@ -375,6 +389,10 @@ def _check_recipe(r: dict, where: str) -> None:
         v = d[key]
         if isinstance(v, bool) or not isinstance(v, int) or v < 1:
             fail(f"data.{key}", "an integer >= 1", v)
+    v = d["size"]  # an even window has no cell centred on the robot (decoder-study --sizes)
+    if v % 2 == 0 or v < 3:
+        fail("data.size", "an odd integer >= 3 (cells per side of the window centred on the "
+             "robot)", v)
     for key in ("learning_rate",):
         if not isinstance(t[key], (int, float)) or not 0 < t[key] < math.inf:
             fail(f"train.{key}", "a positive number", t[key])
