@@ -139,6 +139,27 @@ def test_command_refuses_durations_outside_its_range_before_any_trial(tmp_path, 
     assert not (tmp_path / "o.json").exists()
 
 
+def test_command_refuses_more_trials_than_its_cap_before_any_trial(tmp_path, capsys,
+                                                                  monkeypatch):
+    # 10^9 hung with no output (CLI audit): refused, naming the cap; the cap itself runs
+    from windnav.commands.ukf_montecarlo import MAX_TRIALS
+
+    assert main(["ukf-montecarlo", "--trials", "1000000000", "--json",
+                 str(tmp_path / "o.json"), "--backend", "serial"]) == 2
+    assert (f"'--trials' parameter of windnav ukf-montecarlo must be at most {MAX_TRIALS}"
+            in capsys.readouterr().err)
+    assert not (tmp_path / "o.json").exists()
+    asked = {}
+
+    def ran(config, **kwargs):
+        asked["n"] = config.n_trials
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(mc, "run_montecarlo", ran)
+    assert main(["ukf-montecarlo", "--trials", str(MAX_TRIALS), "--backend", "serial"]) == 130
+    assert asked["n"] == MAX_TRIALS
+
+
 def test_command_refuses_a_plot_format_before_any_trial(tmp_path, capsys):
     # the trials all ran, then matplotlib refused "Format 'txt'" without naming --plot
     assert main(["ukf-montecarlo", "--trials", "1", "--plot", str(tmp_path / "x.txt"),

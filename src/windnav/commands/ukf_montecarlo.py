@@ -53,6 +53,11 @@ MODULE_DOC = __doc__
 MAX_DURATION_S = 3600.0
 """The longest flight ``--duration`` accepts, s (an hour at 200 Hz)."""
 
+MAX_TRIALS = 10_000
+"""The most trials ``--trials`` runs: each a calibration and a 20-60 s flight, seconds of CPU
+(the docs run 1-50; 10^9 ran on with no output and no end in sight:
+CLI audit)."""
+
 MIN_NEES_TRIALS = 5
 """Fewest trials with a NEES from which the command judges the filter's covariance: from one
 trial (``--trials 1``) it called it "5.4 x too large" in "these conditions" (statistics
@@ -97,7 +102,8 @@ def register(subparsers) -> None:
         description="Draw vehicles around the Hummingbird, calibrate their drag, fly them in "
                     "Dryden gusts and report the 3D wind RMSE of the Wind UKF after 2 s.",
     )
-    p.add_argument("--trials", type=int, default=50, help="number of trials (default 50)")
+    p.add_argument("--trials", type=int, default=50,
+                   help=f"number of trials, at most {MAX_TRIALS} (default 50)")
     p.add_argument("--seed", type=int, default=0, help="study seed (default 0)")
     p.add_argument("--plot", type=Path, default=None,
                    help="write the RMSE vs mass-to-drag ratio plot here (PNG; default: no plot)")
@@ -129,6 +135,10 @@ def _config(args):
         raise ValueError(f"The '--sensor-noise' parameter of {name} applies to --conditions "
                          f"windnav only (the {args.conditions!r} conditions fix their sensors). "
                          f"Got {args.sensor_noise!r} instead.")
+    if positive_int(args.trials, "--trials", name) > MAX_TRIALS:
+        raise ValueError(f"The '--trials' parameter of {name} must be at most {MAX_TRIALS} "
+                         "(each trial a calibration and a flight of seconds of CPU). Got "
+                         f"{args.trials!r} instead.")
     kw = {"n_trials": positive_int(args.trials, "--trials", name), "seed": args.seed,
           "sensor_noise": args.sensor_noise, "conditions": args.conditions}
     if args.vertical_sigma_ratio is not None:
