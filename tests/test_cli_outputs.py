@@ -411,6 +411,30 @@ def test_power_curve_and_calibrate_json(tmp_path):
     assert abs(doc["relative_error"]["k_d"]) < 0.05
 
 
+@pytest.mark.parametrize("argv, match", [
+    # 10^9 hung with no output; 1e-6 swept speeds 2e-7 m/s apart (CLI audit)
+    (["--points", "1000000000"], "'--points' parameter of windnav power-curve must be at most "
+                                 "1001"),
+    (["--max-speed", "1e-6", "--points", "6", "--degree", "1"],
+     "'--max-speed' parameter of windnav power-curve must be at least 1 m/s"),
+    # the envelope's limit, not the first swept speed beyond it ("it leaves it at 15.0 m/s")
+    (["--max-speed", "100"], "leaves 3 of the 21 points below the airspeed limit of "
+                             "hummingbird's envelope, 13.45 m/s, too few for a degree-4 fit"),
+    (["--vehicle", "crazyflie_brushless", "--max-speed", "40", "--points", "9"],
+     "airspeed limit of crazyflie_brushless's envelope, 6.97 m/s"),
+])
+def test_power_curve_refuses_sweeps_it_cannot_fit_before_flying(argv, match, tmp_path, capsys,
+                                                                monkeypatch):
+    def no_sweep(*args, **kwargs):
+        raise AssertionError("the sweep ran")
+
+    monkeypatch.setattr("windnav.experiments.power_curve.power_curve_study", no_sweep)
+    assert main(["power-curve", *argv, "--out", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err
+    assert match in err and "15.0" not in err
+    assert not (tmp_path / "p").exists()
+
+
 def test_wind_and_wind_sweep_json(tmp_path):
     tiny = write_tiny_map(tmp_path / "tiny.json")
     js = tmp_path / "w.json"

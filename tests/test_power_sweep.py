@@ -86,7 +86,9 @@ def test_power_curve_command(tmp_path, capsys):
     assert 6.0 <= cf["fitted_speed_max_m_s"] < 7.0 and cf["max_speed_m_s"] == 12.0
     err = capsys.readouterr().err
     assert "an edge and not a minimum" in err and "raise --max-speed" not in err
-    assert "where the vehicle's trusted envelope does (not at --max-speed 12)" in err
+    # the envelope's end is the airspeed limit, not the sweep's last point inside it (CLI audit)
+    assert ("the sweep ends at 6 m/s, its last point inside the vehicle's trusted envelope "
+            "(which ends at the airspeed limit, 6.97 m/s; not at --max-speed 12)") in err
 
 
 def test_power_curve_flags_a_fitted_endurance_speed_within_the_fit_residuals(tmp_path, capsys):
