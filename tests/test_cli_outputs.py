@@ -435,6 +435,24 @@ def test_power_curve_refuses_sweeps_it_cannot_fit_before_flying(argv, match, tmp
     assert not (tmp_path / "p").exists()
 
 
+@pytest.mark.parametrize("argv", [
+    ["fly", "--duration", "0.1", "--no-plots"],
+    ["power-curve"],
+    ["evaluate-decoder", "--maps", "0"],
+    ["decoder-study", "gradients", "--quick"],
+    ["train-decoder", "--config", "tiny"],
+])
+def test_an_empty_out_is_refused_not_read_as_the_current_folder(argv, tmp_path, monkeypatch,
+                                                                 capsys):
+    """``fly --out ""`` wrote its log and summary into the current folder: argparse's Path("")
+    is "." (CLI audit). Kept as typed, it is refused as every empty output path is."""
+    monkeypatch.chdir(tmp_path)
+    assert main([*argv, "--out", ""]) == 2
+    assert (f"The '--out' parameter of windnav {argv[0]} must be a path. Got '' instead."
+            in capsys.readouterr().err)
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_wind_and_wind_sweep_json(tmp_path):
     tiny = write_tiny_map(tmp_path / "tiny.json")
     js = tmp_path / "w.json"

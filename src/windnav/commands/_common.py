@@ -17,7 +17,15 @@ from windnav.experiments.results import Outputs, check_output_path, document
 __all__ = ["add_boundary_argument", "add_compare_boundary_argument", "add_output_arguments",
            "add_rotations_argument", "compare_boundary", "cache_folder", "check_output_path",
            "document", "fill_defaults", "load_model", "map_argument", "model_files",
-           "options_named", "outputs", "print_written", "seed", "where"]
+           "options_named", "outputs", "path_argument", "print_written", "seed", "where"]
+
+
+def path_argument(text: str) -> Path | str:
+    """The argparse ``type`` of an output folder option: ``Path(text)``, but the empty string
+    kept as typed, so that :func:`check_output_path` refuses it ("must be a path"):
+    ``Path("")`` is ``.``, so ``fly --out ""`` wrote its results into the current folder
+    (CLI audit)."""
+    return Path(text) if text else text
 
 
 def add_output_arguments(parser, *, overwrite: bool = True) -> None:

@@ -81,6 +81,7 @@ from windnav.commands._common import (
     model_files,
     options_named,
     outputs,
+    path_argument,
     print_written,
     refuse_other_studies,
     seed,
@@ -123,7 +124,7 @@ def register(subparsers) -> None:
         description=__doc__.splitlines()[0],
     )
     p.add_argument("study", choices=STUDIES, help="which study")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+    p.add_argument("--out", type=path_argument, required=True, metavar="DIR",
                    help="output folder (JSON, figure)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the inlets and the samples (default %(default)s)")

@@ -62,6 +62,7 @@ from windnav.commands._common import (
     model_files,
     options_named,
     outputs,
+    path_argument,
     print_written,
     seed,
     where,
@@ -109,7 +110,7 @@ def register(subparsers) -> None:
                    help="also evaluate the third-party windinet 1.1 km layout (default: yes; "
                         "no with --map)")
     p.add_argument("--dx", type=float, default=1.0, help="solver cell size, m (default 1)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+    p.add_argument("--out", type=path_argument, required=True, metavar="DIR",
                    help="output folder (JSON, figure)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the inlets and the samples (default %(default)s)")

@@ -29,6 +29,7 @@ from windnav.commands._common import (
     add_output_arguments,
     document,
     outputs,
+    path_argument,
     print_drag_model_note,
     print_written,
     seed,
@@ -80,7 +81,7 @@ def register(sub) -> None:
                    help="sample the wind at each rotor hub instead of the centre of mass")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the gusts and sensor noise (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/fly"),
+    p.add_argument("--out", type=path_argument, default=Path("out/fly"),
                    help="output folder (%(default)s)")
     p.add_argument("--no-plots", action="store_true", help="write no PNG figures")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")

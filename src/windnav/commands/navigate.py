@@ -75,6 +75,7 @@ from windnav.commands._common import (
     load_model,
     model_files,
     outputs,
+    path_argument,
     print_written,
     seed,
     where,
@@ -149,7 +150,7 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the planner and LiDAR noise; the MPPI variants only, the "
                         "graph search (gs, gs-w) draws nothing (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/navigate"),
+    p.add_argument("--out", type=path_argument, default=Path("out/navigate"),
                    help="output folder (%(default)s)")
     p.add_argument("--no-plots", action="store_true", help="write no PNG figures")
     p.add_argument("--gif-frames", type=int, default=None, metavar="N",

@@ -20,6 +20,7 @@ from windnav.commands._common import (
     document,
     options_named,
     outputs,
+    path_argument,
     print_written,
     where,
 )
@@ -50,7 +51,7 @@ def register(sub) -> None:
                    help=f"airspeeds in the sweep, at most {MAX_POINTS} (%(default)s)")
     p.add_argument("--degree", type=int, default=4,
                    help="degree of the fitted polynomial (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/power_curve"),
+    p.add_argument("--out", type=path_argument, default=Path("out/power_curve"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run)

@@ -41,6 +41,7 @@ from windnav.commands._common import (
     model_files,
     options_named,
     outputs,
+    path_argument,
     print_written,
     seed,
     where,
@@ -76,7 +77,7 @@ def register(subparsers) -> None:
                    help="LiDAR range noise standard deviation, m (default 0: noise-free)")
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the scan noise, with --scan-noise (default 0)")
-    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+    p.add_argument("--out", type=path_argument, required=True, metavar="DIR",
                    help="output folder (figure, JSON)")
     p.add_argument("--no-progress", action="store_true", help="hide the solver's progress")
     add_output_arguments(p)

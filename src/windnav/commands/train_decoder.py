@@ -47,6 +47,7 @@ from windnav.commands._common import (
     document,
     options_named,
     outputs,
+    path_argument,
     print_written,
     where,
 )
@@ -81,7 +82,7 @@ def register(subparsers) -> None:
     p.add_argument("--config", type=Path, required=True, metavar="FILE",
                    help="the recipe: a TOML file, or the name of one shipped with windnav "
                         "(default, ensemble, thesis_mlp, tiny, wrobot_flight, wrobot_noise)")
-    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+    p.add_argument("--out", type=path_argument, default=None, metavar="DIR",
                    help="output folder (default runs/<recipe name>)")
     p.add_argument("--backend", choices=("serial", "process", "ray"), default=None,
                    help="sweep executor (default: the recipe's)")
@@ -111,8 +112,9 @@ def run(args, simulate=None) -> int:
     if args.seed is not None:
         recipe["train"]["seed"] = nonnegative_int(args.seed, "--seed", name)
     require("torch", f"windnav {name}")  # before the sweep: it ran whole (an hour) first
+    # --out "" (kept as typed: path_argument) is refused here, not read as "." by Path
     out_dir, store = resolve_paths(recipe, args.out)
-    check_output_path(out_dir, "--out", name, kind="dir")
+    check_output_path(out_dir if args.out is None else args.out, "--out", name, kind="dir")
     out = outputs(args)
     lock = out_dir / LOCK
     with exclusive(lock, f"the decoder run {str(out_dir)!r}"):  # a second run refuses at once
