@@ -471,6 +471,33 @@ def test_wind_and_wind_sweep_json(tmp_path):
     assert sorted(d for r in doc["records"] for d in r["directions_deg"]) == [0.0, 180.0]
 
 
+def test_wind_refuses_a_json_that_is_its_map_or_inside_its_store(tmp_path, capsys):
+    """``wind --json M.json --overwrite`` replaced the input map with the summary, and ``--json
+    OUT/flow.zarr/zarr.json`` wrote inside the store the run replaces (CLI audit): refused
+    before the solve, as ``fly`` refuses a --json that names one of --out's files."""
+    tiny = write_tiny_map(tmp_path / "tiny.json")
+    before = tiny.read_bytes()
+    run = ["wind", "--map", str(tiny), "--speed", "3", "--dx", "2", "--steps", "2",
+           "--spinup-steps", "2", "--out", str(tmp_path / "w")]
+    for js, match in ((str(tiny), "'--json' parameter of windnav wind must not name --map's "
+                                  "file, an input of the run"),
+                      # the same file by another path
+                      (str(tmp_path / "w" / ".." / "tiny.json"), "--map's file"),
+                      (str(tmp_path / "w" / "flow.zarr" / "zarr.json"),
+                       "'--json' parameter of windnav wind must not name a file inside "
+                       "'flow.zarr', which --out writes")):
+        assert main([*run, "--json", js, "--overwrite"]) == 2
+        assert match in capsys.readouterr().err
+        assert tiny.read_bytes() == before and not (tmp_path / "w").exists()
+    # a store there already: the same
+    assert main(run) == 0
+    assert main([*run, "--json", str(tmp_path / "w" / "flow.zarr" / "zarr.json"),
+                 "--overwrite"]) == 2
+    assert "inside 'flow.zarr'" in capsys.readouterr().err
+    # a --json beside the products in --out is fine, as before
+    assert main([*run, "--json", str(tmp_path / "w" / "summary.json"), "--overwrite"]) == 0
+
+
 def test_flow_validate_json_and_figures(tmp_path, monkeypatch):
     import windnav.experiments.flow_validation as fv
 

@@ -255,13 +255,54 @@ def map_argument(item: str, flag: str, name: str):
     return label, path, city
 
 
-def outputs(args, *, out=None, files=None) -> Outputs:
+def outputs(args, *, out=None, files=None, inputs=None) -> Outputs:
     """Check the run's output paths now (before any computation); see
     :class:`~windnav.experiments.results.Outputs`. ``files`` defaults to ``{"--json":
-    args.json}``."""
+    args.json}``. Also refused: a file inside a folder that ``out`` writes (``Outputs``
+    refuses one of its products by name, not ``wind --json OUT/flow.zarr/zarr.json``, inside
+    the store), and one that is an input the run reads (``inputs``: flag -> path; ``wind
+    --map M.json --json M.json --overwrite`` replaced the map with the summary): CLI audit."""
     files = {"--json": getattr(args, "json", None)} if files is None else files
-    return Outputs(where(args), out=out, files=files,
+    name = where(args)
+    given = {flag: path for flag, path in files.items() if path is not None and str(path)}
+    if out is not None and out[1] is not None and str(out[1]):
+        _refuse_inside_products(given, out, name)
+    for flag, path in given.items():
+        for source_flag, source in (inputs or {}).items():
+            if source is not None and str(source) and _same_file(path, source):
+                raise ValueError(f"The {flag!r} parameter of {name} must not name "
+                                 f"{source_flag}'s file, an input of the run. Got "
+                                 f"{str(path)!r} instead.")
+    return Outputs(name, out=out, files=files,
                    overwrite=bool(getattr(args, "overwrite", False)))
+
+
+def _same_file(a, b) -> bool:
+    """Whether the paths ``a`` and ``b`` name one file (the same path, or links to one)."""
+    if os.path.abspath(a) == os.path.abspath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them missing: not the same file
+        return False
+
+
+def _refuse_inside_products(files: dict, out, name: str) -> None:
+    """Refuse a file of ``files`` (flag -> path) under one of the products of ``out`` (flag,
+    folder, names or glob patterns): a folder the run writes whole, and replaces."""
+    from fnmatch import fnmatch
+
+    flag, folder, products = out
+    base = Path(os.path.realpath(folder))
+    for option, path in files.items():
+        try:
+            parts = Path(os.path.realpath(path)).relative_to(base).parts
+        except ValueError:  # not under --out
+            continue
+        if len(parts) > 1 and any(fnmatch(parts[0], pattern) for pattern in products):
+            raise ValueError(f"The {option!r} parameter of {name} must not name a file inside "
+                             f"{parts[0]!r}, which {flag} writes (and replaces). Got "
+                             f"{str(path)!r} instead.")
 
 
 def print_written(out: Outputs) -> None:

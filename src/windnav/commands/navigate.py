@@ -396,7 +396,7 @@ def run(args) -> int:
     start = [finite_float(v, "--start", name) for v in args.start]
     goal = [finite_float(v, "--goal", name) for v in args.goal]
     city = _city(args.map, name)
-    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    out = outputs(args, out=("--out", args.out, PRODUCTS), inputs={"--map": args.map})
 
     # check the start and the goal before the (long) flow simulation
     check_point(city, start, "--start", name)

@@ -119,7 +119,7 @@ def run(args, flow_settings=None) -> int:
                          f"{at[1]:g}) instead.")
     dec = load_model(args, name)
     files = model_files(args)  # the weights read, by hash
-    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    out = outputs(args, out=("--out", args.out, PRODUCTS), inputs={"--map": args.map})
     settings = {**PROTOCOL, "dt": auto_dt(dx, speed), **(flow_settings or {})}
     from windnav.predict.envelope import training_envelope
 

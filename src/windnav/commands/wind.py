@@ -146,7 +146,7 @@ def run(args, simulate=None) -> int:
         with warnings.catch_warnings():  # its warnings come once, from the solve itself
             warnings.simplefilter("ignore")
             city.check_resolution(settings["dx"], "simulate")  # before any output or work
-    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    out = outputs(args, out=("--out", args.out, PRODUCTS), inputs={"--map": args.map})
     x, y = solver_grid(city, settings["dx"])
     print(f"{name}: solving {x.size} x {y.size} cells, {settings['spinup_steps']} spin-up + "
           f"{settings['steps']} averaged steps of {settings['dt']:g} s", flush=True)
