@@ -412,6 +412,56 @@ def test_command_names_a_goal_without_a_gs_route_before_simulating(city, tmp_pat
         args.func(args)
 
 
+def test_command_refuses_a_goal_within_the_capture_radius_before_simulating(city, tmp_path,
+                                                                           monkeypatch):
+    """``--start 5 5 --goal 5 5`` flew 0.22 m and reported "success" (the loop holds a goal
+    within its 10 m capture radius from take-off): refused, naming both options (CLI audit)."""
+    import windnav.experiments.navigate as nav
+
+    def no_flow(*a, **kw):
+        raise AssertionError("the flow was simulated")
+
+    monkeypatch.setattr(nav, "simulate_flow", no_flow)
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    for goal in (("60", "20"), ("66", "28")):  # 0 m and 10 m apart
+        args = parse(["navigate", "--map", str(path), "--start", "60", "20", "--goal", *goal,
+                      "--speed", "2", "--variant", "mppi", "--out", str(tmp_path / "o")])
+        with pytest.raises(ValueError, match=r"'--start' and '--goal' parameters of windnav "
+                                             r"navigate must be more than the capture radius, "
+                                             r"10 m, apart"):
+            args.func(args)
+    args = parse(["navigate", "--map", str(path), "--start", "60", "20", "--goal", "66.1", "28",
+                  "--speed", "2", "--variant", "mppi", "--out", str(tmp_path / "o")])
+    with pytest.raises(AssertionError, match="the flow was simulated"):  # 10.08 m: flown
+        args.func(args)
+    assert not (tmp_path / "o").exists()
+
+
+def test_command_refuses_a_horizon_past_the_decoders_window_before_simulating(city, tmp_path,
+                                                                             monkeypatch):
+    """``--variant ea-mppi-w-hat --horizon 100`` was refused only after the wind simulation, as
+    navigate's 'horizon' parameter (CLI audit): refused first, naming --horizon; the window
+    itself (25 m, the shipped decoder's) and inf are flown."""
+    import windnav.experiments.navigate as nav
+
+    def no_flow(*a, **kw):
+        raise AssertionError("the flow was simulated")
+
+    monkeypatch.setattr(nav, "simulate_flow", no_flow)
+    path = city.to_rotorpy_json(tmp_path / "city.json")
+    base = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
+            "--speed", "2", "--variant", "ea-mppi-w-hat", "--out", str(tmp_path / "o")]
+    args = parse([*base, "--horizon", "100"])
+    with pytest.raises(ValueError, match=r"'--horizon' parameter of windnav navigate must give "
+                                         r"ea-mppi-w-hat a horizon of at most the decoder's "
+                                         r"window, 25 m \(or inf: the window\). Got 100.0"):
+        args.func(args)
+    for fine in (["--horizon", "25"], []):
+        args = parse([*base, *fine])
+        with pytest.raises(AssertionError, match="the flow was simulated"):
+            args.func(args)
+
+
 def test_a_non_finite_known_wind_makes_every_planner_update_fall_back(city, flow):
     """The +W variants check the mean wind once per flight, not at every update; a NaN in it
     still reaches the planner's wind fallback at every update."""

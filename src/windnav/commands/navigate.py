@@ -101,7 +101,7 @@ def register(sub) -> None:
     p.add_argument("--map", type=Path, required=True, metavar="FILE",
                    help="city map, RotorPy world JSON")
     p.add_argument("--start", type=float, nargs=2, required=True, metavar=("X", "Y"),
-                   help="start position, m")
+                   help="start position, m (more than the 10 m capture radius from --goal)")
     p.add_argument("--goal", type=float, nargs=2, required=True, metavar=("X", "Y"),
                    help="goal position, m")
     p.add_argument("--speed", type=float, required=True,
@@ -119,7 +119,8 @@ def register(sub) -> None:
                           "first")
     p.add_argument("--horizon", type=float, default=math.inf,
                    help="side H of the window in which the -w MPPI variants know the wind, m "
-                        "(default: inf, the whole map; ea-mppi-w-hat: the decoder's 25 m grid)")
+                        "(default: inf, the whole map; ea-mppi-w-hat: the decoder's 25 m grid, "
+                        "and at most that)")
     p.add_argument("--energy", choices=ENERGY_MODES, default="horizon",
                    help="what the energy-aware variants' J_E measures: the planning horizon's "
                         "energy (the thesis) or the mission's, which is least at the "
@@ -346,6 +347,48 @@ def _with(args, **changes):
     return argparse.Namespace(**{**vars(args), **changes})
 
 
+def _check_apart(start, goal, name: str) -> None:
+    """Refuse a goal within the capture radius of the start: the loop holds the goal from
+    take-off there, and ``--start 5 5 --goal 5 5`` reported a "success" after 0.22 m (CLI
+    audit)."""
+    from windnav.experiments.navigate import CAPTURE_RADIUS
+
+    apart = math.hypot(goal[0] - start[0], goal[1] - start[1])
+    if not apart > CAPTURE_RADIUS:
+        raise ValueError(f"The '--start' and '--goal' parameters of {name} must be more than "
+                         f"the capture radius, {CAPTURE_RADIUS:g} m, apart (within it the "
+                         "flight holds the goal from take-off). Got start "
+                         f"{[float(v) for v in start]} and goal {[float(v) for v in goal]} "
+                         f"instead, {apart:.3g} m apart.")
+
+
+def _check_horizons(planned, args, name: str) -> None:
+    """Refuse an onboard-stack flight's finite horizon wider than its decoder's window (the
+    grid it predicts; ``inf`` is the window) before the wind is simulated: navigate refused it
+    only after that, naming its own 'horizon' (CLI audit)."""
+    from windnav.plan import VARIANTS
+
+    for flight in planned:
+        horizon = flight["kwargs"].get("horizon", math.inf)
+        if VARIANTS[flight["base"]].wind_source != "onboard" or not (
+                isinstance(horizon, (int, float)) and 0 < horizon < math.inf):
+            continue
+        decoder = flight["kwargs"].get("decoder")
+        if decoder is None:  # the stack's default: the shipped decoder
+            from windnav.experiments.onboard import default_decoder
+
+            decoder = default_decoder()
+        offsets = [float(v) for v in decoder.offsets]
+        window = offsets[-1] - offsets[0] + (offsets[1] - offsets[0])  # OnboardStack.window
+        if horizon > window + 1e-9:
+            single = flight["label"] == flight["base"]
+            flag, got = ("--horizon", args.horizon) if single else ("--variant",
+                                                                    flight["label"])
+            raise ValueError(f"The '{flag}' parameter of {name} must give {flight['base']} a "
+                             f"horizon of at most the decoder's window, {window:g} m (or inf: "
+                             f"the window). Got {got!r} instead.")
+
+
 def _check_route(city, start, goal, variant: str, name: str) -> None:
     """For a variant that flies or keeps a GS route, that one exists in still air, before the
     flow simulation: the search refused a start or goal near a wall, or a goal walled in, only
@@ -395,6 +438,8 @@ def run(args) -> int:
     record = positive_float(args.record_s, "--record-s", name)
     start = [finite_float(v, "--start", name) for v in args.start]
     goal = [finite_float(v, "--goal", name) for v in args.goal]
+    _check_apart(start, goal, name)
+    _check_horizons(planned, args, name)
     city = _city(args.map, name)
     out = outputs(args, out=("--out", args.out, PRODUCTS), inputs={"--map": args.map})
 
