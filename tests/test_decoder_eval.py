@@ -506,6 +506,18 @@ def test_evaluate_decoder_command_refuses_bad_comparisons(map_and_model, capsys,
     assert not (d / "refused").exists()
 
 
+def test_evaluate_decoder_command_refuses_compare_boundary_without_compare(map_and_model,
+                                                                          capsys):
+    """--compare-boundary without --compare was accepted and ignored (CLI audit)."""
+    d, _ = map_and_model
+    rc = main(["evaluate-decoder", "--out", str(d / "refused"), "--no-progress",
+               "--compare-boundary", "floor"])
+    assert rc == 2
+    assert ("The '--compare-boundary' parameter of windnav evaluate-decoder applies only with "
+            "--compare" in capsys.readouterr().err)
+    assert not (d / "refused").exists()
+
+
 def test_evaluate_decoder_command_refuses_a_file_as_flow_cache_and_a_folder_as_model(
         map_and_model, capsys):
     d, _ = map_and_model

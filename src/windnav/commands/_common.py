@@ -84,7 +84,7 @@ def add_compare_boundary_argument(parser) -> None:
     parser.add_argument("--compare-boundary", choices=BOUNDARY_RULES,
                         default=None,
                         help="the --compare models' rule at the sector boundaries, as "
-                             "--boundary (default: --boundary's)")
+                             "--boundary (default: --boundary's; only with --compare)")
 
 
 def compare_boundary(args) -> str:

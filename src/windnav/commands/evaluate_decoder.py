@@ -152,6 +152,10 @@ def run(args, simulate=None, flow_settings=None) -> int:
         raise ValueError(f"The '--model' parameter of {name} must be a decoder file. Got "
                          f"{str(args.model)!r} instead, {what}.")
     compare = _compare_files(args.compare, name)
+    if args.compare_boundary is not None and not args.compare:  # it was ignored (CLI audit)
+        raise ValueError(f"The '--compare-boundary' parameter of {name} applies only with "
+                         f"--compare (the compared models' rule). Got "
+                         f"{args.compare_boundary!r} without --compare instead.")
     out = outputs(args, out=("--out", args.out, PRODUCTS))
     flow_cache = flow_cache_folder(args, name)
     from windnav.commands.predict import dx_notes, print_notes, training_conditions
