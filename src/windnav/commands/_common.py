@@ -15,7 +15,8 @@ from windnav._validate import options_named  # noqa: F401  (the commands import 
 from windnav.experiments.results import Outputs, check_output_path, document
 
 __all__ = ["add_boundary_argument", "add_compare_boundary_argument", "add_output_arguments",
-           "add_rotations_argument", "compare_boundary", "cache_folder", "check_output_path",
+           "add_rotations_argument", "compare_boundary", "cache_folder", "check_figure_format",
+           "check_output_path",
            "document", "fill_defaults", "load_model", "map_argument", "model_files",
            "options_named", "outputs", "path_argument", "print_written", "seed", "where"]
 
