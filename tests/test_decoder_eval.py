@@ -366,6 +366,13 @@ def test_a_point_inside_a_building_or_outside_the_map_is_refused():
         check_point(city, ((x0 + x1) / 2, (y0 + y1) / 2), "--at", "windnav predict")
     with pytest.raises(ValueError, match="'--at'.*outside the map"):
         check_point(city, (-5.0, 10.0), "--at", "windnav predict")
+    # the edge is refused too, and the message says so (a closed interval before: CLI audit)
+    bx0, bx1, by0, by1 = city.bounds
+    with pytest.raises(ValueError, match=rf"'--at' parameter of windnav predict must be a point "
+                                         rf"inside the map, its edges excluded: \({bx0:g}, "
+                                         rf"{bx1:g}\) x \({by0:g}, {by1:g}\) m\. Got "
+                                         rf"\({bx0:g}, {by0:g}\) instead, which is on its edge"):
+        check_point(city, (bx0, by0), "--at", "windnav predict")
 
 
 def main(argv):

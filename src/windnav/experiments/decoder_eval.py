@@ -741,9 +741,12 @@ def check_point(city, at, flag: str = "at", where: str = "predict_at") -> np.nda
                          f"m. Got {at!r} instead.")
     x0, x1, y0, y1 = city.bounds
     if not (x0 < p[0] < x1 and y0 < p[1] < y1):
-        raise ValueError(f"The {flag!r} parameter of {where} must be a point inside the map "
-                         f"[{x0:g}, {x1:g}] x [{y0:g}, {y1:g}] m. Got ({p[0]:g}, {p[1]:g}) "
-                         "instead, which is outside the map.")
+        # (written as a closed interval before, which the refused edge contradicted: audit)
+        edge = x0 <= p[0] <= x1 and y0 <= p[1] <= y1
+        raise ValueError(f"The {flag!r} parameter of {where} must be a point inside the map, "
+                         f"its edges excluded: ({x0:g}, {x1:g}) x ({y0:g}, {y1:g}) m. Got "
+                         f"({p[0]:g}, {p[1]:g}) instead, which is "
+                         f"{'on its edge' if edge else 'outside the map'}.")
     if bool(city.contains(p[None])[0]):
         raise ValueError(f"The {flag!r} parameter of {where} must be a point outside every "
                          f"building. Got ({p[0]:g}, {p[1]:g}) instead, which is inside a "
