@@ -46,6 +46,26 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
 
 
 @pytest.mark.parametrize("argv, option", [
+    (["nav-study", "cases", "--store", "S", "--variant", "foo"], "--variant"),
+    (["nav-study", "pace", "--store", "S", "--variant", "foo"], "--variant"),
+    (["nav-study", "inflight", "--variant", "foo"], "--variant"),
+    (["nav-study", "gusts", "--base", "foo"], "--base"),
+])
+def test_nav_study_names_the_option_of_an_unknown_variant(argv, option, tmp_path, capsys):
+    """An unknown variant named the 'variants' parameter of check_variants, inflight_study or
+    gust_routes, none of them an option (CLI audit, 2026-12-07)."""
+    store = tmp_path / "store"
+    store.mkdir()
+    (store / "manifest.json").write_text(json.dumps({"suite": "quick", "seed": 0}))
+    argv = [str(store) if a == "S" else a for a in argv]
+    assert cli.main([*argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"'{option}' parameter of windnav nav-study must be distinct names among" in err, err
+    assert "'variants' parameter" not in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("argv, option", [
     # each ran to status 0: an invalid width, a horizon the graph search never reads, a Wind
     # UKF estimate for a table that holds its own wind
     (["similitude", "--full-scale-speed", "10", "--obstacle-width", "-1"], "--obstacle-width"),

@@ -415,14 +415,14 @@ def _cases(args, name: str, spec) -> int:
     import argparse
 
     from windnav.commands.benchmark_nav import _manifest, _pinned, _reproduced
-    from windnav.experiments.nav_benchmark import NavStore, check_variants, compare_records
+    from windnav.experiments.nav_benchmark import NavStore, compare_records
     from windnav.experiments.nav_cases import best_worst, fly_cases
     from windnav.experiments.nav_records import latest_records, record_arithmetic
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_studies import plot_cases
 
     _check_store(args.store, name)
-    (variant,) = check_variants([args.variant or STORE_VARIANT], name)
+    (variant,) = _one_variant(args, name)
     refuse_other_views(args, name, [variant], "--variant")
     tags = ("best", "worst")
     products = ("nav_cases.json", *(f"{t}_{k}.png" for t in tags for k in ("paths", "energy")))
@@ -473,13 +473,13 @@ def _cases(args, name: str, spec) -> int:
 
 def _pace(args, name: str, spec) -> int:
     from windnav.commands.benchmark_nav import suite_maps
-    from windnav.experiments.nav_benchmark import NavStore, check_variants
+    from windnav.experiments.nav_benchmark import NavStore
     from windnav.experiments.nav_pace import pace_study
     from windnav.experiments.results import json_ready
     from windnav.viz.nav_sweeps import plot_pace
 
     _check_store(args.store, name)
-    (variant,) = check_variants([args.variant or STORE_VARIANT], name)
+    (variant,) = _one_variant(args, name)
     maps = suite_maps(args.maps, spec, name)
     products = ("nav_pace.json", "nav_pace.png")
     out = outputs(args, out=("--out", args.out, products))
@@ -498,6 +498,15 @@ def _pace(args, name: str, spec) -> int:
                                  "thesis": res["thesis"]}), indent=1))
     print_written(out)
     return 0
+
+
+def _one_variant(args, name: str) -> tuple[str]:
+    """``--variant`` (default :data:`STORE_VARIANT`), checked; its errors name ``--variant``
+    (they named check_variants's 'variants': CLI audit)."""
+    from windnav.experiments.nav_benchmark import check_variants
+
+    with options_named({f"'variants' parameter of {name}": f"'--variant' parameter of {name}"}):
+        return check_variants([args.variant or STORE_VARIANT], name)
 
 
 STORE_VARIANT = "ea-mppi-w"
@@ -613,7 +622,8 @@ def _inflight(args, name: str, spec) -> int:
 
     t0 = time.perf_counter()
     options = {f"'{library}' parameter of inflight_study": f"'{option}' parameter of {name}"
-               for library, option in (("variant", "--variant"), ("every_s", "--every"),
+               for library, option in (("variant", "--variant"), ("variants", "--variant"),
+                                       ("every_s", "--every"),
                                        ("compare", "--compare"), ("taus", "--tau"))}
     try:
         with options_named(options):
@@ -734,6 +744,7 @@ def _gusts(args, name: str, spec) -> int:
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
     with options_named({"'base' parameter of gust_routes": f"'--base' parameter of {name}",
+                        "'variants' parameter of gust_routes": f"'--base' parameter of {name}",
                         "'gust_k' parameter of gust_routes": f"'--gust-k' parameter of {name}"}):
         res = nav_gusts.gust_routes(spec, scenario, base=base, gust_k=args.gust_k,
                                     progress=not args.no_progress)
