@@ -34,6 +34,11 @@ def test_labels_name_the_thesis_variants_they_are():
             sweep_labels("qe", bad)
     with pytest.raises(ValueError, match="'kind' parameter of sweep_labels"):
         sweep_labels("lambda")
+    # each sweep's own rule ("(H finite, H may be inf)" for H before: CLI audit)
+    with pytest.raises(ValueError, match=r"at least one \(H: finite or inf\)\. Got \[-5\.0\]"):
+        sweep_labels("h", [-5])
+    with pytest.raises(ValueError, match=r"at least one \(Q_E: finite\)\. Got \[inf\]"):
+        sweep_labels("qe", [math.inf])
 
 
 def rec(sid, variant, outcome, energy, speed):

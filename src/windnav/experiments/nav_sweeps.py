@@ -66,9 +66,11 @@ def sweep_labels(kind: str, values: Sequence[float] | None = None) -> dict[float
                          "instead.") from None
     bad = [v for v in values if not v >= 0.0 or (kind == "qe" and not math.isfinite(v))]
     if bad or not values or len(set(values)) != len(values):
+        # ("(H finite, H may be inf)" for the H sweep before: CLI audit)
+        finite = "finite" if kind == "qe" else "finite or inf"
         raise ValueError(f"The 'values' parameter of {where} must be distinct numbers >= 0, at "
-                         f"least one ({SWEEPS[kind]['name']} finite, H may be inf). Got "
-                         f"{values!r} instead.")
+                         f"least one ({SWEEPS[kind]['name']}: {finite}). Got {values!r} "
+                         "instead.")
     base = VARIANTS[BASE]
     out = {}
     for v in sorted(values):
