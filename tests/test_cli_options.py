@@ -45,6 +45,14 @@ def test_nav_study_refuses_options_its_study_ignores(argv, option, tmp_path, cap
     assert not (tmp_path / "out").exists()
 
 
+def test_a_path_given_to_a_study_that_reads_none_is_written_as_typed(tmp_path, capsys):
+    """"Got PosixPath('...') for 'inflight' instead" (CLI audit, 2026-12-07)."""
+    assert cli.main(["nav-study", "inflight", "--store", str(tmp_path / "s"), "--out",
+                     str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"Got {str(tmp_path / 's')!r} for 'inflight' instead." in err, err
+
+
 @pytest.mark.parametrize("argv, option", [
     (["nav-study", "cases", "--store", "S", "--variant", "foo"], "--variant"),
     (["nav-study", "pace", "--store", "S", "--variant", "foo"], "--variant"),

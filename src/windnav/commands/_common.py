@@ -144,9 +144,11 @@ def refuse_other_studies(args, name: str, readers) -> None:
         value = getattr(args, key)
         if args.study not in studies and value not in (None, []):
             which = (" and " if len(studies) == 2 else ", ").join(studies)
+            shown = repr(str(value) if isinstance(value, os.PathLike) else value)  # not
+            # "PosixPath('...')" (CLI audit)
             raise ValueError(f"The '--{key.replace('_', '-')}' parameter of {name} is for the "
                              f"{which} {'study' if len(studies) == 1 else 'studies'}. Got "
-                             f"{value!r} for {args.study!r} instead.")
+                             f"{shown} for {args.study!r} instead.")
 
 
 def seed(args) -> int:
