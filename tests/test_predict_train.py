@@ -949,6 +949,14 @@ def test_loss_options_at_their_defaults_keep_earlier_fingerprints():
     ({"sweep": {"directions_deg": [float("nan")]}}, r"sweep.directions_deg"),
     ({"sweep": {"directions_deg": []}}, r"sweep.directions_deg"),
     ({"sweep": {"directions_deg": "90"}}, r"sweep.directions_deg"),
+    # as every inlet --speed: refused by the sweep, naming its 'speeds', after the run's
+    # folder was made (CLI audit)
+    ({"sweep": {"speeds": [-3.0, 6.0]}}, r"sweep.speeds a non-empty list of inlet speeds > 0 "
+                                         r"and <= 100 m/s\. Got \[-3\.0, 6\.0\]"),
+    ({"sweep": {"speeds": []}}, r"sweep.speeds"),
+    ({"sweep": {"speeds": [float("nan")]}}, r"sweep.speeds"),
+    ({"sweep": {"speeds": [500.0]}}, r"sweep.speeds"),
+    ({"sweep": {"speeds": 6.0}}, r"sweep.speeds"),
 ])
 def test_bad_recipes_are_refused(change, match):
     base = {"data": {"validation_maps": ["holdout-0"]}}

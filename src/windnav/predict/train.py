@@ -377,6 +377,15 @@ def _check_recipe(r: dict, where: str) -> None:
             for x in v):
         fail("sweep.directions_deg", "a non-empty list of directions within one turn, from "
              "-360 to 360 deg", v)
+    # as every inlet --speed (commands._common.inlet_speed): a -3 was refused by the sweep,
+    # naming its own 'speeds', after the run's folder was made (CLI audit)
+    from windnav.flow.solver import MAX_SPEED
+
+    v = r["sweep"]["speeds"]
+    if not isinstance(v, list) or not v or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and 0 < x <= MAX_SPEED
+            for x in v):
+        fail("sweep.speeds", f"a non-empty list of inlet speeds > 0 and <= {MAX_SPEED:g} m/s", v)
     for key in ("epochs", "batch_size", "threads", "eval_batch_size", "train_eval_samples",
                 "pca_samples", "members"):
         v = t[key]
