@@ -188,6 +188,23 @@ def test_sysid_commands_refuse_sizes_and_values_that_break_them(tmp_path, capsys
     assert not (tmp_path / "o").exists()
 
 
+def test_a_step_that_does_not_divide_its_range_stops_below_its_end_and_says_so(capsys):
+    """0 to 2 m/s by 0.75 flew 2.25 m/s, past --max-speed, and 0 to 2 by 0.6 stopped at 1.8,
+    both unsaid (CLI audit, 2026-12-07); a step that divides it is unchanged."""
+    from windnav.commands.sysid import _steps
+
+    assert _steps(0.0, 2.0, 0.75, "--speed-step", "x", most=1001).tolist() == [0.0, 0.75, 1.5]
+    assert ("x: note: --speed-step 0.75 does not divide 0 to 2: the last value is 1.5"
+            in capsys.readouterr().err)
+    assert _steps(0.0, 2.0, 0.6, "--speed-step", "x", most=1001).tolist() == [0.0, 0.6, 1.2,
+                                                                            1.8]
+    assert "the last value is 1.8" in capsys.readouterr().err
+    for lo, hi, step in ((0.0, 6.0, 0.5), (-5.0, 5.0, 0.1), (0.0, 0.3, 0.1)):
+        got = _steps(lo, hi, step, "--wind", "x", most=1001)
+        assert got[0] == lo and got[-1] == hi and len(got) == round((hi - lo) / step) + 1
+        assert capsys.readouterr().err == ""
+
+
 def test_a_stand_log_without_thrust_is_refused(stand, tmp_path):
     # all-zero or sign-reversed thrust gave k_eta = -0.0, or a negative k_eta with R^2 0.999
     _, csvs, _ = stand

@@ -48,14 +48,24 @@ PRODUCTS = {
 
 def _steps(lo: float, hi: float, step: float, option: str, name: str, *, most: int):
     """``lo, lo + step, ..., hi`` (rounded to 1e-10), at most ``most`` values: a ValueError
-    naming ``option`` before NumPy tries to allocate a step of 1e-9 over 100 units."""
+    naming ``option`` before NumPy tries to allocate a step of 1e-9 over 100 units. A step
+    that does not divide ``hi - lo`` stops at the last value below ``hi``, with a note on
+    stderr (it went one step past ``hi`` when the remainder was over half a step: 0 to 2 by
+    0.75 flew 2.25 m/s, beyond --max-speed, unsaid; CLI audit)."""
+    import math
+
     import numpy as np
 
     if (hi - lo) / step + 1 > most:
         raise ValueError(f"The '{option}' parameter of {name} must give at most {most} values "
                          f"from {lo:g} to {hi:g}. Got a step of {step:g} instead "
                          f"({(hi - lo) / step + 1:.3g} values).")
-    return np.round(np.arange(lo, hi + 0.5 * step, step), 10)
+    n = math.floor((hi - lo) / step + 1e-9) + 1  # (float noise neither adds nor drops hi)
+    values = np.round(lo + step * np.arange(n), 10)
+    if values[-1] < hi - 1e-9 * step:
+        print(f"{name}: note: {option} {step:g} does not divide {lo:g} to {hi:g}: the last "
+              f"value is {values[-1]:g}", file=sys.stderr)
+    return values
 
 
 def _where(args) -> str:
