@@ -498,6 +498,21 @@ def test_wind_refuses_a_json_that_is_its_map_or_inside_its_store(tmp_path, capsy
     assert main([*run, "--json", str(tmp_path / "w" / "summary.json"), "--overwrite"]) == 0
 
 
+def test_evaluate_decoder_refuses_a_json_that_is_one_of_its_maps(tmp_path, capsys):
+    """Each repeated ``--map`` is an input: ``--json`` naming the second one (by another path)
+    was written over it with --overwrite (CLI audit), refused before any flow."""
+    first = write_tiny_map(tmp_path / "a.json")
+    second = write_tiny_map(tmp_path / "b.json")
+    before = second.read_bytes()
+    assert main(["evaluate-decoder", "--map", str(first), "--map", f"mine={second}", "--json",
+                 str(tmp_path / "o" / ".." / "b.json"), "--overwrite", "--no-progress",
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert ("'--json' parameter of windnav evaluate-decoder must not name --map's file, an "
+            "input of the run" in err), err
+    assert second.read_bytes() == before and not (tmp_path / "o").exists()
+
+
 def test_flow_validate_json_and_figures(tmp_path, monkeypatch):
     import windnav.experiments.flow_validation as fv
 

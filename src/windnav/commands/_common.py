@@ -263,15 +263,18 @@ def outputs(args, *, out=None, files=None, inputs=None) -> Outputs:
     :class:`~windnav.experiments.results.Outputs`. ``files`` defaults to ``{"--json":
     args.json}``. Also refused: a file inside a folder that ``out`` writes (``Outputs``
     refuses one of its products by name, not ``wind --json OUT/flow.zarr/zarr.json``, inside
-    the store), and one that is an input the run reads (``inputs``: flag -> path; ``wind
-    --map M.json --json M.json --overwrite`` replaced the map with the summary): CLI audit."""
+    the store), and one that is an input the run reads (``inputs``: flag -> path, or a list of
+    paths for a repeatable option; ``wind --map M.json --json M.json --overwrite`` replaced
+    the map with the summary): CLI audit."""
     files = {"--json": getattr(args, "json", None)} if files is None else files
     name = where(args)
     given = {flag: path for flag, path in files.items() if path is not None and str(path)}
     if out is not None and out[1] is not None and str(out[1]):
         _refuse_inside_products(given, out, name)
+    sources = [(source_flag, source) for source_flag, value in (inputs or {}).items()
+               for source in (value if isinstance(value, (list, tuple)) else [value])]
     for flag, path in given.items():
-        for source_flag, source in (inputs or {}).items():
+        for source_flag, source in sources:
             if source is not None and str(source) and _same_file(path, source):
                 raise ValueError(f"The {flag!r} parameter of {name} must not name "
                                  f"{source_flag}'s file, an input of the run. Got "

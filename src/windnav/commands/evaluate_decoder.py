@@ -156,7 +156,8 @@ def run(args, simulate=None, flow_settings=None) -> int:
         raise ValueError(f"The '--compare-boundary' parameter of {name} applies only with "
                          f"--compare (the compared models' rule). Got "
                          f"{args.compare_boundary!r} without --compare instead.")
-    out = outputs(args, out=("--out", args.out, PRODUCTS))
+    out = outputs(args, out=("--out", args.out, PRODUCTS),
+                  inputs={"--map": [file for _, file in own]})  # (--json M.json: CLI audit)
     flow_cache = flow_cache_folder(args, name)
     from windnav.commands.predict import dx_notes, print_notes, training_conditions
     from windnav.predict.envelope import training_envelope
