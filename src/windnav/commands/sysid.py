@@ -789,6 +789,7 @@ def run_simulate_stand(args) -> int:
     from windnav.experiments.sysid import (
         simulate_stand,
         stand_clipping_note,
+        stand_csv_name,
         vehicle_params,
         write_stand_csvs,
     )
@@ -796,7 +797,7 @@ def run_simulate_stand(args) -> int:
 
     name = _where(args)
     volts = [positive_float(v, "--voltages", name) for v in args.voltages]
-    files = [f"stand_{v:.2f}V.csv" for v in volts]  # write_stand_csvs's names
+    files = [stand_csv_name(v) for v in volts]  # the names write_stand_csvs gives them
     same = sorted({f for f in files if files.count(f) > 1})
     if same:  # 3.7 3.7: truth.json listed both, one CSV was written (CLI audit)
         raise ValueError(f"The '--voltages' parameter of {name} must give distinct voltages "

@@ -644,9 +644,13 @@ def plot_unsteadiness(maps, path) -> None:
     fig.savefig(path, dpi=110)
 
 
+def stand_csv_name(voltage: float) -> str:
+    """The file name of the stand ramp at ``voltage`` (V, to two decimals)."""
+    return f"stand_{voltage:.2f}V.csv"
+
+
 def write_stand_csvs(runs, folder: Path) -> list[Path]:
-    """Write :func:`simulate_stand` runs as ``stand_<V>V.csv`` into ``folder``."""
+    """Write :func:`simulate_stand` runs as :func:`stand_csv_name` files into ``folder``."""
     from windnav.sysid.io import write_csv
 
-    return [write_csv(Path(folder) / f"stand_{r['voltage']:.2f}V.csv", r["columns"])
-            for r in runs]
+    return [write_csv(Path(folder) / stand_csv_name(r["voltage"]), r["columns"]) for r in runs]
