@@ -423,6 +423,22 @@ def test_a_best_speed_on_the_search_bound_has_no_interval():
     assert not any(n.startswith("max_range_speed (") for n in fit.notes)
 
 
+def test_a_clock_that_does_not_increase_is_refused_by_the_library_too():
+    """steady_level_mask read any t as a clock: reversed it kept nothing, swapped rows were
+    fitted (CLI audit, 2026-12-07); a NaN time is skipped, not refused."""
+    from windnav.sysid.power import steady_level_mask
+
+    t = np.arange(100) * 0.1
+    v = np.full(100, 5.0)
+    for bad in (t[::-1], np.zeros(100), np.r_[t[:50], t[51], t[50], t[52:]]):
+        with pytest.raises(ValueError, match="'t' parameter of steady_level_mask must increase"):
+            steady_level_mask(bad, v)
+    gap = t.copy()
+    gap[10] = np.nan
+    kept = steady_level_mask(gap, v)  # (the run before the gap is under min_segment_s)
+    assert not kept[:11].any() and kept[11:].all()
+
+
 def test_one_missing_speed_costs_its_own_sample_and_no_other():
     """The steady selections slide least-squares lines along the log by running sums; one NaN
     made every later slope NaN, so nothing after it was steady (the real power log lost 489 of

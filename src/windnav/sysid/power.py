@@ -115,6 +115,10 @@ def steady_level_mask(t, speed, *, vertical_speed=None, altitude=None,
     t = np.asarray(t, dtype=np.float64)
     v = np.asarray(speed, dtype=np.float64)
     keep = np.isfinite(v) & np.isfinite(t)
+    if np.any(np.diff(t[np.isfinite(t)]) <= 0):  # the slopes and runs read it as a clock: a
+        # reversed one kept nothing, a shuffled one fitted (CLI audit, 2026-12-07)
+        raise ValueError(f"The 't' parameter of {where} must increase from sample to sample "
+                         "(its finite values).")
     accel = steepest_slope(t, v, positive_float(window_s, "window_s", where))
     keep &= np.abs(accel) < positive_float(max_accel, "max_accel", where)
     if vertical_speed is not None:
