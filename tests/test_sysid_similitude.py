@@ -105,6 +105,18 @@ def test_similitude_command_names_the_option_typed(command, option, value):
     assert "Similitude" not in text
 
 
+def test_the_report_refuses_an_obstacle_it_cannot_use():
+    """Similitude.report ignored obstacle_width without a control rate and a speed, as the
+    command did (CLI audit, 2026-12-07); with both it reports the shedding."""
+    sim = Similitude(1.8, 0.055, scale=32)
+    for kwargs in ({}, {"full_scale_speed": 10.0}, {"control_rate_hz": 500.0}):
+        with pytest.raises(ValueError, match="'obstacle_width' parameter of Similitude.report "
+                                             "gives the shedding against the control rate"):
+            sim.report(obstacle_width=0.5, **kwargs)
+    out = sim.report(obstacle_width=0.5, full_scale_speed=10.0, control_rate_hz=500.0)
+    assert out["shedding"]["model_obstacle_width_m"] == 0.5
+
+
 def test_similitude_command_checks_a_strouhal_number_it_would_not_use():
     # without an obstacle the bad --strouhal was silently ignored
     with pytest.raises(ValueError, match="'--strouhal' parameter of windnav similitude"):

@@ -149,7 +149,8 @@ class Similitude:
             The model's control rate, Hz.
         obstacle_width : float, optional
             Width of the model's obstacle (a building), m: with a speed and a control rate,
-            gives the shedding frequency ``St U / W`` and the ratio ``f_control / f_shed``.
+            gives the shedding frequency ``St U / W`` and the ratio ``f_control / f_shed``;
+            refused without them.
         strouhal : float
             Strouhal number of the shedding (0.2: a circular cylinder; about 0.13 for a
             square one).
@@ -199,6 +200,12 @@ class Similitude:
                 "reynolds_full_scale": self.reynolds(u, self.full_scale_diameter, nu),
                 "reynolds_model": self.reynolds(um, self.model_diameter, nu),
             }
+        if obstacle_width is not None and (control_rate_hz is None or full_scale_speed is None):
+            # (ignored, the report silent about it: CLI audit, 2026-12-07)
+            raise ValueError(f"The 'obstacle_width' parameter of {where} gives the shedding "
+                             "against the control rate: it needs control_rate_hz and a speed "
+                             "(full_scale_speed or model_speed). Got "
+                             f"{obstacle_width!r} without them instead.")
         if full_scale_mass is not None:
             m = positive_float(full_scale_mass, "full_scale_mass", where)
             out["mass"] = {"full_scale_kg": m, "model_kg": self.model_mass(m)}
