@@ -454,3 +454,21 @@ def test_coefficients_the_samples_do_not_determine_are_noted():
     assert fit.to_dict()["notes"] == fit.notes
     assert not [n for n in fit_aero(_model_samples(), MASS).notes
                 if n.startswith("the samples do not determine")]
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"axes": ["x", "x"]}, r"'axes' parameter of simulate_tunnel must name some of .* each "
+                           r"once\. Got \['x', 'x'\]"),
+    ({"speeds": [0.0, 0.0]}, r"'speeds' parameter of simulate_tunnel must be distinct finite "
+                             r"airspeeds >= 0 m/s, one of them > 0\. Got \[0\.0, 0\.0\]"),
+    ({"speeds": [0.0]}, "one of them > 0"),
+    ({"speeds": [1.0, float("nan")]}, "'speeds' parameter"),
+    ({"speeds": []}, "'speeds' parameter"),
+])
+def test_the_tunnel_refuses_repeated_axes_and_airflow_free_speeds(kwargs, match):
+    """The command refuses these (CLI audit, 2026-12-07); the library ran them: every
+    condition twice, or no airflow to fit k_d from."""
+    from windnav.experiments.sysid import simulate_tunnel
+
+    with pytest.raises(ValueError, match=match):
+        simulate_tunnel(vehicle_params("hummingbird"), **kwargs)

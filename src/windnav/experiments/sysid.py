@@ -288,11 +288,17 @@ def simulate_tunnel(params, *, speeds: Sequence[float] = tuple(np.arange(0.0, 6.
     from windnav.sysid.aero import AeroData, aero_from_flight_log
 
     bad = [a for a in axes if a not in AXES]
-    if bad or not axes:
+    if bad or not axes or len(set(axes)) != len(axes):  # (a repeat flew each flow twice)
         raise ValueError(f"The 'axes' parameter of simulate_tunnel must name some of "
-                         f"{list(AXES)}. Got {list(axes)!r} instead.")
+                         f"{list(AXES)}, each once. Got {list(axes)!r} instead.")
     gen = np.random.default_rng(0 if rng is None else rng)
     speeds = np.asarray(speeds, dtype=np.float64)
+    if (speeds.ndim != 1 or not speeds.size or not np.all(np.isfinite(speeds))
+            or np.any(speeds < 0) or not np.any(speeds > 0)
+            or np.unique(speeds).size != speeds.size):  # (all zero: no airflow, no k_d)
+        raise ValueError("The 'speeds' parameter of simulate_tunnel must be distinct finite "
+                         "airspeeds >= 0 m/s, one of them > 0. Got "
+                         f"{speeds.tolist()!r} instead.")
     conditions = [(a, float(v)) for a in axes for v in speeds]
     winds = np.array([[-v * c for c in AXES[a]] for a, v in conditions])
     sensor = _BiasedIMU(IMU(), tuple(float(b) for b in noise.accel_bias))
