@@ -441,6 +441,15 @@ def test_power_curve_refuses_sweeps_it_cannot_fit_before_flying(argv, match, tmp
     ["evaluate-decoder", "--maps", "0"],
     ["decoder-study", "gradients", "--quick"],
     ["train-decoder", "--config", "tiny"],
+    # every other command whose --out is a folder (they wrote into the current one too)
+    ["calibrate", "--duration", "5"],
+    ["demo", "--map-size", "300"],
+    ["flow-validate"],
+    ["nav-study", "gs"],
+    ["sysid", "simulate-stand"],
+    ["sysid", "simulate-tunnel"],
+    ["benchmark-nav", "--suite", "quick"],
+    ["benchmark-nav", "--replay", "quick/m00/w00/p0", "--variant", "mppi"],
 ])
 def test_an_empty_out_is_refused_not_read_as_the_current_folder(argv, tmp_path, monkeypatch,
                                                                  capsys):
@@ -448,7 +457,8 @@ def test_an_empty_out_is_refused_not_read_as_the_current_folder(argv, tmp_path, 
     is "." (CLI audit). Kept as typed, it is refused as every empty output path is."""
     monkeypatch.chdir(tmp_path)
     assert main([*argv, "--out", ""]) == 2
-    assert (f"The '--out' parameter of windnav {argv[0]} must be a path. Got '' instead."
+    command = " ".join(argv[:2]) if argv[0] == "sysid" else argv[0]
+    assert (f"The '--out' parameter of windnav {command} must be a path. Got '' instead."
             in capsys.readouterr().err)
     assert list(tmp_path.iterdir()) == []
 

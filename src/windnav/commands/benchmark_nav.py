@@ -82,6 +82,7 @@ from windnav.commands._common import (
     fill_defaults,
     options_named,
     outputs,
+    path_argument,
     print_written,
     seed,
     where,
@@ -124,7 +125,7 @@ def register(subparsers) -> None:
                    help="most winds of a map simulated together, 1 to 3 (default 3): one "
                         "pressure solve per step for all, each wind the same to the bit; 1 "
                         "needs less memory (a worker peaked at 3.2 GB against 7.8 GB)")
-    p.add_argument("--out", type=Path, default=None, metavar="STORE",
+    p.add_argument("--out", type=path_argument, default=None, metavar="STORE",
                    help="the store folder (manifest.json, records.jsonl)")
     p.add_argument("--seed", type=int, default=None,
                    help="suite seed (default: the store's own, else 0)")
@@ -273,6 +274,9 @@ def run(args) -> int:
     if args.seed is not None:
         seed(args)
     _check_modes(args, name)
+    if args.out is not None and str(args.out) == "":  # (path_argument keeps it as typed; a
+        # replay reads --out without the output check below)
+        check_output_path(args.out, "--out", name, kind="dir")
     reference_given = args.reference is not None
     fill_defaults(args, {"reference": DEFAULT_REFERENCE})  # (recorded as None: as typed)
     if args.portable and (args.replay is not None or args.check is not None):

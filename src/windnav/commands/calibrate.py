@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 
 from windnav._validate import positive_float
 from windnav.commands._common import (
@@ -38,6 +37,7 @@ from windnav.commands._common import (
     document,
     options_named,
     outputs,
+    path_argument,
     print_written,
     seed,
     where,
@@ -59,7 +59,7 @@ def register(subparsers) -> None:
     )
     p.add_argument("--vehicle", default="hummingbird", choices=VEHICLES,
                    help="built-in vehicle name (default %(default)s)")
-    p.add_argument("--out", type=Path, required=True, help="output directory")
+    p.add_argument("--out", type=path_argument, required=True, help="output directory")
     p.add_argument("--seed", type=int, default=0, help="sensor-noise seed (default 0)")
     p.add_argument("--duration", type=float, default=6.0,
                    help="flight time per row, s (default %(default)s)")

@@ -41,6 +41,7 @@ from windnav.commands._common import (
     inlet_speed,
     options_named,
     outputs,
+    path_argument,
     print_written,
     seed,
     where,
@@ -105,7 +106,7 @@ def register(sub) -> None:
     ukf.add_argument("--conditions", choices=CONDITION_NAMES, default=None,
                      help="Wind UKF preset (sensors and filter; see docs/ukf.md); default: "
                           "windnav's sensors and the filter's defaults")
-    p.add_argument("--out", type=Path, default=Path("out/demo"),
+    p.add_argument("--out", type=path_argument, default=Path("out/demo"),
                    help="output folder (default %(default)s)")
     p.add_argument("--no-progress", action="store_true", help="hide the progress bars")
     add_output_arguments(p)

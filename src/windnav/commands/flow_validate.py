@@ -32,6 +32,7 @@ from windnav.commands._common import (
     add_output_arguments,
     document,
     outputs,
+    path_argument,
     print_written,
     seed,
     where,
@@ -44,7 +45,7 @@ def register(subparsers) -> None:
         help="validate the 2D flow solver (divergence, walls, vortex decay, Strouhal)",
         description=__doc__.splitlines()[0],
     )
-    p.add_argument("--out", type=Path, required=True,
+    p.add_argument("--out", type=path_argument, required=True,
                    help="output folder (plots, JSON; while the studies run, their finished runs "
                         "are kept there in flow_validation.partial.jsonl, to resume from)")
     p.add_argument("--studies", action="store_true",

@@ -99,6 +99,7 @@ from windnav.commands._common import (
     model_files,
     options_named,
     outputs,
+    path_argument,
     print_written,
     refuse_other_studies,
     where,
@@ -131,7 +132,7 @@ def register(subparsers) -> None:
                     "store, the wind scenarios of a map; each writes figures and JSON.",
     )
     p.add_argument("study", choices=STUDIES)
-    p.add_argument("--out", type=Path, required=True, help="output folder (figure, JSON)")
+    p.add_argument("--out", type=path_argument, required=True, help="output folder (figure, JSON)")
     p.add_argument("--store", type=Path, default=None,
                    help="qe, h, tilt: the benchmark store the flights go to (created or "
                         "resumed); "

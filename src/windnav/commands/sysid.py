@@ -32,6 +32,7 @@ from windnav.commands._common import (
     add_output_arguments,
     document,
     options_named,
+    path_argument,
     print_written,
 )
 
@@ -171,7 +172,7 @@ def _register_thrust_stand(ss) -> None:
                    help="steady: at least this long after a PWM change, s (%(default)s; 0: the "
                         "thesis's rule alone, which admits the first sample of a small step "
                         "before the rotor has settled)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_thrust_stand"),
+    p.add_argument("--out", type=path_argument, default=Path("out/sysid_thrust_stand"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_thrust_stand)
@@ -254,7 +255,7 @@ def _register_aero(ss) -> None:
                    help="fit the frame (parasitic) drag c_Dx, c_Dy, c_Dz with the rest, which "
                         "the thesis's model leaves out (default: the thesis's model, with a "
                         "note when the samples carry frame drag that biases it)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_aero"),
+    p.add_argument("--out", type=path_argument, default=Path("out/sysid_aero"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_aero)
@@ -460,7 +461,7 @@ def _register_power(ss) -> None:
                    metavar=("MIN", "MAX", "STEP"),
                    help="along-track winds of the range table, m/s (default -5 5 1; > 0 "
                         "tailwind)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_power"),
+    p.add_argument("--out", type=path_argument, default=Path("out/sysid_power"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_power)
@@ -665,7 +666,7 @@ def _register_unsteadiness(ss) -> None:
     p.add_argument("--cell", type=float, default=1.0, help="bin size, m (%(default)s)")
     p.add_argument("--min-count", type=int, default=5,
                    help="bins with fewer samples are blank (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_unsteadiness"),
+    p.add_argument("--out", type=path_argument, default=Path("out/sysid_unsteadiness"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_unsteadiness)
@@ -778,7 +779,7 @@ def _register_simulate_stand(ss) -> None:
                    help="override DZ, counts (default: the vehicle's)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the sensor noise (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_stand"),
+    p.add_argument("--out", type=path_argument, default=Path("out/sysid_simulate_stand"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_simulate_stand)
@@ -872,7 +873,7 @@ def _register_simulate_tunnel(ss) -> None:
                    help="recorded hover, s (%(default)s)")
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the sensor noise (%(default)s)")
-    p.add_argument("--out", type=Path, default=Path("out/sysid_simulate_tunnel"),
+    p.add_argument("--out", type=path_argument, default=Path("out/sysid_simulate_tunnel"),
                    help="output folder (%(default)s)")
     add_output_arguments(p)
     p.set_defaults(func=run_simulate_tunnel)
