@@ -190,35 +190,39 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _manifest(store: Path | None) -> dict | None:
+def _read_manifest(store: Path | None):
+    """``(manifest, problem)`` of the store folder ``store``: its ``manifest.json`` as a dict
+    and None, or None and what is wrong with it: ``"missing"``, the error that reading or
+    parsing it gave, or ``"not an object"`` (``[1]``: an AttributeError; files audit)."""
     import json
 
-    if store is None or not (store / "manifest.json").is_file():
-        return None
+    if store is None or not (Path(store) / "manifest.json").is_file():
+        return None, "missing"
     try:
-        found = json.loads((store / "manifest.json").read_text())
-    except (OSError, ValueError):
-        return None  # NavStore names the problem
-    return found if isinstance(found, dict) else None  # ([1]: an AttributeError; files audit)
+        found = json.loads((Path(store) / "manifest.json").read_text())
+    except (OSError, ValueError) as exc:
+        return None, str(exc)
+    return (found, None) if isinstance(found, dict) else (None, "not an object")
+
+
+def _manifest(store: Path | None) -> dict | None:
+    """The store's manifest, or None (NavStore names the problem)."""
+    return _read_manifest(store)[0]
 
 
 def _existing_store(store: Path | None, flag: str, name: str) -> None:
     """Refuse ``store`` (``flag``) unless it is a benchmark store to read: a folder whose
     ``manifest.json`` is a JSON object naming its suite. The message says which of these
     fails (a manifest that was not JSON read as a missing one; CLI audit, 2026-12-07)."""
-    import json
-
-    manifest = None if store is None else store / "manifest.json"
-    if manifest is None or not manifest.is_file():
+    found, problem = _read_manifest(store)
+    if problem == "missing":
         raise ValueError(f"The '{flag}' parameter of {name} must name a benchmark store (with "
                          f"manifest.json). Got {str(store)!r} instead.")
-    try:
-        found = json.loads(manifest.read_text())
-    except (OSError, ValueError) as exc:
+    if problem is not None and problem != "not an object":
         raise ValueError(f"The '{flag}' parameter of {name} must name a benchmark store whose "
                          f"manifest.json is readable JSON. Got {str(store)!r} instead, whose "
-                         f"manifest.json gives: {exc}") from None
-    if not isinstance(found, dict) or "suite" not in found:
+                         f"manifest.json gives: {problem}")
+    if found is None or "suite" not in found:
         raise ValueError(f"The '{flag}' parameter of {name} must name a benchmark store whose "
                          f"manifest.json names its suite (a JSON object with 'suite'). Got "
                          f"{str(store)!r} instead.")
