@@ -135,11 +135,12 @@ def _config(args):
         raise ValueError(f"The '--sensor-noise' parameter of {name} applies to --conditions "
                          f"windnav only (the {args.conditions!r} conditions fix their sensors). "
                          f"Got {args.sensor_noise!r} instead.")
-    if positive_int(args.trials, "--trials", name) > MAX_TRIALS:
+    trials = positive_int(args.trials, "--trials", name)
+    if trials > MAX_TRIALS:
         raise ValueError(f"The '--trials' parameter of {name} must be at most {MAX_TRIALS} "
                          "(each trial a calibration and a flight of seconds of CPU). Got "
                          f"{args.trials!r} instead.")
-    kw = {"n_trials": positive_int(args.trials, "--trials", name), "seed": args.seed,
+    kw = {"n_trials": trials, "seed": args.seed,
           "sensor_noise": args.sensor_noise, "conditions": args.conditions}
     if args.vertical_sigma_ratio is not None:
         kw["vertical_sigma_ratio"] = positive_float(args.vertical_sigma_ratio,
