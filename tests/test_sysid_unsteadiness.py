@@ -110,6 +110,23 @@ def test_csv_files_without_a_finite_row_are_named_with_the_option(tmp_path, caps
     assert not (tmp_path / "o").exists()
 
 
+def test_a_csv_file_without_a_finite_row_beside_others_is_noted(tmp_path, capsys):
+    # two files, one of them a header alone: the other was binned and the empty one passed
+    # unsaid (CLI audit, fifty-seventh session)
+    from windnav import cli
+
+    header = ",".join(UNSTEADINESS_COLUMNS)
+    (tmp_path / "header.csv").write_text(header + "\n")
+    (tmp_path / "one.csv").write_text(header + "\n" + ",".join(["1"] * 9) + "\n")
+    status = cli.main(["sysid", "unsteadiness", "--csv", str(tmp_path / "one.csv"),
+                       str(tmp_path / "header.csv"), "--min-count", "1",
+                       "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert status == 0
+    assert "header.csv' (--csv) has no row with finite x/y/wind_x/" in err
+    assert "one.csv" not in err
+
+
 @pytest.mark.parametrize("cell", [0.2, 0.1, 0.3, 0.7, 1.1, 0.05])
 def test_samples_on_multiples_of_a_cell_not_exact_in_binary_are_all_binned(cell):
     """A hover logged at a waypoint on a multiple of the cell (55.2 m, cell 0.2): the grid

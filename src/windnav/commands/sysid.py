@@ -718,8 +718,15 @@ def run_unsteadiness(args) -> int:
         params = vehicle_params(vname)
         wind = ukf_wind_on_log(log, params) if args.wind == "ukf" else None
         parts.append(flight_samples_from_log(log, params.k_eta, wind_xy=wind))
-    parts += [FlightSamples.from_table(read_table(p, where=name), name) for p in args.csv]
+    tables = [FlightSamples.from_table(read_table(p, where=name), name) for p in args.csv]
+    parts += tables
     samples = FlightSamples.concatenate(parts)
+    for path, table in zip(args.csv, tables, strict=True):
+        if table.xy.shape[0] == 0 and samples.xy.shape[0] > 0:
+            # the other files were binned and this one passed unsaid (CLI audit, 57th session)
+            print(f"{name}: note: {str(path)!r} (--csv) has no row with finite "
+                  f"{'/'.join(UNSTEADINESS_COLUMNS)} values: it adds no sample",
+                  file=sys.stderr)
     if samples.xy.shape[0] == 0:  # "The 'samples' parameter of unsteadiness_maps holds no
         # finite sample." named neither the option nor the file (CLI audit)
         given = [(o, paths) for o, paths in (("--log", args.log), ("--csv", args.csv)) if paths]
