@@ -263,3 +263,15 @@ def test_one_diverged_flight_of_several_exits_1_naming_it(command, monkeypatch, 
     err = capsys.readouterr().err
     assert "windnav navigate: error: the simulation (ea-mppi) diverged" in err
     assert "(mppi) diverged" not in err
+
+
+def test_the_parser_defaults_are_the_flag_defaults_the_labels_check_against():
+    """A label with parameters refuses --horizon/--energy/--outside/--wrobot-tau that differ
+    from FLAG_DEFAULTS; the parser's defaults were literals written beside it, so a change to
+    one would have refused every multi-variant run given no option at all."""
+    from windnav.commands.navigate import FLAG_DEFAULTS, FLAG_LABELS
+
+    args = cli.build_parser().parse_args(["navigate", "--map", "m.json", "--start", "0", "0",
+                                          "--goal", "50", "0", "--speed", "5"])
+    assert set(FLAG_DEFAULTS) == set(FLAG_LABELS)
+    assert {key: getattr(args, key) for key in FLAG_DEFAULTS} == FLAG_DEFAULTS

@@ -117,21 +117,21 @@ def register(sub) -> None:
                           f"separated by commas (at most {MAX_VARIANTS}), fly the same start, "
                           "goal and seed in one simulated wind and are compared with the "
                           "first")
-    p.add_argument("--horizon", type=float, default=math.inf,
+    p.add_argument("--horizon", type=float, default=FLAG_DEFAULTS["horizon"],
                    help="side H of the window in which the -w MPPI variants know the wind, m "
                         "(default: inf, the whole map; ea-mppi-w-hat: the decoder's 25 m grid, "
                         "and at most that)")
-    p.add_argument("--energy", choices=ENERGY_MODES, default="horizon",
+    p.add_argument("--energy", choices=ENERGY_MODES, default=FLAG_DEFAULTS["energy"],
                    help="what the energy-aware variants' J_E measures: the planning horizon's "
                         "energy (the thesis) or the mission's, which is least at the "
                         "max-range speed (ours) (%(default)s); 'mission' is an error with "
                         "the variants without an energy term ("
                         + ", ".join(UNAWARE_VARIANTS)
                         + ")")
-    p.add_argument("--outside", choices=("zero", "robot"), default="zero",
+    p.add_argument("--outside", choices=("zero", "robot"), default=FLAG_DEFAULTS["outside"],
                    help="ea-mppi-w-hat only: the planner's wind outside the decoder's window, "
                         "zero (the thesis) or the decoder's W_robot (ours) (%(default)s)")
-    p.add_argument("--wrobot-tau", type=float, default=0.0, metavar="S",
+    p.add_argument("--wrobot-tau", type=float, default=FLAG_DEFAULTS["wrobot_tau"], metavar="S",
                    help="ea-mppi-w-hat only: time constant of the average of the Wind UKF's "
                         "estimate given as W_robot, s; 0 is the estimate itself, the thesis's "
                         "(%(default)s)")
