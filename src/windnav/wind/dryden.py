@@ -92,6 +92,40 @@ _START_STRIDE = 64  # block start states kept: every 64th and the furthest (a bl
 # kept ones is regenerated from the one before it, up to 63 blocks of work; keeping every one
 # grew by one state per 2.048 s, about 100 MB at t = 1e6 s, long-run audit)
 _SNAP = 1e-6  # a query within 1e-6 lattice steps of a lattice point reads that point
+_MAX_WORK = 2 ** 25  # lattice steps x realisations a query may reach from t0: 3.4e7, about 3 s
+# of generation (1e7 steps a second per realisation); t = 1e9 s spun for ever (API audit)
+_DECAYED = 1e3  # dt * the slowest decay rate beyond which exp(A dt) underflows to 0
+
+
+def _numbers(value, name: str, where: str):
+    """``value`` unchanged when NumPy reads it as numbers, else a ValueError naming ``name``
+    (``DrydenWind('abc')`` said only "could not convert string to float: 'abc'")."""
+    try:
+        np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The {name!r} parameter of {where} must be three numbers. "
+                         f"Got {value!r} instead.") from None
+    return value
+
+
+def _step_length(dt, where: str) -> float:
+    """``dt`` as a float >= 0 (a step of -1 s gave a negative Q), else a named ValueError."""
+    return positive_float(dt, "dt", where, allow_zero=True)
+
+
+def _decay(a: np.ndarray, dt: float, where: str, name: str = "dt") -> np.ndarray:
+    """``expm(A dt)`` of a stable ``A``; zero where the exponential overflows in scaling and
+    squaring (dt of 1e40 s and more gave NaN) far beyond every time constant, where its
+    exact value underflows to 0."""
+    phi = scipy.linalg.expm(a * dt)
+    if np.all(np.isfinite(phi)):
+        return phi
+    slowest = float(np.min(np.abs(np.linalg.eigvals(a).real)))
+    if dt * slowest > _DECAYED:
+        return np.zeros_like(phi)
+    raise ValueError(f"The {name!r} parameter of {where} must give a finite exp(A dt). "
+                     f"Got {dt!r} instead.")
+
 
 def dryden_length_scales(altitude: float) -> np.ndarray:
     """MIL-F-8785C low-altitude turbulence length scales ``(L_u, L_v, L_w)``, m.
@@ -138,10 +172,11 @@ def dryden_state_space(sigma, length_scales, airspeed: float, *,
 
     ``where`` names the caller in the errors.
     """
-    sig = batch_array(sigma, "sigma", where, (3,), batch=1)[0]
+    sig = batch_array(_numbers(sigma, "sigma", where), "sigma", where, (3,), batch=1)[0]
     if np.any(sig < 0):
         raise ValueError(f"The 'sigma' parameter of {where} must be >= 0. Got {sig!r} instead.")
-    scales = batch_array(length_scales, "length_scales", where, (3,), batch=1)[0]
+    scales = batch_array(_numbers(length_scales, "length_scales", where), "length_scales",
+                         where, (3,), batch=1)[0]
     if np.any(scales <= 0):
         raise ValueError(
             f"The 'length_scales' parameter of {where} must be > 0. Got {scales!r} instead."
@@ -167,7 +202,24 @@ def dryden_state_space(sigma, length_scales, airspeed: float, *,
 
 
 def stationary_covariance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solution ``P`` of ``A P + P A^T + B B^T = 0`` (stable ``A``), symmetrised."""
+    """Solution ``P`` of ``A P + P A^T + B B^T = 0`` (stable ``A``), symmetrised.
+
+    Raises
+    ------
+    ValueError
+        If ``A`` is not stable (an eigenvalue with real part >= 0): there is no stationary
+        covariance, and the solve gave a negative-definite ``P`` (API audit).
+    """
+    where = "stationary_covariance"
+    a = np.asarray(a, dtype=np.float64)
+    if a.ndim != 2 or a.shape[0] != a.shape[1] or not np.all(np.isfinite(a)):
+        raise ValueError(f"The 'a' parameter of {where} must be a finite square matrix. Got "
+                         f"shape {a.shape} instead.")
+    growth = np.linalg.eigvals(a).real
+    if a.size and growth.max() >= 0:
+        raise ValueError(f"The 'a' parameter of {where} must be stable (every eigenvalue with "
+                         f"a negative real part) for a stationary covariance. Got eigenvalues "
+                         f"with real parts up to {growth.max()!r} instead.")
     p = scipy.linalg.solve_continuous_lyapunov(a, -b @ b.T)
     return 0.5 * (p + p.T)
 
@@ -178,7 +230,14 @@ def van_loan(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.nd
     Returns ``Phi = expm(A dt)`` and ``Q = int_0^dt expm(A s) B B^T expm(A^T s) ds`` from
     ``expm([[-A, B B^T], [0, A^T]] dt) = [[., G12], [0, G22]]``: ``Phi = G22^T``,
     ``Q = Phi G12`` (Van Loan 1978).
+
+    Raises
+    ------
+    ValueError
+        If ``dt`` is negative or not finite (a step of -1 s gave a negative ``Q``), or so long
+        that the block exponential overflows (use ``Q = P - Phi P Phi^T`` there).
     """
+    dt = _step_length(dt, "van_loan")
     n = a.shape[0]
     m = np.zeros((2 * n, 2 * n))
     m[:n, :n] = -a
@@ -187,6 +246,10 @@ def van_loan(a: np.ndarray, b: np.ndarray, dt: float) -> tuple[np.ndarray, np.nd
     g = scipy.linalg.expm(m * dt)
     phi = g[n:, n:].T
     q = phi @ g[:n, n:]
+    if not (np.all(np.isfinite(phi)) and np.all(np.isfinite(q))):
+        raise ValueError(f"The 'dt' parameter of van_loan must be a step whose block "
+                         f"exponential is finite. Got {dt!r} instead; for long steps of a "
+                         "stable A use Q = P - Phi P Phi^T.")
     return phi, 0.5 * (q + q.T)
 
 
@@ -201,7 +264,7 @@ def _exact_step(a, b, p, fastest: float, dt: float) -> tuple[np.ndarray, np.ndar
     steps, where Van Loan's ``exp(-A dt)`` block loses precision."""
     if dt * fastest <= _VAN_LOAN_MAX_DECAYS:
         return van_loan(a, b, dt)
-    phi = scipy.linalg.expm(a * dt)
+    phi = _decay(a, dt, "DrydenWind.transition")
     q = p - phi @ p @ phi.T
     return phi, 0.5 * (q + q.T)
 
@@ -295,7 +358,9 @@ class DrydenWind(ReadOnlyOnCopy):
         seed; None (and no ``seed``) means seed 0, the former default. Same seed, same gusts.
     time_step : float
         Spacing ``h`` of the lattice on which the process is generated exactly, s (default
-        1 ms); the gust is linear between lattice points. Keep it well below ``L_w / V``.
+        1 ms); the gust is linear between lattice points. Keep it well below ``L_w / V``; a
+        step longer than the shortest time scale ``L / V`` of an axis with gusts is refused
+        (the lattice would not resolve the gust).
 
     Notes
     -----
@@ -303,9 +368,12 @@ class DrydenWind(ReadOnlyOnCopy):
     same gust bit for bit whatever was queried before, earlier times included, so one object
     can serve many flights (and threads). The gust is spatially uniform: positions only set
     the batch size. The lattice is generated in order from ``t0``, so the first query at a
-    time ``t`` costs ``(t - t0) / time_step`` exact steps (of the order of 1 s per 10^6); later
-    queries up to ``t`` read the cache (at most 64 MB; evicted blocks are regenerated from
-    their stored start states).
+    time ``t`` costs ``(t - t0) / time_step`` exact steps per realisation (of the order of 1 s
+    per 10^7); later queries up to ``t`` read the cache (at most 64 MB; evicted blocks are
+    regenerated from their stored start states). A query needing more than 2^25 (3.4e7)
+    steps times realisations (``batch_size``, or 1) is refused with a ValueError, a few
+    seconds of generation at most: at the default 1 ms step that is 9.3 h of one realisation
+    (t = 1e9 s spun for ever); a coarser ``time_step`` reaches further.
 
     Examples
     --------
@@ -329,7 +397,8 @@ class DrydenWind(ReadOnlyOnCopy):
         time_step: float = 1e-3,
     ):
         where = "DrydenWind"
-        self._mean = batch_array(mean, "mean", where, (3,), batch=1)[0].copy()
+        self._mean = batch_array(_numbers(mean, "mean", where), "mean", where, (3,),
+                                 batch=1)[0].copy()
         self._seed = _seed_entropy(seed, rng, where)
         self._airspeed = positive_float(airspeed, "airspeed", where)
         if length_scales is None:
@@ -360,6 +429,14 @@ class DrydenWind(ReadOnlyOnCopy):
                              f"gust's variance came out {variance!r} (m/s)^2 "
                              f"for sigma^2 {self._sigma ** 2!r}). Got {self._scales!r} m at "
                              f"{self.airspeed} m/s instead.")
+        gusty = self.time_scales[self._sigma > 0]
+        if gusty.size and self._h > gusty.min():
+            # time_step=1e6 s was accepted: every query read a straight line between two
+            # lattice points a million seconds apart (API audit)
+            raise ValueError(f"The 'time_step' parameter of {where} must be at most the "
+                             f"shortest time scale L / airspeed of the gusts, "
+                             f"{gusty.min():.4g} s (keep it well below). Got {time_step!r} "
+                             "instead.")
         self._fastest = float(np.max(np.abs(np.linalg.eigvals(self._a))))
         phi, q = _exact_step(self._a, self._b, self._p, self._fastest, self._h)
         self._phi = np.ascontiguousarray(phi)
@@ -427,13 +504,13 @@ class DrydenWind(ReadOnlyOnCopy):
 
     def transition(self, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """``(Phi, Q)`` of one exact step of ``dt`` s (Van Loan, or ``P - Phi P Phi^T``)."""
-        dt = positive_float(dt, "dt", "DrydenWind.transition", allow_zero=True)
+        dt = _step_length(dt, "DrydenWind.transition")
         return _exact_step(self._a, self._b, self._p, self._fastest, dt)
 
     def lag_correlation(self, lag: float) -> np.ndarray:
         """Model autocorrelation of each gust component at ``lag`` s, (3,) (NaN where sigma=0)."""
         lag = positive_float(lag, "lag", "DrydenWind.lag_correlation", allow_zero=True)
-        phi = scipy.linalg.expm(self._a * lag)
+        phi = _decay(self._a, lag, "DrydenWind.lag_correlation", "lag")
         cov0 = np.diag(self._c @ self._p @ self._c.T)
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.diag(self._c @ phi @ self._p @ self._c.T) / cov0
@@ -506,6 +583,7 @@ class DrydenWind(ReadOnlyOnCopy):
         if np.any(u < -_SNAP):
             raise ValueError(f"The {name!r} parameter of {where} must be >= t0 = {self._t0!r} s "
                              f"(the process starts there). Got {times.min()!r} instead.")
+        self._check_reach(float(u.max()), float(times.max()), where, name)
         near = np.rint(u)
         snap = np.abs(u - near) <= _SNAP
         k = np.where(snap, near, np.floor(u))
@@ -513,6 +591,18 @@ class DrydenWind(ReadOnlyOnCopy):
         k = k.astype(np.int64)
         block = k // _BLOCK
         return block, k - block * _BLOCK, frac
+
+    def _check_reach(self, u: float, t: float, where: str, name: str) -> None:
+        """Refuse a time ``u`` lattice steps from ``t0`` that needs more than ``_MAX_WORK``
+        steps times realisations to generate."""
+        n_real = 1 if self._batch is None else self._batch
+        if u * n_real > _MAX_WORK:
+            reach = self._t0 + _MAX_WORK // n_real * self._h
+            raise ValueError(
+                f"The {name!r} parameter of {where} must be at most {reach:.6g} s: the gusts are "
+                f"generated in order from t0 = {self._t0:g} s on a lattice of time_step "
+                f"{self._h:g} s, at most {_MAX_WORK} steps x realisations ({n_real}) for a "
+                f"few seconds' work. Got {t!r} instead; a coarser time_step reaches further.")
 
     def reset(self) -> None:
         """Drop the generated gusts (to free memory); later queries give the same values."""
@@ -548,6 +638,7 @@ class DrydenWind(ReadOnlyOnCopy):
         u = (t - self._t0) / self._h  # the arithmetic of _locate, on one float
         if u < -_SNAP:
             self._locate(np.array([t]), where, "t")  # raises the named error
+        self._check_reach(u, t, where, "t")
         k = round(u)
         if abs(u - k) <= _SNAP:
             frac = 0.0
