@@ -25,6 +25,11 @@ class ConstantWind(ReadOnlyOnCopy):
     """
 
     def __init__(self, velocity=(2.0, 1.0, 0.0)):
+        try:  # "could not convert string to float: 'abc'" named nothing (API audit)
+            np.asarray(velocity, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError("The 'velocity' parameter of ConstantWind must be three numbers, "
+                             f"m/s. Got {velocity!r} instead.") from None
         v = batch_array(velocity, "velocity", "ConstantWind", (3,), batch=1)[0].copy()
         v.setflags(write=False)
         self._velocity = v
