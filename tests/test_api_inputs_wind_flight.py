@@ -3,6 +3,7 @@ refused up front by a ValueError naming the argument (Python API audit, fifty-ei
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -106,3 +107,91 @@ def test_constant_wind_text_for_numbers_is_named(velocity):
     # Python API audit, fifty-eighth session: "could not convert string to float: 'abc'"
     with pytest.raises(ValueError, match="'velocity' parameter of ConstantWind"):
         ConstantWind(velocity)
+
+
+# The flight harness ------------------------------------------------------------------------
+
+import windnav.experiments.flight as FL  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def short_flight():
+    return FL.run_flight("hummingbird", "hover", FL.make_wind("none"), size=1.0, speed=1.0,
+                         duration=0.5, dt=0.01)
+
+
+@pytest.mark.parametrize("kwargs, name", [({"duration": 0.0}, "duration"),
+                                          ({"duration": math.nan}, "duration"),
+                                          ({"dt": -0.01}, "dt"), ({"dt": "fast"}, "dt"),
+                                          ({"control_rate_hz": 0.0}, "control_rate_hz")])
+def test_run_flight_names_a_bad_duration_or_step(kwargs, name):
+    # Python API audit, fifty-eighth session: checked only inside the simulator, under its names
+    args = {"size": 1.0, "speed": 1.0, "duration": 1.0, "dt": 0.01, **kwargs}
+    with pytest.raises(ValueError, match=f"'{name}' parameter of run_flight"):
+        FL.run_flight("hummingbird", "hover", FL.make_wind("none"), **args)
+
+
+def test_run_flight_warns_of_a_controller_too_slow_for_its_rate_loop():
+    # Python API audit, fifty-eighth session: at dt = 0.5 s the controller ran at 2 Hz and the
+    # hover fell 0.6 m in 1 s, silently
+    with pytest.warns(RuntimeWarning, match="controller updates every 0.5 s"):
+        FL.run_flight("hummingbird", "hover", FL.make_wind("none"), size=1, speed=1,
+                      duration=1, dt=0.5)
+
+
+def test_run_flight_at_a_validated_step_does_not_warn(short_flight):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        FL.run_flight("hummingbird", "hover", FL.make_wind("none"), size=1.0, speed=1.0,
+                      duration=0.1, dt=0.02)
+
+
+@pytest.mark.parametrize("fn", [FL.tracking_rms, FL.settled])
+@pytest.mark.parametrize("duration", [math.nan, -1.0, 0.0, 1e6, "long"])
+def test_a_duration_that_is_not_the_flights_is_named(short_flight, fn, duration):
+    # Python API audit, fifty-eighth session: tracking_rms(log, nan) and (log, 1e6) gave nan
+    # with NumPy's warnings; settled(log, nan) kept no instant
+    log, _ = short_flight
+    with pytest.raises(ValueError, match=f"'duration' parameter of {fn.__name__}"):
+        fn(log, duration)
+
+
+def test_the_duration_checks_keep_the_flights_own_numbers(short_flight):
+    log, summary = short_flight
+    assert FL.tracking_rms(log, 0.5) == summary["rms_tracking_error_m"]
+    assert FL.settled(log, 0.5).sum() == np.sum(np.asarray(log.t) >= 0.25)
+
+
+def test_wind_estimate_names_a_negative_duration(short_flight):
+    # Python API audit, fifty-eighth session: duration=-1 was accepted (scored from t = -0.5 s)
+    import windnav as wn
+
+    log, _ = short_flight
+    with pytest.raises(ValueError, match="'duration' parameter of wind_estimate"):
+        FL.wind_estimate(log, wn.vehicle.params("hummingbird"), "windnav", -1)
+
+
+@pytest.mark.parametrize("args, kwargs, name", [
+    ((100, "windnav"), {"dt": 0.0}, "dt"), ((None, "windnav"), {"dt": math.nan}, "dt"),
+    ((0,), {}, "rate_hz"), ((-5.0, "windnav"), {}, "rate_hz"), (("x",), {}, "rate_hz")])
+def test_sensors_at_names_its_arguments(args, kwargs, name):
+    # Python API audit, fifty-eighth session: dt=0 was accepted with a rate; rate 0 was
+    # refused under IMU's 'rate_hz'
+    with pytest.raises(ValueError, match=f"'{name}' parameter of sensors_at"):
+        FL.sensors_at(*args, **kwargs)
+
+
+@pytest.mark.parametrize("dt, rates, name", [
+    (0, {"imu": 100}, "dt"), (-0.01, {"imu": 100}, "dt"), (0.01, {"imu": math.nan}, "rates"),
+    (0.01, {"imu": 0.0}, "rates"), (0.01, {"imu": "x"}, "rates"), (0.01, [100.0], "rates")])
+def test_misfit_rates_names_its_arguments(dt, rates, name):
+    # Python API audit, fifty-eighth session: dt=0 raised ZeroDivisionError, a NaN rate
+    # "cannot convert float NaN to integer"
+    with pytest.raises(ValueError, match=f"'{name}' parameter of misfit_rates"):
+        FL.misfit_rates(dt, rates)
+
+
+def test_misfit_rates_still_finds_the_misfits():
+    assert FL.misfit_rates(0.01, {"imu": 100.0, "odometry": 30.0}) == {"odometry": 30.0}

@@ -14,8 +14,12 @@ the summary adds the wind RMSE after the same transient.
 
 from __future__ import annotations
 
+import math
+import warnings
+
 import numpy as np
 
+from windnav._validate import positive_float
 from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
 
 __all__ = ["WIND_KINDS", "flight_summary", "make_wind", "misfit_rates", "run_flight",
@@ -45,6 +49,10 @@ def sensors_at(rate_hz: float | None = None, conditions=None, *, dt: float = 0.0
     """windnav's default sensors all at ``rate_hz`` (Hz); None (the runner's defaults, each
     lowered when needed to fit the physics step) without one. With ``conditions`` (a Wind UKF
     preset): its sensors, all at ``rate_hz`` or 100 Hz lowered to fit ``dt`` (s)."""
+    # rate 0 was refused naming IMU's 'rate_hz', dt=0 accepted (API audit)
+    dt = positive_float(dt, "dt", "sensors_at")
+    if rate_hz is not None:
+        rate_hz = positive_float(rate_hz, "rate_hz", "sensors_at")
     if conditions is not None:
         from windnav.estimate.conditions import ukf_conditions
         from windnav.sim.loop import fitted_rate
@@ -60,6 +68,19 @@ def sensors_at(rate_hz: float | None = None, conditions=None, *, dt: float = 0.0
 def misfit_rates(dt: float, rates: dict[str, float]) -> dict[str, float]:
     """The ``name -> rate_hz`` of ``rates`` that are not a whole number (>= 1) of physics steps
     ``dt`` (s) per sample."""
+    where = "misfit_rates"
+    dt = positive_float(dt, "dt", where)  # dt=0 raised ZeroDivisionError (API audit)
+    if not isinstance(rates, dict):
+        raise ValueError(f"The 'rates' parameter of {where} must be a dict name -> rate_hz. "
+                         f"Got {rates!r} instead.")
+    for name, rate in rates.items():  # NaN said "cannot convert float NaN to integer"
+        try:
+            ok = math.isfinite(float(rate)) and float(rate) > 0
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ValueError(f"The 'rates' parameter of {where} must give each name a finite "
+                             f"rate > 0, Hz. Got {name!r}: {rate!r} instead.")
     bad = {}
     for name, rate in rates.items():
         steps = 1.0 / (rate * dt)
@@ -86,8 +107,25 @@ def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float
     ``wind_rmse_axes_m_s``.
     """
     import windnav as wn
+    from windnav.control.se3 import default_gains
+    from windnav.sim.loop import fitted_rate
 
+    where = "run_flight"
+    duration = positive_float(duration, "duration", where)
+    dt = positive_float(dt, "dt", where)
     params = wn.vehicle.params(vehicle)
+    rate = (fitted_rate(100.0, dt) if control_rate_hz is None
+            else positive_float(control_rate_hz, "control_rate_hz", where))
+    kd_att = default_gains(params).kd_att
+    if kd_att / rate > 2.0:
+        # at dt = 0.5 s the controller ran at 2 Hz and a hover fell 0.6 m in 1 s, silently (API
+        # audit): between updates the body-rate loop holds its command, and the held rate term
+        # alone, w <- (1 - kd_att T) w, grows once T > 2 / kd_att (43 ms for the built-in gains)
+        warnings.warn(f"run_flight: the controller updates every {1.0 / rate:g} s (dt {dt:g} s), "
+                      f"beyond 2 / kd_att = {2.0 / kd_att:.3g} s, where its body-rate loop "
+                      "stops being stable between updates: the flight may saturate or "
+                      "diverge; the vehicle's models are validated at dt 0.005-0.01 s with "
+                      "100 Hz control", RuntimeWarning, stacklevel=2)
     traj = wn.sim.make_trajectory(trajectory, start=(0.0, 0.0, 2.0), size=size, speed=speed)
     log = wn.sim.fly(params, traj, wind, duration, dt=dt, control_rate_hz=control_rate_hz,
                      sensors=sensors_at(sensor_rate_hz, conditions, dt=dt), hub_wind=hub_wind,
@@ -111,6 +149,7 @@ def wind_estimate(log, params, conditions, duration: float, *, rng=0) -> dict:
     ``min(2 s, duration / 2)``, ``filter_covariance_repairs``; when the filter diverges
     (:class:`~windnav.estimate.FilterDivergedError`) these are None and
     ``wind_estimate_error`` says why."""
+    duration = positive_float(duration, "duration", "wind_estimate")  # -1 was scored (audit)
     return _wind_estimate(log, params, conditions, duration, rng=rng)[0]
 
 
@@ -155,7 +194,21 @@ def drag_model_note(log, params, conditions, settle_s: float, *, believed=None) 
 def settled(log, duration: float) -> np.ndarray:
     """(T,) bool: the logged instants after the take-off transient, ``t >= min(2 s,
     duration / 2)``: the window every summary's tracking error is taken over."""
-    return np.asarray(log.t) >= min(2.0, duration / 2)
+    return _settled(log, duration, "settled")
+
+
+def _settled(log, duration, where: str) -> np.ndarray:
+    """:func:`settled`, ``duration`` checked and named in ``where``'s errors (NaN kept no
+    instant, a duration past the log's end none either; API audit)."""
+    duration = positive_float(duration, "duration", where)
+    keep = np.asarray(log.t) >= min(2.0, duration / 2)
+    if not keep.any():
+        end = float(np.max(log.t)) if np.size(log.t) else 0.0
+        raise ValueError(f"The 'duration' parameter of {where} must be the flight's duration, "
+                         f"leaving a logged instant at or after min(2 s, duration / 2) = "
+                         f"{min(2.0, duration / 2):g} s (the log ends at {end:g} s). Got "
+                         f"{duration!r} instead.")
+    return keep
 
 
 def tracking_rms(log, duration: float) -> float:
@@ -165,7 +218,7 @@ def tracking_rms(log, duration: float) -> float:
     ``run_flight("hummingbird", "waypoints", ConstantWind((6, 0, 0)), size=20, speed=4,
     duration=12)``, 0.60 m where ``fly``'s gave 0.66 m; about 1 % apart on the UKF story's own
     flights; definitions audit)."""
-    err = log.tracking_error[settled(log, duration)]
+    err = log.tracking_error[_settled(log, duration, "tracking_rms")]
     return float(np.sqrt(np.mean(err ** 2)))
 
 
