@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from windnav._validate import positive_float
+from windnav._validate import nonnegative_int, positive_float
 from windnav.city.generate import training_map
 from windnav.estimate.conditions import ukf_conditions
 from windnav.estimate.flight import run_wind_ukf
@@ -40,6 +40,7 @@ from windnav.plan.graph_search import free_space, grid_route
 from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
 from windnav.sim.runner import fly
 from windnav.sim.trajectories import Waypoints
+from windnav.vehicle.params import VEHICLES
 from windnav.vehicle.params import params as vehicle_params
 from windnav.wind.gridded import GriddedWind
 
@@ -53,6 +54,9 @@ AUTO_CFL = 1.0
 def auto_flow_dt(wind_speed: float, dx: float = 2.0) -> float:
     """The flow time step for an inlet of ``wind_speed`` m/s on cells of ``dx`` m: 0.2 s, or
     less to keep the CFL number at or below 1, s."""
+    # wind_speed=-5 gave a flow step of -0.4 s (API audit)
+    wind_speed = positive_float(wind_speed, "wind_speed", "auto_flow_dt")
+    dx = positive_float(dx, "dx", "auto_flow_dt")
     return min(DEFAULT_FLOW_DT, AUTO_CFL * dx / wind_speed)
 
 
@@ -83,6 +87,11 @@ class DemoConfig:
         from windnav.flow.solver import MAX_CFL
 
         where = "DemoConfig"
+        # seed=-1 and vehicle="foo" were accepted, to fail inside run_demo (API audit)
+        nonnegative_int(self.seed, "seed", where)
+        if not isinstance(self.vehicle, str) or self.vehicle not in VEHICLES:
+            raise ValueError(f"The 'vehicle' parameter of {where} must be one of "
+                             f"{list(VEHICLES)}. Got {self.vehicle!r} instead.")
         if self.conditions is not None and self.conditions not in CONDITIONS:
             raise ValueError(f"The 'conditions' parameter of {where} must be None or one of "
                              f"{sorted(CONDITIONS)}. Got {self.conditions!r} instead.")
@@ -112,6 +121,9 @@ def _free_point(city, rng, x: float, cfg: DemoConfig) -> np.ndarray:
 
 def run_demo(cfg: DemoConfig = DemoConfig(), *, progress: bool = False) -> dict:
     """Run the pipeline; returns every intermediate product plus timings (s) and metrics."""
+    if not isinstance(cfg, DemoConfig):  # a dict raised AttributeError (API audit)
+        raise ValueError(f"The 'cfg' parameter of run_demo must be a DemoConfig. Got "
+                         f"{cfg!r} instead.")
     rng = np.random.default_rng(cfg.seed)
     timings = {}
     t0 = time.perf_counter()
