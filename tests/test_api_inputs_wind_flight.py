@@ -195,3 +195,112 @@ def test_misfit_rates_names_its_arguments(dt, rates, name):
 
 def test_misfit_rates_still_finds_the_misfits():
     assert FL.misfit_rates(0.01, {"imu": 100.0, "odometry": 30.0}) == {"odometry": 30.0}
+
+
+# The two demos -----------------------------------------------------------------------------
+
+import windnav.experiments.demo as DM  # noqa: E402
+import windnav.experiments.nav_demo as ND  # noqa: E402
+
+
+@pytest.mark.parametrize("kwargs, name", [({"vehicle": "foo"}, "vehicle"),
+                                          ({"vehicle": 3}, "vehicle"),
+                                          ({"seed": -1}, "seed"), ({"seed": 1.5}, "seed"),
+                                          ({"seed": "0"}, "seed")])
+def test_demo_config_names_a_bad_vehicle_or_seed(kwargs, name):
+    # Python API audit, fifty-eighth session: accepted, to fail inside run_demo (NavDemoConfig
+    # refused seed=-1)
+    with pytest.raises(ValueError, match=f"'{name}' parameter of DemoConfig"):
+        DM.DemoConfig(**kwargs)
+
+
+def test_demo_config_keeps_its_vehicles():
+    assert DM.DemoConfig(vehicle="crazyflie_thesis", seed=3).vehicle == "crazyflie_thesis"
+
+
+@pytest.mark.parametrize("args, name", [((-5,), "wind_speed"), ((0.0,), "wind_speed"),
+                                        ((math.nan,), "wind_speed"), ((5.0, 0.0), "dx")])
+def test_auto_flow_dt_names_a_bad_speed_or_cell(args, name):
+    # Python API audit, fifty-eighth session: auto_flow_dt(-5) gave a flow step of -0.4 s
+    with pytest.raises(ValueError, match=f"'{name}' parameter of auto_flow_dt"):
+        DM.auto_flow_dt(*args)
+
+
+def test_auto_flow_dt_keeps_its_values():
+    assert DM.auto_flow_dt(5.0) == 0.2 and DM.auto_flow_dt(20.0) == 0.1
+
+
+def test_run_demo_names_a_config_of_another_type():
+    # Python API audit, fifty-eighth session: a dict raised AttributeError
+    with pytest.raises(ValueError, match="'cfg' parameter of run_demo must be a DemoConfig"):
+        DM.run_demo({"seed": 0})
+
+
+_REC = {"outcome": "success", "energy_J": 4000.0, "rotor_energy_J": 4100.0, "time_s": 50.0,
+        "distance_m": 300.0}
+
+
+@pytest.mark.parametrize("summaries", [
+    {"a": {**_REC, "energy_J": -100.0}, "b": {**_REC, "energy_J": 50.0}},
+    {"a": _REC, "b": {**_REC, "energy_J": math.nan}},
+    {"a": {**_REC, "energy_J": 0.0}, "b": _REC},
+    {"a": _REC, "b": {**_REC, "energy_J": None}},
+    {"a": _REC, "b": {"energy_J": 3.0}},
+    {}, [("a", _REC)], None])
+def test_compare_energies_names_records_it_cannot_compare(summaries):
+    # Python API audit, fifty-eighth session: a negative reference read as a +150 % saving,
+    # NaN as nan, 0 raised ZeroDivisionError, {} "not enough values to unpack"
+    with pytest.raises(ValueError, match="'summaries' parameter of compare_energies"):
+        ND.compare_energies(summaries)
+
+
+def test_compare_energies_leaves_failed_flights_alone_and_names_bad_shapes():
+    failed = {"outcome": "collision", "energy_J": math.nan}
+    got = ND.compare_energies({"a": _REC, "b": failed, "c": {**_REC, "energy_J": 3000.0}})
+    assert got["energy_vs_reference_percent"] == {"b": None, "c": 25.0}
+    with pytest.raises(ValueError, match="'power_shapes' parameter of compare_energies"):
+        ND.compare_energies({"a": _REC}, ["flat"])
+
+
+@pytest.mark.parametrize("flights", [
+    [{"variant": "mppi"}], [{"label": "x", "base": "nope", "kwargs": {}}],
+    [{"label": 5, "base": "mppi", "kwargs": {}}], ["mppi"], 7,
+    [{"label": "x", "base": "mppi", "kwargs": {"horizn": 50.0}}],
+    [{"label": "x", "base": "mppi", "kwargs": {"rng": 1}}],
+    [{"label": "x", "base": "mppi", "kwargs": [("horizon", 50.0)]}]])
+def test_run_nav_demo_names_bad_flights_before_the_wind(flights, monkeypatch):
+    # Python API audit, fifty-eighth session: [{'variant': 'mppi'}] raised KeyError 'label'; a
+    # bad base or keyword failed only after the flow was simulated
+    import windnav.experiments.navigate as NV
+
+    monkeypatch.setattr(NV, "simulate_flow", lambda *a, **k: pytest.fail("simulated the flow"))
+    with pytest.raises(ValueError, match="'flights' parameter of run_nav_demo"):
+        ND.run_nav_demo(flights=flights)
+
+
+def test_run_nav_demo_names_a_config_of_another_type():
+    # Python API audit, fifty-eighth session: a dict raised AttributeError
+    with pytest.raises(ValueError, match="'cfg' parameter of run_nav_demo must be a "
+                                         "NavDemoConfig"):
+        ND.run_nav_demo({"seed": 0})
+
+
+@pytest.mark.parametrize("summary", [{}, {"variants": [1]}, {"variants": {"mppi": {}}}, None])
+def test_describe_names_a_summary_it_cannot_read(summary):
+    # Python API audit, fifty-eighth session: describe({}) raised KeyError 'variants'
+    with pytest.raises(ValueError, match="'summary' parameter of describe"):
+        ND.describe(summary)
+
+
+@pytest.mark.parametrize("args, name", [((5,), "label"), ((None,), "label"),
+                                        (("mppi", 0), "width"), (("mppi", math.nan), "width"),
+                                        (("mppi", "wide"), "width")])
+def test_legend_name_names_its_arguments(args, name):
+    # Python API audit, fifty-eighth session: legend_name(5) raised AttributeError
+    with pytest.raises(ValueError, match=f"'{name}' parameter of legend_name"):
+        ND.legend_name(*args)
+
+
+def test_legend_name_keeps_its_lines():
+    assert ND.legend_name("ea-mppi-w@power=crazyflie", math.inf) == "EA-MPPI+W@power=crazyflie"
+    assert ND.legend_name("ea-mppi-w@power=crazyflie", 10) == "EA-MPPI+W\n@power=crazyflie"

@@ -177,6 +177,45 @@ def _saving(records: dict, key: str, shapes: dict) -> tuple[float | None, str]:
     return pct, f"{names[1]} used {abs(pct):.1f} % {verb} energy than {names[0]}"
 
 
+def _checked_flights(flights, navigate) -> list[dict]:
+    """``flights`` as a list, each a dict of a ``label`` (str, distinct), a ``base`` (a key of
+    :data:`windnav.plan.VARIANTS`) and ``kwargs`` (a dict of ``navigate``'s keyword arguments
+    that :func:`run_nav_demo` does not set itself), else a ValueError naming ``flights``
+    before the wind is simulated (``[{'variant': 'mppi'}]`` raised KeyError 'label', and a
+    bad base or keyword failed only after the flow; API audit)."""
+    import inspect
+
+    from windnav.plan import VARIANTS as PLAN_VARIANTS
+
+    where = "run_nav_demo"
+    try:
+        flights = list(flights)
+    except TypeError:
+        raise ValueError(f"The 'flights' parameter of {where} must be a list of dicts. Got "
+                         f"{flights!r} instead.") from None
+    own = {"speed", "direction_deg", "variant", "rng", "flow", "altitude"}
+    takes = {name for name, par in inspect.signature(navigate).parameters.items()
+             if par.kind is inspect.Parameter.KEYWORD_ONLY} - own
+    for flight in flights:
+        if not isinstance(flight, dict) or not {"label", "base", "kwargs"} <= set(flight):
+            raise ValueError(f"The 'flights' parameter of {where} must give each flight a "
+                             f"dict with 'label', 'base' and 'kwargs'. Got {flight!r} instead.")
+        if not isinstance(flight["label"], str):
+            raise ValueError(f"The 'flights' parameter of {where} must give each flight a "
+                             f"label that is a str. Got {flight['label']!r} instead.")
+        if flight["base"] not in PLAN_VARIANTS:
+            raise ValueError(f"The 'flights' parameter of {where} must give each flight a base "
+                             f"among {sorted(PLAN_VARIANTS)}. Got {flight['base']!r} for "
+                             f"{flight['label']!r} instead.")
+        kwargs = flight["kwargs"]
+        if not isinstance(kwargs, dict) or not set(kwargs) <= takes:
+            wrong = kwargs if not isinstance(kwargs, dict) else sorted(set(kwargs) - takes)
+            raise ValueError(f"The 'flights' parameter of {where} must give each flight kwargs "
+                             f"among navigate's {sorted(takes)}. Got {wrong!r} for "
+                             f"{flight['label']!r} instead.")
+    return flights
+
+
 def default_flights() -> list[dict]:
     """The demo's two flights: :data:`VARIANTS` with navigate's defaults."""
     return [{"label": v, "base": v, "kwargs": {}} for v in VARIANTS]
@@ -217,7 +256,10 @@ def run_nav_demo(cfg: NavDemoConfig | None = None, *, flights: list[dict] | None
     from windnav.experiments.navigate import navigate, simulate_flow
 
     cfg = NavDemoConfig() if cfg is None else cfg
-    flights = default_flights() if flights is None else list(flights)
+    if not isinstance(cfg, NavDemoConfig):  # a dict raised AttributeError (API audit)
+        raise ValueError(f"The 'cfg' parameter of run_nav_demo must be a NavDemoConfig or "
+                         f"None. Got {cfg!r} instead.")
+    flights = default_flights() if flights is None else _checked_flights(flights, navigate)
     labels = [f["label"] for f in flights]
     if not flights or len(set(labels)) != len(labels):
         raise ValueError(f"The 'flights' parameter of run_nav_demo must name one flight or "
@@ -297,6 +339,15 @@ def describe(summary: dict) -> str:
     (:func:`describe_comparison`'s lines); for one, its line alone. Flights are named as the
     figures name them (:func:`legend_name` on one line).
     """
+    where = "describe"
+    if not isinstance(summary, dict) or not isinstance(summary.get("variants"), dict):
+        raise ValueError(f"The 'summary' parameter of {where} must be run_nav_demo's summary, "
+                         f"a dict with 'variants'. Got {summary!r} instead.")  # ({}: KeyError)
+    need = ("outcome", "energy_J", "time_s", "rotor_energy_J", "distance_m")
+    for v, r in summary["variants"].items():
+        if not isinstance(r, dict) or not set(need) <= set(r):
+            raise ValueError(f"The 'summary' parameter of {where} must give each variant a "
+                             f"record with {list(need)}. Got {v!r}: {r!r} instead.")
     lines = []
     for v, r in summary["variants"].items():
         lines.append(f"{legend_name(v, math.inf)}: {r['outcome']}, {r['energy_J'] / 1e3:.2f} kJ "
@@ -326,6 +377,16 @@ def legend_name(label: str, width: float = 36) -> str:
     (:data:`LABELS`), then its parameters, broken before an ``@``
     into lines of about ``width`` characters (a label of six parameters ran off the figure;
     ``math.inf``: one line, the GIF's title)."""
+    if not isinstance(label, str):  # 5 raised AttributeError (API audit)
+        raise ValueError(f"The 'label' parameter of legend_name must be a str. Got {label!r} "
+                         "instead.")
+    try:
+        ok = float(width) > 0
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"The 'width' parameter of legend_name must be a number > 0 "
+                         f"(math.inf: one line). Got {width!r} instead.")
     base, *params = label.split("@")
     lines = [LABELS.get(base, base)]
     for param in params:
@@ -342,7 +403,27 @@ def compare_energies(summaries: dict, power_shapes: dict | None = None) -> dict:
     compare only when both reach the goal: one flight each, not a rate) or where the two
     flights' ``energy_J`` come from different power curves (``power_shapes``, label -> a
     label's ``@power=`` shape or None); and ``energy_not_compared``: label -> why, for each
-    None."""
+    None.
+
+    Raises
+    ------
+    ValueError
+        Naming ``summaries`` when it holds no flight, a record without ``outcome``, or a
+        compared flight whose ``energy_J`` is not a finite number > 0 (a negative reference
+        read as a +150 % saving, NaN as nan, 0 raised ZeroDivisionError; API audit); naming
+        ``power_shapes`` when it is not a dict.
+    """
+    where = "compare_energies"
+    if not isinstance(summaries, dict) or not summaries:
+        raise ValueError(f"The 'summaries' parameter of {where} must be a dict of one flight "
+                         f"record or more, label -> record. Got {summaries!r} instead.")
+    for label, record in summaries.items():
+        if not isinstance(record, dict) or "outcome" not in record:
+            raise ValueError(f"The 'summaries' parameter of {where} must give each flight a "
+                             f"record with 'outcome'. Got {label!r}: {record!r} instead.")
+    if power_shapes is not None and not isinstance(power_shapes, dict):
+        raise ValueError(f"The 'power_shapes' parameter of {where} must be None or a dict "
+                         f"label -> shape. Got {power_shapes!r} instead.")
     shapes = power_shapes or {}
     ref, *others = summaries
     base = summaries[ref]
@@ -357,6 +438,17 @@ def compare_energies(summaries: dict, power_shapes: dict | None = None) -> dict:
             why[label] = (f"energy_J on another power curve ({shapes.get(label) or 'the vehicle'}"
                           f"'s against {shapes.get(ref) or 'the vehicle'}'s, @power=)")
         else:
+            for v, r in ((ref, base), (label, s)):
+                energy = r.get("energy_J")
+                try:
+                    ok = (not isinstance(energy, (bool, str, bytes))
+                          and math.isfinite(float(energy)) and float(energy) > 0)
+                except (TypeError, ValueError):
+                    ok = False
+                if not ok:
+                    raise ValueError(f"The 'summaries' parameter of {where} must give each "
+                                     "flight that reached the goal an energy_J that is a "
+                                     f"finite number > 0. Got {v!r}: {energy!r} instead.")
             pct[label] = 100.0 * (base["energy_J"] - s["energy_J"]) / base["energy_J"]
     return {"reference": ref, "energy_vs_reference_percent": pct, "energy_not_compared": why}
 
