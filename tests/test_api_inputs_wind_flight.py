@@ -304,3 +304,32 @@ def test_legend_name_names_its_arguments(args, name):
 def test_legend_name_keeps_its_lines():
     assert ND.legend_name("ea-mppi-w@power=crazyflie", math.inf) == "EA-MPPI+W@power=crazyflie"
     assert ND.legend_name("ea-mppi-w@power=crazyflie", 10) == "EA-MPPI+W\n@power=crazyflie"
+
+
+@pytest.mark.parametrize("kind, kwargs, name", [
+    ("none", {"mean": (5.0, 0.0, 0.0)}, "mean"), ("none", {"sigma": (1.0, 1.0, 1.0)}, "sigma"),
+    ("constant", {"mean": (1.0, 0.0, 0.0), "sigma": (2.0, 2.0, 2.0)}, "sigma")])
+def test_make_wind_refuses_what_its_kind_ignores(kind, kwargs, name):
+    # Python API audit, fifty-eighth session: make_wind("none", (5, 0, 0)) flew in still air and
+    # a constant wind's sigma was dropped, unsaid
+    with pytest.raises(ValueError, match=f"'{name}' parameter of make_wind applies only"):
+        FL.make_wind(kind, **kwargs)
+    FL.make_wind(kind, **{k: (0.0, 0.0, 0.0) for k in kwargs})   # zeros are the defaults
+
+
+def test_fly_notes_a_fitted_controller_rate_once_and_passes_the_warning_of_a_chosen_one(
+        tmp_path, capsys):
+    from windnav import cli
+
+    args = ["fly", "--duration", "0.2", "--no-progress", "--no-plots", "--trajectory", "hover"]
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        assert cli.main([*args, "--dt", "0.05", "--out", str(tmp_path / "a")]) == 0
+    assert "controller ran at 20 Hz" in capsys.readouterr().err
+    assert not [w for w in caught if "controller updates" in str(w.message)]
+    with pytest.warns(RuntimeWarning, match="controller updates every 0.1 s"):  # (pytest
+        # records it; the command line prints it as "windnav fly: warning: ...")
+        assert cli.main([*args, "--dt", "0.01", "--control-rate-hz", "10",
+                         "--out", str(tmp_path / "b")]) == 0

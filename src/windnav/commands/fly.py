@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import warnings
 from pathlib import Path
 
 from windnav._validate import finite_float, positive_float
@@ -164,11 +165,18 @@ def run(args) -> int:
                              f"{' '.join(f'{v:g}' for v in value)} instead.")
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
-    wind = make_wind(args.wind, mean, sigma, seed=args.seed)
-    log, metrics, track = run_flight(
-        args.vehicle, args.trajectory, wind, size=size, speed=speed, duration=duration, dt=dt,
-        control_rate_hz=control, sensor_rate_hz=sensor, hub_wind=args.hub_wind, rng=args.seed,
-        conditions=args.conditions, progress=not args.no_progress, return_track=True)
+    uses = {key: args.wind in kinds for key, kinds in WIND_USES.items()}
+    wind = make_wind(args.wind, mean if uses["wind_mean"] else (0.0, 0.0, 0.0),
+                     sigma if uses["wind_sigma"] else (0.0, 0.0, 0.0), seed=args.seed)
+    with warnings.catch_warnings():
+        if args.control_rate_hz is None:  # the rate fitted to --dt: its note below says it
+            warnings.filterwarnings("ignore", message="run_flight: the controller updates",
+                                    category=RuntimeWarning)
+        log, metrics, track = run_flight(
+            args.vehicle, args.trajectory, wind, size=size, speed=speed, duration=duration,
+            dt=dt, control_rate_hz=control, sensor_rate_hz=sensor, hub_wind=args.hub_wind,
+            rng=args.seed, conditions=args.conditions, progress=not args.no_progress,
+            return_track=True)
     log.meta.update(wind_kind=args.wind)
     status = " ".join(str(s) for s in (metrics.get("status") or []))
     rate = log.meta.get("control_rate_hz")

@@ -34,6 +34,13 @@ def make_wind(kind: str, mean=(0.0, 0.0, 0.0), sigma=(0.0, 0.0, 0.0), *, seed: i
     """
     from windnav.wind import ConstantWind, DrydenWind
 
+    for name, value, kinds in (("mean", mean, ("constant", "dryden")),
+                               ("sigma", sigma, ("dryden",))):
+        if kind in WIND_KINDS and kind not in kinds and np.any(np.asarray(value) != 0):
+            # make_wind("none", (5, 0, 0)) flew in still air (API audit, fifty-eighth session)
+            raise ValueError(f"The '{name}' parameter of make_wind applies only to the kinds "
+                             f"{list(kinds)}: {kind!r} ignores it. Got {value!r} with "
+                             f"kind={kind!r} instead.")
     if kind == "none":
         return ConstantWind((0.0, 0.0, 0.0))
     if kind == "constant":
