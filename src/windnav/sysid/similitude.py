@@ -24,6 +24,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from windnav._validate import positive_float
 
 __all__ = ["KINEMATIC_VISCOSITY_AIR", "Similitude"]
@@ -49,6 +51,14 @@ crisis changes it. Sharp-edged obstacles (buildings) separate at their corners, 
 Strouhal number depends far less on Re: only the lower end is noted."""
 
 
+def _number(value, name: str, where: str, *, allow_zero: bool = False) -> float:
+    """:func:`~windnav._validate.positive_float`, refusing a bool too (True read as 1 m)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"The {name!r} parameter of {where} must be a number. Got {value!r} "
+                         "instead.")
+    return positive_float(value, name, where, allow_zero=allow_zero)
+
+
 @dataclass(frozen=True)
 class Similitude:
     """Froude scaling between a full-scale vehicle and its model.
@@ -70,10 +80,11 @@ class Similitude:
 
     def __post_init__(self):
         where = "Similitude"
-        positive_float(self.full_scale_diameter, "full_scale_diameter", where)
-        positive_float(self.model_diameter, "model_diameter", where)
-        if self.scale is not None:
-            positive_float(self.scale, "scale", where)
+        # the validated floats are kept: a str that positive_float read ("1.8") stayed a str
+        # and failed in the arithmetic, a TypeError (Python API audit, fifty-eighth session)
+        for name in ("full_scale_diameter", "model_diameter", "scale"):
+            if name != "scale" or self.scale is not None:
+                object.__setattr__(self, name, _number(getattr(self, name), name, where))
         lam = self.length_scale
         if not SCALE_RANGE[0] <= lam <= SCALE_RANGE[1]:  # lambda^3.5 overflowed at 1e-200
             name = "scale" if self.scale is not None else "full_scale_diameter"
@@ -97,30 +108,44 @@ class Similitude:
         return self.exact_scale if self.scale is None else float(self.scale)
 
     # Froude ------------------------------------------------------------------------------
+    # Each takes a finite number >= 0 (a mass > 0), as reynolds and report do: a negative mass
+    # gave -9.2e-5 kg, a NaN speed NaN, a negative speed -160 m/s (Python API audit,
+    # fifty-eighth session).
     def model_speed(self, full_scale_speed: float) -> float:
-        """``U_M = U_FS / sqrt(lambda)``, m/s."""
-        return full_scale_speed / math.sqrt(self.length_scale)
+        """``U_M = U_FS / sqrt(lambda)``, m/s (``full_scale_speed`` m/s >= 0)."""
+        u = _number(full_scale_speed, "full_scale_speed", "Similitude.model_speed",
+                    allow_zero=True)
+        return u / math.sqrt(self.length_scale)
 
     def full_scale_speed(self, model_speed: float) -> float:
-        """``U_FS = U_M sqrt(lambda)``, m/s."""
-        return model_speed * math.sqrt(self.length_scale)
+        """``U_FS = U_M sqrt(lambda)``, m/s (``model_speed`` m/s >= 0)."""
+        u = _number(model_speed, "model_speed", "Similitude.full_scale_speed", allow_zero=True)
+        return u * math.sqrt(self.length_scale)
 
     def model_mass(self, full_scale_mass: float) -> float:
-        """``m_M = m_FS / lambda^3``, kg."""
-        return full_scale_mass / self.length_scale**3
+        """``m_M = m_FS / lambda^3``, kg (``full_scale_mass`` kg > 0)."""
+        m = _number(full_scale_mass, "full_scale_mass", "Similitude.model_mass")
+        return m / self.length_scale**3
 
     def model_frequency(self, full_scale_frequency: float) -> float:
-        """``f_M = f_FS sqrt(lambda)``, Hz."""
-        return full_scale_frequency * math.sqrt(self.length_scale)
+        """``f_M = f_FS sqrt(lambda)``, Hz (``full_scale_frequency`` Hz >= 0)."""
+        f = _number(full_scale_frequency, "full_scale_frequency", "Similitude.model_frequency",
+                    allow_zero=True)
+        return f * math.sqrt(self.length_scale)
 
     def full_scale_frequency(self, model_frequency: float) -> float:
-        """``f_FS = f_M / sqrt(lambda)``, Hz."""
-        return model_frequency / math.sqrt(self.length_scale)
+        """``f_FS = f_M / sqrt(lambda)``, Hz (``model_frequency`` Hz >= 0)."""
+        f = _number(model_frequency, "model_frequency", "Similitude.full_scale_frequency",
+                    allow_zero=True)
+        return f / math.sqrt(self.length_scale)
 
     # Reynolds ----------------------------------------------------------------------------
     def reynolds_model_speed(self, full_scale_speed: float) -> float:
-        """The model speed Reynolds similarity would need, ``lambda U_FS``, m/s."""
-        return self.length_scale * full_scale_speed
+        """The model speed Reynolds similarity would need, ``lambda U_FS``, m/s
+        (``full_scale_speed`` m/s >= 0)."""
+        u = _number(full_scale_speed, "full_scale_speed", "Similitude.reynolds_model_speed",
+                    allow_zero=True)
+        return self.length_scale * u
 
     def reynolds(self, speed: float, diameter: float,
                  kinematic_viscosity: float = KINEMATIC_VISCOSITY_AIR) -> float:
