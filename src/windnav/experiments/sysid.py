@@ -24,12 +24,16 @@ functions draw the fitted curves over the data and the residuals (matplotlib, Ag
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
+
+from windnav._validate import generator, positive_float
 
 __all__ = [
     "AXES", "STAND_PWM_STEPS", "STAND_VOLTAGES", "THESIS_VEHICLE", "TunnelNoise",
@@ -101,6 +105,20 @@ class StandNoise:
     voltage_V: float = 0.005
     current_A: float = 0.02
 
+    def __post_init__(self):
+        # -1 and NaN were accepted, to fail in the draw or fill the CSVs with NaN (Python API
+        # audit, fifty-eighth session)
+        for name in ("rpm_fraction", "thrust_N", "torque_Nm", "voltage_V", "current_A"):
+            object.__setattr__(self, name, _noise(getattr(self, name), name, "StandNoise"))
+
+
+def _noise(value, name: str, where: str) -> float:
+    """A noise level: a finite number >= 0 (not a bool), else a named ValueError."""
+    if isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"The {name!r} parameter of {where} must be a number. Got {value!r} "
+                         "instead.")
+    return positive_float(value, name, where, allow_zero=True)
+
 
 def simulate_stand(params, *, voltages: Sequence[float] = STAND_VOLTAGES,
                    pwm_steps: Sequence[float] = STAND_PWM_STEPS, step_s: float = 1.0,
@@ -114,13 +132,13 @@ def simulate_stand(params, *, voltages: Sequence[float] = STAND_VOLTAGES,
         The vehicle (``k_eta``, ``k_m``, ``tau_m``, ``n_rotors``, ``motor_efficiency``; the PWM
         model from ``extra["pwm_motor"]`` unless ``motor`` is given).
     voltages : sequence of float
-        Supply voltages, V.
+        Supply voltages, V (distinct, > 0; at least one).
     pwm_steps : sequence of float
-        PWM commands of the ramp, counts, each held ``step_s`` seconds.
+        PWM commands of the ramp, counts (finite, >= 0), each held ``step_s`` seconds.
     step_s : float
         Hold time of each PWM step, s (default 1).
     rate_hz : float
-        Logging rate, Hz.
+        Logging rate, Hz: ``step_s * rate_hz`` rounds to 1 ... 1,000,000 samples per step.
     noise : StandNoise
     motor : PWMMotorModel, optional
     rng : numpy.random.Generator or int, optional
@@ -139,15 +157,37 @@ def simulate_stand(params, *, voltages: Sequence[float] = STAND_VOLTAGES,
     """
     from windnav.sysid.thrust_stand import RPM_TO_RAD_S, PWMMotorModel
 
-    gen = np.random.default_rng(0 if rng is None else rng)
+    where = "simulate_stand"
+    # checked before the ramps (Python API audit, fifty-eighth session): 0 V drew rpm with a
+    # divide-by-zero, -3.7 V ran, [] gave no ramp, a repeated voltage two ramps; a PWM of
+    # -1000 or NaN ran; a step of 0 s gave empty columns, 1e7 s a 67 GiB MemoryError; a rate
+    # of 0, -100 or NaN Hz failed in NumPy, a negative seed with NumPy's message
+    volts = _distinct_positive(voltages, "voltages", where, "V")
+    steps = _values(pwm_steps, "pwm_steps", where, "PWM commands >= 0, counts")
+    if np.any(steps < 0):
+        raise ValueError(f"The 'pwm_steps' parameter of {where} must hold PWM commands >= 0, "
+                         f"counts. Got {steps.tolist()!r} instead.")
+    step_s = positive_float(step_s, "step_s", where)
+    rate_hz = positive_float(rate_hz, "rate_hz", where)
+    samples = step_s * rate_hz
+    samples = round(samples) if math.isfinite(samples) else samples
+    if not 1 <= samples <= MAX_STAND_SAMPLES_PER_STEP:
+        raise ValueError(f"The 'rate_hz' parameter of {where} must give 1 to "
+                         f"{MAX_STAND_SAMPLES_PER_STEP:,} samples per PWM step of step_s = "
+                         f"{step_s:g} s. Got {rate_hz!r} Hz instead ({samples:g} samples; "
+                         "change step_s or rate_hz).")
+    if not isinstance(noise, StandNoise):
+        raise ValueError(f"The 'noise' parameter of {where} must be a StandNoise. Got "
+                         f"{type(noise).__name__} instead.")
+    gen = generator(0 if rng is None else rng, "rng", where)
     motor = PWMMotorModel.from_params(params) if motor is None else motor
     n = params.n_rotors
     dt = 1.0 / rate_hz
     per_step = int(round(step_s * rate_hz))
     decay = np.exp(-dt / params.tau_m)
     runs = []
-    for volt in voltages:
-        pwm = np.repeat(np.asarray(pwm_steps, dtype=np.float64), per_step)
+    for volt in volts:
+        pwm = np.repeat(steps, per_step)
         wanted = motor.rotor_speed(pwm, volt)
         cmd = np.clip(wanted, params.rotor_speed_min, params.rotor_speed_max)
         clipped = cmd != wanted
@@ -171,6 +211,37 @@ def simulate_stand(params, *, voltages: Sequence[float] = STAND_VOLTAGES,
         }, "clipped": int(clipped.sum()),
             "clipped_pwm": sorted({float(v) for v in pwm[clipped]})})
     return runs
+
+
+MAX_STAND_SAMPLES_PER_STEP = 1_000_000
+"""The most samples :func:`simulate_stand` logs per PWM step (``step_s * rate_hz``), as
+``sysid simulate-stand`` allows."""
+
+
+def _values(value, name: str, where: str, rule: str) -> np.ndarray:
+    """A non-empty 1-D float64 array of finite numbers, else a ValueError naming ``name``
+    (``rule`` says what they are)."""
+    try:
+        a = None if isinstance(value, (str, bytes)) else np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.ndim != 1 or not a.size or not np.all(np.isfinite(a)):
+        raise ValueError(f"The {name!r} parameter of {where} must be a non-empty sequence of "
+                         f"finite {rule}. Got {value!r} instead.")
+    return a
+
+
+def _distinct_positive(value, name: str, where: str, unit: str) -> list[float]:
+    """Distinct finite numbers > 0 (voltages), as a list of floats, else a named ValueError."""
+    try:  # any iterable, as the loop over it took before
+        items = value if isinstance(value, (str, bytes, np.ndarray)) else list(value)
+    except TypeError:
+        items = value
+    a = _values(items, name, where, f"numbers > 0, {unit}")
+    if np.any(a <= 0) or np.unique(a).size != a.size:
+        raise ValueError(f"The {name!r} parameter of {where} must hold distinct numbers > 0, "
+                         f"{unit}. Got {a.tolist()!r} instead.")
+    return [float(v) for v in items]
 
 
 def stand_clipping_note(runs, params) -> str | None:
@@ -214,6 +285,23 @@ class TunnelNoise:
     airspeed_m_s: float = 0.03
     rotor_speed_rad_s: float = 5.0
 
+    def __post_init__(self):
+        # a bias of two components and negative or NaN noise were accepted (Python API audit,
+        # fifty-eighth session); the bias is kept as given (truth.json lists it)
+        where = "TunnelNoise"
+        bias = self.accel_bias
+        try:
+            ok = (not isinstance(bias, (str, bytes)) and len(bias) == 3
+                  and all(isinstance(b, numbers.Real) and not isinstance(b, (bool, np.bool_))
+                          and math.isfinite(b) for b in bias))
+        except TypeError:
+            ok = False
+        if not ok:
+            raise ValueError(f"The 'accel_bias' parameter of {where} must be 3 finite numbers, "
+                             f"m/s^2. Got {bias!r} instead.")
+        for name in ("airspeed_m_s", "rotor_speed_rad_s"):
+            object.__setattr__(self, name, _noise(getattr(self, name), name, where))
+
 
 @dataclass(frozen=True)
 class _BiasedIMU:
@@ -233,6 +321,14 @@ class _BiasedIMU:
         accel, gyro, bias = self.imu.measure(truth.specific_force_body, truth.body_rates, rng,
                                              bias0=bias0)
         return {"accel": accel, "gyro": gyro, "bias": bias}
+
+
+def _duration(value, name: str, where: str, *, allow_zero: bool = False) -> None:
+    """Refuse anything but a finite real number > 0 (>= 0), by name."""
+    if not isinstance(value, numbers.Real) or isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"The {name!r} parameter of {where} must be a number, s. Got "
+                         f"{value!r} instead.")
+    positive_float(value, name, where, allow_zero=allow_zero)
 
 
 class _PerVehicleWind:
@@ -269,7 +365,7 @@ def simulate_tunnel(params, *, speeds: Sequence[float] = tuple(np.arange(0.0, 6.
     settle_s, record_s : float
         Transient after the flow starts (dropped by the fits), then the recorded hover, s.
     dt : float
-        Physics step, s.
+        Physics step, s: a whole number of them per sample of the IMU (200 Hz).
     noise : TunnelNoise
     rng : numpy.random.Generator or int, optional
         Randomness of the IMU and the CSV noise (default seed 0).
@@ -291,7 +387,23 @@ def simulate_tunnel(params, *, speeds: Sequence[float] = tuple(np.arange(0.0, 6.
     if bad or not axes or len(set(axes)) != len(axes):  # (a repeat flew each flow twice)
         raise ValueError(f"The 'axes' parameter of simulate_tunnel must name some of "
                          f"{list(AXES)}, each once. Got {list(axes)!r} instead.")
-    gen = np.random.default_rng(0 if rng is None else rng)
+    where = "simulate_tunnel"
+    # checked before the flights (Python API audit, fifty-eighth session): dt = 1 s was named
+    # "The 'sensors' parameter's imu rate_hz of fly", dt = 0 fly's, and settle_s = -1
+    # aero_from_flight_log's after the flights
+    _duration(settle_s, "settle_s", where, allow_zero=True)  # kept as given: meta lists them
+    _duration(record_s, "record_s", where)
+    dt = positive_float(dt, "dt", where)
+    imu_hz = IMU().rate_hz
+    ratio = 1.0 / (imu_hz * dt)
+    if round(ratio) < 1 or abs(ratio - round(ratio)) > 1e-6 * ratio:  # as fly's sensors need
+        raise ValueError(f"The 'dt' parameter of {where} must divide the IMU's sample period "
+                         f"1/{imu_hz:g} s (a whole number of physics steps per IMU sample). Got "
+                         f"{dt!r} instead.")
+    if not isinstance(noise, TunnelNoise):
+        raise ValueError(f"The 'noise' parameter of {where} must be a TunnelNoise. Got "
+                         f"{type(noise).__name__} instead.")
+    gen = generator(0 if rng is None else rng, "rng", where)
     speeds = np.asarray(speeds, dtype=np.float64)
     if (speeds.ndim != 1 or not speeds.size or not np.all(np.isfinite(speeds))
             or np.any(speeds < 0) or not np.any(speeds > 0)
@@ -417,7 +529,14 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
         t = table.column(time_col, where)
         vz = None if vertical_speed_col is None else table.column(vertical_speed_col, where)
         alt = None if altitude_col is None else table.column(altitude_col, where)
-        steady = steady_level_mask(t, speed, vertical_speed=vz, altitude=alt,
+        if min_altitude is not None and alt is None:  # ignored before (Python API audit)
+            raise ValueError(f"The 'altitude_col' parameter of {where} must be given with "
+                             f"min_altitude. Got none with min_altitude={min_altitude!r} "
+                             "instead.")
+        # the altitude limit with its column only (as before): steady_level_mask now refuses
+        # one without the other, and sysid power takes --altitude-col without --min-altitude
+        steady = steady_level_mask(t, speed, vertical_speed=vz,
+                                   altitude=None if min_altitude is None else alt,
                                    max_vertical_speed=max_vertical_speed, max_accel=max_accel,
                                    min_altitude=min_altitude, min_segment_s=min_segment_s)
         keep &= steady
@@ -651,7 +770,12 @@ def plot_unsteadiness(maps, path) -> None:
 
 
 def stand_csv_name(voltage: float) -> str:
-    """The file name of the stand ramp at ``voltage`` (V, to two decimals)."""
+    """The file name of the stand ramp at ``voltage`` (V > 0, to two decimals)."""
+    # NaN gave 'stand_nanV.csv', '3.7' Python's format error (Python API audit, 58th session)
+    if isinstance(voltage, (bool, np.bool_, str, bytes)):
+        raise ValueError(f"The 'voltage' parameter of stand_csv_name must be a number, V. Got "
+                         f"{voltage!r} instead.")
+    positive_float(voltage, "voltage", "stand_csv_name")
     return f"stand_{voltage:.2f}V.csv"
 
 

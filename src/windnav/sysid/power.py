@@ -112,8 +112,15 @@ def steady_level_mask(t, speed, *, vertical_speed=None, altitude=None,
     ndarray of bool, shape (n,)
     """
     where = "steady_level_mask"
-    t = np.asarray(t, dtype=np.float64)
-    v = np.asarray(speed, dtype=np.float64)
+    if (altitude is None) != (min_altitude is None):  # the one given was ignored (Python API
+        # audit, fifty-eighth session)
+        given, missing = (("altitude", "min_altitude") if min_altitude is None
+                          else ("min_altitude", "altitude"))
+        raise ValueError(f"The {missing!r} parameter of {where} must be given with {given} "
+                         "(samples are kept where altitude > min_altitude). Got "
+                         f"{given} alone instead.")
+    t = _series(t, "t", where)
+    v = _series(speed, "speed", where, t.size)
     keep = np.isfinite(v) & np.isfinite(t)
     if np.any(np.diff(t[np.isfinite(t)]) <= 0):  # the slopes and runs read it as a clock: a
         # reversed one kept nothing, a shuffled one fitted (CLI audit, 2026-12-07)
@@ -122,13 +129,35 @@ def steady_level_mask(t, speed, *, vertical_speed=None, altitude=None,
     accel = steepest_slope(t, v, positive_float(window_s, "window_s", where))
     keep &= np.abs(accel) < positive_float(max_accel, "max_accel", where)
     if vertical_speed is not None:
-        vz = np.asarray(vertical_speed, dtype=np.float64)
+        vz = _series(vertical_speed, "vertical_speed", where, t.size)
         keep &= np.abs(vz) < positive_float(max_vertical_speed, "max_vertical_speed", where)
-    if altitude is not None and min_altitude is not None:
-        keep &= np.asarray(altitude, dtype=np.float64) > finite_float(min_altitude,
-                                                                      "min_altitude", where)
+    if altitude is not None:
+        keep &= _series(altitude, "altitude", where, t.size) > finite_float(
+            min_altitude, "min_altitude", where)
     return min_run(t, keep, positive_float(min_segment_s, "min_segment_s", where,
                                            allow_zero=True))
+
+
+def _array(value, name: str, where: str) -> np.ndarray:
+    """``value`` as a float64 array, else a ValueError naming ``name`` (NumPy's "could not
+    convert string to float" before; Python API audit, fifty-eighth session)."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of numbers. Got "
+                         f"{value!r} instead.") from None
+
+
+def _series(value, name: str, where: str, size: int | None = None,
+            per: str = "sample of t") -> np.ndarray:
+    """``value`` as a float64 array of shape (n,), of ``size`` samples (one per ``per``) when
+    given, else a ValueError naming ``name`` (a broadcast error before)."""
+    a = _array(value, name, where)
+    if a.ndim != 1 or (size is not None and a.size != size):
+        want = "of shape (n,)" if size is None else f"of shape ({size},), one per {per}"
+        raise ValueError(f"The {name!r} parameter of {where} must be an array {want}. Got "
+                         f"shape {a.shape} instead.")
+    return a
 
 
 def lack_of_fit_test(speed, residuals, n_params: int, *, scale: float = 1.0,
@@ -168,11 +197,21 @@ def lack_of_fit_test(speed, residuals, n_params: int, *, scale: float = 1.0,
         :data:`NO_SCATTER_RESOLUTION` of ``scale`` is rounding (``F`` None, not rejected),
         and a curve that misses the repeats by more has ``F`` infinite and is rejected.
     """
-    v = np.asarray(speed, dtype=np.float64).reshape(-1)
-    r = np.asarray(residuals, dtype=np.float64).reshape(-1)
-    h = positive_float(bin_m_s, "bin_m_s", "lack_of_fit_test")
+    where = "lack_of_fit_test"
+    # NaN residuals gave F NaN and "not rejected", unequal lengths NumPy's "weights and list
+    # don't have the same length", n_params = -3 a test (Python API audit, fifty-eighth session)
+    v = _array(speed, "speed", where).reshape(-1)
+    r = _series(_array(residuals, "residuals", where).reshape(-1), "residuals", where, v.size,
+                "speed")
+    for name, a in (("speed", v), ("residuals", r)):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"The {name!r} parameter of {where} must be finite (no NaN or "
+                             "inf). Got non-finite entries instead.")
+    p = positive_int(n_params, "n_params", where)
+    finite_float(scale, "scale", where)
+    h = positive_float(bin_m_s, "bin_m_s", where)
     _, group = np.unique(np.floor(v / h), return_inverse=True)
-    n, g, p = v.size, int(group.max()) + 1 if v.size else 0, int(n_params)
+    n, g = v.size, int(group.max()) + 1 if v.size else 0
     if n - g < 1 or g - p < 1:
         return None
     mean = np.bincount(group, r) / np.bincount(group)
@@ -418,6 +457,10 @@ def hover_check(fit: PowerFit, hover_speed: float = HOVER_SPEED_M_S) -> dict:
         ``hover_offset_std_error_W``, ``hover_outside_fit`` (bool) and ``note`` (a sentence,
         or None); all None (``note`` too) with fewer than three slow samples.
     """
+    if not isinstance(fit, PowerFit):  # an AttributeError before (Python API audit,
+        # fifty-eighth session)
+        raise ValueError("The 'fit' parameter of hover_check must be a PowerFit (fit_power's "
+                         f"result). Got {type(fit).__name__} instead.")
     hover_speed = positive_float(hover_speed, "hover_speed", "hover_check")
     slow = fit.speed < hover_speed
     m = int(slow.sum())
@@ -543,8 +586,15 @@ def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
     """
     where = "fit_power"
     deg = positive_int(degree, "degree", where)
-    v = np.asarray(speed, dtype=np.float64).reshape(-1)
-    p = np.asarray(power, dtype=np.float64).reshape(-1)
+    v = _array(speed, "speed", where).reshape(-1)
+    p = _array(power, "power", where).reshape(-1)
+    try:  # 'float' object is not iterable, after the fit (Python API audit, 58th session)
+        wind_list = None if isinstance(winds, (str, bytes)) else list(winds)
+    except TypeError:
+        wind_list = None
+    if wind_list is None:
+        raise ValueError(f"The 'winds' parameter of {where} must be a sequence of along-track "
+                         f"winds, m/s. Got {winds!r} instead.")
     if v.shape != p.shape:
         raise ValueError(f"The speeds and powers of {source} must have the same length. Got "
                          f"{v.size} and {p.size} instead.")
@@ -575,7 +625,7 @@ def fit_power(speed, power, *, degree: int = 3, speed_max: float | None = None,
         return max_range_speed(PowerCurve(c, speed_max=vmax), 0.0).ground_speed
 
     table = []
-    for w in winds:
+    for w in wind_list:
         w = finite_float(w, "winds", where)
         if w + vmax <= 0:
             table.append({"wind_m_s": w, "ground_speed_m_s": None, "airspeed_m_s": None,
