@@ -50,10 +50,36 @@ def lateral_force_command(attitude, rotor_speed_cmd, k_eta: float) -> np.ndarray
     """
     from scipy.spatial.transform import Rotation
 
-    k = positive_float(k_eta, "k_eta", "lateral_force_command")
-    thrust = k * np.sum(np.asarray(rotor_speed_cmd, dtype=np.float64) ** 2, axis=1)
-    axis = Rotation.from_quat(np.asarray(attitude, dtype=np.float64)).apply([0.0, 0.0, 1.0])
+    where = "lateral_force_command"
+    k = positive_float(k_eta, "k_eta", where)
+    # an IndexError, a broadcast error, an AxisError or SciPy's "Found zero norm quaternions"
+    # before (Python API audit, fifty-eighth session)
+    q = _array(attitude, "attitude", where, "(K, 4)", lambda a: a.ndim == 2 and a.shape[1] == 4)
+    eta = _array(rotor_speed_cmd, "rotor_speed_cmd", where, f"(K, N) with K = {q.shape[0]}",
+                 lambda a: a.ndim == 2 and a.shape[0] == q.shape[0] and a.shape[1] >= 1)
+    if np.any(np.linalg.norm(q, axis=1) == 0):
+        raise ValueError(f"The 'attitude' parameter of {where} must hold unit quaternions "
+                         "(xyzw). Got a quaternion of norm 0 instead.")
+    thrust = k * np.sum(eta ** 2, axis=1)
+    axis = Rotation.from_quat(q).apply([0.0, 0.0, 1.0])
     return axis[:, :2] * thrust[:, None]
+
+
+def _array(value, name: str, where: str, shape: str, ok, *, finite: bool = True) -> np.ndarray:
+    """``value`` as float64, else a ValueError naming ``name``: not numbers, ``ok(array)``
+    false (the wanted ``shape`` said), or NaN/inf entries (when ``finite``)."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of numbers. Got "
+                         f"{type(value).__name__} instead.") from None
+    if not ok(a):
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of shape {shape}. "
+                         f"Got shape {a.shape} instead.")
+    if finite and not np.all(np.isfinite(a)):
+        raise ValueError(f"The {name!r} parameter of {where} must be finite (no NaN or inf). "
+                         "Got non-finite entries instead.")
+    return a
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +96,10 @@ class FlightSamples:
         Lateral force command, world frame, N.
     body_rates : ndarray of shape (K, 3)
         rad/s.
+
+    Every array is checked at construction: of these shapes with one K (K may be 0), and
+    finite (``xy`` excepted: :func:`unsteadiness_maps` refuses non-finite positions);
+    :meth:`from_table` and :func:`flight_samples_from_log` leave out the non-finite rows.
     """
 
     xy: np.ndarray
@@ -79,9 +109,21 @@ class FlightSamples:
 
     def __post_init__(self):
         # float64, as from_table and flight_samples_from_log give them, also when built by hand
-        # from float32 arrays (which binned in float32: last bits, 5e-8 relative; audit)
-        for name in ("xy", "wind_xy", "force_cmd_xy", "body_rates"):
-            object.__setattr__(self, name, np.asarray(getattr(self, name), dtype=np.float64))
+        # from float32 arrays (which binned in float32: last bits, 5e-8 relative; audit).
+        # Shapes and finiteness checked: NaN winds mapped NaN bins counted as occupied, (K, 3)
+        # positions and (K, 2) body rates passed, unequal lengths or 1-D positions failed in
+        # NumPy (Python API audit, fifty-eighth session). Non-finite positions are left to
+        # unsteadiness_maps, which names them ("must have finite positions").
+        where = "FlightSamples"
+        k = None
+        for name, width in (("xy", 2), ("wind_xy", 2), ("force_cmd_xy", 2), ("body_rates", 3)):
+            want = f"(K, {width})" + ("" if k is None else f" with K = {k}, as xy")
+            a = _array(getattr(self, name), name, where, want,
+                       lambda a, w=width, n=k: (a.ndim == 2 and a.shape[1] == w
+                                                and (n is None or a.shape[0] == n)),
+                       finite=name != "xy")
+            k = a.shape[0] if k is None else k
+            object.__setattr__(self, name, a)
 
     @classmethod
     def from_table(cls, table: Table, where: str = "FlightSamples.from_table"
@@ -114,17 +156,29 @@ def flight_samples_from_log(log, k_eta: float, *, wind_xy=None) -> FlightSamples
     wind_xy : ndarray of shape (T, B, 2), optional
         Wind estimates on the log's times; default the logged true wind.
     """
+    from windnav.sim.log import FlightLog
+
+    where = "flight_samples_from_log"
+    if not isinstance(log, FlightLog):  # an AttributeError before (Python API audit)
+        raise ValueError(f"The 'log' parameter of {where} must be a FlightLog. Got "
+                         f"{type(log).__name__} instead.")
+    positive_float(k_eta, "k_eta", where)
     T, B = log.position.shape[:2]
-    wind = log.wind[..., :2] if wind_xy is None else np.asarray(wind_xy, dtype=np.float64)
+    wind = log.wind[..., :2] if wind_xy is None else _array(
+        wind_xy, "wind_xy", where, str((T, B, 2)), lambda a: True, finite=False)
     if wind.shape != (T, B, 2):
-        raise ValueError("The 'wind_xy' parameter of flight_samples_from_log must have shape "
+        raise ValueError(f"The 'wind_xy' parameter of {where} must have shape "
                          f"{(T, B, 2)}. Got {wind.shape} instead.")
     parts = []
     for b in np.flatnonzero(np.asarray(log.finite, dtype=bool)):
-        parts.append(FlightSamples(log.position[:, b, :2], wind[:, b],
-                                   lateral_force_command(log.attitude[:, b],
-                                                         log.rotor_speed_cmd[:, b], k_eta),
-                                   log.body_rates[:, b]))
+        arrays = (log.position[:, b, :2], wind[:, b], log.attitude[:, b],
+                  log.rotor_speed_cmd[:, b], log.body_rates[:, b])
+        # the instants where every value is finite (all of them in a vehicle flagged finite,
+        # unless a wind estimate is not): FlightSamples holds finite samples, as from_table
+        # keeps them
+        ok = np.logical_and.reduce([np.all(np.isfinite(a), 1) for a in arrays])
+        xy, w, q, eta, rates = (a if ok.all() else a[ok] for a in arrays)
+        parts.append(FlightSamples(xy, w, lateral_force_command(q, eta, k_eta), rates))
     if not parts:
         raise ValueError("The flight log has no vehicle that flew with finite values.")
     return FlightSamples.concatenate(parts)
@@ -150,8 +204,18 @@ def bin_xy(xy, values, x_edges, y_edges):
     var : ndarray of shape (ny, nx, C)
         Population variance, NaN in empty bins.
     """
-    xy = np.asarray(xy, dtype=np.float64)
-    v = np.asarray(values, dtype=np.float64)
+    where = "bin_xy"
+    # decreasing edges gave all-zero counts, 1-D values an IndexError, empty edges
+    # "minlength must not be negative" (Python API audit, fifty-eighth session)
+    xy = _array(xy, "xy", where, "(K, 2)", lambda a: a.ndim == 2 and a.shape[1] == 2,
+                finite=False)
+    v = _array(values, "values", where, f"(K, C) with K = {xy.shape[0]}",
+               lambda a: a.ndim == 2 and a.shape[0] == xy.shape[0], finite=False)
+    for name, e in (("x_edges", x_edges), ("y_edges", y_edges)):
+        e = _array(e, name, where, "(n + 1,) with n >= 1", lambda a: a.ndim == 1 and a.size >= 2)
+        if not np.all(np.diff(e) > 0):
+            raise ValueError(f"The {name!r} parameter of {where} must increase strictly. Got "
+                             f"{e.tolist()!r} instead.")
     nx, ny = len(x_edges) - 1, len(y_edges) - 1
     ix = np.searchsorted(x_edges, xy[:, 0], side="right") - 1
     iy = np.searchsorted(y_edges, xy[:, 1], side="right") - 1
