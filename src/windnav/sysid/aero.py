@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from windnav._validate import ReadOnlyOnCopy, positive_float
+from windnav._validate import ReadOnlyOnCopy, nonnegative_int, positive_float, positive_int
 from windnav.sysid._fit import Estimate, LeastSquares, linear_fit
 from windnav.sysid.io import Table
 
@@ -69,7 +69,9 @@ def _float_array(value, name: str) -> np.ndarray:
 
 
 def aero_columns(n_rotors: int) -> tuple[str, ...]:
-    """The full header of an aero CSV for ``n_rotors`` rotors."""
+    """The full header of an aero CSV for ``n_rotors`` rotors (an integer >= 1)."""
+    # 0 or -2 gave a header without a rotor column (Python API audit, fifty-eighth session)
+    n_rotors = positive_int(n_rotors, "n_rotors", "aero_columns")
     return AERO_COLUMNS + tuple(f"rotor_speed_{i + 1}" for i in range(n_rotors))
 
 
@@ -126,6 +128,8 @@ class AeroData(ReadOnlyOnCopy):
                                  "rows with NaN first). Got non-finite entries instead.")
             a.setflags(write=False)  # a caller refilling its buffer got NaN past the check
             object.__setattr__(self, name, a)
+        # -3 passed, and was reported as dropped rows (Python API audit, fifty-eighth session)
+        object.__setattr__(self, "dropped", nonnegative_int(self.dropped, "dropped", "AeroData"))
 
     @property
     def n_rotors(self) -> int:
@@ -196,7 +200,18 @@ def aero_from_flight_log(log, *, settle_s: float | None = None,
     source : str
         For messages.
     """
+    _check_log(log, "aero_from_flight_log")
     return aero_and_status_from_flight_log(log, settle_s=settle_s, source=source)[0]
+
+
+def _check_log(log, where: str) -> None:
+    """Refuse a ``log`` that is not a FlightLog, by name (an AttributeError before; Python API
+    audit, fifty-eighth session)."""
+    from windnav.sim.log import FlightLog
+
+    if not isinstance(log, FlightLog):
+        raise ValueError(f"The 'log' parameter of {where} must be a FlightLog. Got "
+                         f"{type(log).__name__} instead.")
 
 
 def aero_and_status_from_flight_log(log, *, settle_s: float | None = None,
@@ -216,6 +231,7 @@ def aero_and_status_from_flight_log(log, *, settle_s: float | None = None,
     """
     from windnav.sim.log import FlightStatus
 
+    _check_log(log, "aero_and_status_from_flight_log")
     parts = _vehicle_parts(log, settle_s, source)
     if not parts:
         raise ValueError(f"The flight log {source!r} has no vehicle that flew with finite "
@@ -288,6 +304,11 @@ def _vehicle_parts(log, settle_s: float | None, source: str) -> list:
     return parts
 
 
+MAX_BLOCK_KEY = 2.0**52
+"""The most blocks (times segments) :func:`block_average` splits samples into: its integer
+keys stay exact in float64 and far from int64's overflow."""
+
+
 def block_average(data: AeroData, window_s: float) -> AeroData:
     """Means over consecutive blocks of ``window_s`` seconds (a time gap or a step back in
     time starts a new block).
@@ -296,7 +317,11 @@ def block_average(data: AeroData, window_s: float) -> AeroData:
     speeds and airspeed (errors in the regressors, which bias least squares toward zero) from
     biasing the coefficients; in steady hover it changes nothing else.
     """
-    w = positive_float(window_s, "window_s", "block_average")
+    where = "block_average"
+    if not isinstance(data, AeroData):  # an AttributeError before (Python API audit)
+        raise ValueError(f"The 'data' parameter of {where} must be an AeroData. Got "
+                         f"{type(data).__name__} instead.")
+    w = positive_float(window_s, "window_s", where)
     t = data.t
     if t.size == 0:
         return data
@@ -305,7 +330,14 @@ def block_average(data: AeroData, window_s: float) -> AeroData:
     new_seg = np.r_[True, (dt <= 0) | (dt > 5 * step)]
     seg = np.cumsum(new_seg) - 1
     start = t[np.flatnonzero(new_seg)][seg]
-    block = np.floor((t - start) / w + 1e-9).astype(np.int64)
+    blocks = (t - start) / w + 1e-9
+    # the block keys are int64: a window of 1e-300 s overflowed them and averaged 2 blocks
+    # where each sample was its own (Python API audit, fifty-eighth session)
+    if float(blocks.max()) * (int(seg[-1]) + 1) >= MAX_BLOCK_KEY:
+        raise ValueError(f"The 'window_s' parameter of {where} is too small for the samples' "
+                         f"{float((t - start).max()):.4g} s: it must split them into fewer than "
+                         f"{MAX_BLOCK_KEY:.2g} blocks. Got {window_s!r} instead.")
+    block = np.floor(blocks).astype(np.int64)
     key = seg * (int(block.max()) + 1) + block
     _, inverse, counts = np.unique(key, return_inverse=True, return_counts=True)
 
