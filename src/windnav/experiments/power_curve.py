@@ -40,9 +40,19 @@ def power_curve_study(vehicle: str, max_speed: float = 12.0, points: int = 21,
         (caveats, one sentence each; empty when there are none).
     """
     import windnav as wn
+    from windnav._validate import positive_int
     from windnav.sim.sweeps import simulated_power_curve
     from windnav.vehicle.power import PowerCurve, max_endurance_speed, max_range_speed
 
+    where = "power_curve_study"
+    # checked before the sweep (Python API audit, fifty-eighth session): too few points for the
+    # degree were blamed on simulated_power_curve's 'max_speed', "it leaves it at None m/s"
+    degree = positive_int(degree, "degree", where)
+    points = positive_int(points, "points", where)
+    if points <= degree:
+        raise ValueError(f"The 'points' parameter of {where} must be at least degree + 1 = "
+                         f"{degree + 1} (a degree-{degree} fit has {degree + 1} coefficients). "
+                         f"Got {points} instead.")
     params = wn.vehicle.params(vehicle)
     curve, sweep = simulated_power_curve(params, max_speed, points, degree)
     thesis = PowerCurve.crazyflie()
@@ -101,10 +111,15 @@ def endurance_check(curve, speeds, powers) -> dict:
         (bool; None when the fit has no residual), and ``note`` (a sentence saying so when
         flagged or unjudged, else None).
     """
-    from windnav.vehicle.power import max_endurance_speed
+    from windnav.vehicle.power import PowerCurve, max_endurance_speed
 
-    v = np.asarray(speeds, dtype=np.float64)
-    p = np.asarray(powers, dtype=np.float64)
+    where = "endurance_check"
+    if not isinstance(curve, PowerCurve):  # a raw AttributeError or TypeError before (Python
+        # API audit, fifty-eighth session)
+        raise ValueError(f"The 'curve' parameter of {where} must be a PowerCurve. Got "
+                         f"{type(curve).__name__} instead.")
+    v = _samples(speeds, "speeds", where)
+    p = _samples(powers, "powers", where, v.size)
     residual = p - curve(v)
     rms = float(np.sqrt(np.mean(residual ** 2)))
     worst = float(np.max(np.abs(residual)))
@@ -138,6 +153,25 @@ def endurance_check(curve, speeds, powers) -> dict:
         "endurance_within_fit_noise": flagged,
         "note": note,
     }
+
+
+def _samples(value, name: str, where: str, size: int | None = None) -> np.ndarray:
+    """A non-empty finite 1-D float64 array (of ``size`` when given), else a named
+    ValueError."""
+    try:
+        a = None if isinstance(value, (str, bytes)) else np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.ndim != 1 or not a.size or (size is not None and a.size != size):
+        what = ("a non-empty sequence of numbers" if size is None
+                else f"a sequence of {size} numbers (one per speed)")
+        got = repr(value) if a is None else f"shape {a.shape}"
+        raise ValueError(f"The {name!r} parameter of {where} must be {what}. Got {got} "
+                         "instead.")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"The {name!r} parameter of {where} must be finite (no NaN or inf). "
+                         "Got non-finite entries instead.")
+    return a
 
 
 def _max_range(curve, wind_along: float, max_speed: float) -> dict | None:
