@@ -329,17 +329,20 @@ def test_endurance_check_names_its_arguments():
 
 def test_power_study_keeps_the_altitude_rule_of_sysid_power():
     # Python API audit, fifty-eighth session: steady_level_mask now refuses altitude without
-    # min_altitude; power_study (sysid power --altitude-col alone) fits as before, and refuses
-    # min_altitude without its column (ignored before)
+    # min_altitude; power_study refuses either one without the other (each was ignored)
     from windnav.sysid.io import Table
 
     t = np.arange(600) * 0.1
     speed = np.repeat(np.linspace(0.0, 5.0, 6), 100)
     table = Table("t.csv", {"t": t, "v": speed, "p": 10.0 + speed**2 + 0.01 * np.sin(t),
                             "alt": np.full(600, 3.0)})
-    fit, _ = SY.power_study(table, "v", "p", time_col="t", altitude_col="alt", degree=2)
+    fit, _ = SY.power_study(table, "v", "p", time_col="t", altitude_col="alt",
+                            min_altitude=2.0, degree=2)
     plain, _ = SY.power_study(table, "v", "p", time_col="t", degree=2)
     np.testing.assert_array_equal(fit.fit.coef, plain.fit.coef)
     with pytest.raises(ValueError, match="'altitude_col' parameter of power_study must be given "
                                          "with min_altitude"):
         SY.power_study(table, "v", "p", time_col="t", min_altitude=2.0, degree=2)
+    with pytest.raises(ValueError, match="'min_altitude' parameter of power_study must be given "
+                                         "with altitude_col"):
+        SY.power_study(table, "v", "p", time_col="t", altitude_col="alt", degree=2)

@@ -493,7 +493,8 @@ def test_the_flight_selection_options_need_their_columns(tmp_path):
     for extra, need in ((("--altitude-col", "alt", "--min-altitude", "2"), "--time-col"),
                         (("--max-accel", "0.3"), "--time-col"),
                         (("--min-segment-s", "2"), "--time-col"),
-                        (("--time-col", "speed", "--min-altitude", "2"), "--altitude-col")):
+                        (("--time-col", "speed", "--min-altitude", "2"), "--altitude-col"),
+                        (("--time-col", "speed", "--altitude-col", "alt"), "--min-altitude")):
         with pytest.raises(ValueError, match=f"'{need}' parameter of windnav sysid power"):
             _power_doc(path, tmp_path, *extra)
     assert _power_doc(path, tmp_path)["hover_W"] == pytest.approx(60.0, abs=1e-6)

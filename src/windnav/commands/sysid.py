@@ -281,6 +281,11 @@ def _check_power_selection(args, name: str) -> None:
     if args.min_altitude is not None and args.altitude_col is None:
         raise ValueError(f"The '--altitude-col' parameter of {name} must be given with "
                          "--min-altitude. Got none instead.")
+    if args.altitude_col is not None and args.min_altitude is None:
+        # the column was read and ignored: no limit, every height fitted (API audit follow-up)
+        raise ValueError(f"The '--min-altitude' parameter of {name} must be given with "
+                         f"--altitude-col (the height the samples must be above, m). Got none "
+                         f"with --altitude-col {args.altitude_col!r} instead.")
 
 
 def _aero_mass(args, logs, name: str) -> float:

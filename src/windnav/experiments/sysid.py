@@ -529,14 +529,14 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
         t = table.column(time_col, where)
         vz = None if vertical_speed_col is None else table.column(vertical_speed_col, where)
         alt = None if altitude_col is None else table.column(altitude_col, where)
-        if min_altitude is not None and alt is None:  # ignored before (Python API audit)
-            raise ValueError(f"The 'altitude_col' parameter of {where} must be given with "
-                             f"min_altitude. Got none with min_altitude={min_altitude!r} "
-                             "instead.")
-        # the altitude limit with its column only (as before): steady_level_mask now refuses
-        # one without the other, and sysid power takes --altitude-col without --min-altitude
-        steady = steady_level_mask(t, speed, vertical_speed=vz,
-                                   altitude=None if min_altitude is None else alt,
+        for given, other, value in (("min_altitude", "altitude_col", min_altitude),
+                                    ("altitude_col", "min_altitude", altitude_col)):
+            if value is not None and (altitude_col if other == "altitude_col"
+                                      else min_altitude) is None:
+                # either one alone was ignored (Python API audit, fifty-eighth session)
+                raise ValueError(f"The '{other}' parameter of {where} must be given with "
+                                 f"{given}. Got none with {given}={value!r} instead.")
+        steady = steady_level_mask(t, speed, vertical_speed=vz, altitude=alt,
                                    max_vertical_speed=max_vertical_speed, max_accel=max_accel,
                                    min_altitude=min_altitude, min_segment_s=min_segment_s)
         keep &= steady
