@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from windnav._validate import positive_int
+from windnav._validate import nonnegative_int, positive_int
 
 __all__ = ["MAP_KINDS", "generated_maps"]
 
@@ -28,6 +28,8 @@ def generated_maps(k: int, kind: str = "training", *, seed: int = 0) -> list[tup
     import windnav.city as city_pkg
 
     k = positive_int(k, "k", "generated_maps")
+    # NumPy's "expected non-negative integer" before (Python API audit, fifty-eighth session)
+    nonnegative_int(seed, "seed", "generated_maps")
     if kind not in MAP_KINDS:
         raise ValueError(f"The 'kind' parameter of generated_maps must be one of {MAP_KINDS}. "
                          f"Got {kind!r} instead.")

@@ -20,13 +20,21 @@ workers at once than the limit holds.
 from __future__ import annotations
 
 import inspect
+import os
 import time
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from windnav._validate import finite_float, positive_float, positive_int
+from windnav._validate import (
+    finite_float,
+    nonnegative_int,
+    options_named,
+    positive_float,
+    positive_int,
+)
 
 THESIS_SPEEDS = (0.1, 2.575, 5.05, 7.525, 10.0)
 THESIS_DIRECTIONS = 8
@@ -36,10 +44,30 @@ DEFAULT_SETTINGS = {"dx": 1.0, "dt": 0.25, "spinup_steps": 100, "steps": 200, "r
 # When --dt is not given: DEFAULT_SETTINGS["dt"], shortened to keep speed*dt/dx <= AUTO_CFL for
 # the fastest inlet (the solver refuses CFL numbers above 2).
 AUTO_CFL = 1.0
+# The solver's own options a sweep's ``settings`` may also set (passed on to
+# :func:`windnav.flow.simulate_batch` as they are).
+SOLVER_OPTIONS = ("advection", "pressure", "symmetry_break", "smagorinsky", "filter_width",
+                  "viscosity")
+MAX_DIRECTIONS = 360
+"""The most directions :func:`directions_from` spaces evenly: 1 deg apart (as ``windnav
+wind-sweep --directions N``; a count of 10**9 was a raw MemoryError)."""
+
+
+def _number(value, name: str, where: str, *, allow_zero: bool = False) -> float:
+    """:func:`~windnav._validate.positive_float`, and no str either (it takes ``'4'``, which the
+    arithmetic after it did not); the caller keeps its own value, so results stay the same."""
+    if isinstance(value, (str, bytes)):
+        raise ValueError(f"The {name!r} parameter of {where} must be a number. Got {value!r} "
+                         "instead.")
+    return positive_float(value, name, where, allow_zero=allow_zero)
 
 
 def auto_dt(dx: float, max_speed: float) -> float:
     """Default time step, s: 0.25 s, or less so that ``max_speed * dt / dx <= AUTO_CFL``."""
+    # Python API audit, fifty-eighth session: a dx of 0 gave dt 0.0, a negative speed a negative
+    # dt, a NaN speed 0.25 s and a speed of 0 a ZeroDivisionError
+    _number(dx, "dx", "auto_dt")
+    _number(max_speed, "max_speed", "auto_dt")
     return min(DEFAULT_SETTINGS["dt"], AUTO_CFL * dx / max_speed)
 
 
@@ -179,6 +207,10 @@ def simulate_case(city, speed: float, direction_deg: float, settings: dict, seed
     seconds : float
         Wall-clock time of the solve, s.
     """
+    if not isinstance(settings, Mapping):  # dict()'s "dictionary update sequence" error before
+        raise ValueError("The 'settings' parameter of simulate_case must be a dict of solver "
+                         "settings (dx, dt, spinup_steps, steps, record_every). Got "
+                         f"{settings!r} instead.")
     if simulate is None:
         from windnav.flow import simulate
     kwargs = dict(settings)
@@ -190,12 +222,115 @@ def simulate_case(city, speed: float, direction_deg: float, settings: dict, seed
 
 
 def directions_from(count: int | None = None, degrees=None) -> np.ndarray:
-    """Inlet directions, deg: ``count`` evenly spaced from 0, or the ``degrees`` given."""
+    """Inlet directions, deg: ``count`` evenly spaced from 0 (at most :data:`MAX_DIRECTIONS`),
+    or the ``degrees`` given (one or more, none repeated modulo 360 deg); not both."""
     where = "directions_from"
     if degrees is not None:
-        return np.array([finite_float(d, "directions", where) for d in degrees])
-    n = positive_int(THESIS_DIRECTIONS if count is None else count, "directions", where)
+        if count is not None:  # the count was ignored
+            raise ValueError("The 'count' parameter of directions_from cannot be given with "
+                             f"'degrees': give one of them. Got count={count!r} and degrees="
+                             f"{degrees!r} instead.")
+        return _inlet_directions(degrees, "degrees", where)
+    n = positive_int(THESIS_DIRECTIONS if count is None else count, "count", where)
+    if n > MAX_DIRECTIONS:
+        raise ValueError(f"The 'count' parameter of directions_from must be at most "
+                         f"{MAX_DIRECTIONS} (directions 1 deg apart). Got {count!r} instead.")
     return 360.0 * np.arange(n) / n
+
+
+def _values(values, name: str, where: str, what: str) -> list:
+    """``values`` as a non-empty list, else a ValueError naming the argument."""
+    if isinstance(values, (str, bytes)):  # "90" was the directions 9 and 0
+        raise ValueError(f"The {name!r} parameter of {where} must be a sequence of {what}. Got "
+                         f"{values!r} instead.")
+    try:
+        items = list(values)
+    except TypeError:
+        raise ValueError(f"The {name!r} parameter of {where} must be a sequence of {what}. Got "
+                         f"{values!r} instead.") from None
+    if not items:
+        raise ValueError(f"The {name!r} parameter of {where} must hold at least one of the "
+                         f"{what}. Got {values!r} instead.")
+    return items
+
+
+def _no_repeat(values, same, name: str, where: str, what: str) -> None:
+    if len(set(same)) < len(same):  # the same inlet twice was simulated twice into the store
+        raise ValueError(f"The {name!r} parameter of {where} must not repeat a value ({what}): "
+                         f"each would be simulated again. Got "
+                         f"{' '.join(f'{v:g}' for v in values)} instead.")
+
+
+def _inlet_directions(values, name: str, where: str) -> np.ndarray:
+    """Directions, deg: finite, at least one, none repeated modulo 360 deg."""
+    degrees = np.array([finite_float(d, name, where)
+                        for d in _values(values, name, where, "directions, deg")])
+    _no_repeat(degrees, [d % 360.0 for d in degrees.tolist()], name, where,
+               "a direction modulo 360 deg")
+    return degrees
+
+
+def _inlet_speeds(values, where: str) -> list[float]:
+    """Speeds, m/s: finite, above 0, at most the solver's ``MAX_SPEED``, at least one, none
+    repeated."""
+    from windnav.flow.solver import MAX_SPEED
+
+    speeds = [_number(s, "speeds", where) for s in _values(values, "speeds", where,
+                                                             "inlet speeds, m/s")]
+    if max(speeds) > MAX_SPEED:  # every task failed in the solver before
+        raise ValueError(f"The 'speeds' parameter of {where} must be at most {MAX_SPEED:g} m/s "
+                         f"(the solver is incompressible). Got {max(speeds)!r} instead.")
+    _no_repeat(speeds, speeds, "speeds", where, "a speed")
+    return speeds
+
+
+def _checked_settings(settings, speeds: list[float], where: str) -> dict:
+    """:data:`DEFAULT_SETTINGS` updated with ``settings`` (its values as given, ``dt`` from
+    :func:`auto_dt` when missing or None), each checked; a ValueError naming the key."""
+    from windnav.flow.advection import SCHEMES
+    from windnav.flow.solver import MAX_CFL, PRESSURE_SOLVERS
+
+    if settings is not None and not isinstance(settings, Mapping):
+        raise ValueError(f"The 'settings' parameter of {where} must be a dict of solver "
+                         f"settings ({', '.join(DEFAULT_SETTINGS)}). Got {settings!r} instead.")
+    given = dict(settings or {})
+    unknown = [k for k in given if k not in DEFAULT_SETTINGS and k not in SOLVER_OPTIONS]
+    if unknown:  # passed on to the solver, whose TypeError each task reported
+        raise ValueError(f"The 'settings' parameter of {where} must only set "
+                         f"{', '.join(DEFAULT_SETTINGS)} (or the solver's "
+                         f"{', '.join(SOLVER_OPTIONS)}). Got {unknown} instead.")
+    out = {**DEFAULT_SETTINGS, **given}
+
+    def key(k: str) -> str:
+        return f"settings[{k!r}]"
+
+    dx = _number(out["dx"], key("dx"), where)
+    if given.get("dt") is None:
+        out["dt"] = auto_dt(out["dx"], max(speeds))
+    dt = _number(out["dt"], key("dt"), where)
+    if max(speeds) * dt / dx > MAX_CFL:
+        raise ValueError(f"The {key('dt')!r} parameter of {where} must keep the CFL number "
+                         f"speed*dt/dx at or below {MAX_CFL:g} at the fastest inlet "
+                         f"{max(speeds):g} m/s; use dt <= {MAX_CFL * dx / max(speeds):.4g} s "
+                         f"(or leave it out). Got {out['dt']!r} instead.")
+    nonnegative_int(out["spinup_steps"], key("spinup_steps"), where)
+    steps = positive_int(out["steps"], key("steps"), where)
+    if nonnegative_int(out["record_every"], key("record_every"), where) > steps:
+        raise ValueError(f"The {key('record_every')!r} parameter of {where} must be at most "
+                         f"steps ({steps}) to record a frame, or 0 for none. Got "
+                         f"{out['record_every']!r} instead.")
+    for k, choices in (("advection", SCHEMES), ("pressure", PRESSURE_SOLVERS)):
+        if k in given and given[k] not in choices:
+            raise ValueError(f"The {key(k)!r} parameter of {where} must be one of {choices}. "
+                             f"Got {given[k]!r} instead.")
+    if "symmetry_break" in given:
+        finite_float(given["symmetry_break"], key("symmetry_break"), where)
+    for k in ("smagorinsky", "viscosity"):
+        if k in given:
+            _number(given[k], key(k), where, allow_zero=True)
+    if given.get("filter_width") is not None:
+        _number(given["filter_width"], key("filter_width"), where)
+    return out
 
 
 def sweep(
@@ -222,13 +357,16 @@ def sweep(
     out : str or path-like
         The sweep store (created, or resumed when it holds the same sweep).
     speeds : sequence of float
-        Inlet speeds, m/s. Default: the thesis's 0.1 ... 10 m/s in 5 steps.
+        Inlet speeds, m/s, one or more, none repeated. Default: the thesis's 0.1 ... 10 m/s in
+        5 steps.
     directions_deg : sequence of float, optional
-        Inlet directions, deg. Default: 0, 45, ..., 315.
+        Inlet directions, deg, one or more, none repeated modulo 360 deg. Default: 0, 45, ...,
+        315.
     settings : dict, optional
-        Solver settings ``dx`` m, ``dt`` s, ``spinup_steps``, ``steps``, ``record_every``;
-        missing keys take :data:`windnav.commands.wind.DEFAULT_SETTINGS`, a missing ``dt``
-        :func:`windnav.commands.wind.auto_dt` of the fastest speed.
+        Solver settings ``dx`` m, ``dt`` s, ``spinup_steps``, ``steps``, ``record_every``
+        (or the solver's :data:`SOLVER_OPTIONS`), checked before anything is created;
+        missing keys take :data:`DEFAULT_SETTINGS`, a missing ``dt`` :func:`auto_dt` of the
+        fastest speed.
     backend, workers, progress
         Passed to :func:`windnav.experiments.executor.run_tasks`.
     seed : int
@@ -260,7 +398,8 @@ def sweep(
         One per task run now (finished simulations skipped), in completion order; a task
         holds the pending cases of one map and one direction, or of several whose inlets are
         the same sides (:func:`direction_batches`): ``task.case_indices``, ``task.speeds``,
-        ``task.directions_deg``.
+        ``task.directions_deg``. A task that failed holds its error (``.error``); when every
+        task run now failed, a warning says so.
 
     Raises
     ------
@@ -275,23 +414,37 @@ def sweep(
     KeyboardInterrupt
         On Ctrl-C, after the workers are stopped; finished simulations stay in the store.
     """
+    from windnav.city import City
     from windnav.experiments.executor import check_backend, run_tasks
     from windnav.experiments.results import exclusive_folder
     from windnav.flow.sweep_store import SweepMap, SweepStore, note_solver_code
 
     where = "sweep"
-    speeds = [positive_float(s, "speeds", where) for s in speeds]
-    given = dict(settings or {})
-    settings = {**DEFAULT_SETTINGS, **given}
-    if given.get("dt") is None:
-        settings["dt"] = auto_dt(settings["dx"], max(speeds))
-    directions_deg = directions_from(degrees=directions_deg) if directions_deg is not None \
-        else directions_from()
+    # Python API audit, fifty-eighth session: settings the solver refuses (steps 0, dt -1, an
+    # unknown key), a repeated or empty inlet list and a seed < 0 all passed here; the store
+    # was created and every task failed, its error kept only in results[i].error
+    speeds = _inlet_speeds(speeds, where)
+    settings = _checked_settings(settings, speeds, where)
+    directions_deg = _inlet_directions(directions_deg, "directions_deg", where) \
+        if directions_deg is not None else directions_from()
+    nonnegative_int(seed, "seed", where)
     if not maps:
         raise ValueError(f"The 'maps' parameter of {where} must name at least one map.")
     sweep_maps = []
-    for name, source, city in maps:
-        x, y = solver_grid(city, settings["dx"])
+    for k, entry in enumerate(maps):
+        try:
+            name, source, city = entry
+        except (TypeError, ValueError):  # "cannot unpack non-iterable City object" before
+            raise ValueError(f"The 'maps' parameter of {where} must be a sequence of (name, "
+                             "source, City) triples (windnav.experiments.maps.generated_maps "
+                             f"makes them). Got a {type(entry).__name__}"
+                             f"{f' of {len(entry)}' if isinstance(entry, tuple | list) else ''} "
+                             f"as map {k} instead.") from None
+        if not isinstance(city, City):
+            raise ValueError(f"The 'maps' parameter of {where} must be a sequence of (name, "
+                             "source, City) triples. Got a "
+                             f"{type(city).__name__} as the City of map {k} instead.")
+        x, y = _solver_grid(city, settings["dx"], f"\"settings['dx']\" parameter of {where}")
         sweep_maps.append(SweepMap(name=name, source=source, city=city, x=x, y=y))
     n_frames = _n_frames(settings)
     batch_of = direction_batches(directions_deg, len(speeds), group_sides) \
@@ -334,6 +487,14 @@ def sweep(
                    * len(t.case_indices))
         results = list(run_tasks(run_sweep_task, tasks, backend=backend, workers=workers,
                                  progress=progress, desc="wind-sweep"))
+    failed = [r for r in results if not r.ok]
+    if results and len(failed) == len(results):  # said only in results[i].error before
+        first = min(failed, key=lambda r: r.index)
+        warnings.warn(f"{where}: all {len(results)} task(s) run now failed; first "
+                      f"({first.task.describe()}): "
+                      f"{(first.error or 'no error').splitlines()[0]}. Each task's error is "
+                      "in its result's .error; a rerun retries the cases not done.",
+                      stacklevel=2)
     return store, results
 
 
@@ -355,7 +516,9 @@ def direction_batches(directions_deg, n_speeds: int, group_sides: bool = True) -
     batch_of: dict = {}
     open_batch: dict = {}  # sides -> (batch, directions in it)
     n = 0
-    for d in (float(d) for d in directions_deg):
+    # a NaN was named "'inflow_velocity' parameter of BoundaryConditions" (Python API audit,
+    # fifty-eighth session)
+    for d in (finite_float(d, "directions_deg", "direction_batches") for d in directions_deg):
         if d in batch_of:
             continue
         sides = BoundaryConditions.for_wind(1.0, d).sides
@@ -380,8 +543,15 @@ def averaging_summary(store) -> dict:
         ``direction_deg``, ``flow_throughs_spinup``, ``flow_throughs_average``,
         ``half_window_difference``, ``reason``).
     """
+    from windnav.flow.sweep_store import SweepStore
     from windnav.flow.validity import averaging_verdict
 
+    # a path was an AttributeError (Python API audit, fifty-eighth session)
+    if isinstance(store, (str, os.PathLike)):
+        store = SweepStore(store)
+    elif not isinstance(store, SweepStore):
+        raise ValueError("The 'store' parameter of averaging_summary must be a SweepStore or "
+                         f"the path of one. Got {type(store).__name__} instead.")
     out = {"checked": 0, "unknown": 0, "not_converged": [], "young": []}
     for k in range(store.n_maps):
         done = np.flatnonzero(store.done(k))
@@ -414,9 +584,19 @@ def averaging_summary(store) -> dict:
 def solver_grid(city, dx: float) -> tuple[np.ndarray, np.ndarray]:
     """Cell centres ``x`` (nx,), ``y`` (ny,) in m of the grid :func:`windnav.flow.simulate`
     solves ``city`` on at spacing ``dx`` (:func:`windnav.flow.grid.grid_for`)."""
+    from windnav.city import check_city
+
+    check_city(city, "solver_grid")
+    return _solver_grid(city, dx, "'dx' parameter of solver_grid")
+
+
+def _solver_grid(city, dx: float, named: str) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solver_grid`, its errors naming ``named`` (the caller's argument: they named
+    grid_shape's 'dx' before)."""
     from windnav.flow.grid import grid_for
 
-    grid = grid_for(city.bounds, dx)
+    with options_named({"'dx' parameter of grid_shape": named}):
+        grid = grid_for(city.bounds, dx)
     return grid.x, grid.y
 
 
