@@ -36,6 +36,13 @@ from importlib import resources
 
 import numpy as np
 
+from windnav._validate import (
+    finite_float,
+    nonnegative_int,
+    options_named,
+    positive_float,
+    positive_int,
+)
 from windnav.city import City
 from windnav.experiments.results import RecordLog, json_ready
 from windnav.flow import (
@@ -67,6 +74,11 @@ RESOLUTION_CASE = BluffBodyCase(upstream=5.0, downstream=10.0, spinup_time=40.0,
 # switch between two shedding states, whose mix a long record averages (thirty-fifth session)
 STUDY_CASE = BluffBodyCase(cells_per_height=STUDY_CELLS, upstream=6.0, downstream=12.0,
                            spinup_time=120.0, record_time=160.0, max_record_time=1280.0)
+MAX_TAYLOR_GREEN_N = 1024
+"""The finest Taylor-Green grid :func:`taylor_green_study` runs (n x n cells, 2 * n * periods
+steps; n = 10**6 was a 931 GiB MemoryError)."""
+REFERENCE_COLUMNS = ("study", "aspect_ratio", "angle_deg", "strouhal", "source")
+"""The columns of a reference CSV (:func:`load_references`) the comparison reads."""
 
 RECORDS = "flow_validation.partial.jsonl"
 """The record log ``windnav flow-validate`` keeps in its output folder while its studies run."""
@@ -142,6 +154,31 @@ def _run(cases, study: str, backend: str, workers: int | None, progress: bool,
     return [ran[i] if i in ran else done[key] for i, key in enumerate(keys)]
 
 
+def _study_values(values, name: str, where: str, rule: str = "finite") -> list:
+    """``values`` checked up front, before any run: one or more numbers, finite (``rule``
+    "finite") or finite and above 0 ("positive"); a ValueError naming the argument."""
+    if isinstance(values, (str, bytes)):
+        raise ValueError(f"The {name!r} parameter of {where} must be a sequence of numbers. "
+                         f"Got {values!r} instead.")
+    try:
+        items = list(values)
+    except TypeError:
+        raise ValueError(f"The {name!r} parameter of {where} must be a sequence of numbers. "
+                         f"Got {values!r} instead.") from None
+    if not items:
+        raise ValueError(f"The {name!r} parameter of {where} must hold at least one value. "
+                         f"Got {values!r} instead.")
+    for v in items:
+        if isinstance(v, (str, bytes)):
+            raise ValueError(f"The {name!r} parameter of {where} must hold numbers. Got "
+                             f"{v!r} instead.")
+        if rule == "positive":
+            positive_float(v, name, where)
+        else:
+            finite_float(v, name, where)
+    return items
+
+
 def resolution_study(resolutions=RESOLUTIONS, angles=(0.0, 90.0), backend="process",
                      workers=None, progress=True, base: BluffBodyCase = RESOLUTION_CASE,
                      records: RecordLog | None = None) -> dict:
@@ -198,6 +235,10 @@ def incidence_study(shapes=INCIDENCE_SHAPES, angles=INCIDENCE_ANGLES, backend="p
         the pairs of settled runs), ``peak_angle`` and ``peak_strouhal``
         (the largest St in 5-25 deg), ``strouhal_0``, ``checks`` (each acceptance point).
     """
+    # Python API audit, fifty-eighth session: an aspect ratio of -1 ran for seconds and
+    # reported St 0.191; shapes and angles are checked before any run
+    _study_values(shapes, "shapes", "incidence_study", "positive")
+    _study_values(angles, "angles", "incidence_study")
     cases = [replace(base, aspect_ratio=float(s), angle_deg=float(a))
              for s in shapes for a in angles]
     runs = _run(cases, "incidence", backend, workers, progress, records)
@@ -254,6 +295,9 @@ def aspect_ratio_study(ratios=ASPECT_RATIOS, backend="process", workers=None, pr
     """St against the depth ratio B/H at 0 deg. Returns ``runs``, ``ratios``, ``strouhal``,
     ``unsettled`` (the ratios whose record's halves disagree, as in :func:`incidence_study`),
     ``extended`` (as there)."""
+    # an aspect ratio of 0 ran for seconds and reported St 0.191 (Python API audit,
+    # fifty-eighth session)
+    _study_values(ratios, "ratios", "aspect_ratio_study", "positive")
     cases = [replace(base, aspect_ratio=float(b), angle_deg=0.0) for b in ratios]
     runs = _run(cases, "aspect_ratio", backend, workers, progress, records)
     return {"runs": runs, "ratios": list(ratios), "strouhal": [r["strouhal"] for r in runs],
@@ -279,7 +323,13 @@ def load_references(path=None) -> list[dict]:
     else:
         with open(path, encoding="utf-8") as f:
             text = f.read()
-    rows = list(csv.DictReader(line for line in text.splitlines() if not line.startswith("#")))
+    reader = csv.DictReader(line for line in text.splitlines() if not line.startswith("#"))
+    rows = list(reader)
+    missing = [c for c in REFERENCE_COLUMNS if c not in (reader.fieldnames or ())]
+    if missing:  # rows of NaN before (Python API audit, fifty-eighth session)
+        raise ValueError(f"The 'path' parameter of load_references must name a CSV with the "
+                         f"columns {', '.join(REFERENCE_COLUMNS)}. Got {str(path)!r} instead, "
+                         f"without {', '.join(missing)}.")
     for r in rows:
         for k in ("aspect_ratio", "angle_deg", "strouhal", "reynolds"):
             r[k] = float(r[k]) if r.get(k) not in (None, "") else float("nan")
@@ -333,7 +383,12 @@ def label_noise_study(speeds=(2.0, 5.0, 10.0), direction_deg: float = 0.0, seed:
     from windnav.city import training_map
     from windnav.flow import simulate_batch
 
-    city = training_map(rng=np.random.default_rng(seed), size=size)
+    where = "label_noise_study"
+    # a size of 0 was named "'size' parameter of training_map" and a seed < 0 NumPy's
+    # "expected non-negative integer" (Python API audit, fifty-eighth session)
+    nonnegative_int(seed, "seed", where)
+    with options_named({"'size' parameter of training_map": f"'size' parameter of {where}"}):
+        city = training_map(rng=np.random.default_rng(seed), size=size)
     t0 = time.perf_counter()
     sols = simulate_batch(city, list(speeds), direction_deg, dx, dt, spinup_steps, steps)
     seconds = time.perf_counter() - t0
@@ -394,6 +449,8 @@ def projection_study(*, rng, steps: int = 300) -> dict:
     Returns ``max_div_dx_over_U`` and ``max_fixed_face_error`` per step (both 0 for an exact
     projection), and the last ``u``, ``v``, the ``solid`` mask and the ``grid``.
     """
+    # a steps of 0 or -3 returned empty lists (Python API audit, fifty-eighth session)
+    steps = positive_int(steps, "steps", "projection_study")
     city = random_city(rng=rng)
     speed, dx, dt = 5.0, 1.0, 0.1
     grid = MACGrid((80, 140), dx)
@@ -413,6 +470,8 @@ def projection_study(*, rng, steps: int = 300) -> dict:
 def uniform_study(directions=(0.0, 30.0, 90.0, 135.0, 200.0, 290.0)) -> dict:
     """Largest deviation (m/s) of the mean wind from a 4 m/s uniform inlet without buildings,
     per direction (deg)."""
+    # no direction returned {} (Python API audit, fifty-eighth session)
+    _study_values(directions, "directions", "uniform_study")
     city = City((0.0, 60.0, 0.0, 40.0), np.zeros((0, 4)), np.zeros(0))
     out = {}
     for direction in directions:
@@ -438,8 +497,29 @@ def taylor_green_field(grid: MACGrid) -> tuple[np.ndarray, np.ndarray]:
 
 def taylor_green_study(n: int = 64, periods: float = 4.0) -> dict:
     """Numerical viscosity ``nu`` (m^2/s) of each advection scheme from the energy decay
-    ``E(t) ~ exp(-4 nu t)`` of the Taylor-Green vortex in a free-slip box [0, pi]^2."""
+    ``E(t) ~ exp(-4 nu t)`` of the Taylor-Green vortex in a free-slip box [0, pi]^2.
+
+    ``n`` (2 to :data:`MAX_TAYLOR_GREEN_N`) cells a side; ``periods`` long enough for two
+    steps at least (``periods * n >= 1``)."""
+    # Python API audit, fifty-eighth session: n = 0 was a ZeroDivisionError, n = 10**6 a
+    # 931 GiB MemoryError, periods = -1 a TypeError in numpy.polyfit (no step)
+    where = "taylor_green_study"
+    try:
+        cells = positive_int(n, "n", where)
+    except ValueError:
+        cells = 0
+    if not 2 <= cells <= MAX_TAYLOR_GREEN_N:
+        raise ValueError(f"The 'n' parameter of {where} must be an integer from 2 to "
+                         f"{MAX_TAYLOR_GREEN_N}. Got {n!r} instead.")
+    n = cells
+    if isinstance(periods, (str, bytes)):
+        raise ValueError(f"The 'periods' parameter of {where} must be a number. Got "
+                         f"{periods!r} instead.")
+    positive_float(periods, "periods", where)
     dx = np.pi / n
+    if int(periods * np.pi / (0.5 * dx)) < 2:  # the steps below
+        raise ValueError(f"The 'periods' parameter of {where} must give at least two steps "
+                         f"(periods * n >= 1). Got {periods!r} instead (n = {n}).")
     grid = MACGrid((n, n), dx)
     box = make_domain(grid, np.zeros((n, n), bool), BoundaryConditions(("wall",) * 4))
     res = {}
@@ -549,6 +629,15 @@ def run_validation(*, seed: int = 0, studies: bool = False, full: bool = False,
         studies' per-run records), and ``projection``, ``taylor_green``, ``strouhal`` (the
         raw results, for the figures of :mod:`windnav.experiments.flow_figures`).
     """
+    from windnav.experiments.executor import BACKENDS, check_backend
+
+    # a bad backend ran the checks, and was never used without studies (Python API audit,
+    # fifty-eighth session); one not installed is refused before the checks when it will run
+    if backend not in BACKENDS:
+        raise ValueError(f"The 'backend' parameter of run_validation must be one of "
+                         f"{BACKENDS}. Got {backend!r} instead.")
+    if studies or full:
+        check_backend(backend)
     open_records(records, seed=seed, studies=studies, full=full)
     proj = projection_study(rng=np.random.default_rng(seed))
     uni = uniform_study()
