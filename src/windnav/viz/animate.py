@@ -19,12 +19,14 @@ flat bands of 1 m/s (:data:`SPEED_LEVELS`), which compress far better than a smo
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 from windnav._console import closes_figures_on_error
+from windnav._validate import positive_int
 from windnav.viz.nav_compare import COLORS, OUTLINE, wind_background
 
 __all__ = ["SPEED_LEVELS", "animate_flights", "frame_times"]
@@ -36,7 +38,27 @@ PALETTE_COLORS = 96
 
 
 def frame_times(results: dict, n_frames: int) -> np.ndarray:
-    """``n_frames`` times from 0 to the end of the longest flight, evenly spaced, s."""
+    """``n_frames`` times from 0 to the end of the longest flight, evenly spaced, s.
+
+    Raises
+    ------
+    ValueError
+        ``results`` not a non-empty dict of flights, or ``n_frames`` not an integer >= 2 (0
+        and 1 gave two frames; ``{}``, "max() arg is an empty sequence"; Python API audit,
+        fifty-eighth session).
+    """
+    where = "frame_times"
+    if not isinstance(results, Mapping) or not results:
+        got = f"a {type(results).__name__}" if not isinstance(results, Mapping) else "none"
+        raise ValueError(f"The 'results' parameter of {where} must be a non-empty dict of "
+                         f"legend name to NavigationResult. Got {got} instead.")
+    try:
+        enough = positive_int(n_frames, "n_frames", where) >= 2
+    except ValueError:
+        enough = False
+    if not enough:
+        raise ValueError(f"The 'n_frames' parameter of {where} must be an integer >= 2. Got "
+                         f"{n_frames!r} instead.")
     end = max(float(r.t[-1]) for r in results.values())
     return np.linspace(0.0, end, max(2, int(n_frames)))
 

@@ -14,6 +14,7 @@ from matplotlib.patches import Rectangle
 
 from windnav._console import closes_figures_on_error, save_and_close
 from windnav.experiments.nav_suite import rule_words
+from windnav.viz import check_result, figure_path
 from windnav.viz.nav_studies import KIND_COLORS
 
 __all__ = ["plot_city"]
@@ -40,6 +41,10 @@ def plot_city(city, summary: dict, path) -> Path:
     -------
     Path
     """
+    check_result(
+        summary, ("name", "buildings", "blocks", "built_fraction"), "plot_city",
+        "windnav.commands.city.summarize_city", "summary")
+    path = figure_path(path, "plot_city")
     x0, x1, y0, y1 = city.bounds
     side = 6.0  # the plan's width, in; the colour bar and the legend around it
     fig, ax = plt.subplots(figsize=(side + 1.4, side * (y1 - y0) / (x1 - x0) + 1.5))

@@ -19,6 +19,7 @@ from matplotlib.colors import ListedColormap
 
 from windnav._console import closes_figures_on_error, save_and_close
 from windnav.predict.metrics import direction_error_cells
+from windnav.viz import check_result, figure_path
 from windnav.viz.nav_compare import colour_extend
 
 __all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
@@ -43,6 +44,10 @@ def plot_evaluation(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("pooled", "records", "decoder"), "plot_evaluation",
+        "windnav.experiments.decoder_eval.evaluate_decoder")
+    path = figure_path(path, "plot_evaluation")
     groups = [g for g in ("dense", "windinet", "file") if g in result["pooled"]]
     models = tuple(result.get("models", _MODELS))
     compared = [m for m in models if m not in _MODELS]
@@ -125,6 +130,10 @@ def plot_prediction(pred: dict, path, *, title: str = "") -> Path:
     title : str
         Prefix of the figure title (the metrics follow).
     """
+    check_result(
+        pred, ("offsets", "position", "free", "truth", "prediction", "metrics", "w_up", "w_robot"),
+        "plot_prediction", "windnav.experiments.decoder_eval.predict_at", "pred")
+    path = figure_path(path, "plot_prediction")
     o, c, free = pred["offsets"], pred["position"], pred["free"]
     truth, guess = np.asarray(pred["truth"], float), np.asarray(pred["prediction"], float)
     st, sp = np.hypot(*truth), np.hypot(*guess)
@@ -200,6 +209,10 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
     The number of modes that explain 98 % of the variance is marked on each frame's curve and
     given in the legend.
     """
+    check_result(
+        result, ("world", "canonical", "size", "spacing", "n_fields"), "plot_eigenflows",
+        "windnav.experiments.decoder_studies.eigenflow_study")
+    path = figure_path(path, "plot_eigenflows")
     world, canon = result["world"], result["canonical"]
     n_show = min(n_show, world["modes"].shape[0])
     cols = max(4, (n_show + 1) // 2 + 1)
@@ -260,6 +273,10 @@ def plot_gradients(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("decoder", "decoder_per_U"), "plot_gradients",
+        "windnav.experiments.decoder_studies.gradient_study")
+    path = figure_path(path, "plot_gradients")
     names = ("du/dx", "du/dy", "dv/dx", "dv/dy")
     res = result["decoder"]
     fig, axes = plt.subplots(1, 4, figsize=(16, 4.4))
@@ -299,6 +316,10 @@ def plot_direction(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("models", "n_samples_drawn"), "plot_direction",
+        "windnav.experiments.decoder_studies.direction_study")
+    path = figure_path(path, "plot_direction")
     models = result["models"]
     dec = models["decoder"]
     colours = {"decoder": "C0", "local": "C1", "upstream": "C2"}
@@ -343,6 +364,10 @@ def plot_basis(result: dict, path, *, n_show: int = 24) -> Path:
     n_show : int
         Eigenflows shown, largest first.
     """
+    check_result(
+        result, ("errors", "modes", "n_modes", "n_samples", "r2_total"), "plot_basis",
+        "windnav.experiments.decoder_studies.basis_study")
+    path = figure_path(path, "plot_basis")
     from windnav.experiments.decoder_eval import ACCEPTANCE
 
     errors, modes = result["errors"], result["modes"]
@@ -442,6 +467,11 @@ def plot_mosaic(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("x", "y", "truth", "prediction", "free", "covered", "n_robots", "size", "robots",
+        "metrics", "w_up", "name", "coverage"), "plot_mosaic",
+        "windnav.experiments.decoder_studies.mosaic")
+    path = figure_path(path, "plot_mosaic")
     x, y = result["x"], result["y"]
     truth = np.asarray(result["truth"], float)
     pred = np.asarray(result["prediction"], float)
@@ -508,6 +538,10 @@ def plot_winds_ablation(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("variants", "schedule"), "plot_winds_ablation",
+        "windnav.experiments.decoder_studies.winds_ablation")
+    path = figure_path(path, "plot_winds_ablation")
     names = list(result["variants"])
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
     for ax, (metric, label) in zip(axes, (_METRICS[0], _METRICS[1], _METRICS[3]), strict=True):
@@ -541,6 +575,10 @@ def plot_size_study(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("variants", "schedule"), "plot_size_study",
+        "windnav.experiments.decoder_studies.size_study")
+    path = figure_path(path, "plot_size_study")
     names = list(result["variants"])
     frac = [100 * result["variants"][n]["area_fraction"] for n in names]
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2))
@@ -579,6 +617,10 @@ def plot_noise(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("levels", "errors", "n_samples"), "plot_noise",
+        "windnav.experiments.decoder_studies.noise_study")
+    path = figure_path(path, "plot_noise")
     levels = result["levels"]
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.6), sharex=True)
     others = [m for m in result["errors"] if m not in ("local", "upstream")]
@@ -628,6 +670,10 @@ def plot_scaling(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("variants", "schedule"), "plot_scaling",
+        "windnav.experiments.decoder_studies.scaling_study")
+    path = figure_path(path, "plot_scaling")
     v = result["variants"]
     arms = [n for n in v if n != "wide"]
     maps = [v[n]["n_train_maps"] for n in arms]
@@ -696,6 +742,10 @@ def plot_averaging(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("protocols", "label_noise", "difference", "map", "speed", "direction_deg",
+        "samples"), "plot_averaging", "windnav.experiments.decoder_studies.averaging_study")
+    path = figure_path(path, "plot_averaging")
     groups = [(f"{label}: {p['spinup_steps']} + {p['steps']} steps "
                f"({p['diagnostics']['flow_throughs_average']:.2f} flow-throughs, "
                f"halves differ {p['diagnostics']['half_window_difference']:.2f} U)", p["errors"])
@@ -725,6 +775,11 @@ def plot_start(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("kicks", "spread", "spread_rms_mps", "floor", "map", "speed", "direction_deg",
+        "spinup_steps", "steps", "samples"), "plot_start",
+        "windnav.experiments.decoder_studies.start_study")
+    path = figure_path(path, "plot_start")
     groups = [(f"labels started with kick {r['kick']:+g} U", r["errors"])
               for r in result["kicks"]]
     spread = result["spread"]

@@ -9,11 +9,16 @@ import numpy as np
 from matplotlib.patches import Rectangle
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.viz import check_result, figure_path
 
 
 @closes_figures_on_error
 def plot_map(result: dict, path) -> Path:
     """Mean wind speed with streamlines, buildings, planned route and flown path."""
+    check_result(
+        result, ("solution", "city", "log", "route", "metrics"), "plot_map",
+        "windnav.experiments.demo.run_demo")
+    path = figure_path(path, "plot_map")
     sol, city, log, route = result["solution"], result["city"], result["log"], result["route"]
     speed = np.hypot(sol.mean_u, sol.mean_v)
     speed = np.where(sol.solid, np.nan, speed)
@@ -47,6 +52,10 @@ def plot_map(result: dict, path) -> Path:
 @closes_figures_on_error
 def plot_wind_estimate(result: dict, path) -> Path:
     """Estimated (with 2-sigma band) and true wind per world axis over time."""
+    check_result(
+        result, ("track", "metrics", "config"), "plot_wind_estimate",
+        "windnav.experiments.demo.run_demo")
+    path = figure_path(path, "plot_wind_estimate")
     track = result["track"]
     t = track.t - track.t[0]
     fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)

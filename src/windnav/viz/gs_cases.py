@@ -16,6 +16,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.viz import check_result, figure_path
 from windnav.viz.nav_compare import COLORS_ON_WHITE, draw_paths, plot_energy
 
 __all__ = ["plot_gs_case", "plot_gs_case_energy"]
@@ -51,6 +52,10 @@ def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
     -------
     Path
     """
+    check_result(
+        case, ("city", "flow", "results"), "plot_gs_case", "windnav.experiments.gs_cases.run_case",
+        "case")
+    path = figure_path(path, "plot_gs_case")
     results = case["results"]
     labels = list(results)
     fig = plt.figure(figsize=(12.5, 6.2))
@@ -93,4 +98,7 @@ def plot_gs_case(case: Mapping, path, *, title: str | None = None) -> Path:
 def plot_gs_case_energy(case: Mapping, path, *, title: str | None = None) -> Path:
     """Airspeed, power and cumulative energy against time of every flight of ``case``
     (:func:`~windnav.viz.nav_compare.plot_energy`); returns the PNG's path."""
+    check_result(
+        case, ("results",), "plot_gs_case_energy", "windnav.experiments.gs_cases.run_case", "case")
+    path = figure_path(path, "plot_gs_case_energy")
     return plot_energy(dict(case["results"]), path, title=title or _title(case))

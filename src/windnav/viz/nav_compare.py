@@ -7,6 +7,7 @@ per flight. The animated version of the first is :func:`windnav.viz.animate.anim
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib.patheffects as pe
@@ -16,6 +17,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Rectangle
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav._validate import nonnegative_int, positive_float
+from windnav.viz import figure_path
 
 __all__ = ["COLORS", "COLORS_ON_WHITE", "colour_extend", "draw_paths", "path_widths",
            "plot_energy", "plot_paths", "wind_background", "wind_colorbar"]
@@ -114,8 +117,26 @@ def colour_extend(im) -> str:
 
 def path_widths(n: int, *, thinnest: float = 2.0, step: float = 1.2) -> list[float]:
     """Line widths (points) of ``n`` paths drawn in order, each one ``step`` thinner than the
-    one before: a later path over an earlier one leaves the earlier's colour on both sides."""
+    one before: a later path over an earlier one leaves the earlier's colour on both sides.
+
+    ``n``: an integer >= 0; ``thinnest`` (points) finite and > 0; ``step`` (points) finite and
+    >= 0 (a negative step drew the first paths with negative widths; Python API audit,
+    fifty-eighth session)."""
+    where = "path_widths"
+    n = nonnegative_int(n, "n", where)
+    positive_float(thinnest, "thinnest", where)
+    positive_float(step, "step", where, allow_zero=True)
     return [thinnest + step * (n - 1 - i) for i in range(n)]
+
+
+def _check_results(results, where: str) -> None:
+    """A ValueError naming ``results`` of ``where`` unless it is a non-empty mapping (of legend
+    name to flight). (``{}`` wrote a blank figure, or failed after opening one; Python API
+    audit, fifty-eighth session.)"""
+    if not isinstance(results, Mapping) or not results:
+        got = f"a {type(results).__name__}" if not isinstance(results, Mapping) else "none"
+        raise ValueError(f"The 'results' parameter of {where} must be a non-empty dict of "
+                         f"legend name to NavigationResult. Got {got} instead.")
 
 
 def _endpoints(ax, result) -> None:
@@ -142,6 +163,8 @@ def plot_paths(results: dict, city, flow, path, *, title: str | None = None) -> 
     -------
     Path
     """
+    _check_results(results, "plot_paths")
+    path = figure_path(path, "plot_paths")
     fig, ax = plt.subplots(figsize=(7.2, 6.2))
     draw_paths(fig, ax, results, city, flow)
     ax.set_title(title or "Flown paths over the mean wind")
@@ -200,6 +223,8 @@ def plot_energy(results: dict, path, *, title: str | None = None) -> Path:
     -------
     Path
     """
+    _check_results(results, "plot_energy")
+    path = figure_path(path, "plot_energy")
     fig, axes = plt.subplots(3, 1, figsize=(8, 7.5), sharex=True)
     for i, (name, r) in enumerate(results.items()):
         c = COLORS_ON_WHITE[i % len(COLORS_ON_WHITE)]

@@ -29,6 +29,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.viz import check_result, figure_path
 from windnav.viz.nav_compare import plot_energy, plot_paths, wind_background, wind_colorbar
 
 __all__ = ["KIND_COLORS", "OUTCOME_COLORS", "plot_cases", "plot_gust_routes", "plot_inflight",
@@ -142,6 +143,10 @@ def plot_wind_scenarios(result: Mapping, path, *, title: str | None = None) -> P
     -------
     Path
     """
+    check_result(
+        result, ("winds", "city"), "plot_wind_scenarios",
+        "windnav.experiments.nav_cases.wind_scenarios")
+    path = figure_path(path, "plot_wind_scenarios")
     winds = result["winds"]
     city = result["city"]
     n = len(winds)
@@ -209,6 +214,7 @@ def plot_outcome_map(city, records, variants, path, *, title: str | None = None)
     if not by_variant:
         raise ValueError("The 'records' parameter of plot_outcome_map must hold flights of "
                          f"the variants {list(variants)}. Got none of them instead.")
+    path = figure_path(path, "plot_outcome_map")
     n = len(by_variant)
     ncols = min(n, 3)
     nrows = math.ceil(n / ncols)
@@ -300,6 +306,10 @@ def plot_reach(reach, table: Mapping, path, *, title: str | None = None) -> Path
     -------
     Path
     """
+    check_result(
+        table, ("airspeed", "groups", "variants"), "plot_reach",
+        "windnav.experiments.nav_feasibility.reach_table", "table")
+    path = figure_path(path, "plot_reach")
     import numpy as np
 
     key = f"{table['airspeed']:g}"
@@ -431,6 +441,10 @@ def plot_gust_routes(result: Mapping, path, *, title: str | None = None) -> Path
     -------
     Path
     """
+    check_result(
+        result, ("scenario", "city", "flow", "sigma_along", "flights", "routes"),
+        "plot_gust_routes", "windnav.experiments.nav_gusts.gust_routes")
+    path = figure_path(path, "plot_gust_routes")
     sc, city, flow = result["scenario"], result["city"], result["flow"]
     colors = ("#34c759", "#5ac8fa")
     fig, axes = plt.subplots(1, 2, figsize=(12.4, 5.6))
@@ -490,11 +504,14 @@ def plot_inflight(result: Mapping, path, *, title: str | None = None,
     name and, where ``result["models"]`` records it, the file it was loaded from without the
     ``decoder_`` prefix (``"flight (2026-11-29-flight)"``): which model a name such as
     ``shipped`` meant changes when another is shipped."""
+    check_result(
+        result, ("by_speed",), "plot_inflight", "windnav.experiments.nav_inflight.inflight_study")
     unknown = sorted(set(labels or {}) - set(result.get("compare") or []))
     if unknown:
         raise ValueError(f"The 'labels' parameter of plot_inflight must name decoders of the "
                          f"result's 'compare' ({result.get('compare') or []}). Got {unknown} "
                          "instead.")
+    path = figure_path(path, "plot_inflight")
     rows = result["by_speed"]
     speeds = [float(s) for s in rows]
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6 + 0.5 * bool(result.get("compare"))))
@@ -565,12 +582,16 @@ def plot_inflight_tau(result: Mapping, path, *, title: str | None = None) -> Pat
     averaged estimate to the mean wind at the vehicle (left) and the decoder's speed and
     direction errors given it (middle, right); dotted, the decoder given the mean wind itself.
     Written to ``path`` (PNG)."""
+    check_result(
+        result, ("taus", "by_speed"), "plot_inflight_tau",
+        "windnav.experiments.nav_inflight.inflight_study")
     from windnav.experiments.nav_inflight import smoothed_key
 
     taus = [float(t) for t in result["taus"]]
     if not taus:
         raise ValueError("The 'result' parameter of plot_inflight_tau must hold an in-flight "
                          "study run with taus. Got one without.")
+    path = figure_path(path, "plot_inflight_tau")
     x = [0.0, *taus]
     keys = [smoothed_key(t) for t in taus]
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))

@@ -16,6 +16,7 @@ from matplotlib.collections import PathCollection
 
 from windnav._console import closes_figures_on_error
 from windnav.experiments.thesis_nav import PAIRED_SAVING
+from windnav.viz import check_result, figure_path
 from windnav.viz.navigate import _save
 
 __all__ = ["plot_bound", "plot_pace", "plot_sweep", "plot_tilt"]
@@ -42,6 +43,10 @@ def plot_sweep(result: dict, path, *, name: str = "Q_E", unit: str = "") -> Path
     name, unit : str
         The swept parameter's name and unit, for the axis.
     """
+    check_result(
+        result, ("values", "rows", "speeds", "reference", "reference_flights"), "plot_sweep",
+        "windnav.experiments.nav_sweeps.sweep_table")
+    path = figure_path(path, "plot_sweep")
     values = result["values"]
     x = _positions(values)
     rows = [result["rows"][v] for v in values]
@@ -95,6 +100,9 @@ def plot_pace(result: dict, path) -> Path:
     (:func:`windnav.experiments.nav_pace.pace_study`), each curve's means and power floor, the
     thesis's means, and the lines of equal energy and of the thesis's 14.1 % paired saving
     (``power ratio = energy ratio / time ratio``)."""
+    check_result(
+        result, ("thesis", "curves"), "plot_pace", "windnav.experiments.nav_pace.pace_study")
+    path = figure_path(path, "plot_pace")
     fig, ax = plt.subplots(figsize=(7.5, 5.6))
     t_all = [result["thesis"]["time_ratio"]]
     p_all = [result["thesis"]["power_ratio"], 1.3]
@@ -148,6 +156,10 @@ def plot_bound(result: dict, path) -> Path:
     """The largest table ratio any planner could reach at each failure rate, from the GS+W
     bound (:func:`windnav.experiments.nav_bound.bound_study`), with the issue's targets and
     each variant's measured failure rate and table ratio."""
+    check_result(
+        result, ("curve", "n", "targets", "variants", "reference"), "plot_bound",
+        "windnav.experiments.nav_bound.bound_study")
+    path = figure_path(path, "plot_bound")
     fig, ax = plt.subplots(figsize=(7.5, 5.4))
     c = result["curve"]
     f, r = np.asarray(c["failure_pct"]), 100.0 * np.asarray(c["table_ratio"])
@@ -208,6 +220,10 @@ def plot_tilt(result: dict, path) -> Path:
     against MPPI at the same cap (95 % interval) and mean commanded acceleration, each with the
     thesis's value beside it, and the share of flights that went above the vehicle's trusted
     airspeed (where the drag and power models extrapolate)."""
+    check_result(
+        result, ("tilts", "thesis", "variants", "rows", "a_max", "scenarios"), "plot_tilt",
+        "windnav.experiments.nav_tilt.tilt_study")
+    path = figure_path(path, "plot_tilt")
     tilts = result["tilts"]
     fig, axes = plt.subplots(1, 4, figsize=(17.5, 4.4))
     x = np.asarray(tilts)

@@ -9,6 +9,7 @@ import numpy as np
 from matplotlib.patches import Rectangle
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.viz import figure_path
 
 __all__ = ["plot_navigation", "plot_path", "plot_time_series"]
 
@@ -16,6 +17,7 @@ __all__ = ["plot_navigation", "plot_path", "plot_time_series"]
 @closes_figures_on_error
 def plot_path(result, city, flow, path) -> Path:
     """The flown path (and the GS route) over the mean wind speed and its streamlines."""
+    path = figure_path(path, "plot_path")
     fig, ax = plt.subplots(figsize=(7, 6))
     speed = np.hypot(flow.mean_u, flow.mean_v)
     speed = np.where(flow.solid, np.nan, speed)
@@ -47,6 +49,7 @@ def plot_path(result, city, flow, path) -> Path:
 @closes_figures_on_error
 def plot_time_series(result, path) -> Path:
     """Airspeed (and ground speed, wind speed), power and energy against time."""
+    path = figure_path(path, "plot_time_series")
     t = result.t
     fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
     axes[0].plot(t, result.airspeed, label="airspeed")

@@ -10,6 +10,7 @@ import numpy as np
 from matplotlib.ticker import MaxNLocator
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.viz import check_result, figure_path
 
 __all__ = ["plot_tuning"]
 
@@ -27,6 +28,10 @@ def plot_tuning(result: dict, path) -> Path:
     path : str or path-like
         The PNG to write.
     """
+    check_result(
+        result, ("trials", "best_cost", "best_trial", "defaults_cost", "seed", "seeds"),
+        "plot_tuning", "windnav.experiments.tune_mppi.tune")
+    path = figure_path(path, "plot_tuning")
     trials = result["trials"]
     number = np.array([t["number"] for t in trials])
     cost = np.array([t["cost"] for t in trials])

@@ -9,6 +9,7 @@ import matplotlib.ticker as mticker
 import numpy as np
 
 from windnav._console import closes_figures_on_error, save_and_close
+from windnav.viz import check_result, figure_path
 
 __all__ = ["plot_montecarlo", "plot_wind_track"]
 
@@ -33,6 +34,7 @@ def plot_wind_track(track, path, *, settle_s: float = 2.0) -> Path:
     settle_s : float
         Settling time excluded from the RMSE in the title, s.
     """
+    path = figure_path(path, "plot_wind_track")
     fig, axes = plt.subplots(3, 1, figsize=(8, 7), sharex=True)
     t = track.t
     for j, (ax, lab) in enumerate(zip(axes, "xyz", strict=True)):
@@ -73,6 +75,10 @@ def plot_montecarlo(result: dict, path) -> Path:
     path : str or Path
         PNG file to write.
     """
+    check_result(
+        result, ("trials", "summary"), "plot_montecarlo",
+        "windnav.experiments.ukf_montecarlo.run_montecarlo")
+    path = figure_path(path, "plot_montecarlo")
     ok = [t for t in result["trials"] if "error" not in t and np.isfinite(t["rmse"])]
     tau = np.array([t["tau_drag"] for t in ok])
     rmse = np.array([t["rmse"] for t in ok])
