@@ -44,9 +44,30 @@ from windnav.experiments.thesis_nav import TARGETS
 __all__ = ["TARGETS", "bound_study", "ideal_energy", "ideal_table_ratio"]
 
 
+def _check_confidence(confidence, where: str) -> None:
+    """A ValueError naming ``confidence`` of ``where`` unless it is a number in (0, 1) (2, 0
+    and NaN gave intervals of no level; Python API audit, fifty-eighth session)."""
+    try:
+        ok = not isinstance(confidence, (bool, str)) and 0.0 < float(confidence) < 1.0
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"The 'confidence' parameter of {where} must be in (0, 1). Got "
+                         f"{confidence!r} instead.")
+
+
 def ideal_energy(route_records: Mapping[str, Mapping]) -> dict[str, float]:
     """``E*`` per scenario id (J) from GS+W records (scenario id -> record): the planned route's
     energy plus its goal hold; NaN where the record has no route (a harness error)."""
+    # (a list of records raised an AttributeError; Python API audit, fifty-eighth session)
+    if not isinstance(route_records, Mapping):
+        raise ValueError("The 'route_records' parameter of ideal_energy must be a dict of "
+                         f"scenario id to record. Got a {type(route_records).__name__} instead.")
+    bad = [sid for sid, r in route_records.items() if not isinstance(r, Mapping)]
+    if bad:
+        raise ValueError("The 'route_records' parameter of ideal_energy must be a dict of "
+                         f"scenario id to record (a dict). Got other values for {bad[:3]} "
+                         "instead.")
     out = {}
     for sid, r in route_records.items():
         e, hold = r.get("route_energy_J"), r.get("route_hold_energy_J")
@@ -58,14 +79,32 @@ def ideal_table_ratio(ideal: Sequence[float], reference_mean_J: float,
                       failure_pct) -> np.ndarray:
     """The largest table ratio a variant failing at most ``failure_pct`` (%, scalar or array) of
     the scenarios could reach: ``1 - mean(cheapest N - floor(f N) of ideal) / reference_mean_J``.
-    ``ideal``: ``E*`` of every scenario (J; NaN, no route, counts as 0)."""
-    e = np.sort(np.nan_to_num(np.asarray(ideal, dtype=np.float64), nan=0.0))
+    ``ideal``: ``E*`` of every scenario (J, finite and >= 0; NaN, no route, counts as 0);
+    ``reference_mean_J`` finite and > 0; ``failure_pct`` in [0, 100]. (An infinite energy or
+    reference, a NaN rate or one beyond 0-100 gave numbers, or an IndexError; Python API audit,
+    fifty-eighth session.)"""
+    where = "ideal_table_ratio"
+    raw = np.asarray(ideal, dtype=np.float64)
+    e = np.sort(np.nan_to_num(raw, nan=0.0))
     n = e.size
     if n == 0 or not reference_mean_J > 0:
         raise ValueError("The 'ideal' parameter of ideal_table_ratio must hold at least one "
                          "energy, and 'reference_mean_J' must be > 0. Got "
                          f"{n} energies and {reference_mean_J!r} instead.")
+    if not math.isfinite(reference_mean_J):
+        raise ValueError(f"The 'reference_mean_J' parameter of {where} must be a finite number "
+                         f"> 0, J. Got {reference_mean_J!r} instead.")
+    if np.isinf(raw).any() or (raw < 0).any():
+        raise ValueError(f"The 'ideal' parameter of {where} must hold finite energies >= 0, J "
+                         f"(NaN: no route). Got {raw.tolist()!r} instead."
+                         if n <= 8 else
+                         f"The 'ideal' parameter of {where} must hold finite energies >= 0, J "
+                         f"(NaN: no route). Got {int(np.isinf(raw).sum())} infinite and "
+                         f"{int((raw < 0).sum())} negative of {n} instead.")
     f = np.asarray(failure_pct, dtype=np.float64)
+    if not np.all((f >= 0.0) & (f <= 100.0)):
+        raise ValueError(f"The 'failure_pct' parameter of {where} must be in [0, 100], %. Got "
+                         f"{failure_pct!r} instead.")
     keep = np.maximum(n - np.floor(f / 100.0 * n + 1e-9).astype(np.int64), 1)
     prefix = np.concatenate([[0.0], np.cumsum(e)])
     return 1.0 - prefix[keep] / keep / reference_mean_J
@@ -111,16 +150,29 @@ def bound_study(records: Iterable[Mapping], *, route_variant: str = "gs-w",
     Raises
     ------
     ValueError
-        When the records lack the route variant's planned routes or the reference's flights.
+        When the records lack the route variant's planned routes or the reference's flights,
+        ``variants`` names a variant they lack, or ``confidence`` is not in (0, 1).
     """
+    where = "bound_study"
+    _check_confidence(confidence, where)
     by_variant = records_by_variant(records)
+    if variants is not None:
+        # (a variant not in the records was left out of the result silently; Python API audit,
+        # fifty-eighth session)
+        if isinstance(variants, str):
+            raise ValueError(f"The 'variants' parameter of {where} must be a sequence of "
+                             f"variant labels. Got the string {variants!r} instead.")
+        absent = [v for v in variants if v not in by_variant]
+        if absent:
+            raise ValueError(f"The 'variants' parameter of {where} must name variants of the "
+                             f"records, among {sorted(by_variant)}. Got {absent} instead.")
     routes = by_variant.get(route_variant, {})
     if not any(r.get("route_energy_J") is not None for r in routes.values()):
-        raise ValueError(f"The 'records' parameter of bound_study must hold {route_variant!r} "
+        raise ValueError(f"The 'records' parameter of {where} must hold {route_variant!r} "
                          f"flights with planned routes (route_energy_J). Got variants "
                          f"{sorted(by_variant)} instead.")
     if reference not in by_variant:
-        raise ValueError(f"The 'records' parameter of bound_study must hold {reference!r} "
+        raise ValueError(f"The 'records' parameter of {where} must hold {reference!r} "
                          f"flights. Got variants {sorted(by_variant)} instead.")
     ideal = ideal_energy(routes)
     ref = {sid: r for sid, r in by_variant[reference].items() if sid in ideal}

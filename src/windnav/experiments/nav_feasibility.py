@@ -360,9 +360,27 @@ def reach_table(reach: Iterable[Mapping], records: Iterable[Mapping] = (), *,
         ``by_mean_time``: per bin of the least time in the *mean* wind
         (:data:`MEAN_TIME_BINS`, s; the wind the ``+W`` planners know), ``[flights,
         failures]``.
+
+    Raises
+    ------
+    ValueError
+        ``airspeed`` not a limit every reach record was searched at.
     """
-    key = f"{airspeed:g}"
+    from windnav._validate import positive_float
+
+    where = "reach_table"
+    key = f"{positive_float(airspeed, 'airspeed', where):g}"
     reach = {r["scenario_id"]: r for r in reach}
+    # (a limit the records were not searched at raised a bare KeyError; Python API audit,
+    # fifty-eighth session)
+    missing = [sid for sid, r in reach.items() if key not in r["limits"]]
+    if missing:
+        limits = sorted(set.intersection(*(set(r["limits"]) for r in reach.values())),
+                        key=float)
+        raise ValueError(f"The 'airspeed' parameter of {where} must be an airspeed limit the "
+                         f"reach records were searched at, m/s ({limits} in all of them; "
+                         f"{len(missing)} of {len(reach)} lack {key}). Got {airspeed!r} "
+                         "instead.")
     rows = {sid: r["limits"][key] for sid, r in reach.items()}
     groups = {}
     for sid, r in reach.items():

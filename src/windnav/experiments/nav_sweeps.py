@@ -104,14 +104,30 @@ def sweep_table(records: Iterable[Mapping], labels: Mapping[float, str], *,
         ``rows``: per value its ``label``, ``flights``, ``failure_pct``, ``paired_reduction``
         (``mean``, ``ci95``, ``n``, fractions), ``by_speed`` {speed: ``mean``, ``std``, ``n``}
         and ``table_ratio`` (``value``, ``ci95``), airspeed-model energy.
+
+    Raises
+    ------
+    ValueError
+        Records without the reference's flights, or ``labels`` empty or naming no variant
+        the records hold (a value whose label is not flown is left out of the rows).
     """
     from windnav.experiments.nav_records import benchmark_table
 
+    where = "sweep_table"
     records = list(records)
     present = {r["variant"] for r in records}
     if reference not in present:
-        raise ValueError(f"The 'records' parameter of sweep_table must hold flights of the "
+        raise ValueError(f"The 'records' parameter of {where} must hold flights of the "
                          f"reference {reference!r}. Got variants {sorted(present)} instead.")
+    # (an empty sweep, or one the records hold none of, gave a table without rows; Python API
+    # audit, fifty-eighth session)
+    if not isinstance(labels, Mapping) or not labels:
+        raise ValueError(f"The 'labels' parameter of {where} must be a non-empty dict of value "
+                         f"to variant label (sweep_labels). Got {labels!r} instead.")
+    if not any(lb in present and lb != reference for lb in labels.values()):
+        raise ValueError(f"The 'labels' parameter of {where} must name at least one variant "
+                         f"of the records other than the reference, among {sorted(present)}. "
+                         f"Got {sorted(map(str, set(labels.values())))} instead.")
     flown = [lb for lb in dict.fromkeys(labels.values()) if lb in present and lb != reference]
     table = benchmark_table(records, variants=[reference, *flown], reference=reference,
                             n_boot=500)

@@ -44,9 +44,17 @@ thesis_nav.ABLATION`; its vehicle: energies in kJ, not comparable with ours)."""
 def tilt_label(variant: str, tilt: float) -> str:
     """The benchmark label of ``variant`` flown with the tilt cap ``tilt`` (degrees): the variant
     itself at ``navigate``'s default cap (the ablation table's, 55 deg), else
-    ``"variant@tilt=70"``."""
+    ``"variant@tilt=70"``. ``tilt`` must be in (0, ``TILT_LIMIT_DEG``) (NaN gave
+    ``"variant@tilt=nan"``; Python API audit, fifty-eighth session)."""
     from windnav.experiments.nav_benchmark import number_label
 
+    try:
+        ok = not isinstance(tilt, (bool, str)) and 0.0 < float(tilt) < TILT_LIMIT_DEG
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"The 'tilt' parameter of tilt_label must be a tilt cap in "
+                         f"(0, {TILT_LIMIT_DEG:g}) degrees. Got {tilt!r} instead.")
     return variant if float(tilt) == TILT_MAX_DEG else f"{variant}@tilt={number_label(tilt)}"
 
 
@@ -91,9 +99,16 @@ def tilt_study(records: Iterable[Mapping], tilts: Sequence[float] | None = None,
     Raises
     ------
     ValueError
-        No scenario flown by every label, or a cap outside (0, 80).
+        No scenario flown by every label, a cap outside (0, 80), or no ``variants``.
     """
     tilts = check_tilts(TILTS if tilts is None else tilts, "tilts", "tilt_study")
+    # ([] raised "set.intersection() needs an argument"; Python API audit, fifty-eighth session)
+    if (isinstance(variants, str) or not variants
+            or not all(isinstance(v, str) and v for v in variants)
+            or len(set(variants)) != len(variants)):
+        raise ValueError(f"The 'variants' parameter of tilt_study must be distinct variant "
+                         f"labels, at least one (the first the reference). Got {variants!r} "
+                         "instead.")
     labels = {t: {v: tilt_label(v, t) for v in variants} for t in tilts}
     wanted = {lb for row in labels.values() for lb in row.values()}
     records = [r for r in records if r["variant"] in wanted]

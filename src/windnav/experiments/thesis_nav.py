@@ -27,7 +27,13 @@ PAIRED_SAVING = 0.141
 
 
 def table_ratio(variant: str = "ea-mppi-w", reference: str = "mppi") -> float:
-    """``1 - mean(E) / mean(E_reference)`` of the thesis's table (EA-MPPI+W: 0.206)."""
+    """``1 - mean(E) / mean(E_reference)`` of the thesis's table (EA-MPPI+W: 0.206); both
+    variants rows of :data:`ABLATION` (another raised a bare KeyError; Python API audit,
+    fifty-eighth session)."""
+    for name, value in (("variant", variant), ("reference", reference)):
+        if not isinstance(value, str) or value not in ABLATION:
+            raise ValueError(f"The {name!r} parameter of table_ratio must be one of "
+                             f"{list(ABLATION)}. Got {value!r} instead.")
     return 1.0 - ABLATION[variant]["energy_kJ"] / ABLATION[reference]["energy_kJ"]
 
 
