@@ -17,9 +17,10 @@ import math
 
 import numpy as np
 
-from windnav.experiments.nav_benchmark import number_label, parse_variant
+from windnav._validate import options_named
+from windnav.experiments.nav_benchmark import check_scenario_ids, number_label, parse_variant
 from windnav.experiments.nav_cases import fly_cases, mean_flow
-from windnav.experiments.nav_suite import get_suite
+from windnav.experiments.nav_suite import check_suite_spec
 
 __all__ = ["DEFAULT_BASE", "DEFAULT_SCENARIO", "gust_routes"]
 
@@ -62,13 +63,25 @@ def gust_routes(spec="thesis", scenario_id: str = DEFAULT_SCENARIO, *,
     Raises
     ------
     ValueError
-        A ``base`` without least-time escapes or with a gust margin, or ``gust_k <= 0``.
+        A ``base`` without least-time escapes or with a gust margin, ``gust_k <= 0``, or a
+        ``scenario_id`` not of the suite (each checked before any flight).
     """
     from windnav.plan.reach import wind_covariance
 
     where = "gust_routes"
-    spec = get_suite(spec) if isinstance(spec, str) else spec
-    _, options = parse_variant(base, where)
+    # the names the caller gave (parse_variant's and fly_cases' named 'variants' and
+    # 'scenario_ids', the latter after the wind had been simulated; Python API audit,
+    # fifty-eighth session)
+    with options_named({"'suite' parameter of get_suite": f"'spec' parameter of {where}"}):
+        spec = check_suite_spec(spec, where)
+    if not isinstance(scenario_id, str):
+        raise ValueError(f"The 'scenario_id' parameter of {where} must be a scenario id of the "
+                         f"suite {spec.name!r}. Got {scenario_id!r} instead.")
+    with options_named({f"'scenario_ids' parameter of {where}":
+                        f"'scenario_id' parameter of {where}"}):
+        check_scenario_ids(spec, [scenario_id], where)
+    with options_named({f"'variants' parameter of {where}": f"'base' parameter of {where}"}):
+        _, options = parse_variant(base, where)
     escape = options.get("escape")
     if escape is None or escape.airspeed_mps is None or escape.gust_k > 0:
         raise ValueError(f"The 'base' parameter of {where} must be a label of the sixth variant "

@@ -36,7 +36,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from windnav._validate import generator, positive_float
+from windnav._validate import generator, options_named, positive_float
 
 __all__ = ["INFLIGHT_VARIANT", "MODELS", "RECORDS", "inflight_errors", "inflight_samples",
            "inflight_study", "records_header", "smoothed_key", "summarize_inflight"]
@@ -62,8 +62,10 @@ RECORDS = "nav_inflight.partial.jsonl"
 
 
 def smoothed_key(tau_s: float) -> str:
-    """The samples' key of the UKF's estimate averaged with time constant ``tau_s`` (s)."""
-    return f"{_SMOOTHED}{float(tau_s):g}"
+    """The samples' key of the UKF's estimate averaged with time constant ``tau_s`` (s, finite,
+    > 0, as :func:`inflight_samples` takes its ``taus``; -1 gave ``"ukf_tau-1"``: Python API
+    audit, fifty-eighth session)."""
+    return f"{_SMOOTHED}{positive_float(tau_s, 'tau_s', 'smoothed_key'):g}"
 
 
 def inflight_samples(result, city, flow, offsets, *, every_s: float = 0.5,
@@ -290,12 +292,26 @@ def _fly_wind(task):
     return out
 
 
+def _suite(spec, where: str):
+    """``spec`` as a :class:`~windnav.experiments.nav_suite.SuiteSpec` (a name of
+    :data:`~windnav.experiments.nav_suite.SUITES` looked up), or a ValueError naming ``spec``
+    of ``where``."""
+    from windnav.experiments.nav_suite import check_suite_spec
+
+    with options_named({"'suite' parameter of get_suite": f"'spec' parameter of {where}"}):
+        return check_suite_spec(spec, where)
+
+
 def records_header(spec, variant: str, every_s: float, taus: Sequence[float]) -> dict:
     """The header of a study's record log: what its flights and samples depend on (the suite,
     the variant flown and the decoder its onboard stack flies, the sampling; not the scenarios,
     each wind's recorded with its flights, nor the compared decoders, which only score the
     samples). The decoder is named by file and SHA-256 (:func:`_decoder_identity`), so a log
-    flown before the benchmark's pinned decoder changed is another study's."""
+    flown before the benchmark's pinned decoder changed is another study's. ``spec``: a
+    :class:`~windnav.experiments.nav_suite.SuiteSpec` or a name of
+    :data:`~windnav.experiments.nav_suite.SUITES`, as :func:`inflight_study` takes it (a name
+    raised an AttributeError; Python API audit, fifty-eighth session)."""
+    spec = _suite(spec, "records_header")
     return {"study": "windnav.experiments.nav_inflight", "suite": spec.name, "seed": spec.seed,
             "settings_hash": spec.settings_hash(), "variant": variant,
             "decoder": _decoder_identity(variant, spec), "every_s": every_s,
@@ -395,7 +411,10 @@ def inflight_study(spec, scenario_ids: Sequence[str], *, variant: str = INFLIGHT
     from windnav.plan import VARIANTS
 
     where = "inflight_study"
-    base, options = parse_variant(variant, where)
+    spec = _suite(spec, where)
+    # (parse_variant's message named 'variants'; Python API audit, fifty-eighth session)
+    with options_named({f"'variants' parameter of {where}": f"'variant' parameter of {where}"}):
+        base, options = parse_variant(variant, where)
     if VARIANTS[base].wind_source != "onboard":
         raise ValueError(f"The 'variant' parameter of {where} must be an onboard-stack variant "
                          f"(ea-mppi-w-hat, with parameters). Got {variant!r} instead.")
