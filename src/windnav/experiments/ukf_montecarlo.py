@@ -60,6 +60,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -144,6 +145,49 @@ MIL_VERTICAL_SIGMA_RATIO = float((0.177 + 0.000823 * 10.0 / 0.3048) ** 0.4)
 """``sigma_w / sigma_u`` of MIL-F-8785C at 10 m (33 ft) altitude, about 0.53."""
 
 
+def _check_tuning(q, r, wind_frame, where: str) -> None:
+    """The study's filter overrides checked as the Wind UKF will take them, before any trial:
+    ``q`` process-noise densities (keys of :data:`~windnav.estimate.wind_ukf.DEFAULT_Q`,
+    numbers >= 0), ``r`` measurement noise (keys of
+    :data:`~windnav.estimate.wind_ukf.DEFAULT_R` or ``odom``; standard deviations > 0, or a
+    covariance), ``wind_frame`` one of :data:`~windnav.estimate.wind_model.WIND_FRAMES`. (An
+    unknown key, a negative density or another frame was accepted here and failed every trial;
+    Python API audit, fifty-eighth session.)"""
+    from windnav.estimate.wind_model import WIND_FRAMES
+    from windnav.estimate.wind_ukf import DEFAULT_Q
+
+    for name, value, known in (("q", q, sorted(DEFAULT_Q)),
+                               ("r", r, sorted({*DEFAULT_R, "odom"}))):
+        if value is None:
+            continue
+        if not isinstance(value, Mapping):
+            raise ValueError(f"The {name!r} parameter of {where} must be a dict with keys among "
+                             f"{known}. Got {value!r} instead.")
+        unknown = sorted(map(str, set(value) - set(known)))
+        if unknown:
+            raise ValueError(f"The {name!r} parameter of {where} must have keys among {known}. "
+                             f"Got {unknown} instead.")
+        for key, v in value.items():
+            try:  # what the filter accepts (positive_float; _noise_cov's rules but the size)
+                if name == "q":
+                    ok = math.isfinite(float(v)) and float(v) >= 0.0
+                else:
+                    a = np.asarray(v, dtype=np.float64)
+                    ok = bool(np.isfinite(a).all()) and (
+                        (a.ndim <= 1 and bool((a > 0).all()))
+                        or (a.ndim == 2 and a.shape[0] == a.shape[1]))
+            except (TypeError, ValueError):
+                ok = False
+            rule = ("a finite density >= 0" if name == "q"
+                    else "a finite standard deviation > 0 (or a square covariance)")
+            if not ok:
+                raise ValueError(f"The {name!r} parameter of {where} must give {key!r} {rule}. "
+                                 f"Got {v!r} instead.")
+    if wind_frame is not None and wind_frame not in WIND_FRAMES:
+        raise ValueError(f"The 'wind_frame' parameter of {where} must be None or one of "
+                         f"{list(WIND_FRAMES)}. Got {wind_frame!r} instead.")
+
+
 @dataclass(frozen=True)
 class MonteCarloConfig:
     """Ranges of the study (see the module docstring); all ranges are ``(low, high)``.
@@ -215,6 +259,7 @@ class MonteCarloConfig:
 
     def __post_init__(self):
         where = "MonteCarloConfig"
+        _check_tuning(self.q, self.r, self.wind_frame, where)
         self._resolve(where)
         positive_int(self.n_trials, "n_trials", where)
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) \
@@ -223,10 +268,14 @@ class MonteCarloConfig:
                              f"Got {self.seed!r} instead.")
         for name in ("mass", "k_d", "k_z", "c_dx", "c_dy", "c_dz", "duration", "mean_wind",
                      "gust_sigma", "radius", "speed"):
-            lo, hi = getattr(self, name)
+            try:  # (three values raised "too many values to unpack"; Python API audit,
+                lo, hi = (float(v) for v in getattr(self, name))  # fifty-eighth session)
+            except (TypeError, ValueError):
+                lo = hi = math.nan
             if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
                 raise ValueError(f"The {name!r} parameter of {where} must be a finite range "
-                                 f"(low, high) with low <= high. Got {(lo, hi)!r} instead.")
+                                 f"(low, high) with low <= high. Got {getattr(self, name)!r} "
+                                 "instead.")
         for name in ("mass", "duration", "radius"):
             positive_float(getattr(self, name)[0], name, where)
         for name in ("k_d", "k_z", "c_dx", "c_dy", "c_dz", "gust_sigma", "speed"):
@@ -297,6 +346,9 @@ class MonteCarloConfig:
             object.__setattr__(self, k, v)
 
 
+_CONFIG_CLASS = MonteCarloConfig  # the class itself, should the public name be wrapped
+
+
 @dataclass(frozen=True)
 class TrialSpec:
     """Everything one trial needs (picklable): the drawn vehicle, wind and flight."""
@@ -330,12 +382,18 @@ def sensor_suite(rate_hz: float = 100.0, noise: str = "windnav") -> SensorSuite:
 
 def mass_to_drag(p: MultirotorParams) -> float:
     """``tau_drag = m / (k_d N eta_hover)``, s (inf when ``k_d = 0``)."""
+    if not isinstance(p, MultirotorParams):  # (None: an AttributeError; Python API audit)
+        raise ValueError(f"The 'p' parameter of mass_to_drag must be a MultirotorParams. Got "
+                         f"{p!r} instead.")
     denom = p.k_d * p.n_rotors * p.hover_rotor_speed
     return float(p.mass / denom) if denom > 0 else math.inf
 
 
 def draw_trials(config: MonteCarloConfig) -> list[TrialSpec]:
     """The trials of a study: the same config (seed) gives the same trials."""
+    if not isinstance(config, _CONFIG_CLASS):  # (None: an AttributeError; Python API audit)
+        raise ValueError(f"The 'config' parameter of draw_trials must be a MonteCarloConfig. "
+                         f"Got {config!r} instead.")
     seqs = np.random.SeedSequence(config.seed).spawn(config.n_trials)
     out = []
     for i, ss in enumerate(seqs):
@@ -425,7 +483,16 @@ def summarize(records: list[dict]) -> dict:
     a trial (``max_drag_model_bias``, m/s; None for records written before it was kept), and
     the median of the trials' mean NEES (``nees_median``,
     :meth:`~windnav.estimate.WindTrack.nees`: 3 when the filter's reported wind covariance
-    matches its errors; None without it)."""
+    matches its errors; None without it).
+
+    ``records``: :func:`run_trial`'s records (each with ``rmse`` and ``rmse_axes``; another
+    raised a bare KeyError; Python API audit, fifty-eighth session)."""
+    bad = [i for i, r in enumerate(records)
+           if not isinstance(r, Mapping) or "rmse" not in r or "rmse_axes" not in r]
+    if bad:
+        raise ValueError("The 'records' parameter of summarize must be run_trial's records, "
+                         f"each with 'rmse' and 'rmse_axes'. Got {len(bad)} without them (the "
+                         f"first at index {bad[0]}) instead.")
     rmse = np.array([r["rmse"] for r in records], dtype=np.float64)
     ok = np.isfinite(rmse)
     if not np.any(ok):
