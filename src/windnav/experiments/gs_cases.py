@@ -53,6 +53,7 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 
+from windnav._validate import generator
 from windnav.experiments.results import say
 
 __all__ = [
@@ -170,7 +171,8 @@ def run_case(name: str, *, seed: int = 0, progress: bool = False,
     Raises
     ------
     ValueError
-        An unknown case or bad ``flow_settings``; whatever the wind or a flight raises.
+        An unknown case, a bad ``seed`` or bad ``flow_settings`` (before the wind); whatever
+        the wind or a flight raises.
     """
     from windnav.experiments.nav_benchmark import SharedFlow
     from windnav.experiments.nav_cases import mean_flow
@@ -181,6 +183,9 @@ def run_case(name: str, *, seed: int = 0, progress: bool = False,
         raise ValueError(f"The 'name' parameter of {where} must be one of {list(CASES)}. Got "
                          f"{name!r} instead.")
     settings = _check_flow_settings(flow_settings, where)
+    # navigate's check named its 'rng', after the wind had been simulated (Python API audit,
+    # fifty-eighth session); the seed itself goes on to every flight as before
+    generator(seed, "seed", where)
     city, start, goal, speed, direction = CASES[name]()
     say(progress, f"gs_cases: wind of {name} ({speed:g} m/s toward {direction:g} deg)")
     t0 = time.perf_counter()
@@ -234,7 +239,19 @@ def case_summary(case: Mapping) -> dict:
         ``final_distance_to_goal_m`` and, for GS and GS+W, the planned route's
         ``route_energy_J``, ``route_time_s`` and ``route_length_m`` (non-finite numbers as
         None).
+
+    Raises
+    ------
+    ValueError
+        A ``case`` that is not a :func:`run_case` result (``{}`` raised a bare KeyError;
+        Python API audit, fifty-eighth session).
     """
+    keys = ("name", "speed", "direction_deg", "start", "goal", "city", "results")
+    if not isinstance(case, Mapping) or not all(k in case for k in keys):
+        got = (f"one with the keys {sorted(map(str, case))}" if isinstance(case, Mapping)
+               else f"a {type(case).__name__}")
+        raise ValueError(f"The 'case' parameter of case_summary must be run_case's result, with "
+                         f"the keys {list(keys)}. Got {got} instead.")
     city = case["city"]
     return {"name": case["name"], "seed": case.get("seed"), "speed": float(case["speed"]),
             "direction_deg": float(case["direction_deg"]),

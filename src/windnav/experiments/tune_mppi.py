@@ -203,8 +203,25 @@ def flight_cost(summary: Mapping, duration: float) -> float:
         :meth:`NavigationResult.summary` (``outcome``, ``time_s``,
         ``final_distance_to_goal_m``).
     duration : float
-        The flight's time limit, s.
+        The flight's time limit, s (> 0).
+
+    Raises
+    ------
+    ValueError
+        A ``summary`` without the keys its outcome is costed by (``{}`` raised a bare
+        KeyError; Python API audit, fifty-eighth session), or a bad ``duration``.
     """
+    where = "flight_cost"
+    if not isinstance(summary, Mapping) or "outcome" not in summary:
+        raise ValueError(f"The 'summary' parameter of {where} must be a "
+                         "NavigationResult.summary() (with 'outcome'). Got "
+                         f"{summary!r} instead.")
+    need = "time_s" if summary["outcome"] == "success" else "final_distance_to_goal_m"
+    if need not in summary:
+        raise ValueError(f"The 'summary' parameter of {where} must hold {need!r} for an "
+                         f"outcome {summary['outcome']!r}. Got the keys {sorted(summary)} "
+                         "instead.")
+    positive_float(duration, "duration", where)
     if summary["outcome"] == "success":
         return float(summary["time_s"])
     return float(duration + FAILURE_PENALTY_S + summary["final_distance_to_goal_m"] / V_REF)
@@ -223,6 +240,32 @@ def _check_seeds(seeds, where: str) -> tuple:
     return out
 
 
+_NOT_TUNED = ("horizon", "variant")
+"""PlannerConfig fields ``params`` may not set: the flights' own (``navigate``'s ``horizon``,
+the wind window, which MPPI without wind has no use for; the variant, ``"mppi"``)."""
+
+
+def _check_params(params, where: str) -> None:
+    """A ValueError naming ``params`` of ``where`` unless it is None or a mapping of
+    :class:`~windnav.plan.PlannerConfig` fields other than :data:`_NOT_TUNED`. (``horizon``
+    raised "planner_config() got multiple values for keyword argument 'horizon'", and an
+    unknown field named planner_config's 'overrides'; Python API audit, fifty-eighth
+    session.)"""
+    from windnav.plan import PlannerConfig
+
+    if params is None:
+        return
+    names = sorted(f.name for f in fields(PlannerConfig) if f.name not in _NOT_TUNED)
+    if not isinstance(params, Mapping):
+        raise ValueError(f"The 'params' parameter of {where} must be a dict of PlannerConfig "
+                         f"fields, among {names}. Got {params!r} instead.")
+    bad = sorted(map(str, set(params) - set(names)))
+    if bad:
+        raise ValueError(f"The 'params' parameter of {where} must name PlannerConfig fields, "
+                         f"among {names} (not {list(_NOT_TUNED)}: MPPI flies without wind, as "
+                         f"'mppi'). Got {bad} instead.")
+
+
 def evaluate(params: Mapping | None = None, *, seeds: Sequence[int] = SEEDS,
              duration: float = DURATION_S, case=None, flow=None) -> dict:
     """Fly MPPI without wind once per seed with ``params``; the cost and the flights.
@@ -231,7 +274,7 @@ def evaluate(params: Mapping | None = None, *, seeds: Sequence[int] = SEEDS,
     ----------
     params : mapping of str to float, optional
         :class:`~windnav.plan.PlannerConfig` fields passed as ``planner_overrides`` (default:
-        none, the thesis values).
+        none, the thesis values); not ``horizon`` or ``variant``, the flights' own.
     seeds : sequence of int
         Flight seeds (>= 0), one flight each.
     duration : float
@@ -251,6 +294,7 @@ def evaluate(params: Mapping | None = None, *, seeds: Sequence[int] = SEEDS,
     from windnav.experiments.navigate import navigate
 
     where = "evaluate"
+    _check_params(params, where)
     seeds = _check_seeds(seeds, where)
     duration = positive_float(duration, "duration", where)
     city, start, goal = intersection_case() if case is None else case
@@ -272,6 +316,7 @@ def evaluate(params: Mapping | None = None, *, seeds: Sequence[int] = SEEDS,
 def objective(params: Mapping | None = None, *, seeds: Sequence[int] = SEEDS,
               duration: float = DURATION_S, case=None, flow=None) -> float:
     """The tuning objective: :func:`evaluate`'s mean flight cost, s (lower is better)."""
+    _check_params(params, "objective")
     return evaluate(params, seeds=seeds, duration=duration, case=case, flow=flow)["cost"]
 
 
