@@ -157,17 +157,9 @@ def _run(cases, study: str, backend: str, workers: int | None, progress: bool,
 def _study_values(values, name: str, where: str, rule: str = "finite") -> list:
     """``values`` checked up front, before any run: one or more numbers, finite (``rule``
     "finite") or finite and above 0 ("positive"); a ValueError naming the argument."""
-    if isinstance(values, (str, bytes)):
-        raise ValueError(f"The {name!r} parameter of {where} must be a sequence of numbers. "
-                         f"Got {values!r} instead.")
-    try:
-        items = list(values)
-    except TypeError:
-        raise ValueError(f"The {name!r} parameter of {where} must be a sequence of numbers. "
-                         f"Got {values!r} instead.") from None
-    if not items:
-        raise ValueError(f"The {name!r} parameter of {where} must hold at least one value. "
-                         f"Got {values!r} instead.")
+    from windnav.experiments.wind_sweep import _values
+
+    items = _values(values, name, where, "numbers")
     for v in items:
         if isinstance(v, (str, bytes)):
             raise ValueError(f"The {name!r} parameter of {where} must hold numbers. Got "
