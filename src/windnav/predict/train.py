@@ -70,10 +70,12 @@ from pathlib import Path
 import numpy as np
 
 from windnav._source import module_key
+from windnav._validate import finite_float, positive_int
 from windnav.predict._loss import DIRECTION_FADE, SPEED_REF, fused_loss
 from windnav.predict.baselines import LocalBaseline, UpstreamBaseline
 from windnav.predict.dataset import TURN_LIMIT_DEG, DecoderDataset, fields_from_store
 from windnav.predict.decoder import (
+    ARCHITECTURES,
     Decoder,
     canonicalize_field,
     d4_grid_permutation,
@@ -156,6 +158,10 @@ DEFAULTS = {
 """Every recipe key and its default (see ``recipes/default.toml`` for their meaning)."""
 
 MAP_KINDS = ("training", "dense", "planning", "file")
+
+MAX_SIZE = 401
+"""The largest ``data.size`` (cells per side of a decoder's window): a 401 x 401 window is a
+``thesis-mlp`` output layer of 660 M weights at its width of 2048 (2.6 GB in float32)."""
 
 RECIPE_SECTIONS = tuple(k for k, v in DEFAULTS.items() if isinstance(v, dict))
 """The tables of a recipe (``sweep``, ``data``, ``model``, ``train``); a recipe file that
@@ -251,6 +257,10 @@ def recipe_toml(recipe: dict) -> str:
         The TOML text (top-level keys, then ``[sweep]``, ``[[sweep.maps]]``, ``[data]``,
         ``[model]``, ``[train]``).
     """
+    if not isinstance(recipe, dict):  # [1] met AttributeError 'items' (Python API audit)
+        raise ValueError(f"The 'recipe' parameter of recipe_toml must be a recipe (a dict, "
+                         f"from load_recipe). Got {recipe!r} instead.")
+
     def key(k) -> str:
         k = str(k)
         return k if k and all(c.isascii() and (c.isalnum() or c in "_-") for c in k) \
@@ -339,6 +349,12 @@ def load_recipe(config) -> dict:
     """
     where = "load_recipe"
     source = None
+    # None and 5 met pathlib's "expected str, bytes or os.PathLike object" (Python API audit,
+    # fifty-eighth session)
+    if not isinstance(config, dict | str | os.PathLike):
+        raise ValueError(f"The 'config' parameter of {where} must be a recipe (a dict), the "
+                         "path of a TOML recipe file or the name of a shipped recipe "
+                         f"({', '.join(shipped_recipes())}). Got {config!r} instead.")
     if not isinstance(config, dict):
         source = recipe_path(config)
         config = _read_recipe(source, where)
@@ -402,6 +418,9 @@ def _check_recipe(r: dict, where: str) -> None:
     if v % 2 == 0 or v < 3:
         fail("data.size", "an odd integer >= 3 (cells per side of the window centred on the "
              "robot)", v)
+    if v > MAX_SIZE:  # 100001 was 640 GB of a D4 permutation (Python API audit)
+        fail("data.size", f"at most {MAX_SIZE} (cells per side of the window)", v)
+    _check_sampling(r, fail)
     for key in ("learning_rate",):
         if not isinstance(t[key], (int, float)) or not 0 < t[key] < math.inf:
             fail(f"train.{key}", "a positive number", t[key])
@@ -445,14 +464,29 @@ def _check_recipe(r: dict, where: str) -> None:
             d["validation_maps"]):
         fail("data.exclude_maps", "a list of store map names left out of training (not "
              "validation maps)", ex)
+    # 5 met "'int' object is not iterable" (Python API audit, fifty-eighth session)
+    if not isinstance(r["sweep"]["maps"], list):
+        fail("sweep.maps", "a list of map groups (tables with a name and a kind; [] for the "
+             "maps of a given store)", r["sweep"]["maps"])
     groups = [g.get("name") for g in r["sweep"]["maps"] if isinstance(g, dict)]
     mw = d["map_weights"]
+    if isinstance(mw, dict) and mw and not groups:  # it said only that the weights were wrong
+        fail("data.map_weights", "{} when sweep.maps is empty (the weights name sweep.maps "
+             "groups, and this recipe has none)", mw)
     if not isinstance(mw, dict) or not all(
             k in groups and isinstance(v, int) and not isinstance(v, bool) and v >= 1
             for k, v in mw.items()):
         fail("data.map_weights", "a table of sweep.maps group names to integers >= 1 (each "
              "training field of the group is drawn that many times over)", mw)
-    # the architecture and its hyperparameters
+    # the architecture and its hyperparameters ('foo' was refused as make_architecture's
+    # 'name', a table of 5 as "argument after ** must be a mapping"; Python API audit,
+    # fifty-eighth session)
+    if r["model"]["architecture"] not in ARCHITECTURES:
+        fail("model.architecture", f"one of {sorted(ARCHITECTURES)} (passed on as the 'name' "
+             "parameter of make_architecture)", r["model"]["architecture"])
+    if not isinstance(r["model"]["hyperparameters"], dict):
+        fail("model.hyperparameters", "a table of the architecture's hyperparameters",
+             r["model"]["hyperparameters"])
     arch = make_architecture(r["model"]["architecture"], d["size"],
                              **r["model"]["hyperparameters"])
     if arch.hp.get("members", 1) != 1:
@@ -468,6 +502,11 @@ def _check_recipe(r: dict, where: str) -> None:
     e = t["ema_decay"]
     if not isinstance(e, (int, float)) or isinstance(e, bool) or not 0 <= e < 1:
         fail("train.ema_decay", "a number in [0, 1) (0: no moving average of the weights)", e)
+    if t["pca_samples"] < 2 and r["model"]["architecture"] == "d4-film":
+        # one sample has no principal components (init_basis_pca refuses it: Python API
+        # audit, fifty-eighth session), and it was met only after the sweep
+        fail("train.pca_samples", "an integer >= 2 for a d4-film (the samples of the PCA that "
+             "initialises its basis)", t["pca_samples"])
     if t["members"] > 1 and r["model"]["architecture"] != "d4-film":
         fail("train.members", "1 for the thesis-mlp (only d4-film decoders are ensembled)",
              t["members"])
@@ -492,6 +531,60 @@ def _check_recipe(r: dict, where: str) -> None:
         if missing:
             shown = ", ".join(names[:6]) + (", ..." if len(names) > 6 else "")
             fail(f"data.{key}", f"names of the sweep's maps ('<name>-<i>': {shown})", missing)
+
+
+def _is_number(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _check_sampling(r: dict, fail) -> None:
+    """The recipe keys the sweep and the samples read, checked with the recipe: a negative
+    scan noise, a spacing of 0, a train.seed of -1, speeds [5, 5] or solver settings
+    {dx = -1} or {foo = 1} were accepted, and refused (or simulated twice) only after the
+    sweep, by the dataset, NumPy or the solver, naming their own parameters (Python API
+    audit, fifty-eighth session). The rules are those of
+    :class:`windnav.predict.dataset.DecoderDataset` and of the sweep's solver
+    (:func:`windnav.flow.simulate_batch`)."""
+    from windnav.experiments.wind_sweep import DEFAULT_SETTINGS
+
+    d, sw = r["data"], r["sweep"]
+    v = d["spacing"]
+    if not _is_number(v) or v <= 0:
+        fail("data.spacing", "a finite number > 0 (m between the window's cells)", v)
+    for key, unit in (("scan_noise", "m"), ("w_robot_noise", "m/s"),
+                      ("wall_clearance", "m")):
+        if not _is_number(d[key]) or d[key] < 0:
+            fail(f"data.{key}", f"a finite number >= 0, {unit}", d[key])
+    v = d["building_reach"]
+    if not _is_number(v) or v <= d["wall_clearance"]:
+        fail("data.building_reach", "a finite number greater than data.wall_clearance "
+             f"({d['wall_clearance']!r}), m (the robots stand between the two from the "
+             "buildings)", v)
+    for key, seed in (("sweep.seed", sw["seed"]), ("data.seed", d["seed"]),
+                      ("train.seed", r["train"]["seed"])):
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            fail(key, "an integer >= 0", seed)
+    if len(set(sw["speeds"])) != len(sw["speeds"]):
+        fail("sweep.speeds", "distinct inlet speeds (each is simulated once per map and "
+             "direction)", sw["speeds"])
+    v = sw["settings"]
+    if not isinstance(v, dict) or set(v) - set(DEFAULT_SETTINGS):
+        fail("sweep.settings", f"a table of solver settings among {sorted(DEFAULT_SETTINGS)}",
+             v)
+    for key in ("dx", "dt"):
+        if key in v and not (key == "dt" and v[key] is None) and (
+                not _is_number(v[key]) or v[key] <= 0):
+            fail(f"sweep.settings.{key}", "a finite number > 0, " + (
+                "m (the solver's cell size)" if key == "dx" else "s (the solver's time step)"),
+                v[key])
+    for key, least in (("spinup_steps", 0), ("steps", 1), ("record_every", 0)):
+        if key in v and (isinstance(v[key], bool) or not isinstance(v[key], int)
+                         or v[key] < least):
+            fail(f"sweep.settings.{key}", f"an integer >= {least}", v[key])
+    steps = v.get("steps", DEFAULT_SETTINGS["steps"])
+    if v.get("record_every", 0) > steps:
+        fail("sweep.settings.record_every", f"at most steps ({steps}) to record a frame, or 0 "
+             "for none", v["record_every"])
 
 
 def recipe_maps(recipe: dict) -> list[tuple]:
@@ -528,6 +621,11 @@ def recipe_maps(recipe: dict) -> list[tuple]:
 
 def resolve_paths(recipe: dict, out_dir=None) -> tuple[Path, Path]:
     """The out folder (default ``runs/<name>``) and the sweep store (relative to it)."""
+    if not isinstance(recipe, dict) or not isinstance(recipe.get("name"), str) \
+            or not isinstance(recipe.get("sweep"), dict) or "store" not in recipe["sweep"]:
+        # {} met KeyError 'name' (Python API audit, fifty-eighth session)
+        raise ValueError(f"The 'recipe' parameter of resolve_paths must be a recipe (a dict, "
+                         f"from load_recipe). Got {recipe!r} instead.")
     out = Path(out_dir) if out_dir is not None else Path("runs") / recipe["name"]
     store = Path(recipe["sweep"]["store"])
     return out, store if store.is_absolute() else out / store
@@ -850,7 +948,32 @@ def _loss(pred, labels, free, speed, power: float, direction_weight: float,
 def ema_decay_at(decay: float, step: int) -> float:
     """The decay of the weights' moving average at optimizer step ``step`` (1, 2, ...):
     ``min(decay, (1 + step) / (10 + step))``, so that the initial weights fade within the first
-    steps instead of over ``1 / (1 - decay)`` of them."""
+    steps instead of over ``1 / (1 - decay)`` of them.
+
+    Parameters
+    ----------
+    decay : float
+        ``train.ema_decay``, in [0, 1) (a fraction per step, no unit; 0: no averaging).
+    step : int
+        The optimizer steps taken so far, >= 1 (the schedule's count after the step).
+
+    Returns
+    -------
+    float
+        The decay at that step, in [0, decay].
+    """
+    # 1.5, -1 and NaN were returned as decays, and step -10 divided by zero (Python API audit,
+    # fifty-eighth session)
+    where = "ema_decay_at"
+    d = finite_float(decay, "decay", where)
+    if isinstance(decay, bool) or not isinstance(decay, int | float | np.number) \
+            or not 0 <= d < 1:
+        raise ValueError(f"The 'decay' parameter of {where} must be a number in [0, 1). Got "
+                         f"{decay!r} instead.")
+    return _decay_at(decay, positive_int(step, "step", where))
+
+
+def _decay_at(decay: float, step: int) -> float:
     return min(decay, (1.0 + step) / (10.0 + step))
 
 
@@ -859,7 +982,7 @@ def _ema_update(averages, params, decay: float, step: int) -> None:
     ``lerp_``), ``d = ema_decay_at(decay, step)``."""
     import torch
 
-    w = 1.0 - ema_decay_at(decay, step)
+    w = 1.0 - _decay_at(decay, step)  # checked with the recipe (train.ema_decay)
     with torch.no_grad():
         for a, p in zip(averages, params, strict=True):
             a.lerp_(p.detach(), w)
@@ -971,12 +1094,18 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
         Naming 'config' for a bad recipe or a checkpoint of another recipe in ``out_dir``; for
         a store without the validation maps or without finished simulations.
     """
-    import torch
-
     where = "train_decoder"
     recipe = load_recipe(config)
     out, default_store = resolve_paths(recipe, out_dir)
+    given_store = store is not None
     store = Path(store) if store is not None else default_store
+    if not store.exists() and not (out / "checkpoint.pt").is_file() \
+            and not (out / "history.json").is_file():
+        # "SweepStore: there is no Zarr store ...", after the out folder was made (Python API
+        # audit, fifty-eighth session); a finished run needs no store, so only a new one
+        raise _missing_store(store, given_store, where)
+    import torch
+
     out.mkdir(parents=True, exist_ok=True)
     if recipe["train"]["members"] > 1:
         return _train_members(recipe, out, store, progress, log, callback, where)
@@ -1029,11 +1158,32 @@ def train_decoder(config, *, store=None, out_dir=None, progress: bool = True, lo
     return run.history
 
 
+def _missing_store(store: Path, given: bool, where: str) -> ValueError:
+    if given:
+        return ValueError(f"The 'store' parameter of {where} must be a sweep store (the Zarr "
+                          "folder windnav wind-sweep, or windnav train-decoder's sweep, writes). "
+                          f"Got {str(store)!r} instead, which does not exist.")
+    return ValueError(f"{where}: there is no sweep store at {str(store)!r} (the recipe's "
+                      "sweep.store in the out folder); pass 'store', or run the recipe's sweep "
+                      "first (`windnav train-decoder` does).")
+
+
 def member_recipe(recipe: dict, i: int) -> dict:
     """Member ``i`` of a recipe with ``train.members`` > 1: the same recipe with one member,
     ``train.seed`` + ``i`` (another initialisation; the same samples in the same order, which
     ``data.seed`` sets) and the name ``<name>-member<i>``. Member 0 is the recipe's own single
     model, bit for bit."""
+    # -1 and 99 of 3 members were accepted, {} met KeyError 'train' and '1' a TypeError
+    # (Python API audit, fifty-eighth session)
+    where = "member_recipe"
+    if not isinstance(recipe, dict) or not isinstance(recipe.get("train"), dict) \
+            or "name" not in recipe:
+        raise ValueError(f"The 'recipe' parameter of {where} must be a recipe (a dict, from "
+                         f"load_recipe). Got {recipe!r} instead.")
+    members = recipe["train"].get("members", 1)
+    if isinstance(i, bool) or not isinstance(i, int | np.integer) or not 0 <= i < members:
+        raise ValueError(f"The 'i' parameter of {where} must be a member of the recipe: an "
+                         f"integer in [0, {members}) (train.members). Got {i!r} instead.")
     r = copy.deepcopy({k: v for k, v in recipe.items() if k != "source"})
     r["train"].update(members=1, seed=int(recipe["train"]["seed"]) + i)
     r["name"] = f"{recipe['name']}-member{i}"
