@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import windnav.predict.train as T
+from windnav.predict.envelope import training_envelope
 
 
 @pytest.fixture(scope="module")
@@ -133,3 +134,88 @@ def test_train_decoder_names_a_missing_store_before_making_the_out_folder(tmp_pa
                                          r"'store'"):
         T.train_decoder("tiny", out_dir=out, progress=False, log=None)
     assert not out.exists()
+
+
+# ------------------------------------------------------------------------- torch models
+
+
+def test_build_model_takes_a_window_within_the_recipe_limit():
+    # Python API audit, fifty-eighth session: 100001 asked torch for 163 TB (an even size is
+    # left: the NumPy architecture takes it, and tests/test_predict_decoder.py compares the
+    # two on a grid of 6)
+    tm = pytest.importorskip("windnav.predict.torch_models")
+    for size in (0, 402, 100001, 9.5, "9"):
+        with pytest.raises(ValueError, match="'size' parameter of build_model"):
+            tm.build_model("d4-film", size)
+    with pytest.raises(ValueError, match="'architecture' parameter of build_model"):
+        tm.build_model("foo", 9)
+
+
+def test_init_basis_pca_refuses_residuals_it_cannot_decompose():
+    # Python API audit, fifty-eighth session: no rows set the bias to NaN with only warnings,
+    # 7 columns met a torch RuntimeError, NaN a LinAlgError, a thesis-mlp KeyError 'modes'
+    torch = pytest.importorskip("torch")
+    from windnav.predict import torch_models as tm
+
+    m = tm.build_model("d4-film", 9, conv_channels=2, embed=8, film_hidden=4, width=8,
+                       depth=1, modes=4)
+    before = {k: v.clone() for k, v in m.state_dict().items()}
+    rng = np.random.default_rng(0)
+    nan = rng.normal(size=(20, 162))
+    nan[3, 5] = np.nan
+    for bad, match in ((np.zeros((0, 162)), r"shape \(n, 162\) with n >= 2"),
+                       (np.zeros((1, 162)), r"n >= 2"), (rng.random((50, 7)), r"shape"),
+                       (nan, "finite"), ("abc", "an array of numbers")):
+        with pytest.raises(ValueError, match=rf"'residuals' parameter of init_basis_pca.*"
+                                             rf"{match}"):
+            tm.init_basis_pca(m, bad)
+    assert all(torch.equal(v, m.state_dict()[k]) for k, v in before.items())
+    mlp = tm.build_model("thesis-mlp", 9, width=8, depth=1)
+    with pytest.raises(ValueError, match="'model' parameter of init_basis_pca must be a "
+                                         "d4-film"):
+        tm.init_basis_pca(mlp, rng.random((5, 162)))
+    assert tm.init_basis_pca(m, rng.random((30, 162))).shape == (4,)
+
+
+def test_to_tensors_to_decoder_and_export_weights_name_their_arguments():
+    # Python API audit, fifty-eighth session: {} met KeyError 'channels', an unknown
+    # architecture a KeyError, 'abc' NumPy's message, a Linear or a dict an AttributeError,
+    # a spacing of -1 was named as grid_offsets'
+    torch = pytest.importorskip("torch")
+    from windnav.predict import torch_models as tm
+
+    with pytest.raises(ValueError, match=r"'features' parameter of to_tensors must be a dict "
+                                         r"holding \['channels'"):
+        tm.to_tensors({}, "d4-film")
+    with pytest.raises(ValueError, match="'architecture' parameter of to_tensors"):
+        tm.to_tensors({"x": np.zeros((1, 3))}, "foo")
+    with pytest.raises(ValueError, match="'features' parameter of to_tensors must hold arrays "
+                                         "of numbers. Got 'abc' at 'x'"):
+        tm.to_tensors({"x": "abc"}, "thesis-mlp")
+    assert tm.to_tensors({"x": np.zeros((1, 3))}, "thesis-mlp")["x"].dtype == torch.float32
+    with pytest.raises(ValueError, match="'model' parameter of to_decoder must be a torch "
+                                         "module made by build_model"):
+        tm.to_decoder(torch.nn.Linear(2, 2))
+    with pytest.raises(ValueError, match="'model' parameter of export_weights"):
+        tm.export_weights({})
+    m = tm.build_model("thesis-mlp", 5, width=4, depth=1)
+    with pytest.raises(ValueError, match=r"'metadata' parameter of to_decoder must have "
+                                         r"spacing a finite number > 0, m. Got -1 instead"):
+        tm.to_decoder(m, {"spacing": -1})
+    with pytest.raises(ValueError, match="'metadata' parameter of to_decoder"):
+        tm.to_decoder(m, [1])
+    assert tm.to_decoder(m, {"spacing": 2.0}).spacing == 2.0
+
+
+def test_training_envelope_refuses_a_path_and_a_recipe_of_no_tables():
+    # Python API audit, fifty-eighth session: a file name met AttributeError 'get', a data
+    # list a TypeError from dict()
+    with pytest.raises(ValueError, match=r"'decoder_or_metadata' parameter of "
+                                         r"training_envelope must be a Decoder or its metadata.*"
+                                         r"load_decoder"):
+        training_envelope("decoder.npz")
+    for key in ("data", "sweep"):
+        with pytest.raises(ValueError, match=rf"recipe whose '{key}' is a table"):
+            training_envelope({"recipe": {key: [1, 2]}})
+    assert training_envelope(None)["source"] == "defaults"
+    assert training_envelope({})["source"] == "defaults"

@@ -39,10 +39,21 @@ def training_envelope(decoder_or_metadata) -> dict:
     """
     from windnav.predict.train import DEFAULTS
 
+    where = "training_envelope"
     meta = getattr(decoder_or_metadata, "metadata", decoder_or_metadata) or {}
-    recipe = meta.get("recipe") if isinstance(meta, dict) else None
+    if not isinstance(meta, dict):
+        # a file name met AttributeError 'get' (Python API audit, fifty-eighth session): the
+        # caller holds the decoder it predicts with, so a path is not read here
+        raise ValueError(f"The 'decoder_or_metadata' parameter of {where} must be a Decoder "
+                         "or its metadata (a dict); load a decoder file with "
+                         f"windnav.predict.load_decoder. Got {decoder_or_metadata!r} instead.")
+    recipe = meta.get("recipe")
     source = "recipe" if isinstance(recipe, dict) and recipe else "defaults"
     recipe = recipe if source == "recipe" else {}
+    for key in ("data", "sweep"):  # [1, 2] met a TypeError from dict()
+        if not isinstance(recipe.get(key) or {}, dict):
+            raise ValueError(f"The 'decoder_or_metadata' parameter of {where} must hold a "
+                             f"recipe whose {key!r} is a table. Got {recipe[key]!r} instead.")
     data = {**copy.deepcopy(DEFAULTS["data"]), **dict(recipe.get("data") or {})}
     sweep = {**copy.deepcopy(DEFAULTS["sweep"]), **dict(recipe.get("sweep") or {})}
     return {

@@ -14,11 +14,14 @@ Importing this module imports torch; nothing on the inference path imports it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 import torch
 from torch import nn
 from torch.nn import functional as F
 
+from windnav._validate import positive_float, positive_int
 from windnav.predict.decoder import N_WIND_FEATURES, Decoder, make_architecture
 
 __all__ = ["D4Film", "ThesisMLP", "build_model", "export_weights", "init_basis_pca",
@@ -94,7 +97,21 @@ def build_model(architecture: str, size: int, **hp) -> nn.Module:
     ``hp`` overrides the architecture's default hyperparameters
     (:func:`windnav.predict.decoder.make_architecture`). The complete hyperparameters are the
     module's ``hp`` attribute.
+
+    ``size`` is at most :data:`windnav.predict.train.MAX_SIZE` (a recipe's ``data.size``
+    is odd besides; a module of any size mirrors the NumPy architecture of that size, which
+    the tests compare on even grids too).
     """
+    # 100001 asked torch for 163 TB (Python API audit, fifty-eighth session)
+    from windnav.predict.train import MAX_SIZE
+
+    where = "build_model"
+    if architecture not in MODULES:
+        raise ValueError(f"The 'architecture' parameter of {where} must be one of "
+                         f"{sorted(MODULES)}. Got {architecture!r} instead.")
+    if positive_int(size, "size", where) > MAX_SIZE:
+        raise ValueError(f"The 'size' parameter of {where} must be at most {MAX_SIZE} (cells "
+                         f"per side of the window). Got {size!r} instead.")
     arch = make_architecture(architecture, size, **hp)
     if arch.hp.get("members", 1) != 1:
         raise ValueError("The 'members' hyperparameter of build_model must be 1: a torch module "
@@ -112,12 +129,25 @@ def build_model(architecture: str, size: int, **hp) -> nn.Module:
 
 def export_weights(model: nn.Module) -> dict:
     """The module's parameters as float32 NumPy arrays, named as in its ``state_dict``."""
+    _module(model, "model", "export_weights", built=False)
     return {k: v.detach().to("cpu", torch.float32).numpy().copy()
             for k, v in model.state_dict().items()}
 
 
 def to_decoder(model: nn.Module, metadata: dict | None = None) -> Decoder:
-    """The NumPy :class:`Decoder` of a torch module (``metadata`` is added to its own)."""
+    """The NumPy :class:`Decoder` of a torch module (``metadata`` is added to its own;
+    ``spacing``, m between the window's cells, 1 by default)."""
+    where = "to_decoder"
+    _module(model, "model", where)
+    if metadata is not None and not isinstance(metadata, dict):
+        raise ValueError(f"The 'metadata' parameter of {where} must be a dict or None. Got "
+                         f"{metadata!r} instead.")
+    if metadata is not None and "spacing" in metadata:  # -1 was grid_offsets' 'spacing'
+        try:
+            positive_float(metadata["spacing"], "spacing", where)
+        except ValueError:
+            raise ValueError(f"The 'metadata' parameter of {where} must have spacing a finite "
+                             f"number > 0, m. Got {metadata['spacing']!r} instead.") from None
     meta = {**(metadata or {}), "architecture": model.architecture,
             "hyperparameters": dict(model.hp), "size": model.hp["size"]}
     meta.setdefault("spacing", 1.0)
@@ -130,8 +160,28 @@ INPUTS = {"thesis-mlp": ("x",), "d4-film": ("channels", "winds", "scale", "w_rob
 
 def to_tensors(features: dict, architecture: str, device="cpu") -> dict:
     """The network inputs of an architecture's feature dict as float32 tensors on ``device``."""
-    return {k: torch.from_numpy(np.ascontiguousarray(features[k], dtype=np.float32)).to(device)
-            for k in INPUTS[architecture]}
+    # {} met KeyError 'channels', an unknown architecture a KeyError and {'x': 'abc'} NumPy's
+    # "could not convert string to float" (Python API audit, fifty-eighth session)
+    where = "to_tensors"
+    if architecture not in INPUTS:
+        raise ValueError(f"The 'architecture' parameter of {where} must be one of "
+                         f"{sorted(INPUTS)}. Got {architecture!r} instead.")
+    missing = [k for k in INPUTS[architecture]
+               if not isinstance(features, Mapping) or k not in features]
+    if missing:
+        raise ValueError(f"The 'features' parameter of {where} must be a dict holding "
+                         f"{list(INPUTS[architecture])} (the architecture's features). Got "
+                         + (f"one without {missing}" if isinstance(features, Mapping)
+                            else repr(features)) + " instead.")
+    out = {}
+    for k in INPUTS[architecture]:
+        try:
+            a = np.ascontiguousarray(features[k], dtype=np.float32)
+        except (TypeError, ValueError):
+            raise ValueError(f"The 'features' parameter of {where} must hold arrays of "
+                             f"numbers. Got {features[k]!r} at {k!r} instead.") from None
+        out[k] = torch.from_numpy(a).to(device)
+    return out
 
 
 def init_basis_pca(model: nn.Module, residuals: np.ndarray) -> np.ndarray:
@@ -151,7 +201,28 @@ def init_basis_pca(model: nn.Module, residuals: np.ndarray) -> np.ndarray:
     The bias becomes the mean residual and column ``k`` of the basis the ``k``-th component
     times its standard deviation, so the coefficients to learn have unit variance.
     """
-    r = np.asarray(residuals, dtype=np.float64)
+    # a thesis-mlp met KeyError 'modes'; no rows set the bias to NaN with only warnings, 7
+    # columns met a torch RuntimeError and NaN a LinAlgError (Python API audit, fifty-eighth
+    # session)
+    where = "init_basis_pca"
+    _module(model, "model", where)
+    if not isinstance(model, D4Film):
+        raise ValueError(f"The 'model' parameter of {where} must be a d4-film module (the "
+                         f"thesis-mlp has no basis). Got a {model.architecture!r} module "
+                         "instead.")
+    n_cells = 2 * model.hp["size"] ** 2
+    try:
+        r = np.asarray(residuals, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The 'residuals' parameter of {where} must be an array of numbers. "
+                         f"Got {residuals!r} instead.") from None
+    if r.ndim != 2 or r.shape[0] < 2 or r.shape[1] != n_cells:
+        raise ValueError(f"The 'residuals' parameter of {where} must be an array of shape (n, "
+                         f"{n_cells}) with n >= 2 (2 H^2 for H = {model.hp['size']}). Got shape "
+                         f"{r.shape} instead.")
+    if not np.isfinite(r).all():
+        raise ValueError(f"The 'residuals' parameter of {where} must be finite (no NaN or inf). "
+                         "Got non-finite entries instead.")
     mean = r.mean(axis=0)
     k = model.hp["modes"]
     s, vt, total = _top_components(r - mean, k)
@@ -166,6 +237,17 @@ def init_basis_pca(model: nn.Module, residuals: np.ndarray) -> np.ndarray:
     out = np.zeros(k)
     out[:n] = s[:n] ** 2 / (total or 1.0)
     return out
+
+
+def _module(model, name: str, where: str, built: bool = True) -> None:
+    """A ValueError naming ``name`` unless ``model`` is a torch module (``built``: one of
+    :func:`build_model`, with its ``architecture`` and ``hp``); a Linear or a dict met an
+    AttributeError (Python API audit, fifty-eighth session)."""
+    if not isinstance(model, nn.Module) or (built and not (
+            isinstance(getattr(model, "hp", None), dict)
+            and getattr(model, "architecture", None) in MODULES)):
+        raise ValueError(f"The {name!r} parameter of {where} must be a torch module "
+                         + ("made by build_model" if built else "") + f". Got {model!r} instead.")
 
 
 def _top_components(x: np.ndarray, k: int, oversample: int = 16, power: int = 3):
