@@ -9,11 +9,15 @@ TypeError, NumPy's or torch's) before; the comment of each test says which.
 from __future__ import annotations
 
 import copy
+import json
 import math
+import types
 
 import numpy as np
 import pytest
 
+import windnav.experiments.decoder_eval as DE
+import windnav.experiments.decoder_studies as DS
 import windnav.predict.train as T
 from windnav.predict.envelope import training_envelope
 
@@ -219,3 +223,125 @@ def test_training_envelope_refuses_a_path_and_a_recipe_of_no_tables():
             training_envelope({"recipe": {key: [1, 2]}})
     assert training_envelope(None)["source"] == "defaults"
     assert training_envelope({})["source"] == "defaults"
+
+
+# ----------------------------------------------------------------------- decoder_eval
+
+
+@pytest.fixture(scope="module")
+def ev():
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "docs" / "data" / "decoder_eval.json"
+    return json.loads(path.read_text())
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"group": "foo"}, "'group' parameter"),
+    ({"confidence": 0}, "'confidence' parameter"), ({"confidence": 1.5}, "'confidence'"),
+    ({"confidence": math.nan}, "'confidence'"), ({"confidence": "x"}, "'confidence'"),
+    ({"n_boot": -5}, "'n_boot' parameter"), ({"n_boot": 10**9}, r"at most 1000000"),
+    ({"n_boot": 2.5}, "'n_boot'"), ({"seed": -1}, "'seed' parameter"),
+])
+def test_improvement_interval_refuses_bad_settings(ev, kwargs, match):
+    # Python API audit, fifty-eighth session: group 'foo' gave {'value': None, 'slots': 0},
+    # confidence 0 a zero-width interval, 1.5 and NaN NumPy's quantile error, n_boot -5
+    # "negative dimensions", 10**9 a 44.7 GiB MemoryError, seed -1 NumPy's message
+    with pytest.raises(ValueError, match=rf"{match}.*improvement_interval|"
+                                         rf"improvement_interval must be at most"):
+        DE.improvement_interval(ev["records"], **kwargs)
+
+
+def test_improvement_interval_refuses_the_whole_json_and_keeps_its_value(ev):
+    # Python API audit, fifty-eighth session: the whole JSON met an AttributeError
+    with pytest.raises(ValueError, match=r"'records' parameter of improvement_interval .* "
+                                         r"pass its 'records'"):
+        DE.improvement_interval(ev)
+    with pytest.raises(ValueError, match="one dict per slot"):
+        DE.improvement_interval([1, 2])
+    got = DE.improvement_interval(ev["records"], group="dense")
+    assert got == DE.improvement_interval(iter(ev["records"]), group="dense")
+    assert got["slots"] == len(ev["records"])
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda: DE.inlet_slots(-1, 2, 0), "n_maps"), (lambda: DE.inlet_slots(2.5, 2, 0), "n_maps"),
+    (lambda: DE.inlet_slots(2, 0, 0), "n_inlets"), (lambda: DE.inlet_slots(2, 2, -1), "seed"),
+    (lambda: DE.slot_rng(-1, 0, 0), "seed"), (lambda: DE.slot_rng(0, -1, 0), "map_index"),
+    (lambda: DE.slot_rng(0, 0, "1"), "inlet_index"),
+])
+def test_inlet_slots_and_slot_rng_name_their_counts_and_seeds(call, name):
+    # Python API audit, fifty-eighth session: "negative dimensions", a TypeError and NumPy's
+    # seed messages
+    with pytest.raises(ValueError, match=rf"'{name}' parameter of (inlet_slots|slot_rng)"):
+        call()
+    assert DE.inlet_slots(0, 2, 0).shape == (0, 2, 2)
+
+
+def test_check_point_and_predict_at_name_what_is_no_city_point_or_field(city):
+    # Python API audit, fifty-eighth session: None met AttributeError 'bounds', 'ab' NumPy's
+    # bare conversion error, a FlowSolution AttributeError 'city'
+    with pytest.raises(ValueError, match="'city' parameter of predict_at must be a City"):
+        DE.check_point(None, [1, 1])
+    with pytest.raises(ValueError, match="'at' parameter of predict_at must be two finite "
+                                         "numbers X Y, m. Got 'ab' instead"):
+        DE.check_point(city, "ab")
+    with pytest.raises(ValueError, match="'field' parameter of predict_at must be a MeanField"):
+        DE.predict_at(None, types.SimpleNamespace(city=None), [20, 40])
+    np.testing.assert_array_equal(DE.check_point(city, [20, 40]), [20.0, 40.0])
+
+
+# -------------------------------------------------------------------- decoder_studies
+
+
+def test_masked_least_squares_refuses_what_it_cannot_solve():
+    # Python API audit, fifty-eighth session: a NaN target passed through, a shape mismatch
+    # met an einsum error, chunk 0 a range() error, an all-zero mask a LinAlgError
+    rng = np.random.default_rng(0)
+    b, t, m = rng.normal(size=(10, 3)), rng.normal(size=(4, 10)), np.ones((4, 10))
+    ref = DS.masked_least_squares(b, t, m)
+    for args, kw, match in (((b, np.full((4, 10), np.nan), m), {}, "'target'.*finite"),
+                            ((b, t[:, :7], m), {}, r"'target'.*shape \(B, 10\)"),
+                            ((b, t, m[:, :7]), {}, "'mask'.*shape"),
+                            ((b, t, m), {"chunk": 0}, "'chunk'"),
+                            ((b, t, np.zeros((4, 10))), {}, "'mask'.*full rank"),
+                            ((b[0], t, m), {}, "'basis'")):
+        with pytest.raises(ValueError, match=rf"{match}.*|{match}"):
+            DS.masked_least_squares(*args, **kw)
+    np.testing.assert_array_equal(DS.masked_least_squares(b, t, m, chunk=1), ref)
+
+
+def test_gradient_r2_names_its_own_arguments():
+    # Python API audit, fifty-eighth session: a NaN prediction gave NaN R^2, a spacing of 0
+    # or an even H was named as central_gradients'
+    rng = np.random.default_rng(0)
+    true = rng.normal(size=(6, 2, 5, 5))
+    free = np.ones((6, 5, 5), bool)
+    with pytest.raises(ValueError, match="'pred' parameter of gradient_r2 must be finite"):
+        DS.gradient_r2(np.full_like(true, np.nan), true, free, 1.0)
+    with pytest.raises(ValueError, match="'spacing' parameter of gradient_r2"):
+        DS.gradient_r2(true, true, free, 0.0)
+    with pytest.raises(ValueError, match="'true' parameter of gradient_r2 must be an array "
+                                         "of shape"):
+        DS.gradient_r2(true[..., :4, :4], true[..., :4, :4], free[:, :4, :4], 1.0)
+    assert DS.gradient_r2(true, true, free, 1.0)["r2"]["du/dx"] == 1.0
+
+
+def test_area_fraction_and_eigenflow_study_refuse_sizes_and_lengths():
+    # Python API audit, fifty-eighth session: a size of -5 gave a fraction > 0, d_max 0 inf;
+    # eigenflow_study took no fields to a TypeError from SampleBatch, an even size, and named
+    # a spacing of 0 as grid_offsets'
+    for kw, name in (({"size": -5}, "size"), ({"size": 25, "d_max": 0}, "d_max"),
+                     ({"size": 25, "spacing": -1}, "spacing"), ({"size": []}, "size"),
+                     ({"size": "x"}, "size")):
+        with pytest.raises(ValueError, match=rf"'{name}' parameter of area_fraction"):
+            DS.area_fraction(**kw)
+    assert DS.area_fraction(25) == pytest.approx(625 / (math.pi * 100.0**2))
+    fields = [object()]  # refused before any sample is drawn
+    with pytest.raises(ValueError, match="'fields' parameter of eigenflow_study must be a "
+                                         "sequence of at least one MeanField"):
+        DS.eigenflow_study([], samples_per_field=10)
+    with pytest.raises(ValueError, match="'size' parameter of eigenflow_study must be an odd"):
+        DS.eigenflow_study(fields, samples_per_field=10, size=4)
+    with pytest.raises(ValueError, match="'spacing' parameter of eigenflow_study"):
+        DS.eigenflow_study(fields, samples_per_field=10, spacing=0)

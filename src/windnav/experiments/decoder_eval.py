@@ -49,6 +49,7 @@ import math
 import sys
 import time
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -161,6 +162,9 @@ def _improvements(errors: dict, model: str) -> dict:
 
 IMPROVEMENT_BOOTSTRAP = 2000
 """Resamples of the slots behind each improvement's interval (:func:`improvement_interval`)."""
+MAX_IMPROVEMENT_BOOTSTRAP = 1_000_000
+"""The most resamples :func:`improvement_interval` draws (one row of 8-byte counts per
+resample and slot: 256 MB for 32 slots)."""
 
 
 def improvement_interval(records, model: str = "decoder", baseline: str = "local",
@@ -213,6 +217,41 @@ def improvement_interval(records, model: str = "decoder", baseline: str = "local
     if metric not in _COUNTS:
         raise ValueError(f"The 'metric' parameter of {where} must be one of {sorted(_COUNTS)}. "
                          f"Got {metric!r} instead.")
+    # Python API audit, fifty-eighth session: group 'foo' gave {'value': None, 'slots': 0};
+    # confidence 0 a zero-width interval, 1.5 or NaN NumPy's quantile error; n_boot -5
+    # "negative dimensions", 10**9 a 44.7 GiB MemoryError; seed -1 NumPy's message; the whole
+    # JSON instead of its records an AttributeError
+    if group not in (*GROUPS, "all"):
+        raise ValueError(f"The 'group' parameter of {where} must be one of "
+                         f"{[*GROUPS, 'all']}. Got {group!r} instead.")
+    try:
+        level = float(confidence)
+    except (TypeError, ValueError):
+        level = math.nan
+    if isinstance(confidence, bool) or not 0 < level < 1:
+        raise ValueError(f"The 'confidence' parameter of {where} must be a level in (0, 1). "
+                         f"Got {confidence!r} instead.")
+    n_boot = positive_int(n_boot, "n_boot", where)
+    if n_boot > MAX_IMPROVEMENT_BOOTSTRAP:
+        raise ValueError(f"The 'n_boot' parameter of {where} must be at most "
+                         f"{MAX_IMPROVEMENT_BOOTSTRAP} resamples. Got {n_boot!r} instead.")
+    seed = nonnegative_int(seed, "seed", where)
+    if isinstance(records, Mapping) or isinstance(records, str | bytes):
+        raise ValueError(f"The 'records' parameter of {where} must be a sequence of slot "
+                         "records (evaluate_decoder's 'records', or its JSON's). Got "
+                         + (f"a dict with keys {list(records)[:8]}" if isinstance(
+                             records, Mapping) else repr(records))
+                         + " instead" + ("; pass its 'records'" if isinstance(
+                             records, Mapping) and "records" in records else "") + ".")
+    try:
+        records = list(records)
+    except TypeError:
+        raise ValueError(f"The 'records' parameter of {where} must be a sequence of slot "
+                         f"records. Got {records!r} instead.") from None
+    bad = [r for r in records if not isinstance(r, Mapping)]
+    if bad:
+        raise ValueError(f"The 'records' parameter of {where} must hold one dict per slot. "
+                         f"Got {bad[0]!r} among them instead.")
     count = _COUNTS[metric]
     chosen = [r for r in records if group == "all" or r.get("group") == group]
     sums = []
@@ -303,6 +342,12 @@ def inlet_slots(n_maps: int, n_inlets: int, seed: int) -> np.ndarray:
     2026-12-05; until then this docstring said no slot depended on how many run). Compare runs
     with the same ``--inlets``; every committed evaluation depends on this draw, so it stays.
     """
+    # -1 met "negative dimensions", 2.5 a TypeError, seed -1 NumPy's message (Python API
+    # audit, fifty-eighth session)
+    where = "inlet_slots"
+    n_maps = nonnegative_int(n_maps, "n_maps", where)
+    n_inlets = positive_int(n_inlets, "n_inlets", where)
+    seed = nonnegative_int(seed, "seed", where)
     out = np.empty((n_maps, n_inlets, 2))
     for i in range(n_maps):
         child = np.random.default_rng(np.random.SeedSequence([seed, 2, i]))
@@ -313,13 +358,19 @@ def inlet_slots(n_maps: int, n_inlets: int, seed: int) -> np.ndarray:
 
 def slot_rng(seed: int, map_index: int, inlet_index: int) -> np.random.Generator:
     """The random source of the samples of slot (``map_index``, ``inlet_index``)."""
+    where = "slot_rng"  # a seed of -1 met NumPy's message (Python API audit)
+    seed = nonnegative_int(seed, "seed", where)
+    map_index = nonnegative_int(map_index, "map_index", where)
+    inlet_index = nonnegative_int(inlet_index, "inlet_index", where)
     return np.random.default_rng(np.random.SeedSequence([int(seed), 3, map_index, inlet_index]))
 
 
 def flow_cache_name(name: str, city, speed: float, direction: float, dx: float,
                     settings: dict, dt: float) -> str:
     """The folder name of one slot's cached solution: the map's name, then a hash of its
-    bounds and buildings, the inlet, ``dx``, ``dt`` and the protocol's steps (``settings``).
+    bounds and buildings, the inlet (``speed`` m/s, ``direction`` deg, the way the inlet wind
+    blows, counter-clockwise from +x), ``dx`` (the solver's cell, m), ``dt`` (its time step,
+    s) and the protocol's steps (``settings``: ``spinup_steps``, ``steps``).
     (The bounds since 2026-12-06: a map of the same buildings on a larger domain read the
     smaller one's flow, silently; cache audit. Entries cached before are solved again.)"""
     key = hashlib.sha256(np.asarray(city.bounds[:4], dtype=np.float64).tobytes()
@@ -332,6 +383,10 @@ def flow_cache_name(name: str, city, speed: float, direction: float, dx: float,
 def slot_flow(city, name: str, inlet: int, speed: float, direction: float, *, dx: float,
               dt: float, steps: dict, cache_dir=None, simulate=None) -> tuple:
     """The thesis-protocol solution of one (map, inlet) slot, and whether it came from the cache.
+
+    The inlet is ``speed`` (m/s) toward ``direction`` (deg, counter-clockwise from +x); the
+    solver's cell is ``dx`` (m) and its time step ``dt`` (s); ``inlet`` is the slot's index,
+    recorded with a cached entry.
 
     With ``cache_dir`` the solution is read from there when the same map, inlet, ``dx``, ``dt``
     and ``steps`` (``spinup_steps``, ``steps``) were solved before
@@ -735,7 +790,17 @@ def _describe(model, path) -> dict:
 
 def check_point(city, at, flag: str = "at", where: str = "predict_at") -> np.ndarray:
     """``at`` as an (2,) array inside the map and outside every building, else ValueError."""
-    p = np.asarray(at, dtype=np.float64)
+    from windnav.city import City
+
+    # None met AttributeError 'bounds', and 'ab' NumPy's bare "could not convert string to
+    # float" (Python API audit, fifty-eighth session)
+    if not isinstance(city, City):
+        raise ValueError(f"The 'city' parameter of {where} must be a City (windnav.city). Got "
+                         f"{city!r} instead.")
+    try:
+        p = np.asarray(at, dtype=np.float64)
+    except (TypeError, ValueError):
+        p = np.full(1, np.nan)
     if p.shape != (2,) or not np.all(np.isfinite(p)):
         raise ValueError(f"The {flag!r} parameter of {where} must be two finite numbers X Y, "
                          f"m. Got {at!r} instead.")
@@ -776,8 +841,12 @@ def predict_at(decoder, field, at, *, scan_noise: float = 0.0, rng=None) -> dict
         ``truth``, ``prediction`` (2, H, H), ``free`` (H, H), and ``metrics``: the errors of
         the decoder and both baselines with the improvement (%).
     """
-    from windnav.predict import SCAN_MAX, SCAN_MIN, SampleBatch
+    from windnav.predict import SCAN_MAX, SCAN_MIN, MeanField, SampleBatch
 
+    if not isinstance(field, MeanField):  # a FlowSolution met AttributeError 'city' (audit)
+        raise ValueError("The 'field' parameter of predict_at must be a MeanField "
+                         "(windnav.predict.field_from_solution makes one of a FlowSolution). "
+                         f"Got a {type(field).__name__} instead.")
     p = check_point(field.city, at)
     noise = positive_float(scan_noise, "scan_noise", "predict_at", allow_zero=True)
     scan = field.city.lidar(p[None], n_rays=decoder.n_rays, max_range=SCAN_MAX,

@@ -53,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from windnav._validate import positive_float, positive_int
+from windnav._validate import options_named, positive_float, positive_int
 
 __all__ = ["AVERAGING_PROTOCOLS", "GRADIENT_COMPONENTS", "SIZES", "THRESHOLDS", "WIND_VARIANTS",
            "START_KICKS", "area_fraction", "averaging_study", "basis_study", "direction_study",
@@ -287,6 +287,22 @@ def eigenflow_study(fields, samples_per_field: int = 2048, *, seed: int = 0, siz
     from windnav.predict.decoder import canonical_elements, canonicalize_field
 
     where = "eigenflow_study"
+    # Python API audit, fifty-eighth session: no fields met a TypeError from SampleBatch, an
+    # even size was accepted (the recipe refuses it: no cell centred on the robot) and a
+    # spacing of 0 was named as grid_offsets'
+    given = fields
+    try:
+        fields = None if isinstance(fields, str | bytes) else list(fields)
+    except TypeError:
+        fields = None
+    if not fields:
+        raise ValueError(f"The 'fields' parameter of {where} must be a sequence of at least one "
+                         f"MeanField. Got {given!r} instead.")
+    h = positive_int(size, "size", where)
+    if h % 2 == 0 or h < 3:
+        raise ValueError(f"The 'size' parameter of {where} must be an odd integer >= 3 (cells "
+                         f"per side of the window centred on the robot). Got {size!r} instead.")
+    positive_float(spacing, "spacing", where)
     batch = _draw(fields, samples_per_field, _seed(seed, where), size, spacing, where)
     labels = batch.labels.astype(np.float64) / batch.inlet_speed[:, None, None, None]
     b, h = labels.shape[0], labels.shape[-1]
@@ -335,7 +351,16 @@ def gradient_r2(pred, true, free, spacing: float) -> dict:
     if pred.shape != true.shape:
         raise ValueError(f"The 'pred' parameter of {where} must have the shape of 'true' "
                          f"{true.shape}. Got shape {pred.shape} instead.")
-    gt = central_gradients(true, spacing)
+    # a NaN prediction gave NaN R^2, and an even H or a spacing of 0 were named as
+    # central_gradients' (Python API audit, fifty-eighth session)
+    for name, a in (("pred", pred), ("true", true)):
+        if not np.isfinite(a).all():
+            raise ValueError(f"The {name!r} parameter of {where} must be finite (no NaN or "
+                             "inf). Got non-finite entries instead.")
+    with options_named({"'uv' parameter of central_gradients": f"'true' parameter of {where}",
+                        "'spacing' parameter of central_gradients":
+                            f"'spacing' parameter of {where}"}):
+        gt = central_gradients(true, spacing)
     gp = central_gradients(pred, spacing)
     b, h = true.shape[0], true.shape[-1]
     free = np.asarray(free)
@@ -447,16 +472,41 @@ def masked_least_squares(basis: np.ndarray, target: np.ndarray, mask: np.ndarray
     ndarray of shape (B, K), float64
         The normal equations ``(A^T M A) c = A^T M t``, solved in batches.
     """
+    # Python API audit, fifty-eighth session: a NaN target passed through, a shape mismatch
+    # met an einsum error, chunk 0 a range() error and an all-zero mask a LinAlgError
+    where = "masked_least_squares"
     basis = np.asarray(basis, dtype=np.float64)
     target = np.asarray(target, dtype=np.float64)
     mask = np.asarray(mask, dtype=np.float64)
+    chunk = positive_int(chunk, "chunk", where)
+    if basis.ndim != 2 or not 1 <= basis.shape[1] <= basis.shape[0]:
+        raise ValueError(f"The 'basis' parameter of {where} must be an array of shape (N, K) "
+                         f"with 1 <= K <= N. Got shape {basis.shape} instead.")
+    if target.ndim != 2 or target.shape[1] != basis.shape[0]:
+        raise ValueError(f"The 'target' parameter of {where} must be an array of shape (B, "
+                         f"{basis.shape[0]}) (N, the basis's rows). Got shape {target.shape} "
+                         "instead.")
+    if mask.shape != target.shape:
+        raise ValueError(f"The 'mask' parameter of {where} must have the shape of 'target' "
+                         f"{target.shape}. Got shape {mask.shape} instead.")
+    for name, a in (("basis", basis), ("target", target), ("mask", mask)):
+        if not np.isfinite(a).all():
+            raise ValueError(f"The {name!r} parameter of {where} must be finite (no NaN or "
+                             "inf). Got non-finite entries instead.")
     out = np.empty((target.shape[0], basis.shape[1]))
     for i in range(0, target.shape[0], chunk):
         m = mask[i:i + chunk]
         weighted = m[:, :, None] * basis[None]                      # (b, N, K)
         gram = np.swapaxes(weighted, 1, 2) @ basis                  # (b, K, K)
         rhs = np.einsum("bnk,bn->bk", weighted, target[i:i + chunk])
-        out[i:i + chunk] = np.linalg.solve(gram, rhs[:, :, None])[:, :, 0]
+        try:
+            out[i:i + chunk] = np.linalg.solve(gram, rhs[:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            raise ValueError(f"The 'mask' parameter of {where} must leave, in every sample, "
+                             "the masked columns of 'basis' of full rank (enough cells that "
+                             f"count). Got a sample among rows {i} to "
+                             f"{min(i + chunk, len(mask)) - 1} where they are not instead."
+                             ) from None
     return out
 
 
@@ -786,8 +836,22 @@ def mosaic(decoder, field, *, scan_noise: float = 0.35, rng=None, batch_size: in
 
 def area_fraction(size, spacing: float = 1.0, d_max: float = D_MAX):
     """The fraction of the LiDAR disc a grid covers: ``(H spacing)^2 / (pi d_max^2)``
-    (the thesis's ``A_pred / A_total = (1 / pi) (H / D_max)^2`` at 1 m cells)."""
-    h = np.asarray(size, dtype=np.float64)
+    (the thesis's ``A_pred / A_total = (1 / pi) (H / D_max)^2`` at 1 m cells).
+
+    ``size`` is H, cells per side (a number or an array of them, > 0), ``spacing`` the cell,
+    m, and ``d_max`` the LiDAR's range, m (:data:`D_MAX`); a fraction of the same shape as
+    ``size`` (above 1 where the grid is wider than the disc)."""
+    # -5 gave a fraction > 0 and d_max 0 inf (Python API audit, fifty-eighth session)
+    where = "area_fraction"
+    try:
+        h = np.asarray(size, dtype=np.float64)
+    except (TypeError, ValueError):
+        h = np.full(1, np.nan)
+    if h.size == 0 or not (np.isfinite(h) & (h > 0)).all():
+        raise ValueError(f"The 'size' parameter of {where} must be cells per side: finite and "
+                         f"> 0. Got {size!r} instead.")
+    positive_float(spacing, "spacing", where)
+    positive_float(d_max, "d_max", where)
     return (h * spacing) ** 2 / (np.pi * d_max**2)
 
 
