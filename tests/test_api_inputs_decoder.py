@@ -9,6 +9,7 @@ TypeError, NumPy's or torch's) before; the comment of each test says which.
 from __future__ import annotations
 
 import copy
+import gzip
 import json
 import math
 import types
@@ -19,6 +20,7 @@ import pytest
 import windnav.experiments.decoder_eval as DE
 import windnav.experiments.decoder_studies as DS
 import windnav.predict.train as T
+import windnav.provenance as PV
 from windnav.predict.envelope import training_envelope
 
 
@@ -345,3 +347,41 @@ def test_area_fraction_and_eigenflow_study_refuse_sizes_and_lengths():
         DS.eigenflow_study(fields, samples_per_field=10, size=4)
     with pytest.raises(ValueError, match="'spacing' parameter of eigenflow_study"):
         DS.eigenflow_study(fields, samples_per_field=10, spacing=0)
+
+
+# ------------------------------------------------------------------------- provenance
+
+
+@pytest.mark.parametrize("doc, match", [
+    ({"command": "windnav fly", "arguments": {}, "argv": ["--nope"]},
+     r"argv starting with its command's name 'fly'"),
+    ({"command": "windnav fly", "arguments": {}, "argv": ["fly", "--nope"]},
+     r"no longer parses"),
+    ({"command": "windnav fly", "arguments": {"duration": "abc"}}, r"no longer parses"),
+])
+def test_command_line_parses_the_line_it_gives(doc, match, capsys):
+    # Python API audit, fifty-eighth session: 'windnav --nope' and 'windnav fly --duration
+    # abc' were given as lines
+    with pytest.raises(ValueError, match=match):
+        PV.command_line(doc)
+    assert PV.command_line({"command": "windnav fly", "arguments": {"duration": 2.0},
+                            "argv": ["fly", "--duration", "2"]}) == "windnav fly --duration 2"
+
+
+def test_command_line_names_a_doc_it_cannot_read(tmp_path):
+    # Python API audit, fifty-eighth session: None met pathlib's TypeError, a file of no JSON
+    # a JSONDecodeError, a bad .json.gz a BadGzipFile, a JSON list an AttributeError
+    (tmp_path / "a.json").write_text("not json")
+    (tmp_path / "b.json").write_text("[1, 2]")
+    (tmp_path / "c.json.gz").write_bytes(b"not gzip")
+    with gzip.open(tmp_path / "d.json.gz", "wt") as f:
+        f.write("[]")
+    for doc, match in ((None, "must be a result document"), (5, "must be a result document"),
+                       (tmp_path / "a.json", "readable JSON result file"),
+                       (tmp_path / "b.json", "which holds a list"),
+                       (tmp_path / "c.json.gz", "readable JSON result file"),
+                       (tmp_path / "d.json.gz", "which holds a list"),
+                       (tmp_path / "none.json", "readable JSON result file")):
+        with pytest.raises(ValueError, match=rf"'doc' parameter of command_line {match}|"
+                                             rf"'doc' parameter of command_line .*{match}"):
+            PV.command_line(doc)

@@ -71,15 +71,34 @@ its ``--variant`` labels of the onboard stack)."""
 
 
 def _load(doc) -> Mapping:
+    """The document ``doc``, or the one its ``.json`` / ``.json.gz`` file holds; a ValueError
+    naming 'doc' for anything else (None met pathlib's TypeError, a file of no JSON a
+    JSONDecodeError, a bad .json.gz a BadGzipFile and a JSON list an AttributeError: Python
+    API audit, fifty-eighth session)."""
+    import gzip
+
+    where = "command_line"
     if isinstance(doc, Mapping):
         return doc
+    if not isinstance(doc, str | os.PathLike) or not str(doc):
+        raise ValueError(f"The 'doc' parameter of {where} must be a result document (a dict) "
+                         f"or the path of its .json or .json.gz file. Got {doc!r} instead.")
     path = Path(doc)
-    if path.suffix == ".gz":
-        import gzip
-
-        with gzip.open(path, "rt") as f:
-            return json.load(f)
-    return json.loads(path.read_text())
+    try:
+        if path.suffix == ".gz":
+            with gzip.open(path, "rt") as f:
+                loaded = json.load(f)
+        else:
+            loaded = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError, EOFError) as exc:  # BadGzipFile: OSError
+        raise ValueError(f"The 'doc' parameter of {where} must name a readable JSON result "
+                         f"file. Got {str(path)!r} instead ({type(exc).__name__}: {exc}).") \
+            from exc
+    if not isinstance(loaded, Mapping):
+        raise ValueError(f"The 'doc' parameter of {where} must name a JSON result document (an "
+                         f"object). Got {str(path)!r} instead, which holds a "
+                         f"{type(loaded).__name__}.")
+    return loaded
 
 
 def _words(value) -> list[str]:
@@ -139,13 +158,19 @@ def command_arguments(doc) -> list[str]:
                          f"result of {command!r} written without them cannot be rebuilt).")
     root = build_parser()
     name = command.split()[1]
-    argv = doc.get("argv")
-    if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
-        return _replaced_models(_changed_defaults(["windnav", *argv], root, name, recorded),
-                              root, name, doc)
     if name not in root.commands:
         raise ValueError(f"{where}: the command {name!r} that wrote this result is no longer a "
                          "windnav command.")
+    argv = doc.get("argv")
+    if isinstance(argv, list) and argv and all(isinstance(w, str) for w in argv):
+        # an argv without the command's name (['--nope']) gave "windnav --nope" (Python API
+        # audit, fifty-eighth session)
+        if argv[0] != name:
+            raise ValueError(f"The 'doc' parameter of {where} must record argv starting with "
+                             f"its command's name {name!r}. Got argv {argv!r} instead.")
+        return _parsed(_replaced_models(_changed_defaults(["windnav", *argv], root, name,
+                                                          recorded), root, name, doc),
+                       root, name)
     words = ["windnav", name]
     parser = root.commands[name]
     left = {k: v for k, v in recorded.items() if k not in NOT_ARGUMENTS}
@@ -182,7 +207,16 @@ def command_arguments(doc) -> list[str]:
         raise ValueError(f"{where}: the result records arguments that 'windnav {name}' no "
                          f"longer has: {', '.join(unknown)}; the line it was written by cannot "
                          "be rebuilt with this version.")
-    return _replaced_models(_changed_defaults(words, root, name, recorded), root, name, doc)
+    return _parsed(_replaced_models(_changed_defaults(words, root, name, recorded), root,
+                                    name, doc), root, name)
+
+
+def _parsed(words: list[str], parser, name: str) -> list[str]:
+    """``words``, once the current interface parses them: a recorded value it refuses
+    (``--duration abc``) gave a line that did not run (Python API audit, fifty-eighth
+    session); now a ValueError (:func:`_parse`)."""
+    _parse(parser, words, name)
+    return words
 
 
 def _shown(path: Path) -> str:
@@ -357,8 +391,10 @@ def command_line(doc) -> str:
     Raises
     ------
     ValueError
-        When the document records no command or arguments, or arguments the current command
-        no longer has (named).
+        When ``doc`` is no document nor a readable JSON file of one; when the document records
+        no command or arguments, or arguments the current command no longer has (named), or
+        an ``argv`` that does not start with its command's name; or when the line does not
+        parse with the current interface (argparse's message on stderr).
     """
     return shlex.join(command_arguments(doc))
 
