@@ -13,6 +13,7 @@ import gzip
 import json
 import math
 import types
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -385,3 +386,12 @@ def test_command_line_names_a_doc_it_cannot_read(tmp_path):
         with pytest.raises(ValueError, match=rf"'doc' parameter of command_line {match}|"
                                              rf"'doc' parameter of command_line .*{match}"):
             PV.command_line(doc)
+
+
+def test_resolve_paths_refuses_an_empty_out_dir():
+    # Python API audit, fifty-eighth session: '' gave Path('') == '.', the current folder (the
+    # command line's --out '' was refused since the session before)
+    recipe = T.load_recipe("tiny")
+    with pytest.raises(ValueError, match="'out_dir' parameter of resolve_paths must be a path"):
+        T.resolve_paths(recipe, out_dir="")
+    assert T.resolve_paths(recipe)[0] == Path("runs") / recipe["name"]

@@ -113,8 +113,10 @@ def run(args, simulate=None) -> int:
         recipe["train"]["seed"] = nonnegative_int(args.seed, "--seed", name)
     require("torch", f"windnav {name}")  # before the sweep: it ran whole (an hour) first
     # --out "" (kept as typed: path_argument) is refused here, not read as "." by Path
+    if args.out is not None:
+        check_output_path(args.out, "--out", name, kind="dir")
     out_dir, store = resolve_paths(recipe, args.out)
-    check_output_path(out_dir if args.out is None else args.out, "--out", name, kind="dir")
+    check_output_path(out_dir, "--out", name, kind="dir")
     out = outputs(args)
     lock = out_dir / LOCK
     with exclusive(lock, f"the decoder run {str(out_dir)!r}"):  # a second run refuses at once

@@ -626,6 +626,9 @@ def resolve_paths(recipe: dict, out_dir=None) -> tuple[Path, Path]:
         # {} met KeyError 'name' (Python API audit, fifty-eighth session)
         raise ValueError(f"The 'recipe' parameter of resolve_paths must be a recipe (a dict, "
                          f"from load_recipe). Got {recipe!r} instead.")
+    if out_dir is not None and str(out_dir) == "":  # Path("") is "." (the current folder)
+        raise ValueError("The 'out_dir' parameter of resolve_paths must be a path (or None: "
+                         f"runs/{recipe['name']}). Got '' instead.")
     out = Path(out_dir) if out_dir is not None else Path("runs") / recipe["name"]
     store = Path(recipe["sweep"]["store"])
     return out, store if store.is_absolute() else out / store
