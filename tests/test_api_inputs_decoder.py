@@ -51,7 +51,6 @@ def _with(base: dict, section: str, **changes) -> dict:
     ("data", "seed", -1, "data.seed"), ("train", "seed", -1, "train.seed"),
     ("sweep", "seed", -1, "sweep.seed"), ("sweep", "speeds", [5, 5], "sweep.speeds"),
     ("sweep", "settings", {"dx": -1}, "sweep.settings.dx"),
-    ("sweep", "settings", {"foo": 1}, "sweep.settings"),
     ("sweep", "settings", [1], "sweep.settings"),
     ("sweep", "settings", {"dt": 0}, "sweep.settings.dt"),
     ("sweep", "settings", {"steps": 0}, "sweep.settings.steps"),

@@ -544,9 +544,10 @@ def _check_sampling(r: dict, fail) -> None:
     sweep, by the dataset, NumPy or the solver, naming their own parameters (Python API
     audit, fifty-eighth session). The rules are those of
     :class:`windnav.predict.dataset.DecoderDataset` and of the sweep's solver
-    (:func:`windnav.flow.simulate_batch`)."""
-    from windnav.experiments.wind_sweep import DEFAULT_SETTINGS
-
+    (:func:`windnav.flow.simulate_batch`); the settings' names, and ``record_every`` against
+    the default ``steps``, are checked by the sweep itself before it makes its store
+    (:func:`windnav.experiments.wind_sweep.sweep`: ``predict`` does not import
+    ``experiments``)."""
     d, sw = r["data"], r["sweep"]
     v = d["spacing"]
     if not _is_number(v) or v <= 0:
@@ -568,9 +569,9 @@ def _check_sampling(r: dict, fail) -> None:
         fail("sweep.speeds", "distinct inlet speeds (each is simulated once per map and "
              "direction)", sw["speeds"])
     v = sw["settings"]
-    if not isinstance(v, dict) or set(v) - set(DEFAULT_SETTINGS):
-        fail("sweep.settings", f"a table of solver settings among {sorted(DEFAULT_SETTINGS)}",
-             v)
+    if not isinstance(v, dict):
+        fail("sweep.settings", "a table of solver settings (dx, dt, spinup_steps, steps, "
+             "record_every, ...)", v)
     for key in ("dx", "dt"):
         if key in v and not (key == "dt" and v[key] is None) and (
                 not _is_number(v[key]) or v[key] <= 0):
@@ -581,8 +582,8 @@ def _check_sampling(r: dict, fail) -> None:
         if key in v and (isinstance(v[key], bool) or not isinstance(v[key], int)
                          or v[key] < least):
             fail(f"sweep.settings.{key}", f"an integer >= {least}", v[key])
-    steps = v.get("steps", DEFAULT_SETTINGS["steps"])
-    if v.get("record_every", 0) > steps:
+    steps = v.get("steps")
+    if steps is not None and v.get("record_every", 0) > steps:
         fail("sweep.settings.record_every", f"at most steps ({steps}) to record a frame, or 0 "
              "for none", v["record_every"])
 
