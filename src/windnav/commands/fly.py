@@ -110,14 +110,19 @@ def _check_rates(dt: float, control_rate_hz, sensor_rate_hz, name: str) -> None:
 WIND_DEFAULTS = {"wind_mean": (3.0, 1.0, 0.0), "wind_sigma": (1.5, 1.5, 0.7)}
 """``--wind-mean`` and ``--wind-sigma`` when not given, m/s."""
 
-WIND_USES = {"wind_mean": ("constant", "dryden"), "wind_sigma": ("dryden",)}
-"""The ``--wind`` kinds that use each option: with another, the option is refused."""
+
+def _wind_uses() -> dict:
+    """``wind_mean``/``wind_sigma`` -> the ``--wind`` kinds that use each option
+    (:data:`windnav.experiments.flight.WIND_USES`): with another, the option is refused."""
+    from windnav.experiments.flight import WIND_USES
+
+    return {f"wind_{key}": kinds for key, kinds in WIND_USES.items()}
 
 
 def _wind_options(args, name: str) -> None:
     """Refuse ``--wind-mean``/``--wind-sigma`` typed with a ``--wind`` that ignores them (``fly
     --wind none --wind-mean 5 0 0`` flew in still air), then fill in their defaults."""
-    for key, kinds in WIND_USES.items():
+    for key, kinds in _wind_uses().items():
         value = getattr(args, key)
         if value is not None and args.wind not in kinds:
             flag = "--" + key.replace("_", "-")
@@ -165,7 +170,7 @@ def run(args) -> int:
                              f"{' '.join(f'{v:g}' for v in value)} instead.")
     out = outputs(args, out=("--out", args.out, PRODUCTS))
 
-    uses = {key: args.wind in kinds for key, kinds in WIND_USES.items()}
+    uses = {key: args.wind in kinds for key, kinds in _wind_uses().items()}
     wind = make_wind(args.wind, mean if uses["wind_mean"] else (0.0, 0.0, 0.0),
                      sigma if uses["wind_sigma"] else (0.0, 0.0, 0.0), seed=args.seed)
     with warnings.catch_warnings():

@@ -16,16 +16,19 @@ from __future__ import annotations
 
 import math
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
 
 from windnav._validate import positive_float
 from windnav.sensors.models import IMU, Odometry, RotorSpeedSensor, SensorSuite
 
-__all__ = ["WIND_KINDS", "flight_summary", "make_wind", "misfit_rates", "run_flight",
+__all__ = ["WIND_KINDS", "WIND_USES", "flight_summary", "make_wind", "misfit_rates", "run_flight",
            "sensors_at", "wind_estimate"]
 
 WIND_KINDS = ("none", "constant", "dryden")
+WIND_USES = {"mean": ("constant", "dryden"), "sigma": ("dryden",)}
+"""The kinds of :func:`make_wind` that use each of its arguments; the others refuse it."""
 
 
 def make_wind(kind: str, mean=(0.0, 0.0, 0.0), sigma=(0.0, 0.0, 0.0), *, seed: int = 0):
@@ -34,9 +37,10 @@ def make_wind(kind: str, mean=(0.0, 0.0, 0.0), sigma=(0.0, 0.0, 0.0), *, seed: i
     """
     from windnav.wind import ConstantWind, DrydenWind
 
-    for name, value, kinds in (("mean", mean, ("constant", "dryden")),
-                               ("sigma", sigma, ("dryden",))):
-        if kind in WIND_KINDS and kind not in kinds and np.any(np.asarray(value) != 0):
+    for name, value in (("mean", mean), ("sigma", sigma)):
+        kinds = WIND_USES[name]
+        if kind in WIND_KINDS and kind not in kinds and value is not None and np.any(
+                np.asarray(value, dtype=object) != 0):
             # make_wind("none", (5, 0, 0)) flew in still air (API audit, fifty-eighth session)
             raise ValueError(f"The '{name}' parameter of make_wind applies only to the kinds "
                              f"{list(kinds)}: {kind!r} ignores it. Got {value!r} with "
@@ -77,7 +81,7 @@ def misfit_rates(dt: float, rates: dict[str, float]) -> dict[str, float]:
     ``dt`` (s) per sample."""
     where = "misfit_rates"
     dt = positive_float(dt, "dt", where)  # dt=0 raised ZeroDivisionError (API audit)
-    if not isinstance(rates, dict):
+    if not isinstance(rates, Mapping):
         raise ValueError(f"The 'rates' parameter of {where} must be a dict name -> rate_hz. "
                          f"Got {rates!r} instead.")
     for name, rate in rates.items():  # NaN said "cannot convert float NaN to integer"
