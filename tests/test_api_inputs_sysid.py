@@ -346,3 +346,21 @@ def test_power_study_keeps_the_altitude_rule_of_sysid_power():
     with pytest.raises(ValueError, match="'min_altitude' parameter of power_study must be given "
                                          "with altitude_col"):
         SY.power_study(table, "v", "p", time_col="t", altitude_col="alt", degree=2)
+
+
+def test_the_froude_scalings_take_arrays_of_amounts():
+    # review of the audit's mends: an array of speeds scaled element by element before the
+    # checks, and was refused by them ("must be a number")
+    from windnav.sysid.similitude import Similitude
+
+    sim = Similitude.thesis()
+    speeds = np.array([0.0, 2.0, 8.0])
+    np.testing.assert_array_equal(sim.model_speed(speeds), [sim.model_speed(v) for v in speeds])
+    np.testing.assert_array_equal(sim.model_mass([1.0, 2.0]),
+                                  [sim.model_mass(1.0), sim.model_mass(2.0)])
+    for bad in ([1.0, -2.0], [1.0, np.nan], ["a", "b"]):
+        with pytest.raises(ValueError, match="'full_scale_speed' parameter of "
+                                             "Similitude.model_speed must hold finite numbers"):
+            sim.model_speed(bad)
+    with pytest.raises(ValueError, match="must hold finite numbers > 0"):
+        sim.model_mass([1.0, 0.0])

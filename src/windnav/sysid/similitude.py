@@ -59,6 +59,22 @@ def _number(value, name: str, where: str, *, allow_zero: bool = False) -> float:
     return positive_float(value, name, where, allow_zero=allow_zero)
 
 
+def _amounts(value, name: str, where: str, *, allow_zero: bool = True):
+    """A speed, mass or frequency to scale: a number (:func:`_number`) or an array of them,
+    each finite and >= 0 (> 0 without ``allow_zero``); an array stays an array."""
+    if np.ndim(value) == 0:
+        return _number(value, name, where, allow_zero=allow_zero)
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.dtype == object or not np.all(np.isfinite(arr)) or np.any(
+            arr < 0 if allow_zero else arr <= 0):
+        raise ValueError(f"The {name!r} parameter of {where} must hold finite numbers "
+                         f"{'>=' if allow_zero else '>'} 0. Got {value!r} instead.")
+    return arr
+
+
 @dataclass(frozen=True)
 class Similitude:
     """Froude scaling between a full-scale vehicle and its model.
@@ -108,43 +124,40 @@ class Similitude:
         return self.exact_scale if self.scale is None else float(self.scale)
 
     # Froude ------------------------------------------------------------------------------
-    # Each takes a finite number >= 0 (a mass > 0), as reynolds and report do: a negative mass
+    # Each takes a finite number >= 0 (a mass > 0), as reynolds and report do, or an array of
+    # them (scaled element by element, as before the checks; review): a negative mass
     # gave -9.2e-5 kg, a NaN speed NaN, a negative speed -160 m/s (Python API audit,
     # fifty-eighth session).
     def model_speed(self, full_scale_speed: float) -> float:
         """``U_M = U_FS / sqrt(lambda)``, m/s (``full_scale_speed`` m/s >= 0)."""
-        u = _number(full_scale_speed, "full_scale_speed", "Similitude.model_speed",
-                    allow_zero=True)
+        u = _amounts(full_scale_speed, "full_scale_speed", "Similitude.model_speed")
         return u / math.sqrt(self.length_scale)
 
     def full_scale_speed(self, model_speed: float) -> float:
         """``U_FS = U_M sqrt(lambda)``, m/s (``model_speed`` m/s >= 0)."""
-        u = _number(model_speed, "model_speed", "Similitude.full_scale_speed", allow_zero=True)
+        u = _amounts(model_speed, "model_speed", "Similitude.full_scale_speed")
         return u * math.sqrt(self.length_scale)
 
     def model_mass(self, full_scale_mass: float) -> float:
         """``m_M = m_FS / lambda^3``, kg (``full_scale_mass`` kg > 0)."""
-        m = _number(full_scale_mass, "full_scale_mass", "Similitude.model_mass")
+        m = _amounts(full_scale_mass, "full_scale_mass", "Similitude.model_mass", allow_zero=False)
         return m / self.length_scale**3
 
     def model_frequency(self, full_scale_frequency: float) -> float:
         """``f_M = f_FS sqrt(lambda)``, Hz (``full_scale_frequency`` Hz >= 0)."""
-        f = _number(full_scale_frequency, "full_scale_frequency", "Similitude.model_frequency",
-                    allow_zero=True)
+        f = _amounts(full_scale_frequency, "full_scale_frequency", "Similitude.model_frequency")
         return f * math.sqrt(self.length_scale)
 
     def full_scale_frequency(self, model_frequency: float) -> float:
         """``f_FS = f_M / sqrt(lambda)``, Hz (``model_frequency`` Hz >= 0)."""
-        f = _number(model_frequency, "model_frequency", "Similitude.full_scale_frequency",
-                    allow_zero=True)
+        f = _amounts(model_frequency, "model_frequency", "Similitude.full_scale_frequency")
         return f / math.sqrt(self.length_scale)
 
     # Reynolds ----------------------------------------------------------------------------
     def reynolds_model_speed(self, full_scale_speed: float) -> float:
         """The model speed Reynolds similarity would need, ``lambda U_FS``, m/s
         (``full_scale_speed`` m/s >= 0)."""
-        u = _number(full_scale_speed, "full_scale_speed", "Similitude.reynolds_model_speed",
-                    allow_zero=True)
+        u = _amounts(full_scale_speed, "full_scale_speed", "Similitude.reynolds_model_speed")
         return self.length_scale * u
 
     def reynolds(self, speed: float, diameter: float,
