@@ -334,12 +334,18 @@ def test_power_study_keeps_the_altitude_rule_of_sysid_power():
 
     t = np.arange(600) * 0.1
     speed = np.repeat(np.linspace(0.0, 5.0, 6), 100)
+    alt = np.where(speed > 4.5, 1.0, 3.0)        # the fastest 100 rows below 2 m
     table = Table("t.csv", {"t": t, "v": speed, "p": 10.0 + speed**2 + 0.01 * np.sin(t),
-                            "alt": np.full(600, 3.0)})
-    fit, _ = SY.power_study(table, "v", "p", time_col="t", altitude_col="alt",
-                            min_altitude=2.0, degree=2)
-    plain, _ = SY.power_study(table, "v", "p", time_col="t", degree=2)
-    np.testing.assert_array_equal(fit.fit.coef, plain.fit.coef)
+                            "alt": alt})
+    fit, doc = SY.power_study(table, "v", "p", time_col="t", altitude_col="alt",
+                              min_altitude=2.0, degree=2)
+    plain, plain_doc = SY.power_study(table, "v", "p", time_col="t", degree=2)
+    assert doc["selection"]["steady_level"] < plain_doc["selection"]["steady_level"]
+    assert not np.array_equal(fit.fit.coef, plain.fit.coef)
+    for kwargs in ({"altitude_col": "alt", "min_altitude": 2.0}, {"vertical_speed_col": "v"}):
+        with pytest.raises(ValueError, match="'time_col' parameter of power_study must be "
+                                             "given with"):
+            SY.power_study(table, "v", "p", degree=2, **kwargs)
     with pytest.raises(ValueError, match="'altitude_col' parameter of power_study must be given "
                                          "with min_altitude"):
         SY.power_study(table, "v", "p", time_col="t", min_altitude=2.0, degree=2)

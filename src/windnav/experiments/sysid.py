@@ -517,6 +517,21 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
         steady_level_mask,
     )
 
+    # the selection's columns and limits without time_col, and one altitude argument without
+    # the other, were read and ignored: every row fitted (Python API audit, fifty-eighth
+    # session, and its review); sysid power refuses the same flags
+    given = {"vertical_speed_col": vertical_speed_col, "altitude_col": altitude_col,
+             "min_altitude": min_altitude}
+    if time_col is None and any(v is not None for v in given.values()):
+        first = next(k for k, v in given.items() if v is not None)
+        raise ValueError(f"The 'time_col' parameter of {where} must be given with {first}: the "
+                         "selection of steady level flight needs the samples' times. Got none "
+                         "instead.")
+    if (altitude_col is None) != (min_altitude is None):
+        missing, present = (("altitude_col", "min_altitude") if altitude_col is None
+                            else ("min_altitude", "altitude_col"))
+        raise ValueError(f"The '{missing}' parameter of {where} must be given with {present}. "
+                         f"Got none with {present}={given[present]!r} instead.")
     speed = table.column(speed_col, where)
     power = table.column(power_col, where)
     keep = np.isfinite(speed) & np.isfinite(power)
@@ -529,13 +544,6 @@ def power_study(table, speed_col: str, power_col: str, *, degree: int = 3,
         t = table.column(time_col, where)
         vz = None if vertical_speed_col is None else table.column(vertical_speed_col, where)
         alt = None if altitude_col is None else table.column(altitude_col, where)
-        for given, other, value in (("min_altitude", "altitude_col", min_altitude),
-                                    ("altitude_col", "min_altitude", altitude_col)):
-            if value is not None and (altitude_col if other == "altitude_col"
-                                      else min_altitude) is None:
-                # either one alone was ignored (Python API audit, fifty-eighth session)
-                raise ValueError(f"The '{other}' parameter of {where} must be given with "
-                                 f"{given}. Got none with {given}={value!r} instead.")
         steady = steady_level_mask(t, speed, vertical_speed=vz, altitude=alt,
                                    max_vertical_speed=max_vertical_speed, max_accel=max_accel,
                                    min_altitude=min_altitude, min_segment_s=min_segment_s)
