@@ -90,6 +90,20 @@ def test_stationary_covariance_refuses_an_unstable_a(a):
         D.stationary_covariance(np.asarray(a), np.eye(2))
 
 
+@pytest.mark.parametrize("a, b, match", [
+    ([[np.nan, 0.0], [0.0, -1.0]], np.eye(2), "'a' parameter of stationary_covariance must be "
+                                              "finite"),
+    (-np.eye(2), np.eye(3), "'b' parameter of stationary_covariance must be a matrix of 2 rows"),
+    (-np.eye(2), [[np.inf, 0.0], [0.0, 1.0]], "'b' parameter of stationary_covariance must be "
+                                              "finite"),
+    (np.ones(3), np.eye(3), "'a' parameter of stationary_covariance must be a square matrix")])
+def test_stationary_covariance_names_what_is_wrong(a, b, match):
+    # review of the audit's mends: a NaN in A was "must be a finite square matrix. Got shape
+    # (2, 2)", and a B of the wrong shape SciPy's "Matrix a and q should have the same shape"
+    with pytest.raises(ValueError, match=match):
+        D.stationary_covariance(np.asarray(a), np.asarray(b))
+
+
 @pytest.mark.parametrize("kwargs, name", [({"mean": "abc"}, "mean"), ({"sigma": "abc"}, "sigma"),
                                           ({"length_scales": ["a", 1, 1]}, "length_scales")])
 def test_dryden_text_for_numbers_is_named(kwargs, name):

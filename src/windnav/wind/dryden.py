@@ -214,9 +214,17 @@ def stationary_covariance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """
     where = "stationary_covariance"
     a = np.asarray(a, dtype=np.float64)
-    if a.ndim != 2 or a.shape[0] != a.shape[1] or not np.all(np.isfinite(a)):
-        raise ValueError(f"The 'a' parameter of {where} must be a finite square matrix. Got "
-                         f"shape {a.shape} instead.")
+    b = np.asarray(b, dtype=np.float64)
+    if a.ndim != 2 or a.shape[0] != a.shape[1]:
+        raise ValueError(f"The 'a' parameter of {where} must be a square matrix. Got shape "
+                         f"{a.shape} instead.")
+    if b.ndim != 2 or b.shape[0] != a.shape[0]:
+        raise ValueError(f"The 'b' parameter of {where} must be a matrix of {a.shape[0]} rows "
+                         f"(as 'a'). Got shape {b.shape} instead.")
+    for name, m in (("a", a), ("b", b)):
+        if not np.all(np.isfinite(m)):
+            raise ValueError(f"The {name!r} parameter of {where} must be finite. Got "
+                             f"{m.tolist()!r} instead.")
     growth = np.linalg.eigvals(a).real
     if a.size and growth.max() >= 0:
         raise ValueError(f"The 'a' parameter of {where} must be stable (every eigenvalue with "
