@@ -797,6 +797,7 @@ def _register_simulate_stand(ss) -> None:
 def run_simulate_stand(args) -> int:
     from windnav.experiments.results import write_json
     from windnav.experiments.sysid import (
+        MAX_STAND_SAMPLES_PER_STEP,
         simulate_stand,
         stand_clipping_note,
         stand_csv_name,
@@ -817,8 +818,9 @@ def run_simulate_stand(args) -> int:
     rate = positive_float(args.rate_hz, "--rate-hz", name)
     step = positive_float(args.step_s, "--step-s", name)
     per_step = round(step * rate)  # samples per PWM step of the ramp
-    if not 1 <= per_step <= 1_000_000:  # none: CSVs of a header alone; 1e9 Hz: 67 GiB
-        raise ValueError(f"The '--rate-hz' parameter of {name} must give 1 to 1,000,000 samples "
+    most = MAX_STAND_SAMPLES_PER_STEP  # none: CSVs of a header alone; 1e9 Hz: 67 GiB
+    if not 1 <= per_step <= most:
+        raise ValueError(f"The '--rate-hz' parameter of {name} must give 1 to {most:,} samples "
                          f"per --step-s ({step:g} s). Got {args.rate_hz!r} instead ({per_step} "
                          "samples).")
     params = vehicle_params(args.vehicle)

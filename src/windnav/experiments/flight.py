@@ -119,13 +119,13 @@ def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float
     """
     import windnav as wn
     from windnav.control.se3 import default_gains
-    from windnav.sim.loop import fitted_rate
+    from windnav.sim.loop import DEFAULT_CONTROL_RATE_HZ, fitted_rate
 
     where = "run_flight"
     duration = positive_float(duration, "duration", where)
     dt = positive_float(dt, "dt", where)
     params = wn.vehicle.params(vehicle)
-    rate = (fitted_rate(100.0, dt) if control_rate_hz is None
+    rate = (fitted_rate(DEFAULT_CONTROL_RATE_HZ, dt) if control_rate_hz is None
             else positive_float(control_rate_hz, "control_rate_hz", where))
     kd_att = default_gains(params).kd_att
     if kd_att / rate > 2.0:
