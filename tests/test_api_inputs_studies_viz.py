@@ -399,3 +399,51 @@ def test_path_widths_refuses_widths_that_are_not_positive(kwargs, name):
     with pytest.raises(ValueError, match="'n' parameter of path_widths"):
         VNC.path_widths(-1)
     assert VNC.path_widths(3) == [2.0 + 2 * 1.2, 2.0 + 1.2, 2.0]
+
+
+@pytest.mark.parametrize("fn, keys", [
+    ("plot_gradients", ("decoder", "decoder_per_U")),
+    ("plot_eigenflows", ("world", "canonical", "size", "spacing", "n_fields")),
+    ("plot_mosaic", ("x", "y", "truth", "prediction", "free", "covered", "n_robots", "size",
+                     "robots", "metrics", "w_up", "name", "coverage"))])
+def test_the_palette_plotters_take_png_alone(fn, keys, tmp_path):
+    # review of the audit's mends: these write 128-colour PNG bytes whatever the suffix, and
+    # figure_path approved a '.svg' (a file of PNG bytes named .svg)
+    import windnav.viz.decoder as VD
+
+    with pytest.raises(ValueError, match=f"'path' parameter of {fn} must end in a suffix {fn} "
+                                         r"writes, one of \['png'\]"):
+        getattr(VD, fn)(dict.fromkeys(keys), tmp_path / "f.svg")
+    assert not (tmp_path / "f.svg").exists()
+
+
+def test_nav_study_pace_names_its_variant_flag_when_it_is_the_reference(tmp_path, capsys):
+    # review of the audit's mends: pace_study's new refusal reached the command line as "The
+    # 'variant' parameter of pace_study"
+    import gzip
+    import shutil
+    from pathlib import Path
+
+    from windnav import cli
+
+    docs = Path(__file__).parents[1] / "docs" / "navigation"
+    store = tmp_path / "store"
+    store.mkdir()
+    shutil.copy(docs / "thesis_manifest.json", store / "manifest.json")
+    (store / "records.jsonl").write_bytes(gzip.decompress(
+        (docs / "thesis_records.jsonl.gz").read_bytes()))
+    assert cli.main(["nav-study", "pace", "--store", str(store), "--variant", "mppi",
+                     "--out", str(tmp_path / "p")]) == 2
+    err = capsys.readouterr().err
+    assert "'--variant' parameter of windnav nav-study" in err and "pace_study" not in err
+
+
+def test_plot_city_takes_summarize_city_s_own_result(tmp_path):
+    # review of the audit's mends: the key check asked for 'name', which the command adds and
+    # summarize_city does not give
+    import windnav as wn
+    from windnav.commands.city import summarize_city
+    from windnav.viz.city import plot_city
+
+    city = wn.city.planning_map(rng=0, size=400.0)
+    assert plot_city(city, summarize_city(city), tmp_path / "c").name == "c.png"

@@ -486,7 +486,8 @@ def _pace(args, name: str, spec) -> int:
     out = outputs(args, out=("--out", args.out, products))
     records = [r for r in NavStore(args.store, spec, create=False).load()
                if r.get("map_index") in maps]
-    with options_named({"'records' parameter of pace_study": f"'--store' parameter of {name}"}):
+    with options_named({"'records' parameter of pace_study": f"'--store' parameter of {name}",
+                        "'variant' parameter of pace_study": f"'--variant' parameter of {name}"}):
         res = pace_study(records, variant)
     res.update(store=str(args.store), maps=list(maps))
     _write(out, args, {"study": "pace", **res}, products[0],
@@ -745,7 +746,6 @@ def _gusts(args, name: str, spec) -> int:
     out = outputs(args, out=("--out", args.out, products))
     t0 = time.perf_counter()
     with options_named({"'base' parameter of gust_routes": f"'--base' parameter of {name}",
-                        "'variants' parameter of gust_routes": f"'--base' parameter of {name}",
                         "'gust_k' parameter of gust_routes": f"'--gust-k' parameter of {name}"}):
         res = nav_gusts.gust_routes(spec, scenario, base=base, gust_k=args.gust_k,
                                     progress=not args.no_progress)

@@ -246,8 +246,8 @@ def _module(model, name: str, where: str, built: bool = True) -> None:
     if not isinstance(model, nn.Module) or (built and not (
             isinstance(getattr(model, "hp", None), dict)
             and getattr(model, "architecture", None) in MODULES)):
-        raise ValueError(f"The {name!r} parameter of {where} must be a torch module "
-                         + ("made by build_model" if built else "") + f". Got {model!r} instead.")
+        raise ValueError(f"The {name!r} parameter of {where} must be a torch module"
+                         + (" made by build_model" if built else "") + f". Got {model!r} instead.")
 
 
 def _top_components(x: np.ndarray, k: int, oversample: int = 16, power: int = 3):

@@ -15,7 +15,7 @@ from pathlib import Path
 __all__ = ["check_result", "figure_path"]
 
 
-def figure_path(path, where: str) -> Path:
+def figure_path(path, where: str, formats=None) -> Path:
     """The file ``matplotlib``'s ``savefig`` writes for ``path``, its folder made if need be.
 
     As ``savefig`` does, a ``path`` without a suffix (``"fig"``, ``"fig."``, an existing
@@ -29,7 +29,8 @@ def figure_path(path, where: str) -> Path:
     ValueError
         Naming ``path`` of ``where``: not a path, a suffix matplotlib cannot write (its
         ``FigureCanvasBase.get_supported_filetypes``), a file that is an existing folder, or a
-        folder that cannot be made.
+        folder that cannot be made. ``formats`` (e.g. ``("png",)``): the suffixes a plotter
+        that writes its own bytes (a 128-colour PNG) takes, instead of matplotlib's.
     """
     import matplotlib
     from matplotlib.backend_bases import FigureCanvasBase
@@ -45,10 +46,12 @@ def figure_path(path, where: str) -> Path:
     if not fmt:  # savefig's own rule (FigureCanvasBase.print_figure)
         fmt = matplotlib.rcParams["savefig.format"]
         name = name.rstrip(".") + "." + fmt
-    formats = FigureCanvasBase.get_supported_filetypes()
+    own = formats is not None  # (a .svg of PNG bytes passed before; review)
+    formats = tuple(formats) if own else FigureCanvasBase.get_supported_filetypes()
     if fmt.lower() not in formats:
-        raise ValueError(f"The 'path' parameter of {where} must end in a suffix matplotlib "
-                         f"writes, one of {sorted(formats)} (none: "
+        raise ValueError(f"The 'path' parameter of {where} must end in a suffix "
+                         f"{where if own else 'matplotlib'} writes, one of {sorted(formats)} "
+                         "(none: "
                          f"'.{matplotlib.rcParams['savefig.format']}'). Got {path!r} instead.")
     out = Path(name)
     if out.is_dir():

@@ -32,8 +32,8 @@ def plot_city(city, summary: dict, path) -> Path:
     ----------
     city : windnav.city.City
     summary : dict
-        :func:`windnav.commands.city.summarize_city`'s fields (``name``, ``buildings``,
-        ``blocks``, ``built_fraction``) and optionally ``suite``.
+        :func:`windnav.commands.city.summarize_city`'s fields (``buildings``, ``blocks``,
+        ``built_fraction``) and optionally ``name`` (the title's start) and ``suite``.
     path : str or Path
         The PNG to write.
 
@@ -41,8 +41,8 @@ def plot_city(city, summary: dict, path) -> Path:
     -------
     Path
     """
-    check_result(
-        summary, ("name", "buildings", "blocks", "built_fraction"), "plot_city",
+    check_result(  # (name: the command's, optional here; summarize_city gives none)
+        summary, ("buildings", "blocks", "built_fraction"), "plot_city",
         "windnav.commands.city.summarize_city", "summary")
     path = figure_path(path, "plot_city")
     x0, x1, y0, y1 = city.bounds
@@ -84,7 +84,8 @@ def plot_city(city, summary: dict, path) -> Path:
     def count(n: int, word: str) -> str:
         return f"{n} {word}{'' if n == 1 else 's'}"
 
-    title = (f"{summary['name']}: {x1 - x0:g} x {y1 - y0:g} m, "
+    title = (f"{summary['name'] + ': ' if summary.get('name') else ''}"
+             f"{x1 - x0:g} x {y1 - y0:g} m, "
              f"{count(summary['buildings'], 'building')} ("
              f"{count(summary['blocks'], 'block')}), {100 * summary['built_fraction']:.1f} % "
              "built")

@@ -25,6 +25,10 @@ from windnav.viz.nav_compare import colour_extend
 __all__ = ["plot_averaging", "plot_eigenflows", "plot_evaluation", "plot_gradients", "plot_mosaic",
            "plot_prediction", "plot_size_study", "plot_start", "plot_winds_ablation"]
 
+PALETTE_FORMATS = ("png",)
+"""What the 128-colour plotters (eigenflows, gradients, mosaic) write: PNG bytes, whatever the
+suffix."""
+
 _MODELS = ("decoder", "local", "upstream")
 _COLOURS = {"decoder": "C0", "local": "C1", "upstream": "C2"}
 _METRICS = (("speed_error", "speed error (m/s)"),
@@ -212,7 +216,7 @@ def plot_eigenflows(result: dict, path, *, n_show: int = 8) -> Path:
     check_result(
         result, ("world", "canonical", "size", "spacing", "n_fields"), "plot_eigenflows",
         "windnav.experiments.decoder_studies.eigenflow_study")
-    path = figure_path(path, "plot_eigenflows")
+    path = figure_path(path, "plot_eigenflows", PALETTE_FORMATS)
     world, canon = result["world"], result["canonical"]
     n_show = min(n_show, world["modes"].shape[0])
     cols = max(4, (n_show + 1) // 2 + 1)
@@ -276,7 +280,7 @@ def plot_gradients(result: dict, path) -> Path:
     check_result(
         result, ("decoder", "decoder_per_U"), "plot_gradients",
         "windnav.experiments.decoder_studies.gradient_study")
-    path = figure_path(path, "plot_gradients")
+    path = figure_path(path, "plot_gradients", PALETTE_FORMATS)
     names = ("du/dx", "du/dy", "dv/dx", "dv/dy")
     res = result["decoder"]
     fig, axes = plt.subplots(1, 4, figsize=(16, 4.4))
@@ -471,7 +475,7 @@ def plot_mosaic(result: dict, path) -> Path:
         result, ("x", "y", "truth", "prediction", "free", "covered", "n_robots", "size", "robots",
         "metrics", "w_up", "name", "coverage"), "plot_mosaic",
         "windnav.experiments.decoder_studies.mosaic")
-    path = figure_path(path, "plot_mosaic")
+    path = figure_path(path, "plot_mosaic", PALETTE_FORMATS)
     x, y = result["x"], result["y"]
     truth = np.asarray(result["truth"], float)
     pred = np.asarray(result["prediction"], float)
