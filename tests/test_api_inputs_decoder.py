@@ -169,8 +169,8 @@ def test_init_basis_pca_refuses_residuals_it_cannot_decompose():
     rng = np.random.default_rng(0)
     nan = rng.normal(size=(20, 162))
     nan[3, 5] = np.nan
-    for bad, match in ((np.zeros((0, 162)), r"shape \(n, 162\) with n >= 2"),
-                       (np.zeros((1, 162)), r"n >= 2"), (rng.random((50, 7)), r"shape"),
+    for bad, match in ((np.zeros((0, 162)), r"shape \(n, 162\) with n >= 1"),
+                       (rng.random((50, 7)), r"shape"),
                        (nan, "finite"), ("abc", "an array of numbers")):
         with pytest.raises(ValueError, match=rf"'residuals' parameter of init_basis_pca.*"
                                              rf"{match}"):
@@ -181,6 +181,7 @@ def test_init_basis_pca_refuses_residuals_it_cannot_decompose():
                                          "d4-film"):
         tm.init_basis_pca(mlp, rng.random((5, 162)))
     assert tm.init_basis_pca(m, rng.random((30, 162))).shape == (4,)
+    assert tm.init_basis_pca(m, rng.random((1, 162))).shape == (4,)   # one sample: a zero basis
 
 
 def test_to_tensors_to_decoder_and_export_weights_name_their_arguments():
@@ -242,15 +243,14 @@ def ev():
     ({"group": "foo"}, "'group' parameter"),
     ({"confidence": 0}, "'confidence' parameter"), ({"confidence": 1.5}, "'confidence'"),
     ({"confidence": math.nan}, "'confidence'"), ({"confidence": "x"}, "'confidence'"),
-    ({"n_boot": -5}, "'n_boot' parameter"), ({"n_boot": 10**9}, r"at most 1000000"),
+    ({"n_boot": -5}, "'n_boot' parameter"), ({"n_boot": 10**9}, "'n_boot' parameter"),
     ({"n_boot": 2.5}, "'n_boot'"), ({"seed": -1}, "'seed' parameter"),
 ])
 def test_improvement_interval_refuses_bad_settings(ev, kwargs, match):
     # Python API audit, fifty-eighth session: group 'foo' gave {'value': None, 'slots': 0},
     # confidence 0 a zero-width interval, 1.5 and NaN NumPy's quantile error, n_boot -5
     # "negative dimensions", 10**9 a 44.7 GiB MemoryError, seed -1 NumPy's message
-    with pytest.raises(ValueError, match=rf"{match}.*improvement_interval|"
-                                         rf"improvement_interval must be at most"):
+    with pytest.raises(ValueError, match=rf"{match}.*improvement_interval"):
         DE.improvement_interval(ev["records"], **kwargs)
 
 
@@ -308,8 +308,9 @@ def test_masked_least_squares_refuses_what_it_cannot_solve():
                             ((b, t, m), {"chunk": 0}, "'chunk'"),
                             ((b, t, np.zeros((4, 10))), {}, "'mask'.*full rank"),
                             ((b[0], t, m), {}, "'basis'")):
-        with pytest.raises(ValueError, match=rf"{match}.*|{match}"):
+        with pytest.raises(ValueError, match=match) as raised:
             DS.masked_least_squares(*args, **kw)
+        assert "parameter of masked_least_squares" in str(raised.value)
     np.testing.assert_array_equal(DS.masked_least_squares(b, t, m, chunk=1), ref)
 
 

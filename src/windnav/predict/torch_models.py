@@ -216,9 +216,10 @@ def init_basis_pca(model: nn.Module, residuals: np.ndarray) -> np.ndarray:
     except (TypeError, ValueError):
         raise ValueError(f"The 'residuals' parameter of {where} must be an array of numbers. "
                          f"Got {residuals!r} instead.") from None
-    if r.ndim != 2 or r.shape[0] < 2 or r.shape[1] != n_cells:
+    if r.ndim != 2 or r.shape[0] < 1 or r.shape[1] != n_cells:  # (one row: a zero basis, as a
+        # recipe with one training sample always had; review)
         raise ValueError(f"The 'residuals' parameter of {where} must be an array of shape (n, "
-                         f"{n_cells}) with n >= 2 (2 H^2 for H = {model.hp['size']}). Got shape "
+                         f"{n_cells}) with n >= 1 (2 H^2 for H = {model.hp['size']}). Got shape "
                          f"{r.shape} instead.")
     if not np.isfinite(r).all():
         raise ValueError(f"The 'residuals' parameter of {where} must be finite (no NaN or inf). "
