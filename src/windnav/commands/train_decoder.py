@@ -116,7 +116,8 @@ def run(args, simulate=None) -> int:
     if args.out is not None:
         check_output_path(args.out, "--out", name, kind="dir")
     out_dir, store = resolve_paths(recipe, args.out)
-    check_output_path(out_dir, "--out", name, kind="dir")
+    if args.out is None:  # runs/<name>
+        check_output_path(out_dir, "--out", name, kind="dir")
     out = outputs(args)
     lock = out_dir / LOCK
     with exclusive(lock, f"the decoder run {str(out_dir)!r}"):  # a second run refuses at once

@@ -1168,8 +1168,8 @@ def _missing_store(store: Path, given: bool, where: str) -> ValueError:
                           "folder windnav wind-sweep, or windnav train-decoder's sweep, writes). "
                           f"Got {str(store)!r} instead, which does not exist.")
     return ValueError(f"{where}: there is no sweep store at {str(store)!r} (the recipe's "
-                      "sweep.store in the out folder); pass 'store', or run the recipe's sweep "
-                      "first (`windnav train-decoder` does).")
+                      "sweep.store, relative to the out folder); pass 'store', or run the "
+                      "recipe's sweep first (`windnav train-decoder` does).")
 
 
 def member_recipe(recipe: dict, i: int) -> dict:

@@ -19,7 +19,6 @@ flat bands of 1 m/s (:data:`SPEED_LEVELS`), which compress far better than a smo
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -27,7 +26,7 @@ import numpy as np
 
 from windnav._console import closes_figures_on_error
 from windnav._validate import positive_int
-from windnav.viz.nav_compare import COLORS, OUTLINE, wind_background
+from windnav.viz.nav_compare import COLORS, OUTLINE, _check_results, wind_background
 
 __all__ = ["SPEED_LEVELS", "animate_flights", "frame_times"]
 
@@ -48,10 +47,7 @@ def frame_times(results: dict, n_frames: int) -> np.ndarray:
         fifty-eighth session).
     """
     where = "frame_times"
-    if not isinstance(results, Mapping) or not results:
-        got = f"a {type(results).__name__}" if not isinstance(results, Mapping) else "none"
-        raise ValueError(f"The 'results' parameter of {where} must be a non-empty dict of "
-                         f"legend name to NavigationResult. Got {got} instead.")
+    _check_results(results, where)
     try:
         enough = positive_int(n_frames, "n_frames", where) >= 2
     except ValueError:
@@ -60,7 +56,7 @@ def frame_times(results: dict, n_frames: int) -> np.ndarray:
         raise ValueError(f"The 'n_frames' parameter of {where} must be an integer >= 2. Got "
                          f"{n_frames!r} instead.")
     end = max(float(r.t[-1]) for r in results.values())
-    return np.linspace(0.0, end, max(2, int(n_frames)))
+    return np.linspace(0.0, end, int(n_frames))
 
 
 def _speed_frames(flow, times: np.ndarray) -> np.ndarray:
