@@ -40,7 +40,7 @@ from windnav.experiments.nav_suite import (
 )
 from windnav.experiments.results import say
 
-__all__ = ["SUCCESS", "best_worst", "default_winds", "fly_cases", "mean_flow",
+__all__ = ["SUCCESS", "best_worst", "check_pair", "default_winds", "fly_cases", "mean_flow",
            "wind_scenarios"]
 
 SUCCESS = "success"
@@ -57,6 +57,18 @@ def _energy(rec: Mapping) -> float | None:
     except (TypeError, ValueError):
         return None
     return e if math.isfinite(e) else None
+
+
+def check_pair(variant, reference, where: str) -> None:
+    """A ValueError naming ``variant`` or ``reference`` of ``where`` unless both are variant
+    labels (non-empty strings) and differ: a variant against itself compares nothing."""
+    for name, value in (("variant", variant), ("reference", reference)):
+        if not isinstance(value, str) or not value:
+            raise ValueError(f"The {name!r} parameter of {where} must be a variant label. Got "
+                             f"{value!r} instead.")
+    if variant == reference:
+        raise ValueError(f"The 'variant' parameter of {where} must differ from the reference "
+                         f"{reference!r}. Got {variant!r} instead.")
 
 
 def best_worst(records: Iterable[Mapping], *, variant: str = "ea-mppi-w",
@@ -91,13 +103,7 @@ def best_worst(records: Iterable[Mapping], *, variant: str = "ea-mppi-w",
         ``variant`` equal to ``reference`` or not a string; no scenario where both succeeded.
     """
     where = "best_worst"
-    for name, value in (("variant", variant), ("reference", reference)):
-        if not isinstance(value, str) or not value:
-            raise ValueError(f"The {name!r} parameter of {where} must be a variant name. Got "
-                             f"{value!r} instead.")
-    if variant == reference:
-        raise ValueError(f"The 'variant' parameter of {where} must differ from the reference "
-                         f"{reference!r}. Got {variant!r} instead.")
+    check_pair(variant, reference, where)
     latest = latest_records(records)
     energies: dict[str, dict[str, float]] = {}
     for (sid, v), rec in latest.items():

@@ -82,17 +82,12 @@ def pace_study(records: Iterable[Mapping], variant: str = "ea-mppi-w",
         not a label), or ``confidence`` is not in (0, 1).
     """
     from windnav.experiments.nav_bound import _check_confidence
+    from windnav.experiments.nav_cases import check_pair
 
     where = "pace_study"
     # (the reference against itself, and confidence 1 or NaN, were accepted: ratios of 1 and
     # intervals of no level; Python API audit, fifty-eighth session)
-    for name, value in (("variant", variant), ("reference", reference)):
-        if not isinstance(value, str) or not value:
-            raise ValueError(f"The {name!r} parameter of {where} must be a variant label. Got "
-                             f"{value!r} instead.")
-    if variant == reference:
-        raise ValueError(f"The 'variant' parameter of {where} must differ from the reference "
-                         f"{reference!r}. Got {variant!r} instead.")
+    check_pair(variant, reference, where)
     _check_confidence(confidence, where)
     by_variant = records_by_variant(records)
     curves = {}
