@@ -143,7 +143,7 @@ def test_run_flight_names_a_bad_duration_or_step(kwargs, name):
 
 def test_run_flight_warns_of_a_controller_too_slow_for_its_rate_loop():
     # Python API audit, fifty-eighth session: at dt = 0.5 s the controller ran at 2 Hz and the
-    # hover fell 0.6 m in 1 s, silently
+    # circle fell 0.6 m in 1 s with status OK, silently
     with pytest.warns(RuntimeWarning, match="controller updates every 0.5 s"):
         FL.run_flight("hummingbird", "hover", FL.make_wind("none"), size=1, speed=1,
                       duration=1, dt=0.5)

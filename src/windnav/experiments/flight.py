@@ -129,7 +129,7 @@ def run_flight(vehicle: str, trajectory: str, wind, *, size: float, speed: float
             else positive_float(control_rate_hz, "control_rate_hz", where))
     kd_att = default_gains(params).kd_att
     if kd_att / rate > 2.0:
-        # at dt = 0.5 s the controller ran at 2 Hz and a hover fell 0.6 m in 1 s, silently (API
+        # at dt = 0.5 s the controller ran at 2 Hz and a circle fell 0.6 m in 1 s, silently (API
         # audit): between updates the body-rate loop holds its command, and the held rate term
         # alone, w <- (1 - kd_att T) w, grows once T > 2 / kd_att (43 ms for the built-in gains)
         warnings.warn(f"run_flight: the controller updates every {1.0 / rate:g} s (dt {dt:g} s), "
