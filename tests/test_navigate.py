@@ -387,17 +387,22 @@ def test_command_names_a_start_inside_a_building_before_simulating(city, tmp_pat
         args.func(args)
 
 
-def test_command_names_a_goal_without_a_gs_route_before_simulating(city, tmp_path,
-                                                                     monkeypatch):
+@pytest.fixture
+def no_flow(monkeypatch):
+    """navigate's wind simulation replaced by an AssertionError ("the flow was simulated"): a
+    check that fires before it raises its own error; one that fires after fails loudly."""
+    import windnav.experiments.navigate as nav
+
+    def fail(*a, **kw):
+        raise AssertionError("the flow was simulated")
+
+    monkeypatch.setattr(nav, "simulate_flow", fail)
+
+
+def test_command_names_a_goal_without_a_gs_route_before_simulating(city, tmp_path, no_flow):
     """A goal 3 m from a wall is fine for MPPI but has no GS route (6 m clearance): the
     search said so after the flow simulation, naming energy_route's 'goal_xy' (vehicle
     audit). The building is x 35-45, y 45-75."""
-    import windnav.experiments.navigate as nav
-
-    def no_flow(*a, **kw):
-        raise AssertionError("the flow was simulated")
-
-    monkeypatch.setattr(nav, "simulate_flow", no_flow)
     path = city.to_rotorpy_json(tmp_path / "city.json")
     for variant in ("gs", "gs-w", "ea-mppi-w-esc"):
         args = parse(["navigate", "--map", str(path), "--start", "10", "20", "--goal", "48",
@@ -413,15 +418,9 @@ def test_command_names_a_goal_without_a_gs_route_before_simulating(city, tmp_pat
 
 
 def test_command_refuses_a_goal_within_the_capture_radius_before_simulating(city, tmp_path,
-                                                                           monkeypatch):
+                                                                           no_flow):
     """``--start 5 5 --goal 5 5`` flew 0.22 m and reported "success" (the loop holds a goal
     within its 10 m capture radius from take-off): refused, naming both options (CLI audit)."""
-    import windnav.experiments.navigate as nav
-
-    def no_flow(*a, **kw):
-        raise AssertionError("the flow was simulated")
-
-    monkeypatch.setattr(nav, "simulate_flow", no_flow)
     path = city.to_rotorpy_json(tmp_path / "city.json")
     for goal in (("60", "20"), ("66", "28")):  # 0 m and 10 m apart
         args = parse(["navigate", "--map", str(path), "--start", "60", "20", "--goal", *goal,
@@ -438,16 +437,10 @@ def test_command_refuses_a_goal_within_the_capture_radius_before_simulating(city
 
 
 def test_command_refuses_a_horizon_past_the_decoders_window_before_simulating(city, tmp_path,
-                                                                             monkeypatch):
+                                                                             no_flow):
     """``--variant ea-mppi-w-hat --horizon 100`` was refused only after the wind simulation, as
     navigate's 'horizon' parameter (CLI audit): refused first, naming --horizon; the window
     itself (25 m, the shipped decoder's) and inf are flown."""
-    import windnav.experiments.navigate as nav
-
-    def no_flow(*a, **kw):
-        raise AssertionError("the flow was simulated")
-
-    monkeypatch.setattr(nav, "simulate_flow", no_flow)
     path = city.to_rotorpy_json(tmp_path / "city.json")
     base = ["navigate", "--map", str(path), "--start", "60", "20", "--goal", "100", "30",
             "--speed", "2", "--variant", "ea-mppi-w-hat", "--out", str(tmp_path / "o")]
