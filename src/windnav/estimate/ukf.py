@@ -202,13 +202,62 @@ def sigma_points(x: np.ndarray, L: np.ndarray, weights: SigmaWeights) -> np.ndar
     -------
     ndarray of shape (2n + 1, n)
         ``x``, then ``x + sqrt(n + lambda) L[:, i]``, then ``x - sqrt(n + lambda) L[:, i]``.
+
+    Raises
+    ------
+    ValueError
+        On ``x`` not 1-D, or ``L`` or ``weights`` of another size than ``x``.
     """
+    where = "sigma_points"
+    n = _check_state(x, weights, where)
+    _check_square(L, n, "L", where, "x")
     return _k.sigma_from_chol(np.asarray(x, dtype=np.float64),
                               np.asarray(L, dtype=np.float64), weights.scale)
 
 
 _NO_NOISE = np.zeros((1, 1))
 _NO_WRAP = np.empty(0, dtype=np.intp)
+
+
+# The public functions' checks (code-hash audit, 2026-12-07: with a Q, P, weights, L, Y or R
+# of another size the Numba kernels read past the arrays, or returned a plausible wrong mean).
+# The UKF shell checks its sizes once, at construction, and steps through the unchecked
+# _ukf_predict and _ukf_update.
+
+
+def _check_weights(weights, where: str) -> int:
+    """``weights.n``, once ``weights`` is checked to be SigmaWeights of 2n + 1 points."""
+    if not isinstance(weights, SigmaWeights):
+        raise ValueError(f"The 'weights' parameter of {where} must be a SigmaWeights "
+                         f"(merwe_weights). Got {type(weights).__name__} instead.")
+    n = weights.n
+    if np.shape(weights.wm) != (2 * n + 1,) or np.shape(weights.wc) != (2 * n + 1,):
+        raise ValueError(f"The 'weights' parameter of {where} must hold 2n + 1 = {2 * n + 1} "
+                         f"weights of the mean and of the covariance for n = {n}. Got shapes "
+                         f"{np.shape(weights.wm)} and {np.shape(weights.wc)} instead.")
+    return n
+
+
+def _check_state(x, weights, where: str) -> int:
+    """``n``, the length of the 1-D ``x``, checked against ``weights``."""
+    n_w = _check_weights(weights, where)
+    shape = np.shape(x)
+    if len(shape) != 1 or shape[0] < 1:
+        raise ValueError(f"The 'x' parameter of {where} must be a 1-D array of length n >= 1. "
+                         f"Got shape {shape} instead.")
+    n = shape[0]
+    if n_w != n:
+        raise ValueError(f"The 'weights' parameter of {where} must be for n = {n}, the length "
+                         f"of x (merwe_weights({n})). Got weights for n = {n_w} instead.")
+    return n
+
+
+def _check_square(A, m: int, name: str, where: str, of: str) -> None:
+    """A ValueError naming ``name`` unless ``A`` is (m, m), ``m`` the length of ``of``."""
+    if np.shape(A) != (m, m):
+        dims = "(n, n)" if of == "x" else "(m, m)"
+        raise ValueError(f"The {name!r} parameter of {where} must be {dims} = ({m}, {m}) for "
+                         f"{of} of length {m}. Got shape {np.shape(A)} instead.")
 
 
 def unscented_transform(Y: np.ndarray, weights: SigmaWeights, noise: np.ndarray | None = None
@@ -228,7 +277,23 @@ def unscented_transform(Y: np.ndarray, weights: SigmaWeights, noise: np.ndarray 
     mean : ndarray of shape (m,)
     cov : ndarray of shape (m, m)
         Symmetric.
+
+    Raises
+    ------
+    ValueError
+        On ``Y`` not 2-D with ``2n + 1`` rows (n of ``weights``), or ``noise`` not (m, m).
     """
+    where = "unscented_transform"
+    n = _check_weights(weights, where)
+    if np.ndim(Y) != 2 or np.shape(Y)[0] != 2 * n + 1:
+        raise ValueError(f"The 'Y' parameter of {where} must be a 2-D array of 2n + 1 = "
+                         f"{2 * n + 1} rows, one per sigma point of weights for n = {n}. Got "
+                         f"shape {np.shape(Y)} instead.")
+    if noise is not None:
+        m = np.shape(Y)[1]
+        if np.shape(noise) != (m, m):
+            raise ValueError(f"The 'noise' parameter of {where} must be (m, m) = ({m}, {m}) for "
+                             f"Y of {m} columns. Got shape {np.shape(noise)} instead.")
     Y = np.ascontiguousarray(Y, dtype=np.float64)
     if noise is None:
         return _k.unscented(Y, weights.wm, weights.wc, _NO_NOISE, False)
@@ -308,9 +373,21 @@ def ukf_predict(x: np.ndarray, P: np.ndarray, fx: Callable, dt: float, Q: np.nda
 
     Raises
     ------
+    ValueError
+        On ``x`` not 1-D, or ``P``, ``Q`` or ``weights`` of another size than ``x``.
     FilterDivergedError (a FloatingPointError)
         If the process model returns NaN or inf.
     """
+    where = "ukf_predict"
+    n = _check_state(x, weights, where)
+    _check_square(P, n, "P", where, "x")
+    _check_square(Q, n, "Q", where, "x")
+    return _ukf_predict(x, P, fx, dt, Q, weights, u)
+
+
+def _ukf_predict(x: np.ndarray, P: np.ndarray, fx: Callable, dt: float, Q: np.ndarray,
+                 weights: SigmaWeights, u=None) -> PredictResult:
+    """:func:`ukf_predict` without its checks (the ``UKF`` shell's step)."""
     X, _, repaired = _sigma(x, P, weights)
     Y = _model_output(fx(X, dt, u), X.shape[0], X.shape[1], "fx")
     xp, Pp = _k.unscented(Y, weights.wm, weights.wc, Q, True)
@@ -343,9 +420,34 @@ def ukf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, hx: Callable, R: np.
 
     Raises
     ------
+    ValueError
+        On ``x`` or ``z`` not 1-D, ``P`` or ``weights`` of another size than ``x``, ``R`` not
+        (m, m) for ``z`` of length m, or ``wrap`` not 1-D indices of ``z``.
     FilterDivergedError (a FloatingPointError)
         If the innovation covariance is not positive definite.
     """
+    where = "ukf_update"
+    n = _check_state(x, weights, where)
+    _check_square(P, n, "P", where, "x")
+    if np.ndim(z) != 1:
+        raise ValueError(f"The 'z' parameter of {where} must be a 1-D array. Got shape "
+                         f"{np.shape(z)} instead.")
+    m = np.shape(z)[0]
+    _check_square(R, m, "R", where, "z")
+    if wrap is not None:
+        try:
+            w = np.asarray(wrap, dtype=np.intp)
+        except (TypeError, ValueError):
+            w = np.full((1, 1), -1)
+        if w.ndim != 1 or np.any((w < -m) | (w >= m)):
+            raise ValueError(f"The 'wrap' parameter of {where} must be a 1-D array of indices "
+                             f"of z's {m} components. Got {wrap!r} instead.")
+    return _ukf_update(x, P, z, hx, R, weights, wrap)
+
+
+def _ukf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, hx: Callable, R: np.ndarray,
+                weights: SigmaWeights, wrap: np.ndarray | None = None) -> UpdateResult:
+    """:func:`ukf_update` without its checks (the ``UKF`` shell's step)."""
     # float64, as the kernel is compiled for (float32 failed in Numba's typing); no copy else
     x, P, R = (np.asarray(a, dtype=np.float64) for a in (x, P, R))
     X, P, repaired = _sigma(x, P, weights)
@@ -492,7 +594,7 @@ class UKF:
     def predict(self, dt: float | None = None, u=None) -> None:
         """Propagate the state over ``dt`` (default ``self.dt``) with input ``u``."""
         dt = self.dt if dt is None else positive_float(dt, "dt", "UKF.predict")
-        res = ukf_predict(self.x, self.P, self.fx, dt, self.Q, self.weights, u)
+        res = _ukf_predict(self.x, self.P, self.fx, dt, self.Q, self.weights, u)
         self.x, self.P = res.x, res.P
         self._note_repair(res.repaired)
 
@@ -584,7 +686,7 @@ class UKF:
                                          f"have shape ({m}, {m}). Got shape {block.shape} "
                                          "instead.")
                     R[o:o + m, o:o + m] = block  # not positive definite: S fails below
-        res = ukf_update(self.x, self.P, z, hx, R, self.weights, wrap)
+        res = _ukf_update(self.x, self.P, z, hx, R, self.weights, wrap)
         self.x, self.P = res.x.copy(), res.P.copy()  # the result is the caller's to keep
         self._note_repair(res.repaired)
         return res

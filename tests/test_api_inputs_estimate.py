@@ -1,0 +1,60 @@
+"""Bad inputs to the unscented filter's functions, the hardware's differenced odometry and the
+Wind UKF's noise settings: each is refused up front by a ValueError naming the argument
+(closure-module audit, fifty-ninth session)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import windnav.estimate.ukf as U
+from windnav.estimate import merwe_weights
+
+W3 = merwe_weights(3)
+X3, I3 = np.zeros(3), np.eye(3)
+
+
+def _fx(X, dt, u):
+    return X
+
+
+def _hx(X):
+    return X[:, :2]
+
+
+# ------------------------------------------------------------------------------- ukf.py
+
+
+@pytest.mark.parametrize("call, name", [
+    # before: P holding 1.5e-321, sigma points of heap memory, or a plausible wrong mean
+    (lambda: U.ukf_predict(X3, I3, _fx, 0.1, np.eye(2), W3), "Q"),
+    (lambda: U.ukf_predict(X3, np.eye(4), _fx, 0.1, I3, W3), "P"),
+    (lambda: U.ukf_predict(X3, I3, _fx, 0.1, I3, merwe_weights(2)), "weights"),
+    (lambda: U.ukf_predict(np.zeros((3, 1)), I3, _fx, 0.1, I3, W3), "x"),
+    (lambda: U.sigma_points(X3, np.eye(2), W3), "L"),
+    (lambda: U.sigma_points(X3, I3, merwe_weights(4)), "weights"),
+    (lambda: U.unscented_transform(np.zeros((5, 2)), W3), "Y"),
+    (lambda: U.unscented_transform(np.zeros(7), W3), "Y"),
+    (lambda: U.unscented_transform(np.zeros((7, 2)), W3, np.eye(3)), "noise"),
+    (lambda: U.ukf_update(X3, I3, np.zeros(2), _hx, np.eye(3), W3), "R"),
+    (lambda: U.ukf_update(X3, np.eye(2), np.zeros(2), _hx, np.eye(2), W3), "P"),
+    (lambda: U.ukf_update(X3, I3, np.zeros(2), _hx, np.eye(2), merwe_weights(5)), "weights"),
+    (lambda: U.ukf_update(X3, I3, np.zeros((2, 1)), _hx, np.eye(2), W3), "z"),
+    (lambda: U.ukf_update(X3, I3, np.zeros(2), _hx, np.eye(2), W3, wrap=[5]), "wrap"),
+])
+def test_the_ukf_functions_refuse_sizes_that_do_not_match_x(call, name):
+    with pytest.raises(ValueError, match=f"The '{name}' parameter of "):
+        call()
+
+
+def test_the_ukf_shell_steps_past_the_checks_of_the_public_functions(monkeypatch):
+    # its sizes are checked once, at construction: the per-step hot path stays as it was
+    def checked(*args, **kwargs):
+        raise AssertionError("the shell's step went through the checked public function")
+
+    monkeypatch.setattr(U, "ukf_predict", checked)
+    monkeypatch.setattr(U, "ukf_update", checked)
+    H = np.eye(2, 3)
+    k = U.UKF(_fx, X3, I3, 0.01 * I3, dt=0.1, blocks={"h": (lambda X: X @ H.T, 0.1 * np.eye(2))})
+    k.predict()
+    assert k.update({"h": np.ones(2)}) is not None
