@@ -9,6 +9,7 @@ import pytest
 
 import windnav.estimate.ukf as U
 from windnav.estimate import merwe_weights
+from windnav.estimate.hardware import odometry_specific_force
 
 W3 = merwe_weights(3)
 X3, I3 = np.zeros(3), np.eye(3)
@@ -58,3 +59,23 @@ def test_the_ukf_shell_steps_past_the_checks_of_the_public_functions(monkeypatch
     k = U.UKF(_fx, X3, I3, 0.01 * I3, dt=0.1, blocks={"h": (lambda X: X @ H.T, 0.1 * np.eye(2))})
     k.predict()
     assert k.update({"h": np.ones(2)}) is not None
+
+
+# -------------------------------------------------------------------------- hardware.py
+
+
+@pytest.mark.parametrize("t", [
+    [0.0, 0.01, 0.005],        # before: the motion part 0 (the hover value), silently
+    [0.0, 0.01, 0.01],
+    [0.0, np.nan, 0.02],
+    [np.inf, 0.01, 0.02],
+])
+def test_odometry_specific_force_refuses_times_that_do_not_increase(t):
+    v = np.array([[0.0, 0, 0], [0.1, 0, 0], [0.2, 0, 0]])
+    with pytest.raises(ValueError, match="The 't' parameter of odometry_specific_force"):
+        odometry_specific_force(t, v, np.zeros((3, 3)))
+
+
+def test_odometry_specific_force_names_t_of_another_shape():
+    with pytest.raises(ValueError, match="The 't' parameter of odometry_specific_force"):
+        odometry_specific_force([[0.0, 0.01]], np.zeros((2, 3)), np.zeros((2, 3)))

@@ -103,7 +103,7 @@ def odometry_specific_force(t, velocity_world, euler, chain: OdometryAccel | Non
     Parameters
     ----------
     t : ndarray of shape (K,)
-        Sample times, s.
+        Sample times, s: finite and strictly increasing.
     velocity_world : ndarray of shape (K, 3)
         Measured world-frame velocity, m/s.
     euler : ndarray of shape (K, 3)
@@ -116,11 +116,27 @@ def odometry_specific_force(t, velocity_world, euler, chain: OdometryAccel | Non
     ndarray of shape (K, 3)
         The specific force the hardware filter fuses at each sample, body axes, m/s^2 (row 0
         is the initial hover value).
+
+    Raises
+    ------
+    ValueError
+        On ``t`` not 1-D, not finite or not strictly increasing (an interval <= 0 left the
+        output at the hover value, silently; code-hash audit, 2026-12-07), or on
+        ``velocity_world`` or ``euler`` not (K, 3).
     """
     chain = OdometryAccel() if chain is None else chain
     t = np.asarray(t, dtype=np.float64)
     v = np.asarray(velocity_world, dtype=np.float64)
     e = np.asarray(euler, dtype=np.float64)
+    where = "odometry_specific_force"
+    if t.ndim != 1 or t.size < 1:
+        raise ValueError(f"The 't' parameter of {where} must be a 1-D array of K >= 1 sample "
+                         f"times. Got shape {t.shape} instead.")
+    if not np.isfinite(t).all() or not (np.diff(t) > 0).all():
+        k = int(np.flatnonzero(~np.isfinite(t) | np.r_[False, np.diff(t) <= 0])[0])
+        got = f"t[{k}] = {float(t[k])!r}" + (f" after {float(t[k - 1])!r}" if k else "")
+        raise ValueError(f"The 't' parameter of {where} must hold finite, strictly increasing "
+                         f"times. Got {got} instead.")
     if t.ndim != 1 or v.shape != (t.size, 3) or e.shape != (t.size, 3) or t.size < 1:
         raise ValueError("The 'velocity_world' and 'euler' parameters of "
                          "odometry_specific_force must have shape (K, 3) for K = len(t) >= 1. "
