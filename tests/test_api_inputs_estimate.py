@@ -8,8 +8,10 @@ import numpy as np
 import pytest
 
 import windnav.estimate.ukf as U
-from windnav.estimate import merwe_weights
+from windnav.estimate import WindUKF, merwe_weights
 from windnav.estimate.hardware import odometry_specific_force
+from windnav.experiments import ukf_montecarlo as MC
+from windnav.vehicle.params import params
 
 W3 = merwe_weights(3)
 X3, I3 = np.zeros(3), np.eye(3)
@@ -79,3 +81,38 @@ def test_odometry_specific_force_refuses_times_that_do_not_increase(t):
 def test_odometry_specific_force_names_t_of_another_shape():
     with pytest.raises(ValueError, match="The 't' parameter of odometry_specific_force"):
         odometry_specific_force([[0.0, 0.01]], np.zeros((2, 3)), np.zeros((2, 3)))
+
+
+# ------------------------------------------------------------- wind_ukf.py noise settings
+
+
+P_HB = params("hummingbird")
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"q": {"wind": -1.0}}, "The 'q' parameter of {} must give q['wind'] a finite density"),
+    ({"r": {"accel": 0.0}}, "The 'r' parameter of {} must give r['accel'] a finite standard"),
+    ({"r": {"accel": "x"}}, "The 'r' parameter of {} must give r['accel'] a finite standard"),
+    ({"r": {"accel": np.eye(4)}}, "The 'r' parameter of {} must give r['accel'] a finite"),
+    ({"r": {"odom": np.ones(5)}}, "The 'r' parameter of {} must give r['odom'] a finite"),
+    ({"q": {"attitude": 1.0}}, "The 'q' parameter of {} has unknown keys ['attitude']"),
+])
+def test_the_wind_ukf_and_the_monte_carlo_study_check_noise_by_one_rule(kwargs, message):
+    # the study restated the filter's rules without the sizes (a (4, 4) accelerometer noise
+    # passed its check and failed every trial); both now call wind_ukf.check_noise
+    from windnav.estimate.wind_ukf import check_noise
+
+    for where, call in (("WindUKF", lambda: WindUKF(P_HB, **kwargs)),
+                        ("MonteCarloConfig", lambda: MC.MonteCarloConfig(**kwargs)),
+                        ("mine", lambda: check_noise(**kwargs, where="mine", n_rotors=4))):
+        with pytest.raises(ValueError) as err:
+            call()
+        assert str(err.value).startswith(message.format(where)), str(err.value)
+
+
+def test_check_noise_sizes_the_rotor_speeds_by_the_vehicle():
+    from windnav.estimate.wind_ukf import check_noise
+
+    check_noise(r={"rotor_speeds": np.ones(6)})  # the study: any rotor count
+    with pytest.raises(ValueError, match=r"r\['rotor_speeds'\] .* \(4,\)"):
+        WindUKF(P_HB, r={"rotor_speeds": np.ones(6)})

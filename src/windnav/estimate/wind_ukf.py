@@ -39,6 +39,7 @@ default IMU and motion-capture noise densities (e.g. accelerometer 0.038 m/s^2/s
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -61,7 +62,8 @@ from windnav.estimate.layout import (
 from windnav.estimate.ukf import UKF, merwe_weights, robust_cholesky
 from windnav.vehicle.params import GRAVITY, MultirotorParams
 
-__all__ = ["DEFAULT_Q", "DEFAULT_R", "WindEstimate", "WindUKF", "sensor_range", "wind_world"]
+__all__ = ["DEFAULT_Q", "DEFAULT_R", "WindEstimate", "WindUKF", "check_noise", "sensor_range",
+           "wind_world"]
 
 DEFAULT_R = {
     "accel": 0.3,          # m/s^2, per axis
@@ -169,18 +171,87 @@ def sensor_range(params: MultirotorParams) -> dict[str, np.ndarray]:
             "rotor_speeds": np.full(n, 10.0 * float(np.max(params.rotor_speed_max)))}
 
 
-def _noise_cov(value, m: int, name: str) -> np.ndarray:
-    """A std (scalar or (m,)) or a full (m, m) covariance -> (m, m) covariance."""
+_R_SIZES = {"accel": 3, "gyro": 3, "odom": 6, "odom_velocity": 3, "odom_euler": 3}
+"""Components of each measurement-noise key but ``rotor_speeds`` (one per rotor)."""
+
+
+def _noise_ok(value, m: int | None) -> bool:
+    """Whether ``value`` is a finite standard deviation > 0 (scalar or (m,)) or a finite
+    (m, m) covariance; any m where ``m`` is None."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return False
+    if not np.isfinite(a).all():
+        return False
+    if a.ndim == 2:
+        return a.shape[0] == a.shape[1] and m in (None, a.shape[0])
+    return (a.ndim == 0 or (a.ndim == 1 and m in (None, a.size))) and bool((a > 0).all())
+
+
+def check_noise(q=None, r=None, where: str = "WindUKF", *, n_rotors: int | None = None
+                ) -> None:
+    """Check process- and measurement-noise settings by the rules :class:`WindUKF` takes them
+    by (the one place they are written; the Monte-Carlo study checks its own with it).
+
+    Parameters
+    ----------
+    q : mapping, optional
+        Keys of :data:`DEFAULT_Q`; each a finite density >= 0.
+    r : mapping, optional
+        Keys of :data:`DEFAULT_R` or ``odom``; each a finite standard deviation > 0 (a scalar
+        or one per component) or a finite (m, m) covariance.
+    where : str
+        The caller, named in the message.
+    n_rotors : int, optional
+        The components of ``r["rotor_speeds"]``; None: any.
+
+    Raises
+    ------
+    ValueError
+        Naming ``q`` or ``r`` and the key (``r['accel']``), on another type, an unknown key or
+        a value the filter does not take.
+    """
+    sizes = {**_R_SIZES, "rotor_speeds": n_rotors}
+    for name, value, known in (("q", q, sorted(DEFAULT_Q)),
+                               ("r", r, sorted({*DEFAULT_R, "odom"}))):
+        if value is None:
+            continue
+        if not isinstance(value, Mapping):
+            raise ValueError(f"The {name!r} parameter of {where} must be a dict with keys among "
+                             f"{known}. Got {value!r} instead.")
+        unknown = set(value) - set(known)
+        if unknown:
+            raise ValueError(f"The {name!r} parameter of {where} has unknown keys "
+                             f"{sorted(unknown, key=str)}; known: {known}.")
+        for key, v in value.items():
+            if name == "q":
+                try:
+                    ok = math.isfinite(float(v)) and float(v) >= 0.0
+                except (TypeError, ValueError):
+                    ok = False
+                rule = "a finite density >= 0"
+            else:
+                m = sizes[key]
+                ok = _noise_ok(v, m)
+                rule = ("a finite standard deviation > 0 (a scalar or one per component) or a "
+                        "finite square covariance" if m is None else
+                        f"a finite standard deviation > 0 (a scalar or ({m},)) or a finite "
+                        f"({m}, {m}) covariance")
+            if not ok:
+                got = np.shape(v) if np.ndim(v) == 2 else v
+                raise ValueError(f"The {name!r} parameter of {where} must give "
+                                 f"{name}[{key!r}] {rule}. Got "
+                                 f"{'shape ' if np.ndim(v) == 2 else ''}{got!r} instead.")
+
+
+def _noise_cov(value, m: int) -> np.ndarray:
+    """A std (scalar or (m,)) or a full (m, m) covariance -> (m, m) covariance (checked by
+    :func:`check_noise`)."""
     a = np.asarray(value, dtype=np.float64)
     if a.ndim == 2:
-        if a.shape != (m, m) or not np.all(np.isfinite(a)):
-            raise ValueError(f"The 'r[{name!r}]' parameter of WindUKF must be a finite ({m}, {m})"
-                             f" covariance. Got shape {a.shape} instead.")
         return a
-    std = np.broadcast_to(a, (m,)) if a.ndim == 0 or a.shape == (m,) else None
-    if std is None or not np.all(np.isfinite(std)) or np.any(std <= 0):
-        raise ValueError(f"The 'r[{name!r}]' parameter of WindUKF must be a positive standard "
-                         f"deviation (scalar or ({m},)). Got {value!r} instead.")
+    std = np.broadcast_to(a, (m,))
     return np.diag(std**2)
 
 
@@ -310,13 +381,10 @@ class WindUKF:
         self._u_lo, self._u_hi = params.rotor_speed_min, params.rotor_speed_max
 
         q = {**DEFAULT_Q, **q}
-        unknown = set(q) - set(DEFAULT_Q)
-        if unknown:
-            raise ValueError(f"The 'q' parameter of {where} has unknown keys {sorted(unknown)}; "
-                             f"known: {sorted(DEFAULT_Q)}.")
+        check_noise(q, r, where, n_rotors=N)
         qd = np.empty(n)
         for key, sl in _GROUPS:
-            qd[sl] = positive_float(q[key], f"q[{key!r}]", where, allow_zero=True) ** 2 * self.dt
+            qd[sl] = float(q[key]) ** 2 * self.dt
         self.Q = np.diag(qd)
 
         if x0 is None:
@@ -351,22 +419,18 @@ class WindUKF:
         self._diff_std_dt = np.sqrt(2.0) * np.sqrt(np.diag(self.R["odom"])[ODOM_VELOCITY])
 
     def _measurement_covs(self, r: Mapping, N: int) -> dict[str, np.ndarray]:
-        known = set(DEFAULT_R) | {"odom"}
-        unknown = set(r) - known
-        if unknown:
-            raise ValueError(f"The 'r' parameter of WindUKF has unknown keys {sorted(unknown)}; "
-                             f"known: {sorted(known)}.")
+        """The blocks' noise covariances from ``r`` (checked by :func:`check_noise`)."""
         rr = {**DEFAULT_R, **r}
         out = {
-            "accel": _noise_cov(rr["accel"], 3, "accel"),
-            "gyro": _noise_cov(rr["gyro"], 3, "gyro"),
-            "rotor_speeds": _noise_cov(rr["rotor_speeds"], N, "rotor_speeds"),
+            "accel": _noise_cov(rr["accel"], 3),
+            "gyro": _noise_cov(rr["gyro"], 3),
+            "rotor_speeds": _noise_cov(rr["rotor_speeds"], N),
         }
         if "odom" in r:
-            out["odom"] = _noise_cov(r["odom"], 6, "odom")
+            out["odom"] = _noise_cov(r["odom"], 6)
         else:
-            v = _noise_cov(rr["odom_velocity"], 3, "odom_velocity")
-            e = _noise_cov(rr["odom_euler"], 3, "odom_euler")
+            v = _noise_cov(rr["odom_velocity"], 3)
+            e = _noise_cov(rr["odom_euler"], 3)
             out["odom"] = np.block([[v, np.zeros((3, 3))], [np.zeros((3, 3)), e]])
         return out
 

@@ -68,7 +68,7 @@ import numpy as np
 from windnav._extras import require
 from windnav._validate import positive_float, positive_int
 from windnav.estimate.conditions import CONDITIONS, UKFConditions, ukf_conditions
-from windnav.estimate.wind_ukf import DEFAULT_R
+from windnav.estimate.wind_ukf import DEFAULT_R, check_noise
 from windnav.experiments.calibration import calibrate
 from windnav.experiments.executor import run_tasks
 from windnav.experiments.flight import drag_model_note
@@ -152,37 +152,12 @@ def _check_tuning(q, r, wind_frame, where: str) -> None:
     :data:`~windnav.estimate.wind_ukf.DEFAULT_R` or ``odom``; standard deviations > 0, or a
     covariance), ``wind_frame`` one of :data:`~windnav.estimate.wind_model.WIND_FRAMES`. (An
     unknown key, a negative density or another frame was accepted here and failed every trial;
-    Python API audit, fifty-eighth session.)"""
+    Python API audit, fifty-eighth session.) ``q`` and ``r`` by the filter's own rules
+    (:func:`~windnav.estimate.wind_ukf.check_noise`; restated here, without the sizes, until
+    2026-12-07; ``r['rotor_speeds']`` of any size, the vehicle being checked later)."""
     from windnav.estimate.wind_model import WIND_FRAMES
-    from windnav.estimate.wind_ukf import DEFAULT_Q
 
-    for name, value, known in (("q", q, sorted(DEFAULT_Q)),
-                               ("r", r, sorted({*DEFAULT_R, "odom"}))):
-        if value is None:
-            continue
-        if not isinstance(value, Mapping):
-            raise ValueError(f"The {name!r} parameter of {where} must be a dict with keys among "
-                             f"{known}. Got {value!r} instead.")
-        unknown = sorted(map(str, set(value) - set(known)))
-        if unknown:
-            raise ValueError(f"The {name!r} parameter of {where} must have keys among {known}. "
-                             f"Got {unknown} instead.")
-        for key, v in value.items():
-            try:  # what the filter accepts (positive_float; _noise_cov's rules but the size)
-                if name == "q":
-                    ok = math.isfinite(float(v)) and float(v) >= 0.0
-                else:
-                    a = np.asarray(v, dtype=np.float64)
-                    ok = bool(np.isfinite(a).all()) and (
-                        (a.ndim <= 1 and bool((a > 0).all()))
-                        or (a.ndim == 2 and a.shape[0] == a.shape[1]))
-            except (TypeError, ValueError):
-                ok = False
-            rule = ("a finite density >= 0" if name == "q"
-                    else "a finite standard deviation > 0 (or a square covariance)")
-            if not ok:
-                raise ValueError(f"The {name!r} parameter of {where} must give {key!r} {rule}. "
-                                 f"Got {v!r} instead.")
+    check_noise(q, r, where)
     if wind_frame is not None and wind_frame not in WIND_FRAMES:
         raise ValueError(f"The 'wind_frame' parameter of {where} must be None or one of "
                          f"{list(WIND_FRAMES)}. Got {wind_frame!r} instead.")
