@@ -196,7 +196,11 @@ def drag_model_bias(true: MultirotorParams, believed: MultirotorParams, airspeed
     ndarray
         The bias at each airspeed, m/s (the shape of ``airspeed``). At hover rotor speed
         ``eta_h`` of ``true``: in forward flight the rotors spin faster and the rotor drag
-        weighs more, so this is an upper estimate of the frame-drag bias.
+        weighs more, so this is an upper estimate of the frame-drag bias. NaN where
+        ``believed`` has no drag along ``axis`` (its rotor and frame coefficients both 0): such
+        a filter reads no airspeed from drag. The callers (``fly``'s summary, the onboard
+        stack's report, the Monte-Carlo study) keep that NaN, and the commands say nothing of
+        it; so it is a result here, not a ValueError (code-hash audit, 2026-12-07).
     """
     where = "drag_model_bias"
     for name, p in (("true", true), ("believed", believed)):
