@@ -59,9 +59,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from windnav._validate import batch_array, generator, positive_float, positive_int
+from windnav._validate import _fail, batch_array, generator, positive_float, positive_int
 from windnav.plan import _kernels as K
-from windnav.plan.config import PlannerConfig
+from windnav.plan.config import MAX_STEPS, PlannerConfig
 from windnav.plan.local_wind import NO_WIND, LocalWind
 from windnav.plan.obstacles import ObstacleField, obstacle_field, returns, scan_points
 
@@ -122,8 +122,17 @@ def smoothing_matrix(n_steps: int, sigma: float) -> np.ndarray:
     Taps ``exp(-(i - j)^2 / (2 sigma^2))`` truncated at ``4 sigma`` and each row normalised to
     sum 1, so a constant sequence is unchanged and smoothed controls stay inside the bounds.
     ``sigma = 0`` gives the identity.
+
+    Raises
+    ------
+    ValueError
+        On ``n_steps`` that is not an integer in 1 .. :data:`~windnav.plan.config.MAX_STEPS`
+        (the dense matrix is ``n_steps^2`` floats), or ``sigma`` below 0 or not finite.
     """
     n_steps = positive_int(n_steps, "n_steps", "smoothing_matrix")
+    if n_steps > MAX_STEPS:  # 10**6 steps asked for 7.3 TiB (closure-module audit)
+        raise _fail("n_steps", "smoothing_matrix", f"at most {MAX_STEPS} (the matrix is "
+                    "n_steps^2 floats, PlannerConfig's longest horizon)", n_steps)
     sigma = positive_float(sigma, "sigma", "smoothing_matrix", allow_zero=True)  # NaN: NaN G
     k = np.arange(n_steps)
     if sigma == 0:
@@ -284,6 +293,12 @@ def softmin_weights(costs: np.ndarray, temperature: float) -> np.ndarray:
     return w
 
 
+def _check_config(config, where: str) -> None:
+    if not isinstance(config, PlannerConfig):
+        raise ValueError(f"The 'config' parameter of {where} must be a PlannerConfig. Got "
+                         f"{type(config).__name__} instead.")
+
+
 def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Problem,
                        threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Costs (S,) and their parts (S, 4) ``[J_prog, J_obs, J_E, d_min (m)]`` of the
@@ -325,8 +340,23 @@ def rollout(config: PlannerConfig, controls, velocity, wind: LocalWind | None = 
     -------
     positions, velocities : ndarray of shape (S, K + 1, 2)
         Relative to the start (``positions[:, 0] = 0``), m and m/s.
+
+    Raises
+    ------
+    ValueError
+        On a ``config`` that is not a PlannerConfig, ``controls`` of another shape, a
+        ``velocity`` that is not 2 finite numbers, or a ``wind`` that is not a LocalWind.
     """
-    u = np.asarray(controls, dtype=np.float64)
+    where = "rollout"
+    _check_config(config, where)  # None was an AttributeError on config.use_wind
+    try:
+        u = np.asarray(controls, dtype=np.float64)
+    except (TypeError, ValueError):
+        u = None
+    if u is None or u.ndim not in (2, 3) or u.shape[-1] != 2:  # a last axis of 1 or 3 was
+        # read as 2 columns, past the array's end or dropping the third (closure-module audit)
+        raise ValueError(f"The 'controls' parameter of {where} must be an array of shape "
+                         f"(S, K, 2) or (K, 2), m/s^2. Got shape {np.shape(controls)} instead.")
     if u.ndim == 2:
         u = u[None]
     u = np.ascontiguousarray(u.transpose(1, 2, 0))

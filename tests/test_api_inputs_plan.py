@@ -1,0 +1,74 @@
+"""Bad inputs to the planner's library functions (``windnav.plan``) and to
+``flow.validity.resolution_check``: each is refused up front by a ValueError naming the argument
+(closure-module audit, fifty-ninth session). Each case says what happened before."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from windnav.city import City
+from windnav.flow.validity import resolution_check
+from windnav.plan import (
+    MPPIPlanner,
+    PlannerConfig,
+    Problem,
+    energy_route,
+    fused_rollout_cost,
+    obstacle_cost,
+    obstacle_field,
+    rollout,
+    smoothing_matrix,
+)
+from windnav.plan.local_wind import NO_WIND
+
+NAN = np.nan
+
+
+@pytest.fixture(scope="module")
+def cfg():
+    # the planner's fields without the vehicle sweep (fast)
+    return PlannerConfig(a_max=9.9, drag=0.01, power_coefficients=(100.0, 0.0, 0.5),
+                         power_speed_max=15.0, n_samples=8, n_steps=6)
+
+
+# ------------------------------------------------------------------------------ mppi
+
+
+@pytest.mark.parametrize("controls", [np.ones((5, 1)), np.ones((5, 3)), np.ones((2, 5, 3)),
+                                      np.ones(5), np.ones((1, 2, 5, 2))])
+def test_rollout_refuses_controls_of_another_shape(cfg, controls):
+    # a last axis of 1 was read as two columns past the array's end, of 3 with the third
+    # dropped; 1-D and 4-D were NumPy's "axes don't match array"
+    with pytest.raises(ValueError, match=r"'controls' parameter of rollout must be an array "
+                                         r"of shape \(S, K, 2\) or \(K, 2\)"):
+        rollout(cfg, controls, [0.0, 0.0])
+
+
+def test_rollout_refuses_a_bad_config_and_velocity(cfg):
+    # config None was an AttributeError; the velocity's shape was checked already (kept)
+    with pytest.raises(ValueError, match="'config' parameter of rollout must be a "
+                                         "PlannerConfig"):
+        rollout(None, np.zeros((5, 2)), [0.0, 0.0])
+    with pytest.raises(ValueError, match="'velocity' parameter of rollout"):
+        rollout(cfg, np.zeros((5, 2)), [0.0, 0.0, 0.0])
+    assert rollout(cfg, np.zeros((3, 5, 2)), [1.0, 0.0])[0].shape == (3, 6, 2)
+
+
+@pytest.mark.parametrize("n_steps", [10**6, 5001])
+def test_smoothing_matrix_refuses_a_matrix_too_large_to_hold(n_steps):
+    # 10**6 steps asked NumPy for 7.3 TiB
+    with pytest.raises(ValueError, match="'n_steps' parameter of smoothing_matrix must be at "
+                                         "most 5000"):
+        smoothing_matrix(n_steps, 1.0)
+
+
+# ------------------------------------------------------------------------------ obstacles
+
+
+# ------------------------------------------------------------------------------ search, flow
+
+
+@pytest.fixture(scope="module")
+def city():
+    return City((0, 60, 0, 60), [[25, 35, 25, 35]], [20])
