@@ -63,6 +63,32 @@ def test_smoothing_matrix_refuses_a_matrix_too_large_to_hold(n_steps):
         smoothing_matrix(n_steps, 1.0)
 
 
+def test_fused_rollout_cost_refuses_controls_and_problems_of_other_shapes(cfg):
+    field = obstacle_field([[10.0, 2.0]])
+    good = Problem(np.zeros(2), np.array([50.0, 0.0]), field, NO_WIND)
+    u = np.zeros((cfg.n_steps, 2, 4), np.float32)
+    assert fused_rollout_cost(cfg, u, good)[0].shape == (4,)
+    # (K, 3, S) and (K, 1, S) gave the plausible costs of other controls
+    for bad in (np.zeros((6, 3, 4), np.float32), np.zeros((6, 1, 4), np.float32),
+                np.zeros((6, 2), np.float32), np.zeros((6, 2, 4)).tolist()):
+        with pytest.raises(ValueError, match="'controls' parameter of fused_rollout_cost"):
+            fused_rollout_cost(cfg, bad, good)
+    # a velocity (1,) was read past its end
+    with pytest.raises(ValueError, match="'problem' parameter of fused_rollout_cost must hold "
+                                         r"velocity \(2,\)"):
+        fused_rollout_cost(cfg, u, good._replace(velocity=np.zeros(1)))
+    with pytest.raises(ValueError, match="'problem' parameter of fused_rollout_cost must be a "
+                                         "Problem"):
+        fused_rollout_cost(cfg, u, tuple(good))
+
+
+def test_planner_refuses_a_rollout_cost_that_is_not_callable(cfg):
+    # a TypeError ('int' object is not callable) at the first update
+    with pytest.raises(ValueError, match="'rollout_cost' parameter of MPPIPlanner must be "
+                                         "callable"):
+        MPPIPlanner(cfg, [10.0, 0.0], rollout_cost=5)
+
+
 # ------------------------------------------------------------------------------ obstacles
 
 

@@ -303,7 +303,42 @@ def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Pro
                        threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Costs (S,) and their parts (S, 4) ``[J_prog, J_obs, J_E, d_min (m)]`` of the
     sequences ``controls`` (K, 2, S): the fused Numba rollout and cost (``threads`` > 1: in
-    that many chunks of the samples on Numba's threads, the same numbers to the bit)."""
+    that many chunks of the samples on Numba's threads, the same numbers to the bit).
+
+    Raises
+    ------
+    ValueError
+        On ``controls`` that are not an array of shape (K, 2, S), or a ``problem`` whose
+        arrays have other shapes than :class:`Problem`'s (the kernel reads them by index).
+    """
+    where = "fused_rollout_cost"
+    _check_config(config, where)
+    if not isinstance(controls, np.ndarray) or controls.ndim != 3 or controls.shape[1] != 2:
+        # (K, 3, S) and (K, 1, S) gave plausible costs of other controls (closure-module audit)
+        raise ValueError(f"The 'controls' parameter of {where} must be a NumPy array of shape "
+                         f"(K, 2, S), m/s^2. Got {type(controls).__name__} of shape "
+                         f"{np.shape(controls)} instead.")
+    if not isinstance(problem, Problem):
+        raise ValueError(f"The 'problem' parameter of {where} must be a Problem. Got "
+                         f"{type(problem).__name__} instead.")
+    if (len(problem.wind) != 3 or np.shape(problem.wind[2]) != (7,)
+            or np.shape(problem.velocity) != (2,) or np.shape(problem.goal) != (2,)
+            or np.shape(problem.mission) != (5,)
+            or not isinstance(problem.field, ObstacleField)):  # a velocity (1,) was read past
+        raise ValueError(f"The 'problem' parameter of {where} must hold velocity (2,), goal "
+                         "(2,), an ObstacleField, wind (mode, grid, meta (7,)) as LocalWind.pack "
+                         f"gives and mission (5,). Got velocity {np.shape(problem.velocity)}, "
+                         f"goal {np.shape(problem.goal)}, {type(problem.field).__name__}, wind "
+                         f"of {len(problem.wind)} and mission {np.shape(problem.mission)} "
+                         "instead.")
+    return _fused_rollout_cost(config, controls, problem, threads)
+
+
+def _fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Problem,
+                        threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`fused_rollout_cost` without the checks of its arguments: the planner's default
+    ``rollout_cost``, whose arguments :func:`mppi_step` has checked (nothing added to the
+    update's path)."""
     s = controls.shape[2]
     costs = np.empty(s)
     parts = np.empty((s, 4))
@@ -563,8 +598,12 @@ class MPPIPlanner:
         self.rng = generator(rng, "rng", "MPPIPlanner")
         self._threads = _threads(threads, config, "MPPIPlanner")
         if rollout_cost is None:
-            rollout_cost = (fused_rollout_cost if self._threads == 1 else
-                            functools.partial(fused_rollout_cost, threads=self._threads))
+            rollout_cost = (_fused_rollout_cost if self._threads == 1 else
+                            functools.partial(_fused_rollout_cost, threads=self._threads))
+        elif not callable(rollout_cost):  # a TypeError at the first update
+            raise ValueError("The 'rollout_cost' parameter of MPPIPlanner must be callable "
+                             "(config, controls, problem) -> (costs, parts) or None. Got "
+                             f"{type(rollout_cost).__name__} instead.")
         self.rollout_cost = rollout_cost
         self.goal = None if goal_xy is None else self._goal(goal_xy)
         shape = (config.n_steps, 2, config.n_samples)
