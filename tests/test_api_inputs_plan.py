@@ -92,6 +92,43 @@ def test_planner_refuses_a_rollout_cost_that_is_not_callable(cfg):
 # ------------------------------------------------------------------------------ obstacles
 
 
+def test_obstacle_cost_refuses_points_trajectories_and_ranges():
+    traj = np.zeros((2, 4, 2))
+    # (P, 3) points were reshaped into other 2-D points
+    for pts in (np.ones((4, 3)), [1.0, 2.0]):
+        with pytest.raises(ValueError, match=r"'points' parameter of obstacle_cost must be an "
+                                             r"array of shape \(P, 2\)"):
+            obstacle_cost(traj, pts, 100.0)
+    with pytest.raises(ValueError, match="'points' parameter of obstacle_cost must be finite"):
+        obstacle_cost(traj, [[NAN, 0.0]], 100.0)
+    # a negative range gave the positive one's cost
+    for r in (-100.0, NAN):
+        with pytest.raises(ValueError, match="'lidar_range' parameter of obstacle_cost"):
+            obstacle_cost(traj, [[1.0, 0.0]], r)
+    # (K, 2) was NumPy's AxisError
+    with pytest.raises(ValueError, match="'positions' parameter of obstacle_cost"):
+        obstacle_cost(np.zeros((4, 2)), [[1.0, 0.0]], 100.0)
+    assert np.all(obstacle_cost(traj, np.zeros((0, 2)), 100.0) == 0)
+    assert np.all(obstacle_cost(traj, [], 100.0) == 0)
+
+
+def test_obstacle_field_distance_and_cost_refuse_bad_points():
+    field = obstacle_field([[1.0, 2.0], [5.0, 5.0]])
+    # NaN read as "no obstacle" (inf); a last axis of 3 as other points
+    with pytest.raises(ValueError, match="'points' parameter of ObstacleField.distance must be "
+                                         "finite"):
+        field.distance([[NAN, 0.0]])
+    with pytest.raises(ValueError, match=r"'points' parameter of ObstacleField.distance must be "
+                                         r"an array of shape \(M, 2\)"):
+        field.distance(np.ones((2, 3)))
+    assert field.distance([1.0, 2.0]) == pytest.approx([0.0])
+    # NaN trajectories cost 0; a negative range was squared away
+    with pytest.raises(ValueError, match="'positions' parameter of ObstacleField.cost"):
+        field.cost(np.full((2, 4, 2), NAN), 100.0)
+    with pytest.raises(ValueError, match="'lidar_range' parameter of ObstacleField.cost"):
+        field.cost(np.zeros((2, 4, 2)), -100.0)
+
+
 # ------------------------------------------------------------------------------ search, flow
 
 

@@ -145,8 +145,19 @@ class ObstacleField:
                 self.bucket_meta)
 
     def distance(self, points) -> np.ndarray:
-        """Distance from each point (M, 2) (m) to the nearest obstacle point, m (inf if none)."""
-        q = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 2))
+        """Distance from each point (M, 2) (m) to the nearest obstacle point, m (inf if none).
+
+        Raises
+        ------
+        ValueError
+            On ``points`` whose last axis is not 2, or with NaN or inf.
+        """
+        q = _finite_xy(points, "points", "ObstacleField.distance", "(M, 2)")
+        return self._distance(q.reshape(-1, 2))
+
+    def _distance(self, points: np.ndarray) -> np.ndarray:
+        """:meth:`distance` of points (M, 2) float64 already checked."""
+        q = np.ascontiguousarray(points)
         if self.empty:
             return np.full(q.shape[0], np.inf)
         out = np.empty(q.shape[0])
@@ -154,12 +165,49 @@ class ObstacleField:
         return out
 
     def cost(self, positions, lidar_range: float) -> np.ndarray:
-        """``J_obs = (D_max / d_min)^2`` of trajectories ``positions`` (S, K, 2), m."""
-        pos = np.asarray(positions, dtype=np.float64)
+        """``J_obs = (D_max / d_min)^2`` of trajectories ``positions`` (S, K, 2), m.
+
+        Raises
+        ------
+        ValueError
+            On ``positions`` not of shape (S, K, 2) with K >= 1 or with NaN or inf, or a
+            ``lidar_range`` that is not a finite number > 0.
+        """
+        where = "ObstacleField.cost"
+        pos = _trajectories(positions, where)
+        lidar_range = positive_float(lidar_range, "lidar_range", where)
         if self.empty:
             return np.zeros(pos.shape[0])
-        d = self.distance(pos.reshape(-1, 2)).reshape(pos.shape[:-1]).min(axis=1)
+        d = self._distance(pos.reshape(-1, 2)).reshape(pos.shape[:-1]).min(axis=1)
         return lidar_range**2 / np.maximum(d * d, K._MIN_D2)
+
+
+def _finite_xy(values, name: str, where: str, shape: str) -> np.ndarray:
+    """``values`` as float64 with a last axis of 2 and finite entries, else a ValueError naming
+    ``name`` (a last axis of 3 was reshaped into other points, NaN read as no obstacle: inf;
+    closure-module audit)."""
+    try:
+        a = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is not None and a.size == 0 and (a.ndim < 1 or a.shape[-1] != 2):
+        a = a.reshape(0, 2)  # none, as obstacle_field takes them
+    if a is None or a.ndim < 1 or a.shape[-1] != 2:
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of shape {shape}, "
+                         f"m. Got shape {np.shape(values)} instead.")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"The {name!r} parameter of {where} must be finite (no NaN or inf). "
+                         "Got non-finite entries instead.")
+    return a
+
+
+def _trajectories(positions, where: str) -> np.ndarray:
+    """``positions`` checked as finite trajectories (S, K, 2), K >= 1, float64."""
+    pos = _finite_xy(positions, "positions", where, "(S, K, 2) with K >= 1")
+    if pos.ndim != 3 or pos.shape[1] < 1:  # (K, 2) was an AxisError, K = 0 a reduction error
+        raise ValueError(f"The 'positions' parameter of {where} must be an array of shape "
+                         f"(S, K, 2) with K >= 1, m. Got shape {pos.shape} instead.")
+    return pos
 
 
 MAX_NODES = 2 * 10**7
@@ -242,9 +290,21 @@ def obstacle_cost(positions, points, lidar_range: float) -> np.ndarray:
     -------
     ndarray of shape (S,)
         0 where there are no points.
+
+    Raises
+    ------
+    ValueError
+        On ``positions`` not of shape (S, K, 2) with K >= 1, ``points`` not of shape (P, 2)
+        (P may be 0), either with NaN or inf, or a ``lidar_range`` that is not a finite
+        number > 0.
     """
-    pos = np.asarray(positions, dtype=np.float64)
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    where = "obstacle_cost"
+    pos = _trajectories(positions, where)
+    pts = _finite_xy(points, "points", where, "(P, 2)")
+    if pts.ndim != 2:  # (P, 3) points were reshaped into other 2-D points
+        raise ValueError(f"The 'points' parameter of {where} must be an array of shape (P, 2), "
+                         f"m. Got shape {pts.shape} instead.")
+    lidar_range = positive_float(lidar_range, "lidar_range", where)  # -100 gave 100's cost
     if pts.shape[0] == 0:
         return np.zeros(pos.shape[0])
     d2 = np.full(pos.shape[:-1], np.inf)
