@@ -89,6 +89,21 @@ def test_planner_refuses_a_rollout_cost_that_is_not_callable(cfg):
         MPPIPlanner(cfg, [10.0, 0.0], rollout_cost=5)
 
 
+def test_energy_per_metre_refuses_a_zero_direction(cfg):
+    # hovering's power at the top speed of the range (0.04 s/m) came back
+    with pytest.raises(ValueError, match="'direction' parameter of "
+                                         "PlannerConfig.energy_per_metre must be a non-zero"):
+        cfg.energy_per_metre([0.0, 0.0])
+    assert cfg.energy_per_metre([3.0, 0.0]) == cfg.energy_per_metre([1.0, 0.0])
+
+
+def test_power_names_airspeeds_that_are_not_numbers(cfg):
+    # NumPy's "could not convert string to float"
+    with pytest.raises(ValueError, match="'airspeed' parameter of PlannerConfig.power must be "
+                                         "numbers"):
+        cfg.power("fast")
+
+
 # ------------------------------------------------------------------------------ obstacles
 
 

@@ -317,7 +317,11 @@ class PlannerConfig:
     def power(self, airspeed) -> np.ndarray:
         """Steady-flight power at ``airspeed`` (m/s, any shape, >= 0), W, with the continuation
         beyond ``power_speed_max`` the planner uses."""
-        v = np.asarray(airspeed, dtype=np.float64)
+        try:
+            v = np.asarray(airspeed, dtype=np.float64)
+        except (TypeError, ValueError):  # NumPy's "could not convert string to float"
+            raise _fail("airspeed", "PlannerConfig.power", "numbers >= 0, m/s",
+                        airspeed) from None
         if not np.all(v >= 0):  # -1 m/s gave a power; NaN a NaN
             raise ValueError("The 'airspeed' parameter of PlannerConfig.power must be >= 0 m/s "
                              "(no NaN).")
@@ -328,10 +332,20 @@ class PlannerConfig:
         """``e_R = min_V P(|V d - w|) / (P_hover V)``: the least energy per metre of ground
         flown along the unit vector ``d`` (2,) in the uniform wind ``w`` (2,), m/s, over ground
         speeds ``V`` in ``speed_range``, m/s; in s/m (energy divided by ``P_hover``). In still
-        air it is ``P(V_R) / (P_hover V_R)``, with ``V_R`` the max-range speed."""
+        air it is ``P(V_R) / (P_hover V_R)``, with ``V_R`` the max-range speed.
+
+        Raises
+        ------
+        ValueError
+            On a ``direction`` or ``wind`` that is not 2 finite numbers, a zero ``direction``,
+            or a ``speed_range`` that is not ``0 < low < high``.
+        """
         where = "PlannerConfig.energy_per_metre"
         d = batch_array(direction, "direction", where, (2,), batch=1)[0]
-        d = d / max(float(np.hypot(*d)), 1e-12)
+        norm = float(np.hypot(*d))
+        if norm == 0.0:  # no direction: hovering's power at the top speed, 0.04 s/m, came back
+            raise _fail("direction", where, "a non-zero vector", direction)
+        d = d / max(norm, 1e-12)
         w = batch_array(wind, "wind", where, (2,), batch=1)[0]
         v = np.linspace(*check_speed_range(speed_range, "speed_range", where), 981)
         air = np.hypot(v * d[0] - float(w[0]), v * d[1] - float(w[1]))
