@@ -150,3 +150,23 @@ def test_obstacle_field_distance_and_cost_refuse_bad_points():
 @pytest.fixture(scope="module")
 def city():
     return City((0, 60, 0, 60), [[25, 35, 25, 35]], [20])
+
+
+def test_energy_route_names_a_wind_it_cannot_read(cfg, city):
+    from dataclasses import replace
+
+    gs_w = replace(cfg, variant="gs-w", energy_weight=None, use_wind=None)
+    # a string was NumPy's "could not convert string to float"; a WindField of one column a
+    # NumPy reshape error
+    with pytest.raises(ValueError, match="'wind' parameter of energy_route must be None, a "
+                                         r"\(2,\) vector or a WindField. Got str"):
+        energy_route(city, [5.0, 5.0], [55.0, 55.0], gs_w, wind="east", dx=5.0, clearance=1.0)
+
+    class OneColumn:
+        def velocity(self, t, xyz):
+            return np.ones((len(xyz), 1))
+
+    with pytest.raises(ValueError, match="'wind' parameter of energy_route must be a WindField "
+                                         "whose velocity"):
+        energy_route(city, [5.0, 5.0], [55.0, 55.0], gs_w, wind=OneColumn(), dx=5.0,
+                     clearance=1.0)

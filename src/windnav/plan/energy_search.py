@@ -108,9 +108,20 @@ def _wind_grid(wind, x, y, altitude, use_wind, where) -> np.ndarray:
     if hasattr(wind, "velocity"):
         X, Y = np.meshgrid(x, y)
         xyz = np.stack([X.ravel(), Y.ravel(), np.full(X.size, altitude)], axis=1)
-        out[...] = np.asarray(wind.velocity(0.0, xyz))[:, :2].reshape(y.size, x.size, 2)
+        got = wind.velocity(0.0, xyz)
+        if np.ndim(got) != 2 or np.shape(got)[0] != X.size or np.shape(got)[1] < 2:
+            # a NumPy reshape error from inside before
+            raise ValueError(f"The 'wind' parameter of {where} must be a WindField whose "
+                             f"velocity(t, xyz) of N points is (N, 2) or (N, 3), m/s. Got shape "
+                             f"{np.shape(got)} for {X.size} points instead.")
+        out[...] = np.asarray(got)[:, :2].reshape(y.size, x.size, 2)
     else:
-        w = np.asarray(wind, dtype=np.float64)
+        try:
+            w = np.asarray(wind, dtype=np.float64)
+        except (TypeError, ValueError):  # NumPy's "could not convert string to float"
+            raise ValueError(f"The 'wind' parameter of {where} must be None, a (2,) vector or "
+                             f"a WindField. Got {type(wind).__name__} {wind!r:.60} instead."
+                             ) from None
         if w.shape != (2,):
             raise ValueError(f"The 'wind' parameter of {where} must be None, a (2,) vector or a "
                              f"WindField. Got shape {w.shape} instead.")
