@@ -170,3 +170,12 @@ def test_energy_route_names_a_wind_it_cannot_read(cfg, city):
                                          "whose velocity"):
         energy_route(city, [5.0, 5.0], [55.0, 55.0], gs_w, wind=OneColumn(), dx=5.0,
                      clearance=1.0)
+
+
+@pytest.mark.parametrize("dx", [NAN, np.inf, 0.0, -1.0, "fine"])
+def test_resolution_check_refuses_a_bad_dx(city, dx):
+    # NaN was reported as "dx = nan m"
+    with pytest.raises(ValueError, match="'dx' parameter of resolution_check"):
+        resolution_check(city, dx)
+    with pytest.raises(ValueError, match="'city' parameter of resolution_check"):
+        resolution_check(None, 1.0)

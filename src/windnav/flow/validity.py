@@ -191,9 +191,19 @@ def resolution_check(city, dx: float) -> dict:
     dict
         ``dx`` m, ``validated_dx`` m (:func:`validated_dx`; None for an empty map),
         ``grid_dependent`` (bool: ``dx`` above it) and ``note`` (the words, or None).
+
+    Raises
+    ------
+    ValueError
+        On a ``city`` that is not a City, or a ``dx`` that is not a finite number > 0 (NaN
+        was reported as "dx = nan m").
     """
+    from windnav._validate import positive_float
+    from windnav.city.core import check_city
+
+    check_city(city, "resolution_check")
+    dx = positive_float(dx, "dx", "resolution_check")
     limit = validated_dx(city)
-    dx = float(dx)
     note = city.resolution_note(dx)
     return {"dx": dx, "validated_dx": limit if math.isfinite(limit) else None,
             "grid_dependent": note is not None, "note": note}
