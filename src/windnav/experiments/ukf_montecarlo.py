@@ -154,7 +154,7 @@ def _check_tuning(q, r, wind_frame, where: str) -> None:
     unknown key, a negative density or another frame was accepted here and failed every trial;
     Python API audit, fifty-eighth session.) ``q`` and ``r`` by the filter's own rules
     (:func:`~windnav.estimate.wind_ukf.check_noise`; restated here, without the sizes, until
-    2026-12-07; ``r['rotor_speeds']`` of any size, the vehicle being checked later)."""
+    2026-12-08; ``r['rotor_speeds']`` of any size, the vehicle being checked later)."""
     from windnav.estimate.wind_model import WIND_FRAMES
 
     check_noise(q, r, where)
