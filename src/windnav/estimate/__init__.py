@@ -4,6 +4,7 @@ Public API::
 
     UKF, ukf_predict, ukf_update, merwe_weights, ...   generic unscented Kalman filter
     WindUKF, WindEstimate, wind_world                  the thesis' wind estimator (ch. 3)
+    check_noise                                        its rules for the noise settings q and r
     wind_model, layout                                 its batched models and packed layouts
     observability                                      Lie-derivative rank analysis (sympy)
     wind_uncertainty, wind_uncertainty_axes, ...       a-priori wind uncertainty (appendix A)
@@ -46,6 +47,7 @@ from windnav.estimate.wind_ukf import (
     DEFAULT_R,
     WindEstimate,
     WindUKF,
+    check_noise,
     sensor_range,
     wind_world,
 )
@@ -71,6 +73,7 @@ __all__ = [
     "WindEstimate",
     "WindUKF",
     "sensor_range",
+    "check_noise",
     "compare_vehicles",
     "drag_model_bias",
     "conditions",
