@@ -29,7 +29,18 @@ import numpy as np
 
 from windnav._jit import njit
 from windnav.vehicle.dynamics import PackedParams, pack_params
-from windnav.vehicle.layout import K_ETA, MASS, POS, QUAT, RATES, VEL, G
+from windnav.vehicle.layout import (
+    ATTITUDE,
+    K_ETA,
+    MASS,
+    N_RIGID,
+    POS,
+    QUAT,
+    RATES,
+    ROTORS,
+    VEL,
+    G,
+)
 from windnav.vehicle.params import MultirotorParams
 from windnav.vehicle.rotation import quat_to_rotation
 
@@ -90,10 +101,21 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
 
     In ``accel_mode`` ``acc_d`` is the commanded acceleration and positions/velocities are
     ignored.
+
+    Returns 0; or, its outputs then meaningless, 1 where an argument's shape does not fit
+    (nothing written) and 2 where the sum of the targets is not finite (a target NaN or
+    infinite, or finite ones whose sum overflows). These cheap tests keep the checks off
+    each control step: :class:`SE3Controller` looks at the arguments only when one fails.
     """
     B = x.shape[0]
     P = scalars.shape[0]
     n_rot = alloc_pinv.shape[1]
+    if (x.shape[1] != ROTORS + n_rot or (P != 1 and P != B) or pos_d.shape[0] != B
+            or pos_d.shape[1] != 3 or vel_d.shape[0] != B or vel_d.shape[1] != 3
+            or acc_d.shape[0] != B or acc_d.shape[1] != 3 or yaw_d.shape[0] != B
+            or yaw_rate_d.shape[0] != B or out_cmd.shape[0] != B or out_wrench.shape[0] != B):
+        return 1
+    targets = 0.0  # a sum apart from the control law's arithmetic, which it leaves unchanged
     R = np.empty((3, 3))
     Rd = np.empty((3, 3))
     S = np.empty((3, 3))
@@ -110,7 +132,9 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         for j in range(3):
             if accel_mode:
                 a = acc_d[b, j]
+                targets += a
             else:
+                targets += (pos_d[b, j] + vel_d[b, j]) + acc_d[b, j]
                 a = (-gains[GAIN_KP_POS + j] * (x[b, POS + j] - pos_d[b, j])
                      - gains[GAIN_KD_POS + j] * (x[b, VEL + j] - vel_d[b, j]) + acc_d[b, j])
             F[j] = m * a
@@ -173,6 +197,8 @@ def se3_kernel(scalars, inertia, alloc_pinv, x, pos_d, vel_d, acc_d, yaw_d, yaw_
         for i in range(n_rot):
             f = A[i, 0] * u[0] + A[i, 1] * u[1] + A[i, 2] * u[2] + A[i, 3] * u[3]
             out_cmd[b, i] = np.sqrt(f / keta) if f > 0.0 else 0.0
+        targets += yaw_d[b] + yaw_rate_d[b]
+    return 0 if np.isfinite(targets) else 2
 
 
 class SE3Controller:
@@ -214,17 +240,58 @@ class SE3Controller:
         self.n_rotors = plist[0].n_rotors
 
     def _run(self, x, pos, vel, acc, yaw, yaw_rate, accel_mode):
-        # float64, the physics' precision (a float32 state compiled a float32 kernel); no
-        # copy of float64 arrays
-        x, pos, vel, acc, yaw, yaw_rate = (np.asarray(a, dtype=np.float64)
-                                           for a in (x, pos, vel, acc, yaw, yaw_rate))
-        B = x.shape[0]
-        cmd = np.empty((B, self.n_rotors))
-        wrench = np.empty((B, 4))
-        p = self.packed
-        se3_kernel(p.scalars, p.inertia, self.alloc_pinv, x, pos, vel, acc, yaw, yaw_rate,
-                   self._gains, accel_mode, cmd, wrench)
+        try:
+            # float64, the physics' precision (a float32 state compiled a float32 kernel); no
+            # copy of float64 arrays
+            x, pos, vel, acc, yaw, yaw_rate = (np.asarray(a, dtype=np.float64)
+                                               for a in (x, pos, vel, acc, yaw, yaw_rate))
+            B = x.shape[0]
+            cmd = np.empty((B, self.n_rotors))
+            wrench = np.empty((B, 4))
+            p = self.packed
+            status = se3_kernel(p.scalars, p.inertia, self.alloc_pinv, x, pos, vel, acc, yaw,
+                                yaw_rate, self._gains, accel_mode, cmd, wrench)
+        except Exception:  # a wrong number of axes fails the kernel's typing, a zero
+            # quaternion divides by zero: say which argument
+            self._refuse(accel_mode, x, pos, vel, acc, yaw, yaw_rate)
+            raise
+        if status:  # a shape that does not fit, or targets that are not all finite
+            self._refuse(accel_mode, x, pos, vel, acc, yaw, yaw_rate)
         return cmd, wrench
+
+    def _refuse(self, accel_mode, x, pos, vel, acc, yaw, yaw_rate) -> None:
+        """Raise the ValueError naming the argument the kernel could not use; return where
+        there is none (finite targets whose sum overflowed the kernel's test)."""
+        if accel_mode:
+            where = "SE3Controller.accelerate"
+            targets = (("acceleration_cmd", acc, (3,)), ("yaw", yaw, ()),
+                       ("yaw_rate", yaw_rate, ()))
+        else:
+            where = "SE3Controller.track"
+            targets = (("position", pos, (3,)), ("velocity", vel, (3,)),
+                       ("acceleration", acc, (3,)), ("yaw", yaw, ()), ("yaw_rate", yaw_rate, ()))
+        width = N_RIGID + self.n_rotors
+        x = _float_array(x, "x", where)
+        if x.ndim != 2 or x.shape[1] != width:
+            raise ValueError(f"The 'x' parameter of {where} must be a packed state of shape "
+                             f"(B, {width}). Got shape {x.shape} instead.")
+        B, P = x.shape[0], self.packed.size
+        if P not in (1, B):
+            raise ValueError(f"The 'x' parameter of {where} must hold the {P} vehicles the "
+                             f"controller was built for. Got a batch of {B} instead.")
+        for name, a, tail in targets:
+            a = _float_array(a, name, where)
+            if a.shape != (B, *tail):
+                raise ValueError(f"The {name!r} parameter of {where} must have shape "
+                                 f"{(B, *tail)} (the batch of x). Got shape {a.shape} instead.")
+            if not np.isfinite(a).all():
+                raise ValueError(f"The {name!r} parameter of {where} must be finite. Got "
+                                 f"NaN or inf in row {int(np.nonzero(~np.isfinite(a))[0][0])}.")
+        zero = np.nonzero(~np.any(x[:, ATTITUDE] != 0.0, axis=1))[0]
+        if zero.size:  # the rotation divides by the quaternion's norm
+            raise ValueError(f"The 'x' parameter of {where} must hold non-zero attitude "
+                             f"quaternions (columns {QUAT} to {QUAT + 3}). Got a zero one in "
+                             f"row {int(zero[0])}.")
 
     def track(self, x, position, velocity, acceleration, yaw, yaw_rate):
         """Rotor-speed commands (B, N) and wrench ``[u1, M]`` (B, 4) to track a flat output.
@@ -232,6 +299,12 @@ class SE3Controller:
         ``x`` is the packed state (B, 13 + N) (``VehicleState.to_array()``); targets are world
         frame arrays of shape (B, 3) (positions m, velocities m/s, accelerations m/s^2) and
         (B,) yaw (rad) and yaw rate (rad/s).
+
+        Raises
+        ------
+        ValueError
+            Naming ``x`` (not (B, 13 + N), another batch than the controller's vehicles, or a
+            zero attitude quaternion) or the target that is not finite or not of x's batch.
         """
         return self._run(x, position, velocity, acceleration, yaw, yaw_rate, False)
 
@@ -240,8 +313,24 @@ class SE3Controller:
 
         ``acceleration_cmd`` is the desired world-frame acceleration (gravity compensated by the
         controller), m/s^2.
+
+        Raises
+        ------
+        ValueError
+            As :meth:`track` does, naming ``x``, ``acceleration_cmd``, ``yaw`` or ``yaw_rate``.
         """
-        B = x.shape[0]
+        try:
+            B = len(x)
+        except TypeError:  # not a sequence: _run names x
+            B = 0
         yaw_rate = np.zeros(B) if yaw_rate is None else yaw_rate
         dummy = np.zeros((B, 3))
         return self._run(x, dummy, dummy, acceleration_cmd, yaw, yaw_rate, True)
+
+
+def _float_array(a, name: str, where: str) -> np.ndarray:
+    try:
+        return np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of numbers. Got "
+                         f"{type(a).__name__} instead.") from None

@@ -1,0 +1,78 @@
+"""Bad inputs to the controller, the vehicle model, the reference trajectories and the sensor
+models: each is refused up front by a ValueError naming the argument (closure-module audit,
+fifty-ninth session). Each case says what happened before."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import windnav as wn
+from windnav.control import SE3Controller
+from windnav.vehicle import Multirotor
+
+NAN = np.nan
+HB = wn.vehicle.params("hummingbird")
+
+
+@pytest.fixture(scope="module")
+def hover():
+    """A Hummingbird's SE(3) controller and its packed hover state (B = 1)."""
+    return SE3Controller(HB), Multirotor(HB).hover_state(np.zeros(3)).to_array()
+
+
+# --------------------------------------------------------------------------- SE(3) control
+
+
+def test_the_controller_refuses_non_finite_targets(hover):
+    # before: all four rotor commands 0 (the vehicle falls), no warning
+    c, x = hover
+    z, y = np.zeros((1, 3)), np.zeros(1)
+    with pytest.raises(ValueError, match="'position' parameter of SE3Controller.track must "
+                                         "be finite"):
+        c.track(x, [[0.0, NAN, 1.0]], z, z, y, y)
+    with pytest.raises(ValueError, match="'yaw_rate' parameter of SE3Controller.track"):
+        c.track(x, z, z, z, y, [np.inf])
+    with pytest.raises(ValueError, match="'acceleration_cmd' parameter of "
+                                         "SE3Controller.accelerate must be finite"):
+        c.accelerate(x, [[NAN, 0.0, 0.0]], y)
+    with pytest.raises(ValueError, match="'yaw' parameter of SE3Controller.accelerate"):
+        c.accelerate(x, z, [NAN])
+
+
+def test_the_controller_refuses_targets_of_another_batch_or_shape(hover):
+    # before: a (2, 3) target read one row; a (3,) one or a scalar yaw a Numba TypingError
+    c, x = hover
+    z, y = np.zeros((1, 3)), np.zeros(1)
+    with pytest.raises(ValueError, match=r"'velocity' parameter of SE3Controller.track must "
+                                         r"have shape \(1, 3\)"):
+        c.track(x, z, np.zeros((2, 3)), z, y, y)
+    with pytest.raises(ValueError, match=r"'acceleration_cmd' .* shape \(1, 3\)"):
+        c.accelerate(x, np.zeros(3), y)
+    with pytest.raises(ValueError, match=r"'yaw' parameter .* shape \(1,\)"):
+        c.track(x, z, z, z, 0.0, y)
+
+
+def test_the_controller_refuses_a_state_it_cannot_read(hover):
+    # before: an (1, 8) state read past its row, a zero quaternion a ZeroDivisionError, a
+    # batch of 2 for 3 vehicles' parameters read past them
+    c, x = hover
+    z, y = np.zeros((1, 3)), np.zeros(1)
+    with pytest.raises(ValueError, match=r"'x' parameter .* shape \(B, 17\)"):
+        c.track(x[:, :8], z, z, z, y, y)
+    zero = x.copy()
+    zero[:, 6:10] = 0.0
+    with pytest.raises(ValueError, match="'x' parameter .* non-zero attitude quaternions"):
+        c.accelerate(zero, z, y)
+    three = SE3Controller([HB] * 3)
+    with pytest.raises(ValueError, match="'x' parameter .* the 3 vehicles"):
+        three.accelerate(np.repeat(x, 2, axis=0), np.zeros((2, 3)), np.zeros(2))
+
+
+def test_targets_whose_sum_overflows_are_still_followed(hover):
+    """The kernel's test sums the targets: finite ones that overflow the sum are looked at
+    again, and accepted."""
+    c, x = hover
+    z, y = np.zeros((1, 3)), np.zeros(1)
+    cmd, wrench = c.track(x, [[1e308, 1e308, 0.0]], z, z, y, y)
+    assert cmd.shape == (1, 4) and wrench.shape == (1, 4)
