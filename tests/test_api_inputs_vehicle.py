@@ -76,3 +76,29 @@ def test_targets_whose_sum_overflows_are_still_followed(hover):
     z, y = np.zeros((1, 3)), np.zeros(1)
     cmd, wrench = c.track(x, [[1e308, 1e308, 0.0]], z, z, y, y)
     assert cmd.shape == (1, 4) and wrench.shape == (1, 4)
+
+
+# --------------------------------------------------------------------------- vehicle
+
+
+def test_params_refuse_a_vehicle_that_cannot_hover():
+    # before: accepted at thrust-to-weight 0.51, hover at 2098 of 1500 rad/s
+    with pytest.raises(ValueError, match=r"'mass' parameter of windnav.vehicle.params must "
+                                         r"leave a vehicle that can hover.*thrust-to-weight "
+                                         r"of 0\.51"):
+        wn.vehicle.params("hummingbird", mass=10)
+    with pytest.raises(ValueError, match="'k_eta' and 'rotor_speed_max' parameters"):
+        wn.vehicle.params("hummingbird", k_eta=1e-6, rotor_speed_max=500.0, k_d=0.0)
+    with pytest.raises(ValueError, match="'mass' parameter of windnav.vehicle.params"):
+        wn.vehicle.params("crazyflie_thesis", mass=1.0)
+    # a study of the thrust margin still builds one on purpose
+    assert HB.replace(mass=10.0).max_thrust < HB.replace(mass=10.0).weight
+
+
+def test_params_refuse_an_inertia_no_rigid_body_has():
+    # before: Izz > Ixx + Iyy accepted
+    with pytest.raises(ValueError, match="'inertia' parameter of MultirotorParams must be a "
+                                         "rigid body's"):
+        wn.vehicle.params("hummingbird", inertia=[1e-3, 2e-3, 5e-3])
+    flat = wn.vehicle.params("hummingbird", inertia=[1e-3, 2e-3, 3e-3])  # a flat body: equal
+    assert flat.inertia[2, 2] == 3e-3

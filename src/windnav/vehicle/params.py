@@ -20,6 +20,11 @@ GRAVITY = 9.81
 TRANSLATIONAL_LIFT_MODELS = ("rotorpy", "bounded")
 """Accepted values of ``MultirotorParams.translational_lift``."""
 
+INERTIA_TOLERANCE = 0.01
+"""Relative margin by which the largest principal moment of inertia may exceed the sum of the
+other two (a flat body's equality, measured or rounded), before it is refused as no rigid
+body's."""
+
 LIFT_ENVELOPE_FRACTION = 0.5
 """Translational lift, as a fraction of the rotor's thrust, beyond which the model is used
 outside its envelope (the default of :func:`windnav.vehicle.outside_envelope`)."""
@@ -138,8 +143,18 @@ class MultirotorParams(ReadOnlyOnCopy):
                 f"The 'inertia' parameter of {where} must be a symmetric (3, 3) matrix "
                 f"or a (3,) diagonal. Got shape {inertia.shape} instead."
             )
-        if np.any(np.linalg.eigvalsh(inertia) <= 0):
+        moments = np.linalg.eigvalsh(inertia)  # principal moments, ascending
+        if np.any(moments <= 0):
             raise ValueError(f"The 'inertia' parameter of {where} must be positive definite.")
+        if moments[2] > (1.0 + INERTIA_TOLERANCE) * (moments[0] + moments[1]):
+            # each principal moment is the integral of m r^2 about its axis, at most the sum
+            # of the other two (equal for a flat body): Izz = 5e-3 over Ixx + Iyy = 2e-3 was
+            # accepted (closure-module audit)
+            raise ValueError(
+                f"The 'inertia' parameter of {where} must be a rigid body's: no principal "
+                f"moment above the sum of the other two (Izz <= Ixx + Iyy, within "
+                f"{INERTIA_TOLERANCE:.0%} for measured values). Got principal moments "
+                f"{[float(f'{m:.6g}') for m in moments]} instead.")
         pos = np.array(self.rotor_positions, dtype=np.float64)
         if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
             raise ValueError(
@@ -302,19 +317,44 @@ def params(name: str, **overrides) -> MultirotorParams:
     Raises
     ------
     ValueError
-        If ``name`` is not a known vehicle.
+        If ``name`` is not a known vehicle; naming the overrides that leave a vehicle unable to
+        hover (full thrust ``N k_eta eta_max^2`` at most its weight).
     """
+    where = "windnav.vehicle.params"
     if name == "crazyflie_thesis":
         # the preset starts from crazyflie_brushless through params() itself
-        from windnav.vehicle.thesis_presets import crazyflie_thesis
+        from windnav.vehicle.thesis_presets import _thesis_params
 
-        return crazyflie_thesis(**overrides)
+        return _hovering(_thesis_params(overrides), overrides, where)
     if name not in _BUILTIN:
         raise ValueError(
-            f"The 'name' parameter of windnav.vehicle.params must be one of {list(VEHICLES)}. "
+            f"The 'name' parameter of {where} must be one of {list(VEHICLES)}. "
             f"Got {name!r} instead."
         )
-    return MultirotorParams(name=name, **{**_BUILTIN[name], **overrides})
+    return _hovering(MultirotorParams(name=name, **{**_BUILTIN[name], **overrides}), overrides,
+                    where)
+
+
+_THRUST_FIELDS = ("mass", "k_eta", "rotor_speed_max", "rotor_positions")
+"""The fields that set full thrust and weight."""
+
+
+def _hovering(p: MultirotorParams, overrides: dict, where: str) -> MultirotorParams:
+    """``p``, a preset changed by ``overrides``, when its rotors can lift it; else a ValueError
+    naming the overrides. ``MultirotorParams`` itself (and ``replace``) keeps accepting such a
+    vehicle: a check of the thrust margin builds one on purpose."""
+    if p.max_thrust > p.weight:
+        return p
+    named = [k for k in overrides if k in _THRUST_FIELDS] or list(overrides)
+    got = ", ".join(f"{k}={overrides[k]!r}" if np.ndim(overrides[k]) == 0
+                    else f"{k} of shape {np.shape(overrides[k])}" for k in named)
+    which = " and ".join(repr(k) for k in named)
+    raise ValueError(
+        f"The {which} parameter{'s' if len(named) > 1 else ''} of {where} must leave a vehicle "
+        f"that can hover: full thrust N k_eta eta_max^2 = {p.max_thrust:.4g} N against a "
+        f"weight m g = {p.weight:.4g} N is a thrust-to-weight of {p.max_thrust / p.weight:.2f} "
+        f"(hover needs {p.hover_rotor_speed:.0f} of {p.rotor_speed_max:.0f} rad/s). Got {got} "
+        f"instead.")
 
 
 def params_to_rotorpy_dict(p: MultirotorParams) -> dict:

@@ -38,7 +38,7 @@ them; ``docs/sysid.md``): ``k_m`` gives 13.56 W of rotor shaft power in hover, a
 
 from __future__ import annotations
 
-from windnav.vehicle.params import MultirotorParams, params
+from windnav.vehicle.params import MultirotorParams, _hovering, params
 from windnav.vehicle.power import PowerCurve
 
 __all__ = ["THESIS_CRAZYFLIE", "crazyflie_thesis"]
@@ -71,7 +71,18 @@ def crazyflie_thesis(**overrides) -> MultirotorParams:
         Named ``"crazyflie_thesis"``; ``extra`` holds ``pwm_motor`` (``Kv``, ``V0``, ``DZ``,
         ``pwm_max``), ``k_eta_hover``, ``power_curve`` (ascending W coefficients),
         ``power_curve_speed_max`` (m/s) and ``sources`` (where each value comes from).
+
+    Raises
+    ------
+    ValueError
+        Naming the overrides that leave a vehicle unable to hover, as
+        :func:`windnav.vehicle.params` does.
     """
+    return _hovering(_thesis_params(overrides), overrides, "crazyflie_thesis")
+
+
+def _thesis_params(overrides: dict) -> MultirotorParams:
+    """:func:`crazyflie_thesis` with ``overrides``, unchecked for hover."""
     th = THESIS_CRAZYFLIE
     base = params("crazyflie_brushless")
     curve = PowerCurve.crazyflie()
