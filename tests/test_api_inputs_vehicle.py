@@ -9,7 +9,14 @@ import pytest
 
 import windnav as wn
 from windnav.control import SE3Controller
-from windnav.vehicle import Multirotor
+from windnav.vehicle import Multirotor, VehicleState
+from windnav.vehicle.power import energy
+from windnav.vehicle.rotation import (
+    euler_zyx_to_matrix,
+    quat_from_rotvec,
+    quat_multiply,
+    quat_to_matrix,
+)
 
 NAN = np.nan
 HB = wn.vehicle.params("hummingbird")
@@ -102,3 +109,52 @@ def test_params_refuse_an_inertia_no_rigid_body_has():
         wn.vehicle.params("hummingbird", inertia=[1e-3, 2e-3, 5e-3])
     flat = wn.vehicle.params("hummingbird", inertia=[1e-3, 2e-3, 3e-3])  # a flat body: equal
     assert flat.inertia[2, 2] == 3e-3
+
+
+def test_energy_refuses_negative_power():
+    # before: -10 J
+    with pytest.raises(ValueError, match="'power' parameter of energy must be >= 0"):
+        energy([0.0, 1.0], [-10.0, -10.0])
+
+
+def test_packed_states_of_the_wrong_width_are_refused():
+    # before: a (1, 10) state unpacked into 3 attitude components and no body rates, a 1-D
+    # one an IndexError; fields of other widths packed into shifted blocks
+    with pytest.raises(ValueError, match=r"'x' parameter of VehicleState.from_array must "
+                                         r"have shape \(B, 13 \+ N\)"):
+        VehicleState.from_array(np.zeros((1, 10)))
+    with pytest.raises(ValueError, match=r"'x' parameter .* \(B, 17\)"):
+        VehicleState.from_array(np.zeros((1, 15)), n_rotors=4)
+    s = Multirotor(HB).hover_state(np.zeros(3))
+    bad = VehicleState(s.position, s.velocity, s.attitude[:, :3], s.body_rates,
+                       np.zeros((1, 5)))
+    with pytest.raises(ValueError, match=r"'attitude' field of VehicleState must have shape "
+                                         r"\(B, 4\)"):
+        bad.to_array()
+
+
+def test_clip_rotor_speeds_refuses_commands_for_other_rotors():
+    # before: 3 commands for 4 rotors clipped as 3; (2, 4) for 3 vehicles a broadcast error
+    with pytest.raises(ValueError, match=r"'rotor_speed_cmd' parameter of "
+                                         r"Multirotor.clip_rotor_speeds must have shape "
+                                         r"\(\.\.\., 4\)"):
+        Multirotor(HB).clip_rotor_speeds(np.zeros(3))
+    with pytest.raises(ValueError, match=r"'rotor_speed_cmd' .* \(\.\.\., 3, 4\)"):
+        Multirotor([HB] * 3).clip_rotor_speeds(np.zeros((2, 4)))
+
+
+def test_rotation_helpers_refuse_wrong_lengths_and_zero_quaternions():
+    # before: a ZeroDivisionError, NumPy's reshape errors, an IndexError, a (1, 2) rotation
+    # vector made into (1, 3) "quaternions", a 5-vector read as its first 4
+    with pytest.raises(ValueError, match="'q' parameter of quat_to_matrix must hold non-zero"):
+        quat_to_matrix(np.zeros(4))
+    with pytest.raises(ValueError, match=r"'q' parameter .* shape \(\.\.\., 4\)"):
+        quat_to_matrix(np.ones(8))
+    with pytest.raises(ValueError, match=r"'euler' parameter .* shape \(\.\.\., 3\)"):
+        euler_zyx_to_matrix(np.ones(4))
+    with pytest.raises(ValueError, match="'p' parameter of quat_multiply"):
+        quat_multiply(np.ones(5), np.ones(4))
+    with pytest.raises(ValueError, match="'q' parameter of quat_multiply"):
+        quat_multiply(np.ones(4), np.ones(3))
+    with pytest.raises(ValueError, match="'rotvec' parameter of quat_from_rotvec"):
+        quat_from_rotvec(np.ones((1, 2)))

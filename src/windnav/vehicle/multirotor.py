@@ -195,9 +195,26 @@ class Multirotor:
         }
 
     def clip_rotor_speeds(self, rotor_speed_cmd) -> tuple[np.ndarray, np.ndarray]:
-        """Clip commands to the rotor limits; return ``(clipped, saturated_mask)``."""
+        """Clip commands to the rotor limits; return ``(clipped, saturated_mask)``.
+
+        ``rotor_speed_cmd`` is (..., B, N) or (N,), rad/s, B the model's vehicles when it holds
+        more than one.
+
+        Raises
+        ------
+        ValueError
+            Naming ``rotor_speed_cmd`` when it has another shape (3 commands for 4 rotors were
+            clipped as if there were 3 rotors).
+        """
         lo = self.packed.rotor_speed_min[:, None]
         hi = self.packed.rotor_speed_max[:, None]
         cmd = np.asarray(rotor_speed_cmd, dtype=np.float64)
+        shape, P = cmd.shape, lo.shape[0]
+        if not (shape and shape[-1] == self.n_rotors
+                and (len(shape) == 1 or P == 1 or shape[-2] == P)):
+            want = f"(..., {self.n_rotors})" if P == 1 else (
+                f"(..., {P}, {self.n_rotors}) or ({self.n_rotors},)")
+            raise ValueError(f"The 'rotor_speed_cmd' parameter of Multirotor.clip_rotor_speeds "
+                             f"must have shape {want}. Got shape {shape} instead.")
         clipped = np.clip(cmd, lo, hi)
         return clipped, clipped != cmd

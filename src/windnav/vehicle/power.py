@@ -91,6 +91,12 @@ def energy(t, power) -> np.ndarray:
     -------
     ndarray of shape (T, ...)
         Energy used since ``t[0]``, J (``E[0] = 0``).
+
+    Raises
+    ------
+    ValueError
+        Naming ``t`` (not finite, 1-D and non-decreasing) or ``power`` (not finite, of
+        another length, or negative: the rotors only draw power).
     """
     where = "energy"
     t = np.asarray(t, dtype=np.float64)
@@ -105,6 +111,9 @@ def energy(t, power) -> np.ndarray:
             f"The 'power' parameter of {where} must be finite of shape ({t.size}, ...). "
             f"Got shape {p.shape} instead."
         )
+    if np.any(p < 0):  # gave a negative energy (-10 J for -10 W over 1 s)
+        raise ValueError(f"The 'power' parameter of {where} must be >= 0 W (drawn, never "
+                         f"returned). Got a minimum of {float(p.min())!r} W instead.")
     return scipy.integrate.cumulative_trapezoid(p, t, axis=0, initial=0.0)
 
 

@@ -71,16 +71,45 @@ def _euler_matrices(e, out):
             out[b, k // 3, k % 3] = r[k]
 
 
-def _batched(fn, a: np.ndarray, width: int) -> np.ndarray:
-    a = np.asarray(a, dtype=np.float64)
-    flat = np.ascontiguousarray(a.reshape(-1, width))
-    out = np.empty((flat.shape[0], 3, 3))
-    fn(flat, out)
-    return out.reshape(a.shape[:-1] + (3, 3))
+def _last_axis(a, width: int, name: str, where: str) -> np.ndarray:
+    """``a`` as an array whose last axis has ``width`` entries, else a ValueError naming it."""
+    try:
+        arr = np.asarray(a)
+    except ValueError:  # ragged
+        arr = None
+    if arr is None or arr.ndim == 0 or arr.shape[-1] != width:
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of shape "
+                         f"(..., {width}). Got shape {np.shape(arr)} instead.")
+    return arr
+
+
+def _batched(fn, a: np.ndarray, width: int, name: str, where: str) -> np.ndarray:
+    try:
+        a = np.asarray(a, dtype=np.float64)
+        flat = np.ascontiguousarray(a.reshape(-1, width))
+        out = np.empty((flat.shape[0], 3, 3))
+        fn(flat, out)
+        return out.reshape(a.shape[:-1] + (3, 3))
+    except (ValueError, ZeroDivisionError):  # another last axis fails a reshape, a zero
+        # quaternion divides by zero: say so by name (no test on the per-step path)
+        a = _last_axis(a, width, name, where)
+        if width == 4 and not np.all(np.any(a != 0.0, axis=-1)):
+            raise ValueError(f"The {name!r} parameter of {where} must hold non-zero "
+                             "quaternions (the rotation divides by the norm). Got a zero "
+                             "one.") from None
+        raise
 
 
 def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Hamilton product ``p (x) q`` of batches (B, 4); the rotation ``p`` after ``q``."""
+    """Hamilton product ``p (x) q`` of batches (B, 4); the rotation ``p`` after ``q``.
+
+    Raises
+    ------
+    ValueError
+        Naming ``p`` or ``q`` when its last axis does not hold 4 entries.
+    """
+    p = _last_axis(p, 4, "p", "quat_multiply")
+    q = _last_axis(q, 4, "q", "quat_multiply")
     px, py, pz, pw = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
     qx, qy, qz, qw = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     return np.stack([
@@ -92,7 +121,14 @@ def quat_multiply(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def quat_from_rotvec(rotvec: np.ndarray) -> np.ndarray:
-    """Quaternions (B, 4) of rotation vectors (B, 3) (axis times angle, rad)."""
+    """Quaternions (B, 4) of rotation vectors (B, 3) (axis times angle, rad).
+
+    Raises
+    ------
+    ValueError
+        Naming ``rotvec`` when its last axis does not hold 3 entries.
+    """
+    rotvec = _last_axis(rotvec, 3, "rotvec", "quat_from_rotvec")
     angle = np.linalg.norm(rotvec, axis=-1, keepdims=True)
     half = 0.5 * angle
     # sin(a/2)/a, with its Taylor series near zero
@@ -113,8 +149,13 @@ def quat_to_matrix(q: np.ndarray) -> np.ndarray:
     -------
     ndarray of shape (..., 3, 3)
         Body-to-world rotation matrices.
+
+    Raises
+    ------
+    ValueError
+        Naming ``q`` when its last axis does not hold 4 entries or a quaternion is zero.
     """
-    return _batched(_quat_matrices, q, 4)
+    return _batched(_quat_matrices, q, 4, "q", "quat_to_matrix")
 
 
 def euler_zyx_to_matrix(euler: np.ndarray) -> np.ndarray:
@@ -128,5 +169,10 @@ def euler_zyx_to_matrix(euler: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of shape (..., 3, 3)
+
+    Raises
+    ------
+    ValueError
+        Naming ``euler`` when its last axis does not hold 3 entries.
     """
-    return _batched(_euler_matrices, euler, 3)
+    return _batched(_euler_matrices, euler, 3, "euler", "euler_zyx_to_matrix")
