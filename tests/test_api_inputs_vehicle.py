@@ -9,6 +9,8 @@ import pytest
 
 import windnav as wn
 from windnav.control import SE3Controller
+from windnav.sensors import IMU, Odometry, RotorSpeedSensor
+from windnav.sim import Circle, Hover, Line
 from windnav.vehicle import Multirotor, VehicleState
 from windnav.vehicle.power import energy
 from windnav.vehicle.rotation import (
@@ -158,3 +160,47 @@ def test_rotation_helpers_refuse_wrong_lengths_and_zero_quaternions():
         quat_multiply(np.ones(4), np.ones(3))
     with pytest.raises(ValueError, match="'rotvec' parameter of quat_from_rotvec"):
         quat_from_rotvec(np.ones((1, 2)))
+
+
+# --------------------------------------------------------------------------- trajectories
+
+
+@pytest.mark.parametrize("make, name", [
+    (lambda: Hover((0.0, NAN, 1.0)), "'position' parameter of Hover"),
+    (lambda: Hover(((0.0, 0.0, 1.0),)), "'position' parameter of Hover"),  # 2-D
+    (lambda: Hover((0.0, 0.0, 1.0), yaw=NAN), "'yaw' parameter of Hover"),
+    (lambda: Circle(center=(NAN, 0.0, 0.0)), "'center' parameter of Circle"),
+    (lambda: Circle(center=np.zeros((2, 3))), "'center' parameter of Circle"),
+    (lambda: Line((0.0, 0.0), (1.0, 0.0, 0.0)), "'start' parameter of Line"),
+])
+def test_trajectories_refuse_non_finite_or_2d_fields(make, name):
+    # before: accepted; NaN flew rotor commands of 0, a (1, 3) point broadcast over the batch
+    with pytest.raises(ValueError, match=name):
+        make()
+
+
+# --------------------------------------------------------------------------- sensors
+
+
+def test_sensor_models_refuse_wrong_shapes():
+    # before: NumPy broadcast errors, an IndexError, silent broadcasting of (5, 1, 3) rates
+    # over 2 vehicles and of one attitude over 5 samples, an AttributeError for a list
+    rng = np.random.default_rng(0)
+    imu, odo = IMU(), Odometry()
+    with pytest.raises(ValueError, match=r"'specific_force_body' parameter of IMU.measure "
+                                         r"must have shape \(K, B, 3\)"):
+        imu.measure(np.zeros((5, 3)), np.zeros((5, 3)), rng)
+    with pytest.raises(ValueError, match="'body_rates' parameter of IMU.measure"):
+        imu.measure(np.zeros((5, 2, 3)), np.zeros((5, 1, 3)), rng)
+    with pytest.raises(ValueError, match=r"'bias0' parameter of IMU.measure must have shape "
+                                         r"\(2, 6\)"):
+        imu.measure(np.zeros((5, 2, 3)), np.zeros((5, 2, 3)), rng, bias0=np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="'attitude' parameter of Odometry.measure"):
+        odo.measure(np.zeros((5, 3)), np.zeros((5, 3)), np.zeros((5, 3)), rng)
+    with pytest.raises(ValueError, match="'attitude' parameter of Odometry.measure"):
+        odo.measure(np.zeros((5, 3)), np.zeros((5, 3)), np.zeros((1, 4)), rng)
+    with pytest.raises(ValueError, match="'velocity' parameter of Odometry.measure"):
+        odo.measure(np.zeros((5, 3)), np.zeros((4, 3)), np.zeros((5, 4)), rng)
+    with pytest.raises(ValueError, match="'rotor_speed_cmd' parameter of "
+                                         "RotorSpeedSensor.measure"):
+        RotorSpeedSensor(noise_std=1.0).measure([[1.0, 2.0], [3.0]], rng)

@@ -38,6 +38,27 @@ def _check_rate(rate_hz, where):
     return positive_float(rate_hz, "rate_hz", where)
 
 
+def _numbers(a, name: str, where: str) -> np.ndarray:
+    """``a`` as an array of numbers (the same object for an ndarray), else a named ValueError."""
+    try:
+        arr = np.asarray(a)
+    except ValueError:  # ragged
+        arr = None
+    if arr is None or arr.dtype.kind not in "biuf":
+        raise ValueError(f"The {name!r} parameter of {where} must be an array of numbers. Got "
+                         f"{type(a).__name__} instead.")
+    return arr
+
+
+def _shaped(a, name: str, where: str, shape: tuple, want: str) -> np.ndarray:
+    """``a`` as an array of numbers of ``shape``, else a ValueError naming it and ``want``."""
+    arr = _numbers(a, name, where)
+    if arr.shape != shape:
+        raise ValueError(f"The {name!r} parameter of {where} must have shape {want}. Got shape "
+                         f"{arr.shape} instead.")
+    return arr
+
+
 @dataclass(frozen=True)
 class IMU:
     """Accelerometer + gyroscope at the centre of mass.
@@ -94,7 +115,30 @@ class IMU:
         Returns
         -------
         accel (K, B, 3) m/s^2, gyro (K, B, 3) rad/s, bias (K, B, 6) in force at each sample.
+
+        Raises
+        ------
+        ValueError
+            Naming ``specific_force_body`` (not (K, B, 3)), ``body_rates`` (not its shape) or
+            ``bias0`` (not (B, 6) or another shape that broadcasts to (K, B, 6)).
         """
+        where = "IMU.measure"
+        specific_force_body = _numbers(specific_force_body, "specific_force_body", where)
+        shape = specific_force_body.shape
+        if len(shape) != 3 or shape[2] != 3:
+            raise ValueError(f"The 'specific_force_body' parameter of {where} must have shape "
+                             f"(K, B, 3). Got shape {shape} instead.")
+        body_rates = _shaped(body_rates, "body_rates", where, shape, f"{shape} (K, B, 3) as "
+                             "specific_force_body's")
+        if bias0 is not None:
+            bias0 = _numbers(bias0, "bias0", where)
+            try:
+                fits = np.broadcast_shapes(bias0.shape, (*shape[:2], 6)) == (*shape[:2], 6)
+            except ValueError:
+                fits = False
+            if not fits:
+                raise ValueError(f"The 'bias0' parameter of {where} must have shape "
+                                 f"({shape[1]}, 6). Got shape {bias0.shape} instead.")
         K, B = specific_force_body.shape[:2]
         h = np.sqrt(1.0 / self.rate_hz)
         walk = np.concatenate([
@@ -147,7 +191,22 @@ class Odometry:
         Returns ``(position, velocity, attitude xyzw)`` with white noise; the attitude is
         perturbed by a random rotation vector of standard deviation ``attitude_std`` per axis,
         applied in the body frame.
+
+        Raises
+        ------
+        ValueError
+            Naming ``position`` (not (..., 3)), ``velocity`` (not its shape) or ``attitude``
+            (not (..., 4) with its leading axes).
         """
+        where = "Odometry.measure"
+        position = _numbers(position, "position", where)
+        shape = position.shape
+        if not shape or shape[-1] != 3:
+            raise ValueError(f"The 'position' parameter of {where} must have shape (..., 3). "
+                             f"Got shape {shape} instead.")
+        velocity = _shaped(velocity, "velocity", where, shape, f"{shape} as position's")
+        attitude = _shaped(attitude, "attitude", where, (*shape[:-1], 4),
+                           f"{(*shape[:-1], 4)} (position's leading axes, xyzw)")
         pos = position + rng.normal(scale=self.position_std, size=position.shape)
         vel = velocity + rng.normal(scale=self.velocity_std, size=velocity.shape)
         dtheta = rng.normal(scale=self.attitude_std, size=position.shape)
@@ -181,7 +240,14 @@ class RotorSpeedSensor:
         _check_noise(self, ("noise_std",), "RotorSpeedSensor")
 
     def measure(self, rotor_speed_cmd, rng):
-        """Samples of the commanded speeds (any shape), rad/s."""
+        """Samples of the commanded speeds (any shape), rad/s.
+
+        Raises
+        ------
+        ValueError
+            Naming ``rotor_speed_cmd`` when it is not an array of numbers.
+        """
+        rotor_speed_cmd = _numbers(rotor_speed_cmd, "rotor_speed_cmd", "RotorSpeedSensor.measure")
         if self.noise_std == 0.0:
             return np.array(rotor_speed_cmd, dtype=np.float64)
         return rotor_speed_cmd + rng.normal(scale=self.noise_std, size=rotor_speed_cmd.shape)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from windnav._validate import batch_array, positive_float
+from windnav._validate import batch_array, finite_float, positive_float
 
 
 @dataclass(frozen=True)
@@ -23,6 +23,18 @@ class FlatOutput:
     acceleration: np.ndarray
     yaw: float = 0.0
     yaw_rate: float = 0.0
+
+
+def _point(value, name: str, where: str) -> None:
+    """Refuse anything but 3 finite numbers by name (NaN flew the vehicle to rotor commands of
+    0; a (1, 3) point was broadcast over the batch)."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        arr = None
+    if arr is None or arr.shape != (3,) or not np.isfinite(arr).all():
+        raise ValueError(f"The {name!r} parameter of {where} must be 3 finite numbers "
+                         f"(x, y, z), m, of shape (3,). Got {value!r} instead.")
 
 
 def _min_jerk(s: float) -> tuple[float, float, float]:
@@ -39,6 +51,10 @@ class Hover:
     position: tuple = (0.0, 0.0, 0.0)
     yaw: float = 0.0
 
+    def __post_init__(self):
+        _point(self.position, "position", "Hover")
+        finite_float(self.yaw, "yaw", "Hover")
+
     def __call__(self, t: float) -> FlatOutput:
         return FlatOutput(np.asarray(self.position, float), np.zeros(3), np.zeros(3), self.yaw)
 
@@ -52,6 +68,8 @@ class Line:
     duration: float = 10.0
 
     def __post_init__(self):
+        _point(self.start, "start", "Line")
+        _point(self.end, "end", "Line")
         positive_float(self.duration, "duration", "Line")
 
     def __call__(self, t: float) -> FlatOutput:
@@ -76,6 +94,7 @@ class Circle:
     ramp_s: float = 2.0
 
     def __post_init__(self):
+        _point(self.center, "center", "Circle")
         positive_float(self.radius, "radius", "Circle")
         positive_float(self.speed, "speed", "Circle", allow_zero=True)
         positive_float(self.ramp_s, "ramp_s", "Circle", allow_zero=True)
