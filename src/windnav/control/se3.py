@@ -252,8 +252,11 @@ class SE3Controller:
             status = se3_kernel(p.scalars, p.inertia, self.alloc_pinv, x, pos, vel, acc, yaw,
                                 yaw_rate, self._gains, accel_mode, cmd, wrench)
         except Exception:  # a wrong number of axes fails the kernel's typing, a zero
-            # quaternion divides by zero: say which argument
-            self._refuse(accel_mode, x, pos, vel, acc, yaw, yaw_rate)
+            # quaternion divides by zero: say which argument, without Numba's report
+            try:
+                self._refuse(accel_mode, x, pos, vel, acc, yaw, yaw_rate)
+            except ValueError as named:
+                raise named from None
             raise
         if status:  # a shape that does not fit, or targets that are not all finite
             self._refuse(accel_mode, x, pos, vel, acc, yaw, yaw_rate)

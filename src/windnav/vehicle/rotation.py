@@ -92,7 +92,10 @@ def _batched(fn, a: np.ndarray, width: int, name: str, where: str) -> np.ndarray
         return out.reshape(a.shape[:-1] + (3, 3))
     except (ValueError, ZeroDivisionError):  # another last axis fails a reshape, a zero
         # quaternion divides by zero: say so by name (no test on the per-step path)
-        a = _last_axis(a, width, name, where)
+        try:
+            a = _last_axis(a, width, name, where)
+        except ValueError as named:
+            raise named from None
         if width == 4 and not np.all(np.any(a != 0.0, axis=-1)):
             raise ValueError(f"The {name!r} parameter of {where} must hold non-zero "
                              "quaternions (the rotation divides by the norm). Got a zero "
