@@ -11,7 +11,7 @@ from windnav._validate import batch_array, positive_float, positive_int
 from windnav.vehicle.dynamics import derivative_kernel, pack_params, step_kernel
 from windnav.vehicle.layout import ATTITUDE, BODY_RATES, N_RIGID, VELOCITY
 from windnav.vehicle.params import MultirotorParams
-from windnav.vehicle.state import VehicleState
+from windnav.vehicle.state import VehicleState, _pack
 
 MAX_SUBSTEP_S = 0.005
 """Default upper bound on the RK4 sub-step of the rigid body, s."""
@@ -104,7 +104,7 @@ class Multirotor:
                 raise ValueError(f"The 'state' parameter of {where} must have {field} of shape "
                                  f"(B, {width}) with the batch of position. Got {field} of "
                                  f"shape {shape} instead.")
-        x = state.to_array()
+        x = _pack(state)  # shapes checked above
         if not np.all(np.isfinite(x)):
             raise ValueError(f"The 'state' parameter of {where} must be finite. Got NaN/inf.")
         q_norm = np.sqrt(np.sum(x[:, ATTITUDE] ** 2, axis=1))

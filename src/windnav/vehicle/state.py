@@ -67,10 +67,7 @@ class VehicleState:
                 want = f"(B, {width})" if width else "(B, N) with N >= 1"
                 raise ValueError(f"The {name!r} field of VehicleState must have shape {want} "
                                  f"with the batch of position. Got shape {shape} instead.")
-        return np.concatenate(  # float64 whatever the fields' dtype (the physics' precision)
-            [self.position, self.velocity, self.attitude, self.body_rates, self.rotor_speeds],
-            axis=1, dtype=np.float64,
-        )
+        return _pack(self)
 
     @classmethod
     def from_array(cls, x: np.ndarray, *, n_rotors: int | None = None) -> VehicleState:
@@ -113,3 +110,12 @@ class VehicleState:
             idx = slice(i, i + 1)
         return VehicleState(self.position[idx], self.velocity[idx], self.attitude[idx],
                             self.body_rates[idx], self.rotor_speeds[idx])
+
+
+def _pack(state: VehicleState) -> np.ndarray:
+    """:meth:`VehicleState.to_array` without its checks of the fields' shapes, for a caller
+    that has made them (:class:`~windnav.vehicle.multirotor.Multirotor`'s step)."""
+    return np.concatenate(  # float64 whatever the fields' dtype (the physics' precision)
+        [state.position, state.velocity, state.attitude, state.body_rates, state.rotor_speeds],
+        axis=1, dtype=np.float64,
+    )
