@@ -4,6 +4,8 @@ Wind UKF's noise settings: each is refused up front by a ValueError naming the a
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -66,16 +68,35 @@ def test_the_ukf_shell_steps_past_the_checks_of_the_public_functions(monkeypatch
 # -------------------------------------------------------------------------- hardware.py
 
 
-@pytest.mark.parametrize("t", [
-    [0.0, 0.01, 0.005],        # before: the motion part 0 (the hover value), silently
-    [0.0, 0.01, 0.01],
-    [0.0, np.nan, 0.02],
-    [np.inf, 0.01, 0.02],
-])
-def test_odometry_specific_force_refuses_times_that_do_not_increase(t):
+@pytest.mark.parametrize("t", [[0.0, np.nan, 0.02], [np.inf, 0.01, 0.02]])
+def test_odometry_specific_force_refuses_times_that_are_not_finite(t):
     v = np.array([[0.0, 0, 0], [0.1, 0, 0], [0.2, 0, 0]])
-    with pytest.raises(ValueError, match="The 't' parameter of odometry_specific_force"):
+    with pytest.raises(ValueError, match=r"The 't' parameter of odometry_specific_force must "
+                       r"hold finite times\. Got t\[\d\] = (nan|inf)"):
         odometry_specific_force(t, v, np.zeros((3, 3)))
+
+
+@pytest.mark.parametrize("t", [
+    [0.02, 0.01, 0.0],         # reversed or repeated stamps: the motion part 0, silently
+    [0.0, 0.0, 0.0],
+    [0.0, 10.0, 20.0],         # milliseconds read as seconds: every interval above max_dt
+])
+def test_odometry_specific_force_warns_when_every_interval_is_held(t):
+    v = np.array([[0.0, 0, 0], [0.1, 0, 0], [0.2, 0, 0]])
+    with pytest.warns(RuntimeWarning, match=r"no interval of 't' lies in \(min_dt, max_dt\)"):
+        out = odometry_specific_force(t, v, np.zeros((3, 3)))
+    np.testing.assert_array_equal(out, np.broadcast_to(out[0], out.shape))
+
+
+def test_odometry_specific_force_holds_a_repeated_stamp_as_the_hardware_does():
+    # one repeated motion-capture stamp among good ones is held (review: the node does the
+    # same); no warning, and the output moves with the rest
+    v = np.array([[0.0, 0, 0], [0.1, 0, 0], [0.1, 0, 0], [0.3, 0, 0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = odometry_specific_force([0.0, 0.01, 0.01, 0.02], v, np.zeros((4, 3)))
+    np.testing.assert_array_equal(out[2], out[1])
+    assert not np.array_equal(out[3], out[2])
 
 
 def test_odometry_specific_force_names_t_of_another_shape():

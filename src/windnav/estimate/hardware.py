@@ -20,6 +20,7 @@ step online (``accel_from_odometry=OdometryAccel()``).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,7 +104,10 @@ def odometry_specific_force(t, velocity_world, euler, chain: OdometryAccel | Non
     Parameters
     ----------
     t : ndarray of shape (K,)
-        Sample times, s: finite and strictly increasing.
+        Sample times, s: finite. An interval outside ``(min_dt, max_dt)`` (a repeated or
+        out-of-order stamp, a gap) holds the output, as the hardware does; where every one is,
+        the output stays at the hover value throughout, and a RuntimeWarning says so (times in
+        ms, or reversed).
     velocity_world : ndarray of shape (K, 3)
         Measured world-frame velocity, m/s.
     euler : ndarray of shape (K, 3)
@@ -120,9 +124,7 @@ def odometry_specific_force(t, velocity_world, euler, chain: OdometryAccel | Non
     Raises
     ------
     ValueError
-        On ``t`` not 1-D, not finite or not strictly increasing (an interval <= 0 left the
-        output at the hover value, silently; code-hash audit, 2026-12-07), or on
-        ``velocity_world`` or ``euler`` not (K, 3).
+        On ``t`` not 1-D or not finite, or on ``velocity_world`` or ``euler`` not (K, 3).
     """
     chain = OdometryAccel() if chain is None else chain
     t = np.asarray(t, dtype=np.float64)
@@ -132,15 +134,22 @@ def odometry_specific_force(t, velocity_world, euler, chain: OdometryAccel | Non
     if t.ndim != 1 or t.size < 1:
         raise ValueError(f"The 't' parameter of {where} must be a 1-D array of K >= 1 sample "
                          f"times. Got shape {t.shape} instead.")
-    if not np.isfinite(t).all() or not (np.diff(t) > 0).all():
-        k = int(np.flatnonzero(~np.isfinite(t) | np.r_[False, np.diff(t) <= 0])[0])
-        got = f"t[{k}] = {float(t[k])!r}" + (f" after {float(t[k - 1])!r}" if k else "")
-        raise ValueError(f"The 't' parameter of {where} must hold finite, strictly increasing "
-                         f"times. Got {got} instead.")
-    if t.ndim != 1 or v.shape != (t.size, 3) or e.shape != (t.size, 3) or t.size < 1:
+    if not np.isfinite(t).all():
+        k = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise ValueError(f"The 't' parameter of {where} must hold finite times. Got "
+                         f"t[{k}] = {float(t[k])!r} instead.")
+    if v.shape != (t.size, 3) or e.shape != (t.size, 3):
         raise ValueError("The 'velocity_world' and 'euler' parameters of "
                          "odometry_specific_force must have shape (K, 3) for K = len(t) >= 1. "
                          f"Got {v.shape} and {e.shape} for K = {t.size} instead.")
+    dt = np.diff(t)
+    if dt.size and not ((dt > chain.min_dt) & (dt < chain.max_dt)).any():
+        # every sample held: gravity alone, as if the vehicle never moved (code-hash audit,
+        # 2026-12-07: times that do not increase; times in ms do the same)
+        warnings.warn(f"{where}: no interval of 't' lies in (min_dt, max_dt) = ({chain.min_dt}, "
+                      f"{chain.max_dt}) s (intervals {float(dt.min())!r} to {float(dt.max())!r}),"
+                      " so every output is the initial hover value; are the times in seconds "
+                      "and increasing?", RuntimeWarning, stacklevel=2)
     out = np.empty((t.size, 3))
     out[0] = chain.initial(e[0])
     for k in range(1, t.size):
