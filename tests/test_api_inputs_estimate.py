@@ -134,6 +134,12 @@ def test_the_wind_ukf_and_the_monte_carlo_study_check_noise_by_one_rule(kwargs, 
 def test_check_noise_sizes_the_rotor_speeds_by_the_vehicle():
     from windnav.estimate.wind_ukf import check_noise
 
-    check_noise(r={"rotor_speeds": np.ones(6)})  # the study: any rotor count
+    check_noise(r={"rotor_speeds": np.ones(6)})  # no vehicle named: any rotor count
     with pytest.raises(ValueError, match=r"r\['rotor_speeds'\] .* \(4,\)"):
         WindUKF(P_HB, r={"rotor_speeds": np.ones(6)})
+    # the study sizes it by its vehicle before any trial (it passed, and every trial failed;
+    # review)
+    with pytest.raises(ValueError, match=r"'r' parameter of MonteCarloConfig .*"
+                       r"r\['rotor_speeds'\] .* \(4,\)"):
+        MC.MonteCarloConfig(r={"rotor_speeds": np.ones(6)})
+    MC.MonteCarloConfig(r={"rotor_speeds": np.ones(4)})

@@ -154,7 +154,8 @@ def _check_tuning(q, r, wind_frame, where: str) -> None:
     unknown key, a negative density or another frame was accepted here and failed every trial;
     Python API audit, fifty-eighth session.) ``q`` and ``r`` by the filter's own rules
     (:func:`~windnav.estimate.wind_ukf.check_noise`; restated here, without the sizes, until
-    2026-12-08; ``r['rotor_speeds']`` of any size, the vehicle being checked later)."""
+    2026-12-08); ``r['rotor_speeds']`` of any size here, its size checked against the vehicle's
+    rotors once :class:`MonteCarloConfig` has read the vehicle."""
     from windnav.estimate.wind_model import WIND_FRAMES
 
     check_noise(q, r, where)
@@ -267,6 +268,9 @@ class MonteCarloConfig:
         except (KeyError, ValueError) as exc:
             raise ValueError(f"The 'vehicle' parameter of {where} must name a vehicle of "
                              f"windnav.vehicle.params. Got {self.vehicle!r} instead.") from exc
+        # one r['rotor_speeds'] per rotor (six for the Hummingbird passed here and failed every
+        # trial in WindUKF; review)
+        check_noise(r=self.r, where=where, n_rotors=base.n_rotors)
         # the ranges are absolute (the thesis's, about the 0.5 kg Hummingbird): with another
         # vehicle they drew 0.76-0.91 kg Crazyflies with a thrust-to-weight of 0.2, saturated
         # the whole flight, into the summary's median (vehicle audit, 2026-12-05)
