@@ -177,5 +177,22 @@ def test_resolution_check_refuses_a_bad_dx(city, dx):
     # NaN was reported as "dx = nan m"
     with pytest.raises(ValueError, match="'dx' parameter of resolution_check"):
         resolution_check(city, dx)
+
+
+def test_resolution_check_refuses_what_is_not_a_city():
     with pytest.raises(ValueError, match="'city' parameter of resolution_check"):
         resolution_check(None, 1.0)
+
+
+def test_a_power_curve_whose_continuation_falls_below_zero_is_refused():
+    # (10, 0, -0.1) to 5 m/s is above 0 W there, but the planner's continuation beyond it
+    # (slope -1 W/(m/s), no curvature) reached 0 W at 12.5 m/s: J_E rewarded speed and a
+    # flight's energy came out negative (review of the closure-module audit)
+    with pytest.raises(ValueError, match=r"'power_coefficients' parameter of PlannerConfig "
+                                         r"must be a power curve whose continuation"):
+        PlannerConfig(a_max=5.0, drag=0.3, power_coefficients=(10.0, 0.0, -0.1),
+                      power_speed_max=5.0)
+    # falling at the top but curving up: the continuation's least power is above 0 W
+    falling = PlannerConfig(a_max=5.0, drag=0.3, power_coefficients=(10.0, -2.0, 0.3),
+                            power_speed_max=3.0)
+    assert falling.power(np.linspace(0.0, 100.0, 1001)).min() > 0

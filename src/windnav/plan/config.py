@@ -246,6 +246,15 @@ class PlannerConfig:
             raise _fail("power_coefficients", where, "a power curve above 0 W from hover to "
                         f"power_speed_max={self.power_speed_max:g} m/s (its lowest: "
                         f"{lowest:.3g} W)", self.power_coefficients)
+        _, p_top, slope, half_curv = _power_table(self.power_coefficients,
+                                                  self.power_speed_max)[:4]
+        if slope < 0 and (half_curv == 0 or p_top - slope**2 / (4 * half_curv) <= 0):
+            # the continuation beyond power_speed_max fell below 0 W: a flight's energy came
+            # out negative, and J_E rewarded speed (review of the closure-module audit)
+            raise _fail("power_coefficients", where, "a power curve whose continuation beyond "
+                        f"power_speed_max={self.power_speed_max:g} m/s stays above 0 W (it "
+                        f"falls there at {slope * self.hover_power:.3g} W/(m/s))",
+                        self.power_coefficients)
         q_e = var.energy_weight if self.energy_weight is None else self.energy_weight
         set_(self, "energy_weight", positive_float(q_e, "energy_weight", where, allow_zero=True))
         use_wind = var.use_wind if self.use_wind is None else self.use_wind
