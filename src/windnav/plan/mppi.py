@@ -299,6 +299,13 @@ def _check_config(config, where: str) -> None:
                          f"{type(config).__name__} instead.")
 
 
+def _misshapen(problem: Problem) -> bool:
+    """Whether ``problem``'s arrays are not the shapes the rollout kernel reads by index."""
+    return (len(problem.wind) != 3 or np.shape(problem.wind[2]) != (7,)
+            or np.shape(problem.velocity) != (2,) or np.shape(problem.goal) != (2,)
+            or np.shape(problem.mission) != (5,))
+
+
 def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Problem,
                        threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Costs (S,) and their parts (S, 4) ``[J_prog, J_obs, J_E, d_min (m)]`` of the
@@ -321,10 +328,8 @@ def fused_rollout_cost(config: PlannerConfig, controls: np.ndarray, problem: Pro
     if not isinstance(problem, Problem):
         raise ValueError(f"The 'problem' parameter of {where} must be a Problem. Got "
                          f"{type(problem).__name__} instead.")
-    if (len(problem.wind) != 3 or np.shape(problem.wind[2]) != (7,)
-            or np.shape(problem.velocity) != (2,) or np.shape(problem.goal) != (2,)
-            or np.shape(problem.mission) != (5,)
-            or not isinstance(problem.field, ObstacleField)):  # a velocity (1,) was read past
+    if _misshapen(problem) or not isinstance(problem.field, ObstacleField):  # a velocity (1,)
+        # was read past
         raise ValueError(f"The 'problem' parameter of {where} must hold velocity (2,), goal "
                          "(2,), an ObstacleField, wind (mode, grid, meta (7,)) as LocalWind.pack "
                          f"gives and mission (5,). Got velocity {np.shape(problem.velocity)}, "
@@ -456,9 +461,7 @@ def mppi_step(config: PlannerConfig, mean: np.ndarray, problem: Problem, *,
         (False when no sample had a finite cost).
     """
     t0 = time.perf_counter()
-    if (len(problem.wind) != 3 or np.shape(problem.wind[2]) != (7,)
-            or np.shape(problem.velocity) != (2,) or np.shape(problem.goal) != (2,)
-            or np.shape(problem.mission) != (5,)):  # the kernel reads them by index
+    if _misshapen(problem):  # the kernel reads them by index
         raise ValueError("The 'problem' parameter of mppi_step must hold velocity (2,), goal "
                          "(2,), mission (5,) and wind (mode, grid, meta (7,)) as LocalWind.pack "
                          f"gives. Got {problem!r} instead.")
