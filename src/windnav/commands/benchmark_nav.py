@@ -518,7 +518,30 @@ def _stored(args, name: str):
     present = sorted({r["variant"] for r in records})
     # (None, not the flying default: typing that default string tabulated every variant)
     asked = args.variants if args.variants is not None else ",".join(present)
-    return spec, records, (check_variants(asked, name) if asked else ())
+    variants = check_variants(asked, name) if asked else ()
+    absent = [v for v in variants if v not in present]
+    if args.variants is not None and absent and present:
+        # a mistyped label was left out without a word: `--check 8 --variants a,b` checked a
+        # alone and reported every flight reproduced (fifty-ninth session)
+        near = {v: _nearest_label(v, present) for v in absent}
+        hints = "; ".join(f"{v!r} (nearest held: {m[0]!r})" if m else repr(v)
+                          for v, m in near.items())
+        among = (" among the chosen --maps and --scenarios"
+                 if args.maps is not None or chosen is not None else "")
+        raise ValueError(f"The '--variants' parameter of {name} must name variants the store "
+                         f"{str(args.out)!r} holds{among} ({len(present)} of them; --table "
+                         f"lists them). Got {hints}, which it does not hold.")
+    return spec, records, variants
+
+
+def _nearest_label(label: str, held: list[str]) -> list[str]:
+    """The held variant nearest ``label``: the shortest holding all its ``@`` parts (the
+    base and every parameter), else the closest spelling (none: [])."""
+    import difflib
+
+    parts = set(label.split("@"))
+    wider = sorted((h for h in held if parts <= set(h.split("@"))), key=len)
+    return wider[:1] or difflib.get_close_matches(label, held, n=1, cutoff=0.6)
 
 
 def _table(args, name: str) -> int:
